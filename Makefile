@@ -1,0 +1,210 @@
+# MFNS navigation computer: one Makefile for the flight program, its
+# cross-builds, the host tools and every test suite.
+#
+#   make                      flight program + ground station for BOARD (default host-sim)
+#   make BOARD=sitss-nav      cross-build for the aarch64 flight board
+#   make size                 portable core for a bare-metal Cortex-M7, sized per module
+#   make test                 everything: deps, native, ASan+UBSan, qemu-aarch64, pytest, ...
+#   make lint                 cppcheck + clang-tidy (C) and ruff (Python)
+#   make bench                benchmarks (speed targets are checked here, not in tests)
+#   make demo                 the main job (see README.md)
+#
+# Sources are discovered by folder, so adding a module or a test needs no edit
+# here (README.md "Adding a module"):
+#   math/*.c firmware/nav/*.c firmware/tlm/*.c     portable core (no OS, no heap)
+#   drivers/*/*.c firmware/app/*.c ground/*.c       Linux-only code
+#   tests/unit/test_*.c                             one cmocka binary each
+#   tests/unit/support/*.c                          helpers linked into every test
+#   mk/*.mk                                         per-topic rules (generated files,
+#                                                   benchmarks, fuzzers)
+
+BOARD ?= host-sim
+ifeq ($(wildcard boards/$(BOARD)/board.mk),)
+$(error unknown BOARD '$(BOARD)': expected one of $(notdir $(wildcard boards/*)))
+endif
+include boards/$(BOARD)/board.mk
+
+# SAN=1 builds the same code with AddressSanitizer and UndefinedBehaviorSanitizer.
+SAN ?=
+BUILD := build/$(BOARD)$(if $(SAN),-san)
+GEN   := build/gen
+VENV  := .venv
+PY    := $(VENV)/bin/python
+
+WARN := -Wall -Wextra -Werror -Wconversion -Wshadow -Wdouble-promotion \
+        -Wstrict-prototypes -Wmissing-prototypes -Wvla -Wformat=2 -Wundef
+CSTD := -std=c11
+INCLUDES := -I. -Imath -Ifirmware/nav -Ifirmware/tlm -Ifirmware/app \
+            -Idrivers/camera -Idrivers/uart -Iground -Itests/unit/support
+comma := ,
+SAN_FLAGS := $(if $(SAN),-fsanitize=address$(comma)undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+CFLAGS_ALL = $(CSTD) $(WARN) $(BOARD_CFLAGS) $(BOARD_DEFINES) $(INCLUDES) $(SAN_FLAGS) \
+             $(EXTRA_CFLAGS) -MMD -MP
+
+CORE_DIRS  := math firmware/nav firmware/tlm
+CORE_SRCS  := $(sort $(wildcard $(addsuffix /*.c,$(CORE_DIRS))))
+APP_MAINS  := firmware/app/main.c ground/main.c
+LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c ground/*.c)))
+SUPPORT_SRCS := $(sort $(wildcard tests/unit/support/*.c))
+TEST_SRCS  := $(sort $(wildcard tests/unit/test_*.c))
+TESTS      := $(patsubst tests/unit/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
+
+obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
+CORE_OBJS    := $(call obj,$(CORE_SRCS))
+LINUX_OBJS   := $(call obj,$(LINUX_SRCS))
+SUPPORT_OBJS := $(call obj,$(SUPPORT_SRCS))
+
+# Optional libcamera backend: built only where pkg-config finds libcamera
+# (the host has it; the arm64 sysroot here does not).
+ifeq ($(BOARD_KIND),linux)
+HAVE_LIBCAMERA := $(shell $(PKG_CONFIG) --exists libcamera 2>/dev/null && echo 1)
+endif
+LIBCAMERA_SRCS := $(if $(HAVE_LIBCAMERA),$(wildcard drivers/camera/*.cpp))
+LIBCAMERA_OBJS := $(patsubst %.cpp,$(BUILD)/obj/%.o,$(LIBCAMERA_SRCS))
+ifneq ($(HAVE_LIBCAMERA),)
+CFLAGS_ALL += -DMFNS_HAVE_LIBCAMERA=1
+LINK := $(CXX)
+LIBCAMERA_LIBS := $(shell $(PKG_CONFIG) --libs libcamera)
+else
+LINK := $(CC)
+endif
+LIBS = $(shell $(PKG_CONFIG) --libs libserialport cmocka 2>/dev/null) $(LIBCAMERA_LIBS) -lm -lpthread
+
+.PHONY: all flight tests unit test test-all deps venv lint size bench fuzz demo clean gen lib help
+.DEFAULT_GOAL := all
+# Keep test objects: they are intermediate files of the test binaries.
+.SECONDARY:
+
+# Per-topic fragments add to GEN_FILES, BENCH_TARGETS, FUZZ_TARGETS, TEST_SUITES.
+GEN_FILES :=
+BENCH_TARGETS :=
+FUZZ_TARGETS :=
+TEST_SUITES :=
+-include $(sort $(wildcard mk/*.mk))
+
+ifeq ($(BOARD_KIND),linux)
+all: flight
+PROGRAMS := $(patsubst %,$(BUILD)/bin/%,$(if $(wildcard firmware/app/main.c),mfns-nav) $(if $(wildcard ground/main.c),mfns-ground))
+flight: $(PROGRAMS)
+	@echo "built $(BOARD): $^"
+else
+all: size
+endif
+
+help:
+	@sed -n '1,/^$$/p' Makefile
+
+# --------------------------------------------------------------------------
+# Compilation
+$(BUILD)/obj/%.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(CFLAGS_ALL) -c $< -o $@
+
+$(BUILD)/obj/%.o: %.cpp
+	@mkdir -p $(@D)
+	$(CXX) -std=c++17 -Wall -Wextra -Werror $(BOARD_CFLAGS) $(INCLUDES) $(SAN_FLAGS) \
+	  $(shell $(PKG_CONFIG) --cflags libcamera) -MMD -MP -c $< -o $@
+
+$(BUILD)/libmfns_core.a: $(CORE_OBJS)
+	@mkdir -p $(@D)
+	@rm -f $@
+	$(AR) rcs $@ $^
+
+$(BUILD)/libmfns_linux.a: $(LINUX_OBJS) $(LIBCAMERA_OBJS)
+	@mkdir -p $(@D)
+	@rm -f $@
+	$(AR) rcs $@ $^
+
+$(BUILD)/libmfns_testsupport.a: $(SUPPORT_OBJS)
+	@mkdir -p $(@D)
+	@rm -f $@
+	$(AR) rcs $@ $^
+
+LIBS_MFNS := $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
+
+$(BUILD)/bin/mfns-nav: $(call obj,firmware/app/main.c) $(LIBS_MFNS)
+	@mkdir -p $(@D)
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+
+$(BUILD)/bin/mfns-ground: $(call obj,ground/main.c) $(LIBS_MFNS)
+	@mkdir -p $(@D)
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+
+# The portable core as a shared library for the Python host tools (ctypes):
+# host and flight share one implementation of the numerics.
+lib: build/host-sim/lib/libmfns_core.so
+build/host-sim/lib/libmfns_core.so: $(CORE_SRCS)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(CORE_SRCS) -lm -o $@
+
+# --------------------------------------------------------------------------
+# Unit tests: one binary per tests/unit/test_*.c, run from the repo root.
+$(BUILD)/tests/%: $(BUILD)/obj/tests/unit/%.o $(BUILD)/libmfns_testsupport.a $(LIBS_MFNS)
+	@mkdir -p $(@D)
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $< $(BUILD)/libmfns_testsupport.a $(LIBS_MFNS) $(LIBS) -o $@
+
+tests: $(TESTS) $(GEN_FILES)
+
+SUITE_NAME ?= unit-$(BOARD)$(if $(SAN),-san)
+unit: tests
+	@MFNS_BUILD=$(BUILD) MFNS_GEN=$(GEN) mk/run-unit.sh "$(SUITE_NAME)" "$(RUN)" $(TESTS)
+
+gen: $(GEN_FILES)
+
+# --------------------------------------------------------------------------
+# Dependencies: apt packages (as root) and the Python venv from pinned versions.
+deps: build/.deps-ok venv
+build/.deps-ok: mk/deps.sh
+	@mk/deps.sh
+	@mkdir -p $(@D) && touch $@
+
+venv: $(VENV)/.stamp
+$(VENV)/.stamp: host_tools/requirements.txt host_tools/pyproject.toml
+	@mk/venv.sh $(VENV)
+	@touch $@
+
+# --------------------------------------------------------------------------
+# make test: every suite, one summary line each, non-zero exit on any failure.
+# Each suite runs even when an earlier one failed, so one run shows all.
+test: deps
+	@rm -f build/test-summary.txt; mkdir -p build
+	@mk/suite.sh "unit-native"       $(MAKE) --no-print-directory BOARD=host-sim unit SUITE_NAME=unit-native
+	@mk/suite.sh "unit-asan-ubsan"   $(MAKE) --no-print-directory BOARD=host-sim SAN=1 unit SUITE_NAME=unit-asan-ubsan
+	@mk/suite.sh "unit-qemu-aarch64" $(MAKE) --no-print-directory BOARD=sitss-nav unit SUITE_NAME=unit-qemu-aarch64
+	@mk/suite.sh "flight-build"      $(MAKE) --no-print-directory BOARD=sitss-nav flight
+	@mk/suite.sh "size-cortex-m7"    $(MAKE) --no-print-directory BOARD=cortex-m7-core size
+	@mk/suite.sh "pytest"            $(MAKE) --no-print-directory pytest
+	@$(foreach s,$(TEST_SUITES),mk/suite.sh "$(s)" $(MAKE) --no-print-directory $(s) ;)
+	@mk/summary.sh build/test-summary.txt
+
+.PHONY: pytest
+pytest: venv lib $(GEN_FILES)
+	@mk/run-pytest.sh $(PY)
+
+# --------------------------------------------------------------------------
+# Bare-metal size check of the portable core.
+ifeq ($(BOARD_KIND),baremetal)
+size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
+	@mk/size.sh "$(SIZE)" "$(NM)" "$(BUILD)" $(CORE_OBJS)
+	$(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) -Wl,--no-gc-sections \
+	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
+	  -lm -Wl,-Map=$(BUILD)/core.map -o $(BUILD)/core.elf
+	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
+else
+size:
+	@$(MAKE) --no-print-directory BOARD=cortex-m7-core size
+endif
+
+# --------------------------------------------------------------------------
+lint: venv
+	@mk/lint.sh $(PY)
+
+bench: deps $(BENCH_TARGETS)
+	@echo "bench: done ($(words $(BENCH_TARGETS)) benchmarks)"
+
+fuzz: deps $(FUZZ_TARGETS)
+
+clean:
+	rm -rf build
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

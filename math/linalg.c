@@ -1,0 +1,149 @@
+/* linalg.c -- see linalg.h. */
+#include "linalg.h"
+
+#include <math.h>
+
+mfns_v3_t mfns_v3(float x, float y, float z)
+{
+    mfns_v3_t v = {x, y, z};
+    return v;
+}
+
+mfns_v3_t mfns_v3_add(mfns_v3_t a, mfns_v3_t b) { return mfns_v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+mfns_v3_t mfns_v3_sub(mfns_v3_t a, mfns_v3_t b) { return mfns_v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+mfns_v3_t mfns_v3_scale(mfns_v3_t a, float s) { return mfns_v3(a.x * s, a.y * s, a.z * s); }
+float mfns_v3_dot(mfns_v3_t a, mfns_v3_t b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+mfns_v3_t mfns_v3_cross(mfns_v3_t a, mfns_v3_t b)
+{
+    return mfns_v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+float mfns_v3_norm(mfns_v3_t a) { return sqrtf(mfns_v3_dot(a, a)); }
+
+bool mfns_v3_normalize(mfns_v3_t a, mfns_v3_t *out)
+{
+    const float n = mfns_v3_norm(a);
+    if (!(n > 1e-30f)) {
+        *out = mfns_v3(0.0f, 0.0f, 0.0f);
+        return false;
+    }
+    *out = mfns_v3_scale(a, 1.0f / n);
+    return true;
+}
+
+mfns_m3_t mfns_m3_identity(void)
+{
+    mfns_m3_t r = {{{1.0f, 0.0f, 0.0f}, {0.0f, 1.0f, 0.0f}, {0.0f, 0.0f, 1.0f}}};
+    return r;
+}
+
+mfns_m3_t mfns_m3_mul(mfns_m3_t a, mfns_m3_t b)
+{
+    mfns_m3_t r;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            r.m[i][j] = a.m[i][0] * b.m[0][j] + a.m[i][1] * b.m[1][j] + a.m[i][2] * b.m[2][j];
+        }
+    }
+    return r;
+}
+
+mfns_m3_t mfns_m3_transpose(mfns_m3_t a)
+{
+    mfns_m3_t r;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            r.m[i][j] = a.m[j][i];
+        }
+    }
+    return r;
+}
+
+mfns_m3_t mfns_m3_add(mfns_m3_t a, mfns_m3_t b)
+{
+    mfns_m3_t r;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            r.m[i][j] = a.m[i][j] + b.m[i][j];
+        }
+    }
+    return r;
+}
+
+mfns_m3_t mfns_m3_scale(mfns_m3_t a, float s)
+{
+    mfns_m3_t r;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            r.m[i][j] = a.m[i][j] * s;
+        }
+    }
+    return r;
+}
+
+mfns_v3_t mfns_m3_mul_v3(mfns_m3_t a, mfns_v3_t v)
+{
+    return mfns_v3(a.m[0][0] * v.x + a.m[0][1] * v.y + a.m[0][2] * v.z,
+                   a.m[1][0] * v.x + a.m[1][1] * v.y + a.m[1][2] * v.z,
+                   a.m[2][0] * v.x + a.m[2][1] * v.y + a.m[2][2] * v.z);
+}
+
+mfns_v3_t mfns_m3_tmul_v3(mfns_m3_t a, mfns_v3_t v)
+{
+    return mfns_v3(a.m[0][0] * v.x + a.m[1][0] * v.y + a.m[2][0] * v.z,
+                   a.m[0][1] * v.x + a.m[1][1] * v.y + a.m[2][1] * v.z,
+                   a.m[0][2] * v.x + a.m[1][2] * v.y + a.m[2][2] * v.z);
+}
+
+float mfns_m3_det(mfns_m3_t a)
+{
+    return a.m[0][0] * (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) -
+           a.m[0][1] * (a.m[1][0] * a.m[2][2] - a.m[1][2] * a.m[2][0]) +
+           a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
+}
+
+mfns_m3_t mfns_m3_skew(mfns_v3_t a)
+{
+    mfns_m3_t r = {{{0.0f, -a.z, a.y}, {a.z, 0.0f, -a.x}, {-a.y, a.x, 0.0f}}};
+    return r;
+}
+
+float mfns_m3_orthonormality_error(mfns_m3_t a)
+{
+    const mfns_m3_t ata = mfns_m3_mul(mfns_m3_transpose(a), a);
+    float worst = 0.0f;
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            const float e = fabsf(ata.m[i][j] - (i == j ? 1.0f : 0.0f));
+            /* NaN must not look orthonormal: !(e <= worst) catches it. */
+            if (!(e <= worst)) {
+                worst = isnan(e) ? INFINITY : e;
+            }
+        }
+    }
+    return worst;
+}
+
+bool mfns_m3_is_rotation(mfns_m3_t a, float tol)
+{
+    return mfns_m3_orthonormality_error(a) <= tol && mfns_m3_det(a) > 0.0f;
+}
+
+bool mfns_m3_reorthonormalize(mfns_m3_t a, int max_iter, float tol, mfns_m3_t *out)
+{
+    mfns_m3_t r = a;
+    for (int it = 0; it < max_iter; it++) {
+        if (mfns_m3_orthonormality_error(r) <= tol) {
+            break;
+        }
+        const mfns_m3_t rtr = mfns_m3_mul(mfns_m3_transpose(r), r);
+        mfns_m3_t k = mfns_m3_scale(rtr, -0.5f);
+        for (int i = 0; i < 3; i++) {
+            k.m[i][i] += 1.5f;
+        }
+        r = mfns_m3_mul(r, k);
+    }
+    *out = r;
+    return mfns_m3_is_rotation(r, tol);
+}
