@@ -18,7 +18,7 @@ static void test_q16_conversions_and_rounding(void **state)
     mfns_rng_seed(&rng, 3);
     for (int i = 0; i < 10000; i++) {
         const float f = (float)mfns_rng_range(&rng, -200.0, 200.0);
-        assert_near(mfns_q16_to_float(mfns_q16_from_float(f)), f, 0.5 / 65536.0 + 1e-5 * fabs(f) * 1e-2);
+        assert_near(mfns_q16_to_float(mfns_q16_from_float(f)), f, 0.5 / 65536.0 + 1e-7 * fabs((double)f));
     }
 }
 

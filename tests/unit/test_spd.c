@@ -49,7 +49,7 @@ static void ref_solve(double a[6][6], const double b[6], double x[6])
             l[i][j] = v / l[j][j];
         }
     }
-    double y[6];
+    double y[6] = {0};
     for (int i = 0; i < 6; i++) {
         double v = b[i];
         for (int k = 0; k < i; k++) {
