@@ -1,0 +1,162 @@
+"""The MFNS imaging model in numpy (double precision), mirroring math/camera.h.
+
+Pinhole with skew and the 5-coefficient Bouguet/OpenCV distortion [k1, k2, p1, p2, k3];
+three cameras on the body (C_k_b maps camera coordinates into the body, r_bk_b in mm);
+body pose (C_w_b, r_bw_b). Pixel convention: integer coordinates are pixel centres
+(docs/conventions.md), the same as OpenCV's, so cv2.projectPoints agrees with `project`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .calib_results import CAMERA_NAMES, camera_entry
+
+
+@dataclass
+class Camera:
+    name: str
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    skew: float = 0.0
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    width: int = 1280
+    height: int = 1024
+    C_k_b: np.ndarray = field(default_factory=lambda: np.eye(3))
+    r_bk_b: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @property
+    def K(self) -> np.ndarray:
+        return np.array([[self.fx, self.skew, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @classmethod
+    def from_entry(cls, e: dict) -> Camera:
+        return cls(
+            name=e["name"],
+            fx=float(e["fx"]),
+            fy=float(e["fy"]),
+            cx=float(e["cx"]),
+            cy=float(e["cy"]),
+            skew=float(e.get("skew", 0.0)),
+            dist=np.asarray(e["dist"], dtype=float),
+            width=int(e["image_size"][0]),
+            height=int(e["image_size"][1]),
+            C_k_b=np.asarray(e["C_k_b"], dtype=float),
+            r_bk_b=np.asarray(e["r_bk_b"], dtype=float),
+        )
+
+    def to_entry(self, sigma: dict | None = None) -> dict:
+        return camera_entry(
+            self.name,
+            (self.width, self.height),
+            self.fx,
+            self.fy,
+            self.cx,
+            self.cy,
+            self.skew,
+            self.dist,
+            self.C_k_b,
+            self.r_bk_b,
+            sigma,
+        )
+
+    # --- normalized <-> pixel -------------------------------------------------
+    def distort(self, xy: np.ndarray) -> np.ndarray:
+        """Undistorted normalized (N, 2) -> distorted normalized (N, 2)."""
+        k1, k2, p1, p2, k3 = self.dist
+        x, y = xy[..., 0], xy[..., 1]
+        r2 = x * x + y * y
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+        yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+        return np.stack([xd, yd], axis=-1)
+
+    def distorted_to_pixel(self, xyd: np.ndarray) -> np.ndarray:
+        u = self.fx * xyd[..., 0] + self.skew * xyd[..., 1] + self.cx
+        v = self.fy * xyd[..., 1] + self.cy
+        return np.stack([u, v], axis=-1)
+
+    def pixel_to_distorted(self, uv: np.ndarray) -> np.ndarray:
+        yd = (uv[..., 1] - self.cy) / self.fy
+        xd = (uv[..., 0] - self.cx - self.skew * yd) / self.fx
+        return np.stack([xd, yd], axis=-1)
+
+    def undistort_pixels(self, uv: np.ndarray, iterations: int = 50) -> np.ndarray:
+        """Pixel (N, 2) -> undistorted normalized (N, 2), by Newton iteration in double.
+
+        Converges to ~1e-15 for the lens distortions of REFERENCE Table 2 over the image.
+        """
+        target = self.pixel_to_distorted(np.asarray(uv, dtype=float))
+        xy = target.copy()
+        h = 1e-7
+        for _ in range(iterations):
+            f = self.distort(xy) - target
+            jx = (self.distort(xy + [h, 0.0]) - self.distort(xy - [h, 0.0])) / (2 * h)
+            jy = (self.distort(xy + [0.0, h]) - self.distort(xy - [0.0, h])) / (2 * h)
+            det = jx[..., 0] * jy[..., 1] - jy[..., 0] * jx[..., 1]
+            dx = (jy[..., 1] * f[..., 0] - jy[..., 0] * f[..., 1]) / det
+            dy = (-jx[..., 1] * f[..., 0] + jx[..., 0] * f[..., 1]) / det
+            xy = xy - np.stack([dx, dy], axis=-1)
+            if np.max(np.abs(f)) < 1e-15:
+                break
+        return xy
+
+    # --- 3-D -> pixel ------------------------------------------------------------
+    def project_camera_points(self, p_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Points in the camera frame (N, 3) mm -> (pixels (N, 2), in_front mask (N,))."""
+        p_c = np.atleast_2d(np.asarray(p_c, dtype=float))
+        z = p_c[:, 2]
+        front = z >= 1.0
+        zs = np.where(front, z, 1.0)
+        xy = p_c[:, :2] / zs[:, None]
+        return self.distorted_to_pixel(self.distort(xy)), front
+
+    def world_to_camera(self, C_w_b: np.ndarray, r_bw_b: np.ndarray, p_w: np.ndarray) -> np.ndarray:
+        p_b = np.atleast_2d(p_w) @ np.asarray(C_w_b).T + np.asarray(r_bw_b)
+        return (p_b - self.r_bk_b) @ self.C_k_b  # C_k_b^T (p_b - r_bk_b), row-wise
+
+    def project(self, C_w_b, r_bw_b, p_w) -> tuple[np.ndarray, np.ndarray]:
+        """World points (N, 3) through the body pose -> (pixels, visible mask).
+
+        visible = in front of the camera and inside [-0.5, W-0.5) x [-0.5, H-0.5).
+        """
+        uv, front = self.project_camera_points(self.world_to_camera(C_w_b, r_bw_b, p_w))
+        return uv, front & self.in_image(uv)
+
+    def in_image(self, uv: np.ndarray) -> np.ndarray:
+        return (
+            (uv[:, 0] >= -0.5)
+            & (uv[:, 1] >= -0.5)
+            & (uv[:, 0] < self.width - 0.5)
+            & (uv[:, 1] < self.height - 0.5)
+        )
+
+
+def rig_from_doc(doc: dict) -> list[Camera]:
+    """The three cameras of a calibration-results document, in the order x, y, z."""
+    cams = [Camera.from_entry(e) for e in doc["cameras"]]
+    assert tuple(c.name for c in cams) == CAMERA_NAMES
+    return cams
+
+
+def pose_from_position(C_w_b: np.ndarray, r_wb_w) -> np.ndarray:
+    """r_bw_b for a body at r_wb_w (world) with attitude C_w_b."""
+    return -np.asarray(C_w_b) @ np.asarray(r_wb_w, dtype=float)
+
+
+def position_from_pose(C_w_b: np.ndarray, r_bw_b) -> np.ndarray:
+    """Navigation output r_wb_w = -C_w_b^T r_bw_b."""
+    return -np.asarray(C_w_b).T @ np.asarray(r_bw_b, dtype=float)
+
+
+def load_beacons(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Beacon CSV (id,x_mm,y_mm,z_mm,sigma_mm) -> (ids, positions (N, 3), sigmas)."""
+    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
+    data = np.atleast_1d(data)
+    ids = data["id"].astype(int)
+    pos = np.stack([data["x_mm"], data["y_mm"], data["z_mm"]], axis=1)
+    return ids, pos, data["sigma_mm"]
