@@ -158,7 +158,7 @@ static bool parse_globals(parser_t *p, uint16_t *ncam, uint16_t *nbeacon, float 
         return fail(p, MFNS_CALTABLE_E_CENTROID_SETTINGS, o + 12);
     }
     if (c->threshold_dn == 0 && !(c->threshold_k_sigma > 0.0f)) {
-        return fail(p, MFNS_CALTABLE_E_CENTROID_SETTINGS, o); /* no threshold rule at all */
+        return fail(p, MFNS_CALTABLE_E_CENTROID_SETTINGS, o + 12); /* no threshold rule at all */
     }
     if (c->min_area_px == 0) {
         return fail(p, MFNS_CALTABLE_E_CENTROID_SETTINGS, o + 2);
