@@ -57,7 +57,6 @@ const char *mfns_caltable_strerror(mfns_caltable_status_t s)
     case MFNS_CALTABLE_E_FILE_OPEN: return "calibration table file cannot be opened";
     case MFNS_CALTABLE_E_FILE_READ: return "calibration table file read error";
     case MFNS_CALTABLE_E_FILE_TOO_BIG: return "calibration table file larger than the load buffer";
-    case MFNS_CALTABLE_STATUS_COUNT: break;
     default: break;
     }
     return "calibration table: unknown status";

@@ -62,18 +62,43 @@ typedef struct {
     int lines;
 } textbuf_t;
 
-static void add(textbuf_t *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void add(textbuf_t *t, const char *fmt, ...)
+/* Terminate the line snprintf just wrote at t->p (w characters). */
+static void commit(textbuf_t *t, int w)
 {
-    va_list ap;
-    va_start(ap, fmt);
-    const int w = vsnprintf(t->p, t->left, fmt, ap);
-    va_end(ap);
     assert_true(w > 0 && (size_t)w + 1 < t->left);
     t->p[w] = '\n';
     t->p += w + 1;
     t->left -= (size_t)w + 1;
     t->lines++;
+}
+#define add(t, ...) commit((t), snprintf((t)->p, (t)->left, __VA_ARGS__))
+
+/* Numbers of one text line (after an optional word prefix); returns how many. */
+static int read_numbers(FILE *f, const char *prefix, double *out, int max)
+{
+    char line[1024];
+    if (fgets(line, sizeof line, f) == NULL) {
+        return 0;
+    }
+    char *p = line;
+    if (prefix != NULL) {
+        const size_t n = strlen(prefix);
+        if (strncmp(line, prefix, n) != 0) {
+            return -1;
+        }
+        p += n;
+    }
+    int k = 0;
+    while (k < max) {
+        char *end;
+        const double v = strtod(p, &end);
+        if (end == p) {
+            break;
+        }
+        out[k++] = v;
+        p = end;
+    }
+    return k;
 }
 
 #define G9(x) ((double)(x))
@@ -192,22 +217,25 @@ static void test_projection_matches_opencv(void **state)
     gen_path(path, sizeof path, "caltable_projections.txt");
     FILE *f = fopen(path, "r");
     assert_non_null(f);
-    float p[12];
-    assert_int_equal(fscanf(f, "pose %f %f %f %f %f %f %f %f %f %f %f %f", &p[0], &p[1], &p[2], &p[3], &p[4], &p[5],
-                            &p[6], &p[7], &p[8], &p[9], &p[10], &p[11]),
-                     12);
+    double p[12];
+    assert_int_equal(read_numbers(f, "pose", p, 12), 12);
     mfns_pose_t pose;
     for (int i = 0; i < 9; i++) {
-        pose.C_w_b.m[i / 3][i % 3] = p[i];
+        pose.C_w_b.m[i / 3][i % 3] = (float)p[i];
     }
-    pose.r_bw_b = mfns_v3(p[9], p[10], p[11]);
-    int cam, n = 0, per_cam[3] = {0, 0, 0};
-    float x, y, z;
-    double u, v, worst = 0.0;
-    while (fscanf(f, "%d %f %f %f %lf %lf", &cam, &x, &y, &z, &u, &v) == 6) {
-        assert_true(cam >= 0 && cam < 3);
+    pose.r_bw_b = mfns_v3((float)p[9], (float)p[10], (float)p[11]);
+    int n = 0, per_cam[3] = {0, 0, 0};
+    double worst = 0.0, row[6];
+    while (read_numbers(f, NULL, row, 6) == 6) {
+        const int cam = (int)row[0];
+        const double u = row[4], v = row[5];
+        if (cam < 0 || cam > 2) {
+            fail_msg("bad camera index %d in the vectors", cam);
+            return;
+        }
         float uv[2];
-        assert_int_equal(mfns_cam_project(&g_table.rig.cam[cam], &pose, mfns_v3(x, y, z), uv, NULL), MFNS_PROJ_OK);
+        const mfns_v3_t pw = mfns_v3((float)row[1], (float)row[2], (float)row[3]);
+        assert_int_equal(mfns_cam_project(&g_table.rig.cam[cam], &pose, pw, uv, NULL), MFNS_PROJ_OK);
         const double e = fmax(fabs((double)uv[0] - u), fabs((double)uv[1] - v));
         worst = e > worst ? e : worst;
         assert_near(uv[0], u, 1e-3);
@@ -229,11 +257,16 @@ static void test_undistortion_matches_python(void **state)
     gen_path(path, sizeof path, "caltable_undistort.txt");
     FILE *f = fopen(path, "r");
     assert_non_null(f);
-    int cam, n = 0;
-    float u, v;
-    double ui, vi, worst_a = 0.0, worst_b = 0.0;
-    while (fscanf(f, "%d %f %f %lf %lf", &cam, &u, &v, &ui, &vi) == 5) {
-        assert_true(cam >= 0 && cam < 3);
+    int n = 0;
+    double worst_a = 0.0, worst_b = 0.0, row[5];
+    while (read_numbers(f, NULL, row, 5) == 5) {
+        const int cam = (int)row[0];
+        const float u = (float)row[1], v = (float)row[2];
+        const double ui = row[3], vi = row[4];
+        if (cam < 0 || cam > 2) {
+            fail_msg("bad camera index %d in the vectors", cam);
+            return;
+        }
         const mfns_intrinsics_t *k = &g_table.rig.cam[cam].k;
         float x, y;
         assert_int_equal(mfns_undistort_iter(k, u, v, MFNS_UNDIST_DEFAULT_ITER, &x, &y, NULL), MFNS_UNDIST_OK);
@@ -351,7 +384,7 @@ static void expect(size_t len, mfns_caltable_status_t want, uint32_t want_off, i
     if (want_off != UINT32_MAX && off != want_off) {
         fail_msg("line %d: error offset %u, expected %u", line, off, want_off);
     }
-    if (memcmp(&g_out, &g_sentinel, sizeof g_out) != 0) {
+    if (memcmp((const unsigned char *)&g_out, (const unsigned char *)&g_sentinel, sizeof g_out) != 0) {
         fail_msg("line %d: a failed load modified the output table", line);
     }
 }

@@ -67,7 +67,9 @@ def projection_lines(t: Table, per_camera: int = 60, seed: int = 7) -> list[str]
     out = ["pose " + " ".join(_g(v) for v in [*C_w_b.ravel(), *r_bw_b])]
     for k, rec in enumerate(t.cameras):
         cam = record_camera(rec)
-        uv = np.column_stack([rng.uniform(0, cam.width - 1, per_camera), rng.uniform(0, cam.height - 1, per_camera)])
+        uv = np.column_stack(
+            [rng.uniform(0, cam.width - 1, per_camera), rng.uniform(0, cam.height - 1, per_camera)]
+        )
         xy = cam.undistort_pixels(uv)
         depth = rng.uniform(300.0, 3000.0, per_camera)
         p_c = np.column_stack([xy * depth[:, None], depth])
@@ -88,7 +90,10 @@ def undistort_lines(t: Table, per_camera: int = 200, seed: int = 8) -> list[str]
         cam = record_camera(rec)
         uv = np.float32(
             np.column_stack(
-                [rng.uniform(-0.5, cam.width - 0.5, per_camera), rng.uniform(-0.5, cam.height - 0.5, per_camera)]
+                [
+                    rng.uniform(-0.5, cam.width - 0.5, per_camera),
+                    rng.uniform(-0.5, cam.height - 0.5, per_camera),
+                ]
             )
         ).astype(float)
         ideal = ideal_pixels(cam, uv)
