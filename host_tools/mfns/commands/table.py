@@ -1,0 +1,106 @@
+"""`mfns table`: build the binary calibration table and show one (docs/caltable.md)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MfnsError
+from ..rotations import matrix_to_euler213_deg
+from ..table.format import CAMERA_NAMES, decode, encode, validate
+from ..table.grid import DEFAULT_GRID
+
+
+def _grid_arg(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"(\d+)[xX](\d+)", text)
+    if not m:
+        raise MfnsError(f"--grid {text!r}: expected NXxNY, e.g. 93x75")
+    return int(m.group(1)), int(m.group(2))
+
+
+def cmd_build(args) -> int:
+    from ..table.builder import build_table
+    from ..table.settings import load_settings
+
+    grid = _grid_arg(args.grid)
+    centroid, solver = load_settings(args.settings)
+    table, errors = build_table(args.calib_json, args.beacons_csv, grid, centroid, solver)
+    data = encode(table)
+    validate(decode(data))
+    out = Path(args.output)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes(data)
+    except OSError as exc:
+        raise MfnsError(f"cannot write {out}: {exc.strerror}") from exc
+    print(f"wrote {out}: {len(data)} bytes, CRC-32 0x{decode(data).crc32:08x}")
+    for name, rec, err in zip(CAMERA_NAMES, table.cameras, errors, strict=True):
+        g = rec.grid
+        print(
+            f"camera {name}: grid {g.nx}x{g.ny} step {g.step_u_q8 / 256:.3f}x{g.step_v_q8 / 256:.3f} px, "
+            f"worst-case error {err.max_px:.4f} px at ({err.worst_uv[0]:.1f}, {err.worst_uv[1]:.1f}), "
+            f"rms {err.rms_px:.4f} px ({err.samples} samples)"
+        )
+    print(f"grid worst-case error: {max(e.max_px for e in errors):.4f} px")
+    return 0
+
+
+def _fmt(v) -> str:
+    return " ".join(f"{x:.9g}" for x in np.ravel(v))
+
+
+def cmd_show(args) -> int:
+    path = Path(args.table)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MfnsError(f"cannot read {path}: {exc.strerror}") from exc
+    try:
+        t = validate(decode(data))
+    except MfnsError as exc:
+        raise MfnsError(f"{path}: {exc}") from exc
+    print(f"{path}: MFNS calibration table, format version {t.version}, {t.size_bytes} bytes")
+    print(f"CRC-32 0x{t.crc32:08x} (verified)")
+    print(f"pixel noise sigma: {t.pixel_sigma_px:.6g} px")
+    print("centroid: " + ", ".join(f"{k}={v:.6g}" for k, v in t.centroid.items()))
+    print("solver:   " + ", ".join(f"{k}={v:.6g}" for k, v in t.solver.items()))
+    for name, c in zip(CAMERA_NAMES, t.cameras, strict=True):
+        g = c.grid
+        print(f"camera {name} (id {c.camera_id}): {c.width}x{c.height} px")
+        print(f"  fx {c.fx:.6f}  fy {c.fy:.6f}  cx {c.cx:.6f}  cy {c.cy:.6f}  skew {c.skew:.6g}")
+        print(f"  dist [k1 k2 p1 p2 k3]: {_fmt(c.dist)}")
+        print(f"  C_k_b rows: {_fmt(c.C_k_b[0])} | {_fmt(c.C_k_b[1])} | {_fmt(c.C_k_b[2])}")
+        e = matrix_to_euler213_deg(c.C_k_b)
+        print(f"  C_k_b Euler 2-1-3 (roll pitch yaw) deg: {e[0]:.4f} {e[1]:.4f} {e[2]:.4f}")
+        print(f"  r_bk_b mm: {_fmt(c.r_bk_b)}")
+        print(
+            f"  grid {g.nx}x{g.ny} nodes, origin ({g.origin_u_q8 / 256:g}, {g.origin_v_q8 / 256:g}) px, "
+            f"step {g.step_u_q8 / 256:g} x {g.step_v_q8 / 256:g} px, {g.nx * g.ny * 8} bytes"
+        )
+    print(f"beacons: {len(t.beacon_ids)}")
+    for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
+        print(f"  {bid:5d}  {p[0]:11.4f} {p[1]:11.4f} {p[2]:11.4f} mm  sigma {s:.4f} mm")
+    return 0
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser("table", help="build or show the binary calibration table")
+    sub = parser.add_subparsers(dest="table_command", metavar="ACTION")
+    b = sub.add_parser("build", help="build a table from a calibration-results JSON and a beacon CSV")
+    b.add_argument("calib_json", metavar="CALIB_JSON")
+    b.add_argument("beacons_csv", metavar="BEACONS_CSV")
+    b.add_argument("-o", "--output", required=True, metavar="OUT")
+    b.add_argument(
+        "--grid",
+        default=f"{DEFAULT_GRID[0]}x{DEFAULT_GRID[1]}",
+        metavar="NXxNY",
+        help="correction grid nodes",
+    )
+    b.add_argument("--settings", metavar="JSON", help="override centroid/solver settings")
+    b.set_defaults(func=cmd_build)
+    s = sub.add_parser("show", help="print a table and verify its CRC")
+    s.add_argument("table", metavar="TABLE")
+    s.set_defaults(func=cmd_show)
+    parser.set_defaults(func=lambda args: parser.print_help() or 2)

@@ -1,0 +1,29 @@
+# Calibration table (issue 3): the default table of the paper's system and the
+# shared test vectors the C tests compare against, generated with the venv
+# python from the committed sources (never committed as binaries); the
+# undistortion benchmark.
+
+CALTABLE_SRC := host_tools/mfns/data/paper_calib.json host_tools/mfns/data/paper_beacons.csv
+CALTABLE_PY  := $(wildcard host_tools/mfns/table/*.py) host_tools/mfns/commands/table.py \
+                host_tools/mfns/camera.py host_tools/mfns/calib_results.py
+
+$(GEN)/default.mfnstbl: $(CALTABLE_SRC) $(CALTABLE_PY) $(VENV)/.stamp
+	@mkdir -p $(@D)
+	$(PY) -m mfns table build $(CALTABLE_SRC) -o $@
+
+# caltable_values.txt, caltable_projections.txt, caltable_undistort.txt
+$(GEN)/caltable_vectors.stamp: $(GEN)/default.mfnstbl $(CALTABLE_PY) $(VENV)/.stamp
+	$(PY) -m mfns.table.vectors $< $(GEN)
+	@touch $@
+
+GEN_FILES += $(GEN)/default.mfnstbl $(GEN)/caltable_vectors.stamp
+
+# make bench: ns per corrected point, iterative inverse (a) vs grid (b).
+.PHONY: bench-undistort
+BENCH_TARGETS += bench-undistort
+bench-undistort: $(BUILD)/bench/bench_undistort $(GEN)/default.mfnstbl
+	$(RUN) $(BUILD)/bench/bench_undistort $(GEN)/default.mfnstbl
+
+$(BUILD)/bench/bench_undistort: $(call obj,tests/bench/bench_undistort.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
+	@mkdir -p $(@D)
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ -lm -o $@

@@ -1,0 +1,740 @@
+/* Unit tests of firmware/nav/caltable (and firmware/app/caltable_file): the
+ * Python-built default table (build/gen/default.mfnstbl) loads with exactly
+ * the values Python wrote (build/gen/caltable_values.txt); the C projection of
+ * the loaded cameras matches OpenCV's projectPoints; the table's grids and the
+ * iterative inverse match Python's exact inverse; and every validation
+ * failure is provoked with a table crafted from the good one (patched bytes,
+ * CRC fixed up when the check under test comes after the CRC). */
+#include "testutil.h"
+
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "caltable.h"
+#include "caltable_file.h"
+#include "undistort.h"
+
+static uint8_t g_good[MFNS_CALTABLE_MAX_BYTES]; /* the default table as built */
+static size_t g_good_len;
+static uint8_t g_bad[MFNS_CALTABLE_MAX_BYTES + 64]; /* crafted copies */
+static mfns_caltable_t g_table;                  /* loaded good table */
+static mfns_caltable_t g_out;                    /* target of failing loads */
+static mfns_caltable_t g_sentinel;               /* what g_out must still hold after a failure */
+
+static void gen_path(char *dst, size_t n, const char *name)
+{
+    const int w = snprintf(dst, n, "%s/%s", mfns_test_gen_dir(), name);
+    assert_true(w > 0 && (size_t)w < n);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    char path[512];
+    const int w = snprintf(path, sizeof path, "%s/default.mfnstbl", mfns_test_gen_dir());
+    if (w <= 0 || (size_t)w >= sizeof path) {
+        return -1;
+    }
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "cannot open %s (run make gen)\n", path);
+        return -1;
+    }
+    g_good_len = fread(g_good, 1, sizeof g_good, f);
+    if (fclose(f) != 0 || g_good_len == 0) {
+        return -1;
+    }
+    uint32_t off = 0;
+    const mfns_caltable_status_t st = mfns_caltable_load(g_good, g_good_len, &g_table, &off);
+    if (st != MFNS_CALTABLE_OK) {
+        fprintf(stderr, "default table refused: %s (offset %u)\n", mfns_caltable_strerror(st), off);
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- value comparison against Python ----------------------------------- */
+
+typedef struct {
+    char *p;
+    size_t left;
+    int lines;
+} textbuf_t;
+
+/* Terminate the line snprintf just wrote at t->p (w characters). */
+static void commit(textbuf_t *t, int w)
+{
+    assert_true(w > 0 && (size_t)w + 1 < t->left);
+    t->p[w] = '\n';
+    t->p += w + 1;
+    t->left -= (size_t)w + 1;
+    t->lines++;
+}
+#define add(t, ...) commit((t), snprintf((t)->p, (t)->left, __VA_ARGS__))
+
+/* Numbers of one text line (after an optional word prefix); returns how many. */
+static int read_numbers(FILE *f, const char *prefix, double *out, int max)
+{
+    char line[1024];
+    if (fgets(line, sizeof line, f) == NULL) {
+        return 0;
+    }
+    char *p = line;
+    if (prefix != NULL) {
+        const size_t n = strlen(prefix);
+        if (strncmp(line, prefix, n) != 0) {
+            return -1;
+        }
+        p += n;
+    }
+    int k = 0;
+    while (k < max) {
+        char *end;
+        const double v = strtod(p, &end);
+        if (end == p) {
+            break;
+        }
+        out[k++] = v;
+        p = end;
+    }
+    return k;
+}
+
+#define G9(x) ((double)(x))
+
+static void render_table(const mfns_caltable_t *t, textbuf_t *o)
+{
+    add(o, "version %u", (unsigned)t->format_version);
+    add(o, "size_bytes %u", (unsigned)t->size_bytes);
+    add(o, "crc32 %u", (unsigned)t->crc32);
+    add(o, "pixel_sigma_px %.9g", G9(t->pixel_sigma_px));
+    const mfns_centroid_settings_t *c = &t->centroid;
+    add(o, "centroid.threshold_dn %u", (unsigned)c->threshold_dn);
+    add(o, "centroid.min_area_px %u", (unsigned)c->min_area_px);
+    add(o, "centroid.max_area_px %u", (unsigned)c->max_area_px);
+    add(o, "centroid.roi_half_size_px %u", (unsigned)c->roi_half_size_px);
+    add(o, "centroid.saturation_dn %u", (unsigned)c->saturation_dn);
+    add(o, "centroid.threshold_k_sigma %.9g", G9(c->threshold_k_sigma));
+    add(o, "centroid.max_elongation %.9g", G9(c->max_elongation));
+    const mfns_solver_settings_t *s = &t->solver;
+    add(o, "solver.max_iterations %u", (unsigned)s->max_iterations);
+    add(o, "solver.max_hypotheses %u", (unsigned)s->max_hypotheses);
+    add(o, "solver.step_tol %.9g", G9(s->step_tol));
+    add(o, "solver.grad_tol %.9g", G9(s->grad_tol));
+    add(o, "solver.huber_k %.9g", G9(s->huber_k));
+    add(o, "solver.outlier_gate_sigma %.9g", G9(s->outlier_gate_sigma));
+    add(o, "solver.max_residual_rms_px %.9g", G9(s->max_residual_rms_px));
+    add(o, "solver.track_gate_px %.9g", G9(s->track_gate_px));
+    add(o, "solver.min_rcond %.9g", G9(s->min_rcond));
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const mfns_camera_t *cam = &t->rig.cam[k];
+        const mfns_undist_grid_t *g = &t->grid[k];
+        add(o, "cam%d.width %u", k, (unsigned)cam->k.width);
+        add(o, "cam%d.height %u", k, (unsigned)cam->k.height);
+        add(o, "cam%d.fx %.9g", k, G9(cam->k.fx));
+        add(o, "cam%d.fy %.9g", k, G9(cam->k.fy));
+        add(o, "cam%d.cx %.9g", k, G9(cam->k.cx));
+        add(o, "cam%d.cy %.9g", k, G9(cam->k.cy));
+        add(o, "cam%d.skew %.9g", k, G9(cam->k.skew));
+        for (int i = 0; i < 5; i++) {
+            add(o, "cam%d.dist%d %.9g", k, i, G9(cam->k.dist[i]));
+        }
+        for (int r = 0; r < 3; r++) {
+            for (int q = 0; q < 3; q++) {
+                add(o, "cam%d.C%d%d %.9g", k, r, q, G9(cam->C_k_b.m[r][q]));
+            }
+        }
+        add(o, "cam%d.r0 %.9g", k, G9(cam->r_bk_b.x));
+        add(o, "cam%d.r1 %.9g", k, G9(cam->r_bk_b.y));
+        add(o, "cam%d.r2 %.9g", k, G9(cam->r_bk_b.z));
+        add(o, "cam%d.grid.nx %u", k, (unsigned)g->nx);
+        add(o, "cam%d.grid.ny %u", k, (unsigned)g->ny);
+        add(o, "cam%d.grid.origin_u_q8 %d", k, (int)g->origin_u_q8);
+        add(o, "cam%d.grid.origin_v_q8 %d", k, (int)g->origin_v_q8);
+        add(o, "cam%d.grid.step_u_q8 %d", k, (int)g->step_u_q8);
+        add(o, "cam%d.grid.step_v_q8 %d", k, (int)g->step_v_q8);
+        const int n = g->nx * g->ny;
+        long long su = 0, sv = 0;
+        for (int i = 0; i < n; i++) {
+            su += g->node[i][0];
+            sv += g->node[i][1];
+        }
+        add(o, "cam%d.grid.sum_u %lld", k, su);
+        add(o, "cam%d.grid.sum_v %lld", k, sv);
+        for (int i = 0; i < n; i += 509) {
+            add(o, "cam%d.grid.node%d %d %d", k, i, (int)g->node[i][0], (int)g->node[i][1]);
+        }
+    }
+    add(o, "beacons.count %u", (unsigned)t->beacons.count);
+    for (int i = 0; i < t->beacons.count; i++) {
+        const mfns_beacon_t *b = &t->beacons.beacon[i];
+        add(o, "beacon%d %u %.9g %.9g %.9g %.9g", i, (unsigned)b->id, G9(b->p_w.x), G9(b->p_w.y), G9(b->p_w.z),
+            G9(b->sigma_mm));
+    }
+}
+
+static void test_python_table_loads_with_identical_values(void **state)
+{
+    (void)state;
+    static char mine[64 * 1024], theirs[64 * 1024];
+    textbuf_t o = {mine, sizeof mine, 0};
+    render_table(&g_table, &o);
+    *o.p = '\0';
+    char path[512];
+    gen_path(path, sizeof path, "caltable_values.txt");
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    const size_t n = fread(theirs, 1, sizeof theirs - 1, f);
+    assert_int_equal(fclose(f), 0);
+    theirs[n] = '\0';
+    /* line by line, so a failure names the value */
+    const char *a = mine, *b = theirs;
+    int line = 0;
+    while (*a != '\0' || *b != '\0') {
+        const char *ea = strchr(a, '\n'), *eb = strchr(b, '\n');
+        assert_non_null(ea);
+        assert_non_null(eb);
+        line++;
+        if ((ea - a) != (eb - b) || memcmp(a, b, (size_t)(ea - a)) != 0) {
+            fail_msg("line %d: C has \"%.*s\", Python wrote \"%.*s\"", line, (int)(ea - a), a, (int)(eb - b), b);
+        }
+        a = ea + 1;
+        b = eb + 1;
+    }
+    assert_int_equal(line, o.lines);
+    assert_true(line > 150);
+    assert_int_equal(g_table.beacons.count, 10);
+    assert_int_equal(g_table.size_bytes, g_good_len);
+}
+
+/* ---- projection vs OpenCV ------------------------------------------------ */
+
+static void test_projection_matches_opencv(void **state)
+{
+    (void)state;
+    char path[512];
+    gen_path(path, sizeof path, "caltable_projections.txt");
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    double p[12];
+    assert_int_equal(read_numbers(f, "pose", p, 12), 12);
+    mfns_pose_t pose;
+    for (int i = 0; i < 9; i++) {
+        pose.C_w_b.m[i / 3][i % 3] = (float)p[i];
+    }
+    pose.r_bw_b = mfns_v3((float)p[9], (float)p[10], (float)p[11]);
+    int n = 0, per_cam[3] = {0, 0, 0};
+    double worst = 0.0, row[6];
+    while (read_numbers(f, NULL, row, 6) == 6) {
+        const int cam = (int)row[0];
+        const double u = row[4], v = row[5];
+        if (cam < 0 || cam > 2) {
+            fail_msg("bad camera index %d in the vectors", cam);
+            return;
+        }
+        float uv[2];
+        const mfns_v3_t pw = mfns_v3((float)row[1], (float)row[2], (float)row[3]);
+        assert_int_equal(mfns_cam_project(&g_table.rig.cam[cam], &pose, pw, uv, NULL), MFNS_PROJ_OK);
+        const double e = fmax(fabs((double)uv[0] - u), fabs((double)uv[1] - v));
+        worst = e > worst ? e : worst;
+        assert_near(uv[0], u, 1e-3);
+        assert_near(uv[1], v, 1e-3);
+        per_cam[cam]++;
+        n++;
+    }
+    assert_int_equal(fclose(f), 0);
+    print_message("C projection vs OpenCV projectPoints: worst %.2e px over %d points\n", worst, n);
+    assert_true(per_cam[0] >= 50 && per_cam[1] >= 50 && per_cam[2] >= 50);
+}
+
+/* ---- undistortion vs Python's exact inverse ------------------------------ */
+
+static void test_undistortion_matches_python(void **state)
+{
+    (void)state;
+    char path[512];
+    gen_path(path, sizeof path, "caltable_undistort.txt");
+    FILE *f = fopen(path, "r");
+    assert_non_null(f);
+    int n = 0;
+    double worst_a = 0.0, worst_b = 0.0, row[5];
+    while (read_numbers(f, NULL, row, 5) == 5) {
+        const int cam = (int)row[0];
+        const float u = (float)row[1], v = (float)row[2];
+        const double ui = row[3], vi = row[4];
+        if (cam < 0 || cam > 2) {
+            fail_msg("bad camera index %d in the vectors", cam);
+            return;
+        }
+        const mfns_intrinsics_t *k = &g_table.rig.cam[cam].k;
+        float x, y;
+        assert_int_equal(mfns_undistort_iter(k, u, v, MFNS_UNDIST_DEFAULT_ITER, &x, &y, NULL), MFNS_UNDIST_OK);
+        const double ea = hypot((double)k->fx * (double)x + (double)k->skew * (double)y + (double)k->cx - ui,
+                                (double)k->fy * (double)y + (double)k->cy - vi);
+        worst_a = ea > worst_a ? ea : worst_a;
+        /* (b) sees the pixel in q8: compare with the exact value moved by the
+         * input rounding (the ideal map has slope ~1, <= 1/512 px shift) */
+        q16_16_t uq, vq;
+        const px_q8_t u8 = mfns_px_q8_from_float(u), v8 = mfns_px_q8_from_float(v);
+        assert_int_equal(mfns_undistort_grid_px(&g_table.grid[cam], u8, v8, &uq, &vq), MFNS_UNDIST_OK);
+        const double du8 = (double)u8 / 256.0 - (double)u, dv8 = (double)v8 / 256.0 - (double)v;
+        const double eb = hypot((double)uq / 65536.0 - (ui + du8), (double)vq / 65536.0 - (vi + dv8));
+        worst_b = eb > worst_b ? eb : worst_b;
+        n++;
+    }
+    assert_int_equal(fclose(f), 0);
+    print_message("vs Python exact inverse: (a) worst %.2e px, (b) worst %.4f px over %d points\n", worst_a, worst_b,
+                  n);
+    assert_int_equal(n, 600);
+    assert_true(worst_a <= 1e-4);
+    assert_true(worst_b <= 0.01 + 1e-3); /* 1e-3: slope != 1 of the ideal map over the q8 shift */
+}
+
+/* The table's grids (built by Python) over the whole image, all cameras,
+ * against the C iterative inverse. */
+static void test_table_grids_whole_image(void **state)
+{
+    (void)state;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        const mfns_intrinsics_t *k = &g_table.rig.cam[c].k;
+        double worst = 0.0;
+        for (int32_t vq = -128; vq < 256 * k->height - 128; vq += 733) {
+            for (int32_t uq = -128; uq < 256 * k->width - 128; uq += 733) {
+                float x, y;
+                assert_int_equal(mfns_undistort_grid(&g_table.grid[c], k, uq, vq, &x, &y), MFNS_UNDIST_OK);
+                float xe, ye;
+                assert_int_equal(mfns_undistort_iter(k, (float)uq / 256.0f, (float)vq / 256.0f,
+                                                     MFNS_UNDIST_DEFAULT_ITER, &xe, &ye, NULL),
+                                 MFNS_UNDIST_OK);
+                const double e = hypot((double)k->fx * ((double)x - (double)xe), (double)k->fy * ((double)y - (double)ye));
+                worst = e > worst ? e : worst;
+            }
+        }
+        print_message("camera %d: table grid worst error %.4f px\n", c, worst);
+        assert_true(worst <= 0.01);
+    }
+}
+
+/* ---- crafted bad tables --------------------------------------------------- */
+
+static void put_u16(uint8_t *b, uint32_t o, uint16_t v)
+{
+    b[o] = (uint8_t)(v & 0xFFu);
+    b[o + 1] = (uint8_t)(v >> 8);
+}
+
+static void put_u32(uint8_t *b, uint32_t o, uint32_t v)
+{
+    for (int i = 0; i < 4; i++) {
+        b[o + (uint32_t)i] = (uint8_t)(v >> (8 * i));
+    }
+}
+
+static void put_f32(uint8_t *b, uint32_t o, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    put_u32(b, o, u);
+}
+
+static uint32_t get_u32(const uint8_t *b, uint32_t o)
+{
+    return (uint32_t)b[o] | ((uint32_t)b[o + 1] << 8) | ((uint32_t)b[o + 2] << 16) | ((uint32_t)b[o + 3] << 24);
+}
+
+static float get_f32(const uint8_t *b, uint32_t o)
+{
+    const uint32_t u = get_u32(b, o);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+static void fresh(void) { memcpy(g_bad, g_good, g_good_len); }
+
+static void fix_crc(size_t len)
+{
+    const uint32_t total = get_u32(g_bad, 8);
+    const uint32_t n = total <= len ? total : (uint32_t)len;
+    put_u32(g_bad, 12, mfns_crc32(0, g_bad + 16, n - 16));
+}
+
+static uint32_t cam_off(int k)
+{
+    uint32_t o = 76;
+    for (int i = 0; i < k; i++) {
+        o += 116u + 8u * (uint32_t)(g_table.grid[i].nx * g_table.grid[i].ny);
+    }
+    return o;
+}
+
+static uint32_t beacon_off(int i) { return cam_off(3) + 20u * (uint32_t)i; }
+
+/* Load g_bad[0..len) into a sentinel-filled g_out: must fail with want (and
+ * at want_off unless want_off is UINT32_MAX) and leave g_out untouched. */
+static void expect(size_t len, mfns_caltable_status_t want, uint32_t want_off, int line)
+{
+    uint32_t off = 0xDEADBEEFu;
+    const mfns_caltable_status_t st = mfns_caltable_load(g_bad, len, &g_out, &off);
+    if (st != want) {
+        fail_msg("line %d: status %d (%s), expected %d (%s)", line, (int)st, mfns_caltable_strerror(st), (int)want,
+                 mfns_caltable_strerror(want));
+    }
+    if (want_off != UINT32_MAX && off != want_off) {
+        fail_msg("line %d: error offset %u, expected %u", line, off, want_off);
+    }
+    if (memcmp((const unsigned char *)&g_out, (const unsigned char *)&g_sentinel, sizeof g_out) != 0) {
+        fail_msg("line %d: a failed load modified the output table", line);
+    }
+}
+#define EXPECT(len, st, off) expect((len), (st), (off), __LINE__)
+#define ANY UINT32_MAX
+
+static int bad_setup(void **state)
+{
+    (void)state;
+    memset(&g_sentinel, 0xA5, sizeof g_sentinel);
+    memcpy(&g_out, &g_sentinel, sizeof g_out);
+    return 0;
+}
+
+static void test_bad_header(void **state)
+{
+    (void)state;
+    const size_t len = g_good_len;
+    fresh();
+    EXPECT(10, MFNS_CALTABLE_E_TRUNCATED, 10);
+    EXPECT(len - 1, MFNS_CALTABLE_E_TRUNCATED, ANY);
+    g_bad[0] = 'X';
+    EXPECT(len, MFNS_CALTABLE_E_MAGIC, 0);
+    fresh();
+    put_u16(g_bad, 4, 2);
+    EXPECT(len, MFNS_CALTABLE_E_VERSION_NEWER, 4);
+    put_u16(g_bad, 4, 0xFFFF);
+    EXPECT(len, MFNS_CALTABLE_E_VERSION_NEWER, 4);
+    put_u16(g_bad, 4, 0);
+    EXPECT(len, MFNS_CALTABLE_E_VERSION_BAD, 4);
+    fresh();
+    put_u16(g_bad, 6, 20);
+    EXPECT(len, MFNS_CALTABLE_E_HEADER_SIZE, 6);
+    fresh();
+    put_u32(g_bad, 8, MFNS_CALTABLE_MAX_BYTES + 1);
+    EXPECT(sizeof g_bad, MFNS_CALTABLE_E_SIZE, 8);
+    put_u32(g_bad, 8, 40);
+    EXPECT(len, MFNS_CALTABLE_E_SIZE, 8);
+    /* bad CRC: one flipped bit anywhere in the body */
+    fresh();
+    g_bad[len / 2] ^= 0x10;
+    EXPECT(len, MFNS_CALTABLE_E_CRC, 12);
+    fresh();
+    g_bad[len - 1] ^= 0x01;
+    EXPECT(len, MFNS_CALTABLE_E_CRC, 12);
+    fresh();
+    g_bad[13] ^= 0x01; /* the stored CRC itself */
+    EXPECT(len, MFNS_CALTABLE_E_CRC, 12);
+    EXPECT(len, MFNS_CALTABLE_E_CRC, 12);
+    assert_int_equal(mfns_caltable_load(NULL, len, &g_out, NULL), MFNS_CALTABLE_E_ARG);
+    assert_int_equal(mfns_caltable_load(g_good, len, NULL, NULL), MFNS_CALTABLE_E_ARG);
+}
+
+static void test_bad_counts_and_settings(void **state)
+{
+    (void)state;
+    const size_t len = g_good_len;
+    struct {
+        uint32_t off;
+        int kind; /* 0 u16, 1 f32 */
+        float value;
+        mfns_caltable_status_t want;
+    } cases[] = {
+        {16, 0, 2, MFNS_CALTABLE_E_CAMERA_COUNT},
+        {16, 0, 4, MFNS_CALTABLE_E_CAMERA_COUNT},
+        {18, 0, 0, MFNS_CALTABLE_E_BEACON_COUNT},
+        {18, 0, MFNS_MAX_BEACONS + 1, MFNS_CALTABLE_E_BEACON_COUNT},
+        {20, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
+        {20, 1, 0.0f, MFNS_CALTABLE_E_PIXEL_SIGMA},
+        {20, 1, 11.0f, MFNS_CALTABLE_E_PIXEL_SIGMA},
+        {24 + 2, 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* min_area 0 */
+        {24 + 4, 0, 1, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* max_area < min_area */
+        {24 + 6, 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* roi 0 */
+        {24 + 10, 0, 1, MFNS_CALTABLE_E_RESERVED},
+        {24 + 12, 1, 0.0f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* no threshold rule */
+        {24 + 12, 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
+        {24 + 16, 1, 0.5f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* elongation < 1 */
+        {44, 0, 0, MFNS_CALTABLE_E_SOLVER_SETTINGS},           /* max_iterations */
+        {44, 0, 1001, MFNS_CALTABLE_E_SOLVER_SETTINGS},
+        {44 + 2, 0, 0, MFNS_CALTABLE_E_SOLVER_SETTINGS},       /* max_hypotheses */
+        {44 + 4, 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},    /* step_tol */
+        {44 + 8, 1, -1e-6f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* grad_tol */
+        {44 + 12, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},         /* huber_k */
+        {44 + 16, 1, -3.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* outlier gate */
+        {44 + 20, 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},   /* max rms */
+        {44 + 24, 1, 5000.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},/* track gate */
+        {44 + 28, 1, 1.5f, MFNS_CALTABLE_E_SOLVER_SETTINGS},   /* min_rcond */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        fresh();
+        if (cases[i].kind == 0) {
+            put_u16(g_bad, cases[i].off, (uint16_t)cases[i].value);
+        } else {
+            put_f32(g_bad, cases[i].off, cases[i].value);
+        }
+        fix_crc(len);
+        EXPECT(len, cases[i].want, cases[i].off);
+    }
+}
+
+static void test_bad_cameras(void **state)
+{
+    (void)state;
+    const size_t len = g_good_len;
+    for (int k = 0; k < 3; k++) {
+        const uint32_t o = cam_off(k);
+        fresh();
+        put_u16(g_bad, o, (uint16_t)((k + 1) % 3)); /* id */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_CAMERA_ID, o);
+        fresh();
+        put_u16(g_bad, o + 6, 7);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_RESERVED, o + 6);
+        fresh();
+        put_u16(g_bad, o + 4, 0); /* height */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_IMAGE_SIZE, o + 2);
+        /* NaN in every float of the record, one at a time */
+        for (uint32_t f = 0; f < 22; f++) {
+            fresh();
+            put_f32(g_bad, o + 8 + 4 * f, NAN);
+            fix_crc(len);
+            EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, o + 8 + 4 * f);
+        }
+        fresh();
+        put_f32(g_bad, o + 8 + 4 * 20, -INFINITY);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, o + 88);
+        fresh();
+        put_f32(g_bad, o + 8, -1599.0f);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_FOCAL, o + 8);
+        fresh();
+        put_f32(g_bad, o + 12, 0.0f);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_FOCAL, o + 12);
+        fresh();
+        put_f32(g_bad, o + 16, 1280.0f); /* cx just outside [-0.5, 1279.5] */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_PRINCIPAL_POINT, o + 16);
+        fresh();
+        put_f32(g_bad, o + 20, -1.0f);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_PRINCIPAL_POINT, o + 20);
+        fresh();
+        put_f32(g_bad, o + 28 + 4, 5000.0f); /* k2 */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_LENS, o + 32);
+        /* rotation: off by 2e-5 in one entry (twice the tolerance), and a reflection */
+        fresh();
+        put_f32(g_bad, o + 48 + 4 * 4, get_f32(g_bad, o + 48 + 4 * 4) + 2e-5f);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_ROTATION, o + 48);
+        fresh();
+        for (uint32_t c = 0; c < 3; c++) {
+            put_f32(g_bad, o + 48 + 4 * c, -get_f32(g_bad, o + 48 + 4 * c));
+        }
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_ROTATION, o + 48);
+        fresh();
+        put_f32(g_bad, o + 84 + 8, 2e4f);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_EXTRINSICS, o + 92);
+    }
+}
+
+static void test_bad_grids(void **state)
+{
+    (void)state;
+    const size_t len = g_good_len;
+    for (int k = 0; k < 3; k++) {
+        const uint32_t o = cam_off(k);
+        const mfns_undist_grid_t *g = &g_table.grid[k];
+        fresh();
+        put_u16(g_bad, o + 96, 1);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + 96);
+        fresh();
+        put_u16(g_bad, o + 98, (uint16_t)(MFNS_MAX_GRID_NODES / g->nx + 1)); /* oversize node count */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + 96);
+        /* one more column than stored: the nodes no longer line up (the last
+         * camera's run past the table) */
+        fresh();
+        put_u16(g_bad, o + 96, (uint16_t)(g->nx + 1));
+        fix_crc(len);
+        EXPECT(len, k < 2 ? MFNS_CALTABLE_E_GRID_VALUES : MFNS_CALTABLE_E_SIZE_MISMATCH, ANY);
+        /* one row fewer: too short to cover the image */
+        fresh();
+        put_u16(g_bad, o + 98, (uint16_t)(g->ny - 1));
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + 104);
+        fresh();
+        put_u32(g_bad, o + 108, 0);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_STEP, o + 108);
+        fresh();
+        put_u32(g_bad, o + 112, 70000);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_STEP, o + 112);
+        fresh();
+        put_u32(g_bad, o + 100, 0); /* origin at pixel 0: the first half pixel is uncovered */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + 100);
+        fresh();
+        put_u32(g_bad, o + 112, (uint32_t)(g->step_v_q8 - 8)); /* short of the last row */
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + 104);
+        /* one node's value off by 0.05 px (u) / 0.02 px (v) */
+        const uint32_t node = o + 116 + 8u * 1234u;
+        fresh();
+        put_u32(g_bad, node, get_u32(g_bad, node) + 3277u);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, node);
+        fresh();
+        put_u32(g_bad, node + 4, get_u32(g_bad, node + 4) - 1311u);
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, node);
+        /* within the tolerance: 0.005 px is accepted (the check is not exact equality) */
+        fresh();
+        put_u32(g_bad, node, get_u32(g_bad, node) + 328u);
+        fix_crc(len);
+        assert_int_equal(mfns_caltable_load(g_bad, len, &g_out, NULL), MFNS_CALTABLE_OK);
+        memcpy(&g_out, &g_sentinel, sizeof g_out);
+    }
+    /* a grid from another camera's lens: swap the nodes of X into Z */
+    fresh();
+    const uint32_t nbytes = 8u * (uint32_t)(g_table.grid[0].nx * g_table.grid[0].ny);
+    memcpy(g_bad + cam_off(2) + 116, g_good + cam_off(0) + 116, nbytes);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, ANY);
+}
+
+static void test_bad_beacons_and_size(void **state)
+{
+    (void)state;
+    const size_t len = g_good_len;
+    fresh();
+    put_f32(g_bad, beacon_off(3) + 16, 0.0f);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(3) + 16);
+    fresh();
+    put_f32(g_bad, beacon_off(3) + 4, 2e7f);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(3) + 4);
+    fresh();
+    put_f32(g_bad, beacon_off(9) + 12, NAN);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, beacon_off(9) + 12);
+    fresh();
+    put_u16(g_bad, beacon_off(9) + 2, 1);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_RESERVED, beacon_off(9) + 2);
+    fresh();
+    put_u16(g_bad, beacon_off(7), 2); /* same id as beacon 2 */
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(7));
+    /* counts that disagree with the size: one beacon more than stored, one
+     * fewer, and trailing bytes covered by total_size and the CRC */
+    fresh();
+    put_u16(g_bad, 18, 11);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(0));
+    put_u16(g_bad, 18, 9);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(9));
+    fresh();
+    memset(g_bad + len, 0, 8);
+    put_u32(g_bad, 8, (uint32_t)len + 8);
+    fix_crc(len + 8);
+    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH, (uint32_t)len);
+    /* a longer buffer than total_size is fine (a file read into a big buffer) */
+    fresh();
+    assert_int_equal(mfns_caltable_load(g_bad, len + 8, &g_out, NULL), MFNS_CALTABLE_OK);
+    memcpy(&g_out, &g_sentinel, sizeof g_out);
+}
+
+/* A failed load leaves the previous table in service; a good one replaces it. */
+static void test_failed_load_keeps_previous_table(void **state)
+{
+    (void)state;
+    static mfns_caltable_t t;
+    assert_int_equal(mfns_caltable_load(g_good, g_good_len, &t, NULL), MFNS_CALTABLE_OK);
+    fresh();
+    put_f32(g_bad, cam_off(1) + 8, NAN);
+    fix_crc(g_good_len);
+    assert_int_equal(mfns_caltable_load(g_bad, g_good_len, &t, NULL), MFNS_CALTABLE_E_NOT_FINITE);
+    assert_true(t.rig.cam[1].k.fx == g_table.rig.cam[1].k.fx);
+    assert_true(t.grid[2].node == (const q16_16_t(*)[2])t.grid_node[2]);
+    q16_16_t a, b;
+    assert_int_equal(mfns_undistort_grid_px(&t.grid[2], 100 * 256, 100 * 256, &a, &b), MFNS_UNDIST_OK);
+}
+
+static void test_strerror_and_crc(void **state)
+{
+    (void)state;
+    for (int i = 0; i < MFNS_CALTABLE_STATUS_COUNT; i++) {
+        const char *m = mfns_caltable_strerror((mfns_caltable_status_t)i);
+        assert_non_null(m);
+        assert_null(strchr(m, '\n'));
+        for (int j = 0; j < i; j++) {
+            assert_string_not_equal(m, mfns_caltable_strerror((mfns_caltable_status_t)j));
+        }
+    }
+    assert_non_null(mfns_caltable_strerror(MFNS_CALTABLE_STATUS_COUNT));
+    /* the CRC-32/ISO-HDLC check value, and continuation */
+    const uint8_t s[] = "123456789";
+    assert_int_equal(mfns_crc32(0, s, 9), 0xCBF43926u);
+    assert_int_equal(mfns_crc32(mfns_crc32(0, s, 4), s + 4, 5), 0xCBF43926u);
+    assert_int_equal(mfns_crc32(0, s, 0), 0u);
+}
+
+static void test_file_loader(void **state)
+{
+    (void)state;
+    static uint8_t buf[MFNS_CALTABLE_MAX_BYTES];
+    char path[512];
+    gen_path(path, sizeof path, "default.mfnstbl");
+    uint32_t off = 0;
+    assert_int_equal(mfns_caltable_load_file(path, buf, sizeof buf, &g_out, &off), MFNS_CALTABLE_OK);
+    assert_true(g_out.crc32 == g_table.crc32);
+    assert_true(g_out.rig.cam[2].k.fy == g_table.rig.cam[2].k.fy);
+    memcpy(&g_out, &g_sentinel, sizeof g_out);
+    assert_int_equal(mfns_caltable_load_file(path, buf, g_good_len - 1, &g_out, NULL), MFNS_CALTABLE_E_FILE_TOO_BIG);
+    assert_int_equal(mfns_caltable_load_file("/nonexistent/mfns.tbl", buf, sizeof buf, &g_out, NULL),
+                     MFNS_CALTABLE_E_FILE_OPEN);
+    assert_int_equal(mfns_caltable_load_file(mfns_test_gen_dir(), buf, sizeof buf, &g_out, NULL),
+                     MFNS_CALTABLE_E_FILE_READ);
+    gen_path(path, sizeof path, "caltable_values.txt"); /* a file that is not a table */
+    assert_int_equal(mfns_caltable_load_file(path, buf, sizeof buf, &g_out, NULL), MFNS_CALTABLE_E_MAGIC);
+    assert_int_equal(mfns_caltable_load_file(NULL, buf, sizeof buf, &g_out, NULL), MFNS_CALTABLE_E_ARG);
+    assert_memory_equal(&g_out, &g_sentinel, sizeof g_out);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_python_table_loads_with_identical_values),
+        cmocka_unit_test(test_projection_matches_opencv),
+        cmocka_unit_test(test_undistortion_matches_python),
+        cmocka_unit_test(test_table_grids_whole_image),
+        cmocka_unit_test_setup(test_bad_header, bad_setup),
+        cmocka_unit_test_setup(test_bad_counts_and_settings, bad_setup),
+        cmocka_unit_test_setup(test_bad_cameras, bad_setup),
+        cmocka_unit_test_setup(test_bad_grids, bad_setup),
+        cmocka_unit_test_setup(test_bad_beacons_and_size, bad_setup),
+        cmocka_unit_test(test_failed_load_keeps_previous_table),
+        cmocka_unit_test(test_strerror_and_crc),
+        cmocka_unit_test_setup(test_file_loader, bad_setup),
+    };
+    return cmocka_run_group_tests_name("caltable", tests, setup, NULL);
+}
