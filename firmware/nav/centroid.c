@@ -563,7 +563,9 @@ static void label_region(label_state_t *ls, const mfns_frame_t *f, const region_
 /* ------------------------------------------------------------------------ */
 /* Per-blob results */
 
-static void finish_blob(const mfns_centroid_acc_t *a, int64_t b_q8, float bg, const mfns_centroid_settings_t *s,
+/* l_q8: the weight level (pixel weight = value - level), b_q8 the background,
+ * both Q8 DN with l_q8 >= b_q8 and 256 T > l_q8. */
+static void finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64_t b_q8, const mfns_centroid_settings_t *s,
                         uint32_t sat, const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois, mfns_blob_t *o)
 {
     memset(o, 0, sizeof *o);
@@ -578,14 +580,13 @@ static void finish_blob(const mfns_centroid_acc_t *a, int64_t b_q8, float bg, co
     uint16_t why = 0u;
     bool have_moments = !a->moments_capped;
     if (have_moments) {
-        /* Q8 background-subtracted sums; every pixel exceeds the background
-         * (256 T > b_q8), so w > 0. */
+        /* Q8 weighted sums; every pixel exceeds the level (256 T > l_q8), so w > 0. */
         const int64_t n = (int64_t)a->moment_area;
-        const int64_t w = 256 * (int64_t)a->s_i - b_q8 * n;
-        const int64_t mx = 256 * (int64_t)a->s_ix - b_q8 * (int64_t)a->s_x;
-        const int64_t my = 256 * (int64_t)a->s_iy - b_q8 * (int64_t)a->s_y;
+        const int64_t w = 256 * (int64_t)a->s_i - l_q8 * n;
+        const int64_t mx = 256 * (int64_t)a->s_ix - l_q8 * (int64_t)a->s_x;
+        const int64_t my = 256 * (int64_t)a->s_iy - l_q8 * (int64_t)a->s_y;
         have_moments = mfns_px_q8_from_ratio(mx, w, &o->u_q8) && mfns_px_q8_from_ratio(my, w, &o->v_q8);
-        o->flux_dn = (float)w / 256.0f;
+        o->flux_dn = (float)(256 * (int64_t)a->s_i - b_q8 * n) / 256.0f;
         /* Shape: second moments about the bounding-box corner (exact in
          * integers), then double: the raw sums reach 2^56 and the background
          * subtraction cancels, which float's 24 bits would not survive. */
@@ -600,7 +601,7 @@ static void finish_blob(const mfns_centroid_acc_t *a, int64_t b_q8, float bg, co
         const double cyy = (double)((int64_t)a->s_yy - 2 * ay * (int64_t)a->s_y + ay * ay * n);
         const double cxy = (double)((int64_t)a->s_xy - ax * (int64_t)a->s_y - ay * (int64_t)a->s_x + ax * ay * n);
         const double cx = (double)((int64_t)a->s_x - ax * n), cy = (double)((int64_t)a->s_y - ay * n);
-        const double B = (double)bg, W = (double)w / 256.0;
+        const double B = (double)l_q8 / 256.0, W = (double)w / 256.0;
         const double mu_x = (cix - B * cx) / W, mu_y = (ciy - B * cy) / W;
         /* + 1/12: each pixel is a unit square, not a point */
         const double mxx = (cixx - B * cxx) / W - mu_x * mu_x + 1.0 / 12.0;
@@ -700,6 +701,7 @@ mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfn
     const int64_t b_q8 = (int64_t)lroundf(bg->background_dn * 256.0f);
     const int64_t t_q8 = (int64_t)lroundf(fminf(t, 131072.0f) * 256.0f);
     const uint32_t T = (uint32_t)((b_q8 + t_q8) / 256 + 1); /* 256 T > b_q8 + t_q8 */
+    const int64_t l_q8 = b_q8 + (int64_t)lroundf(MFNS_CENTROID_WEIGHT_LEVEL * (float)t_q8);
     out->threshold_dn = T;
     out->bg = *bg;
 
@@ -718,7 +720,7 @@ mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfn
                 continue;
             }
             mfns_blob_t b;
-            finish_blob(&work->acc[l], b_q8, bg->background_dn, settings, sat, frame, rois, n_rois, &b);
+            finish_blob(&work->acc[l], l_q8, b_q8, settings, sat, frame, rois, n_rois, &b);
             if ((pass == 0) != (b.reasons == 0u)) {
                 continue;
             }

@@ -43,6 +43,12 @@
 /* Moments are accumulated for at most this many pixels per blob; a larger blob
  * is always TOO_LARGE (max_area_px is 16-bit) and gets no moment centroid. */
 #define MFNS_CENTROID_MOMENT_AREA_CAP 65535u
+/* Pixel weights are value - (background + WEIGHT_LEVEL * threshold step):
+ * a pixel that just crosses the threshold enters with a small weight, so the
+ * sub-pixel phase and noise moving pixels in and out of the blob hardly move
+ * the centroid (the truncation "S-curve"). 0 = plain background subtraction.
+ * Chosen from the Monte Carlo of tests/unit/test_centroid.c (docs/centroiding.md). */
+#define MFNS_CENTROID_WEIGHT_LEVEL 0.75f
 /* Background estimate: at most this many sampled pixels, two passes. */
 #define MFNS_CENTROID_BG_MAX_SAMPLES 16384u
 #define MFNS_CENTROID_HIST_BINS 1024u
