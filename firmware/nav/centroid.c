@@ -222,41 +222,59 @@ static uint16_t regions_of(const mfns_frame_t *f, const mfns_roi_t *rois, uint16
     return n_rois;
 }
 
-/* One histogram pass over the sample grid: bins of 2^shift DN from lo. */
+/* One histogram pass over the sample grid: bins of 2^shift DN from lo. The
+ * samples of a row are counted before the row is read, so the cap is checked
+ * once per row. */
 static void hist_pass(const mfns_frame_t *f, const region_t *reg, uint16_t n_reg, uint32_t step, uint32_t *h,
                       hist_desc_t *d)
 {
     const bool wide = format_bits(f->format) > 8u;
-    memset(h, 0, MFNS_CENTROID_HIST_BINS * sizeof h[0]);
+    /* four interleaved sub-histograms: consecutive samples of a flat
+     * background hit the same bin, and one counter would serialise them */
+    memset(h, 0, 4u * MFNS_CENTROID_HIST_BINS * sizeof h[0]);
     d->under = d->over = d->n = 0u;
     for (uint16_t r = 0; r < n_reg; r++) {
+        const uint32_t xs = reg[r].x0 + step / 2u;
+        if (xs >= reg[r].x1) {
+            continue;
+        }
+        const uint32_t per_row = (reg[r].x1 - xs + step - 1u) / step;
         for (uint32_t y = reg[r].y0 + step / 2u; y < reg[r].y1; y += step) {
+            const uint32_t cnt = per_row < MFNS_CENTROID_BG_MAX_SAMPLES - d->n ? per_row : MFNS_CENTROID_BG_MAX_SAMPLES - d->n;
+            if (cnt == 0u) {
+                return;
+            }
             const uint8_t *row = row_ptr(f, y);
-            for (uint32_t x = reg[r].x0 + step / 2u; x < reg[r].x1; x += step) {
-                if (d->n >= MFNS_CENTROID_BG_MAX_SAMPLES) {
-                    return;
-                }
-                const uint32_t v = pixel(row, x, wide);
-                d->n++;
+            uint32_t under = 0, over = 0;
+            for (uint32_t i = 0, x = xs; i < cnt; i++, x += step) {
+                const uint32_t v = wide ? pixel(row, x, true) : row[x];
                 if (v < d->lo) {
-                    d->under++;
+                    under++;
                     continue;
                 }
                 const uint32_t b = (v - d->lo) >> d->shift;
                 if (b >= MFNS_CENTROID_HIST_BINS) {
-                    d->over++;
+                    over++;
                 } else {
-                    h[b]++;
+                    h[b + MFNS_CENTROID_HIST_BINS * (i & 3u)]++;
                 }
             }
+            d->n += cnt;
+            d->under += under;
+            d->over += over;
         }
     }
 }
 
+/* Merge the sub-histograms into h[0 .. BINS) and make it cumulative. */
 static void cumulate(uint32_t *h)
 {
-    for (uint32_t k = 1; k < MFNS_CENTROID_HIST_BINS; k++) {
-        h[k] += h[k - 1u];
+    for (uint32_t k = 0; k < MFNS_CENTROID_HIST_BINS; k++) {
+        h[k] += h[k + MFNS_CENTROID_HIST_BINS] + h[k + 2u * MFNS_CENTROID_HIST_BINS] +
+                h[k + 3u * MFNS_CENTROID_HIST_BINS];
+        if (k > 0u) {
+            h[k] += h[k - 1u];
+        }
     }
 }
 
@@ -343,18 +361,40 @@ static inline uint64_t load64(const uint8_t *p)
 #define GE_LOW(w, L, H, c) (((((w) & (L)) + (c)) | (w)) & (H))
 #define GE_HIGH(w, L, H, c) (((((w) & (L)) + (c)) & (w)) & (H))
 
-/* First x in [x, end) with pixel >= T (or end). bpp bytes per pixel. */
-#define DEFINE_FIND(name, GE, L, H, bpp)                                                                \
-    static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c)                     \
+/* First x in [x, end) with pixel >= T (or end), for the background-dominated
+ * bulk of a frame. Two stages: the maximum over a block of 128 bytes (a plain
+ * loop that compilers turn into vector max instructions: SSE2 pmaxub on x86-64,
+ * NEON umax on aarch64, a scalar loop on a Cortex-M), then, inside a block that
+ * holds a candidate, the exact 8-byte word test above, which stops within a
+ * word of the first pixel >= T. */
+#define BLOCK_BYTES 128u
+
+static uint32_t block_max_u8(const uint8_t *p)
+{
+    uint8_t m = 0;
+    for (uint32_t i = 0; i < BLOCK_BYTES; i++) {
+        m = p[i] > m ? p[i] : m;
+    }
+    return m;
+}
+
+static uint32_t block_max_u16(const uint8_t *p)
+{
+    uint16_t m = 0;
+    for (uint32_t i = 0; i < BLOCK_BYTES / 2u; i++) {
+        uint16_t v;
+        memcpy(&v, p + 2u * i, sizeof v);
+        m = v > m ? v : m;
+    }
+    return m;
+}
+
+#define DEFINE_FIND(name, GE, L, H, bpp, BLOCK_MAX)                                                     \
+    static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T)         \
     {                                                                                                   \
-        const uint32_t per_word = 8u / (bpp);                                                           \
-        while (x + 4u * per_word <= end) {                                                              \
-            const uint8_t *p = row + (size_t)x * (bpp);                                                 \
-            const uint64_t w0 = load64(p), w1 = load64(p + 8), w2 = load64(p + 16), w3 = load64(p + 24); \
-            if ((GE(w0, L, H, c) | GE(w1, L, H, c) | GE(w2, L, H, c) | GE(w3, L, H, c)) != 0u) {          \
-                break;                                                                                  \
-            }                                                                                           \
-            x += 4u * per_word;                                                                         \
+        const uint32_t per_word = 8u / (bpp), per_block = BLOCK_BYTES / (bpp);                          \
+        while (x + per_block <= end && BLOCK_MAX(row + (size_t)x * (bpp)) < T) {                        \
+            x += per_block;                                                                             \
         }                                                                                               \
         while (x + per_word <= end) {                                                                   \
             const uint64_t w = load64(row + (size_t)x * (bpp));                                         \
@@ -366,12 +406,12 @@ static inline uint64_t load64(const uint8_t *p)
         return x;                                                                                       \
     }
 
-DEFINE_FIND(find_u8_low, GE_LOW, L8, H8, 1u)
-DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u)
-DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u)
-DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u)
+DEFINE_FIND(find_u8_low, GE_LOW, L8, H8, 1u, block_max_u8)
+DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u, block_max_u8)
+DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u, block_max_u16)
+DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u, block_max_u16)
 
-typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c);
+typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T);
 
 /* ------------------------------------------------------------------------ */
 /* Labels: union-find over provisional labels, accumulators at the roots. */
@@ -529,7 +569,7 @@ static void label_region(label_state_t *ls, const mfns_frame_t *f, const region_
         const uint8_t *row = row_ptr(f, y);
         uint32_t nc = 0, j = 0, x = rg->x0;
         while (x < rg->x1) {
-            x = find(row, x, rg->x1, c);
+            x = find(row, x, rg->x1, c, T);
             /* the word test found a candidate within the next word(s), or the tail */
             while (x < rg->x1 && pixel(row, x, wide) < T) {
                 x++;

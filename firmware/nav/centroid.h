@@ -50,7 +50,7 @@
  * Chosen from the Monte Carlo of tests/unit/test_centroid.c (docs/centroiding.md). */
 #define MFNS_CENTROID_WEIGHT_LEVEL 0.75f
 /* Background estimate: at most this many sampled pixels, two passes. */
-#define MFNS_CENTROID_BG_MAX_SAMPLES 16384u
+#define MFNS_CENTROID_BG_MAX_SAMPLES 8192u
 #define MFNS_CENTROID_HIST_BINS 1024u
 
 typedef enum {
@@ -132,7 +132,7 @@ typedef struct {
     mfns_blob_t blob[MFNS_MAX_BLOBS_PER_CAMERA];
 } mfns_centroid_result_t;
 
-/* Scratch of one call: the caller provides it as static storage (~40 KB).
+/* Scratch of one call: the caller provides it as static storage (~60 KB).
  * Its contents are meaningless between calls. */
 typedef struct {
     uint16_t x0, x1; /* inclusive */
@@ -164,7 +164,7 @@ typedef struct {
     mfns_centroid_run_t runs[2][MFNS_CENTROID_MAX_RUNS];
     uint16_t parent[MFNS_CENTROID_MAX_LABELS];
     mfns_centroid_acc_t acc[MFNS_CENTROID_MAX_LABELS];
-    uint32_t hist[MFNS_CENTROID_HIST_BINS];
+    uint32_t hist[4 * MFNS_CENTROID_HIST_BINS];
 } mfns_centroid_work_t;
 
 /* Settings a flight pipeline starts from before the calibration table
