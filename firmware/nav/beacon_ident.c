@@ -40,41 +40,70 @@ typedef struct {
     int missing; /* beacons predicted in view with no blob */
 } cand_t;
 
-/* Blobs with a beacon within gate in normalized coordinates. */
-static int coarse_score(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame,
-                        const mfns_pose_t *pose, const float gate_n[MFNS_NUM_CAMERAS])
+typedef struct {
+    const mfns_rig_t *rig;
+    const mfns_beacon_map_t *map;
+    const mfns_obs_frame_t *frame;
+    const mfns_pose_config_t *cfg;
+    blob_t blobs[MFNS_POSE_MAX_MEAS];
+    int16_t frame_cam_blob[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA]; /* blob index of each obs */
+    int nb;
+    float gate_n[MFNS_NUM_CAMERAS];
+    float lo, hi;
+    cand_t cand[MAX_CAND];
+    int ncand;
+    int best;           /* index of the best candidate, -1 none */
+    bool overflow;      /* more distinct candidates than MAX_CAND were seen */
+    bool complete;      /* a triple of the best's inliers was enumerated */
+    bool minimal_rival; /* nb == 3: two consistent poses already seen */
+    bool budget_out;
+    uint32_t hyp;
+} acq_t;
+
+/* Quick verification of a hypothesis pose: does at least one blob outside
+ * the triple have a beacon within gate (normalized coordinates, no
+ * distortion)? The camera transform of the map is computed once per camera
+ * and only for cameras that hold such blobs; the first match ends the test. */
+static bool quick_verify(const acq_t *q, const mfns_pose_t *pose, const int tri[3])
 {
-    int score = 0;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        const int nb = frame->count[c];
-        if (nb == 0) {
+        const int nb = q->frame->count[c];
+        bool need = false;
+        for (int i = 0; i < nb && !need; i++) {
+            need = !(q->frame_cam_blob[c][i] == tri[0] || q->frame_cam_blob[c][i] == tri[1] ||
+                     q->frame_cam_blob[c][i] == tri[2]);
+        }
+        if (!need) {
             continue;
         }
-        /* body-to-camera in one matrix: p_c = C_k_b^T (C_w_b p_w + r_bw_b - r_bk_b) */
-        const mfns_m3_t m = mfns_m3_mul(mfns_m3_transpose(rig->cam[c].C_k_b), pose->C_w_b);
-        const mfns_v3_t t = mfns_m3_tmul_v3(rig->cam[c].C_k_b, mfns_v3_sub(pose->r_bw_b, rig->cam[c].r_bk_b));
+        const mfns_camera_t *cam = &q->rig->cam[c];
+        const mfns_m3_t m = mfns_m3_mul(mfns_m3_transpose(cam->C_k_b), pose->C_w_b);
+        const mfns_v3_t t = mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(pose->r_bw_b, cam->r_bk_b));
         float bx[MFNS_MAX_BEACONS], by[MFNS_MAX_BEACONS];
         int nv = 0;
-        for (int b = 0; b < map->count; b++) {
-            const mfns_v3_t p = mfns_v3_add(mfns_m3_mul_v3(m, map->beacon[b].p_w), t);
+        for (int b = 0; b < q->map->count; b++) {
+            const mfns_v3_t p = mfns_v3_add(mfns_m3_mul_v3(m, q->map->beacon[b].p_w), t);
             if (p.z >= MFNS_CAM_MIN_DEPTH_MM) {
                 bx[nv] = p.x / p.z;
                 by[nv] = p.y / p.z;
                 nv++;
             }
         }
-        const float g2 = gate_n[c] * gate_n[c];
+        const float g2 = q->gate_n[c] * q->gate_n[c];
         for (int i = 0; i < nb; i++) {
+            const int bi = q->frame_cam_blob[c][i];
+            if (bi == tri[0] || bi == tri[1] || bi == tri[2]) {
+                continue;
+            }
             for (int k = 0; k < nv; k++) {
-                const float dx = bx[k] - frame->obs[c][i].x, dy = by[k] - frame->obs[c][i].y;
+                const float dx = bx[k] - q->frame->obs[c][i].x, dy = by[k] - q->frame->obs[c][i].y;
                 if (dx * dx + dy * dy <= g2) {
-                    score++;
-                    break;
+                    return true;
                 }
             }
         }
     }
-    return score;
+    return false;
 }
 
 /* Beacons predicted inside an image that no blob of the association accounts for. */
@@ -155,6 +184,153 @@ static bool triple_in_inliers(const blob_t *t[3], const mfns_pose_solution_t *so
 
 #define MIN_RANGE_MM 10.0f
 
+static void add_candidate(acq_t *q, const cand_t *cd)
+{
+    for (int i = 0; i < q->ncand; i++) {
+        if (same_assoc(&q->cand[i].sol, &cd->sol, q->frame) &&
+            (q->nb > 3 || same_pose(&q->cand[i].sol.pose, &cd->sol.pose))) {
+            return;
+        }
+    }
+    if (q->ncand < MAX_CAND) {
+        q->cand[q->ncand++] = *cd;
+    } else {
+        q->overflow = true;
+        int worst = 0;
+        for (int i = 1; i < q->ncand; i++) {
+            if (q->cand[i].score < q->cand[worst].score ||
+                (q->cand[i].score == q->cand[worst].score && q->cand[i].missing > q->cand[worst].missing)) {
+                worst = i;
+            }
+        }
+        if (cd->score > q->cand[worst].score ||
+            (cd->score == q->cand[worst].score && cd->missing < q->cand[worst].missing)) {
+            q->cand[worst] = *cd;
+        }
+    }
+    q->best = 0;
+    int consistent = 0;
+    for (int i = 0; i < q->ncand; i++) {
+        const cand_t *a = &q->cand[i], *b = &q->cand[q->best];
+        if (a->score > b->score || (a->score == b->score && a->missing < b->missing)) {
+            q->best = i;
+        }
+        consistent += a->missing == 0 ? 1 : 0;
+    }
+    if (q->nb == 3 && consistent >= 2) {
+        q->minimal_rival = true;
+    }
+}
+
+/* Verify one gP3P pose: associate in pixels, refine, score. */
+static void verify(acq_t *q, const mfns_pose_t *pose, const int tri[3])
+{
+    if (q->nb > 3 && !quick_verify(q, pose, tri)) {
+        return;
+    }
+    cand_t cd;
+    memset(&cd, 0, sizeof(cd));
+    const int need = q->nb > 3 ? 4 : 3;
+    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, q->cfg->s.track_gate_px, &cd.sol.assoc) < need) {
+        return;
+    }
+    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    const int n = mfns_pose_gather(q->map, q->frame, &cd.sol.assoc, m);
+    if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd.sol) == MFNS_POSE_NO_FIX) {
+        return;
+    }
+    cd.score = cd.sol.beacons_used;
+    cd.missing = count_missing(q->rig, q->map, q->frame, &cd.sol);
+    add_candidate(q, &cd);
+}
+
+/* Every ordered beacon triple for the blob triple (i, j, k), pruned by the
+ * reachable pair distances. */
+static void try_triple(acq_t *q, int i, int j, int k)
+{
+    const blob_t *t[3] = {&q->blobs[i], &q->blobs[j], &q->blobs[k]};
+    const int tri[3] = {i, j, k};
+    static const float slack = 1.001f;
+    const float d12max = ray_pair_dmax(t[0], t[1], q->lo, q->hi) * slack;
+    const float d13max = ray_pair_dmax(t[0], t[2], q->lo, q->hi) * slack;
+    const float d23max = ray_pair_dmax(t[1], t[2], q->lo, q->hi) * slack;
+    const mfns_v3_t rc[3] = {t[0]->c, t[1]->c, t[2]->c};
+    const mfns_v3_t rd[3] = {t[0]->d, t[1]->d, t[2]->d};
+    const mfns_beacon_map_t *map = q->map;
+    for (int a = 0; a < map->count; a++) {
+        for (int b = 0; b < map->count; b++) {
+            if (b == a || mfns_v3_norm(mfns_v3_sub(map->beacon[a].p_w, map->beacon[b].p_w)) > d12max) {
+                continue;
+            }
+            for (int c = 0; c < map->count; c++) {
+                if (c == a || c == b || mfns_v3_norm(mfns_v3_sub(map->beacon[a].p_w, map->beacon[c].p_w)) > d13max ||
+                    mfns_v3_norm(mfns_v3_sub(map->beacon[b].p_w, map->beacon[c].p_w)) > d23max) {
+                    continue;
+                }
+                if (q->hyp >= q->cfg->s.max_hypotheses) {
+                    q->budget_out = true;
+                    return;
+                }
+                q->hyp++;
+                const mfns_v3_t xw[3] = {map->beacon[a].p_w, map->beacon[b].p_w, map->beacon[c].p_w};
+                mfns_pose_t sols[MFNS_GP3P_MAX_SOLUTIONS];
+                const int ns = mfns_gp3p(rc, rd, xw, q->lo, q->hi, sols);
+                for (int s = 0; s < ns; s++) {
+                    verify(q, &sols[s], tri);
+                }
+                if (q->minimal_rival) {
+                    return;
+                }
+            }
+        }
+    }
+    if (q->best >= 0 && triple_in_inliers(t, &q->cand[q->best].sol)) {
+        q->complete = true;
+    }
+}
+
+static bool search_over(const acq_t *q) { return q->complete || q->budget_out || q->minimal_rival; }
+
+/* The triple tried first: a pair from the camera with the most blobs (the
+ * reachable-distance test prunes same-camera pairs hard) and a third blob
+ * from another camera (conditioning), else from the same camera. */
+static void first_triple(const acq_t *q, int tri[3])
+{
+    int cm = 0;
+    for (int c = 1; c < MFNS_NUM_CAMERAS; c++) {
+        if (q->frame->count[c] > q->frame->count[cm]) {
+            cm = c;
+        }
+    }
+    tri[0] = 0;
+    tri[1] = 1;
+    tri[2] = 2;
+    if (q->frame->count[cm] < 2) {
+        return;
+    }
+    tri[0] = q->frame_cam_blob[cm][0];
+    tri[1] = q->frame_cam_blob[cm][1];
+    tri[2] = -1;
+    for (int c = 0; c < MFNS_NUM_CAMERAS && tri[2] < 0; c++) {
+        if (c != cm && q->frame->count[c] > 0) {
+            tri[2] = q->frame_cam_blob[c][0];
+        }
+    }
+    if (tri[2] < 0) {
+        tri[2] = q->frame_cam_blob[cm][2];
+    }
+    /* ascending, as the lexicographic loop expects */
+    for (int a = 0; a < 2; a++) {
+        for (int b = 0; b < 2 - a; b++) {
+            if (tri[b] > tri[b + 1]) {
+                const int x = tri[b];
+                tri[b] = tri[b + 1];
+                tri[b + 1] = x;
+            }
+        }
+    }
+}
+
 mfns_pose_status_t mfns_pose_acquire(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                      const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
                                      mfns_pose_solution_t *out)
@@ -167,13 +343,20 @@ mfns_pose_status_t mfns_pose_acquire(const mfns_rig_t *rig, const mfns_beacon_ma
         !(cfg->max_range_mm > MIN_RANGE_MM) || !(cfg->sigma_px > 0.0f) || cfg->s.max_iterations == 0) {
         return out->status;
     }
-    blob_t blobs[MFNS_POSE_MAX_MEAS];
-    int nb = 0;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         if (frame->count[c] > MFNS_MAX_OBS_PER_CAMERA) {
             return out->status;
         }
     }
+    /* the search state is large (candidates hold full solutions): static, so
+     * the stack stays small on the target; the core is single-threaded */
+    static acq_t q;
+    memset(&q, 0, sizeof(q));
+    q.rig = rig;
+    q.map = map;
+    q.frame = frame;
+    q.cfg = cfg;
+    q.best = -1;
     /* round-robin over cameras */
     for (int i = 0; i < MFNS_MAX_OBS_PER_CAMERA; i++) {
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -182,168 +365,60 @@ mfns_pose_status_t mfns_pose_acquire(const mfns_rig_t *rig, const mfns_beacon_ma
                 if (!isfinite(o->u) || !isfinite(o->v) || !isfinite(o->x) || !isfinite(o->y)) {
                     return out->status;
                 }
-                blobs[nb].cam = (uint8_t)c;
-                blobs[nb].idx = (uint8_t)i;
-                mfns_pose_ray(&rig->cam[c], o->x, o->y, &blobs[nb].c, &blobs[nb].d);
-                nb++;
+                q.blobs[q.nb].cam = (uint8_t)c;
+                q.blobs[q.nb].idx = (uint8_t)i;
+                q.frame_cam_blob[c][i] = (int16_t)q.nb;
+                mfns_pose_ray(&rig->cam[c], o->x, o->y, &q.blobs[q.nb].c, &q.blobs[q.nb].d);
+                q.nb++;
             }
         }
     }
-    if (nb < 3 || map->count < 3) {
+    if (q.nb < 3 || map->count < 3) {
         out->reason = MFNS_POSE_R_TOO_FEW;
         return out->status;
     }
-    float gate_n[MFNS_NUM_CAMERAS];
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        gate_n[c] = cfg->s.track_gate_px / rig->cam[c].k.fx;
+        q.gate_n[c] = cfg->s.track_gate_px / rig->cam[c].k.fx;
     }
-    const float lo = MIN_RANGE_MM, hi = cfg->max_range_mm;
-    static const float slack = 1.001f;
+    q.lo = MIN_RANGE_MM;
+    q.hi = cfg->max_range_mm;
 
-    cand_t cand[MAX_CAND];
-    int ncand = 0;
-    int best = -1;                /* index of the best candidate */
-    bool overflow = false;        /* more distinct candidates than MAX_CAND */
-    bool complete = false;        /* a triple of the best's inliers was enumerated */
-    bool minimal_rival = false;   /* nb == 3: two consistent poses already seen */
-    uint32_t hyp = 0;
-    const uint32_t max_hyp = cfg->s.max_hypotheses;
-    bool budget_out = false;
-
-    for (int i = 0; i < nb - 2 && !complete && !budget_out && !minimal_rival; i++) {
-        for (int j = i + 1; j < nb - 1 && !complete && !budget_out && !minimal_rival; j++) {
-            for (int k = j + 1; k < nb && !complete && !budget_out && !minimal_rival; k++) {
-                const blob_t *t[3] = {&blobs[i], &blobs[j], &blobs[k]};
-                const float d12max = ray_pair_dmax(t[0], t[1], lo, hi) * slack;
-                const float d13max = ray_pair_dmax(t[0], t[2], lo, hi) * slack;
-                const float d23max = ray_pair_dmax(t[1], t[2], lo, hi) * slack;
-                const mfns_v3_t rc[3] = {t[0]->c, t[1]->c, t[2]->c};
-                const mfns_v3_t rd[3] = {t[0]->d, t[1]->d, t[2]->d};
-                bool triple_done = true;
-                for (int a = 0; a < map->count && triple_done; a++) {
-                    for (int b = 0; b < map->count && triple_done; b++) {
-                        if (b == a ||
-                            mfns_v3_norm(mfns_v3_sub(map->beacon[a].p_w, map->beacon[b].p_w)) > d12max) {
-                            continue;
-                        }
-                        for (int c3 = 0; c3 < map->count; c3++) {
-                            if (c3 == a || c3 == b ||
-                                mfns_v3_norm(mfns_v3_sub(map->beacon[a].p_w, map->beacon[c3].p_w)) > d13max ||
-                                mfns_v3_norm(mfns_v3_sub(map->beacon[b].p_w, map->beacon[c3].p_w)) > d23max) {
-                                continue;
-                            }
-                            if (hyp >= max_hyp) {
-                                budget_out = true;
-                                triple_done = false;
-                                break;
-                            }
-                            hyp++;
-                            const mfns_v3_t xw[3] = {map->beacon[a].p_w, map->beacon[b].p_w, map->beacon[c3].p_w};
-                            mfns_pose_t sols[MFNS_GP3P_MAX_SOLUTIONS];
-                            const int ns = mfns_gp3p(rc, rd, xw, lo, hi, sols);
-                            for (int s = 0; s < ns; s++) {
-                                const int sc = coarse_score(rig, map, frame, &sols[s], gate_n);
-                                if (sc < 3 || (nb > 3 && sc < 4)) {
-                                    continue;
-                                }
-                                cand_t cd;
-                                memset(&cd, 0, sizeof(cd));
-                                if (nb == 3) {
-                                    /* minimal: the gP3P pose is exact for these blobs */
-                                    if (mfns_pose_associate(rig, map, frame, &sols[s], cfg->s.track_gate_px,
-                                                            &cd.sol.assoc) < 3) {
-                                        continue;
-                                    }
-                                } else if (mfns_pose_associate(rig, map, frame, &sols[s], cfg->s.track_gate_px,
-                                                               &cd.sol.assoc) < 4) {
-                                    continue;
-                                }
-                                mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
-                                const int n = mfns_pose_gather(map, frame, &cd.sol.assoc, m);
-                                if (n < 0 || mfns_pose_refine_meas(rig, m, n, &sols[s], cfg, &cd.sol) ==
-                                                 MFNS_POSE_NO_FIX) {
-                                    continue;
-                                }
-                                cd.score = cd.sol.beacons_used;
-                                cd.missing = count_missing(rig, map, frame, &cd.sol);
-                                bool dup = false;
-                                for (int q = 0; q < ncand; q++) {
-                                    if (same_assoc(&cand[q].sol, &cd.sol, frame) &&
-                                        (nb > 3 || same_pose(&cand[q].sol.pose, &cd.sol.pose))) {
-                                        dup = true;
-                                        break;
-                                    }
-                                }
-                                if (dup) {
-                                    continue;
-                                }
-                                if (ncand < MAX_CAND) {
-                                    cand[ncand++] = cd;
-                                } else {
-                                    overflow = true;
-                                    /* replace the worst if this one is better */
-                                    int worst = 0;
-                                    for (int q = 1; q < ncand; q++) {
-                                        if (cand[q].score < cand[worst].score ||
-                                            (cand[q].score == cand[worst].score &&
-                                             cand[q].missing > cand[worst].missing)) {
-                                            worst = q;
-                                        }
-                                    }
-                                    if (cd.score > cand[worst].score ||
-                                        (cd.score == cand[worst].score && cd.missing < cand[worst].missing)) {
-                                        cand[worst] = cd;
-                                    }
-                                }
-                                best = 0;
-                                for (int q = 1; q < ncand; q++) {
-                                    if (cand[q].score > cand[best].score ||
-                                        (cand[q].score == cand[best].score && cand[q].missing < cand[best].missing)) {
-                                        best = q;
-                                    }
-                                }
-                                if (nb == 3) {
-                                    int consistent = 0;
-                                    for (int q = 0; q < ncand; q++) {
-                                        consistent += cand[q].missing == 0 ? 1 : 0;
-                                    }
-                                    if (consistent >= 2) {
-                                        minimal_rival = true;
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
-                if (triple_done && best >= 0 && triple_in_inliers(t, &cand[best].sol)) {
-                    complete = true;
+    int first[3];
+    first_triple(&q, first);
+    try_triple(&q, first[0], first[1], first[2]);
+    for (int i = 0; i < q.nb - 2 && !search_over(&q); i++) {
+        for (int j = i + 1; j < q.nb - 1 && !search_over(&q); j++) {
+            for (int k = j + 1; k < q.nb && !search_over(&q); k++) {
+                if (i != first[0] || j != first[1] || k != first[2]) {
+                    try_triple(&q, i, j, k);
                 }
             }
         }
     }
-    const uint16_t hyp16 = (uint16_t)(hyp > 0xFFFFu ? 0xFFFFu : hyp);
-    if (best < 0) {
-        mfns_pose_solution_clear(out, budget_out ? MFNS_POSE_R_NOT_IDENTIFIED : MFNS_POSE_R_NOT_IDENTIFIED);
-        out->hypotheses = hyp16;
-        return out->status;
-    }
-    int rivals = 0;
-    for (int q = 0; q < ncand; q++) {
-        if (q != best && cand[q].score == cand[best].score && cand[q].missing == cand[best].missing) {
-            rivals++;
+    const uint16_t hyp16 = (uint16_t)(q.hyp > 0xFFFFu ? 0xFFFFu : q.hyp);
+    mfns_pose_reason_t reason = MFNS_POSE_R_NONE;
+    if (q.best < 0) {
+        reason = MFNS_POSE_R_NOT_IDENTIFIED;
+    } else {
+        int rivals = 0;
+        for (int i = 0; i < q.ncand; i++) {
+            if (i != q.best && q.cand[i].score == q.cand[q.best].score &&
+                q.cand[i].missing == q.cand[q.best].missing) {
+                rivals++;
+            }
+        }
+        if (rivals > 0 || q.minimal_rival || (q.overflow && q.cand[q.best].score <= 3)) {
+            reason = MFNS_POSE_R_AMBIGUOUS;
+        } else if (!q.complete) {
+            /* the bound stopped the search before uniqueness was established */
+            reason = MFNS_POSE_R_NOT_IDENTIFIED;
         }
     }
-    if (rivals > 0 || minimal_rival || (overflow && cand[best].score <= 3)) {
-        mfns_pose_solution_clear(out, MFNS_POSE_R_AMBIGUOUS);
-        out->hypotheses = hyp16;
-        return out->status;
+    if (reason != MFNS_POSE_R_NONE) {
+        mfns_pose_solution_clear(out, reason);
+    } else {
+        *out = q.cand[q.best].sol;
     }
-    if (!complete) {
-        mfns_pose_solution_clear(out, MFNS_POSE_R_NOT_IDENTIFIED);
-        out->hypotheses = hyp16;
-        return out->status;
-    }
-    *out = cand[best].sol;
     out->hypotheses = hyp16;
     return out->status;
 }

@@ -104,17 +104,17 @@ static double peval(const poly_t *p, double x)
 
 /* Root of p in [a, b] where p(a), p(b) differ in sign and p is monotonic:
  * Illinois regula falsi, bounded. */
-static double bracket_root(const poly_t *p, double a, double b, double fa, double fb)
+static double bracket_root(const poly_t *p, double a, double b, double fa, double fb, double tol)
 {
-    double x = a;
+    double x = 0.5 * (a + b);
     int side = 0;
-    for (int it = 0; it < ROOT_ITERS; it++) {
+    for (int it = 0; it < ROOT_ITERS && b - a > tol; it++) {
         x = (a * fb - b * fa) / (fb - fa);
         if (!(x > a && x < b)) {
             x = 0.5 * (a + b);
         }
         const double fx = peval(p, x);
-        if (fx == 0.0 || b - a < 1e-12) {
+        if (fx == 0.0) {
             break;
         }
         if ((fx < 0.0) == (fa < 0.0)) {
@@ -183,7 +183,8 @@ static int real_roots(const poly_t *f, double lo, double hi, double roots[PD - 1
             } else if (val[i] == 0.0) {
                 crit[nr++] = pts[i];
             } else if ((val[i - 1] < 0.0) != (val[i] < 0.0) && val[i - 1] != 0.0) {
-                crit[nr++] = bracket_root(&der[k], pts[i - 1], pts[i], val[i - 1], val[i]);
+                /* critical points only separate intervals: 1e-7 is ample */
+                crit[nr++] = bracket_root(&der[k], pts[i - 1], pts[i], val[i - 1], val[i], k == 0 ? 1e-10 : 1e-6);
             }
         }
         /* (nearly) double roots of f: it touches zero at its own extremum,
@@ -251,6 +252,7 @@ static int quad_roots(double b, double c, double r[2])
     return 2;
 }
 
+
 static double fnorm(const double f[3]) { return fmax(fabs(f[0]), fmax(fabs(f[1]), fabs(f[2]))); }
 
 static void polish(const gp3p_t *g, double l[3])
@@ -258,6 +260,9 @@ static void polish(const gp3p_t *g, double l[3])
     for (int it = 0; it < POLISH; it++) {
         double f[3], j[3][3];
         dist_eqs(g, l, f, j);
+        if (fnorm(f) < 1e-15) {
+            return;
+        }
         const double det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1]) -
                           j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0]) +
                           j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
