@@ -48,4 +48,14 @@ int pt_ref_refine(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfn
 double pt_rot_err(const double a[3][3], const double b[3][3]);
 double pt_pos_err(const pt_dpose_t *a, const pt_dpose_t *b);
 
+
+/* A map made for a pose: per_cam[c] beacons in camera c's field of view
+ * (inside the image with a margin) at depths depth_lo..depth_hi mm. */
+mfns_beacon_map_t pt_dense_map(const mfns_rig_t *rig, const pt_dpose_t *pose, const int per_cam[3], double depth_lo,
+                               double depth_hi, mfns_rng_t *rng);
+/* A random pose (uniform attitude, position within +-pos_range mm per axis)
+ * at which at least min_visible beacons of the map are visible; tries at
+ * most max_tries poses, returns the visible count (0 when none found). */
+int pt_random_visible_pose(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double pos_range, int min_visible,
+                           int max_tries, mfns_rng_t *rng, pt_dpose_t *pose);
 #endif
