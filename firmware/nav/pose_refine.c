@@ -69,7 +69,7 @@ static float linearize(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, 
         if (!m[k].active) {
             continue;
         }
-        float r[2], jac[2][6];
+        float r[2], jac[2][6] = {{0.0f}};
         if (!mfns_pose_residual(rig, &m[k], pose, r, h != NULL ? jac : NULL)) {
             cost += BEHIND_COST;
             continue;

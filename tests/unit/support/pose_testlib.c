@@ -335,8 +335,9 @@ int pt_ref_refine(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfn
                     apply(pose, dp, &pp);
                     apply(pose, dm, &pm);
                     double up[2], um[2];
-                    (void)project_raw(&rig->cam[c], &pp, pw, up);
-                    (void)project_raw(&rig->cam[c], &pm, pw, um);
+                    if (!project_raw(&rig->cam[c], &pp, pw, up) || !project_raw(&rig->cam[c], &pm, pw, um)) {
+                        return -1;
+                    }
                     j[0][k] = (up[0] - um[0]) / (2 * hs);
                     j[1][k] = (up[1] - um[1]) / (2 * hs);
                 }
