@@ -29,7 +29,7 @@ DEFAULT_SOLVER = {
     "outlier_gate_sigma": 30.0,
     "max_residual_rms_px": 2.0,
     "track_gate_px": 20.0,
-    "max_hypotheses": 512,
+    "max_hypotheses": 4096,
     "min_rcond": 1e-7,
 }
 

@@ -1,0 +1,227 @@
+/* nav_cycle.c -- see nav_cycle.h. */
+#include "nav_cycle.h"
+
+#include <string.h>
+
+#include "undistort.h"
+
+#define NAV_MAGIC 0x4E415631u /* "NAV1" */
+
+const char *mfns_nav_strerror(mfns_nav_status_t s)
+{
+    switch (s) {
+    case MFNS_NAV_OK:
+        return "ok";
+    case MFNS_NAV_E_ARG:
+        return "navigation cycle: null pointer or not initialised";
+    case MFNS_NAV_E_TABLE:
+        return "navigation cycle: calibration-table settings refused by the centroider";
+    }
+    return "navigation cycle: unknown status";
+}
+
+const char *mfns_nav_mode_str(mfns_nav_mode_t m)
+{
+    return m == MFNS_NAV_MODE_TRACK ? "track" : "acquire";
+}
+
+const char *mfns_nav_cam_state_str(mfns_nav_cam_state_t s)
+{
+    switch (s) {
+    case MFNS_NAV_CAM_OK:
+        return "ok";
+    case MFNS_NAV_CAM_NO_FRAME:
+        return "no frame";
+    case MFNS_NAV_CAM_FRAME_ERROR:
+        return "frame refused";
+    case MFNS_NAV_CAM_TABLE_FULL:
+        return "blob table full";
+    }
+    return "?";
+}
+
+mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode)
+{
+    if (nav == NULL || table == NULL) {
+        return MFNS_NAV_E_ARG;
+    }
+    memset(nav, 0, sizeof *nav);
+    nav->table = table;
+    mfns_pose_config_default(&nav->pose_cfg); /* max_range_mm keeps its default */
+    nav->pose_cfg.s = table->solver;
+    nav->pose_cfg.sigma_px = table->pixel_sigma_px;
+    nav->pose_cfg.mode = mode;
+    nav->mode = MFNS_NAV_MODE_ACQUIRE;
+    nav->magic = NAV_MAGIC;
+    return MFNS_NAV_OK;
+}
+
+void mfns_nav_lose_track(mfns_nav_t *nav)
+{
+    if (nav != NULL) {
+        nav->have_prior = false;
+        nav->mode = MFNS_NAV_MODE_ACQUIRE;
+    }
+}
+
+/* Windows around the beacons the prior predicts in camera k's image. Returns
+ * the number of windows, 0 when none can be made (whole frame then). */
+static uint16_t track_windows(mfns_nav_t *nav, int k, const mfns_frame_t *frame)
+{
+    const mfns_caltable_t *t = nav->table;
+    const mfns_camera_t *cam = &t->rig.cam[k];
+    uint16_t n = 0;
+    for (uint16_t b = 0; b < t->beacons.count && b < MFNS_MAX_BEACONS; b++) {
+        float uv[2];
+        if (mfns_cam_project(cam, &nav->prior, t->beacons.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
+            mfns_cam_in_image(&cam->k, uv[0], uv[1])) {
+            nav->pred_uv[n][0] = uv[0];
+            nav->pred_uv[n][1] = uv[1];
+            n++;
+        }
+    }
+    uint16_t n_rois = 0;
+    if (n == 0 ||
+        mfns_centroid_make_rois((const float(*)[2])nav->pred_uv, n, t->centroid.roi_half_size_px, frame->width,
+                                frame->height, nav->rois, MFNS_CENTROID_MAX_ROIS, &n_rois) != MFNS_CENTROID_OK) {
+        return 0;
+    }
+    return n_rois;
+}
+
+/* Brightest accepted blobs of nav->cres, distortion-corrected, into camera
+ * k's observations. */
+static void blobs_to_obs(mfns_nav_t *nav, int k, mfns_nav_cam_diag_t *d)
+{
+    const mfns_centroid_result_t *r = &nav->cres;
+    bool taken[MFNS_MAX_BLOBS_PER_CAMERA] = {false};
+    uint16_t n_obs = 0;
+    /* Selection of the brightest: at most MAX_OBS passes over MAX_BLOBS blobs. */
+    for (uint16_t pass = 0; pass < MFNS_MAX_OBS_PER_CAMERA; pass++) {
+        int best = -1;
+        for (uint16_t i = 0; i < r->n_accepted && i < MFNS_MAX_BLOBS_PER_CAMERA; i++) {
+            if (!taken[i] && (best < 0 || r->blob[i].flux_dn > r->blob[best].flux_dn)) {
+                best = (int)i;
+            }
+        }
+        if (best < 0) {
+            break;
+        }
+        taken[best] = true;
+        const mfns_blob_t *b = &r->blob[best];
+        float x, y;
+        if (mfns_undistort_grid(&nav->table->grid[k], &nav->table->rig.cam[k].k, b->u_q8, b->v_q8, &x, &y) !=
+            MFNS_UNDIST_OK) {
+            d->undistort_failures++;
+            continue;
+        }
+        mfns_obs_t *o = &nav->obs.obs[k][n_obs];
+        o->u = mfns_px_q8_to_float(b->u_q8);
+        o->v = mfns_px_q8_to_float(b->v_q8);
+        o->x = x;
+        o->y = y;
+        n_obs++;
+    }
+    nav->obs.count[k] = n_obs;
+    d->observations = n_obs;
+}
+
+/* Centroid camera k's frame (windows when tracking) into observations. */
+static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame_t *frame, bool track,
+                                        mfns_nav_cam_diag_t *d)
+{
+    memset(d, 0, sizeof *d);
+    nav->obs.count[k] = 0;
+    if (frame == NULL) {
+        d->state = MFNS_NAV_CAM_NO_FRAME;
+        return MFNS_NAV_OK;
+    }
+    const uint16_t n_rois = track ? track_windows(nav, k, frame) : 0;
+    const mfns_roi_t *rois = n_rois > 0 ? nav->rois : NULL;
+    mfns_centroid_bg_t bg;
+    mfns_centroid_status_t st = mfns_centroid_background(frame, rois, n_rois, &nav->work, &bg);
+    if (st == MFNS_CENTROID_OK) {
+        st = mfns_centroid_detect(frame, &nav->table->centroid, &bg, rois, n_rois, &nav->work, &nav->cres);
+    }
+    d->centroid_status = (int16_t)st;
+    d->rois = n_rois;
+    if (st == MFNS_CENTROID_ERR_SETTINGS) {
+        return MFNS_NAV_E_TABLE;
+    }
+    if (st != MFNS_CENTROID_OK && st != MFNS_CENTROID_TABLE_FULL) {
+        d->state = MFNS_NAV_CAM_FRAME_ERROR;
+        return MFNS_NAV_OK;
+    }
+    d->state = st == MFNS_CENTROID_TABLE_FULL ? MFNS_NAV_CAM_TABLE_FULL : MFNS_NAV_CAM_OK;
+    d->blobs = nav->cres.n_blobs;
+    d->accepted = nav->cres.n_accepted;
+    d->background_dn = nav->cres.bg.background_dn;
+    d->noise_dn = nav->cres.bg.noise_dn;
+    blobs_to_obs(nav, k, d);
+    return MFNS_NAV_OK;
+}
+
+static mfns_nav_status_t run(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS], bool track,
+                             mfns_nav_output_t *out)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const mfns_nav_status_t st = measure_camera(nav, k, frames[k], track, &out->cam[k]);
+        if (st != MFNS_NAV_OK) {
+            return st;
+        }
+    }
+    const mfns_caltable_t *t = nav->table;
+    (void)mfns_pose_solve(&t->rig, &t->beacons, &nav->obs, track ? &nav->prior : NULL, &nav->pose_cfg,
+                          &out->sol); /* the status is also in out->sol.status */
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        uint16_t ident = 0;
+        for (uint16_t i = 0; i < nav->obs.count[k] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+            if (out->sol.assoc.beacon[k][i] != MFNS_POSE_NO_BEACON && out->sol.inlier[k][i] != 0U) {
+                ident++;
+            }
+        }
+        out->cam[k].identified = ident;
+    }
+    return MFNS_NAV_OK;
+}
+
+static bool has_fix(const mfns_pose_solution_t *s)
+{
+    return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
+}
+
+mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
+                                 mfns_nav_output_t *out)
+{
+    if (nav == NULL || frames == NULL || out == NULL || nav->magic != NAV_MAGIC || nav->table == NULL) {
+        return MFNS_NAV_E_ARG;
+    }
+    memset(out, 0, sizeof *out);
+    const mfns_nav_mode_t before = nav->mode;
+    const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
+    out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
+    mfns_nav_status_t st = run(nav, frames, track, out);
+    if (st == MFNS_NAV_OK && track && !has_fix(&out->sol)) {
+        /* One bounded retry: lost track, acquire on whole frames now. */
+        out->reacquired = true;
+        out->mode = MFNS_NAV_MODE_ACQUIRE;
+        st = run(nav, frames, false, out);
+    }
+    if (st != MFNS_NAV_OK) {
+        out->sol.status = MFNS_POSE_NO_FIX;
+        nav->have_prior = false;
+        nav->mode = MFNS_NAV_MODE_ACQUIRE;
+        return st;
+    }
+    if (has_fix(&out->sol)) {
+        nav->prior = out->sol.pose;
+        nav->have_prior = true;
+        nav->mode = MFNS_NAV_MODE_TRACK;
+    } else {
+        nav->have_prior = false;
+        nav->mode = MFNS_NAV_MODE_ACQUIRE;
+    }
+    out->next_mode = nav->mode;
+    out->mode_changed = nav->mode != before;
+    return MFNS_NAV_OK;
+}

@@ -1,0 +1,103 @@
+/* nav_cycle.h -- one navigation cycle of the flight pipeline, portable:
+ * three camera frames in, a pose solution and per-camera diagnostics out.
+ *
+ *   frames -> centroid (full frame, or windows around predicted beacons)
+ *          -> distortion correction (the table's grid, fixed point)
+ *          -> identification + pose (firmware/nav/pose.h)
+ *
+ * Modes: ACQUIRE (no usable prior: whole frames, identification by
+ * hypothesis and verification) and TRACK (after a fix: windows of
+ * roi_half_size_px around each beacon predicted from the last pose, gated
+ * association). A TRACK cycle that gives no fix is redone once, in the same
+ * cycle, as ACQUIRE on whole frames; a cycle with no fix drops the prior, so a
+ * stale pose is never reused.
+ *
+ * A camera that delivers no frame (NULL: dead, timed out, being recovered)
+ * contributes nothing and is reported as such; the solve goes on with the
+ * others (the pose solver then reports DEGRADED or NO_FIX by itself).
+ *
+ * All storage is inside mfns_nav_t (about 1 MB with the centroid scratch):
+ * place it in static storage. Nothing allocates; time is bounded by the frame
+ * size, the blob and ROI tables and the solver's caps.
+ */
+#ifndef MFNS_NAV_CYCLE_H
+#define MFNS_NAV_CYCLE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "caltable.h"
+#include "centroid.h"
+#include "pose.h"
+
+typedef enum {
+    MFNS_NAV_MODE_ACQUIRE = 0,
+    MFNS_NAV_MODE_TRACK = 1,
+} mfns_nav_mode_t;
+
+typedef enum {
+    MFNS_NAV_OK = 0,      /* the cycle ran; the fix is in out->sol.status */
+    MFNS_NAV_E_ARG,       /* NULL pointer or not initialised */
+    MFNS_NAV_E_TABLE,     /* the table's settings were refused by a stage */
+} mfns_nav_status_t;
+
+typedef enum {
+    MFNS_NAV_CAM_OK = 0,
+    MFNS_NAV_CAM_NO_FRAME,    /* no frame this cycle */
+    MFNS_NAV_CAM_FRAME_ERROR, /* the centroider refused the frame (size, stride, format) */
+    MFNS_NAV_CAM_TABLE_FULL,  /* more blobs than the blob table holds: brightest kept */
+} mfns_nav_cam_state_t;
+
+typedef struct {
+    mfns_nav_cam_state_t state;
+    int16_t centroid_status;     /* mfns_centroid_status_t of the last call */
+    uint16_t blobs;              /* blobs found (accepted + rejected) */
+    uint16_t accepted;           /* blobs passing every check */
+    uint16_t observations;       /* handed to the solver (brightest accepted, capped) */
+    uint16_t identified;         /* observations matched to a beacon and kept as inliers */
+    uint16_t undistort_failures; /* accepted blobs outside the correction grid */
+    uint16_t rois;               /* windows read (0 = whole frame) */
+    float background_dn;
+    float noise_dn;
+} mfns_nav_cam_diag_t;
+
+typedef struct {
+    mfns_pose_solution_t sol;
+    mfns_nav_mode_t mode;      /* the mode that produced sol */
+    mfns_nav_mode_t next_mode; /* the mode of the next cycle */
+    bool mode_changed;         /* next_mode differs from the previous cycle's mode */
+    bool reacquired;           /* TRACK failed and the cycle was redone as ACQUIRE */
+    mfns_nav_cam_diag_t cam[MFNS_NUM_CAMERAS];
+} mfns_nav_output_t;
+
+typedef struct {
+    const mfns_caltable_t *table;
+    mfns_pose_config_t pose_cfg;
+    mfns_nav_mode_t mode;
+    bool have_prior;
+    mfns_pose_t prior;
+    uint32_t magic; /* set by init: guards against use of a zeroed struct */
+    /* scratch, meaningless between cycles */
+    mfns_centroid_work_t work;
+    mfns_centroid_result_t cres;
+    mfns_obs_frame_t obs;
+    mfns_roi_t rois[MFNS_CENTROID_MAX_ROIS];
+    float pred_uv[MFNS_MAX_BEACONS][2];
+} mfns_nav_t;
+
+/* Bind to a loaded, validated table (which must outlive nav) and start in
+ * ACQUIRE. mode selects the solver (ML, or the paper's Eq. 3 baseline). */
+mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode);
+
+/* Run one cycle. frames[k] is camera k's frame or NULL when it has none. */
+mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
+                                 mfns_nav_output_t *out);
+
+/* Forget the prior: the next cycle acquires. */
+void mfns_nav_lose_track(mfns_nav_t *nav);
+
+const char *mfns_nav_strerror(mfns_nav_status_t s);
+const char *mfns_nav_mode_str(mfns_nav_mode_t m);
+const char *mfns_nav_cam_state_str(mfns_nav_cam_state_t s);
+
+#endif /* MFNS_NAV_CYCLE_H */

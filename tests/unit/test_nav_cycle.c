@@ -1,0 +1,242 @@
+/* End-to-end test of firmware/nav/nav_cycle: frames rendered here from a known
+ * pose go through centroiding, the table's distortion grid, identification
+ * and the pose solve; the pose must come back, in ACQUIRE and TRACK modes, and
+ * bad cycles must never leave a pose marked valid. Uses the default table
+ * built by the Python generator (build/gen/default.mfnstbl) with its beacon
+ * map replaced by beacons placed in view of all three cameras. */
+#include "testutil.h"
+
+#include <string.h>
+
+#include "caltable_file.h"
+#include "nav_cycle.h"
+
+#define W 1280
+#define H 1024
+#define PER_CAM 4
+
+static uint8_t table_buf[MFNS_CALTABLE_MAX_BYTES];
+static mfns_caltable_t table;
+static mfns_nav_t nav;
+static mfns_nav_output_t out;
+static uint8_t img[MFNS_NUM_CAMERAS][H][W];
+static mfns_pose_t truth;
+
+static double phi(double x) { return 0.5 * erfc(-x / sqrt(2.0)); }
+
+/* Pixel-integrated Gaussian spot of total flux `flux` DN at (u, v). */
+static void render_spot(uint8_t (*im)[W], double u, double v, double sigma, double flux)
+{
+    for (int y = (int)v - 7; y <= (int)v + 7; y++) {
+        for (int x = (int)u - 7; x <= (int)u + 7; x++) {
+            if (x < 0 || y < 0 || x >= W || y >= H) {
+                continue;
+            }
+            const double fx = phi((x + 0.5 - u) / sigma) - phi((x - 0.5 - u) / sigma);
+            const double fy = phi((y + 0.5 - v) / sigma) - phi((y - 0.5 - v) / sigma);
+            const double val = im[y][x] + flux * fx * fy;
+            im[y][x] = (uint8_t)(val > 255.0 ? 255.0 : val + 0.5);
+        }
+    }
+}
+
+static void render_background(mfns_rng_t *rng)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        for (int y = 0; y < H; y++) {
+            for (int x = 0; x < W; x++) {
+                img[k][y][x] = (uint8_t)(12.0 + 1.5 * mfns_rng_normal(rng) + 0.5);
+            }
+        }
+    }
+}
+
+static void render_beacons(void)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        for (uint16_t b = 0; b < table.beacons.count; b++) {
+            float uv[2];
+            if (mfns_cam_project(&table.rig.cam[k], &truth, table.beacons.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
+                uv[0] > 10 && uv[1] > 10 && uv[0] < W - 10 && uv[1] < H - 10) {
+                render_spot(img[k], uv[0], uv[1], 1.2, 1500.0);
+            }
+        }
+    }
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    char path[512];
+    snprintf(path, sizeof path, "%s/default.mfnstbl", mfns_test_gen_dir());
+    uint32_t off = 0;
+    const mfns_caltable_status_t st = mfns_caltable_load_file(path, table_buf, sizeof table_buf, &table, &off);
+    if (st != MFNS_CALTABLE_OK) {
+        print_error("cannot load %s: %s\n", path, mfns_caltable_strerror(st));
+        return -1;
+    }
+    truth = mfns_pose_from_position(mfns_euler213_to_m3((mfns_euler_t){0.02f, -0.03f, 0.5236f}),
+                                    mfns_v3(20.0f, -10.0f, 5.0f));
+    /* Beacons about 1 m in front of each camera, spread over its image. */
+    const float pc[PER_CAM][3] = {{-200, -150, 1000}, {180, -120, 1100}, {-150, 170, 950}, {220, 160, 1200}};
+    table.beacons.count = 0;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        for (int i = 0; i < PER_CAM; i++) {
+            const mfns_camera_t *c = &table.rig.cam[k];
+            const mfns_v3_t pb = mfns_v3_add(mfns_m3_mul_v3(c->C_k_b, mfns_v3(pc[i][0], pc[i][1], pc[i][2])), c->r_bk_b);
+            mfns_beacon_t *b = &table.beacons.beacon[table.beacons.count++];
+            b->id = (uint16_t)(100 + k * PER_CAM + i);
+            b->p_w = mfns_m3_tmul_v3(truth.C_w_b, mfns_v3_sub(pb, truth.r_bw_b));
+            b->sigma_mm = 0.3f;
+        }
+    }
+    return 0;
+}
+
+static mfns_frame_t frame_of(int k)
+{
+    return (mfns_frame_t){img[k], W, H, W, MFNS_PIXFMT_GREY};
+}
+
+static void dump(void)
+{
+    print_message("sol status %d reason %s used %u hyp %u rms %.3f iters %u\n", out.sol.status,
+                  mfns_pose_strerror(out.sol.reason), out.sol.beacons_used, out.sol.hypotheses,
+                  (double)out.sol.residual_rms_px, out.sol.iterations);
+    for (int k = 0; k < 3; k++) {
+        print_message(" cam %d state %d blobs %u acc %u obs %u id %u undist_fail %u bg %.1f noise %.2f\n", k,
+                      out.cam[k].state, out.cam[k].blobs, out.cam[k].accepted, out.cam[k].observations,
+                      out.cam[k].identified, out.cam[k].undistort_failures, (double)out.cam[k].background_dn,
+                      (double)out.cam[k].noise_dn);
+    }
+}
+
+static void assert_pose_close(const mfns_pose_solution_t *s)
+{
+    const mfns_v3_t r = mfns_pose_position_w(&truth);
+    assert_near(s->r_wb_w.x, r.x, 0.5);
+    assert_near(s->r_wb_w.y, r.y, 0.5);
+    assert_near(s->r_wb_w.z, r.z, 0.5);
+    assert_true(mfns_rot_angle_between(s->pose.C_w_b, truth.C_w_b) < (float)(0.02 * MFNS_PI / 180.0));
+}
+
+static void test_acquire_then_track(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 99);
+    render_background(&rng);
+    render_beacons();
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    if (out.sol.status != MFNS_POSE_OK) {
+        dump(); /* diagnostics for the failure below */
+    }
+    assert_int_equal(out.mode, MFNS_NAV_MODE_ACQUIRE);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_pose_close(&out.sol);
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(out.cam[k].state, MFNS_NAV_CAM_OK);
+        assert_int_equal(out.cam[k].accepted, PER_CAM);
+        assert_int_equal(out.cam[k].identified, PER_CAM);
+        assert_int_equal(out.cam[k].rois, 0);
+    }
+    assert_int_equal(out.next_mode, MFNS_NAV_MODE_TRACK);
+    assert_true(out.mode_changed);
+
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.mode, MFNS_NAV_MODE_TRACK);
+    assert_false(out.reacquired);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_pose_close(&out.sol);
+    for (int k = 0; k < 3; k++) {
+        assert_true(out.cam[k].rois > 0); /* only windows were read */
+        assert_int_equal(out.cam[k].identified, PER_CAM);
+    }
+    assert_false(out.mode_changed);
+}
+
+static void test_dead_camera_is_reported_and_others_still_solve(void **state)
+{
+    (void)state;
+    const mfns_frame_t f0 = frame_of(0), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, NULL, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.cam[1].state, MFNS_NAV_CAM_NO_FRAME);
+    assert_int_equal(out.cam[1].observations, 0);
+    /* 8 beacons in two cameras: a usable pose, flagged as not nominal */
+    assert_int_equal(out.sol.status, MFNS_POSE_DEGRADED);
+    assert_int_equal(out.sol.cameras_used, 2);
+    assert_pose_close(&out.sol);
+}
+
+static void test_no_beacons_gives_no_fix_and_drops_the_prior(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 5);
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    render_background(&rng);
+    render_beacons();
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    /* the LEDs go dark: tracking fails, the retry on whole frames fails too */
+    render_background(&rng);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_true(out.reacquired);
+    assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+    assert_int_equal(out.sol.reason, MFNS_POSE_R_TOO_FEW);
+    assert_int_equal(out.next_mode, MFNS_NAV_MODE_ACQUIRE);
+    assert_false(nav.have_prior);
+    /* every camera dead */
+    const mfns_frame_t *const none[3] = {NULL, NULL, NULL};
+    assert_int_equal(mfns_nav_cycle(&nav, none, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(out.cam[k].state, MFNS_NAV_CAM_NO_FRAME);
+    }
+    /* the LEDs come back: acquisition again */
+    render_beacons();
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.mode, MFNS_NAV_MODE_ACQUIRE);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_pose_close(&out.sol);
+}
+
+static void test_bad_frame_and_bad_arguments(void **state)
+{
+    (void)state;
+    mfns_frame_t bad = frame_of(0);
+    bad.stride_bytes = 100; /* shorter than a row */
+    const mfns_frame_t f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&bad, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.cam[0].state, MFNS_NAV_CAM_FRAME_ERROR);
+    assert_int_equal(out.cam[0].centroid_status, MFNS_CENTROID_ERR_STRIDE);
+    assert_int_equal(out.cam[0].observations, 0);
+
+    static mfns_nav_t zeroed;
+    memset(&zeroed, 0, sizeof zeroed);
+    assert_int_equal(mfns_nav_cycle(&zeroed, frames, &out), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_cycle(&nav, NULL, &out), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_init(NULL, &table, MFNS_POSE_MODE_ML), MFNS_NAV_E_ARG);
+    assert_string_not_equal(mfns_nav_strerror(MFNS_NAV_E_ARG), mfns_nav_strerror(MFNS_NAV_OK));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_acquire_then_track),
+        cmocka_unit_test(test_dead_camera_is_reported_and_others_still_solve),
+        cmocka_unit_test(test_no_beacons_gives_no_fix_and_drops_the_prior),
+        cmocka_unit_test(test_bad_frame_and_bad_arguments),
+    };
+    return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);
+}
