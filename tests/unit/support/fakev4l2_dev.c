@@ -446,10 +446,10 @@ static int f_open(void *ctx, const char *path, int flags)
     (void)flags;
     d->opens++;
     if (d->unplugged) {
-        if (d->replug_after_opens > 0) {
-            d->replug_after_opens--;
-        }
         if (d->replug_after_opens != 0) {
+            if (d->replug_after_opens > 0) {
+                d->replug_after_opens--;
+            }
             d->failed_opens++;
             return fail(ENOENT);
         }

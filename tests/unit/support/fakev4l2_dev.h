@@ -53,7 +53,7 @@ typedef struct {
     uint32_t seq_skip_next;     /* sequence jumps by this before the next frame */
     int mmap_fail_at;           /* 0-based mmap call that fails with ENOMEM; -1 none */
     int unplug_at_dqbuf;        /* the DQBUF call (1-based count) at which it vanishes; 0 none */
-    int replug_after_opens;     /* while unplugged: failed opens before it returns; -1 never */
+    int replug_after_opens;     /* while unplugged: opens that fail before it is back; -1 never */
     int qbuf_enodev_next;       /* next N QBUFs fail with ENODEV and unplug */
     /* --- state --- */
     bool unplugged;
@@ -91,7 +91,8 @@ mfns_cam_sys_t fakev4l2_sys(fakev4l2_dev_t *d);
 int fakev4l2_count(const fakev4l2_dev_t *d, unsigned long request);
 /* Index in the trace of the first occurrence of request at or after from; -1 if none. */
 int fakev4l2_find(const fakev4l2_dev_t *d, unsigned long request, int from);
-/* The device vanishes now (fds die, ioctls ENODEV); returns after replug_after_opens opens. */
+/* The device vanishes now (its fds die: ioctls ENODEV); the next replug_after_opens
+ * opens fail with ENOENT, the one after succeeds (-1: it never returns). */
 void fakev4l2_unplug(fakev4l2_dev_t *d, int replug_after_opens);
 
 #endif
