@@ -40,9 +40,15 @@ typedef struct {
     uint32_t fourcc;
     uint32_t nbuf;
     uint32_t min_bytes;     /* a frame shorter than this is truncated */
-    void *start[MFNS_CAM_MAX_BUFFERS];
-    size_t length[MFNS_CAM_MAX_BUFFERS];
-    bool held[MFNS_CAM_MAX_BUFFERS];
+    /* One struct per buffer, not parallel arrays: gcc 12 for aarch64
+     * miscompiled a loop over parallel arrays here (ivopts rewrote the
+     * addresses so that pure-const analysis thought the loop had no effect
+     * and deleted the call: the buffers were never unmapped). */
+    struct {
+        void *start;
+        size_t length;
+        bool held;
+    } buf[MFNS_CAM_MAX_BUFFERS];
     bool lost;              /* device vanished; reopen pending */
     uint32_t attempts_left; /* reopen attempts left for this loss */
     bool failed;            /* recovery exhausted */

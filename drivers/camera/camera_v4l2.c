@@ -117,15 +117,22 @@ static bool is_mplane(const mfns_cam_v4l2_t *v)
     return v->buf_type == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
 }
 
+static void clear_held(mfns_cam_v4l2_t *v)
+{
+    for (uint32_t i = 0; i < MFNS_CAM_MAX_BUFFERS; i++) {
+        v->buf[i].held = false;
+    }
+}
+
 static void unmap_all(mfns_cam_t *h, bool keep_held)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
     const mfns_cam_sys_t *sys = sys_of(h);
     for (uint32_t i = 0; i < MFNS_CAM_MAX_BUFFERS; i++) {
-        if (v->start[i] && !(keep_held && v->held[i])) {
-            (void)sys->munmap(sys->ctx, v->start[i], v->length[i]);
-            v->start[i] = NULL;
-            v->length[i] = 0;
+        if (v->buf[i].start && !(keep_held && v->buf[i].held)) {
+            (void)sys->munmap(sys->ctx, v->buf[i].start, v->buf[i].length);
+            v->buf[i].start = NULL;
+            v->buf[i].length = 0;
         }
     }
 }
@@ -154,7 +161,7 @@ static void teardown(mfns_cam_t *h)
         (void)xioctl(h, VIDIOC_REQBUFS, &rb); /* frees the driver's buffers; best effort */
     }
     v->nbuf = 0;
-    memset(v->held, 0, sizeof v->held);
+    clear_held(v);
     close_fd(h);
 }
 
@@ -367,8 +374,8 @@ static mfns_cam_err_t setup_buffers(mfns_cam_t *h)
             return mfns_cam_fail(h, MFNS_CAM_E_MMAP, "mmap of buffer %u (%zu bytes) failed: %s", i, len,
                                  strerror(errno));
         }
-        v->start[i] = p;
-        v->length[i] = len;
+        v->buf[i].start = p;
+        v->buf[i].length = len;
     }
     h->info.buffer_count = v->nbuf;
     return MFNS_CAM_OK;
@@ -441,7 +448,7 @@ static mfns_cam_err_t queue_buffer(mfns_cam_t *h, uint32_t i)
 static mfns_cam_err_t stream_on(mfns_cam_t *h)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
-    memset(v->held, 0, sizeof v->held);
+    clear_held(v);
     for (uint32_t i = 0; i < v->nbuf; i++) {
         const mfns_cam_err_t e = queue_buffer(h, i);
         if (e != MFNS_CAM_OK) {
@@ -477,7 +484,7 @@ static uint32_t held_count(const mfns_cam_v4l2_t *v)
 {
     uint32_t n = 0;
     for (uint32_t i = 0; i < MFNS_CAM_MAX_BUFFERS; i++) {
-        n += v->held[i] ? 1u : 0u;
+        n += v->buf[i].held ? 1u : 0u;
     }
     return n;
 }
@@ -558,7 +565,7 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
         }
         if (xioctl(h, VIDIOC_DQBUF, &b) == 0) {
             const uint32_t i = b.index;
-            if (i >= v->nbuf || !v->start[i] || v->held[i]) {
+            if (i >= v->nbuf || !v->buf[i].start || v->buf[i].held) {
                 return mfns_cam_fail(h, MFNS_CAM_E_IO, "VIDIOC_DQBUF returned buffer %u (not queued)", i);
             }
             uint32_t off = 0, used = b.bytesused;
@@ -566,7 +573,7 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
                 off = planes[0].data_offset;
                 used = planes[0].bytesused >= off ? planes[0].bytesused - off : 0;
             }
-            const bool bad = (b.flags & V4L2_BUF_FLAG_ERROR) || used < v->min_bytes || (size_t)off + used > v->length[i];
+            const bool bad = (b.flags & V4L2_BUF_FLAG_ERROR) || used < v->min_bytes || (size_t)off + used > v->buf[i].length;
             if (bad) {
                 /* Damaged frame: back to the driver at once, never to the caller. */
                 mfns_cam_seq_errored(h, b.sequence);
@@ -580,8 +587,8 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
                 }
                 continue;
             }
-            v->held[i] = true;
-            f->data = (const uint8_t *)v->start[i] + off;
+            v->buf[i].held = true;
+            f->data = (const uint8_t *)v->buf[i].start + off;
             f->bytesused = used;
             f->pixfmt = h->info.pixfmt;
             f->width = h->info.width;
@@ -680,16 +687,16 @@ static mfns_cam_err_t v4l2_requeue(mfns_cam_t *h, const mfns_cam_frame_t *f)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
     const uint32_t i = f->buf_index;
-    if (!v->held[i]) {
+    if (!v->buf[i].held) {
         return mfns_cam_fail(h, MFNS_CAM_E_ARG, "requeue: buffer %u is not held by the caller", i);
     }
-    v->held[i] = false;
+    v->buf[i].held = false;
     if (v->lost || v->failed) {
         const mfns_cam_sys_t *sys = sys_of(h);
-        if (v->start[i]) {
-            (void)sys->munmap(sys->ctx, v->start[i], v->length[i]);
-            v->start[i] = NULL;
-            v->length[i] = 0;
+        if (v->buf[i].start) {
+            (void)sys->munmap(sys->ctx, v->buf[i].start, v->buf[i].length);
+            v->buf[i].start = NULL;
+            v->buf[i].length = 0;
         }
         return MFNS_CAM_OK;
     }
@@ -703,7 +710,7 @@ static mfns_cam_err_t v4l2_requeue(mfns_cam_t *h, const mfns_cam_frame_t *f)
 static mfns_cam_err_t v4l2_stop(mfns_cam_t *h)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
-    memset(v->held, 0, sizeof v->held); /* STREAMOFF takes every buffer back */
+    clear_held(v); /* STREAMOFF takes every buffer back */
     if (v->fd < 0) {
         unmap_all(h, false);
         return MFNS_CAM_OK;
