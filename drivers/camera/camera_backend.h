@@ -88,22 +88,22 @@ typedef struct {
 
 struct mfns_cam {
     const mfns_cam_backend_ops_t *ops;
-    mfns_cam_settings_t s;
-    char path[MFNS_CAM_PATH_LEN]; /* s.path points here */
-    bool streaming;
-    mfns_cam_info_t info;
     mfns_cam_stats_t stats;
-    uint32_t events;
-    char msg[MFNS_CAM_MSG_LEN];
-    bool have_seq;
-    uint32_t last_seq;
-    uint32_t missing; /* errored frames since the last delivered one */
-    uint32_t generation;
+    mfns_cam_settings_t s;
     union {
         mfns_cam_v4l2_t v4l2;
         mfns_cam_replay_t replay;
-        void *lcam; /* camera_libcamera.h handle */
+        void *lcam; /* camera_libcamera.cpp state */
     } b;
+    uint32_t events;
+    uint32_t last_seq;
+    uint32_t missing; /* errored frames since the last delivered one */
+    uint32_t generation;
+    mfns_cam_info_t info;
+    bool streaming;
+    bool have_seq;
+    char msg[MFNS_CAM_MSG_LEN];
+    char path[MFNS_CAM_PATH_LEN]; /* s.path points here */
 };
 
 /* Records the handle's one-line failure detail; returns e for tail calls. */

@@ -259,6 +259,7 @@ static bool pgm_num(const char *buf, size_t n, size_t *p, uint32_t *out)
 
 static mfns_cam_err_t pgm_header(mfns_cam_t *h, int fd, const char *file, pgm_hdr_t *hd)
 {
+    memset(hd, 0, sizeof *hd);
     char buf[PGM_HDR_MAX];
     const ssize_t got = read_full(fd, buf, sizeof buf);
     if (got < 0) {

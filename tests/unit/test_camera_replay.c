@@ -60,7 +60,8 @@ static void write_pgm_ex(const char *rel, uint32_t w, uint32_t h, uint32_t maxva
             buf[n++] = (uint8_t)v;
         }
     }
-    write_file(rel, buf, (size_t)(n + extra_bytes));
+    const int total = n + extra_bytes;
+    write_file(rel, buf, (size_t)total);
 }
 
 static void write_pgm(const char *rel, uint32_t maxval, uint32_t frame, int cam)
@@ -75,15 +76,17 @@ static const char SCENARIO[] = "{\"format\": \"mfns-nav-frames\", \"version\": 1
 static void write_folder(int n, uint32_t maxval)
 {
     write_text("scenario.json", SCENARIO);
-    char csv[4096] = "frame,t_s,camera,file,exposure_us,gain_db\n";
+    char csv[4096];
+    size_t len = (size_t)snprintf(csv, sizeof csv, "frame,t_s,camera,file,exposure_us,gain_db\n");
     const char cams[3] = {'x', 'y', 'z'};
     for (int f = 0; f < n; f++) {
         for (int c = 0; c < 3; c++) {
-            char rel[64], row[128];
+            char rel[64];
             (void)snprintf(rel, sizeof rel, "cam_%c/%06d.pgm", cams[c], f);
             write_pgm(rel, maxval, (uint32_t)f, c);
-            (void)snprintf(row, sizeof row, "%d,%.6f,%c,%s,%d,%.1f\n", f, 0.05 * f, cams[c], rel, 1000 + f, 6.0);
-            strcat(csv, row);
+            len += (size_t)snprintf(csv + len, sizeof csv - len, "%d,%.6f,%c,%s,%d,%.1f\n", f, 0.05 * f, cams[c],
+                                    rel, 1000 + f, 6.0);
+            assert_true(len < sizeof csv);
         }
     }
     write_text("frames.csv", csv);

@@ -29,24 +29,25 @@ typedef struct {
 } fakev4l2_alloc_t;
 
 typedef struct {
+    /* Fields are grouped by size (8-byte, 4-byte, 1-byte) to keep padding out;
+     * the comments say which group a field belongs to in use. */
+    /* --- 8-byte fields --- */
+    unsigned long eintr_request; /* fault: EINTR only for this request (0 = any) */
+    long slept_ms;               /* record: poll(NULL, 0, t) sleeps asked for */
+    fakev4l2_alloc_t allocs[FAKEV4L2_MAX_ALLOCS];
+    unsigned long trace[FAKEV4L2_TRACE_LEN]; /* record: every ioctl request in order */
     /* --- device description (set before opening) --- */
-    bool mplane;            /* multi-planar API only */
-    bool no_streaming;      /* capabilities without V4L2_CAP_STREAMING */
-    bool not_capture;       /* neither capture capability */
     uint32_t formats[4];    /* supported fourccs; [0] is the default */
     uint32_t nformats;
     uint32_t max_w, max_h;  /* S_FMT clamps to these; G_FMT starts here */
     uint32_t stride_pad;    /* bytesperline = width * bpp + stride_pad */
     uint32_t max_buffers;   /* REQBUFS grants at most this */
-    bool has_exposure, has_exposure_auto, has_gain, has_timeperframe;
     int32_t exp_min, exp_max, gain_min, gain_max;
     float max_fps;          /* S_PARM caps the rate here */
     /* --- faults (each counter is consumed as it fires) --- */
     int eintr_next;             /* next N matching ioctls fail with EINTR */
-    unsigned long eintr_request;/* ...of this request (0 = any) */
     int eintr_poll_next;        /* next N polls fail with EINTR */
     int eagain_next;            /* next N DQBUFs say EAGAIN although a frame is ready */
-    bool stalled;               /* no frames at all: DQBUF EAGAIN, poll times out */
     int eio_next;               /* next N DQBUFs fail with EIO */
     int error_flag_next;        /* next N frames carry V4L2_BUF_FLAG_ERROR */
     int short_next;             /* next N frames have bytesused below a full image */
@@ -56,29 +57,32 @@ typedef struct {
     int replug_after_opens;     /* while unplugged: opens that fail before it is back; -1 never */
     int qbuf_enodev_next;       /* next N QBUFs fail with ENODEV and unplug */
     /* --- state --- */
-    bool unplugged;
     int live_fd;
     int open_fds;
     int next_fd;
     uint32_t fourcc, w, h, stride, sizeimage;
     uint32_t nbuf;
     int buf_alloc[FAKEV4L2_MAX_BUFS]; /* index into allocs */
-    bool queued[FAKEV4L2_MAX_BUFS];
     uint32_t qorder[FAKEV4L2_MAX_BUFS];
     uint32_t nqueued;
-    bool streaming;
     uint32_t seq;
     int32_t exposure, exposure_auto, gain;
     uint32_t tpf_num, tpf_den;
-    fakev4l2_alloc_t allocs[FAKEV4L2_MAX_ALLOCS];
     int nallocs;
     /* --- records --- */
-    unsigned long trace[FAKEV4L2_TRACE_LEN];
     int ntrace;
     int opens, failed_opens, mmaps, munmaps, bad_munmaps, live_mappings, dqbufs, polls;
     int last_poll_timeout;
-    long slept_ms; /* poll(NULL, 0, t) sleeps asked for */
     uint32_t last_bytesused;
+    /* --- 1-byte fields --- */
+    bool mplane;            /* description: multi-planar API only */
+    bool no_streaming;      /* description: capabilities without V4L2_CAP_STREAMING */
+    bool not_capture;       /* description: neither capture capability */
+    bool has_exposure, has_exposure_auto, has_gain, has_timeperframe;
+    bool stalled;           /* fault: no frames at all: DQBUF EAGAIN, poll times out */
+    bool unplugged;         /* state */
+    bool streaming;         /* state */
+    bool queued[FAKEV4L2_MAX_BUFS];
 } fakev4l2_dev_t;
 
 /* A healthy single-planar GREY device, 64x48, 8 buffers, all controls. */
