@@ -261,7 +261,9 @@ static void test_replay_paces_to_timestamps(void **state)
     assert_int_equal(f.timestamp_ns, 10000000000u);
     assert_int_equal(mfns_cam_requeue(g_cam, &f), MFNS_CAM_OK);
     /* next one is due 200 ms later: a 10 ms wait times out, the frame stays */
+    const double t1 = now_s();
     assert_int_equal(mfns_cam_dequeue(g_cam, &f, 10), MFNS_CAM_E_TIMEOUT);
+    assert_true(now_s() - t1 >= 0.0095); /* the timeout was waited out, not returned at once */
     assert_int_equal(mfns_cam_dequeue(g_cam, &f, 1000), MFNS_CAM_OK);
     const double dt = now_s() - t0;
     assert_int_equal(f.sequence, 1);
