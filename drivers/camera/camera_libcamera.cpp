@@ -278,6 +278,7 @@ mfns_cam_err_t start_impl(mfns_cam_t *h)
     }
     c->started = true;
     for (auto &rq : c->requests) {
+        rq->reuse(Request::ReuseBuffers); // after a stop the requests are completed/cancelled
         if (c->cam->queueRequest(rq.get()) != 0) {
             return mfns_cam_fail(h, MFNS_CAM_E_STREAM, "libcamera: queueRequest failed");
         }

@@ -647,6 +647,22 @@ static void test_handle_pool_is_fixed(void **state)
     }
 }
 
+/* The real syscalls (settings.sys == NULL) on nodes every machine has. */
+static void test_real_syscalls_without_a_camera(void **state)
+{
+    (void)state;
+    char msg[MFNS_CAM_MSG_LEN];
+    mfns_cam_t *cam = NULL;
+    mfns_cam_settings_t s = mfns_cam_default_settings(MFNS_CAM_BACKEND_V4L2, "/nonexistent/mfns/video9");
+    assert_int_equal(mfns_cam_open(&s, &cam, msg, sizeof msg), MFNS_CAM_E_OPEN);
+    assert_null(cam);
+    assert_non_null(strstr(msg, "/nonexistent/mfns/video9"));
+    s.path = "/dev/null"; /* opens, but answers VIDIOC_QUERYCAP with ENOTTY */
+    assert_int_equal(mfns_cam_open(&s, &cam, msg, sizeof msg), MFNS_CAM_E_NOT_CAPTURE);
+    assert_null(cam);
+    assert_non_null(strstr(msg, "QUERYCAP"));
+}
+
 static void test_error_names_are_distinct(void **state)
 {
     (void)state;
@@ -686,6 +702,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_enodev_recovery_exhausted, setup, teardown),
         cmocka_unit_test_setup_teardown(test_api_misuse, setup, teardown),
         cmocka_unit_test(test_handle_pool_is_fixed),
+        cmocka_unit_test(test_real_syscalls_without_a_camera),
         cmocka_unit_test(test_error_names_are_distinct),
     };
     return cmocka_run_group_tests_name("camera_v4l2", tests, NULL, NULL);
