@@ -240,6 +240,20 @@ static bool pgm_ws(char c)
     return c == ' ' || c == '\n' || c == '\t' || c == '\r';
 }
 
+/* Skips whitespace before a header field; a '#' there starts a comment,
+ * which docs/nav-frames.md rules out. */
+static bool skip_ws(const char *buf, size_t n, size_t *p, bool *comment)
+{
+    while (*p < n && pgm_ws(buf[*p])) {
+        (*p)++;
+    }
+    if (*p < n && buf[*p] == '#') {
+        *comment = true;
+        return false;
+    }
+    return true;
+}
+
 /* One decimal field followed by whitespace; advances *p. */
 static bool pgm_num(const char *buf, size_t n, size_t *p, uint32_t *out)
 {
@@ -269,25 +283,16 @@ static mfns_cam_err_t pgm_header(mfns_cam_t *h, int fd, const char *file, pgm_hd
     if (n < 3 || buf[0] != 'P' || buf[1] != '5' || !pgm_ws(buf[2])) {
         return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: not a binary PGM (magic P5 missing)", file);
     }
-    for (size_t i = 0; i < n && i < 24; i++) {
-        if (buf[i] == '#') {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: PGM header comments are not allowed (docs/nav-frames.md)",
-                                 file);
-        }
-    }
+    /* Only the header is scanned: pixel bytes may be anything, '#' included. */
     size_t p = 3;
-    while (p < n && pgm_ws(buf[p])) {
-        p++;
+    bool comment = false;
+    bool ok = skip_ws(buf, n, &p, &comment) && pgm_num(buf, n, &p, &hd->w);
+    ok = ok && skip_ws(buf, n, &p, &comment) && pgm_num(buf, n, &p, &hd->h);
+    ok = ok && skip_ws(buf, n, &p, &comment) && pgm_num(buf, n, &p, &hd->maxval);
+    if (comment) {
+        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: PGM header comments are not allowed (docs/nav-frames.md)",
+                             file);
     }
-    bool ok = pgm_num(buf, n, &p, &hd->w);
-    while (ok && p < n && pgm_ws(buf[p])) {
-        p++;
-    }
-    ok = ok && pgm_num(buf, n, &p, &hd->h);
-    while (ok && p < n && pgm_ws(buf[p])) {
-        p++;
-    }
-    ok = ok && pgm_num(buf, n, &p, &hd->maxval);
     if (!ok) {
         return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: malformed PGM header (want \"P5\\n<W> <H>\\n<maxval>\\n\")",
                              file);

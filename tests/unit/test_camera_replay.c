@@ -434,6 +434,25 @@ static void test_replay_malformed_pgm(void **state)
     expect_bad(HDR ROW0, "above maxval 1023");
 }
 
+/* Pixel bytes right after the header that look like header syntax ('#',
+ * whitespace, digits) are pixels, not a comment or a field. */
+static void test_replay_pixels_that_look_like_header(void **state)
+{
+    (void)state;
+    char msg[MFNS_CAM_MSG_LEN];
+    write_text("scenario.json", SCENARIO);
+    static const uint8_t pgm[] = "P5\n4 1\n255\n#\n 7";
+    write_file("cam_x/000000.pgm", pgm, sizeof pgm - 1);
+    write_text("frames.csv", HDR ROW0);
+    assert_int_equal(open_cam('x', msg), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_start(g_cam), MFNS_CAM_OK);
+    mfns_cam_frame_t f;
+    assert_int_equal(mfns_cam_dequeue(g_cam, &f, 100), MFNS_CAM_OK);
+    assert_int_equal(f.width, 4);
+    assert_int_equal(f.bytesused, 4);
+    assert_memory_equal(f.data, "#\n 7", 4);
+}
+
 static void test_replay_bad_frame_is_skipped(void **state)
 {
     (void)state;
@@ -464,6 +483,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_replay_malformed_csv, setup, teardown),
         cmocka_unit_test_setup_teardown(test_replay_malformed_scenario, setup, teardown),
         cmocka_unit_test_setup_teardown(test_replay_malformed_pgm, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_replay_pixels_that_look_like_header, setup, teardown),
         cmocka_unit_test_setup_teardown(test_replay_bad_frame_is_skipped, setup, teardown),
     };
     return cmocka_run_group_tests_name("camera_replay", tests, NULL, NULL);
