@@ -114,6 +114,21 @@ void tlm_txq_consume(tlm_txq_t *q, size_t n)
     }
 }
 
+void tlm_txq_discard_partial(tlm_txq_t *q)
+{
+    if (q == NULL || !q->head_started || q->frames == 0u) {
+        return;
+    }
+    const uint32_t rem = q->frame_len[SLOT(q->head_frame)];
+    q->head = POS(q->head + rem);
+    q->used -= rem;
+    q->head_frame++;
+    q->frames--;
+    q->head_started = 0;
+    q->dropped++;
+    q->dropped_bytes += rem;
+}
+
 size_t tlm_txq_bytes(const tlm_txq_t *q)
 {
     return q != NULL ? q->used : 0u;

@@ -46,6 +46,10 @@ size_t tlm_txq_peek(const tlm_txq_t *q, const uint8_t **data);
 /* n bytes of the peeked data were written (n <= the peeked length). */
 void tlm_txq_consume(tlm_txq_t *q, size_t n);
 
+/* The link was lost in the middle of the head frame: drop the rest of it
+ * (counted in dropped) so the new connection starts on a frame boundary. */
+void tlm_txq_discard_partial(tlm_txq_t *q);
+
 size_t tlm_txq_bytes(const tlm_txq_t *q);
 size_t tlm_txq_frames(const tlm_txq_t *q);
 

@@ -190,6 +190,24 @@ static void test_queue_output_decodes(void **state)
     assert_int_equal(d.stats.seq_lost, g_q.dropped); /* each drop is a loss the ground sees */
 }
 
+static void test_discard_partial(void **state)
+{
+    (void)state;
+    tlm_txq_init(&g_q);
+    push_tagged(&g_q, 1, 50);
+    push_tagged(&g_q, 2, 50);
+    tlm_txq_discard_partial(&g_q); /* nothing started: no-op */
+    assert_int_equal(tlm_txq_frames(&g_q), 2);
+    static uint8_t out[200];
+    assert_int_equal(drain(&g_q, out, 20), 20);
+    tlm_txq_discard_partial(&g_q);
+    assert_int_equal(tlm_txq_frames(&g_q), 1);
+    assert_int_equal(g_q.dropped, 1);
+    assert_int_equal(drain(&g_q, out, 0), 50);
+    assert_int_equal(out[0], 2);
+    assert_int_equal(out[49], 2);
+}
+
 static void test_arguments(void **state)
 {
     (void)state;
@@ -213,6 +231,7 @@ int main(void)
         cmocka_unit_test(test_drops_oldest_when_full),
         cmocka_unit_test(test_started_frame_is_never_dropped),
         cmocka_unit_test(test_queue_output_decodes),
+        cmocka_unit_test(test_discard_partial),
         cmocka_unit_test(test_arguments),
     };
     return cmocka_run_group_tests_name("tlm_txq", tests, NULL, NULL);
