@@ -42,3 +42,12 @@ fuzz-tlm-decoder: $(TLM_FUZZ_BIN)
 fuzz-brief: $(TLM_FUZZ_BIN)
 	@rm -rf build/fuzz/corpus-brief
 	$(call tlm_run_fuzz,fuzz-brief,build/fuzz/corpus-brief,10,1)
+
+# mfns-tlm-gen (ground/tools/mfns_tlm_gen.c): built with `make flight` on Linux boards.
+ifeq ($(BOARD_KIND),linux)
+TLM_GEN_BIN := $(BUILD)/bin/mfns-tlm-gen
+flight: $(TLM_GEN_BIN)
+$(TLM_GEN_BIN): $(call obj,ground/tools/mfns_tlm_gen.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
+	@mkdir -p $(@D)
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+endif
