@@ -125,7 +125,8 @@ def test_pty_link_csv_equals_what_was_sent(bins, tmp_path):
     out = tmp_path / "out"
     try:
         ground = run_ground(
-            bins, ["--tty", slave_path, "--out", str(out), "--max-frames", str(n_frames), "--max-seconds", "30"]
+            bins,
+            ["--tty", slave_path, "--out", str(out), "--max-frames", str(n_frames), "--max-seconds", "30"],
         )
         gen = subprocess.run(
             [str(bins["gen"]), "--cycles", str(cycles), "--fd", str(master)],
@@ -210,7 +211,16 @@ def test_pty_link_with_injected_faults(bins, tmp_path):
     try:
         ground = run_ground(
             bins,
-            ["--tty", slave_path, "--out", str(out), "--max-frames", str(expected_good), "--max-seconds", "30"],
+            [
+                "--tty",
+                slave_path,
+                "--out",
+                str(out),
+                "--max-frames",
+                str(expected_good),
+                "--max-seconds",
+                "30",
+            ],
         )
         writer = threading.Thread(target=os.write, args=(master, bytes(out_stream)))
         writer.start()
