@@ -159,6 +159,8 @@ static void print_status(const tlm_decoder_stats_t *s, const tlm_nav_t *nav, int
 
 static int open_source(const ground_opts_t *o, mfns_uart_t *u)
 {
+    memset(u, 0, sizeof *u);
+    u->fd = -1;
     int rc;
     switch (o->src) {
     case GROUND_SRC_SERIAL: rc = mfns_uart_open_serial(u, o->path, o->baud, MFNS_UART_READ); break;

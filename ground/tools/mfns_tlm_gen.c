@@ -140,8 +140,11 @@ int main(int argc, char **argv)
             rc = 1;
         }
         mfns_uart_close(&u);
-    } else if (f != stdout ? fclose(f) != 0 : fflush(f) != 0) {
-        rc = 1;
+    } else {
+        const int bad = (f == stdout) ? fflush(f) : fclose(f);
+        if (bad != 0) {
+            rc = 1;
+        }
     }
     return rc;
 }

@@ -21,8 +21,8 @@ static void test_crc16_check_value(void **state)
     assert_int_equal(c, 0x29B1);
     assert_int_equal(tlm_crc16(NULL, 0), 0xFFFF);
     /* a single-bit change is always detected */
-    uint8_t m[9];
-    memcpy(m, check, 9);
+    uint8_t m[10];
+    memcpy(m, check, sizeof m); /* includes the terminating NUL */
     for (int bit = 0; bit < 72; bit++) {
         m[bit / 8] ^= (uint8_t)(1u << (bit % 8));
         assert_int_not_equal(tlm_crc16(m, 9), 0x29B1);

@@ -109,7 +109,7 @@ static void test_random_garbage_between_frames(void **state)
 {
     (void)state;
     const size_t n = make_stream();
-    size_t ends[NPKT];
+    size_t ends[NPKT] = {0};
     assert_int_equal(frame_ends(g_stream, n, ends, NPKT), NPKT);
     mfns_rng_t r;
     mfns_rng_seed(&r, 77);
@@ -162,7 +162,7 @@ static void test_bit_flips(void **state)
 {
     (void)state;
     const size_t n = make_stream();
-    size_t ends[NPKT];
+    size_t ends[NPKT] = {0};
     assert_int_equal(frame_ends(g_stream, n, ends, NPKT), NPKT);
     mfns_rng_t r;
     mfns_rng_seed(&r, 3);
@@ -233,7 +233,7 @@ static void test_truncated_frames(void **state)
 {
     (void)state;
     const size_t n = make_stream();
-    size_t ends[NPKT];
+    size_t ends[NPKT] = {0};
     assert_int_equal(frame_ends(g_stream, n, ends, NPKT), NPKT);
     /* cut the tail off every 7th frame (keep its delimiter): the frame is lost, the next is not */
     size_t m = 0, start = 0;
@@ -315,7 +315,7 @@ static void test_sequence_gaps(void **state)
 {
     (void)state;
     const size_t n = make_stream();
-    size_t ends[NPKT];
+    size_t ends[NPKT] = {0};
     assert_int_equal(frame_ends(g_stream, n, ends, NPKT), NPKT);
     /* drop whole frames: nav frames 12 and 18 (consecutive nav packets 2 and 3),
      * and camera frame 25: 2 gaps, 3 lost */

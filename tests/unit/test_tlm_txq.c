@@ -51,12 +51,12 @@ static void test_fifo_order_and_wrap(void **state)
     /* many rounds of push 3 / drain so the ring wraps at every offset */
     for (int round = 0; round < 300; round++) {
         for (int k = 0; k < 3; k++) {
-            push_tagged(&g_q, (uint8_t)(round * 3 + k + 1), (size_t)(17 + round % 50 + k));
+            push_tagged(&g_q, (uint8_t)(round * 3 + k + 1), 17u + (size_t)(round % 50) + (size_t)k);
         }
         const size_t n = drain(&g_q, out, 0);
         size_t pos = 0;
         for (int k = 0; k < 3; k++) {
-            const size_t len = (size_t)(17 + round % 50 + k);
+            const size_t len = 17u + (size_t)(round % 50) + (size_t)k;
             for (size_t i = 0; i < len; i++) {
                 assert_int_equal(out[pos + i], (uint8_t)(round * 3 + k + 1));
             }
