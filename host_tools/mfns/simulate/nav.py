@@ -516,7 +516,10 @@ def simulate(
         "maxval": 255,
         "seed": seed,
         "pixel_noise_px": round(pixel_noise, 5),
-        "pixel_noise_note": "median over the rendered spots of the predicted per-axis 1-sigma of a simple centroid (window +-ceil(3 sigma_px))",
+        "pixel_noise_note": (
+            "median over the rendered spots of the predicted per-axis 1-sigma "
+            "of a simple centroid (window +-ceil(3 sigma_px))"
+        ),
         "cameras": list(CAMERA_LETTERS),
         "n_beacons": len(scn.beacons),
         "rig": scn.calib_doc.get("source", ""),
@@ -586,7 +589,8 @@ def run(args) -> int:
     doc = simulate(scn, out, args.seed, args.rate_hz, params, progress=not args.quiet)
     vis = doc["visibility"]
     print(
-        f"sim nav: {doc['scenario']}, {doc['n_frames']} frames x 3 cameras in {time.perf_counter() - t0:.1f} s -> {out}\n"
+        f"sim nav: {doc['scenario']}, {doc['n_frames']} frames x 3 cameras "
+        f"in {time.perf_counter() - t0:.1f} s -> {out}\n"
         f"  beacons in view per frame: mean {vis['in_view_mean']}, min {vis['in_view_min']}, "
         f">= 3 in {100 * vis['frac_ge_3']:.1f} %, >= 4 in {100 * vis['frac_ge_4']:.1f} % of frames; "
         f"per camera {vis['per_camera_mean']}\n"
