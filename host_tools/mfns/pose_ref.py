@@ -124,7 +124,11 @@ def solve_pose_gn(
         if not np.all(np.isfinite(step)):
             break
         if np.max(np.abs(step[:3])) < step_tol and np.max(np.abs(step[3:])) < 1e3 * step_tol:
-            converged = True  # at the minimum: the next step is below round-off
+            # At the minimum: take the last, tiny step and stop.
+            c, r = rot_exp(-step[:3]) @ c, r + step[3:]
+            res, jac = residuals_and_jacobian(cams, cam_idx, points_w, uv, c, r)
+            cost = float(res @ res)
+            converged = True
             break
         scale = 1.0
         accepted = False

@@ -307,6 +307,32 @@ class Renderer:
         self.sigma_bg = sigma_bg
         self.noise_lut = (sigma_bg * ndtri((np.arange(65536) + 0.5) / 65536)).astype(np.float32)
 
+    def signal(self, spots: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+        """Noise-free spot signal (DN, no background) on the union of the spots' windows.
+
+        spots (S, 4): u, v, peak_dn, sigma_px -> ((rows, cols) of the window pixels, values).
+        Each Gaussian is integrated over the pixel areas [i - 0.5, i + 0.5) (pixel centres
+        at integers) within +-(ceil(4.5 sigma_max) + 1) px of its centre.
+        """
+        sig = np.zeros((self.h, self.w), dtype=np.float64)
+        mask = np.zeros((self.h, self.w), dtype=bool)
+        rad = int(math.ceil(4.5 * float(spots[:, 3].max()))) + 1
+        offs = np.arange(-rad, rad + 1)
+        u, v, peak, s = (spots[:, j][:, None] for j in range(4))
+        cols = np.rint(u).astype(int) + offs  # (S, 2r+1) pixel columns of each window
+        rows = np.rint(v).astype(int) + offs
+        gx = 0.5 * (erf((cols + 0.5 - u) / (np.sqrt(2) * s)) - erf((cols - 0.5 - u) / (np.sqrt(2) * s)))
+        gy = 0.5 * (erf((rows + 0.5 - v) / (np.sqrt(2) * s)) - erf((rows - 0.5 - v) / (np.sqrt(2) * s)))
+        flux = peak[:, 0] * 2 * np.pi * s[:, 0] ** 2  # the continuous Gaussian's volume
+        win = flux[:, None, None] * gy[:, :, None] * gx[:, None, :]
+        rr = np.broadcast_to(rows[:, :, None], win.shape)
+        cc = np.broadcast_to(cols[:, None, :], win.shape)
+        ok = (rr >= 0) & (rr < self.h) & (cc >= 0) & (cc < self.w)
+        np.add.at(sig, (rr[ok], cc[ok]), win[ok])
+        mask[rr[ok], cc[ok]] = True
+        idx = np.nonzero(mask)
+        return idx, sig[idx]
+
     def render(self, spots: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """spots (S, 4): u, v, peak_dn, sigma_px -> uint8 image (H, W)."""
         p = self.p
@@ -316,25 +342,8 @@ class Renderer:
         else:
             img = self.bg.copy()
         if len(spots):
-            sig = np.zeros((self.h, self.w), dtype=np.float64)
-            mask = np.zeros((self.h, self.w), dtype=bool)
-            rad = int(math.ceil(4.5 * float(spots[:, 3].max()))) + 1
-            offs = np.arange(-rad, rad + 1)
-            u, v, peak, s = (spots[:, j][:, None] for j in range(4))
-            cols = np.rint(u).astype(int) + offs  # (S, 2r+1) pixel columns of each window
-            rows = np.rint(v).astype(int) + offs
-            # Integral of a unit Gaussian over pixel [i - 0.5, i + 0.5) (centres at integers).
-            gx = 0.5 * (erf((cols + 0.5 - u) / (np.sqrt(2) * s)) - erf((cols - 0.5 - u) / (np.sqrt(2) * s)))
-            gy = 0.5 * (erf((rows + 0.5 - v) / (np.sqrt(2) * s)) - erf((rows - 0.5 - v) / (np.sqrt(2) * s)))
-            flux = peak[:, 0] * 2 * np.pi * s[:, 0] ** 2  # the continuous Gaussian's volume
-            win = flux[:, None, None] * gy[:, :, None] * gx[:, None, :]
-            rr = np.broadcast_to(rows[:, :, None], win.shape)
-            cc = np.broadcast_to(cols[:, None, :], win.shape)
-            ok = (rr >= 0) & (rr < self.h) & (cc >= 0) & (cc < self.w)
-            np.add.at(sig, (rr[ok], cc[ok]), win[ok])
-            mask[rr[ok], cc[ok]] = True
-            idx = np.nonzero(mask)
-            expect = self.bg[idx] + sig[idx]
+            idx, sig = self.signal(spots)
+            expect = self.bg[idx] + sig
             if p.noise:
                 e = rng.poisson(expect * p.electrons_per_dn) / p.electrons_per_dn
                 vals = e + rng.normal(0.0, p.read_noise_dn, e.shape)
