@@ -265,7 +265,9 @@ def module_scenario(
     rng = np.random.default_rng([seed, 1])  # geometry stream, independent of the noise stream
     pos, normals = module_beacons(n_beacons, rng)
     t = np.arange(n_frames) / rate_hz
-    r_wb_w, euler = module_trajectory(t, rng)
+    r_wb_w, att = module_trajectory(t, rng)
+    # Written as a reader extracts them from C_w_b (yaw in (-180, 180]).
+    euler = np.array([matrix_to_euler213_deg(euler213_deg_to_matrix(a)) for a in att]).reshape(-1, 3)
     return Scenario(
         "module",
         cams,
