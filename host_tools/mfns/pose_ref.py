@@ -143,9 +143,10 @@ def solve_pose_gn(
                 break
             scale *= 0.5
         if not accepted:
-            # No decrease along the Gauss-Newton direction: converged if the gradient is
-            # negligible against the cost, else stuck.
-            converged = bool(np.linalg.norm(jac.T @ res) <= 1e-9 * max(1.0, cost))
+            # No decrease along the Gauss-Newton direction: round-off at the minimum if the
+            # step is below 1 microradian and 1 micrometre (far below any accuracy that
+            # matters), else stuck.
+            converged = bool(np.max(np.abs(step[:3])) < 1e-6 and np.max(np.abs(step[3:])) < 1e-3)
             break
         c, r, res, jac, cost = c_new, r_new, res_new, jac_new, cost_new
     rms = float(np.sqrt(cost / len(cam_idx))) if np.isfinite(cost) else float("nan")
