@@ -482,7 +482,7 @@ def simulate(
             spots = [np.column_stack([uvv, peak, sig])]
             labels = list(ids)
             if params.spurious_rate > 0 and rng.random() < params.spurious_rate:
-                spots.append(spurious_spot(rng, spots[0], width, height, sig))
+                spots.append(spurious_spot(rng, spots[0], width, height))
                 labels.append(-1)
                 n_spurious += 1
             spots = np.vstack(spots) if len(spots) > 1 else spots[0]
@@ -544,7 +544,7 @@ def simulate(
     return doc
 
 
-def spurious_spot(rng, real: np.ndarray, width: int, height: int, sig: np.ndarray) -> np.ndarray:
+def spurious_spot(rng, real: np.ndarray, width: int, height: int) -> np.ndarray:
     """A reflection: a dimmer, wider copy of a real spot offset by 20-200 px (or anywhere)."""
     if len(real):
         j = int(rng.integers(len(real)))
