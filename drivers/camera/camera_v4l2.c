@@ -418,6 +418,15 @@ static mfns_cam_err_t configure(mfns_cam_t *h)
     if (e == MFNS_CAM_OK) {
         e = apply_controls(h, h->s.exposure_us, h->s.gain);
     }
+    if (e == MFNS_CAM_OK && h->s.exposure_us < 0) {
+        /* not set by us: report the device's own value where it has one */
+        struct v4l2_control c;
+        memset(&c, 0, sizeof c);
+        c.id = V4L2_CID_EXPOSURE_ABSOLUTE;
+        v->exposure_us = xioctl(h, VIDIOC_G_CTRL, &c) == 0 && c.value >= 0 && c.value <= INT32_MAX / 100
+                             ? c.value * MFNS_CAM_V4L2_EXPOSURE_UNIT_US
+                             : -1;
+    }
     if (e == MFNS_CAM_OK) {
         e = setup_buffers(h);
     }

@@ -280,6 +280,13 @@ static void test_unsupported_controls(void **state)
     assert_int_equal(fakev4l2_count(&fx->dev, VIDIOC_S_CTRL), 0);
     const mfns_cam_frame_t f = cycle(fx);
     assert_int_equal(f.exposure_us, -1);
+    mfns_cam_close(fx->cam);
+    fx->cam = NULL;
+    /* exposure not set: the frame reports the device's own value */
+    fx->dev.has_exposure = true;
+    fx->dev.exposure = 37;
+    open_start(fx);
+    assert_int_equal(cycle(fx).exposure_us, 3700);
     /* at run time: unsupported, then supported but out of range, then fine */
     assert_int_equal(mfns_cam_set_controls(fx->cam, -1, 50), MFNS_CAM_E_CONTROL);
     fx->dev.has_gain = true;

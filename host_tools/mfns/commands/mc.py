@@ -1,0 +1,28 @@
+"""`mfns mc`: the paper's Section 3 error analysis by Monte Carlo (mfns.mc)."""
+
+from __future__ import annotations
+
+from .. import mc
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "mc",
+        help="error analysis: pixel error vs calibration errors (Figs. 4-6), pose error extension",
+        description="Monte Carlo of the paper's Section 3 with Table 1's parameters; "
+        "writes fig4-6 PNG/CSV, pose_vs_calib.{csv,png} and summary.json into OUT.",
+    )
+    p.add_argument("out", metavar="OUT", help="output folder (created if missing; files are overwritten)")
+    p.add_argument("--trials", type=int, default=10000, help="trials per point (default 10000)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument(
+        "--z-min", type=float, default=mc.DEFAULT_Z_MIN_MM, help="nearest beacon depth, mm (default 100)"
+    )
+    p.add_argument(
+        "--pose-trials",
+        type=int,
+        default=200,
+        help="trials per point of the end-to-end pose extension, 0 to skip (default 200)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=mc.run)
