@@ -4,7 +4,8 @@ Reads the frame and the C benchmark's timings from OUTDIR (written by
 tests/bench/bench_centroid.c), times cv2.threshold + connectedComponentsWithStats
 + per-blob intensity moments on the same frame at the same threshold, reads the
 callgrind instruction count of one full-frame call, and prints the ratios.
-OpenCV runs single-threaded (cv2.setNumThreads(1)), as the flight code does.
+OpenCV runs single-threaded (cv2.setNumThreads(1)), as the flight code does,
+with its faster (16-bit) label type. Frames are cache-warm for both sides.
 """
 
 import sys
@@ -35,7 +36,8 @@ def callgrind_instructions(path: Path) -> int | None:
 def opencv_centroids(img: np.ndarray, threshold: int) -> list[tuple[float, float]]:
     """Pixels >= threshold, 8-connected components, intensity-weighted moments per blob."""
     _, binary = cv2.threshold(img, threshold - 1, 255, cv2.THRESH_BINARY)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8)
+    # 16-bit labels: faster than the default 32-bit ones here (fewer than 65535 blobs)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8, ltype=cv2.CV_16U)
     out = []
     for k in range(1, n):
         x, y, w, h, _area = stats[k]
