@@ -69,7 +69,8 @@ def main() -> int:
     mb = img.size / 1e6
     t_full, t_memcpy, t_roi = c["t_full_s"], c["t_memcpy_s"], c["t_roi_s"]
     instr = callgrind_instructions(outdir / "centroid.callgrind")
-    print(f"  OpenCV {cv2.__version__} (threshold + connectedComponentsWithStats + moments, {len(blobs)} blobs):")
+    what = f"threshold + connectedComponentsWithStats + moments, {len(blobs)} blobs"
+    print(f"  OpenCV {cv2.__version__} ({what}):")
     print(f"                                    {1e3 * t_cv:8.3f} ms  {mb / t_cv:8.1f} MB/s")
     if instr is not None:
         px = img.size
