@@ -1,0 +1,842 @@
+/* centroid.c -- beacon centroiding (centroid.h, docs/centroiding.md). */
+#include "centroid.h"
+
+#include <math.h>
+#include <string.h>
+
+#define LABEL_DROPPED 0xFFFFu /* a run that found no free label */
+
+const char *mfns_centroid_strerror(mfns_centroid_status_t s)
+{
+    switch (s) {
+    case MFNS_CENTROID_OK:
+        return "ok";
+    case MFNS_CENTROID_TABLE_FULL:
+        return "more blobs than the blob/label tables hold: result incomplete";
+    case MFNS_CENTROID_ERR_NULL:
+        return "a required pointer is NULL";
+    case MFNS_CENTROID_ERR_SIZE:
+        return "frame width or height is 0 or larger than MFNS_CENTROID_MAX_DIM";
+    case MFNS_CENTROID_ERR_STRIDE:
+        return "frame stride smaller than a row or not a whole number of pixels";
+    case MFNS_CENTROID_ERR_FORMAT:
+        return "unsupported pixel format (GREY, Y10, Y12, Y16 only)";
+    case MFNS_CENTROID_ERR_SETTINGS:
+        return "centroid settings out of range";
+    case MFNS_CENTROID_ERR_ROI:
+        return "window empty, outside the frame, overlapping another, or too many windows";
+    case MFNS_CENTROID_ERR_BACKGROUND:
+        return "background or noise estimate not finite, negative or beyond the pixel format";
+    default:
+        return "unknown centroid status";
+    }
+}
+
+const char *mfns_blob_reason_name(uint16_t reason_bit)
+{
+    switch (reason_bit) {
+    case MFNS_BLOB_TOO_SMALL:
+        return "too small";
+    case MFNS_BLOB_TOO_LARGE:
+        return "too large";
+    case MFNS_BLOB_SATURATED:
+        return "saturated";
+    case MFNS_BLOB_IMAGE_BORDER:
+        return "touches image border";
+    case MFNS_BLOB_ROI_BORDER:
+        return "touches window border";
+    case MFNS_BLOB_ELONGATED:
+        return "elongated";
+    case MFNS_BLOB_TABLE_FULL:
+        return "incomplete: label table full";
+    default:
+        return "?";
+    }
+}
+
+mfns_centroid_settings_t mfns_centroid_default_settings(void)
+{
+    mfns_centroid_settings_t s;
+    s.threshold_dn = 0;
+    s.threshold_k_sigma = 5.0f;
+    s.min_area_px = 3;
+    s.max_area_px = 4000;
+    s.max_elongation = 4.0f;
+    s.roi_half_size_px = 24;
+    s.saturation_dn = 0;
+    return s;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Frame checks */
+
+static unsigned format_bits(mfns_pixfmt_t f)
+{
+    switch (f) {
+    case MFNS_PIXFMT_GREY:
+        return 8u;
+    case MFNS_PIXFMT_Y10:
+        return 10u;
+    case MFNS_PIXFMT_Y12:
+        return 12u;
+    case MFNS_PIXFMT_Y16:
+        return 16u;
+    default:
+        return 0u;
+    }
+}
+
+static mfns_centroid_status_t check_frame(const mfns_frame_t *f)
+{
+    if (f == NULL || f->data == NULL) {
+        return MFNS_CENTROID_ERR_NULL;
+    }
+    const unsigned bits = format_bits(f->format);
+    if (bits == 0u) {
+        return MFNS_CENTROID_ERR_FORMAT;
+    }
+    if (f->width == 0u || f->height == 0u || f->width > MFNS_CENTROID_MAX_DIM || f->height > MFNS_CENTROID_MAX_DIM) {
+        return MFNS_CENTROID_ERR_SIZE;
+    }
+    const uint32_t bpp = bits > 8u ? 2u : 1u;
+    if (f->stride_bytes < (uint32_t)f->width * bpp || (f->stride_bytes % bpp) != 0u) {
+        return MFNS_CENTROID_ERR_STRIDE;
+    }
+    return MFNS_CENTROID_OK;
+}
+
+static mfns_centroid_status_t check_rois(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n)
+{
+    if (n == 0u) {
+        return MFNS_CENTROID_OK;
+    }
+    if (rois == NULL) {
+        return MFNS_CENTROID_ERR_NULL;
+    }
+    if (n > MFNS_CENTROID_MAX_ROIS) {
+        return MFNS_CENTROID_ERR_ROI;
+    }
+    for (uint16_t i = 0; i < n; i++) {
+        const mfns_roi_t *a = &rois[i];
+        if (a->x0 >= a->x1 || a->y0 >= a->y1 || a->x1 > f->width || a->y1 > f->height) {
+            return MFNS_CENTROID_ERR_ROI;
+        }
+        for (uint16_t j = 0; j < i; j++) {
+            const mfns_roi_t *b = &rois[j];
+            if (a->x0 < b->x1 && b->x0 < a->x1 && a->y0 < b->y1 && b->y0 < a->y1) {
+                return MFNS_CENTROID_ERR_ROI;
+            }
+        }
+    }
+    return MFNS_CENTROID_OK;
+}
+
+static inline const uint8_t *row_ptr(const mfns_frame_t *f, uint32_t y)
+{
+    return (const uint8_t *)f->data + (size_t)y * f->stride_bytes;
+}
+
+static inline uint32_t pixel(const uint8_t *row, uint32_t x, bool wide)
+{
+    if (wide) {
+        uint16_t v;
+        memcpy(&v, row + 2u * x, sizeof v);
+        return v;
+    }
+    return row[x];
+}
+
+/* ------------------------------------------------------------------------ */
+/* Background: median and MAD from histograms of a sample grid. */
+
+typedef struct {
+    uint32_t lo;    /* value of bin 0 */
+    uint32_t shift; /* bin width 2^shift DN */
+    uint32_t under, over, n;
+} hist_desc_t;
+
+/* Fraction of samples <= x (x in DN, continuous): integer value v stands for
+ * [v - 0.5, v + 0.5), uniform within a bin. h is cumulative. */
+static float hist_cdf(const uint32_t *c, const hist_desc_t *d, float x)
+{
+    const float w = (float)(1u << d->shift);
+    const float t = (x + 0.5f - (float)d->lo) / w;
+    if (!(t > 0.0f)) {
+        return (float)d->under;
+    }
+    if (t >= (float)MFNS_CENTROID_HIST_BINS) {
+        return (float)(d->n - d->over);
+    }
+    const uint32_t k = (uint32_t)t;
+    const float below = (float)d->under + (k > 0u ? (float)c[k - 1u] : 0.0f);
+    const float in_bin = (float)c[k] - (k > 0u ? (float)c[k - 1u] : 0.0f);
+    return below + in_bin * (t - (float)k);
+}
+
+/* Median and MAD from the cumulative histogram c. false when the median is
+ * outside the histogram's range. */
+static bool hist_median_mad(const uint32_t *c, const hist_desc_t *d, float *median, float *mad)
+{
+    const float half = 0.5f * (float)d->n;
+    const float w = (float)(1u << d->shift);
+    if ((float)d->under >= half || (float)(d->n - d->over) < half) {
+        return false;
+    }
+    uint32_t k = 0;
+    while (k < MFNS_CENTROID_HIST_BINS - 1u && (float)(d->under + c[k]) < half) {
+        k++;
+    }
+    const float below = (float)d->under + (k > 0u ? (float)c[k - 1u] : 0.0f);
+    const float in_bin = (float)c[k] - (k > 0u ? (float)c[k - 1u] : 0.0f);
+    const float frac = in_bin > 0.0f ? (half - below) / in_bin : 0.5f;
+    const float med = (float)d->lo - 0.5f + w * ((float)k + frac);
+    /* MAD: smallest r with CDF(med + r) - CDF(med - r) >= n/2, by bisection
+     * (the function is continuous and non-decreasing in r). */
+    float lo = 0.0f, hi = w * (float)MFNS_CENTROID_HIST_BINS + 1.0f;
+    for (int it = 0; it < 40; it++) {
+        const float r = 0.5f * (lo + hi);
+        if (hist_cdf(c, d, med + r) - hist_cdf(c, d, med - r) >= half) {
+            hi = r;
+        } else {
+            lo = r;
+        }
+    }
+    *median = med;
+    *mad = 0.5f * (lo + hi);
+    return true;
+}
+
+typedef struct {
+    uint32_t x0, y0, x1, y1;
+} region_t;
+
+static uint16_t regions_of(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois, region_t *reg)
+{
+    if (n_rois == 0u) {
+        reg[0] = (region_t){0u, 0u, f->width, f->height};
+        return 1u;
+    }
+    for (uint16_t i = 0; i < n_rois; i++) {
+        reg[i] = (region_t){rois[i].x0, rois[i].y0, rois[i].x1, rois[i].y1};
+    }
+    return n_rois;
+}
+
+/* One histogram pass over the sample grid: bins of 2^shift DN from lo. The
+ * samples of a row are counted before the row is read, so the cap is checked
+ * once per row. */
+static void hist_pass(const mfns_frame_t *f, const region_t *reg, uint16_t n_reg, uint32_t step, uint32_t *h,
+                      hist_desc_t *d)
+{
+    const bool wide = format_bits(f->format) > 8u;
+    /* four interleaved sub-histograms: consecutive samples of a flat
+     * background hit the same bin, and one counter would serialise them */
+    memset(h, 0, 4u * MFNS_CENTROID_HIST_BINS * sizeof h[0]);
+    d->under = d->over = d->n = 0u;
+    for (uint16_t r = 0; r < n_reg; r++) {
+        const uint32_t xs = reg[r].x0 + step / 2u;
+        if (xs >= reg[r].x1) {
+            continue;
+        }
+        const uint32_t per_row = (reg[r].x1 - xs + step - 1u) / step;
+        for (uint32_t y = reg[r].y0 + step / 2u; y < reg[r].y1; y += step) {
+            const uint32_t cnt = per_row < MFNS_CENTROID_BG_MAX_SAMPLES - d->n ? per_row : MFNS_CENTROID_BG_MAX_SAMPLES - d->n;
+            if (cnt == 0u) {
+                return;
+            }
+            const uint8_t *row = row_ptr(f, y);
+            uint32_t under = 0, over = 0;
+            for (uint32_t i = 0, x = xs; i < cnt; i++, x += step) {
+                const uint32_t v = wide ? pixel(row, x, true) : row[x];
+                if (v < d->lo) {
+                    under++;
+                    continue;
+                }
+                const uint32_t b = (v - d->lo) >> d->shift;
+                if (b >= MFNS_CENTROID_HIST_BINS) {
+                    over++;
+                } else {
+                    h[b + MFNS_CENTROID_HIST_BINS * (i & 3u)]++;
+                }
+            }
+            d->n += cnt;
+            d->under += under;
+            d->over += over;
+        }
+    }
+}
+
+/* Merge the sub-histograms into h[0 .. BINS) and make it cumulative. */
+static void cumulate(uint32_t *h)
+{
+    for (uint32_t k = 0; k < MFNS_CENTROID_HIST_BINS; k++) {
+        h[k] += h[k + MFNS_CENTROID_HIST_BINS] + h[k + 2u * MFNS_CENTROID_HIST_BINS] +
+                h[k + 3u * MFNS_CENTROID_HIST_BINS];
+        if (k > 0u) {
+            h[k] += h[k - 1u];
+        }
+    }
+}
+
+mfns_centroid_status_t mfns_centroid_background(const mfns_frame_t *frame, const mfns_roi_t *rois, uint16_t n_rois,
+                                                mfns_centroid_work_t *work, mfns_centroid_bg_t *bg)
+{
+    if (bg != NULL) {
+        *bg = (mfns_centroid_bg_t){0.0f, 0.0f, 0u};
+    }
+    if (work == NULL || bg == NULL) {
+        return MFNS_CENTROID_ERR_NULL;
+    }
+    mfns_centroid_status_t st = check_frame(frame);
+    if (st != MFNS_CENTROID_OK) {
+        return st;
+    }
+    st = check_rois(frame, rois, n_rois);
+    if (st != MFNS_CENTROID_OK) {
+        return st;
+    }
+    region_t reg[MFNS_CENTROID_MAX_ROIS];
+    const uint16_t n_reg = regions_of(frame, rois, n_rois, reg);
+    uint64_t pixels = 0;
+    for (uint16_t r = 0; r < n_reg; r++) {
+        pixels += (uint64_t)(reg[r].x1 - reg[r].x0) * (reg[r].y1 - reg[r].y0);
+    }
+    /* grid step: about MFNS_CENTROID_BG_MAX_SAMPLES samples in all */
+    uint32_t step = 1u;
+    while (step < MFNS_CENTROID_MAX_DIM && (uint64_t)step * step * MFNS_CENTROID_BG_MAX_SAMPLES < pixels) {
+        step++;
+    }
+    const unsigned bits = format_bits(frame->format);
+    /* pass 1: the whole range of the format in 1024 bins */
+    hist_desc_t d = {0u, bits > 10u ? bits - 10u : 0u, 0u, 0u, 0u};
+    hist_pass(frame, reg, n_reg, step, work->hist, &d);
+    cumulate(work->hist);
+    float med, mad;
+    if (d.n == 0u || !hist_median_mad(work->hist, &d, &med, &mad)) {
+        return MFNS_CENTROID_ERR_BACKGROUND; /* cannot happen: regions are non-empty */
+    }
+    if (d.shift > 0u) {
+        /* pass 2: 1024 finer bins over median +- 8 MAD (at least +- 2 coarse bins) */
+        const float span = fmaxf(16.0f * mad, 4.0f * (float)(1u << d.shift));
+        uint32_t shift = 0u;
+        while (shift < d.shift && (float)(MFNS_CENTROID_HIST_BINS << shift) < span) {
+            shift++;
+        }
+        const float lo = med - 0.5f * (float)(MFNS_CENTROID_HIST_BINS << shift);
+        hist_desc_t d2 = {lo > 0.0f ? (uint32_t)lo : 0u, shift, 0u, 0u, 0u};
+        hist_pass(frame, reg, n_reg, step, work->hist, &d2);
+        cumulate(work->hist);
+        float med2, mad2;
+        if (hist_median_mad(work->hist, &d2, &med2, &mad2)) {
+            med = med2;
+            mad = mad2;
+        }
+    }
+    bg->background_dn = med;
+    bg->noise_dn = 1.4826f * mad;
+    bg->n_samples = d.n;
+    return MFNS_CENTROID_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Threshold scan: skip pixels below T a word (8 bytes) at a time.
+ * Exact per-lane compare without carries between lanes (lanes of B bits,
+ * H = top bit of each lane, L = the other bits): for T < 2^(B-1)
+ *   v >= T  <=>  top(v) | top((v & L) + (2^(B-1) - T))
+ * and for T >= 2^(B-1)
+ *   v >= T  <=>  top(v) & top((v & L) + (2^(B-1) - (T - 2^(B-1)))).
+ * (v & L) + c < 2^B, so no lane carries into the next. */
+#define H8 0x8080808080808080ull
+#define L8 0x7F7F7F7F7F7F7F7Full
+#define H16 0x8000800080008000ull
+#define L16 0x7FFF7FFF7FFF7FFFull
+
+static inline uint64_t load64(const uint8_t *p)
+{
+    uint64_t w;
+    memcpy(&w, p, sizeof w);
+    return w;
+}
+
+#define GE_LOW(w, L, H, c) (((((w) & (L)) + (c)) | (w)) & (H))
+#define GE_HIGH(w, L, H, c) (((((w) & (L)) + (c)) & (w)) & (H))
+
+/* First x in [x, end) with pixel >= T (or end), for the background-dominated
+ * bulk of a frame. Two stages: the maximum over a block of 128 bytes (a plain
+ * loop that compilers turn into vector max instructions: SSE2 pmaxub on x86-64,
+ * NEON umax on aarch64, a scalar loop on a Cortex-M), then, inside a block that
+ * holds a candidate, the exact 8-byte word test above, which stops within a
+ * word of the first pixel >= T. */
+#define BLOCK_BYTES 128u
+
+static uint32_t block_max_u8(const uint8_t *p)
+{
+    uint8_t m = 0;
+    for (uint32_t i = 0; i < BLOCK_BYTES; i++) {
+        m = p[i] > m ? p[i] : m;
+    }
+    return m;
+}
+
+static uint32_t block_max_u16(const uint8_t *p)
+{
+    uint16_t m = 0;
+    for (uint32_t i = 0; i < BLOCK_BYTES / 2u; i++) {
+        uint16_t v;
+        memcpy(&v, p + 2u * i, sizeof v);
+        m = v > m ? v : m;
+    }
+    return m;
+}
+
+#define DEFINE_FIND(name, GE, L, H, bpp, BLOCK_MAX)                                                     \
+    static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T)         \
+    {                                                                                                   \
+        const uint32_t per_word = 8u / (bpp), per_block = BLOCK_BYTES / (bpp);                          \
+        while (x + per_block <= end && BLOCK_MAX(row + (size_t)x * (bpp)) < T) {                        \
+            x += per_block;                                                                             \
+        }                                                                                               \
+        while (x + per_word <= end) {                                                                   \
+            const uint64_t w = load64(row + (size_t)x * (bpp));                                         \
+            if (GE(w, L, H, c) != 0u) {                                                                 \
+                break;                                                                                  \
+            }                                                                                           \
+            x += per_word;                                                                              \
+        }                                                                                               \
+        return x;                                                                                       \
+    }
+
+DEFINE_FIND(find_u8_low, GE_LOW, L8, H8, 1u, block_max_u8)
+DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u, block_max_u8)
+DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u, block_max_u16)
+DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u, block_max_u16)
+
+typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T);
+
+/* ------------------------------------------------------------------------ */
+/* Labels: union-find over provisional labels, accumulators at the roots. */
+
+typedef struct {
+    mfns_centroid_work_t *w;
+    uint32_t n_labels;
+    uint32_t n_lost;
+} label_state_t;
+
+static uint16_t find_root(const label_state_t *ls, uint16_t l)
+{
+    uint16_t *parent = ls->w->parent;
+    for (uint32_t i = 0; i < MFNS_CENTROID_MAX_LABELS && parent[l] != l; i++) {
+        parent[l] = parent[parent[l]]; /* path halving */
+        l = parent[l];
+    }
+    return l;
+}
+
+static uint32_t sat_add_u32(uint32_t a, uint32_t b)
+{
+    return (a > UINT32_MAX - b) ? UINT32_MAX : a + b;
+}
+
+/* Merge root b into root a (a < b keeps the older label as root). */
+static uint16_t unite(label_state_t *ls, uint16_t a, uint16_t b)
+{
+    if (a > b) {
+        const uint16_t t = a;
+        a = b;
+        b = t;
+    }
+    mfns_centroid_acc_t *A = &ls->w->acc[a];
+    const mfns_centroid_acc_t *B = &ls->w->acc[b];
+    A->area = sat_add_u32(A->area, B->area);
+    if (A->moments_capped || B->moments_capped || A->moment_area + B->moment_area > MFNS_CENTROID_MOMENT_AREA_CAP) {
+        A->moments_capped = true;
+    } else {
+        A->moment_area += B->moment_area;
+        A->s_i += B->s_i;
+        A->s_ix += B->s_ix;
+        A->s_iy += B->s_iy;
+        A->s_ixx += B->s_ixx;
+        A->s_iyy += B->s_iyy;
+        A->s_ixy += B->s_ixy;
+        A->s_x += B->s_x;
+        A->s_y += B->s_y;
+        A->s_xx += B->s_xx;
+        A->s_yy += B->s_yy;
+        A->s_xy += B->s_xy;
+    }
+    A->peak = A->peak > B->peak ? A->peak : B->peak;
+    A->x_min = A->x_min < B->x_min ? A->x_min : B->x_min;
+    A->y_min = A->y_min < B->y_min ? A->y_min : B->y_min;
+    A->x_max = A->x_max > B->x_max ? A->x_max : B->x_max;
+    A->y_max = A->y_max > B->y_max ? A->y_max : B->y_max;
+    A->incomplete = A->incomplete || B->incomplete;
+    ls->w->parent[b] = a;
+    return a;
+}
+
+typedef struct {
+    uint32_t s_i;
+    uint64_t s_ix, s_ixx;
+    uint32_t peak;
+} run_sums_t;
+
+static void add_run(mfns_centroid_acc_t *a, uint32_t y, uint32_t x0, uint32_t x1, const run_sums_t *rs)
+{
+    const uint32_t len = x1 - x0 + 1u;
+    a->area = sat_add_u32(a->area, len);
+    if (rs->peak > a->peak) {
+        a->peak = (uint16_t)rs->peak;
+    }
+    a->x_min = x0 < a->x_min ? (uint16_t)x0 : a->x_min;
+    a->x_max = x1 > a->x_max ? (uint16_t)x1 : a->x_max;
+    a->y_max = (uint16_t)y; /* rows arrive in order; y_min set at creation */
+    if (a->moments_capped || a->moment_area + len > MFNS_CENTROID_MOMENT_AREA_CAP) {
+        a->moments_capped = true;
+        return;
+    }
+    a->moment_area += len;
+    const uint64_t yy = (uint64_t)y * y;
+    /* sum of x and x^2 over x0..x1 in closed form */
+    const uint64_t sx = ((uint64_t)x0 + x1) * len / 2u;
+    const uint64_t sxx_hi = (uint64_t)x1 * (x1 + 1u) * (2u * (uint64_t)x1 + 1u) / 6u;
+    const uint64_t sxx_lo = x0 > 0u ? (uint64_t)(x0 - 1u) * x0 * (2u * (uint64_t)x0 - 1u) / 6u : 0u;
+    a->s_i += rs->s_i;
+    a->s_ix += rs->s_ix;
+    a->s_iy += (uint64_t)y * rs->s_i;
+    a->s_ixx += rs->s_ixx;
+    a->s_iyy += yy * rs->s_i;
+    a->s_ixy += (uint64_t)y * rs->s_ix;
+    a->s_x += sx;
+    a->s_y += (uint64_t)y * len;
+    a->s_xx += sxx_hi - sxx_lo;
+    a->s_yy += yy * len;
+    a->s_xy += (uint64_t)y * sx;
+}
+
+/* Connect run [x0, x1] of row y to the previous row's runs (8-connectivity:
+ * overlap after widening by one pixel) and return its label. *j is the first
+ * previous run that may still touch this or a later run of the row. */
+static uint16_t label_run(label_state_t *ls, const mfns_centroid_run_t *prev, uint32_t np, uint32_t *j, uint32_t y,
+                          uint32_t x0, uint32_t x1, const run_sums_t *rs, uint8_t roi)
+{
+    while (*j < np && (uint32_t)prev[*j].x1 + 1u < x0) {
+        (*j)++;
+    }
+    uint16_t lbl = LABEL_DROPPED;
+    bool touches_dropped = false;
+    for (uint32_t k = *j; k < np && prev[k].x0 <= x1 + 1u; k++) {
+        if (prev[k].label == LABEL_DROPPED) {
+            touches_dropped = true;
+            continue;
+        }
+        const uint16_t r = find_root(ls, prev[k].label);
+        lbl = (lbl == LABEL_DROPPED) ? r : (r == lbl ? lbl : unite(ls, lbl, r));
+    }
+    if (lbl == LABEL_DROPPED) {
+        if (touches_dropped || ls->n_labels >= MFNS_CENTROID_MAX_LABELS) {
+            ls->n_lost++;
+            return LABEL_DROPPED;
+        }
+        lbl = (uint16_t)ls->n_labels++;
+        mfns_centroid_acc_t *a = &ls->w->acc[lbl];
+        memset(a, 0, sizeof *a);
+        a->x_min = (uint16_t)x0;
+        a->x_max = (uint16_t)x1;
+        a->y_min = (uint16_t)y;
+        a->y_max = (uint16_t)y;
+        a->roi = roi;
+        ls->w->parent[lbl] = lbl;
+    }
+    mfns_centroid_acc_t *a = &ls->w->acc[lbl];
+    a->incomplete = a->incomplete || touches_dropped;
+    add_run(a, y, x0, x1, rs);
+    return lbl;
+}
+
+/* One region in one pass: scan each row for runs of pixels >= T, label them
+ * against the previous row's runs. */
+static void label_region(label_state_t *ls, const mfns_frame_t *f, const region_t *rg, uint32_t T, uint8_t roi)
+{
+    const bool wide = format_bits(f->format) > 8u;
+    const uint32_t top = wide ? 0x8000u : 0x80u;
+    const bool low = T < top;
+    const uint64_t lanes = wide ? 0x0001000100010001ull : 0x0101010101010101ull;
+    const uint64_t c = (uint64_t)(top - (T & (top - 1u))) * lanes;
+    const find_fn_t find = wide ? (low ? find_u16_low : find_u16_high) : (low ? find_u8_low : find_u8_high);
+    mfns_centroid_run_t *prev = ls->w->runs[0], *cur = ls->w->runs[1];
+    uint32_t np = 0;
+    for (uint32_t y = rg->y0; y < rg->y1; y++) {
+        const uint8_t *row = row_ptr(f, y);
+        uint32_t nc = 0, j = 0, x = rg->x0;
+        while (x < rg->x1) {
+            x = find(row, x, rg->x1, c, T);
+            /* the word test found a candidate within the next word(s), or the tail */
+            while (x < rg->x1 && pixel(row, x, wide) < T) {
+                x++;
+            }
+            if (x >= rg->x1) {
+                break;
+            }
+            const uint32_t x0 = x;
+            run_sums_t rs = {0u, 0u, 0u, 0u};
+            for (; x < rg->x1; x++) {
+                const uint32_t v = pixel(row, x, wide);
+                if (v < T) {
+                    break;
+                }
+                rs.s_i += v;
+                rs.s_ix += (uint64_t)v * x;
+                rs.s_ixx += (uint64_t)v * x * x;
+                rs.peak = v > rs.peak ? v : rs.peak;
+            }
+            const uint16_t lbl = label_run(ls, prev, np, &j, y, x0, x - 1u, &rs, roi);
+            /* nc < MFNS_CENTROID_MAX_RUNS: runs are separated by a pixel */
+            cur[nc++] = (mfns_centroid_run_t){(uint16_t)x0, (uint16_t)(x - 1u), lbl};
+        }
+        mfns_centroid_run_t *t = prev;
+        prev = cur;
+        cur = t;
+        np = nc;
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* Per-blob results */
+
+/* l_q8: the weight level (pixel weight = value - level), b_q8 the background,
+ * both Q8 DN with l_q8 >= b_q8 and 256 T > l_q8. */
+static void finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64_t b_q8, const mfns_centroid_settings_t *s,
+                        uint32_t sat, const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois, mfns_blob_t *o)
+{
+    memset(o, 0, sizeof *o);
+    o->area_px = a->area;
+    o->peak_dn = a->peak;
+    o->x_min = a->x_min;
+    o->y_min = a->y_min;
+    o->x_max = a->x_max;
+    o->y_max = a->y_max;
+    o->roi = a->roi;
+    o->saturated = a->peak >= sat;
+    uint16_t why = 0u;
+    bool have_moments = !a->moments_capped;
+    if (have_moments) {
+        /* Q8 weighted sums; every pixel exceeds the level (256 T > l_q8), so w > 0. */
+        const int64_t n = (int64_t)a->moment_area;
+        const int64_t w = 256 * (int64_t)a->s_i - l_q8 * n;
+        const int64_t mx = 256 * (int64_t)a->s_ix - l_q8 * (int64_t)a->s_x;
+        const int64_t my = 256 * (int64_t)a->s_iy - l_q8 * (int64_t)a->s_y;
+        have_moments = mfns_px_q8_from_ratio(mx, w, &o->u_q8) && mfns_px_q8_from_ratio(my, w, &o->v_q8);
+        o->flux_dn = (float)(256 * (int64_t)a->s_i - b_q8 * n) / 256.0f;
+        /* Shape: second moments about the bounding-box corner (exact in
+         * integers), then double: the raw sums reach 2^56 and the background
+         * subtraction cancels, which float's 24 bits would not survive. */
+        const int64_t ax = a->x_min, ay = a->y_min;
+        const int64_t s_i = (int64_t)a->s_i;
+        const double cixx = (double)((int64_t)a->s_ixx - 2 * ax * (int64_t)a->s_ix + ax * ax * s_i);
+        const double ciyy = (double)((int64_t)a->s_iyy - 2 * ay * (int64_t)a->s_iy + ay * ay * s_i);
+        const double cixy =
+            (double)((int64_t)a->s_ixy - ax * (int64_t)a->s_iy - ay * (int64_t)a->s_ix + ax * ay * s_i);
+        const double cix = (double)((int64_t)a->s_ix - ax * s_i), ciy = (double)((int64_t)a->s_iy - ay * s_i);
+        const double cxx = (double)((int64_t)a->s_xx - 2 * ax * (int64_t)a->s_x + ax * ax * n);
+        const double cyy = (double)((int64_t)a->s_yy - 2 * ay * (int64_t)a->s_y + ay * ay * n);
+        const double cxy = (double)((int64_t)a->s_xy - ax * (int64_t)a->s_y - ay * (int64_t)a->s_x + ax * ay * n);
+        const double cx = (double)((int64_t)a->s_x - ax * n), cy = (double)((int64_t)a->s_y - ay * n);
+        const double B = (double)l_q8 / 256.0, W = (double)w / 256.0;
+        const double mu_x = (cix - B * cx) / W, mu_y = (ciy - B * cy) / W;
+        /* + 1/12: each pixel is a unit square, not a point */
+        const double mxx = (cixx - B * cxx) / W - mu_x * mu_x + 1.0 / 12.0;
+        const double myy = (ciyy - B * cyy) / W - mu_y * mu_y + 1.0 / 12.0;
+        const double mxy = (cixy - B * cxy) / W - mu_x * mu_y;
+        const double tr = 0.5 * (mxx + myy);
+        const double disc = sqrt(0.25 * (mxx - myy) * (mxx - myy) + mxy * mxy);
+        const double lmin = tr - disc, lmax = tr + disc;
+        o->elongation = lmin > 0.0 ? (float)(lmax / lmin) : INFINITY;
+    }
+    if (!have_moments) {
+        /* no moment centroid for blobs beyond the cap: bounding-box centre */
+        o->u_q8 = (px_q8_t)(((int32_t)a->x_min + (int32_t)a->x_max) * 128);
+        o->v_q8 = (px_q8_t)(((int32_t)a->y_min + (int32_t)a->y_max) * 128);
+        o->elongation = 1.0f;
+        why |= MFNS_BLOB_TOO_LARGE;
+    }
+    if (a->area < s->min_area_px) {
+        why |= MFNS_BLOB_TOO_SMALL;
+    }
+    if (a->area > s->max_area_px) {
+        why |= MFNS_BLOB_TOO_LARGE;
+    }
+    if (o->saturated) {
+        why |= MFNS_BLOB_SATURATED;
+    }
+    if (a->x_min == 0u || a->y_min == 0u || a->x_max + 1u >= f->width || a->y_max + 1u >= f->height) {
+        why |= MFNS_BLOB_IMAGE_BORDER;
+    }
+    if (n_rois > 0u && a->roi < n_rois) {
+        const mfns_roi_t *r = &rois[a->roi];
+        if ((a->x_min == r->x0 && r->x0 > 0u) || (a->y_min == r->y0 && r->y0 > 0u) ||
+            (a->x_max + 1u == r->x1 && r->x1 < f->width) || (a->y_max + 1u == r->y1 && r->y1 < f->height)) {
+            why |= MFNS_BLOB_ROI_BORDER;
+        }
+    }
+    if (!(o->elongation <= s->max_elongation)) {
+        why |= MFNS_BLOB_ELONGATED;
+    }
+    if (a->incomplete) {
+        why |= MFNS_BLOB_TABLE_FULL;
+    }
+    o->reasons = why;
+}
+
+static mfns_centroid_status_t check_settings(const mfns_centroid_settings_t *s)
+{
+    if (s->threshold_dn == 0u && !(isfinite(s->threshold_k_sigma) && s->threshold_k_sigma > 0.0f &&
+                                   s->threshold_k_sigma <= 1000.0f)) {
+        return MFNS_CENTROID_ERR_SETTINGS;
+    }
+    if (s->min_area_px == 0u || s->max_area_px < s->min_area_px) {
+        return MFNS_CENTROID_ERR_SETTINGS;
+    }
+    if (!(isfinite(s->max_elongation) && s->max_elongation >= 1.0f)) {
+        return MFNS_CENTROID_ERR_SETTINGS;
+    }
+    return MFNS_CENTROID_OK;
+}
+
+mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfns_centroid_settings_t *settings,
+                                            const mfns_centroid_bg_t *bg, const mfns_roi_t *rois, uint16_t n_rois,
+                                            mfns_centroid_work_t *work, mfns_centroid_result_t *out)
+{
+    if (out == NULL) {
+        return MFNS_CENTROID_ERR_NULL;
+    }
+    out->n_blobs = 0u;
+    out->n_accepted = 0u;
+    out->n_lost = 0u;
+    out->threshold_dn = 0u;
+    out->bg = (mfns_centroid_bg_t){0.0f, 0.0f, 0u};
+    if (settings == NULL || bg == NULL || work == NULL) {
+        return MFNS_CENTROID_ERR_NULL;
+    }
+    mfns_centroid_status_t st = check_frame(frame);
+    if (st != MFNS_CENTROID_OK) {
+        return st;
+    }
+    st = check_rois(frame, rois, n_rois);
+    if (st != MFNS_CENTROID_OK) {
+        return st;
+    }
+    st = check_settings(settings);
+    if (st != MFNS_CENTROID_OK) {
+        return st;
+    }
+    const uint32_t maxval = (1u << format_bits(frame->format)) - 1u;
+    if (!(isfinite(bg->background_dn) && isfinite(bg->noise_dn) && bg->background_dn >= 0.0f &&
+          bg->noise_dn >= 0.0f && bg->background_dn <= (float)maxval && bg->noise_dn <= (float)maxval)) {
+        return MFNS_CENTROID_ERR_BACKGROUND;
+    }
+    const uint32_t sat = settings->saturation_dn != 0u ? settings->saturation_dn : maxval;
+    const float t = settings->threshold_dn > 0u ? (float)settings->threshold_dn
+                                                : settings->threshold_k_sigma * bg->noise_dn;
+    /* both < 2^24 (checked above): exact integer Q8 arithmetic below */
+    const int64_t b_q8 = (int64_t)lroundf(bg->background_dn * 256.0f);
+    const int64_t t_q8 = (int64_t)lroundf(fminf(t, 131072.0f) * 256.0f);
+    const uint32_t T = (uint32_t)((b_q8 + t_q8) / 256 + 1); /* 256 T > b_q8 + t_q8 */
+    const int64_t l_q8 = b_q8 + (int64_t)lroundf(MFNS_CENTROID_WEIGHT_LEVEL * (float)t_q8);
+    out->threshold_dn = T;
+    out->bg = *bg;
+
+    region_t reg[MFNS_CENTROID_MAX_ROIS];
+    const uint16_t n_reg = regions_of(frame, rois, n_rois, reg);
+    label_state_t ls = {work, 0u, 0u};
+    if (T <= maxval) {
+        for (uint16_t r = 0; r < n_reg; r++) {
+            label_region(&ls, frame, &reg[r], T, n_rois == 0u ? (uint8_t)MFNS_CENTROID_FULL_FRAME : (uint8_t)r);
+        }
+    }
+    /* accepted blobs first, then rejected ones, while the table has room */
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t l = 0; l < ls.n_labels; l++) {
+            if (work->parent[l] != l) {
+                continue;
+            }
+            mfns_blob_t b;
+            finish_blob(&work->acc[l], l_q8, b_q8, settings, sat, frame, rois, n_rois, &b);
+            if ((pass == 0) != (b.reasons == 0u)) {
+                continue;
+            }
+            if (out->n_blobs >= MFNS_MAX_BLOBS_PER_CAMERA) {
+                ls.n_lost++;
+                continue;
+            }
+            out->blob[out->n_blobs++] = b;
+            if (pass == 0) {
+                out->n_accepted++;
+            }
+        }
+    }
+    out->n_lost = ls.n_lost;
+    return ls.n_lost > 0u ? MFNS_CENTROID_TABLE_FULL : MFNS_CENTROID_OK;
+}
+
+/* ------------------------------------------------------------------------ */
+
+static bool rois_touch(const mfns_roi_t *a, const mfns_roi_t *b)
+{
+    return a->x0 <= b->x1 && b->x0 <= a->x1 && a->y0 <= b->y1 && b->y0 <= a->y1;
+}
+
+mfns_centroid_status_t mfns_centroid_make_rois(const float (*uv)[2], uint16_t n_pred, uint16_t half_size_px,
+                                               uint16_t width, uint16_t height, mfns_roi_t *rois, uint16_t max_rois,
+                                               uint16_t *n_rois)
+{
+    if (n_rois != NULL) {
+        *n_rois = 0u;
+    }
+    if ((uv == NULL && n_pred > 0u) || rois == NULL || n_rois == NULL) {
+        return MFNS_CENTROID_ERR_NULL;
+    }
+    if (width == 0u || height == 0u || width > MFNS_CENTROID_MAX_DIM || height > MFNS_CENTROID_MAX_DIM) {
+        return MFNS_CENTROID_ERR_SIZE;
+    }
+    if (max_rois > MFNS_CENTROID_MAX_ROIS) {
+        max_rois = MFNS_CENTROID_MAX_ROIS;
+    }
+    uint16_t n = 0;
+    for (uint16_t i = 0; i < n_pred; i++) {
+        const float u = uv[i][0], v = uv[i][1];
+        if (!(u >= -0.5f && v >= -0.5f && u < (float)width - 0.5f && v < (float)height - 0.5f)) {
+            continue;
+        }
+        const int32_t cu = (int32_t)lroundf(u), cv = (int32_t)lroundf(v), h = half_size_px;
+        mfns_roi_t r;
+        r.x0 = (uint16_t)(cu - h > 0 ? cu - h : 0);
+        r.y0 = (uint16_t)(cv - h > 0 ? cv - h : 0);
+        r.x1 = (uint16_t)(cu + h + 1 < (int32_t)width ? cu + h + 1 : (int32_t)width);
+        r.y1 = (uint16_t)(cv + h + 1 < (int32_t)height ? cv + h + 1 : (int32_t)height);
+        /* absorb every window the new one touches; growth may reach more, so
+         * repeat until none is left (each round removes one of <= MFNS_CENTROID_MAX_ROIS) */
+        bool merged = true;
+        for (uint16_t round = 0; merged && round <= MFNS_CENTROID_MAX_ROIS; round++) {
+            merged = false;
+            for (uint16_t k = 0; k < n; k++) {
+                if (rois_touch(&r, &rois[k])) {
+                    r.x0 = r.x0 < rois[k].x0 ? r.x0 : rois[k].x0;
+                    r.y0 = r.y0 < rois[k].y0 ? r.y0 : rois[k].y0;
+                    r.x1 = r.x1 > rois[k].x1 ? r.x1 : rois[k].x1;
+                    r.y1 = r.y1 > rois[k].y1 ? r.y1 : rois[k].y1;
+                    rois[k] = rois[n - 1u];
+                    n--;
+                    merged = true;
+                    break;
+                }
+            }
+        }
+        if (n >= max_rois) {
+            *n_rois = n;
+            return MFNS_CENTROID_ERR_ROI;
+        }
+        rois[n++] = r;
+    }
+    *n_rois = n;
+    return MFNS_CENTROID_OK;
+}

@@ -1,0 +1,20 @@
+# Centroiding benchmark (issue 4): `make bench` runs bench-centroid.
+# C benchmark at -O2 (full frame, ROI mode, memcpy), callgrind instruction count
+# of one full-frame call, then OpenCV on the same frame and the ratios.
+BENCH_TARGETS += bench-centroid
+
+BENCH_CENTROID_DIR := build/bench
+BENCH_CENTROID_BIN := $(BENCH_CENTROID_DIR)/bench_centroid
+BENCH_CENTROID_SRCS := tests/bench/bench_centroid.c firmware/nav/centroid.c math/fixed.c
+
+$(BENCH_CENTROID_BIN): $(BENCH_CENTROID_SRCS) firmware/nav/centroid.h firmware/nav/nav_config.h math/fixed.h
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -O2 -g -I. -Imath -Ifirmware/nav $(BENCH_CENTROID_SRCS) -lm -o $@
+
+.PHONY: bench-centroid
+bench-centroid: $(BENCH_CENTROID_BIN) venv
+	$(BENCH_CENTROID_BIN) $(BENCH_CENTROID_DIR)
+	valgrind --tool=callgrind --toggle-collect=bench_centroid_once \
+	  --callgrind-out-file=$(BENCH_CENTROID_DIR)/centroid.callgrind \
+	  $(BENCH_CENTROID_BIN) $(BENCH_CENTROID_DIR) --once 2>$(BENCH_CENTROID_DIR)/centroid.callgrind.log
+	$(PY) tests/bench/bench_centroid_opencv.py $(BENCH_CENTROID_DIR)
