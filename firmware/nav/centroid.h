@@ -11,8 +11,9 @@
  * and pass them to both calls; only the windows are read.
  *
  * Pixel coordinates follow docs/conventions.md: integer coordinates are pixel
- * centres (OpenCV's convention); the centroid is the background-subtracted,
- * intensity-weighted mean of pixel-centre coordinates, in px_q8_t (1/256 px).
+ * centres (OpenCV's convention); the centroid is the weighted mean of the
+ * pixel-centre coordinates of the blob's pixels, weight = value - (background +
+ * MFNS_CENTROID_WEIGHT_LEVEL x threshold step), in px_q8_t (1/256 px).
  *
  * Bounds: width and height <= MFNS_CENTROID_MAX_DIM; at most
  * MFNS_CENTROID_MAX_LABELS provisional components per call, at most
@@ -110,7 +111,7 @@ const char *mfns_blob_reason_name(uint16_t reason_bit);
 
 typedef struct {
     px_q8_t u_q8, v_q8;     /* centroid (column, row), Q23.8 px; the bounding-box centre when
-                               the blob exceeds MFNS_CENTROID_MOMENT_AREA_CAP */
+                               the blob exceeds MFNS_CENTROID_MOMENT_AREA_CAP (then TOO_LARGE) */
     uint32_t area_px;       /* pixels above threshold (8-connected) */
     float flux_dn;          /* sum of (pixel - background) over the blob */
     uint16_t peak_dn;       /* largest pixel value */

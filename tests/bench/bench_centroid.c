@@ -57,7 +57,8 @@ static void make_frame(double truth[NSPOTS][2])
         mu[i] = 12.0;
     }
     for (int k = 0; k < NSPOTS; k++) {
-        const double x0 = 80 + 270 * (k % 5) + 40 * uniform(), y0 = 150 + 600 * (k / 5) + 40 * uniform();
+        const int col = k % 5, row = k / 5;
+        const double x0 = 80 + 270 * col + 40 * uniform(), y0 = 150 + 600 * row + 40 * uniform();
         const double s = 1.0 + 1.5 * uniform(), peak = 120 + 100 * uniform();
         truth[k][0] = x0;
         truth[k][1] = y0;

@@ -4,7 +4,8 @@ Reads the frame and the C benchmark's timings from OUTDIR (written by
 tests/bench/bench_centroid.c), times cv2.threshold + connectedComponentsWithStats
 + per-blob intensity moments on the same frame at the same threshold, reads the
 callgrind instruction count of one full-frame call, and prints the ratios.
-OpenCV runs single-threaded (cv2.setNumThreads(1)), as the flight code does.
+OpenCV runs single-threaded (cv2.setNumThreads(1)), as the flight code does,
+with its faster (16-bit) label type. Frames are cache-warm for both sides.
 """
 
 import sys
@@ -35,7 +36,8 @@ def callgrind_instructions(path: Path) -> int | None:
 def opencv_centroids(img: np.ndarray, threshold: int) -> list[tuple[float, float]]:
     """Pixels >= threshold, 8-connected components, intensity-weighted moments per blob."""
     _, binary = cv2.threshold(img, threshold - 1, 255, cv2.THRESH_BINARY)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8)
+    # 16-bit labels: faster than the default 32-bit ones here (fewer than 65535 blobs)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8, ltype=cv2.CV_16U)
     out = []
     for k in range(1, n):
         x, y, w, h, _area = stats[k]
@@ -67,7 +69,8 @@ def main() -> int:
     mb = img.size / 1e6
     t_full, t_memcpy, t_roi = c["t_full_s"], c["t_memcpy_s"], c["t_roi_s"]
     instr = callgrind_instructions(outdir / "centroid.callgrind")
-    print(f"  OpenCV {cv2.__version__} (threshold + connectedComponentsWithStats + moments, {len(blobs)} blobs):")
+    what = f"threshold + connectedComponentsWithStats + moments, {len(blobs)} blobs"
+    print(f"  OpenCV {cv2.__version__} ({what}):")
     print(f"                                    {1e3 * t_cv:8.3f} ms  {mb / t_cv:8.1f} MB/s")
     if instr is not None:
         px = img.size

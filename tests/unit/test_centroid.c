@@ -202,8 +202,9 @@ static bool run_mc_case(const mc_case_t *c, uint64_t seed)
         scene_begin(sc);
         for (int k = 0; k < 16; k++) {
             spots[k] = c->spot;
-            spots[k].x0 = 32 + 64 * (k % 4) + mfns_rng_range(&rng, -0.5, 0.5);
-            spots[k].y0 = 32 + 64 * (k / 4) + mfns_rng_range(&rng, -0.5, 0.5);
+            const int col = k % 4, row = k / 4;
+            spots[k].x0 = 32 + 64 * col + mfns_rng_range(&rng, -0.5, 0.5);
+            spots[k].y0 = 32 + 64 * row + mfns_rng_range(&rng, -0.5, 0.5);
             scene_add_spot(sc, &spots[k], amp);
         }
         scene_render(sc, &rng, true);
@@ -235,8 +236,9 @@ static bool run_mc_case(const mc_case_t *c, uint64_t seed)
         scene_begin(sc);
         for (int k = 0; k < 16; k++) {
             spots[k] = c->spot;
-            spots[k].x0 = 32 + 64 * (k % 4) - 0.5 + (k % 4 + 4 * (fr % 2) + 0.5) / 8.0;
-            spots[k].y0 = 32 + 64 * (k / 4) - 0.5 + (k / 4 + 4 * (fr / 2) + 0.5) / 8.0;
+            const int col = k % 4, row = k / 4, phase_x = col + 4 * (fr % 2), phase_y = row + 4 * (fr / 2);
+            spots[k].x0 = 32 + 64 * col - 0.5 + (phase_x + 0.5) / 8.0;
+            spots[k].y0 = 32 + 64 * row - 0.5 + (phase_y + 0.5) / 8.0;
             scene_add_spot(sc, &spots[k], amp);
         }
         scene_render(sc, &rng, false);
@@ -431,6 +433,9 @@ static void test_table_overflow_reported(void **state)
         }
     }
     assert_true(with_x >= 0);
+    if (with_x < 0) {
+        return;
+    }
     assert_true((g_res.blob[with_x].reasons & MFNS_BLOB_TABLE_FULL) != 0);
     assert_int_equal(g_res.blob[with_x].y_max, 39);
 }
@@ -518,8 +523,9 @@ static void test_roi_matches_full_frame(void **state)
     scene_begin(&sc);
     float uv[12][2];
     for (int k = 0; k < 10; k++) {
-        const cs_spot_t s = {k % 2 ? CS_GAUSS : CS_DISK, 100 + 240 * (k % 5) + mfns_rng_range(&rng, -30, 30),
-                             200 + 500 * (k / 5) + mfns_rng_range(&rng, -30, 30), 1.5, 3.0, 0.5};
+        const int col = k % 5, row = k / 5;
+        const cs_spot_t s = {k % 2 ? CS_GAUSS : CS_DISK, 100 + 240 * col + mfns_rng_range(&rng, -30, 30),
+                             200 + 500 * row + mfns_rng_range(&rng, -30, 30), 1.5, 3.0, 0.5};
         scene_add_spot(&sc, &s, 170 / peak_fraction(s));
         uv[k][0] = (float)(s.x0 + mfns_rng_range(&rng, -3, 3)); /* a prediction, a few px off */
         uv[k][1] = (float)(s.y0 + mfns_rng_range(&rng, -3, 3));
@@ -628,6 +634,68 @@ static void test_threshold_scan_exact(void **state)
         }
         assert_int_equal(area, expected);
     }
+}
+
+/* Random frames of every format and density (sparse specks to a percolating
+ * mass): whatever the content, the result keeps its invariants, nothing is
+ * written out of bounds (the sanitizer suite runs this too), and without a
+ * table overflow every pixel >= T lands in exactly one blob. */
+static void test_random_frames_invariants(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 99);
+    const mfns_pixfmt_t fmts[] = {MFNS_PIXFMT_GREY, MFNS_PIXFMT_Y10, MFNS_PIXFMT_Y12, MFNS_PIXFMT_Y16};
+    const double density[] = {0.002, 0.02, 0.1, 0.3, 0.6};
+    mfns_centroid_settings_t set = mfns_centroid_default_settings();
+    set.min_area_px = 2;
+    set.max_area_px = 2000;
+    int saw_full = 0, saw_ok = 0;
+    for (int trial = 0; trial < 40; trial++) {
+        const mfns_pixfmt_t fmt = fmts[trial % 4];
+        const uint32_t maxv = (1u << fmt_bits(fmt)) - 1u;
+        const scene_t sc = {fmt, (uint16_t)(50 + mfns_rng_uniform(&rng) * 250),
+                            (uint16_t)(20 + mfns_rng_uniform(&rng) * 180), 0, 0, 0};
+        const mfns_frame_t f = frame_of(&sc);
+        const double p = density[trial % 5];
+        const uint32_t T = maxv / 2u;
+        uint32_t expected = 0;
+        for (int y = 0; y < sc.h; y++) {
+            for (int x = 0; x < sc.w; x++) {
+                const uint32_t v = mfns_rng_uniform(&rng) < p ? T + (uint32_t)(mfns_rng_uniform(&rng) * (maxv - T))
+                                                              : (uint32_t)(mfns_rng_uniform(&rng) * T);
+                put_px(&f, x, y, v);
+                expected += v >= T;
+            }
+        }
+        set.threshold_dn = (uint16_t)(T - 1u);
+        const mfns_centroid_bg_t bg = {0.0f, 0.0f, 0u};
+        const mfns_centroid_status_t st = mfns_centroid_detect(&f, &set, &bg, NULL, 0, &g_work, &g_res);
+        assert_true(st == MFNS_CENTROID_OK || st == MFNS_CENTROID_TABLE_FULL);
+        assert_true((st == MFNS_CENTROID_TABLE_FULL) == (g_res.n_lost > 0u));
+        assert_true(g_res.n_blobs <= MFNS_MAX_BLOBS_PER_CAMERA && g_res.n_accepted <= g_res.n_blobs);
+        uint32_t area = 0;
+        for (int k = 0; k < g_res.n_blobs; k++) {
+            const mfns_blob_t *b = &g_res.blob[k];
+            assert_true((k < g_res.n_accepted) == (b->reasons == 0u));
+            assert_true(b->x_min <= b->x_max && b->x_max < sc.w && b->y_min <= b->y_max && b->y_max < sc.h);
+            assert_true(b->area_px >= 1u &&
+                        b->area_px <= (uint32_t)(b->x_max - b->x_min + 1) * (uint32_t)(b->y_max - b->y_min + 1));
+            /* positive weights: the centroid is a convex combination of pixel centres */
+            assert_true(b->u_q8 >= b->x_min * 256 && b->u_q8 <= b->x_max * 256);
+            assert_true(b->v_q8 >= b->y_min * 256 && b->v_q8 <= b->y_max * 256);
+            assert_true(b->peak_dn >= T && b->peak_dn <= maxv);
+            assert_true(b->elongation >= 1.0f);
+            area += b->area_px;
+        }
+        if (st == MFNS_CENTROID_OK) {
+            assert_int_equal(area, expected);
+            saw_ok++;
+        } else {
+            saw_full++;
+        }
+    }
+    assert_true(saw_ok > 0 && saw_full > 0);
 }
 
 static void test_formats_agree(void **state)
@@ -743,6 +811,7 @@ int main(void)
         cmocka_unit_test(test_malformed_inputs_refused),
         cmocka_unit_test(test_threshold_scan_exact),
         cmocka_unit_test(test_formats_agree),
+        cmocka_unit_test(test_random_frames_invariants),
         cmocka_unit_test(test_rejection_reasons),
         cmocka_unit_test(test_table_overflow_reported),
         cmocka_unit_test(test_roi_matches_full_frame),
