@@ -9,7 +9,11 @@ uint16_t tlm_crc16_update(uint16_t crc, const uint8_t *data, size_t len)
     for (size_t i = 0; i < len; i++) {
         crc = (uint16_t)(crc ^ (uint16_t)((uint16_t)data[i] << 8));
         for (int b = 0; b < 8; b++) {
-            crc = (crc & 0x8000u) ? (uint16_t)((uint16_t)(crc << 1) ^ 0x1021u) : (uint16_t)(crc << 1);
+            const uint16_t top = (uint16_t)(crc & 0x8000u);
+            crc = (uint16_t)(crc << 1);
+            if (top != 0u) {
+                crc = (uint16_t)(crc ^ 0x1021u);
+            }
         }
     }
     return crc;

@@ -23,8 +23,8 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         n->iterations = (uint8_t)(i % 20u);
         n->residual_rms_mpx = (uint16_t)(i * 37u);
         for (int k = 0; k < 3; k++) {
-            n->pos_um[k] = (int32_t)((int32_t)(i * 1001u) - 500000 * (k + 1)) * (k == 1 ? -1 : 1);
-            n->att_udeg[k] = (int32_t)(i * 12345u) - 180000000 + k * 256;
+            n->pos_um[k] = ((int32_t)((i * 1001u) % 1000000000u) - 500000 * (k + 1)) * (k == 1 ? -1 : 1);
+            n->att_udeg[k] = (int32_t)((i * 12345u) % 360000000u) - 180000000 + k * 256;
             n->sigma_pos_um[k] = 1600u + i + (uint32_t)k * 0x100u;
             n->sigma_att_udeg[k] = 150000u + (uint32_t)k;
         }
