@@ -60,6 +60,7 @@ void mfns_nav_lose_track(mfns_nav_t *nav)
 {
     if (nav != NULL) {
         nav->have_prior = false;
+        nav->have_prev = false;
         nav->mode = MFNS_NAV_MODE_ACQUIRE;
     }
 }
@@ -73,7 +74,7 @@ static uint16_t track_windows(mfns_nav_t *nav, int k, const mfns_frame_t *frame)
     uint16_t n = 0;
     for (uint16_t b = 0; b < t->beacons.count && b < MFNS_MAX_BEACONS; b++) {
         float uv[2];
-        if (mfns_cam_project(cam, &nav->prior, t->beacons.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
+        if (mfns_cam_project(cam, &nav->predicted, t->beacons.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
             mfns_cam_in_image(&cam->k, uv[0], uv[1])) {
             nav->pred_uv[n][0] = uv[0];
             nav->pred_uv[n][1] = uv[1];
@@ -171,7 +172,7 @@ static mfns_nav_status_t run(mfns_nav_t *nav, const mfns_frame_t *const frames[M
         }
     }
     const mfns_caltable_t *t = nav->table;
-    (void)mfns_pose_solve(&t->rig, &t->beacons, &nav->obs, track ? &nav->prior : NULL, &nav->pose_cfg,
+    (void)mfns_pose_solve(&t->rig, &t->beacons, &nav->obs, track ? &nav->predicted : NULL, &nav->pose_cfg,
                           &out->sol); /* the status is also in out->sol.status */
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         uint16_t ident = 0;
@@ -183,6 +184,26 @@ static mfns_nav_status_t run(mfns_nav_t *nav, const mfns_frame_t *const frames[M
         out->cam[k].identified = ident;
     }
     return MFNS_NAV_OK;
+}
+
+/* Constant-velocity prediction: apply the last cycle's motion once more.
+ * dC = C_k C_{k-1}^T (world -> body increment), position extrapolated in the
+ * world frame. */
+static mfns_pose_t predict(const mfns_nav_t *nav)
+{
+    if (!nav->have_prev) {
+        return nav->prior;
+    }
+    const mfns_m3_t dc = mfns_m3_mul(nav->prior.C_w_b, mfns_m3_transpose(nav->prev.C_w_b));
+    mfns_m3_t c = mfns_m3_mul(dc, nav->prior.C_w_b);
+    mfns_m3_t fixed;
+    if (mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
+        c = fixed;
+    } else {
+        return nav->prior; /* never predict with a non-rotation */
+    }
+    const mfns_v3_t p1 = mfns_pose_position_w(&nav->prior), p0 = mfns_pose_position_w(&nav->prev);
+    return mfns_pose_from_position(c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
 }
 
 static bool has_fix(const mfns_pose_solution_t *s)
@@ -199,6 +220,9 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     memset(out, 0, sizeof *out);
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
+    if (track) {
+        nav->predicted = predict(nav);
+    }
     out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
     mfns_nav_status_t st = run(nav, frames, track, out);
     if (st == MFNS_NAV_OK && track && !has_fix(&out->sol)) {
@@ -209,17 +233,17 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     }
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;
-        nav->have_prior = false;
-        nav->mode = MFNS_NAV_MODE_ACQUIRE;
+        mfns_nav_lose_track(nav);
         return st;
     }
     if (has_fix(&out->sol)) {
+        nav->prev = nav->prior;
+        nav->have_prev = nav->have_prior;
         nav->prior = out->sol.pose;
         nav->have_prior = true;
         nav->mode = MFNS_NAV_MODE_TRACK;
     } else {
-        nav->have_prior = false;
-        nav->mode = MFNS_NAV_MODE_ACQUIRE;
+        mfns_nav_lose_track(nav);
     }
     out->next_mode = nav->mode;
     out->mode_changed = nav->mode != before;

@@ -8,7 +8,10 @@
  * Modes: ACQUIRE (no usable prior: whole frames, identification by
  * hypothesis and verification) and TRACK (after a fix: windows of
  * roi_half_size_px around each beacon predicted from the last pose, gated
- * association). A TRACK cycle that gives no fix is redone once, in the same
+ * association). The prediction is the last pose, or, after two consecutive
+ * fixes, the last pose moved on by the motion between them (constant
+ * velocity and turn rate per cycle): a turning robot's beacons then stay
+ * inside their windows. A TRACK cycle that gives no fix is redone once, in the same
  * cycle, as ACQUIRE on whole frames; a cycle with no fix drops the prior, so a
  * stale pose is never reused.
  *
@@ -75,7 +78,10 @@ typedef struct {
     mfns_pose_config_t pose_cfg;
     mfns_nav_mode_t mode;
     bool have_prior;
-    mfns_pose_t prior;
+    mfns_pose_t prior;      /* last fix */
+    bool have_prev;
+    mfns_pose_t prev;       /* the fix before it, in the cycle before */
+    mfns_pose_t predicted;  /* prediction used by this cycle's TRACK */
     uint32_t magic; /* set by init: guards against use of a zeroed struct */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;

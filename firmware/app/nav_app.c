@@ -1,0 +1,580 @@
+/* nav_app.c -- see nav_app.h. */
+#define _DEFAULT_SOURCE /* getopt_long, clock_gettime, sigaction under -std=c11 */
+
+#include "nav_app.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <getopt.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "caltable_file.h"
+#include "cycle_stats.h"
+#include "nav_cycle.h"
+#include "nav_tlm.h"
+#include "uart.h"
+
+#ifndef MFNS_BOARD_NAME
+#define MFNS_BOARD_NAME "unknown"
+#endif
+#ifndef MFNS_BOARD_BAUD
+#define MFNS_BOARD_BAUD 115200
+#endif
+#ifndef MFNS_BOARD_CAM_X
+#define MFNS_BOARD_CAM_X "/dev/video0"
+#define MFNS_BOARD_CAM_Y "/dev/video1"
+#define MFNS_BOARD_CAM_Z "/dev/video2"
+#endif
+
+#define NAV_APP_VERSION 0x000100 /* 0.1.0 */
+#define FLUSH_TRIES 200          /* x 10 ms: telemetry drain at exit */
+
+typedef enum { CAM_UP = 0, CAM_LOST, CAM_OFF } cam_link_t;
+
+/* Everything the program holds, in static storage: nothing allocates after
+ * start-up (the camera backends allocate their buffers when opened). */
+static struct {
+    uint8_t table_buf[MFNS_CALTABLE_MAX_BYTES];
+    mfns_caltable_t table;
+    mfns_nav_t nav;
+    mfns_nav_output_t out;
+    nav_tlm_t tlm;
+    mfns_uart_t uart;
+    mfns_cycle_stats_t stats;
+    mfns_cam_t *cam[MFNS_NUM_CAMERAS];
+    cam_link_t link[MFNS_NUM_CAMERAS];
+    uint64_t lost_at_ms[MFNS_NUM_CAMERAS];
+    uint64_t cam_errors;
+    uint32_t n_fix, n_no_fix;
+} app;
+
+static volatile sig_atomic_t stop_requested;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    stop_requested = 1;
+}
+
+static uint64_t now_us(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_MONOTONIC, &ts) != 0) {
+        return 0;
+    }
+    return (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+}
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: mfns-nav --table FILE (--replay DIR | --v4l2 | --libcamera) [options]\n"
+            "\n"
+            "The MFNS flight program: camera frames -> beacon centroids -> pose -> telemetry.\n"
+            "\n"
+            "  --table FILE        calibration table (mfns table build; docs/caltable.md)\n"
+            "  --replay DIR        cameras replay an `mfns sim nav` folder (docs/nav-frames.md)\n"
+            "  --realtime          replay at the recorded frame rate (default: as fast as possible)\n"
+            "  --v4l2              V4L2 cameras (board defaults %s %s %s)\n"
+            "  --libcamera         libcamera cameras (first three, or --cam-x/y/z ids)\n"
+            "  --cam-x/--cam-y/--cam-z PATH   device or camera id per camera\n"
+            "  --timeout-ms N      frame wait per camera and cycle (default 200)\n"
+            "  --tlm-serial PORT   telemetry on a real UART via libserialport\n"
+            "  --tlm-tty PATH      telemetry on a tty, pseudo-terminal or FIFO\n"
+            "  --tlm-file PATH     telemetry recorded to a file (created/truncated)\n"
+            "  --baud N            UART baud rate (default %d, board %s)\n"
+            "  --max-cycles N      stop after N cycles\n"
+            "  --paper             use the paper's Eq. 3 Newton solver (baseline) instead of ML\n"
+            "  --verbose           one line per cycle on stderr\n"
+            "  --help, --version\n",
+            MFNS_BOARD_CAM_X, MFNS_BOARD_CAM_Y, MFNS_BOARD_CAM_Z, MFNS_BOARD_BAUD, MFNS_BOARD_NAME);
+}
+
+static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *v)
+{
+    char *end = NULL;
+    errno = 0;
+    const unsigned long x = strtoul(s, &end, 10);
+    if (errno != 0 || end == s || *end != '\0' || s[0] == '-' || x < lo || x > hi) {
+        return false;
+    }
+    *v = (uint32_t)x;
+    return true;
+}
+
+int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err)
+{
+    enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
+           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION };
+    static const struct option opts[] = {
+        {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
+        {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
+        {"libcamera", no_argument, NULL, O_LIBCAMERA},   {"cam-x", required_argument, NULL, O_CAMX},
+        {"cam-y", required_argument, NULL, O_CAMY},      {"cam-z", required_argument, NULL, O_CAMZ},
+        {"timeout-ms", required_argument, NULL, O_TIMEOUT}, {"tlm-serial", required_argument, NULL, O_SERIAL},
+        {"tlm-tty", required_argument, NULL, O_TTY},     {"tlm-file", required_argument, NULL, O_FILE},
+        {"baud", required_argument, NULL, O_BAUD},       {"max-cycles", required_argument, NULL, O_MAX},
+        {"paper", no_argument, NULL, O_PAPER},           {"verbose", no_argument, NULL, O_VERBOSE},
+        {"help", no_argument, NULL, O_HELP},             {"version", no_argument, NULL, O_VERSION},
+        {NULL, 0, NULL, 0},
+    };
+    memset(o, 0, sizeof *o);
+    o->backend = MFNS_CAM_BACKEND_COUNT_;
+    o->frame_timeout_ms = 200;
+    o->baud = MFNS_BOARD_BAUD;
+    o->solver = MFNS_POSE_MODE_ML;
+    const char *cam_override[3] = {NULL, NULL, NULL};
+    optind = 1;
+    opterr = 0;
+    for (int guard = 0; guard < argc + 1; guard++) {
+        const int c = getopt_long(argc, argv, "", opts, NULL);
+        if (c == -1) {
+            break;
+        }
+        uint32_t v = 0;
+        switch (c) {
+        case O_TABLE:
+            o->table_path = optarg;
+            break;
+        case O_REPLAY:
+            o->backend = MFNS_CAM_BACKEND_REPLAY;
+            o->cam_path[0] = o->cam_path[1] = o->cam_path[2] = optarg;
+            break;
+        case O_REALTIME:
+            o->realtime = true;
+            break;
+        case O_V4L2:
+            o->backend = MFNS_CAM_BACKEND_V4L2;
+            o->cam_path[0] = MFNS_BOARD_CAM_X;
+            o->cam_path[1] = MFNS_BOARD_CAM_Y;
+            o->cam_path[2] = MFNS_BOARD_CAM_Z;
+            break;
+        case O_LIBCAMERA:
+            o->backend = MFNS_CAM_BACKEND_LIBCAMERA;
+            o->cam_path[0] = o->cam_path[1] = o->cam_path[2] = "";
+            break;
+        case O_CAMX:
+        case O_CAMY:
+        case O_CAMZ:
+            cam_override[c - O_CAMX] = optarg;
+            break;
+        case O_TIMEOUT:
+            if (!parse_u32(optarg, 1, MFNS_CAM_MAX_TIMEOUT_MS, &v)) {
+                fprintf(err, "mfns-nav: --timeout-ms wants 1..%d, got '%s'\n", MFNS_CAM_MAX_TIMEOUT_MS, optarg);
+                return -1;
+            }
+            o->frame_timeout_ms = (int)v;
+            break;
+        case O_SERIAL:
+        case O_TTY:
+        case O_FILE:
+            if (o->tlm_kind != NAV_TLM_NONE) {
+                fprintf(err, "mfns-nav: give one telemetry output (--tlm-serial, --tlm-tty or --tlm-file)\n");
+                return -1;
+            }
+            o->tlm_kind = c == O_SERIAL ? NAV_TLM_SERIAL : (c == O_TTY ? NAV_TLM_PATH : NAV_TLM_FILE);
+            o->tlm_target = optarg;
+            break;
+        case O_BAUD:
+            if (!parse_u32(optarg, 1200, 4000000, &o->baud)) {
+                fprintf(err, "mfns-nav: --baud wants 1200..4000000, got '%s'\n", optarg);
+                return -1;
+            }
+            break;
+        case O_MAX:
+            if (!parse_u32(optarg, 1, UINT32_MAX - 1, &o->max_cycles)) {
+                fprintf(err, "mfns-nav: --max-cycles wants a positive number, got '%s'\n", optarg);
+                return -1;
+            }
+            break;
+        case O_PAPER:
+            o->solver = MFNS_POSE_MODE_PAPER;
+            break;
+        case O_VERBOSE:
+            o->verbose = true;
+            break;
+        case O_HELP:
+            usage(out);
+            return 1;
+        case O_VERSION:
+            fprintf(out, "mfns-nav %d.%d.%d (board %s)\n", NAV_APP_VERSION >> 16, (NAV_APP_VERSION >> 8) & 0xff,
+                    NAV_APP_VERSION & 0xff, MFNS_BOARD_NAME);
+            return 1;
+        default:
+            fprintf(err, "mfns-nav: unknown or incomplete option '%s' (see --help)\n", argv[optind - 1]);
+            return -1;
+        }
+    }
+    if (optind < argc) {
+        fprintf(err, "mfns-nav: unexpected argument '%s' (see --help)\n", argv[optind]);
+        return -1;
+    }
+    if (o->table_path == NULL) {
+        fprintf(err, "mfns-nav: --table FILE is required (see --help)\n");
+        return -1;
+    }
+    if (o->backend == MFNS_CAM_BACKEND_COUNT_) {
+        fprintf(err, "mfns-nav: choose the cameras: --replay DIR, --v4l2 or --libcamera (see --help)\n");
+        return -1;
+    }
+    for (int k = 0; k < 3; k++) {
+        if (cam_override[k] != NULL) {
+            if (o->backend == MFNS_CAM_BACKEND_REPLAY) {
+                fprintf(err, "mfns-nav: --cam-x/y/z do not apply to --replay\n");
+                return -1;
+            }
+            o->cam_path[k] = cam_override[k];
+        }
+    }
+    return 0;
+}
+
+static void send_event(uint32_t cycle, uint64_t t_us, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject,
+                       int32_t a0, int32_t a1)
+{
+    (void)nav_tlm_event(&app.tlm, cycle, t_us, code, sev, subject, a0, a1); /* failures counted in tlm */
+}
+
+static int open_tlm(const nav_app_opts_t *o)
+{
+    int rc = MFNS_UART_OK;
+    switch (o->tlm_kind) {
+    case NAV_TLM_NONE:
+        return 0;
+    case NAV_TLM_SERIAL:
+        rc = mfns_uart_open_serial(&app.uart, o->tlm_target, o->baud, MFNS_UART_WRITE);
+        break;
+    case NAV_TLM_PATH:
+        rc = mfns_uart_open_path(&app.uart, o->tlm_target, o->baud, MFNS_UART_WRITE);
+        break;
+    case NAV_TLM_FILE: {
+        const int fd = open(o->tlm_target, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        if (fd < 0) {
+            fprintf(stderr, "mfns-nav: cannot create telemetry file %s: %s\n", o->tlm_target, strerror(errno));
+            return -1;
+        }
+        rc = mfns_uart_attach_fd(&app.uart, fd, true, MFNS_UART_WRITE);
+        break;
+    }
+    }
+    if (rc != MFNS_UART_OK) {
+        fprintf(stderr, "mfns-nav: telemetry %s: %s\n", o->tlm_target, mfns_uart_strerror(rc));
+        return -1;
+    }
+    return 0;
+}
+
+static void pump_tlm(const nav_app_opts_t *o)
+{
+    if (o->tlm_kind != NAV_TLM_NONE) {
+        (void)mfns_uart_pump(&app.uart, &app.tlm.q, now_us() / 1000u); /* link loss: frames wait, oldest dropped */
+    } else {
+        /* no link: discard, as a disconnected UART would */
+        const uint8_t *d = NULL;
+        for (int i = 0; i < (int)TLM_TXQ_FRAMES && tlm_txq_peek(&app.tlm.q, &d) > 0; i++) {
+            tlm_txq_consume(&app.tlm.q, tlm_txq_peek(&app.tlm.q, &d));
+        }
+    }
+}
+
+static int open_cameras(const nav_app_opts_t *o)
+{
+    static const char letters[3] = {'x', 'y', 'z'};
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        mfns_cam_settings_t s = mfns_cam_default_settings(o->backend, o->cam_path[k]);
+        s.replay_camera = letters[k];
+        s.replay_realtime = o->realtime;
+        s.recover_attempts = 20;
+        s.width = app.table.rig.cam[k].k.width;
+        s.height = app.table.rig.cam[k].k.height;
+        char msg[MFNS_CAM_MSG_LEN];
+        const mfns_cam_err_t e = mfns_cam_open(&s, &app.cam[k], msg, sizeof msg);
+        if (e != MFNS_CAM_OK) {
+            fprintf(stderr, "mfns-nav: camera %c: %s: %s\n", letters[k], mfns_cam_strerror(e), msg);
+            return -1;
+        }
+        const mfns_cam_err_t st = mfns_cam_start(app.cam[k]);
+        if (st != MFNS_CAM_OK) {
+            fprintf(stderr, "mfns-nav: camera %c: start: %s: %s\n", letters[k], mfns_cam_strerror(st),
+                    mfns_cam_message(app.cam[k]));
+            return -1;
+        }
+    }
+    return 0;
+}
+
+static bool to_nav_frame(const mfns_cam_frame_t *f, mfns_frame_t *nf)
+{
+    mfns_pixfmt_t fmt;
+    switch (f->pixfmt) {
+    case MFNS_CAM_PIX_GREY:
+        fmt = MFNS_PIXFMT_GREY;
+        break;
+    case MFNS_CAM_PIX_Y10:
+        fmt = MFNS_PIXFMT_Y10;
+        break;
+    case MFNS_CAM_PIX_Y12:
+        fmt = MFNS_PIXFMT_Y12;
+        break;
+    case MFNS_CAM_PIX_Y16:
+        fmt = MFNS_PIXFMT_Y16;
+        break;
+    default:
+        return false;
+    }
+    if (f->width > UINT16_MAX || f->height > UINT16_MAX || (uint64_t)f->stride * f->height > f->bytesused) {
+        return false; /* short payload: never centroid past the data */
+    }
+    *nf = (mfns_frame_t){f->data, (uint16_t)f->width, (uint16_t)f->height, f->stride, fmt};
+    return true;
+}
+
+/* Camera events raised by the driver since the last cycle, into telemetry. */
+static void camera_events(uint32_t cycle, uint64_t t_us)
+{
+    const uint64_t ms = now_us() / 1000u;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const uint32_t ev = mfns_cam_take_events(app.cam[k]);
+        if ((ev & MFNS_CAM_EV_LOST) != 0U) {
+            app.lost_at_ms[k] = ms;
+            send_event(cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, (uint8_t)k, MFNS_CAM_E_LOST, 0);
+        }
+        if ((ev & MFNS_CAM_EV_RECOVERED) != 0U) {
+            app.link[k] = CAM_UP;
+            send_event(cycle, t_us, TLM_EVT_CAMERA_RECOVERED, TLM_SEV_INFO, (uint8_t)k,
+                       (int32_t)(ms - app.lost_at_ms[k]), 0);
+        }
+        if ((ev & MFNS_CAM_EV_RECOVERY_FAILED) != 0U) {
+            app.link[k] = CAM_OFF;
+            send_event(cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_ERROR, (uint8_t)k, MFNS_CAM_E_NO_DEVICE, 0);
+        }
+    }
+}
+
+static void camera_packets(uint32_t cycle, uint64_t t_us, const mfns_cam_frame_t fr[3], const bool have[3])
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        tlm_packet_t p;
+        memset(&p, 0, sizeof p);
+        p.type = TLM_TYPE_CAMERA;
+        p.time = tlm_time_from_us(t_us);
+        tlm_camera_t *c = &p.u.camera;
+        mfns_cam_stats_t st;
+        memset(&st, 0, sizeof st);
+        (void)mfns_cam_get_stats(app.cam[k], &st); /* zeros on failure are the honest answer */
+        c->cycle = cycle;
+        c->camera = (uint8_t)k;
+        c->state = (uint8_t)(app.link[k] == CAM_UP ? TLM_CAM_OK : (app.link[k] == CAM_LOST ? TLM_CAM_LOST : TLM_CAM_OFF));
+        c->blobs = (uint8_t)(app.out.cam[k].blobs > 255 ? 255 : app.out.cam[k].blobs);
+        c->beacons_identified = (uint8_t)app.out.cam[k].identified;
+        c->exposure_us = have[k] && fr[k].exposure_us > 0 ? (uint32_t)fr[k].exposure_us : 0;
+        c->frame_seq = have[k] ? fr[k].sequence : 0;
+        c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
+        (void)nav_tlm_send(&app.tlm, &p);
+    }
+}
+
+static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
+{
+    tlm_packet_t p;
+    memset(&p, 0, sizeof p);
+    p.type = TLM_TYPE_HK;
+    p.time = tlm_time_from_us(t_us);
+    tlm_hk_t *h = &p.u.hk;
+    h->cycle = cycle;
+    h->mode = nav_tlm_mode(app.nav.mode);
+    h->cpu_load_permille = (uint16_t)(10.0f * mfns_cycle_stats_cpu_load_pct(&app.stats));
+    h->cycle_p50_us = mfns_cycle_stats_percentile(&app.stats, 50.0f);
+    h->cycle_p95_us = mfns_cycle_stats_percentile(&app.stats, 95.0f);
+    h->cycle_p99_us = mfns_cycle_stats_percentile(&app.stats, 99.0f);
+    h->cycle_max_us = app.stats.max_us;
+    h->n_cycles = cycle + 1;
+    h->n_fix = app.n_fix;
+    h->n_no_fix = app.n_no_fix;
+    h->n_tlm_dropped = app.tlm.q.dropped;
+    h->n_cam_errors = (uint32_t)(app.cam_errors > UINT32_MAX ? UINT32_MAX : app.cam_errors);
+    h->table_crc32 = table_crc;
+    (void)nav_tlm_send(&app.tlm, &p);
+    if (app.tlm.q.dropped != app.tlm.last_dropped_reported) {
+        send_event(cycle, t_us, TLM_EVT_TLM_DROPPED, TLM_SEV_WARNING, 0,
+                   (int32_t)(app.tlm.q.dropped - app.tlm.last_dropped_reported), 0);
+        app.tlm.last_dropped_reported = app.tlm.q.dropped;
+    }
+    mfns_cycle_stats_reset(&app.stats);
+}
+
+static void close_all(const nav_app_opts_t *o)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        mfns_cam_close(app.cam[k]);
+        app.cam[k] = NULL;
+    }
+    if (o->tlm_kind != NAV_TLM_NONE) {
+        for (int i = 0; i < FLUSH_TRIES && tlm_txq_frames(&app.tlm.q) > 0; i++) {
+            pump_tlm(o);
+            if (tlm_txq_frames(&app.tlm.q) > 0) {
+                (void)usleep(10000);
+            }
+        }
+        mfns_uart_close(&app.uart);
+    }
+}
+
+int nav_app_run(const nav_app_opts_t *o)
+{
+    memset(&app, 0, sizeof app);
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    if (sigaction(SIGINT, &sa, NULL) != 0 || sigaction(SIGTERM, &sa, NULL) != 0) {
+        fprintf(stderr, "mfns-nav: cannot install signal handlers: %s\n", strerror(errno));
+        return 2;
+    }
+    nav_tlm_init(&app.tlm);
+    mfns_cycle_stats_reset(&app.stats);
+    if (open_tlm(o) != 0) {
+        return 2;
+    }
+    const uint64_t t0 = now_us();
+    send_event(0, 0, TLM_EVT_BOOT, TLM_SEV_INFO, 0, NAV_APP_VERSION, 0);
+
+    uint32_t err_off = 0;
+    const mfns_caltable_status_t ts =
+        mfns_caltable_load_file(o->table_path, app.table_buf, sizeof app.table_buf, &app.table, &err_off);
+    if (ts != MFNS_CALTABLE_OK) {
+        fprintf(stderr, "mfns-nav: calibration table %s refused: %s (at byte %u)\n", o->table_path,
+                mfns_caltable_strerror(ts), err_off);
+        send_event(0, 0, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, 0, (int32_t)ts, 0);
+        close_all(o);
+        return 2;
+    }
+    send_event(0, 0, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, app.table.format_version, (int32_t)app.table.crc32);
+    if (mfns_nav_init(&app.nav, &app.table, o->solver) != MFNS_NAV_OK || open_cameras(o) != 0) {
+        close_all(o);
+        return 2;
+    }
+    pump_tlm(o);
+
+    const uint32_t max_cycles = o->max_cycles > 0 ? o->max_cycles : UINT32_MAX - 1;
+    uint64_t last_hk_us = 0, prev_start = now_us();
+    uint32_t cycle = 0;
+    const char *why = "data ended";
+    for (cycle = 0; cycle < max_cycles; cycle++) {
+        if (stop_requested) {
+            why = "signal";
+            break;
+        }
+        mfns_cam_frame_t fr[MFNS_NUM_CAMERAS];
+        bool have[MFNS_NUM_CAMERAS] = {false, false, false};
+        int ended = 0, off = 0;
+        uint64_t t_us = 0;
+        bool have_time = false; /* replay time 0 is a real time */
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            if (app.link[k] == CAM_OFF) {
+                off++;
+                continue;
+            }
+            const mfns_cam_err_t e = mfns_cam_dequeue(app.cam[k], &fr[k], o->frame_timeout_ms);
+            if (e == MFNS_CAM_OK) {
+                have[k] = true;
+                app.link[k] = CAM_UP;
+                if (!have_time) {
+                    t_us = fr[k].timestamp_ns / 1000u;
+                    have_time = true;
+                }
+            } else if (e == MFNS_CAM_E_END) {
+                ended++;
+            } else if (e == MFNS_CAM_E_LOST) {
+                app.link[k] = CAM_LOST;
+                app.cam_errors++;
+            } else if (e == MFNS_CAM_E_NO_DEVICE) {
+                app.link[k] = CAM_OFF;
+                app.cam_errors++;
+            } else {
+                app.cam_errors++; /* timeout or I/O: no frame this cycle */
+                if (o->verbose) {
+                    fprintf(stderr, "mfns-nav: cycle %u camera %d: %s: %s\n", cycle, k, mfns_cam_strerror(e),
+                            mfns_cam_message(app.cam[k]));
+                }
+            }
+        }
+        if (ended > 0 && ended + off == MFNS_NUM_CAMERAS) {
+            for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+                if (have[k]) {
+                    (void)mfns_cam_requeue(app.cam[k], &fr[k]);
+                }
+            }
+            break;
+        }
+        if (off == MFNS_NUM_CAMERAS) {
+            why = "every camera is gone";
+            break;
+        }
+        const uint64_t start = now_us();
+        if (!have_time) {
+            t_us = start - t0; /* no camera delivered: stamp with the program's clock */
+        }
+        mfns_frame_t nf[MFNS_NUM_CAMERAS];
+        const mfns_frame_t *frames[MFNS_NUM_CAMERAS] = {NULL, NULL, NULL};
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            if (have[k] && to_nav_frame(&fr[k], &nf[k])) {
+                frames[k] = &nf[k];
+            }
+        }
+        const mfns_nav_mode_t before = app.nav.mode;
+        const mfns_nav_status_t ns = mfns_nav_cycle(&app.nav, frames, &app.out);
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            if (have[k] && mfns_cam_requeue(app.cam[k], &fr[k]) != MFNS_CAM_OK) {
+                app.cam_errors++;
+            }
+        }
+        if (ns != MFNS_NAV_OK) {
+            fprintf(stderr, "mfns-nav: cycle %u: %s\n", cycle, mfns_nav_strerror(ns));
+            app.out.sol.status = MFNS_POSE_NO_FIX;
+        }
+        const bool fix = app.out.sol.status != MFNS_POSE_NO_FIX;
+        if (fix) {
+            app.n_fix++;
+        } else {
+            app.n_no_fix++;
+        }
+        tlm_packet_t p;
+        nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
+        (void)nav_tlm_send(&app.tlm, &p);
+        camera_packets(cycle, t_us, fr, have);
+        camera_events(cycle, t_us);
+        if (app.out.mode_changed) {
+            send_event(cycle, t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, (uint8_t)app.out.sol.reason,
+                       nav_tlm_mode(before), nav_tlm_mode(app.out.next_mode));
+        }
+        const uint64_t end = now_us();
+        mfns_cycle_stats_add(&app.stats, (uint32_t)(end - start), (uint32_t)(start - prev_start));
+        prev_start = start;
+        if (t_us - last_hk_us >= 1000000u || cycle == 0) {
+            housekeeping(cycle, t_us, app.table.crc32);
+            last_hk_us = t_us;
+        }
+        pump_tlm(o);
+        if (o->verbose) {
+            const mfns_pose_solution_t *s = &app.out.sol;
+            fprintf(stderr, "cycle %u %s %s (%s) used %u blobs %u/%u/%u pos %.2f %.2f %.2f mm att %.3f %.3f %.3f deg rms %.3f px\n", cycle,
+                    mfns_nav_mode_str(app.out.mode), mfns_pose_status_str(s->status), mfns_pose_strerror(s->reason),
+                    s->beacons_used, app.out.cam[0].observations, app.out.cam[1].observations, app.out.cam[2].observations,
+                    (double)s->r_wb_w.x, (double)s->r_wb_w.y, (double)s->r_wb_w.z, (double)s->euler_deg.roll,
+                    (double)s->euler_deg.pitch, (double)s->euler_deg.yaw, (double)s->residual_rms_px);
+        }
+    }
+    if (cycle >= max_cycles) {
+        why = "cycle limit";
+    }
+    housekeeping(cycle, now_us() - t0, app.table.crc32);
+    close_all(o);
+    fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n", why,
+            cycle, app.n_fix, app.n_no_fix, app.tlm.q.dropped);
+    return 0;
+}

@@ -1,0 +1,51 @@
+/* nav_app.h -- the flight program mfns-nav: cameras -> navigation cycle ->
+ * telemetry, on Linux. main.c is argument parsing around nav_app_run().
+ *
+ * Start-up (the only phase that may fail hard): load and validate the
+ * calibration table, open the three cameras and the telemetry link. A table
+ * that fails validation is refused with its error and the program stops after
+ * sending a TABLE_REFUSED event: navigating on a wrong table would produce
+ * poses marked valid that are not.
+ *
+ * The loop: one cycle per frame set. Each camera is dequeued with a timeout;
+ * a camera that times out, is lost or is being recovered contributes no frame
+ * that cycle (events report loss and recovery). Telemetry per cycle: the nav
+ * solution and one diagnostics packet per camera; housekeeping once per
+ * second of frame time; events as they happen. The transmit queue drops the
+ * oldest frames rather than ever blocking the loop.
+ *
+ * The loop ends at the end of replayed data, after max_cycles, on SIGINT or
+ * SIGTERM, or when every camera is gone for good.
+ */
+#ifndef MFNS_NAV_APP_H
+#define MFNS_NAV_APP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "drivers/camera/camera.h"
+#include "pose.h"
+
+typedef enum { NAV_TLM_NONE = 0, NAV_TLM_SERIAL, NAV_TLM_PATH, NAV_TLM_FILE } nav_tlm_kind_t;
+
+typedef struct {
+    const char *table_path;
+    mfns_cam_backend_t backend;
+    const char *cam_path[3];   /* V4L2 devices / libcamera ids; replay: all the same folder */
+    bool realtime;             /* replay paced to the recorded timestamps */
+    int frame_timeout_ms;
+    nav_tlm_kind_t tlm_kind;
+    const char *tlm_target;    /* serial port, tty/FIFO path, or output file */
+    uint32_t baud;
+    uint32_t max_cycles;       /* 0 = until the data ends or a signal */
+    mfns_pose_mode_t solver;
+    bool verbose;              /* one line per cycle on stderr */
+} nav_app_opts_t;
+
+/* 0 ok, 1 when --help/--version was printed (exit 0), -1 usage error (message on err). */
+int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err);
+/* Runs the program; returns the process exit code (0 ok, 2 start-up failure). */
+int nav_app_run(const nav_app_opts_t *o);
+
+#endif /* MFNS_NAV_APP_H */
