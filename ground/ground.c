@@ -150,7 +150,7 @@ static void print_status(const tlm_decoder_stats_t *s, const tlm_nav_t *nav, int
     ground_fmt_fixed(x, sizeof x, have_nav ? nav->pos_um[0] : 0, 3);
     ground_fmt_fixed(y, sizeof y, have_nav ? nav->pos_um[1] : 0, 3);
     ground_fmt_fixed(z, sizeof z, have_nav ? nav->pos_um[2] : 0, 3);
-    ground_fmt_fixed(yaw, sizeof yaw, have_nav ? nav->att_udeg[2] : 0, 3);
+    ground_fmt_fixed(yaw, sizeof yaw, have_nav ? nav->att_udeg[2] : 0, 6);
     fprintf(stderr, "\r%7.1f s %s frames %lu crc %lu trunc %lu over %lu gaps %lu resync %lu | %s x %s y %s z %s yaw %s\033[K",
             secs, link_down ? "LINK DOWN" : "link ok", (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
             (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->seq_gaps,

@@ -99,7 +99,13 @@ static int set_nonblock(int fd)
 
 static int fd_connect(mfns_uart_t *u)
 {
-    const int acc = u->dir == MFNS_UART_READ ? O_RDONLY : (u->dir == MFNS_UART_WRITE ? O_WRONLY : O_RDWR);
+    int acc = u->dir == MFNS_UART_READ ? O_RDONLY : (u->dir == MFNS_UART_WRITE ? O_WRONLY : O_RDWR);
+    struct stat pre;
+    if (u->dir == MFNS_UART_READ && stat(u->path, &pre) == 0 && S_ISFIFO(pre.st_mode)) {
+        /* A FIFO reader that also holds it open for writing never sees EOF
+         * between writers, and writers can always open it (Linux). */
+        acc = O_RDWR;
+    }
     const int fd = open(u->path, acc | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
     if (fd < 0) {
         u->last_errno = errno;

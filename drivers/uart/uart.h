@@ -78,7 +78,8 @@ typedef struct {
 /* libserialport port at baud, 8N1, no flow control, non-blocking writes. */
 int mfns_uart_open_serial(mfns_uart_t *u, const char *port, uint32_t baud, mfns_uart_dir_t dir);
 /* A path: a tty (raw mode, baud applied with cfsetspeed; a pty ignores it),
- * a FIFO or a regular file. O_NONBLOCK, O_NOCTTY. */
+ * a FIFO or a regular file. O_NONBLOCK, O_NOCTTY. A FIFO opened for reading
+ * is opened read-write so it survives writers coming and going. */
 int mfns_uart_open_path(mfns_uart_t *u, const char *path, uint32_t baud, mfns_uart_dir_t dir);
 /* An open descriptor (not closed by mfns_uart_close unless owns). Set to
  * non-blocking; raw mode if it is a tty. Never re-opened. */
