@@ -199,6 +199,14 @@ int mfns_uart_open_path(mfns_uart_t *u, const char *path, uint32_t baud, mfns_ua
     return open_by_path(u, MFNS_UART_FD, path, baud, dir);
 }
 
+int mfns_uart_open_auto(mfns_uart_t *u, const char *path, uint32_t baud, mfns_uart_dir_t dir)
+{
+    if (path != NULL && baud != 0u && mfns_uart_serial_exists(path)) {
+        return mfns_uart_open_serial(u, path, baud, dir);
+    }
+    return mfns_uart_open_path(u, path, baud, dir);
+}
+
 int mfns_uart_attach_fd(mfns_uart_t *u, int fd, bool owns, mfns_uart_dir_t dir)
 {
     if (u == NULL || fd < 0 || dir < MFNS_UART_READ || dir > MFNS_UART_RW) {
