@@ -290,7 +290,7 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
         x0 = prob.x0() if x is None else x
         res = least_squares(prob.residuals, x0, jac_sparsity=prob.sparsity(), method="trf", x_scale="jac",
                             xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev,
-                            tr_solver="lsmr", tr_options={"atol": 1e-14, "btol": 1e-14, "maxiter": 2000})
+                            tr_solver="lsmr", tr_options={"atol": 1e-10, "btol": 1e-10, "maxiter": 2000})
         x = res.x
         r = res.fun[: prob.n_corner_res] * sigma_px
         dof = max(prob.n_corner_res - prob.n, 1)
