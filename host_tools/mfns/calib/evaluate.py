@@ -77,14 +77,15 @@ def _reangle(truth: Rig, shots: list[Shot], rng, angle_sigma_arcsec: float) -> l
 
 
 def run_seeds(n_seeds: int, sigma_px: float = 0.1, n_turntable: int = 12, n_prepared: int = 10,
-              plan_seed: int = 1, angle_sigma_arcsec: float = 8.0, progress: bool = False) -> SeedStats:
+              plan_seed: int = 1, angle_sigma_arcsec: float = 8.0, progress: bool = False,
+              seed_base: int = 1000) -> SeedStats:
     truth, board = default_truth(), Board()
     shots = make_plan(truth, board, np.random.default_rng(plan_seed), n_turntable, n_prepared, angle_sigma_arcsec)
     names, q_true = quantities(truth, truth)
     paper, refined, sigma = [], [], []
     obs = None
     for seed in tqdm(range(n_seeds), desc="seeds", disable=not progress):
-        rng = np.random.default_rng(1000 + seed)
+        rng = np.random.default_rng(seed_base + seed)
         seed_shots = _reangle(truth, shots, rng, angle_sigma_arcsec)
         obs = corner_observations(truth, board, seed_shots, rng, sigma_px, angle_sigma_arcsec=angle_sigma_arcsec)
         cal = calibrate(obs)

@@ -9,38 +9,47 @@ from ..calib_results import load
 from ..errors import MfnsError
 
 
-def run(args) -> int:
+def calibrate_dataset(dataset, truth_path=None, a10_iterations: int = 10, progress: bool = False):
+    """Corner detection, Zhang, CPC, refinement and (with a truth file) the comparison.
+
+    Returns (observations, rejected image names, Calibration, Comparison or None, seconds spent
+    on detection, seconds spent on calibration).
+    """
     from ..calib.dataset import load_dataset
     from ..calib.pipeline import calibrate
-    from ..calib.report import (
-        accuracy_table,
-        compare,
-        extrinsics_table,
-        intrinsics_table,
-        write_outputs,
-        write_plots,
-    )
+    from ..calib.report import compare
     from ..simulate.calib import truth_from_document
 
+    truth_doc = load(truth_path) if truth_path else None
     t0 = time.monotonic()
-    truth_doc = load(args.truth) if args.truth else None
-    obs, rejected = load_dataset(args.dataset, progress=not args.quiet)
-    for name in rejected:
-        print(f"warning: board not found in {name}; image skipped")
+    obs, rejected = load_dataset(dataset, progress=progress)
     t1 = time.monotonic()
-    cal = calibrate(obs, a10_iterations=1 if args.a10_single_pass else 10)
-    t2 = time.monotonic()
-    text = [intrinsics_table(cal), "", extrinsics_table(cal)]
+    cal = calibrate(obs, a10_iterations=a10_iterations)
     cmp = None
     if truth_doc is not None:
         cmp = compare(cal, truth_from_document(truth_doc), obs, truth_doc)
+    return obs, rejected, cal, cmp, t1 - t0, time.monotonic() - t1
+
+
+def run(args) -> int:
+    from ..calib.report import accuracy_table, extrinsics_table, intrinsics_table, write_outputs, write_plots
+
+    t0 = time.monotonic()
+    _obs, rejected, cal, cmp, t_detect, t_cal = calibrate_dataset(
+        args.dataset, args.truth, 1 if args.a10_single_pass else 10, progress=not args.quiet
+    )
+    for name in rejected:
+        print(f"warning: board not found in {name}; image skipped")
+    text = [intrinsics_table(cal), "", extrinsics_table(cal)]
+    if cmp is not None:
         text += ["", accuracy_table(cmp)]
     out = Path(args.output)
     written = write_outputs(cal, out, f"mfns calib {args.dataset}")
     if args.plots:
         written += write_plots(cal, cmp, Path(args.plots))
     text.append("")
-    text.append(f"corner detection {t1 - t0:.1f} s, calibration {t2 - t1:.1f} s, total {time.monotonic() - t0:.1f} s")
+    text.append(f"corner detection {t_detect:.1f} s, calibration {t_cal:.1f} s, "
+                f"total {time.monotonic() - t0:.1f} s")
     text.append("wrote " + ", ".join(str(p) for p in written))
     report = "\n".join(text)
     if args.report:
