@@ -34,8 +34,10 @@ def seeds():
 
 
 def _groups(cmp):
-    return {g: [i for i, n in enumerate(cmp.names) if cmp.group(n) == g]
-            for g in ("intrinsics", "attitudes", "positions")}
+    return {
+        g: [i for i, n in enumerate(cmp.names) if cmp.group(n) == g]
+        for g in ("intrinsics", "attitudes", "positions")
+    }
 
 
 def test_rendered_dataset_refined_errors_at_the_cramer_rao_bound(default_run):
@@ -88,8 +90,11 @@ def test_multi_seed_reported_sigma_matches_spread(seeds):
     # must still be within a factor 0.6-1.6
     names = seeds.names
     groups = {
-        "intrinsics": [i for i, n in enumerate(names) if n.split(".")[1] in
-                       ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")],
+        "intrinsics": [
+            i
+            for i, n in enumerate(names)
+            if n.split(".")[1] in ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
+        ],
         "attitudes": [i for i, n in enumerate(names) if ".rot" in n],
         "positions": [i for i, n in enumerate(names) if n.startswith(("r_", "x.r_", "y.r_", "z.r_"))],
     }
@@ -97,5 +102,6 @@ def test_multi_seed_reported_sigma_matches_spread(seeds):
     for g, sel in groups.items():
         pooled = np.sqrt(np.mean(seeds.mean_sigma[sel] ** 2 / seeds.spread[sel] ** 2))
         assert 0.7 <= pooled <= 1.3, (g, pooled)
-    assert np.all((ratio > 0.6) & (ratio < 1.6)), [(n, r) for n, r in zip(names, ratio, strict=True)
-                                                   if not 0.6 < r < 1.6]
+    assert np.all((ratio > 0.6) & (ratio < 1.6)), [
+        (n, r) for n, r in zip(names, ratio, strict=True) if not 0.6 < r < 1.6
+    ]

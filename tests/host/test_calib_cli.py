@@ -50,8 +50,21 @@ def test_sim_calib_plan_is_deterministic(small_dataset):
 
 def test_calib_cli_writes_results_yaml_and_report(small_dataset, tmp_path, capsys):
     out = tmp_path / "res.json"
-    rc = main(["calib", str(small_dataset), "--truth", str(small_dataset / "truth.json"), "-o", str(out),
-               "--plots", str(tmp_path / "plots"), "--report", str(tmp_path / "report.txt"), "--quiet"])
+    rc = main(
+        [
+            "calib",
+            str(small_dataset),
+            "--truth",
+            str(small_dataset / "truth.json"),
+            "-o",
+            str(out),
+            "--plots",
+            str(tmp_path / "plots"),
+            "--report",
+            str(tmp_path / "report.txt"),
+            "--quiet",
+        ]
+    )
     assert rc == 0
     doc = load(out)  # validates the calibration-results format
     assert "rig" in doc and len(doc["cameras"]) == 3

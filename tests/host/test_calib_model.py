@@ -74,14 +74,31 @@ def _exact_zhang(truth, obs, shots):
         cam = truth.cams[k]
         mine = [s for s in shots if s.camera == k]
         assert [s.name for s in mine] == [im.name for im in obs.of_camera(k)]
-        out.append(ZhangResult(k, cam.K, cam.dist, np.zeros(9), 0.0, [s.name for s in mine],
-                               [s.C_k_w.T for s in mine], [-s.C_k_w.T @ s.r_wk_w for s in mine]))
+        out.append(
+            ZhangResult(
+                k,
+                cam.K,
+                cam.dist,
+                np.zeros(9),
+                0.0,
+                [s.name for s in mine],
+                [s.C_k_w.T for s in mine],
+                [-s.C_k_w.T @ s.r_wk_w for s in mine],
+            )
+        )
     return out
 
 
 def test_cpc_recovers_truth_exactly_on_exact_poses(truth, exact_plan):
-    obs = corner_observations(truth, BOARD, exact_plan, np.random.default_rng(0), 0.0,
-                              caliper_height_mm=-truth.r_wb_w[2], angle_sigma_arcsec=0.0)
+    obs = corner_observations(
+        truth,
+        BOARD,
+        exact_plan,
+        np.random.default_rng(0),
+        0.0,
+        caliper_height_mm=-truth.r_wb_w[2],
+        angle_sigma_arcsec=0.0,
+    )
     res = run_cpc(obs, _exact_zhang(truth, obs, exact_plan))
     assert np.max(np.abs(res.C_t_w - truth.C_t_w)) < 1e-10
     for k in range(3):
@@ -94,8 +111,15 @@ def test_cpc_recovers_truth_exactly_on_exact_poses(truth, exact_plan):
 
 def test_a10_single_pass_is_the_papers_first_order_solution(truth, exact_plan):
     """One pass of Eq. A10 has a second-order error (~0.01 deg here); iterating removes it."""
-    obs = corner_observations(truth, BOARD, exact_plan, np.random.default_rng(0), 0.0,
-                              caliper_height_mm=-truth.r_wb_w[2], angle_sigma_arcsec=0.0)
+    obs = corner_observations(
+        truth,
+        BOARD,
+        exact_plan,
+        np.random.default_rng(0),
+        0.0,
+        caliper_height_mm=-truth.r_wb_w[2],
+        angle_sigma_arcsec=0.0,
+    )
     zh = _exact_zhang(truth, obs, exact_plan)[2]
     poses = []
     for i, im in enumerate(obs.of_camera(2)):
@@ -111,14 +135,22 @@ def test_a10_single_pass_is_the_papers_first_order_solution(truth, exact_plan):
 
 def test_pipeline_on_noise_free_corners_recovers_truth(truth, exact_plan):
     """Zhang + CPC + refinement from noise-free corners: both solutions are the truth."""
-    obs = corner_observations(truth, BOARD, exact_plan, np.random.default_rng(0), 0.0,
-                              caliper_height_mm=-truth.r_wb_w[2], angle_sigma_arcsec=0.0)
+    obs = corner_observations(
+        truth,
+        BOARD,
+        exact_plan,
+        np.random.default_rng(0),
+        0.0,
+        caliper_height_mm=-truth.r_wb_w[2],
+        angle_sigma_arcsec=0.0,
+    )
     obs.angle_sigma_rad = 1e-9  # exact angles: keep the prior from dominating the tiny residuals
     cal = calibrate(obs)
     names, q_true = quantities(truth, truth)
     _, q_pap = paper_quantities(cal, truth)
     _, q_ref = quantities(cal.refined.rig, truth)
     tol = np.array([1e-3 if n.split(".")[1] in ("fx", "fy", "cx", "cy") else 1e-4 for n in names])
-    assert np.all(np.abs(q_pap - q_true) < 10 * tol), [n for n, a, b in zip(names, q_pap, q_true, strict=True)
-                                                         if abs(a - b) >= 1e-2]
+    assert np.all(np.abs(q_pap - q_true) < 10 * tol), [
+        n for n, a, b in zip(names, q_pap, q_true, strict=True) if abs(a - b) >= 1e-2
+    ]
     assert np.all(np.abs(q_ref - q_true) < tol)

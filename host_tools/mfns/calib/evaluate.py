@@ -50,15 +50,18 @@ class SeedStats:
         return np.mean(self.sigma, axis=0)
 
     def table(self) -> str:
-        lines = [f"{len(self.paper)} seeds; per quantity: RMS error (paper, refined), CRB, mean reported "
-                 "1-sigma, spread of the refined estimates",
-                 f"  {'quantity':14s} {'paper RMS':>10s} {'refined RMS':>11s} {'CRB':>9s} {'ref/CRB':>7s}"
-                 f" {'ref/paper':>9s} {'1-sigma':>9s} {'spread':>9s} {'sig/spread':>10s}"]
+        lines = [
+            f"{len(self.paper)} seeds; per quantity: RMS error (paper, refined), CRB, mean reported "
+            "1-sigma, spread of the refined estimates",
+            f"  {'quantity':14s} {'paper RMS':>10s} {'refined RMS':>11s} {'CRB':>9s} {'ref/CRB':>7s}"
+            f" {'ref/paper':>9s} {'1-sigma':>9s} {'spread':>9s} {'sig/spread':>10s}",
+        ]
         for i, n in enumerate(self.names):
             lines.append(
                 f"  {n:14s} {self.rms_paper[i]:10.5f} {self.rms_refined[i]:11.5f} {self.crb[i]:9.5f}"
                 f" {self.rms_refined[i] / self.crb[i]:7.2f} {self.rms_refined[i] / self.rms_paper[i]:9.2f}"
-                f" {self.mean_sigma[i]:9.5f} {self.spread[i]:9.5f} {self.mean_sigma[i] / self.spread[i]:10.2f}"
+                f" {self.mean_sigma[i]:9.5f} {self.spread[i]:9.5f}"
+                f" {self.mean_sigma[i] / self.spread[i]:10.2f}"
             )
         return "\n".join(lines)
 
@@ -76,18 +79,29 @@ def _reangle(truth: Rig, shots: list[Shot], rng, angle_sigma_arcsec: float) -> l
     return out
 
 
-def run_seeds(n_seeds: int, sigma_px: float = 0.1, n_turntable: int = 12, n_prepared: int = 10,
-              plan_seed: int = 1, angle_sigma_arcsec: float = 8.0, progress: bool = False,
-              seed_base: int = 1000) -> SeedStats:
+def run_seeds(
+    n_seeds: int,
+    sigma_px: float = 0.1,
+    n_turntable: int = 12,
+    n_prepared: int = 10,
+    plan_seed: int = 1,
+    angle_sigma_arcsec: float = 8.0,
+    progress: bool = False,
+    seed_base: int = 1000,
+) -> SeedStats:
     truth, board = default_truth(), Board()
-    shots = make_plan(truth, board, np.random.default_rng(plan_seed), n_turntable, n_prepared, angle_sigma_arcsec)
+    shots = make_plan(
+        truth, board, np.random.default_rng(plan_seed), n_turntable, n_prepared, angle_sigma_arcsec
+    )
     names, q_true = quantities(truth, truth)
     paper, refined, sigma = [], [], []
     obs = None
     for seed in tqdm(range(n_seeds), desc="seeds", disable=not progress):
         rng = np.random.default_rng(seed_base + seed)
         seed_shots = _reangle(truth, shots, rng, angle_sigma_arcsec)
-        obs = corner_observations(truth, board, seed_shots, rng, sigma_px, angle_sigma_arcsec=angle_sigma_arcsec)
+        obs = corner_observations(
+            truth, board, seed_shots, rng, sigma_px, angle_sigma_arcsec=angle_sigma_arcsec
+        )
         cal = calibrate(obs)
         paper.append(paper_quantities(cal, truth)[1])
         refined.append(quantities(cal.refined.rig, truth)[1])

@@ -43,9 +43,9 @@ class Board:
     def object_points(self) -> np.ndarray:
         """(N, 3) corner k = r * cols + c at (c * square, r * square, 0)."""
         c, r = np.meshgrid(np.arange(self.cols), np.arange(self.rows))
-        return np.column_stack(
-            [c.ravel() * self.square, r.ravel() * self.square, np.zeros(self.n)]
-        ).astype(float)
+        return np.column_stack([c.ravel() * self.square, r.ravel() * self.square, np.zeros(self.n)]).astype(
+            float
+        )
 
     def outline(self) -> np.ndarray:
         """Corners of the printed board (incl. margin), (4, 3) mm."""

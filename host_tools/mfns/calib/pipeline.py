@@ -25,8 +25,21 @@ def paper_rig(obs: Observations, zhang: list[ZhangResult], cpc: CpcResult) -> Ri
     cams = []
     for k, z in enumerate(zhang):
         fx, fy, cx, cy, *dist = z.intrinsics
-        cams.append(Camera("xyz"[k], fx, fy, cx, cy, 0.0, np.array(dist), obs.image_size[0], obs.image_size[1],
-                           cpc.C_k_b[k], cpc.r_bk_b[k]))
+        cams.append(
+            Camera(
+                "xyz"[k],
+                fx,
+                fy,
+                cx,
+                cy,
+                0.0,
+                np.array(dist),
+                obs.image_size[0],
+                obs.image_size[1],
+                cpc.C_k_b[k],
+                cpc.r_bk_b[k],
+            )
+        )
     return Rig(cams, cpc.C_t_w, cpc.r_wt_w, cpc.r_tb_b)
 
 

@@ -117,9 +117,20 @@ class Problem:
         cams = []
         for k in range(3):
             fx, fy, cx, cy, *dist = x[N_CAM * k : N_CAM * k + 9]
-            cams.append(Camera(name="xyz"[k], fx=fx, fy=fy, cx=cx, cy=cy, dist=np.array(dist),
-                               width=self.obs.image_size[0], height=self.obs.image_size[1],
-                               C_k_b=self.C_k_b(x, k), r_bk_b=x[N_CAM * k + 12 : N_CAM * k + 15].copy()))
+            cams.append(
+                Camera(
+                    name="xyz"[k],
+                    fx=fx,
+                    fy=fy,
+                    cx=cx,
+                    cy=cy,
+                    dist=np.array(dist),
+                    width=self.obs.image_size[0],
+                    height=self.obs.image_size[1],
+                    C_k_b=self.C_k_b(x, k),
+                    r_bk_b=x[N_CAM * k + 12 : N_CAM * k + 15].copy(),
+                )
+            )
         return Rig(cams, self.C_t_w(x), x[RIG0 + 3 : RIG0 + 6].copy(), np.array([0.0, 0.0, x[RIG0 + 6]]))
 
     # --- residuals ---------------------------------------------------------------------------
@@ -130,7 +141,9 @@ class Problem:
         out = []
         if self.n_tt:
             d_ang = x[self.ang0 : self.prep0].reshape(-1, 2)
-            a = c_t_w @ (_rot_stack(0, self.tt_small + d_ang[:, 1]) @ _rot_stack(2, self.tt_big + d_ang[:, 0]))
+            a = c_t_w @ (
+                _rot_stack(0, self.tt_small + d_ang[:, 1]) @ _rot_stack(2, self.tt_big + d_ang[:, 0])
+            )
             c_kb = np.array([self.C_k_b(x, k) for k in range(3)])[self.tt_cam]
             r_bk = np.array([x[N_CAM * k + 12 : N_CAM * k + 15] for k in range(3)])[self.tt_cam]
             c_kw = a @ c_kb
@@ -182,7 +195,11 @@ class Problem:
         groups: list[list[int]] = []
         color = -np.ones(self.n, dtype=int)
         for j in range(self.n):
-            used = {color[i] for i in conflict.indices[conflict.indptr[j] : conflict.indptr[j + 1]] if color[i] >= 0}
+            used = {
+                color[i]
+                for i in conflict.indices[conflict.indptr[j] : conflict.indptr[j + 1]]
+                if color[i] >= 0
+            }
             c = next(g for g in range(self.n + 1) if g not in used)
             color[j] = c
             if c == len(groups):
@@ -288,9 +305,19 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
     for _ in range(2):
         prob = Problem(obs, start, sigma_px)
         x0 = prob.x0() if x is None else x
-        res = least_squares(prob.residuals, x0, jac_sparsity=prob.sparsity(), method="trf", x_scale="jac",
-                            xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev,
-                            tr_solver="lsmr", tr_options={"atol": 1e-10, "btol": 1e-10, "maxiter": 2000})
+        res = least_squares(
+            prob.residuals,
+            x0,
+            jac_sparsity=prob.sparsity(),
+            method="trf",
+            x_scale="jac",
+            xtol=1e-10,
+            ftol=1e-10,
+            gtol=1e-10,
+            max_nfev=max_nfev,
+            tr_solver="lsmr",
+            tr_options={"atol": 1e-10, "btol": 1e-10, "maxiter": 2000},
+        )
         x = res.x
         r = res.fun[: prob.n_corner_res] * sigma_px
         dof = max(prob.n_corner_res - prob.n, 1)

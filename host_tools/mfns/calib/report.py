@@ -18,7 +18,6 @@ from .zhang import INTRINSIC_NAMES
 
 def _euler_sigma(c: np.ndarray, cov_d: np.ndarray) -> np.ndarray:
     """1-sigma of the 2-1-3 Euler angles (deg) of exp([d x]) c, d ~ N(0, cov_d) in radians."""
-    e0 = matrix_to_euler213_deg(c)
     jac = np.zeros((3, 3))
     for i in range(3):
         d = np.zeros(3)
@@ -26,7 +25,6 @@ def _euler_sigma(c: np.ndarray, cov_d: np.ndarray) -> np.ndarray:
         de = matrix_to_euler213_deg(rot_exp(d) @ c) - matrix_to_euler213_deg(rot_exp(-d) @ c)
         de = (de + 180.0) % 360.0 - 180.0
         jac[:, i] = de / 2e-7
-    del e0
     return np.sqrt(np.diag(jac @ cov_d @ jac.T))
 
 
@@ -46,10 +44,14 @@ def intrinsics_table(cal: Calibration) -> str:
     for k, z in enumerate(cal.zhang):
         cam = cal.refined.rig.cams[k]
         ref = [cam.fx, cam.fy, cam.cx, cam.cy, *cam.dist]
-        lines.append(f"  camera {CAMERA_NAMES[k]}: Zhang reprojection RMS {z.rms_px:.4f} px over {len(z.names)} images")
+        lines.append(
+            f"  camera {CAMERA_NAMES[k]}: Zhang reprojection RMS {z.rms_px:.4f} px over {len(z.names)} images"
+        )
         for i, n in enumerate(INTRINSIC_NAMES):
             s = sig[f"{CAMERA_NAMES[k]}.{n}"]
-            lines.append(f"    {n:3s} {z.intrinsics[i]:13.6f} +- {z.sigma[i]:9.6f} | {ref[i]:13.6f} +- {s:9.6f}")
+            lines.append(
+                f"    {n:3s} {z.intrinsics[i]:13.6f} +- {z.sigma[i]:9.6f} | {ref[i]:13.6f} +- {s:9.6f}"
+            )
     return "\n".join(lines)
 
 
@@ -68,8 +70,10 @@ def extrinsics_table(cal: Calibration) -> str:
     lines.append(f"  C_t_w  (a,b,g)  {fmt3(e(p.C_t_w))} | {fmt3(e(r.C_t_w))}  ({fmt3(es['C_t_w'])})")
     for k in range(3):
         n = CAMERA_NAMES[k]
-        lines.append(f"  C_{n}_b  (phi,theta,psi) {fmt3(e(p.cams[k].C_k_b))} | {fmt3(e(r.cams[k].C_k_b))}"
-                     f"  ({fmt3(es[n])})")
+        lines.append(
+            f"  C_{n}_b  (phi,theta,psi) {fmt3(e(p.cams[k].C_k_b))} | {fmt3(e(r.cams[k].C_k_b))}"
+            f"  ({fmt3(es[n])})"
+        )
     rs = [sig[f"r_wb_w.{a}"] for a in "xyz"]
     lines.append(f"  r_wb_w {fmt3(cal.cpc.r_wb_w)} | {fmt3(r.r_wb_w)}  ({fmt3(rs)})")
     rs = [sig[f"r_wt_w.{a}"] for a in "xyz"]
@@ -79,8 +83,10 @@ def extrinsics_table(cal: Calibration) -> str:
         n = CAMERA_NAMES[k]
         rs = [sig[f"{n}.r_b{n}{a}"] for a in "xyz"]
         lines.append(f"  r_b{n}_b {fmt3(p.cams[k].r_bk_b)} | {fmt3(r.cams[k].r_bk_b)}  ({fmt3(rs)})")
-    lines.append(f"  corner noise estimated {cal.refined.sigma_px:.4f} px, refined RMS {cal.refined.rms_px:.4f} px; "
-                 f"A10 Gauss-Newton passes {cal.cpc.a10_iterations}")
+    lines.append(
+        f"  corner noise estimated {cal.refined.sigma_px:.4f} px, refined RMS {cal.refined.rms_px:.4f} px; "
+        f"A10 Gauss-Newton passes {cal.cpc.a10_iterations}"
+    )
     return "\n".join(lines)
 
 
@@ -131,22 +137,28 @@ def compare(cal: Calibration, truth: Rig, obs: Observations, truth_doc: dict | N
 
 
 def accuracy_table(cmp: Comparison) -> str:
-    head = (f"  {'quantity':14s} {'truth':>12s} {'paper err':>11s} {'refined err':>11s} {'1-sigma':>9s}"
-            f" {'CRB':>9s} {'ref/CRB':>8s} {'ref/paper':>9s}")
+    head = (
+        f"  {'quantity':14s} {'truth':>12s} {'paper err':>11s} {'refined err':>11s} {'1-sigma':>9s}"
+        f" {'CRB':>9s} {'ref/CRB':>8s} {'ref/paper':>9s}"
+    )
     lines = ["Accuracy vs truth (attitudes: rotation-vector error, deg, body/world axes; mm; px)", head]
     for i, n in enumerate(cmp.names):
         crb = cmp.crb[i] if cmp.crb is not None else float("nan")
         rc = abs(cmp.refined_err[i]) / crb if cmp.crb is not None else float("nan")
         rp = abs(cmp.refined_err[i]) / max(abs(cmp.paper_err[i]), 1e-15)
-        lines.append(f"  {n:14s} {cmp.truth[i]:12.5f} {cmp.paper_err[i]:+11.5f} {cmp.refined_err[i]:+11.5f}"
-                     f" {cmp.refined_sigma[i]:9.5f} {crb:9.5f} {rc:8.2f} {rp:9.2f}")
+        lines.append(
+            f"  {n:14s} {cmp.truth[i]:12.5f} {cmp.paper_err[i]:+11.5f} {cmp.refined_err[i]:+11.5f}"
+            f" {cmp.refined_sigma[i]:9.5f} {crb:9.5f} {rc:8.2f} {rp:9.2f}"
+        )
     if cmp.crb is not None:
         lines.append("  RMS of (refined error / CRB) per group:")
         for g in ("intrinsics", "attitudes", "positions"):
             sel = [i for i, n in enumerate(cmp.names) if cmp.group(n) == g]
             z = cmp.refined_err[sel] / cmp.crb[sel]
             zp = cmp.paper_err[sel] / cmp.crb[sel]
-            lines.append(f"    {g:10s} refined {np.sqrt(np.mean(z**2)):6.2f}   paper {np.sqrt(np.mean(zp**2)):8.2f}")
+            lines.append(
+                f"    {g:10s} refined {np.sqrt(np.mean(z**2)):6.2f}   paper {np.sqrt(np.mean(zp**2)):8.2f}"
+            )
     return "\n".join(lines)
 
 
@@ -161,8 +173,21 @@ def results_document(cal: Calibration, source: str) -> dict:
         s["dist"] = [float(sig[f"{n}.{d}"]) for d in ("k1", "k2", "p1", "p2", "k3")]
         s["euler_213_deg"] = [float(v) for v in es[n]]
         s["r_bk_b"] = [float(sig[f"{n}.r_b{n}{a}"]) for a in "xyz"]
-        cams.append(camera_entry(n, (cam.width, cam.height), cam.fx, cam.fy, cam.cx, cam.cy, 0.0, cam.dist,
-                                 cam.C_k_b, cam.r_bk_b, s))
+        cams.append(
+            camera_entry(
+                n,
+                (cam.width, cam.height),
+                cam.fx,
+                cam.fy,
+                cam.cx,
+                cam.cy,
+                0.0,
+                cam.dist,
+                cam.C_k_b,
+                cam.r_bk_b,
+                s,
+            )
+        )
     return {
         "format": FORMAT,
         "version": VERSION,
@@ -186,8 +211,21 @@ def paper_document(cal: Calibration, source: str) -> dict:
         z = cal.zhang[k]
         s = {key: float(z.sigma[i]) for i, key in enumerate(("fx", "fy", "cx", "cy"))}
         s["dist"] = [float(v) for v in z.sigma[4:9]]
-        cams.append(camera_entry(CAMERA_NAMES[k], (cam.width, cam.height), cam.fx, cam.fy, cam.cx, cam.cy, 0.0,
-                                 cam.dist, cam.C_k_b, cam.r_bk_b, s))
+        cams.append(
+            camera_entry(
+                CAMERA_NAMES[k],
+                (cam.width, cam.height),
+                cam.fx,
+                cam.fy,
+                cam.cx,
+                cam.cy,
+                0.0,
+                cam.dist,
+                cam.C_k_b,
+                cam.r_bk_b,
+                s,
+            )
+        )
     rms = float(np.sqrt(np.mean([z.rms_px**2 for z in cal.zhang])))
     return {
         "format": FORMAT,

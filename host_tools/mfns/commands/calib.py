@@ -48,8 +48,9 @@ def run(args) -> int:
     if args.plots:
         written += write_plots(cal, cmp, Path(args.plots))
     text.append("")
-    text.append(f"corner detection {t_detect:.1f} s, calibration {t_cal:.1f} s, "
-                f"total {time.monotonic() - t0:.1f} s")
+    text.append(
+        f"corner detection {t_detect:.1f} s, calibration {t_cal:.1f} s, total {time.monotonic() - t0:.1f} s"
+    )
     text.append("wrote " + ", ".join(str(p) for p in written))
     report = "\n".join(text)
     if args.report:
@@ -70,11 +71,16 @@ def register(subparsers) -> None:
     )
     p.add_argument("dataset", metavar="DATASET", help="dataset folder (docs/calib-dataset.md)")
     p.add_argument("--truth", help="truth.json of a simulated dataset: adds errors and the Cramér-Rao bound")
-    p.add_argument("-o", "--output", default="calib_results.json", help="results JSON (default calib_results.json)")
+    p.add_argument(
+        "-o", "--output", default="calib_results.json", help="results JSON (default calib_results.json)"
+    )
     p.add_argument("--plots", metavar="DIR", help="write PNG plots into DIR")
     p.add_argument("--report", metavar="FILE", help="also write the text report to FILE")
-    p.add_argument("--a10-single-pass", action="store_true",
-                   help="solve Eq. A10 once, exactly as printed (default: iterate it to convergence)")
+    p.add_argument(
+        "--a10-single-pass",
+        action="store_true",
+        help="solve Eq. A10 once, exactly as printed (default: iterate it to convergence)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bars or report on stdout")
     p.set_defaults(func=_checked)
 

@@ -130,8 +130,11 @@ def choose_turntable_angles(truth: Rig, board: Board, k: int, n: int, rng, step_
     pure_big = feas[np.abs(feas[:, 1]) < 1e-9]
     fine = np.arange(-90.0, 90.0 + 1e-9, 0.5)  # camera Z tolerates only a few degrees of tilt
     pure_small = np.array(
-        [(0.0, b) for b in fine if b != 0.0
-         and view_ok(truth.cams[k], *truth.camera_pose(k, 0.0, np.deg2rad(b)), board)]
+        [
+            (0.0, b)
+            for b in fine
+            if b != 0.0 and view_ok(truth.cams[k], *truth.camera_pose(k, 0.0, np.deg2rad(b)), board)
+        ]
     ).reshape(-1, 2)
     mixed = feas[(np.abs(feas[:, 0]) > 1e-9) & (np.abs(feas[:, 1]) > 1e-9)]
     n_big = max(4, (n * 5) // 12)
@@ -173,8 +176,14 @@ def prepared_pose(cam: Camera, board: Board, rng, tries: int = 2000):
     raise MfnsError(f"camera {cam.name}: no prepared pose found")
 
 
-def make_plan(truth: Rig, board: Board, rng, n_turntable: int = 12, n_prepared: int = 10,
-              angle_sigma_arcsec: float = ANGLE_SIGMA_ARCSEC) -> list[Shot]:
+def make_plan(
+    truth: Rig,
+    board: Board,
+    rng,
+    n_turntable: int = 12,
+    n_prepared: int = 10,
+    angle_sigma_arcsec: float = ANGLE_SIGMA_ARCSEC,
+) -> list[Shot]:
     shots: list[Shot] = []
     for k in range(3):
         for i, (a, b) in enumerate(choose_turntable_angles(truth, board, k, n_turntable, rng)):
@@ -188,10 +197,16 @@ def make_plan(truth: Rig, board: Board, rng, n_turntable: int = 12, n_prepared: 
     return shots
 
 
-def corner_observations(truth: Rig, board: Board, shots: list[Shot], rng, sigma_px: float,
-                        caliper_height_mm: float | None = None,
-                        caliper_sigma_mm: float = CALIPER_SIGMA_MM,
-                        angle_sigma_arcsec: float = ANGLE_SIGMA_ARCSEC) -> Observations:
+def corner_observations(
+    truth: Rig,
+    board: Board,
+    shots: list[Shot],
+    rng,
+    sigma_px: float,
+    caliper_height_mm: float | None = None,
+    caliper_sigma_mm: float = CALIPER_SIGMA_MM,
+    angle_sigma_arcsec: float = ANGLE_SIGMA_ARCSEC,
+) -> Observations:
     """Corner observations simulated directly (no images): truth projection + N(0, sigma_px)."""
     obj = board.object_points()
     images = []
@@ -201,8 +216,14 @@ def corner_observations(truth: Rig, board: Board, shots: list[Shot], rng, sigma_
         images.append(ImageObs(s.camera, s.kind, s.name, uv, s.omega_big_deg, s.omega_small_deg))
     if caliper_height_mm is None:
         caliper_height_mm = -truth.r_wb_w[2] + rng.normal(0.0, caliper_sigma_mm)
-    return Observations(board, images, float(caliper_height_mm), caliper_sigma_mm,
-                        angle_sigma_arcsec * ARCSEC, (truth.cams[0].width, truth.cams[0].height))
+    return Observations(
+        board,
+        images,
+        float(caliper_height_mm),
+        caliper_sigma_mm,
+        angle_sigma_arcsec * ARCSEC,
+        (truth.cams[0].width, truth.cams[0].height),
+    )
 
 
 # --- rendering -------------------------------------------------------------------------------
@@ -240,8 +261,15 @@ def _inside(s, lo, hi, w):
 class Renderer:
     """Renders one camera's board images; the per-pixel rays are computed once."""
 
-    def __init__(self, cam: Camera, board: Board, supersample: int = 1, blur_px: float = 0.7,
-                 read_noise_dn: float = 1.2, full_well_dn: float = 255.0 * 40.0):
+    def __init__(
+        self,
+        cam: Camera,
+        board: Board,
+        supersample: int = 1,
+        blur_px: float = 0.7,
+        read_noise_dn: float = 1.2,
+        full_well_dn: float = 255.0 * 40.0,
+    ):
         self.cam, self.board, self.ss = cam, board, supersample
         self.blur, self.read_noise, self.gain = blur_px, read_noise_dn, full_well_dn / 255.0
         offs = (np.arange(supersample) + 0.5) / supersample - 0.5
@@ -327,13 +355,27 @@ def truth_from_document(doc: dict) -> Rig:
     rig = doc.get("rig")
     if rig is None:
         raise MfnsError("truth file has no 'rig' section")
-    return Rig(rig_from_doc(doc), np.asarray(rig["C_t_w"], float), np.asarray(rig["r_wt_w"], float),
-               np.asarray(rig["r_tb_b"], float))
+    return Rig(
+        rig_from_doc(doc),
+        np.asarray(rig["C_t_w"], float),
+        np.asarray(rig["r_wt_w"], float),
+        np.asarray(rig["r_tb_b"], float),
+    )
 
 
-def write_dataset(out: Path, truth: Rig, board: Board, shots: list[Shot], rng, *, seed: int,
-                  supersample: int, caliper_measured: float, angle_sigma_arcsec: float,
-                  progress: bool = True) -> None:
+def write_dataset(
+    out: Path,
+    truth: Rig,
+    board: Board,
+    shots: list[Shot],
+    rng,
+    *,
+    seed: int,
+    supersample: int,
+    caliper_measured: float,
+    angle_sigma_arcsec: float,
+    progress: bool = True,
+) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for name in CAMERA_NAMES:
         (out / "images" / name).mkdir(parents=True, exist_ok=True)
@@ -350,8 +392,15 @@ def write_dataset(out: Path, truth: Rig, board: Board, shots: list[Shot], rng, *
         w.writerow(["camera", "image", "kind", "Omega_deg", "omega_deg"])
         for s in shots:
             tt = s.kind == "turntable"
-            w.writerow([CAMERA_NAMES[s.camera], f"images/{CAMERA_NAMES[s.camera]}/{s.name}.png", s.kind,
-                        f"{s.omega_big_deg:.6f}" if tt else "", f"{s.omega_small_deg:.6f}" if tt else ""])
+            w.writerow(
+                [
+                    CAMERA_NAMES[s.camera],
+                    f"images/{CAMERA_NAMES[s.camera]}/{s.name}.png",
+                    s.kind,
+                    f"{s.omega_big_deg:.6f}" if tt else "",
+                    f"{s.omega_small_deg:.6f}" if tt else "",
+                ]
+            )
     meta = {
         "format": DATASET_FORMAT,
         "version": DATASET_VERSION,
@@ -373,7 +422,9 @@ def write_dataset(out: Path, truth: Rig, board: Board, shots: list[Shot], rng, *
     }
     (out / "dataset.json").write_text(json.dumps(meta, indent=2) + "\n")
     caliper_true = float(-truth.r_wb_w[2])
-    (out / "truth.json").write_text(json.dumps(truth_document(truth, shots, caliper_true, seed), indent=1) + "\n")
+    (out / "truth.json").write_text(
+        json.dumps(truth_document(truth, shots, caliper_true, seed), indent=1) + "\n"
+    )
 
 
 def run(args) -> int:
@@ -390,9 +441,18 @@ def run(args) -> int:
         raise MfnsError("--turntable-views must be >= 10")
     shots = make_plan(truth, board, rng, n_tt, n_prep, args.angle_noise)
     caliper = float(-truth.r_wb_w[2] + rng.normal(0.0, CALIPER_SIGMA_MM))
-    write_dataset(out, truth, board, shots, rng, seed=args.seed, supersample=ss,
-                  caliper_measured=caliper, angle_sigma_arcsec=args.angle_noise,
-                  progress=not args.quiet)
+    write_dataset(
+        out,
+        truth,
+        board,
+        shots,
+        rng,
+        seed=args.seed,
+        supersample=ss,
+        caliper_measured=caliper,
+        angle_sigma_arcsec=args.angle_noise,
+        progress=not args.quiet,
+    )
     if not args.quiet:
         print(f"wrote {len(shots)} images, angles.csv, dataset.json and truth.json to {out}")
     return 0
@@ -407,17 +467,28 @@ def register(subparsers) -> None:
     )
     p.add_argument("out", metavar="OUT", help="dataset folder to create")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
-    p.add_argument("--truth", help="calibration-results JSON with a 'rig' section to use as truth "
-                   "(default: the paper's Tables 2-3 and the §5 set-up)")
+    p.add_argument(
+        "--truth",
+        help="calibration-results JSON with a 'rig' section to use as truth "
+        "(default: the paper's Tables 2-3 and the §5 set-up)",
+    )
     p.add_argument("--turntable-views", type=int, default=12, help="turntable images per camera (>= 10)")
     p.add_argument("--prepared-views", type=int, default=10, help="prepared-beforehand images per camera")
     p.add_argument("--cols", type=int, default=9, help="inner corners along the board's x (default 9)")
     p.add_argument("--rows", type=int, default=6, help="inner corners along the board's y (default 6)")
     p.add_argument("--square", type=float, default=25.0, help="square size in mm (default 25)")
-    p.add_argument("--angle-noise", type=float, default=ANGLE_SIGMA_ARCSEC,
-                   help="turntable angle noise, 1 sigma, arc-seconds (default 8)")
-    p.add_argument("--supersample", type=int, default=1,
-                   help="sub-samples per pixel side on top of the analytic area integral (default 1)")
+    p.add_argument(
+        "--angle-noise",
+        type=float,
+        default=ANGLE_SIGMA_ARCSEC,
+        help="turntable angle noise, 1 sigma, arc-seconds (default 8)",
+    )
+    p.add_argument(
+        "--supersample",
+        type=int,
+        default=1,
+        help="sub-samples per pixel side on top of the analytic area integral (default 1)",
+    )
     p.add_argument("--small", action="store_true", help="10 turntable + 4 prepared views per camera")
     p.add_argument("--force", action="store_true", help="write into a non-empty OUT")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
