@@ -296,12 +296,16 @@ class Renderer:
         gy = np.gradient(sy)
         wx = np.maximum((np.abs(gx[0]) + np.abs(gx[1])) * spacing, 1e-6)
         wy = np.maximum((np.abs(gy[0]) + np.abs(gy[1])) * spacing, 1e-6)
-        checker = _wave(sx, wx) * _wave(sy, wy)
+        # the pattern's outline is filtered by `pat`; clamping keeps the square wave from also
+        # ramping there (that would draw a grey line around the pattern)
+        cx = np.clip(sx, -0.5, b.cols - 0.5)
+        cy = np.clip(sy, -0.5, b.rows - 0.5)
+        checker = _wave(cx, wx) * _wave(cy, wy)
         pat = _inside(sx, -1.0, b.cols, wx) * _inside(sy, -1.0, b.rows, wy)
         m = b.margin / b.square
         brd = _inside(sx, -1.0 - m, b.cols + m, wx) * _inside(sy, -1.0 - m, b.rows + m, wy) * hit
         black, white, bg = 0.07, 0.82, 0.30
-        board_val = pat * (0.5 * (black + white) - 0.5 * (white - black) * checker) + (1 - pat) * white
+        board_val = white - (white - black) * pat * 0.5 * (1.0 + checker)  # checker +1: black square
         return brd * board_val + (1.0 - brd) * bg
 
     def render(self, C_k_w, r_wk_w, rng, exposure: float = 1.0) -> np.ndarray:
@@ -375,13 +379,17 @@ def write_dataset(
     caliper_measured: float,
     angle_sigma_arcsec: float,
     progress: bool = True,
+    read_noise_dn: float = 1.2,
+    blur_px: float = 0.7,
 ) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for name in CAMERA_NAMES:
         (out / "images" / name).mkdir(parents=True, exist_ok=True)
     bar = tqdm(total=len(shots), desc="rendering", unit="img", disable=not progress)
     for k in range(3):
-        renderer = Renderer(truth.cams[k], board, supersample=supersample)
+        renderer = Renderer(
+            truth.cams[k], board, supersample=supersample, blur_px=blur_px, read_noise_dn=read_noise_dn
+        )
         for s in (s for s in shots if s.camera == k):
             img = renderer.render(s.C_k_w, s.r_wk_w, rng, exposure=rng.uniform(0.9, 1.1))
             cv2.imwrite(str(out / "images" / CAMERA_NAMES[k] / f"{s.name}.png"), img)
@@ -437,6 +445,8 @@ def run(args) -> int:
     n_tt, n_prep, ss = args.turntable_views, args.prepared_views, args.supersample
     if args.small:
         n_tt, n_prep, ss = 10, 4, 1
+    if not (args.noise >= 0 and args.blur >= 0 and args.angle_noise >= 0 and args.supersample >= 1):
+        raise MfnsError("--noise, --blur and --angle-noise must be >= 0, --supersample >= 1")
     if n_tt < 10:
         raise MfnsError("--turntable-views must be >= 10")
     shots = make_plan(truth, board, rng, n_tt, n_prep, args.angle_noise)
@@ -452,6 +462,8 @@ def run(args) -> int:
         caliper_measured=caliper,
         angle_sigma_arcsec=args.angle_noise,
         progress=not args.quiet,
+        read_noise_dn=args.noise,
+        blur_px=args.blur,
     )
     if not args.quiet:
         print(f"wrote {len(shots)} images, angles.csv, dataset.json and truth.json to {out}")
@@ -483,6 +495,8 @@ def register(subparsers) -> None:
         default=ANGLE_SIGMA_ARCSEC,
         help="turntable angle noise, 1 sigma, arc-seconds (default 8)",
     )
+    p.add_argument("--noise", type=float, default=1.2, help="image read noise, 1 sigma, DN (default 1.2)")
+    p.add_argument("--blur", type=float, default=0.7, help="optical blur, Gaussian sigma, px (default 0.7)")
     p.add_argument(
         "--supersample",
         type=int,
