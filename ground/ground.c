@@ -1,0 +1,282 @@
+/* ground.c -- mfns-ground's main loop (see ground.h). */
+#define _DEFAULT_SOURCE /* sigaction under -std=c11 */
+
+#include "ground.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "ground_out.h"
+#include "uart.h"
+
+static volatile sig_atomic_t g_stop;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    g_stop = 1;
+}
+
+void ground_usage(FILE *f)
+{
+    fprintf(f,
+            "usage: mfns-ground SOURCE [--out DIR] [options]\n"
+            "Decode MFNS telemetry (CCSDS packets in COBS frames, docs/telemetry.md) into\n"
+            "CSV and JSON Lines per packet type.\n"
+            "\n"
+            "SOURCE (one of):\n"
+            "  --port DEV        serial port through libserialport (e.g. /dev/ttyUSB0), 8N1\n"
+            "  --tty PATH        a tty, pseudo-terminal or FIFO by path (raw mode)\n"
+            "  --file PATH       a recorded byte stream; '-' reads stdin; ends at EOF\n"
+            "options:\n"
+            "  --baud N          baud rate for --port/--tty (default %d)\n"
+            "  --out DIR         output folder (default ground-out): nav.csv, nav.jsonl,\n"
+            "                    camera.csv, housekeeping.csv, events.csv (+ .jsonl), stats.json\n"
+            "  --record FILE     also save the raw received bytes (replay with --file)\n"
+            "  --max-seconds S   stop after S seconds\n"
+            "  --max-frames N    stop after N good frames\n"
+            "  --status          always show the live status line (default: when stderr is a tty)\n"
+            "  --no-status       never show it\n"
+            "  --help            this text\n"
+            "At exit the link counters are printed on stderr: good frames, CRC errors,\n"
+            "truncated and oversize frames, bad packets, resyncs, sequence gaps.\n",
+            GROUND_DEFAULT_BAUD);
+}
+
+static int parse_number(const char *s, double lo, double hi, double *out)
+{
+    char *end = NULL;
+    errno = 0;
+    const double v = strtod(s, &end);
+    if (errno != 0 || end == s || *end != '\0' || !(v >= lo && v <= hi)) {
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
+{
+    memset(o, 0, sizeof *o);
+    o->baud = GROUND_DEFAULT_BAUD;
+    o->out_dir = "ground-out";
+    o->status = -1;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const int has_val = i + 1 < argc;
+        double v = 0;
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            ground_usage(stdout);
+            return 1;
+        }
+        if (strcmp(a, "--status") == 0) {
+            o->status = 1;
+            continue;
+        }
+        if (strcmp(a, "--no-status") == 0) {
+            o->status = 0;
+            continue;
+        }
+        if (!has_val) {
+            fprintf(err, "mfns-ground: %s: unknown option or missing value (see --help)\n", a);
+            return -1;
+        }
+        const char *val = argv[++i];
+        if (strcmp(a, "--port") == 0 || strcmp(a, "--tty") == 0 || strcmp(a, "--file") == 0) {
+            if (o->src != GROUND_SRC_NONE) {
+                fprintf(err, "mfns-ground: give exactly one of --port, --tty, --file\n");
+                return -1;
+            }
+            o->src = a[2] == 'p' ? GROUND_SRC_SERIAL : (a[2] == 't' ? GROUND_SRC_TTY : GROUND_SRC_FILE);
+            o->path = val;
+        } else if (strcmp(a, "--baud") == 0) {
+            if (parse_number(val, 1, 4000000, &v) != 0 || v != (double)(uint32_t)v) {
+                fprintf(err, "mfns-ground: --baud: expected a positive integer, got '%s'\n", val);
+                return -1;
+            }
+            o->baud = (uint32_t)v;
+        } else if (strcmp(a, "--out") == 0) {
+            o->out_dir = val;
+        } else if (strcmp(a, "--record") == 0) {
+            o->record = val;
+        } else if (strcmp(a, "--max-seconds") == 0) {
+            if (parse_number(val, 0.001, 1e9, &v) != 0) {
+                fprintf(err, "mfns-ground: --max-seconds: expected a positive number, got '%s'\n", val);
+                return -1;
+            }
+            o->max_seconds = v;
+        } else if (strcmp(a, "--max-frames") == 0) {
+            if (parse_number(val, 1, 4e9, &v) != 0 || v != (double)(unsigned long)v) {
+                fprintf(err, "mfns-ground: --max-frames: expected a positive integer, got '%s'\n", val);
+                return -1;
+            }
+            o->max_frames = (unsigned long)v;
+        } else {
+            fprintf(err, "mfns-ground: %s: unknown option (see --help)\n", a);
+            return -1;
+        }
+    }
+    if (o->src == GROUND_SRC_NONE) {
+        fprintf(err, "mfns-ground: no source: give --port DEV, --tty PATH or --file PATH (see --help)\n");
+        return -1;
+    }
+    return 0;
+}
+
+static void print_counters(FILE *f, const tlm_decoder_stats_t *s, double secs)
+{
+    fprintf(f,
+            "mfns-ground: %.1f s, %lu bytes: frames_ok=%lu crc_errors=%lu truncated=%lu oversize=%lu "
+            "bad_packets=%lu resyncs=%lu seq_gaps=%lu seq_lost=%lu (nav=%lu camera=%lu housekeeping=%lu "
+            "event=%lu)\n",
+            secs, (unsigned long)s->bytes, (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
+            (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->bad_packets,
+            (unsigned long)s->resyncs, (unsigned long)s->seq_gaps, (unsigned long)s->seq_lost,
+            (unsigned long)s->type[TLM_TYPE_NAV].packets, (unsigned long)s->type[TLM_TYPE_CAMERA].packets,
+            (unsigned long)s->type[TLM_TYPE_HK].packets, (unsigned long)s->type[TLM_TYPE_EVENT].packets);
+}
+
+static void print_status(const tlm_decoder_stats_t *s, const tlm_nav_t *nav, int have_nav, double secs,
+                         int link_down)
+{
+    char x[24], y[24], z[24], yaw[24];
+    ground_fmt_fixed(x, sizeof x, have_nav ? nav->pos_um[0] : 0, 3);
+    ground_fmt_fixed(y, sizeof y, have_nav ? nav->pos_um[1] : 0, 3);
+    ground_fmt_fixed(z, sizeof z, have_nav ? nav->pos_um[2] : 0, 3);
+    ground_fmt_fixed(yaw, sizeof yaw, have_nav ? nav->att_udeg[2] : 0, 6);
+    fprintf(stderr, "\r%7.1f s %s frames %lu crc %lu trunc %lu over %lu gaps %lu resync %lu | %s x %s y %s z %s yaw %s\033[K",
+            secs, link_down ? "LINK DOWN" : "link ok", (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
+            (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->seq_gaps,
+            (unsigned long)s->resyncs, have_nav ? tlm_nav_status_name(nav->status) : "-", x, y, z, yaw);
+}
+
+static int open_source(const ground_opts_t *o, mfns_uart_t *u)
+{
+    memset(u, 0, sizeof *u);
+    u->fd = -1;
+    int rc;
+    switch (o->src) {
+    case GROUND_SRC_SERIAL: rc = mfns_uart_open_serial(u, o->path, o->baud, MFNS_UART_READ); break;
+    case GROUND_SRC_TTY: rc = mfns_uart_open_path(u, o->path, o->baud, MFNS_UART_READ); break;
+    case GROUND_SRC_FILE:
+        rc = strcmp(o->path, "-") == 0 ? mfns_uart_attach_fd(u, STDIN_FILENO, false, MFNS_UART_READ)
+                                       : mfns_uart_open_path(u, o->path, 0, MFNS_UART_READ);
+        break;
+    default: rc = MFNS_UART_ERR_ARG; break;
+    }
+    if (rc != MFNS_UART_OK) {
+        fprintf(stderr, "mfns-ground: %s: %s%s%s\n", o->path, mfns_uart_strerror(rc), u->last_errno ? ": " : "",
+                u->last_errno ? strerror(u->last_errno) : "");
+        mfns_uart_close(u);
+    }
+    return rc;
+}
+
+int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
+{
+    static tlm_decoder_t dec; /* static: 300 bytes of buffer + counters, no heap */
+    tlm_decoder_init(&dec);
+    ground_out_t out;
+    char err[512];
+    if (ground_out_open(&out, o->out_dir, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-ground: %s\n", err);
+        return 1;
+    }
+    FILE *rec = NULL;
+    if (o->record != NULL && (rec = fopen(o->record, "wb")) == NULL) {
+        fprintf(stderr, "mfns-ground: cannot write %s: %s\n", o->record, strerror(errno));
+        (void)ground_out_close(&out);
+        return 1;
+    }
+    mfns_uart_t u;
+    if (open_source(o, &u) != MFNS_UART_OK) {
+        (void)ground_out_close(&out);
+        if (rec != NULL) {
+            fclose(rec);
+        }
+        return 1;
+    }
+    g_stop = 0;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    (void)sigaction(SIGINT, &sa, NULL);
+    (void)sigaction(SIGTERM, &sa, NULL);
+
+    const int show = o->status < 0 ? isatty(STDERR_FILENO) : o->status;
+    const uint64_t t0 = mfns_uart_now_ms();
+    uint64_t last_status = 0;
+    tlm_nav_t last_nav;
+    memset(&last_nav, 0, sizeof last_nav);
+    int have_nav = 0, link_down = 0, rc_exit = 0, done = 0;
+    while (!g_stop && !done) {
+        const uint64_t now = mfns_uart_now_ms();
+        const double secs = (double)(now - t0) / 1000.0;
+        if (o->max_seconds > 0 && secs >= o->max_seconds) {
+            break;
+        }
+        uint8_t buf[4096];
+        size_t got = 0;
+        const int rc = mfns_uart_read(&u, buf, sizeof buf, &got, 100, now);
+        if (got > 0 && rec != NULL && fwrite(buf, 1, got, rec) != got) {
+            fprintf(stderr, "mfns-ground: writing %s failed\n", o->record);
+            rc_exit = 1;
+            break;
+        }
+        for (size_t i = 0; i < got; i++) {
+            tlm_packet_t p;
+            if (tlm_decoder_push(&dec, buf[i], &p) == 1) {
+                if (ground_out_packet(&out, &p) != 0) {
+                    fprintf(stderr, "mfns-ground: writing to %s failed\n", o->out_dir);
+                    rc_exit = 1;
+                    done = 1;
+                    break;
+                }
+                if (p.type == TLM_TYPE_NAV) {
+                    last_nav = p.u.nav;
+                    have_nav = 1;
+                }
+                if (o->max_frames > 0 && dec.stats.frames_ok >= o->max_frames) {
+                    done = 1;
+                    break;
+                }
+            }
+        }
+        if (rc == MFNS_UART_EOF) {
+            break;
+        }
+        link_down = (rc == MFNS_UART_ERR_GONE || rc == MFNS_UART_ERR_CLOSED);
+        if (rc == MFNS_UART_ERR_GONE) {
+            tlm_decoder_reset_frame(&dec);
+        } else if (rc == MFNS_UART_ERR_IO || rc == MFNS_UART_ERR_ARG) {
+            fprintf(stderr, "\nmfns-ground: %s: %s\n", o->path, mfns_uart_strerror(rc));
+            rc_exit = 1;
+            break;
+        }
+        if (show && now - last_status >= 200u) {
+            print_status(&dec.stats, &last_nav, have_nav, secs, link_down);
+            last_status = now;
+        }
+    }
+    const double secs = (double)(mfns_uart_now_ms() - t0) / 1000.0;
+    if (show) {
+        print_status(&dec.stats, &last_nav, have_nav, secs, link_down);
+        fputc('\n', stderr);
+    }
+    mfns_uart_close(&u);
+    if (rec != NULL && fclose(rec) != 0) {
+        rc_exit = 1;
+    }
+    if (ground_out_stats(&out, &dec.stats, secs) != 0 || ground_out_close(&out) != 0) {
+        fprintf(stderr, "mfns-ground: writing to %s failed\n", o->out_dir);
+        rc_exit = 1;
+    }
+    print_counters(stderr, &dec.stats, secs);
+    if (stats_out != NULL) {
+        *stats_out = dec.stats;
+    }
+    return rc_exit;
+}

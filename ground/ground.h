@@ -1,0 +1,44 @@
+/* ground.h -- the ground station mfns-ground: reads the telemetry byte
+ * stream from a serial port (libserialport), a tty/pty/FIFO or a recorded
+ * file, decodes it (firmware/tlm), writes CSV + JSON Lines per packet type
+ * (ground_out.h), shows a live one-line status on stderr when it is a
+ * terminal, and prints the link counters at exit. main.c is argument
+ * parsing around ground_run().
+ */
+#ifndef MFNS_GROUND_H
+#define MFNS_GROUND_H
+
+#include <stdint.h>
+#include <stdio.h>
+
+#include "tlm_decoder.h"
+
+/* --baud default: the board's UART rate. */
+#ifdef MFNS_BOARD_BAUD
+#define GROUND_DEFAULT_BAUD MFNS_BOARD_BAUD
+#else
+#define GROUND_DEFAULT_BAUD 921600
+#endif
+
+typedef enum { GROUND_SRC_NONE = 0, GROUND_SRC_SERIAL, GROUND_SRC_TTY, GROUND_SRC_FILE } ground_src_t;
+
+typedef struct {
+    ground_src_t src;
+    const char *path;         /* port, tty path, file path or "-" for stdin */
+    uint32_t baud;            /* serial/tty baud rate */
+    const char *out_dir;      /* output folder */
+    const char *record;       /* optional: copy of the raw received bytes (replay with --file) */
+    double max_seconds;       /* 0 = unbounded */
+    unsigned long max_frames; /* stop after this many good frames; 0 = unbounded */
+    int status;               /* live status line: -1 auto (stderr is a tty), 0 off, 1 on */
+} ground_opts_t;
+
+/* 0 ok, 1 when --help was printed (exit 0), -1 usage error (message on err). */
+int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err);
+void ground_usage(FILE *f);
+/* Runs until EOF (files), the limits, or SIGINT/SIGTERM. Returns the process
+ * exit code: 0 normal end, 1 source or output could not be opened/written.
+ * stats_out (may be NULL) gets the final decoder counters. */
+int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out);
+
+#endif /* MFNS_GROUND_H */

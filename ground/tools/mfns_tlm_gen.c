@@ -1,0 +1,157 @@
+/* mfns-tlm-gen: writes the synthetic telemetry stream of ground_gen.h, so
+ * the link and mfns-ground can be exercised without the flight program.
+ *
+ *   mfns-tlm-gen --cycles N [--out FILE|-]          frames to a file/stdout
+ *   mfns-tlm-gen --cycles N --tty PATH [--baud B]   through the transport (pty, FIFO, tty)
+ *   mfns-tlm-gen --cycles N --fd FD                 through the transport on an open fd
+ *   --rate HZ   pace the cycles (default 0: as fast as the port takes them)
+ *
+ * In transport mode it waits for queue space instead of dropping, so the
+ * receiver gets every frame (the drop-oldest policy is tested elsewhere).
+ */
+#define _DEFAULT_SOURCE
+
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ground_gen.h"
+#include "tlm_txq.h"
+#include "uart.h"
+
+static tlm_txq_t g_q;
+
+static int usage(int rc)
+{
+    fprintf(rc ? stderr : stdout,
+            "usage: mfns-tlm-gen --cycles N [--out FILE|-] [--tty PATH [--baud B] | --fd FD] [--rate HZ]\n"
+            "Synthetic MFNS telemetry (ground/ground_gen.h): per 18.6 Hz cycle one nav and three\n"
+            "camera packets, housekeeping every 19th cycle, BOOT and TABLE_LOADED events first.\n");
+    return rc;
+}
+
+static int drain(mfns_uart_t *u, size_t keep_below, int timeout_ms)
+{
+    for (int t = 0; t < timeout_ms && tlm_txq_bytes(&g_q) > keep_below; t++) {
+        const int rc = mfns_uart_pump(u, &g_q, mfns_uart_now_ms());
+        if (rc != MFNS_UART_OK) {
+            fprintf(stderr, "mfns-tlm-gen: %s\n", mfns_uart_strerror(rc));
+            return -1;
+        }
+        if (tlm_txq_bytes(&g_q) > keep_below) {
+            (void)poll(NULL, 0, 1);
+        }
+    }
+    return tlm_txq_bytes(&g_q) > keep_below ? -1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+    long cycles = -1, fd = -1;
+    double rate = 0;
+    unsigned long baud = 921600;
+    const char *out = "-", *tty = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--help") == 0) {
+            return usage(0);
+        }
+        if (i + 1 >= argc) {
+            return usage(2);
+        }
+        const char *v = argv[++i];
+        if (strcmp(argv[i - 1], "--cycles") == 0) {
+            cycles = strtol(v, NULL, 10);
+        } else if (strcmp(argv[i - 1], "--out") == 0) {
+            out = v;
+        } else if (strcmp(argv[i - 1], "--tty") == 0) {
+            tty = v;
+        } else if (strcmp(argv[i - 1], "--fd") == 0) {
+            fd = strtol(v, NULL, 10);
+        } else if (strcmp(argv[i - 1], "--baud") == 0) {
+            baud = strtoul(v, NULL, 10);
+        } else if (strcmp(argv[i - 1], "--rate") == 0) {
+            rate = strtod(v, NULL);
+        } else {
+            return usage(2);
+        }
+    }
+    if (cycles < 0 || cycles > 100000000L || rate < 0 || fd > 1000000L) {
+        return usage(2);
+    }
+    mfns_uart_t u;
+    FILE *f = NULL;
+    const int transport = tty != NULL || fd >= 0;
+    if (tty != NULL) {
+        int rc = mfns_uart_open_path(&u, tty, (uint32_t)baud, MFNS_UART_WRITE);
+        /* A FIFO without a reader yet, a pty not yet there: the transport
+         * re-opens at its cadence; give the receiver 5 s to appear. */
+        const uint64_t give_up = mfns_uart_now_ms() + 5000u;
+        while (rc == MFNS_UART_ERR_OPEN && u.reopenable && mfns_uart_now_ms() < give_up) {
+            (void)poll(NULL, 0, 20);
+            rc = mfns_uart_service(&u, mfns_uart_now_ms()) == MFNS_UART_OK ? MFNS_UART_OK : MFNS_UART_ERR_OPEN;
+        }
+        if (rc != MFNS_UART_OK) {
+            fprintf(stderr, "mfns-tlm-gen: %s: %s\n", tty, mfns_uart_strerror(rc));
+            return 1;
+        }
+    } else if (fd >= 0) {
+        const int rc = mfns_uart_attach_fd(&u, (int)fd, false, MFNS_UART_WRITE);
+        if (rc != MFNS_UART_OK) {
+            fprintf(stderr, "mfns-tlm-gen: fd %ld: %s\n", fd, mfns_uart_strerror(rc));
+            return 1;
+        }
+    } else {
+        f = strcmp(out, "-") == 0 ? stdout : fopen(out, "wb");
+        if (f == NULL) {
+            fprintf(stderr, "mfns-tlm-gen: cannot write %s\n", out);
+            return 1;
+        }
+    }
+    tlm_txq_init(&g_q);
+    tlm_encoder_t enc;
+    tlm_encoder_init(&enc);
+    const uint64_t t0 = mfns_uart_now_ms();
+    int rc = 0;
+    for (long i = 0; i < cycles && rc == 0; i++) {
+        if (rate > 0) {
+            const uint64_t due = t0 + (uint64_t)((double)i * 1000.0 / rate);
+            const uint64_t now = mfns_uart_now_ms();
+            if (due > now) {
+                (void)poll(NULL, 0, (int)(due - now));
+            }
+        }
+        tlm_packet_t pk[GROUND_GEN_MAX_PER_CYCLE];
+        const size_t n = ground_gen_cycle((uint32_t)i, pk);
+        for (size_t k = 0; k < n && rc == 0; k++) {
+            uint8_t frame[TLM_MAX_WIRE];
+            size_t len = 0;
+            if (tlm_frame_encode(&enc, &pk[k], frame, sizeof frame, &len) != TLM_OK) {
+                fprintf(stderr, "mfns-tlm-gen: encoding failed\n");
+                rc = 1;
+            } else if (transport) {
+                if (drain(&u, TLM_TXQ_BYTES - TLM_MAX_WIRE, 10000) != 0 || tlm_txq_push(&g_q, frame, len) != TLM_OK) {
+                    rc = 1;
+                }
+            } else if (fwrite(frame, 1, len, f) != len) {
+                fprintf(stderr, "mfns-tlm-gen: write failed\n");
+                rc = 1;
+            }
+        }
+        if (transport && rc == 0) {
+            (void)mfns_uart_pump(&u, &g_q, mfns_uart_now_ms());
+        }
+    }
+    if (transport) {
+        if (rc == 0 && drain(&u, 0, 10000) != 0) {
+            rc = 1;
+        }
+        mfns_uart_close(&u);
+    } else {
+        const int bad = (f == stdout) ? fflush(f) : fclose(f);
+        if (bad != 0) {
+            rc = 1;
+        }
+    }
+    return rc;
+}

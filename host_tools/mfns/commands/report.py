@@ -1,0 +1,55 @@
+"""`mfns report`: Fig. 11-style plots and a Table 5-style summary from mfns-ground output."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .. import report as rpt
+from ..errors import MfnsError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "report",
+        help="navigation accuracy plots and summary from mfns-ground's nav.csv (and a truth file)",
+        description=(
+            "Reads nav.csv written by mfns-ground (or its folder) and optionally a truth.csv "
+            "(docs/nav-frames.md); matches them by time; writes nav_errors_vs_time.png, "
+            "nav_errors_vs_yaw.png (with truth), summary.csv and summary.md, and prints the "
+            "mean and 1-sigma per axis (roll, pitch, yaw, x, y, z)."
+        ),
+    )
+    p.add_argument("nav", type=Path, help="nav.csv, or the mfns-ground output folder holding it")
+    p.add_argument(
+        "--truth", type=Path, help="truth.csv: frame,t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg"
+    )
+    p.add_argument("--out", type=Path, help="output folder (default: the folder of nav.csv)")
+    p.add_argument(
+        "--time-tolerance",
+        type=float,
+        default=0.02,
+        help="max |t_nav - t_truth| in s for a match (default 0.02, under half a cycle at 18.6 Hz)",
+    )
+    p.add_argument("--all-status", action="store_true", help="also use NO_FIX rows (default: FIX, DEGRADED)")
+    p.add_argument("--no-plots", action="store_true", help="summary only")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    nav_path = args.nav
+    nav = rpt.load_nav(nav_path)
+    truth = rpt.load_truth(args.truth) if args.truth is not None else None
+    rep = rpt.build_report(nav, truth, tolerance_s=args.time_tolerance, all_status=args.all_status)
+    out = args.out if args.out is not None else (nav_path if nav_path.is_dir() else nav_path.parent)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MfnsError(f"cannot create {out}: {exc}") from exc
+    md = rpt.summary_markdown(rep)
+    (out / "summary.md").write_text(md)
+    rpt.write_summary_csv(rep, out / "summary.csv")
+    written = [] if args.no_plots else rpt.write_plots(rep, out)
+    print(md, end="")
+    for p in [out / "summary.csv", out / "summary.md", *written]:
+        print(f"wrote {p}")
+    return 0

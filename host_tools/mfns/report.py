@@ -1,0 +1,259 @@
+"""Navigation accuracy report from ground-station telemetry (docs/telemetry.md).
+
+Reads the `nav.csv` written by `mfns-ground` and, optionally, a truth file in
+the `truth.csv` format of docs/nav-frames.md
+(`frame,t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg`), matches them by time,
+and produces the paper's Fig. 11-style plots (position and attitude errors
+versus time and versus the true yaw) and a Table 5-style summary: mean and
+1-sigma (sample standard deviation, ddof=1) per axis of roll, pitch, yaw, x, y, z.
+
+Without truth the same statistics describe the estimates themselves (useful
+for a static test, where the spread is the noise).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import MfnsError
+
+AXES = ("roll", "pitch", "yaw", "x", "y", "z")
+NAV_COLUMNS = {
+    "roll": "roll_deg",
+    "pitch": "pitch_deg",
+    "yaw": "yaw_deg",
+    "x": "x_mm",
+    "y": "y_mm",
+    "z": "z_mm",
+}
+UNITS = {"roll": "deg", "pitch": "deg", "yaw": "deg", "x": "mm", "y": "mm", "z": "mm"}
+TRUTH_HEADER = ["frame", "t_s", "x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"]
+GOOD_STATUS = ("FIX", "DEGRADED")
+
+
+@dataclass
+class NavLog:
+    t_s: np.ndarray
+    status: np.ndarray  # str
+    values: dict[str, np.ndarray]  # axis -> value (deg or mm)
+
+
+@dataclass
+class Truth:
+    t_s: np.ndarray
+    values: dict[str, np.ndarray]
+
+
+@dataclass
+class AxisStats:
+    axis: str
+    unit: str
+    mean: float
+    sigma: float
+    n: int
+
+
+@dataclass
+class Report:
+    with_truth: bool
+    t_s: np.ndarray
+    truth_yaw: np.ndarray | None
+    series: dict[str, np.ndarray]  # errors (with truth) or values
+    stats: list[AxisStats]
+    n_rows: int
+    n_used: int
+    n_rejected_status: int
+    n_unmatched: int
+
+
+def _read_csv(path: Path, required: list[str], what: str) -> list[dict[str, str]]:
+    if not path.is_file():
+        raise MfnsError(f"{what} not found: {path}")
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        header = reader.fieldnames or []
+        missing = [c for c in required if c not in header]
+        if missing:
+            raise MfnsError(f"{path}: not a {what} (missing columns: {', '.join(missing)})")
+        rows = list(reader)
+    return rows
+
+
+def _floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
+    try:
+        out = np.array([float(r[col]) for r in rows], dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise MfnsError(f"{path}: column {col}: not a number ({exc})") from exc
+    if not np.all(np.isfinite(out)):
+        raise MfnsError(f"{path}: column {col}: non-finite value")
+    return out
+
+
+def load_nav(path: Path) -> NavLog:
+    """nav.csv of mfns-ground (a folder is read as FOLDER/nav.csv)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "nav.csv"
+    rows = _read_csv(path, ["t_s", "status", *NAV_COLUMNS.values()], "navigation CSV (nav.csv)")
+    return NavLog(
+        t_s=_floats(rows, "t_s", path),
+        status=np.array([r["status"] for r in rows], dtype=object),
+        values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()},
+    )
+
+
+def load_truth(path: Path) -> Truth:
+    path = Path(path)
+    rows = _read_csv(path, TRUTH_HEADER, "truth CSV (docs/nav-frames.md)")
+    t = _floats(rows, "t_s", path)
+    if len(t) == 0:
+        raise MfnsError(f"{path}: no rows")
+    if np.any(np.diff(t) < 0):
+        order = np.argsort(t, kind="stable")
+        rows = [rows[i] for i in order]
+        t = t[order]
+    return Truth(t_s=t, values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()})
+
+
+def wrap_deg(a: np.ndarray) -> np.ndarray:
+    """Angles to [-180, 180): a yaw error of 359.9 deg is -0.1 deg."""
+    return (np.asarray(a, dtype=float) + 180.0) % 360.0 - 180.0
+
+
+def match_by_time(t_nav: np.ndarray, t_truth: np.ndarray, tolerance_s: float) -> np.ndarray:
+    """Index of the nearest truth sample for each nav time, -1 where none is within tolerance.
+
+    t_truth must be sorted ascending.
+    """
+    if len(t_truth) == 0:
+        return np.full(len(t_nav), -1, dtype=int)
+    j = np.searchsorted(t_truth, t_nav)
+    lo = np.clip(j - 1, 0, len(t_truth) - 1)
+    hi = np.clip(j, 0, len(t_truth) - 1)
+    pick = np.where(np.abs(t_truth[lo] - t_nav) <= np.abs(t_truth[hi] - t_nav), lo, hi)
+    ok = np.abs(t_truth[pick] - t_nav) <= tolerance_s
+    return np.where(ok, pick, -1)
+
+
+def axis_stats(series: dict[str, np.ndarray]) -> list[AxisStats]:
+    out = []
+    for a in AXES:
+        v = series[a]
+        n = len(v)
+        out.append(
+            AxisStats(
+                axis=a,
+                unit=UNITS[a],
+                mean=float(np.mean(v)) if n else float("nan"),
+                sigma=float(np.std(v, ddof=1)) if n > 1 else float("nan"),
+                n=n,
+            )
+        )
+    return out
+
+
+def build_report(
+    nav: NavLog, truth: Truth | None, tolerance_s: float = 0.02, all_status: bool = False
+) -> Report:
+    if tolerance_s <= 0:
+        raise MfnsError("time tolerance must be positive")
+    n_rows = len(nav.t_s)
+    keep = np.ones(n_rows, dtype=bool) if all_status else np.isin(nav.status, GOOD_STATUS)
+    n_rejected = int(n_rows - np.count_nonzero(keep))
+    n_unmatched = 0
+    truth_yaw = None
+    if truth is not None:
+        idx = match_by_time(nav.t_s, truth.t_s, tolerance_s)
+        n_unmatched = int(np.count_nonzero(keep & (idx < 0)))
+        keep &= idx >= 0
+        idx = idx[keep]
+        series = {}
+        for a in AXES:
+            d = nav.values[a][keep] - truth.values[a][idx]
+            series[a] = wrap_deg(d) if UNITS[a] == "deg" else d
+        truth_yaw = truth.values["yaw"][idx]
+    else:
+        series = {a: nav.values[a][keep] for a in AXES}
+    n_used = int(np.count_nonzero(keep))
+    if n_used == 0:
+        why = "no solutions with status FIX/DEGRADED" if not all_status else "no rows"
+        if truth is not None:
+            why += f" matched to truth within {tolerance_s} s"
+        raise MfnsError(f"nothing to report: {why}")
+    return Report(
+        with_truth=truth is not None,
+        t_s=nav.t_s[keep],
+        truth_yaw=truth_yaw,
+        series=series,
+        stats=axis_stats(series),
+        n_rows=n_rows,
+        n_used=n_used,
+        n_rejected_status=n_rejected,
+        n_unmatched=n_unmatched,
+    )
+
+
+def summary_markdown(rep: Report) -> str:
+    kind = "error (estimate - truth)" if rep.with_truth else "estimate"
+    lines = [
+        f"| axis | unit | mean {kind} | 1-sigma | n |",
+        "|---|---|---|---|---|",
+    ]
+    for s in rep.stats:
+        lines.append(f"| {s.axis} | {s.unit} | {s.mean:.4f} | {s.sigma:.4f} | {s.n} |")
+    lines.append("")
+    lines.append(
+        f"{rep.n_used} of {rep.n_rows} solutions used; {rep.n_rejected_status} rejected by status"
+        + (f", {rep.n_unmatched} without truth within tolerance" if rep.with_truth else "")
+        + "."
+    )
+    return "\n".join(lines) + "\n"
+
+
+def write_summary_csv(rep: Report, path: Path) -> None:
+    with Path(path).open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["axis", "unit", "kind", "mean", "sigma", "n"])
+        kind = "error" if rep.with_truth else "estimate"
+        for s in rep.stats:
+            w.writerow([s.axis, s.unit, kind, f"{s.mean:.6f}", f"{s.sigma:.6f}", s.n])
+
+
+def write_plots(rep: Report, out_dir: Path) -> list[Path]:
+    """Fig. 11-style figures: attitude and position errors (or values) vs time, and vs true yaw."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(out_dir)
+    label = "error" if rep.with_truth else "estimate"
+    written = []
+
+    def panel(x, xlabel: str, name: str, title: str) -> None:
+        fig, axes = plt.subplots(2, 3, figsize=(13, 6.5), sharex=True)
+        for k, a in enumerate(AXES):
+            ax = axes[k // 3][k % 3]
+            ax.plot(x, rep.series[a], ".", ms=2.5)
+            s = rep.stats[k]
+            ax.axhline(s.mean, color="k", lw=0.8)
+            ax.set_title(f"{a}: mean {s.mean:.4f}, 1σ {s.sigma:.4f} {s.unit}", fontsize=9)
+            ax.set_ylabel(f"{a} {label} ({s.unit})")
+            ax.grid(True, alpha=0.3)
+            if k // 3 == 1:
+                ax.set_xlabel(xlabel)
+        fig.suptitle(title)
+        fig.tight_layout()
+        p = out_dir / name
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        written.append(p)
+
+    panel(rep.t_s, "time (s)", "nav_errors_vs_time.png", f"MFNS navigation {label}s vs time")
+    if rep.truth_yaw is not None:
+        panel(rep.truth_yaw, "true yaw (deg)", "nav_errors_vs_yaw.png", f"MFNS navigation {label}s vs yaw")
+    return written

@@ -1,0 +1,62 @@
+# Telemetry link (docs/telemetry.md): the decoder fuzzer, and the synthetic
+# telemetry generator mfns-tlm-gen built next to mfns-ground.
+#
+#   make fuzz          runs every FUZZ_TARGETS entry; fuzz-tlm-decoder runs 60 s
+#                      (TLM_FUZZ_SECONDS) and keeps its corpus in build/fuzz/
+#   make fuzz-brief    10 s of the same fuzzer, part of `make test`
+
+TLM_FUZZ_CC      ?= clang
+TLM_FUZZ_SECONDS ?= 60
+TLM_FUZZ_BIN     := build/fuzz/fuzz_tlm_decoder
+TLM_FUZZ_SRCS    := tests/fuzz/fuzz_tlm_decoder.c $(sort $(wildcard firmware/tlm/*.c))
+
+FUZZ_TARGETS += fuzz-tlm-decoder
+TEST_SUITES  += fuzz-brief
+.PHONY: fuzz-tlm-decoder fuzz-brief
+
+$(TLM_FUZZ_BIN): $(TLM_FUZZ_SRCS) $(wildcard firmware/tlm/*.h)
+	@mkdir -p $(@D)
+	$(TLM_FUZZ_CC) -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+	  -Ifirmware/tlm $(TLM_FUZZ_SRCS) -o $@
+
+# Runs the fuzzer for SECS seconds from corpus DIR and prints
+# "NAME: 1 passed, 0 failed (N executions in SECS s)" (libFuzzer exits
+# non-zero, and the recipe fails, on any crash or sanitizer report).
+define tlm_run_fuzz
+	@mkdir -p $(2)
+	@log=build/fuzz/$(1).log; \
+	if $(TLM_FUZZ_BIN) -max_total_time=$(3) -seed=$(4) -print_final_stats=1 \
+	     -artifact_prefix=build/fuzz/ $(2) >$$log 2>&1; then \
+	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
+	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
+	  echo "$(1): 1 passed, 0 failed ($${execs:-?} executions in $(3) s, $${cov:-cov: ?})"; \
+	else \
+	  tail -n 40 $$log; echo "$(1): 0 passed, 1 failed"; exit 1; \
+	fi
+endef
+
+fuzz-tlm-decoder: $(TLM_FUZZ_BIN)
+	$(call tlm_run_fuzz,fuzz-tlm-decoder,build/fuzz/corpus-tlm,$(TLM_FUZZ_SECONDS),0)
+
+# A fresh corpus each time so the brief run does the same work on every machine.
+fuzz-brief: $(TLM_FUZZ_BIN)
+	@rm -rf build/fuzz/corpus-brief
+	$(call tlm_run_fuzz,fuzz-brief,build/fuzz/corpus-brief,10,1)
+
+# mfns-tlm-gen (ground/tools/mfns_tlm_gen.c): built with `make flight` on Linux boards.
+ifeq ($(BOARD_KIND),linux)
+TLM_GEN_BIN := $(BUILD)/bin/mfns-tlm-gen
+flight: $(TLM_GEN_BIN)
+$(TLM_GEN_BIN): $(call obj,ground/tools/mfns_tlm_gen.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
+	@mkdir -p $(@D)
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+endif
+
+# make bench: codec throughput on the host (encode frames/s, decode MB/s).
+BENCH_TARGETS += bench-tlm
+.PHONY: bench-tlm
+build/bench/bench_tlm: tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) $(wildcard firmware/tlm/*.h)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -O2 -Ifirmware/tlm tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) -o $@
+bench-tlm: build/bench/bench_tlm
+	@build/bench/bench_tlm

@@ -1,0 +1,177 @@
+"""`mfns report`: time matching, angle wrapping, Table 5 statistics, plots, errors."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mfns import report as rpt
+from mfns.cli import main
+from mfns.errors import MfnsError
+
+NAV_HEADER = (
+    "t_s,seq,cycle,status,reason,mode,beacons_used,cams_used,iterations,x_mm,y_mm,z_mm,"
+    "roll_deg,pitch_deg,yaw_deg,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,"
+    "sigma_yaw_deg,residual_rms_px"
+).split(",")
+
+# Table 5 of the paper (mean, 1-sigma): the synthetic errors below use these.
+TABLE5 = {
+    "roll": (-0.0030, 0.1541),
+    "pitch": (-0.0192, 0.1497),
+    "yaw": (0.0066, 0.1729),
+    "x": (-0.0553, 1.6043),
+    "y": (0.0275, 1.6108),
+    "z": (-0.0669, 1.8292),
+}
+
+
+def write_case(tmp: Path, n: int = 400, seed: int = 1, jitter_s: float = 0.003):
+    """Turntable truth (0,0,0; yaw sweeping through +-180) and noisy nav with Table 5 errors."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 18.6
+    yaw = (np.arange(n) * 1.7 + 150.0 + 180.0) % 360.0 - 180.0  # wraps through +-180
+    truth = tmp / "truth.csv"
+    with truth.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(rpt.TRUTH_HEADER)
+        for i in range(n):
+            w.writerow([i, f"{t[i]:.6f}", 0, 0, 0, 0, 0, f"{yaw[i]:.6f}"])
+    err = {a: rng.normal(m, s, n) for a, (m, s) in TABLE5.items()}
+    status = np.where(np.arange(n) % 25 == 24, "NO_FIX", "FIX")
+    nav = tmp / "nav.csv"
+    with nav.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(NAV_HEADER)
+        for i in range(n):
+            y = (yaw[i] + err["yaw"][i] + 180.0) % 360.0 - 180.0
+            row = {h: "0" for h in NAV_HEADER}
+            row.update(
+                t_s=f"{t[i] + rng.uniform(-jitter_s, jitter_s):.6f}",
+                seq=str(i),
+                cycle=str(i),
+                status=status[i],
+                mode="TRACK",
+                x_mm=f"{err['x'][i]:.3f}",
+                y_mm=f"{err['y'][i]:.3f}",
+                z_mm=f"{err['z'][i]:.3f}",
+                roll_deg=f"{err['roll'][i]:.6f}",
+                pitch_deg=f"{err['pitch'][i]:.6f}",
+                yaw_deg=f"{y:.6f}",
+            )
+            w.writerow([row[h] for h in NAV_HEADER])
+    return nav, truth, err, status == "FIX"
+
+
+def test_wrap_and_match():
+    assert rpt.wrap_deg(np.array([359.9, -359.9, 180.0, -180.0, 0.2])) == pytest.approx(
+        [-0.1, 0.1, -180.0, -180.0, 0.2]
+    )
+    truth_t = np.array([0.0, 0.1, 0.2, 0.3])
+    idx = rpt.match_by_time(np.array([-0.5, 0.01, 0.149, 0.151, 0.29, 0.9]), truth_t, 0.02)
+    assert idx.tolist() == [-1, 0, -1, -1, 3, -1]
+    idx = rpt.match_by_time(np.array([0.149, 0.151]), truth_t, 0.06)
+    assert idx.tolist() == [1, 2]
+
+
+def test_table5_statistics_with_truth(tmp_path):
+    nav_p, truth_p, err, fix = write_case(tmp_path)
+    rep = rpt.build_report(rpt.load_nav(nav_p), rpt.load_truth(truth_p), tolerance_s=0.01)
+    assert rep.n_used == int(fix.sum())
+    assert rep.n_rejected_status == int((~fix).sum())
+    assert rep.n_unmatched == 0
+    for s in rep.stats:
+        e = err[s.axis][fix]
+        # the CSV rounds to 1e-3 mm / 1e-6 deg; yaw wraps through +-180 without a 360 jump
+        tol = 2e-3 if s.unit == "mm" else 2e-6
+        assert s.mean == pytest.approx(np.mean(e), abs=tol)
+        assert s.sigma == pytest.approx(np.std(e, ddof=1), abs=tol)
+        assert s.n == rep.n_used
+    yaw = next(s for s in rep.stats if s.axis == "yaw")
+    assert abs(yaw.mean) < 0.05 and yaw.sigma < 0.25
+
+
+def test_unmatched_rows_are_excluded(tmp_path):
+    nav_p, truth_p, _, fix = write_case(tmp_path, n=100, jitter_s=0.0)
+    truth = rpt.load_truth(truth_p)
+    keep = np.arange(len(truth.t_s)) % 2 == 0  # drop every other truth sample
+    truth = rpt.Truth(truth.t_s[keep], {a: v[keep] for a, v in truth.values.items()})
+    rep = rpt.build_report(rpt.load_nav(nav_p), truth, tolerance_s=0.01)
+    assert rep.n_used == int((fix & keep).sum())
+    assert rep.n_unmatched == int((fix & ~keep).sum())
+    rep_all = rpt.build_report(rpt.load_nav(nav_p), None, all_status=True)
+    assert rep_all.n_used == 100
+
+
+def test_cli_writes_summary_and_plots(tmp_path, capsys):
+    nav_p, truth_p, _, _ = write_case(tmp_path)
+    out = tmp_path / "rep"
+    assert main(["report", str(nav_p), "--truth", str(truth_p), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "| yaw | deg |" in printed
+    rows = list(csv.DictReader((out / "summary.csv").open()))
+    assert [r["axis"] for r in rows] == ["roll", "pitch", "yaw", "x", "y", "z"]
+    assert all(r["kind"] == "error" for r in rows)
+    assert float(rows[3]["sigma"]) == pytest.approx(1.6043, rel=0.15)
+    md = (out / "summary.md").read_text()
+    assert md.startswith("| axis | unit |")
+    for png in ("nav_errors_vs_time.png", "nav_errors_vs_yaw.png"):
+        data = (out / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10000
+    # a folder argument and no truth: statistics of the estimates, written next to nav.csv
+    assert main(["report", str(tmp_path), "--no-plots"]) == 0
+    rows = list(csv.DictReader((tmp_path / "summary.csv").open()))
+    assert all(r["kind"] == "estimate" for r in rows)
+
+
+def test_user_errors(tmp_path):
+    with pytest.raises(MfnsError, match="not found"):
+        rpt.load_nav(tmp_path / "missing.csv")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("a,b\n1,2\n")
+    with pytest.raises(MfnsError, match="missing columns"):
+        rpt.load_nav(bad)
+    with pytest.raises(MfnsError, match="missing columns"):
+        rpt.load_truth(bad)
+    nav_p, truth_p, _, _ = write_case(tmp_path, n=20)
+    nav = rpt.load_nav(nav_p)
+    truth = rpt.load_truth(truth_p)
+    late = rpt.Truth(truth.t_s + 100.0, truth.values)
+    with pytest.raises(MfnsError, match="nothing to report"):
+        rpt.build_report(nav, late)
+    text = nav_p.read_text()
+    nav_p.write_text(text.replace("\n0.", "\nabc", 1))
+    with pytest.raises(MfnsError, match="not a number"):
+        rpt.load_nav(nav_p)
+    assert main(["report", str(tmp_path / "nope.csv")]) == 2
+
+
+def test_report_on_ground_station_output(tmp_path):
+    """The columns mfns-ground writes are the ones the report reads."""
+    import subprocess
+
+    repo = Path(__file__).resolve().parents[2]
+    bins = repo / "build" / "host-sim" / "bin"
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=repo,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    stream = tmp_path / "s.bin"
+    subprocess.run([str(bins / "mfns-tlm-gen"), "--cycles", "60", "--out", str(stream)], check=True)
+    subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(stream), "--out", str(tmp_path / "g"), "--no-status"],
+        check=True,
+        capture_output=True,
+    )
+    rep = rpt.build_report(rpt.load_nav(tmp_path / "g"), None)
+    assert rep.n_used == 54  # cycles 9, 19, ..., 59 are NO_FIX in the synthetic stream
+    z = next(s for s in rep.stats if s.axis == "z")
+    expected = [500.0 + i / 1000 for i in range(60) if i % 10 != 9]
+    assert z.mean == pytest.approx(np.mean(expected), abs=1e-9)
