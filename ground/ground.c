@@ -12,10 +12,6 @@
 #include "ground_out.h"
 #include "uart.h"
 
-#ifndef MFNS_BOARD_BAUD
-#define MFNS_BOARD_BAUD 921600
-#endif
-
 static volatile sig_atomic_t g_stop;
 
 static void on_signal(int sig)
@@ -47,7 +43,7 @@ void ground_usage(FILE *f)
             "  --help            this text\n"
             "At exit the link counters are printed on stderr: good frames, CRC errors,\n"
             "truncated and oversize frames, bad packets, resyncs, sequence gaps.\n",
-            MFNS_BOARD_BAUD);
+            GROUND_DEFAULT_BAUD);
 }
 
 static int parse_number(const char *s, double lo, double hi, double *out)
@@ -65,7 +61,7 @@ static int parse_number(const char *s, double lo, double hi, double *out)
 int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
 {
     memset(o, 0, sizeof *o);
-    o->baud = MFNS_BOARD_BAUD;
+    o->baud = GROUND_DEFAULT_BAUD;
     o->out_dir = "ground-out";
     o->status = -1;
     for (int i = 1; i < argc; i++) {
@@ -150,7 +146,7 @@ static void print_status(const tlm_decoder_stats_t *s, const tlm_nav_t *nav, int
     ground_fmt_fixed(x, sizeof x, have_nav ? nav->pos_um[0] : 0, 3);
     ground_fmt_fixed(y, sizeof y, have_nav ? nav->pos_um[1] : 0, 3);
     ground_fmt_fixed(z, sizeof z, have_nav ? nav->pos_um[2] : 0, 3);
-    ground_fmt_fixed(yaw, sizeof yaw, have_nav ? nav->att_udeg[2] : 0, 3);
+    ground_fmt_fixed(yaw, sizeof yaw, have_nav ? nav->att_udeg[2] : 0, 6);
     fprintf(stderr, "\r%7.1f s %s frames %lu crc %lu trunc %lu over %lu gaps %lu resync %lu | %s x %s y %s z %s yaw %s\033[K",
             secs, link_down ? "LINK DOWN" : "link ok", (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
             (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->seq_gaps,

@@ -13,6 +13,13 @@
 
 #include "tlm_decoder.h"
 
+/* --baud default: the board's UART rate. */
+#ifdef MFNS_BOARD_BAUD
+#define GROUND_DEFAULT_BAUD MFNS_BOARD_BAUD
+#else
+#define GROUND_DEFAULT_BAUD 921600
+#endif
+
 typedef enum { GROUND_SRC_NONE = 0, GROUND_SRC_SERIAL, GROUND_SRC_TTY, GROUND_SRC_FILE } ground_src_t;
 
 typedef struct {

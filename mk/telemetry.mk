@@ -51,3 +51,12 @@ $(TLM_GEN_BIN): $(call obj,ground/tools/mfns_tlm_gen.c) $(BUILD)/libmfns_linux.a
 	@mkdir -p $(@D)
 	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 endif
+
+# make bench: codec throughput on the host (encode frames/s, decode MB/s).
+BENCH_TARGETS += bench-tlm
+.PHONY: bench-tlm
+build/bench/bench_tlm: tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) $(wildcard firmware/tlm/*.h)
+	@mkdir -p $(@D)
+	gcc $(CSTD) $(WARN) -O2 -Ifirmware/tlm tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) -o $@
+bench-tlm: build/bench/bench_tlm
+	@build/bench/bench_tlm

@@ -99,7 +99,13 @@ static int set_nonblock(int fd)
 
 static int fd_connect(mfns_uart_t *u)
 {
-    const int acc = u->dir == MFNS_UART_READ ? O_RDONLY : (u->dir == MFNS_UART_WRITE ? O_WRONLY : O_RDWR);
+    int acc = u->dir == MFNS_UART_READ ? O_RDONLY : (u->dir == MFNS_UART_WRITE ? O_WRONLY : O_RDWR);
+    struct stat pre;
+    if (u->dir == MFNS_UART_READ && stat(u->path, &pre) == 0 && S_ISFIFO(pre.st_mode)) {
+        /* A FIFO reader that also holds it open for writing never sees EOF
+         * between writers, and writers can always open it (Linux). */
+        acc = O_RDWR;
+    }
     const int fd = open(u->path, acc | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
     if (fd < 0) {
         u->last_errno = errno;
@@ -191,6 +197,14 @@ int mfns_uart_open_serial(mfns_uart_t *u, const char *port, uint32_t baud, mfns_
 int mfns_uart_open_path(mfns_uart_t *u, const char *path, uint32_t baud, mfns_uart_dir_t dir)
 {
     return open_by_path(u, MFNS_UART_FD, path, baud, dir);
+}
+
+int mfns_uart_open_auto(mfns_uart_t *u, const char *path, uint32_t baud, mfns_uart_dir_t dir)
+{
+    if (path != NULL && baud != 0u && mfns_uart_serial_exists(path)) {
+        return mfns_uart_open_serial(u, path, baud, dir);
+    }
+    return mfns_uart_open_path(u, path, baud, dir);
 }
 
 int mfns_uart_attach_fd(mfns_uart_t *u, int fd, bool owns, mfns_uart_dir_t dir)

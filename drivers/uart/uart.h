@@ -78,8 +78,15 @@ typedef struct {
 /* libserialport port at baud, 8N1, no flow control, non-blocking writes. */
 int mfns_uart_open_serial(mfns_uart_t *u, const char *port, uint32_t baud, mfns_uart_dir_t dir);
 /* A path: a tty (raw mode, baud applied with cfsetspeed; a pty ignores it),
- * a FIFO or a regular file. O_NONBLOCK, O_NOCTTY. */
+ * a FIFO or a regular file. O_NONBLOCK, O_NOCTTY. A FIFO opened for reading
+ * is opened read-write so it survives writers coming and going. */
 int mfns_uart_open_path(mfns_uart_t *u, const char *path, uint32_t baud, mfns_uart_dir_t dir);
+/* The flight program's choice: libserialport when path names a serial port
+ * libserialport knows (a real UART such as MFNS_BOARD_UART), otherwise the fd
+ * backend (pseudo-terminals of the host-sim board, FIFOs, files). When the
+ * path does not exist yet the fd backend is used, which re-opens it (as a
+ * raw tty) once it appears. */
+int mfns_uart_open_auto(mfns_uart_t *u, const char *path, uint32_t baud, mfns_uart_dir_t dir);
 /* An open descriptor (not closed by mfns_uart_close unless owns). Set to
  * non-blocking; raw mode if it is a tty. Never re-opened. */
 int mfns_uart_attach_fd(mfns_uart_t *u, int fd, bool owns, mfns_uart_dir_t dir);
@@ -112,5 +119,6 @@ int mfns_uart_serial_connect(mfns_uart_t *u);
 void mfns_uart_serial_disconnect(mfns_uart_t *u);
 int mfns_uart_serial_write(mfns_uart_t *u, const uint8_t *data, size_t n, size_t *written);
 int mfns_uart_serial_read(mfns_uart_t *u, uint8_t *buf, size_t cap, size_t *got, int timeout_ms);
+bool mfns_uart_serial_exists(const char *path);
 
 #endif /* MFNS_UART_H */

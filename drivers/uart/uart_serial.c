@@ -72,7 +72,10 @@ int mfns_uart_serial_write(mfns_uart_t *u, const uint8_t *data, size_t n, size_t
 int mfns_uart_serial_read(mfns_uart_t *u, uint8_t *buf, size_t cap, size_t *got, int timeout_ms)
 {
     *got = 0;
-    const enum sp_return r = sp_blocking_read_next((struct sp_port *)u->sp, buf, cap, (unsigned)timeout_ms);
+    /* libserialport reads timeout 0 as "wait forever": poll instead. */
+    const enum sp_return r = timeout_ms > 0
+                                 ? sp_blocking_read_next((struct sp_port *)u->sp, buf, cap, (unsigned)timeout_ms)
+                                 : sp_nonblocking_read((struct sp_port *)u->sp, buf, cap);
     if (r > 0) {
         *got = (size_t)r;
         return MFNS_UART_OK;
@@ -82,4 +85,14 @@ int mfns_uart_serial_read(mfns_uart_t *u, uint8_t *buf, size_t cap, size_t *got,
         return access(u->path, F_OK) == 0 ? MFNS_UART_OK : MFNS_UART_ERR_GONE;
     }
     return fail_code(u, r, MFNS_UART_ERR_GONE);
+}
+
+bool mfns_uart_serial_exists(const char *path)
+{
+    struct sp_port *p = NULL;
+    if (sp_get_port_by_name(path, &p) != SP_OK) {
+        return false;
+    }
+    sp_free_port(p);
+    return true;
 }

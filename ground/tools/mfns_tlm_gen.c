@@ -83,7 +83,14 @@ int main(int argc, char **argv)
     FILE *f = NULL;
     const int transport = tty != NULL || fd >= 0;
     if (tty != NULL) {
-        const int rc = mfns_uart_open_path(&u, tty, (uint32_t)baud, MFNS_UART_WRITE);
+        int rc = mfns_uart_open_path(&u, tty, (uint32_t)baud, MFNS_UART_WRITE);
+        /* A FIFO without a reader yet, a pty not yet there: the transport
+         * re-opens at its cadence; give the receiver 5 s to appear. */
+        const uint64_t give_up = mfns_uart_now_ms() + 5000u;
+        while (rc == MFNS_UART_ERR_OPEN && u.reopenable && mfns_uart_now_ms() < give_up) {
+            (void)poll(NULL, 0, 20);
+            rc = mfns_uart_service(&u, mfns_uart_now_ms()) == MFNS_UART_OK ? MFNS_UART_OK : MFNS_UART_ERR_OPEN;
+        }
         if (rc != MFNS_UART_OK) {
             fprintf(stderr, "mfns-tlm-gen: %s: %s\n", tty, mfns_uart_strerror(rc));
             return 1;

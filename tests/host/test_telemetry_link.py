@@ -296,3 +296,43 @@ def test_cli_errors_and_help(bins, tmp_path):
         os.close(master)
         os.close(slave)
     assert serial.returncode == 1 and "cannot open" in serial.stderr
+
+
+def test_fifo_transport_and_live_status(bins, tmp_path):
+    """mfns-tlm-gen writes through the transport into a FIFO by path; mfns-ground
+    reads it and shows its status line. Whichever opens the FIFO first, the
+    writer's open is retried at the transport's cadence until the reader is there."""
+    fifo = tmp_path / "tlm.fifo"
+    os.mkfifo(fifo)
+    cycles = 40
+    n_frames = total_frames(cycles)
+    out = tmp_path / "out"
+    ground = subprocess.Popen(
+        [
+            str(bins["ground"]),
+            "--tty",
+            str(fifo),
+            "--out",
+            str(out),
+            "--max-frames",
+            str(n_frames),
+            "--max-seconds",
+            "30",
+            "--status",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,  # bytes: text mode would turn the status line's \r into \n
+    )
+    gen = subprocess.run(
+        [str(bins["gen"]), "--cycles", str(cycles), "--tty", str(fifo), "--rate", "400"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    _, err_bytes = ground.communicate(timeout=60)
+    err = err_bytes.decode()
+    assert gen.returncode == 0, gen.stderr
+    assert ground.returncode == 0, err
+    assert (out / "nav.csv").read_text().splitlines()[1:] == [expected_nav_row(i, i) for i in range(cycles)]
+    assert "\r" in err and "link ok" in err and f"frames {n_frames}" in err

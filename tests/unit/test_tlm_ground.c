@@ -63,7 +63,7 @@ static void test_argument_parsing(void **state)
     char *defaults[] = {"mfns-ground", "--port", "/dev/ttyUSB0"};
     assert_int_equal(ground_parse_args(3, defaults, &o, null), 0);
     assert_int_equal(o.src, GROUND_SRC_SERIAL);
-    assert_int_equal(o.baud, MFNS_BOARD_BAUD);
+    assert_int_equal(o.baud, GROUND_DEFAULT_BAUD);
     assert_string_equal(o.out_dir, "ground-out");
     assert_int_equal(o.status, -1);
     char *none[] = {"mfns-ground"};

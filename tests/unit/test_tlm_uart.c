@@ -262,6 +262,23 @@ static void test_missing_port_retries_at_bounded_cadence(void **state)
     assert_true(u.stats.open_failures >= 7 && u.stats.open_failures <= 9);
     assert_int_equal(u.retry_ms, MFNS_UART_RETRY_MAX_MS);
     mfns_uart_close(&u);
+    /* auto: a pty and /dev/null are not serial ports -> fd backend */
+    pty_t a;
+    open_pty(&a);
+    mfns_uart_t au;
+    assert_int_equal(mfns_uart_open_auto(&au, a.slave_path, 921600, MFNS_UART_WRITE), MFNS_UART_OK);
+    assert_int_equal(au.kind, MFNS_UART_FD);
+    assert_true(au.is_tty);
+    mfns_uart_close(&au);
+    close(a.master);
+    assert_int_equal(mfns_uart_open_auto(&au, "/dev/null", 921600, MFNS_UART_WRITE), MFNS_UART_OK);
+    assert_int_equal(au.kind, MFNS_UART_FD);
+    assert_false(au.is_tty);
+    size_t wn = 0;
+    const uint8_t z[3] = {1, 2, 3};
+    assert_int_equal(mfns_uart_write(&au, z, 3, &wn, 0), MFNS_UART_OK);
+    assert_int_equal(wn, 3);
+    mfns_uart_close(&au);
     /* libserialport refuses what is not a serial port (e.g. a pty) */
     pty_t p;
     open_pty(&p);

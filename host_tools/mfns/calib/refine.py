@@ -1,0 +1,351 @@
+"""Joint maximum-likelihood refinement of the whole rig through the turntable kinematic chain.
+
+Unknowns: per camera the intrinsics (fx, fy, cx, cy, k1, k2, p1, p2, k3; skew fixed at 0),
+the mount attitude C_k_b = exp([d x]) C0 (d in the body frame) and r_bk_b; the rig's
+C_t_w = exp([d x]) C0 (d in the world frame), r_wt_w and h of r_tb_b = (0, 0, h); per
+turntable image the errors of the recorded angles (prior N(0, 8")); per prepared image the
+board pose (C_w_k = exp([d x]) R0, t). Observations: every corner (N(0, sigma_px) per
+coordinate), the angle priors and the caliper height (-r_wb_w[2], N(0, sigma_caliper)).
+All residuals are whitened, so the Gauss-Newton covariance (J^T J)^-1 is the estimate's
+covariance and, evaluated at the truth, the Cramér-Rao bound of the dataset's geometry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.sparse import lil_matrix
+
+from ..camera import Camera
+from ..rotations import rot_exp, rot_log
+from .model import Observations, Rig
+from .zhang import INTRINSIC_NAMES
+
+N_CAM = 15  # 9 intrinsics, 3 attitude, 3 position
+RIG0 = 3 * N_CAM  # start of the rig block: d_t (3), r_wt (3), h (1)
+N_RIG = 7
+
+
+def _rot_stack(axis: int, a: np.ndarray) -> np.ndarray:
+    """Active rotations about x (axis 0) or z (axis 2) for an array of angles: (n, 3, 3)."""
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    if axis == 0:
+        m = [[o, z, z], [z, c, -s], [z, s, c]]
+    else:
+        m = [[c, -s, z], [s, c, z], [z, z, o]]
+    return np.moveaxis(np.array(m), (0, 1), (1, 2))
+
+
+def _project(intr: np.ndarray, p_c: np.ndarray) -> np.ndarray:
+    fx, fy, cx, cy, k1, k2, p1, p2, k3 = intr
+    x = p_c[..., 0] / p_c[..., 2]
+    y = p_c[..., 1] / p_c[..., 2]
+    r2 = x * x + y * y
+    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    return np.stack([fx * xd + cx, fy * yd + cy], axis=-1)
+
+
+@dataclass
+class Start:
+    """A starting point (also the reference rotations of the parametrisation)."""
+
+    intr: list[np.ndarray]  # per camera, INTRINSIC_NAMES order
+    C_k_b: list[np.ndarray]
+    r_bk_b: list[np.ndarray]
+    C_t_w: np.ndarray
+    r_wt_w: np.ndarray
+    h: float
+    prepared: list[tuple[np.ndarray, np.ndarray]]  # per prepared image (C_w_k, t)
+
+    @classmethod
+    def from_rig(cls, rig: Rig, prepared) -> Start:
+        return cls(
+            [np.array([c.fx, c.fy, c.cx, c.cy, *c.dist]) for c in rig.cams],
+            [np.asarray(c.C_k_b, float) for c in rig.cams],
+            [np.asarray(c.r_bk_b, float) for c in rig.cams],
+            np.asarray(rig.C_t_w, float),
+            np.asarray(rig.r_wt_w, float),
+            float(rig.r_tb_b[2]),
+            prepared,
+        )
+
+
+class Problem:
+    def __init__(self, obs: Observations, start: Start, sigma_px: float):
+        self.obs, self.start, self.sigma_px = obs, start, sigma_px
+        self.obj = obs.board.object_points()
+        self.tt = [im for im in obs.images if im.kind == "turntable"]
+        self.prep = [im for im in obs.images if im.kind == "prepared"]
+        if len(self.prep) != len(start.prepared):
+            raise ValueError("one start pose per prepared image needed")
+        self.tt_cam = np.array([im.camera for im in self.tt], dtype=int)
+        self.tt_big = np.deg2rad([im.omega_big_deg for im in self.tt])
+        self.tt_small = np.deg2rad([im.omega_small_deg for im in self.tt])
+        self.uv_tt = np.array([im.uv for im in self.tt])
+        self.uv_prep = np.array([im.uv for im in self.prep]).reshape(len(self.prep), -1, 2)
+        self.n_tt, self.n_prep = len(self.tt), len(self.prep)
+        self.ang0 = RIG0 + N_RIG
+        self.prep0 = self.ang0 + 2 * self.n_tt
+        self.n = self.prep0 + 6 * self.n_prep
+        self.n_corner_res = 2 * obs.board.n * (self.n_tt + self.n_prep)
+
+    def x0(self) -> np.ndarray:
+        s = self.start
+        x = np.zeros(self.n)
+        for k in range(3):
+            x[N_CAM * k : N_CAM * k + 9] = s.intr[k]
+            x[N_CAM * k + 12 : N_CAM * k + 15] = s.r_bk_b[k]
+        x[RIG0 + 3 : RIG0 + 6] = s.r_wt_w
+        x[RIG0 + 6] = s.h
+        for i, (_r, t) in enumerate(s.prepared):
+            x[self.prep0 + 6 * i + 3 : self.prep0 + 6 * i + 6] = t
+        return x
+
+    # --- unpacking ------------------------------------------------------------------------
+    def C_k_b(self, x, k):
+        return rot_exp(x[N_CAM * k + 9 : N_CAM * k + 12]) @ self.start.C_k_b[k]
+
+    def C_t_w(self, x):
+        return rot_exp(x[RIG0 : RIG0 + 3]) @ self.start.C_t_w
+
+    def rig(self, x) -> Rig:
+        cams = []
+        for k in range(3):
+            fx, fy, cx, cy, *dist = x[N_CAM * k : N_CAM * k + 9]
+            cams.append(
+                Camera(
+                    name="xyz"[k],
+                    fx=fx,
+                    fy=fy,
+                    cx=cx,
+                    cy=cy,
+                    dist=np.array(dist),
+                    width=self.obs.image_size[0],
+                    height=self.obs.image_size[1],
+                    C_k_b=self.C_k_b(x, k),
+                    r_bk_b=x[N_CAM * k + 12 : N_CAM * k + 15].copy(),
+                )
+            )
+        return Rig(cams, self.C_t_w(x), x[RIG0 + 3 : RIG0 + 6].copy(), np.array([0.0, 0.0, x[RIG0 + 6]]))
+
+    # --- residuals ---------------------------------------------------------------------------
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        c_t_w = self.C_t_w(x)
+        r_wt = x[RIG0 + 3 : RIG0 + 6]
+        r_tb = np.array([0.0, 0.0, x[RIG0 + 6]])
+        out = []
+        if self.n_tt:
+            d_ang = x[self.ang0 : self.prep0].reshape(-1, 2)
+            a = c_t_w @ (
+                _rot_stack(0, self.tt_small + d_ang[:, 1]) @ _rot_stack(2, self.tt_big + d_ang[:, 0])
+            )
+            c_kb = np.array([self.C_k_b(x, k) for k in range(3)])[self.tt_cam]
+            r_bk = np.array([x[N_CAM * k + 12 : N_CAM * k + 15] for k in range(3)])[self.tt_cam]
+            c_kw = a @ c_kb
+            r_wk = r_wt + np.einsum("nij,nj->ni", a, r_tb + r_bk)
+            p_c = np.einsum("npj,njk->npk", self.obj[None] - r_wk[:, None, :], c_kw)
+            uv = np.empty_like(self.uv_tt)
+            for k in range(3):
+                m = self.tt_cam == k
+                uv[m] = _project(x[N_CAM * k : N_CAM * k + 9], p_c[m])
+            out.append(((uv - self.uv_tt) / self.sigma_px).ravel())
+        if self.n_prep:
+            uvp = np.empty_like(self.uv_prep)
+            for i, im in enumerate(self.prep):
+                p = x[self.prep0 + 6 * i : self.prep0 + 6 * i + 6]
+                r = rot_exp(p[:3]) @ self.start.prepared[i][0]
+                k = im.camera
+                uvp[i] = _project(x[N_CAM * k : N_CAM * k + 9], self.obj @ r.T + p[3:])
+            out.append(((uvp - self.uv_prep) / self.sigma_px).ravel())
+        out.append(x[self.ang0 : self.prep0] / self.obs.angle_sigma_rad)
+        r_wb_z = r_wt[2] + (c_t_w @ r_tb)[2]
+        out.append(np.array([(r_wb_z + self.obs.caliper_height_mm) / self.obs.caliper_sigma_mm]))
+        return np.concatenate(out)
+
+    def sparsity(self):
+        n_c = 2 * self.obs.board.n
+        m = self.n_corner_res + 2 * self.n_tt + 1
+        s = lil_matrix((m, self.n), dtype=int)
+        row = 0
+        for j, im in enumerate(self.tt):
+            k = im.camera
+            s[row : row + n_c, N_CAM * k : N_CAM * (k + 1)] = 1
+            s[row : row + n_c, RIG0 : RIG0 + N_RIG] = 1
+            s[row : row + n_c, self.ang0 + 2 * j : self.ang0 + 2 * j + 2] = 1
+            row += n_c
+        for i, im in enumerate(self.prep):
+            k = im.camera
+            s[row : row + n_c, N_CAM * k : N_CAM * k + 9] = 1
+            s[row : row + n_c, self.prep0 + 6 * i : self.prep0 + 6 * i + 6] = 1
+            row += n_c
+        for j in range(2 * self.n_tt):
+            s[row + j, self.ang0 + j] = 1
+        s[m - 1, RIG0 : RIG0 + N_RIG] = 1
+        return s.tocsr()
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Dense central-difference Jacobian, columns grouped by the sparsity pattern."""
+        s = self.sparsity()
+        conflict = (s.T @ s).tocsr()
+        groups: list[list[int]] = []
+        color = -np.ones(self.n, dtype=int)
+        for j in range(self.n):
+            used = {
+                color[i]
+                for i in conflict.indices[conflict.indptr[j] : conflict.indptr[j + 1]]
+                if color[i] >= 0
+            }
+            c = next(g for g in range(self.n + 1) if g not in used)
+            color[j] = c
+            if c == len(groups):
+                groups.append([])
+            groups[c].append(j)
+        sc = s.tocsc()
+        jac = np.zeros((s.shape[0], self.n))
+        h = 1e-6 * np.maximum(1.0, np.abs(x))
+        for g in groups:
+            dx = np.zeros(self.n)
+            dx[g] = h[g]
+            d = (self.residuals(x + dx) - self.residuals(x - dx)) / 2.0
+            for j in g:
+                rows = sc.indices[sc.indptr[j] : sc.indptr[j + 1]]
+                jac[rows, j] = d[rows] / h[j]
+        return jac
+
+    # --- quantities ----------------------------------------------------------------------------
+    def quantity_jacobian(self, x: np.ndarray) -> tuple[list[str], np.ndarray]:
+        """Map from parameter perturbations to the reported quantities (see quantities())."""
+        names, rows = [], []
+        for k in range(3):
+            cam = "xyz"[k]
+            for i, nm in enumerate(INTRINSIC_NAMES):
+                names.append(f"{cam}.{nm}")
+                rows.append(_unit(self.n, N_CAM * k + i))
+            for i in range(3):
+                names.append(f"{cam}.rot{'xyz'[i]}")
+                rows.append(_unit(self.n, N_CAM * k + 9 + i) * np.rad2deg(1.0))
+            for i in range(3):
+                names.append(f"{cam}.r_b{cam}{'xyz'[i]}")
+                rows.append(_unit(self.n, N_CAM * k + 12 + i))
+        for i in range(3):
+            names.append(f"C_t_w.rot{'xyz'[i]}")
+            rows.append(_unit(self.n, RIG0 + i) * np.rad2deg(1.0))
+        for i in range(3):
+            names.append(f"r_wt_w.{'xyz'[i]}")
+            rows.append(_unit(self.n, RIG0 + 3 + i))
+        names.append("r_tb_b.z")
+        rows.append(_unit(self.n, RIG0 + 6))
+        c_t_w = self.C_t_w(x)
+        r_tb = np.array([0.0, 0.0, x[RIG0 + 6]])
+        v = c_t_w @ r_tb
+        dv_dd = -np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])  # d(exp(d)v)/dd
+        for i in range(3):
+            row = np.zeros(self.n)
+            row[RIG0 + 3 + i] = 1.0
+            row[RIG0 + 6] = c_t_w[i, 2]
+            row[RIG0 : RIG0 + 3] = dv_dd[i]
+            names.append(f"r_wb_w.{'xyz'[i]}")
+            rows.append(row)
+        return names, np.array(rows)
+
+
+def _unit(n: int, i: int) -> np.ndarray:
+    e = np.zeros(n)
+    e[i] = 1.0
+    return e
+
+
+def quantities(rig: Rig, ref: Rig) -> tuple[list[str], np.ndarray]:
+    """Reported quantities of `rig`; rotations as rotation vectors (deg) relative to `ref`.
+
+    Mount attitudes: log(C_k_b ref_C_k_b^T) (body frame); C_t_w: log(C_t_w ref^T) (world).
+    With ref = truth these are the attitude errors; positions in mm, intrinsics in px / 1.
+    """
+    vals = []
+    for c, cr in zip(rig.cams, ref.cams, strict=True):
+        vals += [c.fx, c.fy, c.cx, c.cy, *c.dist]
+        vals += list(np.rad2deg(rot_log(c.C_k_b @ cr.C_k_b.T)))
+        vals += list(c.r_bk_b)
+    vals += list(np.rad2deg(rot_log(rig.C_t_w @ ref.C_t_w.T)))
+    vals += list(rig.r_wt_w)
+    vals.append(rig.r_tb_b[2])
+    vals += list(rig.r_wb_w)
+    names = []
+    for cam in "xyz":
+        names += [f"{cam}.{n}" for n in INTRINSIC_NAMES]
+        names += [f"{cam}.rot{a}" for a in "xyz"]
+        names += [f"{cam}.r_b{cam}{a}" for a in "xyz"]
+    names += [f"C_t_w.rot{a}" for a in "xyz"] + [f"r_wt_w.{a}" for a in "xyz"] + ["r_tb_b.z"]
+    names += [f"r_wb_w.{a}" for a in "xyz"]
+    return names, np.array(vals, dtype=float)
+
+
+@dataclass
+class RefineResult:
+    rig: Rig
+    x: np.ndarray
+    names: list[str]
+    sigma: np.ndarray  # 1-sigma of the quantities
+    cov_params: np.ndarray
+    sigma_px: float
+    rms_px: float
+    nfev: int
+    problem: Problem
+    d_angles_deg: np.ndarray
+
+
+def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200) -> RefineResult:
+    """Least squares from `start`; sigma_px re-estimated from the residuals (one re-weighting)."""
+    x = None
+    for _ in range(2):
+        prob = Problem(obs, start, sigma_px)
+        x0 = prob.x0() if x is None else x
+        res = least_squares(
+            prob.residuals,
+            x0,
+            jac_sparsity=prob.sparsity(),
+            method="trf",
+            x_scale="jac",
+            xtol=1e-10,
+            ftol=1e-10,
+            gtol=1e-10,
+            max_nfev=max_nfev,
+            tr_solver="lsmr",
+            tr_options={"atol": 1e-10, "btol": 1e-10, "maxiter": 2000},
+        )
+        x = res.x
+        r = res.fun[: prob.n_corner_res] * sigma_px
+        dof = max(prob.n_corner_res - prob.n, 1)
+        new_sigma = max(float(np.sqrt(np.sum(r**2) / dof)), 1e-4)
+        if abs(new_sigma / sigma_px - 1.0) < 0.05:
+            break
+        sigma_px = new_sigma
+    jac = prob.jacobian(x)
+    cov = np.linalg.inv(jac.T @ jac)
+    names, qj = prob.quantity_jacobian(x)
+    sig = np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))
+    rms = float(np.sqrt(np.mean(r**2)))
+    d_ang = np.rad2deg(x[prob.ang0 : prob.prep0].reshape(-1, 2))
+    return RefineResult(prob.rig(x), x, names, sig, cov, sigma_px, rms, int(res.nfev), prob, d_ang)
+
+
+def cramer_rao(obs: Observations, truth: Rig, true_prepared, true_angles_deg, sigma_px: float):
+    """1-sigma CRB of the quantities at the truth for this dataset's geometry.
+
+    true_angles_deg: (n_turntable, 2) true (Omega, omega) of the turntable images in the order
+    of `obs`; the observations' recorded angles are replaced by them so the angle errors are 0.
+    """
+    start = Start.from_rig(truth, true_prepared)
+    prob = Problem(obs, start, sigma_px)
+    x = prob.x0()
+    true = np.deg2rad(np.asarray(true_angles_deg, float)).reshape(-1, 2)
+    x[prob.ang0 : prob.prep0] = (true - np.column_stack([prob.tt_big, prob.tt_small])).ravel()
+    jac = prob.jacobian(x)
+    cov = np.linalg.inv(jac.T @ jac)
+    names, qj = prob.quantity_jacobian(x)
+    return names, np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))

@@ -1,0 +1,302 @@
+"""Tables (Table 2 / Table 3 style, paper vs refined vs truth vs CRB) and output files."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..calib_results import FORMAT, VERSION, camera_entry, save
+from ..rotations import matrix_to_euler213_deg, rot_exp
+from .model import CAMERA_NAMES, Observations, Rig
+from .pipeline import Calibration, paper_quantities
+from .refine import N_CAM, RIG0, cramer_rao, quantities
+from .zhang import INTRINSIC_NAMES
+
+
+def _euler_sigma(c: np.ndarray, cov_d: np.ndarray) -> np.ndarray:
+    """1-sigma of the 2-1-3 Euler angles (deg) of exp([d x]) c, d ~ N(0, cov_d) in radians."""
+    jac = np.zeros((3, 3))
+    for i in range(3):
+        d = np.zeros(3)
+        d[i] = 1e-7
+        de = matrix_to_euler213_deg(rot_exp(d) @ c) - matrix_to_euler213_deg(rot_exp(-d) @ c)
+        de = (de + 180.0) % 360.0 - 180.0
+        jac[:, i] = de / 2e-7
+    return np.sqrt(np.diag(jac @ cov_d @ jac.T))
+
+
+def euler_sigmas(cal: Calibration) -> dict[str, np.ndarray]:
+    """Euler-angle 1-sigma of C_t_w and each C_k_b from the refinement covariance."""
+    cov = cal.refined.cov_params
+    out = {"C_t_w": _euler_sigma(cal.refined.rig.C_t_w, cov[RIG0 : RIG0 + 3, RIG0 : RIG0 + 3])}
+    for k in range(3):
+        i = N_CAM * k + 9
+        out[CAMERA_NAMES[k]] = _euler_sigma(cal.refined.rig.cams[k].C_k_b, cov[i : i + 3, i : i + 3])
+    return out
+
+
+def intrinsics_table(cal: Calibration) -> str:
+    lines = ["Intrinsics (Table 2 style): Zhang (paper) +- OpenCV 1-sigma | refined +- 1-sigma"]
+    sig = dict(zip(cal.refined.names, cal.refined.sigma, strict=True))
+    for k, z in enumerate(cal.zhang):
+        cam = cal.refined.rig.cams[k]
+        ref = [cam.fx, cam.fy, cam.cx, cam.cy, *cam.dist]
+        lines.append(
+            f"  camera {CAMERA_NAMES[k]}: Zhang reprojection RMS {z.rms_px:.4f} px over {len(z.names)} images"
+        )
+        for i, n in enumerate(INTRINSIC_NAMES):
+            s = sig[f"{CAMERA_NAMES[k]}.{n}"]
+            lines.append(
+                f"    {n:3s} {z.intrinsics[i]:13.6f} +- {z.sigma[i]:9.6f} | {ref[i]:13.6f} +- {s:9.6f}"
+            )
+    return "\n".join(lines)
+
+
+def extrinsics_table(cal: Calibration) -> str:
+    r, p = cal.refined.rig, cal.paper
+    sig = dict(zip(cal.refined.names, cal.refined.sigma, strict=True))
+    es = euler_sigmas(cal)
+
+    def e(c):
+        return matrix_to_euler213_deg(c)
+
+    def fmt3(v):
+        return " ".join(f"{x:10.4f}" for x in v)
+
+    lines = ["Extrinsics (Table 3 style): paper CPC | refined (1-sigma); Euler 2-1-3 deg, mm"]
+    lines.append(f"  C_t_w  (a,b,g)  {fmt3(e(p.C_t_w))} | {fmt3(e(r.C_t_w))}  ({fmt3(es['C_t_w'])})")
+    for k in range(3):
+        n = CAMERA_NAMES[k]
+        lines.append(
+            f"  C_{n}_b  (phi,theta,psi) {fmt3(e(p.cams[k].C_k_b))} | {fmt3(e(r.cams[k].C_k_b))}"
+            f"  ({fmt3(es[n])})"
+        )
+    rs = [sig[f"r_wb_w.{a}"] for a in "xyz"]
+    lines.append(f"  r_wb_w {fmt3(cal.cpc.r_wb_w)} | {fmt3(r.r_wb_w)}  ({fmt3(rs)})")
+    rs = [sig[f"r_wt_w.{a}"] for a in "xyz"]
+    lines.append(f"  r_wt_w {fmt3(p.r_wt_w)} | {fmt3(r.r_wt_w)}  ({fmt3(rs)})")
+    lines.append(f"  r_tb_b {fmt3(p.r_tb_b)} | {fmt3(r.r_tb_b)}  (     0      0 {sig['r_tb_b.z']:10.4f})")
+    for k in range(3):
+        n = CAMERA_NAMES[k]
+        rs = [sig[f"{n}.r_b{n}{a}"] for a in "xyz"]
+        lines.append(f"  r_b{n}_b {fmt3(p.cams[k].r_bk_b)} | {fmt3(r.cams[k].r_bk_b)}  ({fmt3(rs)})")
+    lines.append(
+        f"  corner noise estimated {cal.refined.sigma_px:.4f} px, refined RMS {cal.refined.rms_px:.4f} px; "
+        f"A10 Gauss-Newton passes {cal.cpc.a10_iterations}"
+    )
+    return "\n".join(lines)
+
+
+@dataclass
+class Comparison:
+    names: list[str]
+    truth: np.ndarray
+    paper_err: np.ndarray
+    refined_err: np.ndarray
+    refined_sigma: np.ndarray
+    crb: np.ndarray | None
+
+    EXTRINSIC_PREFIXES = ("rot", "r_")
+
+    def is_extrinsic(self, name: str) -> bool:
+        tail = name.split(".", 1)[1] if "." in name else name
+        return name.startswith(("C_t_w", "r_wt", "r_tb", "r_wb")) or tail.startswith(self.EXTRINSIC_PREFIXES)
+
+    def group(self, name: str) -> str:
+        if not self.is_extrinsic(name):
+            return "intrinsics"
+        return "attitudes" if ".rot" in name else "positions"
+
+
+def compare(cal: Calibration, truth: Rig, obs: Observations, truth_doc: dict | None) -> Comparison:
+    names, q_true = quantities(truth, truth)
+    _, q_ref = quantities(cal.refined.rig, truth)
+    _, q_pap = paper_quantities(cal, truth)
+    crb = None
+    extra = (truth_doc or {}).get("truth")
+    if extra is not None:
+        by_name = {(d["camera"], d["name"]): d for d in extra["images"]}
+        prep, ang = [], []
+        ok = True
+        for im in obs.images:
+            d = by_name.get((CAMERA_NAMES[im.camera], im.name))
+            if d is None:
+                ok = False
+                break
+            if im.kind == "prepared":
+                c = np.asarray(d["C_k_w"], float)
+                prep.append((c.T, -c.T @ np.asarray(d["r_wk_w"], float)))
+            else:
+                ang.append((d["Omega_deg"], d["omega_deg"]))
+        if ok:
+            _, crb = cramer_rao(obs, truth, prep, np.array(ang).reshape(-1, 2), cal.refined.sigma_px)
+    return Comparison(names, q_true, q_pap - q_true, q_ref - q_true, cal.refined.sigma, crb)
+
+
+def accuracy_table(cmp: Comparison) -> str:
+    head = (
+        f"  {'quantity':14s} {'truth':>12s} {'paper err':>11s} {'refined err':>11s} {'1-sigma':>9s}"
+        f" {'CRB':>9s} {'ref/CRB':>8s} {'ref/paper':>9s}"
+    )
+    lines = ["Accuracy vs truth (attitudes: rotation-vector error, deg, body/world axes; mm; px)", head]
+    for i, n in enumerate(cmp.names):
+        crb = cmp.crb[i] if cmp.crb is not None else float("nan")
+        rc = abs(cmp.refined_err[i]) / crb if cmp.crb is not None else float("nan")
+        rp = abs(cmp.refined_err[i]) / max(abs(cmp.paper_err[i]), 1e-15)
+        lines.append(
+            f"  {n:14s} {cmp.truth[i]:12.5f} {cmp.paper_err[i]:+11.5f} {cmp.refined_err[i]:+11.5f}"
+            f" {cmp.refined_sigma[i]:9.5f} {crb:9.5f} {rc:8.2f} {rp:9.2f}"
+        )
+    if cmp.crb is not None:
+        lines.append("  RMS of (refined error / CRB) per group:")
+        for g in ("intrinsics", "attitudes", "positions"):
+            sel = [i for i, n in enumerate(cmp.names) if cmp.group(n) == g]
+            z = cmp.refined_err[sel] / cmp.crb[sel]
+            zp = cmp.paper_err[sel] / cmp.crb[sel]
+            lines.append(
+                f"    {g:10s} refined {np.sqrt(np.mean(z**2)):6.2f}   paper {np.sqrt(np.mean(zp**2)):8.2f}"
+            )
+    return "\n".join(lines)
+
+
+def results_document(cal: Calibration, source: str) -> dict:
+    sig = dict(zip(cal.refined.names, cal.refined.sigma, strict=True))
+    es = euler_sigmas(cal)
+    r = cal.refined.rig
+    cams = []
+    for k, cam in enumerate(r.cams):
+        n = CAMERA_NAMES[k]
+        s = {key: float(sig[f"{n}.{key}"]) for key in ("fx", "fy", "cx", "cy")}
+        s["dist"] = [float(sig[f"{n}.{d}"]) for d in ("k1", "k2", "p1", "p2", "k3")]
+        s["euler_213_deg"] = [float(v) for v in es[n]]
+        s["r_bk_b"] = [float(sig[f"{n}.r_b{n}{a}"]) for a in "xyz"]
+        cams.append(
+            camera_entry(
+                n,
+                (cam.width, cam.height),
+                cam.fx,
+                cam.fy,
+                cam.cx,
+                cam.cy,
+                0.0,
+                cam.dist,
+                cam.C_k_b,
+                cam.r_bk_b,
+                s,
+            )
+        )
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "source": source,
+        "pixel_noise_px": float(cal.refined.sigma_px),
+        "cameras": cams,
+        "rig": {
+            "C_t_w": r.C_t_w.tolist(),
+            "euler_t_w_deg": matrix_to_euler213_deg(r.C_t_w).tolist(),
+            "r_wt_w": [float(v) for v in r.r_wt_w],
+            "r_wb_w": [float(v) for v in r.r_wb_w],
+            "r_tb_b": [float(v) for v in r.r_tb_b],
+        },
+    }
+
+
+def paper_document(cal: Calibration, source: str) -> dict:
+    p = cal.paper
+    cams = []
+    for k, cam in enumerate(p.cams):
+        z = cal.zhang[k]
+        s = {key: float(z.sigma[i]) for i, key in enumerate(("fx", "fy", "cx", "cy"))}
+        s["dist"] = [float(v) for v in z.sigma[4:9]]
+        cams.append(
+            camera_entry(
+                CAMERA_NAMES[k],
+                (cam.width, cam.height),
+                cam.fx,
+                cam.fy,
+                cam.cx,
+                cam.cy,
+                0.0,
+                cam.dist,
+                cam.C_k_b,
+                cam.r_bk_b,
+                s,
+            )
+        )
+    rms = float(np.sqrt(np.mean([z.rms_px**2 for z in cal.zhang])))
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "source": source,
+        "pixel_noise_px": max(rms, 1e-6),
+        "cameras": cams,
+        "rig": {
+            "C_t_w": p.C_t_w.tolist(),
+            "euler_t_w_deg": matrix_to_euler213_deg(p.C_t_w).tolist(),
+            "r_wt_w": [float(v) for v in p.r_wt_w],
+            "r_wb_w": [float(v) for v in cal.cpc.r_wb_w],
+            "r_tb_b": [float(v) for v in p.r_tb_b],
+        },
+    }
+
+
+def write_outputs(cal: Calibration, out: Path, source: str) -> list[Path]:
+    """results JSON (refined), <stem>_paper.json (CPC) and one OpenCV YAML per camera."""
+    written = [out]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save(results_document(cal, source), out)
+    paper_path = out.with_name(out.stem + "_paper.json")
+    save(paper_document(cal, source + " (paper CPC)"), paper_path)
+    written.append(paper_path)
+    for k, cam in enumerate(cal.refined.rig.cams):
+        path = out.with_name(f"{out.stem}_camera_{CAMERA_NAMES[k]}.yml")
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+        fs.write("camera_name", CAMERA_NAMES[k])
+        fs.write("image_width", int(cam.width))
+        fs.write("image_height", int(cam.height))
+        fs.write("camera_matrix", cam.K)
+        fs.write("distortion_coefficients", np.asarray(cam.dist, float).reshape(1, 5))
+        fs.write("C_k_b", np.asarray(cam.C_k_b, float))
+        fs.write("r_bk_b_mm", np.asarray(cam.r_bk_b, float).reshape(3, 1))
+        fs.write("pixel_noise_px", float(cal.refined.sigma_px))
+        fs.release()
+        written.append(path)
+    return written
+
+
+def write_plots(cal: Calibration, cmp: Comparison | None, folder: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    prob = cal.refined.problem
+    res = prob.residuals(cal.refined.x)[: prob.n_corner_res].reshape(-1, 2) * prob.sigma_px
+    fig, ax = plt.subplots(figsize=(5, 5))
+    ax.scatter(res[:, 0], res[:, 1], s=2, alpha=0.5)
+    ax.set_xlabel("u residual (px)")
+    ax.set_ylabel("v residual (px)")
+    ax.set_title("refined reprojection residuals")
+    ax.set_aspect("equal")
+    paths = [folder / "residuals.png"]
+    fig.savefig(paths[0], dpi=100)
+    plt.close(fig)
+    if cmp is not None and cmp.crb is not None:
+        sel = [i for i, n in enumerate(cmp.names) if cmp.is_extrinsic(n)]
+        fig, ax = plt.subplots(figsize=(12, 4))
+        x = np.arange(len(sel))
+        ax.bar(x - 0.25, np.abs(cmp.paper_err[sel]) / cmp.crb[sel], 0.25, label="|paper err| / CRB")
+        ax.bar(x, np.abs(cmp.refined_err[sel]) / cmp.crb[sel], 0.25, label="|refined err| / CRB")
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_xticks(x, [cmp.names[i] for i in sel], rotation=90, fontsize=7)
+        ax.legend()
+        fig.tight_layout()
+        paths.append(folder / "errors_vs_crb.png")
+        fig.savefig(paths[-1], dpi=100)
+        plt.close(fig)
+    return paths

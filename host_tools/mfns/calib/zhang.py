@@ -1,0 +1,54 @@
+"""Step 1 of CPC: Zhang's method per camera (cv2.calibrateCamera, 5 coefficients, no skew)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..errors import MfnsError
+from .model import CAMERA_NAMES, Observations
+
+INTRINSIC_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
+
+
+@dataclass
+class ZhangResult:
+    camera: int
+    K: np.ndarray
+    dist: np.ndarray  # [k1, k2, p1, p2, k3]
+    sigma: np.ndarray  # 1-sigma of INTRINSIC_NAMES (OpenCV's estimate)
+    rms_px: float
+    names: list[str]
+    C_w_k: list[np.ndarray]  # per image: board (world) -> camera rotation
+    t: list[np.ndarray]  # per image: board origin in the camera frame, mm
+
+    @property
+    def intrinsics(self) -> np.ndarray:
+        return np.array([self.K[0, 0], self.K[1, 1], self.K[0, 2], self.K[1, 2], *self.dist])
+
+    def camera_in_world(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """(C_k'_w, r_wk'_w) of image i: the pose CPC starts from."""
+        c = self.C_w_k[i].T
+        return c, -c @ self.t[i]
+
+
+def calibrate_camera(obs: Observations, k: int) -> ZhangResult:
+    ims = obs.of_camera(k)
+    if len(ims) < 4:
+        raise MfnsError(f"camera {CAMERA_NAMES[k]}: only {len(ims)} usable images (need >= 4)")
+    obj = obs.board.object_points().astype(np.float32)
+    objs = [obj] * len(ims)
+    imgs = [im.uv.astype(np.float32).reshape(-1, 1, 2) for im in ims]
+    w, h = obs.image_size
+    k0 = np.array([[1500.0, 0, w / 2 - 0.5], [0, 1500.0, h / 2 - 0.5], [0, 0, 1]])
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+    rms, K, dist, rvecs, tvecs, std_i, _std_e, _per_view = cv2.calibrateCameraExtended(
+        objs, imgs, (w, h), k0, np.zeros(5), flags=0, criteria=crit
+    )
+    dist = np.asarray(dist, float).ravel()[:5]
+    std = np.asarray(std_i, float).ravel()[:9]
+    rots = [cv2.Rodrigues(np.asarray(r, float))[0] for r in rvecs]
+    ts = [np.asarray(t, float).ravel() for t in tvecs]
+    return ZhangResult(k, np.asarray(K, float), dist, std, float(rms), [im.name for im in ims], rots, ts)
