@@ -89,6 +89,8 @@ static void usage(FILE *f)
             "  --tlm-file PATH     telemetry recorded to a file (created/truncated)\n"
             "  --baud N            UART baud rate (default %d, board %s)\n"
             "  --max-cycles N      stop after N cycles\n"
+            "  --init-pose X,Y,Z,ROLL,PITCH,YAW   start tracking from this pose (mm, deg;\n"
+            "                      e.g. the docking port); falls back to acquisition if wrong\n"
             "  --paper             use the paper's Eq. 3 Newton solver (baseline) instead of ML\n"
             "  --verbose           one line per cycle on stderr\n"
             "  --help, --version\n",
@@ -107,10 +109,33 @@ static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *v)
     return true;
 }
 
+static bool parse_pose(const char *s, float v[6])
+{
+    const char *p = s;
+    for (int i = 0; i < 6; i++) {
+        char *end = NULL;
+        errno = 0;
+        const double x = strtod(p, &end);
+        if (errno != 0 || end == p || !(x > -1e6 && x < 1e6)) {
+            return false;
+        }
+        v[i] = (float)x;
+        if (i < 5) {
+            if (*end != ',') {
+                return false;
+            }
+            p = end + 1;
+        } else if (*end != '\0') {
+            return false;
+        }
+    }
+    return true;
+}
+
 int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err)
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
-           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION };
+           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -120,7 +145,7 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
         {"tlm-tty", required_argument, NULL, O_TTY},     {"tlm-file", required_argument, NULL, O_FILE},
         {"baud", required_argument, NULL, O_BAUD},       {"max-cycles", required_argument, NULL, O_MAX},
         {"paper", no_argument, NULL, O_PAPER},           {"verbose", no_argument, NULL, O_VERBOSE},
-        {"help", no_argument, NULL, O_HELP},             {"version", no_argument, NULL, O_VERSION},
+        {"init-pose", required_argument, NULL, O_INIT},  {"help", no_argument, NULL, O_HELP},             {"version", no_argument, NULL, O_VERSION},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -191,6 +216,13 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
                 fprintf(err, "mfns-nav: --max-cycles wants a positive number, got '%s'\n", optarg);
                 return -1;
             }
+            break;
+        case O_INIT:
+            if (!parse_pose(optarg, o->init_pose)) {
+                fprintf(err, "mfns-nav: --init-pose wants six numbers X,Y,Z,ROLL,PITCH,YAW, got '%s'\n", optarg);
+                return -1;
+            }
+            o->have_init_pose = true;
             break;
         case O_PAPER:
             o->solver = MFNS_POSE_MODE_PAPER;
@@ -457,6 +489,17 @@ int nav_app_run(const nav_app_opts_t *o)
     if (mfns_nav_init(&app.nav, &app.table, o->solver) != MFNS_NAV_OK || open_cameras(o) != 0) {
         close_all(o);
         return 2;
+    }
+    if (o->have_init_pose) {
+        const float d2r = 0.017453292519943295f;
+        const mfns_euler_t e = {o->init_pose[3] * d2r, o->init_pose[4] * d2r, o->init_pose[5] * d2r};
+        const mfns_pose_t p0 = mfns_pose_from_position(mfns_euler213_to_m3(e),
+                                                       mfns_v3(o->init_pose[0], o->init_pose[1], o->init_pose[2]));
+        if (mfns_nav_set_prior(&app.nav, &p0) != MFNS_NAV_OK) {
+            fprintf(stderr, "mfns-nav: --init-pose refused\n");
+            close_all(o);
+            return 2;
+        }
     }
     pump_tlm(o);
 

@@ -56,11 +56,26 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     return MFNS_NAV_OK;
 }
 
+mfns_nav_status_t mfns_nav_set_prior(mfns_nav_t *nav, const mfns_pose_t *pose)
+{
+    if (nav == NULL || pose == NULL || nav->magic != NAV_MAGIC || !mfns_m3_is_rotation(pose->C_w_b, 1e-4f) ||
+        !(mfns_v3_norm(pose->r_bw_b) < 1e7f)) { /* also false for NaN */
+        return MFNS_NAV_E_ARG;
+    }
+    nav->prior = *pose;
+    nav->have_prior = true;
+    nav->have_prev = false;
+    nav->coast = 0;
+    nav->mode = MFNS_NAV_MODE_TRACK;
+    return MFNS_NAV_OK;
+}
+
 void mfns_nav_lose_track(mfns_nav_t *nav)
 {
     if (nav != NULL) {
         nav->have_prior = false;
         nav->have_prev = false;
+        nav->coast = 0;
         nav->mode = MFNS_NAV_MODE_ACQUIRE;
     }
 }
@@ -241,8 +256,16 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         nav->have_prev = nav->have_prior;
         nav->prior = out->sol.pose;
         nav->have_prior = true;
+        nav->coast = 0;
         nav->mode = MFNS_NAV_MODE_TRACK;
+    } else if (track && nav->coast < MFNS_NAV_MAX_COAST) {
+        /* Coast: move the prior on by the predicted motion, keep the motion. */
+        nav->coast++;
+        nav->prev = nav->prior;
+        nav->prior = nav->predicted;
+        out->coasting = nav->coast;
     } else {
+        nav->coast = 0;
         mfns_nav_lose_track(nav);
     }
     out->next_mode = nav->mode;

@@ -11,7 +11,10 @@
  * association). The prediction is the last pose, or, after two consecutive
  * fixes, the last pose moved on by the motion between them (constant
  * velocity and turn rate per cycle): a turning robot's beacons then stay
- * inside their windows. A TRACK cycle that gives no fix is redone once, in the same
+ * inside their windows. When too few beacons are seen for a fix, the
+ * prediction coasts for at most MFNS_NAV_MAX_COAST cycles, so tracking resumes
+ * as soon as beacons return (a dense map makes cold acquisition expensive);
+ * a coasted pose is only a search prior, never output as a fix. A TRACK cycle that gives no fix is redone once, in the same
  * cycle, as ACQUIRE on whole frames; a cycle with no fix drops the prior, so a
  * stale pose is never reused.
  *
@@ -32,6 +35,8 @@
 #include "caltable.h"
 #include "centroid.h"
 #include "pose.h"
+
+#define MFNS_NAV_MAX_COAST 10 /* cycles (0.54 s at 18.6 Hz) */
 
 typedef enum {
     MFNS_NAV_MODE_ACQUIRE = 0,
@@ -70,6 +75,7 @@ typedef struct {
     mfns_nav_mode_t next_mode; /* the mode of the next cycle */
     bool mode_changed;         /* next_mode differs from the previous cycle's mode */
     bool reacquired;           /* TRACK failed and the cycle was redone as ACQUIRE */
+    uint16_t coasting;         /* cycles the prediction has coasted without a fix (0 = none) */
     mfns_nav_cam_diag_t cam[MFNS_NUM_CAMERAS];
 } mfns_nav_output_t;
 
@@ -82,6 +88,7 @@ typedef struct {
     bool have_prev;
     mfns_pose_t prev;       /* the fix before it, in the cycle before */
     mfns_pose_t predicted;  /* prediction used by this cycle's TRACK */
+    uint16_t coast;         /* consecutive TRACK cycles without a fix */
     uint32_t magic; /* set by init: guards against use of a zeroed struct */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;
@@ -98,6 +105,12 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
 /* Run one cycle. frames[k] is camera k's frame or NULL when it has none. */
 mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
                                  mfns_nav_output_t *out);
+
+/* Start tracking from a known pose (e.g. the docking port the robot leaves
+ * from, commanded from the ground): the next cycle tracks from it and falls
+ * back to acquisition if the beacons do not confirm it. MFNS_NAV_E_ARG for a
+ * pose whose rotation is not a rotation or whose numbers are not finite. */
+mfns_nav_status_t mfns_nav_set_prior(mfns_nav_t *nav, const mfns_pose_t *pose);
 
 /* Forget the prior: the next cycle acquires. */
 void mfns_nav_lose_track(mfns_nav_t *nav);

@@ -192,6 +192,18 @@ static void test_no_beacons_gives_no_fix_and_drops_the_prior(void **state)
     assert_true(out.reacquired);
     assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
     assert_int_equal(out.sol.reason, MFNS_POSE_R_TOO_FEW);
+    /* the prediction coasts (a search prior only, never output as a fix) ... */
+    assert_int_equal(out.coasting, 1);
+    assert_int_equal(out.next_mode, MFNS_NAV_MODE_TRACK);
+    for (int i = 2; i <= MFNS_NAV_MAX_COAST; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+        assert_int_equal(out.coasting, i);
+    }
+    /* ... for a bounded number of cycles, then the prior is dropped */
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+    assert_int_equal(out.coasting, 0);
     assert_int_equal(out.next_mode, MFNS_NAV_MODE_ACQUIRE);
     assert_false(nav.have_prior);
     /* every camera dead */
@@ -207,6 +219,42 @@ static void test_no_beacons_gives_no_fix_and_drops_the_prior(void **state)
     assert_int_equal(out.mode, MFNS_NAV_MODE_ACQUIRE);
     assert_int_equal(out.sol.status, MFNS_POSE_OK);
     assert_pose_close(&out.sol);
+}
+
+static void test_tracking_from_a_given_pose(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 21);
+    render_background(&rng);
+    render_beacons();
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    /* a hint 5 mm and ~0.3 deg off: tracked, not acquired */
+    float d[6] = {0.003f, -0.002f, 0.004f, 5.0f, 0.0f, 0.0f};
+    const mfns_pose_t hint = mfns_pose_apply(&truth, d);
+    assert_int_equal(mfns_nav_set_prior(&nav, &hint), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.mode, MFNS_NAV_MODE_TRACK);
+    assert_false(out.reacquired);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_pose_close(&out.sol);
+    /* a hint far off (180 deg): the beacons do not confirm it and the pose
+     * comes from acquisition instead (inside the solver or by the cycle's retry) */
+    float far[6] = {0.0f, 0.0f, 3.14159f, 0.0f, 0.0f, 0.0f};
+    const mfns_pose_t wrong = mfns_pose_apply(&truth, far);
+    assert_int_equal(mfns_nav_set_prior(&nav, &wrong), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_pose_close(&out.sol);
+    /* not a rotation, or not finite: refused */
+    mfns_pose_t bad = truth;
+    bad.C_w_b.m[0][0] = 2.0f;
+    assert_int_equal(mfns_nav_set_prior(&nav, &bad), MFNS_NAV_E_ARG);
+    bad = truth;
+    bad.r_bw_b.x = NAN;
+    assert_int_equal(mfns_nav_set_prior(&nav, &bad), MFNS_NAV_E_ARG);
 }
 
 static void test_bad_frame_and_bad_arguments(void **state)
@@ -236,6 +284,7 @@ int main(void)
         cmocka_unit_test(test_acquire_then_track),
         cmocka_unit_test(test_dead_camera_is_reported_and_others_still_solve),
         cmocka_unit_test(test_no_beacons_gives_no_fix_and_drops_the_prior),
+        cmocka_unit_test(test_tracking_from_a_given_pose),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
     return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);
