@@ -200,11 +200,21 @@ class Flight:
         L.mfns_pose_abi_size.argtypes = [ct.c_int]
         for i, cls in enumerate(_ABI):
             if L.mfns_pose_abi_size(i) != ct.sizeof(cls):
-                raise MfnsError(f"{path}: {cls.__name__} is {L.mfns_pose_abi_size(i)} bytes in C, {ct.sizeof(cls)} here")
+                raise MfnsError(
+                    f"{path}: {cls.__name__} is {L.mfns_pose_abi_size(i)} bytes in C, {ct.sizeof(cls)} here"
+                )
         P = ct.POINTER
         L.mfns_pose_config_default.argtypes = [P(PoseConfig)]
         L.mfns_pose_config_default.restype = None
-        L.mfns_pose_refine.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(Assoc), P(Pose), P(PoseConfig), P(SolutionC)]
+        L.mfns_pose_refine.argtypes = [
+            P(Rig),
+            P(BeaconMap),
+            P(ObsFrame),
+            P(Assoc),
+            P(Pose),
+            P(PoseConfig),
+            P(SolutionC),
+        ]
         L.mfns_pose_track.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(Pose), P(PoseConfig), P(SolutionC)]
         L.mfns_pose_acquire.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(PoseConfig), P(SolutionC)]
         L.mfns_pose_solve.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(Pose), P(PoseConfig), P(SolutionC)]
@@ -241,7 +251,9 @@ class Flight:
             m.beacon[i].sigma_mm = sigma_mm
         return m
 
-    def config(self, sigma_px: float = 0.1, max_range_mm: float = 3000.0, mode: int = MODE_ML, **settings) -> PoseConfig:
+    def config(
+        self, sigma_px: float = 0.1, max_range_mm: float = 3000.0, mode: int = MODE_ML, **settings
+    ) -> PoseConfig:
         c = PoseConfig()
         self.lib.mfns_pose_config_default(ct.byref(c))
         c.sigma_px = sigma_px
@@ -282,12 +294,22 @@ class Flight:
     # --- calls ------------------------------------------------------------------------
     def refine(self, rig, bmap, frame, assoc, init: Pose, cfg) -> Solution:
         s = SolutionC()
-        self.lib.mfns_pose_refine(ct.byref(rig), ct.byref(bmap), ct.byref(frame), ct.byref(assoc), ct.byref(init), ct.byref(cfg), ct.byref(s))
+        self.lib.mfns_pose_refine(
+            ct.byref(rig),
+            ct.byref(bmap),
+            ct.byref(frame),
+            ct.byref(assoc),
+            ct.byref(init),
+            ct.byref(cfg),
+            ct.byref(s),
+        )
         return self._solution(s)
 
     def track(self, rig, bmap, frame, predicted: Pose, cfg) -> Solution:
         s = SolutionC()
-        self.lib.mfns_pose_track(ct.byref(rig), ct.byref(bmap), ct.byref(frame), ct.byref(predicted), ct.byref(cfg), ct.byref(s))
+        self.lib.mfns_pose_track(
+            ct.byref(rig), ct.byref(bmap), ct.byref(frame), ct.byref(predicted), ct.byref(cfg), ct.byref(s)
+        )
         return self._solution(s)
 
     def acquire(self, rig, bmap, frame, cfg) -> Solution:
@@ -297,7 +319,14 @@ class Flight:
 
     def solve(self, rig, bmap, frame, prior: Pose | None, cfg) -> Solution:
         s = SolutionC()
-        self.lib.mfns_pose_solve(ct.byref(rig), ct.byref(bmap), ct.byref(frame), ct.byref(prior) if prior is not None else None, ct.byref(cfg), ct.byref(s))
+        self.lib.mfns_pose_solve(
+            ct.byref(rig),
+            ct.byref(bmap),
+            ct.byref(frame),
+            ct.byref(prior) if prior is not None else None,
+            ct.byref(cfg),
+            ct.byref(s),
+        )
         return self._solution(s)
 
     def strerror(self, reason: str | int) -> str:

@@ -52,13 +52,24 @@ def visible_counts(cams: list[Camera], beacons: np.ndarray, C: np.ndarray, r_bw_
         front = z >= 1.0
         xy = p_c[..., :2] / np.where(front, z, 1.0)[..., None]
         uv = cam.distorted_to_pixel(cam.distort(xy))
-        inside = (uv[..., 0] >= -0.5) & (uv[..., 1] >= -0.5) & (uv[..., 0] < cam.width - 0.5) & (uv[..., 1] < cam.height - 0.5)
+        inside = (
+            (uv[..., 0] >= -0.5)
+            & (uv[..., 1] >= -0.5)
+            & (uv[..., 0] < cam.width - 0.5)
+            & (uv[..., 1] < cam.height - 0.5)
+        )
         total += np.sum(front & inside, axis=1)
     return total
 
 
 def random_visible_poses(
-    rng: np.random.Generator, cams, beacons, n: int, min_visible: int = 4, pos_range: float = 150.0, batch: int = 200_000
+    rng: np.random.Generator,
+    cams,
+    beacons,
+    n: int,
+    min_visible: int = 4,
+    pos_range: float = 150.0,
+    batch: int = 200_000,
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """n poses (C_w_b, r_bw_b) with uniform attitude, body position within +-pos_range mm,
     and at least min_visible beacons in view."""

@@ -46,7 +46,9 @@ def test_identification_on_1000_random_poses(flight, paper):
             reasons[sol.reason] = reasons.get(sol.reason, 0) + 1
             continue
         correct = all(
-            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i] for c in range(3) for i in range(len(ids[c]))
+            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
+            for c in range(3)
+            for i in range(len(ids[c]))
         )
         correct &= sol.beacons_used == sum(len(i) for i in ids)
         if correct:
@@ -90,7 +92,10 @@ def test_covariance_matches_monte_carlo(flight, paper, sigma):
     poses += pose_sim.random_visible_poses(rng, cams, beacons, 2, min_visible=5)  # closer, denser
     for C, r in poses:
         S, pos_var, ref = _monte_carlo(flight, cams, beacons, rig, bmap, C, r, sigma, 1000, rng)
-        print(f"sigma {sigma}: predicted 1-sigma {ref.sigma_pos_mm} mm {ref.sigma_euler_deg} deg; whitened diag {np.diag(S)}")
+        print(
+            f"sigma {sigma}: predicted 1-sigma {ref.sigma_pos_mm} mm {ref.sigma_euler_deg} deg; "
+            f"whitened diag {np.diag(S)}"
+        )
         assert np.all(np.abs(np.diag(S) - 1.0) < 0.15)
         assert np.all(np.abs(S - np.diag(np.diag(S))) < 0.15)
         assert np.all(np.abs(pos_var - 1.0) < 0.15)
