@@ -1,0 +1,152 @@
+/* pose.h -- the body pose from beacon observations of the three cameras
+ * (REFERENCE §3, §6): beacon identification, initialization with no guess,
+ * the maximum-likelihood refinement on the reprojection error, its
+ * covariance, and the paper's Eq. 3 Newton solve as a selectable baseline.
+ *
+ * Input per camera: observations carrying both the measured (distorted)
+ * pixel (u, v), which the ML refinement fits, and the undistorted normalized
+ * coordinates (x, y), which give the bearing rays used by identification and
+ * initialization (and by paper mode, which fits Eq. 3 in those coordinates).
+ *
+ * Entry points the flight pipeline calls:
+ *   mfns_pose_solve    tracking from a prior when one is given (gate blobs
+ *                      against predicted beacons, refine), else or when that
+ *                      fails acquisition (mfns_pose_acquire).
+ *   mfns_pose_acquire  hypothesis-and-verify identification across cameras
+ *                      (generalized P3P on blob triples, bounded by
+ *                      settings.max_hypotheses), then refinement.
+ *   mfns_pose_refine   refinement with known correspondences (warm start).
+ *
+ * Every call fills a mfns_pose_solution_t whose status is OK, DEGRADED or
+ * NO_FIX with a reason. Only OK and DEGRADED carry a usable pose; a NO_FIX
+ * solution never holds a stale pose marked valid (its pose is the last
+ * iterate, for diagnostics only). Time is bounded by the iteration and
+ * hypothesis caps of the settings; nothing allocates.
+ */
+#ifndef MFNS_POSE_H
+#define MFNS_POSE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "camera.h"
+#include "nav_config.h"
+#include "rotation.h"
+
+/* One corrected beacon observation. */
+typedef struct {
+    float u, v; /* measured (distorted) pixel, pixel-centre convention */
+    float x, y; /* undistorted normalized coordinates of the same blob */
+} mfns_obs_t;
+
+/* The observations of one frame set (one image per camera). */
+typedef struct {
+    uint16_t count[MFNS_NUM_CAMERAS];
+    mfns_obs_t obs[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
+} mfns_obs_frame_t;
+
+#define MFNS_POSE_NO_BEACON (-1)
+
+/* Blob-to-beacon correspondence: map index per observation or MFNS_POSE_NO_BEACON. */
+typedef struct {
+    int16_t beacon[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
+} mfns_pose_assoc_t;
+
+typedef enum {
+    MFNS_POSE_OK = 0,
+    MFNS_POSE_DEGRADED, /* usable pose, weaker than nominal: see reason */
+    MFNS_POSE_NO_FIX,   /* no pose: see reason */
+} mfns_pose_status_t;
+
+typedef enum {
+    MFNS_POSE_R_NONE = 0,
+    /* DEGRADED reasons (the pose is usable) */
+    MFNS_POSE_R_CAMERA_UNUSED,  /* a camera contributes no inlier */
+    MFNS_POSE_R_OUTLIERS,       /* observations were gated out as outliers */
+    MFNS_POSE_R_MINIMAL,        /* exactly 3 beacons: no redundancy, residual unchecked */
+    /* NO_FIX reasons */
+    MFNS_POSE_R_BAD_ARG,        /* null pointer, count above the maxima, bad index, not finite */
+    MFNS_POSE_R_TOO_FEW,        /* fewer than 3 beacons usable */
+    MFNS_POSE_R_AMBIGUOUS,      /* several poses explain the observations equally */
+    MFNS_POSE_R_NOT_IDENTIFIED, /* no hypothesis verified within the bound */
+    MFNS_POSE_R_SINGULAR,       /* rank-deficient or ill-conditioned geometry */
+    MFNS_POSE_R_NOT_CONVERGED,  /* iteration cap reached, or diverged */
+    MFNS_POSE_R_RESIDUAL_HIGH,  /* inlier RMS above max_residual_rms_px */
+    MFNS_POSE_R_TRACK_LOST,     /* tracking gate kept fewer than 3 beacons */
+} mfns_pose_reason_t;
+
+typedef enum {
+    MFNS_POSE_MODE_ML = 0,    /* reprojection error in pixels, robust, on the manifold */
+    MFNS_POSE_MODE_PAPER = 1, /* the paper's Newton iteration on Eq. 3's algebraic form */
+} mfns_pose_mode_t;
+
+typedef struct {
+    mfns_solver_settings_t s; /* from the calibration table */
+    float sigma_px;           /* pixel noise 1-sigma of the table (covariance, gates) */
+    float max_range_mm;       /* farthest beacon distance considered by initialization */
+    mfns_pose_mode_t mode;
+} mfns_pose_config_t;
+
+typedef struct {
+    mfns_pose_status_t status;
+    mfns_pose_reason_t reason;
+    mfns_pose_t pose;            /* C_w_b (the rotation matrix) and r_bw_b */
+    mfns_v3_t r_wb_w;            /* body position in the world (mm) */
+    mfns_euler_t euler_deg;      /* 2-1-3 Euler angles of C_w_b (deg) */
+    float cov[6][6];             /* covariance of the increment (dtheta rad, dt mm) */
+    float sigma_pos_mm[3];       /* 1-sigma of r_wb_w per world axis */
+    float sigma_euler_deg[3];    /* 1-sigma of roll, pitch, yaw */
+    uint16_t beacons_used;       /* inlier observations in the final solve */
+    uint16_t outliers;           /* observations gated out */
+    uint16_t cameras_used;       /* cameras with at least one inlier */
+    uint16_t iterations;         /* refinement iterations (all rounds) */
+    uint16_t hypotheses;         /* identification hypotheses tried (acquire) */
+    float residual_rms_px;       /* inlier RMS per coordinate (px) */
+    mfns_pose_assoc_t assoc;     /* the correspondence used */
+    uint8_t inlier[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
+} mfns_pose_solution_t;
+
+/* Defaults for tests and tools (the flight code takes the table's values). */
+void mfns_pose_config_default(mfns_pose_config_t *cfg);
+
+/* Refine from init with the correspondence assoc (unassigned observations are
+ * ignored). Robust Huber IRLS + Levenberg-Marquardt, then the outlier gate and
+ * one re-solve without the gated observations; covariance at the solution. */
+mfns_pose_status_t mfns_pose_refine(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                    const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *assoc,
+                                    const mfns_pose_t *init, const mfns_pose_config_t *cfg,
+                                    mfns_pose_solution_t *out);
+
+/* Tracking: associate each blob with the predicted beacon within
+ * track_gate_px (one-to-one, nearest first), then refine from predicted. */
+mfns_pose_status_t mfns_pose_track(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                   const mfns_obs_frame_t *frame, const mfns_pose_t *predicted,
+                                   const mfns_pose_config_t *cfg, mfns_pose_solution_t *out);
+
+/* Acquisition with no prior (see top of file). */
+mfns_pose_status_t mfns_pose_acquire(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                     const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
+                                     mfns_pose_solution_t *out);
+
+/* Tracking when prior != NULL, falling back to acquisition when it gives no fix. */
+mfns_pose_status_t mfns_pose_solve(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                   const mfns_obs_frame_t *frame, const mfns_pose_t *prior,
+                                   const mfns_pose_config_t *cfg, mfns_pose_solution_t *out);
+
+const char *mfns_pose_status_str(mfns_pose_status_t s);
+
+/* sizeof of the API structs, so that foreign-function mirrors (the Python
+ * host tools' ctypes, host_tools/mfns/flight.py) can check their layout. */
+typedef enum {
+    MFNS_POSE_ABI_RIG = 0,
+    MFNS_POSE_ABI_MAP,
+    MFNS_POSE_ABI_FRAME,
+    MFNS_POSE_ABI_ASSOC,
+    MFNS_POSE_ABI_POSE,
+    MFNS_POSE_ABI_CONFIG,
+    MFNS_POSE_ABI_SOLUTION,
+} mfns_pose_abi_t;
+uint32_t mfns_pose_abi_size(mfns_pose_abi_t what);
+const char *mfns_pose_strerror(mfns_pose_reason_t r);
+
+#endif /* MFNS_POSE_H */

@@ -1,0 +1,34 @@
+/* pose_init.h -- initialization with no guess: a generalized (multi-camera)
+ * three-point absolute pose solver.
+ *
+ * Each observation is a ray in the body frame, origin c (the camera centre
+ * r_bk_b) and unit direction d (C_k_b [x y 1]^T normalized); the unknown
+ * depths lambda_i put the beacon at c_i + lambda_i d_i = C_w_b X_i + r_bw_b.
+ * Rigid motion preserves the three beacon distances, which gives three
+ * quadratics in the depths; eliminating lambda_1 (resultant of two monic
+ * quadratics) and then lambda_2 (remainder modulo the third) leaves one
+ * polynomial of degree <= 8 in lambda_3 whose real roots in
+ * [min_range, max_range] are bracketed on a fixed grid and refined by a
+ * bounded bisection, then polished by Newton on the three distance
+ * equations. The pose follows from the three body points by the triad
+ * (exact for exact points). Up to 8 poses; constant, bounded time.
+ *
+ * A double root that never changes sign between grid points (the poses of
+ * the "danger cylinder") can be missed; the caller verifies with other
+ * beacons anyway and treats the minimal case as ambiguous unless verified.
+ */
+#ifndef MFNS_POSE_INIT_H
+#define MFNS_POSE_INIT_H
+
+#include "camera.h"
+
+#define MFNS_GP3P_MAX_SOLUTIONS 8
+
+/* Returns the number of poses written to out (0..8). */
+int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3], float min_range_mm,
+              float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS]);
+
+/* The body-frame ray of an undistorted normalized observation (x, y) in camera k. */
+void mfns_pose_ray(const mfns_camera_t *cam, float x, float y, mfns_v3_t *origin, mfns_v3_t *dir);
+
+#endif /* MFNS_POSE_INIT_H */

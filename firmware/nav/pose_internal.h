@@ -1,0 +1,65 @@
+/* pose_internal.h -- what the pose modules share among themselves (not part
+ * of the flight API, which is pose.h and pose_init.h). */
+#ifndef MFNS_POSE_INTERNAL_H
+#define MFNS_POSE_INTERNAL_H
+
+#include "pose.h"
+
+#define MFNS_POSE_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)
+
+/* One associated observation as the solvers see it. */
+typedef struct {
+    uint8_t cam, idx;
+    int16_t beacon;
+    float u, v; /* measured pixel */
+    float x, y; /* undistorted normalized */
+    mfns_v3_t p_w;
+    uint8_t active; /* 0 once gated out as an outlier */
+} mfns_pose_meas_t;
+
+/* Check frame/assoc/map and gather the assigned observations into m.
+ * Returns the count, or -1 on bad input. */
+int mfns_pose_gather(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame,
+                     const mfns_pose_assoc_t *assoc, mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS]);
+
+/* Bounded Levenberg-Marquardt on the pixel reprojection error (Huber IRLS
+ * when robust). Updates *pose; returns MFNS_POSE_R_NONE when converged. */
+mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
+                                const mfns_pose_config_t *cfg, int max_iter, mfns_pose_t *pose,
+                                int *iterations);
+
+/* The paper's Newton (Gauss-Newton) iteration on Eq. 3's algebraic residual
+ * x*Zc - Xc, y*Zc - Yc in the camera frame (mm), undamped, unweighted. */
+mfns_pose_reason_t mfns_pose_paper_newton(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
+                                          const mfns_pose_config_t *cfg, int max_iter,
+                                          mfns_pose_t *pose, int *iterations);
+
+/* Pixel residual (predicted - measured) of one observation; false when the
+ * beacon is behind the camera. jac may be NULL. */
+bool mfns_pose_residual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mfns_pose_t *pose,
+                        float r[2], float jac[2][6]);
+
+/* J^T J (unit weights, px) over the active observations. */
+void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
+                           const mfns_pose_t *pose, float h[6][6]);
+
+/* Covariance sigma^2 (J^T J)^-1 into out->cov and the 1-sigma per output axis
+ * (r_wb_w, Euler angles). Returns MFNS_POSE_R_SINGULAR when J^T J is
+ * rank-deficient or below min_rcond (out->cov then zero). */
+mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], float sigma_px, float min_rcond,
+                                        mfns_pose_solution_t *out);
+
+/* Full refinement on gathered measurements (used by refine, track and acquire). */
+mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t *m, int n,
+                                         const mfns_pose_t *init, const mfns_pose_config_t *cfg,
+                                         mfns_pose_solution_t *out);
+
+/* Greedy one-to-one association of blobs with the beacons predicted by pred,
+ * closest pairs first, within gate (px). Returns the number associated. */
+int mfns_pose_associate(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame,
+                        const mfns_pose_t *pred, float gate, mfns_pose_assoc_t *assoc);
+
+/* Clear a solution to NO_FIX with a reason, keeping nothing stale. */
+void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason);
+
+#endif /* MFNS_POSE_INTERNAL_H */

@@ -1,0 +1,548 @@
+/* Unit tests of the pose refinement (firmware/nav/pose.h): exact recovery,
+ * agreement of the float solver with the double reference, convergence from
+ * far, the covariance against Monte Carlo on the paper's geometry, and every
+ * status / reason the refinement can return. */
+#include <string.h>
+
+#include "pose_testlib.h"
+
+/* Test code computes in double from the float model on purpose: promotion is intended. */
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+
+#define DEG (MFNS_PI / 180.0)
+
+static mfns_pose_config_t config(double sigma)
+{
+    mfns_pose_config_t cfg;
+    mfns_pose_config_default(&cfg);
+    cfg.sigma_px = (float)sigma;
+    return cfg;
+}
+
+static pt_dpose_t random_pose(mfns_rng_t *rng, double pos_range)
+{
+    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    double c[3][3];
+    pt_random_rotation(rng, MFNS_PI, eye, c);
+    const double r[3] = {mfns_rng_range(rng, -pos_range, pos_range), mfns_rng_range(rng, -pos_range, pos_range),
+                         mfns_rng_range(rng, -pos_range, pos_range)};
+    return pt_pose(c, r);
+}
+
+/* The truth perturbed by exactly `angle` rad about a random axis and
+ * `dist` mm in a random direction. */
+static pt_dpose_t perturbed(const pt_dpose_t *truth, double angle, double dist, mfns_rng_t *rng)
+{
+    pt_dpose_t p;
+    pt_random_rotation(rng, 0.0, truth->C, p.C); /* copy */
+    double ax[3], n;
+    do {
+        for (int i = 0; i < 3; i++) {
+            ax[i] = mfns_rng_range(rng, -1, 1);
+        }
+        n = sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+    } while (n < 0.1 || n > 1.0);
+    const double w[3] = {ax[0] / n * angle, ax[1] / n * angle, ax[2] / n * angle};
+    double r[3][3];
+    pt_rot_exp(w, r);
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            p.C[i][j] = r[i][0] * truth->C[0][j] + r[i][1] * truth->C[1][j] + r[i][2] * truth->C[2][j];
+        }
+    }
+    double pos[3];
+    pt_position_w(truth, pos);
+    do {
+        for (int i = 0; i < 3; i++) {
+            ax[i] = mfns_rng_range(rng, -1, 1);
+        }
+        n = sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+    } while (n < 0.1 || n > 1.0);
+    for (int i = 0; i < 3; i++) {
+        pos[i] += ax[i] / n * dist;
+    }
+    return pt_pose(p.C, pos);
+}
+
+static void test_exact_recovery_noise_free(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 101);
+    double worst_pos = 0, worst_rot = 0;
+    for (int t = 0; t < 200; t++) {
+        const pt_dpose_t truth = random_pose(&rng, 500);
+        const int per_cam[3] = {1 + t % 3, 1 + (t / 3) % 3, 1 + (t / 9) % 3};
+        const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 400, 1500, &rng);
+        mfns_obs_frame_t frame;
+        mfns_pose_assoc_t assoc;
+        const int n = pt_make_frame(&rig, &map, &truth, 0.0, &rng, &frame, &assoc);
+        assert_int_equal(n, map.count);
+        const pt_dpose_t init = perturbed(&truth, 5 * DEG, 50, &rng);
+        const mfns_pose_t init_f = pt_to_float(&init);
+        const mfns_pose_config_t cfg = config(0.1);
+        mfns_pose_solution_t sol;
+        const mfns_pose_status_t st = mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol);
+        assert_int_equal(st, n == 3 ? MFNS_POSE_DEGRADED : MFNS_POSE_OK);
+        const pt_dpose_t est = pt_from_float(&sol.pose);
+        worst_pos = fmax(worst_pos, pt_pos_err(&est, &truth));
+        worst_rot = fmax(worst_rot, pt_rot_err(est.C, truth.C));
+        assert_int_equal(sol.beacons_used, n);
+        assert_true(sol.residual_rms_px < 2e-3f);
+        assert_true(sol.iterations >= 1 && sol.iterations <= cfg.s.max_iterations);
+        /* the output fields agree with the pose */
+        double pos[3];
+        pt_position_w(&truth, pos);
+        assert_near(sol.r_wb_w.x, pos[0], 0.01);
+        assert_near(sol.r_wb_w.y, pos[1], 0.01);
+        assert_near(sol.r_wb_w.z, pos[2], 0.01);
+        const mfns_m3_t ce = mfns_euler213_to_m3((mfns_euler_t){(float)(sol.euler_deg.roll * DEG),
+                                                                 (float)(sol.euler_deg.pitch * DEG),
+                                                                 (float)(sol.euler_deg.yaw * DEG)});
+        assert_true(mfns_rot_angle_between(ce, sol.pose.C_w_b) < 1e-5f);
+    }
+    print_message("exact recovery: worst position %.2e mm, worst attitude %.2e deg\n", worst_pos, worst_rot / DEG);
+    assert_true(worst_pos < 0.01);
+    assert_true(worst_rot < 1e-4 * DEG);
+}
+
+static void test_float_agrees_with_double_reference(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 102);
+    double worst_pos = 0, worst_rot = 0;
+    for (int t = 0; t < 200; t++) {
+        const pt_dpose_t truth = random_pose(&rng, 500);
+        const int per_cam[3] = {2 + t % 3, 1 + (t / 3) % 3, 2};
+        const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 400, 1500, &rng);
+        mfns_obs_frame_t frame;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &assoc);
+        pt_dpose_t ref = truth;
+        assert_true(pt_ref_refine(&rig, &map, &frame, &assoc, &ref) > 0);
+        const pt_dpose_t init = perturbed(&truth, 3 * DEG, 30, &rng);
+        const mfns_pose_t init_f = pt_to_float(&init);
+        const mfns_pose_config_t cfg = config(0.3);
+        mfns_pose_solution_t sol;
+        assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol), MFNS_POSE_OK);
+        const pt_dpose_t est = pt_from_float(&sol.pose);
+        worst_pos = fmax(worst_pos, pt_pos_err(&est, &ref));
+        worst_rot = fmax(worst_rot, pt_rot_err(est.C, ref.C));
+    }
+    print_message("float vs double reference: worst %.2e mm, %.2e deg\n", worst_pos, worst_rot / DEG);
+    assert_true(worst_pos <= 0.01);
+    assert_true(worst_rot <= 1e-4 * DEG);
+}
+
+static void test_converges_from_far(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 103);
+    int ok = 0, trials = 200;
+    for (int t = 0; t < trials; t++) {
+        const pt_dpose_t truth = random_pose(&rng, 300);
+        const int per_cam[3] = {2, 2, 2};
+        const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 500, 1500, &rng);
+        mfns_obs_frame_t frame;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &map, &truth, 0.1, &rng, &frame, &assoc);
+        /* at least 30 deg and 200 mm off */
+        const pt_dpose_t init = perturbed(&truth, mfns_rng_range(&rng, 30, 35) * DEG, mfns_rng_range(&rng, 200, 250), &rng);
+        assert_true(pt_rot_err(init.C, truth.C) >= 30 * DEG - 1e-9);
+        assert_true(pt_pos_err(&init, &truth) >= 200 - 1e-6);
+        const mfns_pose_t init_f = pt_to_float(&init);
+        const mfns_pose_config_t cfg = config(0.1);
+        mfns_pose_solution_t sol;
+        const mfns_pose_status_t st = mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol);
+        const pt_dpose_t est = pt_from_float(&sol.pose);
+        if (st == MFNS_POSE_OK) {
+            /* converged to the truth, not elsewhere */
+            assert_true(pt_pos_err(&est, &truth) < 2.0);
+            assert_true(pt_rot_err(est.C, truth.C) < 0.05 * DEG);
+            ok++;
+        } else {
+            /* never a wrong pose marked valid */
+            assert_int_equal(st, MFNS_POSE_NO_FIX);
+        }
+    }
+    print_message("converged from >= 30 deg, >= 200 mm: %d / %d\n", ok, trials);
+    assert_true(ok >= trials * 98 / 100);
+}
+
+/* Monte Carlo of the ML solve at one pose: the sample covariance of the
+ * increment error against the predicted sigma^2 (J^T J)^-1. */
+static void monte_carlo(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const pt_dpose_t *truth, double sigma,
+                        int trials, mfns_rng_t *rng)
+{
+    const mfns_pose_config_t cfg = config(sigma);
+    mfns_obs_frame_t frame;
+    mfns_pose_assoc_t assoc;
+    const int n = pt_make_frame(rig, map, truth, 0.0, rng, &frame, &assoc);
+    assert_true(n >= 3);
+    const mfns_pose_t truth_f = pt_to_float(truth);
+    mfns_pose_solution_t ref;
+    assert_true(mfns_pose_refine(rig, map, &frame, &assoc, &truth_f, &cfg, &ref) != MFNS_POSE_NO_FIX);
+    double sum[6] = {0}, sum2[6][6] = {{0}};
+    double pos_s2[3] = {0}, eul_s2[3] = {0};
+    int used = 0;
+    for (int t = 0; t < trials; t++) {
+        (void)pt_make_frame(rig, map, truth, sigma, rng, &frame, &assoc);
+        mfns_pose_solution_t sol;
+        if (mfns_pose_refine(rig, map, &frame, &assoc, &truth_f, &cfg, &sol) == MFNS_POSE_NO_FIX) {
+            continue;
+        }
+        const pt_dpose_t est = pt_from_float(&sol.pose);
+        /* increment error: C_est = exp(dtheta) C_true, r_est = r_true + dt */
+        double m[3][3];
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++) {
+                m[i][j] = est.C[i][0] * truth->C[j][0] + est.C[i][1] * truth->C[j][1] + est.C[i][2] * truth->C[j][2];
+            }
+        }
+        const double e[6] = {0.5 * (m[2][1] - m[1][2]), 0.5 * (m[0][2] - m[2][0]), 0.5 * (m[1][0] - m[0][1]),
+                             est.r[0] - truth->r[0],     est.r[1] - truth->r[1],     est.r[2] - truth->r[2]};
+        for (int i = 0; i < 6; i++) {
+            sum[i] += e[i];
+            for (int j = 0; j < 6; j++) {
+                sum2[i][j] += e[i] * e[j];
+            }
+        }
+        double pe[3], pt[3];
+        pt_position_w(&est, pe);
+        pt_position_w(truth, pt);
+        for (int i = 0; i < 3; i++) {
+            pos_s2[i] += (pe[i] - pt[i]) * (pe[i] - pt[i]);
+        }
+        mfns_euler_t ee;
+        (void)mfns_m3_to_euler213(sol.pose.C_w_b, &ee);
+        const double de[3] = {ee.roll - ref.euler_deg.roll * DEG, ee.pitch - ref.euler_deg.pitch * DEG,
+                              ee.yaw - ref.euler_deg.yaw * DEG};
+        for (int i = 0; i < 3; i++) {
+            eul_s2[i] += de[i] * de[i];
+        }
+        used++;
+    }
+    assert_true(used >= trials * 99 / 100);
+    /* whiten with the predicted covariance: L^-1 e has identity covariance */
+    double c[6][6], l[6][6] = {{0}};
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            c[i][j] = ref.cov[i][j];
+        }
+    }
+    for (int j = 0; j < 6; j++) {
+        double d = c[j][j];
+        for (int k = 0; k < j; k++) {
+            d -= l[j][k] * l[j][k];
+        }
+        assert_true(d > 0);
+        l[j][j] = sqrt(d);
+        for (int i = j + 1; i < 6; i++) {
+            double v = c[i][j];
+            for (int k = 0; k < j; k++) {
+                v -= l[i][k] * l[j][k];
+            }
+            l[i][j] = v / l[j][j];
+        }
+    }
+    /* W = L^-1 S L^-T with S the sample second moment (mean is ~0) */
+    double s[6][6], li[6][6] = {{0}};
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            s[i][j] = sum2[i][j] / used;
+        }
+    }
+    for (int j = 0; j < 6; j++) {
+        li[j][j] = 1.0 / l[j][j];
+        for (int i = j + 1; i < 6; i++) {
+            double v = 0;
+            for (int k = j; k < i; k++) {
+                v -= l[i][k] * li[k][j];
+            }
+            li[i][j] = v / l[i][i];
+        }
+    }
+    double worst_diag = 0, worst_off = 0;
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            double w = 0;
+            for (int a = 0; a < 6; a++) {
+                for (int b = 0; b < 6; b++) {
+                    w += li[i][a] * s[a][b] * li[j][b];
+                }
+            }
+            if (i == j) {
+                worst_diag = fmax(worst_diag, fabs(w - 1.0));
+            } else {
+                worst_off = fmax(worst_off, fabs(w));
+            }
+        }
+    }
+    double worst_axis = 0;
+    for (int i = 0; i < 3; i++) {
+        worst_axis = fmax(worst_axis, fabs(pos_s2[i] / used / ((double)ref.sigma_pos_mm[i] * ref.sigma_pos_mm[i]) - 1.0));
+        const double se = ref.sigma_euler_deg[i] * DEG;
+        worst_axis = fmax(worst_axis, fabs(eul_s2[i] / used / (se * se) - 1.0));
+    }
+    print_message("  n=%d sigma=%.1f px: predicted 1-sigma pos %.3f %.3f %.3f mm, euler %.4f %.4f %.4f deg; "
+                  "whitened |diag-1| %.3f, |offdiag| %.3f, per-axis variance ratio off by %.3f\n",
+                  n, sigma, ref.sigma_pos_mm[0], ref.sigma_pos_mm[1], ref.sigma_pos_mm[2], ref.sigma_euler_deg[0],
+                  ref.sigma_euler_deg[1], ref.sigma_euler_deg[2], worst_diag, worst_off, worst_axis);
+    assert_true(worst_diag < 0.15);
+    assert_true(worst_off < 0.15);
+    assert_true(worst_axis < 0.15);
+    (void)sum;
+}
+
+static void test_covariance_monte_carlo_paper_geometry(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    const mfns_beacon_map_t map = pt_paper_map();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 104);
+    /* The paper's turntable poses with four beacons in view (yaw 30 and 260
+     * deg, REFERENCE §7), and two closer poses with more beacons in view. */
+    const double yaws[2] = {30, 260};
+    for (int k = 0; k < 2; k++) {
+        const double w[3] = {0, 0, -yaws[k] * DEG};
+        double c[3][3];
+        pt_rot_exp(w, c);
+        const double zero[3] = {0, 0, 0};
+        const pt_dpose_t truth = pt_pose(c, zero);
+        monte_carlo(&rig, &map, &truth, 0.1, 1000, &rng);
+        monte_carlo(&rig, &map, &truth, 0.3, 1000, &rng);
+    }
+    for (int k = 0; k < 2; k++) {
+        pt_dpose_t truth;
+        assert_true(pt_random_visible_pose(&rig, &map, 150, 5, 200000, &rng, &truth) >= 5);
+        monte_carlo(&rig, &map, &truth, 0.1, 1000, &rng);
+        monte_carlo(&rig, &map, &truth, 0.3, 1000, &rng);
+    }
+}
+
+static void frame_for(const mfns_rig_t *rig, const int per_cam[3], double sigma, uint64_t seed, pt_dpose_t *truth,
+                      mfns_beacon_map_t *map, mfns_obs_frame_t *frame, mfns_pose_assoc_t *assoc)
+{
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, seed);
+    *truth = random_pose(&rng, 200);
+    *map = pt_dense_map(rig, truth, per_cam, 500, 1500, &rng);
+    (void)pt_make_frame(rig, map, truth, sigma, &rng, frame, assoc);
+}
+
+static void test_status_codes(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    mfns_obs_frame_t frame;
+    mfns_pose_assoc_t assoc;
+    mfns_pose_solution_t sol;
+    mfns_pose_config_t cfg = config(0.1);
+    const int all[3] = {2, 2, 2};
+    frame_for(&rig, all, 0.1, 201, &truth, &map, &frame, &assoc);
+    const mfns_pose_t tf = pt_to_float(&truth);
+
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &tf, &cfg, &sol), MFNS_POSE_OK);
+    assert_int_equal(sol.reason, MFNS_POSE_R_NONE);
+    assert_int_equal(sol.cameras_used, 3);
+    assert_true(sol.sigma_pos_mm[0] > 0 && sol.sigma_euler_deg[2] > 0);
+
+    /* bad arguments: NULLs, counts above the maxima, bad index, NaN */
+    assert_int_equal(mfns_pose_refine(NULL, &map, &frame, &assoc, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &tf, &cfg, NULL), MFNS_POSE_NO_FIX);
+    mfns_obs_frame_t bad = frame;
+    bad.count[1] = MFNS_MAX_OBS_PER_CAMERA + 1;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &bad, &assoc, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    bad = frame;
+    bad.obs[0][0].u = NAN;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &bad, &assoc, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    mfns_pose_assoc_t badassoc = assoc;
+    badassoc.beacon[2][0] = (int16_t)map.count;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &badassoc, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    mfns_pose_config_t badcfg = cfg;
+    badcfg.sigma_px = 0.0f;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &tf, &badcfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    mfns_pose_t badpose = tf;
+    badpose.C_w_b.m[0][0] = 3.0f;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &badpose, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+
+    /* too few beacons: two */
+    mfns_pose_assoc_t two = assoc;
+    for (int c = 0; c < 3; c++) {
+        for (int i = 0; i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+            two.beacon[c][i] = (c == 0 && i < 2) ? assoc.beacon[c][i] : MFNS_POSE_NO_BEACON;
+        }
+    }
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &two, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_TOO_FEW);
+    /* the same beacon twice does not count twice */
+    two.beacon[1][0] = assoc.beacon[0][0];
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &two, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_TOO_FEW);
+
+    /* minimal: exactly three beacons gives a pose, DEGRADED */
+    const int three[3] = {1, 1, 1};
+    frame_for(&rig, three, 0.0, 202, &truth, &map, &frame, &assoc);
+    const mfns_pose_t t3 = pt_to_float(&truth);
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &t3, &cfg, &sol), MFNS_POSE_DEGRADED);
+    assert_int_equal(sol.reason, MFNS_POSE_R_MINIMAL);
+
+    /* a camera with nothing: DEGRADED */
+    const int two_cams[3] = {3, 0, 2};
+    frame_for(&rig, two_cams, 0.1, 203, &truth, &map, &frame, &assoc);
+    const mfns_pose_t t2 = pt_to_float(&truth);
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &t2, &cfg, &sol), MFNS_POSE_DEGRADED);
+    assert_int_equal(sol.reason, MFNS_POSE_R_CAMERA_UNUSED);
+    assert_int_equal(sol.cameras_used, 2);
+
+    /* an outlier (a reflection taken for a beacon): gated, marked, DEGRADED, pose still good */
+    const int many[3] = {3, 3, 3};
+    frame_for(&rig, many, 0.1, 204, &truth, &map, &frame, &assoc);
+    frame.obs[1][1].u += 25.0f;
+    frame.obs[1][1].v -= 10.0f;
+    const mfns_pose_t t9 = pt_to_float(&truth);
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &t9, &cfg, &sol), MFNS_POSE_DEGRADED);
+    assert_int_equal(sol.reason, MFNS_POSE_R_OUTLIERS);
+    assert_int_equal(sol.outliers, 1);
+    assert_int_equal(sol.inlier[1][1], 0);
+    assert_int_equal(sol.inlier[1][0], 1);
+    assert_int_equal(sol.beacons_used, 8);
+    const pt_dpose_t est = pt_from_float(&sol.pose);
+    assert_true(pt_pos_err(&est, &truth) < 5 * sol.sigma_pos_mm[0] + 5 * sol.sigma_pos_mm[1] + 5 * sol.sigma_pos_mm[2]);
+
+    /* residual too high: noise far above the table's sigma, gate off */
+    frame_for(&rig, many, 3.0, 205, &truth, &map, &frame, &assoc);
+    cfg = config(0.1);
+    cfg.s.outlier_gate_sigma = 0.0f;
+    cfg.s.max_residual_rms_px = 1.0f;
+    const mfns_pose_t t10 = pt_to_float(&truth);
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &t10, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_RESIDUAL_HIGH);
+    assert_true(sol.residual_rms_px > 1.0f);
+
+    /* not converged: one iteration from 30 deg away */
+    frame_for(&rig, many, 0.1, 206, &truth, &map, &frame, &assoc);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 207);
+    const pt_dpose_t far = perturbed(&truth, 30 * DEG, 200, &rng);
+    const mfns_pose_t ff = pt_to_float(&far);
+    cfg = config(0.1);
+    cfg.s.max_iterations = 1;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &ff, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_NOT_CONVERGED);
+    assert_int_equal(sol.iterations, 1);
+}
+
+static void test_singular_geometry_is_reported(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 301);
+    const pt_dpose_t truth = random_pose(&rng, 100);
+    /* four beacons on one line through camera Z's field of view: rotation
+     * about that line (with the matching translation) is unobservable */
+    const int zonly[3] = {0, 0, 2};
+    mfns_beacon_map_t map = pt_dense_map(&rig, &truth, zonly, 600, 1200, &rng);
+    const mfns_v3_t a = map.beacon[0].p_w, d = mfns_v3_sub(map.beacon[1].p_w, map.beacon[0].p_w);
+    map.count = 4;
+    for (int i = 0; i < 4; i++) {
+        map.beacon[i].p_w = mfns_v3_add(a, mfns_v3_scale(d, (float)i / 3.0f));
+    }
+    mfns_obs_frame_t frame;
+    mfns_pose_assoc_t assoc;
+    assert_int_equal(pt_make_frame(&rig, &map, &truth, 0.0, &rng, &frame, &assoc), 4);
+    const mfns_pose_t tf = pt_to_float(&truth);
+    mfns_pose_config_t cfg = config(0.1);
+    mfns_pose_solution_t sol;
+    assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_SINGULAR);
+    for (int i = 0; i < 6; i++) {
+        assert_true(sol.cov[i][i] == 0.0f); /* never a made-up covariance */
+    }
+}
+
+static void test_paper_mode(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 401);
+    double ml_s2 = 0, paper_s2 = 0;
+    for (int t = 0; t < 100; t++) {
+        const pt_dpose_t truth = random_pose(&rng, 300);
+        const int per_cam[3] = {2, 1, 2};
+        const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 400, 1500, &rng);
+        mfns_obs_frame_t frame;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &map, &truth, 0.0, &rng, &frame, &assoc);
+        const pt_dpose_t init = perturbed(&truth, 3 * DEG, 30, &rng);
+        const mfns_pose_t init_f = pt_to_float(&init);
+        mfns_pose_config_t cfg = config(0.3);
+        cfg.mode = MFNS_POSE_MODE_PAPER;
+        mfns_pose_solution_t sol;
+        /* noise-free: the algebraic and the ML error share the exact solution */
+        assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol), MFNS_POSE_OK);
+        pt_dpose_t est = pt_from_float(&sol.pose);
+        assert_true(pt_pos_err(&est, &truth) < 0.01);
+        /* noisy: both converge; ML is the better estimator on average */
+        (void)pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &assoc);
+        assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol), MFNS_POSE_OK);
+        est = pt_from_float(&sol.pose);
+        paper_s2 += pt_pos_err(&est, &truth) * pt_pos_err(&est, &truth);
+        cfg.mode = MFNS_POSE_MODE_ML;
+        assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol), MFNS_POSE_OK);
+        est = pt_from_float(&sol.pose);
+        ml_s2 += pt_pos_err(&est, &truth) * pt_pos_err(&est, &truth);
+    }
+    print_message("position RMS error at 0.3 px: ML %.3f mm, paper mode %.3f mm\n", sqrt(ml_s2 / 100),
+                  sqrt(paper_s2 / 100));
+    assert_true(ml_s2 <= paper_s2 * 1.05);
+}
+
+static void test_strerror_every_code(void **state)
+{
+    (void)state;
+    for (int r = MFNS_POSE_R_NONE; r <= MFNS_POSE_R_TRACK_LOST; r++) {
+        const char *s = mfns_pose_strerror((mfns_pose_reason_t)r);
+        assert_non_null(s);
+        assert_true(strlen(s) > 1);
+        assert_true(strcmp(s, "unknown pose reason") != 0);
+        for (int q = MFNS_POSE_R_NONE; q < r; q++) {
+            assert_true(strcmp(s, mfns_pose_strerror((mfns_pose_reason_t)q)) != 0);
+        }
+    }
+    assert_string_equal(mfns_pose_strerror((mfns_pose_reason_t)99), "unknown pose reason");
+    assert_string_equal(mfns_pose_status_str(MFNS_POSE_OK), "ok");
+    assert_string_equal(mfns_pose_status_str(MFNS_POSE_DEGRADED), "degraded");
+    assert_string_equal(mfns_pose_status_str(MFNS_POSE_NO_FIX), "no fix");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_exact_recovery_noise_free),
+        cmocka_unit_test(test_float_agrees_with_double_reference),
+        cmocka_unit_test(test_converges_from_far),
+        cmocka_unit_test(test_covariance_monte_carlo_paper_geometry),
+        cmocka_unit_test(test_status_codes),
+        cmocka_unit_test(test_singular_geometry_is_reported),
+        cmocka_unit_test(test_paper_mode),
+        cmocka_unit_test(test_strerror_every_code),
+    };
+    return cmocka_run_group_tests_name("pose", tests, NULL, NULL);
+}
