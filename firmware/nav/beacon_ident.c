@@ -184,6 +184,7 @@ static bool triple_in_inliers(const blob_t *t[3], const mfns_pose_solution_t *so
 
 #define MIN_RANGE_MM 10.0f
 
+
 static void add_candidate(acq_t *q, const cand_t *cd)
 {
     for (int i = 0; i < q->ncand; i++) {
@@ -222,6 +223,33 @@ static void add_candidate(acq_t *q, const cand_t *cd)
     }
 }
 
+/* Upper 1e-5 quantiles of chi-square with k = 1..16 degrees of freedom. */
+static const float chi2_q[16] = {19.51f, 23.03f, 25.90f, 28.47f, 30.86f, 33.11f, 35.26f, 37.33f,
+                                 39.34f, 41.30f, 43.21f, 45.08f, 46.91f, 48.72f, 50.49f, 52.24f};
+
+/* A candidate explains its blobs only if its residual is plausible under
+ * the pixel noise: sum of (r/sigma)^2 below the chi-square quantile with
+ * 2n - 6 degrees of freedom at 1e-5 (a right pose fails once in 1e5; a rival
+ * correspondence that fits "nearly" is rejected instead of making the
+ * answer ambiguous). Beyond the table: Wilson-Hilferty, z = 4.265. */
+static bool chi2_consistent(const mfns_pose_solution_t *sol, float sigma)
+{
+    const int dof = 2 * (int)sol->beacons_used - 6;
+    if (dof <= 0) {
+        return true;
+    }
+    const float chi2 = 2.0f * (float)sol->beacons_used * (sol->residual_rms_px / sigma) * (sol->residual_rms_px / sigma);
+    float q;
+    if (dof <= 16) {
+        q = chi2_q[dof - 1];
+    } else {
+        const float a = 2.0f / (9.0f * (float)dof);
+        const float b = 1.0f - a + 4.265f * sqrtf(a);
+        q = (float)dof * b * b * b;
+    }
+    return chi2 <= q;
+}
+
 /* Verify one gP3P pose: associate in pixels, refine, score. */
 static void verify(acq_t *q, const mfns_pose_t *pose, const int tri[3])
 {
@@ -237,6 +265,32 @@ static void verify(acq_t *q, const mfns_pose_t *pose, const int tri[3])
     mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
     const int n = mfns_pose_gather(q->map, q->frame, &cd.sol.assoc, m);
     if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd.sol) == MFNS_POSE_NO_FIX) {
+        return;
+    }
+    /* The minimal pose predicts the other beacons only roughly (noise on
+     * three blobs, amplified by their geometry): associate again from the
+     * refined pose, with the tracking gate and then a wider one, and keep a
+     * re-solve that explains more blobs and still passes the chi-square test. */
+    for (int round = 0; round < 2; round++) {
+        const float gate = q->cfg->s.track_gate_px * (round == 0 ? 1.0f : 4.0f);
+        mfns_pose_assoc_t again;
+        if (mfns_pose_associate(q->rig, q->map, q->frame, &cd.sol.pose, gate, &again) <= cd.sol.beacons_used) {
+            continue;
+        }
+        cand_t cd2;
+        memset(&cd2, 0, sizeof(cd2));
+        cd2.sol.assoc = again;
+        const int n2 = mfns_pose_gather(q->map, q->frame, &again, m);
+        if (n2 >= 0 && mfns_pose_refine_meas(q->rig, m, n2, &cd.sol.pose, q->cfg, &cd2.sol) != MFNS_POSE_NO_FIX &&
+            cd2.sol.beacons_used > cd.sol.beacons_used && chi2_consistent(&cd2.sol, q->cfg->sigma_px)) {
+            cd = cd2;
+        }
+    }
+    /* with four or more blobs a fix needs a redundant (checked) solve */
+    if (q->nb > 3 && cd.sol.beacons_used < 4) {
+        return;
+    }
+    if (!chi2_consistent(&cd.sol, q->cfg->sigma_px)) {
         return;
     }
     cd.score = cd.sol.beacons_used;
@@ -284,7 +338,7 @@ static void try_triple(acq_t *q, int i, int j, int k)
             }
         }
     }
-    if (q->best >= 0 && triple_in_inliers(t, &q->cand[q->best].sol)) {
+    if (q->best >= 0 && (q->nb == 3 || q->cand[q->best].score >= 4) && triple_in_inliers(t, &q->cand[q->best].sol)) {
         q->complete = true;
     }
 }

@@ -1,0 +1,138 @@
+/* bench_pose.c -- time of the flight pose solver (make bench-pose).
+ *
+ *  1. refinement, warm start (tracking: the previous pose 0.2 deg / 1 mm
+ *     off), ML and paper mode, for 4 to 10 beacons in view;
+ *  2. cold start (identify + initialize + refine, mfns_pose_acquire) with a
+ *     10-beacon map of which 4 to 10 are in view, and on the paper's own map
+ *     and rig at random poses with >= 4 beacons in view.
+ * Observations: the paper's rig (REFERENCE §7), Gaussian pixel noise 0.1 px.
+ * Speed targets (issue 5): cold start <= 1 ms; refinement >= 2x faster than
+ * PoseLib's (compared in bench_pose_baselines.py). */
+#define _POSIX_C_SOURCE 199309L
+#include <time.h>
+
+#include "pose_testlib.h"
+
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+
+static double now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e6 + (double)ts.tv_nsec * 1e-3;
+}
+
+#define FRAMES 200
+
+/* n beacons in view spread over the cameras, plus 10 - n out of view (behind). */
+static mfns_beacon_map_t map_with_visible(const mfns_rig_t *rig, const pt_dpose_t *truth, int n, mfns_rng_t *rng)
+{
+    const int per[3] = {(n + 2) / 3, (n + 1) / 3, n / 3};
+    mfns_beacon_map_t m = pt_dense_map(rig, truth, per, 500, 1500, rng);
+    /* out-of-view beacons: behind all three cameras (they look along +Xb, +Yb, +Zb) */
+    for (int i = 0; m.count < 10; i++) {
+        const double pb[3] = {-600.0 - 50.0 * i, -500.0 - 30.0 * i, -700.0 + 20.0 * i};
+        const double q[3] = {pb[0] - truth->r[0], pb[1] - truth->r[1], pb[2] - truth->r[2]};
+        double pw[3];
+        for (int k = 0; k < 3; k++) {
+            pw[k] = truth->C[0][k] * q[0] + truth->C[1][k] * q[1] + truth->C[2][k] * q[2];
+        }
+        m.beacon[m.count].id = m.count;
+        m.beacon[m.count].p_w = mfns_v3((float)pw[0], (float)pw[1], (float)pw[2]);
+        m.count++;
+    }
+    return m;
+}
+
+int main(void)
+{
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 2026);
+    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    printf("bench_pose: paper rig, sigma 0.1 px, %d frames per row\n", FRAMES);
+    printf("%-4s %12s %8s %12s %8s %14s %10s %10s\n", "n", "refine us", "iters", "paper us", "iters",
+           "cold start us", "max us", "fix rate");
+    for (int n = 4; n <= 10; n++) {
+        double t_ml = 0, t_paper = 0, t_cold = 0, t_cold_max = 0;
+        long it_ml = 0, it_paper = 0;
+        int fixes = 0;
+        for (int f = 0; f < FRAMES; f++) {
+            double c[3][3];
+            pt_random_rotation(&rng, MFNS_PI, eye, c);
+            const double p[3] = {mfns_rng_range(&rng, -200, 200), mfns_rng_range(&rng, -200, 200),
+                                 mfns_rng_range(&rng, -200, 200)};
+            const pt_dpose_t truth = pt_pose(c, p);
+            const mfns_beacon_map_t map = map_with_visible(&rig, &truth, n, &rng);
+            mfns_obs_frame_t frame;
+            mfns_pose_assoc_t assoc;
+            if (pt_make_frame(&rig, &map, &truth, 0.1, &rng, &frame, &assoc) != n) {
+                printf("bench_pose: frame with %d beacons in view expected\n", n);
+                return 1;
+            }
+            pt_dpose_t prev;
+            pt_random_rotation(&rng, 0.2 * MFNS_PI / 180, truth.C, prev.C);
+            for (int i = 0; i < 3; i++) {
+                prev.r[i] = truth.r[i] + mfns_rng_range(&rng, -1, 1);
+            }
+            const mfns_pose_t prev_f = pt_to_float(&prev);
+            mfns_pose_config_t cfg;
+            mfns_pose_config_default(&cfg);
+            cfg.sigma_px = 0.1f;
+            cfg.max_range_mm = 2500.0f;
+            mfns_pose_solution_t sol;
+            enum { REPS = 20 };
+            double t0 = now_us();
+            for (int r = 0; r < REPS; r++) {
+                (void)mfns_pose_refine(&rig, &map, &frame, &assoc, &prev_f, &cfg, &sol);
+            }
+            t_ml += (now_us() - t0) / REPS;
+            it_ml += sol.iterations;
+            cfg.mode = MFNS_POSE_MODE_PAPER;
+            t0 = now_us();
+            for (int r = 0; r < REPS; r++) {
+                (void)mfns_pose_refine(&rig, &map, &frame, &assoc, &prev_f, &cfg, &sol);
+            }
+            t_paper += (now_us() - t0) / REPS;
+            it_paper += sol.iterations;
+            cfg.mode = MFNS_POSE_MODE_ML;
+            t0 = now_us();
+            const mfns_pose_status_t st = mfns_pose_acquire(&rig, &map, &frame, &cfg, &sol);
+            const double dt = now_us() - t0;
+            t_cold += dt;
+            t_cold_max = dt > t_cold_max ? dt : t_cold_max;
+            fixes += st != MFNS_POSE_NO_FIX ? 1 : 0;
+        }
+        printf("%-4d %12.2f %8.2f %12.2f %8.2f %14.1f %10.1f %9.1f%%\n", n, t_ml / FRAMES, (double)it_ml / FRAMES,
+               t_paper / FRAMES, (double)it_paper / FRAMES, t_cold / FRAMES, t_cold_max, 100.0 * fixes / FRAMES);
+    }
+    /* the paper's own map: random poses with >= 4 of its 10 beacons in view */
+    const mfns_beacon_map_t pmap = pt_paper_map();
+    double t_cold = 0, t_max = 0;
+    int fixes = 0;
+    for (int f = 0; f < FRAMES; f++) {
+        pt_dpose_t truth;
+        if (pt_random_visible_pose(&rig, &pmap, 150, 4, 1000000, &rng, &truth) < 4) {
+            break;
+        }
+        mfns_obs_frame_t frame;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &pmap, &truth, 0.1, &rng, &frame, &assoc);
+        mfns_pose_config_t cfg;
+        mfns_pose_config_default(&cfg);
+        cfg.sigma_px = 0.1f;
+        cfg.max_range_mm = 2500.0f;
+        mfns_pose_solution_t sol;
+        const double t0 = now_us();
+        const mfns_pose_status_t st = mfns_pose_acquire(&rig, &pmap, &frame, &cfg, &sol);
+        const double dt = now_us() - t0;
+        t_cold += dt;
+        t_max = dt > t_max ? dt : t_max;
+        fixes += st != MFNS_POSE_NO_FIX ? 1 : 0;
+    }
+    printf("paper map (10 beacons), random poses with >= 4 in view: cold start mean %.1f us, max %.1f us, fix "
+           "rate %.1f%%\n",
+           t_cold / FRAMES, t_max, 100.0 * fixes / FRAMES);
+    printf("target: cold start <= 1000 us\n");
+    return 0;
+}

@@ -1,0 +1,123 @@
+"""The C pose solver through ctypes (mfns.flight): the statistics that are too slow for
+the C unit tests under qemu: identification on 1000 random poses, and the 1000-trial
+Monte Carlo of the covariance on the paper's geometry."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mfns import pose_sim
+from mfns.flight import Flight
+
+
+@pytest.fixture(scope="module")
+def flight(core_lib):
+    if not core_lib.exists():
+        pytest.fail(f"{core_lib} missing: run make lib")
+    return Flight(core_lib)
+
+
+@pytest.fixture(scope="module")
+def paper(flight):
+    cams = pose_sim.paper_rig()
+    beacons = pose_sim.paper_beacons()
+    return cams, beacons, flight.rig(cams), flight.beacon_map(beacons, 0.3963)
+
+
+def _yaw_pose(yaw_deg: float):
+    a = np.deg2rad(yaw_deg)
+    # frame rotation R3(yaw): the turntable turned by yaw about Zt, body at the world origin
+    C = np.array([[np.cos(a), np.sin(a), 0.0], [-np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    return C, np.zeros(3)
+
+
+def test_identification_on_1000_random_poses(flight, paper):
+    cams, beacons, rig, bmap = paper
+    rng = np.random.default_rng(7)
+    cfg = flight.config(sigma_px=0.3, max_range_mm=2500.0)
+    poses = pose_sim.random_visible_poses(rng, cams, beacons, 1000, min_visible=4)
+    right = wrong = 0
+    reasons: dict[str, int] = {}
+    for C, r in poses:
+        obs, ids = pose_sim.make_frame(cams, beacons, C, r, 0.3, rng)
+        sol = flight.acquire(rig, bmap, flight.frame(obs), cfg)
+        if not sol.ok:
+            reasons[sol.reason] = reasons.get(sol.reason, 0) + 1
+            continue
+        correct = all(
+            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
+            for c in range(3)
+            for i in range(len(ids[c]))
+        )
+        correct &= sol.beacons_used == sum(len(i) for i in ids)
+        if correct:
+            right += 1
+        else:
+            wrong += 1
+    print(f"identification: {right} right, {wrong} wrong of {len(poses)}; no fix: {reasons}")
+    assert wrong == 0  # never a wrong identification reported as a fix
+    assert right >= 0.999 * len(poses)
+
+
+def _monte_carlo(flight, cams, beacons, rig, bmap, C, r, sigma, trials, rng):
+    cfg = flight.config(sigma_px=sigma, max_range_mm=2500.0)
+    obs, ids = pose_sim.make_frame(cams, beacons, C, r, 0.0, rng)
+    assoc = flight.assoc(ids)
+    truth = flight.pose(C, r)
+    ref = flight.refine(rig, bmap, flight.frame(obs), assoc, truth, cfg)
+    assert ref.ok
+    errs, pos_errs = [], []
+    for _ in range(trials):
+        obs, _ = pose_sim.make_frame(cams, beacons, C, r, sigma, rng)
+        sol = flight.refine(rig, bmap, flight.frame(obs), assoc, truth, cfg)
+        assert sol.ok
+        d = sol.C_w_b @ C.T  # exp(dtheta)
+        dtheta = 0.5 * np.array([d[2, 1] - d[1, 2], d[0, 2] - d[2, 0], d[1, 0] - d[0, 1]])
+        errs.append(np.concatenate([dtheta, sol.r_bw_b - r]))
+        pos_errs.append(sol.r_wb_w - (-C.T @ r))
+    errs = np.array(errs)
+    L = np.linalg.cholesky(ref.cov)
+    w = np.linalg.solve(L, errs.T).T
+    S = w.T @ w / len(w)  # whitened second moment: identity if the prediction is right
+    pos_var = np.mean(np.array(pos_errs) ** 2, axis=0) / ref.sigma_pos_mm**2
+    return S, pos_var, ref
+
+
+@pytest.mark.parametrize("sigma", [0.1, 0.3])
+def test_covariance_matches_monte_carlo(flight, paper, sigma):
+    cams, beacons, rig, bmap = paper
+    rng = np.random.default_rng(11)
+    poses = [_yaw_pose(30.0), _yaw_pose(260.0)]  # the turntable poses with four beacons in view
+    poses += pose_sim.random_visible_poses(rng, cams, beacons, 2, min_visible=5)  # closer, denser
+    for C, r in poses:
+        S, pos_var, ref = _monte_carlo(flight, cams, beacons, rig, bmap, C, r, sigma, 1000, rng)
+        print(
+            f"sigma {sigma}: predicted 1-sigma {ref.sigma_pos_mm} mm {ref.sigma_euler_deg} deg; "
+            f"whitened diag {np.diag(S)}"
+        )
+        assert np.all(np.abs(np.diag(S) - 1.0) < 0.15)
+        assert np.all(np.abs(S - np.diag(np.diag(S))) < 0.15)
+        assert np.all(np.abs(pos_var - 1.0) < 0.15)
+
+
+def test_too_few_beacons_no_fix(flight, paper):
+    cams, beacons, rig, bmap = paper
+    C, r = _yaw_pose(0.0)  # beacon 8 in X, 9 in Z
+    obs, ids = pose_sim.make_frame(cams, beacons, C, r, 0.1, np.random.default_rng(1))
+    assert sum(len(i) for i in ids) == 2
+    sol = flight.solve(rig, bmap, flight.frame(obs), None, flight.config())
+    assert sol.status == "NO_FIX" and sol.reason == "TOO_FEW"
+    assert "fewer than three" in flight.strerror(sol.reason)
+
+
+def test_tracking_from_previous_pose(flight, paper):
+    cams, beacons, rig, bmap = paper
+    C, r = _yaw_pose(30.0)
+    obs, ids = pose_sim.make_frame(cams, beacons, C, r, 0.1, np.random.default_rng(2))
+    prev_C, prev_r = _yaw_pose(30.2)
+    sol = flight.solve(rig, bmap, flight.frame(obs), flight.pose(prev_C, prev_r), flight.config())
+    assert sol.status in ("OK", "DEGRADED")
+    assert sol.hypotheses == 0
+    assert np.allclose(sol.euler_deg, [0.0, 0.0, 30.0], atol=0.05)
+    assert np.linalg.norm(sol.r_wb_w) < 1.0
