@@ -47,7 +47,20 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     }
     memset(nav, 0, sizeof *nav);
     nav->table = table;
-    mfns_pose_config_default(&nav->pose_cfg); /* max_range_mm keeps its default */
+    mfns_pose_config_default(&nav->pose_cfg);
+    /* The robot is inside the beacon map, so no beacon is farther than the
+     * map's diameter: the initializer's range bound follows the map (the
+     * paper's frame ~1.7 m, a 2 x 2 x 4 m module ~4.9 m). */
+    float diam = 0.0f;
+    for (uint16_t i = 0; i < table->beacons.count && i < MFNS_MAX_BEACONS; i++) {
+        for (uint16_t j = (uint16_t)(i + 1); j < table->beacons.count && j < MFNS_MAX_BEACONS; j++) {
+            const float d = mfns_v3_norm(mfns_v3_sub(table->beacons.beacon[i].p_w, table->beacons.beacon[j].p_w));
+            diam = d > diam ? d : diam;
+        }
+    }
+    if (diam + 500.0f > nav->pose_cfg.max_range_mm) {
+        nav->pose_cfg.max_range_mm = diam + 500.0f; /* margin: the robot may stand outside the hull */
+    }
     nav->pose_cfg.s = table->solver;
     nav->pose_cfg.sigma_px = table->pixel_sigma_px;
     nav->pose_cfg.mode = mode;
@@ -63,6 +76,7 @@ mfns_nav_status_t mfns_nav_set_prior(mfns_nav_t *nav, const mfns_pose_t *pose)
         return MFNS_NAV_E_ARG;
     }
     nav->prior = *pose;
+    nav->prior_is_fix = false;
     nav->have_prior = true;
     nav->have_prev = false;
     nav->coast = 0;
@@ -252,9 +266,11 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         return st;
     }
     if (has_fix(&out->sol)) {
+        /* velocity only between two real fixes: never from a hint or a coast */
         nav->prev = nav->prior;
-        nav->have_prev = nav->have_prior;
+        nav->have_prev = nav->have_prior && nav->prior_is_fix;
         nav->prior = out->sol.pose;
+        nav->prior_is_fix = true;
         nav->have_prior = true;
         nav->coast = 0;
         nav->mode = MFNS_NAV_MODE_TRACK;
@@ -263,6 +279,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         nav->coast++;
         nav->prev = nav->prior;
         nav->prior = nav->predicted;
+        nav->prior_is_fix = false; /* have_prev stays: the coast keeps the motion */
         out->coasting = nav->coast;
     } else {
         nav->coast = 0;

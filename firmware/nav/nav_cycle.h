@@ -84,7 +84,8 @@ typedef struct {
     mfns_pose_config_t pose_cfg;
     mfns_nav_mode_t mode;
     bool have_prior;
-    mfns_pose_t prior;      /* last fix */
+    mfns_pose_t prior;      /* last fix, coasted prediction or given pose */
+    bool prior_is_fix;      /* prior came from this cycle's predecessor's fix */
     bool have_prev;
     mfns_pose_t prev;       /* the fix before it, in the cycle before */
     mfns_pose_t predicted;  /* prediction used by this cycle's TRACK */
