@@ -4,6 +4,7 @@
 set -uo pipefail
 py=$1
 rc=0
+mkdir -p build
 csrc=$(git ls-files -co --exclude-standard -- '*.c' '*.h' | grep -v '^build/' | sort)
 inc="-I. -Imath -Ifirmware/nav -Ifirmware/tlm -Ifirmware/app -Idrivers/camera -Idrivers/uart -Iground -Itests/unit/support"
 # shellcheck disable=SC2086

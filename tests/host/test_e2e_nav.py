@@ -1,0 +1,188 @@
+"""End to end over the simulated navigation experiment: `mfns sim nav` frames ->
+`mfns table build` -> the flight program `mfns-nav` (replay cameras) -> telemetry
+-> `mfns-ground` -> nav.csv, compared with truth.csv.
+
+The checks a flight user cares about: fixes are accurate, a pose marked FIX or
+DEGRADED is never grossly wrong, a bad calibration table is refused with an event
+on the link, and the program exits cleanly at the end of the data.
+"""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BIN = REPO / "build" / "host-sim" / "bin"
+
+
+@pytest.fixture(scope="module")
+def bins() -> Path:
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=REPO,
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stdout + res.stderr
+    return BIN
+
+
+def mfns(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "mfns", *args], check=False, capture_output=True, text=True)
+
+
+def run_chain(
+    bins: Path, tmp: Path, sim_args: list[str], nav_args: list[str]
+) -> tuple[list[dict], np.ndarray, str]:
+    frames = tmp / "frames"
+    res = mfns("sim", "nav", str(frames), "--quiet", *sim_args)
+    assert res.returncode == 0, res.stderr
+    table = tmp / "table.mfnstbl"
+    res = mfns("table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(table))
+    assert res.returncode == 0, res.stderr
+    tlm = tmp / "tlm.bin"
+    nav = subprocess.run(
+        [
+            str(bins / "mfns-nav"),
+            "--table",
+            str(table),
+            "--replay",
+            str(frames),
+            "--tlm-file",
+            str(tlm),
+            *nav_args,
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert nav.returncode == 0, nav.stderr
+    assert "stopped (data ended)" in nav.stderr
+    ground = subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp / "ground"), "--no-status"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert ground.returncode == 0, ground.stderr
+    assert "crc_errors=0" in ground.stderr
+    with open(tmp / "ground" / "nav.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    truth = np.genfromtxt(frames / "truth.csv", delimiter=",", names=True)
+    return rows, np.atleast_1d(truth), nav.stderr
+
+
+def errors(rows: list[dict], truth: np.ndarray) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """Cycles with a fix and their position (mm) and attitude (deg) errors."""
+    cyc, dp, da = [], [], []
+    for r in rows:
+        if r["status"] not in ("FIX", "DEGRADED"):
+            continue
+        k = int(r["cycle"])
+        t = truth[k]
+        assert abs(float(r["t_s"]) - t["t_s"]) < 1e-3  # the telemetry time is the frame time
+        cyc.append(k)
+        dp.append([float(r[a + "_mm"]) - t[a + "_mm"] for a in "xyz"])
+        d = [float(r[a + "_deg"]) - t[a + "_deg"] for a in ("roll", "pitch", "yaw")]
+        da.append([(v + 180.0) % 360.0 - 180.0 for v in d])
+    return cyc, np.array(dp).reshape(-1, 3), np.array(da).reshape(-1, 3)
+
+
+def test_module_tracking_from_docking_pose(bins, tmp_path):
+    """Dense map, free 6-DOF motion: after a commanded start pose the robot tracks by itself."""
+    frames_arg = ["--scenario", "module", "--frames", "40", "--seed", "3"]
+    # The start pose as the ground would command it (the first truth row).
+    res = mfns("sim", "nav", str(tmp_path / "probe"), "--quiet", *frames_arg)
+    assert res.returncode == 0, res.stderr
+    first = (tmp_path / "probe" / "truth.csv").read_text().splitlines()[1].split(",")[2:8]
+    rows, truth, log = run_chain(bins, tmp_path / "run", frames_arg, ["--init-pose=" + ",".join(first)])
+    assert len(rows) == 40
+    cyc, dp, da = errors(rows, truth)
+    assert len(cyc) >= 34, log  # >= 85 % of cycles with a fix
+    assert np.sqrt(np.mean(dp**2)) < 0.5  # mm, RMS over all axes
+    assert np.sqrt(np.mean(da**2)) < 0.02  # deg
+    assert np.max(np.abs(dp)) < 3.0  # never a grossly wrong pose marked valid
+    assert np.max(np.abs(da)) < 0.2
+
+
+def test_turntable_acquisition_never_reports_a_wrong_fix(bins, tmp_path):
+    """The paper's run: 1-4 beacons in view, no prior. Few fixes, all of them right."""
+    rows, truth, log = run_chain(
+        bins, tmp_path, ["--scenario", "turntable", "--frames", "80", "--yaw-span", "60", "--seed", "4"], []
+    )
+    assert len(rows) == 80
+    cyc, dp, da = errors(rows, truth)
+    assert len(cyc) >= 1, log
+    assert np.max(np.abs(dp)) < 3.0
+    assert np.max(np.abs(da)) < 0.2
+    no_fix = [r for r in rows if r["status"] == "NO_FIX"]
+    assert no_fix, "with <= 2 beacons in view most cycles must be NO_FIX"
+    for r in no_fix:  # a NO_FIX row carries no pose
+        assert float(r["x_mm"]) == 0.0 and float(r["yaw_deg"]) == 0.0
+
+
+def test_corrupt_table_is_refused_with_an_event(bins, tmp_path, gen_dir):
+    good = (gen_dir / "default.mfnstbl").read_bytes()
+    bad = bytearray(good)
+    bad[len(bad) // 2] ^= 0x40  # one bit in the body: the CRC must catch it
+    table = tmp_path / "bad.mfnstbl"
+    table.write_bytes(bytes(bad))
+    tlm = tmp_path / "tlm.bin"
+    empty = tmp_path / "nothing"
+    empty.mkdir()
+    nav = subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(table), "--replay", str(empty), "--tlm-file", str(tlm)],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert nav.returncode == 2
+    assert "refused" in nav.stderr and "CRC" in nav.stderr.upper()
+    ground = subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp_path / "g"), "--no-status"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert ground.returncode == 0
+    events = (tmp_path / "g" / "events.csv").read_text()
+    assert "TABLE_REFUSED" in events
+    assert (
+        not (tmp_path / "g" / "nav.csv").exists()
+        or len((tmp_path / "g" / "nav.csv").read_text().splitlines()) <= 1
+    )
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        ([], "--table"),
+        (["--table", "x"], "--replay"),
+        (["--table", "x", "--replay", "d", "--baud", "12"], "--baud"),
+        (["--table", "x", "--replay", "d", "--init-pose", "1,2,3"], "--init-pose"),
+        (["--table", "x", "--replay", "d", "--tlm-file", "a", "--tlm-tty", "b"], "one telemetry output"),
+    ],
+)
+def test_usage_errors_are_one_line(bins, args, message):
+    res = subprocess.run([str(bins / "mfns-nav"), *args], check=False, capture_output=True, text=True)
+    assert res.returncode == 2
+    assert message in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_help_and_version(bins):
+    res = subprocess.run([str(bins / "mfns-nav"), "--help"], check=False, capture_output=True, text=True)
+    assert res.returncode == 0 and "--init-pose" in res.stdout
+    res = subprocess.run([str(bins / "mfns-nav"), "--version"], check=False, capture_output=True, text=True)
+    assert res.returncode == 0 and res.stdout.startswith("mfns-nav ")
