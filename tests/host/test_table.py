@@ -196,3 +196,42 @@ def test_grid_emulation_is_bit_exact_with_c(sources, core_lib):
         else:
             assert st == 4  # MFNS_UNDIST_OUTSIDE
     assert (~inside).sum() > 0 and inside.sum() > 400
+
+
+def test_pixel_sigma_override(tmp_path, repo_root):
+    from mfns.cli import main
+    from mfns.table.format import decode
+
+    data = repo_root / "host_tools/mfns/data"
+    out = tmp_path / "t.mfnstbl"
+    assert (
+        main(
+            [
+                "table",
+                "build",
+                str(data / "paper_calib.json"),
+                str(data / "paper_beacons.csv"),
+                "-o",
+                str(out),
+                "--pixel-sigma",
+                "0.75",
+            ]
+        )
+        == 0
+    )
+    assert abs(decode(out.read_bytes()).pixel_sigma_px - 0.75) < 1e-6
+    assert (
+        main(
+            [
+                "table",
+                "build",
+                str(data / "paper_calib.json"),
+                str(data / "paper_beacons.csv"),
+                "-o",
+                str(out),
+                "--pixel-sigma",
+                "-1",
+            ]
+        )
+        == 2
+    )

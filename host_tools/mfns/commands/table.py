@@ -26,7 +26,9 @@ def cmd_build(args) -> int:
 
     grid = _grid_arg(args.grid)
     centroid, solver = load_settings(args.settings)
-    table, errors = build_table(args.calib_json, args.beacons_csv, grid, centroid, solver)
+    if args.pixel_sigma is not None and not 0.0 < args.pixel_sigma <= 10.0:
+        raise MfnsError(f"--pixel-sigma {args.pixel_sigma}: expected a value in (0, 10] px")
+    table, errors = build_table(args.calib_json, args.beacons_csv, grid, centroid, solver, args.pixel_sigma)
     data = encode(table)
     validate(decode(data))
     out = Path(args.output)
@@ -99,6 +101,12 @@ def register(subparsers) -> None:
         help="correction grid nodes",
     )
     b.add_argument("--settings", metavar="JSON", help="override centroid/solver settings")
+    b.add_argument(
+        "--pixel-sigma",
+        type=float,
+        metavar="PX",
+        help="pixel noise the flight solver assumes (default: the calibration's pixel_noise_px)",
+    )
     b.set_defaults(func=cmd_build)
     s = sub.add_parser("show", help="print a table and verify its CRC")
     s.add_argument("table", metavar="TABLE")

@@ -58,8 +58,13 @@ def build_table(
     grid: tuple[int, int] = DEFAULT_GRID,
     centroid: dict | None = None,
     solver: dict | None = None,
+    pixel_sigma_px: float | None = None,
 ) -> tuple[Table, list[GridError]]:
-    """The table and, per camera, the measured worst-case error of its grid."""
+    """The table and, per camera, the measured worst-case error of its grid.
+
+    pixel_sigma_px overrides the calibration's pixel_noise_px as the noise the
+    flight solver assumes (centroid noise plus what calibration errors add).
+    """
     from .settings import load_settings
 
     doc = calib_results.load(calib_json)
@@ -77,7 +82,7 @@ def build_table(
         beacon_ids=ids,
         beacon_pos=f32(pos),
         beacon_sigma=f32(sig),
-        pixel_sigma_px=float(f32(doc["pixel_noise_px"])),
+        pixel_sigma_px=float(f32(doc["pixel_noise_px"] if pixel_sigma_px is None else pixel_sigma_px)),
         centroid=centroid if centroid is not None else dc,
         solver=solver if solver is not None else ds,
     )
