@@ -171,11 +171,20 @@ test: deps
 	@mk/suite.sh "unit-native"       $(MAKE) --no-print-directory BOARD=host-sim unit SUITE_NAME=unit-native
 	@mk/suite.sh "unit-asan-ubsan"   $(MAKE) --no-print-directory BOARD=host-sim SAN=1 unit SUITE_NAME=unit-asan-ubsan
 	@mk/suite.sh "unit-qemu-aarch64" $(MAKE) --no-print-directory BOARD=sitss-nav unit SUITE_NAME=unit-qemu-aarch64
-	@mk/suite.sh "flight-build"      $(MAKE) --no-print-directory BOARD=sitss-nav flight
+	@mk/suite.sh "flight-build"      $(MAKE) --no-print-directory flight-aarch64
 	@mk/suite.sh "size-cortex-m7"    $(MAKE) --no-print-directory BOARD=cortex-m7-core size
 	@mk/suite.sh "pytest"            $(MAKE) --no-print-directory pytest
 	@$(foreach s,$(TEST_SUITES),mk/suite.sh "$(s)" $(MAKE) --no-print-directory $(s) ;)
 	@mk/summary.sh build/test-summary.txt
+
+# The aarch64 flight build, checked to be what the board runs.
+.PHONY: flight-aarch64
+flight-aarch64:
+	@$(MAKE) --no-print-directory BOARD=sitss-nav flight
+	@for b in mfns-nav mfns-ground; do \
+	  readelf -h build/sitss-nav/bin/$$b | grep -q 'Machine:.*AArch64' || { echo "$$b is not an AArch64 ELF"; exit 1; }; \
+	done
+	@echo "flight-build: 2 passed, 0 failed"
 
 .PHONY: pytest
 pytest: venv lib $(GEN_FILES)
