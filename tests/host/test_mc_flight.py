@@ -54,7 +54,10 @@ def _both(flight_solver, rows):
                 "flight": fl,
                 "dp_mm": float(
                     np.max(
-                        np.abs(position_from_pose(ref.C_w_b, ref.r_bw_b) - position_from_pose(fl.C_w_b, fl.r_bw_b))
+                        np.abs(
+                            position_from_pose(ref.C_w_b, ref.r_bw_b)
+                            - position_from_pose(fl.C_w_b, fl.r_bw_b)
+                        )
                     )
                 ),
                 "da_deg": float(np.rad2deg(np.linalg.norm(rot_log(ref.C_w_b @ fl.C_w_b.T)))),
@@ -80,13 +83,17 @@ def test_noise_free_exact_calibration_agrees_and_recovers_the_truth(flight_solve
 
 @pytest.mark.parametrize("noise_px", [0.0, 0.05])
 @pytest.mark.parametrize(
-    "group,level", [("position", 1.0), ("attitude", 0.17), ("beacon", 1.0)], ids=["position", "attitude", "beacon"]
+    "group,level",
+    [("position", 1.0), ("attitude", 0.17), ("beacon", 1.0)],
+    ids=["position", "attitude", "beacon"],
 )
 def test_flight_and_reference_agree_on_perturbed_observations(flight_solver, pool, group, level, noise_px):
     rows: list[dict] = []
     both = _both(flight_solver, rows)
     flight_res = mc.pose_errors(both, group, level, 40, np.random.default_rng(2), pool, noise_px)
-    ref_res = mc.pose_errors(pose_ref.solve_pose_gn, group, level, 40, np.random.default_rng(2), pool, noise_px)
+    ref_res = mc.pose_errors(
+        pose_ref.solve_pose_gn, group, level, 40, np.random.default_rng(2), pool, noise_px
+    )
     assert flight_res["solved"] == ref_res["solved"] == 40
     good = 0
     for r in rows:
