@@ -11,8 +11,11 @@ built to reject measurement outliers, which here would hide exactly what the ext
 measures (a miscalibrated rig gives residuals of several pixels on every beacon), so:
   huber_k = 0 (no robust loss), outlier_gate_sigma = 0 (no gate),
   max_residual_rms_px = inf (a large residual is the result, not a failure),
-and a tighter step tolerance (1e-8 rad and 1e-5 mm) so the solve ends at the float round-off
-of the minimum rather than at the flight's 1 microradian.
+min_rcond = 0 (the pose pool already excludes near-critical geometry by its dilution), and a
+tighter step tolerance (1e-7 rad and 1e-4 mm) so the solve ends at the float round-off of the
+minimum rather than at the flight's 1 microradian. sigma_px = 1 only scales the gradient test.
+What remains between the two solvers is float: on weakly conditioned poses up to ~0.02 px
+times the pose's dilution (docs/error-analysis.md).
 The normalized coordinates (x, y) the C frame also carries are undistorted with the rig the
 solver believes, as the flight pipeline corrects its blobs with its calibration table.
 """
