@@ -30,9 +30,10 @@ with the moments of the distribution above in closed form.
 Extension: end-to-end pose error vs calibration error, in the module scenario of
 `mfns sim nav` (60 wall beacons, the paper's rig, poses along the module trajectory with
 >= 4 beacons in view): the beacons are observed through the true rig, the pose is solved
-with a perturbed rig or map by a pluggable `PoseSolver`; today the host reference solver
-(mfns.pose_ref, Gauss-Newton on the reprojection error), to be swapped for the flight solver
-through ctypes once that is available.
+with a perturbed rig or map by a pluggable `PoseSolver`. By default the flight solver: the C
+refinement of firmware/nav/pose.h with known correspondences, from the shared library
+`make lib` builds, through ctypes (mfns.mc_flight); `--solver reference` selects the host
+reference (mfns.pose_ref, double-precision Gauss-Newton on the same reprojection error).
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ import numpy as np
 
 from .camera import Camera, position_from_pose
 from .errors import MfnsError
-from .pose_ref import PoseSolver, solve_pose_gn
+from .mc_flight import make_solver
+from .pose_ref import PoseSolver
 from .rotations import rot_exp, rot_log
 
 TABLE1 = {"fx": 1600.0, "fy": 1600.0, "cx": 640.0, "cy": 512.0, "width": 1280, "height": 1024}
@@ -386,10 +388,12 @@ def run_mc(
     seed: int,
     z_min: float = DEFAULT_Z_MIN_MM,
     pose_trials: int = 200,
-    solver: PoseSolver = solve_pose_gn,
-    solver_name: str = "host reference solver (mfns.pose_ref, Python Gauss-Newton)",
+    solver: str | PoseSolver = "flight",
+    solver_name: str | None = None,
     progress: bool = True,
 ) -> dict:
+    """solver: "flight" (the C solver through ctypes, needs `make lib`), "reference"
+    (mfns.pose_ref), or any PoseSolver callable (then described by solver_name)."""
     from tqdm import tqdm
 
     if trials < 10:
@@ -398,6 +402,13 @@ def run_mc(
         raise MfnsError("--z-min must be in (0, 1000) mm")
     if pose_trials < 0:
         raise MfnsError("--pose-trials must be >= 0")
+    solver_key = solver if isinstance(solver, str) else "custom"
+    if pose_trials:
+        # Before any long work: a missing flight library is reported at once.
+        if isinstance(solver, str):
+            solver, default_name = make_solver(solver)
+            solver_name = solver_name or default_name
+        solver_name = solver_name or getattr(solver, "__name__", "custom solver")
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     summary: dict = {
@@ -465,7 +476,7 @@ def run_mc(
         write_csv(
             out / "pose_vs_calib.csv",
             ["group", "level", "unit", "trials", "solved", "pos_rms_mm", "att_rms_deg", "reproj_rms_px"]
-            + ["pos_median_norm_mm", "att_median_norm_deg"],
+            + ["pos_median_norm_mm", "att_median_norm_deg", "solver"],
             [
                 [
                     r["group"],
@@ -479,7 +490,7 @@ def run_mc(
                     f"{r['att_rms_deg']:.6f}",
                     f"{r['reproj_rms_px']:.6f}",
                 ]
-                + [f"{r['pos_median_norm_mm']:.6f}", f"{r['att_median_norm_deg']:.6f}"]
+                + [f"{r['pos_median_norm_mm']:.6f}", f"{r['att_median_norm_deg']:.6f}", solver_key]
                 for r in pose_rows
             ],
         )
@@ -491,6 +502,7 @@ def run_mc(
                 "rule": f">= 4 beacons and position dilution <= {MAX_POSITION_DILUTION_MM_PER_PX} mm/px",
             },
             "solver": solver_name,
+            "solver_key": solver_key,
             "scenario": f"module, seed {seed}, 60 beacons, paper rig",
             "rows": pose_rows,
         }
@@ -551,7 +563,15 @@ def format_summary(s: dict) -> str:
 
 def run(args) -> int:
     t0 = time.perf_counter()
-    s = run_mc(Path(args.out), args.trials, args.seed, args.z_min, args.pose_trials, progress=not args.quiet)
+    s = run_mc(
+        Path(args.out),
+        args.trials,
+        args.seed,
+        args.z_min,
+        args.pose_trials,
+        solver=args.solver,
+        progress=not args.quiet,
+    )
     print(format_summary(s))
     print(f"  wrote {args.out} in {time.perf_counter() - t0:.1f} s")
     return 0

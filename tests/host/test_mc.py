@@ -149,7 +149,10 @@ def test_pose_extension_uses_the_plugged_solver_and_grows_with_the_error():
 # --------------------------------------------------------------------------- CLI
 def test_cli_mc_smoke(tmp_path, capsys):
     out = tmp_path / "mc"
-    assert main(["mc", str(out), "--trials", "500", "--pose-trials", "4", "--quiet"]) == 0
+    assert (
+        main(["mc", str(out), "--trials", "500", "--pose-trials", "4", "--solver", "reference", "--quiet"])
+        == 0
+    )
     text = capsys.readouterr().out
     assert "first order" in text and "end-to-end" in text
     for g in mc.GROUPS:
@@ -160,9 +163,11 @@ def test_cli_mc_smoke(tmp_path, capsys):
     s = json.loads((out / "summary.json").read_text())
     assert set(s["groups"]) == {"beacon", "position", "attitude"}
     assert s["trials_per_point"] == 500 and "host reference" in s["pose_extension"]["solver"]
+    assert s["pose_extension"]["solver_key"] == "reference"
     pose = (out / "pose_vs_calib.csv").read_text().splitlines()
     assert pose[0].startswith("group,level,unit,trials,solved,pos_rms_mm,att_rms_deg")
     assert len(pose) == 1 + sum(len(levels) for _, _, levels in mc.POSE_GROUPS)
+    assert pose[0].endswith(",solver") and all(line.endswith(",reference") for line in pose[1:])
     assert (out / "pose_vs_calib.png").exists()
 
 

@@ -24,5 +24,13 @@ def register(subparsers) -> None:
         default=200,
         help="trials per point of the end-to-end pose extension, 0 to skip (default 200)",
     )
+    p.add_argument(
+        "--solver",
+        choices=("flight", "reference"),
+        default="flight",
+        help="pose solver of the extension: flight = the C solver of firmware/nav/pose.h through "
+        "build/host-sim/lib/libmfns_core.so (run `make lib` first); reference = the host "
+        "Python Gauss-Newton (mfns.pose_ref) (default flight)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=mc.run)
