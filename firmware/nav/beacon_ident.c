@@ -183,6 +183,14 @@ static bool triple_in_inliers(const blob_t *t[3], const mfns_pose_solution_t *so
 }
 
 #define MIN_RANGE_MM 10.0f
+/* A pose from three rays carries their noise amplified by the geometry
+ * (tens of times near the "danger cylinder"): measured, a right minimal pose
+ * at 0.3 px noise predicted a fourth beacon 16 px off, the tracking gate
+ * dropped it, and a wrong pose that fitted all four blobs at 1.4 sigma was
+ * reported unique. The verification therefore associates the minimal pose
+ * within this multiple of the tracking gate; the refined pose is then
+ * associated again with the tracking gate itself. */
+#define MINIMAL_GATE_FACTOR 4.0f
 
 
 static void add_candidate(acq_t *q, const cand_t *cd)
@@ -259,7 +267,8 @@ static void verify(acq_t *q, const mfns_pose_t *pose, const int tri[3])
     cand_t cd;
     memset(&cd, 0, sizeof(cd));
     const int need = q->nb > 3 ? 4 : 3;
-    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, q->cfg->s.track_gate_px, &cd.sol.assoc) < need) {
+    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
+                            &cd.sol.assoc) < need) {
         return;
     }
     mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
@@ -345,9 +354,12 @@ static void try_triple(acq_t *q, int i, int j, int k)
 
 static bool search_over(const acq_t *q) { return q->complete || q->budget_out || q->minimal_rival; }
 
-/* The triple tried first: a pair from the camera with the most blobs (the
- * reachable-distance test prunes same-camera pairs hard) and a third blob
- * from another camera (conditioning), else from the same camera. */
+/* The triple tried first, chosen for the conditioning of its minimal pose
+ * (a pose from three rays bunched together predicts the other beacons
+ * poorly, the quick verification then misses the right hypothesis and the
+ * search has to go on to a second triple): the pair with the widest angle
+ * in the camera with the most blobs, and the blob of another camera with the
+ * widest smallest angle to both; with one camera, its widest third blob. */
 static void first_triple(const acq_t *q, int tri[3])
 {
     int cm = 0;
@@ -359,20 +371,40 @@ static void first_triple(const acq_t *q, int tri[3])
     tri[0] = 0;
     tri[1] = 1;
     tri[2] = 2;
-    if (q->frame->count[cm] < 2) {
+    const int n = q->frame->count[cm];
+    if (n < 2) {
         return;
     }
-    tri[0] = q->frame_cam_blob[cm][0];
-    tri[1] = q->frame_cam_blob[cm][1];
-    tri[2] = -1;
-    for (int c = 0; c < MFNS_NUM_CAMERAS && tri[2] < 0; c++) {
-        if (c != cm && q->frame->count[c] > 0) {
-            tri[2] = q->frame_cam_blob[c][0];
+    float best = 2.0f;
+    for (int i = 0; i < n; i++) {
+        for (int j = i + 1; j < n; j++) {
+            const int bi = q->frame_cam_blob[cm][i], bj = q->frame_cam_blob[cm][j];
+            const float cs = mfns_v3_dot(q->blobs[bi].d, q->blobs[bj].d);
+            if (cs < best) {
+                best = cs;
+                tri[0] = bi;
+                tri[1] = bj;
+            }
         }
     }
-    if (tri[2] < 0) {
-        tri[2] = q->frame_cam_blob[cm][2];
+    /* third: smallest largest cosine to the pair, other cameras first */
+    int third = -1;
+    float best3 = 2.0f;
+    for (int pass = 0; pass < 2 && third < 0; pass++) {
+        for (int b = 0; b < q->nb; b++) {
+            if (b == tri[0] || b == tri[1] || (pass == 0) == (q->blobs[b].cam == cm)) {
+                continue;
+            }
+            const float c0 = mfns_v3_dot(q->blobs[b].d, q->blobs[tri[0]].d);
+            const float c1 = mfns_v3_dot(q->blobs[b].d, q->blobs[tri[1]].d);
+            const float cs = c0 > c1 ? c0 : c1;
+            if (cs < best3) {
+                best3 = cs;
+                third = b;
+            }
+        }
     }
+    tri[2] = third;
     /* ascending, as the lexicographic loop expects */
     for (int a = 0; a < 2; a++) {
         for (int b = 0; b < 2 - a; b++) {
@@ -432,7 +464,7 @@ mfns_pose_status_t mfns_pose_acquire(const mfns_rig_t *rig, const mfns_beacon_ma
         return out->status;
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        q.gate_n[c] = cfg->s.track_gate_px / rig->cam[c].k.fx;
+        q.gate_n[c] = MINIMAL_GATE_FACTOR * cfg->s.track_gate_px / rig->cam[c].k.fx;
     }
     q.lo = MIN_RANGE_MM;
     q.hi = cfg->max_range_mm;
