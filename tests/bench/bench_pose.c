@@ -9,6 +9,7 @@
  * Speed targets (issue 5): cold start <= 1 ms; refinement >= 2x faster than
  * PoseLib's (compared in bench_pose_baselines.py). */
 #define _POSIX_C_SOURCE 199309L
+#include <stdlib.h>
 #include <time.h>
 
 #include "pose_testlib.h"
@@ -23,6 +24,20 @@ static double now_us(void)
 }
 
 #define FRAMES 200
+
+static int cmp_double(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* q-quantile of n sorted values (nearest rank) */
+static double quantile(const double *sorted, int n, double q)
+{
+    int k = (int)(q * n + 0.5) - 1;
+    k = k < 0 ? 0 : (k >= n ? n - 1 : k);
+    return sorted[k];
+}
 
 /* n beacons in view spread over the cameras, plus 10 - n out of view (behind). */
 static mfns_beacon_map_t map_with_visible(const mfns_rig_t *rig, const pt_dpose_t *truth, int n, mfns_rng_t *rng)
@@ -51,10 +66,13 @@ int main(void)
     mfns_rng_seed(&rng, 2026);
     static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     printf("bench_pose: paper rig, sigma 0.1 px, %d frames per row\n", FRAMES);
-    printf("%-4s %12s %8s %12s %8s %14s %10s %10s\n", "n", "refine us", "iters", "paper us", "iters",
-           "cold start us", "max us", "fix rate");
+    printf("%-4s %12s %8s %12s %8s %14s %10s %10s %10s\n", "n", "refine us", "iters", "paper us", "iters",
+           "cold start us", "p99 us", "max us", "fix rate");
+    static double all_cold[7 * FRAMES];
+    int n_all = 0;
     for (int n = 4; n <= 10; n++) {
         double t_ml = 0, t_paper = 0, t_cold = 0, t_cold_max = 0;
+        double cold[FRAMES];
         long it_ml = 0, it_paper = 0;
         int fixes = 0;
         for (int f = 0; f < FRAMES; f++) {
@@ -101,15 +119,24 @@ int main(void)
             const double dt = now_us() - t0;
             t_cold += dt;
             t_cold_max = dt > t_cold_max ? dt : t_cold_max;
+            cold[f] = dt;
+            all_cold[n_all++] = dt;
             fixes += st != MFNS_POSE_NO_FIX ? 1 : 0;
         }
-        printf("%-4d %12.2f %8.2f %12.2f %8.2f %14.1f %10.1f %9.1f%%\n", n, t_ml / FRAMES, (double)it_ml / FRAMES,
-               t_paper / FRAMES, (double)it_paper / FRAMES, t_cold / FRAMES, t_cold_max, 100.0 * fixes / FRAMES);
+        qsort(cold, FRAMES, sizeof cold[0], cmp_double);
+        printf("%-4d %12.2f %8.2f %12.2f %8.2f %14.1f %10.1f %10.1f %9.1f%%\n", n, t_ml / FRAMES,
+               (double)it_ml / FRAMES, t_paper / FRAMES, (double)it_paper / FRAMES, t_cold / FRAMES,
+               quantile(cold, FRAMES, 0.99), t_cold_max, 100.0 * fixes / FRAMES);
     }
+    qsort(all_cold, (size_t)n_all, sizeof all_cold[0], cmp_double);
+    printf("cold start over all rows: median %.1f us, p90 %.1f us, p99 %.1f us, max %.1f us\n",
+           quantile(all_cold, n_all, 0.5), quantile(all_cold, n_all, 0.9), quantile(all_cold, n_all, 0.99),
+           all_cold[n_all - 1]);
     /* the paper's own map: random poses with >= 4 of its 10 beacons in view */
     const mfns_beacon_map_t pmap = pt_paper_map();
     double t_cold = 0, t_max = 0;
-    int fixes = 0;
+    static double pcold[FRAMES];
+    int fixes = 0, np_ = 0;
     for (int f = 0; f < FRAMES; f++) {
         pt_dpose_t truth;
         if (pt_random_visible_pose(&rig, &pmap, 150, 4, 1000000, &rng, &truth) < 4) {
@@ -128,11 +155,14 @@ int main(void)
         const double dt = now_us() - t0;
         t_cold += dt;
         t_max = dt > t_max ? dt : t_max;
+        pcold[np_++] = dt;
         fixes += st != MFNS_POSE_NO_FIX ? 1 : 0;
     }
-    printf("paper map (10 beacons), random poses with >= 4 in view: cold start mean %.1f us, max %.1f us, fix "
-           "rate %.1f%%\n",
-           t_cold / FRAMES, t_max, 100.0 * fixes / FRAMES);
-    printf("target: cold start <= 1000 us\n");
+    qsort(pcold, (size_t)np_, sizeof pcold[0], cmp_double);
+    printf("paper map (10 beacons), random poses with >= 4 in view: cold start mean %.1f us, median %.1f us, p99 "
+           "%.1f us, max %.1f us, fix rate %.1f%%\n",
+           t_cold / FRAMES, quantile(pcold, np_, 0.5), quantile(pcold, np_, 0.99), t_max, 100.0 * fixes / FRAMES);
+    printf("target: cold start <= 1000 us (the slowest ~1%% of frames search a second blob triple: the first one's\n"
+           "        right minimal pose was lost to its noise amplification)\n");
     return 0;
 }
