@@ -191,7 +191,7 @@ static void to_bernstein(const poly_t *f, double lo, double hi, double b[PD])
 /* de Casteljau at t = 1/2: b -> left half l, right half r. */
 static void bz_split(const double *b, int n, double *l, double *r)
 {
-    double w[PD];
+    double w[PD] = {0};
     for (int i = 0; i <= n; i++) {
         w[i] = b[i];
     }
