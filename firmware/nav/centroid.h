@@ -13,7 +13,9 @@
  * Pixel coordinates follow docs/conventions.md: integer coordinates are pixel
  * centres (OpenCV's convention); the centroid is the weighted mean of the
  * pixel-centre coordinates of the blob's pixels, weight = value - (background +
- * MFNS_CENTROID_WEIGHT_LEVEL x threshold step), in px_q8_t (1/256 px).
+ * MFNS_CENTROID_WEIGHT_LEVEL x threshold step), in px_q8_t (1/256 px);
+ * flat-topped (defocused) blobs then get one Newton step of a symmetric-profile
+ * likelihood score (MFNS_CENTROID_FLAT_RATIO below, docs/centroiding.md step 7).
  *
  * Bounds: width and height <= MFNS_CENTROID_MAX_DIM; at most
  * MFNS_CENTROID_MAX_LABELS provisional components per call, at most
@@ -50,6 +52,19 @@
  * the centroid (the truncation "S-curve"). 0 = plain background subtraction.
  * Chosen from the Monte Carlo of tests/unit/test_centroid.c (docs/centroiding.md). */
 #define MFNS_CENTROID_WEIGHT_LEVEL 0.75f
+/* Profile refinement (docs/centroiding.md, step 7): an accepted blob whose
+ * fitted blurred-disk shape has radius R >= FLAT_RATIO x edge blur s (a flat
+ * top) gets its centre re-estimated by one Newton step of the symmetric-profile
+ * likelihood score, with the profile weight tabulated on at most REFINE_BINS
+ * radial intervals, over a window of at most REFINE_MAX_SIDE px a side (larger
+ * blobs keep the moment centroid). REFINE_MIN_BLUR bounds s from below (the
+ * pixel itself blurs by 1/12 px^2 per axis). */
+#define MFNS_CENTROID_FLAT_RATIO 3.0f
+#define MFNS_CENTROID_FLAT_PHI 0.75f
+#define MFNS_CENTROID_REFINE_BINS 128u
+#define MFNS_CENTROID_REFINE_MAX_SIDE 96
+#define MFNS_CENTROID_REFINE_MIN_BLUR 0.3f
+#define MFNS_CENTROID_REFINE_MIN_RADIUS 1.75f
 /* Background estimate: at most this many sampled pixels, two passes. */
 #define MFNS_CENTROID_BG_MAX_SAMPLES 8192u
 #define MFNS_CENTROID_HIST_BINS 1024u

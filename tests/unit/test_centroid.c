@@ -267,11 +267,6 @@ static bool run_mc_case(const mc_case_t *c, uint64_t seed)
 /* Bright background: 100 DN + 4 DN read noise under the same spots. */
 #define SC16B {MFNS_PIXFMT_Y12, 256, 256, 100.0, 4.0, 1.0}
 #define MC_FRAMES 12
-/* Sharp-edged disks (edge blur 0.5 px) of radius >= 3 px: most of their Fisher
- * information sits in the steep edge, which a centre of mass cannot use; the
- * centroider reaches 1.2-1.6x the bound there, short of the 1.2x target
- * (docs/centroiding.md). These limits guard that level against regressions. */
-#define DISK_LIMIT(x) (x)
 
 static void test_accuracy_16bit(void **state)
 {
@@ -282,9 +277,13 @@ static void test_accuracy_16bit(void **state)
         {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 1.5, 0, 0}, 3000, MC_FRAMES, 1.2},
         {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 2.0, 0, 0}, 3000, MC_FRAMES, 1.2},
         {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 3.0, 0, 0}, 3000, MC_FRAMES, 1.2},
+        /* defocused disks (edge blur 0.5 px), sigma = R / 2 up to 3 px */
+        {"Y12 disk R1.4", SC16, {CS_DISK, 0, 0, 0, 1.4, 0.5}, 3000, MC_FRAMES, 1.2},
         {"Y12 disk R2.0", SC16, {CS_DISK, 0, 0, 0, 2.0, 0.5}, 3000, MC_FRAMES, 1.2},
-        {"Y12 disk R4.0", SC16, {CS_DISK, 0, 0, 0, 4.0, 0.5}, 3000, MC_FRAMES, DISK_LIMIT(1.4)},
-        {"Y12 disk R5.8", SC16, {CS_DISK, 0, 0, 0, 5.8, 0.5}, 3000, MC_FRAMES, DISK_LIMIT(1.7)},
+        {"Y12 disk R3.0", SC16, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 3000, MC_FRAMES, 1.2},
+        {"Y12 disk R4.0", SC16, {CS_DISK, 0, 0, 0, 4.0, 0.5}, 3000, MC_FRAMES, 1.2},
+        {"Y12 disk R5.0", SC16, {CS_DISK, 0, 0, 0, 5.0, 0.5}, 3000, MC_FRAMES, 1.2},
+        {"Y12 disk R6.0", SC16, {CS_DISK, 0, 0, 0, 6.0, 0.5}, 3000, MC_FRAMES, 1.2},
     };
     int failed = 0;
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -301,7 +300,10 @@ static void test_accuracy_8bit(void **state)
         {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 1.0, 0, 0}, 220, MC_FRAMES, 1.2},
         {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 2.0, 0, 0}, 220, MC_FRAMES, 1.2},
         {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 3.0, 0, 0}, 220, MC_FRAMES, 1.2},
-        {"GREY disk R3.0", SC8, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 220, MC_FRAMES, DISK_LIMIT(1.25)},
+        {"GREY disk R2.0", SC8, {CS_DISK, 0, 0, 0, 2.0, 0.5}, 220, MC_FRAMES, 1.2},
+        {"GREY disk R3.0", SC8, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 220, MC_FRAMES, 1.2},
+        {"GREY disk R4.0", SC8, {CS_DISK, 0, 0, 0, 4.0, 0.5}, 220, MC_FRAMES, 1.2},
+        {"GREY disk R6.0", SC8, {CS_DISK, 0, 0, 0, 6.0, 0.5}, 220, MC_FRAMES, 1.2},
     };
     int failed = 0;
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -317,7 +319,8 @@ static void test_accuracy_bright_background(void **state)
         {"Y12 bright-bg gauss", SC16B, {CS_GAUSS, 0, 0, 0.7, 0, 0}, 2500, 8, 1.2},
         {"Y12 bright-bg gauss", SC16B, {CS_GAUSS, 0, 0, 1.5, 0, 0}, 2500, 8, 1.2},
         {"Y12 bright-bg gauss", SC16B, {CS_GAUSS, 0, 0, 3.0, 0, 0}, 2500, 8, 1.2},
-        {"Y12 bright-bg disk R5.8", SC16B, {CS_DISK, 0, 0, 0, 5.8, 0.5}, 2500, 8, DISK_LIMIT(1.7)},
+        {"Y12 bright-bg disk R3.0", SC16B, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 2500, 8, 1.2},
+        {"Y12 bright-bg disk R5.8", SC16B, {CS_DISK, 0, 0, 0, 5.8, 0.5}, 2500, 8, 1.2},
     };
     int failed = 0;
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
