@@ -370,38 +370,53 @@ static inline uint64_t load64(const uint8_t *p)
 #define GE_HIGH(w, L, H, c) (((((w) & (L)) + (c)) & (w)) & (H))
 
 /* First x in [x, end) with pixel >= T (or end), for the background-dominated
- * bulk of a frame. Two stages: the maximum over a block of 128 bytes (a plain
- * loop that compilers turn into vector max instructions: SSE2 pmaxub on x86-64,
- * NEON umax on aarch64, a scalar loop on a Cortex-M), then, inside a block that
- * holds a candidate, the exact 8-byte word test above, which stops within a
- * word of the first pixel >= T. */
-#define BLOCK_BYTES 128u
+ * bulk of a frame. Two stages: the lane-wise maximum over a block of 256 bytes
+ * (a plain loop that compilers turn into vector max instructions: SSE2 pmaxub
+ * on x86-64, NEON umax on aarch64, a scalar loop on a Cortex-M) tested with the
+ * word test, then, inside a block that holds a candidate, the exact 8-byte word
+ * test, which stops within a word of the first pixel >= T. */
+#define BLOCK_BYTES 256u
 
-static uint32_t block_max_u8(const uint8_t *p)
+/* Lane-wise maximum over a block, 16 bytes wide: the inner loop is one vector
+ * max per 16 bytes (compilers vectorize it at -O2), and the result is tested
+ * with the word test above instead of a horizontal reduction (which cost as
+ * much as the block's loads). */
+static void block_max16_u8(const uint8_t *p, uint8_t m[16])
 {
-    uint8_t m = 0;
-    for (uint32_t i = 0; i < BLOCK_BYTES; i++) {
-        m = p[i] > m ? p[i] : m;
+    memcpy(m, p, 16u);
+    for (uint32_t i = 16u; i < BLOCK_BYTES; i += 16u) {
+        for (uint32_t j = 0; j < 16u; j++) {
+            m[j] = p[i + j] > m[j] ? p[i + j] : m[j];
+        }
     }
-    return m;
 }
 
-static uint32_t block_max_u16(const uint8_t *p)
+static void block_max16_u16(const uint8_t *p, uint8_t m8[16])
 {
-    uint16_t m = 0;
-    for (uint32_t i = 0; i < BLOCK_BYTES / 2u; i++) {
-        uint16_t v;
-        memcpy(&v, p + 2u * i, sizeof v);
-        m = v > m ? v : m;
+    uint16_t m[8];
+    memcpy(m, p, 16u);
+    for (uint32_t i = 16u; i < BLOCK_BYTES; i += 16u) {
+        uint16_t v[8];
+        memcpy(v, p + i, 16u);
+        for (uint32_t j = 0; j < 8u; j++) {
+            m[j] = v[j] > m[j] ? v[j] : m[j];
+        }
     }
-    return m;
+    memcpy(m8, m, 16u);
 }
 
-#define DEFINE_FIND(name, GE, L, H, bpp, BLOCK_MAX)                                                     \
+#define DEFINE_FIND(name, GE, L, H, bpp, BLOCK_MAX16)                                                   \
     static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T)         \
     {                                                                                                   \
+        (void)T;                                                                                        \
         const uint32_t per_word = 8u / (bpp), per_block = BLOCK_BYTES / (bpp);                          \
-        while (x + per_block <= end && BLOCK_MAX(row + (size_t)x * (bpp)) < T) {                        \
+        while (x + per_block <= end) {                                                                  \
+            uint8_t m[16];                                                                              \
+            BLOCK_MAX16(row + (size_t)x * (bpp), m);                                                    \
+            const uint64_t w0 = load64(m), w1 = load64(m + 8);                                          \
+            if ((GE(w0, L, H, c) | GE(w1, L, H, c)) != 0u) {                                            \
+                break;                                                                                  \
+            }                                                                                           \
             x += per_block;                                                                             \
         }                                                                                               \
         while (x + per_word <= end) {                                                                   \
@@ -414,10 +429,10 @@ static uint32_t block_max_u16(const uint8_t *p)
         return x;                                                                                       \
     }
 
-DEFINE_FIND(find_u8_low, GE_LOW, L8, H8, 1u, block_max_u8)
-DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u, block_max_u8)
-DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u, block_max_u16)
-DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u, block_max_u16)
+DEFINE_FIND(find_u8_low, GE_LOW, L8, H8, 1u, block_max16_u8)
+DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u, block_max16_u8)
+DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u, block_max16_u16)
+DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u, block_max16_u16)
 
 typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T);
 
