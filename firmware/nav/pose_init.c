@@ -67,16 +67,21 @@ static double peval(const poly_t *p, double x)
     return v;
 }
 
-/* p(x) and p'(x) by one Horner pass (two interleaved chains). */
-static double peval_d(const poly_t *p, double x, double *dp)
+/* sum c[i] x^i over all PD coefficients (those above the degree are zero),
+ * by Estrin's scheme: a dependency chain of 4 multiply-adds instead of
+ * Horner's 8 (the root polish is latency-bound). */
+static double estrin(const double c[PD], double x)
 {
-    double v = p->c[p->deg], d = 0.0;
-    for (int i = p->deg - 1; i >= 0; i--) {
-        d = d * x + v;
-        v = v * x + p->c[i];
-    }
-    *dp = d;
-    return v;
+    const double x2 = x * x, x4 = x2 * x2;
+    const double a0 = c[0] + c[1] * x, a1 = c[2] + c[3] * x, a2 = c[4] + c[5] * x, a3 = c[6] + c[7] * x;
+    return (a0 + a1 * x2) + (a2 + a3 * x2) * x4 + c[8] * (x4 * x4);
+}
+
+/* p(x) and p'(x); dc: the derivative's coefficients. */
+static double peval_d(const poly_t *p, const double dc[PD], double x, double *dp)
+{
+    *dp = estrin(dc, x);
+    return estrin(p->c, x);
 }
 
 /* Root of p in [a, b] where p(a), p(b) differ in sign and p is monotonic:
@@ -84,14 +89,15 @@ static double peval_d(const poly_t *p, double x, double *dp)
  * that shrinks it too slowly, is replaced by bisection; "rtsafe"), bounded.
  * Newton converges quadratically where Illinois regula falsi needed ~11
  * evaluations per root; this is the gP3P's inner loop. */
-static double bracket_root(const poly_t *p, double a, double b, double fa, double fb, double tol)
+static double bracket_root(const poly_t *p, const double dc[PD], double a, double b, double fa, double fb,
+                           double tol)
 {
     (void)fb;
     /* xl: the end where p < 0 */
     double xl = fa < 0.0 ? a : b, xh = fa < 0.0 ? b : a;
     double x = 0.5 * (a + b), dxold = fabs(b - a), dx = dxold;
     double df;
-    double f = peval_d(p, x, &df);
+    double f = peval_d(p, dc, x, &df);
     for (int it = 0; it < ROOT_ITERS && f != 0.0; it++) {
         if (((x - xh) * df - f) * ((x - xl) * df - f) > 0.0 || fabs(2.0 * f) > fabs(dxold * df)) {
             dxold = dx;
@@ -105,7 +111,7 @@ static double bracket_root(const poly_t *p, double a, double b, double fa, doubl
         if (fabs(dx) < tol) {
             break;
         }
-        f = peval_d(p, x, &df);
+        f = peval_d(p, dc, x, &df);
         if (f < 0.0) {
             xl = x;
         } else {
@@ -188,9 +194,32 @@ static void to_bernstein(const poly_t *f, double lo, double hi, double b[PD])
     }
 }
 
+/* de Casteljau at t = 1/2 for the usual degree 8, constant bounds so that
+ * the compiler unrolls it. */
+static void bz_split8(const double *b, double *l, double *r)
+{
+    double w[PD];
+    for (int i = 0; i < PD; i++) {
+        w[i] = b[i];
+    }
+    l[0] = w[0];
+    r[PD - 1] = w[PD - 1];
+    for (int k = 1; k < PD; k++) {
+        for (int i = 0; i < PD - k; i++) {
+            w[i] = 0.5 * (w[i] + w[i + 1]);
+        }
+        l[k] = w[0];
+        r[PD - 1 - k] = w[PD - 1 - k];
+    }
+}
+
 /* de Casteljau at t = 1/2: b -> left half l, right half r. */
 static void bz_split(const double *b, int n, double *l, double *r)
 {
+    if (n == PD - 1) {
+        bz_split8(b, l, r);
+        return;
+    }
     double w[PD] = {0};
     for (int i = 0; i <= n; i++) {
         w[i] = b[i];
@@ -223,6 +252,10 @@ static int real_roots(const poly_t *f, double lo, double hi, double roots[PD - 1
         scale += fabs(p.c[i]);
     }
     const double near_zero = 1e-7 * scale;
+    double dc[PD] = {0};
+    for (int i = 0; i < n; i++) {
+        dc[i] = (double)(i + 1) * p.c[i + 1];
+    }
     /* depth-first: at most one pending interval per level, plus one */
     bz_t stack[BZ_MAX_DEPTH + 2];
     int top = 0, nr = 0;
@@ -241,12 +274,12 @@ static int real_roots(const poly_t *f, double lo, double hi, double roots[PD - 1
         /* b[0], b[n] are f at the ends */
         const bool opposite = iv.b[0] != 0.0 && iv.b[n] != 0.0 && (iv.b[0] < 0.0) != (iv.b[n] < 0.0);
         if (var == 1 && opposite) {
-            roots[nr++] = bracket_root(&p, a, b, iv.b[0], iv.b[n], 1e-10);
+            roots[nr++] = bracket_root(&p, dc, a, b, iv.b[0], iv.b[n], 1e-10);
             continue;
         }
         if (iv.depth >= BZ_MAX_DEPTH) {
             if (opposite) {
-                roots[nr++] = bracket_root(&p, a, b, iv.b[0], iv.b[n], 1e-10);
+                roots[nr++] = bracket_root(&p, dc, a, b, iv.b[0], iv.b[n], 1e-10);
             } else if (fabs(peval(&p, 0.5 * (a + b))) <= near_zero) {
                 roots[nr++] = 0.5 * (a + b);
             }

@@ -13,8 +13,8 @@
  * (de Casteljau, bounded depth and interval count) and found by a
  * safeguarded Newton iteration, then polished by Newton on the three
  * distance equations. The pose follows from the three body points by the
- * triad (exact for exact points). Up to 8 poses; bounded time (0.7 us per
- * call on the benchmark host, 2.3x faster than the derivative-cascade
+ * triad (exact for exact points). Up to 8 poses; bounded time (0.57 us per
+ * call on the benchmark host, 2.6x faster than the derivative-cascade
  * isolation it replaced).
  *
  * A double root (the poses of the "danger cylinder") is reported once when f
