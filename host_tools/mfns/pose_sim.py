@@ -96,3 +96,28 @@ def make_frame(cams, beacons, C_w_b, r_bw_b, sigma: float, rng: np.random.Genera
         obs.append(np.hstack([uv, xy]))
         ids.append(idx)
     return obs, ids
+
+
+def identification_sweep(
+    flight, rig, bmap, cams, beacons, poses, sigma: float, rng: np.random.Generator, cfg
+):
+    """Cold acquisition (flight.acquire, no prior) on a frame of each pose ->
+    (right, wrong, {no-fix reason: count}). A fix is right when every inlier carries its
+    true beacon and every beacon in view is used; anything else reported as a fix is wrong."""
+    right = wrong = 0
+    reasons: dict[str, int] = {}
+    for C, r in poses:
+        obs, ids = make_frame(cams, beacons, C, r, sigma, rng)
+        sol = flight.acquire(rig, bmap, flight.frame(obs), cfg)
+        if not sol.ok:
+            reasons[sol.reason] = reasons.get(sol.reason, 0) + 1
+            continue
+        correct = all(
+            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
+            for c in range(len(ids))
+            for i in range(len(ids[c]))
+        )
+        correct &= sol.beacons_used == sum(len(i) for i in ids)
+        right += int(correct)
+        wrong += int(not correct)
+    return right, wrong, reasons

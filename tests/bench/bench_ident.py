@@ -27,23 +27,7 @@ def sweep(fl, cams, beacons, rig, bmap, n, seed, sigma):
     rng = np.random.default_rng(seed)
     cfg = fl.config(sigma_px=sigma, max_range_mm=2500.0)
     poses = pose_sim.random_visible_poses(rng, cams, beacons, n, min_visible=4)
-    right = wrong = 0
-    reasons: dict[str, int] = {}
-    for C, r in poses:
-        obs, ids = pose_sim.make_frame(cams, beacons, C, r, sigma, rng)
-        sol = fl.acquire(rig, bmap, fl.frame(obs), cfg)
-        if not sol.ok:
-            reasons[sol.reason] = reasons.get(sol.reason, 0) + 1
-            continue
-        correct = all(
-            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
-            for c in range(3)
-            for i in range(len(ids[c]))
-        )
-        correct &= sol.beacons_used == sum(len(i) for i in ids)
-        right += int(correct)
-        wrong += int(not correct)
-    return right, wrong, reasons
+    return pose_sim.identification_sweep(fl, rig, bmap, cams, beacons, poses, sigma, rng, cfg)
 
 
 def main() -> int:

@@ -37,24 +37,9 @@ def test_identification_on_1000_random_poses(flight, paper):
     rng = np.random.default_rng(7)
     cfg = flight.config(sigma_px=0.3, max_range_mm=2500.0)
     poses = pose_sim.random_visible_poses(rng, cams, beacons, 1000, min_visible=4)
-    right = wrong = 0
-    reasons: dict[str, int] = {}
-    for C, r in poses:
-        obs, ids = pose_sim.make_frame(cams, beacons, C, r, 0.3, rng)
-        sol = flight.acquire(rig, bmap, flight.frame(obs), cfg)
-        if not sol.ok:
-            reasons[sol.reason] = reasons.get(sol.reason, 0) + 1
-            continue
-        correct = all(
-            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
-            for c in range(3)
-            for i in range(len(ids[c]))
-        )
-        correct &= sol.beacons_used == sum(len(i) for i in ids)
-        if correct:
-            right += 1
-        else:
-            wrong += 1
+    right, wrong, reasons = pose_sim.identification_sweep(
+        flight, rig, bmap, cams, beacons, poses, 0.3, rng, cfg
+    )
     print(f"identification: {right} right, {wrong} wrong of {len(poses)}; no fix: {reasons}")
     assert wrong == 0  # never a wrong identification reported as a fix
     assert right >= 0.999 * len(poses)
