@@ -406,9 +406,8 @@ static void block_max16_u16(const uint8_t *p, uint8_t m8[16])
 }
 
 #define DEFINE_FIND(name, GE, L, H, bpp, BLOCK_MAX16)                                                   \
-    static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T)         \
+    static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c)                     \
     {                                                                                                   \
-        (void)T;                                                                                        \
         const uint32_t per_word = 8u / (bpp), per_block = BLOCK_BYTES / (bpp);                          \
         while (x + per_block <= end) {                                                                  \
             uint8_t m[16];                                                                              \
@@ -434,7 +433,7 @@ DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u, block_max16_u8)
 DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u, block_max16_u16)
 DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u, block_max16_u16)
 
-typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, uint32_t T);
+typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c);
 
 /* ------------------------------------------------------------------------ */
 /* Labels: union-find over provisional labels, accumulators at the roots. */
@@ -592,7 +591,7 @@ static void label_region(label_state_t *ls, const mfns_frame_t *f, const region_
         const uint8_t *row = row_ptr(f, y);
         uint32_t nc = 0, j = 0, x = rg->x0;
         while (x < rg->x1) {
-            x = find(row, x, rg->x1, c, T);
+            x = find(row, x, rg->x1, c);
             /* the word test found a candidate within the next word(s), or the tail */
             while (x < rg->x1 && pixel(row, x, wide) < T) {
                 x++;
