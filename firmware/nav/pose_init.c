@@ -84,15 +84,13 @@ static double peval_d(const poly_t *p, const double dc[PD], double x, double *dp
     return estrin(p->c, x);
 }
 
-/* Root of p in [a, b] where p(a), p(b) differ in sign and p is monotonic:
- * Newton's iteration kept inside the bracket (a step that would leave it, or
+/* The root of p in [a, b], an interval holding exactly one, where p(a) = fa
+ * and p(b) differ in sign: Newton's iteration kept inside the bracket (a step that would leave it, or
  * that shrinks it too slowly, is replaced by bisection; "rtsafe"), bounded.
  * Newton converges quadratically where Illinois regula falsi needed ~11
  * evaluations per root; this is the gP3P's inner loop. */
-static double bracket_root(const poly_t *p, const double dc[PD], double a, double b, double fa, double fb,
-                           double tol)
+static double bracket_root(const poly_t *p, const double dc[PD], double a, double b, double fa, double tol)
 {
-    (void)fb;
     /* xl: the end where p < 0 */
     double xl = fa < 0.0 ? a : b, xh = fa < 0.0 ? b : a;
     double x = 0.5 * (a + b), dxold = fabs(b - a), dx = dxold;
@@ -159,14 +157,16 @@ static int sign_variations(const double *b, int n)
     return var;
 }
 
-/* Bernstein coefficients of f on [lo, hi] (degree n = f->deg). */
+/* Bernstein coefficients of degree n = PD - 1 of f on [lo, hi]. The basis of
+ * degree 8 holds every polynomial of lower degree too (zero leading
+ * coefficients), and Descartes' rule holds in it, so one degree serves all. */
 static void to_bernstein(const poly_t *f, double lo, double hi, double b[PD])
 {
-    /* C(n, j) for n <= 8 */
+    /* C(i, j) for i <= 8 */
     static const double binom[PD][PD] = {
         {1}, {1, 1}, {1, 2, 1}, {1, 3, 3, 1}, {1, 4, 6, 4, 1}, {1, 5, 10, 10, 5, 1}, {1, 6, 15, 20, 15, 6, 1},
         {1, 7, 21, 35, 35, 21, 7, 1}, {1, 8, 28, 56, 70, 56, 28, 8, 1}};
-    const int n = f->deg;
+    const int n = PD - 1;
     double g[PD];
     for (int i = 0; i <= n; i++) {
         g[i] = f->c[i];
@@ -194,9 +194,9 @@ static void to_bernstein(const poly_t *f, double lo, double hi, double b[PD])
     }
 }
 
-/* de Casteljau at t = 1/2 for the usual degree 8, constant bounds so that
- * the compiler unrolls it. */
-static void bz_split8(const double *b, double *l, double *r)
+/* de Casteljau at t = 1/2: b -> left half l, right half r (constant bounds:
+ * the compiler unrolls it). */
+static void bz_split(const double *b, double *l, double *r)
 {
     double w[PD];
     for (int i = 0; i < PD; i++) {
@@ -213,38 +213,12 @@ static void bz_split8(const double *b, double *l, double *r)
     }
 }
 
-/* de Casteljau at t = 1/2: b -> left half l, right half r. */
-static void bz_split(const double *b, int n, double *l, double *r)
-{
-    if (n == PD - 1) {
-        bz_split8(b, l, r);
-        return;
-    }
-    double w[PD] = {0};
-    for (int i = 0; i <= n; i++) {
-        w[i] = b[i];
-    }
-    l[0] = w[0];
-    r[n] = w[n];
-    for (int k = 1; k <= n; k++) {
-        for (int i = 0; i <= n - k; i++) {
-            w[i] = 0.5 * (w[i] + w[i + 1]);
-        }
-        l[k] = w[0];
-        r[n - k] = w[n - k];
-    }
-}
-
 static int real_roots(const poly_t *f, double lo, double hi, double roots[PD - 1])
 {
+    /* every coefficient, in degree PD - 1 (those above f->deg are zero) */
     poly_t p = *f;
-    while (p.deg > 0 && p.c[p.deg] == 0.0) {
-        p.deg--;
-    }
-    const int n = p.deg;
-    if (n == 0) {
-        return 0;
-    }
+    p.deg = PD - 1;
+    const int n = PD - 1;
     /* |f| is at most scale on [0, 1]; values below near_zero are at the level
      * of the float rounding of the inputs (relative 1e-7) */
     double scale = 0.0;
@@ -274,19 +248,19 @@ static int real_roots(const poly_t *f, double lo, double hi, double roots[PD - 1
         /* b[0], b[n] are f at the ends */
         const bool opposite = iv.b[0] != 0.0 && iv.b[n] != 0.0 && (iv.b[0] < 0.0) != (iv.b[n] < 0.0);
         if (var == 1 && opposite) {
-            roots[nr++] = bracket_root(&p, dc, a, b, iv.b[0], iv.b[n], 1e-10);
+            roots[nr++] = bracket_root(&p, dc, a, b, iv.b[0], 1e-10);
             continue;
         }
         if (iv.depth >= BZ_MAX_DEPTH) {
             if (opposite) {
-                roots[nr++] = bracket_root(&p, dc, a, b, iv.b[0], iv.b[n], 1e-10);
+                roots[nr++] = bracket_root(&p, dc, a, b, iv.b[0], 1e-10);
             } else if (fabs(peval(&p, 0.5 * (a + b))) <= near_zero) {
                 roots[nr++] = 0.5 * (a + b);
             }
             continue;
         }
         bz_t left, right;
-        bz_split(iv.b, n, left.b, right.b);
+        bz_split(iv.b, left.b, right.b);
         const double tm = 0.5 * (iv.t0 + iv.t1);
         left.t0 = iv.t0;
         left.t1 = tm;
