@@ -1,5 +1,6 @@
-"""The distortion-correction grid: build it, evaluate it exactly as the flight code does
-(math/undistort.c, integer arithmetic), and measure its worst-case error.
+"""The distortion-correction grid: build it, measure its worst-case error with the flight
+code's own interpolation (mfns_undistort_grid_px through the C core), and size it for the
+lens at hand.
 
 Nodes hold the undistorted (ideal pinhole) pixel position u' = fx x + skew y + cx,
 v' = fy y + cy of pixel (origin + i*step) in Q16.16 pixels; inputs are px_q8 (1/256 px).
@@ -15,7 +16,7 @@ from ..camera import Camera
 from ..errors import MfnsError
 from .format import MAX_GRID_NODES, CameraRecord, Grid
 
-DEFAULT_GRID = (93, 75)  # 14 px spacing on 1280 x 1024 (docs/distortion-grid.md)
+MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)
 ORIGIN_Q8 = -128  # pixel -0.5: the image corner under the pixel-centre convention
 MIN_STEP_Q8, MAX_STEP_Q8 = 256, 65535
 
@@ -74,41 +75,6 @@ def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int = MAX_GRID_NODES) -
     return Grid(ORIGIN_Q8, ORIGIN_Q8, su, sv, nodes)
 
 
-def _round_shift16(v: np.ndarray) -> np.ndarray:
-    """Round-to-nearest (ties away from zero) of v / 2^16, as mfns_q16_lerp."""
-    a = np.abs(v)
-    return np.sign(v) * ((a + (1 << 15)) >> 16)
-
-
-def _lerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
-    return a + _round_shift16((b - a) * t)
-
-
-def _axis(p: np.ndarray, origin: int, step: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    d = p - origin
-    inside = (d >= 0) & (d <= (n - 1) * step)
-    dc = np.clip(d, 0, (n - 1) * step)
-    i = np.minimum(dc // step, n - 2)
-    t = dc - i * step
-    w = ((t << 16) + step // 2) // step
-    return i, w, inside
-
-
-def eval_grid(g: Grid, u_q8: np.ndarray, v_q8: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Integer emulation of mfns_undistort_grid_px: (undistorted Q16.16 (N, 2), inside mask)."""
-    u_q8 = np.asarray(u_q8, dtype=np.int64)
-    v_q8 = np.asarray(v_q8, dtype=np.int64)
-    i, wx, in_u = _axis(u_q8, g.origin_u_q8, g.step_u_q8, g.nx)
-    j, wy, in_v = _axis(v_q8, g.origin_v_q8, g.step_v_q8, g.ny)
-    n = g.nodes.astype(np.int64)
-    out = np.empty((len(u_q8), 2), dtype=np.int64)
-    for c in range(2):
-        top = _lerp(n[j, i, c], n[j, i + 1, c], wx)
-        bot = _lerp(n[j + 1, i, c], n[j + 1, i + 1, c], wx)
-        out[:, c] = _lerp(top, bot, wy)
-    return out, in_u & in_v
-
-
 @dataclass
 class GridError:
     max_px: float  # worst Euclidean error over the samples
@@ -117,21 +83,90 @@ class GridError:
     samples: int
 
 
-def grid_error(cam: Camera, g: Grid, sample_px: float = 1.75) -> GridError:
-    """Worst-case error of the grid over the whole image [-0.5, W-0.5) x [-0.5, H-0.5),
-    sampled every sample_px (incommensurate with the node spacing, so samples fall at
-    every phase inside the cells), against the exact inverse of the same pixel."""
+@dataclass
+class ErrorSamples:
+    """Pixels (q8) spread over the whole image and their exact undistorted positions: computed
+    once per camera, reused for every grid measured against it."""
+
+    u_q8: np.ndarray
+    v_q8: np.ndarray
+    exact: np.ndarray  # (N, 2) px
+
+
+def error_samples(cam: Camera, sample_px: float = 1.75) -> ErrorSamples:
+    """The whole image [-0.5, W-0.5) x [-0.5, H-0.5) every sample_px (incommensurate with
+    the node spacing, so samples fall at every phase inside the cells) plus the last row
+    and column."""
     u = np.arange(-0.5, cam.width - 0.5, sample_px)
     v = np.arange(-0.5, cam.height - 0.5, sample_px)
     uu, vv = np.meshgrid(np.append(u, cam.width - 0.5 - 1 / 256), np.append(v, cam.height - 0.5 - 1 / 256))
     u_q8 = np.round(uu.ravel() * 256).astype(np.int64)
     v_q8 = np.round(vv.ravel() * 256).astype(np.int64)
-    val, inside = eval_grid(g, u_q8, v_q8)
+    return ErrorSamples(u_q8, v_q8, ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / 256.0))
+
+
+def grid_error(
+    cam: Camera, g: Grid, sample_px: float = 1.75, samples: ErrorSamples | None = None
+) -> GridError:
+    """Worst-case error of the grid as the flight code evaluates it (mfns_undistort_grid_px
+    of the C core, table/check.py) against the exact inverse of the same pixel."""
+    from .check import core
+
+    s = samples if samples is not None else error_samples(cam, sample_px)
+    val, inside = core().eval_grid(g, s.u_q8, s.v_q8)
     if not np.all(inside):
         raise MfnsError(f"camera {cam.name}: the grid does not cover the image")
-    exact = ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / 256.0)
-    err = np.hypot(*(val / 65536.0 - exact).T)
+    err = np.hypot(*(val / 65536.0 - s.exact).T)
     k = int(np.argmax(err))
     return GridError(
-        float(err[k]), float(np.sqrt(np.mean(err**2))), (u_q8[k] / 256.0, v_q8[k] / 256.0), int(err.size)
+        float(err[k]), float(np.sqrt(np.mean(err**2))), (s.u_q8[k] / 256.0, s.v_q8[k] / 256.0), int(err.size)
     )
+
+
+def _candidates(cam: Camera, max_nodes: int) -> list[tuple[int, int]]:
+    """Grids of near-square cells spanning the image, by increasing density, within max_nodes
+    and the step range."""
+    out = []
+    for nx in range(2, cam.width + 2):
+        ny = max(2, round((nx - 1) * cam.height / cam.width) + 1)
+        if nx * ny > max_nodes:
+            break
+        try:
+            step_q8(cam.width, nx), step_q8(cam.height, ny)
+        except MfnsError:
+            continue
+        out.append((nx, ny))
+    return out
+
+
+def size_grid(cam: Camera, max_nodes: int, target_px: float = MAX_GRID_ERROR_PX) -> tuple[Grid, GridError]:
+    """The coarsest grid whose worst-case error (measured with the C interpolation) is within
+    target_px; MfnsError with the figure when even the densest grid within max_nodes is not."""
+    cands = _candidates(cam, max_nodes)
+    if not cands:
+        raise MfnsError(f"camera {cam.name}: no grid of 1..255 px spacing fits {max_nodes} nodes")
+    samples = error_samples(cam)
+    measured: dict[int, tuple[Grid, GridError]] = {}
+
+    def measure(i: int) -> tuple[Grid, GridError]:
+        if i not in measured:
+            g = build_grid(cam, *cands[i], max_nodes=max_nodes)
+            measured[i] = (g, grid_error(cam, g, samples=samples))
+        return measured[i]
+
+    last = len(cands) - 1
+    g, e = measure(last)
+    if e.max_px > target_px:
+        raise MfnsError(
+            f"camera {cam.name}: the lens cannot be corrected to {target_px} px within {max_nodes} nodes: "
+            f"the densest grid ({g.nx}x{g.ny}, {g.step_u_q8 / 256:.1f} px spacing) leaves {e.max_px:.4f} px "
+            f"at ({e.worst_uv[0]:.1f}, {e.worst_uv[1]:.1f})"
+        )
+    lo, hi = 0, last  # error shrinks with density (~h^2): bisect for the coarsest within target
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if measure(mid)[1].max_px <= target_px:
+            hi = mid
+        else:
+            lo = mid + 1
+    return measure(lo)
