@@ -158,6 +158,8 @@ def _name(fields: list[tuple[int, str]], rel: int) -> str:
 
 def field_at(data: bytes, off: int) -> str:
     """Name of the table field at byte offset off (for messages), from the layout."""
+    if off >= len(data):
+        return f"the end of the {len(data)} bytes"
     if off < fmt.HEADER_SIZE:
         return f"header {_name(_HEADER_FIELDS, off)}"
     if off < fmt.HEADER_SIZE + fmt.GLOBALS_SIZE:
