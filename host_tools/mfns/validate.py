@@ -40,6 +40,8 @@ def read_bytes(path: str | os.PathLike, what: str, max_bytes: int) -> bytes:
     p = Path(path)
     try:
         st = os.stat(p)
+    except FileNotFoundError:
+        raise MfnsError(f"{what} not found: {p}") from None
     except OSError as exc:
         raise MfnsError(f"{what} {p}: {exc.strerror or exc}") from exc
     if not stat.S_ISREG(st.st_mode):
