@@ -9,6 +9,8 @@ uint32_t mfns_caltable_host_max_bytes(void) { return (uint32_t)MFNS_CALTABLE_MAX
 
 uint32_t mfns_caltable_host_max_grid_nodes(void) { return (uint32_t)MFNS_MAX_GRID_NODES; }
 
+uint32_t mfns_caltable_host_max_beacons(void) { return (uint32_t)MFNS_MAX_BEACONS; }
+
 mfns_undist_status_t mfns_caltable_host_grid_eval(uint16_t nx, uint16_t ny, int32_t origin_u_q8, int32_t origin_v_q8,
                                                   int32_t step_u_q8, int32_t step_v_q8, const int32_t *nodes,
                                                   uint32_t n, const int32_t *u_q8, const int32_t *v_q8,

@@ -21,6 +21,9 @@ uint32_t mfns_caltable_host_max_bytes(void);
 /* MFNS_MAX_GRID_NODES of this build (nodes per camera). */
 uint32_t mfns_caltable_host_max_grid_nodes(void);
 
+/* MFNS_MAX_BEACONS of this build (beacons in the map). */
+uint32_t mfns_caltable_host_max_beacons(void);
+
 /* Evaluate a correction grid at n pixels: uv_q16[2i], uv_q16[2i+1] receive the
  * undistorted pixel of (u_q8[i], v_q8[i]) and status[i] the status of
  * mfns_undistort_grid_px (outputs of a point that fails are 0). nodes holds

@@ -79,7 +79,9 @@ def _read_csv(path: Path, required: list[str], what: str) -> list[dict[str, str]
 
 
 def _floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
-    return np.array([V.csv_float(r[col], f"{path} line {i + 2} {col}") for i, r in enumerate(rows)], dtype=float)
+    return np.array(
+        [V.csv_float(r[col], f"{path} line {i + 2} {col}") for i, r in enumerate(rows)], dtype=float
+    )
 
 
 def load_nav(path: Path) -> NavLog:

@@ -127,6 +127,17 @@ def test_table_build_refuses_bad_beacon_csv(sources, tmp_path, capsys, csv, mess
 
 
 @pytest.mark.usefixtures("need_core_lib")
+def test_table_build_refuses_more_beacons_than_the_flight_build_holds(sources, tmp_path, capsys):
+    from mfns.table.check import core
+
+    n = core().max_beacons + 1
+    beacons = tmp_path / "many.csv"
+    beacons.write_text("id,x_mm,y_mm,z_mm,sigma_mm\n" + "".join(f"{i},{i},0,0,0.4\n" for i in range(n)))
+    err = _run(["table", "build", sources[0], beacons, "-o", tmp_path / "t"], capsys)
+    assert f"{n} beacons, the flight loader takes 1..{n - 1}" in err, err
+
+
+@pytest.mark.usefixtures("need_core_lib")
 @pytest.mark.parametrize(
     "settings,message",
     [

@@ -9,7 +9,7 @@ import numpy as np
 from .. import calib_results
 from ..camera import load_beacons
 from ..errors import MfnsError
-from .format import MAX_BEACONS, CameraRecord, Grid, Table, f32
+from .format import CameraRecord, Grid, Table, f32
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
 
 
@@ -33,9 +33,12 @@ def _record(k: int, e: dict) -> CameraRecord:
 
 
 def load_beacon_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from .check import core
+
     ids, pos, sig = load_beacons(path)  # checked: ids, finite values, sigma > 0, unique
-    if len(ids) > MAX_BEACONS:
-        raise MfnsError(f"{path}: {len(ids)} beacons, expected 1..{MAX_BEACONS}")
+    limit = core().max_beacons  # the flight build's MFNS_MAX_BEACONS
+    if len(ids) > limit:
+        raise MfnsError(f"{path}: {len(ids)} beacons, the flight loader takes 1..{limit}")
     return ids, pos, sig
 
 

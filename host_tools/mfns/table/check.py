@@ -55,7 +55,7 @@ class CoreTables:
         if not path.exists():
             raise MfnsError(f"{path}: no such library (run: make lib): tables are checked by the C loader")
         L = ct.CDLL(str(path))
-        for name in ("table_size", "max_bytes", "max_grid_nodes"):
+        for name in ("table_size", "max_bytes", "max_grid_nodes", "max_beacons"):
             f = getattr(L, f"mfns_caltable_host_{name}")
             f.argtypes, f.restype = [], ct.c_uint32
         L.mfns_caltable_load.argtypes = [ct.c_char_p, ct.c_size_t, ct.c_void_p, ct.POINTER(ct.c_uint32)]
@@ -77,6 +77,7 @@ class CoreTables:
         self.lib = L
         self.max_bytes = int(L.mfns_caltable_host_max_bytes())
         self.max_grid_nodes = int(L.mfns_caltable_host_max_grid_nodes())
+        self.max_beacons = int(L.mfns_caltable_host_max_beacons())
         self._out = ct.create_string_buffer(int(L.mfns_caltable_host_table_size()))
 
     def load(self, data: bytes) -> LoadStatus:

@@ -122,9 +122,10 @@ def _errors(cam: Camera, g: Grid, u_q8: np.ndarray, v_q8: np.ndarray, exact: np.
 def _refine(
     cam: Camera, g: Grid, s: ErrorSamples, err: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Errors on a 1/4 px lattice inside the (at most REFINE_MAX_CELLS) cells where the coarse lattice came within
-    REFINE_WITHIN of its maximum: the maximum of a bilinear cell can fall between the
-    coarse samples (1.75 px measured 0.0100 where 1/8 px finds 0.0101)."""
+    """Errors on a 1/4 px lattice inside the (at most REFINE_MAX_CELLS) cells where the
+    coarse lattice came within REFINE_WITHIN of its maximum: the maximum of a bilinear
+    cell can fall between the coarse samples (1.75 px measured 0.0100 where 1/8 px finds
+    0.0101)."""
     ci = (s.u_q8 - g.origin_u_q8) // g.step_u_q8
     cj = (s.v_q8 - g.origin_v_q8) // g.step_v_q8
     hot = err >= REFINE_WITHIN * err.max()
