@@ -14,7 +14,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..errors import MfnsError
-from .format import MAX_GRID_NODES, CameraRecord, Grid
+from .format import CameraRecord, Grid
 
 MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)
 ORIGIN_Q8 = -128  # pixel -0.5: the image corner under the pixel-centre convention
@@ -58,12 +58,15 @@ def step_q8(size_px: int, n: int) -> int:
     return s
 
 
-def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int = MAX_GRID_NODES) -> Grid:
-    """max_nodes: the flight limit; lifted only by studies of grids beyond it."""
+def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int | None = None) -> Grid:
+    """max_nodes: the flight limit (MFNS_MAX_GRID_NODES of the C core when None); lifted
+    only by studies of grids beyond it."""
+    if max_nodes is None:
+        from .check import core
+
+        max_nodes = core().max_grid_nodes
     if nx * ny > max_nodes:
-        raise MfnsError(
-            f"grid {nx}x{ny} has {nx * ny} nodes, more than MFNS_MAX_GRID_NODES ({MAX_GRID_NODES})"
-        )
+        raise MfnsError(f"grid {nx}x{ny} has {nx * ny} nodes, more than MFNS_MAX_GRID_NODES ({max_nodes})")
     su, sv = step_q8(cam.width, nx), step_q8(cam.height, ny)
     gu = (ORIGIN_Q8 + su * np.arange(nx)) / 256.0
     gv = (ORIGIN_Q8 + sv * np.arange(ny)) / 256.0
