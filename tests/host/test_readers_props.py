@@ -22,7 +22,10 @@ from mfns.errors import MfnsError
 from mfns.table.settings import load_settings
 
 PROFILE = settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=150,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
 )
 
 json_scalars = st.none() | st.booleans() | st.integers(-(2**70), 2**70) | st.text(max_size=8)
@@ -241,7 +244,12 @@ def table_mutations(draw, size: int):
     return edits, cut, tail, fix_crc, small
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=300,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 @given(data=st.data())
 def test_table_reader_mutated(good_table, data):
     from mfns.table.check import TableRefused, field_at, read_table
