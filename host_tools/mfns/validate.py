@@ -31,28 +31,30 @@ from .errors import MfnsError
 KIB = 1024
 MIB = 1024 * KIB
 
-Number = int | float
-
 
 # ---- files -----------------------------------------------------------------------------
 def read_bytes(path: str | os.PathLike, what: str, max_bytes: int) -> bytes:
-    """The bytes of a regular file of at most max_bytes, else MfnsError."""
+    """The bytes of a regular file of at most max_bytes, else MfnsError. Opened without
+    blocking and checked on the open descriptor, so a FIFO or device swapped in after a
+    check can neither block nor be read."""
     p = Path(path)
     try:
-        st = os.stat(p)
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
     except FileNotFoundError:
         raise MfnsError(f"{what} not found: {p}") from None
     except OSError as exc:
         raise MfnsError(f"{what} {p}: {exc.strerror or exc}") from exc
-    if not stat.S_ISREG(st.st_mode):
-        raise MfnsError(f"{what} {p}: not a regular file")
-    if st.st_size > max_bytes:
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode) or st.st_size > max_bytes:
+        os.close(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise MfnsError(f"{what} {p}: not a regular file")
         raise MfnsError(f"{what} {p}: {st.st_size} bytes, larger than the limit of {max_bytes} bytes")
-    try:
-        with open(p, "rb") as f:
+    with os.fdopen(fd, "rb") as f:
+        try:
             data = f.read(max_bytes + 1)
-    except OSError as exc:
-        raise MfnsError(f"{what} {p}: {exc.strerror or exc}") from exc
+        except OSError as exc:
+            raise MfnsError(f"{what} {p}: {exc.strerror or exc}") from exc
     if len(data) > max_bytes:
         raise MfnsError(f"{what} {p}: larger than the limit of {max_bytes} bytes")
     return data
