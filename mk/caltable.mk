@@ -5,14 +5,16 @@
 
 CALTABLE_SRC := host_tools/mfns/data/paper_calib.json host_tools/mfns/data/paper_beacons.csv
 CALTABLE_PY  := $(wildcard host_tools/mfns/table/*.py) host_tools/mfns/commands/table.py \
-                host_tools/mfns/camera.py host_tools/mfns/calib_results.py
+                host_tools/mfns/camera.py host_tools/mfns/calib_results.py host_tools/mfns/validate.py
 
-$(GEN)/default.mfnstbl: $(CALTABLE_SRC) $(CALTABLE_PY) $(VENV)/.stamp
+# the builder checks its output with the flight loader and sizes grids with the
+# C interpolation, both through the shared library
+$(GEN)/default.mfnstbl: $(CALTABLE_SRC) $(CALTABLE_PY) $(VENV)/.stamp build/host-sim/lib/libmfns_core.so
 	@mkdir -p $(@D)
 	$(PY) -m mfns table build $(CALTABLE_SRC) -o $@
 
 # caltable_values.txt, caltable_projections.txt, caltable_undistort.txt
-$(GEN)/caltable_vectors.stamp: $(GEN)/default.mfnstbl $(CALTABLE_PY) $(VENV)/.stamp
+$(GEN)/caltable_vectors.stamp: $(GEN)/default.mfnstbl $(CALTABLE_PY) $(VENV)/.stamp build/host-sim/lib/libmfns_core.so
 	$(PY) -m mfns.table.vectors $< $(GEN)
 	@touch $@
 

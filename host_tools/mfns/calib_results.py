@@ -3,79 +3,77 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import numpy as np
 
+from . import validate as V
 from .errors import MfnsError
 from .rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from .validate import MIB
 
 FORMAT = "mfns-calib-results"
 VERSION = 1
 CAMERA_NAMES = ("x", "y", "z")
 
 
-def _finite(name: str, values) -> None:
-    arr = np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(arr)):
-        raise MfnsError(f"{name}: not finite")
+MAX_BYTES = 1 * MIB  # a calibration of three cameras is ~5 KiB
 
 
-def validate(doc: dict) -> dict:
+def _camera(i: int, cam: object) -> None:
+    where = f"camera {i}"
+    cam = V.obj(cam, where)
+    name = cam.get("name")
+    if name != CAMERA_NAMES[i]:
+        raise MfnsError(f"{where}: name {name!r}, expected {CAMERA_NAMES[i]!r}")
+    where = f"camera {name}"
+    V.keys(cam, where, ("image_size", "fx", "fy", "cx", "cy", "skew", "dist", "C_k_b", "r_bk_b"))
+    size = cam["image_size"]
+    if not isinstance(size, list) or len(size) != 2:
+        raise MfnsError(f"{where} image_size: expected [width, height], got {size!r:.40}")
+    w = V.integer(size[0], f"{where} image_size width", 1, 65535)
+    h = V.integer(size[1], f"{where} image_size height", 1, 65535)
+    V.number(cam["fx"], f"{where} fx", 0.0, None, lo_open=True)
+    V.number(cam["fy"], f"{where} fy", 0.0, None, lo_open=True)
+    V.number(cam["cx"], f"{where} cx", -0.5, w - 0.5)
+    V.number(cam["cy"], f"{where} cy", -0.5, h - 0.5)
+    V.number(cam["skew"], f"{where} skew")
+    V.array(cam["dist"], f"{where} dist [k1, k2, p1, p2, k3]", (5,))
+    c = V.array(cam["C_k_b"], f"{where} C_k_b", (3, 3))
+    if np.max(np.abs(c.T @ c - np.eye(3))) > 1e-6 or np.linalg.det(c) <= 0:
+        raise MfnsError(f"{where}: C_k_b is not a rotation")
+    V.array(cam["r_bk_b"], f"{where} r_bk_b", (3,))
+    if "euler_213_deg" in cam:
+        e = V.array(cam["euler_213_deg"], f"{where} euler_213_deg", (3,))
+        if np.max(np.abs(euler213_deg_to_matrix(e) - c)) > 1e-7:
+            raise MfnsError(f"{where}: euler_213_deg disagrees with C_k_b")
+
+
+def validate(doc: object) -> dict:
     """Check a calibration-results document; returns it. Raises MfnsError with one line."""
+    doc = V.obj(doc, "calibration results")
     if doc.get("format") != FORMAT:
-        raise MfnsError(f"not a calibration-results file (format {doc.get('format')!r}, expected {FORMAT!r})")
-    version = doc.get("version")
-    if not isinstance(version, int) or version < 1:
-        raise MfnsError(f"bad version {version!r}")
+        raise MfnsError(
+            f"not a calibration-results file (format {doc.get('format')!r:.40}, expected {FORMAT!r})"
+        )
+    version = V.integer(doc.get("version"), "version", 1, 2**31)
     if version > VERSION:
         raise MfnsError(f"calibration-results version {version} is newer than this tool ({VERSION})")
-    sigma = doc.get("pixel_noise_px")
-    if not isinstance(sigma, (int, float)) or not (sigma > 0 and math.isfinite(sigma)):
-        raise MfnsError("pixel_noise_px must be a positive number")
+    V.number(doc.get("pixel_noise_px"), "pixel_noise_px", 0.0, None, lo_open=True)
     cams = doc.get("cameras")
     if not isinstance(cams, list) or len(cams) != 3:
         raise MfnsError("cameras must be a list of exactly three cameras (x, y, z)")
     for i, cam in enumerate(cams):
-        name = cam.get("name")
-        if name != CAMERA_NAMES[i]:
-            raise MfnsError(f"camera {i}: name {name!r}, expected {CAMERA_NAMES[i]!r}")
-        for key in ("image_size", "fx", "fy", "cx", "cy", "skew", "dist", "C_k_b", "r_bk_b"):
-            if key not in cam:
-                raise MfnsError(f"camera {name}: missing {key!r}")
-        w, h = cam["image_size"]
-        if not (isinstance(w, int) and isinstance(h, int) and 0 < w <= 65535 and 0 < h <= 65535):
-            raise MfnsError(f"camera {name}: bad image_size {cam['image_size']!r}")
-        for key in ("fx", "fy", "cx", "cy", "skew"):
-            _finite(f"camera {name} {key}", cam[key])
-        if not (cam["fx"] > 0 and cam["fy"] > 0):
-            raise MfnsError(f"camera {name}: focal lengths must be positive")
-        if len(cam["dist"]) != 5:
-            raise MfnsError(f"camera {name}: dist must have 5 coefficients [k1, k2, p1, p2, k3]")
-        _finite(f"camera {name} dist", cam["dist"])
-        c = np.asarray(cam["C_k_b"], dtype=float)
-        if c.shape != (3, 3):
-            raise MfnsError(f"camera {name}: C_k_b must be 3x3")
-        _finite(f"camera {name} C_k_b", c)
-        if np.max(np.abs(c.T @ c - np.eye(3))) > 1e-6 or np.linalg.det(c) <= 0:
-            raise MfnsError(f"camera {name}: C_k_b is not a rotation")
-        if len(cam["r_bk_b"]) != 3:
-            raise MfnsError(f"camera {name}: r_bk_b must have 3 components")
-        _finite(f"camera {name} r_bk_b", cam["r_bk_b"])
-        if "euler_213_deg" in cam:
-            d = euler213_deg_to_matrix(cam["euler_213_deg"])
-            if np.max(np.abs(d - c)) > 1e-7:
-                raise MfnsError(f"camera {name}: euler_213_deg disagrees with C_k_b")
+        _camera(i, cam)
     return doc
 
 
 def load(path: str | Path) -> dict:
+    doc = V.load_json(path, "calibration results", MAX_BYTES)
     try:
-        doc = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as exc:
-        raise MfnsError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from exc
-    return validate(doc)
+        return validate(doc)
+    except MfnsError as exc:
+        raise MfnsError(f"{path}: {exc}") from exc
 
 
 def camera_entry(name, image_size, fx, fy, cx, cy, skew, dist, c_k_b, r_bk_b, sigma=None) -> dict:

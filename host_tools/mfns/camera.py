@@ -12,7 +12,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import validate as V
 from .calib_results import CAMERA_NAMES, camera_entry
+from .errors import MfnsError
 
 
 @dataclass
@@ -153,10 +155,26 @@ def position_from_pose(C_w_b: np.ndarray, r_bw_b) -> np.ndarray:
     return -np.asarray(C_w_b).T @ np.asarray(r_bw_b, dtype=float)
 
 
+BEACON_COLUMNS = ("id", "x_mm", "y_mm", "z_mm", "sigma_mm")
+
+
 def load_beacons(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Beacon CSV (id,x_mm,y_mm,z_mm,sigma_mm) -> (ids, positions (N, 3), sigmas)."""
-    data = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
-    data = np.atleast_1d(data)
-    ids = data["id"].astype(int)
-    pos = np.stack([data["x_mm"], data["y_mm"], data["z_mm"]], axis=1)
-    return ids, pos, data["sigma_mm"]
+    """Beacon CSV (id,x_mm,y_mm,z_mm,sigma_mm) -> (ids, positions (N, 3), sigmas).
+
+    Ids are integers 0..65535, unique; positions finite; sigmas finite and positive;
+    at least one beacon. Raises MfnsError (one line) otherwise."""
+    rows = V.read_csv(path, "beacon CSV", BEACON_COLUMNS, max_bytes=4 * V.MIB)
+    if not rows:
+        raise MfnsError(f"beacon CSV {path}: no beacons (expected a header and one row per beacon)")
+    ids, pos, sig = [], [], []
+    for n, r in enumerate(rows, start=2):
+        where = f"beacon CSV {path} line {n}"
+        ids.append(V.csv_int(r["id"], f"{where} id", 0, 65535))
+        pos.append([V.csv_float(r[c], f"{where} {c}") for c in ("x_mm", "y_mm", "z_mm")])
+        s = V.csv_float(r["sigma_mm"], f"{where} sigma_mm")
+        if not s > 0:
+            raise MfnsError(f"{where} sigma_mm: beacon sigma_mm must be positive, got {s:g}")
+        sig.append(s)
+    if len(set(ids)) != len(ids):
+        raise MfnsError(f"beacon CSV {path}: duplicate beacon ids")
+    return np.array(ids, dtype=int), np.array(pos, dtype=float).reshape(-1, 3), np.array(sig, dtype=float)

@@ -382,6 +382,9 @@ def plot_pose(path: Path, rows: list[dict], solver_name: str) -> None:
     plt.close(fig)
 
 
+MAX_TRIALS = 10_000_000  # trials are held in memory per point: bounded before allocating
+
+
 def run_mc(
     out: Path,
     trials: int,
@@ -396,12 +399,14 @@ def run_mc(
     (mfns.pose_ref), or any PoseSolver callable (then described by solver_name)."""
     from tqdm import tqdm
 
-    if trials < 10:
-        raise MfnsError("--trials must be at least 10")
+    if not 10 <= trials <= MAX_TRIALS:
+        raise MfnsError(f"--trials must be in 10..{MAX_TRIALS}")
+    if not 0 <= seed < 2**63:
+        raise MfnsError("--seed must be a non-negative integer")
     if not (0 < z_min < Z_RANGE_MM[1]):
         raise MfnsError("--z-min must be in (0, 1000) mm")
-    if pose_trials < 0:
-        raise MfnsError("--pose-trials must be >= 0")
+    if not 0 <= pose_trials <= MAX_TRIALS:
+        raise MfnsError(f"--pose-trials must be in 0..{MAX_TRIALS}")
     solver_key = solver if isinstance(solver, str) else "custom"
     if pose_trials:
         # Before any long work: a missing flight library is reported at once.

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import validate as V
 from .errors import MfnsError
 
 AXES = ("roll", "pitch", "yaw", "x", "y", "z")
@@ -70,27 +71,17 @@ class Report:
     n_unmatched: int
 
 
+MAX_CSV_BYTES = 256 * V.MIB  # ~1.3 M rows of nav.csv: 19 hours at 18.6 Hz
+
+
 def _read_csv(path: Path, required: list[str], what: str) -> list[dict[str, str]]:
-    if not path.is_file():
-        raise MfnsError(f"{what} not found: {path}")
-    with path.open(newline="") as f:
-        reader = csv.DictReader(f)
-        header = reader.fieldnames or []
-        missing = [c for c in required if c not in header]
-        if missing:
-            raise MfnsError(f"{path}: not a {what} (missing columns: {', '.join(missing)})")
-        rows = list(reader)
-    return rows
+    return V.read_csv(path, what, required, max_bytes=MAX_CSV_BYTES)
 
 
 def _floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
-    try:
-        out = np.array([float(r[col]) for r in rows], dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise MfnsError(f"{path}: column {col}: not a number ({exc})") from exc
-    if not np.all(np.isfinite(out)):
-        raise MfnsError(f"{path}: column {col}: non-finite value")
-    return out
+    return np.array(
+        [V.csv_float(r[col], f"{path} line {i + 2} {col}") for i, r in enumerate(rows)], dtype=float
+    )
 
 
 def load_nav(path: Path) -> NavLog:

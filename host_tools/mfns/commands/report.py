@@ -37,6 +37,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     nav_path = args.nav
+    if not 0.0 <= args.time_tolerance < 3600.0:  # also refuses NaN
+        raise MfnsError(f"--time-tolerance {args.time_tolerance}: expected seconds in [0, 3600)")
     nav = rpt.load_nav(nav_path)
     truth = rpt.load_truth(args.truth) if args.truth is not None else None
     rep = rpt.build_report(nav, truth, tolerance_s=args.time_tolerance, all_status=args.all_status)

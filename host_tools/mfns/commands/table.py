@@ -9,12 +9,15 @@ import numpy as np
 
 from ..errors import MfnsError
 from ..rotations import matrix_to_euler213_deg
-from ..table.format import CAMERA_NAMES, decode, encode, validate
-from ..table.grid import DEFAULT_GRID
+from ..table.check import TableRefused, check_table, core
+from ..table.format import CAMERA_NAMES, decode, encode
+from ..validate import read_bytes
 
 
-def _grid_arg(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"(\d+)[xX](\d+)", text)
+def _grid_arg(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    m = re.fullmatch(r"(\d{1,5})[xX](\d{1,5})", text)
     if not m:
         raise MfnsError(f"--grid {text!r}: expected NXxNY, e.g. 93x75")
     return int(m.group(1)), int(m.group(2))
@@ -30,14 +33,18 @@ def cmd_build(args) -> int:
         raise MfnsError(f"--pixel-sigma {args.pixel_sigma}: expected a value in (0, 10] px")
     table, errors = build_table(args.calib_json, args.beacons_csv, grid, centroid, solver, args.pixel_sigma)
     data = encode(table)
-    validate(decode(data))
+    try:
+        status = check_table(data)  # the flight loader on the very bytes to be written
+    except TableRefused as exc:
+        raise MfnsError(f"the table built is {exc}; nothing written") from exc
     out = Path(args.output)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_bytes(data)
     except OSError as exc:
         raise MfnsError(f"cannot write {out}: {exc.strerror}") from exc
-    print(f"wrote {out}: {len(data)} bytes, CRC-32 0x{decode(data).crc32:08x}")
+    crc = decode(data).crc32
+    print(f"wrote {out}: {len(data)} bytes, CRC-32 0x{crc:08x}, flight loader: {status.message}")
     for name, rec, err in zip(CAMERA_NAMES, table.cameras, errors, strict=True):
         g = rec.grid
         print(
@@ -55,16 +62,17 @@ def _fmt(v) -> str:
 
 def cmd_show(args) -> int:
     path = Path(args.table)
+    # the flight program's load buffer bounds what it can load: nothing larger is read
+    data = read_bytes(path, "calibration table", core().max_bytes)
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise MfnsError(f"cannot read {path}: {exc.strerror}") from exc
-    try:
-        t = validate(decode(data))
-    except MfnsError as exc:
+        check_table(data)
+    except TableRefused as exc:
         raise MfnsError(f"{path}: {exc}") from exc
+    t = decode(data)
     print(f"{path}: MFNS calibration table, format version {t.version}, {t.size_bytes} bytes")
-    print(f"CRC-32 0x{t.crc32:08x} (verified)")
+    print(f"CRC-32 0x{t.crc32:08x} (verified by the flight loader: {core().load(data).message})")
+    if len(data) > t.size_bytes:
+        print(f"note: {len(data) - t.size_bytes} bytes after the table's total size (ignored by the loader)")
     print(f"pixel noise sigma: {t.pixel_sigma_px:.6g} px")
     print("centroid: " + ", ".join(f"{k}={v:.6g}" for k, v in t.centroid.items()))
     print("solver:   " + ", ".join(f"{k}={v:.6g}" for k, v in t.solver.items()))
@@ -96,9 +104,8 @@ def register(subparsers) -> None:
     b.add_argument("-o", "--output", required=True, metavar="OUT")
     b.add_argument(
         "--grid",
-        default=f"{DEFAULT_GRID[0]}x{DEFAULT_GRID[1]}",
         metavar="NXxNY",
-        help="correction grid nodes",
+        help="correction grid nodes (default: the coarsest grid that corrects each lens to 0.01 px)",
     )
     b.add_argument("--settings", metavar="JSON", help="override centroid/solver settings")
     b.add_argument(

@@ -9,8 +9,8 @@ import numpy as np
 from .. import calib_results
 from ..camera import load_beacons
 from ..errors import MfnsError
-from .format import MAX_BEACONS, CameraRecord, Grid, Table, f32
-from .grid import DEFAULT_GRID, GridError, build_grid, grid_error, record_camera
+from .format import CameraRecord, Grid, Table, f32
+from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
 
 
 def _record(k: int, e: dict) -> CameraRecord:
@@ -29,44 +29,40 @@ def _record(k: int, e: dict) -> CameraRecord:
         r_bk_b=f32(e["r_bk_b"]),
         grid=Grid(0, 0, 0, 0, np.zeros((0, 0, 2), dtype=np.int32)),
     )
-    if not (-0.5 <= rec.cx <= rec.width - 0.5 and -0.5 <= rec.cy <= rec.height - 0.5):
-        raise MfnsError(f"camera {e['name']}: principal point outside the image")
     return rec
 
 
 def load_beacon_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    try:
-        ids, pos, sig = load_beacons(path)
-    except (ValueError, KeyError, TypeError) as exc:
-        raise MfnsError(f"{path}: not a beacon CSV with columns id,x_mm,y_mm,z_mm,sigma_mm ({exc})") from exc
-    if len(ids) == 0 or len(ids) > MAX_BEACONS:
-        raise MfnsError(f"{path}: {len(ids)} beacons, expected 1..{MAX_BEACONS}")
-    if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(sig))):
-        raise MfnsError(f"{path}: a beacon value is missing or not finite")
-    if np.any(sig <= 0):
-        raise MfnsError(f"{path}: beacon sigma_mm must be positive")
-    if np.any(ids < 0) or np.any(ids > 65535):
-        raise MfnsError(f"{path}: beacon ids must be in 0..65535")
-    if len(set(ids.tolist())) != len(ids):
-        raise MfnsError(f"{path}: duplicate beacon ids")
+    from .check import core
+
+    ids, pos, sig = load_beacons(path)  # checked: ids, finite values, sigma > 0, unique
+    limit = core().max_beacons  # the flight build's MFNS_MAX_BEACONS
+    if len(ids) > limit:
+        raise MfnsError(f"{path}: {len(ids)} beacons, the flight loader takes 1..{limit}")
     return ids, pos, sig
 
 
 def build_table(
     calib_json: str | Path,
     beacons_csv: str | Path,
-    grid: tuple[int, int] = DEFAULT_GRID,
+    grid: tuple[int, int] | None = None,
     centroid: dict | None = None,
     solver: dict | None = None,
     pixel_sigma_px: float | None = None,
 ) -> tuple[Table, list[GridError]]:
     """The table and, per camera, the measured worst-case error of its grid.
 
-    pixel_sigma_px overrides the calibration's pixel_noise_px as the noise the
-    flight solver assumes (centroid noise plus what calibration errors add).
+    grid None: each camera gets the coarsest grid that corrects its lens to
+    MAX_GRID_ERROR_PX within the loader's node limit (grid.size_grid); a given
+    NXxNY grid is used as is, and refused like a lens the limit cannot correct
+    when it misses MAX_GRID_ERROR_PX. pixel_sigma_px overrides the calibration's
+    pixel_noise_px as the noise the flight solver assumes (centroid noise plus what
+    calibration errors add).
     """
+    from .check import core
     from .settings import load_settings
 
+    max_nodes = core().max_grid_nodes  # the flight build's limit, from the C core
     doc = calib_results.load(calib_json)
     dc, ds = load_settings(None)
     ids, pos, sig = load_beacon_csv(beacons_csv)
@@ -74,8 +70,17 @@ def build_table(
     for k, e in enumerate(doc["cameras"]):
         rec = _record(k, e)
         cam = record_camera(rec)
-        rec.grid = build_grid(cam, *grid)
-        errors.append(grid_error(cam, rec.grid))
+        if grid is None:
+            rec.grid, err = size_grid(cam, max_nodes)
+        else:
+            rec.grid = build_grid(cam, *grid, max_nodes=max_nodes)
+            err = grid_error(cam, rec.grid)
+            if err.max_px > MAX_GRID_ERROR_PX:
+                raise MfnsError(
+                    f"camera {cam.name}: grid {grid[0]}x{grid[1]} leaves {err.max_px:.4f} px of correction "
+                    f"error at ({err.worst_uv[0]:.1f}, {err.worst_uv[1]:.1f}), above {MAX_GRID_ERROR_PX} px"
+                )
+        errors.append(err)
         cams.append(rec)
     table = Table(
         cameras=cams,

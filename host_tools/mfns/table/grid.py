@@ -1,5 +1,6 @@
-"""The distortion-correction grid: build it, evaluate it exactly as the flight code does
-(math/undistort.c, integer arithmetic), and measure its worst-case error.
+"""The distortion-correction grid: build it, measure its worst-case error with the flight
+code's own interpolation (mfns_undistort_grid_px through the C core), and size it for the
+lens at hand.
 
 Nodes hold the undistorted (ideal pinhole) pixel position u' = fx x + skew y + cx,
 v' = fy y + cy of pixel (origin + i*step) in Q16.16 pixels; inputs are px_q8 (1/256 px).
@@ -13,9 +14,9 @@ import numpy as np
 
 from ..camera import Camera
 from ..errors import MfnsError
-from .format import MAX_GRID_NODES, CameraRecord, Grid
+from .format import CameraRecord, Grid
 
-DEFAULT_GRID = (93, 75)  # 14 px spacing on 1280 x 1024 (docs/distortion-grid.md)
+MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)
 ORIGIN_Q8 = -128  # pixel -0.5: the image corner under the pixel-centre convention
 MIN_STEP_Q8, MAX_STEP_Q8 = 256, 65535
 
@@ -57,12 +58,15 @@ def step_q8(size_px: int, n: int) -> int:
     return s
 
 
-def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int = MAX_GRID_NODES) -> Grid:
-    """max_nodes: the flight limit; lifted only by studies of grids beyond it."""
+def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int | None = None) -> Grid:
+    """max_nodes: the flight limit (MFNS_MAX_GRID_NODES of the C core when None); lifted
+    only by studies of grids beyond it."""
+    if max_nodes is None:
+        from .check import core
+
+        max_nodes = core().max_grid_nodes
     if nx * ny > max_nodes:
-        raise MfnsError(
-            f"grid {nx}x{ny} has {nx * ny} nodes, more than MFNS_MAX_GRID_NODES ({MAX_GRID_NODES})"
-        )
+        raise MfnsError(f"grid {nx}x{ny} has {nx * ny} nodes, more than MFNS_MAX_GRID_NODES ({max_nodes})")
     su, sv = step_q8(cam.width, nx), step_q8(cam.height, ny)
     gu = (ORIGIN_Q8 + su * np.arange(nx)) / 256.0
     gv = (ORIGIN_Q8 + sv * np.arange(ny)) / 256.0
@@ -74,41 +78,6 @@ def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int = MAX_GRID_NODES) -
     return Grid(ORIGIN_Q8, ORIGIN_Q8, su, sv, nodes)
 
 
-def _round_shift16(v: np.ndarray) -> np.ndarray:
-    """Round-to-nearest (ties away from zero) of v / 2^16, as mfns_q16_lerp."""
-    a = np.abs(v)
-    return np.sign(v) * ((a + (1 << 15)) >> 16)
-
-
-def _lerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
-    return a + _round_shift16((b - a) * t)
-
-
-def _axis(p: np.ndarray, origin: int, step: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    d = p - origin
-    inside = (d >= 0) & (d <= (n - 1) * step)
-    dc = np.clip(d, 0, (n - 1) * step)
-    i = np.minimum(dc // step, n - 2)
-    t = dc - i * step
-    w = ((t << 16) + step // 2) // step
-    return i, w, inside
-
-
-def eval_grid(g: Grid, u_q8: np.ndarray, v_q8: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Integer emulation of mfns_undistort_grid_px: (undistorted Q16.16 (N, 2), inside mask)."""
-    u_q8 = np.asarray(u_q8, dtype=np.int64)
-    v_q8 = np.asarray(v_q8, dtype=np.int64)
-    i, wx, in_u = _axis(u_q8, g.origin_u_q8, g.step_u_q8, g.nx)
-    j, wy, in_v = _axis(v_q8, g.origin_v_q8, g.step_v_q8, g.ny)
-    n = g.nodes.astype(np.int64)
-    out = np.empty((len(u_q8), 2), dtype=np.int64)
-    for c in range(2):
-        top = _lerp(n[j, i, c], n[j, i + 1, c], wx)
-        bot = _lerp(n[j + 1, i, c], n[j + 1, i + 1, c], wx)
-        out[:, c] = _lerp(top, bot, wy)
-    return out, in_u & in_v
-
-
 @dataclass
 class GridError:
     max_px: float  # worst Euclidean error over the samples
@@ -117,21 +86,129 @@ class GridError:
     samples: int
 
 
-def grid_error(cam: Camera, g: Grid, sample_px: float = 1.75) -> GridError:
-    """Worst-case error of the grid over the whole image [-0.5, W-0.5) x [-0.5, H-0.5),
-    sampled every sample_px (incommensurate with the node spacing, so samples fall at
-    every phase inside the cells), against the exact inverse of the same pixel."""
+@dataclass
+class ErrorSamples:
+    """Pixels (q8) spread over the whole image and their exact undistorted positions: computed
+    once per camera, reused for every grid measured against it."""
+
+    u_q8: np.ndarray
+    v_q8: np.ndarray
+    exact: np.ndarray  # (N, 2) px
+
+
+def error_samples(cam: Camera, sample_px: float = 1.75) -> ErrorSamples:
+    """The whole image [-0.5, W-0.5) x [-0.5, H-0.5) every sample_px (incommensurate with
+    the node spacing, so samples fall at every phase inside the cells) plus the last row
+    and column."""
     u = np.arange(-0.5, cam.width - 0.5, sample_px)
     v = np.arange(-0.5, cam.height - 0.5, sample_px)
     uu, vv = np.meshgrid(np.append(u, cam.width - 0.5 - 1 / 256), np.append(v, cam.height - 0.5 - 1 / 256))
     u_q8 = np.round(uu.ravel() * 256).astype(np.int64)
     v_q8 = np.round(vv.ravel() * 256).astype(np.int64)
-    val, inside = eval_grid(g, u_q8, v_q8)
+    return ErrorSamples(u_q8, v_q8, ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / 256.0))
+
+
+REFINE_WITHIN = 0.97  # cells whose lattice maximum is within 3 % of the worst are resampled
+REFINE_MAX_CELLS = 16
+REFINE_STEP_Q8 = 64  # 1/4 px inside a resampled cell
+
+
+def _errors(cam: Camera, g: Grid, u_q8: np.ndarray, v_q8: np.ndarray, exact: np.ndarray) -> np.ndarray:
+    from .check import core
+
+    val, inside = core().eval_grid(g, u_q8, v_q8)
     if not np.all(inside):
         raise MfnsError(f"camera {cam.name}: the grid does not cover the image")
+    return np.hypot(*(val / 65536.0 - exact).T)
+
+
+def _refine(
+    cam: Camera, g: Grid, s: ErrorSamples, err: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Errors on a 1/4 px lattice inside the (at most REFINE_MAX_CELLS) cells where the
+    coarse lattice came within REFINE_WITHIN of its maximum: the maximum of a bilinear
+    cell can fall between the coarse samples (1.75 px measured 0.0100 where 1/8 px finds
+    0.0101)."""
+    ci = (s.u_q8 - g.origin_u_q8) // g.step_u_q8
+    cj = (s.v_q8 - g.origin_v_q8) // g.step_v_q8
+    hot = err >= REFINE_WITHIN * err.max()
+    cells = np.unique(np.stack([ci[hot], cj[hot]], axis=1), axis=0)
+    cells = cells[np.argsort(-np.array([err[hot & (ci == i) & (cj == j)].max() for i, j in cells]))]
+    us, vs = [], []
+    for i, j in cells[:REFINE_MAX_CELLS]:
+        u0, v0 = g.origin_u_q8 + i * g.step_u_q8, g.origin_v_q8 + j * g.step_v_q8
+        u = np.arange(max(u0, -128), min(u0 + g.step_u_q8, 256 * cam.width - 128 - 1) + 1, REFINE_STEP_Q8)
+        v = np.arange(max(v0, -128), min(v0 + g.step_v_q8, 256 * cam.height - 128 - 1) + 1, REFINE_STEP_Q8)
+        uu, vv = np.meshgrid(u, v)
+        us.append(uu.ravel())
+        vs.append(vv.ravel())
+    u_q8, v_q8 = np.concatenate(us).astype(np.int64), np.concatenate(vs).astype(np.int64)
     exact = ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / 256.0)
-    err = np.hypot(*(val / 65536.0 - exact).T)
-    k = int(np.argmax(err))
-    return GridError(
-        float(err[k]), float(np.sqrt(np.mean(err**2))), (u_q8[k] / 256.0, v_q8[k] / 256.0), int(err.size)
-    )
+    return _errors(cam, g, u_q8, v_q8, exact), u_q8, v_q8
+
+
+def grid_error(
+    cam: Camera, g: Grid, sample_px: float = 1.75, samples: ErrorSamples | None = None
+) -> GridError:
+    """Worst-case error of the grid as the flight code evaluates it (mfns_undistort_grid_px
+    of the C core, table/check.py) against the exact inverse of the same pixel: a lattice
+    over the whole image, then a fine lattice inside the cells near its maximum."""
+    s = samples if samples is not None else error_samples(cam, sample_px)
+    err = _errors(cam, g, s.u_q8, s.v_q8, s.exact)
+    fine, fu, fv = _refine(cam, g, s, err)
+    if fine.max() > err.max():
+        k = int(np.argmax(fine))
+        worst, where = float(fine[k]), (fu[k] / 256.0, fv[k] / 256.0)
+    else:
+        k = int(np.argmax(err))
+        worst, where = float(err[k]), (s.u_q8[k] / 256.0, s.v_q8[k] / 256.0)
+    return GridError(worst, float(np.sqrt(np.mean(err**2))), where, int(err.size + fine.size))
+
+
+def _candidates(cam: Camera, max_nodes: int) -> list[tuple[int, int]]:
+    """Grids of near-square cells spanning the image, by increasing density, within max_nodes
+    and the step range."""
+    out = []
+    for nx in range(2, cam.width + 2):
+        ny = max(2, round((nx - 1) * cam.height / cam.width) + 1)
+        if nx * ny > max_nodes:
+            break
+        try:
+            step_q8(cam.width, nx), step_q8(cam.height, ny)
+        except MfnsError:
+            continue
+        out.append((nx, ny))
+    return out
+
+
+def size_grid(cam: Camera, max_nodes: int, target_px: float = MAX_GRID_ERROR_PX) -> tuple[Grid, GridError]:
+    """The coarsest grid whose worst-case error (measured with the C interpolation) is within
+    target_px; MfnsError with the figure when even the densest grid within max_nodes is not."""
+    cands = _candidates(cam, max_nodes)
+    if not cands:
+        raise MfnsError(f"camera {cam.name}: no grid of 1..255 px spacing fits {max_nodes} nodes")
+    samples = error_samples(cam)
+    measured: dict[int, tuple[Grid, GridError]] = {}
+
+    def measure(i: int) -> tuple[Grid, GridError]:
+        if i not in measured:
+            g = build_grid(cam, *cands[i], max_nodes=max_nodes)
+            measured[i] = (g, grid_error(cam, g, samples=samples))
+        return measured[i]
+
+    last = len(cands) - 1
+    g, e = measure(last)
+    if e.max_px > target_px:
+        raise MfnsError(
+            f"camera {cam.name}: the lens cannot be corrected to {target_px} px within {max_nodes} nodes: "
+            f"the densest grid ({g.nx}x{g.ny}, {g.step_u_q8 / 256:.1f} px spacing) leaves {e.max_px:.4f} px "
+            f"at ({e.worst_uv[0]:.1f}, {e.worst_uv[1]:.1f})"
+        )
+    lo, hi = 0, last  # error shrinks with density (~h^2): bisect for the coarsest within target
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if measure(mid)[1].max_px <= target_px:
+            hi = mid
+        else:
+            lo = mid + 1
+    return measure(lo)

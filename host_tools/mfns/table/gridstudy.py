@@ -11,7 +11,8 @@ from pathlib import Path
 
 from .. import calib_results
 from .builder import _record
-from .format import MAX_GRID_NODES, NODE_SIZE
+from .check import core
+from .format import NODE_SIZE
 from .grid import build_grid, grid_error, record_camera
 
 SIZES = [
@@ -31,8 +32,9 @@ SIZES = [
 def study(calib_json: str | Path) -> list[str]:
     doc = calib_results.load(calib_json)
     cams = [record_camera(_record(k, e)) for k, e in enumerate(doc["cameras"])]
+    limit = core().max_grid_nodes
     rows = [
-        "| grid (nx x ny) | spacing (px) | nodes | bytes/camera | bytes (3 cameras) | fits 8192 | "
+        f"| grid (nx x ny) | spacing (px) | nodes | bytes/camera | bytes (3 cameras) | fits {limit} | "
         + " | ".join(f"worst error {c.name} (px)" for c in cams)
         + " |",
         "|---|---|---|---|---|---|" + "---|" * len(cams),
@@ -41,13 +43,13 @@ def study(calib_json: str | Path) -> list[str]:
         errs = []
         for cam in cams:
             # grids beyond the flight maximum are measured too (limit lifted)
-            g = build_grid(cam, nx, ny, max_nodes=max(nx * ny, MAX_GRID_NODES))
+            g = build_grid(cam, nx, ny, max_nodes=max(nx * ny, limit))
             errs.append(grid_error(cam, g).max_px)
         n = nx * ny
         step = f"{cams[0].width / (nx - 1):.1f} x {cams[0].height / (ny - 1):.1f}"
         rows.append(
             f"| {nx} x {ny} | {step} | {n} | {n * NODE_SIZE} | {3 * n * NODE_SIZE} | "
-            f"{'yes' if n <= MAX_GRID_NODES else 'no'} | " + " | ".join(f"{e:.4f}" for e in errs) + " |"
+            f"{'yes' if n <= limit else 'no'} | " + " | ".join(f"{e:.4f}" for e in errs) + " |"
         )
     return rows
 

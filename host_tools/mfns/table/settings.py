@@ -4,12 +4,10 @@ of them from a JSON object {"centroid": {...}, "solver": {...}}."""
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
-from ..errors import MfnsError
-from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16
+from .. import validate as V
+from .format import CENTROID_U16, SOLVER_U16
 
 DEFAULT_CENTROID = {
     "threshold_dn": 0,  # 0: use the k-sigma rule below
@@ -33,59 +31,30 @@ DEFAULT_SOLVER = {
     "min_rcond": 1e-7,
 }
 
-# Ranges the flight loader accepts (firmware/nav/caltable.c): (lo exclusive, hi inclusive).
-SOLVER_RANGES = {
-    "step_tol": (0.0, 1.0),
-    "grad_tol": (0.0, 1.0),
-    "huber_k": (0.0, 1000.0),
-    "outlier_gate_sigma": (0.0, 1e5),
-    "max_residual_rms_px": (0.0, 1000.0),
-    "track_gate_px": (0.0, 4096.0),
-    "min_rcond": (0.0, 0.999),
-}
+MAX_BYTES = 64 * 1024
+F32_MAX = 3.4028234663852886e38
 
 
-def _check(centroid: dict, solver: dict) -> None:
-    for k in CENTROID_U16 + SOLVER_U16:
-        v = centroid.get(k, solver.get(k))
-        if not isinstance(v, int) or not 0 <= v <= 65535:
-            raise MfnsError(f"setting {k} must be an integer in 0..65535, got {v!r}")
-    for k in CENTROID_F32 + SOLVER_F32:
-        v = centroid.get(k, solver.get(k))
-        if not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise MfnsError(f"setting {k} must be a finite number, got {v!r}")
-    c = centroid
-    if not 0 <= c["threshold_k_sigma"] <= 100 or (c["threshold_dn"] == 0 and c["threshold_k_sigma"] <= 0):
-        raise MfnsError("centroid threshold: need threshold_dn > 0 or threshold_k_sigma in (0, 100]")
-    if not 1 <= c["min_area_px"] <= c["max_area_px"]:
-        raise MfnsError("centroid areas: need 1 <= min_area_px <= max_area_px")
-    if not 1 <= c["max_elongation"] <= 100:
-        raise MfnsError("centroid max_elongation must be in [1, 100]")
-    if c["roi_half_size_px"] < 1:
-        raise MfnsError("centroid roi_half_size_px must be >= 1")
-    s = solver
-    if not 1 <= s["max_iterations"] <= 1000:
-        raise MfnsError("solver max_iterations must be in 1..1000")
-    if s["max_hypotheses"] < 1:
-        raise MfnsError("solver max_hypotheses must be >= 1")
-    for k, (lo, hi) in SOLVER_RANGES.items():
-        if not lo < s[k] <= hi:
-            raise MfnsError(f"solver {k} = {s[k]} outside ({lo}, {hi}]")
+def _typed(section: str, key: str, v: object) -> int | float:
+    """The type the table field can carry: u16 integers, finite binary32 numbers. Ranges
+    are the flight loader's to decide: `mfns table build` checks the table it writes with
+    it (firmware/nav/caltable.c), so there is no second copy of them here."""
+    name = f"{section}.{key}"
+    if key in CENTROID_U16 or key in SOLVER_U16:
+        return V.integer(v, name, 0, 65535)
+    return V.number(v, name, -F32_MAX, F32_MAX)
 
 
 def load_settings(path: str | Path | None) -> tuple[dict, dict]:
     centroid, solver = dict(DEFAULT_CENTROID), dict(DEFAULT_SOLVER)
-    if path is not None:
-        try:
-            doc = json.loads(Path(path).read_text())
-        except json.JSONDecodeError as exc:
-            raise MfnsError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from exc
-        if not isinstance(doc, dict) or set(doc) - {"centroid", "solver"}:
-            raise MfnsError(f"{path}: expected an object with keys 'centroid' and/or 'solver'")
-        for name, dst in (("centroid", centroid), ("solver", solver)):
-            extra = set(doc.get(name, {})) - set(dst)
-            if extra:
-                raise MfnsError(f"{path}: unknown {name} setting(s) {sorted(extra)}")
-            dst.update(doc.get(name, {}))
-    _check(centroid, solver)
+    if path is None:
+        return centroid, solver
+    what = f"settings {path}"
+    doc = V.obj(V.load_json(path, "settings", MAX_BYTES), what)
+    V.keys(doc, what, (), ("centroid", "solver"))
+    for section, dst in (("centroid", centroid), ("solver", solver)):
+        given = V.obj(doc.get(section, {}), f"{what}: {section}")
+        V.keys(given, f"{what}: {section}", (), dst)
+        for k, v in given.items():
+            dst[k] = _typed(section, k, v)
     return centroid, solver

@@ -22,7 +22,8 @@ import cv2
 import numpy as np
 
 from ..rotations import euler213_to_matrix
-from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, Table, decode
+from .check import read_table
+from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, Table
 from .grid import ideal_pixels, record_camera
 
 NODE_SAMPLE_STRIDE = 509  # every 509th grid node is listed individually (plus the sums)
@@ -103,7 +104,7 @@ def undistort_lines(t: Table, per_camera: int = 200, seed: int = 8) -> list[str]
 
 
 def write_vectors(table_path: str | Path, outdir: str | Path) -> None:
-    t = decode(Path(table_path).read_bytes())
+    t = read_table(Path(table_path).read_bytes())  # accepted by the flight loader
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     (outdir / "caltable_values.txt").write_text("\n".join(value_lines(t)) + "\n")

@@ -1,0 +1,196 @@
+"""The one table validator: the flight loader itself (mfns_caltable_load of
+firmware/nav/caltable.c), reached through the shared library of the C core
+(`make lib`, build/host-sim/lib/libmfns_core.so), and the C grid interpolation
+(mfns_undistort_grid_px) the builder measures its grids with.
+
+`mfns table show` and `mfns table build` accept exactly what the navigation
+computer accepts: there is no Python copy of the checks. A refused table is
+reported with the loader's status code, its message and the byte offset of the
+offending field (named with the layout of format.py).
+"""
+
+from __future__ import annotations
+
+import ctypes as ct
+import os
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MfnsError
+from ..flight import DEFAULT_LIB
+from . import format as fmt
+
+
+@dataclass
+class LoadStatus:
+    code: int  # mfns_caltable_status_t (0 = MFNS_CALTABLE_OK)
+    message: str  # mfns_caltable_strerror
+    offset: int  # byte offset of the offending field (0 when ok)
+
+    @property
+    def ok(self) -> bool:
+        return self.code == 0
+
+
+class TableRefused(MfnsError):
+    """The flight loader refused a table (one line: status, message, offset, field)."""
+
+    def __init__(self, status: LoadStatus, field: str):
+        self.status = status
+        self.field = field
+        super().__init__(
+            f"refused by the flight loader: {status.message} "
+            f"(status {status.code}, byte offset {status.offset}: {field})"
+        )
+
+
+class CoreTables:
+    """ctypes binding of the loader and the grid evaluation of the C core."""
+
+    def __init__(self, lib: str | os.PathLike | None = None):
+        path = Path(lib or os.environ.get("MFNS_CORE_LIB", DEFAULT_LIB))
+        if not path.exists():
+            raise MfnsError(f"{path}: no such library (run: make lib): tables are checked by the C loader")
+        L = ct.CDLL(str(path))
+        for name in ("table_size", "max_bytes", "max_grid_nodes", "max_beacons"):
+            f = getattr(L, f"mfns_caltable_host_{name}")
+            f.argtypes, f.restype = [], ct.c_uint32
+        L.mfns_caltable_load.argtypes = [ct.c_char_p, ct.c_size_t, ct.c_void_p, ct.POINTER(ct.c_uint32)]
+        L.mfns_caltable_load.restype = ct.c_int
+        L.mfns_caltable_strerror.argtypes = [ct.c_int]
+        L.mfns_caltable_strerror.restype = ct.c_char_p
+        i32p = ct.POINTER(ct.c_int32)
+        L.mfns_caltable_host_grid_eval.argtypes = [
+            *[ct.c_uint16] * 2,
+            *[ct.c_int32] * 4,
+            i32p,
+            ct.c_uint32,
+            i32p,
+            i32p,
+            i32p,
+            ct.POINTER(ct.c_uint8),
+        ]
+        L.mfns_caltable_host_grid_eval.restype = ct.c_int
+        self.lib = L
+        self.max_bytes = int(L.mfns_caltable_host_max_bytes())
+        self.max_grid_nodes = int(L.mfns_caltable_host_max_grid_nodes())
+        self.max_beacons = int(L.mfns_caltable_host_max_beacons())
+        self._out = ct.create_string_buffer(int(L.mfns_caltable_host_table_size()))
+
+    def load(self, data: bytes) -> LoadStatus:
+        """mfns_caltable_load over the whole buffer (as the flight program loads a file)."""
+        off = ct.c_uint32(0)
+        code = int(self.lib.mfns_caltable_load(bytes(data), len(data), self._out, ct.byref(off)))
+        return LoadStatus(code, self.lib.mfns_caltable_strerror(code).decode(), int(off.value) if code else 0)
+
+    def eval_grid(self, g: fmt.Grid, u_q8: np.ndarray, v_q8: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """mfns_undistort_grid_px at each pixel: (undistorted Q16.16 (N, 2) int64, inside mask)."""
+        u = np.ascontiguousarray(u_q8, dtype=np.int32)
+        v = np.ascontiguousarray(v_q8, dtype=np.int32)
+        nodes = np.ascontiguousarray(g.nodes, dtype=np.int32)
+        out = np.zeros((len(u), 2), dtype=np.int32)
+        st = np.zeros(len(u), dtype=np.uint8)
+        i32p = ct.POINTER(ct.c_int32)
+        rc = self.lib.mfns_caltable_host_grid_eval(
+            g.nx,
+            g.ny,
+            g.origin_u_q8,
+            g.origin_v_q8,
+            g.step_u_q8,
+            g.step_v_q8,
+            nodes.ctypes.data_as(i32p),
+            len(u),
+            u.ctypes.data_as(i32p),
+            v.ctypes.data_as(i32p),
+            out.ctypes.data_as(i32p),
+            st.ctypes.data_as(ct.POINTER(ct.c_uint8)),
+        )
+        if rc != 0:
+            raise MfnsError(f"grid {g.nx}x{g.ny}: header refused by the C core (status {rc})")
+        return out.astype(np.int64), st == 0
+
+
+_CORE: CoreTables | None = None
+
+
+def core() -> CoreTables:
+    global _CORE
+    if _CORE is None:
+        _CORE = CoreTables()
+    return _CORE
+
+
+def _fields(spec: list[tuple[str, int]]) -> list[tuple[int, str]]:
+    """(start offset, name) of consecutive fields of the given sizes."""
+    out, pos = [], 0
+    for name, size in spec:
+        out.append((pos, name))
+        pos += size
+    return out
+
+
+_HEADER_FIELDS = _fields([("magic", 4), ("version", 2), ("header_size", 2), ("total_size", 4), ("crc32", 4)])
+_GLOBAL_FIELDS = _fields(
+    [("camera_count", 2), ("beacon_count", 2), ("pixel_sigma_px", 4)]
+    + [(f"centroid.{n}", 2) for n in fmt.CENTROID_U16]
+    + [("centroid reserved", 2)]
+    + [(f"centroid.{n}", 4) for n in fmt.CENTROID_F32]
+    + [(f"solver.{n}", 2) for n in fmt.SOLVER_U16]
+    + [(f"solver.{n}", 4) for n in fmt.SOLVER_F32]
+)
+_CAMERA_FIELDS = _fields(
+    [("camera_id", 2), ("width", 2), ("height", 2), ("reserved", 2)]
+    + [(n, 4) for n in ("fx", "fy", "cx", "cy", "skew")]
+    + [(f"dist[{i}]", 4) for i in range(5)]
+    + [(f"C_k_b[{r}][{c}]", 4) for r in range(3) for c in range(3)]
+    + [(f"r_bk_b[{i}]", 4) for i in range(3)]
+    + [("grid nx", 2), ("grid ny", 2)]
+    + [(f"grid {n}", 4) for n in ("origin_u_q8", "origin_v_q8", "step_u_q8", "step_v_q8")]
+)
+_BEACON_FIELDS = _fields([("id", 2), ("reserved", 2), ("x_mm", 4), ("y_mm", 4), ("z_mm", 4), ("sigma_mm", 4)])
+
+
+def _name(fields: list[tuple[int, str]], rel: int) -> str:
+    return [n for start, n in fields if start <= rel][-1]
+
+
+def field_at(data: bytes, off: int) -> str:
+    """Name of the table field at byte offset off (for messages), from the layout."""
+    if off >= len(data):
+        return f"the end of the {len(data)} bytes"
+    if off < fmt.HEADER_SIZE:
+        return f"header {_name(_HEADER_FIELDS, off)}"
+    if off < fmt.HEADER_SIZE + fmt.GLOBALS_SIZE:
+        return _name(_GLOBAL_FIELDS, off - fmt.HEADER_SIZE)
+    pos = fmt.HEADER_SIZE + fmt.GLOBALS_SIZE
+    for name in fmt.CAMERA_NAMES:
+        if off < pos + fmt.CAMERA_FIXED_SIZE:
+            return f"camera {name} {_name(_CAMERA_FIELDS, off - pos)}"
+        if pos + fmt.CAMERA_FIXED_SIZE > len(data):
+            return f"camera {name} record"
+        nx, ny = struct.unpack_from("<HH", data, pos + 96)
+        pos += fmt.CAMERA_FIXED_SIZE
+        if off < pos + nx * ny * fmt.NODE_SIZE:
+            n = (off - pos) // fmt.NODE_SIZE
+            return f"camera {name} grid node (i={n % nx}, j={n // nx})"
+        pos += nx * ny * fmt.NODE_SIZE
+    i, rel = divmod(off - pos, fmt.BEACON_SIZE)
+    n_b = struct.unpack_from("<H", data, fmt.HEADER_SIZE + 2)[0]
+    return f"beacon {i} {_name(_BEACON_FIELDS, rel)}" if i < n_b else "after the beacon records"
+
+
+def check_table(data: bytes) -> LoadStatus:
+    """Raise TableRefused unless the flight loader accepts data; the status when it does."""
+    st = core().load(data)
+    if not st.ok:
+        raise TableRefused(st, field_at(data, st.offset))
+    return st
+
+
+def read_table(data: bytes) -> fmt.Table:
+    """The table of bytes the flight loader accepts (parsed for display by format.decode)."""
+    check_table(data)
+    return fmt.decode(data)
