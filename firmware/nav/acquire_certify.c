@@ -137,7 +137,14 @@ mfns_bidx_status_t mfns_certify(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
             w->n_blobs = k;
         }
     }
+    mfns_certify_finish(res, idx);
+    return MFNS_BIDX_OK;
+}
+
+void mfns_certify_finish(mfns_certify_result_t *res, const mfns_beacon_index_t *idx)
+{
     uint32_t need = MFNS_BIDX_MIN_CERT;
+    res->cert_capped = 0;
     for (uint32_t m = 0; m <= MFNS_BIDX_MAX_MISSING; m++) {
         if (m > idx->max_missing) {
             res->cert_inliers[m] = 0;
@@ -150,5 +157,34 @@ mfns_bidx_status_t mfns_certify(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
         }
         res->cert_inliers[m] = (uint8_t)(need > MFNS_BIDX_MAX_CERT ? MFNS_BIDX_MAX_CERT : need);
     }
-    return MFNS_BIDX_OK;
+}
+
+void mfns_certify_accumulate(mfns_certify_result_t *total, const mfns_certify_result_t *part, uint32_t first_sample)
+{
+    total->samples += part->samples;
+    total->usable += part->usable;
+    total->truth_found += part->truth_found;
+    total->ambiguous += part->ambiguous;
+    for (uint32_t i = 0; i <= MFNS_BIDX_MAX_CERT; i++) {
+        total->rival_hist[i] += part->rival_hist[i];
+    }
+    for (uint32_t m = 0; m <= MFNS_BIDX_MAX_MISSING; m++) {
+        if (part->rival_by_missing[m] > total->rival_by_missing[m]) {
+            total->rival_by_missing[m] = part->rival_by_missing[m];
+        }
+    }
+    if (part->max_rival > total->max_rival) {
+        total->max_rival = part->max_rival;
+        total->worst = part->worst;
+        total->worst.sample += first_sample;
+    }
+}
+
+void mfns_certify_apply(mfns_beacon_index_t *idx, const mfns_certify_result_t *res)
+{
+    for (uint32_t m = 0; m <= MFNS_BIDX_MAX_MISSING; m++) {
+        idx->cert_inliers[m] = res->cert_inliers[m];
+    }
+    idx->analysis_samples = res->samples;
+    idx->analysis_max_rival = res->max_rival;
 }

@@ -58,4 +58,14 @@ mfns_bidx_status_t mfns_certify(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
                                 const mfns_pose_t *poses, uint32_t n, uint32_t budget_per_pose,
                                 mfns_obs_frame_t *frame, mfns_certify_result_t *res);
 
+/* The certificate of res from its rivals (mfns_certify calls it; after
+ * accumulating several runs, call it again). */
+void mfns_certify_finish(mfns_certify_result_t *res, const mfns_beacon_index_t *idx);
+
+/* Add the run part (whose first pose was number first_sample) to total. */
+void mfns_certify_accumulate(mfns_certify_result_t *total, const mfns_certify_result_t *part, uint32_t first_sample);
+
+/* Write the certificate and the analysis figures of res into the index. */
+void mfns_certify_apply(mfns_beacon_index_t *idx, const mfns_certify_result_t *res);
+
 #endif /* MFNS_ACQUIRE_CERTIFY_H */

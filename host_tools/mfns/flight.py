@@ -376,6 +376,11 @@ class Flight:
             P(CertifyResult),
         ]
         L.mfns_certify.restype = ct.c_int
+        L.mfns_certify_finish.argtypes = [P(CertifyResult), P(BeaconIndex)]
+        L.mfns_certify_accumulate.argtypes = [P(CertifyResult), P(CertifyResult), ct.c_uint32]
+        L.mfns_certify_apply.argtypes = [P(BeaconIndex), P(CertifyResult)]
+        for f in (L.mfns_certify_finish, L.mfns_certify_accumulate, L.mfns_certify_apply):
+            f.restype = None
         L.mfns_certify_frame.argtypes = [P(Rig), P(BeaconMap), P(BeaconIndex), P(Pose), P(ObsFrame), P(Assoc)]
         L.mfns_certify_frame.restype = None
         L.mfns_centroid_settings_default.argtypes = [P(CentroidSettings)]
@@ -484,6 +489,15 @@ class Flight:
         if st != 0:
             raise MfnsError(self.lib.mfns_bidx_strerror(st).decode())
         return res
+
+    def certify_accumulate(self, total: CertifyResult, part: CertifyResult, first_sample: int) -> None:
+        self.lib.mfns_certify_accumulate(ct.byref(total), ct.byref(part), int(first_sample))
+
+    def certify_finish(self, res: CertifyResult, idx) -> None:
+        self.lib.mfns_certify_finish(ct.byref(res), ct.byref(idx))
+
+    def certify_apply(self, idx, res: CertifyResult) -> None:
+        self.lib.mfns_certify_apply(ct.byref(idx), ct.byref(res))
 
     def view(self, rig, bmap, idx, pose: Pose) -> tuple[ObsFrame, Assoc]:
         """The noise-free frame the rig sees from pose, and its true association."""
