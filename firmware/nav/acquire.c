@@ -261,8 +261,8 @@ static int count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             const mfns_camera_t *cam = &q->rig->cam[c];
             float uv[2];
-            if (q->frame->count[c] >= MFNS_MAX_OBS_PER_CAMERA) {
-                continue; /* a full observation list kept the brightest: the rest are not missing */
+            if (q->frame->count[c] >= MFNS_MAX_OBS_PER_CAMERA || q->frame->dark[c] != 0U) {
+                continue; /* a full list kept the brightest, a dark camera saw nothing: not missing */
             }
             if (mfns_cam_project(cam, &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
                 continue;
