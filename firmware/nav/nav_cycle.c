@@ -163,7 +163,7 @@ static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame
     }
     d->centroid_status = (int16_t)st;
     d->rois = n_rois;
-    nav->obs.dark[k] = st == MFNS_CENTROID_OK || st == MFNS_CENTROID_TABLE_FULL ? 0U : 1U;
+    nav->obs.dark[k] = (uint8_t)(st == MFNS_CENTROID_OK || st == MFNS_CENTROID_TABLE_FULL ? 0U : 1U);
     if (st == MFNS_CENTROID_ERR_SETTINGS) {
         return MFNS_NAV_E_TABLE;
     }
