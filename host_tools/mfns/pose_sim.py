@@ -118,6 +118,7 @@ class SweepResult:
     seconds: list = field(default_factory=list)  # per acquisition call (C, through ctypes)
     units: list = field(default_factory=list)  # work units per call
     wrong_cases: list = field(default_factory=list)
+    partial: int = 0  # right fixes that left a beacon in view unused
 
     @property
     def total(self) -> int:
@@ -142,8 +143,9 @@ def identification_sweep(
     the positions the frames are made from (they may differ from the map's by a survey
     error); normals (optional, (N, 3)) drop beacons whose LED faces away from a camera;
     spurious_rate adds a reflection (a blob of no beacon) to that share of frames. A fix
-    is right when every inlier carries its true beacon and every beacon in view is used;
-    anything else reported as a fix is wrong."""
+    is wrong when an inlier carries another beacon than its own (or a reflection is taken
+    for a beacon): a wrong identification. A right fix may leave a blob unused (counted
+    in `partial`)."""
     import time
 
     res = SweepResult()
@@ -175,7 +177,7 @@ def identification_sweep(
             for c in range(len(ids))
             for i in range(len(ids[c]))
         )
-        correct &= sol.beacons_used == sum(int(np.sum(i >= 0)) for i in ids)
+        res.partial += int(correct and sol.beacons_used != sum(int(np.sum(i >= 0)) for i in ids))
         res.right += int(correct)
         res.wrong += int(not correct)
         if not correct:

@@ -91,8 +91,8 @@ def run(name: str, n: int, seed: int) -> bool:
     per_unit_us = float(np.sum(ms) * 1e3 / max(1, np.sum(units)))
     print(f"== {name}: {len(pos)} beacons, index + map analysis {t_index:.1f} s ({report.lines()[2]})")
     print(
-        f"{name}: {res.right} right ({100.0 * res.right / n:.2f} %), {res.wrong} wrong of {n}; "
-        f"no fix {res.reasons} ({t_sweep:.0f} s)"
+        f"{name}: {res.right} right ({100.0 * res.right / n:.2f} %; {res.partial} with a blob unused), "
+        f"{res.wrong} wrong of {n}; no fix {res.reasons} ({t_sweep:.0f} s)"
     )
     print(
         f"{name}: acquisition ms median {q(ms, 50):.3f}, p90 {q(ms, 90):.3f}, p99 {q(ms, 99):.3f}, "

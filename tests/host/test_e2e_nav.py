@@ -98,7 +98,7 @@ def errors(rows: list[dict], truth: np.ndarray) -> tuple[list[int], np.ndarray, 
 
 
 def test_module_tracking_from_docking_pose(bins, tmp_path):
-    """Dense map, free 6-DOF motion: after a commanded start pose the robot tracks by itself."""
+    """Dense map, free 6-DOF motion: from a commanded start pose (a hint, as for a replay)."""
     frames_arg = ["--scenario", "module", "--frames", "40", "--seed", "3"]
     # The start pose as the ground would command it (the first truth row).
     res = mfns("sim", "nav", str(tmp_path / "probe"), "--quiet", *frames_arg)
@@ -186,3 +186,78 @@ def test_help_and_version(bins):
     assert res.returncode == 0 and "--init-pose" in res.stdout
     res = subprocess.run([str(bins / "mfns-nav"), "--version"], check=False, capture_output=True, text=True)
     assert res.returncode == 0 and res.stdout.startswith("mfns-nav ")
+
+
+def test_module_acquires_without_a_start_pose(bins, tmp_path):
+    """Dense map (60 beacons), free 6-DOF motion, no prior: lost-in-space acquisition
+    finds the pose from the map index by itself, then tracking keeps it."""
+    rows, truth, log = run_chain(bins, tmp_path, ["--scenario", "module", "--frames", "40", "--seed", "3"], [])
+    assert len(rows) == 40
+    cyc, dp, da = errors(rows, truth)
+    assert len(cyc) >= 34, log  # >= 85 % of cycles with a fix, as with a commanded start pose
+    assert cyc[0] <= 3, log  # acquired within the first frames
+    assert np.max(np.abs(dp)) < 3.0  # never a grossly wrong pose marked valid
+    assert np.max(np.abs(da)) < 0.2
+
+
+def _blackout(frames: Path, first: int, last: int) -> None:
+    """Every camera dark (a flat background, no spot) for frames first..last-1."""
+    import csv as _csv
+
+    with open(frames / "frames.csv", newline="") as f:
+        for row in _csv.DictReader(f):
+            if first <= int(row["frame"]) < last:
+                p = frames / row["file"]
+                data = p.read_bytes()
+                # binary PGM: magic, width height, maxval, then the pixels
+                head_end = 0
+                fields = 0
+                while fields < 4:
+                    while data[head_end : head_end + 1].isspace():
+                        head_end += 1
+                    while not data[head_end : head_end + 1].isspace():
+                        head_end += 1
+                    fields += 1
+                head_end += 1
+                p.write_bytes(data[:head_end] + bytes([6]) * (len(data) - head_end))
+
+
+def test_module_reacquires_after_a_blackout(bins, tmp_path):
+    """All cameras dark for 2 s in the middle of the module run (an astronaut in front
+    of the rig): no fix during the blackout, a fix again within 2 frames of the beacons'
+    return, and no wrong fix after it (automatic recovery, no ground command)."""
+    frames = tmp_path / "frames"
+    res = mfns("sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "110", "--seed", "5")
+    assert res.returncode == 0, res.stderr
+    rate = 18.6
+    first, last = 30, 30 + int(round(2.0 * rate))
+    _blackout(frames, first, last)
+    table = tmp_path / "table.mfnstbl"
+    res = mfns("table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(table), "-q")
+    assert res.returncode == 0, res.stderr
+    tlm = tmp_path / "tlm.bin"
+    nav = subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(table), "--replay", str(frames), "--tlm-file", str(tlm)],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert nav.returncode == 0, nav.stderr
+    ground = subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp_path / "ground"), "--no-status"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert ground.returncode == 0, ground.stderr
+    with open(tmp_path / "ground" / "nav.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
+    cyc, dp, da = errors(rows, truth)
+    assert cyc and cyc[0] < first, nav.stderr  # acquired before the blackout
+    assert not [k for k in cyc if first <= k < last], "a fix was reported while every camera was dark"
+    after = [k for k in cyc if k >= last]
+    assert after and after[0] <= last + 1, (after[:3], nav.stderr)  # re-acquired within 2 frames
+    assert np.max(np.abs(dp)) < 3.0 and np.max(np.abs(da)) < 0.2  # no wrong fix, before or after
