@@ -68,6 +68,12 @@ def register(subparsers) -> None:
         "--grid", type=float, default=40.0, help="candidate grid spacing on the surfaces, mm (default 40)"
     )
     o.add_argument("--iterations", type=int, default=8000, help="annealing moves per restart (default 8000)")
+    o.add_argument(
+        "--margin",
+        type=int,
+        default=0,
+        help="optimise for 4 + MARGIN beacons in view: a reserve for poses between the samples (default 0)",
+    )
     o.add_argument("--restarts", type=int, default=3, help="independent runs, the best kept (default 3)")
     o.add_argument("--baseline", help="beacons.csv to compare with (analysed on the same samples)")
     o.set_defaults(func=run.run_optimize)

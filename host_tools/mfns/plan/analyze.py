@@ -1,8 +1,10 @@
 """Analysis of one beacon map over a workspace: in view, fix, Cramer-Rao 1-sigma.
 
 Per pose sample: the beacons in view of each camera (the C core's decision, core.py),
-whether a fix is possible, the Cramer-Rao 1-sigma of the six output axes (crlb.py) and
-the identification margin (ident.py, empty until issue 11's analysis is plugged in).
+whether a fix is possible, the Cramer-Rao 1-sigma of the six output axes (crlb.py), the
+1-sigma the flight solver is expected to reach (equal-weight pixel fit: the same with
+pixel noise only, above the bound with survey or calibration errors) and the
+identification margin (ident.py, empty until issue 11's analysis is plugged in).
 
 Fix rule (firmware/nav/beacon_ident.c): with four or more blobs the flight code reports
 a fix only from a redundant solve using at least four beacons, and acquisition from
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .core import Core
-from .crlb import CalibrationError, Observation, information
+from .crlb import CalibrationError, Observation, flight_information, information
 from .ident import identification_margin
 from .workspace import Workspace
 
@@ -42,6 +44,7 @@ class Analysis:
     in_view: np.ndarray  # (n,) distinct beacons in view (any camera)
     sigma: np.ndarray  # (n, 6) Cramer-Rao 1-sigma per AXES; nan when not determined
     margin: list  # (n,) identification margin or None
+    flight_sigma: np.ndarray  # (n, 6) the flight solver's expected 1-sigma (crlb.flight_information)
 
     @property
     def fix(self) -> np.ndarray:
@@ -77,16 +80,30 @@ def observe(core: Core, beacons_w: np.ndarray, C_w_b, r_bw_b) -> tuple[list[Obse
     return obs, per_cam
 
 
-def pose_sigma(core, obs, C_w_b, r_bw_b, sigma_px, beacon_sigma, calib: CalibrationError | None, beacons_w):
-    """(6,) Cramer-Rao 1-sigma (AXES), nan when fewer than three beacons or singular."""
+def pose_sigma(
+    core, obs, C_w_b, r_bw_b, sigma_px, beacon_sigma, calib: CalibrationError | None, beacons_w, flight=False
+):
+    """(6,) Cramer-Rao 1-sigma (AXES), or with flight=True the flight solver's expected
+    1-sigma (crlb.flight_information); nan when fewer than three beacons or singular."""
+    return pose_sigmas(core, obs, C_w_b, r_bw_b, sigma_px, beacon_sigma, calib, beacons_w)[1 if flight else 0]
+
+
+def pose_sigmas(core, obs, C_w_b, r_bw_b, sigma_px, beacon_sigma, calib: CalibrationError | None, beacons_w):
+    """(Cramer-Rao 1-sigma (6,), flight solver's expected 1-sigma (6,)), nan where not
+    determined (fewer than three beacons, or singular for the C covariance)."""
+    none = np.full(6, np.nan)
     if len({o.beacon for o in obs}) < 3:
-        return np.full(6, np.nan)
+        return none, none
     cj = calib.jacobian(obs, beacons_w, C_w_b, r_bw_b) if calib else None
-    info = information(obs, sigma_px, beacon_sigma, cj, calib.sigma if calib else None)
-    res = core.output_sigma(info, C_w_b, r_bw_b)
-    if res is None:
-        return np.full(6, np.nan)
-    return np.concatenate(res)
+    cs = calib.sigma if calib else None
+    out = []
+    for f in (information, flight_information):
+        try:
+            res = core.output_sigma(f(obs, sigma_px, beacon_sigma, cj, cs), C_w_b, r_bw_b)
+        except np.linalg.LinAlgError:
+            res = None
+        out.append(none if res is None else np.concatenate(res))
+    return out[0], out[1]
 
 
 def analyze(
@@ -105,12 +122,13 @@ def analyze(
     cam_counts = np.zeros((n, 3), dtype=int)
     distinct = np.zeros(n, dtype=int)
     sigma = np.full((n, 6), np.nan)
+    flight_sigma = np.full((n, 6), np.nan)
     margin = []
     for i in tqdm(range(n), desc=desc, unit="pose", disable=not progress):
         C, r = ws.C_w_b[i], ws.r_bw_b(i)
         obs, per_cam = observe(core, beacons_w, C, r)
         cam_counts[i] = [len(x) for x in per_cam]
         distinct[i] = len({o.beacon for o in obs})
-        sigma[i] = pose_sigma(core, obs, C, r, sigma_px, beacon_sigma_mm, calib, beacons_w)
+        sigma[i], flight_sigma[i] = pose_sigmas(core, obs, C, r, sigma_px, beacon_sigma_mm, calib, beacons_w)
         margin.append(identification_margin(beacons_w, per_cam, C, r))
-    return Analysis(ws, cam_counts, distinct, sigma, margin)
+    return Analysis(ws, cam_counts, distinct, sigma, margin, flight_sigma)

@@ -38,16 +38,15 @@ class Observation:
     Jp: np.ndarray  # (2, 3) d uv / d p_w
 
 
-def information(obs: list[Observation], sigma_px: float, beacon_sigma_mm, calib_jac=None, calib_sigma=None):
-    """J^T S^-1 J (6x6, increment coordinates) of the observations (module docstring).
+def observation_covariance(
+    obs: list[Observation], sigma_px: float, beacon_sigma_mm, calib_jac=None, calib_sigma=None
+):
+    """S (2 M x 2 M): the covariance of the stacked observations (module docstring).
 
     calib_jac: (2 M, P) d uv / d calibration parameter (None: no calibration error);
     calib_sigma: (P,) their 1-sigma.
     """
     m = len(obs)
-    if m == 0:
-        return np.zeros((6, 6))
-    J = np.concatenate([o.J for o in obs])  # (2m, 6)
     S = np.eye(2 * m) * sigma_px**2
     bsig = np.asarray(beacon_sigma_mm, dtype=float)
     for i, oi in enumerate(obs):
@@ -56,7 +55,33 @@ def information(obs: list[Observation], sigma_px: float, beacon_sigma_mm, calib_
                 S[2 * i : 2 * i + 2, 2 * j : 2 * j + 2] += bsig[oi.beacon] ** 2 * oi.Jp @ oj.Jp.T
     if calib_jac is not None and calib_jac.size:
         S += (calib_jac * np.asarray(calib_sigma) ** 2) @ calib_jac.T
+    return S
+
+
+def information(obs: list[Observation], sigma_px: float, beacon_sigma_mm, calib_jac=None, calib_sigma=None):
+    """The Fisher information J^T S^-1 J (6x6, increment coordinates): its inverse is the
+    Cramer-Rao bound."""
+    if not obs:
+        return np.zeros((6, 6))
+    J = np.concatenate([o.J for o in obs])  # (2m, 6)
+    S = observation_covariance(obs, sigma_px, beacon_sigma_mm, calib_jac, calib_sigma)
     return J.T @ np.linalg.solve(S, J)
+
+
+def flight_information(
+    obs: list[Observation], sigma_px: float, beacon_sigma_mm, calib_jac=None, calib_sigma=None
+):
+    """The inverse of the flight solver's error covariance A S A^T, A = (J^T J)^-1 J^T.
+
+    The flight solver fits pixels with equal weights (it models neither survey nor
+    calibration errors), so with those errors present it is not efficient: its spread
+    is this sandwich, at or above the Cramer-Rao bound (equal with pixel noise only)."""
+    if not obs:
+        return np.zeros((6, 6))
+    J = np.concatenate([o.J for o in obs])
+    S = observation_covariance(obs, sigma_px, beacon_sigma_mm, calib_jac, calib_sigma)
+    A = np.linalg.solve(J.T @ J, J.T)
+    return np.linalg.inv(A @ S @ A.T)
 
 
 class CalibrationError:

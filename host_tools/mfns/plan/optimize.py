@@ -92,6 +92,7 @@ def build_problem(
 class State:
     prob: Problem
     chosen: list[int] = field(default_factory=list)
+    target: int = FIX_MIN_IN_VIEW  # beacons in view that count as a fix for the objective
 
     def __post_init__(self):
         P = self.prob.ws.n
@@ -131,8 +132,8 @@ class State:
         return p
 
     def objective(self) -> tuple:
-        fix = self.count >= FIX_MIN_IN_VIEW
-        deficit = int(np.clip(FIX_MIN_IN_VIEW - self.count, 0, None).sum())
+        fix = self.count >= self.target
+        deficit = int(np.clip(self.target - self.count, 0, None).sum())
         worst = float(self.score[fix].max()) if fix.any() else np.inf
         mean = float(self.score[fix].mean()) if fix.any() else np.inf
         return (int(fix.sum()), -deficit, -worst, -mean)
@@ -201,12 +202,15 @@ def optimize(
     rng: np.random.Generator,
     near_mm: float = 200.0,
     progress: bool = False,
+    margin: int = 0,
 ) -> Result:
+    """margin: the objective counts a pose as fixed only with FIX_MIN_IN_VIEW + margin
+    beacons in view -- a reserve against poses between the samples."""
     from tqdm import tqdm
 
     from ..errors import MfnsError
 
-    st = State(prob)
+    st = State(prob, target=FIX_MIN_IN_VIEW + margin)
     t0 = time.perf_counter()
     for _ in tqdm(range(n_beacons), desc="plan: greedy", unit="beacon", disable=not progress):
         ok = _feasible(prob, st.chosen, min_spacing_mm)
@@ -215,8 +219,8 @@ def optimize(
                 f"only {len(st.chosen)} of {n_beacons} beacons fit with --min-spacing {min_spacing_mm:g} mm"
             )
         need = st.count[prob.pair_p]
-        gain_fix = np.bincount(prob.pair_c, weights=need == FIX_MIN_IN_VIEW - 1, minlength=len(prob.cand))
-        gain_def = np.bincount(prob.pair_c, weights=need < FIX_MIN_IN_VIEW, minlength=len(prob.cand))
+        gain_fix = np.bincount(prob.pair_c, weights=need == st.target - 1, minlength=len(prob.cand))
+        gain_def = np.bincount(prob.pair_c, weights=need < st.target, minlength=len(prob.cand))
         primary = np.where(ok, gain_fix * (prob.ws.n + 1) + gain_def, -1.0)
         tied = np.nonzero(primary == primary.max())[0]
         if len(tied) > TIE_SAMPLE:
@@ -269,9 +273,9 @@ def optimize(
     return Result(best, best_obj, greedy_obj, t1 - t0, time.perf_counter() - t1, tried, kept)
 
 
-def evaluate(prob: Problem, chosen: list[int]) -> tuple:
+def evaluate(prob: Problem, chosen: list[int], margin: int = 0) -> tuple:
     """The objective of a given layout (candidate indices)."""
-    st = State(prob)
+    st = State(prob, target=FIX_MIN_IN_VIEW + margin)
     for c in chosen:
         st.move(None, c)
     return st.objective()

@@ -26,6 +26,7 @@ SAMPLES_HEADER = [
     "track",
     "fix_flight",
     *(f"sigma_{a}" for a in AXES),
+    *(f"flight_sigma_{a}" for a in AXES),
     "ident_margin",
 ]
 PERCENTILES = (50, 90, 99, 100)
@@ -41,7 +42,7 @@ def write_samples(a: Analysis, path: Path) -> None:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(SAMPLES_HEADER)
         for i in range(a.ws.n):
-            sig = ["" if not np.isfinite(v) else f"{v:.6g}" for v in a.sigma[i]]
+            sig = ["" if not np.isfinite(v) else f"{v:.6g}" for v in (*a.sigma[i], *a.flight_sigma[i])]
             m = a.margin[i]
             w.writerow(
                 [
@@ -86,13 +87,17 @@ def _region_keys(a: Analysis) -> tuple[list[str], np.ndarray]:
     return labels, key
 
 
-def summarize(a: Analysis, info: dict) -> dict:
-    fix = a.fix
-    sig = a.sigma[fix]
+def _percentiles(sig: np.ndarray) -> dict:
     pct = {}
     for j, ax in enumerate(AXES):
         v = sig[:, j][np.isfinite(sig[:, j])]
         pct[ax] = {f"p{p}": (round(float(np.percentile(v, p)), 6) if len(v) else None) for p in PERCENTILES}
+    return pct
+
+
+def summarize(a: Analysis, info: dict) -> dict:
+    fix = a.fix
+    pct, fpct = _percentiles(a.sigma[fix]), _percentiles(a.flight_sigma[fix])
     labels, key = _region_keys(a)
     regions = []
     pos_worst = np.max(np.where(np.isfinite(a.sigma[:, :3]), a.sigma[:, :3], -np.inf), axis=1)
@@ -129,6 +134,7 @@ def summarize(a: Analysis, info: dict) -> dict:
             str(n): int(c) for n, c in zip(*np.unique(total, return_counts=True), strict=True)
         },
         "sigma_percentiles_over_fix_samples": pct,
+        "flight_sigma_percentiles_over_fix_samples": fpct,
         "worst_regions": regions[:N_WORST],
         "ident_margin": "not computed: plugged in from the map self-similarity analysis (issue 11), ident.py",
     }
@@ -153,6 +159,17 @@ def summary_markdown(s: dict, title: str) -> str:
         "|---|---|---|---|---|",
     ]
     for ax, p in s["sigma_percentiles_over_fix_samples"].items():
+        cells = ["-" if p[f"p{q}"] is None else f"{p[f'p{q}']:.4g}" for q in PERCENTILES]
+        lines.append(f"| {ax} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "The flight solver's expected 1-sigma (equal-weight pixel fit; above the bound when survey",
+        "or calibration errors are modelled):",
+        "",
+        "| axis | p50 | p90 | p99 | max |",
+        "|---|---|---|---|---|",
+    ]
+    for ax, p in s["flight_sigma_percentiles_over_fix_samples"].items():
         cells = ["-" if p[f"p{q}"] is None else f"{p[f'p{q}']:.4g}" for q in PERCENTILES]
         lines.append(f"| {ax} | " + " | ".join(cells) + " |")
     lines += ["", "Worst regions (lowest availability, then largest position 1-sigma):", ""]

@@ -130,8 +130,8 @@ def run_optimize(args) -> int:
     if args.count < 4:
         raise MfnsError("--count must be at least 4 (a fix needs four beacons in view)")
     require_map_size(args.count)
-    if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1:
-        raise MfnsError("--iterations and --min-spacing must be >= 0, --restarts >= 1")
+    if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
+        raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
     doc, cams = _load_rig(args)
     core = Core(cams)
     surf, keep = surfaces.load(args.surfaces)
@@ -147,7 +147,9 @@ def run_optimize(args) -> int:
     res, search_s = None, []
     for r in range(args.restarts):
         rng = np.random.default_rng([args.seed, 7, r])
-        one = opt.optimize(prob, args.count, args.min_spacing, args.iterations, rng, progress=progress)
+        one = opt.optimize(
+            prob, args.count, args.min_spacing, args.iterations, rng, progress=progress, margin=args.margin
+        )
         search_s.append(round(one.greedy_s + one.search_s, 2))
         if res is None or opt.better(one.objective, res.objective):
             res = one
@@ -155,7 +157,7 @@ def run_optimize(args) -> int:
     out = Path(args.out)
     _prepare(out)
     layout = cand[res.chosen]
-    write_beacons(out / "beacons.csv", layout, survey if survey > 0 else 0.0001)
+    write_beacons(out / "beacons.csv", layout, survey if survey > 0 else DEFAULT_SURVEY_SIGMA_MM)
     plan_doc = {
         "algorithm": "greedy construction, then simulated annealing (mfns.plan.optimize)",
         "surfaces": args.surfaces,
@@ -168,6 +170,7 @@ def run_optimize(args) -> int:
         "noise": noise,
         "iterations": args.iterations,
         "restarts": args.restarts,
+        "margin": args.margin,
         "moves_tried": res.moves_tried,
         "moves_kept": res.moves_kept,
         "seed": args.seed,
