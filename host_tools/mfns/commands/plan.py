@@ -14,7 +14,11 @@ def _common(p) -> None:
     w.add_argument("--samples", type=int, default=200, help="pose samples (default 200)")
     w.add_argument("--yaw-start", type=float, default=0.0, help="turntable: first yaw, deg (default 0)")
     w.add_argument("--yaw-span", type=float, default=120.0, help="turntable: yaw swept, deg (default 120)")
-    w.add_argument("--box", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box: position range of the body origin, mm")
+    w.add_argument(
+        "--box",
+        metavar="X0,Y0,Z0,X1,Y1,Z1",
+        help="box: position range of the body origin, mm (write --box=-X0,... for negative values)",
+    )
     for k in ("roll", "pitch", "yaw"):
         w.add_argument(f"--{k}", metavar="LO,HI", help=f"box: {k} range, deg (default: uniform attitude)")
     n = p.add_argument_group("noise model of the Cramer-Rao bound")

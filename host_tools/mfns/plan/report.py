@@ -283,7 +283,7 @@ def _plots_slices(plt, a: Analysis, out: Path, title: str) -> list[Path]:
         (0, 1, "x (mm)", "y (mm)", "over z and attitude"),
         (0, 2, "x (mm)", "z (mm)", "over y and attitude"),
     ]
-    fig, axs = plt.subplots(1, 2, figsize=(11, 4))
+    fig, axs = plt.subplots(1, 2, figsize=(12, 3.6))
     for ax, (i, j, xl, yl, over) in zip(axs, slices, strict=True):
         g, xe, ye = _binned(pos[:, i], pos[:, j], a.fix.astype(float))
         im = ax.pcolormesh(xe, ye, 100 * g, vmin=0, vmax=100, cmap="RdYlGn")
