@@ -139,7 +139,8 @@ def run_optimize(args) -> int:
     cand, _ = surfaces.candidates(surf, args.grid, keep)
     survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM
     sigma_px, _, calib, noise = _noise(args, doc, core, np.zeros(0))
-    noise = f"pixel {sigma_px:g} px; survey {survey:g} mm; calibration not included in the optimiser"
+    noise = f"pixel {sigma_px:g} px; survey {survey:g} mm; calibration not in the optimiser's objective"
+    check_noise = noise + ("; the analysis includes the rig's calibration sigma" if calib else "")
     ws = build_workspace(args, stream=0)
     progress = not args.quiet
     t0 = time.perf_counter()
@@ -187,16 +188,16 @@ def run_optimize(args) -> int:
     # check on independent samples (the turntable sweep is the sweep itself)
     ws_check = build_workspace(args, stream=1)
     info = {"beacons": str(out / "beacons.csv"), "n_beacons": args.count, "rig": str(args.rig or PAPER_CALIB)}
-    info["noise"] = noise
+    info["noise"] = check_noise
     sig = np.full(args.count, survey)
-    s = _analyze_into(out, core, layout, sig, ws_check, sigma_px, None, info, "plan optimize", progress)
+    s = _analyze_into(out, core, layout, sig, ws_check, sigma_px, calib, info, "plan optimize", progress)
     plan_doc["check"] = {"availability_pct": s["availability_pct"], "samples": s["samples"]}
     if args.baseline:
         _, bpos, _ = load_beacon_csv(args.baseline)
         bsig = np.full(len(bpos), survey)
         binfo = {**info, "beacons": str(args.baseline), "n_beacons": len(bpos)}
         bs = _analyze_into(
-            out / "baseline", core, bpos, bsig, ws_check, sigma_px, None, binfo, "baseline", progress
+            out / "baseline", core, bpos, bsig, ws_check, sigma_px, calib, binfo, "baseline", progress
         )
         plan_doc["baseline"] = {"beacons": str(args.baseline), "availability_pct": bs["availability_pct"]}
         plan_doc["baseline"]["sigma_p99"] = {
