@@ -174,13 +174,24 @@ def _accept(d: float, temp: float, rng: np.random.Generator) -> bool:
     return d <= 0 or (temp > 0 and rng.random() < np.exp(-d / temp))
 
 
-def _feasible(prob: Problem, chosen: list[int], min_spacing: float, skip: int | None = None) -> np.ndarray:
-    ok = np.ones(len(prob.cand), dtype=bool)
-    for j, c in enumerate(chosen):
-        ok[c] = False
-        if j != skip and min_spacing > 0:
-            ok &= np.linalg.norm(prob.cand - prob.cand[c], axis=1) >= min_spacing
-    return ok
+class _Spacing:
+    """Which candidates are closer than min_spacing, or within near_mm, of which: the
+    same distances as computing them per move, once (M x M booleans)."""
+
+    def __init__(self, cand: np.ndarray, min_spacing: float, near_mm: float):
+        self.close = np.zeros((len(cand), len(cand)), dtype=bool)
+        self.near = np.zeros((len(cand), len(cand)), dtype=bool)
+        for c in range(len(cand)):
+            d = np.linalg.norm(cand - cand[c], axis=1)
+            self.close[c] = d < min_spacing if min_spacing > 0 else False
+            self.near[c] = d <= near_mm
+
+    def feasible(self, chosen: list[int], skip: int | None = None) -> np.ndarray:
+        """Candidates not chosen and at least min_spacing from every chosen one but skip."""
+        others = [c for j, c in enumerate(chosen) if j != skip]
+        ok = ~self.close[others].any(axis=0) if others else np.ones(self.close.shape[0], dtype=bool)
+        ok[chosen] = False
+        return ok
 
 
 @dataclass
@@ -212,8 +223,9 @@ def optimize(
 
     st = State(prob, target=FIX_MIN_IN_VIEW + margin)
     t0 = time.perf_counter()
+    spacing = _Spacing(prob.cand, min_spacing_mm, near_mm)
     for _ in tqdm(range(n_beacons), desc="plan: greedy", unit="beacon", disable=not progress):
-        ok = _feasible(prob, st.chosen, min_spacing_mm)
+        ok = spacing.feasible(st.chosen)
         if not ok.any():
             raise MfnsError(
                 f"only {len(st.chosen)} of {n_beacons} beacons fit with --min-spacing {min_spacing_mm:g} mm"
@@ -246,9 +258,9 @@ def optimize(
     bar = tqdm(range(iterations), desc="plan: annealing", unit="move", disable=not progress)
     for it in bar:
         i = int(order[it % n_beacons])
-        ok = _feasible(prob, st.chosen, min_spacing_mm, skip=i)
+        ok = spacing.feasible(st.chosen, skip=i)
         if rng.random() < NEAR_PROB:
-            ok &= np.linalg.norm(prob.cand - prob.cand[st.chosen[i]], axis=1) <= near_mm
+            ok &= spacing.near[st.chosen[i]]
         idx = np.nonzero(ok)[0]
         if len(idx) == 0:
             continue
