@@ -233,11 +233,32 @@ def load_rig(path: Path | None) -> tuple[list[Camera], dict]:
     return rig_from_doc(doc), doc
 
 
+def load_beacon_map(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A beacons.csv given with --beacon-map (validated as `mfns table build` does)."""
+    from ..table.builder import load_beacon_csv
+
+    return load_beacon_csv(path)
+
+
+def wall_normals(pos: np.ndarray) -> np.ndarray:
+    """Inward normal of the module wall nearest each beacon (a map given with --beacon-map)."""
+    gap = MODULE_HALF - np.abs(pos)  # distance to the wall on each axis
+    ax = np.argmin(gap, axis=1)
+    normals = np.zeros_like(pos)
+    normals[np.arange(len(pos)), ax] = -np.sign(pos[np.arange(len(pos)), ax])
+    return normals
+
+
 def turntable_scenario(
-    n_frames: int, rate_hz: float, yaw_start_deg: float, yaw_span_deg: float, rig: Path | None = None
+    n_frames: int,
+    rate_hz: float,
+    yaw_start_deg: float,
+    yaw_span_deg: float,
+    rig: Path | None = None,
+    beacon_map: Path | None = None,
 ) -> Scenario:
     cams, doc = load_rig(rig)
-    ids, pos, sigma = load_beacons(PAPER_BEACONS)
+    ids, pos, sigma = load_beacon_map(beacon_map) if beacon_map else load_beacons(PAPER_BEACONS)
     t = np.arange(n_frames) / rate_hz
     yaw = yaw_start_deg + yaw_span_deg * np.arange(n_frames) / max(n_frames, 1)
     euler = np.zeros((n_frames, 3))
@@ -256,16 +277,35 @@ def turntable_scenario(
         t,
         np.zeros((n_frames, 3)),
         euler,
-        {"yaw_start_deg": yaw_start_deg, "yaw_span_deg": yaw_span_deg, "beacon_map": "paper Table 4"},
+        {
+            "yaw_start_deg": yaw_start_deg,
+            "yaw_span_deg": yaw_span_deg,
+            "beacon_map": str(beacon_map) if beacon_map else "paper Table 4",
+        },
     )
 
 
 def module_scenario(
-    n_frames: int, rate_hz: float, n_beacons: int, seed: int, rig: Path | None = None
+    n_frames: int,
+    rate_hz: float,
+    n_beacons: int,
+    seed: int,
+    rig: Path | None = None,
+    beacon_map: Path | None = None,
 ) -> Scenario:
     cams, doc = load_rig(rig)
     rng = np.random.default_rng([seed, 1])  # geometry stream, independent of the noise stream
-    pos, normals = module_beacons(n_beacons, rng)
+    pos, normals = module_beacons(n_beacons, rng)  # drawn even with a given map: same trajectory
+    ids, sigma = np.arange(len(pos)), np.full(len(pos), MODULE_BEACON_SIGMA_MM)
+    map_note = f"{len(pos)} wall beacons from the seed; sigma_mm is nominal, positions exact"
+    if beacon_map:
+        ids, pos, sigma = load_beacon_map(beacon_map)
+        if np.any(np.abs(pos) > MODULE_HALF + 1e-6):
+            raise MfnsError(
+                f"{beacon_map}: a beacon lies outside the module (half-extents {MODULE_HALF.tolist()} mm)"
+            )
+        normals = wall_normals(pos)
+        map_note = f"{len(pos)} beacons from {beacon_map}; LEDs aimed along the nearest wall's normal"
     t = np.arange(n_frames) / rate_hz
     r_wb_w, att = module_trajectory(t, rng)
     # Written as a reader extracts them from C_w_b (yaw in (-180, 180]).
@@ -274,9 +314,9 @@ def module_scenario(
         "module",
         cams,
         doc,
-        np.arange(len(pos)),
+        ids,
         pos,
-        np.full(len(pos), MODULE_BEACON_SIGMA_MM),
+        sigma,
         normals,
         t,
         r_wb_w,
@@ -292,7 +332,7 @@ def module_scenario(
                 "yaw_turn": "yaw += 90 (1 + tanh(x_mm / turn_width_mm))",
                 "turn_width_mm": MODULE_TURN_WIDTH_MM,
             },
-            "beacon_map": f"{len(pos)} wall beacons from the seed; sigma_mm is nominal, positions exact",
+            "beacon_map": map_note,
         },
     )
 
@@ -581,9 +621,10 @@ def build_scenario(args) -> Scenario:
     if not (args.rate_hz > 0):
         raise MfnsError("--rate-hz must be positive")
     rig = Path(args.rig) if args.rig else None
+    bmap = Path(args.beacon_map) if args.beacon_map else None
     if args.scenario == "turntable":
-        return turntable_scenario(args.frames, args.rate_hz, args.yaw_start, args.yaw_span, rig)
-    return module_scenario(args.frames, args.rate_hz, args.beacons, args.seed, rig)
+        return turntable_scenario(args.frames, args.rate_hz, args.yaw_start, args.yaw_span, rig, bmap)
+    return module_scenario(args.frames, args.rate_hz, args.beacons, args.seed, rig, bmap)
 
 
 def run(args) -> int:
@@ -625,6 +666,12 @@ def register(subparsers) -> None:
     p.add_argument("--rate-hz", type=float, default=18.6, help="frame rate (default 18.6)")
     p.add_argument("--rig", help="calibration-results JSON of the simulated rig (default: the paper's)")
     p.add_argument("--beacons", type=int, default=60, help="module: number of wall beacons (default 60)")
+    p.add_argument(
+        "--beacon-map",
+        metavar="CSV",
+        help="beacons.csv to render instead of the scenario's map (e.g. from `mfns plan optimize`); "
+        "turntable LEDs are aimed at the centre, module LEDs along their wall's normal",
+    )
     p.add_argument("--yaw-start", type=float, default=0.0, help="turntable: first yaw, deg")
     p.add_argument("--yaw-span", type=float, default=360.0, help="turntable: yaw covered by the run, deg")
     p.add_argument("--spurious-rate", type=float, default=0.05, help="ghost-spot probability per image")

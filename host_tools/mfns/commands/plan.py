@@ -1,0 +1,84 @@
+"""`mfns plan`: beacon-layout planning -- analyse a map, optimise a layout (mfns.plan)."""
+
+from __future__ import annotations
+
+from ..plan import run
+
+
+def _common(p) -> None:
+    p.add_argument("out", metavar="OUT", help="output folder (created; files in it are overwritten)")
+    p.add_argument("--rig", help="calibration-results JSON of the rig (default: the paper's, Tables 2-3)")
+    w = p.add_argument_group("workspace (docs/planning.md)")
+    w.add_argument("--workspace", choices=("turntable", "module", "box", "truth"), default="turntable")
+    w.add_argument("--truth", metavar="CSV", help="truth: the poses of a truth.csv (mfns sim nav), in order")
+    w.add_argument("--samples", type=int, default=200, help="pose samples (default 200)")
+    w.add_argument("--yaw-start", type=float, default=0.0, help="turntable: first yaw, deg (default 0)")
+    w.add_argument("--yaw-span", type=float, default=120.0, help="turntable: yaw swept, deg (default 120)")
+    w.add_argument(
+        "--box",
+        metavar="X0,Y0,Z0,X1,Y1,Z1",
+        help="box: position range of the body origin, mm (write --box=-X0,... for negative values)",
+    )
+    for k in ("roll", "pitch", "yaw"):
+        w.add_argument(f"--{k}", metavar="LO,HI", help=f"box: {k} range, deg (default: uniform attitude)")
+    n = p.add_argument_group("noise model of the Cramer-Rao bound")
+    n.add_argument(
+        "--pixel-sigma", type=float, help="centroid noise 1-sigma, px (default: the rig's pixel_noise_px)"
+    )
+    n.add_argument("--beacon-sigma", type=float, help="survey 1-sigma of every beacon, mm (0: exact map)")
+    n.add_argument(
+        "--no-calib-sigma", action="store_true", help="ignore the rig's calibration 1-sigma entries"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (pose samples, optimiser) (default 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "plan", help="beacon-layout planning: coverage, 1-sigma, optimised layouts"
+    )
+    sub = parser.add_subparsers(dest="plan_command", metavar="ACTION")
+    a = sub.add_parser(
+        "analyze",
+        help="beacons in view, fix availability and Cramer-Rao 1-sigma of a map over a workspace",
+        description="Per pose sample: beacons in view per camera (the C core's decision), whether a fix "
+        "is possible, the Cramer-Rao 1-sigma of the pose; writes samples.csv, summary.{json,md} and "
+        "in_view_hist.png, availability.png, sigma.png into OUT.",
+    )
+    _common(a)
+    a.add_argument(
+        "--beacons", help="beacons.csv (id,x_mm,y_mm,z_mm,sigma_mm) (default: the paper's Table 4)"
+    )
+    a.set_defaults(func=run.run_analyze)
+    o = sub.add_parser(
+        "optimize",
+        help="place N beacons on candidate surfaces: availability first, then worst-case 1-sigma",
+        description="Greedy construction then simulated annealing over grid candidates on the surfaces; "
+        "writes OUT/beacons.csv (the format mfns sim nav --beacon-map and mfns table build read), "
+        "plan.json (algorithm, run time, objective) and the analysis of the result on independent samples.",
+    )
+    _common(o)
+    o.add_argument(
+        "--surfaces", default="paper-frame", help="paper-frame, module or a JSON file (default paper-frame)"
+    )
+    o.add_argument("--count", type=int, default=10, help="number of beacons (default 10)")
+    o.add_argument(
+        "--min-spacing", type=float, default=100.0, help="minimum beacon spacing, mm (default 100)"
+    )
+    o.add_argument(
+        "--keep-out", action="append", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box with no beacon (repeatable)"
+    )
+    o.add_argument(
+        "--grid", type=float, default=40.0, help="candidate grid spacing on the surfaces, mm (default 40)"
+    )
+    o.add_argument("--iterations", type=int, default=8000, help="annealing moves per restart (default 8000)")
+    o.add_argument(
+        "--margin",
+        type=int,
+        default=0,
+        help="optimise for 4 + MARGIN beacons in view: a reserve for poses between the samples (default 0)",
+    )
+    o.add_argument("--restarts", type=int, default=3, help="independent runs, the best kept (default 3)")
+    o.add_argument("--baseline", help="beacons.csv to compare with (analysed on the same samples)")
+    o.set_defaults(func=run.run_optimize)
+    parser.set_defaults(func=lambda args: parser.print_help() or 2)

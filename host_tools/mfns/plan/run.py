@@ -1,0 +1,245 @@
+"""The `mfns plan analyze` and `mfns plan optimize` actions (arguments: commands/plan.py)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .. import calib_results
+from ..camera import rig_from_doc
+from ..errors import MfnsError
+from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
+from ..table.builder import load_beacon_csv
+from . import optimize as opt
+from . import report, surfaces, workspace
+from .analyze import analyze
+from .core import Core, require_map_size
+from .crlb import CalibrationError
+
+BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
+# Survey 1-sigma the optimiser assumes for new beacons unless --beacon-sigma is given:
+# the paper's map accuracy (REFERENCE Table 4).
+DEFAULT_SURVEY_SIGMA_MM = 0.3963
+
+
+def _triple(text: str | None, name: str, n: int):
+    if text is None:
+        return None
+    try:
+        v = [float(t) for t in text.split(",")]
+    except ValueError as exc:
+        raise MfnsError(f"--{name} {text!r}: expected {n} comma-separated numbers") from exc
+    if len(v) != n or not np.all(np.isfinite(v)):
+        raise MfnsError(f"--{name} {text!r}: expected {n} comma-separated numbers")
+    return v
+
+
+def build_workspace(args, stream: int = 0) -> workspace.Workspace:
+    """The workspace of the arguments; stream separates the optimiser's samples from the
+    independent samples the result is checked on."""
+    rng = np.random.default_rng([args.seed, stream])
+    if args.workspace == "truth":
+        if not args.truth:
+            raise MfnsError("--workspace truth needs --truth truth.csv")
+        return workspace.from_truth(args.truth)
+    if args.workspace == "turntable":
+        return workspace.turntable(args.samples, args.yaw_start, args.yaw_span)
+    if args.workspace == "module":
+        return workspace.module(args.samples, rng)
+    b = _triple(args.box, "box", 6)
+    if b is None:
+        raise MfnsError("--workspace box needs --box x0,y0,z0,x1,y1,z1 (mm)")
+    ranges = {k: _triple(getattr(args, k), k, 2) or [-180.0, 180.0] for k in ("roll", "pitch", "yaw")}
+    attitude = "ranges" if any(getattr(args, k) for k in ("roll", "pitch", "yaw")) else "uniform"
+    return workspace.box(
+        args.samples, b[:3], b[3:], rng, attitude, ranges["roll"], ranges["pitch"], ranges["yaw"]
+    )
+
+
+def _load_rig(args):
+    doc = calib_results.load(args.rig or PAPER_CALIB)
+    return doc, rig_from_doc(doc)
+
+
+def _noise(args, doc, core, sigma_mm: np.ndarray):
+    sigma_px = args.pixel_sigma if args.pixel_sigma is not None else float(doc["pixel_noise_px"])
+    if not sigma_px > 0:
+        raise MfnsError("--pixel-sigma must be positive")
+    if args.beacon_sigma is not None:
+        if not args.beacon_sigma >= 0:
+            raise MfnsError("--beacon-sigma must be >= 0")
+        sigma_mm = np.full(len(sigma_mm), args.beacon_sigma)
+    calib = None if args.no_calib_sigma else CalibrationError(core, doc)
+    calib = calib if calib else None
+    survey = "per beacons.csv" if args.beacon_sigma is None else f"{args.beacon_sigma:g} mm"
+    cal = "from the rig sigma entries" if calib else "not included"
+    text = f"pixel {sigma_px:g} px; survey {survey}; calibration {cal}"
+    return sigma_px, sigma_mm, calib, text
+
+
+def _prepare(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise MfnsError(f"{out}: exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+
+
+def _analyze_into(out, core, beacons, sigma_mm, ws, sigma_px, calib, info, title, progress):
+    a = analyze(core, beacons, sigma_mm, ws, sigma_px, calib, progress=progress, desc=title)
+    _prepare(out)
+    report.write_samples(a, out / "samples.csv")
+    s = report.summarize(a, info)
+    report.write_summary(s, out, title)
+    report.write_plots(a, out, title)
+    return s
+
+
+def run_analyze(args) -> int:
+    doc, cams = _load_rig(args)
+    core = Core(cams)
+    bpath = Path(args.beacons) if args.beacons else PAPER_BEACONS
+    _, pos, sig = load_beacon_csv(bpath)
+    sigma_px, sig, calib, noise = _noise(args, doc, core, sig)
+    ws = build_workspace(args)
+    t0 = time.perf_counter()
+    info = {"beacons": str(bpath), "n_beacons": len(pos), "rig": str(args.rig or PAPER_CALIB), "noise": noise}
+    info["seed"] = args.seed
+    s = _analyze_into(
+        Path(args.out), core, pos, sig, ws, sigma_px, calib, info, "plan analyze", not args.quiet
+    )
+    _print(
+        s,
+        f"plan analyze: {len(pos)} beacons, {ws.n} samples in {time.perf_counter() - t0:.1f} s -> {args.out}",
+    )
+    return 0
+
+
+def write_beacons(path: Path, pos: np.ndarray, sigma_mm: float) -> None:
+    """beacons.csv as `mfns sim nav` writes and reads it (docs/nav-frames.md)."""
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(BEACONS_HEADER)
+        for i, p in enumerate(pos):
+            w.writerow([i, *(f"{v + 0.0:.4f}" for v in p), f"{sigma_mm:.4f}"])
+
+
+def run_optimize(args) -> int:
+    if args.count < 4:
+        raise MfnsError("--count must be at least 4 (a fix needs four beacons in view)")
+    require_map_size(args.count)
+    if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
+        raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
+    doc, cams = _load_rig(args)
+    core = Core(cams)
+    surf, keep = surfaces.load(args.surfaces)
+    keep += [surfaces.parse_box(k) for k in args.keep_out or []]
+    cand, _ = surfaces.candidates(surf, args.grid, keep)
+    survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM
+    sigma_px, _, calib, noise = _noise(args, doc, core, np.zeros(0))
+    noise = f"pixel {sigma_px:g} px; survey {survey:g} mm; calibration not in the optimiser's objective"
+    check_noise = noise + ("; the analysis includes the rig's calibration sigma" if calib else "")
+    ws = build_workspace(args, stream=0)
+    progress = not args.quiet
+    t0 = time.perf_counter()
+    prob = opt.build_problem(core, cand, ws, sigma_px, survey, progress)
+    res, search_s = None, []
+    for r in range(args.restarts):
+        rng = np.random.default_rng([args.seed, 7, r])
+        one = opt.optimize(
+            prob, args.count, args.min_spacing, args.iterations, rng, progress=progress, margin=args.margin
+        )
+        search_s.append(round(one.greedy_s + one.search_s, 2))
+        if res is None or opt.better(one.objective, res.objective):
+            res = one
+    total_s = time.perf_counter() - t0
+    out = Path(args.out)
+    _prepare(out)
+    layout = cand[res.chosen]
+    write_beacons(out / "beacons.csv", layout, survey if survey > 0 else DEFAULT_SURVEY_SIGMA_MM)
+    plan_doc = {
+        "algorithm": "greedy construction, then simulated annealing (mfns.plan.optimize)",
+        "surfaces": args.surfaces,
+        "candidates": int(len(cand)),
+        "grid_mm": args.grid,
+        "count": args.count,
+        "min_spacing_mm": args.min_spacing,
+        "keep_out": [[k.lo.tolist(), k.hi.tolist()] for k in keep],
+        "optimised_on": ws.description,
+        "noise": noise,
+        "iterations": args.iterations,
+        "restarts": args.restarts,
+        "margin": args.margin,
+        "moves_tried": res.moves_tried,
+        "moves_kept": res.moves_kept,
+        "seed": args.seed,
+        "objective": _obj_doc(res.objective, ws.n),
+        "greedy_objective": _obj_doc(res.greedy_objective, ws.n),
+        "run_time_s": {
+            "candidates_in_view": round(prob.build_s, 2),
+            "greedy": round(res.greedy_s, 2),
+            "annealing": round(res.search_s, 2),
+            "per_restart": search_s,
+            "total": round(total_s, 2),
+        },
+    }
+    # check on independent samples (the turntable sweep is the sweep itself)
+    ws_check = build_workspace(args, stream=1)
+    info = {"beacons": str(out / "beacons.csv"), "n_beacons": args.count, "rig": str(args.rig or PAPER_CALIB)}
+    info["noise"] = check_noise
+    sig = np.full(args.count, survey)
+    s = _analyze_into(out, core, layout, sig, ws_check, sigma_px, calib, info, "plan optimize", progress)
+    plan_doc["check"] = {"availability_pct": s["availability_pct"], "samples": s["samples"]}
+    if args.baseline:
+        _, bpos, _ = load_beacon_csv(args.baseline)
+        bsig = np.full(len(bpos), survey)
+        binfo = {**info, "beacons": str(args.baseline), "n_beacons": len(bpos)}
+        bs = _analyze_into(
+            out / "baseline", core, bpos, bsig, ws_check, sigma_px, calib, binfo, "baseline", progress
+        )
+        plan_doc["baseline"] = {"beacons": str(args.baseline), "availability_pct": bs["availability_pct"]}
+        plan_doc["baseline"]["sigma_p99"] = {
+            k: v["p99"] for k, v in bs["sigma_percentiles_over_fix_samples"].items()
+        }
+    plan_doc["sigma_p99"] = {k: v["p99"] for k, v in s["sigma_percentiles_over_fix_samples"].items()}
+    (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
+    rt = plan_doc["run_time_s"]
+    _print(
+        s,
+        f"plan optimize: {args.count} beacons from {len(cand)} candidates on {args.surfaces}, "
+        f"{ws.n} samples; {rt['total']} s (in view {rt['candidates_in_view']} s, {args.restarts} x greedy + "
+        f"annealing {rt['per_restart']} s; best: {res.moves_kept}/{res.moves_tried} moves kept)\n"
+        f"  -> {out / 'beacons.csv'}",
+    )
+    if args.baseline:
+        print(f"  baseline {args.baseline}: availability {plan_doc['baseline']['availability_pct']} %")
+    return 0
+
+
+def _obj_doc(obj: tuple, n: int) -> dict:
+    return {
+        "poses_with_fix": f"{obj[0]}/{n}",
+        "missing_beacons": -obj[1],
+        "worst_score": -obj[2],
+        "mean_score": -obj[3],
+        "score": f"max(position 1-sigma / {opt.POS_SCALE_MM:g} mm, "
+        f"attitude 1-sigma / {opt.ATT_SCALE_DEG:g} deg)",
+    }
+
+
+def _print(s: dict, head: str) -> None:
+    p = s["sigma_percentiles_over_fix_samples"]
+    worst = ", ".join(f"{k} {v['p100']:.3g}" for k, v in p.items() if v["p100"] is not None)
+    print(
+        f"{head}\n  availability {s['availability_pct']} % (>= 4 in view), track {s['track_pct']} % (>= 3)"
+        + (
+            ""
+            if s["availability_flight_pct"] is None
+            else f", nav-cycle rule {s['availability_flight_pct']} %"
+        )
+        + "; "
+        f"in view mean {s['in_view_mean']}, min {s['in_view_min']}, per camera {s['per_camera_mean']}\n"
+        f"  worst 1-sigma over fix samples: {worst or 'none (no fix)'}"
+    )
