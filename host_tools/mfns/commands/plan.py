@@ -47,6 +47,11 @@ def register(subparsers) -> None:
     )
     _common(a)
     a.add_argument(
+        "--no-ident-margin",
+        action="store_true",
+        help="skip the identification margin (the acquisition's map analysis per sample, ~50 ms each)",
+    )
+    a.add_argument(
         "--beacons", help="beacons.csv (id,x_mm,y_mm,z_mm,sigma_mm) (default: the paper's Table 4)"
     )
     a.set_defaults(func=run.run_analyze)

@@ -29,7 +29,7 @@ import numpy as np
 
 from .core import Core
 from .crlb import CalibrationError, Observation, flight_information, information
-from .ident import identification_margin
+from .ident import IdentMargin, identification_margin
 from .workspace import Workspace
 
 FIX_MIN_IN_VIEW = 4
@@ -115,6 +115,7 @@ def analyze(
     calib: CalibrationError | None = None,
     progress: bool = False,
     desc: str = "plan analyze",
+    ident: bool = False,
 ) -> Analysis:
     from tqdm import tqdm
 
@@ -124,11 +125,17 @@ def analyze(
     sigma = np.full((n, 6), np.nan)
     flight_sigma = np.full((n, 6), np.nan)
     margin = []
+    im = None
+    if ident and n:
+        lo, hi = ws.r_wb_w.min(axis=0), ws.r_wb_w.max(axis=0)
+        span = np.maximum(hi - lo, 1.0)  # a box even for one position (the turntable)
+        im = IdentMargin(core.flight, core.rig, beacons_w, beacon_sigma_mm, lo - 0.05 * span - 1.0,
+                         hi + 0.05 * span + 1.0, sigma_px)
     for i in tqdm(range(n), desc=desc, unit="pose", disable=not progress):
         C, r = ws.C_w_b[i], ws.r_bw_b(i)
         obs, per_cam = observe(core, beacons_w, C, r)
         cam_counts[i] = [len(x) for x in per_cam]
         distinct[i] = len({o.beacon for o in obs})
         sigma[i], flight_sigma[i] = pose_sigmas(core, obs, C, r, sigma_px, beacon_sigma_mm, calib, beacons_w)
-        margin.append(identification_margin(beacons_w, per_cam, C, r))
+        margin.append(identification_margin(im, C, r))
     return Analysis(ws, cam_counts, distinct, sigma, margin, flight_sigma)

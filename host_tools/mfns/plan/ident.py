@@ -1,26 +1,41 @@
-"""The identification margin column: the plug for the map self-similarity analysis.
+"""The identification margin column, from the acquisition's map analysis (issue 11).
 
-How far a pose's view of the map is from being confused with another correspondence
-(the acquisition issue, #11) is computed by the map analysis another engineer is
-building for the table builder. The planner does not compute its own: until that
-analysis exists, :func:`identification_margin` returns None and the CSV column
-``ident_margin`` stays empty (never a made-up value). To plug it in, replace the body of
-this one function; nothing else in mfns.plan changes (the optimiser does not use it).
+For one pose sample, the C core's map analysis (firmware/nav/acquire_certify.h, the one
+`mfns table build` runs over its workspace to set the certificate) makes the frame the rig
+sees from that pose and runs the flight acquisition on it without stopping early: every
+correspondence that explains the blobs within the noise is found. The margin is the number
+of beacons in view minus the inliers of the strongest wrong identification: how many more
+blobs the right answer explains than any other. 0 or less: the view is ambiguous, the
+flight code refuses it (AMBIGUOUS). None: fewer than 4 beacons in view (no fix to identify).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..flight import Flight
 
-def identification_margin(
-    beacons_w: np.ndarray, in_view: list[np.ndarray], C_w_b: np.ndarray, r_bw_b: np.ndarray
-) -> float | None:
-    """Identification margin of one pose sample, or None while no analysis is plugged in.
 
-    beacons_w: (N, 3) the map (mm); in_view: per camera, the indices of the beacons in view
-    at the pose (C_w_b, r_bw_b). Expected from issue 11: a number, larger = safer, of the
-    sample's view against the rest of the map.
-    """
-    del beacons_w, in_view, C_w_b, r_bw_b
-    return None
+class IdentMargin:
+    """The map index of one map, rig and workspace box, and the per-pose analysis."""
+
+    def __init__(self, flight: Flight, rig, beacons_w, sigma_mm, lo, hi, sigma_px: float):
+        self.fl = flight
+        self.rig = rig
+        self.bmap = flight.beacon_map(beacons_w, np.asarray(sigma_mm, dtype=float))
+        self.idx = flight.build_index(rig, self.bmap, lo, hi)
+        self.cfg = flight.config(sigma_px=sigma_px)
+        self.budget = 2 * self.idx.budget_units
+
+    def margin(self, C_w_b, r_bw_b) -> float | None:
+        pose = self.fl.pose(C_w_b, r_bw_b)
+        res = self.fl.certify(self.rig, self.bmap, self.idx, self.cfg, [pose], self.budget)
+        if res.usable == 0:
+            return None
+        frame, _ = self.fl.view(self.rig, self.bmap, self.idx, pose)
+        return float(sum(frame.count) - res.max_rival)
+
+
+def identification_margin(ident: IdentMargin | None, C_w_b: np.ndarray, r_bw_b: np.ndarray) -> float | None:
+    """The margin of one pose sample (see the module), or None without an analysis or a view."""
+    return None if ident is None else ident.margin(C_w_b, r_bw_b)

@@ -35,8 +35,8 @@ N_WORST = 5
 
 def write_samples(a: Analysis, path: Path) -> None:
     """One row per pose sample; sigma empty where not determined (< 3 beacons, singular),
-    fix_flight empty for an unordered workspace, ident_margin empty until issue 11's
-    analysis is plugged in (ident.py)."""
+    fix_flight empty for an unordered workspace, ident_margin empty with fewer than 4
+    beacons in view or when the map analysis was skipped (ident.py)."""
     ff = a.fix_flight
     with open(path, "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
@@ -136,8 +136,19 @@ def summarize(a: Analysis, info: dict) -> dict:
         "sigma_percentiles_over_fix_samples": pct,
         "flight_sigma_percentiles_over_fix_samples": fpct,
         "worst_regions": regions[:N_WORST],
-        "ident_margin": "not computed: plugged in from the map self-similarity analysis (issue 11), ident.py",
+        "ident_margin": _margin_summary(a),
     }
+
+
+def _margin_summary(a: Analysis) -> str:
+    m = np.array([v for v in a.margin if v is not None], dtype=float)
+    if not len(m):
+        return "not computed (--no-ident-margin, or no sample with >= 4 beacons in view)"
+    amb = int(np.sum(m <= 0))
+    return (
+        f"over {len(m)} samples with >= 4 in view: median {np.median(m):g}, minimum {m.min():g} blobs more "
+        f"than the strongest wrong identification; {amb} ambiguous views (margin <= 0, refused by the flight code)"
+    )
 
 
 def summary_markdown(s: dict, title: str) -> str:

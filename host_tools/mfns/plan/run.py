@@ -87,8 +87,8 @@ def _prepare(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
 
 
-def _analyze_into(out, core, beacons, sigma_mm, ws, sigma_px, calib, info, title, progress):
-    a = analyze(core, beacons, sigma_mm, ws, sigma_px, calib, progress=progress, desc=title)
+def _analyze_into(out, core, beacons, sigma_mm, ws, sigma_px, calib, info, title, progress, ident=False):
+    a = analyze(core, beacons, sigma_mm, ws, sigma_px, calib, progress=progress, desc=title, ident=ident)
     _prepare(out)
     report.write_samples(a, out / "samples.csv")
     s = report.summarize(a, info)
@@ -108,7 +108,8 @@ def run_analyze(args) -> int:
     info = {"beacons": str(bpath), "n_beacons": len(pos), "rig": str(args.rig or PAPER_CALIB), "noise": noise}
     info["seed"] = args.seed
     s = _analyze_into(
-        Path(args.out), core, pos, sig, ws, sigma_px, calib, info, "plan analyze", not args.quiet
+        Path(args.out), core, pos, sig, ws, sigma_px, calib, info, "plan analyze", not args.quiet,
+        ident=not args.no_ident_margin,
     )
     _print(
         s,
