@@ -233,6 +233,12 @@ def test_builder_refuses_a_lens_it_cannot_correct_with_the_figure(sources, tmp_p
     worst = float(err.split(" leaves ")[1].split()[0])
     assert 0.01 < worst < 0.03
     assert not out.exists()
+    # the same search with the node limit lifted finds the density that lens needs
+    from mfns.table.builder import _record
+
+    cam = record_camera(_record(1, doc["cameras"][1]))
+    g, e = size_grid(cam, 20000)
+    assert e.max_px <= MAX_GRID_ERROR_PX and core().max_grid_nodes < g.nx * g.ny <= 20000
 
 
 def test_grid_error_is_measured_with_the_c_interpolation(sources, core_lib):
