@@ -57,6 +57,13 @@ const char *mfns_caltable_strerror(mfns_caltable_status_t s)
     case MFNS_CALTABLE_E_FILE_OPEN: return "calibration table file cannot be opened";
     case MFNS_CALTABLE_E_FILE_READ: return "calibration table file read error";
     case MFNS_CALTABLE_E_FILE_TOO_BIG: return "calibration table file larger than the load buffer";
+    case MFNS_CALTABLE_E_VERSION_OLD: return "calibration table format is older than this loader supports: rebuild it with mfns table build";
+    case MFNS_CALTABLE_E_INDEX_COUNT: return "calibration table map index: beacon count differs from the map or neighbour capacity out of range";
+    case MFNS_CALTABLE_E_INDEX_POLICY: return "calibration table map index: certificate, missing-beacon allowance or work budget out of range";
+    case MFNS_CALTABLE_E_INDEX_WORKSPACE: return "calibration table map index: workspace box empty";
+    case MFNS_CALTABLE_E_INDEX_GEOMETRY: return "calibration table map index: beacon emission cone or range interval invalid";
+    case MFNS_CALTABLE_E_INDEX_NEIGHBOUR: return "calibration table map index: bad neighbour list (count, index, self or repeated)";
+    case MFNS_CALTABLE_E_INDEX_PAIR: return "calibration table map index: pair angle interval reversed";
     default: break;
     }
     return "calibration table: unknown status";
@@ -174,12 +181,11 @@ static bool parse_globals(parser_t *p, uint16_t *ncam, uint16_t *nbeacon, float 
 
     const uint32_t q = G_SOLVER;
     s->max_iterations = rd_u16(b, q);
-    s->max_hypotheses = rd_u16(b, q + 2);
     if (s->max_iterations == 0 || s->max_iterations > 1000) {
         return fail(p, MFNS_CALTABLE_E_SOLVER_SETTINGS, q);
     }
-    if (s->max_hypotheses == 0) {
-        return fail(p, MFNS_CALTABLE_E_SOLVER_SETTINGS, q + 2);
+    if (rd_u16(b, q + 2) != 0) {
+        return fail(p, MFNS_CALTABLE_E_RESERVED, q + 2); /* version 1's max_hypotheses */
     }
     float *const f[7] = {&s->step_tol,           &s->grad_tol,      &s->huber_k,  &s->outlier_gate_sigma,
                          &s->max_residual_rms_px, &s->track_gate_px, &s->min_rcond};
@@ -374,8 +380,133 @@ static bool parse_beacons(parser_t *p, uint32_t pos, uint16_t n, mfns_beacon_map
     if (dst != NULL) {
         dst->count = n;
     }
-    if (pos + (uint32_t)n * MFNS_CALTABLE_BEACON_SIZE != p->size) {
-        return fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, pos + (uint32_t)n * MFNS_CALTABLE_BEACON_SIZE);
+    return true;
+}
+
+/* The map-index section at pos (beacon_index.h; docs/caltable.md "Map
+ * index"), which must end exactly at total_size. */
+static bool parse_index(parser_t *p, uint32_t pos, uint16_t nbeacon, mfns_beacon_index_t *dst)
+{
+    const uint8_t *b = p->b;
+    if (p->size - pos < MFNS_BIDX_HEADER_SIZE) {
+        return fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, pos);
+    }
+    const uint16_t n = rd_u16(b, pos);
+    const uint8_t k = b[pos + 2u], miss = b[pos + 3u], unexpl = b[pos + 4u];
+    if (n != nbeacon) {
+        return fail(p, MFNS_CALTABLE_E_INDEX_COUNT, pos);
+    }
+    if (k == 0 || k > MFNS_BIDX_MAX_NBR) {
+        return fail(p, MFNS_CALTABLE_E_INDEX_COUNT, pos + 2u);
+    }
+    if (miss > MFNS_BIDX_MAX_MISSING) {
+        return fail(p, MFNS_CALTABLE_E_INDEX_POLICY, pos + 3u);
+    }
+    if (unexpl > MFNS_BIDX_MAX_CERT) {
+        return fail(p, MFNS_CALTABLE_E_INDEX_POLICY, pos + 4u);
+    }
+    if (b[pos + 5u] != 0) {
+        return fail(p, MFNS_CALTABLE_E_RESERVED, pos + 5u);
+    }
+    /* the certificate: 4..16 inliers per allowed missing count, not fewer for
+     * more missing beacons; 0 beyond the allowance */
+    for (uint32_t m = 0; m <= MFNS_BIDX_MAX_MISSING; m++) {
+        const uint8_t c = b[pos + 40u + m];
+        const bool ok = m <= miss ? (c >= MFNS_BIDX_MIN_CERT && c <= MFNS_BIDX_MAX_CERT &&
+                                     (m == 0 || c >= b[pos + 40u + m - 1u]))
+                                  : c == 0;
+        if (!ok) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_POLICY, pos + 40u + m);
+        }
+    }
+    const uint32_t budget = rd_u32(b, pos + 8u);
+    if (budget == 0) {
+        return fail(p, MFNS_CALTABLE_E_INDEX_POLICY, pos + 8u);
+    }
+    float ws[6];
+    for (uint32_t i = 0; i < 6u; i++) {
+        if (!f32_at(p, pos + 12u + 4u * i, &ws[i])) {
+            return false;
+        }
+    }
+    for (uint32_t i = 0; i < 3u; i++) {
+        if (!(ws[i] < ws[3 + i]) || !(fabsf(ws[i]) <= 1e7f) || !(fabsf(ws[3 + i]) <= 1e7f)) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_WORKSPACE, pos + 12u + 4u * i);
+        }
+    }
+    if (p->size - pos != MFNS_BIDX_SECTION_SIZE(n, k)) {
+        return fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, pos);
+    }
+    uint32_t o = pos + MFNS_BIDX_HEADER_SIZE;
+    for (uint32_t i = 0; i < n; i++, o += MFNS_BIDX_GEOM_SIZE) {
+        float g[6];
+        for (uint32_t j = 0; j < 6u; j++) {
+            if (!f32_at(p, o + 4u * j, &g[j])) {
+                return false;
+            }
+        }
+        const float an = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        if (!(an == 0.0f || fabsf(an - 1.0f) <= 1e-3f) || !(g[3] >= -1.0f && g[3] <= 1.0f)) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_GEOMETRY, o);
+        }
+        if (!(g[4] > 0.0f && g[4] < g[5] && g[5] <= 1e8f)) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_GEOMETRY, o + 16u);
+        }
+        if (dst != NULL) {
+            mfns_beacon_geom_t *d = &dst->geom[i];
+            d->emit.axis_w = mfns_v3(g[0], g[1], g[2]);
+            d->emit.cos_half_angle = g[3];
+            d->range_min_mm = g[4];
+            d->range_max_mm = g[5];
+        }
+    }
+    for (uint32_t i = 0; i < n; i++, o += 1u + k) {
+        const uint8_t cnt = b[o];
+        if (cnt > k) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_NEIGHBOUR, o);
+        }
+        for (uint32_t r = 0; r < k; r++) {
+            const uint8_t e = b[o + 1u + r];
+            bool bad = r < cnt ? (e >= n || e == i) : e != 0; /* unused entries are 0 */
+            for (uint32_t q = 0; q < r && r < cnt && !bad; q++) {
+                bad = b[o + 1u + q] == e;
+            }
+            if (bad) {
+                return fail(p, MFNS_CALTABLE_E_INDEX_NEIGHBOUR, o + 1u + r);
+            }
+            if (dst != NULL && r < cnt) {
+                dst->nbr[i][r] = e;
+            }
+        }
+        if (dst != NULL) {
+            dst->nbr_count[i] = cnt;
+        }
+    }
+    const uint32_t pairs = (uint32_t)n * (n - 1u) / 2u;
+    for (uint32_t s = 0; s < pairs; s++, o += 2u) {
+        const uint8_t lo = b[o], hi = b[o + 1u];
+        /* an interval, or the empty one (never seen together) */
+        if (lo > hi && !(lo == MFNS_BIDX_ANGLE_CODES && hi == 0)) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_PAIR, o);
+        }
+        if (dst != NULL) {
+            dst->pair_lo[s] = lo;
+            dst->pair_hi[s] = hi;
+        }
+    }
+    if (dst != NULL) {
+        dst->count = n;
+        dst->k_nbr = k;
+        for (uint32_t m = 0; m <= MFNS_BIDX_MAX_MISSING; m++) {
+            dst->cert_inliers[m] = b[pos + 40u + m];
+        }
+        dst->max_missing = miss;
+        dst->max_unexplained = unexpl;
+        dst->analysis_max_rival = rd_u16(b, pos + 6u);
+        dst->budget_units = budget;
+        dst->ws_min_w = mfns_v3(ws[0], ws[1], ws[2]);
+        dst->ws_max_w = mfns_v3(ws[3], ws[4], ws[5]);
+        dst->analysis_samples = rd_u32(b, pos + 36u);
     }
     return true;
 }
@@ -405,6 +536,10 @@ static bool parse_body(parser_t *p, mfns_caltable_t *dst)
     if (!parse_beacons(p, pos, nbeacon, dst != NULL ? &dst->beacons : NULL)) {
         return false;
     }
+    if (!parse_index(p, pos + (uint32_t)nbeacon * MFNS_CALTABLE_BEACON_SIZE, nbeacon,
+                     dst != NULL ? &dst->index : NULL)) {
+        return false;
+    }
     if (dst != NULL) {
         dst->centroid = cs;
         dst->solver = ss;
@@ -427,6 +562,8 @@ mfns_caltable_status_t mfns_caltable_load(const uint8_t *buf, size_t len, mfns_c
         (void)fail(&p, MFNS_CALTABLE_E_VERSION_BAD, 4);
     } else if (rd_u16(buf, 4) > MFNS_CALTABLE_VERSION) {
         (void)fail(&p, MFNS_CALTABLE_E_VERSION_NEWER, 4);
+    } else if (rd_u16(buf, 4) < MFNS_CALTABLE_MIN_VERSION) {
+        (void)fail(&p, MFNS_CALTABLE_E_VERSION_OLD, 4);
     } else if (rd_u16(buf, 6) != MFNS_CALTABLE_HEADER_SIZE) {
         (void)fail(&p, MFNS_CALTABLE_E_HEADER_SIZE, 6);
     } else {

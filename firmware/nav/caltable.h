@@ -12,7 +12,9 @@
  * finite, focal lengths positive, principal point inside the image, C_k_b a
  * rotation to MFNS_CALTABLE_ROT_TOL, grid dimensions/steps/coverage and every
  * node consistent with the lens model to MFNS_CALTABLE_GRID_TOL_PX; beacons:
- * finite, sigma positive, ids unique; finally no bytes left over.
+ * finite, sigma positive, ids unique; the map index (beacon_index.h):
+ * counts, policy, workspace, per-beacon geometry, neighbour lists, pair
+ * intervals; finally no bytes left over.
  *
  * The loaded table is not relocatable: grid[k].node points into grid_node[k]
  * of the same object. Use it where it was loaded (do not copy it by value).
@@ -23,13 +25,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "beacon_index.h"
 #include "camera.h"
 #include "fixed.h"
 #include "nav_config.h"
 #include "undistort.h"
 
 #define MFNS_CALTABLE_MAGIC "MFTB"
-#define MFNS_CALTABLE_VERSION 1u     /* the newest format this loader reads */
+#define MFNS_CALTABLE_VERSION 2u     /* the newest format this loader reads */
+#define MFNS_CALTABLE_MIN_VERSION 2u /* the oldest: version 1 had no map index (rebuild it) */
 #define MFNS_CALTABLE_HEADER_SIZE 16u
 #define MFNS_CALTABLE_GLOBALS_SIZE 60u /* counts, pixel sigma, centroid + solver settings */
 #define MFNS_CALTABLE_CAMERA_FIXED_SIZE 116u
@@ -39,7 +43,7 @@
 #define MFNS_CALTABLE_MAX_BYTES                                                                           \
     (MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_GLOBALS_SIZE +                                             \
      MFNS_NUM_CAMERAS * (MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * MFNS_MAX_GRID_NODES) + \
-     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS)
+     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_BIDX_MAX_SECTION_SIZE)
 
 /* Acceptance limits (docs/caltable.md "Validation"). */
 #define MFNS_CALTABLE_ROT_TOL 1e-5f      /* max |C^T C - I| entry */
@@ -79,6 +83,13 @@ typedef enum {
     MFNS_CALTABLE_E_FILE_OPEN,        /* (caltable_file.h) cannot open the file */
     MFNS_CALTABLE_E_FILE_READ,        /* (caltable_file.h) read error */
     MFNS_CALTABLE_E_FILE_TOO_BIG,     /* (caltable_file.h) file larger than the buffer */
+    MFNS_CALTABLE_E_VERSION_OLD,      /* format older than MFNS_CALTABLE_MIN_VERSION: rebuild the table */
+    MFNS_CALTABLE_E_INDEX_COUNT,      /* map index: beacon count differs from the map, or k_nbr out of range */
+    MFNS_CALTABLE_E_INDEX_POLICY,     /* map index: certificate, missing or budget out of range */
+    MFNS_CALTABLE_E_INDEX_WORKSPACE,  /* map index: workspace box empty */
+    MFNS_CALTABLE_E_INDEX_GEOMETRY,   /* map index: emission axis/cone or range interval invalid */
+    MFNS_CALTABLE_E_INDEX_NEIGHBOUR,  /* map index: neighbour count, index, self or repeated entry */
+    MFNS_CALTABLE_E_INDEX_PAIR,       /* map index: pair angle interval reversed */
     MFNS_CALTABLE_STATUS_COUNT
 } mfns_caltable_status_t;
 
@@ -87,6 +98,7 @@ typedef struct {
     mfns_undist_grid_t grid[MFNS_NUM_CAMERAS]; /* grid[k].node -> grid_node[k] */
     q16_16_t grid_node[MFNS_NUM_CAMERAS][MFNS_MAX_GRID_NODES][2];
     mfns_beacon_map_t beacons;
+    mfns_beacon_index_t index;             /* the map's index for acquisition */
     mfns_centroid_settings_t centroid;
     mfns_solver_settings_t solver;
     float pixel_sigma_px;                  /* 1-sigma centroid noise the solver assumes */

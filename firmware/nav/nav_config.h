@@ -11,7 +11,7 @@
 #include "camera.h"
 
 /* Compile-time maxima: every table and buffer of the core is sized by these. */
-#define MFNS_MAX_BEACONS 64          /* beacons in the map */
+#define MFNS_MAX_BEACONS 256         /* beacons in the map (indices fit in a u8) */
 #define MFNS_MAX_BLOBS_PER_CAMERA 64 /* blob table of the centroider, per camera */
 #define MFNS_MAX_OBS_PER_CAMERA 32   /* corrected observations handed to the solver */
 #define MFNS_MAX_GRID_NODES 8192     /* correction-grid nodes per camera (nx*ny) */
@@ -47,8 +47,13 @@ typedef struct {
     float outlier_gate_sigma;   /* residual beyond gate * sigma marks an outlier */
     float max_residual_rms_px;  /* NO_FIX when the inlier RMS exceeds this */
     float track_gate_px;        /* association gate when tracking */
-    uint16_t max_hypotheses;    /* bound on identification hypotheses when acquiring */
     float min_rcond;            /* normal equations below this are singular geometry */
 } mfns_solver_settings_t;
+
+/* The default settings: one set, used by the flight code's tests and tools
+ * and written into every table by `mfns table build` (which reads them from
+ * here through the shared library). nav_defaults.c gives the reasons. */
+void mfns_centroid_settings_default(mfns_centroid_settings_t *c);
+void mfns_solver_settings_default(mfns_solver_settings_t *s);
 
 #endif /* MFNS_NAV_CONFIG_H */

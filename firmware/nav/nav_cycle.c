@@ -48,19 +48,6 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     memset(nav, 0, sizeof *nav);
     nav->table = table;
     mfns_pose_config_default(&nav->pose_cfg);
-    /* The robot is inside the beacon map, so no beacon is farther than the
-     * map's diameter: the initializer's range bound follows the map (the
-     * paper's frame ~1.7 m, a 2 x 2 x 4 m module ~4.9 m). */
-    float diam = 0.0f;
-    for (uint16_t i = 0; i < table->beacons.count && i < MFNS_MAX_BEACONS; i++) {
-        for (uint16_t j = (uint16_t)(i + 1); j < table->beacons.count && j < MFNS_MAX_BEACONS; j++) {
-            const float d = mfns_v3_norm(mfns_v3_sub(table->beacons.beacon[i].p_w, table->beacons.beacon[j].p_w));
-            diam = d > diam ? d : diam;
-        }
-    }
-    if (diam + 500.0f > nav->pose_cfg.max_range_mm) {
-        nav->pose_cfg.max_range_mm = diam + 500.0f; /* margin: the robot may stand outside the hull */
-    }
     nav->pose_cfg.s = table->solver;
     nav->pose_cfg.sigma_px = table->pixel_sigma_px;
     nav->pose_cfg.mode = mode;
@@ -191,8 +178,9 @@ static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame
     return MFNS_NAV_OK;
 }
 
-static mfns_nav_status_t run(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS], bool track,
-                             mfns_nav_output_t *out)
+/* Centroid every camera (windows when tracking) into nav->obs. */
+static mfns_nav_status_t measure(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS], bool track,
+                                 mfns_nav_output_t *out)
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         const mfns_nav_status_t st = measure_camera(nav, k, frames[k], track, &out->cam[k]);
@@ -200,9 +188,11 @@ static mfns_nav_status_t run(mfns_nav_t *nav, const mfns_frame_t *const frames[M
             return st;
         }
     }
-    const mfns_caltable_t *t = nav->table;
-    (void)mfns_pose_solve(&t->rig, &t->beacons, &nav->obs, track ? &nav->predicted : NULL, &nav->pose_cfg,
-                          &out->sol); /* the status is also in out->sol.status */
+    return MFNS_NAV_OK;
+}
+
+static void count_identified(const mfns_nav_t *nav, mfns_nav_output_t *out)
+{
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         uint16_t ident = 0;
         for (uint16_t i = 0; i < nav->obs.count[k] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
@@ -212,7 +202,17 @@ static mfns_nav_status_t run(mfns_nav_t *nav, const mfns_frame_t *const frames[M
         }
         out->cam[k].identified = ident;
     }
-    return MFNS_NAV_OK;
+}
+
+/* Acquisition on the whole frames already measured into nav->obs, within
+ * the table's work budget. */
+static void acquire(mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    const mfns_caltable_t *t = nav->table;
+    (void)mfns_acquire(&nav->acq, &t->rig, &t->beacons, &t->index, &nav->obs, &nav->pose_cfg,
+                       t->index.budget_units, &out->sol); /* the status is also in out->sol.status */
+    out->acq = nav->acq.progress;
+    out->acquired = true;
 }
 
 /* Constant-velocity prediction: apply the last cycle's motion once more.
@@ -253,12 +253,25 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         nav->predicted = predict(nav);
     }
     out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
-    mfns_nav_status_t st = run(nav, frames, track, out);
-    if (st == MFNS_NAV_OK && track && !has_fix(&out->sol)) {
-        /* One bounded retry: lost track, acquire on whole frames now. */
-        out->reacquired = true;
-        out->mode = MFNS_NAV_MODE_ACQUIRE;
-        st = run(nav, frames, false, out);
+    /* The one place of the policy: track from the prediction, else (or when
+     * tracking gives no fix) acquire once, on whole frames. */
+    mfns_nav_status_t st = measure(nav, frames, track, out);
+    if (st == MFNS_NAV_OK && track) {
+        const mfns_caltable_t *t = nav->table;
+        (void)mfns_pose_track(&t->rig, &t->beacons, &nav->obs, &nav->predicted, &nav->pose_cfg, &out->sol);
+        if (!has_fix(&out->sol)) {
+            out->reacquired = true;
+            out->mode = MFNS_NAV_MODE_ACQUIRE;
+            st = measure(nav, frames, false, out);
+            if (st == MFNS_NAV_OK) {
+                acquire(nav, out);
+            }
+        }
+    } else if (st == MFNS_NAV_OK) {
+        acquire(nav, out);
+    }
+    if (st == MFNS_NAV_OK) {
+        count_identified(nav, out);
     }
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;

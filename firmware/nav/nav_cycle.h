@@ -13,10 +13,12 @@
  * velocity and turn rate per cycle): a turning robot's beacons then stay
  * inside their windows. When too few beacons are seen for a fix, the
  * prediction coasts for at most MFNS_NAV_MAX_COAST cycles, so tracking resumes
- * as soon as beacons return (a dense map makes cold acquisition expensive);
- * a coasted pose is only a search prior, never output as a fix. A TRACK cycle that gives no fix is redone once, in the same
- * cycle, as ACQUIRE on whole frames; a cycle with no fix drops the prior, so a
- * stale pose is never reused.
+ * as soon as beacons return; a coasted pose is only a search prior, never
+ * output as a fix. A TRACK cycle that gives no fix is redone once, in the
+ * same cycle, as ACQUIRE on whole frames (acquire.h, within the table's work
+ * budget); after the coast the prior is dropped, so a stale pose is never
+ * reused, and every ACQUIRE cycle searches afresh: the navigator recovers
+ * from a lost track by itself. This file is the one owner of that policy.
  *
  * A camera that delivers no frame (NULL: dead, timed out, being recovered)
  * contributes nothing and is reported as such; the solve goes on with the
@@ -32,6 +34,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "acquire.h"
 #include "caltable.h"
 #include "centroid.h"
 #include "pose.h"
@@ -76,6 +79,8 @@ typedef struct {
     bool mode_changed;         /* next_mode differs from the previous cycle's mode */
     bool reacquired;           /* TRACK failed and the cycle was redone as ACQUIRE */
     uint16_t coasting;         /* cycles the prediction has coasted without a fix (0 = none) */
+    bool acquired;             /* the cycle ran acquisition (acq holds its progress) */
+    mfns_acq_progress_t acq;   /* search progress of that acquisition */
     mfns_nav_cam_diag_t cam[MFNS_NUM_CAMERAS];
 } mfns_nav_output_t;
 
@@ -92,6 +97,7 @@ typedef struct {
     uint16_t coast;         /* consecutive TRACK cycles without a fix */
     uint32_t magic; /* set by init: guards against use of a zeroed struct */
     /* scratch, meaningless between cycles */
+    mfns_acq_t acq;
     mfns_centroid_work_t work;
     mfns_centroid_result_t cres;
     mfns_obs_frame_t obs;

@@ -1,7 +1,7 @@
 /* pose.c -- the pose API of pose.h: input checks, the refinement driver
  * (robust solve, outlier gate, re-solve, covariance, status), tracking and
- * the tracking-then-acquisition entry point. Acquisition is in
- * beacon_ident.c, the solvers in pose_refine.c / pose_paper.c / pose_init.c. */
+ * tracking. Acquisition is acquire.c, the solvers pose_refine.c /
+ * pose_paper.c / pose_init.c. */
 #include "pose.h"
 
 #include <math.h>
@@ -15,17 +15,8 @@
 void mfns_pose_config_default(mfns_pose_config_t *cfg)
 {
     memset(cfg, 0, sizeof(*cfg));
-    cfg->s.max_iterations = 30;
-    cfg->s.step_tol = 1e-6f;
-    cfg->s.grad_tol = 1e-5f;
-    cfg->s.huber_k = 3.0f;
-    cfg->s.outlier_gate_sigma = 5.0f;
-    cfg->s.max_residual_rms_px = 2.0f;
-    cfg->s.track_gate_px = 15.0f;
-    cfg->s.max_hypotheses = 5000;
-    cfg->s.min_rcond = 1e-10f;
+    mfns_solver_settings_default(&cfg->s);
     cfg->sigma_px = 0.1f;
-    cfg->max_range_mm = 3000.0f;
     cfg->mode = MFNS_POSE_MODE_ML;
 }
 
@@ -60,7 +51,7 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
     case MFNS_POSE_R_AMBIGUOUS:
         return "several poses explain the observations: ambiguous";
     case MFNS_POSE_R_NOT_IDENTIFIED:
-        return "no beacon identification verified within the hypothesis bound";
+        return "no beacon identification certified within the work budget";
     case MFNS_POSE_R_SINGULAR:
         return "singular or ill-conditioned beacon geometry";
     case MFNS_POSE_R_NOT_CONVERGED:
@@ -69,6 +60,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return "residual RMS above the limit";
     case MFNS_POSE_R_TRACK_LOST:
         return "tracking gate kept fewer than three beacons";
+    case MFNS_POSE_R_BELOW_CERTIFICATE:
+        return "fewer blobs than the map's certificate needs for a unique fix";
     }
     return "unknown pose reason";
 }
@@ -409,17 +402,4 @@ mfns_pose_status_t mfns_pose_track(const mfns_rig_t *rig, const mfns_beacon_map_
     }
     out->assoc = assoc;
     return mfns_pose_refine_meas(rig, m, n, predicted, cfg, out);
-}
-
-mfns_pose_status_t mfns_pose_solve(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                                   const mfns_obs_frame_t *frame, const mfns_pose_t *prior,
-                                   const mfns_pose_config_t *cfg, mfns_pose_solution_t *out)
-{
-    if (prior != NULL) {
-        const mfns_pose_status_t st = mfns_pose_track(rig, map, frame, prior, cfg, out);
-        if (st != MFNS_POSE_NO_FIX || out->reason == MFNS_POSE_R_BAD_ARG) {
-            return st;
-        }
-    }
-    return mfns_pose_acquire(rig, map, frame, cfg, out);
 }

@@ -8,20 +8,18 @@
  * coordinates (x, y), which give the bearing rays used by identification and
  * initialization (and by paper mode, which fits Eq. 3 in those coordinates).
  *
- * Entry points the flight pipeline calls:
- *   mfns_pose_solve    tracking from a prior when one is given (gate blobs
- *                      against predicted beacons, refine), else or when that
- *                      fails acquisition (mfns_pose_acquire).
- *   mfns_pose_acquire  hypothesis-and-verify identification across cameras
- *                      (generalized P3P on blob triples, bounded by
- *                      settings.max_hypotheses), then refinement.
+ * Entry points:
+ *   mfns_pose_track    tracking from a predicted pose: gate blobs against
+ *                      the predicted beacons, refine.
  *   mfns_pose_refine   refinement with known correspondences (warm start).
+ * Acquisition with no prior is acquire.h; the policy of which to run in a
+ * cycle (track, else acquire) belongs to the navigation cycle (nav_cycle.h).
  *
  * Every call fills a mfns_pose_solution_t whose status is OK, DEGRADED or
  * NO_FIX with a reason. Only OK and DEGRADED carry a usable pose; a NO_FIX
  * solution never holds a stale pose marked valid (its pose is the last
- * iterate, for diagnostics only). Time is bounded by the iteration and
- * hypothesis caps of the settings; nothing allocates.
+ * iterate, for diagnostics only). Time is bounded by the iteration cap of
+ * the settings; nothing allocates.
  */
 #ifndef MFNS_POSE_H
 #define MFNS_POSE_H
@@ -73,6 +71,7 @@ typedef enum {
     MFNS_POSE_R_NOT_CONVERGED,  /* iteration cap reached, or diverged */
     MFNS_POSE_R_RESIDUAL_HIGH,  /* inlier RMS above max_residual_rms_px */
     MFNS_POSE_R_TRACK_LOST,     /* tracking gate kept fewer than 3 beacons */
+    MFNS_POSE_R_BELOW_CERTIFICATE, /* fewer blobs than the map's certificate needs for a unique fix */
 } mfns_pose_reason_t;
 
 typedef enum {
@@ -83,7 +82,6 @@ typedef enum {
 typedef struct {
     mfns_solver_settings_t s; /* from the calibration table */
     float sigma_px;           /* pixel noise 1-sigma of the table (covariance, gates) */
-    float max_range_mm;       /* farthest beacon distance considered by initialization */
     mfns_pose_mode_t mode;
 } mfns_pose_config_t;
 
@@ -100,13 +98,15 @@ typedef struct {
     uint16_t outliers;           /* observations gated out */
     uint16_t cameras_used;       /* cameras with at least one inlier */
     uint16_t iterations;         /* refinement iterations (all rounds) */
-    uint16_t hypotheses;         /* identification hypotheses tried (acquire) */
+    uint16_t hypotheses;         /* identification hypotheses tried (acquire; saturates) */
     float residual_rms_px;       /* inlier RMS per coordinate (px) */
     mfns_pose_assoc_t assoc;     /* the correspondence used */
     uint8_t inlier[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
 } mfns_pose_solution_t;
 
-/* Defaults for tests and tools (the flight code takes the table's values). */
+/* Defaults: the solver settings of mfns_solver_settings_default (the ones
+ * tables carry by default), sigma 0.1 px, ML mode. The flight code takes the
+ * table's values. */
 void mfns_pose_config_default(mfns_pose_config_t *cfg);
 
 /* Refine from init with the correspondence assoc (unassigned observations are
@@ -121,16 +121,6 @@ mfns_pose_status_t mfns_pose_refine(const mfns_rig_t *rig, const mfns_beacon_map
  * track_gate_px (one-to-one, nearest first), then refine from predicted. */
 mfns_pose_status_t mfns_pose_track(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                    const mfns_obs_frame_t *frame, const mfns_pose_t *predicted,
-                                   const mfns_pose_config_t *cfg, mfns_pose_solution_t *out);
-
-/* Acquisition with no prior (see top of file). */
-mfns_pose_status_t mfns_pose_acquire(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                                     const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
-                                     mfns_pose_solution_t *out);
-
-/* Tracking when prior != NULL, falling back to acquisition when it gives no fix. */
-mfns_pose_status_t mfns_pose_solve(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                                   const mfns_obs_frame_t *frame, const mfns_pose_t *prior,
                                    const mfns_pose_config_t *cfg, mfns_pose_solution_t *out);
 
 const char *mfns_pose_status_str(mfns_pose_status_t s);

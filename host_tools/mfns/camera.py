@@ -156,6 +156,35 @@ def position_from_pose(C_w_b: np.ndarray, r_bw_b) -> np.ndarray:
 
 
 BEACON_COLUMNS = ("id", "x_mm", "y_mm", "z_mm", "sigma_mm")
+# Optional: each LED's emission axis (world frame, unit) and half-angle; all four or none.
+EMISSION_COLUMNS = ("axis_x", "axis_y", "axis_z", "half_angle_deg")
+
+
+def load_beacon_emission(path) -> tuple[np.ndarray, np.ndarray] | None:
+    """The optional emission columns of a beacon CSV -> (unit axes (N, 3), half-angles deg),
+    or None when the CSV has none of them. Axes are normalised; a zero axis means an LED
+    that emits everywhere. Raises MfnsError (one line) on a partial set or bad values."""
+    rows = V.read_csv(path, "beacon CSV", BEACON_COLUMNS, max_bytes=4 * V.MIB)
+    present = [c for c in EMISSION_COLUMNS if rows and c in rows[0]]
+    if not present:
+        return None
+    if len(present) != len(EMISSION_COLUMNS):
+        raise MfnsError(f"beacon CSV {path}: emission columns must come together ({', '.join(EMISSION_COLUMNS)})")
+    axes, half = [], []
+    for n, r in enumerate(rows, start=2):
+        where = f"beacon CSV {path} line {n}"
+        a = np.array([V.csv_float(r[c], f"{where} {c}") for c in EMISSION_COLUMNS[:3]])
+        h = V.csv_float(r["half_angle_deg"], f"{where} half_angle_deg")
+        if not 0 < h <= 180:
+            raise MfnsError(f"{where} half_angle_deg: expected (0, 180], got {h:g}")
+        norm = float(np.linalg.norm(a))
+        if norm == 0:
+            h = 180.0
+        elif not 0.5 <= norm <= 2.0:
+            raise MfnsError(f"{where}: emission axis of length {norm:.3g} is not a direction (give a unit vector)")
+        axes.append(a / norm if norm > 0 else a)
+        half.append(h)
+    return np.array(axes), np.array(half)
 
 
 def load_beacons(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

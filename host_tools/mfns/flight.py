@@ -1,4 +1,5 @@
-"""The flight pose solver (firmware/nav/pose.h) from Python, through ctypes.
+"""The flight pose solver (firmware/nav/pose.h) and acquisition (acquire.h, beacon_index.h)
+from Python, through ctypes.
 
 Host tools, tests and benchmarks call the same C code the navigation computer runs:
 ``make lib`` builds build/host-sim/lib/libmfns_core.so from the portable core. The
@@ -21,7 +22,12 @@ REPO = Path(__file__).resolve().parents[2]
 DEFAULT_LIB = REPO / "build" / "host-sim" / "lib" / "libmfns_core.so"
 
 NUM_CAMERAS = 3
-MAX_BEACONS = 64
+MAX_BEACONS = 256
+MAX_NBR = 32
+MAX_PAIRS = MAX_BEACONS * (MAX_BEACONS - 1) // 2
+MAX_MEAS = 3 * 32
+MAX_CERT = 16
+MAX_MISSING = 3
 MAX_OBS_PER_CAMERA = 32
 NO_BEACON = -1
 
@@ -39,6 +45,7 @@ REASONS = (
     "NOT_CONVERGED",
     "RESIDUAL_HIGH",
     "TRACK_LOST",
+    "BELOW_CERTIFICATE",
 )
 MODE_ML, MODE_PAPER = 0, 1
 
@@ -93,7 +100,6 @@ class SolverSettings(ct.Structure):
         ("outlier_gate_sigma", ct.c_float),
         ("max_residual_rms_px", ct.c_float),
         ("track_gate_px", ct.c_float),
-        ("max_hypotheses", ct.c_uint16),
         ("min_rcond", ct.c_float),
     ]
 
@@ -102,7 +108,6 @@ class PoseConfig(ct.Structure):
     _fields_ = [
         ("s", SolverSettings),
         ("sigma_px", ct.c_float),
-        ("max_range_mm", ct.c_float),
         ("mode", ct.c_int),
     ]
 
@@ -147,7 +152,120 @@ class SolutionC(ct.Structure):
     ]
 
 
+class CentroidSettings(ct.Structure):
+    _fields_ = [
+        ("threshold_dn", ct.c_uint16),
+        ("threshold_k_sigma", ct.c_float),
+        ("min_area_px", ct.c_uint16),
+        ("max_area_px", ct.c_uint16),
+        ("max_elongation", ct.c_float),
+        ("roi_half_size_px", ct.c_uint16),
+        ("saturation_dn", ct.c_uint16),
+    ]
+
+
+class BeaconEmit(ct.Structure):
+    _fields_ = [("axis_w", V3), ("cos_half_angle", ct.c_float)]
+
+
+class BeaconGeom(ct.Structure):
+    _fields_ = [("emit", BeaconEmit), ("range_min_mm", ct.c_float), ("range_max_mm", ct.c_float)]
+
+
+class BeaconIndex(ct.Structure):
+    _fields_ = [
+        ("count", ct.c_uint16),
+        ("k_nbr", ct.c_uint8),
+        ("max_missing", ct.c_uint8),
+        ("max_unexplained", ct.c_uint8),
+        ("budget_units", ct.c_uint32),
+        ("ws_min_w", V3),
+        ("ws_max_w", V3),
+        ("analysis_samples", ct.c_uint32),
+        ("analysis_max_rival", ct.c_uint16),
+        ("cert_inliers", ct.c_uint8 * (MAX_MISSING + 1)),
+        ("geom", BeaconGeom * MAX_BEACONS),
+        ("nbr_count", ct.c_uint8 * MAX_BEACONS),
+        ("nbr", (ct.c_uint8 * MAX_NBR) * MAX_BEACONS),
+        ("pair_lo", ct.c_uint8 * MAX_PAIRS),
+        ("pair_hi", ct.c_uint8 * MAX_PAIRS),
+    ]
+
+
+class BidxParams(ct.Structure):
+    _fields_ = [
+        ("k_nbr", ct.c_uint8),
+        ("cert_inliers", ct.c_uint8),
+        ("max_missing", ct.c_uint8),
+        ("max_unexplained", ct.c_uint8),
+        ("budget_units", ct.c_uint32),
+    ]
+
+
+class AcqProgress(ct.Structure):
+    _fields_ = [
+        ("units", ct.c_uint32),
+        ("hypotheses", ct.c_uint32),
+        ("verified", ct.c_uint16),
+        ("anchors", ct.c_uint8),
+        ("band", ct.c_uint8),
+        ("best_inliers", ct.c_uint8),
+        ("best_missing", ct.c_uint8),
+        ("finished", ct.c_bool),
+        ("budget_out", ct.c_bool),
+        ("certified", ct.c_bool),
+        ("completed", ct.c_bool),
+        ("rivals", ct.c_uint8),
+    ]
+
+
+class CertifyCase(ct.Structure):
+    _fields_ = [
+        ("sample", ct.c_uint32),
+        ("n_blobs", ct.c_uint16),
+        ("rival_inliers", ct.c_uint16),
+        ("rival_missing", ct.c_uint16),
+        ("truth_id", ct.c_uint16 * MAX_MEAS),
+        ("rival_id", ct.c_int32 * MAX_MEAS),
+    ]
+
+
+class CertifyResult(ct.Structure):
+    _fields_ = [
+        ("samples", ct.c_uint32),
+        ("usable", ct.c_uint32),
+        ("truth_found", ct.c_uint32),
+        ("ambiguous", ct.c_uint32),
+        ("rival_hist", ct.c_uint32 * (MAX_CERT + 1)),
+        ("max_rival", ct.c_uint16),
+        ("rival_by_missing", ct.c_uint16 * (MAX_MISSING + 1)),
+        ("cert_inliers", ct.c_uint8 * (MAX_MISSING + 1)),
+        ("cert_capped", ct.c_uint8),
+        ("worst", CertifyCase),
+    ]
+
+
 _ABI = [Rig, BeaconMap, ObsFrame, Assoc, Pose, PoseConfig, SolutionC]
+# mfns_acq_abi_size order (acquire.h); the state itself is opaque here (a byte buffer).
+_ACQ_ABI = [None, AcqProgress, BeaconIndex, BeaconEmit, BidxParams, CertifyResult]
+
+
+@dataclass
+class Progress:
+    """Where an acquisition stopped (mfns_acq_progress_t)."""
+
+    units: int
+    hypotheses: int
+    verified: int
+    anchors: int
+    band: int
+    best_inliers: int
+    best_missing: int
+    finished: bool
+    budget_out: bool
+    certified: bool
+    completed: bool
+    rivals: int
 
 
 @dataclass
@@ -216,10 +334,59 @@ class Flight:
             P(SolutionC),
         ]
         L.mfns_pose_track.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(Pose), P(PoseConfig), P(SolutionC)]
-        L.mfns_pose_acquire.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(PoseConfig), P(SolutionC)]
-        L.mfns_pose_solve.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(Pose), P(PoseConfig), P(SolutionC)]
-        for f in (L.mfns_pose_refine, L.mfns_pose_track, L.mfns_pose_acquire, L.mfns_pose_solve):
+        for f in (L.mfns_pose_refine, L.mfns_pose_track):
             f.restype = ct.c_int
+        L.mfns_acq_abi_size.restype = ct.c_uint32
+        L.mfns_acq_abi_size.argtypes = [ct.c_int]
+        for i, cls in enumerate(_ACQ_ABI):
+            if cls is not None and L.mfns_acq_abi_size(i) != ct.sizeof(cls):
+                raise MfnsError(
+                    f"{path}: {cls.__name__} is {L.mfns_acq_abi_size(i)} bytes in C, {ct.sizeof(cls)} here"
+                )
+        self._acq_state = (ct.c_uint8 * L.mfns_acq_abi_size(0))()
+        L.mfns_acquire.argtypes = [
+            ct.c_void_p,
+            P(Rig),
+            P(BeaconMap),
+            P(BeaconIndex),
+            P(ObsFrame),
+            P(PoseConfig),
+            ct.c_uint32,
+            P(SolutionC),
+        ]
+        L.mfns_acquire.restype = ct.c_int
+        L.mfns_bidx_params_default.argtypes = [P(BidxParams)]
+        L.mfns_bidx_params_default.restype = None
+        L.mfns_bidx_build.argtypes = [P(Rig), P(BeaconMap), P(BeaconEmit), V3, V3, P(BidxParams), P(BeaconIndex)]
+        L.mfns_bidx_build.restype = ct.c_int
+        L.mfns_bidx_encode.argtypes = [P(BeaconIndex), ct.c_void_p, ct.c_uint32, P(ct.c_uint32)]
+        L.mfns_bidx_encode.restype = ct.c_int
+        L.mfns_bidx_strerror.argtypes = [ct.c_int]
+        L.mfns_bidx_strerror.restype = ct.c_char_p
+        L.mfns_certify.argtypes = [
+            ct.c_void_p,
+            P(Rig),
+            P(BeaconMap),
+            P(BeaconIndex),
+            P(PoseConfig),
+            P(Pose),
+            ct.c_uint32,
+            ct.c_uint32,
+            P(ObsFrame),
+            P(CertifyResult),
+        ]
+        L.mfns_certify.restype = ct.c_int
+        L.mfns_certify_finish.argtypes = [P(CertifyResult), P(BeaconIndex)]
+        L.mfns_certify_accumulate.argtypes = [P(CertifyResult), P(CertifyResult), ct.c_uint32]
+        L.mfns_certify_apply.argtypes = [P(BeaconIndex), P(CertifyResult)]
+        for f in (L.mfns_certify_finish, L.mfns_certify_accumulate, L.mfns_certify_apply):
+            f.restype = None
+        L.mfns_certify_frame.argtypes = [P(Rig), P(BeaconMap), P(BeaconIndex), P(Pose), P(ObsFrame), P(Assoc)]
+        L.mfns_certify_frame.restype = None
+        L.mfns_centroid_settings_default.argtypes = [P(CentroidSettings)]
+        L.mfns_centroid_settings_default.restype = None
+        L.mfns_solver_settings_default.argtypes = [P(SolverSettings)]
+        L.mfns_solver_settings_default.restype = None
         L.mfns_pose_strerror.argtypes = [ct.c_int]
         L.mfns_pose_strerror.restype = ct.c_char_p
 
@@ -239,25 +406,109 @@ class Flight:
         return r
 
     @staticmethod
-    def beacon_map(points, sigma_mm: float = 0.0) -> BeaconMap:
+    def beacon_map(points, sigma_mm=0.0, ids=None) -> BeaconMap:
+        """sigma_mm: one value or one per beacon; ids: survey ids (default 0..N-1)."""
         pts = np.asarray(points, dtype=float).reshape(-1, 3)
         if len(pts) > MAX_BEACONS:
             raise MfnsError(f"{len(pts)} beacons: at most {MAX_BEACONS}")
+        sig = np.broadcast_to(np.asarray(sigma_mm, dtype=float), (len(pts),))
         m = BeaconMap()
         m.count = len(pts)
         for i, p in enumerate(pts):
-            m.beacon[i].id = i
+            m.beacon[i].id = int(ids[i]) if ids is not None else i
             m.beacon[i].p_w = _v3(p)
-            m.beacon[i].sigma_mm = sigma_mm
+            m.beacon[i].sigma_mm = float(sig[i])
         return m
 
-    def config(
-        self, sigma_px: float = 0.1, max_range_mm: float = 3000.0, mode: int = MODE_ML, **settings
-    ) -> PoseConfig:
+    def default_settings(self) -> tuple[dict, dict]:
+        """(centroid, solver) defaults of the C core (nav_defaults.c): the one set."""
+        c, s = CentroidSettings(), SolverSettings()
+        self.lib.mfns_centroid_settings_default(ct.byref(c))
+        self.lib.mfns_solver_settings_default(ct.byref(s))
+        as_py = lambda st: {  # noqa: E731
+            n: (int(getattr(st, n)) if t is not ct.c_float else float(np.float32(getattr(st, n))))
+            for n, t in st._fields_
+        }
+        return as_py(c), as_py(s)
+
+    def index_params(self, **over) -> BidxParams:
+        p = BidxParams()
+        self.lib.mfns_bidx_params_default(ct.byref(p))
+        for k, v in over.items():
+            setattr(p, k, v)
+        return p
+
+    def build_index(self, rig, bmap, ws_min, ws_max, emit=None, params: BidxParams | None = None) -> BeaconIndex:
+        """The map index (beacon_index.h). emit: None or (axes (N, 3), cos_half_angle (N,))."""
+        idx = BeaconIndex()
+        em = None
+        if emit is not None:
+            axes, cosines = emit
+            arr = (BeaconEmit * MAX_BEACONS)()
+            for i in range(bmap.count):
+                arr[i] = BeaconEmit(_v3(axes[i]), float(cosines[i]))
+            em = arr
+        st = self.lib.mfns_bidx_build(
+            ct.byref(rig),
+            ct.byref(bmap),
+            em,
+            _v3(ws_min),
+            _v3(ws_max),
+            ct.byref(params or self.index_params()),
+            ct.byref(idx),
+        )
+        if st != 0:
+            raise MfnsError(self.lib.mfns_bidx_strerror(st).decode())
+        return idx
+
+    def encode_index(self, idx: BeaconIndex) -> bytes:
+        buf = (ct.c_uint8 * (44 + 24 * MAX_BEACONS + MAX_BEACONS * (1 + MAX_NBR) + 2 * MAX_PAIRS))()
+        n = ct.c_uint32(0)
+        st = self.lib.mfns_bidx_encode(ct.byref(idx), buf, len(buf), ct.byref(n))
+        if st != 0:
+            raise MfnsError(self.lib.mfns_bidx_strerror(st).decode())
+        return bytes(buf[: n.value])
+
+    def certify(self, rig, bmap, idx, cfg, poses, budget_per_pose: int) -> CertifyResult:
+        """The map analysis (acquire_certify.h) over poses: a list of Pose."""
+        arr = (Pose * max(1, len(poses)))(*poses)
+        res = CertifyResult()
+        frame = ObsFrame()
+        st = self.lib.mfns_certify(
+            self._acq_state,
+            ct.byref(rig),
+            ct.byref(bmap),
+            ct.byref(idx),
+            ct.byref(cfg),
+            arr,
+            len(poses),
+            int(budget_per_pose),
+            ct.byref(frame),
+            ct.byref(res),
+        )
+        if st != 0:
+            raise MfnsError(self.lib.mfns_bidx_strerror(st).decode())
+        return res
+
+    def certify_accumulate(self, total: CertifyResult, part: CertifyResult, first_sample: int) -> None:
+        self.lib.mfns_certify_accumulate(ct.byref(total), ct.byref(part), int(first_sample))
+
+    def certify_finish(self, res: CertifyResult, idx) -> None:
+        self.lib.mfns_certify_finish(ct.byref(res), ct.byref(idx))
+
+    def certify_apply(self, idx, res: CertifyResult) -> None:
+        self.lib.mfns_certify_apply(ct.byref(idx), ct.byref(res))
+
+    def view(self, rig, bmap, idx, pose: Pose) -> tuple[ObsFrame, Assoc]:
+        """The noise-free frame the rig sees from pose, and its true association."""
+        f, a = ObsFrame(), Assoc()
+        self.lib.mfns_certify_frame(ct.byref(rig), ct.byref(bmap), ct.byref(idx), ct.byref(pose), ct.byref(f), ct.byref(a))
+        return f, a
+
+    def config(self, sigma_px: float = 0.1, mode: int = MODE_ML, **settings) -> PoseConfig:
         c = PoseConfig()
         self.lib.mfns_pose_config_default(ct.byref(c))
         c.sigma_px = sigma_px
-        c.max_range_mm = max_range_mm
         c.mode = mode
         for k, v in settings.items():
             setattr(c.s, k, v)
@@ -312,22 +563,22 @@ class Flight:
         )
         return self._solution(s)
 
-    def acquire(self, rig, bmap, frame, cfg) -> Solution:
+    def acquire(self, rig, bmap, idx, frame, cfg, budget_units: int | None = None) -> tuple[Solution, Progress]:
+        """Lost-in-space acquisition (acquire.h) within budget_units (default: the index's)."""
         s = SolutionC()
-        self.lib.mfns_pose_acquire(ct.byref(rig), ct.byref(bmap), ct.byref(frame), ct.byref(cfg), ct.byref(s))
-        return self._solution(s)
-
-    def solve(self, rig, bmap, frame, prior: Pose | None, cfg) -> Solution:
-        s = SolutionC()
-        self.lib.mfns_pose_solve(
+        budget = idx.budget_units if budget_units is None else int(budget_units)
+        self.lib.mfns_acquire(
+            self._acq_state,
             ct.byref(rig),
             ct.byref(bmap),
+            ct.byref(idx),
             ct.byref(frame),
-            ct.byref(prior) if prior is not None else None,
             ct.byref(cfg),
+            budget,
             ct.byref(s),
         )
-        return self._solution(s)
+        pr = AcqProgress.from_buffer(self._acq_state)
+        return self._solution(s), Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
 
     def strerror(self, reason: str | int) -> str:
         code = REASONS.index(reason) if isinstance(reason, str) else int(reason)

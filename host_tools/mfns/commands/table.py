@@ -31,7 +31,28 @@ def cmd_build(args) -> int:
     centroid, solver = load_settings(args.settings)
     if args.pixel_sigma is not None and not 0.0 < args.pixel_sigma <= 10.0:
         raise MfnsError(f"--pixel-sigma {args.pixel_sigma}: expected a value in (0, 10] px")
-    table, errors = build_table(args.calib_json, args.beacons_csv, grid, centroid, solver, args.pixel_sigma)
+    from ..table import mapindex
+
+    ws = mapindex.parse_workspace(args.workspace) if args.workspace else None
+    if args.certify_samples < 1:
+        raise MfnsError(f"--certify-samples {args.certify_samples}: expected at least 1")
+    from tqdm import tqdm
+
+    with tqdm(
+        total=args.certify_samples, desc="map analysis", unit="pose", disable=True if args.quiet else None, leave=False
+    ) as bar:
+        table, errors, report = build_table(
+            args.calib_json,
+            args.beacons_csv,
+            grid,
+            centroid,
+            solver,
+            args.pixel_sigma,
+            workspace=ws,
+            certify_samples=args.certify_samples,
+            seed=args.seed,
+            progress=bar.update,
+        )
     data = encode(table)
     try:
         status = check_table(data)  # the flight loader on the very bytes to be written
@@ -53,6 +74,8 @@ def cmd_build(args) -> int:
             f"rms {err.rms_px:.4f} px ({err.samples} samples)"
         )
     print(f"grid worst-case error: {max(e.max_px for e in errors):.4f} px")
+    for line in report.lines():
+        print(line)
     return 0
 
 
@@ -89,6 +112,15 @@ def cmd_show(args) -> int:
             f"  grid {g.nx}x{g.ny} nodes, origin ({g.origin_u_q8 / 256:g}, {g.origin_v_q8 / 256:g}) px, "
             f"step {g.step_u_q8 / 256:g} x {g.step_v_q8 / 256:g} px, {g.nx * g.ny * 8} bytes"
         )
+    from ..table.format import index_summary
+
+    ix = index_summary(t)
+    print(
+        f"map index: {ix['k_nbr']} neighbours per beacon, certificate {ix['cert_inliers']} inliers by missing "
+        f"count (at most {ix['max_missing']} missing, {ix['max_unexplained']} unexplained blobs), budget "
+        f"{ix['budget_units']} work units per cycle, workspace {ix['workspace_min_mm']} .. {ix['workspace_max_mm']} "
+        f"mm, analysis of {ix['analysis_samples']} poses (strongest wrong identification {ix['analysis_max_rival']} inliers)"
+    )
     print(f"beacons: {len(t.beacon_ids)}")
     for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
         print(f"  {bid:5d}  {p[0]:11.4f} {p[1]:11.4f} {p[2]:11.4f} mm  sigma {s:.4f} mm")
@@ -114,6 +146,21 @@ def register(subparsers) -> None:
         metavar="PX",
         help="pixel noise the flight solver assumes (default: the calibration's pixel_noise_px)",
     )
+    b.add_argument(
+        "--workspace",
+        metavar="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX",
+        help="box the body origin can be in, world frame, mm (default: the map's bounding box shrunk by "
+        "10%% of its extent on each side)",
+    )
+    b.add_argument(
+        "--certify-samples",
+        type=int,
+        default=200,
+        metavar="N",
+        help="poses of the map analysis that sets the acquisition's certificate (default 200)",
+    )
+    b.add_argument("--seed", type=int, default=1, help="seed of the map analysis' poses (default 1)")
+    b.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     b.set_defaults(func=cmd_build)
     s = sub.add_parser("show", help="print a table and verify its CRC")
     s.add_argument("table", metavar="TABLE")

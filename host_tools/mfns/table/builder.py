@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import calib_results
-from ..camera import load_beacons
+from ..camera import load_beacon_emission, load_beacons, rig_from_doc
 from ..errors import MfnsError
 from .format import CameraRecord, Grid, Table, f32
+from . import mapindex
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
 
 
@@ -49,8 +50,13 @@ def build_table(
     centroid: dict | None = None,
     solver: dict | None = None,
     pixel_sigma_px: float | None = None,
-) -> tuple[Table, list[GridError]]:
-    """The table and, per camera, the measured worst-case error of its grid.
+    workspace: tuple[np.ndarray, np.ndarray] | None = None,
+    certify_samples: int = mapindex.DEFAULT_SAMPLES,
+    seed: int = 1,
+    progress=None,
+) -> tuple[Table, list[GridError], mapindex.IndexReport]:
+    """The table, per camera the measured worst-case error of its grid, and the report
+    of its map index (workspace default: mapindex.default_workspace).
 
     grid None: each camera gets the coarsest grid that corrects its lens to
     MAX_GRID_ERROR_PX within the loader's node limit (grid.size_grid); a given
@@ -82,13 +88,26 @@ def build_table(
                 )
         errors.append(err)
         cams.append(rec)
+    sigma = float(f32(doc["pixel_noise_px"] if pixel_sigma_px is None else pixel_sigma_px))
+    if doc.get("cameras") is not None and len(doc["cameras"]) != 3:
+        raise MfnsError(f"{calib_json}: the flight table holds exactly three cameras (x, y, z)")
+    from ..flight import Flight
+
+    fl = Flight()
+    rig = fl.rig(rig_from_doc(doc))
+    bmap = fl.beacon_map(f32(pos), f32(sig), ids=ids)
+    ws = workspace if workspace is not None else mapindex.default_workspace(f32(pos))
+    idx, report = mapindex.build(
+        fl, rig, bmap, load_beacon_emission(beacons_csv), ws, sigma, certify_samples, seed, progress
+    )
     table = Table(
         cameras=cams,
         beacon_ids=ids,
         beacon_pos=f32(pos),
         beacon_sigma=f32(sig),
-        pixel_sigma_px=float(f32(doc["pixel_noise_px"] if pixel_sigma_px is None else pixel_sigma_px)),
+        pixel_sigma_px=sigma,
         centroid=centroid if centroid is not None else dc,
         solver=solver if solver is not None else ds,
+        index_section=fl.encode_index(idx),
     )
-    return table, errors
+    return table, errors, report

@@ -16,24 +16,22 @@ import numpy as np
 from ..errors import MfnsError
 
 MAGIC = b"MFTB"
-VERSION = 1
+VERSION = 2
 HEADER_SIZE = 16
 GLOBALS_SIZE = 60
 CAMERA_FIXED_SIZE = 116
 NODE_SIZE = 8
 BEACON_SIZE = 20
 NUM_CAMERAS = 3
-# Compile-time maxima of firmware/nav/nav_config.h (the flight loader refuses more).
-MAX_BEACONS = 64
-MAX_GRID_NODES = 8192
-MAX_BYTES = HEADER_SIZE + GLOBALS_SIZE + NUM_CAMERAS * (CAMERA_FIXED_SIZE + NODE_SIZE * MAX_GRID_NODES)
-MAX_BYTES += BEACON_SIZE * MAX_BEACONS
+# The map-index section after the beacon records is written by the C core
+# (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
+INDEX_HEADER = struct.Struct("<HBBBBHI3f3fI4B")
 CAMERA_NAMES = ("x", "y", "z")
 
 # Field order of the settings records (docs/caltable.md).
 CENTROID_U16 = ("threshold_dn", "min_area_px", "max_area_px", "roi_half_size_px", "saturation_dn")
 CENTROID_F32 = ("threshold_k_sigma", "max_elongation")
-SOLVER_U16 = ("max_iterations", "max_hypotheses")
+SOLVER_U16 = ("max_iterations",)  # then a reserved u16 (version 1: max_hypotheses)
 SOLVER_F32 = (
     "step_tol",
     "grad_tol",
@@ -49,7 +47,7 @@ _GLOBALS = struct.Struct("<HHf" + "5HH2f" + "2H7f")
 _CAMERA = struct.Struct("<4H5f5f9f3f2H4i")
 _BEACON = struct.Struct("<HHffff")
 assert _HEADER.size == HEADER_SIZE and _GLOBALS.size == GLOBALS_SIZE
-assert _CAMERA.size == CAMERA_FIXED_SIZE and _BEACON.size == BEACON_SIZE
+assert _CAMERA.size == CAMERA_FIXED_SIZE and _BEACON.size == BEACON_SIZE and INDEX_HEADER.size == 44
 
 
 def f32(x):
@@ -102,6 +100,7 @@ class Table:
     pixel_sigma_px: float
     centroid: dict = field(default_factory=dict)
     solver: dict = field(default_factory=dict)
+    index_section: bytes = b""  # the map index, as mfns_bidx_encode wrote it
     version: int = VERSION
     crc32: int = 0
     size_bytes: int = 0
@@ -113,8 +112,8 @@ def encode(t: Table) -> bytes:
     if len(t.cameras) != NUM_CAMERAS:
         raise MfnsError(f"a table has exactly {NUM_CAMERAS} cameras, got {len(t.cameras)}")
     n_b = len(t.beacon_ids)
-    if not 1 <= n_b <= MAX_BEACONS:
-        raise MfnsError(f"beacon count {n_b} outside 1..{MAX_BEACONS}")
+    if not t.index_section:
+        raise MfnsError("a table needs its map index section (mfns.table.builder builds it)")
     try:
         body = bytearray(
             _GLOBALS.pack(
@@ -125,16 +124,12 @@ def encode(t: Table) -> bytes:
                 0,
                 *(float(t.centroid[k]) for k in CENTROID_F32),
                 *(int(t.solver[k]) for k in SOLVER_U16),
+                0,
                 *(float(t.solver[k]) for k in SOLVER_F32),
             )
         )
         for c in t.cameras:
             g = c.grid
-            if g.nx * g.ny > MAX_GRID_NODES:
-                raise MfnsError(
-                    f"camera {CAMERA_NAMES[c.camera_id]}: grid {g.nx}x{g.ny} has {g.nx * g.ny} nodes, "
-                    f"more than MFNS_MAX_GRID_NODES ({MAX_GRID_NODES})"
-                )
             body += _CAMERA.pack(
                 c.camera_id,
                 c.width,
@@ -158,11 +153,10 @@ def encode(t: Table) -> bytes:
             body += np.ascontiguousarray(g.nodes, dtype="<i4").tobytes()
         for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
             body += _BEACON.pack(int(bid), 0, float(p[0]), float(p[1]), float(p[2]), float(s))
+        body += t.index_section
     except struct.error as exc:
         raise MfnsError(f"value does not fit the table format: {exc}") from exc
     total = HEADER_SIZE + len(body)
-    if total > MAX_BYTES:
-        raise MfnsError(f"table of {total} bytes exceeds the flight maximum {MAX_BYTES}")
     return _HEADER.pack(MAGIC, VERSION, HEADER_SIZE, total, zlib.crc32(body)) + bytes(body)
 
 
@@ -175,7 +169,7 @@ def decode(data: bytes) -> Table:
     n_b, sigma = g[1], g[2]
     centroid = dict(zip(CENTROID_U16, g[3:8], strict=True))
     centroid.update(zip(CENTROID_F32, g[9:11], strict=True))
-    solver = dict(zip(SOLVER_U16, g[11:13], strict=True))
+    solver = dict(zip(SOLVER_U16, g[11:12], strict=True))
     solver.update(zip(SOLVER_F32, g[13:20], strict=True))
     pos = HEADER_SIZE + GLOBALS_SIZE
     cams = []
@@ -211,6 +205,7 @@ def decode(data: bytes) -> Table:
         ids.append(bid)
         p.append((x, y, z))
         s.append(sig)
+    pos += n_b * BEACON_SIZE
     return Table(
         cameras=cams,
         beacon_ids=np.array(ids, dtype=int),
@@ -219,7 +214,25 @@ def decode(data: bytes) -> Table:
         pixel_sigma_px=sigma,
         centroid=centroid,
         solver=solver,
+        index_section=bytes(data[pos:total]),
         version=version,
         crc32=crc,
         size_bytes=total,
     )
+
+
+def index_summary(t: Table) -> dict:
+    """The header of a decoded table's map index (docs/caltable.md "Map index")."""
+    h = INDEX_HEADER.unpack_from(t.index_section, 0)
+    return {
+        "beacons": h[0],
+        "k_nbr": h[1],
+        "max_missing": h[2],
+        "max_unexplained": h[3],
+        "analysis_max_rival": h[5],
+        "budget_units": h[6],
+        "workspace_min_mm": list(h[7:10]),
+        "workspace_max_mm": list(h[10:13]),
+        "analysis_samples": h[13],
+        "cert_inliers": list(h[14 : 15 + h[2]]),
+    }

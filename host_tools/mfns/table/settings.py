@@ -1,5 +1,5 @@
 """Default centroid and solver settings of the calibration table (docs/caltable.md
-"Default settings" gives the reasons). `mfns table build --settings FILE` overrides any
+"Default settings" gives the reasons; the numbers are the C core's, nav_defaults.c). `mfns table build --settings FILE` overrides any
 of them from a JSON object {"centroid": {...}, "solver": {...}}."""
 
 from __future__ import annotations
@@ -9,27 +9,15 @@ from pathlib import Path
 from .. import validate as V
 from .format import CENTROID_U16, SOLVER_U16
 
-DEFAULT_CENTROID = {
-    "threshold_dn": 0,  # 0: use the k-sigma rule below
-    "threshold_k_sigma": 6.0,
-    "min_area_px": 3,
-    "max_area_px": 2000,
-    "max_elongation": 3.0,
-    "roi_half_size_px": 32,
-    "saturation_dn": 0,  # 0: the maximum of the pixel format
-}
 
-DEFAULT_SOLVER = {
-    "max_iterations": 20,
-    "step_tol": 1e-6,
-    "grad_tol": 1e-6,
-    "huber_k": 3.0,
-    "outlier_gate_sigma": 30.0,
-    "max_residual_rms_px": 2.0,
-    "track_gate_px": 20.0,
-    "max_hypotheses": 4096,
-    "min_rcond": 1e-7,
-}
+
+def defaults() -> tuple[dict, dict]:
+    """(centroid, solver) defaults: the C core's one set (firmware/nav/nav_defaults.c),
+    through the shared library, so tables and the flight code's tests agree."""
+    from ..flight import Flight
+
+    return Flight().default_settings()
+
 
 MAX_BYTES = 64 * 1024
 F32_MAX = 3.4028234663852886e38
@@ -46,7 +34,7 @@ def _typed(section: str, key: str, v: object) -> int | float:
 
 
 def load_settings(path: str | Path | None) -> tuple[dict, dict]:
-    centroid, solver = dict(DEFAULT_CENTROID), dict(DEFAULT_SOLVER)
+    centroid, solver = defaults()
     if path is None:
         return centroid, solver
     what = f"settings {path}"

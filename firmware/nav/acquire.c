@@ -1,0 +1,714 @@
+/* acquire.c -- see acquire.h. */
+#include "acquire.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "acquire_certify.h"
+#include "pose_init.h"
+#include "pose_internal.h"
+
+/* A pose from three rays carries their noise amplified by the geometry
+ * (tens of times near the "danger cylinder"): measured, a right minimal pose
+ * at 0.3 px noise predicted a fourth beacon 16 px off. The first association
+ * therefore uses this multiple of the tracking gate; the refined pose is then
+ * associated again with the tracking gate itself. */
+#define MINIMAL_GATE_FACTOR 4.0f
+/* The verification blobs are the anchor's nearest neighbours in the image,
+ * where the minimal pose's prediction error is smallest: they are checked
+ * with half the minimal gate (a false hypothesis then passes ~4x less often;
+ * measured, the right one still passes, docs/pose.md). */
+#define QUICK_GATE_FACTOR 2.0f
+/* Predicted beacons closer than this to the image border are not counted as
+ * missing (a spot cut by the border may be refused by the centroider). */
+#define MISSING_EDGE_PX 8.0f
+/* Cross-camera angles: the two rays start at different camera centres, so
+ * their angle differs from the angle the pair subtends at one point by up to
+ * the parallax of the baseline at the nearest range. */
+#define MIN_PARALLAX_RANGE_MM 200.0f
+
+uint32_t mfns_acq_abi_size(mfns_acq_abi_t what)
+{
+    switch (what) {
+    case MFNS_ACQ_ABI_STATE:
+        return (uint32_t)sizeof(mfns_acq_t);
+    case MFNS_ACQ_ABI_PROGRESS:
+        return (uint32_t)sizeof(mfns_acq_progress_t);
+    case MFNS_ACQ_ABI_INDEX:
+        return (uint32_t)sizeof(mfns_beacon_index_t);
+    case MFNS_ACQ_ABI_EMIT:
+        return (uint32_t)sizeof(mfns_beacon_emit_t);
+    case MFNS_ACQ_ABI_PARAMS:
+        return (uint32_t)sizeof(mfns_bidx_params_t);
+    case MFNS_ACQ_ABI_CERTIFY:
+        return (uint32_t)sizeof(mfns_certify_result_t);
+    }
+    return 0;
+}
+
+static float ray_angle(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
+{
+    const float cs = mfns_v3_dot(a->d, b->d);
+    return acosf(cs > 1.0f ? 1.0f : (cs < -1.0f ? -1.0f : cs));
+}
+
+static float parallax_pad(const mfns_acq_t *q, const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
+{
+    if (a->cam == b->cam) {
+        return 0.0f;
+    }
+    const float base = mfns_v3_norm(mfns_v3_sub(a->c, b->c));
+    const float s = base / MIN_PARALLAX_RANGE_MM;
+    (void)q;
+    return s >= 1.0f ? 3.14159265f : asinf(s);
+}
+
+/* ------------------------------------------------------------ frame setup */
+
+static bool setup(mfns_acq_t *q)
+{
+    q->nb = 0;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+            q->cam_blob[c][i] = -1;
+        }
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const mfns_obs_t *o = &q->frame->obs[c][i];
+            if (!isfinite(o->u) || !isfinite(o->v) || !isfinite(o->x) || !isfinite(o->y)) {
+                return false;
+            }
+            mfns_acq_blob_t *b = &q->blobs[q->nb];
+            b->cam = (uint8_t)c;
+            b->idx = (uint8_t)i;
+            mfns_pose_ray(&q->rig->cam[c], o->x, o->y, &b->c, &b->d);
+            q->cam_blob[c][i] = (int16_t)q->nb;
+            q->nb++;
+        }
+        q->gate_n[c] = MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px / q->rig->cam[c].k.fx;
+    }
+    return true;
+}
+
+/* The blob of camera cam nearest (in angle) to blob i, other than those in
+ * excl[0..ne), or -1. */
+static int nearest_in_cam(const mfns_acq_t *q, int cam, int i, const int *excl, int ne)
+{
+    int best = -1;
+    float bc = -2.0f;
+    for (int m = 0; m < q->frame->count[cam]; m++) {
+        const int b = q->cam_blob[cam][m];
+        bool skip = b == i;
+        for (int e = 0; e < ne; e++) {
+            skip = skip || b == excl[e];
+        }
+        if (skip) {
+            continue;
+        }
+        const float cs = mfns_v3_dot(q->blobs[i].d, q->blobs[b].d);
+        if (cs > bc) {
+            bc = cs;
+            best = b;
+        }
+    }
+    return best;
+}
+
+/* Anchors: each blob with its nearest neighbour in the same image, nearest
+ * pairs first (insertion into a short sorted list). */
+static void make_anchors(mfns_acq_t *q)
+{
+    float ang[MFNS_ACQ_MAX_ANCHORS];
+    q->na = 0;
+    for (int i = 0; i < q->nb; i++) {
+        const int cam = q->blobs[i].cam;
+        const int j = nearest_in_cam(q, cam, i, NULL, 0);
+        if (j < 0) {
+            continue;
+        }
+        bool dup = false;
+        for (int a = 0; a < q->na; a++) {
+            dup = dup || (q->anchor[a].i == j && q->anchor[a].j == i);
+        }
+        if (dup) {
+            continue;
+        }
+        const float t = ray_angle(&q->blobs[i], &q->blobs[j]);
+        int pos = q->na;
+        while (pos > 0 && ang[pos - 1] > t) {
+            pos--;
+        }
+        if (pos >= MFNS_ACQ_MAX_ANCHORS) {
+            continue;
+        }
+        const int last = q->na < MFNS_ACQ_MAX_ANCHORS ? q->na : MFNS_ACQ_MAX_ANCHORS - 1;
+        for (int m = last; m > pos; m--) {
+            q->anchor[m] = q->anchor[m - 1];
+            ang[m] = ang[m - 1];
+        }
+        mfns_acq_anchor_t *an = &q->anchor[pos];
+        an->i = (int16_t)i;
+        an->j = (int16_t)j;
+        ang[pos] = t;
+        if (q->na < MFNS_ACQ_MAX_ANCHORS) {
+            q->na++;
+        }
+    }
+    for (int a = 0; a < q->na; a++) {
+        mfns_acq_anchor_t *an = &q->anchor[a];
+        const int cam = q->blobs[an->i].cam;
+        const int ex[2] = {an->j, -1};
+        int k = nearest_in_cam(q, cam, an->i, ex, 1);
+        an->cross = k < 0;
+        if (k < 0) {
+            /* another camera's blob: the camera with the most blobs */
+            int cm = -1;
+            for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+                if (c != cam && q->frame->count[c] > 0 && (cm < 0 || q->frame->count[c] > q->frame->count[cm])) {
+                    cm = c;
+                }
+            }
+            k = cm >= 0 ? q->cam_blob[cm][0] : -1;
+        }
+        an->k = (int16_t)k;
+        int ex2[3] = {an->j, k, -1};
+        an->v[0] = (int16_t)(an->cross ? -1 : nearest_in_cam(q, cam, an->i, ex2, 2));
+        ex2[2] = an->v[0];
+        an->v[1] = (int16_t)(an->v[0] < 0 ? -1 : nearest_in_cam(q, cam, an->i, ex2, 3));
+        /* too few in the anchor's image: blobs of the other cameras */
+        for (int b = 0; b < q->nb && an->v[1] < 0; b++) {
+            if (b == an->i || b == an->j || b == an->k || b == an->v[0]) {
+                continue;
+            }
+            if (q->blobs[b].cam != cam) {
+                an->v[an->v[0] < 0 ? 0 : 1] = (int16_t)b;
+            }
+        }
+    }
+    q->progress.anchors = (uint8_t)q->na;
+}
+
+/* ------------------------------------------------------------ verification */
+
+/* Upper 1e-5 quantiles of chi-square with k = 1..16 degrees of freedom. */
+static const float chi2_q[16] = {19.51f, 23.03f, 25.90f, 28.47f, 30.86f, 33.11f, 35.26f, 37.33f,
+                                 39.34f, 41.30f, 43.21f, 45.08f, 46.91f, 48.72f, 50.49f, 52.24f};
+
+static float chi2_quantile(int dof)
+{
+    if (dof <= 16) {
+        return chi2_q[dof - 1];
+    }
+    /* Wilson-Hilferty, z = 4.265 (1e-5) */
+    const float a = 2.0f / (9.0f * (float)dof);
+    const float b = 1.0f - a + 4.265f * sqrtf(a);
+    return (float)dof * b * b * b;
+}
+
+/* The residuals of the inliers are plausible under the noise: sum of
+ * (r / sigma_i)^2 below the chi-square quantile with 2n - 6 degrees of
+ * freedom at 1e-5, where sigma_i^2 = sigma_px^2 + (f sigma_beacon / depth)^2
+ * (the beacon's survey error seen at its range). A right pose fails once in
+ * 1e5; a rival correspondence that fits "nearly" is rejected. */
+static bool chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
+{
+    const int dof = 2 * (int)sol->beacons_used - 6;
+    if (dof <= 0) {
+        return true;
+    }
+    float chi2 = 0.0f;
+    const float s2px = q->cfg->sigma_px * q->cfg->sigma_px;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b == MFNS_POSE_NO_BEACON || !sol->inlier[c][i]) {
+                continue;
+            }
+            const mfns_camera_t *cam = &q->rig->cam[c];
+            const mfns_v3_t pk = mfns_cam_world_to_camera(cam, &sol->pose, q->map->beacon[b].p_w);
+            float uv[2];
+            if (pk.z < MFNS_CAM_MIN_DEPTH_MM ||
+                mfns_cam_project(cam, &sol->pose, q->map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+                return false;
+            }
+            const float sb = cam->k.fx * q->map->beacon[b].sigma_mm / pk.z;
+            const float du = uv[0] - q->frame->obs[c][i].u, dv = uv[1] - q->frame->obs[c][i].v;
+            chi2 += (du * du + dv * dv) / (s2px + sb * sb);
+        }
+    }
+    return chi2 <= chi2_quantile(dof);
+}
+
+/* Beacons predicted inside an image (away from its border), in front of the
+ * camera and facing it, that no inlier of the solution accounts for. */
+static int count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
+{
+    int missing = 0;
+    const mfns_beacon_map_t *map = q->map;
+    for (int b = 0; b < map->count; b++) {
+        bool used = false;
+        for (int c = 0; c < MFNS_NUM_CAMERAS && !used; c++) {
+            for (int i = 0; i < q->frame->count[c]; i++) {
+                if (sol->assoc.beacon[c][i] == b && sol->inlier[c][i]) {
+                    used = true;
+                    break;
+                }
+            }
+        }
+        if (used) {
+            continue;
+        }
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            const mfns_camera_t *cam = &q->rig->cam[c];
+            float uv[2];
+            if (q->frame->count[c] >= MFNS_MAX_OBS_PER_CAMERA) {
+                continue; /* a full observation list kept the brightest: the rest are not missing */
+            }
+            if (mfns_cam_project(cam, &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+                continue;
+            }
+            const float m = MISSING_EDGE_PX;
+            if (uv[0] < m - 0.5f || uv[1] < m - 0.5f || uv[0] > (float)cam->k.width - 0.5f - m ||
+                uv[1] > (float)cam->k.height - 0.5f - m) {
+                continue;
+            }
+            /* camera centre in the world: r_wb_w + C_b_w r_bk_b */
+            const mfns_v3_t ck = mfns_v3_add(mfns_pose_position_w(&sol->pose),
+                                             mfns_m3_tmul_v3(sol->pose.C_w_b, cam->r_bk_b));
+            if (!mfns_bidx_emits_toward(&q->idx->geom[b], map->beacon[b].p_w, ck)) {
+                continue;
+            }
+            missing++;
+            break;
+        }
+    }
+    q->progress.units += (uint32_t)map->count / 16u;
+    return missing;
+}
+
+static bool same_assoc(const mfns_acq_t *q, const mfns_pose_solution_t *a, const mfns_pose_solution_t *b)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t ba = a->inlier[c][i] ? a->assoc.beacon[c][i] : MFNS_POSE_NO_BEACON;
+            const int16_t bb = b->inlier[c][i] ? b->assoc.beacon[c][i] : MFNS_POSE_NO_BEACON;
+            if (ba != bb) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+bool mfns_acq_acceptable(const mfns_acq_t *q, const mfns_acq_cand_t *cd)
+{
+    return cd->missing <= q->idx->max_missing && q->nb - (int)cd->inliers <= (int)q->idx->max_unexplained;
+}
+
+static bool better(const mfns_acq_cand_t *a, const mfns_acq_cand_t *b)
+{
+    return a->inliers > b->inliers || (a->inliers == b->inliers && a->missing < b->missing);
+}
+
+static void add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd)
+{
+    for (int i = 0; i < q->ncand; i++) {
+        if (same_assoc(q, &q->cand[i].sol, &cd->sol)) {
+            return;
+        }
+    }
+    int slot = q->ncand;
+    if (q->ncand < MFNS_ACQ_MAX_CAND) {
+        q->ncand++;
+    } else {
+        int worst = 0;
+        for (int i = 1; i < q->ncand; i++) {
+            if (better(&q->cand[worst], &q->cand[i])) {
+                worst = i;
+            }
+        }
+        if (!better(cd, &q->cand[worst])) {
+            return;
+        }
+        slot = worst;
+    }
+    q->cand[slot] = *cd;
+    q->best = 0;
+    for (int i = 1; i < q->ncand; i++) {
+        if (better(&q->cand[i], &q->cand[q->best])) {
+            q->best = i;
+        }
+    }
+    q->progress.best_inliers = q->cand[q->best].inliers;
+    q->progress.best_missing = q->cand[q->best].missing;
+    if (!q->analysis && mfns_acq_acceptable(q, cd)) {
+        if (cd->inliers >= q->idx->cert_inliers[cd->missing]) {
+            q->certified = slot;
+        } else if ((int)cd->inliers == q->nb) {
+            /* every blob explained, yet too few for the certificate: only the
+             * completion can certify it, so the bands stop here */
+            q->to_complete = true;
+        }
+    }
+}
+
+/* Does a beacon land within the quick gate of blob v (normalized
+ * coordinates, no distortion)? In the anchor's image only the beacons near
+ * a, b or c can (their neighbour lists); in another camera's, any. */
+static bool beacon_hits(mfns_acq_t *q, const mfns_pose_t *pose, int v, int anchor_cam, const int abc[3])
+{
+    const mfns_acq_blob_t *bv = &q->blobs[v];
+    const mfns_camera_t *cam = &q->rig->cam[bv->cam];
+    const mfns_m3_t m = mfns_m3_mul(mfns_m3_transpose(cam->C_k_b), pose->C_w_b);
+    const mfns_v3_t t = mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(pose->r_bw_b, cam->r_bk_b));
+    const mfns_obs_t *o = &q->frame->obs[bv->cam][bv->idx];
+    const bool local = bv->cam == anchor_cam && !q->exhaustive;
+    /* another camera looks ~90 deg away: the minimal pose's rotation error
+     * has a long lever there, so it gets the full minimal gate */
+    const float g = bv->cam == anchor_cam ? QUICK_GATE_FACTOR * q->gate_n[bv->cam] / MINIMAL_GATE_FACTOR
+                                          : q->gate_n[bv->cam];
+    const int lists = local ? 3 : 1;
+    for (int l = 0; l < lists; l++) {
+        const int a = abc[l];
+        const int n = local ? q->idx->nbr_count[a] : q->map->count;
+        q->progress.units += local ? 0u : (uint32_t)n / 64u;
+        for (int r = 0; r < n; r++) {
+            const int b = local ? q->idx->nbr[a][r] : r;
+            if (b == abc[0] || b == abc[1] || b == abc[2]) {
+                continue;
+            }
+            const mfns_v3_t p = mfns_v3_add(mfns_m3_mul_v3(m, q->map->beacon[b].p_w), t);
+            if (p.z < MFNS_CAM_MIN_DEPTH_MM) {
+                continue;
+            }
+            const float dx = p.x / p.z - o->x, dy = p.y / p.z - o->y;
+            if (dx * dx + dy * dy <= g * g) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+/* Cheap check of a hypothesis pose on the anchor's verification blobs: in
+ * the anchor's image each must be explained by a beacon; in another camera,
+ * where the minimal pose predicts worst, one of them. */
+static bool quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
+{
+    q->progress.units++;
+    const int cam = q->blobs[an->i].cam;
+    int tried = 0, hit = 0;
+    for (int w = 0; w < 2; w++) {
+        if (an->v[w] < 0) {
+            continue;
+        }
+        const bool h = beacon_hits(q, pose, an->v[w], cam, abc);
+        if (!h && q->blobs[an->v[w]].cam == cam) {
+            return false;
+        }
+        tried++;
+        hit += h ? 1 : 0;
+    }
+    return tried == 0 || hit > 0;
+}
+
+/* Associate in pixels, refine, associate again; the candidate or false. */
+static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t *cd)
+{
+    q->progress.units += MFNS_ACQ_VERIFY_UNITS;
+    q->progress.verified++;
+    memset(cd, 0, sizeof *cd);
+    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
+                            &cd->sol.assoc) < (int)MFNS_BIDX_MIN_CERT) {
+        return false;
+    }
+    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    const int n = mfns_pose_gather(q->map, q->frame, &cd->sol.assoc, m);
+    if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd->sol) == MFNS_POSE_NO_FIX) {
+        return false;
+    }
+    /* The minimal pose predicts the other beacons only roughly: associate
+     * again from the refined pose, with the tracking gate and then a wider
+     * one, keeping a re-solve that explains more blobs and stays consistent. */
+    for (int round = 0; round < 2; round++) {
+        const float gate = q->cfg->s.track_gate_px * (round == 0 ? 1.0f : MINIMAL_GATE_FACTOR);
+        mfns_pose_assoc_t again;
+        if (mfns_pose_associate(q->rig, q->map, q->frame, &cd->sol.pose, gate, &again) <= cd->sol.beacons_used) {
+            continue;
+        }
+        q->progress.units += MFNS_ACQ_VERIFY_UNITS;
+        mfns_pose_solution_t s2;
+        memset(&s2, 0, sizeof s2);
+        s2.assoc = again;
+        const int n2 = mfns_pose_gather(q->map, q->frame, &again, m);
+        if (n2 >= 0 && mfns_pose_refine_meas(q->rig, m, n2, &cd->sol.pose, q->cfg, &s2) != MFNS_POSE_NO_FIX &&
+            s2.beacons_used > cd->sol.beacons_used && chi2_consistent(q, &s2)) {
+            cd->sol = s2;
+        }
+    }
+    if (cd->sol.beacons_used < MFNS_BIDX_MIN_CERT || !chi2_consistent(q, &cd->sol)) {
+        return false;
+    }
+    cd->inliers = (uint8_t)(cd->sol.beacons_used > 255u ? 255u : cd->sol.beacons_used);
+    const int miss = count_missing(q, &cd->sol);
+    cd->missing = (uint8_t)(miss > 255 ? 255 : miss);
+    return true;
+}
+
+/* ------------------------------------------------------------ enumeration */
+
+static bool stop(const mfns_acq_t *q) { return q->certified >= 0 || q->to_complete || q->progress.budget_out; }
+
+static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b, int c)
+{
+    if (q->progress.units + 1u > q->budget) {
+        q->progress.budget_out = true;
+        return;
+    }
+    q->progress.units++;
+    q->progress.hypotheses++;
+    const mfns_acq_blob_t *t[3] = {&q->blobs[an->i], &q->blobs[an->j], &q->blobs[an->k]};
+    const mfns_v3_t rc[3] = {t[0]->c, t[1]->c, t[2]->c};
+    const mfns_v3_t rd[3] = {t[0]->d, t[1]->d, t[2]->d};
+    const mfns_v3_t xw[3] = {q->map->beacon[a].p_w, q->map->beacon[b].p_w, q->map->beacon[c].p_w};
+    const mfns_beacon_geom_t *gc = &q->idx->geom[c];
+    mfns_pose_t sols[MFNS_GP3P_MAX_SOLUTIONS];
+    const int ns = mfns_gp3p(rc, rd, xw, gc->range_min_mm, gc->range_max_mm, sols);
+    const int abc[3] = {a, b, c};
+    for (int s = 0; s < ns && !stop(q); s++) {
+        if (!quick_check(q, &sols[s], an, abc)) {
+            continue;
+        }
+        mfns_acq_cand_t cd;
+        if (full_verify(q, &sols[s], &cd)) {
+            add_candidate(q, &cd);
+        }
+    }
+}
+
+/* Band [w0, w1) of one anchor: hypotheses whose ranks (rb, rc) reach it. */
+static void band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1)
+{
+    const mfns_beacon_index_t *ix = q->idx;
+    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
+    const float tij = ray_angle(bi, bj), tik = ray_angle(bi, bk), tjk = ray_angle(bj, bk);
+    const float pik = parallax_pad(q, bi, bk), pjk = parallax_pad(q, bj, bk);
+    for (int a = 0; a < ix->count && !stop(q); a++) {
+        const int na = ix->nbr_count[a];
+        for (int rb = 0; rb < na && rb < w1 && !stop(q); rb++) {
+            const int b = ix->nbr[a][rb];
+            if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, 0.0f)) {
+                continue;
+            }
+            if (an->cross) {
+                if (rb < w0) {
+                    continue;
+                }
+                for (int c = 0; c < ix->count && !stop(q); c++) {
+                    if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
+                        mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
+                        hypothesis(q, an, a, b, c);
+                    }
+                }
+                continue;
+            }
+            for (int rc = 0; rc < na && rc < w1 && !stop(q); rc++) {
+                if (rb < w0 && rc < w0) {
+                    continue; /* an earlier band's */
+                }
+                const int c = ix->nbr[a][rc];
+                if (c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, 0.0f) &&
+                    mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, 0.0f)) {
+                    hypothesis(q, an, a, b, c);
+                }
+            }
+        }
+    }
+}
+
+/* Every admissible ordered beacon triple for the anchor's blobs (not only
+ * the neighbour bands): the completion that certifies a candidate which
+ * explains every blob of a frame with too few blobs for the certificate.
+ * A rival that also explains every blob explains the anchor's three, so it
+ * is among these hypotheses. */
+static void exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an)
+{
+    const mfns_beacon_index_t *ix = q->idx;
+    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
+    const float tij = ray_angle(bi, bj), tik = ray_angle(bi, bk), tjk = ray_angle(bj, bk);
+    const float pij = parallax_pad(q, bi, bj), pik = parallax_pad(q, bi, bk), pjk = parallax_pad(q, bj, bk);
+    for (int a = 0; a < ix->count && !stop(q); a++) {
+        for (int b = 0; b < ix->count && !stop(q); b++) {
+            if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, pij)) {
+                continue;
+            }
+            for (int c = 0; c < ix->count && !stop(q); c++) {
+                if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
+                    mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
+                    hypothesis(q, an, a, b, c);
+                }
+            }
+        }
+    }
+}
+
+/* After the bands without a certified pose: a best candidate that explains
+ * every blob (none unexplained, missing within the allowance) is unique if
+ * the exhaustive enumeration of one anchor finds no other such candidate. */
+static void complete(mfns_acq_t *q)
+{
+    /* the anchor to exhaust: one whose three blobs share an image (its pair
+     * look-ups prune), else the first */
+    int an = -1;
+    for (int a = 0; a < q->na; a++) {
+        if (q->anchor[a].k >= 0 && (an < 0 || (q->anchor[an].cross && !q->anchor[a].cross))) {
+            an = a;
+        }
+    }
+    if (q->best < 0 || an < 0 || q->progress.budget_out) {
+        return;
+    }
+    const mfns_acq_cand_t *b = &q->cand[q->best];
+    if ((int)b->inliers != q->nb || b->missing > q->idx->max_missing) {
+        return;
+    }
+    const bool was = q->analysis;
+    q->analysis = true; /* collect, never stop on the first */
+    q->exhaustive = true;
+    q->to_complete = false;
+    exhaust(q, &q->anchor[an]);
+    q->exhaustive = false;
+    q->analysis = was;
+    if (q->progress.budget_out) {
+        return;
+    }
+    /* the best explanation must be unique: no other pose explains every blob
+     * with as few missing beacons (one with more missing is less likely by
+     * the chance of a visible beacon giving no blob) */
+    int keep = -1, ties = 0;
+    for (int i = 0; i < q->ncand; i++) {
+        const mfns_acq_cand_t *c = &q->cand[i];
+        if ((int)c->inliers != q->nb || c->missing > q->idx->max_missing) {
+            continue;
+        }
+        if (keep < 0 || c->missing < q->cand[keep].missing) {
+            keep = i;
+            ties = 0;
+        } else if (c->missing == q->cand[keep].missing) {
+            ties++;
+        }
+    }
+    q->progress.rivals = (uint8_t)ties;
+    if (keep >= 0 && ties == 0) {
+        q->certified = keep;
+        q->progress.completed = true;
+    }
+}
+
+void mfns_acq_search(mfns_acq_t *q)
+{
+    memset(&q->progress, 0, sizeof q->progress);
+    q->ncand = 0;
+    q->best = -1;
+    q->certified = -1;
+    q->exhaustive = false;
+    q->to_complete = false;
+    make_anchors(q);
+    /* Cheap anchors first: a band of an anchor whose third blob is in the
+     * same image costs N (w1^2 - w0^2) pair look-ups, one whose third is in
+     * another camera N^2 (w1 - w0); so every band of the first kind comes
+     * before any of the second. */
+    for (int pass = 0; pass < 2 && !stop(q); pass++) {
+        int w0 = 0;
+        for (int w1 = 1; w0 < q->idx->k_nbr && !stop(q); w1 *= 2) {
+            const int w = w1 < q->idx->k_nbr ? w1 : q->idx->k_nbr;
+            q->progress.band = (uint8_t)w;
+            for (int a = 0; a < q->na && !stop(q); a++) {
+                if (q->anchor[a].k >= 0 && q->anchor[a].cross == (pass == 1)) {
+                    band(q, &q->anchor[a], w0, w);
+                }
+            }
+            w0 = w;
+        }
+    }
+    q->progress.finished = !stop(q) || q->to_complete;
+    if (!q->analysis && q->certified < 0) {
+        complete(q);
+    }
+    q->progress.certified = q->certified >= 0;
+}
+
+static bool valid_inputs(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_beacon_index_t *idx,
+                         const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg)
+{
+    if (rig == NULL || map == NULL || idx == NULL || frame == NULL || cfg == NULL || map->count > MFNS_MAX_BEACONS ||
+        idx->count != map->count || idx->k_nbr == 0 || idx->k_nbr > MFNS_BIDX_MAX_NBR ||
+        !(cfg->sigma_px > 0.0f) || cfg->s.max_iterations == 0 || !(cfg->s.track_gate_px > 0.0f)) {
+        return false;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (frame->count[c] > MFNS_MAX_OBS_PER_CAMERA) {
+            return false;
+        }
+    }
+    return true;
+}
+
+bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                      const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
+                      uint32_t budget_units, bool analysis)
+{
+    memset(&acq->progress, 0, sizeof acq->progress);
+    acq->ncand = 0;
+    acq->best = -1;
+    acq->certified = -1;
+    if (!valid_inputs(rig, map, idx, frame, cfg)) {
+        return false;
+    }
+    acq->rig = rig;
+    acq->map = map;
+    acq->idx = idx;
+    acq->frame = frame;
+    acq->cfg = cfg;
+    acq->budget = budget_units;
+    acq->analysis = analysis;
+    return setup(acq);
+}
+
+mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
+                                const mfns_pose_config_t *cfg, uint32_t budget_units, mfns_pose_solution_t *out)
+{
+    if (out == NULL) {
+        return MFNS_POSE_NO_FIX;
+    }
+    mfns_pose_solution_clear(out, MFNS_POSE_R_BAD_ARG);
+    if (acq == NULL || !mfns_acq_prepare(acq, rig, map, idx, frame, cfg, budget_units, false)) {
+        return out->status;
+    }
+    if (acq->nb < 3 || map->count < 3) {
+        out->reason = MFNS_POSE_R_TOO_FEW;
+        return out->status;
+    }
+    if (acq->nb < (int)MFNS_BIDX_MIN_CERT) {
+        /* no fix from three blobs can be certified: do not search */
+        out->reason = MFNS_POSE_R_BELOW_CERTIFICATE;
+        return out->status;
+    }
+    mfns_acq_search(acq);
+    const uint32_t hyp = acq->progress.hypotheses;
+    if (acq->certified >= 0) {
+        *out = acq->cand[acq->certified].sol;
+    } else {
+        mfns_pose_reason_t reason = MFNS_POSE_R_NOT_IDENTIFIED;
+        for (int i = 0; i < acq->ncand && acq->best >= 0; i++) {
+            if (i != acq->best && acq->cand[i].inliers == acq->cand[acq->best].inliers &&
+                acq->cand[i].missing == acq->cand[acq->best].missing) {
+                reason = MFNS_POSE_R_AMBIGUOUS;
+            }
+        }
+        mfns_pose_solution_clear(out, reason);
+    }
+    out->hypotheses = (uint16_t)(hyp > 0xFFFFu ? 0xFFFFu : hyp);
+    return out->status;
+}

@@ -1,0 +1,149 @@
+/* acquire.h -- lost-in-space acquisition: which blob is which beacon, with
+ * no prior, in any map the table can hold (docs/pose.md "Acquisition").
+ *
+ * Hypothesize and verify, grown along the map index (beacon_index.h):
+ *   1. anchors: pairs of blobs in one image, nearest pairs first (the
+ *      nearest blob of a blob is, in the measured maps, the nearest beacon
+ *      in space at the median); with each, a third blob (the anchor's next
+ *      nearest in the same image, else a blob of another camera) and up to
+ *      two verification blobs (the next ones after that);
+ *   2. bands: for anchor blobs (i, j, k) every beacon a with its neighbours
+ *      b = nbr(a)[rb], c = nbr(a)[rc] (another camera's third: every c),
+ *      in growing rank windows 1, 2, 4, .. k_nbr, so that likely hypotheses
+ *      come first; each pair must admit its measured angle (pair intervals);
+ *   3. the generalized P3P (pose_init.h) on the three rays, with the third
+ *      beacon's range interval; every pose is checked on the verification
+ *      blobs against the beacons near a, b, c (cheap), then associated in
+ *      pixels, refined (ML) and tested: chi-square of the residuals with
+ *      per-observation variance (pixel noise plus the beacon's survey sigma
+ *      projected at its range), and the count of beacons it predicts inside
+ *      an image, facing the camera, that no blob explains ("missing");
+ *   4. the certificate: a pose is a fix only with at least
+ *      index.cert_inliers consistent inliers, at most index.max_missing
+ *      missing beacons and at most index.max_unexplained blobs left
+ *      without a beacon (cert_inliers[missing]). The map analysis
+ *      (acquire_certify.h) found no wrong identification reaching that many
+ *      over the sampled workspace, so the search stops at the first
+ *      certified pose. A frame with fewer blobs than that (4 blobs in a map
+ *      whose certificate is 5) is certified by completion instead: when the
+ *      bands end with a best candidate that explains every blob, one anchor
+ *      is enumerated exhaustively (every admissible beacon triple); any
+ *      other pose explaining every blob explains that anchor's three and is
+ *      found there. The fix is the one with the fewest missing beacons,
+ *      when no other ties it (a pose with more missing beacons is less
+ *      likely by the chance that a visible beacon gives no blob). Nothing
+ *      else is reported
+ *      as a fix: an unfinished search, or one that ends with only
+ *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
+ *      two different correspondences tie).
+ *
+ * Work units: one per P3P solve and per cheap check, VERIFY_UNITS per full
+ * verification (association + refinement); a call stops when it has spent
+ * its budget (index.budget_units per cycle in flight: about 1 us per unit on
+ * the benchmark host). All state lives in the caller's mfns_acq_t, so two
+ * navigators can run in one process; nothing allocates; every loop is
+ * bounded by the counts of the frame, the map and the budget.
+ */
+#ifndef MFNS_ACQUIRE_H
+#define MFNS_ACQUIRE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "beacon_index.h"
+#include "pose.h"
+
+#define MFNS_ACQ_MAX_ANCHORS 4
+#define MFNS_ACQ_MAX_CAND 8
+#define MFNS_ACQ_VERIFY_UNITS 8u
+#define MFNS_ACQ_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)
+
+/* Where the search stands (telemetry: housekeeping). */
+typedef struct {
+    uint32_t units;        /* work spent by the call */
+    uint32_t hypotheses;   /* P3P solves */
+    uint16_t verified;     /* poses that reached full verification */
+    uint8_t anchors;       /* anchors of the frame */
+    uint8_t band;          /* rank window reached: 1, 2, 4, .. k_nbr (0: none) */
+    uint8_t best_inliers;  /* best candidate's consistent inliers (0: none) */
+    uint8_t best_missing;  /* and its missing beacons */
+    bool finished;         /* every band of every anchor enumerated */
+    bool budget_out;       /* stopped by the budget */
+    bool certified;        /* stopped on a certified pose */
+    bool completed;        /* certified by the exhaustive completion */
+    uint8_t rivals;        /* completion: other poses as good as the best */
+} mfns_acq_progress_t;
+
+typedef struct {
+    mfns_pose_solution_t sol;
+    uint8_t inliers, missing;
+} mfns_acq_cand_t;
+
+/* One blob as a body-frame ray. */
+typedef struct {
+    uint8_t cam, idx;
+    mfns_v3_t c, d;
+} mfns_acq_blob_t;
+
+typedef struct {
+    int16_t i, j, k;    /* anchor pair and third blob */
+    int16_t v[2];       /* verification blobs in the same image (-1 none) */
+    bool cross;         /* the third blob is in another camera */
+} mfns_acq_anchor_t;
+
+/* Caller storage of one acquisition (about 24 KB): place it with the
+ * navigator (static). Meaningless between calls except progress. */
+typedef struct {
+    mfns_acq_progress_t progress;
+    /* per call */
+    const mfns_rig_t *rig;
+    const mfns_beacon_map_t *map;
+    const mfns_beacon_index_t *idx;
+    const mfns_obs_frame_t *frame;
+    const mfns_pose_config_t *cfg;
+    uint32_t budget;
+    bool analysis; /* certify mode: no early stop, keep every candidate */
+    bool exhaustive; /* in the completion: checks scan the whole map */
+    bool to_complete; /* a candidate explains every blob: go to the completion */
+    mfns_acq_blob_t blobs[MFNS_ACQ_MAX_MEAS];
+    int16_t cam_blob[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
+    int nb;
+    mfns_acq_anchor_t anchor[MFNS_ACQ_MAX_ANCHORS];
+    int na;
+    float gate_n[MFNS_NUM_CAMERAS];
+    mfns_acq_cand_t cand[MFNS_ACQ_MAX_CAND];
+    int ncand;
+    int best;
+    int certified; /* index into cand of the certified pose, -1 none */
+} mfns_acq_t;
+
+/* Acquire from frame with no prior, spending at most budget_units work
+ * units. out is OK/DEGRADED only for a certified pose (see top of file). */
+mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
+                                const mfns_pose_config_t *cfg, uint32_t budget_units, mfns_pose_solution_t *out);
+
+/* sizeof of the acquisition's API structs, for the ctypes mirrors of the
+ * host tools (host_tools/mfns/flight.py). */
+typedef enum {
+    MFNS_ACQ_ABI_STATE = 0,  /* mfns_acq_t */
+    MFNS_ACQ_ABI_PROGRESS,   /* mfns_acq_progress_t */
+    MFNS_ACQ_ABI_INDEX,      /* mfns_beacon_index_t */
+    MFNS_ACQ_ABI_EMIT,       /* mfns_beacon_emit_t */
+    MFNS_ACQ_ABI_PARAMS,     /* mfns_bidx_params_t */
+    MFNS_ACQ_ABI_CERTIFY,    /* mfns_certify_result_t (acquire_certify.h) */
+} mfns_acq_abi_t;
+uint32_t mfns_acq_abi_size(mfns_acq_abi_t what);
+
+/* Internal to the acquisition modules (acquire.c, acquire_certify.c):
+ * check the inputs and set acq up for frame (false on bad input), then run
+ * the search and fill its candidates. */
+bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                      const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
+                      uint32_t budget_units, bool analysis);
+void mfns_acq_search(mfns_acq_t *acq);
+/* A candidate within the index's missing and unexplained allowances (the
+ * certificate then only asks for enough inliers). */
+bool mfns_acq_acceptable(const mfns_acq_t *acq, const mfns_acq_cand_t *cd);
+
+#endif /* MFNS_ACQUIRE_H */

@@ -1,0 +1,179 @@
+"""The beacon map's index for lost-in-space acquisition and its certificate
+(firmware/nav/beacon_index.h, acquire_certify.h), built by the C core through the
+shared library: this module only chooses the workspace, samples the poses the map
+analysis runs on, and reports what it found (docs/pose.md "Acquisition").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import MfnsError
+from ..flight import CertifyResult, Flight
+
+# The default workspace: the map's bounding box shrunk by this share of its extent on
+# each side (the robot moves inside the beacon hull, not on the walls).
+WORKSPACE_MARGIN = 0.1
+# An axis of the map thinner than this gives no default workspace (a flat map).
+MIN_EXTENT_MM = 200.0
+# Poses of the map analysis (with >= 4 beacons in view, drawn from at most
+# MAX_DRAWS_PER_SAMPLE times as many uniform poses); each may spend
+# ANALYSIS_BUDGET_FACTOR times the flight budget.
+DEFAULT_SAMPLES = 200
+MAX_DRAWS_PER_SAMPLE = 500
+ANALYSIS_BUDGET_FACTOR = 2
+CHUNK = 10
+
+
+def default_workspace(pos_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = pos_w.min(axis=0), pos_w.max(axis=0)
+    ext = hi - lo
+    flat = [n for n, e in zip("xyz", ext, strict=True) if e < MIN_EXTENT_MM]
+    if flat:
+        raise MfnsError(
+            f"the beacon map is flat along {', '.join(flat)} ({', '.join(f'{e:.0f}' for e in ext)} mm): "
+            "give the workspace with --workspace XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX"
+        )
+    return lo + WORKSPACE_MARGIN * ext, hi - WORKSPACE_MARGIN * ext
+
+
+def parse_workspace(text: str) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise MfnsError(f"--workspace {text!r}: expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)") from None
+    if len(v) != 6 or not all(np.isfinite(v)):
+        raise MfnsError(f"--workspace {text!r}: expected six finite numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)")
+    lo, hi = np.array(v[:3]), np.array(v[3:])
+    if not np.all(lo < hi):
+        raise MfnsError(f"--workspace {text!r}: each minimum must be below its maximum")
+    return lo, hi
+
+
+def random_poses(rng: np.random.Generator, lo, hi, n: int):
+    """n poses (C_w_b, r_bw_b): body origin uniform in the box, attitude uniform."""
+    from ..pose_sim import random_rotations
+
+    C = random_rotations(rng, n)
+    p = rng.uniform(lo, hi, size=(n, 3))
+    return [(C[i], -C[i] @ p[i]) for i in range(n)]
+
+
+def usable_poses(fl: Flight, rig, bmap, idx, rng, lo, hi, n: int):
+    """n uniform poses of the workspace from which the rig sees >= 4 beacons (the C
+    core's visibility), or fewer when MAX_DRAWS_PER_SAMPLE * n draws do not give them."""
+    out = []
+    for _ in range(MAX_DRAWS_PER_SAMPLE):
+        for C, r in random_poses(rng, lo, hi, max(n, 64)):
+            frame, _ = fl.view(rig, bmap, idx, fl.pose(C, r))
+            if sum(frame.count) >= 4:
+                out.append((C, r))
+                if len(out) == n:
+                    return out
+    return out
+
+
+@dataclass
+class IndexReport:
+    workspace_min_mm: np.ndarray
+    workspace_max_mm: np.ndarray
+    samples: int
+    usable: int
+    truth_found: int
+    ambiguous: int
+    max_rival: int
+    cert_inliers: list[int]
+    capped: bool
+    neighbours_mean: float
+    never_together_pairs: int
+    worst: dict = field(default_factory=dict)
+
+    def lines(self) -> list[str]:
+        lo, hi = self.workspace_min_mm, self.workspace_max_mm
+        out = [
+            "map index: workspace "
+            + " x ".join(f"[{a:.0f}, {b:.0f}]" for a, b in zip(lo, hi, strict=True))
+            + f" mm, {self.neighbours_mean:.1f} neighbours per beacon, {self.never_together_pairs} pairs never in view together",
+            f"map analysis: {self.usable} poses with >= 4 beacons in view, right identification among the "
+            f"candidates in {self.truth_found}; strongest wrong identification: {self.max_rival} inliers",
+            "certificate: a fix needs "
+            + ", ".join(f"{c} inliers with {m} missing" for m, c in enumerate(self.cert_inliers)),
+        ]
+        if self.ambiguous:
+            w = self.worst
+            out.append(
+                f"ambiguous views: {self.ambiguous} of {self.usable} sampled poses have a wrong identification that "
+                f"explains every blob; worst at body position {np.round(w['r_wb_w'], 0).tolist()} mm: beacons "
+                f"{w['truth']} also fit as {w['rival']} ({w['rival_inliers']} inliers, {w['rival_missing']} missing)"
+            )
+        if self.capped:
+            out.append("the map is self-similar beyond the certificate's limit: acquisition will rarely certify a fix")
+        return out
+
+
+def build(
+    fl: Flight,
+    rig,
+    bmap,
+    emission: tuple[np.ndarray, np.ndarray] | None,
+    workspace: tuple[np.ndarray, np.ndarray],
+    sigma_px: float,
+    samples: int = DEFAULT_SAMPLES,
+    seed: int = 1,
+    progress=None,
+):
+    """The index with its certificate from the map analysis -> (BeaconIndex, IndexReport)."""
+    lo, hi = workspace
+    em = None
+    if emission is not None:
+        axes, half = emission
+        em = (axes, np.cos(np.radians(half)))
+    params = fl.index_params()
+    idx = fl.build_index(rig, bmap, lo, hi, emit=em, params=params)
+    n = bmap.count
+    rng = np.random.default_rng([seed, 11])
+    cfg = fl.config(sigma_px=sigma_px)
+    poses = usable_poses(fl, rig, bmap, idx, rng, lo, hi, samples)
+    budget = ANALYSIS_BUDGET_FACTOR * idx.budget_units
+    total = CertifyResult()
+    samples = len(poses)
+    for start in range(0, samples, CHUNK):
+        chunk = poses[start : start + CHUNK]
+        part = fl.certify(rig, bmap, idx, cfg, [fl.pose(C, r) for C, r in chunk], budget)
+        fl.certify_accumulate(total, part, start)
+        if progress is not None:
+            progress(len(chunk))
+    fl.certify_finish(total, idx)
+    fl.certify_apply(idx, total)
+    worst: dict = {}
+    if total.max_rival > 0:
+        w = total.worst
+        C, r = poses[w.sample]
+        worst = {
+            "r_wb_w": -C.T @ r,
+            "truth": list(w.truth_id[: w.n_blobs]),
+            "rival": [int(x) for x in w.rival_id[: w.n_blobs]],
+            "rival_inliers": int(w.rival_inliers),
+            "rival_missing": int(w.rival_missing),
+        }
+    nbr = np.array(list(idx.nbr_count)[:n], dtype=float)
+    npairs = n * (n - 1) // 2
+    lo_codes = np.array(list(idx.pair_lo)[:npairs])
+    hi_codes = np.array(list(idx.pair_hi)[:npairs])
+    report = IndexReport(
+        workspace_min_mm=np.asarray(lo, float),
+        workspace_max_mm=np.asarray(hi, float),
+        samples=samples,
+        usable=total.usable,
+        truth_found=total.truth_found,
+        ambiguous=total.ambiguous,
+        max_rival=total.max_rival,
+        cert_inliers=list(total.cert_inliers)[: idx.max_missing + 1],
+        capped=bool(total.cert_capped),
+        neighbours_mean=float(nbr.mean()) if n else 0.0,
+        never_together_pairs=int(np.sum(lo_codes > hi_codes)),
+        worst=worst,
+    )
+    return idx, report
