@@ -303,9 +303,9 @@ def test_settings_through_the_flight_loader(good_table_obj, data):
 
     from mfns.table.check import TableRefused, read_table
     from mfns.table.format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, encode
-    from mfns.table.settings import DEFAULT_CENTROID, DEFAULT_SOLVER
+    from mfns.table.settings import load_settings
 
-    centroid, solver = dict(DEFAULT_CENTROID), dict(DEFAULT_SOLVER)
+    centroid, solver = load_settings(None)  # the defaults
     for keys_, dst, strat in (
         (CENTROID_U16, centroid, u16),
         (CENTROID_F32, centroid, f32s),
