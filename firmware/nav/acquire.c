@@ -261,8 +261,8 @@ static int count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             const mfns_camera_t *cam = &q->rig->cam[c];
             float uv[2];
-            if (q->frame->count[c] >= MFNS_MAX_OBS_PER_CAMERA) {
-                continue; /* a full observation list kept the brightest: the rest are not missing */
+            if (q->frame->count[c] >= MFNS_MAX_OBS_PER_CAMERA || q->frame->dark[c] != 0U) {
+                continue; /* a full list kept the brightest, a dark camera saw nothing: not missing */
             }
             if (mfns_cam_project(cam, &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
                 continue;
@@ -419,7 +419,7 @@ static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t 
     q->progress.verified++;
     memset(cd, 0, sizeof *cd);
     if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
-                            &cd->sol.assoc) < (int)MFNS_BIDX_MIN_CERT) {
+                            &cd->sol.assoc) < (int)MFNS_ACQ_MIN_BLOBS) {
         return false;
     }
     mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
@@ -446,7 +446,7 @@ static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t 
             cd->sol = s2;
         }
     }
-    if (cd->sol.beacons_used < MFNS_BIDX_MIN_CERT || !chi2_consistent(q, &cd->sol)) {
+    if (cd->sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !chi2_consistent(q, &cd->sol)) {
         return false;
     }
     cd->inliers = (uint8_t)(cd->sol.beacons_used > 255u ? 255u : cd->sol.beacons_used);
@@ -582,24 +582,19 @@ static void complete(mfns_acq_t *q)
     if (q->progress.budget_out) {
         return;
     }
-    /* the best explanation must be unique: no other pose explains every blob
-     * with as few missing beacons (one with more missing is less likely by
-     * the chance of a visible beacon giving no blob) */
-    int keep = -1, ties = 0;
+    /* unique: no other pose explains every blob within the allowances (a
+     * rival with more missing beacons could be the truth with a beacon
+     * hidden, so it is not ruled out by being less likely) */
+    int keep = -1, full = 0;
     for (int i = 0; i < q->ncand; i++) {
         const mfns_acq_cand_t *c = &q->cand[i];
-        if ((int)c->inliers != q->nb || c->missing > q->idx->max_missing) {
-            continue;
-        }
-        if (keep < 0 || c->missing < q->cand[keep].missing) {
+        if ((int)c->inliers == q->nb && c->missing <= q->idx->max_missing) {
+            full++;
             keep = i;
-            ties = 0;
-        } else if (c->missing == q->cand[keep].missing) {
-            ties++;
         }
     }
-    q->progress.rivals = (uint8_t)ties;
-    if (keep >= 0 && ties == 0) {
+    q->progress.rivals = (uint8_t)(full > 0 ? full - 1 : 0);
+    if (full == 1) {
         q->certified = keep;
         q->progress.completed = true;
     }
@@ -690,7 +685,7 @@ mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
         out->reason = MFNS_POSE_R_TOO_FEW;
         return out->status;
     }
-    if (acq->nb < (int)MFNS_BIDX_MIN_CERT) {
+    if (acq->nb < (int)MFNS_ACQ_MIN_BLOBS) {
         /* no fix from three blobs can be certified: do not search */
         out->reason = MFNS_POSE_R_BELOW_CERTIFICATE;
         return out->status;
@@ -700,7 +695,7 @@ mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
     if (acq->certified >= 0) {
         *out = acq->cand[acq->certified].sol;
     } else {
-        mfns_pose_reason_t reason = MFNS_POSE_R_NOT_IDENTIFIED;
+        mfns_pose_reason_t reason = acq->progress.rivals > 0 ? MFNS_POSE_R_AMBIGUOUS : MFNS_POSE_R_NOT_IDENTIFIED;
         for (int i = 0; i < acq->ncand && acq->best >= 0; i++) {
             if (i != acq->best && acq->cand[i].inliers == acq->cand[acq->best].inliers &&
                 acq->cand[i].missing == acq->cand[acq->best].missing) {

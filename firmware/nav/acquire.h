@@ -24,15 +24,13 @@
  *      without a beacon (cert_inliers[missing]). The map analysis
  *      (acquire_certify.h) found no wrong identification reaching that many
  *      over the sampled workspace, so the search stops at the first
- *      certified pose. A frame with fewer blobs than that (4 blobs in a map
- *      whose certificate is 5) is certified by completion instead: when the
+ *      certified pose. A frame with fewer blobs than that (4 blobs: the
+ *      certificate is at least 5) is certified by completion instead: when the
  *      bands end with a best candidate that explains every blob, one anchor
  *      is enumerated exhaustively (every admissible beacon triple); any
  *      other pose explaining every blob explains that anchor's three and is
- *      found there. The fix is the one with the fewest missing beacons,
- *      when no other ties it (a pose with more missing beacons is less
- *      likely by the chance that a visible beacon gives no blob). Nothing
- *      else is reported
+ *      found there. Exactly one such pose within the allowances: the fix.
+ *      Nothing else is reported
  *      as a fix: an unfinished search, or one that ends with only
  *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
  *      two different correspondences tie).
@@ -53,6 +51,8 @@
 #include "beacon_index.h"
 #include "pose.h"
 
+/* Blobs a fix needs: three make a hypothesis, a fourth checks it. */
+#define MFNS_ACQ_MIN_BLOBS 4
 #define MFNS_ACQ_MAX_ANCHORS 4
 #define MFNS_ACQ_MAX_CAND 8
 #define MFNS_ACQ_VERIFY_UNITS 8u
@@ -71,7 +71,7 @@ typedef struct {
     bool budget_out;       /* stopped by the budget */
     bool certified;        /* stopped on a certified pose */
     bool completed;        /* certified by the exhaustive completion */
-    uint8_t rivals;        /* completion: other poses as good as the best */
+    uint8_t rivals;        /* completion: other poses that explain every blob too */
 } mfns_acq_progress_t;
 
 typedef struct {

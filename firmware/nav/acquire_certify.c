@@ -85,7 +85,7 @@ mfns_bidx_status_t mfns_certify(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
         mfns_pose_assoc_t truth;
         mfns_certify_frame(rig, map, idx, &poses[s], frame, &truth);
         const int nb = frame->count[0] + frame->count[1] + frame->count[2];
-        if (nb < (int)MFNS_BIDX_MIN_CERT) {
+        if (nb < (int)MFNS_ACQ_MIN_BLOBS) {
             continue;
         }
         res->usable++;

@@ -33,7 +33,7 @@ typedef struct {
 
 typedef struct {
     uint32_t samples;      /* poses given */
-    uint32_t usable;       /* with >= MFNS_BIDX_MIN_CERT beacons in view */
+    uint32_t usable;       /* with >= MFNS_ACQ_MIN_BLOBS beacons in view */
     uint32_t truth_found;  /* usable poses where the right identification was a candidate */
     uint32_t ambiguous;    /* usable poses with a rival of as many inliers as in view */
     uint32_t rival_hist[MFNS_BIDX_MAX_CERT + 1]; /* poses by their best rival's inliers (capped) */

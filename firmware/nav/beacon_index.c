@@ -47,6 +47,9 @@ bool mfns_bidx_pair_admits(const mfns_beacon_index_t *idx, uint32_t a, uint32_t 
         return false;
     }
     const uint32_t s = mfns_bidx_pair_slot(idx->count, a, b);
+    if (idx->pair_lo[s] > idx->pair_hi[s]) {
+        return false; /* never seen together, whatever the pad */
+    }
     const float lo = (float)idx->pair_lo[s] * MFNS_BIDX_ANGLE_LSB_RAD;
     const float hi = (float)idx->pair_hi[s] * MFNS_BIDX_ANGLE_LSB_RAD;
     return angle_rad >= lo - pad_rad && angle_rad <= hi + pad_rad;

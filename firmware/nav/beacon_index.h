@@ -52,9 +52,12 @@
 #define MFNS_BIDX_ANGLE_CODES 255u
 #define MFNS_BIDX_ANGLE_LSB_RAD (3.14159265358979f / (float)MFNS_BIDX_ANGLE_CODES)
 #define MFNS_BIDX_ANGLE_PAD_RAD 0.02f /* ~1.1 deg on each side of a computed interval */
-/* Certificate bounds: a unique fix needs at least 4 inliers (3 make the
- * hypothesis, the 4th checks it); more than 16 would exclude most frames. */
-#define MFNS_BIDX_MIN_CERT 4u
+/* Certificate bounds: 3 inliers make a hypothesis and a 4th alone is matched
+ * by chance even in the paper's 10-beacon map (a recorded frame: a pose
+ * 400 mm off fits 4 blobs at 0.42 px, tests/unit/test_acquire.c), so an
+ * early stop needs at least 5; a frame with 4 blobs is certified only by
+ * completion (acquire.h). More than 16 would exclude most frames. */
+#define MFNS_BIDX_MIN_CERT 5u
 #define MFNS_BIDX_MAX_CERT 16u
 /* Missing beacons a certified fix may have: the certificate is a table of
  * required inliers per missing count 0 .. this. */

@@ -446,8 +446,11 @@ static bool parse_index(parser_t *p, uint32_t pos, uint16_t nbeacon, mfns_beacon
             }
         }
         const float an = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-        if (!(an == 0.0f || fabsf(an - 1.0f) <= 1e-3f) || !(g[3] >= -1.0f && g[3] <= 1.0f)) {
+        if (!(an == 0.0f || fabsf(an - 1.0f) <= 1e-3f)) {
             return fail(p, MFNS_CALTABLE_E_INDEX_GEOMETRY, o);
+        }
+        if (!(g[3] >= -1.0f && g[3] <= 1.0f)) {
+            return fail(p, MFNS_CALTABLE_E_INDEX_GEOMETRY, o + 12u);
         }
         if (!(g[4] > 0.0f && g[4] < g[5] && g[5] <= 1e8f)) {
             return fail(p, MFNS_CALTABLE_E_INDEX_GEOMETRY, o + 16u);

@@ -149,6 +149,7 @@ static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame
 {
     memset(d, 0, sizeof *d);
     nav->obs.count[k] = 0;
+    nav->obs.dark[k] = 1U;
     if (frame == NULL) {
         d->state = MFNS_NAV_CAM_NO_FRAME;
         return MFNS_NAV_OK;
@@ -162,6 +163,7 @@ static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame
     }
     d->centroid_status = (int16_t)st;
     d->rois = n_rois;
+    nav->obs.dark[k] = (uint8_t)(st == MFNS_CENTROID_OK || st == MFNS_CENTROID_TABLE_FULL ? 0U : 1U);
     if (st == MFNS_CENTROID_ERR_SETTINGS) {
         return MFNS_NAV_E_TABLE;
     }

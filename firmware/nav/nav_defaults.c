@@ -36,7 +36,7 @@ void mfns_bidx_params_default(mfns_bidx_params_t *p)
 {
     memset(p, 0, sizeof *p);
     p->k_nbr = MFNS_BIDX_MAX_NBR; /* rank of the third blob's beacon: p99 23 in a 200-beacon map */
-    p->cert_inliers = 5;          /* replaced by the map analysis (acquire_certify.c) */
+    p->cert_inliers = MFNS_BIDX_MIN_CERT; /* replaced by the map analysis (acquire_certify.c) */
     p->max_missing = 1;           /* one predicted beacon may be hidden (occlusion, image edge) */
     p->max_unexplained = 1;       /* one blob may be a reflection (no beacon) */
     /* ~25 ms of search on the benchmark host (1.0 us per unit, docs/pose.md),

@@ -41,6 +41,9 @@ typedef struct {
 typedef struct {
     uint16_t count[MFNS_NUM_CAMERAS];
     mfns_obs_t obs[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
+    /* 1: camera k gave no image this cycle (dead, timed out, refused): no
+     * beacon can be missing from it. 0 (zero-initialised): it looked. */
+    uint8_t dark[MFNS_NUM_CAMERAS];
 } mfns_obs_frame_t;
 
 #define MFNS_POSE_NO_BEACON (-1)

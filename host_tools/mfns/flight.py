@@ -120,6 +120,7 @@ class ObsFrame(ct.Structure):
     _fields_ = [
         ("count", ct.c_uint16 * NUM_CAMERAS),
         ("obs", (Obs * MAX_OBS_PER_CAMERA) * NUM_CAMERAS),
+        ("dark", ct.c_uint8 * NUM_CAMERAS),
     ]
 
 

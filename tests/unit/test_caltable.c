@@ -119,7 +119,6 @@ static void render_table(const mfns_caltable_t *t, textbuf_t *o)
     add(o, "centroid.max_elongation %.9g", G9(c->max_elongation));
     const mfns_solver_settings_t *s = &t->solver;
     add(o, "solver.max_iterations %u", (unsigned)s->max_iterations);
-    add(o, "solver.max_hypotheses %u", (unsigned)s->max_hypotheses);
     add(o, "solver.step_tol %.9g", G9(s->step_tol));
     add(o, "solver.grad_tol %.9g", G9(s->grad_tol));
     add(o, "solver.huber_k %.9g", G9(s->huber_k));
@@ -172,6 +171,19 @@ static void render_table(const mfns_caltable_t *t, textbuf_t *o)
         add(o, "beacon%d %u %.9g %.9g %.9g %.9g", i, (unsigned)b->id, G9(b->p_w.x), G9(b->p_w.y), G9(b->p_w.z),
             G9(b->sigma_mm));
     }
+    const mfns_beacon_index_t *ix = &t->index;
+    add(o, "index.k_nbr %u", (unsigned)ix->k_nbr);
+    add(o, "index.max_missing %u max_unexplained %u", (unsigned)ix->max_missing, (unsigned)ix->max_unexplained);
+    add(o, "index.budget_units %u", (unsigned)ix->budget_units);
+    char cert[32] = "";
+    for (uint32_t m = 0; m <= ix->max_missing; m++) {
+        const size_t u = strlen(cert);
+        const int w = snprintf(cert + u, sizeof cert - u, m == 0 ? "%u" : " %u", (unsigned)ix->cert_inliers[m]);
+        assert_true(w > 0 && (size_t)w < sizeof cert - u);
+    }
+    add(o, "index.cert %s", cert);
+    add(o, "index.workspace %.9g %.9g %.9g %.9g %.9g %.9g", G9(ix->ws_min_w.x), G9(ix->ws_min_w.y),
+        G9(ix->ws_min_w.z), G9(ix->ws_max_w.x), G9(ix->ws_max_w.y), G9(ix->ws_max_w.z));
 }
 
 static void test_python_table_loads_with_identical_values(void **state)
@@ -409,7 +421,7 @@ static void test_bad_header(void **state)
     g_bad[0] = 'X';
     EXPECT(len, MFNS_CALTABLE_E_MAGIC, 0);
     fresh();
-    put_u16(g_bad, 4, 2);
+    put_u16(g_bad, 4, MFNS_CALTABLE_VERSION + 1);
     EXPECT(len, MFNS_CALTABLE_E_VERSION_NEWER, 4);
     put_u16(g_bad, 4, 0xFFFF);
     EXPECT(len, MFNS_CALTABLE_E_VERSION_NEWER, 4);
@@ -464,7 +476,7 @@ static void test_bad_counts_and_settings(void **state)
         {24 + 16, 1, 0.5f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* elongation < 1 */
         {44, 0, 0, MFNS_CALTABLE_E_SOLVER_SETTINGS},           /* max_iterations */
         {44, 0, 1001, MFNS_CALTABLE_E_SOLVER_SETTINGS},
-        {44 + 2, 0, 0, MFNS_CALTABLE_E_SOLVER_SETTINGS},       /* max_hypotheses */
+        {44 + 2, 0, 1, MFNS_CALTABLE_E_RESERVED},              /* version 1's max_hypotheses */
         {44 + 4, 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},    /* step_tol */
         {44 + 8, 1, -1e-6f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* grad_tol */
         {44 + 12, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},         /* huber_k */
@@ -568,11 +580,11 @@ static void test_bad_grids(void **state)
         fix_crc(len);
         EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + 96);
         /* one more column than stored: the nodes no longer line up (the last
-         * camera's run past the table) */
+         * camera's then read beacon and index bytes as nodes) */
         fresh();
         put_u16(g_bad, o + 96, (uint16_t)(g->nx + 1));
         fix_crc(len);
-        EXPECT(len, k < 2 ? MFNS_CALTABLE_E_GRID_VALUES : MFNS_CALTABLE_E_SIZE_MISMATCH, ANY);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, ANY);
         /* one row fewer: too short to cover the image */
         fresh();
         put_u16(g_bad, o + 98, (uint16_t)(g->ny - 1));
@@ -643,24 +655,109 @@ static void test_bad_beacons_and_size(void **state)
     put_u16(g_bad, beacon_off(7), 2); /* same id as beacon 2 */
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(7));
-    /* counts that disagree with the size: one beacon more than stored, one
-     * fewer, and trailing bytes covered by total_size and the CRC */
+    /* counts that disagree with the records: one beacon more than stored
+     * (the index header is read as beacon 10: its reserved field is not 0),
+     * one fewer (beacon 9 is read as the index header: the index's count is
+     * 9 = the id, its neighbour capacity 0), and trailing bytes covered by
+     * total_size and the CRC (the index section is then too long) */
     fresh();
     put_u16(g_bad, 18, 11);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(0));
+    EXPECT(len, MFNS_CALTABLE_E_RESERVED, beacon_off(10) + 2);
     put_u16(g_bad, 18, 9);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(9));
+    EXPECT(len, MFNS_CALTABLE_E_INDEX_COUNT, beacon_off(9) + 2);
     fresh();
     memset(g_bad + len, 0, 8);
     put_u32(g_bad, 8, (uint32_t)len + 8);
     fix_crc(len + 8);
-    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH, (uint32_t)len);
+    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(10));
     /* a longer buffer than total_size is fine (a file read into a big buffer) */
     fresh();
     assert_int_equal(mfns_caltable_load(g_bad, len + 8, &g_out, NULL), MFNS_CALTABLE_OK);
     memcpy(&g_out, &g_sentinel, sizeof g_out);
+}
+
+/* Every check of the map-index section (docs/caltable.md "Map index"). */
+static void test_bad_index(void **state)
+{
+    (void)state;
+    const size_t len = g_good_len;
+    const uint32_t ix = beacon_off(g_table.beacons.count);
+    const uint32_t n = g_table.index.count, k = g_table.index.k_nbr;
+    const uint32_t geom = ix + MFNS_BIDX_HEADER_SIZE, nbr = geom + MFNS_BIDX_GEOM_SIZE * n;
+    const uint32_t pairs = nbr + n * (1u + k);
+    assert_int_equal(MFNS_BIDX_SECTION_SIZE(n, k), len - ix);
+    const struct {
+        uint32_t off;
+        int kind; /* 0: u8, 1: f32, 2: u16, 3: u32 */
+        float value;
+        mfns_caltable_status_t want;
+    } cases[] = {
+        {ix, 2, 9, MFNS_CALTABLE_E_INDEX_COUNT},
+        {ix + 2, 0, 0, MFNS_CALTABLE_E_INDEX_COUNT},
+        {ix + 2, 0, MFNS_BIDX_MAX_NBR + 1, MFNS_CALTABLE_E_INDEX_COUNT},
+        {ix + 3, 0, MFNS_BIDX_MAX_MISSING + 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + 4, 0, MFNS_BIDX_MAX_CERT + 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + 5, 0, 1, MFNS_CALTABLE_E_RESERVED},
+        {ix + 8, 3, 0, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + 12, 1, 1e6f, MFNS_CALTABLE_E_INDEX_WORKSPACE}, /* min x above max x */
+        {ix + 16, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
+        {ix + 40, 0, MFNS_BIDX_MIN_CERT - 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + 40, 0, MFNS_BIDX_MAX_CERT + 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + 43, 0, 4, MFNS_CALTABLE_E_INDEX_POLICY}, /* beyond max_missing: 0 */
+        {geom + 24 * 2, 1, 0.5f, MFNS_CALTABLE_E_INDEX_GEOMETRY},      /* axis not unit */
+        {geom + 24 * 2 + 12, 1, 1.5f, MFNS_CALTABLE_E_INDEX_GEOMETRY}, /* cosine */
+        {geom + 24 * 2 + 16, 1, 1e9f, MFNS_CALTABLE_E_INDEX_GEOMETRY}, /* range min above max */
+        {geom + 24 * 2 + 20, 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
+        {nbr, 0, (float)k + 1, MFNS_CALTABLE_E_INDEX_NEIGHBOUR},          /* count */
+        {nbr + 1, 0, (float)n, MFNS_CALTABLE_E_INDEX_NEIGHBOUR},          /* index out of the map */
+        {nbr + 1, 0, 0, MFNS_CALTABLE_E_INDEX_NEIGHBOUR},                 /* itself (beacon 0) */
+        {pairs, 0, 200, MFNS_CALTABLE_E_INDEX_PAIR},                      /* lo above hi */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        fresh();
+        const uint32_t o = cases[i].off;
+        if (cases[i].kind == 0) {
+            g_bad[o] = (uint8_t)cases[i].value;
+        } else if (cases[i].kind == 1) {
+            put_f32(g_bad, o, cases[i].value);
+        } else if (cases[i].kind == 2) {
+            put_u16(g_bad, o, (uint16_t)cases[i].value);
+        } else {
+            put_u32(g_bad, o, (uint32_t)cases[i].value);
+        }
+        if (o == pairs) {
+            g_bad[o + 1] = 10; /* hi 10 < lo 200: reversed, not the empty marker */
+        }
+        fix_crc(len);
+        expect(len, cases[i].want, o, (int)(1000 + i));
+    }
+    /* a repeated neighbour, and a non-zero unused entry */
+    fresh();
+    assert_true(g_table.index.nbr_count[0] >= 2);
+    g_bad[nbr + 2] = g_bad[nbr + 1];
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_INDEX_NEIGHBOUR, nbr + 2);
+    if (g_table.index.nbr_count[0] < k) {
+        fresh();
+        g_bad[nbr + 1 + k - 1] = 1;
+        fix_crc(len);
+        EXPECT(len, MFNS_CALTABLE_E_INDEX_NEIGHBOUR, nbr + k);
+    }
+    /* the loaded index carries the builder's figures */
+    assert_int_equal(g_table.index.count, g_table.beacons.count);
+    assert_true(g_table.index.cert_inliers[0] >= MFNS_BIDX_MIN_CERT);
+    assert_true(g_table.index.budget_units > 0);
+}
+
+/* A table of format version 1 (no map index) is refused as too old. */
+static void test_old_version(void **state)
+{
+    (void)state;
+    fresh();
+    put_u16(g_bad, 4, 1);
+    EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
 }
 
 /* A failed load leaves the previous table in service; a good one replaces it. */
@@ -732,6 +829,8 @@ int main(void)
         cmocka_unit_test_setup(test_bad_cameras, bad_setup),
         cmocka_unit_test_setup(test_bad_grids, bad_setup),
         cmocka_unit_test_setup(test_bad_beacons_and_size, bad_setup),
+        cmocka_unit_test_setup(test_bad_index, bad_setup),
+        cmocka_unit_test_setup(test_old_version, bad_setup),
         cmocka_unit_test(test_failed_load_keeps_previous_table),
         cmocka_unit_test(test_strerror_and_crc),
         cmocka_unit_test_setup(test_file_loader, bad_setup),

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..rotations import euler213_to_matrix
 from .check import read_table
-from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, Table
+from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, Table, index_summary
 from .grid import ideal_pixels, record_camera
 
 NODE_SAMPLE_STRIDE = 509  # every 509th grid node is listed individually (plus the sums)
@@ -58,6 +58,12 @@ def value_lines(t: Table) -> list[str]:
     out.append(f"beacons.count {len(t.beacon_ids)}")
     for i, (bid, pos, s) in enumerate(zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True)):
         out.append(f"beacon{i} {int(bid)} {_g(pos[0])} {_g(pos[1])} {_g(pos[2])} {_g(s)}")
+    ix = index_summary(t)
+    out.append(f"index.k_nbr {ix['k_nbr']}")
+    out.append(f"index.max_missing {ix['max_missing']} max_unexplained {ix['max_unexplained']}")
+    out.append(f"index.budget_units {ix['budget_units']}")
+    out.append(f"index.cert {' '.join(str(c) for c in ix['cert_inliers'])}")
+    out.append("index.workspace " + " ".join(_g(x) for x in ix["workspace_min_mm"] + ix["workspace_max_mm"]))
     return out
 
 
