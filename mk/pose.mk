@@ -14,4 +14,4 @@ $(POSE_BENCH): $(BUILD)/obj/tests/bench/bench_pose.o $(BUILD)/libmfns_testsuppor
 bench-pose: $(POSE_BENCH) lib venv
 	$(RUN) $(POSE_BENCH)
 	$(PY) tests/bench/bench_pose_baselines.py
-	$(PY) tests/bench/bench_ident.py --poses 5000 --seeds 1 2 3 4
+	$(PY) tests/bench/bench_ident.py

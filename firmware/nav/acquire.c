@@ -8,6 +8,7 @@
 #include "acquire_certify.h"
 #include "pose_init.h"
 #include "pose_internal.h"
+#include "spd.h"
 
 /* A pose from three rays carries their noise amplified by the geometry
  * (tens of times near the "danger cylinder"): measured, a right minimal pose
@@ -118,70 +119,77 @@ static int nearest_in_cam(const mfns_acq_t *q, int cam, int i, const int *excl, 
  * pairs first (insertion into a short sorted list). */
 static void make_anchors(mfns_acq_t *q)
 {
+    /* the pairs: each blob with its nearest in the same image, nearest first */
+    int16_t pi[MFNS_ACQ_MAX_ANCHORS], pj[MFNS_ACQ_MAX_ANCHORS];
     float ang[MFNS_ACQ_MAX_ANCHORS];
-    q->na = 0;
+    int np = 0;
     for (int i = 0; i < q->nb; i++) {
-        const int cam = q->blobs[i].cam;
-        const int j = nearest_in_cam(q, cam, i, NULL, 0);
-        if (j < 0) {
-            continue;
-        }
-        bool dup = false;
-        for (int a = 0; a < q->na; a++) {
-            dup = dup || (q->anchor[a].i == j && q->anchor[a].j == i);
+        const int j = nearest_in_cam(q, q->blobs[i].cam, i, NULL, 0);
+        bool dup = j < 0;
+        for (int a = 0; a < np && !dup; a++) {
+            dup = pi[a] == j && pj[a] == i;
         }
         if (dup) {
             continue;
         }
         const float t = ray_angle(&q->blobs[i], &q->blobs[j]);
-        int pos = q->na;
+        int pos = np;
         while (pos > 0 && ang[pos - 1] > t) {
             pos--;
         }
         if (pos >= MFNS_ACQ_MAX_ANCHORS) {
             continue;
         }
-        const int last = q->na < MFNS_ACQ_MAX_ANCHORS ? q->na : MFNS_ACQ_MAX_ANCHORS - 1;
+        const int last = np < MFNS_ACQ_MAX_ANCHORS ? np : MFNS_ACQ_MAX_ANCHORS - 1;
         for (int m = last; m > pos; m--) {
-            q->anchor[m] = q->anchor[m - 1];
+            pi[m] = pi[m - 1];
+            pj[m] = pj[m - 1];
             ang[m] = ang[m - 1];
         }
-        mfns_acq_anchor_t *an = &q->anchor[pos];
-        an->i = (int16_t)i;
-        an->j = (int16_t)j;
+        pi[pos] = (int16_t)i;
+        pj[pos] = (int16_t)j;
         ang[pos] = t;
-        if (q->na < MFNS_ACQ_MAX_ANCHORS) {
-            q->na++;
-        }
+        np = np < MFNS_ACQ_MAX_ANCHORS ? np + 1 : np;
     }
-    for (int a = 0; a < q->na; a++) {
-        mfns_acq_anchor_t *an = &q->anchor[a];
-        const int cam = q->blobs[an->i].cam;
-        const int ex[2] = {an->j, -1};
-        int k = nearest_in_cam(q, cam, an->i, ex, 1);
-        an->cross = k < 0;
-        if (k < 0) {
-            /* another camera's blob: the camera with the most blobs */
-            int cm = -1;
-            for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-                if (c != cam && q->frame->count[c] > 0 && (cm < 0 || q->frame->count[c] > q->frame->count[cm])) {
-                    cm = c;
+    /* each pair with its third blob: the next nearest in its image, else
+     * (its image holds only the pair) one anchor per blob of another camera,
+     * since one such triple may be ill-conditioned where another is not */
+    q->na = 0;
+    for (int a = 0; a < np && q->na < MFNS_ACQ_MAX_ANCHORS; a++) {
+        const int cam = q->blobs[pi[a]].cam;
+        const int ex[2] = {pj[a], -1};
+        const int k = nearest_in_cam(q, cam, pi[a], ex, 1);
+        for (int b = -1; b < q->nb && q->na < MFNS_ACQ_MAX_ANCHORS; b++) {
+            int kk;
+            if (b < 0) {
+                if (k < 0) {
+                    continue;
                 }
+                kk = k;
+            } else {
+                if (k >= 0) {
+                    break;
+                }
+                if (q->blobs[b].cam == cam) {
+                    continue;
+                }
+                kk = b;
             }
-            k = cm >= 0 ? q->cam_blob[cm][0] : -1;
-        }
-        an->k = (int16_t)k;
-        int ex2[3] = {an->j, k, -1};
-        an->v[0] = (int16_t)(an->cross ? -1 : nearest_in_cam(q, cam, an->i, ex2, 2));
-        ex2[2] = an->v[0];
-        an->v[1] = (int16_t)(an->v[0] < 0 ? -1 : nearest_in_cam(q, cam, an->i, ex2, 3));
-        /* too few in the anchor's image: blobs of the other cameras */
-        for (int b = 0; b < q->nb && an->v[1] < 0; b++) {
-            if (b == an->i || b == an->j || b == an->k || b == an->v[0]) {
-                continue;
-            }
-            if (q->blobs[b].cam != cam) {
-                an->v[an->v[0] < 0 ? 0 : 1] = (int16_t)b;
+            mfns_acq_anchor_t *an = &q->anchor[q->na++];
+            an->i = pi[a];
+            an->j = pj[a];
+            an->k = (int16_t)kk;
+            an->cross = k < 0;
+            int ex2[3] = {an->j, kk, -1};
+            an->v[0] = (int16_t)(an->cross ? -1 : nearest_in_cam(q, cam, an->i, ex2, 2));
+            ex2[2] = an->v[0];
+            an->v[1] = (int16_t)(an->v[0] < 0 ? -1 : nearest_in_cam(q, cam, an->i, ex2, 3));
+            /* too few in the anchor's image: blobs of the other cameras */
+            for (int o = 0; o < q->nb && an->v[1] < 0; o++) {
+                if (o == an->i || o == an->j || o == an->k || o == an->v[0] || q->blobs[o].cam == cam) {
+                    continue;
+                }
+                an->v[an->v[0] < 0 ? 0 : 1] = (int16_t)o;
             }
         }
     }
@@ -344,7 +352,7 @@ static void add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd)
     if (!q->analysis && mfns_acq_acceptable(q, cd)) {
         if (cd->inliers >= q->idx->cert_inliers[cd->missing]) {
             q->certified = slot;
-        } else if ((int)cd->inliers == q->nb) {
+        } else if ((int)cd->inliers == q->nb && q->nb == MFNS_ACQ_MIN_BLOBS) {
             /* every blob explained, yet too few for the certificate: only the
              * completion can certify it, so the bands stop here */
             q->to_complete = true;
@@ -455,9 +463,137 @@ static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t 
     return true;
 }
 
-/* ------------------------------------------------------------ enumeration */
+/* The completion's check must not lose a right rival to its minimal pose's
+ * noise: the 4th blob is matched against every beacon with the gate of the
+ * minimal pose's own propagated uncertainty, r^T (J P J^T + s^2 I)^-1 r below
+ * the chi-square(2) quantile at 1e-6, with P the covariance of the pose from
+ * the three anchor blobs (first order). A near-singular triple gives a huge
+ * gate (every beacon is tried): slower, never unsound. */
+#define SOUND_GATE_CHI2 27.63f
 
 static bool stop(const mfns_acq_t *q) { return q->certified >= 0 || q->to_complete || q->progress.budget_out; }
+
+
+static float obs_var(const mfns_acq_t *q, int c, int b, float depth)
+{
+    const float sb = q->rig->cam[c].k.fx * q->map->beacon[b].sigma_mm / (depth > 1.0f ? depth : 1.0f);
+    return q->cfg->sigma_px * q->cfg->sigma_px + sb * sb;
+}
+
+static void fill_meas(const mfns_acq_t *q, int blob, int beacon, mfns_pose_meas_t *m)
+{
+    const mfns_acq_blob_t *bl = &q->blobs[blob];
+    const mfns_obs_t *o = &q->frame->obs[bl->cam][bl->idx];
+    m->cam = bl->cam;
+    m->idx = bl->idx;
+    m->beacon = (int16_t)beacon;
+    m->u = o->u;
+    m->v = o->v;
+    m->x = o->x;
+    m->y = o->y;
+    m->p_w = q->map->beacon[beacon].p_w;
+    m->active = 1;
+}
+
+/* Sound verification of one minimal pose in the completion: the anchor's
+ * three correspondences and, for the remaining blob, every beacon within the
+ * propagated gate are refined together and scored like any candidate. */
+static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
+{
+    q->progress.units += 2u + (uint32_t)q->map->count / 32u;
+    const int tri[3] = {an->i, an->j, an->k};
+    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    float h[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N] = {{0.0f}};
+    for (int t = 0; t < 3; t++) {
+        fill_meas(q, tri[t], abc[t], &m[t]);
+        float r[2], jac[2][6];
+        if (!mfns_pose_residual(q->rig, &m[t], pose, r, jac)) {
+            return;
+        }
+        const mfns_v3_t pk = mfns_cam_world_to_camera(&q->rig->cam[m[t].cam], pose, m[t].p_w);
+        const float w = 1.0f / obs_var(q, m[t].cam, abc[t], pk.z);
+        for (int i = 0; i < 6; i++) {
+            for (int j = 0; j <= i; j++) {
+                h[i][j] += w * (jac[0][i] * jac[0][j] + jac[1][i] * jac[1][j]);
+            }
+        }
+    }
+    mfns_chol_t f;
+    float cov[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
+    const bool have_cov = mfns_chol_factor(h, 6, 1e-12f, &f) == MFNS_SPD_OK;
+    if (have_cov) {
+        mfns_chol_inverse(&f, cov);
+    }
+    int l = -1; /* the remaining blob */
+    for (int b = 0; b < q->nb && l < 0; b++) {
+        l = (b != tri[0] && b != tri[1] && b != tri[2]) ? b : -1;
+    }
+    if (l < 0) {
+        return;
+    }
+    for (int d = 0; d < q->map->count && !stop(q); d++) {
+        if (d == abc[0] || d == abc[1] || d == abc[2]) {
+            continue;
+        }
+        fill_meas(q, l, d, &m[3]);
+        float r[2], jac[2][6];
+        if (!mfns_pose_residual(q->rig, &m[3], pose, r, jac)) {
+            continue;
+        }
+        if (have_cov) {
+            /* S = J P J^T + s^2 I (2 x 2) */
+            float jp[2][6];
+            for (int a = 0; a < 2; a++) {
+                for (int j = 0; j < 6; j++) {
+                    jp[a][j] = 0.0f;
+                    for (int k = 0; k < 6; k++) {
+                        jp[a][j] += jac[a][k] * cov[k][j];
+                    }
+                }
+            }
+            const mfns_v3_t pk = mfns_cam_world_to_camera(&q->rig->cam[m[3].cam], pose, m[3].p_w);
+            const float s2 = obs_var(q, m[3].cam, d, pk.z);
+            float s00 = s2, s01 = 0.0f, s11 = s2;
+            for (int k = 0; k < 6; k++) {
+                s00 += jp[0][k] * jac[0][k];
+                s01 += jp[0][k] * jac[1][k];
+                s11 += jp[1][k] * jac[1][k];
+            }
+            const float det = s00 * s11 - s01 * s01;
+            if (det > 0.0f) {
+                const float md = (s11 * r[0] * r[0] - 2.0f * s01 * r[0] * r[1] + s00 * r[1] * r[1]) / det;
+                if (md > SOUND_GATE_CHI2) {
+                    continue;
+                }
+            }
+        }
+        /* refine the four correspondences and score like any candidate */
+        q->progress.units += MFNS_ACQ_VERIFY_UNITS;
+        q->progress.verified++;
+        mfns_acq_cand_t cd;
+        memset(&cd, 0, sizeof cd);
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            for (int i = 0; i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+                cd.sol.assoc.beacon[c][i] = MFNS_POSE_NO_BEACON;
+            }
+        }
+        for (int t = 0; t < 4; t++) {
+            cd.sol.assoc.beacon[m[t].cam][m[t].idx] = m[t].beacon;
+            m[t].active = 1;
+        }
+        if (mfns_pose_refine_meas(q->rig, m, 4, pose, q->cfg, &cd.sol) == MFNS_POSE_NO_FIX ||
+            cd.sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !chi2_consistent(q, &cd.sol)) {
+            continue;
+        }
+        cd.inliers = (uint8_t)cd.sol.beacons_used;
+        const int miss = count_missing(q, &cd.sol);
+        cd.missing = (uint8_t)(miss > 255 ? 255 : miss);
+        add_candidate(q, &cd);
+    }
+}
+
+/* ------------------------------------------------------------ enumeration */
+
 
 static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b, int c)
 {
@@ -476,6 +612,10 @@ static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b,
     const int ns = mfns_gp3p(rc, rd, xw, gc->range_min_mm, gc->range_max_mm, sols);
     const int abc[3] = {a, b, c};
     for (int s = 0; s < ns && !stop(q); s++) {
+        if (q->exhaustive) {
+            sound_verify(q, &sols[s], an, abc);
+            continue;
+        }
         if (!quick_check(q, &sols[s], an, abc)) {
             continue;
         }
@@ -569,8 +709,8 @@ static void complete(mfns_acq_t *q)
         return;
     }
     const mfns_acq_cand_t *b = &q->cand[q->best];
-    if ((int)b->inliers != q->nb || b->missing > q->idx->max_missing) {
-        return;
+    if (q->nb != MFNS_ACQ_MIN_BLOBS || (int)b->inliers != q->nb || b->missing > q->idx->max_missing) {
+        return; /* the sound check covers one blob beyond the anchor's three */
     }
     const bool was = q->analysis;
     q->analysis = true; /* collect, never stop on the first */

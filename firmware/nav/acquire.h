@@ -53,7 +53,7 @@
 
 /* Blobs a fix needs: three make a hypothesis, a fourth checks it. */
 #define MFNS_ACQ_MIN_BLOBS 4
-#define MFNS_ACQ_MAX_ANCHORS 4
+#define MFNS_ACQ_MAX_ANCHORS 6
 #define MFNS_ACQ_MAX_CAND 8
 #define MFNS_ACQ_VERIFY_UNITS 8u
 #define MFNS_ACQ_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)

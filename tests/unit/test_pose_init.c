@@ -7,6 +7,8 @@
 #pragma GCC diagnostic ignored "-Wdouble-promotion"
 
 /* Three beacons seen by the cameras cams[0..2] at random depths, for a random pose. */
+static double g_third_lo_mm = 300.0; /* depth range of the third beacon */
+
 static void make_problem(const mfns_rig_t *rig, const int cams[3], mfns_rng_t *rng, pt_dpose_t *truth, mfns_v3_t c[3],
                          mfns_v3_t d[3], mfns_v3_t x[3])
 {
@@ -19,7 +21,7 @@ static void make_problem(const mfns_rig_t *rig, const int cams[3], mfns_rng_t *r
     for (int i = 0; i < 3; i++) {
         const mfns_camera_t *cam = &rig->cam[cams[i]];
         const double xn = mfns_rng_range(rng, -0.35, 0.35), yn = mfns_rng_range(rng, -0.28, 0.28);
-        const double z = mfns_rng_range(rng, 300, 1800);
+        const double z = mfns_rng_range(rng, i == 2 ? g_third_lo_mm : 300.0, 1800);
         mfns_pose_ray(cam, (float)xn, (float)yn, &c[i], &d[i]);
         const double pb[3] = {c[i].x + d[i].x * z * sqrt(1 + xn * xn + yn * yn),
                               c[i].y + d[i].y * z * sqrt(1 + xn * xn + yn * yn),
@@ -33,7 +35,7 @@ static void make_problem(const mfns_rig_t *rig, const int cams[3], mfns_rng_t *r
     }
 }
 
-static void run_configs(const int cams[3], uint64_t seed, int trials, double min_rate)
+static void run_configs_range(const int cams[3], uint64_t seed, int trials, double min_rate, float lo, float hi)
 {
     const mfns_rig_t rig = pt_paper_rig();
     mfns_rng_t rng;
@@ -45,7 +47,7 @@ static void run_configs(const int cams[3], uint64_t seed, int trials, double min
         mfns_v3_t c[3], d[3], x[3];
         make_problem(&rig, cams, &rng, &truth, c, d, x);
         mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS];
-        const int n = mfns_gp3p(c, d, x, 10.0f, 2500.0f, out);
+        const int n = mfns_gp3p(c, d, x, lo, hi, out);
         assert_true(n >= 0 && n <= MFNS_GP3P_MAX_SOLUTIONS);
         total_sols += n;
         double best = 1e9;
@@ -71,6 +73,24 @@ static void run_configs(const int cams[3], uint64_t seed, int trials, double min
                   "error %.3f (mm + 1000 rad)\n",
                   cams[0], cams[1], cams[2], found, trials, (double)total_sols / trials, worst);
     assert_true(found >= min_rate * trials);
+}
+
+static void run_configs(const int cams[3], uint64_t seed, int trials, double min_rate)
+{
+    run_configs_range(cams, seed, trials, min_rate, 10.0f, 2500.0f);
+}
+
+/* The range interval bounds the third depth only: the first two beacons may
+ * be nearer than its minimum (regression: the acquisition passes the third
+ * beacon's own range interval, and the right pose of a recorded frame, whose
+ * first two beacons were at 300 mm and the third's minimum 489 mm, was lost). */
+static void test_gp3p_range_is_the_third_depths(void **state)
+{
+    (void)state;
+    const int cams[3] = {1, 1, 0};
+    g_third_lo_mm = 1300.0;
+    run_configs_range(cams, 14, 2000, 0.995, 1200.0f, 2500.0f);
+    g_third_lo_mm = 300.0;
 }
 
 static void test_gp3p_three_cameras(void **state)
@@ -122,6 +142,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_gp3p_three_cameras),
+        cmocka_unit_test(test_gp3p_range_is_the_third_depths),
         cmocka_unit_test(test_gp3p_two_cameras),
         cmocka_unit_test(test_gp3p_central_one_camera),
         cmocka_unit_test(test_gp3p_degenerate_inputs),

@@ -166,13 +166,15 @@ def visibility_stats(counts: np.ndarray) -> dict:
     }
 
 
-def module_beacons(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def module_beacons(
+    n: int, rng: np.random.Generator, half: np.ndarray = MODULE_HALF
+) -> tuple[np.ndarray, np.ndarray]:
     """n beacons on the module walls -> (positions (n, 3), inward normals (n, 3)).
 
     Each wall gets a share of n (end walls MODULE_END_WALL_SHARE in total, the rest spread
     over the four long walls), placed one per cell of a grid shaped like the wall, cells
     chosen at random, position jittered inside the cell, at least MODULE_EDGE_MARGIN_MM
-    from the wall's edges.
+    from the wall's edges. half: the module's half-extents (mm), MODULE_HALF by default.
     """
     if n < 6:
         raise MfnsError("the module needs at least 6 beacons (one per wall)")
@@ -190,15 +192,15 @@ def module_beacons(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.nda
     ]
     pos, nrm = [], []
     for (ax, side, ua, va), k in zip(walls, per_wall, strict=True):
-        uh = MODULE_HALF[ua] - MODULE_EDGE_MARGIN_MM
-        vh = MODULE_HALF[va] - MODULE_EDGE_MARGIN_MM
+        uh = half[ua] - MODULE_EDGE_MARGIN_MM
+        vh = half[va] - MODULE_EDGE_MARGIN_MM
         nu = max(1, int(round(math.sqrt(k * uh / vh))))
         nv = max(1, math.ceil(k / nu))
         cells = rng.permutation(nu * nv)[:k]
         for cell in cells:
             i, j = divmod(int(cell), nv)
             p = np.zeros(3)
-            p[ax] = side * MODULE_HALF[ax]
+            p[ax] = side * half[ax]
             p[ua] = -uh + (i + rng.uniform(0.15, 0.85)) * 2 * uh / nu
             p[va] = -vh + (j + rng.uniform(0.15, 0.85)) * 2 * vh / nv
             q = np.zeros(3)
