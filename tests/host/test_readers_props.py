@@ -276,3 +276,50 @@ def test_table_reader_mutated(good_table, data):
     # accepted by the flight loader: the display parser reads every field
     assert len(t.cameras) == 3 and len(t.beacon_ids) >= 1
     assert all(np.all(np.isfinite(c.dist)) and c.grid.nx >= 2 for c in t.cameras)
+
+
+@pytest.fixture(scope="module")
+def good_table_obj(repo_root, core_lib):
+    if not core_lib.exists():
+        pytest.fail("make lib has not built the C core")
+    from mfns.table.builder import build_table
+
+    d = repo_root / "host_tools/mfns/data"
+    return build_table(d / "paper_calib.json", d / "paper_beacons.csv")[0]
+
+
+u16 = st.integers(0, 65535)
+f32s = st.floats(allow_nan=False, allow_infinity=False, width=32) | st.sampled_from(
+    [0.0, 0.999, 1.0, 1e-7, 100.0]
+)
+
+
+@settings(max_examples=200, deadline=None, database=None)
+@given(data=st.data())
+def test_settings_through_the_flight_loader(good_table_obj, data):
+    """Any settings of the right types: the loader accepts the table or refuses it naming
+    a settings field; what it accepts reads back as written (binary32)."""
+    import dataclasses
+
+    from mfns.table.check import TableRefused, read_table
+    from mfns.table.format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, encode
+    from mfns.table.settings import load_settings
+
+    centroid, solver = load_settings(None)  # the defaults
+    for keys_, dst, strat in (
+        (CENTROID_U16, centroid, u16),
+        (CENTROID_F32, centroid, f32s),
+        (SOLVER_U16, solver, u16),
+        (SOLVER_F32, solver, f32s),
+    ):
+        for k in data.draw(st.lists(st.sampled_from(keys_), max_size=3)):
+            dst[k] = data.draw(strat)
+    raw = encode(dataclasses.replace(good_table_obj, centroid=centroid, solver=solver))
+    try:
+        t = read_table(raw)
+    except TableRefused as exc:
+        one_clear_line(exc)
+        assert exc.field.startswith(("centroid.", "solver.")), exc.field
+        return
+    for k, v in {**centroid, **solver}.items():
+        assert {**t.centroid, **t.solver}[k] == np.float32(v), k

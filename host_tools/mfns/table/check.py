@@ -133,12 +133,19 @@ def _fields(spec: list[tuple[str, int]]) -> list[tuple[int, str]]:
 
 
 _HEADER_FIELDS = _fields([("magic", 4), ("version", 2), ("header_size", 2), ("total_size", 4), ("crc32", 4)])
-_GLOBAL_FIELDS = _fields(
+_GLOBAL_SPEC = (
     [("camera_count", 2), ("beacon_count", 2), ("pixel_sigma_px", 4)]
     + [(f"centroid.{n}", 2) for n in fmt.CENTROID_U16]
     + [("centroid reserved", 2)]
     + [(f"centroid.{n}", 4) for n in fmt.CENTROID_F32]
     + [(f"solver.{n}", 2) for n in fmt.SOLVER_U16]
+)
+# u16 slots of the solver record not named by the format are reserved (version 2: one)
+_SOLVER_RESERVED = fmt.GLOBALS_SIZE - sum(n for _, n in _GLOBAL_SPEC) - 4 * len(fmt.SOLVER_F32)
+assert _SOLVER_RESERVED in (0, 2)
+_GLOBAL_FIELDS = _fields(
+    _GLOBAL_SPEC
+    + ([("solver reserved", _SOLVER_RESERVED)] if _SOLVER_RESERVED else [])
     + [(f"solver.{n}", 4) for n in fmt.SOLVER_F32]
 )
 _CAMERA_FIELDS = _fields(
@@ -179,7 +186,9 @@ def field_at(data: bytes, off: int) -> str:
         pos += nx * ny * fmt.NODE_SIZE
     i, rel = divmod(off - pos, fmt.BEACON_SIZE)
     n_b = struct.unpack_from("<H", data, fmt.HEADER_SIZE + 2)[0]
-    return f"beacon {i} {_name(_BEACON_FIELDS, rel)}" if i < n_b else "after the beacon records"
+    if i < n_b:
+        return f"beacon {i} {_name(_BEACON_FIELDS, rel)}"
+    return f"map index section, byte {off - pos - n_b * fmt.BEACON_SIZE}"
 
 
 def check_table(data: bytes) -> LoadStatus:
