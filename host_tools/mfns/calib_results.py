@@ -13,7 +13,9 @@ from .rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 
 FORMAT = "mfns-calib-results"
 VERSION = 1
-CAMERA_NAMES = ("x", "y", "z")
+CAMERA_NAMES = ("x", "y", "z")  # the flight rig (calibration table, navigation)
+MAX_CAMERAS = 8  # a calibration (mfns calib) may hold 1..8 cameras
+NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
 
 
 def _finite(name: str, values) -> None:
@@ -22,8 +24,21 @@ def _finite(name: str, values) -> None:
         raise MfnsError(f"{name}: not finite")
 
 
-def validate(doc: dict) -> dict:
-    """Check a calibration-results document; returns it. Raises MfnsError with one line."""
+def camera_name_problem(name) -> str | None:
+    """Why `name` cannot be a camera name (used in file names), or None."""
+    if not isinstance(name, str) or not 1 <= len(name) <= 16 or not set(name) <= NAME_CHARS:
+        return f"camera name {name!r} must be 1-16 characters of A-Z a-z 0-9 _ -"
+    return None
+
+
+def validate(doc: dict, flight: bool = True) -> dict:
+    """Check a calibration-results document; returns it. Raises MfnsError with one line.
+
+    flight=True (the default: calibration table, navigation) needs exactly the cameras
+    x, y, z; flight=False (what mfns calib writes) accepts 1..MAX_CAMERAS named cameras.
+    """
+    if not isinstance(doc, dict):
+        raise MfnsError("not a calibration-results file (not a JSON object)")
     if doc.get("format") != FORMAT:
         raise MfnsError(f"not a calibration-results file (format {doc.get('format')!r}, expected {FORMAT!r})")
     version = doc.get("version")
@@ -35,12 +50,23 @@ def validate(doc: dict) -> dict:
     if not isinstance(sigma, (int, float)) or not (sigma > 0 and math.isfinite(sigma)):
         raise MfnsError("pixel_noise_px must be a positive number")
     cams = doc.get("cameras")
-    if not isinstance(cams, list) or len(cams) != 3:
-        raise MfnsError("cameras must be a list of exactly three cameras (x, y, z)")
+    if not isinstance(cams, list) or not all(isinstance(c, dict) for c in cams):
+        raise MfnsError("cameras must be a list of camera objects")
+    names = [c.get("name") for c in cams]
+    if flight and names != list(CAMERA_NAMES):
+        raise MfnsError(
+            f"the flight rig (calibration table, navigation) needs exactly three cameras named x, y, z "
+            f"in that order; this file has {len(cams)}: {names}"
+        )
+    if not 1 <= len(cams) <= MAX_CAMERAS:
+        raise MfnsError(f"cameras: {len(cams)} cameras, expected 1 to {MAX_CAMERAS}")
+    if len(set(map(str, names))) != len(names):
+        raise MfnsError(f"cameras: duplicate names {names}")
     for i, cam in enumerate(cams):
         name = cam.get("name")
-        if name != CAMERA_NAMES[i]:
-            raise MfnsError(f"camera {i}: name {name!r}, expected {CAMERA_NAMES[i]!r}")
+        problem = camera_name_problem(name)
+        if problem:
+            raise MfnsError(f"camera {i}: {problem}")
         for key in ("image_size", "fx", "fy", "cx", "cy", "skew", "dist", "C_k_b", "r_bk_b"):
             if key not in cam:
                 raise MfnsError(f"camera {name}: missing {key!r}")
@@ -70,12 +96,12 @@ def validate(doc: dict) -> dict:
     return doc
 
 
-def load(path: str | Path) -> dict:
+def load(path: str | Path, flight: bool = True) -> dict:
     try:
         doc = json.loads(Path(path).read_text())
     except json.JSONDecodeError as exc:
         raise MfnsError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from exc
-    return validate(doc)
+    return validate(doc, flight)
 
 
 def camera_entry(name, image_size, fx, fy, cx, cy, skew, dist, c_k_b, r_bk_b, sigma=None) -> dict:
@@ -99,6 +125,6 @@ def camera_entry(name, image_size, fx, fy, cx, cy, skew, dist, c_k_b, r_bk_b, si
     return entry
 
 
-def save(doc: dict, path: str | Path) -> None:
-    validate(doc)
+def save(doc: dict, path: str | Path, flight: bool = True) -> None:
+    validate(doc, flight)
     Path(path).write_text(json.dumps(doc, indent=2) + "\n")

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from ..errors import MfnsError
-from .model import CAMERA_NAMES, Observations
+from .model import Observations
 
 INTRINSIC_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
 
@@ -37,10 +37,11 @@ class ZhangResult:
 def calibrate_camera(obs: Observations, k: int) -> ZhangResult:
     ims = obs.of_camera(k)
     if len(ims) < 4:
-        raise MfnsError(f"camera {CAMERA_NAMES[k]}: only {len(ims)} usable images (need >= 4)")
+        raise MfnsError(f"camera {obs.camera_names[k]}: only {len(ims)} usable images (need >= 4)")
     obj = obs.board.object_points().astype(np.float32)
-    objs = [obj] * len(ims)
-    imgs = [im.uv.astype(np.float32).reshape(-1, 1, 2) for im in ims]
+    seen = [im.seen for im in ims]  # partial views: only the corners seen
+    objs = [obj[m] for m in seen]
+    imgs = [im.uv[m].astype(np.float32).reshape(-1, 1, 2) for im, m in zip(ims, seen, strict=True)]
     w, h = obs.image_size
     k0 = np.array([[1500.0, 0, w / 2 - 0.5], [0, 1500.0, h / 2 - 0.5], [0, 0, 1]])
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
