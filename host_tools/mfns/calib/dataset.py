@@ -301,7 +301,6 @@ def read_rows(folder: Path, meta: DatasetMeta) -> list[Row]:
         raise MfnsError(f"{csv_path}: needs a header with columns {sorted(need)} and at least one row")
     if len(rows) > MAX_ROWS:
         raise MfnsError(f"{csv_path}: {len(rows)} rows, more than {MAX_ROWS}")
-    root = folder.resolve()
     out: list[Row] = []
     seen: set[tuple[str, str]] = set()
     for i, row in enumerate(rows, start=2):
@@ -315,8 +314,8 @@ def read_rows(folder: Path, meta: DatasetMeta) -> list[Row]:
             )
         if kind not in KINDS:
             raise MfnsError(f"{where}: kind {kind[:20]!r}, expected one of {list(KINDS)}")
-        path = (folder / rel).resolve()
-        if not rel or Path(rel).is_absolute() or not path.is_relative_to(root):
+        path = folder / rel  # lexical check: image folders may be symlinks, but no '..' or '/'
+        if not rel or Path(rel).is_absolute() or ".." in Path(rel).parts or "\\" in rel:
             raise MfnsError(
                 f"{where}: image path {rel[:60]!r} must be relative and inside the dataset folder"
             )
@@ -334,6 +333,20 @@ def read_rows(folder: Path, meta: DatasetMeta) -> list[Row]:
             b = _angle(row["omega_deg"], "omega_deg", where)
         out.append(Row(meta.cameras.index(cam), path, rel, kind, a, b))
     return out
+
+
+def check_board_size(row: Row, board: Board) -> None:
+    """A chessboard smaller than the printed one is found inside it: refuse a grid that extends."""
+    if board.kind != "chessboard":
+        return
+    img = cv2.pyrDown(cv2.imread(str(row.image), cv2.IMREAD_GRAYSCALE))
+    for size in ((board.cols + 1, board.rows), (board.cols, board.rows + 1)):
+        ok, _c = cv2.findChessboardCornersSB(img, size, flags=cv2.CALIB_CB_NORMALIZE_IMAGE)
+        if ok:
+            raise MfnsError(
+                f"{row.rel}: the board has at least {size[0]}x{size[1]} inner corners, dataset.json says "
+                f"{board.cols}x{board.rows}; check board.inner_corners"
+            )
 
 
 def _interleaved(rows: list[Row]) -> list[int]:
@@ -359,9 +372,14 @@ def detect_all(rows: list[Row], meta: DatasetMeta, workers: int | None = None, p
     tried: dict[int, int] = {}
     found: dict[int, int] = {}
 
+    checked: set[int] = set()
+
     def record(i: int, res) -> None:
         results[i] = res
         cam = rows[i].camera
+        if res[0] is not None and cam not in checked:
+            checked.add(cam)
+            check_board_size(rows[i], meta.board)
         tried[cam] = tried.get(cam, 0) + 1
         found[cam] = found.get(cam, 0) + (res[0] is not None)
         if tried[cam] == min(FAIL_FAST_IMAGES, sum(r.camera == cam for r in rows)) and found[cam] == 0:

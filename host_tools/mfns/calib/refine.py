@@ -19,6 +19,7 @@ from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
 from ..camera import Camera
+from ..errors import MfnsError
 from ..rotations import rot_exp, rot_log
 from .model import Observations, Rig
 from .zhang import INTRINSIC_NAMES
@@ -343,7 +344,10 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
             break
         sigma_px = new_sigma
     jac = prob.jacobian(x)
-    cov = np.linalg.inv(jac.T @ jac)
+    try:
+        cov = np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError as exc:
+        raise MfnsError("refinement: singular normal matrix, the images do not determine every parameter") from exc
     names, qj = prob.quantity_jacobian(x)
     sig = np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))
     rms = float(np.sqrt(np.sum(r**2) / max(prob.n_corner_res, 1)))
