@@ -50,7 +50,9 @@ def test_charuco_corners_are_where_the_truth_projects_them(charuco_ds):
     errs = []
     for im in obs.images[::5]:
         d = by[(obs.camera_names[im.camera], im.name)]
-        ref, _ = world_to_pixels(truth.cams[im.camera], np.array(d["C_k_w"]), np.array(d["r_wk_w"]), obs.board.object_points())
+        ref, _ = world_to_pixels(
+            truth.cams[im.camera], np.array(d["C_k_w"]), np.array(d["r_wk_w"]), obs.board.object_points()
+        )
         errs.append((im.uv - ref)[im.seen])
     e = np.vstack(errs)
     assert np.sqrt(np.mean(e**2)) < 0.1 and np.max(np.abs(e.mean(axis=0))) < 0.03

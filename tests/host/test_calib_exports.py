@@ -34,7 +34,9 @@ def _camera_points(cam, rng, n=200):
 
 
 def _cv_project(p, k, dist):
-    uv, _ = cv2.projectPoints(np.ascontiguousarray(p, float), np.zeros(3), np.zeros(3), np.asarray(k, float), np.asarray(dist))
+    uv, _ = cv2.projectPoints(
+        np.ascontiguousarray(p, float), np.zeros(3), np.zeros(3), np.asarray(k, float), np.asarray(dist)
+    )
     return uv.reshape(-1, 2)
 
 
@@ -99,7 +101,9 @@ def test_ros_camera_info_reads_back_and_projects_like_ours(exported):
             assert (d[key]["rows"], d[key]["cols"]) == shape and len(d[key]["data"]) == shape[0] * shape[1]
         k = np.reshape(d["camera_matrix"]["data"], (3, 3))
         p = np.reshape(d["projection_matrix"]["data"], (3, 4))
-        assert np.array_equal(p[:, :3], k) and np.array_equal(np.reshape(d["rectification_matrix"]["data"], (3, 3)), np.eye(3))
+        assert np.array_equal(p[:, :3], k) and np.array_equal(
+            np.reshape(d["rectification_matrix"]["data"], (3, 3)), np.eye(3)
+        )
         pts = _camera_points(cam, rng)
         uv = _cv_project(pts, k, d["distortion_coefficients"]["data"])
         assert np.max(np.abs(uv - cam.project_camera_points(pts)[0])) < 1e-6

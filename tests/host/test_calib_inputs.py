@@ -191,7 +191,22 @@ def test_noisy_angle_log_runs_the_papers_method(ds, tmp_path):
     v = _variant(ds, tmp_path, rows=rows)
     rep = tmp_path / "rep.txt"
     out = tmp_path / "r.json"
-    assert main(["calib", str(v), "--truth", str(ds / "truth.json"), "--quiet", "-o", str(out), "--report", str(rep)]) == 0
+    assert (
+        main(
+            [
+                "calib",
+                str(v),
+                "--truth",
+                str(ds / "truth.json"),
+                "--quiet",
+                "-o",
+                str(out),
+                "--report",
+                str(rep),
+            ]
+        )
+        == 0
+    )
     text = rep.read_text()
     assert "not applicable" not in text and (tmp_path / "r_paper.json").is_file()
     truth = load(ds / "truth.json")

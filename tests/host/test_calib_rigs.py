@@ -22,7 +22,8 @@ from mfns.simulate.calib import corner_observations, default_truth, make_plan
 SIGMA_PX = 0.1
 
 
-def _run(cams=("x", "y", "z"), board=Board(), seed=3, truth=None, **plan):
+def _run(cams=("x", "y", "z"), board=None, seed=3, truth=None, **plan):
+    board = board or Board()
     truth = truth or default_truth(cams)
     rng = np.random.default_rng(seed)
     shots = make_plan(truth, board, rng, 12, 8, 8.0, **plan)

@@ -120,8 +120,8 @@ def run_cpc(obs: Observations, zhang: list[ZhangResult], a10_iterations: int = 1
     if n_pure < 2 or not any(p[1] != 0.0 for p in pz):
         raise CpcNotApplicable(
             f"camera z: CPC needs >= 2 pure-Omega images (omega = 0 within "
-            f"{PURE_AXIS_SIGMAS:g} sigma of the angle noise) and one with omega != 0; has {n_pure} pure-Omega "
-            f"of {len(pz)}"
+            f"{PURE_AXIS_SIGMAS:g} sigma of the angle noise) and one with omega != 0; "
+            f"has {n_pure} pure-Omega of {len(pz)}"
         )
     t_w, z_b, n_it = solve_a10(pz, a10_iterations)
     others = [k for k in range(obs.n_cams) if k != iz]

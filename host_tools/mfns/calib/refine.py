@@ -347,7 +347,9 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
     try:
         cov = np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError as exc:
-        raise MfnsError("refinement: singular normal matrix, the images do not determine every parameter") from exc
+        raise MfnsError(
+            "refinement: singular normal matrix, the images do not determine every parameter"
+        ) from exc
     names, qj = prob.quantity_jacobian(x)
     sig = np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))
     rms = float(np.sqrt(np.sum(r**2) / max(prob.n_corner_res, 1)))

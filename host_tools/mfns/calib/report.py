@@ -1,13 +1,15 @@
-"""Tables (Table 2 / Table 3 style, paper vs refined vs truth vs CRB) and output files."""
+"""Tables (Table 2 / Table 3 style, paper vs refined vs truth vs CRB) and the results documents.
+
+Output files are written by exports.py, plots by plots.py.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from ..calib_results import FORMAT, VERSION, camera_entry, save
+from ..calib_results import FORMAT, VERSION, camera_entry
 from ..rotations import matrix_to_euler213_deg, rot_exp
 from .model import Observations, Rig
 from .pipeline import Calibration, paper_quantities
@@ -82,9 +84,8 @@ def extrinsics_table(cal: Calibration) -> str:
     lines.append(f"  r_wb_w {fmt3(cal.cpc.r_wb_w if cal.cpc else nan3)} | {fmt3(r.r_wb_w)}  ({fmt3(rs)})")
     rs = [sig[f"r_wt_w.{a}"] for a in "xyz"]
     lines.append(f"  r_wt_w {fmt3(p.r_wt_w if p else nan3)} | {fmt3(r.r_wt_w)}  ({fmt3(rs)})")
-    lines.append(
-        f"  r_tb_b {fmt3(p.r_tb_b if p else nan3)} | {fmt3(r.r_tb_b)}  (     0      0 {sig['r_tb_b.z']:10.4f})"
-    )
+    s_h = sig["r_tb_b.z"]
+    lines.append(f"  r_tb_b {fmt3(p.r_tb_b if p else nan3)} | {fmt3(r.r_tb_b)}  (     0      0 {s_h:10.4f})")
     for k, cam in enumerate(r.cams):
         n = cam.name
         rs = [sig[f"{n}.r_b{n}{a}"] for a in "xyz"]
@@ -92,7 +93,8 @@ def extrinsics_table(cal: Calibration) -> str:
         lines.append(f"  r_b{n}_b {fmt3(pr)} | {fmt3(cam.r_bk_b)}  ({fmt3(rs)})")
     a10 = f"A10 Gauss-Newton passes {cal.cpc.a10_iterations}" if cal.cpc else "A10 not run"
     lines.append(
-        f"  corner noise estimated {cal.refined.sigma_px:.4f} px, refined RMS {cal.refined.rms_px:.4f} px; {a10}"
+        f"  corner noise estimated {cal.refined.sigma_px:.4f} px, "
+        f"refined RMS {cal.refined.rms_px:.4f} px; {a10}"
     )
     return "\n".join(lines)
 
