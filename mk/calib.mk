@@ -4,3 +4,9 @@ TEST_SUITES += pkg-check
 .PHONY: pkg-check
 pkg-check: venv
 	@mk/pkg-check.sh $(PY)
+
+# `mfns calib` of the default dataset: time (<= 10 s on 2 cores) and run-to-run identity.
+BENCH_TARGETS += bench-calib
+.PHONY: bench-calib
+bench-calib: venv
+	@mk/bench-calib.sh $(PY)
