@@ -7,7 +7,10 @@ rewriting dataset.json / angles.csv (the images are shared through a symlink).
 import csv
 import json
 import math
+import os
 import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -246,13 +249,20 @@ def test_one_camera_dataset_and_the_flight_table_refuses_it(ds, tmp_path, capsys
     assert rc == 2 and len(err) == 1 and "exactly three cameras named x, y, z" in err[0], err
 
 
-def test_two_runs_bit_identical_whatever_the_process_count(ds, tmp_path):
+def test_two_runs_bit_identical_whatever_the_process_and_thread_count(ds, tmp_path):
+    """-j 1 and -j 2 in this process, and a run with single-threaded BLAS from the start."""
     outs = []
     for jobs in ("1", "2"):
         d = tmp_path / f"j{jobs}"
         assert main(["calib", str(ds), "--quiet", "-j", jobs, "-o", str(d / "r.json")]) == 0
         outs.append(d)
+    d = tmp_path / "blas1"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    cmd = [sys.executable, "-m", "mfns", "calib", str(ds), "--quiet", "-o", str(d / "r.json")]
+    subprocess.run(cmd, env=env, check=True)
+    outs.append(d)
     files = sorted(p.name for p in outs[0].iterdir())
     assert len(files) >= 10
     for name in files:
-        assert (outs[0] / name).read_bytes() == (outs[1] / name).read_bytes(), name
+        for other in outs[1:]:
+            assert (outs[0] / name).read_bytes() == (other / name).read_bytes(), (name, other.name)

@@ -19,8 +19,17 @@ def calibrate_dataset(
     or None, seconds spent on detection, seconds spent on calibration).
     """
     import cv2
+    from threadpoolctl import threadpool_limits
 
-    cv2.setNumThreads(1)  # Zhang's result must not depend on the machine's core count
+    # Results must not depend on the machine's core count: OpenCV's own threads and the
+    # OpenBLAS of numpy/scipy and of OpenCV's wheel change the last bits of Zhang's and the
+    # refinement's covariances with their thread count. Corner detection uses processes.
+    cv2.setNumThreads(1)
+    with threadpool_limits(limits=1):
+        return _calibrate_dataset(dataset, truth_path, a10_iterations, progress, workers)
+
+
+def _calibrate_dataset(dataset, truth_path, a10_iterations, progress, workers):
     from ..calib.dataset import load_dataset
     from ..calib.pipeline import calibrate
     from ..calib.report import compare
@@ -38,6 +47,13 @@ def calibrate_dataset(
 
 
 def run(args) -> int:
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):  # the exports' fits too (see calibrate_dataset)
+        return _run(args)
+
+
+def _run(args) -> int:
     from ..calib.exports import write_outputs
     from ..calib.plots import write_plots
     from ..calib.report import accuracy_table, extrinsics_table, intrinsics_table
