@@ -1,7 +1,8 @@
 """Issue 14 / 17: `mfns calib` on data real rigs and users produce, and on hostile input.
 
-One small rendered dataset (`mfns sim calib --small`); variants are derived from it by
-rewriting dataset.json / angles.csv (the images are shared through a symlink).
+One small rendered dataset (conftest's calib_small_dataset, shared with test_calib_cli);
+variants are derived from it by rewriting dataset.json / angles.csv (the images are shared
+through a symlink).
 """
 
 import csv
@@ -25,10 +26,8 @@ DATA = Path(__file__).resolve().parents[2] / "host_tools" / "mfns" / "data"
 
 
 @pytest.fixture(scope="module")
-def ds(tmp_path_factory):
-    out = tmp_path_factory.mktemp("calib_inputs") / "ds"
-    assert main(["sim", "calib", str(out), "--small", "--seed", "4", "--quiet"]) == 0
-    return out
+def ds(calib_small_dataset):
+    return calib_small_dataset
 
 
 def _rows(ds):

@@ -149,3 +149,16 @@ def test_turns_about_one_axis_only_is_a_clear_error():
     mats = [turntable_matrix(np.deg2rad(a), 0.0) for a in (0.0, 10.0, 20.0, 30.0)]
     with pytest.raises(MfnsError, match="one axis only"):
         check_turntable_geometry(obs, 0, mats)
+
+
+def test_views_from_one_orientation_are_refused_before_the_refinement():
+    """Six copies of one view gave fx = 23,000 px silently; now a one-line error."""
+    from mfns.calib.zhang import calibrate_camera
+    from mfns.errors import MfnsError
+
+    truth = default_truth(("z",))
+    rng = np.random.default_rng(0)
+    shots = make_plan(truth, Board(), rng, 10, 4)
+    obs = corner_observations(truth, Board(), [shots[0]] * 6, rng, 0.1)
+    with pytest.raises(MfnsError, match="1 distinct orientation"):
+        calibrate_camera(obs, 0)
