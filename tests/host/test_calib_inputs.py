@@ -82,7 +82,7 @@ HOSTILE_META = [
     (_set(("board", "square_mm"), "25"), "must be a number"),
     (_set(("board", "inner_corners"), [0, 0]), "inner_corners"),
     (_set(("board", "inner_corners"), [9.5, 6]), "must be an integer"),
-    (_set(("board", "inner_corners"), [9, 7]), "180 deg"),  # 10 x 8 squares: half-turn symmetric
+    (_set(("board", "inner_corners"), [1000, 6]), "out of range"),
     (_set(("board", "type"), "circles"), "board.type"),
     (_set(("caliper", "height_mm"), math.nan), "caliper.height_mm"),
     (_set(("caliper", "height_mm"), math.inf), "caliper.height_mm"),

@@ -183,14 +183,7 @@ def parse_board(d, path: Path) -> Board:
     square = _number(_get(d, "square_mm", path, "board"), f"{path.name}: board.square_mm", 0.0, 1e4, True)
     margin = _number(d.get("margin_mm", 20.0), f"{path.name}: board.margin_mm", 0.0, 1e4)
     if kind == "chessboard":
-        board = Board(cols, rows, square, margin)
-        if board.symmetric:
-            raise MfnsError(
-                f"{path.name}: a chessboard of {cols + 1}x{rows + 1} squares looks the same turned by "
-                "180 deg, so corner 0 cannot be told from the last; use an odd x even square count "
-                "(inner corners: one odd, one even) or a ChArUco board"
-            )
-        return board
+        return Board(cols, rows, square, margin)  # symmetric ones: see halfturn.py
     dic = _get(d, "dictionary", path, "board")
     if dic not in CHARUCO_DICTIONARIES:
         raise MfnsError(

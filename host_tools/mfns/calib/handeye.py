@@ -74,21 +74,18 @@ def check_turntable_geometry(obs: Observations, k: int, mats: list[np.ndarray]) 
         )
 
 
-def solve_hand_eye(obs: Observations, zhang: list[ZhangResult]) -> HandEyeResult:
-    views = [_turntable_views(obs, zhang[k], k) for k in range(obs.n_cams)]
-    for k, v in enumerate(views):
-        check_turntable_geometry(obs, k, [a for a, _c, _r in v])
-    n = obs.n_cams
-    rows = []
+def rotations_closed_form(views: list[list[tuple[np.ndarray, np.ndarray]]]):
+    """(C_t_w, [C_k_b]) from per camera [(A_i, C_k'_w)]: C_k'_w = C_t_w A_i C_k_b, one SVD."""
+    n = len(views)
     eye = np.eye(3)
+    rows = []
     for k, v in enumerate(views):
-        for a, c, _r in v:
+        for a, c in v:
             blk = np.zeros((9, 9 * (n + 1)))
             blk[:, :9] = np.kron(a.T, eye)  # vec(X A) = (A^T (x) I) vec X   (column-major vec)
             blk[:, 9 * (k + 1) : 9 * (k + 2)] = -np.kron(eye, c)  # vec(C Y) = (I (x) C) vec Y
             rows.append(blk)
-    m = np.vstack(rows)
-    _u, sv, vt = np.linalg.svd(m, full_matrices=False)
+    _u, _sv, vt = np.linalg.svd(np.vstack(rows), full_matrices=False)
     vec = vt[-1]
     x = vec[:9].reshape(3, 3, order="F")
     det = np.linalg.det(x)
@@ -97,6 +94,16 @@ def solve_hand_eye(obs: Observations, zhang: list[ZhangResult]) -> HandEyeResult
     s = np.sign(det) * abs(det) ** (1.0 / 3.0)
     c_t_w = _so3(x / s)
     c_k_b = [_so3(vec[9 * (k + 1) : 9 * (k + 2)].reshape(3, 3, order="F") / s).T for k in range(n)]
+    return c_t_w, c_k_b
+
+
+def solve_hand_eye(obs: Observations, zhang: list[ZhangResult]) -> HandEyeResult:
+    views = [_turntable_views(obs, zhang[k], k) for k in range(obs.n_cams)]
+    for k, v in enumerate(views):
+        check_turntable_geometry(obs, k, [a for a, _c, _r in v])
+    n = obs.n_cams
+    eye = np.eye(3)
+    c_t_w, c_k_b = rotations_closed_form([[(a, c) for a, c, _r in v] for v in views])
     # positions: r_i = r_wt + C_t_w A_i p_k, linear in (r_wt, p_1..p_n)
     rows, rhs = [], []
     for k, v in enumerate(views):

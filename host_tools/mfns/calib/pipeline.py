@@ -12,6 +12,7 @@ import numpy as np
 
 from ..camera import Camera
 from .cpc import CpcNotApplicable, CpcResult, run_cpc
+from .halfturn import apply_half_turns, resolve_half_turns
 from .handeye import HandEyeResult, solve_hand_eye
 from .model import Observations, Rig
 from .refine import RefineResult, Start, quantities, solve
@@ -27,6 +28,7 @@ class Calibration:
     init: str  # what the refinement started from
     paper_note: str = ""
     hand_eye: HandEyeResult | None = None
+    half_turned: int = 0  # symmetric chessboard: turntable images whose corner order was reversed
 
 
 def _cameras(obs: Observations, zhang: list[ZhangResult], c_k_b, r_bk_b) -> list[Camera]:
@@ -80,6 +82,13 @@ def _prepared_starts(obs: Observations, zhang: list[ZhangResult]):
 
 def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
     zhang = [calibrate_camera(obs, k) for k in range(obs.n_cams)]
+    flips: list[int] = []
+    if obs.board.symmetric:  # which corner is the first: decided by the turntable chain
+        flips = resolve_half_turns(obs, zhang)
+        if flips:
+            apply_half_turns(obs, flips)
+            again = {obs.images[i].camera for i in flips}
+            zhang = [calibrate_camera(obs, k) if k in again else z for k, z in enumerate(zhang)]
     prepared = _prepared_starts(obs, zhang)
     cpc = paper = hand_eye = None
     note = ""
@@ -107,4 +116,4 @@ def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
     sigma0 = float(np.sqrt(sum(z.rms_px**2 * len(z.names) for z in zhang) / n_img))
     sigma0 = max(sigma0 * np.sqrt(n / max(n - 200, 1)), 1e-3)
     refined = solve(obs, start, sigma0)
-    return Calibration(zhang, cpc, paper, refined, init, note, hand_eye)
+    return Calibration(zhang, cpc, paper, refined, init, note, hand_eye, len(flips))

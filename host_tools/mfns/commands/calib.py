@@ -71,6 +71,11 @@ def _run(args) -> int:
         bad = [r for r in rejected if r[0] == name]
         text.append(f"camera {name}: {len(obs.of_camera(k))} images used, {len(bad)} skipped")
         text += [f"  skipped {path}: {why}" for _c, path, why in bad]
+    if obs.board.symmetric:
+        text.append(
+            f"board symmetric under a half turn: corner 0 set by the turntable chain "
+            f"({cal.half_turned} images' corner order reversed)"
+        )
     if cal.paper is None:
         text.append(f"{cal.paper_note}; the refinement started from {cal.init}")
     text += ["", intrinsics_table(cal), "", extrinsics_table(cal)]

@@ -580,12 +580,6 @@ def run(args) -> int:
         )
     else:
         board = Board(args.cols, args.rows, args.square)
-        if board.symmetric:
-            raise MfnsError(
-                f"a chessboard of {args.cols + 1}x{args.rows + 1} squares is symmetric under a half turn "
-                "(mfns calib refuses it): make one of --cols/--rows odd and the other even, "
-                "or use --board charuco"
-            )
     if not 0.0 <= args.max_outside <= 0.6 or (args.max_outside > 0 and args.board != "charuco"):
         raise MfnsError("--max-outside must be 0 to 0.6, and > 0 only with --board charuco")
     n_tt, n_prep, ss = args.turntable_views, args.prepared_views, args.supersample
