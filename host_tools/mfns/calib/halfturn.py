@@ -73,12 +73,13 @@ def _camera_turns(obs: Observations, k: int, tt) -> list[bool]:
 def resolve_half_turns(obs: Observations, zhang: list[ZhangResult]) -> list[int]:
     """Indices (into obs.images) of the images whose corners must be reversed."""
     flips: list[int] = []
+    where = {id(im): n for n, im in enumerate(obs.images)}
     for k, z in enumerate(zhang):
         tt = []
         for i, im in enumerate(obs.of_camera(k)):
             if im.kind == "turntable":
                 a = turntable_matrix(np.deg2rad(im.omega_big_deg), np.deg2rad(im.omega_small_deg))
-                tt.append((obs.images.index(im), a, z.camera_in_world(i)[0]))
+                tt.append((where[id(im)], a, z.camera_in_world(i)[0]))
         check_turntable_geometry(obs, k, [a for _i, a, _c in tt])
         turned = _camera_turns(obs, k, tt)
         flips += [i for (i, _a, _c), t in zip(tt, turned, strict=True) if t]
