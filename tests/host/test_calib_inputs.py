@@ -143,7 +143,7 @@ def test_hostile_angles_csv_is_one_line_error(ds, tmp_path, capsys, edit, match)
 
 @pytest.mark.parametrize(
     "corners,match",
-    [([12, 9], "not found in its first 4 images"), ([6, 3], "check board.inner_corners")],
+    [([12, 9], "none of its first 4 images shows the board"), ([6, 3], "check board.inner_corners")],
     ids=["larger", "smaller"],
 )
 def test_board_the_images_do_not_show_fails_fast(ds, tmp_path, capsys, corners, match):

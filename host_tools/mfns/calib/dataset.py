@@ -374,8 +374,8 @@ def detect_all(rows: list[Row], meta: DatasetMeta, workers: int | None = None, p
         found[cam] = found.get(cam, 0) + (res[0] is not None)
         if tried[cam] == min(FAIL_FAST_IMAGES, sum(r.camera == cam for r in rows)) and found[cam] == 0:
             raise MfnsError(
-                f"camera {meta.cameras[cam]}: the board was not found in its first {tried[cam]} images "
-                f"({res[1]}); check board in dataset.json against the images"
+                f"camera {meta.cameras[cam]}: none of its first {tried[cam]} images shows the board "
+                f"({res[1]}); check dataset.json (board, image_size) against the images"
             )
 
     bar = None
