@@ -14,18 +14,28 @@ from .validate import MIB
 
 FORMAT = "mfns-calib-results"
 VERSION = 1
-CAMERA_NAMES = ("x", "y", "z")
+CAMERA_NAMES = ("x", "y", "z")  # the flight rig (calibration table, navigation)
+MAX_CAMERAS = 8  # a calibration (mfns calib) may hold 1..8 cameras
+NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
 
 
 MAX_BYTES = 1 * MIB  # a calibration of three cameras is ~5 KiB
+
+
+def camera_name_problem(name) -> str | None:
+    """Why `name` cannot be a camera name (used in file names), or None."""
+    if not isinstance(name, str) or not 1 <= len(name) <= 16 or not set(name) <= NAME_CHARS:
+        return f"camera name {name!r:.40} must be 1-16 characters of A-Z a-z 0-9 _ -"
+    return None
 
 
 def _camera(i: int, cam: object) -> None:
     where = f"camera {i}"
     cam = V.obj(cam, where)
     name = cam.get("name")
-    if name != CAMERA_NAMES[i]:
-        raise MfnsError(f"{where}: name {name!r}, expected {CAMERA_NAMES[i]!r}")
+    problem = camera_name_problem(name)
+    if problem:
+        raise MfnsError(f"{where}: {problem}")
     where = f"camera {name}"
     V.keys(cam, where, ("image_size", "fx", "fy", "cx", "cy", "skew", "dist", "C_k_b", "r_bk_b"))
     size = cam["image_size"]
@@ -49,8 +59,12 @@ def _camera(i: int, cam: object) -> None:
             raise MfnsError(f"{where}: euler_213_deg disagrees with C_k_b")
 
 
-def validate(doc: object) -> dict:
-    """Check a calibration-results document; returns it. Raises MfnsError with one line."""
+def validate(doc: object, flight: bool = True) -> dict:
+    """Check a calibration-results document; returns it. Raises MfnsError with one line.
+
+    flight=True (the default: calibration table, navigation) needs exactly the cameras
+    x, y, z; flight=False (what mfns calib writes) accepts 1..MAX_CAMERAS named cameras.
+    """
     doc = V.obj(doc, "calibration results")
     if doc.get("format") != FORMAT:
         raise MfnsError(
@@ -61,17 +75,27 @@ def validate(doc: object) -> dict:
         raise MfnsError(f"calibration-results version {version} is newer than this tool ({VERSION})")
     V.number(doc.get("pixel_noise_px"), "pixel_noise_px", 0.0, None, lo_open=True)
     cams = doc.get("cameras")
-    if not isinstance(cams, list) or len(cams) != 3:
-        raise MfnsError("cameras must be a list of exactly three cameras (x, y, z)")
+    if not isinstance(cams, list) or not all(isinstance(c, dict) for c in cams):
+        raise MfnsError("cameras must be a list of camera objects")
+    names = [c.get("name") for c in cams]
+    if flight and names != list(CAMERA_NAMES):
+        raise MfnsError(
+            f"the flight rig (calibration table, navigation) needs exactly three cameras named x, y, z "
+            f"in that order; this file has {len(cams)}: {names[:8]}"
+        )
+    if not 1 <= len(cams) <= MAX_CAMERAS:
+        raise MfnsError(f"cameras: {len(cams)} cameras, expected 1 to {MAX_CAMERAS}")
+    if len(set(map(str, names))) != len(names):
+        raise MfnsError(f"cameras: duplicate names {names[:8]}")
     for i, cam in enumerate(cams):
         _camera(i, cam)
     return doc
 
 
-def load(path: str | Path) -> dict:
+def load(path: str | Path, flight: bool = True) -> dict:
     doc = V.load_json(path, "calibration results", MAX_BYTES)
     try:
-        return validate(doc)
+        return validate(doc, flight)
     except MfnsError as exc:
         raise MfnsError(f"{path}: {exc}") from exc
 
@@ -97,6 +121,6 @@ def camera_entry(name, image_size, fx, fy, cx, cy, skew, dist, c_k_b, r_bk_b, si
     return entry
 
 
-def save(doc: dict, path: str | Path) -> None:
-    validate(doc)
+def save(doc: dict, path: str | Path, flight: bool = True) -> None:
+    validate(doc, flight)
     Path(path).write_text(json.dumps(doc, indent=2) + "\n")

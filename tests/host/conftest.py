@@ -25,3 +25,13 @@ def gen_dir() -> Path:
 def core_lib() -> Path:
     """The portable C core as a shared library (make lib)."""
     return REPO / "build" / "host-sim" / "lib" / "libmfns_core.so"
+
+
+@pytest.fixture(scope="session")
+def calib_small_dataset(tmp_path_factory) -> Path:
+    """`mfns sim calib --small --seed 3` (read-only: tests that change it work on a copy)."""
+    from mfns.cli import main
+
+    out = tmp_path_factory.mktemp("calib_small") / "ds"
+    assert main(["sim", "calib", str(out), "--small", "--seed", "3", "--quiet"]) == 0
+    return out

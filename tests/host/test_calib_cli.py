@@ -12,10 +12,8 @@ from mfns.cli import main
 
 
 @pytest.fixture(scope="module")
-def small_dataset(tmp_path_factory):
-    out = tmp_path_factory.mktemp("calib") / "ds"
-    assert main(["sim", "calib", str(out), "--small", "--seed", "3", "--quiet"]) == 0
-    return out
+def small_dataset(calib_small_dataset):
+    return calib_small_dataset
 
 
 def test_sim_calib_writes_the_documented_folder(small_dataset):

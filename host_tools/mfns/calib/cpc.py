@@ -16,6 +16,12 @@ them is what the paper's discussion names):
    the caliper height (b_z = -height) gives b_x, b_y, z_z.
 4. Eq. A15: r_wt_w and r_tb_b from all of camera Z's turntable images.
 5. Eqs. A17/A18: r_bx_b and r_by_b from cameras X and Y's images.
+
+Every other camera of an N-camera rig is treated like X and Y (A11/A12, A17/A18); camera Z
+(named "z") is the reference. Pure-axis images are those `ImageObs.pure` marks (recorded angle
+within the turntable's noise of zero, or the kind in angles.csv); for them the equations use
+the commanded zero, as the paper does. When the dataset lacks what the chain needs, run_cpc
+raises CpcNotApplicable with the reason (the refinement then starts from mfns.calib.handeye).
 """
 
 from __future__ import annotations
@@ -26,12 +32,19 @@ import numpy as np
 
 from ..errors import MfnsError
 from ..rotations import rot_exp, skew
-from .model import CAMERA_NAMES, Observations, turntable_matrix
+from .model import PURE_AXIS_SIGMAS, Observations, turntable_matrix
 from .zhang import ZhangResult
 
 PURE_OMEGA_ROWS = ((2, 0), (2, 1), (0, 2), (1, 2))  # elements 31, 32, 13, 23
 PURE_SMALL_OMEGA_ROWS = ((0, 1), (0, 2), (1, 0), (2, 0))  # elements 12, 13, 21, 31
 ALL_ROWS = tuple((i, j) for i in range(3) for j in range(3))
+
+
+REFERENCE_CAMERA = "z"
+
+
+class CpcNotApplicable(MfnsError):
+    """The paper's chain cannot run on this dataset (the message says why)."""
 
 
 @dataclass
@@ -52,13 +65,18 @@ def _so3(m: np.ndarray) -> np.ndarray:
 
 
 def _turntable_poses(obs: Observations, zhang: ZhangResult, k: int):
-    """(Omega, omega) in radians, C_k'_w, r_wk'_w for camera k's turntable images."""
+    """(Omega, omega) in radians, C_k'_w, r_wk'_w for camera k's turntable images.
+
+    The angle of a pure-axis image's other axis is the commanded zero, not its noisy record.
+    """
     out = []
     for i, im in enumerate(obs.of_camera(k)):
         if im.kind != "turntable":
             continue
         c, r = zhang.camera_in_world(i)
-        out.append((np.deg2rad(im.omega_big_deg), np.deg2rad(im.omega_small_deg), c, r))
+        big = 0.0 if im.pure == "omega" else np.deg2rad(im.omega_big_deg)
+        small = 0.0 if im.pure == "Omega" else np.deg2rad(im.omega_small_deg)
+        out.append((big, small, c, r))
     return out
 
 
@@ -87,20 +105,33 @@ def solve_a10(poses, iterations: int = 10, tol: float = 1e-13):
 
 
 def run_cpc(obs: Observations, zhang: list[ZhangResult], a10_iterations: int = 10) -> CpcResult:
-    poses = [_turntable_poses(obs, zhang[k], k) for k in range(3)]
-    for k in range(3):
+    names = obs.camera_names
+    if REFERENCE_CAMERA not in names:
+        raise CpcNotApplicable(
+            f"the paper's chain starts from camera {REFERENCE_CAMERA!r}; cameras are {list(names)}"
+        )
+    iz = names.index(REFERENCE_CAMERA)
+    poses = [_turntable_poses(obs, zhang[k], k) for k in range(obs.n_cams)]
+    for k in range(obs.n_cams):
         if len(poses[k]) < 2:
-            raise MfnsError(f"camera {CAMERA_NAMES[k]}: CPC needs >= 2 turntable images")
-    pz = poses[2]
-    if sum(abs(p[1]) < 1e-12 for p in pz) < 2 or not any(abs(p[1]) > 1e-12 for p in pz):
-        raise MfnsError("camera z: CPC needs >= 2 pure-Omega images and one image with omega != 0")
+            raise CpcNotApplicable(f"camera {names[k]}: CPC needs >= 2 turntable images, has {len(poses[k])}")
+    pz = poses[iz]
+    n_pure = sum(p[1] == 0.0 for p in pz)
+    if n_pure < 2 or not any(p[1] != 0.0 for p in pz):
+        raise CpcNotApplicable(
+            f"camera z: CPC needs >= 2 pure-Omega images (omega = 0 within "
+            f"{PURE_AXIS_SIGMAS:g} sigma of the angle noise) and one with omega != 0; "
+            f"has {n_pure} pure-Omega of {len(pz)}"
+        )
     t_w, z_b, n_it = solve_a10(pz, a10_iterations)
-    c_k_b = [None, None, z_b]
-    for k in (0, 1):  # Eqs. A11, A12
+    others = [k for k in range(obs.n_cams) if k != iz]
+    c_k_b: list = [None] * obs.n_cams
+    c_k_b[iz] = z_b
+    for k in others:  # Eqs. A11, A12
         acc = sum((t_w @ turntable_matrix(a, b)).T @ c for a, b, c, _ in poses[k])
         c_k_b[k] = _so3(acc)
     # Eq. A16: differences of pure-Omega images give zx, zy
-    pure = [(t_w @ turntable_matrix(a, b), r) for a, b, _c, r in pz if abs(b) < 1e-12]
+    pure = [(t_w @ turntable_matrix(a, b), r) for a, b, _c, r in pz if b == 0.0]
     a_mean = sum(a for a, _ in pure) / len(pure)
     r_mean = sum(r for _, r in pure) / len(pure)
     m = np.vstack([(a - a_mean)[:, :2] for a, _ in pure])
@@ -119,8 +150,9 @@ def run_cpc(obs: Observations, zhang: list[ZhangResult], a10_iterations: int = 1
     y = np.concatenate([r - a @ r_bz for a, r in full])
     sol, *_ = np.linalg.lstsq(m, y, rcond=None)
     r_wt, r_tb = sol[:3], sol[3:]
-    r_bk = [None, None, r_bz]
-    for k in (0, 1):  # Eqs. A17, A18
+    r_bk: list = [None] * obs.n_cams
+    r_bk[iz] = r_bz
+    for k in others:  # Eqs. A17, A18
         est = [(t_w @ turntable_matrix(a, b)).T @ (r - r_wt) - r_tb for a, b, _c, r in poses[k]]
         r_bk[k] = np.mean(est, axis=0)
     return CpcResult(t_w, c_k_b, r_bk, r_wb, r_wt, r_tb, n_it)  # type: ignore[arg-type]

@@ -23,18 +23,42 @@ import numpy as np
 from ..camera import Camera
 from ..rotations import rx, rz
 
-CAMERA_NAMES = ("x", "y", "z")
+CAMERA_NAMES = ("x", "y", "z")  # the flight rig's cameras (the default dataset)
+MAX_CAMERAS = 8
 ARCSEC = np.pi / (180.0 * 3600.0)
+PURE_AXIS_SIGMAS = 5.0  # a recorded angle within 5 sigma of 0 was commanded to 0
+
+
+CHARUCO_DICTIONARIES = ("DICT_4X4_250", "DICT_5X5_250", "DICT_6X6_250", "DICT_APRILTAG_36h11")
 
 
 @dataclass(frozen=True)
 class Board:
-    """Checkerboard: `cols` x `rows` inner corners, `square` mm; squares span one square beyond."""
+    """Checkerboard: `cols` x `rows` inner corners, `square` mm; squares span one square beyond.
+
+    kind "charuco": the same grid with ArUco markers (`dictionary`, side `marker` mm) in the
+    white squares, OpenCV's CharucoBoard((cols + 1, rows + 1)) (top-left square black, corner
+    id = row * cols + col), so views need not show the whole board.
+    """
 
     cols: int = 9
     rows: int = 6
     square: float = 25.0
     margin: float = 20.0  # white border around the outer squares, mm
+    kind: str = "chessboard"
+    dictionary: str = ""
+    marker: float = 0.0
+
+    @property
+    def symmetric(self) -> bool:
+        """A plain chessboard whose half turn maps the colours onto themselves (even square sum)."""
+        return self.kind == "chessboard" and (self.cols + self.rows) % 2 == 0
+
+    def charuco(self):
+        import cv2
+
+        d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
+        return cv2.aruco.CharucoBoard((self.cols + 1, self.rows + 1), self.square, self.marker, d)
 
     @property
     def n(self) -> int:
@@ -55,18 +79,18 @@ class Board:
         return np.array([[lo, lo, 0], [hx, lo, 0], [hx, hy, 0], [lo, hy, 0]], dtype=float)
 
     def to_dict(self) -> dict:
-        return {
+        d = {
+            "type": self.kind,
             "inner_corners": [self.cols, self.rows],
             "square_mm": self.square,
             "margin_mm": self.margin,
             "corner_order": "row-major: k = row * cols + col at (col * square, row * square, 0) mm",
             "first_square": "the square between corners (0,0),(1,0),(0,1),(1,1) is black",
         }
-
-    @classmethod
-    def from_dict(cls, d: dict) -> Board:
-        cols, rows = d["inner_corners"]
-        return cls(int(cols), int(rows), float(d["square_mm"]), float(d.get("margin_mm", 20.0)))
+        if self.kind == "charuco":
+            d["dictionary"] = self.dictionary
+            d["marker_mm"] = self.marker
+        return d
 
 
 def turntable_matrix(omega_big: float, omega_small: float) -> np.ndarray:
@@ -102,9 +126,28 @@ def world_to_pixels(cam: Camera, C_k_w: np.ndarray, r_wk_w: np.ndarray, p_w: np.
     return uv, front & cam.in_image(uv)
 
 
+def pure_axis(omega_big_deg: float, omega_small_deg: float, angle_sigma_rad: float) -> str:
+    """Which single axis turned: "Omega" (omega commanded 0), "omega" (Omega commanded 0) or "".
+
+    A real turntable logs its encoders, so an image taken at a commanded zero carries the
+    angle noise (e.g. 0.0021 deg at 8"). |angle| <= PURE_AXIS_SIGMAS sigma counts as zero; at
+    (0, 0) the image is pure-Omega (the paper's Eq. A10 rows for Omega images apply).
+    """
+    tol = np.rad2deg(PURE_AXIS_SIGMAS * angle_sigma_rad) + 1e-12
+    if abs(omega_small_deg) <= tol:
+        return "Omega"
+    if abs(omega_big_deg) <= tol:
+        return "omega"
+    return ""
+
+
 @dataclass
 class ImageObs:
-    """One image's corner observations (all corners of the board, row-major)."""
+    """One image's corner observations, row-major over the board's corners.
+
+    Rows of `uv` are NaN for corners not seen (ChArUco partial views); a chessboard image
+    holds every corner.
+    """
 
     camera: int
     kind: str  # "turntable" or "prepared"
@@ -112,6 +155,12 @@ class ImageObs:
     uv: np.ndarray  # (N, 2) px
     omega_big_deg: float = float("nan")  # recorded turntable angles (turntable images)
     omega_small_deg: float = float("nan")
+    pure: str = ""  # "Omega" / "omega": only that axis was commanded (pure_axis or the csv kind)
+
+    @property
+    def seen(self) -> np.ndarray:
+        """(N,) bool: corners observed in this image."""
+        return np.all(np.isfinite(self.uv), axis=1)
 
 
 @dataclass
@@ -122,6 +171,11 @@ class Observations:
     caliper_sigma_mm: float
     angle_sigma_rad: float
     image_size: tuple[int, int] = (1280, 1024)
+    camera_names: tuple[str, ...] = CAMERA_NAMES
+
+    @property
+    def n_cams(self) -> int:
+        return len(self.camera_names)
 
     def of_camera(self, k: int, kind: str | None = None) -> list[ImageObs]:
         return [im for im in self.images if im.camera == k and (kind is None or im.kind == kind)]

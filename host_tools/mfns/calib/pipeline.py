@@ -1,4 +1,8 @@
-"""Zhang -> CPC (the paper) -> joint ML refinement, on one set of corner observations."""
+"""Zhang -> CPC (the paper) -> joint ML refinement, on one set of corner observations.
+
+When the paper's CPC cannot run on the dataset, the refinement starts from the general
+robot-world/hand-eye initialization (handeye.py) and `Calibration.paper_note` says why.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..camera import Camera
-from .cpc import CpcResult, run_cpc
+from .cpc import CpcNotApplicable, CpcResult, run_cpc
+from .halfturn import apply_half_turns, resolve_half_turns
+from .handeye import HandEyeResult, solve_hand_eye
 from .model import Observations, Rig
 from .refine import RefineResult, Start, quantities, solve
 from .zhang import ZhangResult, calibrate_camera
@@ -16,18 +22,22 @@ from .zhang import ZhangResult, calibrate_camera
 @dataclass
 class Calibration:
     zhang: list[ZhangResult]
-    cpc: CpcResult
-    paper: Rig
+    cpc: CpcResult | None  # None: the paper's method was not applicable (paper_note says why)
+    paper: Rig | None
     refined: RefineResult
+    init: str  # what the refinement started from
+    paper_note: str = ""
+    hand_eye: HandEyeResult | None = None
+    half_turned: int = 0  # symmetric chessboard: turntable images whose corner order was reversed
 
 
-def paper_rig(obs: Observations, zhang: list[ZhangResult], cpc: CpcResult) -> Rig:
+def _cameras(obs: Observations, zhang: list[ZhangResult], c_k_b, r_bk_b) -> list[Camera]:
     cams = []
     for k, z in enumerate(zhang):
         fx, fy, cx, cy, *dist = z.intrinsics
         cams.append(
             Camera(
-                "xyz"[k],
+                obs.camera_names[k],
                 fx,
                 fy,
                 cx,
@@ -36,37 +46,74 @@ def paper_rig(obs: Observations, zhang: list[ZhangResult], cpc: CpcResult) -> Ri
                 np.array(dist),
                 obs.image_size[0],
                 obs.image_size[1],
-                cpc.C_k_b[k],
-                cpc.r_bk_b[k],
+                c_k_b[k],
+                r_bk_b[k],
             )
         )
-    return Rig(cams, cpc.C_t_w, cpc.r_wt_w, cpc.r_tb_b)
+    return cams
+
+
+def paper_rig(obs: Observations, zhang: list[ZhangResult], cpc: CpcResult) -> Rig:
+    return Rig(_cameras(obs, zhang, cpc.C_k_b, cpc.r_bk_b), cpc.C_t_w, cpc.r_wt_w, cpc.r_tb_b)
 
 
 def paper_quantities(cal: Calibration, ref: Rig) -> tuple[list[str], np.ndarray]:
-    """The paper's estimates as quantities(); r_wb_w is its Eq. A14 value, not r_wt + C r_tb."""
+    """The paper's estimates as quantities(); r_wb_w is its Eq. A14 value, not r_wt + C r_tb.
+
+    NaN everywhere when the paper's method was not applicable.
+    """
+    if cal.paper is None or cal.cpc is None:
+        names, vals = quantities(ref, ref)
+        return names, np.full_like(vals, np.nan)
     names, vals = quantities(cal.paper, ref)
     vals[-3:] = cal.cpc.r_wb_w
     return names, vals
 
 
-def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
-    zhang = [calibrate_camera(obs, k) for k in range(3)]
-    cpc = run_cpc(obs, zhang, a10_iterations)
-    paper = paper_rig(obs, zhang, cpc)
+def _prepared_starts(obs: Observations, zhang: list[ZhangResult]):
     prepared = []
     for im in obs.images:
         if im.kind == "prepared":
             z = zhang[im.camera]
             i = z.names.index(im.name)
             prepared.append((z.C_w_k[i], z.t[i]))
-    start = Start.from_rig(paper, prepared)
-    # The gauge of the refinement puts the body origin on Zt: start with r_tb = (0, 0, h) and
-    # the paper's r_tb x, y moved into r_wt so the start reproduces the paper's geometry.
-    start.r_wt_w = cpc.r_wt_w + cpc.C_t_w @ np.array([cpc.r_tb_b[0], cpc.r_tb_b[1], 0.0])
-    start.r_bk_b = [r + np.array([cpc.r_tb_b[0], cpc.r_tb_b[1], 0.0]) for r in cpc.r_bk_b]
-    n = sum(len(obs.of_camera(k)) for k in range(3)) * obs.board.n * 2
-    sigma0 = float(np.sqrt(sum(z.rms_px**2 * len(z.names) for z in zhang) / sum(len(z.names) for z in zhang)))
+    return prepared
+
+
+def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
+    zhang = [calibrate_camera(obs, k) for k in range(obs.n_cams)]
+    flips: list[int] = []
+    if obs.board.symmetric:  # which corner is the first: decided by the turntable chain
+        flips = resolve_half_turns(obs, zhang)
+        if flips:
+            apply_half_turns(obs, flips)
+            again = {obs.images[i].camera for i in flips}
+            zhang = [calibrate_camera(obs, k) if k in again else z for k, z in enumerate(zhang)]
+    prepared = _prepared_starts(obs, zhang)
+    cpc = paper = hand_eye = None
+    note = ""
+    try:
+        cpc = run_cpc(obs, zhang, a10_iterations)
+    except CpcNotApplicable as exc:
+        note = f"the paper's CPC is not applicable: {exc}"
+    if cpc is not None:
+        paper = paper_rig(obs, zhang, cpc)
+        start = Start.from_rig(paper, prepared)
+        # The gauge of the refinement puts the body origin on Zt: start with r_tb = (0, 0, h) and
+        # the paper's r_tb x, y moved into r_wt so the start reproduces the paper's geometry.
+        shift = np.array([cpc.r_tb_b[0], cpc.r_tb_b[1], 0.0])
+        start.r_wt_w = cpc.r_wt_w + cpc.C_t_w @ shift
+        start.r_bk_b = [r + shift for r in cpc.r_bk_b]
+        init = "the paper's CPC"
+    else:
+        hand_eye = solve_hand_eye(obs, zhang)
+        rig = Rig(_cameras(obs, zhang, hand_eye.C_k_b, hand_eye.r_bk_b), hand_eye.C_t_w, hand_eye.r_wt_w)
+        rig.r_tb_b = np.array([0.0, 0.0, hand_eye.h])
+        start = Start.from_rig(rig, prepared)
+        init = "the general robot-world/hand-eye initialization"
+    n = sum(int(im.seen.sum()) for im in obs.images) * 2
+    n_img = sum(len(z.names) for z in zhang)
+    sigma0 = float(np.sqrt(sum(z.rms_px**2 * len(z.names) for z in zhang) / n_img))
     sigma0 = max(sigma0 * np.sqrt(n / max(n - 200, 1)), 1e-3)
     refined = solve(obs, start, sigma0)
-    return Calibration(zhang, cpc, paper, refined)
+    return Calibration(zhang, cpc, paper, refined, init, note, hand_eye, len(flips))

@@ -19,13 +19,18 @@ from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
 from ..camera import Camera
+from ..errors import MfnsError
 from ..rotations import rot_exp, rot_log
 from .model import Observations, Rig
 from .zhang import INTRINSIC_NAMES
 
-N_CAM = 15  # 9 intrinsics, 3 attitude, 3 position
-RIG0 = 3 * N_CAM  # start of the rig block: d_t (3), r_wt (3), h (1)
-N_RIG = 7
+N_CAM = 15  # per camera: 9 intrinsics, 3 attitude, 3 position
+N_RIG = 7  # after the cameras: d_t (3), r_wt (3), h (1)
+
+
+def rig0(n_cams: int) -> int:
+    """Start of the rig block in the parameter vector."""
+    return n_cams * N_CAM
 
 
 def _rot_stack(axis: int, a: np.ndarray) -> np.ndarray:
@@ -79,6 +84,8 @@ class Problem:
     def __init__(self, obs: Observations, start: Start, sigma_px: float):
         self.obs, self.start, self.sigma_px = obs, start, sigma_px
         self.obj = obs.board.object_points()
+        self.n_cams = obs.n_cams
+        self.rig0 = r0 = rig0(self.n_cams)
         self.tt = [im for im in obs.images if im.kind == "turntable"]
         self.prep = [im for im in obs.images if im.kind == "prepared"]
         if len(self.prep) != len(start.prepared):
@@ -86,22 +93,29 @@ class Problem:
         self.tt_cam = np.array([im.camera for im in self.tt], dtype=int)
         self.tt_big = np.deg2rad([im.omega_big_deg for im in self.tt])
         self.tt_small = np.deg2rad([im.omega_small_deg for im in self.tt])
-        self.uv_tt = np.array([im.uv for im in self.tt])
+        # corners not seen (partial views) have weight 0 and a placeholder observation
+        self.uv_tt = np.array([im.uv for im in self.tt]).reshape(len(self.tt), -1, 2)
         self.uv_prep = np.array([im.uv for im in self.prep]).reshape(len(self.prep), -1, 2)
+        self.w_tt = np.isfinite(self.uv_tt).all(axis=2)[..., None].astype(float)
+        self.w_prep = np.isfinite(self.uv_prep).all(axis=2)[..., None].astype(float)
+        self.uv_tt = np.nan_to_num(self.uv_tt)
+        self.uv_prep = np.nan_to_num(self.uv_prep)
         self.n_tt, self.n_prep = len(self.tt), len(self.prep)
-        self.ang0 = RIG0 + N_RIG
+        self.ang0 = r0 + N_RIG
         self.prep0 = self.ang0 + 2 * self.n_tt
         self.n = self.prep0 + 6 * self.n_prep
-        self.n_corner_res = 2 * obs.board.n * (self.n_tt + self.n_prep)
+        self.n_corner_slots = 2 * obs.board.n * (self.n_tt + self.n_prep)  # residual rows, seen or not
+        self.n_corner_res = int(2 * (self.w_tt.sum() + self.w_prep.sum()))  # observed coordinates
 
     def x0(self) -> np.ndarray:
         s = self.start
+        r0 = self.rig0
         x = np.zeros(self.n)
-        for k in range(3):
+        for k in range(self.n_cams):
             x[N_CAM * k : N_CAM * k + 9] = s.intr[k]
             x[N_CAM * k + 12 : N_CAM * k + 15] = s.r_bk_b[k]
-        x[RIG0 + 3 : RIG0 + 6] = s.r_wt_w
-        x[RIG0 + 6] = s.h
+        x[r0 + 3 : r0 + 6] = s.r_wt_w
+        x[r0 + 6] = s.h
         for i, (_r, t) in enumerate(s.prepared):
             x[self.prep0 + 6 * i + 3 : self.prep0 + 6 * i + 6] = t
         return x
@@ -111,15 +125,16 @@ class Problem:
         return rot_exp(x[N_CAM * k + 9 : N_CAM * k + 12]) @ self.start.C_k_b[k]
 
     def C_t_w(self, x):
-        return rot_exp(x[RIG0 : RIG0 + 3]) @ self.start.C_t_w
+        return rot_exp(x[self.rig0 : self.rig0 + 3]) @ self.start.C_t_w
 
     def rig(self, x) -> Rig:
+        r0 = self.rig0
         cams = []
-        for k in range(3):
+        for k in range(self.n_cams):
             fx, fy, cx, cy, *dist = x[N_CAM * k : N_CAM * k + 9]
             cams.append(
                 Camera(
-                    name="xyz"[k],
+                    name=self.obs.camera_names[k],
                     fx=fx,
                     fy=fy,
                     cx=cx,
@@ -131,29 +146,30 @@ class Problem:
                     r_bk_b=x[N_CAM * k + 12 : N_CAM * k + 15].copy(),
                 )
             )
-        return Rig(cams, self.C_t_w(x), x[RIG0 + 3 : RIG0 + 6].copy(), np.array([0.0, 0.0, x[RIG0 + 6]]))
+        return Rig(cams, self.C_t_w(x), x[r0 + 3 : r0 + 6].copy(), np.array([0.0, 0.0, x[r0 + 6]]))
 
     # --- residuals ---------------------------------------------------------------------------
     def residuals(self, x: np.ndarray) -> np.ndarray:
+        r0 = self.rig0
         c_t_w = self.C_t_w(x)
-        r_wt = x[RIG0 + 3 : RIG0 + 6]
-        r_tb = np.array([0.0, 0.0, x[RIG0 + 6]])
+        r_wt = x[r0 + 3 : r0 + 6]
+        r_tb = np.array([0.0, 0.0, x[r0 + 6]])
         out = []
         if self.n_tt:
             d_ang = x[self.ang0 : self.prep0].reshape(-1, 2)
             a = c_t_w @ (
                 _rot_stack(0, self.tt_small + d_ang[:, 1]) @ _rot_stack(2, self.tt_big + d_ang[:, 0])
             )
-            c_kb = np.array([self.C_k_b(x, k) for k in range(3)])[self.tt_cam]
-            r_bk = np.array([x[N_CAM * k + 12 : N_CAM * k + 15] for k in range(3)])[self.tt_cam]
+            c_kb = np.array([self.C_k_b(x, k) for k in range(self.n_cams)])[self.tt_cam]
+            r_bk = np.array([x[N_CAM * k + 12 : N_CAM * k + 15] for k in range(self.n_cams)])[self.tt_cam]
             c_kw = a @ c_kb
             r_wk = r_wt + np.einsum("nij,nj->ni", a, r_tb + r_bk)
             p_c = np.einsum("npj,njk->npk", self.obj[None] - r_wk[:, None, :], c_kw)
             uv = np.empty_like(self.uv_tt)
-            for k in range(3):
+            for k in range(self.n_cams):
                 m = self.tt_cam == k
                 uv[m] = _project(x[N_CAM * k : N_CAM * k + 9], p_c[m])
-            out.append(((uv - self.uv_tt) / self.sigma_px).ravel())
+            out.append(((uv - self.uv_tt) * (self.w_tt / self.sigma_px)).ravel())
         if self.n_prep:
             uvp = np.empty_like(self.uv_prep)
             for i, im in enumerate(self.prep):
@@ -161,21 +177,22 @@ class Problem:
                 r = rot_exp(p[:3]) @ self.start.prepared[i][0]
                 k = im.camera
                 uvp[i] = _project(x[N_CAM * k : N_CAM * k + 9], self.obj @ r.T + p[3:])
-            out.append(((uvp - self.uv_prep) / self.sigma_px).ravel())
+            out.append(((uvp - self.uv_prep) * (self.w_prep / self.sigma_px)).ravel())
         out.append(x[self.ang0 : self.prep0] / self.obs.angle_sigma_rad)
         r_wb_z = r_wt[2] + (c_t_w @ r_tb)[2]
         out.append(np.array([(r_wb_z + self.obs.caliper_height_mm) / self.obs.caliper_sigma_mm]))
         return np.concatenate(out)
 
     def sparsity(self):
+        r0 = self.rig0
         n_c = 2 * self.obs.board.n
-        m = self.n_corner_res + 2 * self.n_tt + 1
+        m = self.n_corner_slots + 2 * self.n_tt + 1
         s = lil_matrix((m, self.n), dtype=int)
         row = 0
         for j, im in enumerate(self.tt):
             k = im.camera
             s[row : row + n_c, N_CAM * k : N_CAM * (k + 1)] = 1
-            s[row : row + n_c, RIG0 : RIG0 + N_RIG] = 1
+            s[row : row + n_c, r0 : r0 + N_RIG] = 1
             s[row : row + n_c, self.ang0 + 2 * j : self.ang0 + 2 * j + 2] = 1
             row += n_c
         for i, im in enumerate(self.prep):
@@ -185,7 +202,7 @@ class Problem:
             row += n_c
         for j in range(2 * self.n_tt):
             s[row + j, self.ang0 + j] = 1
-        s[m - 1, RIG0 : RIG0 + N_RIG] = 1
+        s[m - 1, r0 : r0 + N_RIG] = 1
         return s.tocsr()
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
@@ -220,9 +237,10 @@ class Problem:
     # --- quantities ----------------------------------------------------------------------------
     def quantity_jacobian(self, x: np.ndarray) -> tuple[list[str], np.ndarray]:
         """Map from parameter perturbations to the reported quantities (see quantities())."""
+        r0 = self.rig0
         names, rows = [], []
-        for k in range(3):
-            cam = "xyz"[k]
+        for k in range(self.n_cams):
+            cam = self.obs.camera_names[k]
             for i, nm in enumerate(INTRINSIC_NAMES):
                 names.append(f"{cam}.{nm}")
                 rows.append(_unit(self.n, N_CAM * k + i))
@@ -234,21 +252,21 @@ class Problem:
                 rows.append(_unit(self.n, N_CAM * k + 12 + i))
         for i in range(3):
             names.append(f"C_t_w.rot{'xyz'[i]}")
-            rows.append(_unit(self.n, RIG0 + i) * np.rad2deg(1.0))
+            rows.append(_unit(self.n, r0 + i) * np.rad2deg(1.0))
         for i in range(3):
             names.append(f"r_wt_w.{'xyz'[i]}")
-            rows.append(_unit(self.n, RIG0 + 3 + i))
+            rows.append(_unit(self.n, r0 + 3 + i))
         names.append("r_tb_b.z")
-        rows.append(_unit(self.n, RIG0 + 6))
+        rows.append(_unit(self.n, r0 + 6))
         c_t_w = self.C_t_w(x)
-        r_tb = np.array([0.0, 0.0, x[RIG0 + 6]])
+        r_tb = np.array([0.0, 0.0, x[r0 + 6]])
         v = c_t_w @ r_tb
         dv_dd = -np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])  # d(exp(d)v)/dd
         for i in range(3):
             row = np.zeros(self.n)
-            row[RIG0 + 3 + i] = 1.0
-            row[RIG0 + 6] = c_t_w[i, 2]
-            row[RIG0 : RIG0 + 3] = dv_dd[i]
+            row[r0 + 3 + i] = 1.0
+            row[r0 + 6] = c_t_w[i, 2]
+            row[r0 : r0 + 3] = dv_dd[i]
             names.append(f"r_wb_w.{'xyz'[i]}")
             rows.append(row)
         return names, np.array(rows)
@@ -276,7 +294,7 @@ def quantities(rig: Rig, ref: Rig) -> tuple[list[str], np.ndarray]:
     vals.append(rig.r_tb_b[2])
     vals += list(rig.r_wb_w)
     names = []
-    for cam in "xyz":
+    for cam in (c.name for c in rig.cams):
         names += [f"{cam}.{n}" for n in INTRINSIC_NAMES]
         names += [f"{cam}.rot{a}" for a in "xyz"]
         names += [f"{cam}.r_b{cam}{a}" for a in "xyz"]
@@ -319,17 +337,22 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
             tr_options={"atol": 1e-10, "btol": 1e-10, "maxiter": 2000},
         )
         x = res.x
-        r = res.fun[: prob.n_corner_res] * sigma_px
+        r = res.fun[: prob.n_corner_slots] * sigma_px
         dof = max(prob.n_corner_res - prob.n, 1)
         new_sigma = max(float(np.sqrt(np.sum(r**2) / dof)), 1e-4)
         if abs(new_sigma / sigma_px - 1.0) < 0.05:
             break
         sigma_px = new_sigma
     jac = prob.jacobian(x)
-    cov = np.linalg.inv(jac.T @ jac)
+    try:
+        cov = np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError as exc:
+        raise MfnsError(
+            "refinement: singular normal matrix, the images do not determine every parameter"
+        ) from exc
     names, qj = prob.quantity_jacobian(x)
     sig = np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))
-    rms = float(np.sqrt(np.mean(r**2)))
+    rms = float(np.sqrt(np.sum(r**2) / max(prob.n_corner_res, 1)))
     d_ang = np.rad2deg(x[prob.ang0 : prob.prep0].reshape(-1, 2))
     return RefineResult(prob.rig(x), x, names, sig, cov, sigma_px, rms, int(res.nfev), prob, d_ang)
 

@@ -1,18 +1,19 @@
-"""Tables (Table 2 / Table 3 style, paper vs refined vs truth vs CRB) and output files."""
+"""Tables (Table 2 / Table 3 style, paper vs refined vs truth vs CRB) and the results documents.
+
+Output files are written by exports.py, plots by plots.py.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
-import cv2
 import numpy as np
 
-from ..calib_results import FORMAT, VERSION, camera_entry, save
+from ..calib_results import FORMAT, VERSION, camera_entry
 from ..rotations import matrix_to_euler213_deg, rot_exp
-from .model import CAMERA_NAMES, Observations, Rig
+from .model import Observations, Rig
 from .pipeline import Calibration, paper_quantities
-from .refine import N_CAM, RIG0, cramer_rao, quantities
+from .refine import N_CAM, cramer_rao, quantities, rig0
 from .zhang import INTRINSIC_NAMES
 
 
@@ -31,10 +32,12 @@ def _euler_sigma(c: np.ndarray, cov_d: np.ndarray) -> np.ndarray:
 def euler_sigmas(cal: Calibration) -> dict[str, np.ndarray]:
     """Euler-angle 1-sigma of C_t_w and each C_k_b from the refinement covariance."""
     cov = cal.refined.cov_params
-    out = {"C_t_w": _euler_sigma(cal.refined.rig.C_t_w, cov[RIG0 : RIG0 + 3, RIG0 : RIG0 + 3])}
-    for k in range(3):
+    cams = cal.refined.rig.cams
+    r0 = rig0(len(cams))
+    out = {"C_t_w": _euler_sigma(cal.refined.rig.C_t_w, cov[r0 : r0 + 3, r0 : r0 + 3])}
+    for k, cam in enumerate(cams):
         i = N_CAM * k + 9
-        out[CAMERA_NAMES[k]] = _euler_sigma(cal.refined.rig.cams[k].C_k_b, cov[i : i + 3, i : i + 3])
+        out[cam.name] = _euler_sigma(cam.C_k_b, cov[i : i + 3, i : i + 3])
     return out
 
 
@@ -45,10 +48,10 @@ def intrinsics_table(cal: Calibration) -> str:
         cam = cal.refined.rig.cams[k]
         ref = [cam.fx, cam.fy, cam.cx, cam.cy, *cam.dist]
         lines.append(
-            f"  camera {CAMERA_NAMES[k]}: Zhang reprojection RMS {z.rms_px:.4f} px over {len(z.names)} images"
+            f"  camera {cam.name}: Zhang reprojection RMS {z.rms_px:.4f} px over {len(z.names)} images"
         )
         for i, n in enumerate(INTRINSIC_NAMES):
-            s = sig[f"{CAMERA_NAMES[k]}.{n}"]
+            s = sig[f"{cam.name}.{n}"]
             lines.append(
                 f"    {n:3s} {z.intrinsics[i]:13.6f} +- {z.sigma[i]:9.6f} | {ref[i]:13.6f} +- {s:9.6f}"
             )
@@ -59,33 +62,39 @@ def extrinsics_table(cal: Calibration) -> str:
     r, p = cal.refined.rig, cal.paper
     sig = dict(zip(cal.refined.names, cal.refined.sigma, strict=True))
     es = euler_sigmas(cal)
+    nan3 = np.full(3, np.nan)
 
     def e(c):
-        return matrix_to_euler213_deg(c)
+        return matrix_to_euler213_deg(c) if c is not None else nan3
 
     def fmt3(v):
         return " ".join(f"{x:10.4f}" for x in v)
 
     lines = ["Extrinsics (Table 3 style): paper CPC | refined (1-sigma); Euler 2-1-3 deg, mm"]
-    lines.append(f"  C_t_w  (a,b,g)  {fmt3(e(p.C_t_w))} | {fmt3(e(r.C_t_w))}  ({fmt3(es['C_t_w'])})")
-    for k in range(3):
-        n = CAMERA_NAMES[k]
-        lines.append(
-            f"  C_{n}_b  (phi,theta,psi) {fmt3(e(p.cams[k].C_k_b))} | {fmt3(e(r.cams[k].C_k_b))}"
-            f"  ({fmt3(es[n])})"
-        )
-    rs = [sig[f"r_wb_w.{a}"] for a in "xyz"]
-    lines.append(f"  r_wb_w {fmt3(cal.cpc.r_wb_w)} | {fmt3(r.r_wb_w)}  ({fmt3(rs)})")
-    rs = [sig[f"r_wt_w.{a}"] for a in "xyz"]
-    lines.append(f"  r_wt_w {fmt3(p.r_wt_w)} | {fmt3(r.r_wt_w)}  ({fmt3(rs)})")
-    lines.append(f"  r_tb_b {fmt3(p.r_tb_b)} | {fmt3(r.r_tb_b)}  (     0      0 {sig['r_tb_b.z']:10.4f})")
-    for k in range(3):
-        n = CAMERA_NAMES[k]
-        rs = [sig[f"{n}.r_b{n}{a}"] for a in "xyz"]
-        lines.append(f"  r_b{n}_b {fmt3(p.cams[k].r_bk_b)} | {fmt3(r.cams[k].r_bk_b)}  ({fmt3(rs)})")
+    if p is None:
+        lines.append(f"  ({cal.paper_note}; the refinement started from {cal.init}; paper column n/a)")
     lines.append(
-        f"  corner noise estimated {cal.refined.sigma_px:.4f} px, refined RMS {cal.refined.rms_px:.4f} px; "
-        f"A10 Gauss-Newton passes {cal.cpc.a10_iterations}"
+        f"  C_t_w  (a,b,g)  {fmt3(e(p.C_t_w if p else None))} | {fmt3(e(r.C_t_w))}  ({fmt3(es['C_t_w'])})"
+    )
+    for k, cam in enumerate(r.cams):
+        n = cam.name
+        pc = e(p.cams[k].C_k_b) if p else nan3
+        lines.append(f"  C_{n}_b  (phi,theta,psi) {fmt3(pc)} | {fmt3(e(cam.C_k_b))}  ({fmt3(es[n])})")
+    rs = [sig[f"r_wb_w.{a}"] for a in "xyz"]
+    lines.append(f"  r_wb_w {fmt3(cal.cpc.r_wb_w if cal.cpc else nan3)} | {fmt3(r.r_wb_w)}  ({fmt3(rs)})")
+    rs = [sig[f"r_wt_w.{a}"] for a in "xyz"]
+    lines.append(f"  r_wt_w {fmt3(p.r_wt_w if p else nan3)} | {fmt3(r.r_wt_w)}  ({fmt3(rs)})")
+    s_h = sig["r_tb_b.z"]
+    lines.append(f"  r_tb_b {fmt3(p.r_tb_b if p else nan3)} | {fmt3(r.r_tb_b)}  (     0      0 {s_h:10.4f})")
+    for k, cam in enumerate(r.cams):
+        n = cam.name
+        rs = [sig[f"{n}.r_b{n}{a}"] for a in "xyz"]
+        pr = p.cams[k].r_bk_b if p else nan3
+        lines.append(f"  r_b{n}_b {fmt3(pr)} | {fmt3(cam.r_bk_b)}  ({fmt3(rs)})")
+    a10 = f"A10 Gauss-Newton passes {cal.cpc.a10_iterations}" if cal.cpc else "A10 not run"
+    lines.append(
+        f"  corner noise estimated {cal.refined.sigma_px:.4f} px, "
+        f"refined RMS {cal.refined.rms_px:.4f} px; {a10}"
     )
     return "\n".join(lines)
 
@@ -122,7 +131,7 @@ def compare(cal: Calibration, truth: Rig, obs: Observations, truth_doc: dict | N
         prep, ang = [], []
         ok = True
         for im in obs.images:
-            d = by_name.get((CAMERA_NAMES[im.camera], im.name))
+            d = by_name.get((obs.camera_names[im.camera], im.name))
             if d is None:
                 ok = False
                 break
@@ -145,7 +154,11 @@ def accuracy_table(cmp: Comparison) -> str:
     for i, n in enumerate(cmp.names):
         crb = cmp.crb[i] if cmp.crb is not None else float("nan")
         rc = abs(cmp.refined_err[i]) / crb if cmp.crb is not None else float("nan")
-        rp = abs(cmp.refined_err[i]) / max(abs(cmp.paper_err[i]), 1e-15)
+        rp = (
+            abs(cmp.refined_err[i]) / max(abs(cmp.paper_err[i]), 1e-15)
+            if np.isfinite(cmp.paper_err[i])
+            else np.nan
+        )
         lines.append(
             f"  {n:14s} {cmp.truth[i]:12.5f} {cmp.paper_err[i]:+11.5f} {cmp.refined_err[i]:+11.5f}"
             f" {cmp.refined_sigma[i]:9.5f} {crb:9.5f} {rc:8.2f} {rp:9.2f}"
@@ -167,8 +180,8 @@ def results_document(cal: Calibration, source: str) -> dict:
     es = euler_sigmas(cal)
     r = cal.refined.rig
     cams = []
-    for k, cam in enumerate(r.cams):
-        n = CAMERA_NAMES[k]
+    for cam in r.cams:
+        n = cam.name
         s = {key: float(sig[f"{n}.{key}"]) for key in ("fx", "fy", "cx", "cy")}
         s["dist"] = [float(sig[f"{n}.{d}"]) for d in ("k1", "k2", "p1", "p2", "k3")]
         s["euler_213_deg"] = [float(v) for v in es[n]]
@@ -206,6 +219,7 @@ def results_document(cal: Calibration, source: str) -> dict:
 
 def paper_document(cal: Calibration, source: str) -> dict:
     p = cal.paper
+    assert p is not None and cal.cpc is not None
     cams = []
     for k, cam in enumerate(p.cams):
         z = cal.zhang[k]
@@ -213,7 +227,7 @@ def paper_document(cal: Calibration, source: str) -> dict:
         s["dist"] = [float(v) for v in z.sigma[4:9]]
         cams.append(
             camera_entry(
-                CAMERA_NAMES[k],
+                cam.name,
                 (cam.width, cam.height),
                 cam.fx,
                 cam.fy,
@@ -241,62 +255,3 @@ def paper_document(cal: Calibration, source: str) -> dict:
             "r_tb_b": [float(v) for v in p.r_tb_b],
         },
     }
-
-
-def write_outputs(cal: Calibration, out: Path, source: str) -> list[Path]:
-    """results JSON (refined), <stem>_paper.json (CPC) and one OpenCV YAML per camera."""
-    written = [out]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    save(results_document(cal, source), out)
-    paper_path = out.with_name(out.stem + "_paper.json")
-    save(paper_document(cal, source + " (paper CPC)"), paper_path)
-    written.append(paper_path)
-    for k, cam in enumerate(cal.refined.rig.cams):
-        path = out.with_name(f"{out.stem}_camera_{CAMERA_NAMES[k]}.yml")
-        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
-        fs.write("camera_name", CAMERA_NAMES[k])
-        fs.write("image_width", int(cam.width))
-        fs.write("image_height", int(cam.height))
-        fs.write("camera_matrix", cam.K)
-        fs.write("distortion_coefficients", np.asarray(cam.dist, float).reshape(1, 5))
-        fs.write("C_k_b", np.asarray(cam.C_k_b, float))
-        fs.write("r_bk_b_mm", np.asarray(cam.r_bk_b, float).reshape(3, 1))
-        fs.write("pixel_noise_px", float(cal.refined.sigma_px))
-        fs.release()
-        written.append(path)
-    return written
-
-
-def write_plots(cal: Calibration, cmp: Comparison | None, folder: Path) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    folder.mkdir(parents=True, exist_ok=True)
-    prob = cal.refined.problem
-    res = prob.residuals(cal.refined.x)[: prob.n_corner_res].reshape(-1, 2) * prob.sigma_px
-    fig, ax = plt.subplots(figsize=(5, 5))
-    ax.scatter(res[:, 0], res[:, 1], s=2, alpha=0.5)
-    ax.set_xlabel("u residual (px)")
-    ax.set_ylabel("v residual (px)")
-    ax.set_title("refined reprojection residuals")
-    ax.set_aspect("equal")
-    paths = [folder / "residuals.png"]
-    fig.savefig(paths[0], dpi=100)
-    plt.close(fig)
-    if cmp is not None and cmp.crb is not None:
-        sel = [i for i, n in enumerate(cmp.names) if cmp.is_extrinsic(n)]
-        fig, ax = plt.subplots(figsize=(12, 4))
-        x = np.arange(len(sel))
-        ax.bar(x - 0.25, np.abs(cmp.paper_err[sel]) / cmp.crb[sel], 0.25, label="|paper err| / CRB")
-        ax.bar(x, np.abs(cmp.refined_err[sel]) / cmp.crb[sel], 0.25, label="|refined err| / CRB")
-        ax.axhline(1.0, color="k", lw=0.8)
-        ax.set_yscale("log")
-        ax.set_xticks(x, [cmp.names[i] for i in sel], rotation=90, fontsize=7)
-        ax.legend()
-        fig.tight_layout()
-        paths.append(folder / "errors_vs_crb.png")
-        fig.savefig(paths[-1], dpi=100)
-        plt.close(fig)
-    return paths

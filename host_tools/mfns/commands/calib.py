@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -9,20 +10,34 @@ from ..calib_results import load
 from ..errors import MfnsError
 
 
-def calibrate_dataset(dataset, truth_path=None, a10_iterations: int = 10, progress: bool = False):
+def calibrate_dataset(
+    dataset, truth_path=None, a10_iterations: int = 10, progress: bool = False, workers: int | None = None
+):
     """Corner detection, Zhang, CPC, refinement and (with a truth file) the comparison.
 
-    Returns (observations, rejected image names, Calibration, Comparison or None, seconds spent
-    on detection, seconds spent on calibration).
+    Returns (observations, rejected images as (camera, path, reason), Calibration, Comparison
+    or None, seconds spent on detection, seconds spent on calibration).
     """
+    import cv2
+    from threadpoolctl import threadpool_limits
+
+    # Results must not depend on the machine's core count: OpenCV's own threads and the
+    # OpenBLAS of numpy/scipy and of OpenCV's wheel change the last bits of Zhang's and the
+    # refinement's covariances with their thread count. Corner detection uses processes.
+    cv2.setNumThreads(1)
+    with threadpool_limits(limits=1):
+        return _calibrate_dataset(dataset, truth_path, a10_iterations, progress, workers)
+
+
+def _calibrate_dataset(dataset, truth_path, a10_iterations, progress, workers):
     from ..calib.dataset import load_dataset
     from ..calib.pipeline import calibrate
     from ..calib.report import compare
     from ..simulate.calib import truth_from_document
 
-    truth_doc = load(truth_path) if truth_path else None
+    truth_doc = load(truth_path, flight=False) if truth_path else None
     t0 = time.monotonic()
-    obs, rejected = load_dataset(dataset, progress=progress)
+    obs, rejected = load_dataset(dataset, progress=progress, workers=workers)
     t1 = time.monotonic()
     cal = calibrate(obs, a10_iterations=a10_iterations)
     cmp = None
@@ -32,19 +47,43 @@ def calibrate_dataset(dataset, truth_path=None, a10_iterations: int = 10, progre
 
 
 def run(args) -> int:
-    from ..calib.report import accuracy_table, extrinsics_table, intrinsics_table, write_outputs, write_plots
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):  # the exports' fits too (see calibrate_dataset)
+        return _run(args)
+
+
+def _run(args) -> int:
+    from ..calib.exports import write_outputs
+    from ..calib.plots import write_plots
+    from ..calib.report import accuracy_table, extrinsics_table, intrinsics_table
 
     t0 = time.monotonic()
-    _obs, rejected, cal, cmp, t_detect, t_cal = calibrate_dataset(
-        args.dataset, args.truth, 1 if args.a10_single_pass else 10, progress=not args.quiet
+    obs, rejected, cal, cmp, t_detect, t_cal = calibrate_dataset(
+        args.dataset,
+        args.truth,
+        1 if args.a10_single_pass else 10,
+        progress=not args.quiet,
+        workers=args.jobs,
     )
-    for name in rejected:
-        print(f"warning: board not found in {name}; image skipped")
-    text = [intrinsics_table(cal), "", extrinsics_table(cal)]
+    text = []
+    for k, name in enumerate(obs.camera_names):
+        bad = [r for r in rejected if r[0] == name]
+        text.append(f"camera {name}: {len(obs.of_camera(k))} images used, {len(bad)} skipped")
+        text += [f"  skipped {path}: {why}" for _c, path, why in bad]
+    if obs.board.symmetric:
+        text.append(
+            f"board symmetric under a half turn: corner 0 set by the turntable chain "
+            f"({cal.half_turned} images' corner order reversed)"
+        )
+    if cal.paper is None:
+        text.append(f"{cal.paper_note}; the refinement started from {cal.init}")
+    text += ["", intrinsics_table(cal), "", extrinsics_table(cal)]
     if cmp is not None:
         text += ["", accuracy_table(cmp)]
     out = Path(args.output)
-    written = write_outputs(cal, out, f"mfns calib {args.dataset}")
+    written, notes = write_outputs(cal, out, f"mfns calib {args.dataset}")
+    text += ["", *notes]
     if args.plots:
         written += write_plots(cal, cmp, Path(args.plots))
     text.append("")
@@ -57,6 +96,8 @@ def run(args) -> int:
         Path(args.report).write_text(report + "\n")
     if not args.quiet:
         print(report)
+    elif rejected:
+        print(f"warning: {len(rejected)} images without the board skipped (see the report)", file=sys.stderr)
     return 0
 
 
@@ -67,7 +108,8 @@ def register(subparsers) -> None:
         description="Detect the board's corners, calibrate each camera (Zhang), run the paper's CPC "
         "(Appendix A) and refine everything jointly by maximum likelihood. Writes the "
         "calibration-results JSON (docs/calib-results.md) of the refined solution, <stem>_paper.json "
-        "with the paper's solution and OpenCV YAML per camera.",
+        "with the paper's solution, and exports (docs/calibration.md): OpenCV YAML and ROS camera_info "
+        "per camera, Kalibr camchain.yaml, body-to-camera transforms.",
     )
     p.add_argument("dataset", metavar="DATASET", help="dataset folder (docs/calib-dataset.md)")
     p.add_argument("--truth", help="truth.json of a simulated dataset: adds errors and the Cramér-Rao bound")
@@ -81,6 +123,9 @@ def register(subparsers) -> None:
         action="store_true",
         help="solve Eq. A10 once, exactly as printed (default: iterate it to convergence)",
     )
+    p.add_argument(
+        "-j", "--jobs", type=int, default=None, help="corner detection processes (default: one per core)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bars or report on stdout")
     p.set_defaults(func=_checked)
 
@@ -88,4 +133,6 @@ def register(subparsers) -> None:
 def _checked(args) -> int:
     if not Path(args.dataset).is_dir():
         raise MfnsError(f"{args.dataset}: not a folder")
+    if args.jobs is not None and not 1 <= args.jobs <= 256:
+        raise MfnsError("--jobs must be 1 to 256")
     return run(args)

@@ -13,20 +13,31 @@ from __future__ import annotations
 
 import csv
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 from tqdm import tqdm
 
-from ..calib.model import ARCSEC, CAMERA_NAMES, Board, ImageObs, Observations, Rig, world_to_pixels
+from ..calib.model import (
+    ARCSEC,
+    CAMERA_NAMES,
+    CHARUCO_DICTIONARIES,
+    MAX_CAMERAS,
+    Board,
+    ImageObs,
+    Observations,
+    Rig,
+    pure_axis,
+    world_to_pixels,
+)
 from ..calib_results import FORMAT as RESULTS_FORMAT
 from ..calib_results import VERSION as RESULTS_VERSION
 from ..calib_results import load
 from ..camera import Camera, rig_from_doc
 from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rz
 
 DATASET_FORMAT = "mfns-calib-dataset"
 DATASET_VERSION = 1
@@ -42,8 +53,22 @@ CALIPER_SIGMA_MM = 0.25
 ANGLE_SIGMA_ARCSEC = 8.0
 
 
-def default_truth() -> Rig:
-    cams = rig_from_doc(load(PAPER_CALIB))
+MIRRORED = {"xm": "x", "ym": "y"}  # extra cameras: x / y turned 180 deg about Zb (looking along -Xb / -Yb)
+
+
+def default_truth(cameras=CAMERA_NAMES) -> Rig:
+    """The paper's rig, or some of its cameras and mirrored copies ("xm", "ym") in the given order."""
+    paper = {c.name: c for c in rig_from_doc(load(PAPER_CALIB))}
+    cams = []
+    for name in cameras:
+        if name in paper:
+            cams.append(paper[name])
+        elif name in MIRRORED:
+            src = paper[MIRRORED[name]]
+            turn = rz(np.pi)
+            cams.append(replace(src, name=name, C_k_b=turn @ src.C_k_b, r_bk_b=turn @ src.r_bk_b))
+        else:
+            raise MfnsError(f"--cameras: unknown camera {name!r} (built in: x, y, z, xm, ym)")
     return Rig(
         cams=cams,
         C_t_w=euler213_deg_to_matrix(TRUE_C_T_W_DEG),
@@ -75,13 +100,38 @@ def _pattern_points(board: Board) -> np.ndarray:
     return np.column_stack([c.ravel() * s, r.ravel() * s, np.zeros(c.size)])
 
 
-def view_ok(cam: Camera, C_k_w, r_wk_w, board: Board, margin_px: float = 25.0, max_tilt_deg=55.0) -> bool:
-    """Whole pattern in the image with a margin, camera in front of the board, not too oblique."""
+def inside_fraction(cam: Camera, C_k_w, r_wk_w, board: Board, margin_px: float = 25.0) -> float:
+    """Fraction of the board's inner corners in the image with a margin."""
+    uv, vis = world_to_pixels(cam, C_k_w, r_wk_w, board.object_points())
+    m = margin_px
+    ok = (
+        vis
+        & (uv[:, 0] >= m)
+        & (uv[:, 1] >= m)
+        & (uv[:, 0] <= cam.width - 1 - m)
+        & (uv[:, 1] <= cam.height - 1 - m)
+    )
+    return float(np.mean(ok))
+
+
+def view_ok(
+    cam: Camera,
+    C_k_w,
+    r_wk_w,
+    board: Board,
+    margin_px: float = 25.0,
+    max_tilt_deg=55.0,
+    max_outside: float = 0.0,
+) -> bool:
+    """Camera in front of the board, not too oblique, and the whole pattern in the image with a
+    margin, or (max_outside > 0, ChArUco) at most that fraction of the inner corners outside."""
     if r_wk_w[2] >= -50.0:
         return False
     axis = C_k_w[:, 2]
     if axis[2] < np.cos(np.deg2rad(max_tilt_deg)):
         return False
+    if max_outside > 0.0:
+        return inside_fraction(cam, C_k_w, r_wk_w, board, margin_px) >= 1.0 - max_outside
     uv, vis = world_to_pixels(cam, C_k_w, r_wk_w, _pattern_points(board))
     if not vis.all():
         return False
@@ -108,34 +158,48 @@ def _spread(points: np.ndarray, n: int, rng) -> list[int]:
     return chosen
 
 
-def choose_turntable_angles(truth: Rig, board: Board, k: int, n: int, rng, step_deg: float = 2.5):
-    """Nominal (Omega, omega) in degrees for camera k, >= n views with the whole board in view.
+def choose_turntable_angles(
+    truth: Rig,
+    board: Board,
+    k: int,
+    n: int,
+    rng,
+    step_deg: float = 2.5,
+    pure_omega_views: bool = True,
+    max_outside: float = 0.0,
+):
+    """Nominal (Omega, omega) in degrees for camera k, >= n views with the board in view.
 
-    Camera Z (k = 2) gets pure-Omega views (omega = 0, Eqs. A14/A16), pure-omega views
-    (Omega = 0, Eq. A10) and mixed ones; cameras X and Y get views spread over the feasible set.
+    Camera Z gets pure-Omega views (omega = 0, Eqs. A14/A16), pure-omega views (Omega = 0,
+    Eq. A10) and mixed ones; without `pure_omega_views` it gets pure-omega and mixed views only
+    (the paper's chain cannot start). Other cameras get views spread over the feasible set.
     """
+    cam = truth.cams[k]
     big = np.arange(-180.0, 180.0, step_deg)
     small = np.arange(-90.0, 90.0 + 1e-9, step_deg)
     feas = []
     for a in big:
         for b in small:
             pose = truth.camera_pose(k, np.deg2rad(a), np.deg2rad(b))
-            if view_ok(truth.cams[k], *pose, board):
+            if view_ok(cam, *pose, board, max_outside=max_outside):
                 feas.append((a, b))
     feas = np.array(feas).reshape(-1, 2)
-    if k != 2:
-        if len(feas) < n:
-            raise MfnsError(f"camera {CAMERA_NAMES[k]}: only {len(feas)} turntable views see the board")
-        return [tuple(feas[i]) for i in _spread(feas, n, rng)]
-    pure_big = feas[np.abs(feas[:, 1]) < 1e-9]
     fine = np.arange(-90.0, 90.0 + 1e-9, 0.5)  # camera Z tolerates only a few degrees of tilt
     pure_small = np.array(
         [
             (0.0, b)
             for b in fine
-            if b != 0.0 and view_ok(truth.cams[k], *truth.camera_pose(k, 0.0, np.deg2rad(b)), board)
+            if b != 0.0
+            and view_ok(cam, *truth.camera_pose(k, 0.0, np.deg2rad(b)), board, max_outside=max_outside)
         ]
     ).reshape(-1, 2)
+    if cam.name != "z" or not pure_omega_views:
+        if cam.name == "z":  # no pure-Omega views: the fine pure-omega line and mixed views
+            feas = np.vstack([feas[np.abs(feas[:, 1]) > 1e-9], pure_small])
+        if len(feas) < n:
+            raise MfnsError(f"camera {cam.name}: only {len(feas)} turntable views see the board")
+        return [tuple(feas[i]) for i in _spread(feas, n, rng)]
+    pure_big = feas[np.abs(feas[:, 1]) < 1e-9]
     mixed = feas[(np.abs(feas[:, 0]) > 1e-9) & (np.abs(feas[:, 1]) > 1e-9)]
     n_big = max(4, (n * 5) // 12)
     n_small = max(3, n // 3)
@@ -160,18 +224,25 @@ def _look_at(center_w, target_w, roll) -> np.ndarray:
     return np.column_stack([x, y, z])  # C_k_w: columns are the camera axes in the world
 
 
-def prepared_pose(cam: Camera, board: Board, rng, tries: int = 2000):
-    """A random 'prepared beforehand' pose: 380-700 mm, tilted 10-45 deg, whole board in view."""
+def prepared_pose(cam: Camera, board: Board, rng, tries: int = 2000, max_outside: float = 0.0):
+    """A random 'prepared beforehand' pose: tilted 10-45 deg, whole board in view (or, with
+    max_outside, up to that fraction of it outside); 380-700 mm for the default board's size,
+    scaled with the board's extent."""
     centre = np.array([(board.cols - 1) * board.square / 2, (board.rows - 1) * board.square / 2, 0.0])
+    scale = max(1.0, max(board.cols + 1, 1.4 * (board.rows + 1)) * board.square / 250.0)
+    shift = 0.5 * max_outside * np.array([board.cols, board.rows]) * board.square
     for _ in range(tries):
         tilt = np.deg2rad(rng.uniform(10.0, 45.0))
         az = rng.uniform(0, 2 * np.pi)
-        d = rng.uniform(380.0, 700.0)
+        d = rng.uniform(380.0, 700.0) * scale
         back = np.array([np.sin(tilt) * np.cos(az), np.sin(tilt) * np.sin(az), -np.cos(tilt)])
-        target = centre + np.array([rng.uniform(-40, 40), rng.uniform(-30, 30), 0.0])
+        off = np.array(
+            [rng.uniform(-40 - shift[0], 40 + shift[0]), rng.uniform(-30 - shift[1], 30 + shift[1]), 0.0]
+        )
+        target = centre + off
         c = target + d * back
         C = _look_at(c, target, rng.uniform(-np.pi / 6, np.pi / 6))
-        if view_ok(cam, C, c, board):
+        if view_ok(cam, C, c, board, max_outside=max_outside):
             return C, c
     raise MfnsError(f"camera {cam.name}: no prepared pose found")
 
@@ -183,16 +254,32 @@ def make_plan(
     n_turntable: int = 12,
     n_prepared: int = 10,
     angle_sigma_arcsec: float = ANGLE_SIGMA_ARCSEC,
+    *,
+    angle_log: str = "commanded",
+    pure_omega_views: bool = True,
+    max_outside: float = 0.0,
 ) -> list[Shot]:
+    """The shots of a dataset. angle_log "commanded": the log holds the commanded angles and
+    the true ones are off by N(0, sigma); "encoder": the true angles are commanded + N(0, sigma)
+    and the log holds them with the encoder's N(0, sigma) noise (pure-axis images then log e.g.
+    omega = 0.0021 deg instead of 0)."""
+    if angle_log not in ("commanded", "encoder"):
+        raise MfnsError(f"angle log {angle_log!r}: expected commanded or encoder")
     shots: list[Shot] = []
-    for k in range(3):
-        for i, (a, b) in enumerate(choose_turntable_angles(truth, board, k, n_turntable, rng)):
+    for k in range(len(truth.cams)):
+        views = choose_turntable_angles(
+            truth, board, k, n_turntable, rng, pure_omega_views=pure_omega_views, max_outside=max_outside
+        )
+        for i, (a, b) in enumerate(views):
             ta = a + rng.normal(0.0, angle_sigma_arcsec) / 3600.0
             tb = b + rng.normal(0.0, angle_sigma_arcsec) / 3600.0
+            if angle_log == "encoder":
+                a = ta + rng.normal(0.0, angle_sigma_arcsec) / 3600.0
+                b = tb + rng.normal(0.0, angle_sigma_arcsec) / 3600.0
             C, r = truth.camera_pose(k, np.deg2rad(ta), np.deg2rad(tb))
             shots.append(Shot(k, "turntable", f"tt_{i:02d}", a, b, ta, tb, C, r))
         for i in range(n_prepared):
-            C, r = prepared_pose(truth.cams[k], board, rng)
+            C, r = prepared_pose(truth.cams[k], board, rng, max_outside=max_outside)
             shots.append(Shot(k, "prepared", f"prep_{i:02d}", np.nan, np.nan, np.nan, np.nan, C, r))
     return shots
 
@@ -210,10 +297,15 @@ def corner_observations(
     """Corner observations simulated directly (no images): truth projection + N(0, sigma_px)."""
     obj = board.object_points()
     images = []
+    sigma_rad = angle_sigma_arcsec * ARCSEC
     for s in shots:
-        uv, _ = world_to_pixels(truth.cams[s.camera], s.C_k_w, s.r_wk_w, obj)
+        cam = truth.cams[s.camera]
+        uv, vis = world_to_pixels(cam, s.C_k_w, s.r_wk_w, obj)
         uv = uv + rng.normal(0.0, sigma_px, uv.shape)
-        images.append(ImageObs(s.camera, s.kind, s.name, uv, s.omega_big_deg, s.omega_small_deg))
+        if board.kind == "charuco":  # partial views: corners outside the image are not seen
+            uv[~vis] = np.nan
+        pure = pure_axis(s.omega_big_deg, s.omega_small_deg, sigma_rad) if s.kind == "turntable" else ""
+        images.append(ImageObs(s.camera, s.kind, s.name, uv, s.omega_big_deg, s.omega_small_deg, pure))
     if caliper_height_mm is None:
         caliper_height_mm = -truth.r_wb_w[2] + rng.normal(0.0, caliper_sigma_mm)
     return Observations(
@@ -221,8 +313,9 @@ def corner_observations(
         images,
         float(caliper_height_mm),
         caliper_sigma_mm,
-        angle_sigma_arcsec * ARCSEC,
+        sigma_rad,
         (truth.cams[0].width, truth.cams[0].height),
+        tuple(c.name for c in truth.cams),
     )
 
 
@@ -258,6 +351,23 @@ def _inside(s, lo, hi, w):
     return np.clip((s - lo) / w + 0.5, 0.0, 1.0) * np.clip((hi - s) / w + 0.5, 0.0, 1.0)
 
 
+MARKER_TEXELS_PER_MM = 8.0
+
+
+def marker_texture(board: Board) -> np.ndarray:
+    """ChArUco markers only (1 = black marker cell, 0 = elsewhere), MARKER_TEXELS_PER_MM texels
+    per mm over the squares; the chessboard itself is rendered analytically."""
+    sq = int(round(board.square * MARKER_TEXELS_PER_MM))
+    w, h = (board.cols + 1) * sq, (board.rows + 1) * sq
+    img = board.charuco().generateImage((w, h), marginSize=0, borderBits=1).astype(np.float32) / 255.0
+    dark = 1.0 - img
+    for j in range(board.rows + 1):  # clear the black squares: only the markers stay
+        for i in range(board.cols + 1):
+            if (i + j) % 2 == 0:
+                dark[j * sq : (j + 1) * sq, i * sq : (i + 1) * sq] = 0.0
+    return dark
+
+
 class Renderer:
     """Renders one camera's board images; the per-pixel rays are computed once."""
 
@@ -281,6 +391,7 @@ class Renderer:
                 self.rays.append((x, y))
         rr = ((u - cam.cx) ** 2 + (v - cam.cy) ** 2) / (cam.fx**2)
         self.vignette = 1.0 / (1.0 + rr) ** 2  # cos^4 of the field angle
+        self.markers = marker_texture(board) if board.kind == "charuco" else None
 
     def _sample(self, C_k_w, r_wk_w, x, y, spacing):
         """Board intensity (0..1, linear) seen along rays (x, y, 1) from the pose."""
@@ -306,6 +417,11 @@ class Renderer:
         brd = _inside(sx, -1.0 - m, b.cols + m, wx) * _inside(sy, -1.0 - m, b.rows + m, wy) * hit
         black, white, bg = 0.07, 0.82, 0.30
         board_val = white - (white - black) * pat * 0.5 * (1.0 + checker)  # checker +1: black square
+        if self.markers is not None:  # ArUco markers inside the white squares (bilinear texture)
+            tex = (np.stack([sx, sy], axis=-1) + 1.0) * (b.square * MARKER_TEXELS_PER_MM) - 0.5
+            tex = tex.astype(np.float32)
+            m = cv2.remap(self.markers, tex[..., 0], tex[..., 1], cv2.INTER_LINEAR, borderValue=0.0)
+            board_val = board_val + (black - board_val) * m * hit
         return brd * board_val + (1.0 - brd) * bg
 
     def render(self, C_k_w, r_wk_w, rng, exposure: float = 1.0) -> np.ndarray:
@@ -341,7 +457,7 @@ def truth_document(truth: Rig, shots: list[Shot], caliper_true: float, seed: int
             "caliper_height_true_mm": caliper_true,
             "images": [
                 {
-                    "camera": CAMERA_NAMES[s.camera],
+                    "camera": truth.cams[s.camera].name,
                     "name": s.name,
                     "kind": s.kind,
                     "Omega_deg": s.true_omega_big_deg if s.kind == "turntable" else None,
@@ -360,7 +476,7 @@ def truth_from_document(doc: dict) -> Rig:
     if rig is None:
         raise MfnsError("truth file has no 'rig' section")
     return Rig(
-        rig_from_doc(doc),
+        [Camera.from_entry(e) for e in doc["cameras"]],
         np.asarray(rig["C_t_w"], float),
         np.asarray(rig["r_wt_w"], float),
         np.asarray(rig["r_tb_b"], float),
@@ -383,16 +499,17 @@ def write_dataset(
     blur_px: float = 0.7,
 ) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    for name in CAMERA_NAMES:
+    names = [c.name for c in truth.cams]
+    for name in names:
         (out / "images" / name).mkdir(parents=True, exist_ok=True)
     bar = tqdm(total=len(shots), desc="rendering", unit="img", disable=not progress)
-    for k in range(3):
+    for k in range(len(names)):
         renderer = Renderer(
             truth.cams[k], board, supersample=supersample, blur_px=blur_px, read_noise_dn=read_noise_dn
         )
         for s in (s for s in shots if s.camera == k):
             img = renderer.render(s.C_k_w, s.r_wk_w, rng, exposure=rng.uniform(0.9, 1.1))
-            cv2.imwrite(str(out / "images" / CAMERA_NAMES[k] / f"{s.name}.png"), img)
+            cv2.imwrite(str(out / "images" / names[k] / f"{s.name}.png"), img)
             bar.update(1)
     bar.close()
     with open(out / "angles.csv", "w", newline="") as f:
@@ -402,8 +519,8 @@ def write_dataset(
             tt = s.kind == "turntable"
             w.writerow(
                 [
-                    CAMERA_NAMES[s.camera],
-                    f"images/{CAMERA_NAMES[s.camera]}/{s.name}.png",
+                    names[s.camera],
+                    f"images/{names[s.camera]}/{s.name}.png",
                     s.kind,
                     f"{s.omega_big_deg:.6f}" if tt else "",
                     f"{s.omega_small_deg:.6f}" if tt else "",
@@ -414,7 +531,7 @@ def write_dataset(
         "version": DATASET_VERSION,
         "source": f"mfns sim calib (seed {seed})",
         "image_size": [truth.cams[0].width, truth.cams[0].height],
-        "cameras": list(CAMERA_NAMES),
+        "cameras": names,
         "board": board.to_dict(),
         "turntable": {
             "convention": "C_b'_b = Rx(omega) Rz(Omega); Omega about the inner main axis Zt, "
@@ -440,8 +557,31 @@ def run(args) -> int:
     if out.exists() and any(out.iterdir()) and not args.force:
         raise MfnsError(f"{out}: exists and is not empty (use --force)")
     rng = np.random.default_rng(args.seed)
-    truth = default_truth() if args.truth is None else truth_from_document(load(args.truth))
-    board = Board(args.cols, args.rows, args.square)
+    names = tuple(n.strip() for n in args.cameras.split(",")) if args.cameras else None
+    if names is not None and not 1 <= len(names) <= MAX_CAMERAS:
+        raise MfnsError(f"--cameras: 1 to {MAX_CAMERAS} names")
+    if args.truth is None:
+        truth = default_truth(names or CAMERA_NAMES)
+    else:
+        truth = truth_from_document(load(args.truth, flight=False))
+        if names is not None:
+            by_name = {c.name: c for c in truth.cams}
+            missing = [n for n in names if n not in by_name]
+            if missing:
+                raise MfnsError(f"--cameras: {missing} not in {args.truth}")
+            truth = replace(truth, cams=[by_name[n] for n in names])
+    if not (3 <= args.cols <= 40 and 3 <= args.rows <= 40 and 1.0 <= args.square <= 500.0):
+        raise MfnsError("--cols and --rows must be 3 to 40, --square 1 to 500 mm")
+    if args.board == "charuco":
+        if not 0.0 < args.marker < args.square:
+            raise MfnsError("--marker must be between 0 and --square")
+        board = Board(
+            args.cols, args.rows, args.square, kind="charuco", dictionary=args.dictionary, marker=args.marker
+        )
+    else:
+        board = Board(args.cols, args.rows, args.square)
+    if not 0.0 <= args.max_outside <= 0.6 or (args.max_outside > 0 and args.board != "charuco"):
+        raise MfnsError("--max-outside must be 0 to 0.6, and > 0 only with --board charuco")
     n_tt, n_prep, ss = args.turntable_views, args.prepared_views, args.supersample
     if args.small:
         n_tt, n_prep, ss = 10, 4, 1
@@ -449,7 +589,17 @@ def run(args) -> int:
         raise MfnsError("--noise, --blur and --angle-noise must be >= 0, --supersample >= 1")
     if n_tt < 10:
         raise MfnsError("--turntable-views must be >= 10")
-    shots = make_plan(truth, board, rng, n_tt, n_prep, args.angle_noise)
+    shots = make_plan(
+        truth,
+        board,
+        rng,
+        n_tt,
+        n_prep,
+        args.angle_noise,
+        angle_log=args.angle_log,
+        pure_omega_views=not args.no_pure_omega,
+        max_outside=args.max_outside,
+    )
     caliper = float(-truth.r_wb_w[2] + rng.normal(0.0, CALIPER_SIGMA_MM))
     write_dataset(
         out,
@@ -502,6 +652,35 @@ def register(subparsers) -> None:
         type=int,
         default=1,
         help="sub-samples per pixel side on top of the analytic area integral (default 1)",
+    )
+    p.add_argument(
+        "--cameras",
+        help="comma-separated camera names, 1-8 (default x,y,z; built in: x, y, z and the mirrored xm, ym; "
+        "with --truth: names from that file)",
+    )
+    p.add_argument(
+        "--angle-log",
+        choices=("commanded", "encoder"),
+        default="commanded",
+        help="what angles.csv records: the commanded angles (default) or encoder readings with the "
+        "turntable's noise (pure-axis images then log small non-zero angles)",
+    )
+    p.add_argument(
+        "--no-pure-Omega",
+        dest="no_pure_omega",
+        action="store_true",
+        help="camera z gets no pure-Omega (omega = 0) views: the paper's CPC cannot run",
+    )
+    p.add_argument("--board", choices=("chessboard", "charuco"), default="chessboard", help="board type")
+    p.add_argument(
+        "--dictionary", choices=CHARUCO_DICTIONARIES, default="DICT_5X5_250", help="ChArUco marker dictionary"
+    )
+    p.add_argument("--marker", type=float, default=18.0, help="ChArUco marker side, mm (default 18)")
+    p.add_argument(
+        "--max-outside",
+        type=float,
+        default=0.0,
+        help="ChArUco: views may have up to this fraction of the inner corners outside the image (0-0.6)",
     )
     p.add_argument("--small", action="store_true", help="10 turntable + 4 prepared views per camera")
     p.add_argument("--force", action="store_true", help="write into a non-empty OUT")
