@@ -1,6 +1,6 @@
 """Error analysis of the paper's Section 3 (Figs. 4-6, Table 1) by Monte Carlo.
 
-Set-up (Table 1, REFERENCE §4): camera Z with C_z_b = I and r_bz_b = 0, alpha_x = alpha_y =
+Set-up (Table 1, docs/system.md §4): camera Z with C_z_b = I and r_bz_b = 0, alpha_x = alpha_y =
 1600 px, u0 = 640, v0 = 512, 1280 x 1024 px, no distortion; the body at the world origin
 with zero attitude, so camera and world frames coincide and the depth of a beacon is Zw.
 

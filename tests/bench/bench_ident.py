@@ -1,5 +1,5 @@
 """Identification rate of the flight acquisition (mfns_pose_acquire, C through ctypes) on the
-paper's rig and beacon map (REFERENCE §7): random poses with >= 4 beacons in view, Gaussian
+paper's rig and beacon map (docs/system.md §7): random poses with >= 4 beacons in view, Gaussian
 pixel noise, no prior. Counts right fixes, wrong fixes (a fix whose correspondence or
 beacon count differs from the truth: must be 0), and the reasons of the no-fix answers.
 
