@@ -215,7 +215,7 @@ size:
 endif
 
 # --------------------------------------------------------------------------
-lint: venv
+lint: venv $(VERSION_H)
 	@mk/lint.sh $(PY)
 
 bench: deps $(BENCH_TARGETS)
