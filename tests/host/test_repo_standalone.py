@@ -25,7 +25,9 @@ DOC_REF = re.compile(r"\bdocs/([A-Za-z0-9_.-]+\.md)\b")
 
 def tracked_text_files(repo) -> dict[str, str]:
     try:
-        out = subprocess.run(["git", "-C", str(repo), "ls-files", "-z"], capture_output=True, check=True).stdout
+        out = subprocess.run(
+            ["git", "-C", str(repo), "ls-files", "-z"], capture_output=True, check=True
+        ).stdout
     except (OSError, subprocess.CalledProcessError):
         pytest.skip("not a git checkout")
     files = {}
