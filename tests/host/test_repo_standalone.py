@@ -1,6 +1,6 @@
 """The repository stands alone: no tracked file refers to a place outside it.
 
-A fresh clone has only what git tracks. A reference to a sibling folder (`../shared/...`),
+A fresh clone has only what git tracks. A reference to a folder beside the repository,
 to an absolute path of one machine, or to a document that is not in the repository leaves a
 newcomer with nothing to read; the system description is docs/system.md.
 """
