@@ -7,7 +7,7 @@
 #   make test                 everything: deps, native, ASan+UBSan, qemu-aarch64, pytest, ...
 #   make lint                 cppcheck + clang-tidy (C) and ruff (Python)
 #   make bench                benchmarks (speed targets are checked here, not in tests)
-#   make demo                 the main job (see README.md)
+#   make demo                 the main job (see README.md); installs only what it needs
 #
 # Sources are discovered by folder, so adding a module or a test needs no edit
 # here (README.md "Adding a module"):
@@ -68,9 +68,12 @@ LIBCAMERA_LIBS := $(shell $(PKG_CONFIG) --libs libcamera)
 else
 LINK := $(CC)
 endif
-LIBS = $(shell $(PKG_CONFIG) --libs libserialport cmocka 2>/dev/null) $(LIBCAMERA_LIBS) -lm -lpthread
+# One pkg-config call per library: a missing cmocka (the demo set of mk/deps.sh
+# has none) must not drop libserialport from the link of the flight programs.
+LIBS = $(shell $(PKG_CONFIG) --libs libserialport 2>/dev/null) $(shell $(PKG_CONFIG) --libs cmocka 2>/dev/null) \
+       $(LIBCAMERA_LIBS) -lm -lpthread
 
-.PHONY: all flight tests unit test test-all deps venv lint size bench fuzz demo clean gen lib help
+.PHONY: all flight tests unit test test-all deps deps-demo venv lint size bench fuzz demo clean gen lib help
 .DEFAULT_GOAL := all
 # Keep test objects: they are intermediate files of the test binaries.
 .SECONDARY:
@@ -153,9 +156,16 @@ gen: $(GEN_FILES)
 
 # --------------------------------------------------------------------------
 # Dependencies: apt packages (as root) and the Python venv from pinned versions.
+# Two sets (mk/deps.sh): `deps` everything the tests need, `deps-demo` only what
+# `make demo` needs (host compiler, pkg-config, libserialport, the venv).
 deps: build/.deps-ok venv
 build/.deps-ok: mk/deps.sh
-	@mk/deps.sh
+	@mk/deps.sh test
+	@mkdir -p $(@D) && touch $@
+
+deps-demo: build/.deps-demo-ok venv
+build/.deps-demo-ok: mk/deps.sh
+	@mk/deps.sh demo
 	@mkdir -p $(@D) && touch $@
 
 venv: $(VENV)/.stamp
@@ -205,7 +215,7 @@ size:
 endif
 
 # --------------------------------------------------------------------------
-lint: venv
+lint: venv $(VERSION_H)
 	@mk/lint.sh $(PY)
 
 bench: deps $(BENCH_TARGETS)

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "ground_out.h"
+#include "mfns_version.h"
 #include "uart.h"
 
 static volatile sig_atomic_t g_stop;
@@ -28,7 +29,8 @@ void ground_usage(FILE *f)
             "CSV and JSON Lines per packet type.\n"
             "\n"
             "SOURCE (one of):\n"
-            "  --port DEV        serial port through libserialport (e.g. /dev/ttyUSB0), 8N1\n"
+            "  --serial DEV      serial port through libserialport (e.g. /dev/ttyUSB0), 8N1\n"
+            "                    (--port DEV: the same, older spelling)\n"
             "  --tty PATH        a tty, pseudo-terminal or FIFO by path (raw mode)\n"
             "  --file PATH       a recorded byte stream; '-' reads stdin; ends at EOF\n"
             "options:\n"
@@ -40,7 +42,10 @@ void ground_usage(FILE *f)
             "  --max-frames N    stop after N good frames\n"
             "  --status          always show the live status line (default: when stderr is a tty)\n"
             "  --no-status       never show it\n"
-            "  --help            this text\n"
+            "  -v, --verbose     the live status line even when stderr is not a tty (= --status)\n"
+            "  -q, --quiet       neither the status line nor the link counters at exit\n"
+            "  -h, --help, --version\n"
+            "Exit status: 0 ok, 1 the source or the output failed, 2 bad usage.\n"
             "At exit the link counters are printed on stderr: good frames, CRC errors,\n"
             "truncated and oversize frames, bad packets, resyncs, sequence gaps.\n",
             GROUND_DEFAULT_BAUD);
@@ -72,7 +77,16 @@ int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
             ground_usage(stdout);
             return 1;
         }
-        if (strcmp(a, "--status") == 0) {
+        if (strcmp(a, "--version") == 0) {
+            printf("mfns-ground %s\n", MFNS_VERSION_STR);
+            return 1;
+        }
+        if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0) {
+            o->quiet = 1;
+            o->status = 0;
+            continue;
+        }
+        if (strcmp(a, "--status") == 0 || strcmp(a, "--verbose") == 0 || strcmp(a, "-v") == 0) {
             o->status = 1;
             continue;
         }
@@ -85,12 +99,13 @@ int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
             return -1;
         }
         const char *val = argv[++i];
-        if (strcmp(a, "--port") == 0 || strcmp(a, "--tty") == 0 || strcmp(a, "--file") == 0) {
+        if (strcmp(a, "--serial") == 0 || strcmp(a, "--port") == 0 || strcmp(a, "--tty") == 0 ||
+            strcmp(a, "--file") == 0) {
             if (o->src != GROUND_SRC_NONE) {
-                fprintf(err, "mfns-ground: give exactly one of --port, --tty, --file\n");
+                fprintf(err, "mfns-ground: give exactly one of --serial, --tty, --file\n");
                 return -1;
             }
-            o->src = a[2] == 'p' ? GROUND_SRC_SERIAL : (a[2] == 't' ? GROUND_SRC_TTY : GROUND_SRC_FILE);
+            o->src = a[2] == 't' ? GROUND_SRC_TTY : (a[2] == 'f' ? GROUND_SRC_FILE : GROUND_SRC_SERIAL);
             o->path = val;
         } else if (strcmp(a, "--baud") == 0) {
             if (parse_number(val, 1, 4000000, &v) != 0 || v != (double)(uint32_t)v) {
@@ -120,7 +135,7 @@ int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
         }
     }
     if (o->src == GROUND_SRC_NONE) {
-        fprintf(err, "mfns-ground: no source: give --port DEV, --tty PATH or --file PATH (see --help)\n");
+        fprintf(err, "mfns-ground: no source: give --serial DEV, --tty PATH or --file PATH (see --help)\n");
         return -1;
     }
     return 0;
@@ -274,7 +289,9 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
         fprintf(stderr, "mfns-ground: writing to %s failed\n", o->out_dir);
         rc_exit = 1;
     }
-    print_counters(stderr, &dec.stats, secs);
+    if (!o->quiet) {
+        print_counters(stderr, &dec.stats, secs);
+    }
     if (stats_out != NULL) {
         *stats_out = dec.stats;
     }

@@ -31,9 +31,10 @@ typedef struct {
     double max_seconds;       /* 0 = unbounded */
     unsigned long max_frames; /* stop after this many good frames; 0 = unbounded */
     int status;               /* live status line: -1 auto (stderr is a tty), 0 off, 1 on */
+    int quiet;                /* no link counters at exit */
 } ground_opts_t;
 
-/* 0 ok, 1 when --help was printed (exit 0), -1 usage error (message on err). */
+/* 0 ok, 1 when --help or --version was printed (exit 0), -1 usage error (message on err). */
 int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err);
 void ground_usage(FILE *f);
 /* Runs until EOF (files), the limits, or SIGINT/SIGTERM. Returns the process

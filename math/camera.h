@@ -1,4 +1,4 @@
-/* camera.h -- the MFNS imaging model (REFERENCE §3, Eqs. 1-2): pinhole with
+/* camera.h -- the MFNS imaging model (docs/system.md §3, Eqs. 1-2): pinhole with
  * skew, the 5-coefficient Bouguet/OpenCV distortion, three cameras rigidly on
  * the body, and the body pose in the world. Pixel convention: integer
  * coordinates are pixel centres (docs/conventions.md).

@@ -26,7 +26,7 @@ mfns_m3_t mfns_rot_r3(float a)
 
 mfns_m3_t mfns_euler213_to_m3(mfns_euler_t e)
 {
-    /* Multiplied out (REFERENCE §2) rather than three products: fewer roundings. */
+    /* Multiplied out (docs/system.md §2) rather than three products: fewer roundings. */
     const float cf = cosf(e.roll), sf = sinf(e.roll);
     const float ct = cosf(e.pitch), st = sinf(e.pitch);
     const float cp = cosf(e.yaw), sp = sinf(e.yaw);

@@ -1,5 +1,5 @@
 /* rotation.h -- rotations in the project's conventions (docs/conventions.md,
- * REFERENCE §2): frame rotations R1/R2/R3, the paper's 2-1-3 Euler sequence,
+ * docs/system.md §2): frame rotations R1/R2/R3, the paper's 2-1-3 Euler sequence,
  * the small-angle matrix, and the rotation-vector exp/log used for pose
  * updates on the manifold. Angles in radians.
  */

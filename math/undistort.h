@@ -1,5 +1,5 @@
 /* undistort.h -- distortion correction: pixel -> undistorted coordinates, the
- * inverse of the lens model of camera.h (REFERENCE §3), in two forms.
+ * inverse of the lens model of camera.h (docs/system.md §3), in two forms.
  *
  * (a) mfns_undistort_iter: Newton iteration on the forward model, capped at
  *     max_iter updates (the cap is the caller's, at most MFNS_UNDIST_MAX_ITER).

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "caltable_file.h"
+#include "mfns_version.h"
 #include "cycle_stats.h"
 #include "nav_cycle.h"
 #include "nav_tlm.h"
@@ -31,7 +32,7 @@
 #define MFNS_BOARD_CAM_Z "/dev/video2"
 #endif
 
-#define NAV_APP_VERSION 0x000100 /* 0.1.0 */
+#define NAV_APP_VERSION MFNS_VERSION_CODE /* the one version (mk/version.sh) */
 #define FLUSH_TRIES 200          /* x 10 ms: telemetry drain at exit */
 
 typedef enum { CAM_UP = 0, CAM_LOST, CAM_OFF } cam_link_t;
@@ -84,16 +85,19 @@ static void usage(FILE *f)
             "  --libcamera         libcamera cameras (first three, or --cam-x/y/z ids)\n"
             "  --cam-x/--cam-y/--cam-z PATH   device or camera id per camera\n"
             "  --timeout-ms N      frame wait per camera and cycle (default 200)\n"
-            "  --tlm-serial PORT   telemetry on a real UART via libserialport\n"
-            "  --tlm-tty PATH      telemetry on a tty, pseudo-terminal or FIFO\n"
-            "  --tlm-file PATH     telemetry recorded to a file (created/truncated)\n"
+            "  --serial PORT       telemetry on a real UART via libserialport\n"
+            "  --tty PATH          telemetry on a tty, pseudo-terminal or FIFO\n"
+            "  --file PATH         telemetry recorded to a file (created/truncated)\n"
+            "                      (--tlm-serial, --tlm-tty, --tlm-file: the same, older spelling)\n"
             "  --baud N            UART baud rate (default %d, board %s)\n"
             "  --max-cycles N      stop after N cycles\n"
             "  --init-pose X,Y,Z,ROLL,PITCH,YAW   start tracking from this pose (mm, deg;\n"
             "                      e.g. the docking port); falls back to acquisition if wrong\n"
             "  --paper             use the paper's Eq. 3 Newton solver (baseline) instead of ML\n"
-            "  --verbose           one line per cycle on stderr\n"
-            "  --help, --version\n",
+            "  -v, --verbose       one line per cycle on stderr\n"
+            "  -q, --quiet         no summary line at the end (errors still go to stderr)\n"
+            "  -h, --help, --version\n"
+            "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target).\n",
             MFNS_BOARD_CAM_X, MFNS_BOARD_CAM_Y, MFNS_BOARD_CAM_Z, MFNS_BOARD_BAUD, MFNS_BOARD_NAME);
 }
 
@@ -135,7 +139,7 @@ static bool parse_pose(const char *s, float v[6])
 int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err)
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
-           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT };
+           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -145,7 +149,11 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
         {"tlm-tty", required_argument, NULL, O_TTY},     {"tlm-file", required_argument, NULL, O_FILE},
         {"baud", required_argument, NULL, O_BAUD},       {"max-cycles", required_argument, NULL, O_MAX},
         {"paper", no_argument, NULL, O_PAPER},           {"verbose", no_argument, NULL, O_VERBOSE},
-        {"init-pose", required_argument, NULL, O_INIT},  {"help", no_argument, NULL, O_HELP},             {"version", no_argument, NULL, O_VERSION},
+        {"init-pose", required_argument, NULL, O_INIT},  {"help", no_argument, NULL, O_HELP},
+        {"version", no_argument, NULL, O_VERSION},       {"quiet", no_argument, NULL, O_QUIET},
+        /* the transport spelling shared with mfns-ground and mfns-tlm-gen (README) */
+        {"serial", required_argument, NULL, O_SERIAL},   {"tty", required_argument, NULL, O_TTY},
+        {"file", required_argument, NULL, O_FILE},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -157,7 +165,7 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
     optind = 1;
     opterr = 0;
     for (int guard = 0; guard < argc + 1; guard++) {
-        const int c = getopt_long(argc, argv, "", opts, NULL);
+        const int c = getopt_long(argc, argv, "hqv", opts, NULL);
         if (c == -1) {
             break;
         }
@@ -199,7 +207,7 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
         case O_TTY:
         case O_FILE:
             if (o->tlm_kind != NAV_TLM_NONE) {
-                fprintf(err, "mfns-nav: give one telemetry output (--tlm-serial, --tlm-tty or --tlm-file)\n");
+                fprintf(err, "mfns-nav: give one telemetry output (--serial, --tty or --file)\n");
                 return -1;
             }
             o->tlm_kind = c == O_SERIAL ? NAV_TLM_SERIAL : (c == O_TTY ? NAV_TLM_PATH : NAV_TLM_FILE);
@@ -228,14 +236,19 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
             o->solver = MFNS_POSE_MODE_PAPER;
             break;
         case O_VERBOSE:
+        case 'v':
             o->verbose = true;
             break;
+        case O_QUIET:
+        case 'q':
+            o->quiet = true;
+            break;
+        case 'h':
         case O_HELP:
             usage(out);
             return 1;
         case O_VERSION:
-            fprintf(out, "mfns-nav %d.%d.%d (board %s)\n", NAV_APP_VERSION >> 16, (NAV_APP_VERSION >> 8) & 0xff,
-                    NAV_APP_VERSION & 0xff, MFNS_BOARD_NAME);
+            fprintf(out, "mfns-nav %s (board %s)\n", MFNS_VERSION_STR, MFNS_BOARD_NAME);
             return 1;
         default:
             fprintf(err, "mfns-nav: unknown or incomplete option '%s' (see --help)\n", argv[optind - 1]);
@@ -617,7 +630,9 @@ int nav_app_run(const nav_app_opts_t *o)
     }
     housekeeping(cycle, now_us() - t0, app.table.crc32);
     close_all(o);
-    fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n", why,
-            cycle, app.n_fix, app.n_no_fix, app.tlm.q.dropped);
+    if (!o->quiet) {
+        fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n",
+                why, cycle, app.n_fix, app.n_no_fix, app.tlm.q.dropped);
+    }
     return 0;
 }

@@ -41,6 +41,7 @@ typedef struct {
     uint32_t max_cycles;       /* 0 = until the data ends or a signal */
     mfns_pose_mode_t solver;
     bool verbose;              /* one line per cycle on stderr */
+    bool quiet;                /* no summary line at the end */
     bool have_init_pose;       /* --init-pose: track from this pose at start */
     float init_pose[6];        /* x, y, z mm; roll, pitch, yaw deg (r_wb_w, 2-1-3 of C_w_b) */
 } nav_app_opts_t;

@@ -1,5 +1,5 @@
 /* pose.h -- the body pose from beacon observations of the three cameras
- * (REFERENCE §3, §6): beacon identification, initialization with no guess,
+ * (docs/system.md §3, §6): beacon identification, initialization with no guess,
  * the maximum-likelihood refinement on the reprojection error, its
  * covariance, and the paper's Eq. 3 Newton solve as a selectable baseline.
  *

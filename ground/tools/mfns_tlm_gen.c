@@ -1,7 +1,7 @@
 /* mfns-tlm-gen: writes the synthetic telemetry stream of ground_gen.h, so
  * the link and mfns-ground can be exercised without the flight program.
  *
- *   mfns-tlm-gen --cycles N [--out FILE|-]          frames to a file/stdout
+ *   mfns-tlm-gen --cycles N [--file FILE|-]         frames to a file/stdout (--out: older spelling)
  *   mfns-tlm-gen --cycles N --tty PATH [--baud B]   through the transport (pty, FIFO, tty)
  *   mfns-tlm-gen --cycles N --fd FD                 through the transport on an open fd
  *   --rate HZ   pace the cycles (default 0: as fast as the port takes them)
@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "ground_gen.h"
+#include "mfns_version.h"
 #include "tlm_txq.h"
 #include "uart.h"
 
@@ -25,10 +26,31 @@ static tlm_txq_t g_q;
 static int usage(int rc)
 {
     fprintf(rc ? stderr : stdout,
-            "usage: mfns-tlm-gen --cycles N [--out FILE|-] [--tty PATH [--baud B] | --fd FD] [--rate HZ]\n"
+            "usage: mfns-tlm-gen --cycles N [--file FILE|- | --tty PATH [--baud B] | --fd FD] [--rate HZ]\n"
             "Synthetic MFNS telemetry (ground/ground_gen.h): per 18.6 Hz cycle one nav and three\n"
-            "camera packets, housekeeping every 19th cycle, BOOT and TABLE_LOADED events first.\n");
+            "camera packets, housekeeping every 19th cycle, BOOT and TABLE_LOADED events first.\n"
+            "  --cycles N        cycles to generate (0..100000000)\n"
+            "  --file FILE|-     frames to a file, '-' stdout (default; --out: older spelling)\n"
+            "  --tty PATH        through the transport to a tty, pty or FIFO\n"
+            "  --fd FD           through the transport on an open file descriptor\n"
+            "  --baud N          baud rate for --tty (default 921600)\n"
+            "  --rate HZ         pace the cycles (default 0: as fast as the output takes them)\n"
+            "  -q, --quiet, -v, --verbose   accepted for the common grammar; it prints only errors\n"
+            "  -h, --help, --version\n"
+            "Exit status: 0 ok, 1 the output failed, 2 bad usage.\n");
     return rc;
+}
+
+/* A whole decimal number in [lo, hi], or -1 (the caller prints usage). */
+static int parse_num(const char *s, double lo, double hi, double *v)
+{
+    char *end = NULL;
+    const double x = strtod(s, &end);
+    if (end == s || *end != '\0' || !(x >= lo && x <= hi)) {
+        return -1;
+    }
+    *v = x;
+    return 0;
 }
 
 static int drain(mfns_uart_t *u, size_t keep_below, int timeout_ms)
@@ -53,31 +75,53 @@ int main(int argc, char **argv)
     unsigned long baud = 921600;
     const char *out = "-", *tty = NULL;
     for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--help") == 0) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             return usage(0);
         }
+        if (strcmp(a, "--version") == 0) {
+            printf("mfns-tlm-gen %s\n", MFNS_VERSION_STR);
+            return 0;
+        }
+        if (strcmp(a, "--quiet") == 0 || strcmp(a, "-q") == 0 || strcmp(a, "--verbose") == 0 ||
+            strcmp(a, "-v") == 0) {
+            continue;
+        }
         if (i + 1 >= argc) {
-            return usage(2);
+            fprintf(stderr, "mfns-tlm-gen: %s: unknown option or missing value (see --help)\n", a);
+            return 2;
         }
         const char *v = argv[++i];
-        if (strcmp(argv[i - 1], "--cycles") == 0) {
-            cycles = strtol(v, NULL, 10);
-        } else if (strcmp(argv[i - 1], "--out") == 0) {
+        double x = 0;
+        int bad = 0;
+        if (strcmp(a, "--cycles") == 0) {
+            bad = parse_num(v, 0, 100000000.0, &x);
+            cycles = (long)x;
+        } else if (strcmp(a, "--file") == 0 || strcmp(a, "--out") == 0) {
             out = v;
-        } else if (strcmp(argv[i - 1], "--tty") == 0) {
+        } else if (strcmp(a, "--tty") == 0) {
             tty = v;
-        } else if (strcmp(argv[i - 1], "--fd") == 0) {
-            fd = strtol(v, NULL, 10);
-        } else if (strcmp(argv[i - 1], "--baud") == 0) {
-            baud = strtoul(v, NULL, 10);
-        } else if (strcmp(argv[i - 1], "--rate") == 0) {
-            rate = strtod(v, NULL);
+        } else if (strcmp(a, "--fd") == 0) {
+            bad = parse_num(v, 0, 1000000.0, &x);
+            fd = (long)x;
+        } else if (strcmp(a, "--baud") == 0) {
+            bad = parse_num(v, 1200, 4000000.0, &x);
+            baud = (unsigned long)x;
+        } else if (strcmp(a, "--rate") == 0) {
+            bad = parse_num(v, 0, 1e6, &x);
+            rate = x;
         } else {
-            return usage(2);
+            fprintf(stderr, "mfns-tlm-gen: %s: unknown option (see --help)\n", a);
+            return 2;
+        }
+        if (bad != 0 || ((a[2] == 'c' || a[2] == 'f' || a[2] == 'b') && x != (double)(long)x)) {
+            fprintf(stderr, "mfns-tlm-gen: %s: bad value '%s' (see --help)\n", a, v);
+            return 2;
         }
     }
-    if (cycles < 0 || cycles > 100000000L || rate < 0 || fd > 1000000L) {
-        return usage(2);
+    if (cycles < 0) {
+        fprintf(stderr, "mfns-tlm-gen: --cycles N is required (see --help)\n");
+        return 2;
     }
     mfns_uart_t u;
     FILE *f = NULL;

@@ -90,7 +90,7 @@ class Camera:
     def undistort_pixels(self, uv: np.ndarray, iterations: int = 50) -> np.ndarray:
         """Pixel (N, 2) -> undistorted normalized (N, 2), by Newton iteration in double.
 
-        Converges to ~1e-15 for the lens distortions of REFERENCE Table 2 over the image.
+        Converges to ~1e-15 for the lens distortions of docs/system.md §7, Table 2 over the image.
         """
         target = self.pixel_to_distorted(np.asarray(uv, dtype=float))
         xy = target.copy()

@@ -1,25 +1,65 @@
 """The `mfns` command: discovers the subcommands in mfns.commands and runs one.
 
-Errors that users can cause (bad paths, bad files, bad parameters) are raised
-as `MfnsError` and printed as one line with a non-zero exit, never a traceback.
+One grammar for every program of the project (README "Command-line grammar"): every
+`mfns` command and subcommand takes `-h/--help`, `--version`, `-q/--quiet` and
+`-v/--verbose`, added here once (MfnsParser), so a subcommand cannot forget them.
+
+Exit codes: 0 ok, 1 the job failed, 2 bad usage or bad input. Errors that users can
+cause (bad paths, bad files, bad parameters) are raised as `MfnsError` and printed as
+one line with exit 2, never a traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
 import pkgutil
 import sys
+import time
 
 from . import __version__, commands
 from .errors import MfnsError
 
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+class MfnsParser(argparse.ArgumentParser):
+    """An ArgumentParser with the options every mfns command shares.
+
+    Sub-parsers are made with the class of their parent, so nested commands (`mfns sim
+    nav`, `mfns table build`) get the same options. A command that defines one of them
+    again gets the common one: the meaning is the same in every command.
+    """
+
+    COMMON = frozenset({"--version", "-q", "--quiet", "-v", "--verbose"})
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        super().add_argument("--version", action="version", version=f"{self.prog} {__version__}")
+        super().add_argument(
+            "-q",
+            "--quiet",
+            action="store_true",
+            help="print nothing but warnings and errors (files are written)",
+        )
+        super().add_argument(
+            "-v", "--verbose", action="store_true", help="also print the time the command took"
+        )
+
+    def add_argument(self, *names, **kwargs):
+        if names and set(names) <= self.COMMON:
+            return None  # already there, with the project-wide meaning
+        return super().add_argument(*names, **kwargs)
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="mfns", description="MFNS host tools (simulation, calibration, analysis, tables, reports)"
+    parser = MfnsParser(
+        prog="mfns",
+        description="MFNS host tools (simulation, calibration, analysis, tables, reports)",
+        epilog="Exit status: 0 ok, 1 the job failed, 2 bad usage or input.",
     )
-    parser.add_argument("--version", action="version", version=f"mfns {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
         module = importlib.import_module(f"{commands.__name__}.{info.name}")
@@ -35,15 +75,22 @@ def main(argv: list[str] | None = None) -> int:
     func = getattr(args, "func", None)
     if func is None:
         parser.print_help()
-        return 2
+        return EXIT_USAGE
+    t0 = time.monotonic()
     try:
-        return int(func(args) or 0)
+        # --quiet means the same everywhere: nothing on stdout; warnings and errors go to
+        # stderr as usual, and commands with progress bars also turn those off.
+        with contextlib.redirect_stdout(io.StringIO()) if args.quiet else contextlib.nullcontext():
+            rc = int(func(args) or 0)
     except MfnsError as exc:
         print(f"mfns {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     except (OSError, ValueError) as exc:
         print(f"mfns {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
+    if args.verbose:
+        print(f"mfns {args.command}: exit {rc} after {time.monotonic() - t0:.1f} s", file=sys.stderr)
+    return rc
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Error analysis of the paper's Section 3 (Figs. 4-6, Table 1) by Monte Carlo.
 
-Set-up (Table 1, REFERENCE §4): camera Z with C_z_b = I and r_bz_b = 0, alpha_x = alpha_y =
+Set-up (Table 1, docs/system.md §4): camera Z with C_z_b = I and r_bz_b = 0, alpha_x = alpha_y =
 1600 px, u0 = 640, v0 = 512, 1280 x 1024 px, no distortion; the body at the world origin
 with zero attitude, so camera and world frames coincide and the depth of a beacon is Zw.
 
@@ -360,23 +360,47 @@ def plot_curve(path: Path, group: Group, rows: list[dict], slope_an: float, tria
 
 
 def plot_pose(path: Path, rows: list[dict], solver_name: str) -> None:
+    """Pose error vs calibration error: one column per error group, position above, attitude below.
+
+    Separate axes, not twin axes: both errors grow about linearly, so on twin axes that
+    scale themselves the two curves lie on top of each other and show nothing.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(POSE_GROUPS), figsize=(13, 4), dpi=100)
-    for ax, (g, unit, _levels) in zip(axes, POSE_GROUPS, strict=True):
+    # The paper's requirement on the camera mounting (Sec. 3): < 1 mm and < 0.17 deg.
+    requirement = {"position": 1.0, "attitude": 0.17}
+    what = {"position": "camera position r_bk_b", "attitude": "camera attitude C_k_b", "beacon": "beacon map"}
+    fig, axes = plt.subplots(2, len(POSE_GROUPS), figsize=(13, 6.5), dpi=100, sharex="col")
+    for k, (g, unit, _levels) in enumerate(POSE_GROUPS):
         rr = [r for r in rows if r["group"] == g]
         x = [r["level"] for r in rr]
-        ax.plot(x, [r["pos_rms_mm"] for r in rr], "o-", color="C0", label="position (mm)")
-        ax.set_xlabel(f"{g} calibration error (1-sigma, {unit})")
-        ax.set_ylabel("position error RMS per axis (mm)", color="C0")
-        ax2 = ax.twinx()
-        ax2.plot(x, [r["att_rms_deg"] for r in rr], "s--", color="C3", label="attitude (deg)")
-        ax2.set_ylabel("attitude error RMS per axis (deg)", color="C3")
-        ax.grid(alpha=0.3)
-    fig.suptitle(f"End-to-end pose error vs calibration error (module scenario, {solver_name})")
+        top, bottom = axes[0][k], axes[1][k]
+        top.plot(x, [r["pos_rms_mm"] for r in rr], "o-", color="C0")
+        top.set_ylabel("position error, RMS per axis (mm)")
+        top.set_title(f"error of the {what.get(g, g)}", fontsize=10)
+        bottom.plot(x, [r["att_rms_deg"] for r in rr], "s-", color="C3")
+        bottom.set_ylabel("attitude error, RMS per axis (deg)")
+        bottom.set_xlabel(f"{g} error, 1σ per component ({unit})")
+        for ax in (top, bottom):
+            ax.set_ylim(bottom=0)
+            ax.grid(alpha=0.3)
+            if g in requirement:
+                ax.axvline(requirement[g], color="k", ls=":", lw=1)
+        if g in requirement:
+            top.annotate(
+                f"paper's limit {requirement[g]:g} {unit}",
+                (requirement[g], 0.02),
+                xycoords=("data", "axes fraction"),
+                rotation=90,
+                ha="right",
+                va="bottom",
+                fontsize=8,
+            )
+    solver = solver_name.split(" (")[0]  # "flight solver (firmware/nav/pose.h ...)" -> "flight solver"
+    fig.suptitle(f"mfns mc: end-to-end pose error vs calibration error (module scenario, {solver})")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

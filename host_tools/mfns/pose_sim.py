@@ -1,6 +1,6 @@
 """Synthetic beacon observations for the pose solver's tests and benchmarks.
 
-The paper's rig (REFERENCE §7 Tables 2-3, mfns/data/paper_calib.json) and beacon map
+The paper's rig (docs/system.md §7 Tables 2-3, mfns/data/paper_calib.json) and beacon map
 (Table 4, paper_beacons.csv); random poses with a required number of beacons in view
 (vectorised rejection sampling: with these mounts only one to four of the ten beacons
 are in view at a time); frames of (u, v) pixels with Gaussian noise and the matching

@@ -188,9 +188,10 @@ def build_report(
     )
 
 
-def summary_markdown(rep: Report) -> str:
+def summary_markdown(rep: Report, title: str | None = None) -> str:
     kind = "error (estimate - truth)" if rep.with_truth else "estimate"
-    lines = [
+    lines = [f"## {title}", ""] if title else []
+    lines += [
         f"| axis | unit | mean {kind} | 1-sigma | n |",
         "|---|---|---|---|---|",
     ]
@@ -214,8 +215,12 @@ def write_summary_csv(rep: Report, path: Path) -> None:
             w.writerow([s.axis, s.unit, kind, f"{s.mean:.6f}", f"{s.sigma:.6f}", s.n])
 
 
-def write_plots(rep: Report, out_dir: Path) -> list[Path]:
-    """Fig. 11-style figures: attitude and position errors (or values) vs time, and vs true yaw."""
+def write_plots(rep: Report, out_dir: Path, title: str | None = None) -> list[Path]:
+    """Fig. 11-style figures: attitude and position errors (or values) vs time, and vs true yaw.
+
+    `title` names the run (experiment and calibration table); it heads every figure, so two
+    figures of different runs never look alike.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -244,7 +249,14 @@ def write_plots(rep: Report, out_dir: Path) -> list[Path]:
         plt.close(fig)
         written.append(p)
 
-    panel(rep.t_s, "time (s)", "nav_errors_vs_time.png", f"MFNS navigation {label}s vs time")
+    run = f"{title}: " if title else ""
+    used = f" ({rep.n_used} of {rep.n_rows} cycles with a fix)"
+    panel(rep.t_s, "time (s)", "nav_errors_vs_time.png", f"{run}MFNS navigation {label}s vs time{used}")
     if rep.truth_yaw is not None:
-        panel(rep.truth_yaw, "true yaw (deg)", "nav_errors_vs_yaw.png", f"MFNS navigation {label}s vs yaw")
+        panel(
+            rep.truth_yaw,
+            "true yaw (deg)",
+            "nav_errors_vs_yaw.png",
+            f"{run}MFNS navigation {label}s vs yaw{used}",
+        )
     return written

@@ -1,4 +1,4 @@
-"""Rotations in the project's conventions (docs/conventions.md, REFERENCE §2), in numpy.
+"""Rotations in the project's conventions (docs/conventions.md, docs/system.md §2), in numpy.
 
 Mirrors math/rotation.h: frame rotations R1/R2/R3, the paper's 2-1-3 Euler
 sequence C = R3(psi) R1(phi) R2(theta), the small-angle matrix and the

@@ -2,7 +2,7 @@
 maps, each with its table-built index and certificate (mfns.table.mapindex, as `mfns table
 build` makes them):
 
-- paper:  the paper's rig and 10 beacons (REFERENCE §7), body within +-150 mm;
+- paper:  the paper's rig and 10 beacons (docs/system.md §7), body within +-150 mm;
 - module: the 60-beacon module of `mfns sim nav --scenario module` (4 x 2 x 2 m, seed 2);
 - large:  200 beacons on the walls of one 4 x 2 x 8 m module.
 

@@ -5,7 +5,7 @@
  *  2. cold start (identify + initialize + refine, mfns_pose_acquire) with a
  *     10-beacon map of which 4 to 10 are in view, and on the paper's own map
  *     and rig at random poses with >= 4 beacons in view.
- * Observations: the paper's rig (REFERENCE §7), Gaussian pixel noise 0.1 px.
+ * Observations: the paper's rig (docs/system.md §7), Gaussian pixel noise 0.1 px.
  * Speed targets (issue 5): cold start <= 1 ms; refinement >= 2x faster than
  * PoseLib's (compared in bench_pose_baselines.py). */
 #define _POSIX_C_SOURCE 199309L

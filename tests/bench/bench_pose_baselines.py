@@ -1,5 +1,5 @@
 """Our flight pose solver (C, through ctypes) against PoseLib and pycolmap on the same
-observations (make bench-pose). Paper rig (REFERENCE §7), synthetic beacons, 4 to 10 in
+observations (make bench-pose). Paper rig (docs/system.md §7), synthetic beacons, 4 to 10 in
 view over the three cameras, Gaussian pixel noise.
 
 Columns: time per call (us, measured in Python around the call, so every solver pays

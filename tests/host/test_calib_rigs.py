@@ -165,7 +165,7 @@ def test_views_from_one_orientation_are_refused_before_the_refinement():
 
 
 def test_half_turn_symmetric_board_is_put_in_order_by_the_turntable():
-    """9 x 7 inner corners (10 x 8 squares, REFERENCE §5's ~9 x 7): the detector may return any
+    """9 x 7 inner corners (10 x 8 squares, docs/system.md §5's ~9 x 7): the detector may return any
     image turned by 180 deg; the turntable chain finds which, the world frame is the one the
     turntable is aligned with, and the calibration is as good as on an asymmetric board."""
     board = Board(9, 7, 25.0)

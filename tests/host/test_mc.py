@@ -149,10 +149,7 @@ def test_pose_extension_uses_the_plugged_solver_and_grows_with_the_error():
 # --------------------------------------------------------------------------- CLI
 def test_cli_mc_smoke(tmp_path, capsys):
     out = tmp_path / "mc"
-    assert (
-        main(["mc", str(out), "--trials", "500", "--pose-trials", "4", "--solver", "reference", "--quiet"])
-        == 0
-    )
+    assert main(["mc", str(out), "--trials", "500", "--pose-trials", "4", "--solver", "reference"]) == 0
     text = capsys.readouterr().out
     assert "first order" in text and "end-to-end" in text
     for g in mc.GROUPS:

@@ -244,7 +244,7 @@ def test_turntable_folder_follows_the_doc(turntable):
 
 
 def test_turntable_sees_the_beacons_the_reference_names():
-    """REFERENCE §7: yaw 0: beacon 8 in X, 9 in Z; yaw 30: 7 in X, 4 and 5 in Y, 9 in Z."""
+    """docs/system.md §6: yaw 0: beacon 8 in X, 9 in Z; yaw 30: 7 in X, 4 and 5 in Y, 9 in Z."""
     scn = nav.turntable_scenario(12, 18.6, 0.0, 360.0)
     seen = {}
     for i in (0, 1):

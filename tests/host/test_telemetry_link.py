@@ -288,7 +288,7 @@ def test_cli_errors_and_help(bins, tmp_path):
     assert run("--bogus", "1").returncode == 2
     missing = run("--file", str(tmp_path / "nope.bin"), "--out", str(tmp_path / "o"))
     assert missing.returncode == 1 and "nope.bin" in missing.stderr
-    # libserialport refuses a pty (TOOLCHAIN-NOTES): a clear error, not a hang
+    # libserialport refuses a pty (docs/telemetry.md, transports): a clear error, not a hang
     master, slave, slave_path = open_pty()
     try:
         serial = run("--port", slave_path, "--out", str(tmp_path / "s"), "--max-seconds", "2")

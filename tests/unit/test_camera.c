@@ -7,7 +7,7 @@
 
 #define DEG (MFNS_PI / 180.0)
 
-/* Camera Z of REFERENCE Table 2/3. */
+/* Camera Z of docs/system.md §7, Tables 2/3. */
 static mfns_camera_t camera_z(void)
 {
     mfns_camera_t c;

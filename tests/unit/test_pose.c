@@ -307,7 +307,7 @@ static void test_covariance_monte_carlo_paper_geometry(void **state)
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 104);
     /* The paper's turntable poses with four beacons in view (yaw 30 and 260
-     * deg, REFERENCE §7), and two closer poses with more beacons in view. */
+     * deg, docs/system.md §6), and two closer poses with more beacons in view. */
     const double yaws[2] = {30, 260};
     for (int k = 0; k < 2; k++) {
         const double w[3] = {0, 0, -yaws[k] * DEG};

@@ -1,5 +1,5 @@
 /* Unit tests of math/undistort: (a) the iterative inverse and (b) the
- * fixed-point correction grid, for the three cameras of REFERENCE Table 2
+ * fixed-point correction grid, for the three cameras of docs/system.md §7, Table 2
  * over the whole 1280x1024 image, plus their error paths. The reference is
  * the forward model in double (re-distortion), independent of both forms. */
 #include "testutil.h"

@@ -9,7 +9,7 @@ the same angle as the recorded A_i^T A_j, and a half-turned image (C -> Rz(pi) C
 
 Per camera: the turntable images are put in one orientation by that angle test, then the
 whole camera is turned so that its C_t_w (closed form, handeye.py) is the one nearer to the
-identity: the turntable is set up aligned with the board (REFERENCE §5), so the world frame's
+identity: the turntable is set up aligned with the board (docs/system.md §5), so the world frame's
 first corner is the one whose axes the turntable's zero points along. Prepared images need no
 decision (their poses are free). The corners of a turned image are reversed (k -> N-1-k).
 """

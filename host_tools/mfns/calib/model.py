@@ -1,7 +1,7 @@
 """The calibration experiment's geometry: board, turntable kinematic chain, observations.
 
 Shared by the simulator (`mfns sim calib`) and the calibration (`mfns calib`) so both use
-one model. Conventions (REFERENCE §2, §5; docs/conventions.md):
+one model. Conventions (docs/system.md §2, §5; docs/conventions.md):
 
 - world w: the board's first inner corner, Xw/Yw along the grid, Zw the board normal pointing
   away from the cameras (a camera in front of the board sits at negative Zw);

@@ -32,6 +32,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--all-status", action="store_true", help="also use NO_FIX rows (default: FIX, DEGRADED)")
     p.add_argument("--no-plots", action="store_true", help="summary only")
+    p.add_argument("--title", help="name of the run, heading the summary and every figure")
     p.set_defaults(func=run)
 
 
@@ -47,10 +48,10 @@ def run(args) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise MfnsError(f"cannot create {out}: {exc}") from exc
-    md = rpt.summary_markdown(rep)
+    md = rpt.summary_markdown(rep, args.title)
     (out / "summary.md").write_text(md)
     rpt.write_summary_csv(rep, out / "summary.csv")
-    written = [] if args.no_plots else rpt.write_plots(rep, out)
+    written = [] if args.no_plots else rpt.write_plots(rep, out, args.title)
     print(md, end="")
     for p in [out / "summary.csv", out / "summary.md", *written]:
         print(f"wrote {p}")

@@ -25,7 +25,7 @@ from ..errors import MfnsError
 from ..flight import V3, CameraC, Flight, Pose, SolutionC
 
 # Prune beyond this multiple of the pinhole half-diagonal (normalized): the lenses of
-# REFERENCE Table 2 image the corner at ~0.51, so 3x leaves a wide margin.
+# docs/system.md Table 2 image the corner at ~0.51, so 3x leaves a wide margin.
 PREFILTER_RADIUS_FACTOR = 3.0
 
 _F2 = ct.c_float * 2

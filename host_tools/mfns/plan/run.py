@@ -22,7 +22,7 @@ from .crlb import CalibrationError
 
 BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
 # Survey 1-sigma the optimiser assumes for new beacons unless --beacon-sigma is given:
-# the paper's map accuracy (REFERENCE Table 4).
+# the paper's map accuracy (docs/system.md Table 4).
 DEFAULT_SURVEY_SIGMA_MM = 0.3963
 
 

@@ -4,7 +4,7 @@ A surface is a rectangle origin + s u + t v (s, t in [0, 1], mm). Built-in sets:
 
 - ``module``: the six walls of the `mfns sim nav` module (MODULE_HALF), less the
   MODULE_EDGE_MARGIN_MM strip along the edges the simulator also keeps clear.
-- ``paper-frame``: the steel frame of the paper's navigation experiment (REFERENCE §6,
+- ``paper-frame``: the steel frame of the paper's navigation experiment (docs/system.md §6,
   "about 1 x 1 x 1.5 m around the turntable"), taken as the box its ten surveyed
   beacons (Table 4) span, x -460..650, y -740..410, z -70..565 mm: its four sides and
   its top; the bottom is the turntable's base and carries no LEDs.

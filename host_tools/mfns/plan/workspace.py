@@ -2,7 +2,7 @@
 
 Three kinds (docs/planning.md):
 
-- ``turntable``: the paper's navigation experiment (REFERENCE §6, ``mfns sim nav
+- ``turntable``: the paper's navigation experiment (docs/system.md §6, ``mfns sim nav
   --scenario turntable``): body origin at the world origin, attitude (0, 0, yaw) with yaw
   swept evenly from ``yaw_start_deg`` over ``yaw_span_deg`` -- the same yaws the
   simulator renders for the same frame count.

@@ -1,4 +1,4 @@
-"""`mfns sim calib OUT`: the CPC calibration experiment (REFERENCE §5) as a dataset folder.
+"""`mfns sim calib OUT`: the CPC calibration experiment (docs/system.md §5) as a dataset folder.
 
 A fixed checkerboard, the MFNS on a two-axis turntable (C_b'_b = Rx(omega) Rz(Omega), 8"
 angle noise), truth from the paper's Tables 2-3 and the §5 set-up geometry. Turntable angles
@@ -43,7 +43,7 @@ DATASET_FORMAT = "mfns-calib-dataset"
 DATASET_VERSION = 1
 PAPER_CALIB = Path(__file__).resolve().parents[1] / "data" / "paper_calib.json"
 
-# Set-up geometry (REFERENCE §5): turntable centre 684.7 mm and body origin 576.9 mm from the
+# Set-up geometry (docs/system.md §5): turntable centre 684.7 mm and body origin 576.9 mm from the
 # board (paper Table 3), r_tb_b = (0, 0, 107.8). The x, y of r_wt_w put the main axis Zt
 # under the board so camera Z sees it centred (the paper's board origin is not given).
 TRUE_C_T_W_DEG = (-0.0110, 0.1263, 0.0861)
@@ -624,7 +624,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "calib",
         help="simulate the turntable calibration experiment (images, angles, truth)",
-        description="Render the CPC calibration experiment (REFERENCE §5) into a dataset folder "
+        description="Render the CPC calibration experiment (docs/system.md §5) into a dataset folder "
         "(docs/calib-dataset.md) with truth.json inside it.",
     )
     p.add_argument("out", metavar="OUT", help="dataset folder to create")

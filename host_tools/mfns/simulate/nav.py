@@ -2,7 +2,7 @@
 
 Two scenarios:
 
-- ``turntable`` (REFERENCE §6): the paper's ten beacons (Table 4), the paper's rig
+- ``turntable`` (docs/system.md §6): the paper's ten beacons (Table 4), the paper's rig
   (Tables 2-3), the body origin at the world origin and the turntable turning about Zt:
   truth position (0, 0, 0), attitude (0, 0, psi_t) with psi_t sweeping ``--yaw-span``
   degrees over the run. With these mounts only one to four beacons are in view.

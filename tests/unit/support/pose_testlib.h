@@ -1,5 +1,5 @@
 /* pose_testlib.h -- shared by the pose tests and the pose benchmark: the
- * paper's rig (REFERENCE §7 Tables 2-3) and beacon map (Table 4), synthetic
+ * paper's rig (docs/system.md §7 Tables 2-3) and beacon map (Table 4), synthetic
  * observations computed in double, and a double-precision reference
  * Gauss-Newton on the reprojection error (the float solver is checked
  * against it). */

@@ -1,0 +1,158 @@
+"""One command-line grammar (README "Command-line grammar") across every program.
+
+Every program and every `mfns` subcommand answers --version (with the one version string,
+host_tools/mfns/__init__.py) and --help; -q/--quiet and -v/--verbose exist everywhere; the
+transports are spelled --serial/--tty/--file in all three C programs, and the older
+spellings still work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mfns import __version__
+from mfns.cli import build_parser, main
+
+REPO = Path(__file__).resolve().parents[2]
+BIN = REPO / "build" / "host-sim" / "bin"
+PROGRAMS = ("mfns-nav", "mfns-ground", "mfns-tlm-gen")
+
+
+def command_paths(parser: argparse.ArgumentParser, prefix=()) -> list[tuple[str, ...]]:
+    """Every command of the mfns tree: (), ("calib",), ("sim", "nav"), ..."""
+    out = [prefix]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                out += command_paths(sub, (*prefix, name))
+    return out
+
+
+PATHS = command_paths(build_parser())
+
+
+def test_the_tree_has_the_known_commands():
+    names = {" ".join(p) for p in PATHS}
+    assert {"", "calib", "compare", "mc", "report", "sim", "sim calib", "sim nav", "table build"} <= names
+
+
+@pytest.mark.parametrize("path", PATHS, ids=lambda p: " ".join(p) or "mfns")
+def test_every_mfns_command_answers_version_and_help(path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([*path, "--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == " ".join(("mfns", *path, __version__))
+    with pytest.raises(SystemExit) as exc:
+        main([*path, "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    for opt in ("--version", "-q, --quiet", "-v, --verbose", "-h, --help"):
+        assert opt in text, f"mfns {' '.join(path)} --help lacks {opt}"
+
+
+def test_bad_usage_exits_2(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["report", "--no-such-option"])
+    assert exc.value.code == 2
+
+
+def test_quiet_means_nothing_on_stdout(tmp_path, capsys):
+    data = REPO / "host_tools" / "mfns" / "data"
+    args = [
+        "table",
+        "build",
+        str(data / "paper_calib.json"),
+        str(data / "paper_beacons.csv"),
+        "--grid",
+        "9x9",
+    ]
+    assert main([*args, "-o", str(tmp_path / "a.tbl")]) == 0
+    assert "wrote" in capsys.readouterr().out
+    assert main([*args, "-o", str(tmp_path / "b.tbl"), "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
+    assert (tmp_path / "b.tbl").read_bytes() == (tmp_path / "a.tbl").read_bytes()
+
+
+def test_version_string_has_one_source(tmp_path):
+    pyproject = (REPO / "host_tools" / "pyproject.toml").read_text()
+    assert 'dynamic = ["version"]' in pyproject and 'attr = "mfns.__version__"' in pyproject
+    header = tmp_path / "v.h"
+    subprocess.run(
+        ["bash", "mk/version.sh", "host_tools/mfns/__init__.py", str(header)], cwd=REPO, check=True
+    )
+    assert f'#define MFNS_VERSION_STR "{__version__}"' in header.read_text()
+
+
+@pytest.fixture(scope="module")
+def bins() -> Path:
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=REPO,
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stdout + res.stderr
+    return BIN
+
+
+def run(bins: Path, prog: str, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([str(bins / prog), *args], check=False, capture_output=True, text=True, timeout=30)
+
+
+@pytest.mark.parametrize("prog", PROGRAMS)
+def test_every_program_answers_version_and_help(bins, prog):
+    res = run(bins, prog, "--version")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.split()[:2] == [prog, __version__]
+    for flag in ("--help", "-h"):
+        res = run(bins, prog, flag)
+        assert res.returncode == 0 and res.stdout.startswith(f"usage: {prog}")
+        for opt in ("--quiet", "--verbose", "--version", "--tty"):
+            assert opt in res.stdout, f"{prog} --help lacks {opt}"
+    res = run(bins, prog, "--no-such-option", "1")
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
+
+
+def test_module_entry_point_version_matches_programs(bins):
+    res = subprocess.run(
+        [sys.executable, "-m", "mfns", "--version"], capture_output=True, text=True, check=True
+    )
+    assert res.stdout.split() == ["mfns", __version__]
+
+
+def test_transport_spellings_and_their_old_aliases(bins, tmp_path):
+    # mfns-nav: --serial/--tty/--file and --tlm-*: two of them are one telemetry output too many.
+    for a, b in (("--tty", "--tlm-file"), ("--tlm-tty", "--file"), ("--serial", "--tlm-serial")):
+        res = run(bins, "mfns-nav", "--table", "t", "--replay", "r", a, "x", b, "y")
+        assert res.returncode == 2 and "one telemetry output" in res.stderr, (a, b, res.stderr)
+    # mfns-ground: --serial and the old --port are the same source.
+    res = run(bins, "mfns-ground", "--serial", "/nonexistent/a", "--port", "/nonexistent/b")
+    assert res.returncode == 2 and "exactly one of --serial, --tty, --file" in res.stderr
+    # A source that cannot be opened is a failure of the job: exit 1.
+    res = run(
+        bins, "mfns-ground", "--file", str(tmp_path / "missing.bin"), "--out", str(tmp_path / "g"), "-q"
+    )
+    assert res.returncode == 1
+    # mfns-tlm-gen: --file and the old --out write the same stream.
+    new, old = tmp_path / "new.bin", tmp_path / "old.bin"
+    assert run(bins, "mfns-tlm-gen", "--cycles", "5", "--file", str(new)).returncode == 0
+    assert run(bins, "mfns-tlm-gen", "--cycles", "5", "--out", str(old)).returncode == 0
+    assert new.read_bytes() == old.read_bytes() and len(new.read_bytes()) > 100
+    res = run(bins, "mfns-tlm-gen", "--cycles", "many")
+    assert res.returncode == 2 and "bad value" in res.stderr
+
+
+def test_ground_quiet_prints_no_counters(bins, tmp_path):
+    stream = tmp_path / "s.bin"
+    assert run(bins, "mfns-tlm-gen", "--cycles", "20", "--file", str(stream)).returncode == 0
+    loud = run(bins, "mfns-ground", "--file", str(stream), "--out", str(tmp_path / "a"))
+    quiet = run(bins, "mfns-ground", "--file", str(stream), "--out", str(tmp_path / "b"), "--quiet")
+    assert loud.returncode == 0 and quiet.returncode == 0
+    assert "frames_ok" in loud.stderr and quiet.stderr == ""
+    assert (tmp_path / "a" / "nav.csv").read_text() == (tmp_path / "b" / "nav.csv").read_text()
