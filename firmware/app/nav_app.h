@@ -35,6 +35,7 @@ typedef struct {
     const char *cam_path[3];   /* V4L2 devices / libcamera ids; replay: all the same folder */
     bool realtime;             /* replay paced to the recorded timestamps */
     int frame_timeout_ms;
+    uint32_t sync_window_us;   /* frames fused in one cycle lie within this (cam_sync.h) */
     nav_tlm_kind_t tlm_kind;
     const char *tlm_target;    /* serial port, tty/FIFO path, or output file */
     uint32_t baud;
