@@ -826,9 +826,9 @@ int nav_app_run(const nav_app_opts_t *o)
         tlm_packet_t p;
         nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
         (void)nav_tlm_send(&app.tlm, &p);
-        camera_packets(cycle, t_us, fr);
         camera_events(cycle, t_us);
-        camera_health(o, cycle, t_us);
+        camera_health(o, cycle, t_us); /* first: the packets carry the state after this cycle */
+        camera_packets(cycle, t_us, fr);
         if (app.out.mode_changed) {
             send_event(cycle, t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, (uint8_t)app.out.sol.reason,
                        nav_tlm_mode(before), nav_tlm_mode(app.out.next_mode));
