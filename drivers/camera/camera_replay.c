@@ -40,9 +40,9 @@
 /* One parsed frames.csv, shared by the handles replaying the same folder. */
 struct mfns_replay_folder {
     char path[MFNS_CAM_PATH_LEN];
-    uint32_t refs;
     char *text;
     mfns_replay_row_t *rows;
+    uint32_t refs;
     uint32_t n_rows;
 };
 
@@ -256,6 +256,7 @@ static mfns_cam_err_t pgm_load(mfns_cam_t *h, const char *file, uint8_t *dst, mf
                                int64_t deadline_ns)
 {
     mfns_cam_replay_t *r = &h->b.replay;
+    memset(hd, 0, sizeof *hd);
     char full[2u * MFNS_CAM_PATH_LEN];
     join_path(h->path, file, full, sizeof full);
     const int fd = open(full, O_RDONLY | O_NONBLOCK | O_CLOEXEC);

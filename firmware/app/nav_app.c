@@ -8,7 +8,6 @@
 #include <getopt.h>
 #include <limits.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -71,6 +70,8 @@ static struct {
     uint64_t cam_errors;
     uint32_t tlm_write_errors;
     bool tlm_write_error_printed;
+    bool tlm_in_error;    /* the last pump failed with a write error */
+    uint32_t cycle_now;
     uint32_t n_fix, n_no_fix;
 } app;
 
@@ -348,11 +349,18 @@ static void pump_tlm(const nav_app_opts_t *o)
         const int rc = mfns_uart_pump(&app.uart, &app.tlm.q, now_us() / 1000u);
         if (rc == MFNS_UART_ERR_IO) {
             app.tlm_write_errors++;
+            if (!app.tlm_in_error) { /* reaches the ground if the link comes back */
+                app.tlm_in_error = true;
+                send_event(app.cycle_now, 0, TLM_EVT_TLM_WRITE_ERROR, TLM_SEV_ERROR, 0, app.uart.last_errno,
+                           (int32_t)app.tlm_write_errors);
+            }
             if (!app.tlm_write_error_printed) {
                 app.tlm_write_error_printed = true;
                 fprintf(stderr, "mfns-nav: telemetry write to %s failed: %s (counting; frames wait in the queue)\n",
                         o->tlm_target, strerror(app.uart.last_errno));
             }
+        } else if (rc == MFNS_UART_OK) {
+            app.tlm_in_error = false;
         }
     } else {
         /* no link: discard, as a disconnected UART would */
@@ -536,8 +544,7 @@ static void close_all(const nav_app_opts_t *o)
 }
 
 /* One stderr line per fault, the first FAULT_LINES of each kind per camera. */
-static void fault_line(uint32_t *printed, int k, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void fault_line(uint32_t *printed, int k, const char *fmt, ...)
+static void fault_line(uint32_t *printed, int k, const char *line)
 {
     if (*printed >= FAULT_LINES + 1u) {
         return;
@@ -546,11 +553,6 @@ static void fault_line(uint32_t *printed, int k, const char *fmt, ...)
         fprintf(stderr, "mfns-nav: camera %c: further faults of this kind in telemetry only\n", k_letter[k]);
         return;
     }
-    char line[256];
-    va_list ap;
-    va_start(ap, fmt);
-    (void)vsnprintf(line, sizeof line, fmt, ap);
-    va_end(ap);
     fprintf(stderr, "mfns-nav: camera %c: %s\n", k_letter[k], line);
 }
 
@@ -580,8 +582,11 @@ static bool gather(const nav_app_opts_t *o, int k, uint32_t cycle, uint64_t prog
             c->n_stale++;
             const int32_t off = cam_sync_offset_us(t, app.sync.last_us);
             send_event(cycle, prog_us, TLM_EVT_CAMERA_STALE, TLM_SEV_WARNING, (uint8_t)k, off, (int32_t)fr->sequence);
-            fault_line(&c->lines_stale, k, "cycle %u: frame %u at %.6f s is stale (%.1f ms after the last cycle's %.6f s): dropped",
-                       cycle, fr->sequence, (double)t * 1e-6, (double)off * 1e-3, (double)app.sync.last_us * 1e-6);
+            char line[192];
+            (void)snprintf(line, sizeof line,
+                           "cycle %u: frame %u at %.6f s is stale (%.1f ms after the last cycle's %.6f s): dropped",
+                           cycle, fr->sequence, (double)t * 1e-6, (double)off * 1e-3, (double)app.sync.last_us * 1e-6);
+            fault_line(&c->lines_stale, k, line);
             (void)mfns_cam_requeue(c->cam, fr);
             continue;
         }
@@ -593,7 +598,9 @@ static bool gather(const nav_app_opts_t *o, int k, uint32_t cycle, uint64_t prog
             app.cam_errors++;
             send_event(cycle, prog_us, TLM_EVT_FRAME_REJECTED, TLM_SEV_WARNING, (uint8_t)k, (int32_t)e,
                        (int32_t)c->n_rejected);
-            fault_line(&c->lines_rejected, k, "cycle %u: frame rejected: %s", cycle, mfns_cam_message(c->cam));
+            char line[256];
+            (void)snprintf(line, sizeof line, "cycle %u: frame rejected: %s", cycle, mfns_cam_message(c->cam));
+            fault_line(&c->lines_rejected, k, line);
         } else {
             app.cam_errors++; /* timeout, device lost or recovering, I/O: no frame this cycle */
             if (e == MFNS_CAM_E_TIMEOUT) {
@@ -750,6 +757,7 @@ int nav_app_run(const nav_app_opts_t *o)
             why = "signal";
             break;
         }
+        app.cycle_now = cycle;
         mfns_cam_frame_t fr[MFNS_NUM_CAMERAS];
         memset(fr, 0, sizeof fr);
         bool have[MFNS_NUM_CAMERAS] = {false, false, false};
@@ -791,10 +799,13 @@ int nav_app_run(const nav_app_opts_t *o)
                 const int32_t off = cam_sync_offset_us(t_frame[k], t_us);
                 send_event(cycle, t_us, TLM_EVT_CAMERA_OUT_OF_STEP, TLM_SEV_WARNING, (uint8_t)k, off,
                            (int32_t)fr[k].sequence);
-                fault_line(&c->lines_ahead, k,
-                           "cycle %u: frame %u at %.6f s is %.1f ms ahead of the cycle's %.6f s (out of step): "
-                           "held for a later cycle",
-                           cycle, fr[k].sequence, (double)t_frame[k] * 1e-6, (double)off * 1e-3, (double)t_us * 1e-6);
+                char line[192];
+                (void)snprintf(line, sizeof line,
+                               "cycle %u: frame %u at %.6f s is %.1f ms ahead of the cycle's %.6f s (out of step): "
+                               "held for a later cycle",
+                               cycle, fr[k].sequence, (double)t_frame[k] * 1e-6, (double)off * 1e-3,
+                               (double)t_us * 1e-6);
+                fault_line(&c->lines_ahead, k, line);
             } else if (verdict[k] == CAM_SYNC_USE) {
                 c->last_seq = fr[k].sequence;
                 if (to_nav_frame(&fr[k], &nf[k])) {
