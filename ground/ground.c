@@ -261,6 +261,7 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
             }
         }
         if (rc == MFNS_UART_EOF) {
+            (void)tlm_decoder_finish(&dec); /* a frame cut by the end of the file is counted */
             break;
         }
         link_down = (rc == MFNS_UART_ERR_GONE || rc == MFNS_UART_ERR_CLOSED);

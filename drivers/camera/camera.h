@@ -103,6 +103,11 @@ typedef struct {
      * (true) or deliver as fast as asked (false). */
     char replay_camera;
     bool replay_realtime;
+    /* Replay only: when set, start() skips the rows recorded at or before
+     * replay_resume_after_ns, so a camera re-opened by the program carries on
+     * at the program's time instead of replaying from the first frame. */
+    bool replay_resume;
+    uint64_t replay_resume_after_ns;
     /* V4L2 only: syscall seam; NULL = the real syscalls. Tests substitute a
      * simulated device here. Must outlive the handle. */
     const struct mfns_cam_sys *sys;
@@ -115,8 +120,8 @@ typedef struct {
     uint32_t width, height;
     uint32_t stride;          /* bytes from one row to the next (>= width * bytes/pixel) */
     uint64_t timestamp_ns;    /* V4L2/libcamera: capture time, CLOCK_MONOTONIC;
-                                 replay: the recorded t_s */
-    uint32_t sequence;        /* driver frame counter (replay: the frame index) */
+                                 replay: the recorded t_s (frames.csv row) */
+    uint32_t sequence;        /* driver frame counter (replay: the row's frame index) */
     uint32_t dropped_before;  /* frames missing between the previous frame and this one */
     int32_t exposure_us;      /* exposure in effect, -1 if unknown */
     /* for requeue; do not change */

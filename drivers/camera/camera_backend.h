@@ -15,8 +15,6 @@ extern "C" {
 #endif
 
 #define MFNS_CAM_PATH_LEN 256u
-#define MFNS_CAM_LINE_LEN 512u   /* longest frames.csv row accepted */
-#define MFNS_CAM_RBUF_LEN 4096u  /* frames.csv read-ahead */
 
 typedef struct {
     mfns_cam_err_t (*open)(mfns_cam_t *h); /* h->s and h->path are set */
@@ -57,20 +55,12 @@ typedef struct {
     int32_t gain;
 } mfns_cam_v4l2_t;
 
-typedef struct {
-    uint32_t frame;
-    double t_s; /* double: seconds over a long run need sub-microsecond steps */
-    int32_t exposure_us;
-    char file[MFNS_CAM_PATH_LEN];
-} mfns_cam_replay_row_t;
+struct mfns_replay_folder; /* camera_replay.c: one parsed frames.csv per folder, shared */
 
 typedef struct {
-    int csv_fd;
-    char rbuf[MFNS_CAM_RBUF_LEN];
-    size_t rpos, rlen;
-    uint32_t line_no;
-    bool csv_eof;
-    mfns_cam_replay_row_t row; /* next row for this camera */
+    struct mfns_replay_folder *folder;
+    uint32_t cursor;     /* next row of the shared table to look at */
+    uint32_t row;        /* the row being delivered (valid while have_row) */
     bool have_row;
     bool end;
     uint32_t maxval;
@@ -78,9 +68,6 @@ typedef struct {
     uint8_t *mem; /* nbuf * frame_bytes, allocated at open */
     uint32_t nbuf;
     bool held[MFNS_CAM_MAX_BUFFERS];
-    bool have_prev;
-    uint32_t prev_frame;
-    double prev_t;
     bool t0_set;
     int64_t t0_ns;
     double t_first;

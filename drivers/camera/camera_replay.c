@@ -4,311 +4,241 @@
  * (GREY) or 1023/4095/65535 (Y10/Y12/Y16, big-endian samples converted to
  * native 16-bit words). Paced to the recorded timestamps or as fast as asked.
  *
- * Everything is allocated at open (frame buffers); dequeue reads with plain
- * read(2) into them, so replay, like a real camera, never allocates while
- * streaming. Malformed input is refused with the file and line in the
- * message, never delivered as a frame. */
+ * frames.csv is read and validated once per folder (replay_index.h) into a
+ * row table shared by every camera of that folder, so a bad row costs one
+ * frame of one camera and the cameras never drift apart over it.
+ *
+ * Everything is allocated at open (row table, frame buffers); dequeue reads
+ * with plain read(2) into them, so replay, like a real camera, never
+ * allocates while streaming. Frame files are opened non-blocking and read
+ * against the dequeue deadline: a frame file that blocks (a FIFO with a slow
+ * or absent writer) costs at most the timeout. Malformed input is refused
+ * with the file and line in the message, never delivered as a frame. */
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
+#include <poll.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "camera_backend.h"
+#include "replay_index.h"
+#include "replay_pgm.h"
+#include "replay_scenario.h"
 
-#define CSV_HEADER "frame,t_s,camera,file,exposure_us,gain_db"
-#define KNOWN_VERSION 1
-#define MAX_SKIP_ROWS (1u << 20) /* rows of other cameras skipped in one search */
-#define MAX_READ_TRIES 1024      /* EINTR retries plus short reads for one read */
-#define SCENARIO_MAX 16384       /* scenario.json bytes inspected */
-#define PGM_HDR_MAX 64
+#define MAX_READ_TRIES 1024 /* EINTR retries and waits for one read */
+#define READ_TIMED_OUT (-2)
+
+/* One parsed frames.csv, shared by the handles replaying the same folder. */
+struct mfns_replay_folder {
+    char path[MFNS_CAM_PATH_LEN];
+    char *text;
+    mfns_replay_row_t *rows;
+    uint32_t refs;
+    uint32_t n_rows;
+};
+
+static struct mfns_replay_folder g_folders[MFNS_CAM_MAX_HANDLES];
+static pthread_mutex_t g_folders_lock = PTHREAD_MUTEX_INITIALIZER;
 
 /* ---- small I/O helpers --------------------------------------------------- */
-/* Reads up to n bytes; returns bytes read (< n only at end of file) or -1. */
-static ssize_t read_full(int fd, void *buf, size_t n)
+static int64_t ms_left(int64_t deadline_ns)
+{
+    const int64_t left = deadline_ns - mfns_cam_now_ns();
+    return left <= 0 ? 0 : (left + 999999) / 1000000;
+}
+
+/* Reads up to n bytes before deadline_ns (< 0: no deadline, regular files).
+ * Returns bytes read (< n only at end of file), -1 on error (errno set) or
+ * READ_TIMED_OUT. Each pass reads at least one byte or waits once. */
+static ssize_t read_until(int fd, void *buf, size_t n, int64_t deadline_ns)
 {
     size_t got = 0;
-    for (int tries = 0; got < n && tries < MAX_READ_TRIES; tries++) {
+    for (size_t tries = 0; got < n && tries < n + MAX_READ_TRIES; tries++) {
         const ssize_t r = read(fd, (char *)buf + got, n - got);
-        if (r < 0) {
-            if (errno == EINTR) {
-                continue;
-            }
-            return -1;
+        if (r > 0) {
+            got += (size_t)r;
+            continue;
         }
         if (r == 0) {
             break;
         }
-        got += (size_t)r;
+        if (errno == EINTR) {
+            continue;
+        }
+        if (errno != EAGAIN && errno != EWOULDBLOCK) {
+            return -1;
+        }
+        const int64_t left = deadline_ns < 0 ? 0 : ms_left(deadline_ns);
+        if (left == 0) {
+            return READ_TIMED_OUT;
+        }
+        struct pollfd p = {fd, POLLIN, 0};
+        const int pr = poll(&p, 1, (int)left);
+        if (pr == 0) {
+            return READ_TIMED_OUT;
+        }
+        if (pr < 0 && errno != EINTR) {
+            return -1;
+        }
     }
     return (ssize_t)got;
 }
 
-static void join_path(const mfns_cam_t *h, const char *name, char *out, size_t n)
+static void join_path(const char *dir, const char *name, char *out, size_t n)
 {
-    (void)snprintf(out, n, "%s/%s", h->path, name);
+    (void)snprintf(out, n, "%s/%s", dir, name);
 }
 
-/* Reads one '\n'-terminated line of frames.csv (without "\n" or "\r\n").
- * 1 = line, 0 = end of file, -1 = error (message set). */
-static int read_line(mfns_cam_t *h, char *line, size_t n)
+/* A whole regular file of at most max bytes into a fresh buffer with one
+ * spare byte (the parsers write a terminator there). NULL on failure. */
+static char *slurp(mfns_cam_t *h, const char *name, size_t max, size_t *len, mfns_cam_err_t *e)
 {
-    mfns_cam_replay_t *r = &h->b.replay;
+    char full[2u * MFNS_CAM_PATH_LEN];
+    join_path(h->path, name, full, sizeof full);
+    const int fd = open(full, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        *e = mfns_cam_fail(h, errno == ENOENT && access(h->path, F_OK) != 0 ? MFNS_CAM_E_OPEN : MFNS_CAM_E_DATA,
+                           "%s: %s: %s", h->path, name, strerror(errno));
+        return NULL;
+    }
+    struct stat st;
+    char *buf = NULL;
+    if (fstat(fd, &st) != 0) {
+        *e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s: %s", name, strerror(errno));
+    } else if (!S_ISREG(st.st_mode)) {
+        *e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s: not a regular file", name);
+    } else if ((uint64_t)st.st_size > max) {
+        *e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s: %lld bytes, above the %zu-byte limit", name,
+                           (long long)st.st_size, max);
+    } else {
+        const size_t n = (size_t)st.st_size;
+        buf = malloc(n + 1u); /* at open only */
+        if (!buf) {
+            *e = mfns_cam_fail(h, MFNS_CAM_E_BUFFERS, "%s: cannot allocate %zu bytes", name, n + 1u);
+        } else {
+            const ssize_t got = read_until(fd, buf, n, -1);
+            if (got != (ssize_t)n) {
+                *e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s: read failed: %s", name,
+                                   got < 0 ? strerror(errno) : "file changed while read");
+                free(buf);
+                buf = NULL;
+            } else {
+                buf[n] = '\0';
+                *len = n;
+            }
+        }
+    }
+    (void)close(fd);
+    return buf;
+}
+
+/* ---- the shared folder table ----------------------------------------------- */
+static void folder_free(struct mfns_replay_folder *f)
+{
+    free(f->text);
+    free(f->rows);
+    memset(f, 0, sizeof *f);
+}
+
+static mfns_cam_err_t folder_load(mfns_cam_t *h, struct mfns_replay_folder *f)
+{
     size_t len = 0;
-    for (size_t guard = 0; guard < MFNS_CAM_LINE_LEN + 2u * MFNS_CAM_RBUF_LEN; guard++) {
-        if (r->rpos == r->rlen) {
-            if (r->csv_eof) {
-                break;
-            }
-            const ssize_t got = read_full(r->csv_fd, r->rbuf, sizeof r->rbuf);
-            if (got < 0) {
-                (void)mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: read failed: %s", strerror(errno));
-                return -1;
-            }
-            r->rpos = 0;
-            r->rlen = (size_t)got;
-            if (got < (ssize_t)sizeof r->rbuf) {
-                r->csv_eof = true;
-            }
-            if (got == 0) {
-                break;
-            }
-        }
-        const char c = r->rbuf[r->rpos++];
-        if (c == '\n') {
-            r->line_no++;
-            if (len > 0 && line[len - 1] == '\r') {
-                len--;
-            }
-            line[len] = '\0';
-            return 1;
-        }
-        if (len + 1 >= n) {
-            (void)mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: longer than %zu characters", r->line_no + 1u,
-                          n - 1);
-            return -1;
-        }
-        line[len++] = c;
+    mfns_cam_err_t e = MFNS_CAM_OK;
+    f->text = slurp(h, "frames.csv", MFNS_REPLAY_CSV_MAX, &len, &e);
+    if (!f->text) {
+        return e;
     }
-    if (len > 0) { /* last line without a newline */
-        r->line_no++;
-        line[len] = '\0';
-        return 1;
+    const uint32_t cap = mfns_replay_count_rows(f->text, len);
+    if (cap > MFNS_REPLAY_MAX_ROWS + 1u) {
+        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: more than %u rows", MFNS_REPLAY_MAX_ROWS);
     }
-    return 0;
-}
-
-static bool parse_u32(const char *s, uint32_t *out)
-{
-    if (*s < '0' || *s > '9') {
-        return false;
+    f->rows = calloc(cap, sizeof *f->rows);
+    if (!f->rows) {
+        return mfns_cam_fail(h, MFNS_CAM_E_BUFFERS, "frames.csv: cannot allocate %u rows", cap);
     }
-    char *end;
-    errno = 0;
-    const unsigned long v = strtoul(s, &end, 10);
-    if (errno != 0 || *end != '\0' || v > UINT32_MAX) {
-        return false;
-    }
-    *out = (uint32_t)v;
-    return true;
-}
-
-static bool parse_real(const char *s, double *out)
-{
-    if (*s == '\0') {
-        return false;
-    }
-    char *end;
-    errno = 0;
-    const double v = strtod(s, &end);
-    if (errno != 0 || *end != '\0' || !isfinite(v)) {
-        return false;
-    }
-    *out = v;
-    return true;
-}
-
-/* Splits line in place at commas into exactly n fields. */
-static bool split_fields(char *line, char **fields, int n)
-{
-    int k = 0;
-    fields[k++] = line;
-    for (char *p = line; *p; p++) {
-        if (*p == ',') {
-            if (k == n) {
-                return false;
-            }
-            *p = '\0';
-            fields[k++] = p + 1;
-        }
-    }
-    return k == n;
-}
-
-static bool safe_relative(const char *f)
-{
-    if (f[0] == '\0' || f[0] == '/') {
-        return false;
-    }
-    for (const char *p = f; *p; p++) {
-        if (p[0] == '.' && p[1] == '.' && (p == f || p[-1] == '/') && (p[2] == '/' || p[2] == '\0')) {
-            return false;
-        }
-    }
-    return true;
-}
-
-/* Next row of this camera into r->row. OK, E_END or E_DATA. */
-static mfns_cam_err_t next_row(mfns_cam_t *h)
-{
-    mfns_cam_replay_t *r = &h->b.replay;
-    char line[MFNS_CAM_LINE_LEN];
-    for (uint32_t skipped = 0; skipped < MAX_SKIP_ROWS; skipped++) {
-        const int got = read_line(h, line, sizeof line);
-        if (got < 0) {
-            return MFNS_CAM_E_DATA;
-        }
-        if (got == 0) {
-            return MFNS_CAM_E_END;
-        }
-        const uint32_t ln = r->line_no;
-        char *fld[6];
-        if (!split_fields(line, fld, 6)) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: expected 6 comma-separated fields", ln);
-        }
-        uint32_t frame;
-        double t_s, exposure, gain;
-        if (!parse_u32(fld[0], &frame)) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: frame '%.20s' is not an index", ln, fld[0]);
-        }
-        if (!parse_real(fld[1], &t_s) || t_s < 0.0 || t_s > 1e9) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: t_s '%.20s' is not a time in seconds", ln,
-                                 fld[1]);
-        }
-        if (!((fld[2][0] == 'x' || fld[2][0] == 'y' || fld[2][0] == 'z') && fld[2][1] == '\0')) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: camera '%.20s' is not x, y or z", ln,
-                                 fld[2]);
-        }
-        if (!safe_relative(fld[3]) || strlen(fld[3]) + strlen(h->path) + 2u > MFNS_CAM_PATH_LEN) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: file '%.40s' is not a relative path inside "
-                                 "the folder", ln, fld[3]);
-        }
-        if (!parse_real(fld[4], &exposure) || exposure < 0.0 || exposure > 2147483647.0) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: exposure_us '%.20s' is not a duration", ln,
-                                 fld[4]);
-        }
-        if (!parse_real(fld[5], &gain)) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv line %u: gain_db '%.20s' is not a number", ln,
-                                 fld[5]);
-        }
-        if (fld[2][0] != h->s.replay_camera) {
-            continue;
-        }
-        if (r->have_prev && (frame <= r->prev_frame || t_s < r->prev_t)) {
-            return mfns_cam_fail(h, MFNS_CAM_E_DATA,
-                                 "frames.csv line %u: camera %c frame %u at %.6f s does not follow frame %u at %.6f s",
-                                 ln, h->s.replay_camera, frame, t_s, r->prev_frame, r->prev_t);
-        }
-        r->have_prev = true;
-        r->prev_frame = frame;
-        r->prev_t = t_s;
-        r->row.frame = frame;
-        r->row.t_s = t_s;
-        r->row.exposure_us = (int32_t)lround(exposure);
-        (void)snprintf(r->row.file, sizeof r->row.file, "%s", fld[3]);
-        r->have_row = true;
-        return MFNS_CAM_OK;
-    }
-    return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: no row for camera %c in %u rows", h->s.replay_camera,
-                         MAX_SKIP_ROWS);
-}
-
-/* ---- PGM ------------------------------------------------------------------ */
-typedef struct {
-    uint32_t w, h, maxval;
-    size_t data_off;
-} pgm_hdr_t;
-
-static bool pgm_ws(char c)
-{
-    return c == ' ' || c == '\n' || c == '\t' || c == '\r';
-}
-
-/* Skips whitespace before a header field; a '#' there starts a comment,
- * which docs/nav-frames.md rules out. */
-static bool skip_ws(const char *buf, size_t n, size_t *p, bool *comment)
-{
-    while (*p < n && pgm_ws(buf[*p])) {
-        (*p)++;
-    }
-    if (*p < n && buf[*p] == '#') {
-        *comment = true;
-        return false;
-    }
-    return true;
-}
-
-/* One decimal field followed by whitespace; advances *p. */
-static bool pgm_num(const char *buf, size_t n, size_t *p, uint32_t *out)
-{
-    uint32_t v = 0;
-    size_t digits = 0;
-    while (*p < n && buf[*p] >= '0' && buf[*p] <= '9' && digits < 6) {
-        v = v * 10u + (uint32_t)(buf[*p] - '0');
-        (*p)++;
-        digits++;
-    }
-    if (digits == 0 || *p >= n || !pgm_ws(buf[*p])) {
-        return false;
-    }
-    *out = v;
-    return true;
-}
-
-static mfns_cam_err_t pgm_header(mfns_cam_t *h, int fd, const char *file, pgm_hdr_t *hd)
-{
-    memset(hd, 0, sizeof *hd);
-    char buf[PGM_HDR_MAX];
-    const ssize_t got = read_full(fd, buf, sizeof buf);
-    if (got < 0) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: read failed: %s", file, strerror(errno));
-    }
-    const size_t n = (size_t)got;
-    if (n < 3 || buf[0] != 'P' || buf[1] != '5' || !pgm_ws(buf[2])) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: not a binary PGM (magic P5 missing)", file);
-    }
-    /* Only the header is scanned: pixel bytes may be anything, '#' included. */
-    size_t p = 3;
-    bool comment = false;
-    bool ok = skip_ws(buf, n, &p, &comment) && pgm_num(buf, n, &p, &hd->w);
-    ok = ok && skip_ws(buf, n, &p, &comment) && pgm_num(buf, n, &p, &hd->h);
-    ok = ok && skip_ws(buf, n, &p, &comment) && pgm_num(buf, n, &p, &hd->maxval);
-    if (comment) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: PGM header comments are not allowed (docs/nav-frames.md)",
-                             file);
-    }
-    if (!ok) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: malformed PGM header (want \"P5\\n<W> <H>\\n<maxval>\\n\")",
-                             file);
-    }
-    hd->data_off = p + 1; /* exactly one whitespace byte after maxval */
-    if (hd->w == 0 || hd->h == 0 || hd->w > MFNS_CAM_MAX_DIM || hd->h > MFNS_CAM_MAX_DIM) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: size %ux%u outside 1..%u", file, hd->w, hd->h,
-                             MFNS_CAM_MAX_DIM);
-    }
-    if (hd->maxval != 255 && hd->maxval != 1023 && hd->maxval != 4095 && hd->maxval != 65535) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: maxval %u is not 255, 1023, 4095 or 65535", file,
-                             hd->maxval);
+    char why[MFNS_CAM_MSG_LEN];
+    const size_t max_file = MFNS_CAM_PATH_LEN - 2u - strlen(h->path);
+    if (!mfns_replay_index_parse(f->text, len, max_file, f->rows, cap, &f->n_rows, why, sizeof why)) {
+        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s", why);
     }
     return MFNS_CAM_OK;
 }
 
+/* The folder's table, parsed by the first handle that opens it. */
+static mfns_cam_err_t folder_get(mfns_cam_t *h)
+{
+    mfns_cam_err_t e = MFNS_CAM_OK;
+    (void)pthread_mutex_lock(&g_folders_lock);
+    struct mfns_replay_folder *f = NULL, *free_slot = NULL;
+    for (unsigned i = 0; i < MFNS_CAM_MAX_HANDLES; i++) {
+        if (g_folders[i].refs > 0 && strcmp(g_folders[i].path, h->path) == 0) {
+            f = &g_folders[i];
+            break;
+        }
+        if (g_folders[i].refs == 0 && !free_slot) {
+            free_slot = &g_folders[i];
+        }
+    }
+    if (!f && free_slot) { /* always found: at most one folder per handle */
+        f = free_slot;
+        e = folder_load(h, f);
+        if (e != MFNS_CAM_OK) {
+            folder_free(f);
+            f = NULL;
+        } else {
+            (void)snprintf(f->path, sizeof f->path, "%s", h->path);
+        }
+    }
+    if (f) {
+        f->refs++;
+        h->b.replay.folder = f;
+    } else if (e == MFNS_CAM_OK) {
+        e = mfns_cam_fail(h, MFNS_CAM_E_NO_SLOT, "replay: no free folder slot");
+    }
+    (void)pthread_mutex_unlock(&g_folders_lock);
+    return e;
+}
+
+static void folder_put(mfns_cam_t *h)
+{
+    struct mfns_replay_folder *f = h->b.replay.folder;
+    if (!f) {
+        return;
+    }
+    (void)pthread_mutex_lock(&g_folders_lock);
+    if (--f->refs == 0) {
+        folder_free(f);
+    }
+    (void)pthread_mutex_unlock(&g_folders_lock);
+    h->b.replay.folder = NULL;
+}
+
+/* Next row of this camera (good or bad) at or after the cursor: OK with
+ * r->row set, or E_END. */
+static mfns_cam_err_t next_row(mfns_cam_t *h)
+{
+    mfns_cam_replay_t *r = &h->b.replay;
+    const struct mfns_replay_folder *f = r->folder;
+    for (; r->cursor < f->n_rows; r->cursor++) {
+        if (f->rows[r->cursor].camera == h->s.replay_camera) {
+            r->row = r->cursor++;
+            r->have_row = true;
+            return MFNS_CAM_OK;
+        }
+    }
+    return MFNS_CAM_E_END;
+}
+
+/* ---- PGM ------------------------------------------------------------------ */
 static mfns_cam_pixfmt_t pixfmt_of_maxval(uint32_t maxval)
 {
     switch (maxval) {
@@ -319,182 +249,147 @@ static mfns_cam_pixfmt_t pixfmt_of_maxval(uint32_t maxval)
     }
 }
 
-/* Reads the frame's header (and, with dst, its pixels converted to native
- * words) after checking it against the geometry fixed at open. */
-static mfns_cam_err_t pgm_load(mfns_cam_t *h, const char *file, uint8_t *dst, pgm_hdr_t *hd)
+/* Reads a frame file: its header, and with dst its pixels converted to
+ * native words after checking it against the geometry fixed at open. The
+ * file is opened non-blocking and read against deadline_ns (< 0: none). */
+static mfns_cam_err_t pgm_load(mfns_cam_t *h, const char *file, uint8_t *dst, mfns_pgm_header_t *hd,
+                               int64_t deadline_ns)
 {
     mfns_cam_replay_t *r = &h->b.replay;
+    memset(hd, 0, sizeof *hd);
     char full[2u * MFNS_CAM_PATH_LEN];
-    join_path(h, file, full, sizeof full);
-    const int fd = open(full, O_RDONLY | O_CLOEXEC);
+    join_path(h->path, file, full, sizeof full);
+    const int fd = open(full, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) {
         return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: cannot open: %s", file, strerror(errno));
     }
-    mfns_cam_err_t e = pgm_header(h, fd, file, hd);
+    uint8_t head[MFNS_PGM_HDR_MAX];
+    mfns_cam_err_t e = MFNS_CAM_OK;
+    char why[MFNS_CAM_MSG_LEN];
+    /* Frames are far longer than the header: a short read here is a short file. */
+    const ssize_t got = read_until(fd, head, sizeof head, deadline_ns);
+    if (got == READ_TIMED_OUT) {
+        e = mfns_cam_fail(h, MFNS_CAM_E_TIMEOUT, "%.60s: no data within the timeout", file);
+    } else if (got < 0) {
+        e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: read failed: %s", file, strerror(errno));
+    } else if (!mfns_pgm_parse_header(head, (size_t)got, MFNS_CAM_MAX_DIM, hd, why, sizeof why)) {
+        e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: %s", file, why);
+    }
     if (e == MFNS_CAM_OK && dst) {
-        if (hd->w != h->info.width || hd->h != h->info.height || hd->maxval != r->maxval) {
+        const size_t have = (size_t)got > hd->data_off ? (size_t)got - hd->data_off : 0u;
+        if (hd->width != h->info.width || hd->height != h->info.height || hd->maxval != r->maxval) {
             e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: %ux%u maxval %u differs from the first frame's %ux%u maxval %u",
-                              file, hd->w, hd->h, hd->maxval, h->info.width, h->info.height, r->maxval);
-        } else if (lseek(fd, (off_t)hd->data_off, SEEK_SET) < 0) {
-            e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: seek failed: %s", file, strerror(errno));
+                              file, hd->width, hd->height, hd->maxval, h->info.width, h->info.height, r->maxval);
+        } else if (have > r->frame_bytes) {
+            e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: bytes after the pixel data", file);
         } else {
-            const ssize_t got = read_full(fd, dst, r->frame_bytes);
+            /* the pixel bytes read with the header, then the rest: no seek, so FIFOs work */
+            memcpy(dst, head + hd->data_off, have);
+            const ssize_t rest = read_until(fd, dst + have, r->frame_bytes - have, deadline_ns);
             uint8_t extra;
-            if (got < 0) {
+            if (rest == READ_TIMED_OUT) {
+                e = mfns_cam_fail(h, MFNS_CAM_E_TIMEOUT, "%.60s: frame incomplete within the timeout", file);
+            } else if (rest < 0) {
                 e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: read failed: %s", file, strerror(errno));
-            } else if ((size_t)got != r->frame_bytes) {
-                e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: truncated: %zd of %zu pixel bytes", file, got,
-                                  r->frame_bytes);
-            } else if (read_full(fd, &extra, 1) != 0) {
+            } else if (have + (size_t)rest != r->frame_bytes) {
+                e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: truncated: %zu of %zu pixel bytes", file,
+                                  have + (size_t)rest, r->frame_bytes);
+            } else if (read_until(fd, &extra, 1, deadline_ns) > 0) {
                 e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: bytes after the pixel data", file);
             }
         }
-        if (e == MFNS_CAM_OK && r->maxval > 255u) {
-            /* big-endian PGM samples -> native 16-bit words, in place */
-            const size_t n = r->frame_bytes / 2u;
-            for (size_t i = 0; i < n; i++) {
-                const uint16_t v = (uint16_t)(((uint16_t)dst[2 * i] << 8) | dst[2 * i + 1]);
-                if (v > r->maxval) {
-                    e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: sample %zu is %u, above maxval %u", file, i,
-                                      (unsigned)v, r->maxval);
-                    break;
-                }
-                memcpy(dst + 2 * i, &v, sizeof v);
-            }
+        size_t bad = 0;
+        if (e == MFNS_CAM_OK && r->maxval > 255u && !mfns_pgm_to_native(dst, r->frame_bytes, r->maxval, &bad)) {
+            uint16_t v;
+            memcpy(&v, dst + 2 * bad, sizeof v);
+            v = (uint16_t)((v >> 8) | (v << 8)); /* still big-endian there */
+            e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%.60s: sample %zu is %u, above maxval %u", file, bad,
+                              (unsigned)v, r->maxval);
         }
     }
     (void)close(fd);
     return e;
 }
 
-/* ---- scenario.json (only format and version are checked) ----------------- */
-static const char *json_value(const char *json, const char *key)
-{
-    const char *p = strstr(json, key);
-    if (!p) {
-        return NULL;
-    }
-    p += strlen(key);
-    while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') {
-        p++;
-    }
-    if (*p != ':') {
-        return NULL;
-    }
-    p++;
-    while (*p == ' ' || *p == '\t' || *p == '\n' || *p == '\r') {
-        p++;
-    }
-    return p;
-}
-
+/* ---- scenario.json ------------------------------------------------------- */
 static mfns_cam_err_t check_scenario(mfns_cam_t *h)
 {
-    char full[2u * MFNS_CAM_PATH_LEN];
-    join_path(h, "scenario.json", full, sizeof full);
-    const int fd = open(full, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) {
-        return mfns_cam_fail(h, errno == ENOENT && access(h->path, F_OK) != 0 ? MFNS_CAM_E_OPEN : MFNS_CAM_E_DATA,
-                             "%s: scenario.json: %s", h->path, strerror(errno));
+    size_t len = 0;
+    mfns_cam_err_t e = MFNS_CAM_OK;
+    char *json = slurp(h, "scenario.json", MFNS_REPLAY_SCENARIO_MAX, &len, &e);
+    if (!json) {
+        return e;
     }
-    static _Thread_local char json[SCENARIO_MAX + 1];
-    const ssize_t got = read_full(fd, json, SCENARIO_MAX);
-    (void)close(fd);
-    if (got < 0) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "scenario.json: read failed: %s", strerror(errno));
+    char why[MFNS_CAM_MSG_LEN];
+    if (!mfns_replay_scenario_check(json, len, why, sizeof why)) {
+        e = mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s", why);
     }
-    json[got] = '\0';
-    const char *fmt = json_value(json, "\"format\"");
-    if (!fmt || strncmp(fmt, "\"mfns-nav-frames\"", 17) != 0) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "scenario.json: \"format\" is not \"mfns-nav-frames\"");
-    }
-    const char *ver = json_value(json, "\"version\"");
-    char *end = NULL;
-    const long v = ver ? strtol(ver, &end, 10) : -1;
-    if (!ver || end == ver || v < 1) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "scenario.json: no integer \"version\"");
-    }
-    if (v > KNOWN_VERSION) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "scenario.json: version %ld is newer than the %d this reader knows", v,
-                             KNOWN_VERSION);
-    }
-    return MFNS_CAM_OK;
+    free(json);
+    return e;
 }
 
-/* Positions frames.csv after its header, before the first row. */
-static mfns_cam_err_t rewind_csv(mfns_cam_t *h)
+/* First good row of this camera; the message names the first bad row seen
+ * (this camera's or one nobody can claim) when there is none. */
+static mfns_cam_err_t first_good_row(mfns_cam_t *h)
 {
     mfns_cam_replay_t *r = &h->b.replay;
-    if (lseek(r->csv_fd, 0, SEEK_SET) < 0) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: seek failed: %s", strerror(errno));
+    const struct mfns_replay_folder *f = r->folder;
+    const mfns_replay_row_t *first_bad = NULL;
+    for (uint32_t i = 0; i < f->n_rows; i++) {
+        const mfns_replay_row_t *row = &f->rows[i];
+        if (row->camera == h->s.replay_camera && row->status == MFNS_ROW_OK) {
+            r->row = i;
+            return MFNS_CAM_OK;
+        }
+        if (!first_bad && row->status != MFNS_ROW_OK && (row->camera == h->s.replay_camera || row->camera == '\0')) {
+            first_bad = row;
+        }
     }
-    r->rpos = r->rlen = 0;
-    r->csv_eof = false;
-    r->line_no = 0;
-    r->have_row = false;
-    r->have_prev = false;
-    r->end = false;
-    r->t0_set = false;
-    char line[MFNS_CAM_LINE_LEN];
-    const int got = read_line(h, line, sizeof line);
-    if (got < 0) {
-        return MFNS_CAM_E_DATA;
+    if (!first_bad) {
+        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: no frames for camera %c", h->s.replay_camera);
     }
-    if (got == 0 || strcmp(line, CSV_HEADER) != 0) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: header is not \"%s\"", CSV_HEADER);
-    }
-    return MFNS_CAM_OK;
+    char why[MFNS_CAM_MSG_LEN];
+    mfns_replay_row_message(first_bad, why, sizeof why);
+    return mfns_cam_fail(h, MFNS_CAM_E_DATA, "no frames for camera %c; %s", h->s.replay_camera, why);
 }
 
 /* ---- backend operations ---------------------------------------------------- */
 static mfns_cam_err_t replay_open(mfns_cam_t *h)
 {
     mfns_cam_replay_t *r = &h->b.replay;
-    r->csv_fd = -1;
     mfns_cam_err_t e = check_scenario(h);
-    if (e != MFNS_CAM_OK) {
-        return e;
+    if (e == MFNS_CAM_OK) {
+        e = folder_get(h);
     }
-    char full[2u * MFNS_CAM_PATH_LEN];
-    join_path(h, "frames.csv", full, sizeof full);
-    r->csv_fd = open(full, O_RDONLY | O_CLOEXEC);
-    if (r->csv_fd < 0) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s: frames.csv: %s", h->path, strerror(errno));
-    }
-    e = rewind_csv(h);
-    if (e != MFNS_CAM_OK) {
-        return e;
-    }
-    e = next_row(h);
-    if (e == MFNS_CAM_E_END) {
-        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "frames.csv: no frames for camera %c", h->s.replay_camera);
+    if (e == MFNS_CAM_OK) {
+        e = first_good_row(h);
     }
     if (e != MFNS_CAM_OK) {
         return e;
     }
-    pgm_hdr_t hd;
-    e = pgm_load(h, r->row.file, NULL, &hd);
+    mfns_pgm_header_t hd;
+    e = pgm_load(h, r->folder->rows[r->row].file, NULL, &hd, mfns_cam_now_ns() + 1000000000);
     if (e != MFNS_CAM_OK) {
         return e;
     }
     const mfns_cam_pixfmt_t pf = pixfmt_of_maxval(hd.maxval);
-    if ((h->s.width && h->s.width != hd.w) || (h->s.height && h->s.height != hd.h) ||
+    if ((h->s.width && h->s.width != hd.width) || (h->s.height && h->s.height != hd.height) ||
         (h->s.pixfmt != MFNS_CAM_PIX_ANY && h->s.pixfmt != pf)) {
         return mfns_cam_fail(h, MFNS_CAM_E_FORMAT, "replay %s: asked %s %ux%u, recorded frames are %s %ux%u", h->path,
                              mfns_cam_pixfmt_name(h->s.pixfmt), h->s.width, h->s.height, mfns_cam_pixfmt_name(pf),
-                             hd.w, hd.h);
+                             hd.width, hd.height);
     }
     const uint32_t bpp = mfns_cam_pixfmt_bytes(pf);
     r->maxval = hd.maxval;
-    r->frame_bytes = (size_t)hd.w * hd.h * bpp;
+    r->frame_bytes = mfns_pgm_pixel_bytes(&hd);
     r->nbuf = h->s.buffer_count;
     r->mem = malloc(r->frame_bytes * r->nbuf); /* at open only: streaming never allocates */
     if (!r->mem) {
         return mfns_cam_fail(h, MFNS_CAM_E_BUFFERS, "replay: cannot allocate %u x %zu bytes", r->nbuf, r->frame_bytes);
     }
-    h->info.width = hd.w;
-    h->info.height = hd.h;
-    h->info.stride = hd.w * bpp;
+    h->info.width = hd.width;
+    h->info.height = hd.height;
+    h->info.stride = hd.width * bpp;
     h->info.pixfmt = pf;
     h->info.buffer_count = r->nbuf;
     h->info.multiplanar = false;
@@ -505,8 +400,22 @@ static mfns_cam_err_t replay_open(mfns_cam_t *h)
 
 static mfns_cam_err_t replay_start(mfns_cam_t *h)
 {
-    memset(h->b.replay.held, 0, sizeof h->b.replay.held);
-    return rewind_csv(h); /* every start replays from the first frame */
+    mfns_cam_replay_t *r = &h->b.replay;
+    memset(r->held, 0, sizeof r->held);
+    r->cursor = 0; /* every start replays from the first frame ... */
+    r->have_row = false;
+    r->end = false;
+    r->t0_set = false;
+    if (h->s.replay_resume) { /* ... or from after the resume time */
+        const struct mfns_replay_folder *f = r->folder;
+        for (; r->cursor < f->n_rows; r->cursor++) {
+            const mfns_replay_row_t *row = &f->rows[r->cursor];
+            if (row->status == MFNS_ROW_OK && (uint64_t)llround(row->t_s * 1e9) > h->s.replay_resume_after_ns) {
+                break;
+            }
+        }
+    }
+    return MFNS_CAM_OK;
 }
 
 /* Sleeps until CLOCK_MONOTONIC reaches until_ns. */
@@ -523,6 +432,7 @@ static void sleep_until(int64_t until_ns)
 static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int timeout_ms)
 {
     mfns_cam_replay_t *r = &h->b.replay;
+    const int64_t deadline = mfns_cam_now_ns() + (int64_t)timeout_ms * 1000000;
     if (r->end) {
         return mfns_cam_fail(h, MFNS_CAM_E_END, "replay %s camera %c: end of frames", h->path, h->s.replay_camera);
     }
@@ -533,36 +443,38 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
     if (k == r->nbuf) {
         return mfns_cam_fail(h, MFNS_CAM_E_BUSY, "all %u replay buffers are held by the caller", r->nbuf);
     }
-    if (!r->have_row) {
-        const mfns_cam_err_t e = next_row(h);
-        if (e == MFNS_CAM_E_END) {
-            r->end = true;
-            return mfns_cam_fail(h, MFNS_CAM_E_END, "replay %s camera %c: end of frames", h->path,
-                                 h->s.replay_camera);
-        }
-        if (e != MFNS_CAM_OK) {
-            return e;
-        }
+    if (!r->have_row && next_row(h) == MFNS_CAM_E_END) {
+        r->end = true;
+        return mfns_cam_fail(h, MFNS_CAM_E_END, "replay %s camera %c: end of frames", h->path, h->s.replay_camera);
+    }
+    const mfns_replay_row_t *row = &r->folder->rows[r->row];
+    if (row->status != MFNS_ROW_OK) {
+        r->have_row = false; /* a bad row is consumed: it costs this camera this one frame */
+        char why[MFNS_CAM_MSG_LEN];
+        mfns_replay_row_message(row, why, sizeof why);
+        h->stats.error_frames++; /* the frame-index gap shows in the next frame's dropped_before */
+        return mfns_cam_fail(h, MFNS_CAM_E_DATA, "%s", why);
     }
     if (h->s.replay_realtime) {
         const int64_t now = mfns_cam_now_ns();
         if (!r->t0_set) {
             r->t0_set = true;
             r->t0_ns = now;
-            r->t_first = r->row.t_s;
+            r->t_first = row->t_s;
         }
-        const int64_t due = r->t0_ns + (int64_t)llround((r->row.t_s - r->t_first) * 1e9);
-        if (due - now > (int64_t)timeout_ms * 1000000) {
-            sleep_until(now + (int64_t)timeout_ms * 1000000);
+        const int64_t due = r->t0_ns + (int64_t)llround((row->t_s - r->t_first) * 1e9);
+        if (due > deadline) {
+            sleep_until(deadline);
             return mfns_cam_fail(h, MFNS_CAM_E_TIMEOUT, "replay: next frame due in %.3f s", (double)(due - now) * 1e-9);
         }
         sleep_until(due);
     }
     uint8_t *dst = r->mem + (size_t)k * r->frame_bytes;
-    pgm_hdr_t hd;
+    mfns_pgm_header_t hd;
     r->have_row = false; /* a bad frame is consumed: the caller may go on to the next */
-    const mfns_cam_err_t e = pgm_load(h, r->row.file, dst, &hd);
+    const mfns_cam_err_t e = pgm_load(h, row->file, dst, &hd, deadline);
     if (e != MFNS_CAM_OK) {
+        h->stats.error_frames++; /* the frame-index gap shows in the next frame's dropped_before */
         return e;
     }
     r->held[k] = true;
@@ -572,10 +484,10 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
     f->width = h->info.width;
     f->height = h->info.height;
     f->stride = h->info.stride;
-    f->timestamp_ns = (uint64_t)llround(r->row.t_s * 1e9);
-    f->sequence = r->row.frame;
-    f->dropped_before = mfns_cam_seq_delivered(h, r->row.frame);
-    f->exposure_us = r->row.exposure_us;
+    f->timestamp_ns = (uint64_t)llround(row->t_s * 1e9);
+    f->sequence = row->frame;
+    f->dropped_before = mfns_cam_seq_delivered(h, row->frame);
+    f->exposure_us = row->exposure_us;
     f->buf_index = k;
     return MFNS_CAM_OK;
 }
@@ -599,10 +511,7 @@ static mfns_cam_err_t replay_stop(mfns_cam_t *h)
 static void replay_close(mfns_cam_t *h)
 {
     mfns_cam_replay_t *r = &h->b.replay;
-    if (r->csv_fd >= 0) {
-        (void)close(r->csv_fd);
-        r->csv_fd = -1;
-    }
+    folder_put(h);
     free(r->mem);
     r->mem = NULL;
 }

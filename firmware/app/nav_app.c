@@ -13,6 +13,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cam_sync.h"
 #include "caltable_file.h"
 #include "mfns_version.h"
 #include "cycle_stats.h"
@@ -34,8 +35,25 @@
 
 #define NAV_APP_VERSION MFNS_VERSION_CODE /* the one version (mk/version.sh) */
 #define FLUSH_TRIES 200          /* x 10 ms: telemetry drain at exit */
+#define STALE_TRIES 4            /* dequeues per camera and cycle to catch up past stale frames */
+#define FAULT_LINES 5            /* stderr lines per camera and kind of fault; the rest in telemetry */
 
-typedef enum { CAM_UP = 0, CAM_LOST, CAM_OFF } cam_link_t;
+static const char k_letter[MFNS_NUM_CAMERAS] = {'x', 'y', 'z'};
+
+/* One camera as the program sees it. */
+typedef struct {
+    mfns_cam_t *cam;            /* NULL while closed (a re-open failed) */
+    cam_health_t health;
+    mfns_cam_frame_t held;      /* a frame ahead of the cycle, kept for a later one */
+    bool have_held;
+    bool used;                  /* a frame of this camera is fused this cycle */
+    bool ended_reported;
+    mfns_cam_err_t last_err;
+    uint64_t last_used_us;      /* frame time of its last fused frame */
+    uint32_t last_seq;
+    uint32_t n_stale, n_ahead, n_rejected, n_timeouts, n_lost, n_recovered, n_reopens;
+    uint32_t lines_stale, lines_ahead, lines_rejected;
+} cam_slot_t;
 
 /* Everything the program holds, in static storage: nothing allocates after
  * start-up (the camera backends allocate their buffers when opened). */
@@ -47,10 +65,14 @@ static struct {
     nav_tlm_t tlm;
     mfns_uart_t uart;
     mfns_cycle_stats_t stats;
-    mfns_cam_t *cam[MFNS_NUM_CAMERAS];
-    cam_link_t link[MFNS_NUM_CAMERAS];
+    cam_slot_t cs[MFNS_NUM_CAMERAS];
+    cam_sync_t sync;
     uint64_t lost_at_ms[MFNS_NUM_CAMERAS];
     uint64_t cam_errors;
+    uint32_t tlm_write_errors;
+    bool tlm_write_error_printed;
+    bool tlm_in_error;    /* the last pump failed with a write error */
+    uint32_t cycle_now;
     uint32_t n_fix, n_no_fix;
 } app;
 
@@ -85,6 +107,7 @@ static void usage(FILE *f)
             "  --libcamera         libcamera cameras (first three, or --cam-x/y/z ids)\n"
             "  --cam-x/--cam-y/--cam-z PATH   device or camera id per camera\n"
             "  --timeout-ms N      frame wait per camera and cycle (default 200)\n"
+            "  --sync-window-ms N  frames fused in one cycle lie within N ms (default %u)\n"
             "  --serial PORT       telemetry on a real UART via libserialport\n"
             "  --tty PATH          telemetry on a tty, pseudo-terminal or FIFO\n"
             "  --file PATH         telemetry recorded to a file (created/truncated)\n"
@@ -97,8 +120,10 @@ static void usage(FILE *f)
             "  -v, --verbose       one line per cycle on stderr\n"
             "  -q, --quiet         no summary line at the end (errors still go to stderr)\n"
             "  -h, --help, --version\n"
-            "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target).\n",
-            MFNS_BOARD_CAM_X, MFNS_BOARD_CAM_Y, MFNS_BOARD_CAM_Z, MFNS_BOARD_BAUD, MFNS_BOARD_NAME);
+            "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target),\n"
+            "3 telemetry incomplete (write errors).\n",
+            MFNS_BOARD_CAM_X, MFNS_BOARD_CAM_Y, MFNS_BOARD_CAM_Z, MFNS_SYNC_WINDOW_US_DEFAULT / 1000u, MFNS_BOARD_BAUD,
+            MFNS_BOARD_NAME);
 }
 
 static bool parse_u32(const char *s, uint32_t lo, uint32_t hi, uint32_t *v)
@@ -139,7 +164,8 @@ static bool parse_pose(const char *s, float v[6])
 int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err)
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
-           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET };
+           O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
+           O_SYNC_WINDOW };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -151,6 +177,7 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
         {"paper", no_argument, NULL, O_PAPER},           {"verbose", no_argument, NULL, O_VERBOSE},
         {"init-pose", required_argument, NULL, O_INIT},  {"help", no_argument, NULL, O_HELP},
         {"version", no_argument, NULL, O_VERSION},       {"quiet", no_argument, NULL, O_QUIET},
+        {"sync-window-ms", required_argument, NULL, O_SYNC_WINDOW},
         /* the transport spelling shared with mfns-ground and mfns-tlm-gen (README) */
         {"serial", required_argument, NULL, O_SERIAL},   {"tty", required_argument, NULL, O_TTY},
         {"file", required_argument, NULL, O_FILE},
@@ -159,6 +186,7 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
     memset(o, 0, sizeof *o);
     o->backend = MFNS_CAM_BACKEND_COUNT_;
     o->frame_timeout_ms = 200;
+    o->sync_window_us = MFNS_SYNC_WINDOW_US_DEFAULT;
     o->baud = MFNS_BOARD_BAUD;
     o->solver = MFNS_POSE_MODE_ML;
     const char *cam_override[3] = {NULL, NULL, NULL};
@@ -202,6 +230,14 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
                 return -1;
             }
             o->frame_timeout_ms = (int)v;
+            break;
+        case O_SYNC_WINDOW:
+            if (!parse_u32(optarg, 1, MFNS_SYNC_WINDOW_US_MAX / 1000u, &v)) {
+                fprintf(err, "mfns-nav: --sync-window-ms wants 1..%u, got '%s'\n", MFNS_SYNC_WINDOW_US_MAX / 1000u,
+                        optarg);
+                return -1;
+            }
+            o->sync_window_us = v * 1000u;
             break;
         case O_SERIAL:
         case O_TTY:
@@ -285,6 +321,9 @@ static void send_event(uint32_t cycle, uint64_t t_us, tlm_event_code_t code, tlm
     (void)nav_tlm_event(&app.tlm, cycle, t_us, code, sev, subject, a0, a1); /* failures counted in tlm */
 }
 
+/* Opens the telemetry output. A port or FIFO that is absent (no reader yet,
+ * adapter not plugged) is not fatal: the transport re-opens it at its retry
+ * cadence, exactly as after a link lost later; frames wait in the queue. */
 static int open_tlm(const nav_app_opts_t *o)
 {
     int rc = MFNS_UART_OK;
@@ -307,6 +346,11 @@ static int open_tlm(const nav_app_opts_t *o)
         break;
     }
     }
+    if (rc == MFNS_UART_ERR_OPEN && o->tlm_kind != NAV_TLM_FILE) {
+        fprintf(stderr, "mfns-nav: telemetry %s not available yet (%s): retrying every %u..%u ms\n", o->tlm_target,
+                strerror(app.uart.last_errno), app.uart.retry_min_ms, app.uart.retry_max_ms);
+        return 0;
+    }
     if (rc != MFNS_UART_OK) {
         fprintf(stderr, "mfns-nav: telemetry %s: %s\n", o->tlm_target, mfns_uart_strerror(rc));
         return -1;
@@ -317,7 +361,23 @@ static int open_tlm(const nav_app_opts_t *o)
 static void pump_tlm(const nav_app_opts_t *o)
 {
     if (o->tlm_kind != NAV_TLM_NONE) {
-        (void)mfns_uart_pump(&app.uart, &app.tlm.q, now_us() / 1000u); /* link loss: frames wait, oldest dropped */
+        /* link loss: frames wait, oldest dropped; a write error is counted and reported */
+        const int rc = mfns_uart_pump(&app.uart, &app.tlm.q, now_us() / 1000u);
+        if (rc == MFNS_UART_ERR_IO) {
+            app.tlm_write_errors++;
+            if (!app.tlm_in_error) { /* reaches the ground if the link comes back */
+                app.tlm_in_error = true;
+                send_event(app.cycle_now, 0, TLM_EVT_TLM_WRITE_ERROR, TLM_SEV_ERROR, 0, app.uart.last_errno,
+                           (int32_t)app.tlm_write_errors);
+            }
+            if (!app.tlm_write_error_printed) {
+                app.tlm_write_error_printed = true;
+                fprintf(stderr, "mfns-nav: telemetry write to %s failed: %s (counting; frames wait in the queue)\n",
+                        o->tlm_target, strerror(app.uart.last_errno));
+            }
+        } else if (rc == MFNS_UART_OK) {
+            app.tlm_in_error = false;
+        }
     } else {
         /* no link: discard, as a disconnected UART would */
         const uint8_t *d = NULL;
@@ -327,26 +387,41 @@ static void pump_tlm(const nav_app_opts_t *o)
     }
 }
 
+/* Opens and starts camera k; with resume (a re-open), a replay camera goes
+ * on after frame time after_us instead of from its first frame. */
+static mfns_cam_err_t open_camera(const nav_app_opts_t *o, int k, bool resume, uint64_t after_us, char *msg,
+                                  size_t msg_size)
+{
+    mfns_cam_settings_t s = mfns_cam_default_settings(o->backend, o->cam_path[k]);
+    s.replay_camera = k_letter[k];
+    s.replay_realtime = o->realtime;
+    s.replay_resume = resume;
+    s.replay_resume_after_ns = after_us * 1000u;
+    s.recover_attempts = 20;
+    s.width = app.table.rig.cam[k].k.width;
+    s.height = app.table.rig.cam[k].k.height;
+    cam_slot_t *c = &app.cs[k];
+    mfns_cam_err_t e = mfns_cam_open(&s, &c->cam, msg, msg_size);
+    if (e != MFNS_CAM_OK) {
+        return e;
+    }
+    e = mfns_cam_start(c->cam);
+    if (e != MFNS_CAM_OK) {
+        (void)snprintf(msg, msg_size, "start: %s", mfns_cam_message(c->cam));
+        mfns_cam_close(c->cam);
+        c->cam = NULL;
+    }
+    return e;
+}
+
 static int open_cameras(const nav_app_opts_t *o)
 {
-    static const char letters[3] = {'x', 'y', 'z'};
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        mfns_cam_settings_t s = mfns_cam_default_settings(o->backend, o->cam_path[k]);
-        s.replay_camera = letters[k];
-        s.replay_realtime = o->realtime;
-        s.recover_attempts = 20;
-        s.width = app.table.rig.cam[k].k.width;
-        s.height = app.table.rig.cam[k].k.height;
+        cam_health_init(&app.cs[k].health);
         char msg[MFNS_CAM_MSG_LEN];
-        const mfns_cam_err_t e = mfns_cam_open(&s, &app.cam[k], msg, sizeof msg);
+        const mfns_cam_err_t e = open_camera(o, k, false, 0, msg, sizeof msg);
         if (e != MFNS_CAM_OK) {
-            fprintf(stderr, "mfns-nav: camera %c: %s: %s\n", letters[k], mfns_cam_strerror(e), msg);
-            return -1;
-        }
-        const mfns_cam_err_t st = mfns_cam_start(app.cam[k]);
-        if (st != MFNS_CAM_OK) {
-            fprintf(stderr, "mfns-nav: camera %c: start: %s: %s\n", letters[k], mfns_cam_strerror(st),
-                    mfns_cam_message(app.cam[k]));
+            fprintf(stderr, "mfns-nav: camera %c: %s: %s\n", k_letter[k], mfns_cam_strerror(e), msg);
             return -1;
         }
     }
@@ -384,26 +459,38 @@ static void camera_events(uint32_t cycle, uint64_t t_us)
 {
     const uint64_t ms = now_us() / 1000u;
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        const uint32_t ev = mfns_cam_take_events(app.cam[k]);
+        cam_slot_t *c = &app.cs[k];
+        const uint32_t ev = c->cam ? mfns_cam_take_events(c->cam) : 0u;
         if ((ev & MFNS_CAM_EV_LOST) != 0U) {
             app.lost_at_ms[k] = ms;
             send_event(cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, (uint8_t)k, MFNS_CAM_E_LOST, 0);
         }
         if ((ev & MFNS_CAM_EV_RECOVERED) != 0U) {
-            app.link[k] = CAM_UP;
             send_event(cycle, t_us, TLM_EVT_CAMERA_RECOVERED, TLM_SEV_INFO, (uint8_t)k,
                        (int32_t)(ms - app.lost_at_ms[k]), 0);
         }
         if ((ev & MFNS_CAM_EV_RECOVERY_FAILED) != 0U) {
-            app.link[k] = CAM_OFF;
+            c->health.state = CAM_HEALTH_OFF;
             send_event(cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_ERROR, (uint8_t)k, MFNS_CAM_E_NO_DEVICE, 0);
         }
     }
 }
 
-static void camera_packets(uint32_t cycle, uint64_t t_us, const mfns_cam_frame_t fr[3], const bool have[3])
+static uint8_t cam_state(const cam_slot_t *c)
+{
+    switch (c->health.state) {
+    case CAM_HEALTH_LOST: return TLM_CAM_LOST;
+    case CAM_HEALTH_OFF: return TLM_CAM_OFF;
+    case CAM_HEALTH_ENDED: return TLM_CAM_ENDED;
+    case CAM_HEALTH_UP: break;
+    }
+    return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
+}
+
+static void camera_packets(uint32_t cycle, uint64_t t_us, const mfns_cam_frame_t fr[3])
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const cam_slot_t *cs = &app.cs[k];
         tlm_packet_t p;
         memset(&p, 0, sizeof p);
         p.type = TLM_TYPE_CAMERA;
@@ -411,14 +498,16 @@ static void camera_packets(uint32_t cycle, uint64_t t_us, const mfns_cam_frame_t
         tlm_camera_t *c = &p.u.camera;
         mfns_cam_stats_t st;
         memset(&st, 0, sizeof st);
-        (void)mfns_cam_get_stats(app.cam[k], &st); /* zeros on failure are the honest answer */
+        if (cs->cam) {
+            (void)mfns_cam_get_stats(cs->cam, &st); /* zeros on failure are the honest answer */
+        }
         c->cycle = cycle;
         c->camera = (uint8_t)k;
-        c->state = (uint8_t)(app.link[k] == CAM_UP ? TLM_CAM_OK : (app.link[k] == CAM_LOST ? TLM_CAM_LOST : TLM_CAM_OFF));
+        c->state = cam_state(cs);
         c->blobs = (uint8_t)(app.out.cam[k].blobs > 255 ? 255 : app.out.cam[k].blobs);
         c->beacons_identified = (uint8_t)app.out.cam[k].identified;
-        c->exposure_us = have[k] && fr[k].exposure_us > 0 ? (uint32_t)fr[k].exposure_us : 0;
-        c->frame_seq = have[k] ? fr[k].sequence : 0;
+        c->exposure_us = cs->used && fr[k].exposure_us > 0 ? (uint32_t)fr[k].exposure_us : 0;
+        c->frame_seq = cs->used ? fr[k].sequence : 0;
         c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
         (void)nav_tlm_send(&app.tlm, &p);
     }
@@ -456,8 +545,8 @@ static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
 static void close_all(const nav_app_opts_t *o)
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        mfns_cam_close(app.cam[k]);
-        app.cam[k] = NULL;
+        mfns_cam_close(app.cs[k].cam);
+        app.cs[k].cam = NULL;
     }
     if (o->tlm_kind != NAV_TLM_NONE) {
         for (int i = 0; i < FLUSH_TRIES && tlm_txq_frames(&app.tlm.q) > 0; i++) {
@@ -467,6 +556,164 @@ static void close_all(const nav_app_opts_t *o)
             }
         }
         mfns_uart_close(&app.uart);
+    }
+}
+
+/* One stderr line per fault, the first FAULT_LINES of each kind per camera. */
+static void fault_line(uint32_t *printed, int k, const char *line)
+{
+    if (*printed >= FAULT_LINES + 1u) {
+        return;
+    }
+    if (++*printed > FAULT_LINES) {
+        fprintf(stderr, "mfns-nav: camera %c: further faults of this kind in telemetry only\n", k_letter[k]);
+        return;
+    }
+    fprintf(stderr, "mfns-nav: camera %c: %s\n", k_letter[k], line);
+}
+
+/* The frame of camera k for this cycle, into fr: the one held from an earlier
+ * cycle, or a fresh one; stale frames are given back and the camera asked
+ * again (bounded) so it catches up. Returns true with a frame. */
+static bool gather(const nav_app_opts_t *o, int k, uint32_t cycle, uint64_t prog_us, mfns_cam_frame_t *fr, bool *ended)
+{
+    cam_slot_t *c = &app.cs[k];
+    if (c->have_held) {
+        *fr = c->held;
+        c->have_held = false;
+        return true;
+    }
+    if (!c->cam || c->health.state == CAM_HEALTH_ENDED) {
+        return false;
+    }
+    /* a camera already down is asked without waiting: it never stalls the others */
+    const bool down = c->health.state != CAM_HEALTH_UP;
+    for (int attempt = 0; attempt < STALE_TRIES; attempt++) {
+        const mfns_cam_err_t e = mfns_cam_dequeue(c->cam, fr, down || attempt > 0 ? 0 : o->frame_timeout_ms);
+        if (e == MFNS_CAM_OK) {
+            const uint64_t t = fr->timestamp_ns / 1000u;
+            if (!cam_sync_is_stale(&app.sync, t)) {
+                return true;
+            }
+            c->n_stale++;
+            const int32_t off = cam_sync_offset_us(t, app.sync.last_us);
+            send_event(cycle, prog_us, TLM_EVT_CAMERA_STALE, TLM_SEV_WARNING, (uint8_t)k, off, (int32_t)fr->sequence);
+            char line[192];
+            (void)snprintf(line, sizeof line,
+                           "cycle %u: frame %u at %.6f s is stale (%.1f ms after the last cycle's %.6f s): dropped",
+                           cycle, fr->sequence, (double)t * 1e-6, (double)off * 1e-3, (double)app.sync.last_us * 1e-6);
+            fault_line(&c->lines_stale, k, line);
+            (void)mfns_cam_requeue(c->cam, fr);
+            continue;
+        }
+        c->last_err = e;
+        if (e == MFNS_CAM_E_END) {
+            *ended = true;
+        } else if (e == MFNS_CAM_E_DATA) {
+            c->n_rejected++;
+            app.cam_errors++;
+            send_event(cycle, prog_us, TLM_EVT_FRAME_REJECTED, TLM_SEV_WARNING, (uint8_t)k, (int32_t)e,
+                       (int32_t)c->n_rejected);
+            char line[256];
+            (void)snprintf(line, sizeof line, "cycle %u: frame rejected: %s", cycle, mfns_cam_message(c->cam));
+            fault_line(&c->lines_rejected, k, line);
+        } else {
+            app.cam_errors++; /* timeout, device lost or recovering, I/O: no frame this cycle */
+            if (e == MFNS_CAM_E_TIMEOUT) {
+                c->n_timeouts++;
+            }
+            if (e == MFNS_CAM_E_NO_DEVICE) {
+                c->health.state = CAM_HEALTH_OFF;
+            }
+            if (o->verbose) {
+                fprintf(stderr, "mfns-nav: cycle %u camera %c: %s: %s\n", cycle, k_letter[k], mfns_cam_strerror(e),
+                        mfns_cam_message(c->cam));
+            }
+        }
+        return false;
+    }
+    return false;
+}
+
+/* Health transitions after a cycle: LOST after MFNS_CAM_LOST_CYCLES cycles
+ * without a fused frame, periodic re-open while down, RECOVERED on the next
+ * fused frame. Each transition: an event and one stderr line. */
+static void camera_health(const nav_app_opts_t *o, uint32_t cycle, uint64_t t_us)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        cam_slot_t *c = &app.cs[k];
+        const cam_health_event_t ev = cam_health_update(&c->health, c->used);
+        if (ev == CAM_HEALTH_EV_LOST) {
+            c->n_lost++;
+            send_event(cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, (uint8_t)k, (int32_t)c->last_err,
+                       (int32_t)c->health.missed);
+            fprintf(stderr, "mfns-nav: camera %c lost: no valid frame for %u cycles (cycle %u; last: %s)\n", k_letter[k],
+                    c->health.missed, cycle, mfns_cam_strerror(c->last_err));
+        } else if (ev == CAM_HEALTH_EV_RECOVERED) {
+            c->n_recovered++;
+            const uint64_t outage_us = t_us - c->last_used_us;
+            send_event(cycle, t_us, TLM_EVT_CAMERA_RECOVERED, TLM_SEV_INFO, (uint8_t)k,
+                       (int32_t)(outage_us / 1000u > INT32_MAX ? INT32_MAX : outage_us / 1000u),
+                       (int32_t)c->health.outage);
+            fprintf(stderr, "mfns-nav: camera %c recovered at cycle %u after %u cycles (%.1f ms of frame time)\n",
+                    k_letter[k], cycle, c->health.outage, (double)outage_us * 1e-3);
+        }
+        if (c->used) {
+            c->last_used_us = t_us;
+        }
+        if (cam_health_reopen_due(&c->health)) {
+            c->n_reopens++;
+            mfns_cam_close(c->cam);
+            c->cam = NULL;
+            c->have_held = false;
+            char msg[MFNS_CAM_MSG_LEN];
+            const mfns_cam_err_t e = open_camera(o, k, true, t_us, msg, sizeof msg);
+            if (e != MFNS_CAM_OK) {
+                c->last_err = e;
+                if (o->verbose) {
+                    fprintf(stderr, "mfns-nav: camera %c: re-open: %s: %s\n", k_letter[k], mfns_cam_strerror(e), msg);
+                }
+            }
+        }
+    }
+}
+
+/* A camera whose recorded frames ended while others go on: reported once. */
+static void camera_ended(uint32_t cycle, uint64_t t_us, int k)
+{
+    cam_slot_t *c = &app.cs[k];
+    c->health.state = CAM_HEALTH_ENDED;
+    if (c->ended_reported) {
+        return;
+    }
+    c->ended_reported = true;
+    app.cam_errors++;
+    mfns_cam_stats_t st;
+    memset(&st, 0, sizeof st);
+    (void)mfns_cam_get_stats(c->cam, &st);
+    send_event(cycle, t_us, TLM_EVT_CAMERA_ENDED, TLM_SEV_WARNING, (uint8_t)k, (int32_t)c->last_seq,
+               (int32_t)(st.frames > INT32_MAX ? INT32_MAX : st.frames));
+    fprintf(stderr, "mfns-nav: camera %c: recorded frames ended at cycle %u (last frame %u) while other cameras go on\n",
+            k_letter[k], cycle, c->last_seq);
+}
+
+static void print_summary(const char *why, uint32_t cycle, uint32_t lost_frames, uint32_t produced)
+{
+    fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n", why,
+            cycle, app.n_fix, app.n_no_fix, lost_frames);
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const cam_slot_t *c = &app.cs[k];
+        if (c->n_stale + c->n_ahead + c->n_rejected + c->n_timeouts + c->n_lost + (c->ended_reported ? 1u : 0u) > 0) {
+            fprintf(stderr,
+                    "mfns-nav: camera %c faults: %u rejected, %u stale, %u out of step, %u timeouts, %u lost, "
+                    "%u recovered, %u re-opens%s\n",
+                    k_letter[k], c->n_rejected, c->n_stale, c->n_ahead, c->n_timeouts, c->n_lost, c->n_recovered,
+                    c->n_reopens, c->ended_reported ? ", frames ended early" : "");
+        }
+    }
+    if (app.tlm_write_errors > 0 || lost_frames > 0) {
+        fprintf(stderr, "mfns-nav: telemetry: %u frames produced, %u sent, %u lost (%u write errors)\n", produced,
+                app.tlm.q.sent, lost_frames, app.tlm_write_errors);
     }
 }
 
@@ -482,6 +729,7 @@ int nav_app_run(const nav_app_opts_t *o)
     }
     nav_tlm_init(&app.tlm);
     mfns_cycle_stats_reset(&app.stats);
+    cam_sync_init(&app.sync, o->sync_window_us);
     if (open_tlm(o) != 0) {
         return 2;
     }
@@ -525,67 +773,70 @@ int nav_app_run(const nav_app_opts_t *o)
             why = "signal";
             break;
         }
+        app.cycle_now = cycle;
         mfns_cam_frame_t fr[MFNS_NUM_CAMERAS];
+        memset(fr, 0, sizeof fr);
         bool have[MFNS_NUM_CAMERAS] = {false, false, false};
-        int ended = 0, off = 0;
-        uint64_t t_us = 0;
-        bool have_time = false; /* replay time 0 is a real time */
+        bool ended[MFNS_NUM_CAMERAS] = {false, false, false};
+        uint64_t t_frame[MFNS_NUM_CAMERAS] = {0, 0, 0};
+        const uint64_t prog_us = now_us() - t0;
+        int active = 0;
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-            if (app.link[k] == CAM_OFF) {
-                off++;
-                continue;
-            }
-            const mfns_cam_err_t e = mfns_cam_dequeue(app.cam[k], &fr[k], o->frame_timeout_ms);
-            if (e == MFNS_CAM_OK) {
-                have[k] = true;
-                app.link[k] = CAM_UP;
-                if (!have_time) {
-                    t_us = fr[k].timestamp_ns / 1000u;
-                    have_time = true;
-                }
-            } else if (e == MFNS_CAM_E_END) {
-                ended++;
-            } else if (e == MFNS_CAM_E_LOST) {
-                app.link[k] = CAM_LOST;
-                app.cam_errors++;
-            } else if (e == MFNS_CAM_E_NO_DEVICE) {
-                app.link[k] = CAM_OFF;
-                app.cam_errors++;
-            } else {
-                app.cam_errors++; /* timeout or I/O: no frame this cycle */
-                if (o->verbose) {
-                    fprintf(stderr, "mfns-nav: cycle %u camera %d: %s: %s\n", cycle, k, mfns_cam_strerror(e),
-                            mfns_cam_message(app.cam[k]));
-                }
+            app.cs[k].used = false;
+            have[k] = gather(o, k, cycle, app.sync.have_last ? app.sync.last_us : prog_us, &fr[k], &ended[k]);
+            t_frame[k] = fr[k].timestamp_ns / 1000u;
+            if (app.cs[k].health.state != CAM_HEALTH_ENDED && !ended[k]) {
+                active++;
             }
         }
-        if (ended > 0 && ended + off == MFNS_NUM_CAMERAS) {
-            for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-                if (have[k]) {
-                    (void)mfns_cam_requeue(app.cam[k], &fr[k]);
-                }
-            }
+        if (active == 0) { /* every camera's data ended (a held frame would have kept it active) */
             break;
         }
-        if (off == MFNS_NUM_CAMERAS) {
-            why = "every camera is gone";
-            break;
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            if (ended[k]) {
+                camera_ended(cycle, app.sync.have_last ? app.sync.last_us : prog_us, k);
+            }
         }
         const uint64_t start = now_us();
-        if (!have_time) {
+        cam_sync_verdict_t verdict[MFNS_NUM_CAMERAS];
+        uint64_t t_us = 0;
+        if (!cam_sync_cycle(&app.sync, have, t_frame, MFNS_NUM_CAMERAS, verdict, &t_us)) {
             t_us = start - t0; /* no camera delivered: stamp with the program's clock */
         }
         mfns_frame_t nf[MFNS_NUM_CAMERAS];
         const mfns_frame_t *frames[MFNS_NUM_CAMERAS] = {NULL, NULL, NULL};
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-            if (have[k] && to_nav_frame(&fr[k], &nf[k])) {
-                frames[k] = &nf[k];
+            cam_slot_t *c = &app.cs[k];
+            if (verdict[k] == CAM_SYNC_AHEAD) {
+                /* out of step: left out of this cycle, kept for the one it belongs to */
+                c->held = fr[k];
+                c->have_held = true;
+                c->n_ahead++;
+                const int32_t off = cam_sync_offset_us(t_frame[k], t_us);
+                send_event(cycle, t_us, TLM_EVT_CAMERA_OUT_OF_STEP, TLM_SEV_WARNING, (uint8_t)k, off,
+                           (int32_t)fr[k].sequence);
+                char line[192];
+                (void)snprintf(line, sizeof line,
+                               "cycle %u: frame %u at %.6f s is %.1f ms ahead of the cycle's %.6f s (out of step): "
+                               "held for a later cycle",
+                               cycle, fr[k].sequence, (double)t_frame[k] * 1e-6, (double)off * 1e-3,
+                               (double)t_us * 1e-6);
+                fault_line(&c->lines_ahead, k, line);
+            } else if (verdict[k] == CAM_SYNC_USE) {
+                c->last_seq = fr[k].sequence;
+                if (to_nav_frame(&fr[k], &nf[k])) {
+                    frames[k] = &nf[k];
+                    c->used = true;
+                } else {
+                    c->last_err = MFNS_CAM_E_DATA;
+                    app.cam_errors++;
+                }
             }
         }
         const mfns_nav_mode_t before = app.nav.mode;
         const mfns_nav_status_t ns = mfns_nav_cycle(&app.nav, frames, &app.out);
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-            if (have[k] && mfns_cam_requeue(app.cam[k], &fr[k]) != MFNS_CAM_OK) {
+            if (verdict[k] == CAM_SYNC_USE && mfns_cam_requeue(app.cs[k].cam, &fr[k]) != MFNS_CAM_OK) {
                 app.cam_errors++;
             }
         }
@@ -602,8 +853,9 @@ int nav_app_run(const nav_app_opts_t *o)
         tlm_packet_t p;
         nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
         (void)nav_tlm_send(&app.tlm, &p);
-        camera_packets(cycle, t_us, fr, have);
         camera_events(cycle, t_us);
+        camera_health(o, cycle, t_us); /* first: the packets carry the state after this cycle */
+        camera_packets(cycle, t_us, fr);
         if (app.out.mode_changed) {
             send_event(cycle, t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, (uint8_t)app.out.sol.reason,
                        nav_tlm_mode(before), nav_tlm_mode(app.out.next_mode));
@@ -624,15 +876,37 @@ int nav_app_run(const nav_app_opts_t *o)
                     (double)s->r_wb_w.x, (double)s->r_wb_w.y, (double)s->r_wb_w.z, (double)s->euler_deg.roll,
                     (double)s->euler_deg.pitch, (double)s->euler_deg.yaw, (double)s->residual_rms_px);
         }
+        bool all_off = true;
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            all_off = all_off && (app.cs[k].health.state == CAM_HEALTH_OFF || app.cs[k].health.state == CAM_HEALTH_ENDED);
+        }
+        if (all_off && o->backend != MFNS_CAM_BACKEND_REPLAY) {
+            why = "every camera is gone";
+            cycle++;
+            break;
+        }
     }
     if (cycle >= max_cycles) {
         why = "cycle limit";
     }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        if (app.cs[k].have_held) {
+            (void)mfns_cam_requeue(app.cs[k].cam, &app.cs[k].held);
+            app.cs[k].have_held = false;
+        }
+    }
     housekeeping(cycle, now_us() - t0, app.table.crc32);
     close_all(o);
+    /* Exact: every frame produced was sent, dropped by the queue, or is still
+     * queued (never sent) now. */
+    const uint32_t lost = app.tlm.q.dropped + (uint32_t)tlm_txq_frames(&app.tlm.q);
+    const uint32_t produced = app.tlm.q.sent + lost;
     if (!o->quiet) {
-        fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n",
-                why, cycle, app.n_fix, app.n_no_fix, app.tlm.q.dropped);
+        print_summary(why, cycle, o->tlm_kind == NAV_TLM_NONE ? app.tlm.q.dropped : lost, produced);
+    }
+    if (app.tlm_write_errors > 0) {
+        fprintf(stderr, "mfns-nav: telemetry incomplete: %u write errors (exit 3)\n", app.tlm_write_errors);
+        return 3;
     }
     return 0;
 }

@@ -7,15 +7,25 @@
  * sending a TABLE_REFUSED event: navigating on a wrong table would produce
  * poses marked valid that are not.
  *
- * The loop: one cycle per frame set. Each camera is dequeued with a timeout;
- * a camera that times out, is lost or is being recovered contributes no frame
- * that cycle (events report loss and recovery). Telemetry per cycle: the nav
- * solution and one diagnostics packet per camera; housekeeping once per
- * second of frame time; events as they happen. The transmit queue drops the
- * oldest frames rather than ever blocking the loop.
+ * The telemetry link may be absent at start (a FIFO without a reader, an
+ * adapter not plugged in): it is retried like a link lost later. Write errors
+ * are counted, reported on stderr and give exit code 3.
+ *
+ * The loop: one cycle per frame set. Each camera is dequeued with a timeout
+ * (none for a camera already LOST, so it never stalls the others). A cycle
+ * fuses only frames within sync_window_us of each other (cam_sync.h): an
+ * out-of-step frame is held for the cycle it belongs to, a stale one dropped.
+ * A camera that times out, is rejected, lost or recovering contributes no
+ * frame that cycle; after MFNS_CAM_LOST_CYCLES such cycles it is LOST (event,
+ * one stderr line), re-opened every MFNS_CAM_REOPEN_CYCLES, and RECOVERED on
+ * its next fused frame; a replay camera whose rows end early is ENDED.
+ * Telemetry per cycle: the nav solution and one diagnostics packet per
+ * camera; housekeeping once per second of frame time; events as they happen.
+ * The transmit queue drops the oldest frames rather than ever blocking the
+ * loop.
  *
  * The loop ends at the end of replayed data, after max_cycles, on SIGINT or
- * SIGTERM, or when every camera is gone for good.
+ * SIGTERM, or when every (non-replay) camera is gone for good.
  */
 #ifndef MFNS_NAV_APP_H
 #define MFNS_NAV_APP_H
@@ -35,6 +45,7 @@ typedef struct {
     const char *cam_path[3];   /* V4L2 devices / libcamera ids; replay: all the same folder */
     bool realtime;             /* replay paced to the recorded timestamps */
     int frame_timeout_ms;
+    uint32_t sync_window_us;   /* frames fused in one cycle lie within this (cam_sync.h) */
     nav_tlm_kind_t tlm_kind;
     const char *tlm_target;    /* serial port, tty/FIFO path, or output file */
     uint32_t baud;
@@ -48,7 +59,8 @@ typedef struct {
 
 /* 0 ok, 1 when --help/--version was printed (exit 0), -1 usage error (message on err). */
 int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err);
-/* Runs the program; returns the process exit code (0 ok, 2 start-up failure). */
+/* Runs the program; returns the process exit code (0 ok, 2 start-up failure,
+ * 3 telemetry write errors: the record on the link is incomplete). */
 int nav_app_run(const nav_app_opts_t *o);
 
 #endif /* MFNS_NAV_APP_H */

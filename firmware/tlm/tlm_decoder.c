@@ -130,3 +130,19 @@ int tlm_decoder_push(tlm_decoder_t *d, uint8_t byte, tlm_packet_t *out)
     d->code_left--;
     return 0;
 }
+
+int tlm_decoder_finish(tlm_decoder_t *d)
+{
+    if (d == NULL) {
+        return 0;
+    }
+    /* a frame still being discarded (oversize) was already counted */
+    const int cut = d->in_frame && !d->discarding;
+    if (cut) {
+        d->stats.truncated++;
+        d->lost_sync = true;
+        d->last_error = TLM_ERR_COBS; /* a block cut short, as by an early delimiter */
+    }
+    tlm_decoder_reset_frame(d);
+    return cut;
+}

@@ -61,6 +61,10 @@ void tlm_decoder_init(tlm_decoder_t *d);
  *      value is its tlm_err_t, already counted in d->stats. Keep pushing. */
 int tlm_decoder_push(tlm_decoder_t *d, uint8_t byte, tlm_packet_t *out);
 
+/* End of the byte stream (end of a recorded file): a frame begun but not
+ * ended by its delimiter is counted as truncated (returns 1), then forgotten. */
+int tlm_decoder_finish(tlm_decoder_t *d);
+
 /* Forget a partial frame (e.g. the link was re-opened). Statistics stay. */
 void tlm_decoder_reset_frame(tlm_decoder_t *d);
 

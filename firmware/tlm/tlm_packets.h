@@ -57,8 +57,15 @@ typedef enum {
     TLM_MODE_SAFE = 3,
     TLM_MODE_COUNT = 4
 } tlm_mode_t;
-/* Camera link state. */
-typedef enum { TLM_CAM_OK = 0, TLM_CAM_LOST = 1, TLM_CAM_OFF = 2, TLM_CAM_STATE_COUNT = 3 } tlm_cam_state_t;
+/* Camera link state (docs/telemetry.md 4.2). */
+typedef enum {
+    TLM_CAM_OK = 0,      /* frame used this cycle */
+    TLM_CAM_LOST = 1,    /* no valid frame for MFNS_CAM_LOST_CYCLES cycles; being re-opened */
+    TLM_CAM_OFF = 2,     /* given up (recovery exhausted), re-opened periodically */
+    TLM_CAM_SKIPPED = 3, /* no usable frame this cycle: timeout, rejected, stale or out of step */
+    TLM_CAM_ENDED = 4,   /* replay: its recorded frames ended before the others' */
+    TLM_CAM_STATE_COUNT = 5
+} tlm_cam_state_t;
 #define TLM_NUM_CAMERAS 3u
 /* Event codes (0 is never sent). */
 typedef enum {
@@ -69,7 +76,12 @@ typedef enum {
     TLM_EVT_CAMERA_RECOVERED = 5, /* subject = camera, arg0 = outage (ms) */
     TLM_EVT_MODE_CHANGE = 6,      /* arg0 = old mode, arg1 = new mode, subject = reason code */
     TLM_EVT_TLM_DROPPED = 7,      /* arg0 = frames dropped by the transmit queue since last event */
-    TLM_EVT_CODE_COUNT = 8
+    TLM_EVT_CAMERA_STALE = 8,     /* subject = camera, arg0 = frame time - cycle time (us), arg1 = frame seq */
+    TLM_EVT_CAMERA_OUT_OF_STEP = 9, /* subject = camera, arg0 = frame time - cycle time (us), arg1 = frame seq */
+    TLM_EVT_FRAME_REJECTED = 10,  /* subject = camera, arg0 = driver error code, arg1 = frames rejected so far */
+    TLM_EVT_CAMERA_ENDED = 11,    /* subject = camera, arg0 = last frame seq, arg1 = frames delivered */
+    TLM_EVT_TLM_WRITE_ERROR = 12, /* arg0 = errno, arg1 = write errors so far */
+    TLM_EVT_CODE_COUNT = 13
 } tlm_event_code_t;
 typedef enum { TLM_SEV_INFO = 0, TLM_SEV_WARNING = 1, TLM_SEV_ERROR = 2, TLM_SEV_COUNT = 3 } tlm_severity_t;
 
@@ -150,7 +162,7 @@ size_t tlm_payload_len(tlm_type_t type);              /* 0 for an invalid type *
 const char *tlm_type_name(tlm_type_t type);           /* "nav", "camera", "housekeeping", "event" */
 const char *tlm_nav_status_name(uint8_t status);      /* "NO_FIX", "FIX", "DEGRADED", "?" */
 const char *tlm_mode_name(uint8_t mode);              /* "BOOT", "ACQUIRE", "TRACK", "SAFE", "?" */
-const char *tlm_cam_state_name(uint8_t state);        /* "OK", "LOST", "OFF", "?" */
+const char *tlm_cam_state_name(uint8_t state);        /* "OK", "LOST", "OFF", "SKIPPED", "ENDED", "?" */
 const char *tlm_event_name(uint16_t code);            /* "BOOT", "TABLE_LOADED", ... "?" */
 
 /* The CCSDS packet (headers + payload, no CRC, no framing) with sequence count

@@ -8,6 +8,7 @@
 #endif
 #include "testutil.h"
 
+#include <fcntl.h>
 #include <ftw.h>
 #include <stdlib.h>
 #include <string.h>
@@ -472,10 +473,79 @@ static void test_replay_bad_frame_is_skipped(void **state)
     check_pixels(&f, 0, 255);
 }
 
+/* Cameras of one folder share one parse of frames.csv: a row nobody can claim
+ * costs camera y one frame and nothing else; a resumed camera goes on after
+ * the given time; a frame file that blocks obeys the dequeue timeout. */
+static void test_replay_shared_rows_resume_and_blocking_file(void **state)
+{
+    (void)state;
+    char msg[MFNS_CAM_MSG_LEN];
+    write_folder(3, 255);
+    write_text("frames.csv", HDR "0,0.0,x,cam_x/000000.pgm,500,0\n0,0.0,y,cam_y/000000.pgm,500,0\n"
+                             "1,0.05,x,cam_x/000001.pgm,500,0\n1,0.05,w,cam_y/000001.pgm,500,0\n"
+                             "2,0.1,x,cam_x/000002.pgm,500,0\n2,0.1,y,cam_y/000002.pgm,500,0\n");
+    assert_int_equal(open_cam('x', msg), MFNS_CAM_OK);
+    mfns_cam_t *y = NULL;
+    mfns_cam_settings_t s = settings('y');
+    assert_int_equal(mfns_cam_open(&s, &y, msg, sizeof msg), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_start(g_cam), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_start(y), MFNS_CAM_OK);
+    mfns_cam_frame_t f;
+    for (uint32_t i = 0; i < 3; i++) {
+        assert_int_equal(mfns_cam_dequeue(g_cam, &f, 100), MFNS_CAM_OK);
+        assert_int_equal(f.sequence, i);
+        assert_int_equal(mfns_cam_requeue(g_cam, &f), MFNS_CAM_OK);
+    }
+    assert_int_equal(mfns_cam_dequeue(y, &f, 100), MFNS_CAM_OK);
+    assert_int_equal(f.sequence, 0);
+    assert_int_equal(mfns_cam_requeue(y, &f), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_dequeue(y, &f, 100), MFNS_CAM_OK);
+    assert_int_equal(f.sequence, 2);
+    assert_int_equal(f.dropped_before, 1);
+    assert_int_equal(mfns_cam_requeue(y, &f), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_dequeue(y, &f, 100), MFNS_CAM_E_END);
+    mfns_cam_close(y);
+    y = NULL;
+    /* resume after 0.05 s: the next frame is frame 2 */
+    mfns_cam_close(g_cam);
+    g_cam = NULL;
+    s = settings('x');
+    s.replay_resume = true;
+    s.replay_resume_after_ns = 50000000u;
+    assert_int_equal(mfns_cam_open(&s, &g_cam, msg, sizeof msg), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_start(g_cam), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_dequeue(g_cam, &f, 100), MFNS_CAM_OK);
+    assert_int_equal(f.sequence, 2);
+    assert_int_equal(mfns_cam_requeue(g_cam, &f), MFNS_CAM_OK);
+    /* frame 1 of camera x as a FIFO whose writer never writes: a timeout, not a hang */
+    mfns_cam_close(g_cam);
+    g_cam = NULL;
+    char fifo[128];
+    (void)snprintf(fifo, sizeof fifo, "%s/cam_x/000001.pgm", g_dir);
+    assert_int_equal(unlink(fifo), 0);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    const int wfd = open(fifo, O_RDWR | O_NONBLOCK);
+    assert_true(wfd >= 0);
+    assert_int_equal(open_cam('x', msg), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_start(g_cam), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_dequeue(g_cam, &f, 100), MFNS_CAM_OK);
+    assert_int_equal(mfns_cam_requeue(g_cam, &f), MFNS_CAM_OK);
+    struct timespec t0, t1;
+    assert_int_equal(clock_gettime(CLOCK_MONOTONIC, &t0), 0);
+    assert_int_equal(mfns_cam_dequeue(g_cam, &f, 50), MFNS_CAM_E_TIMEOUT);
+    assert_int_equal(clock_gettime(CLOCK_MONOTONIC, &t1), 0);
+    const double dt = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    assert_true(dt >= 0.04 && dt < 2.0);
+    assert_int_equal(mfns_cam_dequeue(g_cam, &f, 100), MFNS_CAM_OK); /* the next frame is fine */
+    assert_int_equal(f.sequence, 2);
+    assert_int_equal(close(wfd), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_replay_8bit_camera_y, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_replay_shared_rows_resume_and_blocking_file, setup, teardown),
         cmocka_unit_test_setup_teardown(test_replay_16bit_formats, setup, teardown),
         cmocka_unit_test_setup_teardown(test_replay_paces_to_timestamps, setup, teardown),
         cmocka_unit_test_setup_teardown(test_replay_gaps_and_buffers, setup, teardown),

@@ -1,0 +1,66 @@
+# Fuzzers of every reader (issue 17): the calibration-table loader, the
+# replay PGM reader, the frames.csv parser and the scenario.json check, each
+# a libFuzzer target in tests/fuzz/fuzz_<name>.c with its seed corpus in
+# tests/fuzz/corpus/<name>/ (the table fuzzer is also seeded with the
+# generated default table, build/gen/default.mfnstbl).
+#
+#   make fuzz FUZZ_SECONDS=N   every FUZZ_TARGETS entry for N s each (default 60),
+#                              corpus kept in build/fuzz/corpus-<name>/
+#   make fuzz-readers-brief    FUZZ_BRIEF_SECONDS (4) s of each, part of `make test`
+#
+# A crash or sanitizer report fails the recipe; the reproducer is written to
+# build/fuzz/crash-* (rerun: build/fuzz/fuzz_<name> build/fuzz/crash-...).
+
+FUZZ_CC            ?= clang-14
+FUZZ_SECONDS       ?= 60
+FUZZ_BRIEF_SECONDS ?= 4
+TLM_FUZZ_SECONDS   ?= $(FUZZ_SECONDS)
+FUZZ_FLAGS := -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -D_DEFAULT_SOURCE
+
+READER_FUZZERS := caltable replay_pgm replay_csv replay_scenario
+fuzz_srcs_caltable        := $(CORE_SRCS)
+fuzz_srcs_replay_pgm      := drivers/camera/replay_pgm.c
+fuzz_srcs_replay_csv      := drivers/camera/replay_index.c
+fuzz_srcs_replay_scenario := drivers/camera/replay_scenario.c
+fuzz_maxlen_caltable      := 262144
+fuzz_maxlen_replay_pgm    := 4096
+fuzz_maxlen_replay_csv    := 8192
+fuzz_maxlen_replay_scenario := 8192
+
+FUZZ_TARGETS += $(addprefix fuzz-,$(READER_FUZZERS))
+TEST_SUITES  += fuzz-readers-brief
+.PHONY: $(addprefix fuzz-,$(READER_FUZZERS)) fuzz-readers-brief
+
+build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(wildcard drivers/camera/replay_*.[ch] firmware/nav/*.h math/*.h)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(FUZZ_FLAGS) $(INCLUDES) $< $(fuzz_srcs_$*) -lm -o $@
+
+# $(1) name, $(2) corpus dir, $(3) seconds, $(4) seed: prints
+# "fuzz-NAME: 1 passed, 0 failed (N executions in S s, cov: C)".
+define reader_run_fuzz
+	@mkdir -p $(2)
+	@cp -n tests/fuzz/corpus/$(1)/* $(2)/ 2>/dev/null || true
+	@if [ "$(1)" = caltable ] && [ -f $(GEN)/default.mfnstbl ]; then cp -n $(GEN)/default.mfnstbl $(2)/default-even; \
+	  { printf '\001'; cat $(GEN)/default.mfnstbl; } > $(2)/default-odd; fi
+	@log=build/fuzz/$(1).log; \
+	if build/fuzz/fuzz_$(1) -max_total_time=$(3) -seed=$(4) -max_len=$(fuzz_maxlen_$(1)) -print_final_stats=1 \
+	     -rss_limit_mb=1024 -artifact_prefix=build/fuzz/$(1)- $(2) >$$log 2>&1; then \
+	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
+	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
+	  echo "fuzz-$(1): 1 passed, 0 failed ($${execs:-?} executions in $(3) s, $${cov:-cov: ?})"; \
+	else \
+	  tail -n 40 $$log; echo "fuzz-$(1): 0 passed, 1 failed"; exit 1; \
+	fi
+endef
+
+$(foreach f,$(READER_FUZZERS),$(eval fuzz-$(f): build/fuzz/fuzz_$(f) $(if $(filter caltable,$(f)),$(GEN)/default.mfnstbl) ; \
+	$$(call reader_run_fuzz,$(f),build/fuzz/corpus-$(f),$(FUZZ_SECONDS),0)))
+
+# Fresh corpora from the committed seeds, so the brief run does the same work everywhere.
+fuzz-readers-brief: $(addprefix build/fuzz/fuzz_,$(READER_FUZZERS)) $(GEN)/default.mfnstbl
+	@rm -rf build/fuzz/brief-*
+	$(call reader_run_fuzz,caltable,build/fuzz/brief-caltable,$(FUZZ_BRIEF_SECONDS),1)
+	$(call reader_run_fuzz,replay_pgm,build/fuzz/brief-replay_pgm,$(FUZZ_BRIEF_SECONDS),1)
+	$(call reader_run_fuzz,replay_csv,build/fuzz/brief-replay_csv,$(FUZZ_BRIEF_SECONDS),1)
+	$(call reader_run_fuzz,replay_scenario,build/fuzz/brief-replay_scenario,$(FUZZ_BRIEF_SECONDS),1)
+	@echo "fuzz-readers-brief: $(words $(READER_FUZZERS)) passed, 0 failed"

@@ -1,0 +1,109 @@
+/* Unit tests of the cycle synchronisation and camera health rules
+ * (firmware/app/cam_sync.h): which frames one cycle fuses, stale and
+ * out-of-step frames, LOST after MFNS_CAM_LOST_CYCLES, re-open cadence,
+ * recovery. */
+#include "testutil.h"
+
+#include "cam_sync.h"
+
+static void test_frames_within_window_are_fused(void **state)
+{
+    (void)state;
+    cam_sync_t s;
+    cam_sync_init(&s, 25000u);
+    const bool have[3] = {true, true, true};
+    const uint64_t t[3] = {1000000u, 1010000u, 1024999u}; /* free-running: up to 25 ms apart */
+    cam_sync_verdict_t v[3];
+    uint64_t ref = 0;
+    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(ref, 1000000u);
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(v[k], CAM_SYNC_USE);
+    }
+}
+
+static void test_out_of_step_frame_is_held_and_stale_frame_refused(void **state)
+{
+    (void)state;
+    cam_sync_t s;
+    cam_sync_init(&s, 25000u);
+    /* y skipped a frame: it brings frame f+1 to cycle f */
+    bool have[3] = {true, true, true};
+    uint64_t t[3] = {161290u, 215054u, 161290u};
+    cam_sync_verdict_t v[3];
+    uint64_t ref = 0;
+    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(ref, 161290u);
+    assert_int_equal(v[0], CAM_SYNC_USE);
+    assert_int_equal(v[1], CAM_SYNC_AHEAD);
+    assert_int_equal(v[2], CAM_SYNC_USE);
+    /* next cycle: the held frame joins the others' frame f+1 */
+    t[0] = t[2] = 215054u;
+    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(ref, 215054u);
+    for (int k = 0; k < 3; k++) {
+        assert_int_equal(v[k], CAM_SYNC_USE);
+    }
+    /* a frame of the cycle just done, or older, is stale; the next one is not */
+    assert_true(cam_sync_is_stale(&s, 215054u));
+    assert_true(cam_sync_is_stale(&s, 215054u + 25000u));
+    assert_true(cam_sync_is_stale(&s, 161290u));
+    assert_false(cam_sync_is_stale(&s, 268817u));
+    /* no candidates: no cycle time, nothing recorded */
+    have[0] = have[1] = have[2] = false;
+    assert_false(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(s.last_us, 215054u);
+    assert_int_equal(v[1], CAM_SYNC_NONE);
+}
+
+static void test_offsets_saturate(void **state)
+{
+    (void)state;
+    assert_int_equal(cam_sync_offset_us(10, 4), 6);
+    assert_int_equal(cam_sync_offset_us(4, 10), -6);
+    assert_int_equal(cam_sync_offset_us(UINT64_MAX, 0), INT32_MAX);
+    assert_int_equal(cam_sync_offset_us(0, UINT64_MAX), -INT32_MAX);
+}
+
+static void test_health_lost_reopen_recovered(void **state)
+{
+    (void)state;
+    cam_health_t h;
+    cam_health_init(&h);
+    assert_int_equal(cam_health_update(&h, true), CAM_HEALTH_EV_NONE);
+    for (uint32_t i = 1; i < MFNS_CAM_LOST_CYCLES; i++) {
+        assert_int_equal(cam_health_update(&h, false), CAM_HEALTH_EV_NONE);
+        assert_false(cam_health_reopen_due(&h)); /* never re-opened while UP */
+    }
+    assert_int_equal(cam_health_update(&h, false), CAM_HEALTH_EV_LOST);
+    assert_int_equal(h.state, CAM_HEALTH_LOST);
+    /* re-open due once every MFNS_CAM_REOPEN_CYCLES cycles while down */
+    int due = 0;
+    for (uint32_t i = 0; i < 3u * MFNS_CAM_REOPEN_CYCLES; i++) {
+        assert_int_equal(cam_health_update(&h, false), CAM_HEALTH_EV_NONE); /* LOST is reported once */
+        due += cam_health_reopen_due(&h) ? 1 : 0;
+    }
+    assert_int_equal(due, 3);
+    assert_int_equal(cam_health_update(&h, true), CAM_HEALTH_EV_RECOVERED);
+    assert_int_equal(h.outage, MFNS_CAM_LOST_CYCLES + 3u * MFNS_CAM_REOPEN_CYCLES);
+    assert_int_equal(h.state, CAM_HEALTH_UP);
+    assert_int_equal(cam_health_update(&h, true), CAM_HEALTH_EV_NONE);
+    /* OFF (recovery exhausted in the driver) recovers the same way; ENDED never changes */
+    h.state = CAM_HEALTH_OFF;
+    assert_int_equal(cam_health_update(&h, true), CAM_HEALTH_EV_RECOVERED);
+    h.state = CAM_HEALTH_ENDED;
+    assert_int_equal(cam_health_update(&h, true), CAM_HEALTH_EV_NONE);
+    assert_false(cam_health_reopen_due(&h));
+    assert_int_equal(h.state, CAM_HEALTH_ENDED);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_frames_within_window_are_fused),
+        cmocka_unit_test(test_out_of_step_frame_is_held_and_stale_frame_refused),
+        cmocka_unit_test(test_offsets_saturate),
+        cmocka_unit_test(test_health_lost_reopen_recovered),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
