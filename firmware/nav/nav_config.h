@@ -14,7 +14,7 @@
 #define MFNS_MAX_BEACONS 256         /* beacons in the map (indices fit in a u8) */
 #define MFNS_MAX_BLOBS_PER_CAMERA 64 /* blob table of the centroider, per camera */
 #define MFNS_MAX_OBS_PER_CAMERA 32   /* corrected observations handed to the solver */
-#define MFNS_MAX_GRID_NODES 8192     /* correction-grid nodes per camera (nx*ny) */
+#define MFNS_MAX_GRID_NODES 16384    /* correction-grid nodes per camera (nx*ny): a k1 = -0.21 lens needs 15,429 for 0.01 px */
 
 typedef struct {
     uint16_t id;       /* beacon id as surveyed (telemetry reports it) */

@@ -169,7 +169,9 @@ def load_beacon_emission(path) -> tuple[np.ndarray, np.ndarray] | None:
     if not present:
         return None
     if len(present) != len(EMISSION_COLUMNS):
-        raise MfnsError(f"beacon CSV {path}: emission columns must come together ({', '.join(EMISSION_COLUMNS)})")
+        raise MfnsError(
+            f"beacon CSV {path}: emission columns must come together ({', '.join(EMISSION_COLUMNS)})"
+        )
     axes, half = [], []
     for n, r in enumerate(rows, start=2):
         where = f"beacon CSV {path} line {n}"
@@ -181,7 +183,9 @@ def load_beacon_emission(path) -> tuple[np.ndarray, np.ndarray] | None:
         if norm == 0:
             h = 180.0
         elif not 0.5 <= norm <= 2.0:
-            raise MfnsError(f"{where}: emission axis of length {norm:.3g} is not a direction (give a unit vector)")
+            raise MfnsError(
+                f"{where}: emission axis of length {norm:.3g} is not a direction (give a unit vector)"
+            )
         axes.append(a / norm if norm > 0 else a)
         half.append(h)
     return np.array(axes), np.array(half)

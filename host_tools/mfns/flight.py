@@ -358,7 +358,15 @@ class Flight:
         L.mfns_acquire.restype = ct.c_int
         L.mfns_bidx_params_default.argtypes = [P(BidxParams)]
         L.mfns_bidx_params_default.restype = None
-        L.mfns_bidx_build.argtypes = [P(Rig), P(BeaconMap), P(BeaconEmit), V3, V3, P(BidxParams), P(BeaconIndex)]
+        L.mfns_bidx_build.argtypes = [
+            P(Rig),
+            P(BeaconMap),
+            P(BeaconEmit),
+            V3,
+            V3,
+            P(BidxParams),
+            P(BeaconIndex),
+        ]
         L.mfns_bidx_build.restype = ct.c_int
         L.mfns_bidx_encode.argtypes = [P(BeaconIndex), ct.c_void_p, ct.c_uint32, P(ct.c_uint32)]
         L.mfns_bidx_encode.restype = ct.c_int
@@ -439,7 +447,9 @@ class Flight:
             setattr(p, k, v)
         return p
 
-    def build_index(self, rig, bmap, ws_min, ws_max, emit=None, params: BidxParams | None = None) -> BeaconIndex:
+    def build_index(
+        self, rig, bmap, ws_min, ws_max, emit=None, params: BidxParams | None = None
+    ) -> BeaconIndex:
         """The map index (beacon_index.h). emit: None or (axes (N, 3), cos_half_angle (N,))."""
         idx = BeaconIndex()
         em = None
@@ -503,7 +513,9 @@ class Flight:
     def view(self, rig, bmap, idx, pose: Pose) -> tuple[ObsFrame, Assoc]:
         """The noise-free frame the rig sees from pose, and its true association."""
         f, a = ObsFrame(), Assoc()
-        self.lib.mfns_certify_frame(ct.byref(rig), ct.byref(bmap), ct.byref(idx), ct.byref(pose), ct.byref(f), ct.byref(a))
+        self.lib.mfns_certify_frame(
+            ct.byref(rig), ct.byref(bmap), ct.byref(idx), ct.byref(pose), ct.byref(f), ct.byref(a)
+        )
         return f, a
 
     def config(self, sigma_px: float = 0.1, mode: int = MODE_ML, **settings) -> PoseConfig:
@@ -564,7 +576,9 @@ class Flight:
         )
         return self._solution(s)
 
-    def acquire(self, rig, bmap, idx, frame, cfg, budget_units: int | None = None) -> tuple[Solution, Progress]:
+    def acquire(
+        self, rig, bmap, idx, frame, cfg, budget_units: int | None = None
+    ) -> tuple[Solution, Progress]:
         """Lost-in-space acquisition (acquire.h) within budget_units (default: the index's)."""
         s = SolutionC()
         budget = idx.budget_units if budget_units is None else int(budget_units)

@@ -63,7 +63,9 @@ def scenario(name: str, fl, cams):
     if name == "module":
         pos, nrm = nav.module_beacons(60, np.random.default_rng([2, 1]))
     else:
-        pos, nrm = nav.module_beacons(200, np.random.default_rng([3, 1]), half=np.array([2000.0, 1000.0, 4000.0]))
+        pos, nrm = nav.module_beacons(
+            200, np.random.default_rng([3, 1]), half=np.array([2000.0, 1000.0, 4000.0])
+        )
     return pos, nrm, mapindex.default_workspace(pos), np.full(len(pos), SURVEY_SIGMA_MM)
 
 
@@ -106,7 +108,9 @@ def run(name: str, n: int, seed: int) -> bool:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--maps", nargs="+", default=["paper", "module", "large"], choices=["paper", "module", "large"])
+    ap.add_argument(
+        "--maps", nargs="+", default=["paper", "module", "large"], choices=["paper", "module", "large"]
+    )
     ap.add_argument("--poses", type=int, default=None, help="poses per map (default 20000; 5000 for large)")
     ap.add_argument("--seed", type=int, default=1)
     a = ap.parse_args()

@@ -191,7 +191,9 @@ def test_help_and_version(bins):
 def test_module_acquires_without_a_start_pose(bins, tmp_path):
     """Dense map (60 beacons), free 6-DOF motion, no prior: lost-in-space acquisition
     finds the pose from the map index by itself, then tracking keeps it."""
-    rows, truth, log = run_chain(bins, tmp_path, ["--scenario", "module", "--frames", "40", "--seed", "3"], [])
+    rows, truth, log = run_chain(
+        bins, tmp_path, ["--scenario", "module", "--frames", "40", "--seed", "3"], []
+    )
     assert len(rows) == 40
     cyc, dp, da = errors(rows, truth)
     assert len(cyc) >= 34, log  # >= 85 % of cycles with a fix, as with a commanded start pose
@@ -233,7 +235,9 @@ def test_module_reacquires_after_a_blackout(bins, tmp_path):
     first, last = 30, 30 + int(round(2.0 * rate))
     _blackout(frames, first, last)
     table = tmp_path / "table.mfnstbl"
-    res = mfns("table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(table), "-q")
+    res = mfns(
+        "table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(table), "-q"
+    )
     assert res.returncode == 0, res.stderr
     tlm = tmp_path / "tlm.bin"
     nav = subprocess.run(

@@ -39,7 +39,11 @@ def cmd_build(args) -> int:
     from tqdm import tqdm
 
     with tqdm(
-        total=args.certify_samples, desc="map analysis", unit="pose", disable=True if args.quiet else None, leave=False
+        total=args.certify_samples,
+        desc="map analysis",
+        unit="pose",
+        disable=True if args.quiet else None,
+        leave=False,
     ) as bar:
         table, errors, report = build_table(
             args.calib_json,
@@ -116,10 +120,11 @@ def cmd_show(args) -> int:
 
     ix = index_summary(t)
     print(
-        f"map index: {ix['k_nbr']} neighbours per beacon, certificate {ix['cert_inliers']} inliers by missing "
-        f"count (at most {ix['max_missing']} missing, {ix['max_unexplained']} unexplained blobs), budget "
-        f"{ix['budget_units']} work units per cycle, workspace {ix['workspace_min_mm']} .. {ix['workspace_max_mm']} "
-        f"mm, analysis of {ix['analysis_samples']} poses (strongest wrong identification {ix['analysis_max_rival']} inliers)"
+        f"map index: {ix['k_nbr']} neighbours per beacon, certificate {ix['cert_inliers']} inliers by "
+        f"missing count (at most {ix['max_missing']} missing, {ix['max_unexplained']} unexplained blobs), "
+        f"budget {ix['budget_units']} work units per cycle, workspace {ix['workspace_min_mm']} .. "
+        f"{ix['workspace_max_mm']} mm, analysis of {ix['analysis_samples']} poses (strongest wrong "
+        f"identification {ix['analysis_max_rival']} inliers)"
     )
     print(f"beacons: {len(t.beacon_ids)}")
     for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):

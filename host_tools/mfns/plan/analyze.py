@@ -129,8 +129,15 @@ def analyze(
     if ident and n:
         lo, hi = ws.r_wb_w.min(axis=0), ws.r_wb_w.max(axis=0)
         span = np.maximum(hi - lo, 1.0)  # a box even for one position (the turntable)
-        im = IdentMargin(core.flight, core.rig, beacons_w, beacon_sigma_mm, lo - 0.05 * span - 1.0,
-                         hi + 0.05 * span + 1.0, sigma_px)
+        im = IdentMargin(
+            core.flight,
+            core.rig,
+            beacons_w,
+            beacon_sigma_mm,
+            lo - 0.05 * span - 1.0,
+            hi + 0.05 * span + 1.0,
+            sigma_px,
+        )
     for i in tqdm(range(n), desc=desc, unit="pose", disable=not progress):
         C, r = ws.C_w_b[i], ws.r_bw_b(i)
         obs, per_cam = observe(core, beacons_w, C, r)

@@ -147,7 +147,8 @@ def _margin_summary(a: Analysis) -> str:
     amb = int(np.sum(m <= 0))
     return (
         f"over {len(m)} samples with >= 4 in view: median {np.median(m):g}, minimum {m.min():g} blobs more "
-        f"than the strongest wrong identification; {amb} ambiguous views (margin <= 0, refused by the flight code)"
+        f"than the strongest wrong identification; {amb} ambiguous views (margin <= 0: the flight code "
+        "refuses them)"
     )
 
 

@@ -108,7 +108,16 @@ def run_analyze(args) -> int:
     info = {"beacons": str(bpath), "n_beacons": len(pos), "rig": str(args.rig or PAPER_CALIB), "noise": noise}
     info["seed"] = args.seed
     s = _analyze_into(
-        Path(args.out), core, pos, sig, ws, sigma_px, calib, info, "plan analyze", not args.quiet,
+        Path(args.out),
+        core,
+        pos,
+        sig,
+        ws,
+        sigma_px,
+        calib,
+        info,
+        "plan analyze",
+        not args.quiet,
         ident=not args.no_ident_margin,
     )
     _print(

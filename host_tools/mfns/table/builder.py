@@ -9,8 +9,8 @@ import numpy as np
 from .. import calib_results
 from ..camera import load_beacon_emission, load_beacons, rig_from_doc
 from ..errors import MfnsError
-from .format import CameraRecord, Grid, Table, f32
 from . import mapindex
+from .format import CameraRecord, Grid, Table, f32
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
 
 

@@ -43,9 +43,13 @@ def parse_workspace(text: str) -> tuple[np.ndarray, np.ndarray]:
     try:
         v = [float(x) for x in text.split(",")]
     except ValueError:
-        raise MfnsError(f"--workspace {text!r}: expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)") from None
+        raise MfnsError(
+            f"--workspace {text!r}: expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)"
+        ) from None
     if len(v) != 6 or not all(np.isfinite(v)):
-        raise MfnsError(f"--workspace {text!r}: expected six finite numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)")
+        raise MfnsError(
+            f"--workspace {text!r}: expected six finite numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)"
+        )
     lo, hi = np.array(v[:3]), np.array(v[3:])
     if not np.all(lo < hi):
         raise MfnsError(f"--workspace {text!r}: each minimum must be below its maximum")
@@ -95,7 +99,8 @@ class IndexReport:
         out = [
             "map index: workspace "
             + " x ".join(f"[{a:.0f}, {b:.0f}]" for a, b in zip(lo, hi, strict=True))
-            + f" mm, {self.neighbours_mean:.1f} neighbours per beacon, {self.never_together_pairs} pairs never in view together",
+            + f" mm, {self.neighbours_mean:.1f} neighbours per beacon, "
+            f"{self.never_together_pairs} pairs never in view together",
             f"map analysis: {self.usable} poses with >= 4 beacons in view, right identification among the "
             f"candidates in {self.truth_found}; strongest wrong identification: {self.max_rival} inliers",
             "certificate: a fix needs "
@@ -104,12 +109,13 @@ class IndexReport:
         if self.ambiguous:
             w = self.worst
             out.append(
-                f"ambiguous views: {self.ambiguous} of {self.usable} sampled poses have a wrong identification that "
-                f"explains every blob; worst at body position {np.round(w['r_wb_w'], 0).tolist()} mm: beacons "
-                f"{w['truth']} also fit as {w['rival']} ({w['rival_inliers']} inliers, {w['rival_missing']} missing)"
+                f"ambiguous views: {self.ambiguous} of {self.usable} sampled poses have a wrong "
+                f"identification that explains every blob; worst at body position "
+                f"{np.round(w['r_wb_w'], 0).tolist()} mm: beacons {w['truth']} also fit as {w['rival']} "
+                f"({w['rival_inliers']} inliers, {w['rival_missing']} missing)"
             )
         if self.capped:
-            out.append("the map is self-similar beyond the certificate's limit: acquisition will rarely certify a fix")
+            out.append("the map is self-similar beyond the certificate's limit: few fixes will be certified")
         return out
 
 

@@ -1,6 +1,7 @@
 """Default centroid and solver settings of the calibration table (docs/caltable.md
-"Default settings" gives the reasons; the numbers are the C core's, nav_defaults.c). `mfns table build --settings FILE` overrides any
-of them from a JSON object {"centroid": {...}, "solver": {...}}."""
+"Default settings" gives the reasons; the numbers are the C core's, nav_defaults.c).
+`mfns table build --settings FILE` overrides any of them from a JSON object
+{"centroid": {...}, "solver": {...}}."""
 
 from __future__ import annotations
 
@@ -8,7 +9,6 @@ from pathlib import Path
 
 from .. import validate as V
 from .format import CENTROID_U16, SOLVER_U16
-
 
 
 def defaults() -> tuple[dict, dict]:
