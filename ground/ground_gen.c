@@ -67,6 +67,11 @@ void ground_gen_hk(uint32_t i, tlm_packet_t *p)
     h->n_tlm_dropped = 0;
     h->n_cam_errors = 0;
     h->table_crc32 = 0x1234ABCDu;
+    h->n_acquire = 1u + i / 50u;
+    h->acq_units_max = 1200u + i % 100u;
+    h->acq_units_last = 900u;
+    h->acq_band_last = 4;
+    h->acq_best_last = 7;
 }
 
 size_t ground_gen_cycle(uint32_t i, tlm_packet_t out[GROUND_GEN_MAX_PER_CYCLE])

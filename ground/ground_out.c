@@ -127,6 +127,11 @@ static void build_row(const tlm_packet_t *p, row_t *r)
         char hex[VAL_LEN];
         snprintf(hex, sizeof hex, "0x%08lx", (unsigned long)h->table_crc32);
         col_str(r, "table_crc32", hex);
+        col_num(r, "n_acquire", h->n_acquire, 0);
+        col_num(r, "acq_units_max", h->acq_units_max, 0);
+        col_num(r, "acq_units_last", h->acq_units_last, 0);
+        col_num(r, "acq_band_last", h->acq_band_last, 0);
+        col_num(r, "acq_best_last", h->acq_best_last, 0);
         break;
     }
     case TLM_TYPE_EVENT:

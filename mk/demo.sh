@@ -87,13 +87,32 @@ navigate turntable true-rig "$out/turntable/frames/calib.json" ""
 navigate turntable refined-calibration "$out/calib/refined.json" "" "--pixel-sigma 0.5"
 navigate turntable paper-calibration "$out/calib/refined_paper.json" "" "--pixel-sigma 0.5"
 drop_frames turntable --scenario turntable --frames 200 --yaw-span 120 --seed 1
-# The module: 60 beacons. The robot leaves a known docking pose (the first
-# truth row, as the ground would command it), then tracks on its own.
+# The module: 60 beacons. The robot starts from no knowledge too: lost-in-space
+# acquisition from the table's map index (docs/pose.md), then tracking.
 simulate module --scenario module --frames 120 --seed 2
-navigate module true-rig "$out/module/frames/calib.json" "--init-pose=@INIT@"
-navigate module refined-calibration "$out/calib/refined.json" "--init-pose=@INIT@" "--pixel-sigma 0.5"
-navigate module paper-calibration "$out/calib/refined_paper.json" "--init-pose=@INIT@" "--pixel-sigma 0.5"
+navigate module true-rig "$out/module/frames/calib.json" ""
+navigate module refined-calibration "$out/calib/refined.json" "" "--pixel-sigma 0.5"
+navigate module paper-calibration "$out/calib/refined_paper.json" "" "--pixel-sigma 0.5"
+
+# Beacon layouts planned by mfns plan (docs/planning.md) for the same rig and
+# number of LEDs: the paper's 10 on its frame, the module's 60 on its walls.
+echo "== plan: a better layout for the paper's 10 beacons and the module's 60 (about 1 min)"
+"$py" -m mfns plan optimize "$out/plan/turntable" --surfaces paper-frame --count 10 --samples 240 \
+  --pixel-sigma 0.0155 --beacon-sigma 0 --no-calib-sigma --baseline host_tools/mfns/data/paper_beacons.csv \
+  --seed 1 --quiet
+"$py" -m mfns plan optimize "$out/plan/module" --surfaces module --workspace module --count 60 --samples 800 \
+  --grid 100 --min-spacing 150 --iterations 4000 --restarts 1 --margin 1 \
+  --pixel-sigma 0.0155 --beacon-sigma 0 --no-calib-sigma --baseline "$out/module/frames/beacons.csv" \
+  --seed 2 --quiet
 drop_frames module --scenario module --frames 120 --seed 2
+simulate turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \
+  --beacon-map "$out/plan/turntable/beacons.csv"
+navigate turntable-planned true-rig "$out/turntable-planned/frames/calib.json" ""
+drop_frames turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \
+  --beacon-map "$out/plan/turntable/beacons.csv"
+simulate module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv"
+navigate module-planned true-rig "$out/module-planned/frames/calib.json" ""
+drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv"
 
 echo "== the paper's comparison: Tables 3 and 5, availability, figures"
 "$py" -m mfns compare "$out" -o "$out/report.md"
@@ -109,5 +128,7 @@ demo: done in $((SECONDS - t_start)) s; everything is in $out/ ($(du -sh "$out" 
   $out/EXP/TABLE/telemetry.bin        the raw telemetry bytes (mfns-ground --file replays them)
   $out/EXP/TABLE/report/              Fig. 11-style plots and summary.md of that run
   $out/EXP/TABLE/nav.log, ground.log  the programs' messages
-  (EXP: turntable, module; TABLE: true-rig, refined-calibration, paper-calibration)
+  $out/plan/turntable, plan/module   mfns plan: the planned layouts (beacons.csv), their analysis
+  (EXP: turntable, module, and the planned turntable-planned, module-planned (true-rig);
+   TABLE: true-rig, refined-calibration, paper-calibration)
 EOF

@@ -74,6 +74,8 @@ static struct {
     bool tlm_in_error;    /* the last pump failed with a write error */
     uint32_t cycle_now;
     uint32_t n_fix, n_no_fix;
+    uint32_t n_acquire, acq_units_max; /* acquisition cycles; most work in the HK interval */
+    mfns_acq_progress_t acq_last;      /* the last acquisition's progress */
 } app;
 
 static volatile sig_atomic_t stop_requested;
@@ -533,6 +535,12 @@ static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
     h->n_tlm_dropped = app.tlm.q.dropped;
     h->n_cam_errors = (uint32_t)(app.cam_errors > UINT32_MAX ? UINT32_MAX : app.cam_errors);
     h->table_crc32 = table_crc;
+    h->n_acquire = app.n_acquire;
+    h->acq_units_max = app.acq_units_max;
+    h->acq_units_last = app.acq_last.units;
+    h->acq_band_last = app.acq_last.band;
+    h->acq_best_last = app.acq_last.best_inliers;
+    app.acq_units_max = 0; /* per report interval */
     (void)nav_tlm_send(&app.tlm, &p);
     if (app.tlm.q.dropped != app.tlm.last_dropped_reported) {
         send_event(cycle, t_us, TLM_EVT_TLM_DROPPED, TLM_SEV_WARNING, 0,
@@ -843,6 +851,11 @@ int nav_app_run(const nav_app_opts_t *o)
         if (ns != MFNS_NAV_OK) {
             fprintf(stderr, "mfns-nav: cycle %u: %s\n", cycle, mfns_nav_strerror(ns));
             app.out.sol.status = MFNS_POSE_NO_FIX;
+        }
+        if (app.out.acquired) {
+            app.n_acquire++;
+            app.acq_last = app.out.acq;
+            app.acq_units_max = app.out.acq.units > app.acq_units_max ? app.out.acq.units : app.acq_units_max;
         }
         const bool fix = app.out.sol.status != MFNS_POSE_NO_FIX;
         if (fix) {

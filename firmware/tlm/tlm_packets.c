@@ -165,6 +165,11 @@ static void pack_payload(const tlm_packet_t *p, uint8_t *b)
         for (int i = 0; i < 10; i++) {
             tlm_put_u32(b + 7 + 4 * i, v[i]);
         }
+        tlm_put_u32(b + 47, h->n_acquire);
+        tlm_put_u32(b + 51, h->acq_units_max);
+        tlm_put_u32(b + 55, h->acq_units_last);
+        b[59] = h->acq_band_last;
+        b[60] = h->acq_best_last;
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -228,6 +233,11 @@ static void unpack_payload(const uint8_t *b, tlm_packet_t *p)
         for (int i = 0; i < 10; i++) {
             *v[i] = tlm_get_u32(b + 7 + 4 * i);
         }
+        h->n_acquire = tlm_get_u32(b + 47);
+        h->acq_units_max = tlm_get_u32(b + 51);
+        h->acq_units_last = tlm_get_u32(b + 55);
+        h->acq_band_last = b[59];
+        h->acq_best_last = b[60];
         break;
     }
     case TLM_TYPE_EVENT: {

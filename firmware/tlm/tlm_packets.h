@@ -38,9 +38,9 @@ typedef enum {
 /* Payload sizes (bytes after the 12-byte CCSDS headers). */
 #define TLM_NAV_PAYLOAD_LEN 60u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 47u
+#define TLM_HK_PAYLOAD_LEN 61u
 #define TLM_EVENT_PAYLOAD_LEN 16u
-#define TLM_MAX_PAYLOAD 60u
+#define TLM_MAX_PAYLOAD 61u /* the largest payload: housekeeping */
 #define TLM_MAX_PACKET (TLM_CCSDS_HDR_LEN + TLM_MAX_PAYLOAD)
 /* Decoded frame = packet + 2 CRC bytes; the receiver's buffer bound. */
 #define TLM_MAX_FRAME (TLM_MAX_PACKET + 2u)
@@ -126,6 +126,11 @@ typedef struct {
     uint32_t n_tlm_dropped;     /* frames dropped by the transmit queue */
     uint32_t n_cam_errors;
     uint32_t table_crc32;       /* CRC-32 of the loaded calibration table, 0 = none */
+    uint32_t n_acquire;         /* cumulative cycles that ran lost-in-space acquisition */
+    uint32_t acq_units_max;     /* most acquisition work (units, acquire.h) of one cycle in the interval */
+    uint32_t acq_units_last;    /* the work of the last acquisition */
+    uint8_t acq_band_last;      /* rank window it reached (1, 2, 4, .. 32; 0 none) */
+    uint8_t acq_best_last;      /* inliers of its best candidate (0 none) */
 } tlm_hk_t;
 
 typedef struct {

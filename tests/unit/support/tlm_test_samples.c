@@ -58,6 +58,11 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         h->n_tlm_dropped = i / 100u;
         h->n_cam_errors = 0x01000000u + i;
         h->table_crc32 = 0xDEADBEEFu ^ i;
+        h->n_acquire = 0x02000000u + i;
+        h->acq_units_max = 0x03000000u + i;
+        h->acq_units_last = 0x04000000u + i;
+        h->acq_band_last = (uint8_t)(1u << (i % 6u));
+        h->acq_best_last = (uint8_t)(i % 255u);
         break;
     }
     case TLM_TYPE_EVENT:
@@ -107,7 +112,9 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
                x->cycle_p99_us == y->cycle_p99_us && x->cycle_max_us == y->cycle_max_us &&
                x->n_cycles == y->n_cycles && x->n_fix == y->n_fix && x->n_no_fix == y->n_no_fix &&
                x->n_tlm_dropped == y->n_tlm_dropped && x->n_cam_errors == y->n_cam_errors &&
-               x->table_crc32 == y->table_crc32;
+               x->table_crc32 == y->table_crc32 && x->n_acquire == y->n_acquire &&
+               x->acq_units_max == y->acq_units_max && x->acq_units_last == y->acq_units_last &&
+               x->acq_band_last == y->acq_band_last && x->acq_best_last == y->acq_best_last;
     }
     case TLM_TYPE_EVENT: {
         const tlm_event_t *x = &a->u.event, *y = &b->u.event;
