@@ -1,6 +1,7 @@
 /* nav_cycle.c -- see nav_cycle.h. */
 #include "nav_cycle.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "undistort.h"
@@ -206,6 +207,42 @@ static void count_identified(const mfns_nav_t *nav, mfns_nav_output_t *out)
     }
 }
 
+/* A pose from exactly three beacons has no redundancy: nothing in the frame
+ * can catch a wrong identification. It is usable only while tracking and
+ * when it agrees with the prediction within their combined uncertainty: the
+ * solution's covariance plus the prediction's, taken as the last cycle's
+ * motion (the constant-velocity model's error is at most about one cycle of
+ * motion) and a floor of MINIMAL_PRED_FLOOR_MM / _RAD. chi-square with 3
+ * degrees of freedom at 1e-4 on position, and on attitude. */
+#define MINIMAL_PRED_FLOOR_MM 2.0f
+#define MINIMAL_PRED_FLOOR_RAD 0.002f
+#define MINIMAL_CHI2_3 21.1f
+
+static bool minimal_agrees(const mfns_nav_t *nav, const mfns_pose_solution_t *s)
+{
+    float step_mm = 0.0f, step_rad = 0.0f;
+    if (nav->have_prev) {
+        step_mm = mfns_v3_norm(mfns_v3_sub(mfns_pose_position_w(&nav->prior), mfns_pose_position_w(&nav->prev)));
+        step_rad = mfns_rot_angle_between(nav->prior.C_w_b, nav->prev.C_w_b);
+    }
+    const float pp = fmaxf(step_mm, MINIMAL_PRED_FLOOR_MM), pr = fmaxf(step_rad, MINIMAL_PRED_FLOOR_RAD);
+    const mfns_v3_t dp = mfns_v3_sub(s->r_wb_w, mfns_pose_position_w(&nav->predicted));
+    const float d[3] = {dp.x, dp.y, dp.z};
+    float chi_p = 0.0f;
+    for (int i = 0; i < 3; i++) {
+        chi_p += d[i] * d[i] / (s->sigma_pos_mm[i] * s->sigma_pos_mm[i] + pp * pp);
+    }
+    /* attitude: the rotation angle against the largest angular sigma */
+    const float deg2rad = 0.01745329252f;
+    float sr = 0.0f;
+    for (int i = 0; i < 3; i++) {
+        sr = fmaxf(sr, s->sigma_euler_deg[i] * deg2rad);
+    }
+    const float da = mfns_rot_angle_between(s->pose.C_w_b, nav->predicted.C_w_b);
+    const float chi_r = da * da / (sr * sr + pr * pr);
+    return chi_p <= MINIMAL_CHI2_3 && chi_r <= MINIMAL_CHI2_3;
+}
+
 /* Acquisition on the whole frames already measured into nav->obs, within
  * the table's work budget. */
 static void acquire(mfns_nav_t *nav, mfns_nav_output_t *out)
@@ -261,7 +298,11 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     if (st == MFNS_NAV_OK && track) {
         const mfns_caltable_t *t = nav->table;
         (void)mfns_pose_track(&t->rig, &t->beacons, &nav->obs, &nav->predicted, &nav->pose_cfg, &out->sol);
-        if (!has_fix(&out->sol)) {
+        if (out->sol.status == MFNS_POSE_DEGRADED && out->sol.reason == MFNS_POSE_R_MINIMAL &&
+            !minimal_agrees(nav, &out->sol)) {
+            mfns_pose_solution_clear(&out->sol, MFNS_POSE_R_MINIMAL_UNCONFIRMED);
+        }
+        if (!has_fix(&out->sol) && out->sol.reason != MFNS_POSE_R_MINIMAL_UNCONFIRMED) {
             out->reacquired = true;
             out->mode = MFNS_NAV_MODE_ACQUIRE;
             st = measure(nav, frames, false, out);

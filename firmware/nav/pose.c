@@ -60,6 +60,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return "residual RMS above the limit";
     case MFNS_POSE_R_TRACK_LOST:
         return "tracking gate kept fewer than three beacons";
+    case MFNS_POSE_R_MINIMAL_UNCONFIRMED:
+        return "three beacons only, and their pose disagrees with the tracking prediction";
     case MFNS_POSE_R_BELOW_CERTIFICATE:
         return "fewer blobs than the map's certificate needs for a unique fix";
     }

@@ -75,6 +75,7 @@ typedef enum {
     MFNS_POSE_R_RESIDUAL_HIGH,  /* inlier RMS above max_residual_rms_px */
     MFNS_POSE_R_TRACK_LOST,     /* tracking gate kept fewer than 3 beacons */
     MFNS_POSE_R_BELOW_CERTIFICATE, /* fewer blobs than the map's certificate needs for a unique fix */
+    MFNS_POSE_R_MINIMAL_UNCONFIRMED, /* three beacons whose pose disagrees with the prediction */
 } mfns_pose_reason_t;
 
 typedef enum {
@@ -125,6 +126,9 @@ mfns_pose_status_t mfns_pose_refine(const mfns_rig_t *rig, const mfns_beacon_map
 mfns_pose_status_t mfns_pose_track(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                    const mfns_obs_frame_t *frame, const mfns_pose_t *predicted,
                                    const mfns_pose_config_t *cfg, mfns_pose_solution_t *out);
+
+/* Clear a solution to NO_FIX with a reason, keeping nothing stale. */
+void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason);
 
 const char *mfns_pose_status_str(mfns_pose_status_t s);
 

@@ -59,7 +59,5 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
 int mfns_pose_associate(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame,
                         const mfns_pose_t *pred, float gate, mfns_pose_assoc_t *assoc);
 
-/* Clear a solution to NO_FIX with a reason, keeping nothing stale. */
-void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason);
 
 #endif /* MFNS_POSE_INTERNAL_H */

@@ -49,9 +49,14 @@ CAMERAS = ("x", "y", "z")
 WHY = {
     "TOO_FEW": "a pose has six unknowns and each beacon gives two equations: fewer than three "
     "beacons cannot fix it (the paper could not solve these cycles either)",
-    "AMBIGUOUS": "with exactly three beacons and no prior, three rays admit up to four poses and "
-    "nothing in the image tells them apart; a fourth beacon (or tracking from a known pose) decides",
-    "NOT_IDENTIFIED": "no blob-to-beacon hypothesis was verified by enough beacons within the bound",
+    "AMBIGUOUS": "another identification of the map explains the blobs as well (a view of four beacons "
+    "that repeats elsewhere in the map): refused rather than guessed",
+    "NOT_IDENTIFIED": "no identification was certified within the cycle's work budget (the next frames "
+    "are searched afresh)",
+    "BELOW_CERTIFICATE": "fewer than four blobs and no track to follow: three rays admit up to four poses "
+    "and nothing in the frame could check one, so acquisition does not answer",
+    "MINIMAL_UNCONFIRMED": "while tracking, exactly three beacons gave a pose that disagrees with the "
+    "prediction: without redundancy it could be a wrong identification, so it is not used",
     "TRACK_LOST": "while tracking, the gate around the predicted images kept fewer than three beacons",
     "CAMERA_UNUSED": "a usable pose, but a camera contributed no beacon (its field of view holds none)",
     "MINIMAL": "a usable pose from exactly three beacons: no redundancy, the residual cannot be checked",

@@ -68,8 +68,8 @@ def test_quiet_means_nothing_on_stdout(tmp_path, capsys):
         "build",
         str(data / "paper_calib.json"),
         str(data / "paper_beacons.csv"),
-        "--grid",
-        "9x9",
+        "--certify-samples",
+        "5",
     ]
     assert main([*args, "-o", str(tmp_path / "a.tbl")]) == 0
     assert "wrote" in capsys.readouterr().out

@@ -281,6 +281,53 @@ static void test_tracking_from_a_given_pose(void **state)
     assert_int_equal(mfns_nav_set_prior(&nav, &bad), MFNS_NAV_E_ARG);
 }
 
+/* Three beacons in view: a pose without redundancy is usable only while
+ * tracking and only when it agrees with the prediction (issue 17: a wrong
+ * identification of three blobs cannot be caught in the frame). */
+static void render_first_beacons(int n, mfns_rng_t *rng)
+{
+    render_background(rng);
+    for (int b = 0; b < n; b++) {
+        float uv[2];
+        if (mfns_cam_project(&table.rig.cam[0], &truth, table.beacons.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK) {
+            render_spot(img[0], uv[0], uv[1], 1.2, 1500.0);
+        }
+    }
+}
+
+static void test_three_beacons_only_while_tracking_and_agreeing(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 77);
+    render_first_beacons(3, &rng); /* three of camera x's beacons */
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    /* no prior: acquisition never answers three blobs */
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+    assert_int_equal(out.sol.reason, MFNS_POSE_R_BELOW_CERTIFICATE);
+    /* tracking from a prior 0.5 mm off: the minimal pose agrees: usable */
+    mfns_pose_t near = truth;
+    near.r_bw_b.x += 0.5f;
+    assert_int_equal(mfns_nav_set_prior(&nav, &near), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_DEGRADED);
+    assert_int_equal(out.sol.reason, MFNS_POSE_R_MINIMAL);
+    assert_pose_close(&out.sol);
+    /* a prior 40 mm off along camera x's axis (its images move little: still
+     * inside the tracking windows and gate): the three blobs give the true
+     * pose, which disagrees with the prediction by far more than both
+     * uncertainties: refused, never reported as usable */
+    mfns_pose_t far = truth;
+    far.r_bw_b.x += 40.0f;
+    assert_int_equal(mfns_nav_set_prior(&nav, &far), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+    assert_int_equal(out.sol.reason, MFNS_POSE_R_MINIMAL_UNCONFIRMED);
+}
+
 static void test_bad_frame_and_bad_arguments(void **state)
 {
     (void)state;
@@ -309,6 +356,7 @@ int main(void)
         cmocka_unit_test(test_dead_camera_is_reported_and_others_still_solve),
         cmocka_unit_test(test_no_beacons_gives_no_fix_and_drops_the_prior),
         cmocka_unit_test(test_tracking_from_a_given_pose),
+        cmocka_unit_test(test_three_beacons_only_while_tracking_and_agreeing),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
     return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);

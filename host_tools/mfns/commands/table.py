@@ -165,7 +165,6 @@ def register(subparsers) -> None:
         help="poses of the map analysis that sets the acquisition's certificate (default 200)",
     )
     b.add_argument("--seed", type=int, default=1, help="seed of the map analysis' poses (default 1)")
-    b.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     b.set_defaults(func=cmd_build)
     s = sub.add_parser("show", help="print a table and verify its CRC")
     s.add_argument("table", metavar="TABLE")
