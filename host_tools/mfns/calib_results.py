@@ -75,13 +75,19 @@ def validate(doc: object, flight: bool = True) -> dict:
         raise MfnsError(f"calibration-results version {version} is newer than this tool ({VERSION})")
     V.number(doc.get("pixel_noise_px"), "pixel_noise_px", 0.0, None, lo_open=True)
     cams = doc.get("cameras")
-    if not isinstance(cams, list) or not all(isinstance(c, dict) for c in cams):
-        raise MfnsError("cameras must be a list of camera objects")
-    names = [c.get("name") for c in cams]
+    if not isinstance(cams, list):
+        raise MfnsError(
+            "cameras must be a list of exactly three cameras (x, y, z) for the flight rig"
+            if flight
+            else "cameras must be a list of camera objects"
+        )
+    for i, cam in enumerate(cams[: MAX_CAMERAS + 1]):
+        V.obj(cam, f"camera {i}")
+    names = [c.get("name") for c in cams[: MAX_CAMERAS + 1]]
     if flight and names != list(CAMERA_NAMES):
         raise MfnsError(
-            f"the flight rig (calibration table, navigation) needs exactly three cameras named x, y, z "
-            f"in that order; this file has {len(cams)}: {names[:8]}"
+            f"cameras must be a list of exactly three cameras (x, y, z): the flight rig (calibration "
+            f"table, navigation) needs them in that order; this file has {len(cams)}: {names[:8]}"
         )
     if not 1 <= len(cams) <= MAX_CAMERAS:
         raise MfnsError(f"cameras: {len(cams)} cameras, expected 1 to {MAX_CAMERAS}")

@@ -60,7 +60,8 @@ def _module_poses(core, beacons, n, min_beacons=5):
 def _monte_carlo(core, beacons, C, r, r_wb_w, sigma_px, survey_mm, doc, rng):
     """Spread (6,) of the flight solver's fixes: x, y, z mm, roll, pitch, yaw deg."""
     fl = core.flight
-    cfg = fl.config(sigma_px=max(1.0, sigma_px))  # an operational budget: gates never fire
+    # an operational budget: gates never fire; iterations enough to converge on every trial
+    cfg = fl.config(sigma_px=max(1.0, sigma_px), max_iterations=100)
     errs = []
     for _ in range(TRIALS):
         cams = core.cams

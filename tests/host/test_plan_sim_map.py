@@ -45,7 +45,7 @@ def test_module_keeps_its_trajectory_and_aims_leds_off_the_walls(tmp_path):
     "rows, message",
     [
         ("id,x_mm,y_mm,z_mm,sigma_mm\n0,1,2,3,-1\n", "sigma_mm must be positive"),
-        ("id,x\n0,1\n", "not a beacon CSV"),
+        ("id,x\n0,1\n", "missing columns x_mm, y_mm, z_mm, sigma_mm"),
     ],
 )
 def test_bad_map_is_one_line_error(tmp_path, rows, message):

@@ -43,6 +43,12 @@ def load_beacon_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return ids, pos, sig
 
 
+def _warn(line: str) -> None:
+    import sys
+
+    print(f"mfns table: warning: {line}", file=sys.stderr)
+
+
 def build_table(
     calib_json: str | Path,
     beacons_csv: str | Path,
@@ -96,7 +102,7 @@ def build_table(
     fl = Flight()
     rig = fl.rig(rig_from_doc(doc))
     bmap = fl.beacon_map(f32(pos), f32(sig), ids=ids)
-    ws = workspace if workspace is not None else mapindex.default_workspace(f32(pos))
+    ws = workspace if workspace is not None else mapindex.default_workspace(f32(pos), _warn)
     idx, report = mapindex.build(
         fl, rig, bmap, load_beacon_emission(beacons_csv), ws, sigma, certify_samples, seed, progress
     )

@@ -27,16 +27,27 @@ ANALYSIS_BUDGET_FACTOR = 2
 CHUNK = 10
 
 
-def default_workspace(pos_w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def default_workspace(pos_w: np.ndarray, warn=None) -> tuple[np.ndarray, np.ndarray]:
+    """The map's bounding box shrunk by WORKSPACE_MARGIN of its extent on each side. A map
+    thinner than MIN_EXTENT_MM along an axis (beacons on one wall) says nothing of where
+    the robot is along it: there the box spans the map's largest extent about its centre,
+    and warn (if given) is called with a line saying so (give --workspace instead)."""
     lo, hi = pos_w.min(axis=0), pos_w.max(axis=0)
     ext = hi - lo
-    flat = [n for n, e in zip("xyz", ext, strict=True) if e < MIN_EXTENT_MM]
+    wlo, whi = lo + WORKSPACE_MARGIN * ext, hi - WORKSPACE_MARGIN * ext
+    flat = [i for i in range(3) if ext[i] < MIN_EXTENT_MM]
     if flat:
-        raise MfnsError(
-            f"the beacon map is flat along {', '.join(flat)} ({', '.join(f'{e:.0f}' for e in ext)} mm): "
-            "give the workspace with --workspace XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX"
-        )
-    return lo + WORKSPACE_MARGIN * ext, hi - WORKSPACE_MARGIN * ext
+        half = max(float(ext.max()), MIN_EXTENT_MM) / 2.0
+        for i in flat:
+            c = 0.5 * (lo[i] + hi[i])
+            wlo[i], whi[i] = c - half, c + half
+        if warn is not None:
+            warn(
+                f"the beacon map is flat along {', '.join('xyz'[i] for i in flat)}: workspace assumed "
+                + " x ".join(f"[{a:.0f}, {b:.0f}]" for a, b in zip(wlo, whi, strict=True))
+                + " mm (give --workspace XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX)"
+            )
+    return wlo, whi
 
 
 def parse_workspace(text: str) -> tuple[np.ndarray, np.ndarray]:
