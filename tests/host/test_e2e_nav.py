@@ -44,6 +44,11 @@ def run_chain(
     frames = tmp / "frames"
     res = mfns("sim", "nav", str(frames), "--quiet", *sim_args)
     assert res.returncode == 0, res.stderr
+    return fly(bins, tmp, frames, nav_args)
+
+
+def fly(bins: Path, tmp: Path, frames: Path, nav_args: list[str]) -> tuple[list[dict], np.ndarray, str]:
+    """Table from the frames' rig and map, mfns-nav on them, mfns-ground on its telemetry."""
     table = tmp / "table.mfnstbl"
     res = mfns("table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(table))
     assert res.returncode == 0, res.stderr
@@ -234,34 +239,10 @@ def test_module_reacquires_after_a_blackout(bins, tmp_path):
     rate = 18.6
     first, last = 30, 30 + int(round(2.0 * rate))
     _blackout(frames, first, last)
-    table = tmp_path / "table.mfnstbl"
-    res = mfns(
-        "table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(table), "-q"
-    )
-    assert res.returncode == 0, res.stderr
-    tlm = tmp_path / "tlm.bin"
-    nav = subprocess.run(
-        [str(bins / "mfns-nav"), "--table", str(table), "--replay", str(frames), "--tlm-file", str(tlm)],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert nav.returncode == 0, nav.stderr
-    ground = subprocess.run(
-        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp_path / "ground"), "--no-status"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert ground.returncode == 0, ground.stderr
-    with open(tmp_path / "ground" / "nav.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
+    rows, truth, log = fly(bins, tmp_path, frames, [])
     cyc, dp, da = errors(rows, truth)
-    assert cyc and cyc[0] < first, nav.stderr  # acquired before the blackout
+    assert cyc and cyc[0] < first, log  # acquired before the blackout
     assert not [k for k in cyc if first <= k < last], "a fix was reported while every camera was dark"
     after = [k for k in cyc if k >= last]
-    assert after and after[0] <= last + 1, (after[:3], nav.stderr)  # re-acquired within 2 frames
+    assert after and after[0] <= last + 1, (after[:3], log)  # re-acquired within 2 frames
     assert np.max(np.abs(dp)) < 3.0 and np.max(np.abs(da)) < 0.2  # no wrong fix, before or after
