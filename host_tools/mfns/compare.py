@@ -292,7 +292,7 @@ def navigation_section(runs: list[Run]) -> list[str]:
         for r in exp_runs:
             head += f" {r.table} mean / 1σ |"
             rule += "---|"
-        lines += [f"### {exp}: {what}", "", head, rule]
+        lines += [f"### {exp}: {what}", "", _scenario_line(exp_runs[0].folder.parent), "", head, rule]
         for i, ax in enumerate(rpt.AXES):
             row = f"| {ax} | {rpt.UNITS[ax]} | {t5['mean'][ax]:.4f} / {t5['sigma'][ax]:.4f} |"
             for r in exp_runs:
@@ -340,6 +340,19 @@ def _reason_text(code: int) -> tuple[str, str]:
     except (MfnsError, OSError):
         text = ""
     return name, text
+
+
+def _scenario_line(exp_dir: Path) -> str:
+    """What was simulated, from scenario.json (docs/nav-frames.md)."""
+    try:
+        doc = json.loads((exp_dir / "frames" / "scenario.json").read_text())
+    except (OSError, ValueError):
+        return "(scenario.json not found)"
+    return (
+        f"Simulated by `mfns sim nav --scenario {doc.get('scenario')} --seed {doc.get('seed')}`: "
+        f"{doc.get('n_frames')} cycles at {doc.get('rate_hz')} Hz, {doc.get('n_beacons')} beacons, "
+        f"centroid noise about {doc.get('pixel_noise_px')} px (1σ)."
+    )
 
 
 def availability_section(runs: list[Run], demo: Path) -> list[str]:
@@ -441,15 +454,19 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
                         else f"- Camera {cam.upper()} has no beacon in its field of view in any cycle."
                     )
         lines.append("")
-    lines += [
-        "In the turntable run the paper's geometry leaves one to four beacons in view: the cycles with "
-        "fewer than three cannot be solved by anyone; with exactly three, a cold start is ambiguous, so "
-        "the flight program fixes only where four are in view and then keeps tracking through cycles "
-        "with three (DEGRADED, MINIMAL). The paper too could not solve with fewer than three and chose "
-        "its starting values by hand.",
-        "",
-    ]
+        if exp in CLOSING:
+            lines += [CLOSING[exp], ""]
     return lines
+
+
+# How to read the availability of each experiment (its geometry, docs/system.md §6).
+CLOSING = {
+    "turntable": "In the turntable run the paper's geometry leaves one to four beacons in view: the "
+    "cycles with fewer than three cannot be solved by anyone; with exactly three a cold start is "
+    "ambiguous, so the flight program fixes where four are in view and then keeps tracking through "
+    "cycles with three (DEGRADED, MINIMAL). The paper too could not solve with fewer than three, and "
+    "it matched beacons and chose its starting values by hand.",
+}
 
 
 def _nav_rows(path: Path) -> list[dict[str, str]]:
