@@ -146,7 +146,7 @@ def test_cli_mc_runs_the_flight_solver_by_default(tmp_path, capsys, core_lib):
     if not core_lib.exists():
         pytest.fail(f"{core_lib} missing: run make lib")
     out = tmp_path / "mc"
-    assert main(["mc", str(out), "--trials", "500", "--pose-trials", "20", "--quiet"]) == 0
+    assert main(["mc", str(out), "--trials", "500", "--pose-trials", "20"]) == 0
     assert "flight solver" in capsys.readouterr().out
     s = json.loads((out / "summary.json").read_text())
     ext = s["pose_extension"]
