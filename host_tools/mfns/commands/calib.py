@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -39,7 +40,7 @@ def run(args) -> int:
         args.dataset, args.truth, 1 if args.a10_single_pass else 10, progress=not args.quiet
     )
     for name in rejected:
-        print(f"warning: board not found in {name}; image skipped")
+        print(f"warning: board not found in {name}; image skipped", file=sys.stderr)
     text = [intrinsics_table(cal), "", extrinsics_table(cal)]
     if cmp is not None:
         text += ["", accuracy_table(cmp)]
