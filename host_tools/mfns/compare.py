@@ -50,8 +50,10 @@ WHY = {
     "TOO_FEW": "a pose has six unknowns and each beacon gives two equations: fewer than three "
     "beacons cannot fix it (the paper could not solve these cycles either)",
     "AMBIGUOUS": "with exactly three beacons and no prior, three rays admit up to four poses and "
-    "nothing in the image tells them apart; a fourth beacon (or tracking from a known pose) decides",
-    "NOT_IDENTIFIED": "no blob-to-beacon hypothesis was verified by enough beacons within the bound",
+    "nothing in the image tells them apart; a fourth beacon (or tracking from a known pose) decides. "
+    "A reflection can make the third blob where only two beacons are in view",
+    "NOT_IDENTIFIED": "no blob-to-beacon hypothesis was verified by enough beacons within the bound "
+    "(e.g. three beacons and a reflection: four blobs, and no fourth beacon to confirm a guess)",
     "TRACK_LOST": "while tracking, the gate around the predicted images kept fewer than three beacons",
     "CAMERA_UNUSED": "a usable pose, but a camera contributed no beacon (its field of view holds none)",
     "MINIMAL": "a usable pose from exactly three beacons: no redundancy, the residual cannot be checked",
@@ -360,7 +362,9 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
         "## 3. Availability: fix rate and why cycles have no (full) fix",
         "",
         "Status and reason per cycle come from the flight code's telemetry (`nav.csv`, firmware/nav/pose.h); "
-        "the beacons in view come from the simulator's truth (`frames/spots.csv`, real spots only).",
+        "the beacons in view come from the simulator's truth (`frames/spots.csv`, real spots only), the "
+        "blobs found from the flight code's camera telemetry (`camera.csv`: beacons and reflections, summed "
+        "over the three cameras). Histograms read `count: cycles`.",
         "",
     ]
     for exp in EXPERIMENTS:
@@ -399,12 +403,14 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
             ]
         lines += ["", "Every class of cycle without a full fix, for each table:", ""]
         lines += [
-            "| table | status | reason | cycles | mode | beacons in view (truth) | meaning |",
-            "|---|---|---|---|---|---|---|",
+            "| table | status | reason | cycles | mode | beacons in view (truth) "
+            "| blobs found (flight) | meaning |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         notes: dict[str, str] = {}
         for r in exp_runs:
             nav_rows = _nav_rows(r.folder / "ground" / "nav.csv")
+            blobs = _blobs(r.folder / "ground" / "camera.csv")
             classes: dict[tuple[str, int], list[dict]] = {}
             for row in nav_rows:
                 if row["status"] != "FIX":
@@ -432,10 +438,14 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
                             seen += f"; unused in all: camera {', '.join(unused)}"
                             if blind:
                                 seen += f" (camera {', '.join(blind)} sees no beacon in any of these cycles)"
+                found = "-"
+                if blobs is not None:
+                    hb = Counter(blobs.get(int(row["cycle"]), 0) for row in rows)
+                    found = ", ".join(f"{k}: {hb[k]}" for k in sorted(hb))
                 lines.append(
                     f"| {r.table} | {status} | {name} | {len(rows)} | "
                     + ", ".join(f"{m} {k}" for m, k in sorted(modes.items()))
-                    + f" | {seen} | {text} |"
+                    + f" | {seen} | {found} | {text} |"
                 )
                 if name in WHY:
                     notes[name] = WHY[name]
@@ -467,6 +477,17 @@ CLOSING = {
     "cycles with three (DEGRADED, MINIMAL). The paper too could not solve with fewer than three, and "
     "it matched beacons and chose its starting values by hand.",
 }
+
+
+def _blobs(path: Path) -> dict[int, int] | None:
+    """Per cycle, the blobs the centroider found in the three cameras (camera.csv of mfns-ground)."""
+    if not path.is_file():
+        return None
+    out: dict[int, int] = {}
+    with path.open(newline="") as f:
+        for row in csv.DictReader(f):
+            out[int(row["cycle"])] = out.get(int(row["cycle"]), 0) + int(row["blobs"])
+    return out
 
 
 def _nav_rows(path: Path) -> list[dict[str, str]]:

@@ -47,6 +47,7 @@ def write_csv(path: Path, header: list[str], rows: list[list]) -> None:
 
 
 N = 10
+CAMS = ("x", "y", "z")
 NAV_HEADER = [
     "t_s",
     "seq",
@@ -103,6 +104,18 @@ def demo(tmp_path) -> Path:
                 ]
             )
         write_csv(d / "module" / table / "ground" / "nav.csv", NAV_HEADER, rows)
+    # The centroider of the true-rig run also found the reflection in camera Z.
+    cams = [
+        [f"{t[k]:.6f}", 3 * k + j, k, c, "OK", n, 0]
+        for k in range(N)
+        for j, c in enumerate(CAMS)
+        for n in [{"x": 1, "y": 1, "z": 1}[c] if k < 2 else {"x": 2, "y": 3, "z": 0}[c]]
+    ]
+    write_csv(
+        d / "module" / "true-rig" / "ground" / "camera.csv",
+        ["t_s", "seq", "cycle", "camera", "state", "blobs", "beacons_identified"],
+        cams,
+    )
     return d
 
 
@@ -121,7 +134,8 @@ def test_report_answers_the_paper(demo):
     assert "Simulated by `mfns sim nav --scenario module --seed 7`" in text
     # Availability: the rate, each class with the beacons in view, camera Z explained.
     assert "| true-rig | 10 | 0 | 8 | 2 | 80.0 % |" in text
-    assert "| true-rig | NO_FIX | TOO_FEW | 2 | ACQUIRE 2 | 2: 2 |" in text
+    assert "| true-rig | NO_FIX | TOO_FEW | 2 | ACQUIRE 2 | 2: 2 | 3: 2 |" in text
+    assert "| paper-calibration | NO_FIX | TOO_FEW | 2 | ACQUIRE 2 | 2: 2 | - |" in text  # no camera.csv
     assert "| true-rig | DEGRADED | CAMERA_UNUSED | 8 | TRACK 8 | 5: 8; unused in all: camera Z" in text
     assert "Camera Z has no beacon in its field of view in any cycle" in text
     assert "Cycles in which each camera sees at least one beacon: X 10, Y 10, Z 0 (of 10)" in text
