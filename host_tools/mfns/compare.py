@@ -297,7 +297,7 @@ def navigation_section(runs: list[Run]) -> list[str]:
         for r in exp_runs:
             head += f" {r.table} mean / 1σ |"
             rule += "---|"
-        lines += [f"### {exp}: {what}", "", head, rule]
+        lines += [f"### {exp}: {what}", "", _scenario_line(exp_runs[0].folder.parent), "", head, rule]
         for i, ax in enumerate(rpt.AXES):
             row = f"| {ax} | {rpt.UNITS[ax]} | {t5['mean'][ax]:.4f} / {t5['sigma'][ax]:.4f} |"
             for r in exp_runs:
@@ -347,12 +347,27 @@ def _reason_text(code: int) -> tuple[str, str]:
     return name, text
 
 
+def _scenario_line(exp_dir: Path) -> str:
+    """What was simulated, from scenario.json (docs/nav-frames.md)."""
+    try:
+        doc = json.loads((exp_dir / "frames" / "scenario.json").read_text())
+    except (OSError, ValueError):
+        return "(scenario.json not found)"
+    return (
+        f"Simulated by `mfns sim nav --scenario {doc.get('scenario')} --seed {doc.get('seed')}`: "
+        f"{doc.get('n_frames')} cycles at {doc.get('rate_hz')} Hz, {doc.get('n_beacons')} beacons, "
+        f"centroid noise about {doc.get('pixel_noise_px')} px (1σ)."
+    )
+
+
 def availability_section(runs: list[Run], demo: Path) -> list[str]:
     lines = [
         "## 3. Availability: fix rate and why cycles have no (full) fix",
         "",
         "Status and reason per cycle come from the flight code's telemetry (`nav.csv`, firmware/nav/pose.h); "
-        "the beacons in view come from the simulator's truth (`frames/spots.csv`, real spots only).",
+        "the beacons in view come from the simulator's truth (`frames/spots.csv`, real spots only), the "
+        "blobs found from the flight code's camera telemetry (`camera.csv`: beacons and reflections, summed "
+        "over the three cameras). Histograms read `count: cycles`.",
         "",
     ]
     for exp in EXPERIMENTS:
@@ -391,12 +406,14 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
             ]
         lines += ["", "Every class of cycle without a full fix, for each table:", ""]
         lines += [
-            "| table | status | reason | cycles | mode | beacons in view (truth) | meaning |",
-            "|---|---|---|---|---|---|---|",
+            "| table | status | reason | cycles | mode | beacons in view (truth) "
+            "| blobs found (flight) | meaning |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         notes: dict[str, str] = {}
         for r in exp_runs:
             nav_rows = _nav_rows(r.folder / "ground" / "nav.csv")
+            blobs = _blobs(r.folder / "ground" / "camera.csv")
             classes: dict[tuple[str, int], list[dict]] = {}
             for row in nav_rows:
                 if row["status"] != "FIX":
@@ -424,10 +441,14 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
                             seen += f"; unused in all: camera {', '.join(unused)}"
                             if blind:
                                 seen += f" (camera {', '.join(blind)} sees no beacon in any of these cycles)"
+                found = "-"
+                if blobs is not None:
+                    hb = Counter(blobs.get(int(row["cycle"]), 0) for row in rows)
+                    found = ", ".join(f"{k}: {hb[k]}" for k in sorted(hb))
                 lines.append(
                     f"| {r.table} | {status} | {name} | {len(rows)} | "
                     + ", ".join(f"{m} {k}" for m, k in sorted(modes.items()))
-                    + f" | {seen} | {text} |"
+                    + f" | {seen} | {found} | {text} |"
                 )
                 if name in WHY:
                     notes[name] = WHY[name]
@@ -446,15 +467,30 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
                         else f"- Camera {cam.upper()} has no beacon in its field of view in any cycle."
                     )
         lines.append("")
-    lines += [
-        "In the turntable run the paper's geometry leaves one to four beacons in view: the cycles with "
-        "fewer than three cannot be solved by anyone; with exactly three, a cold start is ambiguous, so "
-        "the flight program fixes only where four are in view and then keeps tracking through cycles "
-        "with three (DEGRADED, MINIMAL). The paper too could not solve with fewer than three and chose "
-        "its starting values by hand.",
-        "",
-    ]
+        if exp in CLOSING:
+            lines += [CLOSING[exp], ""]
     return lines
+
+
+# How to read the availability of each experiment (its geometry, docs/system.md §6).
+CLOSING = {
+    "turntable": "In the turntable run the paper's geometry leaves one to four beacons in view: the "
+    "cycles with fewer than three cannot be solved by anyone; with exactly three a cold start is "
+    "ambiguous, so the flight program fixes where four are in view and then keeps tracking through "
+    "cycles with three (DEGRADED, MINIMAL). The paper too could not solve with fewer than three, and "
+    "it matched beacons and chose its starting values by hand.",
+}
+
+
+def _blobs(path: Path) -> dict[int, int] | None:
+    """Per cycle, the blobs the centroider found in the three cameras (camera.csv of mfns-ground)."""
+    if not path.is_file():
+        return None
+    out: dict[int, int] = {}
+    with path.open(newline="") as f:
+        for row in csv.DictReader(f):
+            out[int(row["cycle"])] = out.get(int(row["cycle"]), 0) + int(row["blobs"])
+    return out
 
 
 def _nav_rows(path: Path) -> list[dict[str, str]]:

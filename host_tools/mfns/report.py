@@ -69,6 +69,7 @@ class Report:
     n_used: int
     n_rejected_status: int
     n_unmatched: int
+    status: np.ndarray | None = None  # status of each used row (FIX, DEGRADED, ...)
 
 
 MAX_CSV_BYTES = 256 * V.MIB  # ~1.3 M rows of nav.csv: 19 hours at 18.6 Hz
@@ -185,6 +186,7 @@ def build_report(
         n_used=n_used,
         n_rejected_status=n_rejected,
         n_unmatched=n_unmatched,
+        status=nav.status[keep],
     )
 
 
@@ -234,7 +236,13 @@ def write_plots(rep: Report, out_dir: Path, title: str | None = None) -> list[Pa
         fig, axes = plt.subplots(2, 3, figsize=(13, 6.5), sharex=True)
         for k, a in enumerate(AXES):
             ax = axes[k // 3][k % 3]
-            ax.plot(x, rep.series[a], ".", ms=2.5)
+            # One colour per status, so cycles solved with a weaker geometry stand out.
+            status = rep.status if rep.status is not None else np.full(len(x), "")
+            for st in sorted(set(status)):
+                m = status == st
+                ax.plot(np.asarray(x)[m], rep.series[a][m], ".", ms=3, label=st or None)
+            if k == 0 and len(set(status)) > 1:
+                ax.legend(fontsize=8, markerscale=2)
             s = rep.stats[k]
             ax.axhline(s.mean, color="k", lw=0.8)
             ax.set_title(f"{a}: mean {s.mean:.4f}, 1σ {s.sigma:.4f} {s.unit}", fontsize=9)

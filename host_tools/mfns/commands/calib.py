@@ -66,6 +66,8 @@ def _run(args) -> int:
         progress=not args.quiet,
         workers=args.jobs,
     )
+    for name, path, why in rejected:  # on stderr too: --quiet keeps stdout empty
+        print(f"warning: camera {name}: {path} skipped: {why}", file=sys.stderr)
     text = []
     for k, name in enumerate(obs.camera_names):
         bad = [r for r in rejected if r[0] == name]
