@@ -290,7 +290,7 @@ static int count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
             break;
         }
     }
-    q->progress.units += (uint32_t)map->count / 16u;
+    q->progress.units += (uint32_t)map->count / 8u; /* ~0.1 us per beacon: three projections */
     return missing;
 }
 
@@ -423,7 +423,8 @@ static bool quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_a
 /* Associate in pixels, refine, associate again; the candidate or false. */
 static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t *cd)
 {
-    q->progress.units += MFNS_ACQ_VERIFY_UNITS;
+    /* an association projects every beacon into every camera: ~0.1 us per beacon */
+    q->progress.units += MFNS_ACQ_VERIFY_UNITS + (uint32_t)q->map->count / 8u;
     q->progress.verified++;
     memset(cd, 0, sizeof *cd);
     if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
@@ -444,7 +445,7 @@ static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t 
         if (mfns_pose_associate(q->rig, q->map, q->frame, &cd->sol.pose, gate, &again) <= cd->sol.beacons_used) {
             continue;
         }
-        q->progress.units += MFNS_ACQ_VERIFY_UNITS;
+        q->progress.units += MFNS_ACQ_VERIFY_UNITS + (uint32_t)q->map->count / 8u;
         mfns_pose_solution_t s2;
         memset(&s2, 0, sizeof s2);
         s2.assoc = again;

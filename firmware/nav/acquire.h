@@ -35,8 +35,10 @@
  *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
  *      two different correspondences tie).
  *
- * Work units: one per P3P solve and per cheap check, VERIFY_UNITS per full
- * verification (association + refinement); a call stops when it has spent
+ * Work units: one per P3P solve and per cheap check, VERIFY_UNITS plus one
+ * per 8 beacons per full verification (association of every beacon +
+ * refinement), one per 8 beacons for the missing-beacon count; a call stops
+ * when it has spent
  * its budget (index.budget_units per cycle in flight: about 1 us per unit on
  * the benchmark host). All state lives in the caller's mfns_acq_t, so two
  * navigators can run in one process; nothing allocates; every loop is
