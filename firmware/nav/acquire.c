@@ -501,7 +501,7 @@ static void fill_meas(const mfns_acq_t *q, int blob, int beacon, mfns_pose_meas_
  * propagated gate are refined together and scored like any candidate. */
 static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
 {
-    q->progress.units += 2u + (uint32_t)q->map->count / 8u; /* ~0.1 us per residual with Jacobian */
+    q->progress.units += 2u + (uint32_t)q->map->count / 32u; /* pair look-ups; residuals counted below */
     const int tri[3] = {an->i, an->j, an->k};
     mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
     float h[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N] = {{0.0f}};
@@ -532,12 +532,27 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
     if (l < 0) {
         return;
     }
+    /* the fourth beacon must admit its angles to the three, like any pair
+     * of the enumeration (the same tables the hypotheses were pruned with) */
+    float tl[3], pl[3];
+    for (int t = 0; t < 3; t++) {
+        tl[t] = ray_angle(&q->blobs[tri[t]], &q->blobs[l]);
+        pl[t] = parallax_pad(q, &q->blobs[tri[t]], &q->blobs[l]);
+    }
     for (int d = 0; d < q->map->count && !stop(q); d++) {
         if (d == abc[0] || d == abc[1] || d == abc[2]) {
             continue;
         }
+        bool admitted = true;
+        for (int t = 0; t < 3 && admitted; t++) {
+            admitted = mfns_bidx_pair_admits(q->idx, (uint32_t)abc[t], (uint32_t)d, tl[t], pl[t]);
+        }
+        if (!admitted) {
+            continue;
+        }
         fill_meas(q, l, d, &m[3]);
         float r[2], jac[2][6];
+        q->progress.units++; /* a residual with its Jacobian and the gate: ~0.3 us */
         if (!mfns_pose_residual(q->rig, &m[3], pose, r, jac)) {
             continue;
         }
