@@ -86,8 +86,8 @@ def validate(doc: object, flight: bool = True) -> dict:
     names = [c.get("name") for c in cams[: MAX_CAMERAS + 1]]
     if flight and names != list(CAMERA_NAMES):
         raise MfnsError(
-            f"cameras must be a list of exactly three cameras (x, y, z): the flight rig (calibration "
-            f"table, navigation) needs them in that order; this file has {len(cams)}: {names[:8]}"
+            f"cameras must be a list of exactly three cameras named x, y, z (in that order) for the "
+            f"flight rig (calibration table, navigation); this file has {len(cams)}: {names[:8]}"
         )
     if not 1 <= len(cams) <= MAX_CAMERAS:
         raise MfnsError(f"cameras: {len(cams)} cameras, expected 1 to {MAX_CAMERAS}")

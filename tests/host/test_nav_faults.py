@@ -251,8 +251,11 @@ def test_telemetry_write_errors_are_counted_exactly(bins, base, tmp_path):
     assert "No space left on device" in bad.stderr
     line = next(ln for ln in bad.stderr.splitlines() if "frames produced" in ln)
     produced, sent, lost = (int(line.split(w)[0].split()[-1]) for w in (" frames produced", " sent", " lost"))
-    # the same packets as the good run, plus the one TLM_WRITE_ERROR event; none arrived
-    assert sent == 0 and lost == produced == frames_ok + 1, (line, frames_ok)
+    # the same packets as the good run, plus the one TLM_WRITE_ERROR event, plus one
+    # TLM_DROPPED event if the transmit queue (nothing leaves it) overflowed before the
+    # end; none arrived, and every one is counted as lost
+    assert sent == 0 and lost == produced, (line, frames_ok)
+    assert produced in (frames_ok + 1, frames_ok + 2), (line, frames_ok)
     assert f"{lost} telemetry frames dropped" in bad.stderr
 
 
