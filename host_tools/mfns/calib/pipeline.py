@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..camera import Camera
+from ..errors import MfnsError
 from .cpc import CpcNotApplicable, CpcResult, run_cpc
 from .halfturn import apply_half_turns, resolve_half_turns
 from .handeye import HandEyeResult, solve_hand_eye
@@ -80,6 +81,25 @@ def _prepared_starts(obs: Observations, zhang: list[ZhangResult]):
     return prepared
 
 
+CHAIN_MISFIT = 3.0  # refined RMS may exceed the per-camera Zhang RMS by this factor (and 0.3 px)
+CHAIN_MISFIT_PX = 0.3
+
+
+def check_chain_fits(zhang: list[ZhangResult], rms_px: float) -> None:
+    """Each image fits a free pose (Zhang) but the turntable chain does not: wrong input.
+
+    A board declared smaller than the printed one is found at different places inside it
+    (every image fine alone, the chain broken), as are swapped angles or image rows.
+    """
+    zh = float(np.sqrt(sum(z.rms_px**2 * len(z.names) for z in zhang) / sum(len(z.names) for z in zhang)))
+    if rms_px > max(CHAIN_MISFIT * zh, CHAIN_MISFIT_PX):
+        raise MfnsError(
+            f"the turntable chain does not fit the corners: refined RMS {rms_px:.2f} px, each image "
+            f"alone (Zhang) {zh:.2f} px; check board.inner_corners (a board declared smaller than the "
+            "printed one is found inside it), the recorded angles and which image each row names"
+        )
+
+
 def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
     zhang = [calibrate_camera(obs, k) for k in range(obs.n_cams)]
     flips: list[int] = []
@@ -115,5 +135,5 @@ def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
     n_img = sum(len(z.names) for z in zhang)
     sigma0 = float(np.sqrt(sum(z.rms_px**2 * len(z.names) for z in zhang) / n_img))
     sigma0 = max(sigma0 * np.sqrt(n / max(n - 200, 1)), 1e-3)
-    refined = solve(obs, start, sigma0)
+    refined = solve(obs, start, sigma0, check=lambda rms: check_chain_fits(zhang, rms))
     return Calibration(zhang, cpc, paper, refined, init, note, hand_eye, len(flips))

@@ -317,8 +317,11 @@ class RefineResult:
     d_angles_deg: np.ndarray
 
 
-def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200) -> RefineResult:
-    """Least squares from `start`; sigma_px re-estimated from the residuals (one re-weighting)."""
+def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200, check=None) -> RefineResult:
+    """Least squares from `start`; sigma_px re-estimated from the residuals (one re-weighting).
+
+    check(rms_px), if given, runs before the covariance and may refuse the fit.
+    """
     x = None
     for _ in range(2):
         prob = Problem(obs, start, sigma_px)
@@ -343,6 +346,9 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
         if abs(new_sigma / sigma_px - 1.0) < 0.05:
             break
         sigma_px = new_sigma
+    rms = float(np.sqrt(np.sum(r**2) / max(prob.n_corner_res, 1)))
+    if check is not None:
+        check(rms)
     jac = prob.jacobian(x)
     try:
         cov = np.linalg.inv(jac.T @ jac)
@@ -352,7 +358,6 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200)
         ) from exc
     names, qj = prob.quantity_jacobian(x)
     sig = np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))
-    rms = float(np.sqrt(np.sum(r**2) / max(prob.n_corner_res, 1)))
     d_ang = np.rad2deg(x[prob.ang0 : prob.prep0].reshape(-1, 2))
     return RefineResult(prob.rig(x), x, names, sig, cov, sigma_px, rms, int(res.nfev), prob, d_ang)
 
