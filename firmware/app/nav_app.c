@@ -597,7 +597,8 @@ static bool gather(const nav_app_opts_t *o, int k, uint32_t cycle, uint64_t prog
     /* a camera already down is asked without waiting: it never stalls the others */
     const bool down = c->health.state != CAM_HEALTH_UP;
     for (int attempt = 0; attempt < STALE_TRIES; attempt++) {
-        const mfns_cam_err_t e = mfns_cam_dequeue(c->cam, fr, down || attempt > 0 ? 0 : o->frame_timeout_ms);
+        /* after a stale frame the fresh one may still be on its way: wait for it as usual */
+        const mfns_cam_err_t e = mfns_cam_dequeue(c->cam, fr, down ? 0 : o->frame_timeout_ms);
         if (e == MFNS_CAM_OK) {
             const uint64_t t = fr->timestamp_ns / 1000u;
             if (!cam_sync_is_stale(&app.sync, t)) {
