@@ -509,6 +509,50 @@ def figures_section(runs: list[Run], demo: Path) -> list[str]:
     return lines
 
 
+PLANNED = {"turntable": "turntable-planned", "module": "module-planned"}
+
+
+def _fix_rate(nav: rpt.NavLog) -> tuple[int, int]:
+    fixes = int(sum(1 for s in nav.status if s in ("FIX", "DEGRADED")))
+    return fixes, len(nav.status)
+
+
+def planning_section(runs: list[Run], demo: Path) -> list[str]:
+    """The layouts `mfns plan optimize` found (docs/planning.md) beside the originals: the
+    same rig, trajectory and number of LEDs, flown by the flight program from no prior."""
+    rows = []
+    for exp, planned in PLANNED.items():
+        base = next((r for r in runs if r.experiment == exp and r.table == "true-rig"), None)
+        nav_path = demo / planned / "true-rig" / "ground" / "nav.csv"
+        truth_path = demo / planned / "frames" / "truth.csv"
+        if base is None or not nav_path.is_file() or not truth_path.is_file():
+            continue
+        nav = rpt.load_nav(nav_path)
+        try:
+            rep = rpt.build_report(nav, rpt.load_truth(truth_path))
+        except MfnsError:
+            rep = None
+        for label, n, r in (("original", base.nav, base.report), ("planned", nav, rep)):
+            f, t = _fix_rate(n)
+            sig = "" if r is None else ", ".join(f"{s.sigma:.4f}" for s in r.stats if s.unit == "mm")
+            rows.append(f"| {exp} | {label} | {f} / {t} ({100.0 * f / max(t, 1):.1f} %) | {sig} |")
+    if not rows:
+        return []
+    return [
+        "## 5. Beacon layouts planned by `mfns plan` (docs/planning.md)",
+        "",
+        "The same rig, trajectory and number of LEDs; the layout from `mfns plan optimize` (availability "
+        "first, then the worst-case 1-sigma), flown from no prior with the table from the true rig.",
+        "",
+        "| experiment | layout | cycles with a fix | 1-sigma of the error x, y, z (mm) |",
+        "|---|---|---|---|",
+        *rows,
+        "",
+        f"Plans and their analyses: {demo}/plan/*/summary.md, beacons.csv.",
+        "",
+    ]
+
+
 def build(demo: Path) -> str:
     demo = Path(demo)
     if not demo.is_dir():
@@ -526,6 +570,7 @@ def build(demo: Path) -> str:
     lines += navigation_section(runs)
     lines += availability_section(runs, demo)
     lines += figures_section(runs, demo)
+    lines += planning_section(runs, demo)
     return "\n".join(lines) + "\n"
 
 
