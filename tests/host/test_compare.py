@@ -154,3 +154,18 @@ def test_cli_writes_report_and_refuses_a_non_demo_folder(demo, tmp_path, capsys)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no navigation runs found" in err[0]
     assert main(["compare", str(tmp_path / "missing")]) == 2
+
+
+def test_planned_layouts_beside_the_originals(demo):
+    """Section 5: a planned run (mk/demo.sh: module-planned) is compared with the original."""
+    import shutil
+
+    assert "## 5. Beacon layouts planned" not in compare.build(demo)  # no planned run: no section
+    planned = demo / "module-planned"
+    (planned / "frames").mkdir(parents=True)
+    shutil.copy(demo / "module" / "frames" / "truth.csv", planned / "frames" / "truth.csv")
+    shutil.copytree(demo / "module" / "true-rig" / "ground", planned / "true-rig" / "ground")
+    text = compare.build(demo)
+    assert "## 5. Beacon layouts planned" in text
+    assert "| module | original | 8 / 10 (80.0 %) |" in text
+    assert "| module | planned | 8 / 10 (80.0 %) |" in text
