@@ -54,14 +54,13 @@ static float ray_angle(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
     return acosf(cs > 1.0f ? 1.0f : (cs < -1.0f ? -1.0f : cs));
 }
 
-static float parallax_pad(const mfns_acq_t *q, const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
+static float parallax_pad(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
 {
     if (a->cam == b->cam) {
         return 0.0f;
     }
     const float base = mfns_v3_norm(mfns_v3_sub(a->c, b->c));
     const float s = base / MIN_PARALLAX_RANGE_MM;
-    (void)q;
     return s >= 1.0f ? 3.14159265f : asinf(s);
 }
 
@@ -537,7 +536,7 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
     float tl[3], pl[3];
     for (int t = 0; t < 3; t++) {
         tl[t] = ray_angle(&q->blobs[tri[t]], &q->blobs[l]);
-        pl[t] = parallax_pad(q, &q->blobs[tri[t]], &q->blobs[l]);
+        pl[t] = parallax_pad(&q->blobs[tri[t]], &q->blobs[l]);
     }
     for (int d = 0; d < q->map->count && !stop(q); d++) {
         if (d == abc[0] || d == abc[1] || d == abc[2]) {
@@ -648,7 +647,7 @@ static void band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1)
     const mfns_beacon_index_t *ix = q->idx;
     const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
     const float tij = ray_angle(bi, bj), tik = ray_angle(bi, bk), tjk = ray_angle(bj, bk);
-    const float pik = parallax_pad(q, bi, bk), pjk = parallax_pad(q, bj, bk);
+    const float pik = parallax_pad(bi, bk), pjk = parallax_pad(bj, bk);
     for (int a = 0; a < ix->count && !stop(q); a++) {
         const int na = ix->nbr_count[a];
         for (int rb = 0; rb < na && rb < w1 && !stop(q); rb++) {
@@ -692,7 +691,7 @@ static void exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an)
     const mfns_beacon_index_t *ix = q->idx;
     const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
     const float tij = ray_angle(bi, bj), tik = ray_angle(bi, bk), tjk = ray_angle(bj, bk);
-    const float pij = parallax_pad(q, bi, bj), pik = parallax_pad(q, bi, bk), pjk = parallax_pad(q, bj, bk);
+    const float pij = parallax_pad(bi, bj), pik = parallax_pad(bi, bk), pjk = parallax_pad(bj, bk);
     for (int a = 0; a < ix->count && !stop(q); a++) {
         for (int b = 0; b < ix->count && !stop(q); b++) {
             if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, pij)) {
