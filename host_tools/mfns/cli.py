@@ -51,6 +51,14 @@ class MfnsParser(argparse.ArgumentParser):
     def add_argument(self, *names, **kwargs):
         if names and set(names) <= self.COMMON:
             return None  # already there, with the project-wide meaning
+        if names == ("out",):
+            # an output folder is `--out DIR` in every command (mfns report, mfns-ground);
+            # the commands that take it as their positional OUT accept both spellings
+            kwargs = dict(kwargs, nargs="?", default=None)
+            super().add_argument(
+                "--out", dest="out_flag", metavar=kwargs.get("metavar", "OUT"), help=kwargs.get("help")
+            )
+            return super().add_argument("out", **kwargs)
         return super().add_argument(*names, **kwargs)
 
 
@@ -76,6 +84,16 @@ def main(argv: list[str] | None = None) -> int:
     if func is None:
         parser.print_help()
         return EXIT_USAGE
+    if hasattr(args, "out_flag"):
+        if args.out is not None and args.out_flag is not None and args.out != args.out_flag:
+            print(f"mfns {args.command}: error: two output folders: OUT and --out differ", file=sys.stderr)
+            return EXIT_USAGE
+        args.out = args.out if args.out is not None else args.out_flag
+        if args.out is None:
+            print(
+                f"mfns {args.command}: error: the output folder is missing: OUT or --out DIR", file=sys.stderr
+            )
+            return EXIT_USAGE
     t0 = time.monotonic()
     try:
         # --quiet means the same everywhere: nothing on stdout; warnings and errors go to

@@ -156,3 +156,23 @@ def test_ground_quiet_prints_no_counters(bins, tmp_path):
     assert loud.returncode == 0 and quiet.returncode == 0
     assert "frames_ok" in loud.stderr and quiet.stderr == ""
     assert (tmp_path / "a" / "nav.csv").read_text() == (tmp_path / "b" / "nav.csv").read_text()
+
+
+def test_output_folder_is_out_everywhere(tmp_path, capsys):
+    """An output folder is `--out DIR` in every command; the commands that make a folder
+    also take it as their positional OUT (the same folder either way)."""
+    args = ["mc", "--trials", "20", "--pose-trials", "0", "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert main([*args, str(tmp_path / "b")]) == 0
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == sorted(
+        p.name for p in (tmp_path / "b").iterdir()
+    )
+    capsys.readouterr()
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "output folder is missing" in err
+    assert main([*args, str(tmp_path / "c"), "--out", str(tmp_path / "d")]) == 2
+    for cmd in (["sim", "calib"], ["sim", "nav"], ["mc"], ["plan", "analyze"], ["plan", "optimize"]):
+        with pytest.raises(SystemExit):
+            main([*cmd, "--help"])
+        assert "--out" in capsys.readouterr().out, cmd
