@@ -2,7 +2,7 @@
  *
  *  1. refinement, warm start (tracking: the previous pose 0.2 deg / 1 mm
  *     off), ML and paper mode, for 4 to 10 beacons in view;
- *  2. cold start (identify + initialize + refine, mfns_pose_acquire) with a
+ *  2. cold start (identify + initialize + refine, mfns_acquire) with a
  *     10-beacon map of which 4 to 10 are in view, and on the paper's own map
  *     and rig at random poses with >= 4 beacons in view.
  * Observations: the paper's rig (docs/system.md §7), Gaussian pixel noise 0.1 px.

@@ -9,7 +9,7 @@ its binding overhead) and the RMS position / attitude error against the truth.
 - poselib refine refine_generalized_absolute_pose (same warm start, correspondences)
 - poselib est.   estimate_generalized_absolute_pose (RANSAC + refine, correspondences given)
 - colmap est.    pycolmap.estimate_and_refine_generalized_absolute_pose (same)
-- ours cold      mfns_pose_acquire: no correspondences, no initial pose (identify too)
+- ours cold      mfns_acquire: no correspondences, no initial pose (identify too)
 The C-native times (no Python) are printed by bench_pose.
 """
 

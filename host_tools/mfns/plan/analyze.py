@@ -4,11 +4,11 @@ Per pose sample: the beacons in view of each camera (the C core's decision, core
 whether a fix is possible, the Cramer-Rao 1-sigma of the six output axes (crlb.py), the
 1-sigma the flight solver is expected to reach (equal-weight pixel fit: the same with
 pixel noise only, above the bound with survey or calibration errors) and the
-identification margin (ident.py, empty until issue 11's analysis is plugged in).
+identification margin (ident.py: the acquisition's map analysis on the sample's view).
 
-Fix rule (firmware/nav/beacon_ident.c): with four or more blobs the flight code reports
-a fix only from a redundant solve using at least four beacons, and acquisition from
-exactly three is accepted only when no rival pose exists; tracking keeps a fix on three.
+Fix rule (firmware/nav/acquire.h): the flight code acquires only from a redundant solve
+using at least four beacons (three are never acquired); tracking keeps a fix on three
+when they agree with the prediction.
 So a fix is *possible* (``fix``) with >= FIX_MIN_IN_VIEW distinct beacons in view, and a
 fix can be *held* by tracking (``track``) with >= TRACK_MIN_IN_VIEW.
 
