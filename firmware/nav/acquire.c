@@ -250,39 +250,36 @@ static bool chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol
  * camera and facing it, that no inlier of the solution accounts for. */
 static int count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
 {
-    int missing = 0;
     const mfns_beacon_map_t *map = q->map;
-    for (int b = 0; b < map->count; b++) {
-        bool used = false;
-        for (int c = 0; c < MFNS_NUM_CAMERAS && !used; c++) {
-            for (int i = 0; i < q->frame->count[c]; i++) {
-                if (sol->assoc.beacon[c][i] == b && sol->inlier[c][i]) {
-                    used = true;
-                    break;
-                }
+    bool used[MFNS_MAX_BEACONS] = {false};
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b >= 0 && b < map->count && sol->inlier[c][i]) {
+                used[b] = true;
             }
         }
-        if (used) {
-            continue;
-        }
-        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+    }
+    /* camera centres in the world: r_wb_w + C_b_w r_bk_b; a full list kept the
+     * brightest and a dark camera saw nothing, so neither can miss a beacon */
+    mfns_v3_t ck[MFNS_NUM_CAMERAS];
+    bool looks[MFNS_NUM_CAMERAS];
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        ck[c] = mfns_v3_add(mfns_pose_position_w(&sol->pose), mfns_m3_tmul_v3(sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        looks[c] = q->frame->count[c] < MFNS_MAX_OBS_PER_CAMERA && q->frame->dark[c] == 0U;
+    }
+    int missing = 0;
+    const float m = MISSING_EDGE_PX;
+    for (int b = 0; b < map->count; b++) {
+        for (int c = 0; c < MFNS_NUM_CAMERAS && !used[b]; c++) {
             const mfns_camera_t *cam = &q->rig->cam[c];
             float uv[2];
-            if (q->frame->count[c] >= MFNS_MAX_OBS_PER_CAMERA || q->frame->dark[c] != 0U) {
-                continue; /* a full list kept the brightest, a dark camera saw nothing: not missing */
-            }
-            if (mfns_cam_project(cam, &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+            if (!looks[c] || mfns_cam_project(cam, &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
                 continue;
             }
-            const float m = MISSING_EDGE_PX;
             if (uv[0] < m - 0.5f || uv[1] < m - 0.5f || uv[0] > (float)cam->k.width - 0.5f - m ||
-                uv[1] > (float)cam->k.height - 0.5f - m) {
-                continue;
-            }
-            /* camera centre in the world: r_wb_w + C_b_w r_bk_b */
-            const mfns_v3_t ck = mfns_v3_add(mfns_pose_position_w(&sol->pose),
-                                             mfns_m3_tmul_v3(sol->pose.C_w_b, cam->r_bk_b));
-            if (!mfns_bidx_emits_toward(&q->idx->geom[b], map->beacon[b].p_w, ck)) {
+                uv[1] > (float)cam->k.height - 0.5f - m ||
+                !mfns_bidx_emits_toward(&q->idx->geom[b], map->beacon[b].p_w, ck[c])) {
                 continue;
             }
             missing++;

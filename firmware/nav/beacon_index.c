@@ -31,6 +31,8 @@ const char *mfns_bidx_strerror(mfns_bidx_status_t s)
     return "map index: unknown status";
 }
 
+uint32_t mfns_bidx_section_size(uint32_t n, uint32_t k) { return MFNS_BIDX_SECTION_SIZE(n, k); }
+
 bool mfns_bidx_emits_toward(const mfns_beacon_geom_t *g, mfns_v3_t p_beacon_w, mfns_v3_t p_w)
 {
     const mfns_v3_t d = mfns_v3_sub(p_w, p_beacon_w);

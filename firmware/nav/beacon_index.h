@@ -131,6 +131,9 @@ mfns_bidx_status_t mfns_bidx_build(const mfns_rig_t *rig, const mfns_beacon_map_
  * *written receives the size; MFNS_BIDX_E_SPACE when cap is too small. */
 mfns_bidx_status_t mfns_bidx_encode(const mfns_beacon_index_t *idx, uint8_t *buf, uint32_t cap, uint32_t *written);
 
+/* MFNS_BIDX_SECTION_SIZE(n, k) as a function, for the host tools (ctypes). */
+uint32_t mfns_bidx_section_size(uint32_t n, uint32_t k);
+
 /* Position of the unordered pair (a, b), a != b, in pair_lo/pair_hi. */
 static inline uint32_t mfns_bidx_pair_slot(uint32_t n, uint32_t a, uint32_t b)
 {

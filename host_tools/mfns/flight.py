@@ -371,6 +371,8 @@ class Flight:
         L.mfns_bidx_build.restype = ct.c_int
         L.mfns_bidx_encode.argtypes = [P(BeaconIndex), ct.c_void_p, ct.c_uint32, P(ct.c_uint32)]
         L.mfns_bidx_encode.restype = ct.c_int
+        L.mfns_bidx_section_size.argtypes = [ct.c_uint32, ct.c_uint32]
+        L.mfns_bidx_section_size.restype = ct.c_uint32
         L.mfns_bidx_strerror.argtypes = [ct.c_int]
         L.mfns_bidx_strerror.restype = ct.c_char_p
         L.mfns_certify.argtypes = [
@@ -474,7 +476,7 @@ class Flight:
         return idx
 
     def encode_index(self, idx: BeaconIndex) -> bytes:
-        buf = (ct.c_uint8 * (44 + 24 * MAX_BEACONS + MAX_BEACONS * (1 + MAX_NBR) + 2 * MAX_PAIRS))()
+        buf = (ct.c_uint8 * self.lib.mfns_bidx_section_size(idx.count, idx.k_nbr))()
         n = ct.c_uint32(0)
         st = self.lib.mfns_bidx_encode(ct.byref(idx), buf, len(buf), ct.byref(n))
         if st != 0:
