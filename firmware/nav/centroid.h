@@ -135,6 +135,8 @@ typedef struct {
     bool saturated;         /* peak >= saturation level */
     uint16_t reasons;       /* MFNS_BLOB_* bits; 0 = accepted */
     uint8_t roi;            /* window index, MFNS_CENTROID_FULL_FRAME for a full-frame call */
+    float cov_px2[3];       /* covariance of (u, v) predicted from the photometry (px^2):
+                               var u, cov uv, var v; all zero = not computed */
 } mfns_blob_t;
 #define MFNS_CENTROID_FULL_FRAME 0xFFu
 

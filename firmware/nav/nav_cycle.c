@@ -138,6 +138,9 @@ static void blobs_to_obs(mfns_nav_t *nav, int k, mfns_nav_cam_diag_t *d)
         o->v = mfns_px_q8_to_float(b->v_q8);
         o->x = x;
         o->y = y;
+        o->cov_px2[0] = b->cov_px2[0];
+        o->cov_px2[1] = b->cov_px2[1];
+        o->cov_px2[2] = b->cov_px2[2];
         n_obs++;
     }
     nav->obs.count[k] = n_obs;

@@ -35,6 +35,10 @@
 typedef struct {
     float u, v; /* measured (distorted) pixel, pixel-centre convention */
     float x, y; /* undistorted normalized coordinates of the same blob */
+    /* Covariance of the measured (u, v) from the blob's photometry (px^2):
+     * [0] var u, [1] cov uv, [2] var v. All zero = not known: the solver
+     * then uses the table's pixel_sigma_px. */
+    float cov_px2[3];
 } mfns_obs_t;
 
 /* The observations of one frame set (one image per camera). */

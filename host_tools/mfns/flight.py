@@ -114,7 +114,13 @@ class PoseConfig(ct.Structure):
 
 
 class Obs(ct.Structure):
-    _fields_ = [("u", ct.c_float), ("v", ct.c_float), ("x", ct.c_float), ("y", ct.c_float)]
+    _fields_ = [
+        ("u", ct.c_float),
+        ("v", ct.c_float),
+        ("x", ct.c_float),
+        ("y", ct.c_float),
+        ("cov_px2", ct.c_float * 3),
+    ]
 
 
 class ObsFrame(ct.Structure):

@@ -244,7 +244,7 @@ static void test_recorded_near_ambiguous_frame(void **state)
     }
     for (int k = 0; k < 4; k++) {
         const int c = cam_of[k], i = frame.count[c]++;
-        frame.obs[c][i] = (mfns_obs_t){obs[k][0], obs[k][1], obs[k][2], obs[k][3]};
+        frame.obs[c][i] = (mfns_obs_t){obs[k][0], obs[k][1], obs[k][2], obs[k][3], {0.0f, 0.0f, 0.0f}};
         truth.beacon[c][i] = (int16_t)beacon_of[k];
     }
     mfns_pose_solution_t sol;

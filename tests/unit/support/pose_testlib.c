@@ -255,7 +255,7 @@ void pt_add_spurious(const mfns_rig_t *rig, int cam, mfns_rng_t *rng, mfns_obs_f
     const double v = mfns_rng_range(rng, 20, rig->cam[cam].k.height - 20);
     double x, y;
     pt_undistort(&rig->cam[cam].k, u, v, &x, &y);
-    frame->obs[cam][i] = (mfns_obs_t){(float)u, (float)v, (float)x, (float)y};
+    frame->obs[cam][i] = (mfns_obs_t){(float)u, (float)v, (float)x, (float)y, {0.0f, 0.0f, 0.0f}};
     truth->beacon[cam][i] = MFNS_POSE_NO_BEACON;
     frame->count[cam]++;
 }
