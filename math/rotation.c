@@ -135,3 +135,38 @@ float mfns_rot_angle_between(mfns_m3_t ra, mfns_m3_t rb)
 {
     return mfns_v3_norm(mfns_rot_log(mfns_m3_mul(mfns_m3_transpose(ra), rb)));
 }
+
+void mfns_m3_to_quat(mfns_m3_t r, float q_wxyz[4])
+{
+    const float tr = r.m[0][0] + r.m[1][1] + r.m[2][2];
+    /* 4 q_i^2 for i = w, x, y, z from the diagonal */
+    const float d[4] = {1.0f + tr, 1.0f + r.m[0][0] - r.m[1][1] - r.m[2][2],
+                        1.0f - r.m[0][0] + r.m[1][1] - r.m[2][2], 1.0f - r.m[0][0] - r.m[1][1] + r.m[2][2]};
+    int k = 0;
+    for (int i = 1; i < 4; i++) {
+        if (d[i] > d[k]) {
+            k = i;
+        }
+    }
+    const float s4 = 2.0f * sqrtf(d[k] > 0.0f ? d[k] : 0.0f); /* 4 |q_k| */
+    const float inv = s4 > 0.0f ? 1.0f / s4 : 0.0f;
+    /* off-diagonal combinations: 4 q_w q_x, 4 q_w q_y, 4 q_w q_z, 4 q_x q_y, 4 q_x q_z, 4 q_y q_z */
+    const float wx = r.m[2][1] - r.m[1][2], wy = r.m[0][2] - r.m[2][0], wz = r.m[1][0] - r.m[0][1];
+    const float xy = r.m[0][1] + r.m[1][0], xz = r.m[0][2] + r.m[2][0], yz = r.m[1][2] + r.m[2][1];
+    float q[4];
+    if (k == 0) {
+        q[0] = 0.25f * s4, q[1] = wx * inv, q[2] = wy * inv, q[3] = wz * inv;
+    } else if (k == 1) {
+        q[0] = wx * inv, q[1] = 0.25f * s4, q[2] = xy * inv, q[3] = xz * inv;
+    } else if (k == 2) {
+        q[0] = wy * inv, q[1] = xy * inv, q[2] = 0.25f * s4, q[3] = yz * inv;
+    } else {
+        q[0] = wz * inv, q[1] = xz * inv, q[2] = yz * inv, q[3] = 0.25f * s4;
+    }
+    const float n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    const float sgn = q[0] < 0.0f ? -1.0f : 1.0f;
+    const float scale = n2 > 0.0f ? sgn / sqrtf(n2) : 0.0f;
+    for (int i = 0; i < 4; i++) {
+        q_wxyz[i] = q[i] * scale;
+    }
+}

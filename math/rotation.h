@@ -51,6 +51,14 @@ mfns_m3_t mfns_rot_exp(mfns_v3_t w);
  * rotation (mfns_m3_is_rotation); other inputs give the log of a nearby one. */
 mfns_v3_t mfns_rot_log(mfns_m3_t r);
 
+/* Unit quaternion q = (w, x, y, z), Hamilton convention, of the rotation R:
+ * R v = q v q*, i.e. the quaternion that rotates vectors as R does (for
+ * R = C_b_w: the body's orientation in the world, ROS geometry_msgs order
+ * after moving w last). Shepperd's method: the largest of the four squared
+ * components is taken from the diagonal, so no branch divides by a small
+ * number. w >= 0 (the sign of a quaternion is free; this fixes it). */
+void mfns_m3_to_quat(mfns_m3_t r, float q_wxyz[4]);
+
 /* Angle of the rotation R_a^T R_b in rad, in [0, pi]: the attitude error. */
 float mfns_rot_angle_between(mfns_m3_t ra, mfns_m3_t rb);
 

@@ -241,6 +241,7 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     out->euler_deg.roll = e.roll * RAD2DEG;
     out->euler_deg.pitch = e.pitch * RAD2DEG;
     out->euler_deg.yaw = e.yaw * RAD2DEG;
+    mfns_m3_to_quat(mfns_m3_transpose(pose.C_w_b), out->q_b_w);
     if (r != MFNS_POSE_R_NONE) {
         out->reason = r;
         return out->status;

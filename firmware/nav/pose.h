@@ -99,7 +99,16 @@ typedef struct {
     mfns_pose_t pose;            /* C_w_b (the rotation matrix) and r_bw_b */
     mfns_v3_t r_wb_w;            /* body position in the world (mm) */
     mfns_euler_t euler_deg;      /* 2-1-3 Euler angles of C_w_b (deg) */
+    float q_b_w[4];              /* the body's orientation in the world as a unit quaternion
+                                    (w, x, y, z), Hamilton, of C_b_w = C_w_b^T (rotates body
+                                    vectors into the world; mfns_m3_to_quat), w >= 0 */
     float cov[6][6];             /* covariance of the increment (dtheta rad, dt mm) */
+    /* The pose covariance for a fusion filter, in ROS PoseWithCovariance
+     * order (x, y, z, rx, ry, rz): of the position error r_wb_w(est) -
+     * r_wb_w(true) (mm) and of the attitude error phi_w (rad) about the
+     * world's fixed axes, C_b_w(est) = exp(phi_w) C_b_w(true). Units mm^2,
+     * mm rad, rad^2. */
+    float cov_ros[6][6];
     float sigma_pos_mm[3];       /* 1-sigma of r_wb_w per world axis */
     float sigma_euler_deg[3];    /* 1-sigma of roll, pitch, yaw */
     uint16_t beacons_used;       /* inlier observations in the final solve */

@@ -17,6 +17,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], float sigma_px, flo
         for (int j = 0; j < 6; j++) {
             a[i][j] = h[i][j];
             out->cov[i][j] = 0.0f;
+            out->cov_ros[i][j] = 0.0f;
         }
     }
     for (int i = 0; i < 3; i++) {
@@ -67,6 +68,34 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], float sigma_px, flo
             }
             jo[3 + r][c] = v / (2.0f * hstep);
             jo[3 + r][c + 3] = 0.0f;
+        }
+    }
+    /* ROS order: the position rows of jo, then the rotation about the world
+     * axes. The increment rotates C_w_b on the left, C_w_b' = exp(dtheta) C_w_b,
+     * so C_b_w' = C_b_w exp(-dtheta) = exp(-C_b_w dtheta) C_b_w: phi_w =
+     * -C^T dtheta (pose.h: both errors are estimate minus truth). */
+    float jr[6][6];
+    for (int r = 0; r < 6; r++) {
+        for (int c = 0; c < 6; c++) {
+            jr[r][c] = r < 3 ? jo[r][c] : (c < 3 ? -ct.m[r - 3][c] : 0.0f);
+        }
+    }
+    for (int p = 0; p < 6; p++) {
+        for (int q = 0; q < 6; q++) {
+            float v = 0.0f;
+            for (int i = 0; i < 6; i++) {
+                for (int j = 0; j < 6; j++) {
+                    v += jr[p][i] * out->cov[i][j] * jr[q][j];
+                }
+            }
+            out->cov_ros[p][q] = v;
+        }
+    }
+    for (int p = 0; p < 6; p++) { /* exactly symmetric */
+        for (int q = p + 1; q < 6; q++) {
+            const float m = 0.5f * (out->cov_ros[p][q] + out->cov_ros[q][p]);
+            out->cov_ros[p][q] = m;
+            out->cov_ros[q][p] = m;
         }
     }
     for (int r = 0; r < 6; r++) {

@@ -174,6 +174,73 @@ static void test_converges_from_far(void **state)
     assert_true(ok >= trials * 98 / 100);
 }
 
+/* Whiten the sample second moment m2 with the predicted covariance pred:
+ * W = L^-1 m2 L^-T (pred = L L^T) is the identity when pred is right. Gives
+ * the worst |W_ii - 1| and |W_ij| and the mean NEES trace(W). */
+static void whiten(const float pred[6][6], const double m2[6][6], double *diag_off_by, double *offdiag,
+                   double *mean_nees)
+{
+    /* whiten with the predicted covariance: L^-1 e has identity covariance */
+    double c[6][6], l[6][6] = {{0}};
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            c[i][j] = pred[i][j];
+        }
+    }
+    for (int j = 0; j < 6; j++) {
+        double d = c[j][j];
+        for (int k = 0; k < j; k++) {
+            d -= l[j][k] * l[j][k];
+        }
+        assert_true(d > 0);
+        l[j][j] = sqrt(d);
+        for (int i = j + 1; i < 6; i++) {
+            double v = c[i][j];
+            for (int k = 0; k < j; k++) {
+                v -= l[i][k] * l[j][k];
+            }
+            l[i][j] = v / l[j][j];
+        }
+    }
+    /* W = L^-1 S L^-T with S the sample second moment (mean is ~0) */
+    double s[6][6], li[6][6] = {{0}};
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            s[i][j] = m2[i][j];
+        }
+    }
+    for (int j = 0; j < 6; j++) {
+        li[j][j] = 1.0 / l[j][j];
+        for (int i = j + 1; i < 6; i++) {
+            double v = 0;
+            for (int k = j; k < i; k++) {
+                v -= l[i][k] * li[k][j];
+            }
+            li[i][j] = v / l[i][i];
+        }
+    }
+    double worst_diag = 0, worst_off = 0, tr = 0;
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            double w = 0;
+            for (int a = 0; a < 6; a++) {
+                for (int b = 0; b < 6; b++) {
+                    w += li[i][a] * s[a][b] * li[j][b];
+                }
+            }
+            if (i == j) {
+                tr += w;
+                worst_diag = fmax(worst_diag, fabs(w - 1.0));
+            } else {
+                worst_off = fmax(worst_off, fabs(w));
+            }
+        }
+    }
+    *diag_off_by = worst_diag;
+    *offdiag = worst_off;
+    *mean_nees = tr;
+}
+
 /* Monte Carlo of the ML solve at one pose: the sample covariance of the
  * increment error against the predicted sigma^2 (J^T J)^-1. */
 static void monte_carlo(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const pt_dpose_t *truth, double sigma,
@@ -187,7 +254,7 @@ static void monte_carlo(const mfns_rig_t *rig, const mfns_beacon_map_t *map, con
     const mfns_pose_t truth_f = pt_to_float(truth);
     mfns_pose_solution_t ref;
     assert_true(mfns_pose_refine(rig, map, &frame, &assoc, &truth_f, &cfg, &ref) != MFNS_POSE_NO_FIX);
-    double sum[6] = {0}, sum2[6][6] = {{0}};
+    double sum[6] = {0}, sum2[6][6] = {{0}}, sum2r[6][6] = {{0}};
     double pos_s2[3] = {0}, eul_s2[3] = {0};
     int used = 0;
     for (int t = 0; t < trials; t++) {
@@ -218,6 +285,25 @@ static void monte_carlo(const mfns_rig_t *rig, const mfns_beacon_map_t *map, con
         for (int i = 0; i < 3; i++) {
             pos_s2[i] += (pe[i] - pt[i]) * (pe[i] - pt[i]);
         }
+        /* ROS order: the errors est - true: position, then phi_w with
+         * C_b_w(est) = exp(phi_w) C_b_w(true) */
+        double mr[3][3];
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++) {
+                mr[i][j] = est.C[0][i] * truth->C[0][j] + est.C[1][i] * truth->C[1][j] + est.C[2][i] * truth->C[2][j];
+            }
+        }
+        const double er[6] = {pe[0] - pt[0],
+                              pe[1] - pt[1],
+                              pe[2] - pt[2],
+                              0.5 * (mr[2][1] - mr[1][2]),
+                              0.5 * (mr[0][2] - mr[2][0]),
+                              0.5 * (mr[1][0] - mr[0][1])};
+        for (int i = 0; i < 6; i++) {
+            for (int j = 0; j < 6; j++) {
+                sum2r[i][j] += er[i] * er[j];
+            }
+        }
         mfns_euler_t ee;
         (void)mfns_m3_to_euler213(sol.pose.C_w_b, &ee);
         const double de[3] = {ee.roll - ref.euler_deg.roll * DEG, ee.pitch - ref.euler_deg.pitch * DEG,
@@ -228,60 +314,26 @@ static void monte_carlo(const mfns_rig_t *rig, const mfns_beacon_map_t *map, con
         used++;
     }
     assert_true(used >= trials * 99 / 100);
-    /* whiten with the predicted covariance: L^-1 e has identity covariance */
-    double c[6][6], l[6][6] = {{0}};
+    double m2[6][6], m2r[6][6];
     for (int i = 0; i < 6; i++) {
         for (int j = 0; j < 6; j++) {
-            c[i][j] = ref.cov[i][j];
+            m2[i][j] = sum2[i][j] / used;
+            m2r[i][j] = sum2r[i][j] / used;
         }
     }
-    for (int j = 0; j < 6; j++) {
-        double d = c[j][j];
-        for (int k = 0; k < j; k++) {
-            d -= l[j][k] * l[j][k];
-        }
-        assert_true(d > 0);
-        l[j][j] = sqrt(d);
-        for (int i = j + 1; i < 6; i++) {
-            double v = c[i][j];
-            for (int k = 0; k < j; k++) {
-                v -= l[i][k] * l[j][k];
-            }
-            l[i][j] = v / l[j][j];
-        }
-    }
-    /* W = L^-1 S L^-T with S the sample second moment (mean is ~0) */
-    double s[6][6], li[6][6] = {{0}};
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            s[i][j] = sum2[i][j] / used;
-        }
-    }
-    for (int j = 0; j < 6; j++) {
-        li[j][j] = 1.0 / l[j][j];
-        for (int i = j + 1; i < 6; i++) {
-            double v = 0;
-            for (int k = j; k < i; k++) {
-                v -= l[i][k] * li[k][j];
-            }
-            li[i][j] = v / l[i][i];
-        }
-    }
-    double worst_diag = 0, worst_off = 0;
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            double w = 0;
-            for (int a = 0; a < 6; a++) {
-                for (int b = 0; b < 6; b++) {
-                    w += li[i][a] * s[a][b] * li[j][b];
-                }
-            }
-            if (i == j) {
-                worst_diag = fmax(worst_diag, fabs(w - 1.0));
-            } else {
-                worst_off = fmax(worst_off, fabs(w));
-            }
-        }
+    double worst_diag, worst_off, nees, worst_diag_r, worst_off_r, nees_r;
+    whiten(ref.cov, m2, &worst_diag, &worst_off, &nees);
+    /* the ROS-order covariance of (r_wb_w, phi_w) describes the same errors */
+    whiten(ref.cov_ros, m2r, &worst_diag_r, &worst_off_r, &nees_r);
+    print_message("  ROS-order covariance: whitened |diag-1| %.3f, |offdiag| %.3f, mean NEES %.2f (6 expected)\n",
+                  worst_diag_r, worst_off_r, nees_r);
+    assert_true(worst_diag_r < 0.15);
+    assert_true(worst_off_r < 0.15);
+    assert_true(fabs(nees_r - 6.0) < 0.6);
+    assert_true(fabs(nees - nees_r) < 1e-3 * nees);
+    for (int i = 0; i < 3; i++) {
+        assert_true(fabs(ref.cov_ros[i][i] - (double)ref.sigma_pos_mm[i] * ref.sigma_pos_mm[i]) <=
+                    1e-4 * ref.cov_ros[i][i] + 1e-12);
     }
     double worst_axis = 0;
     for (int i = 0; i < 3; i++) {

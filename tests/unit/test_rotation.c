@@ -165,6 +165,58 @@ static void test_float_against_double_reference(void **state)
     assert_m3_near(c, e, 2e-7);
 }
 
+/* q v q* (Hamilton) for the unit quaternion q = (w, x, y, z). */
+static mfns_v3_t quat_rotate(const float q[4], mfns_v3_t v)
+{
+    const mfns_v3_t u = mfns_v3(q[1], q[2], q[3]);
+    const float w = q[0];
+    /* v + 2 w (u x v) + 2 u x (u x v) */
+    const mfns_v3_t t = mfns_v3_scale(mfns_v3_cross(u, v), 2.0f);
+    return mfns_v3_add(mfns_v3_add(v, mfns_v3_scale(t, w)), mfns_v3_cross(u, t));
+}
+
+static void test_quat_rotates_as_the_matrix(void **state)
+{
+    (void)state;
+    /* Rotations over the whole group, the four Shepperd branches included:
+     * angles up to pi about axes near each coordinate axis and in general
+     * directions. The quaternion must be unit, have w >= 0 and rotate the
+     * basis vectors as R does. */
+    uint32_t seed = 12345u;
+    for (int n = 0; n < 4000; n++) {
+        float ax[3];
+        for (int i = 0; i < 3; i++) {
+            seed = seed * 1664525u + 1013904223u;
+            ax[i] = (float)(seed >> 8) / 16777216.0f - 0.5f;
+        }
+        if (n % 4 != 0) { /* near a coordinate axis: the x, y, z branches */
+            ax[(n % 4) - 1] += 4.0f;
+        }
+        seed = seed * 1664525u + 1013904223u;
+        const float ang = (float)MFNS_PI * (float)(seed >> 8) / 16777216.0f;
+        const float nrm = sqrtf(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+        const mfns_m3_t r = mfns_rot_exp(mfns_v3(ax[0] / nrm * ang, ax[1] / nrm * ang, ax[2] / nrm * ang));
+        float q[4];
+        mfns_m3_to_quat(r, q);
+        assert_near(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3], 1.0, 1e-6);
+        assert_true(q[0] >= 0.0f);
+        for (int c = 0; c < 3; c++) {
+            float e[3] = {0.0f, 0.0f, 0.0f};
+            e[c] = 1.0f;
+            const mfns_v3_t v = quat_rotate(q, mfns_v3(e[0], e[1], e[2]));
+            assert_near(v.x, r.m[0][c], 2e-6);
+            assert_near(v.y, r.m[1][c], 2e-6);
+            assert_near(v.z, r.m[2][c], 2e-6);
+        }
+    }
+    /* identity and a half turn about z: (1,0,0,0) and (0,0,0,1) */
+    float q[4];
+    mfns_m3_to_quat(mfns_m3_identity(), q);
+    assert_near(q[0], 1.0, 1e-7);
+    mfns_m3_to_quat(mfns_rot_exp(mfns_v3(0.0f, 0.0f, (float)MFNS_PI)), q);
+    assert_near(fabs(q[3]), 1.0, 1e-6);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -177,6 +229,7 @@ int main(void)
         cmocka_unit_test(test_log_near_pi),
         cmocka_unit_test(test_exp_is_active_rotation),
         cmocka_unit_test(test_float_against_double_reference),
+        cmocka_unit_test(test_quat_rotates_as_the_matrix),
     };
     return cmocka_run_group_tests_name("rotation", tests, NULL, NULL);
 }
