@@ -213,10 +213,11 @@ static float chi2_quantile(int dof)
 }
 
 /* The residuals of the inliers are plausible under the noise: sum of
- * (r / sigma_i)^2 below the chi-square quantile with 2n - 6 degrees of
- * freedom at 1e-5, where sigma_i^2 = sigma_px^2 + (f sigma_beacon / depth)^2
- * (the beacon's survey error seen at its range). A right pose fails once in
- * 1e5; a rival correspondence that fits "nearly" is rejected. */
+ * r_i^T R_i^-1 r_i below the chi-square quantile with 2n - 6 degrees of
+ * freedom at 1e-5, where R_i is the observation's covariance of the ML solve
+ * (mfns_pose_obs_cov: centroid, floor, and the beacon's survey error seen at
+ * its range). A right pose fails once in 1e5; a rival correspondence that
+ * fits "nearly" is rejected. */
 static bool chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
 {
     const int dof = 2 * (int)sol->beacons_used - 6;
@@ -224,7 +225,6 @@ static bool chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol
         return true;
     }
     float chi2 = 0.0f;
-    const float s2px = q->cfg->sigma_px * q->cfg->sigma_px;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         for (int i = 0; i < q->frame->count[c]; i++) {
             const int16_t b = sol->assoc.beacon[c][i];
@@ -232,15 +232,17 @@ static bool chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol
                 continue;
             }
             const mfns_camera_t *cam = &q->rig->cam[c];
-            const mfns_v3_t pk = mfns_cam_world_to_camera(cam, &sol->pose, q->map->beacon[b].p_w);
-            float uv[2];
-            if (pk.z < MFNS_CAM_MIN_DEPTH_MM ||
-                mfns_cam_project(cam, &sol->pose, q->map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+            const mfns_obs_t *o = &q->frame->obs[c][i];
+            float uv[2], rc[3], w[3];
+            if (mfns_cam_project(cam, &sol->pose, q->map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK ||
+                !mfns_pose_obs_cov(cam, &sol->pose, q->map->beacon[b].p_w, o->cov_px2, q->map->beacon[b].sigma_mm,
+                                   q->cfg->sigma_px, rc) ||
+                !mfns_pose_whitener(rc, w)) {
                 return false;
             }
-            const float sb = cam->k.fx * q->map->beacon[b].sigma_mm / pk.z;
-            const float du = uv[0] - q->frame->obs[c][i].u, dv = uv[1] - q->frame->obs[c][i].v;
-            chi2 += (du * du + dv * dv) / (s2px + sb * sb);
+            const float du = uv[0] - o->u, dv = uv[1] - o->v;
+            const float e0 = w[0] * du, e1 = w[1] * du + w[2] * dv;
+            chi2 += e0 * e0 + e1 * e1;
         }
     }
     return chi2 <= chi2_quantile(dof);
@@ -471,25 +473,17 @@ static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t 
 static bool stop(const mfns_acq_t *q) { return q->certified >= 0 || q->to_complete || q->progress.budget_out; }
 
 
-static float obs_var(const mfns_acq_t *q, int c, int b, float depth)
+/* The observation's covariance R (px^2, mfns_pose_obs_cov: the one the ML
+ * solve weights with) of measurement m at pose. */
+static bool obs_cov(const mfns_acq_t *q, const mfns_pose_meas_t *m, const mfns_pose_t *pose, float r[3])
 {
-    const float sb = q->rig->cam[c].k.fx * q->map->beacon[b].sigma_mm / (depth > 1.0f ? depth : 1.0f);
-    return q->cfg->sigma_px * q->cfg->sigma_px + sb * sb;
+    return mfns_pose_obs_cov(&q->rig->cam[m->cam], pose, m->p_w, m->cov_px2, m->sigma_mm, q->cfg->sigma_px, r);
 }
 
 static void fill_meas(const mfns_acq_t *q, int blob, int beacon, mfns_pose_meas_t *m)
 {
     const mfns_acq_blob_t *bl = &q->blobs[blob];
-    const mfns_obs_t *o = &q->frame->obs[bl->cam][bl->idx];
-    m->cam = bl->cam;
-    m->idx = bl->idx;
-    m->beacon = (int16_t)beacon;
-    m->u = o->u;
-    m->v = o->v;
-    m->x = o->x;
-    m->y = o->y;
-    m->p_w = q->map->beacon[beacon].p_w;
-    m->active = 1;
+    mfns_pose_meas_set(q->map, q->frame, bl->cam, bl->idx, beacon, m);
 }
 
 /* Sound verification of one minimal pose in the completion: the anchor's
@@ -503,15 +497,14 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
     float h[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N] = {{0.0f}};
     for (int t = 0; t < 3; t++) {
         fill_meas(q, tri[t], abc[t], &m[t]);
-        float r[2], jac[2][6];
-        if (!mfns_pose_residual(q->rig, &m[t], pose, r, jac)) {
+        float r[2], jac[2][6], rc[3];
+        if (!obs_cov(q, &m[t], pose, rc) || !mfns_pose_whitener(rc, m[t].w) ||
+            !mfns_pose_wresidual(q->rig, &m[t], pose, r, jac)) {
             return;
         }
-        const mfns_v3_t pk = mfns_cam_world_to_camera(&q->rig->cam[m[t].cam], pose, m[t].p_w);
-        const float w = 1.0f / obs_var(q, m[t].cam, abc[t], pk.z);
-        for (int i = 0; i < 6; i++) {
+        for (int i = 0; i < 6; i++) { /* J^T R^-1 J from the whitened Jacobian */
             for (int j = 0; j <= i; j++) {
-                h[i][j] += w * (jac[0][i] * jac[0][j] + jac[1][i] * jac[1][j]);
+                h[i][j] += jac[0][i] * jac[0][j] + jac[1][i] * jac[1][j];
             }
         }
     }
@@ -563,9 +556,11 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
                     }
                 }
             }
-            const mfns_v3_t pk = mfns_cam_world_to_camera(&q->rig->cam[m[3].cam], pose, m[3].p_w);
-            const float s2 = obs_var(q, m[3].cam, d, pk.z);
-            float s00 = s2, s01 = 0.0f, s11 = s2;
+            float rc[3];
+            if (!obs_cov(q, &m[3], pose, rc)) {
+                continue;
+            }
+            float s00 = rc[0], s01 = rc[1], s11 = rc[2];
             for (int k = 0; k < 6; k++) {
                 s00 += jp[0][k] * jac[0][k];
                 s01 += jp[0][k] * jac[1][k];

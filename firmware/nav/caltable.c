@@ -64,6 +64,8 @@ const char *mfns_caltable_strerror(mfns_caltable_status_t s)
     case MFNS_CALTABLE_E_INDEX_GEOMETRY: return "calibration table map index: beacon emission cone or range interval invalid";
     case MFNS_CALTABLE_E_INDEX_NEIGHBOUR: return "calibration table map index: bad neighbour list (count, index, self or repeated)";
     case MFNS_CALTABLE_E_INDEX_PAIR: return "calibration table map index: pair angle interval reversed";
+    case MFNS_CALTABLE_E_CALIB_COV_COUNT: return "calibration table calibration covariance: parameter count is neither 0 nor 45";
+    case MFNS_CALTABLE_E_CALIB_COV_PSD: return "calibration table calibration covariance: not positive semi-definite (negative variance or inconsistent correlations)";
     default: break;
     }
     return "calibration table: unknown status";
@@ -188,7 +190,7 @@ static bool parse_globals(parser_t *p, uint16_t *ncam, uint16_t *nbeacon, float 
         return fail(p, MFNS_CALTABLE_E_RESERVED, q + 2); /* version 1's max_hypotheses */
     }
     float *const f[7] = {&s->step_tol,           &s->grad_tol,      &s->huber_k,  &s->outlier_gate_sigma,
-                         &s->max_residual_rms_px, &s->track_gate_px, &s->min_rcond};
+                         &s->max_residual_rms_sigma, &s->track_gate_px, &s->min_rcond};
     /* ranges are (lo, hi]: tolerances below 1, gains and gates positive and bounded */
     static const float lo[7] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
     static const float hi[7] = {1.0f, 1.0f, 1000.0f, 100000.0f, 1000.0f, 4096.0f, 0.999f};
@@ -383,6 +385,114 @@ static bool parse_beacons(parser_t *p, uint32_t pos, uint16_t n, mfns_beacon_map
     return true;
 }
 
+/* The calibration-covariance section at pos (docs/caltable.md "Calibration
+ * covariance"): u16 parameter count (0 = unknown, or MFNS_CALIB_PARAMS), u16
+ * reserved, then the upper triangle row-major as f32. Accepted: every value
+ * finite and the matrix positive semi-definite, tested on its correlation
+ * form (unit diagonal: the units differ by 1e10) by a Cholesky factorisation
+ * that takes pivots below MFNS_CALTABLE_COV_PSD_TOL as zero and refuses one
+ * below -MFNS_CALTABLE_COV_PSD_TOL. The factor is a packed triangle on the
+ * stack (4.1 KB). Advances *pos past the section. */
+#define CALIB_TRI ((uint32_t)MFNS_CALIB_PARAMS * (MFNS_CALIB_PARAMS + 1u) / 2u)
+
+static uint32_t tri_upper(uint32_t i, uint32_t j) /* (i, j), i <= j, in the stored upper triangle */
+{
+    return i * MFNS_CALIB_PARAMS - i * (i - 1u) / 2u + (j - i);
+}
+
+static bool parse_calib_cov(parser_t *p, uint32_t *pos, mfns_calib_cov_t *dst)
+{
+    const uint8_t *b = p->b;
+    const uint32_t o = *pos;
+    if (p->size - o < MFNS_CALTABLE_COV_HEADER_SIZE) {
+        return fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
+    }
+    const uint16_t n = rd_u16(b, o);
+    if (n != 0u && n != MFNS_CALIB_PARAMS) {
+        return fail(p, MFNS_CALTABLE_E_CALIB_COV_COUNT, o);
+    }
+    if (rd_u16(b, o + 2u) != 0) {
+        return fail(p, MFNS_CALTABLE_E_RESERVED, o + 2u);
+    }
+    const uint32_t body = o + MFNS_CALTABLE_COV_HEADER_SIZE;
+    if (n == 0u) {
+        if (dst != NULL) {
+            memset(dst, 0, sizeof *dst);
+        }
+        *pos = body;
+        return true;
+    }
+    if ((p->size - body) / 4u < CALIB_TRI) {
+        return fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
+    }
+    for (uint32_t e = 0; e < CALIB_TRI; e++) {
+        float f;
+        if (!f32_at(p, body + 4u * e, &f)) {
+            return false;
+        }
+    }
+    /* correlation form, lower triangle packed by rows: l[i (i + 1) / 2 + j] */
+    float sd[MFNS_CALIB_PARAMS];
+    for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
+        const float d = rd_f32(b, body + 4u * tri_upper(i, i));
+        if (!(d >= 0.0f)) {
+            return fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, body + 4u * tri_upper(i, i));
+        }
+        sd[i] = sqrtf(d);
+    }
+    float l[CALIB_TRI];
+    for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
+        for (uint32_t j = 0; j <= i; j++) {
+            const uint32_t off = body + 4u * tri_upper(j, i);
+            const float s = rd_f32(b, off);
+            float c;
+            if (sd[i] > 0.0f && sd[j] > 0.0f) {
+                c = s / (sd[i] * sd[j]);
+            } else if (s == 0.0f) {
+                c = 0.0f; /* a parameter known exactly: no correlation */
+            } else {
+                return fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, off);
+            }
+            l[i * (i + 1u) / 2u + j] = c;
+        }
+    }
+    for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
+        for (uint32_t j = 0; j <= i; j++) {
+            float s = l[i * (i + 1u) / 2u + j];
+            for (uint32_t k = 0; k < j; k++) {
+                s -= l[i * (i + 1u) / 2u + k] * l[j * (j + 1u) / 2u + k];
+            }
+            if (i == j) {
+                if (s < -MFNS_CALTABLE_COV_PSD_TOL) {
+                    return fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, body + 4u * tri_upper(i, i));
+                }
+                l[i * (i + 1u) / 2u + i] = s > MFNS_CALTABLE_COV_PSD_TOL ? sqrtf(s) : 0.0f;
+            } else {
+                const float ljj = l[j * (j + 1u) / 2u + j];
+                if (ljj > 0.0f) {
+                    l[i * (i + 1u) / 2u + j] = s / ljj;
+                } else if (fabsf(s) <= sqrtf(MFNS_CALTABLE_COV_PSD_TOL)) {
+                    l[i * (i + 1u) / 2u + j] = 0.0f; /* a null direction stays null */
+                } else {
+                    return fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, body + 4u * tri_upper(j, i));
+                }
+            }
+        }
+    }
+    if (dst != NULL) {
+        dst->present = 1u;
+        for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
+            for (uint32_t j = i; j < MFNS_CALIB_PARAMS; j++) {
+                const float v = rd_f32(b, body + 4u * tri_upper(i, j));
+                dst->cov[i][j] = v;
+                dst->cov[j][i] = v;
+            }
+        }
+    }
+    *pos = body + 4u * CALIB_TRI;
+    return true;
+}
+
 /* The map-index section at pos (beacon_index.h; docs/caltable.md "Map
  * index"), which must end exactly at total_size. */
 static bool parse_index(parser_t *p, uint32_t pos, uint16_t nbeacon, mfns_beacon_index_t *dst)
@@ -539,8 +649,11 @@ static bool parse_body(parser_t *p, mfns_caltable_t *dst)
     if (!parse_beacons(p, pos, nbeacon, dst != NULL ? &dst->beacons : NULL)) {
         return false;
     }
-    if (!parse_index(p, pos + (uint32_t)nbeacon * MFNS_CALTABLE_BEACON_SIZE, nbeacon,
-                     dst != NULL ? &dst->index : NULL)) {
+    pos += (uint32_t)nbeacon * MFNS_CALTABLE_BEACON_SIZE;
+    if (!parse_calib_cov(p, &pos, dst != NULL ? &dst->calib_cov : NULL)) {
+        return false;
+    }
+    if (!parse_index(p, pos, nbeacon, dst != NULL ? &dst->index : NULL)) {
         return false;
     }
     if (dst != NULL) {

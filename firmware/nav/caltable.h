@@ -12,7 +12,8 @@
  * finite, focal lengths positive, principal point inside the image, C_k_b a
  * rotation to MFNS_CALTABLE_ROT_TOL, grid dimensions/steps/coverage and every
  * node consistent with the lens model to MFNS_CALTABLE_GRID_TOL_PX; beacons:
- * finite, sigma positive, ids unique; the map index (beacon_index.h):
+ * finite, sigma positive, ids unique; the calibration covariance (count,
+ * finite, positive semi-definite); the map index (beacon_index.h):
  * counts, policy, workspace, per-beacon geometry, neighbour lists, pair
  * intervals; finally no bytes left over.
  *
@@ -32,22 +33,28 @@
 #include "undistort.h"
 
 #define MFNS_CALTABLE_MAGIC "MFTB"
-#define MFNS_CALTABLE_VERSION 2u     /* the newest format this loader reads */
-#define MFNS_CALTABLE_MIN_VERSION 2u /* the oldest: version 1 had no map index (rebuild it) */
+#define MFNS_CALTABLE_VERSION 3u     /* the newest format this loader reads */
+/* the oldest: version 1 had no map index, version 2 no calibration covariance
+ * and a pixel sigma meant as the whole noise (rebuild it) */
+#define MFNS_CALTABLE_MIN_VERSION 3u
 #define MFNS_CALTABLE_HEADER_SIZE 16u
 #define MFNS_CALTABLE_GLOBALS_SIZE 60u /* counts, pixel sigma, centroid + solver settings */
 #define MFNS_CALTABLE_CAMERA_FIXED_SIZE 116u
 #define MFNS_CALTABLE_NODE_SIZE 8u
 #define MFNS_CALTABLE_BEACON_SIZE 20u
+#define MFNS_CALTABLE_COV_HEADER_SIZE 4u /* calibration covariance: count, reserved */
+#define MFNS_CALTABLE_COV_MAX_SIZE \
+    (MFNS_CALTABLE_COV_HEADER_SIZE + 4u * MFNS_CALIB_PARAMS * (MFNS_CALIB_PARAMS + 1u) / 2u)
 /* Largest table this build accepts (bytes): all maxima of nav_config.h used. */
 #define MFNS_CALTABLE_MAX_BYTES                                                                           \
     (MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_GLOBALS_SIZE +                                             \
      MFNS_NUM_CAMERAS * (MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * MFNS_MAX_GRID_NODES) + \
-     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_BIDX_MAX_SECTION_SIZE)
+     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_CALTABLE_COV_MAX_SIZE + MFNS_BIDX_MAX_SECTION_SIZE)
 
 /* Acceptance limits (docs/caltable.md "Validation"). */
 #define MFNS_CALTABLE_ROT_TOL 1e-5f      /* max |C^T C - I| entry */
 #define MFNS_CALTABLE_GRID_TOL_PX 0.01f  /* node re-distorted vs its pixel */
+#define MFNS_CALTABLE_COV_PSD_TOL 1e-4f  /* pivot of the calibration correlation matrix taken as zero */
 
 typedef enum {
     MFNS_CALTABLE_OK = 0,
@@ -90,6 +97,8 @@ typedef enum {
     MFNS_CALTABLE_E_INDEX_GEOMETRY,   /* map index: emission axis/cone or range interval invalid */
     MFNS_CALTABLE_E_INDEX_NEIGHBOUR,  /* map index: neighbour count, index, self or repeated entry */
     MFNS_CALTABLE_E_INDEX_PAIR,       /* map index: pair angle interval reversed */
+    MFNS_CALTABLE_E_CALIB_COV_COUNT,  /* calibration covariance: parameter count neither 0 nor MFNS_CALIB_PARAMS */
+    MFNS_CALTABLE_E_CALIB_COV_PSD,    /* calibration covariance: negative variance or not positive semi-definite */
     MFNS_CALTABLE_STATUS_COUNT
 } mfns_caltable_status_t;
 
@@ -99,9 +108,10 @@ typedef struct {
     q16_16_t grid_node[MFNS_NUM_CAMERAS][MFNS_MAX_GRID_NODES][2];
     mfns_beacon_map_t beacons;
     mfns_beacon_index_t index;             /* the map's index for acquisition */
+    mfns_calib_cov_t calib_cov;            /* the calibration's uncertainty (present = 0: unknown) */
     mfns_centroid_settings_t centroid;
     mfns_solver_settings_t solver;
-    float pixel_sigma_px;                  /* 1-sigma centroid noise the solver assumes */
+    float pixel_sigma_px;                  /* 1-sigma unmodelled pixel error (pose.h mfns_pose_config_t) */
     uint16_t format_version;
     uint32_t size_bytes;
     uint32_t crc32;                        /* body CRC: the table's identity for telemetry */

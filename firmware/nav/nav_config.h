@@ -43,12 +43,43 @@ typedef struct {
     uint16_t max_iterations;    /* hard cap of the Gauss-Newton/LM refinement */
     float step_tol;             /* converged when |rotation step| (rad) and |translation step|/1000 mm below */
     float grad_tol;             /* or when the scaled gradient is below */
-    float huber_k;              /* robust loss threshold, in units of pixel sigma */
-    float outlier_gate_sigma;   /* residual beyond gate * sigma marks an outlier */
-    float max_residual_rms_px;  /* NO_FIX when the inlier RMS exceeds this */
+    float huber_k;              /* robust loss threshold on the whitened residual |L^-1 r| (sigmas) */
+    float outlier_gate_sigma;   /* whitened residual |L^-1 r| beyond this marks an outlier (sigmas) */
+    float max_residual_rms_sigma; /* NO_FIX when the whitened inlier RMS per coordinate exceeds this */
     float track_gate_px;        /* association gate when tracking */
     float min_rcond;            /* normal equations below this are singular geometry */
 } mfns_solver_settings_t;
+
+/* Calibration uncertainty (docs/caltable.md "Calibration covariance"): the
+ * covariance of the calibration's errors (estimate minus truth), jointly over
+ * the three cameras, MFNS_CALIB_PARAMS_PER_CAMERA parameters per camera in the
+ * order of mfns_calib_param_t (camera x first). theta: small rotation error of
+ * the mount about the body axes, C_k_b(est) = exp([theta]x) C_k_b(true); r:
+ * error of r_bk_b (mm, body). Units px, unitless (distortion), rad, mm. */
+typedef enum {
+    MFNS_CALIB_FX = 0,
+    MFNS_CALIB_FY,
+    MFNS_CALIB_CX,
+    MFNS_CALIB_CY,
+    MFNS_CALIB_K1,
+    MFNS_CALIB_K2,
+    MFNS_CALIB_P1,
+    MFNS_CALIB_P2,
+    MFNS_CALIB_K3,
+    MFNS_CALIB_THETA_X,
+    MFNS_CALIB_THETA_Y,
+    MFNS_CALIB_THETA_Z,
+    MFNS_CALIB_R_X,
+    MFNS_CALIB_R_Y,
+    MFNS_CALIB_R_Z,
+    MFNS_CALIB_PARAMS_PER_CAMERA
+} mfns_calib_param_t;
+#define MFNS_CALIB_PARAMS (MFNS_NUM_CAMERAS * MFNS_CALIB_PARAMS_PER_CAMERA)
+
+typedef struct {
+    uint8_t present; /* 0: not known (the table has none): no calibration term */
+    float cov[MFNS_CALIB_PARAMS][MFNS_CALIB_PARAMS]; /* symmetric PSD; index = camera * 15 + param */
+} mfns_calib_cov_t;
 
 /* The default settings: one set, used by the flight code's tests and tools
  * and written into every table by `mfns table build` (which reads them from

@@ -25,9 +25,12 @@ void mfns_solver_settings_default(mfns_solver_settings_t *s)
     s->max_iterations = 20;        /* LM converges in < 10 from a tracking prediction: hard cap */
     s->step_tol = 1e-6f;           /* rad, and mm/1000: far below what the system achieves */
     s->grad_tol = 1e-6f;           /* scaled gradient */
-    s->huber_k = 3.0f;             /* pixel sigmas: quadratic up to 3 sigma, robust beyond */
+    s->huber_k = 3.0f;             /* whitened sigmas: quadratic up to 3 sigma, robust beyond */
     s->outlier_gate_sigma = 30.0f; /* 3 px at 0.1 px: calibration errors give ~1-2 px, a wrong match tens */
-    s->max_residual_rms_px = 2.0f; /* no fix when the inlier RMS exceeds the calibration-limited few px */
+    /* whitened RMS per coordinate: 20 sigma is the former 2 px at the former
+     * fixed 0.1 px, the calibration-limited few px; a wrong identification or
+     * desynchronised frames give tens of px, hundreds of sigma */
+    s->max_residual_rms_sigma = 20.0f;
     s->track_gate_px = 20.0f;      /* association gate around a tracked prediction */
     s->min_rcond = 1e-7f;          /* float normal equations below this are singular geometry */
 }

@@ -102,9 +102,12 @@ void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reas
     }
 }
 
+/* Finite, and a covariance that is zero (unknown) or positive semi-definite. */
 static bool finite_obs(const mfns_obs_t *o)
 {
-    return isfinite(o->u) && isfinite(o->v) && isfinite(o->x) && isfinite(o->y);
+    const float *c = o->cov_px2;
+    return isfinite(o->u) && isfinite(o->v) && isfinite(o->x) && isfinite(o->y) && isfinite(c[0]) &&
+           isfinite(c[1]) && isfinite(c[2]) && c[0] >= 0.0f && c[2] >= 0.0f && c[1] * c[1] <= c[0] * c[2];
 }
 
 int mfns_pose_gather(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame,
@@ -126,16 +129,7 @@ int mfns_pose_gather(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame
             if (b < 0 || b >= (int)map->count || !finite_obs(&frame->obs[c][i])) {
                 return -1;
             }
-            mfns_pose_meas_t *e = &m[n++];
-            e->cam = (uint8_t)c;
-            e->idx = (uint8_t)i;
-            e->beacon = b;
-            e->u = frame->obs[c][i].u;
-            e->v = frame->obs[c][i].v;
-            e->x = frame->obs[c][i].x;
-            e->y = frame->obs[c][i].y;
-            e->p_w = map->beacon[b].p_w;
-            e->active = 1;
+            mfns_pose_meas_set(map, frame, c, i, b, &m[n++]);
         }
     }
     return n;
@@ -190,13 +184,20 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     if (cfg->mode == MFNS_POSE_MODE_PAPER) {
         r = mfns_pose_paper_newton(rig, m, n, cfg, cap, &pose, &iters);
     } else {
+        /* weights at the start pose, held fixed through one LM run (a fixed
+         * cost), re-evaluated at its solution for the gate and the re-solve */
+        mfns_pose_weigh(rig, m, n, &pose, cfg);
         r = mfns_pose_lm(rig, m, n, cfg, cap, &pose, &iters);
+        if (r == MFNS_POSE_R_NONE) {
+            mfns_pose_weigh(rig, m, n, &pose, cfg);
+        }
         if (r == MFNS_POSE_R_NONE && cfg->s.outlier_gate_sigma > 0.0f) {
-            const float gate = cfg->s.outlier_gate_sigma * cfg->sigma_px;
+            /* the whitened residual |L^-1 r| in sigmas of its own covariance */
+            const float gate = cfg->s.outlier_gate_sigma;
             for (int k = 0; k < n; k++) {
                 float res[2];
                 if (m[k].active &&
-                    (!mfns_pose_residual(rig, &m[k], &pose, res, NULL) ||
+                    (!mfns_pose_wresidual(rig, &m[k], &pose, res, NULL) ||
                      sqrtf(res[0] * res[0] + res[1] * res[1]) > gate)) {
                     m[k].active = 0;
                     outliers++;
@@ -213,11 +214,14 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
             }
         }
     }
+    /* the covariance and the residual check use R at the final pose (paper
+     * mode fits unweighted, and reports the same covariance) */
+    mfns_pose_weigh(rig, m, n, &pose, cfg);
     out->pose = pose; /* for diagnostics even when NO_FIX */
     out->iterations = (uint16_t)iters;
     out->outliers = (uint16_t)outliers;
     bool cam_used[MFNS_NUM_CAMERAS] = {false, false, false};
-    float ss = 0.0f;
+    float ss = 0.0f, sw = 0.0f;
     int used = 0;
     for (int k = 0; k < n; k++) {
         float res[2];
@@ -231,10 +235,13 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
         out->inlier[m[k].cam][m[k].idx] = 1;
         cam_used[m[k].cam] = true;
         ss += res[0] * res[0] + res[1] * res[1];
+        const float e0 = m[k].w[0] * res[0], e1 = m[k].w[1] * res[0] + m[k].w[2] * res[1];
+        sw += e0 * e0 + e1 * e1;
         used++;
     }
     out->beacons_used = (uint16_t)used;
     out->residual_rms_px = used > 0 ? sqrtf(ss / (float)(2 * used)) : 0.0f;
+    out->residual_rms_sigma = used > 0 ? sqrtf(sw / (float)(2 * used)) : 0.0f;
     out->r_wb_w = mfns_pose_position_w(&pose);
     mfns_euler_t e;
     (void)mfns_m3_to_euler213(pose.C_w_b, &e);
@@ -246,14 +253,15 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
         out->reason = r;
         return out->status;
     }
-    float h[6][6];
-    mfns_pose_info_matrix(rig, m, n, &pose, h);
-    r = mfns_pose_covariance(h, cfg->sigma_px, cfg->s.min_rcond, out);
+    float h[6][6], b[6][MFNS_CALIB_PARAMS];
+    const bool calib = cfg->calib_cov != NULL && cfg->calib_cov->present != 0U;
+    mfns_pose_info_matrix(rig, m, n, &pose, h, calib ? b : NULL);
+    r = mfns_pose_covariance(h, calib ? b : NULL, cfg->calib_cov, cfg->s.min_rcond, out);
     if (r != MFNS_POSE_R_NONE) {
         out->reason = r;
         return out->status;
     }
-    if (!(out->residual_rms_px <= cfg->s.max_residual_rms_px)) {
+    if (!(out->residual_rms_sigma <= cfg->s.max_residual_rms_sigma)) {
         out->reason = MFNS_POSE_R_RESIDUAL_HIGH;
         return out->status;
     }

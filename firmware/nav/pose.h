@@ -37,7 +37,7 @@ typedef struct {
     float x, y; /* undistorted normalized coordinates of the same blob */
     /* Covariance of the measured (u, v) from the blob's photometry (px^2):
      * [0] var u, [1] cov uv, [2] var v. All zero = not known: the solver
-     * then uses the table's pixel_sigma_px. */
+     * then has only the table's pixel_sigma_px (mfns_pose_obs_cov). */
     float cov_px2[3];
 } mfns_obs_t;
 
@@ -76,7 +76,7 @@ typedef enum {
     MFNS_POSE_R_NOT_IDENTIFIED, /* no hypothesis verified within the bound */
     MFNS_POSE_R_SINGULAR,       /* rank-deficient or ill-conditioned geometry */
     MFNS_POSE_R_NOT_CONVERGED,  /* iteration cap reached, or diverged */
-    MFNS_POSE_R_RESIDUAL_HIGH,  /* inlier RMS above max_residual_rms_px */
+    MFNS_POSE_R_RESIDUAL_HIGH,  /* whitened inlier RMS above max_residual_rms_sigma */
     MFNS_POSE_R_TRACK_LOST,     /* tracking gate kept fewer than 3 beacons */
     MFNS_POSE_R_BELOW_CERTIFICATE, /* fewer blobs than the map's certificate needs for a unique fix */
     MFNS_POSE_R_MINIMAL_UNCONFIRMED, /* three beacons whose pose disagrees with the prediction */
@@ -89,8 +89,16 @@ typedef enum {
 
 typedef struct {
     mfns_solver_settings_t s; /* from the calibration table */
-    float sigma_px;           /* pixel noise 1-sigma of the table (covariance, gates) */
+    /* The table's pixel_sigma_px: the 1-sigma of the pixel error that no
+     * observation's own covariance describes (unmodelled: the grid's residual,
+     * calibration residuals in the image), added in quadrature to every
+     * observation; when the centroider gives no covariance it is the whole
+     * pixel noise (mfns_pose_obs_cov). */
+    float sigma_px;
     mfns_pose_mode_t mode;
+    /* The calibration's uncertainty (the table's, nav_config.h) or NULL:
+     * NULL or not present gives no calibration term in the covariance. */
+    const mfns_calib_cov_t *calib_cov;
 } mfns_pose_config_t;
 
 typedef struct {
@@ -102,7 +110,11 @@ typedef struct {
     float q_b_w[4];              /* the body's orientation in the world as a unit quaternion
                                     (w, x, y, z), Hamilton, of C_b_w = C_w_b^T (rotates body
                                     vectors into the world; mfns_m3_to_quat), w >= 0 */
-    float cov[6][6];             /* covariance of the increment (dtheta rad, dt mm) */
+    /* Covariance of the increment (dtheta rad, dt mm): (J^T R^-1 J)^-1 with
+     * R_i each observation's covariance (mfns_pose_obs_cov), plus the
+     * calibration term A Sigma_c A^T, A = (J^T R^-1 J)^-1 J^T R^-1 J_c, when
+     * the configuration carries a calibration covariance (docs/pose.md). */
+    float cov[6][6];
     /* The pose covariance for a fusion filter, in ROS PoseWithCovariance
      * order (x, y, z, rx, ry, rz): of the position error r_wb_w(est) -
      * r_wb_w(true) (mm) and of the attitude error phi_w (rad) about the
@@ -117,9 +129,28 @@ typedef struct {
     uint16_t iterations;         /* refinement iterations (all rounds) */
     uint16_t hypotheses;         /* identification hypotheses tried (acquire; saturates) */
     float residual_rms_px;       /* inlier RMS per coordinate (px) */
+    float residual_rms_sigma;    /* whitened inlier RMS per coordinate, |L_i^-1 r_i| with
+                                    R_i = L_i L_i^T (1 = as the covariances predict) */
     mfns_pose_assoc_t assoc;     /* the correspondence used */
     uint8_t inlier[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
 } mfns_pose_solution_t;
+
+/* The covariance R (px^2: [0] var u, [1] cov uv, [2] var v) of one
+ * observation of the beacon at p_w (survey 1-sigma sigma_mm, isotropic) in
+ * camera cam at pose: the centroid's cov_px2 (all zero = unknown) +
+ * sigma_px^2 I (the unmodelled floor, pose.h mfns_pose_config_t) + the survey
+ * error projected into the image, sigma_mm^2 J_p J_p^T with J_p = d(u, v) /
+ * d p_w (distortion included). The one definition of an observation's
+ * variance: the ML solve's weights and covariance, its outlier gate and
+ * residual check, and the acquisition's verification use it. False when the
+ * beacon is behind the camera or R is not positive definite. */
+bool mfns_pose_obs_cov(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w, const float cov_px2[3],
+                       float sigma_mm, float sigma_px, float r_px2[3]);
+
+/* Whitening of a 2x2 covariance R = L L^T: w = (1/l00, -l10/(l00 l11),
+ * 1/l11), the lower triangle of L^-1 (e = L^-1 r has unit covariance: e0 =
+ * w0 r0, e1 = w1 r0 + w2 r1). False when R is not positive definite. */
+bool mfns_pose_whitener(const float r_px2[3], float w[3]);
 
 /* Defaults: the solver settings of mfns_solver_settings_default (the ones
  * tables carry by default), sigma 0.1 px, ML mode. The flight code takes the

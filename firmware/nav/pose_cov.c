@@ -1,6 +1,9 @@
-/* pose_cov.c -- the pose covariance sigma^2 (J^T J)^-1 of the ML solve (the
- * Cramer-Rao bound for Gaussian pixel noise of 1-sigma sigma_px), mapped to
- * the output quantities: r_wb_w (mm) and the 2-1-3 Euler angles (deg). */
+/* pose_cov.c -- the pose covariance of the ML solve: (J^T R^-1 J)^-1 with
+ * each observation's covariance R_i (the Cramer-Rao bound for Gaussian pixel
+ * noise), plus the first-order effect of the calibration's uncertainty
+ * A Sigma_c A^T, A = (J^T R^-1 J)^-1 J^T R^-1 J_c, mapped to the output
+ * quantities: r_wb_w (mm), the 2-1-3 Euler angles (deg) and the ROS-order
+ * covariance. */
 #include <math.h>
 #include <stddef.h>
 
@@ -9,7 +12,153 @@
 
 #define RAD2DEG 57.29577951308232f
 
-mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], float sigma_px, float min_rcond,
+/* d(u, v) / d(calibration parameters of the observing camera) (nav_config.h
+ * order) at pose, with the errors' conventions of mfns_calib_cov_t: a mount
+ * error theta turns camera coordinates p_k = C_k_b^T d (d = p_b - r_bk_b)
+ * into C_k_b^T exp(-[theta]x) d = p_k + C_k_b^T [d]x theta, an offset error r
+ * moves them by -C_k_b^T r. False when the beacon is behind the camera. */
+static bool calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
+                           float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA])
+{
+    const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3(pose->C_w_b, p_w), pose->r_bw_b);
+    const mfns_v3_t d = mfns_v3_sub(p_b, cam->r_bk_b);
+    const mfns_v3_t p_k = mfns_m3_tmul_v3(cam->C_k_b, d);
+    float uv[2], jk[2][3];
+    if (mfns_cam_project_c(&cam->k, p_k, uv, jk) != MFNS_PROJ_OK) {
+        return false;
+    }
+    const mfns_intrinsics_t *k = &cam->k;
+    const float x = p_k.x / p_k.z, y = p_k.y / p_k.z;
+    float xd, yd;
+    mfns_cam_distort(k, x, y, &xd, &yd, NULL);
+    const float r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;
+    /* d(xd, yd) / d(k1, k2, p1, p2, k3) */
+    const float dx[5] = {x * r2, x * r4, 2.0f * x * y, r2 + 2.0f * x * x, x * r6};
+    const float dy[5] = {y * r2, y * r4, r2 + 2.0f * y * y, 2.0f * x * y, y * r6};
+    jc[0][MFNS_CALIB_FX] = xd;
+    jc[1][MFNS_CALIB_FX] = 0.0f;
+    jc[0][MFNS_CALIB_FY] = 0.0f;
+    jc[1][MFNS_CALIB_FY] = yd;
+    jc[0][MFNS_CALIB_CX] = 1.0f;
+    jc[1][MFNS_CALIB_CX] = 0.0f;
+    jc[0][MFNS_CALIB_CY] = 0.0f;
+    jc[1][MFNS_CALIB_CY] = 1.0f;
+    for (int i = 0; i < 5; i++) {
+        jc[0][MFNS_CALIB_K1 + i] = k->fx * dx[i] + k->skew * dy[i];
+        jc[1][MFNS_CALIB_K1 + i] = k->fy * dy[i];
+    }
+    /* M = d(u, v) / d p_b = jk C_k_b^T */
+    float mm[2][3];
+    for (int a = 0; a < 2; a++) {
+        for (int j = 0; j < 3; j++) {
+            mm[a][j] = jk[a][0] * cam->C_k_b.m[j][0] + jk[a][1] * cam->C_k_b.m[j][1] + jk[a][2] * cam->C_k_b.m[j][2];
+        }
+    }
+    const mfns_m3_t sd = mfns_m3_skew(d);
+    for (int a = 0; a < 2; a++) {
+        for (int j = 0; j < 3; j++) {
+            jc[a][MFNS_CALIB_THETA_X + j] = mm[a][0] * sd.m[0][j] + mm[a][1] * sd.m[1][j] + mm[a][2] * sd.m[2][j];
+            jc[a][MFNS_CALIB_R_X + j] = -mm[a][j];
+        }
+    }
+    return true;
+}
+
+void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
+                           const mfns_pose_t *pose, float h[6][6], float b[6][MFNS_CALIB_PARAMS])
+{
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            h[i][j] = 0.0f;
+        }
+        for (int j = 0; b != NULL && j < MFNS_CALIB_PARAMS; j++) {
+            b[i][j] = 0.0f;
+        }
+    }
+    for (int k = 0; k < n; k++) {
+        float r[2], jac[2][6];
+        if (!m[k].active || !mfns_pose_wresidual(rig, &m[k], pose, r, jac)) {
+            continue;
+        }
+        for (int i = 0; i < 6; i++) {
+            for (int j = 0; j <= i; j++) {
+                h[i][j] += jac[0][i] * jac[0][j] + jac[1][i] * jac[1][j];
+            }
+        }
+        float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA];
+        if (b == NULL || !calib_jacobian(&rig->cam[m[k].cam], pose, m[k].p_w, jc)) {
+            continue;
+        }
+        const int c0 = (int)m[k].cam * MFNS_CALIB_PARAMS_PER_CAMERA;
+        for (int j = 0; j < MFNS_CALIB_PARAMS_PER_CAMERA; j++) {
+            /* whitened: L^-1 J_c */
+            const float w0 = m[k].w[0] * jc[0][j], w1 = m[k].w[1] * jc[0][j] + m[k].w[2] * jc[1][j];
+            for (int i = 0; i < 6; i++) {
+                b[i][c0 + j] += jac[0][i] * w0 + jac[1][i] * w1;
+            }
+        }
+    }
+    for (int i = 0; i < 6; i++) {
+        for (int j = i + 1; j < 6; j++) {
+            h[i][j] = h[j][i];
+        }
+    }
+}
+
+/* cov += A Sigma_c A^T with A = cov B (6 x 45), over the cameras B touches
+ * (the others' columns are zero): at most 6 * 45^2 + 6^2 * 45 multiply-adds. */
+static void add_calibration_term(const float b[6][MFNS_CALIB_PARAMS], const mfns_calib_cov_t *calib,
+                                 float cov[6][6])
+{
+    bool cam_used[MFNS_NUM_CAMERAS];
+    float a[6][MFNS_CALIB_PARAMS];
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        cam_used[c] = false;
+        for (int j = c * MFNS_CALIB_PARAMS_PER_CAMERA; j < (c + 1) * MFNS_CALIB_PARAMS_PER_CAMERA; j++) {
+            for (int i = 0; i < 6; i++) {
+                float v = 0.0f;
+                for (int q = 0; q < 6; q++) {
+                    v += cov[i][q] * b[q][j];
+                }
+                a[i][j] = v;
+                cam_used[c] = cam_used[c] || v != 0.0f;
+            }
+        }
+    }
+    float t[6][MFNS_CALIB_PARAMS]; /* A Sigma_c */
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < MFNS_CALIB_PARAMS; j++) {
+            float v = 0.0f;
+            for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+                for (int q = c * MFNS_CALIB_PARAMS_PER_CAMERA;
+                     cam_used[c] && q < (c + 1) * MFNS_CALIB_PARAMS_PER_CAMERA; q++) {
+                    v += a[i][q] * calib->cov[q][j];
+                }
+            }
+            t[i][j] = v;
+        }
+    }
+    float add[6][6];
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j <= i; j++) {
+            float v = 0.0f;
+            for (int q = 0; q < MFNS_CALIB_PARAMS; q++) {
+                v += t[i][q] * a[j][q];
+            }
+            add[i][j] = v;
+        }
+    }
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j <= i; j++) {
+            /* symmetric by construction; a PSD Sigma_c makes the sum grow */
+            cov[i][j] += add[i][j];
+            cov[j][i] = cov[i][j];
+        }
+    }
+}
+
+mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
+                                        const mfns_calib_cov_t *calib, float min_rcond,
                                         mfns_pose_solution_t *out)
 {
     float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
@@ -30,11 +179,13 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], float sigma_px, flo
     }
     float inv[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
     mfns_chol_inverse(&f, inv);
-    const float s2 = sigma_px * sigma_px;
     for (int i = 0; i < 6; i++) {
         for (int j = 0; j < 6; j++) {
-            out->cov[i][j] = s2 * inv[i][j];
+            out->cov[i][j] = inv[i][j]; /* whitened: R is in h */
         }
+    }
+    if (b != NULL && calib != NULL && calib->present != 0U) {
+        add_calibration_term(b, calib, out->cov);
     }
     /* Output Jacobian rows (3 position, 3 Euler) w.r.t. the increment.
      * Position: r_wb_w = -C^T r, so d r_wb_w = -C^T skew(r) dtheta - C^T dt.

@@ -14,8 +14,23 @@ typedef struct {
     float u, v; /* measured pixel */
     float x, y; /* undistorted normalized */
     mfns_v3_t p_w;
+    float cov_px2[3]; /* the centroid's covariance (mfns_obs_t; zero = unknown) */
+    float sigma_mm;   /* the beacon's survey 1-sigma */
+    float w[3];       /* whitener of R (mfns_pose_whitener), set by mfns_pose_weigh */
     uint8_t active; /* 0 once gated out as an outlier */
 } mfns_pose_meas_t;
+
+/* One measurement from observation i of camera c assigned to beacon b (the
+ * caller has checked the indices); weights unit until mfns_pose_weigh. */
+void mfns_pose_meas_set(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame, int c, int i, int b,
+                        mfns_pose_meas_t *m);
+
+/* Each active measurement's whitener from its covariance at pose
+ * (mfns_pose_obs_cov); a beacon behind the camera keeps the floor's. The
+ * weights are held fixed within one LM run (a fixed cost), re-evaluated at
+ * the solution before the outlier gate and the covariance. */
+void mfns_pose_weigh(const mfns_rig_t *rig, mfns_pose_meas_t *m, int n, const mfns_pose_t *pose,
+                     const mfns_pose_config_t *cfg);
 
 /* Check frame/assoc/map and gather the assigned observations into m.
  * Returns the count, or -1 on bad input. */
@@ -39,14 +54,24 @@ mfns_pose_reason_t mfns_pose_paper_newton(const mfns_rig_t *rig, const mfns_pose
 bool mfns_pose_residual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mfns_pose_t *pose,
                         float r[2], float jac[2][6]);
 
-/* J^T J (unit weights, px) over the active observations. */
-void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
-                           const mfns_pose_t *pose, float h[6][6]);
+/* Whitened residual e = L^-1 r (r = predicted - measured, R = L L^T, the
+ * whitener m->w) and, when jac is not NULL, the whitened Jacobian L^-1 J. */
+bool mfns_pose_wresidual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mfns_pose_t *pose,
+                         float e[2], float jac[2][6]);
 
-/* Covariance sigma^2 (J^T J)^-1 into out->cov and the 1-sigma per output axis
- * (r_wb_w, Euler angles). Returns MFNS_POSE_R_SINGULAR when J^T J is
- * rank-deficient or below min_rcond (out->cov then zero). */
-mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], float sigma_px, float min_rcond,
+/* J^T R^-1 J over the active observations and, when b is not NULL, B =
+ * J^T R^-1 J_c (J_c = d pixel / d calibration parameters, nav_config.h
+ * order; a camera's observation fills only its camera's columns). */
+void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
+                           const mfns_pose_t *pose, float h[6][6], float b[6][MFNS_CALIB_PARAMS]);
+
+/* Covariance (J^T R^-1 J)^-1 (+ A Sigma_c A^T with A = (J^T R^-1 J)^-1 B when
+ * b and calib are not NULL and calib is present) into out->cov, out->cov_ros
+ * and the 1-sigma per output axis (r_wb_w, Euler angles). Returns
+ * MFNS_POSE_R_SINGULAR when h is rank-deficient or below min_rcond (out->cov
+ * then zero). */
+mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
+                                        const mfns_calib_cov_t *calib, float min_rcond,
                                         mfns_pose_solution_t *out);
 
 /* Full refinement on gathered measurements (used by refine, track and acquire). */

@@ -1,6 +1,7 @@
 /* pose_refine.c -- the maximum-likelihood refinement: Levenberg-Marquardt on
- * the pixel reprojection error with a Huber loss (IRLS), the rotation updated
- * on the manifold (camera.h increment). Float throughout: the residuals are
+ * the pixel reprojection error whitened by each observation's covariance R_i
+ * (mfns_pose_obs_cov: centroid + floor + survey), with a Huber loss (IRLS),
+ * the rotation updated on the manifold (camera.h increment). Float throughout: the residuals are
  * differences of pixel values ~1e3 px whose float rounding (6e-5 px) is far
  * below the measurement noise, so double buys nothing here. */
 #include <math.h>
@@ -21,39 +22,109 @@ bool mfns_pose_residual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const 
     return isfinite(r[0]) && isfinite(r[1]);
 }
 
-void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
-                           const mfns_pose_t *pose, float h[6][6])
+bool mfns_pose_whitener(const float r_px2[3], float w[3])
 {
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            h[i][j] = 0.0f;
-        }
+    /* R = L L^T: l00 = sqrt(a), l10 = b / l00, l11 = sqrt(c - l10^2) */
+    if (!(r_px2[0] > 0.0f) || !isfinite(r_px2[0]) || !isfinite(r_px2[1]) || !isfinite(r_px2[2])) {
+        return false;
     }
+    const float l00 = sqrtf(r_px2[0]);
+    const float l10 = r_px2[1] / l00;
+    const float d = r_px2[2] - l10 * l10;
+    /* a pivot below 1e-6 of var v is a degenerate (rank-1) covariance */
+    if (!(d > 1e-6f * r_px2[2])) {
+        return false;
+    }
+    const float l11 = sqrtf(d);
+    w[0] = 1.0f / l00;
+    w[1] = -l10 / (l00 * l11);
+    w[2] = 1.0f / l11;
+    return true;
+}
+
+bool mfns_pose_obs_cov(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w, const float cov_px2[3],
+                       float sigma_mm, float sigma_px, float r_px2[3])
+{
+    const mfns_v3_t p_k = mfns_cam_world_to_camera(cam, pose, p_w);
+    float uv[2], jk[2][3];
+    if (mfns_cam_project_c(&cam->k, p_k, uv, jk) != MFNS_PROJ_OK) {
+        return false;
+    }
+    /* J_p = jk C_k_b^T C_w_b with both rotations orthonormal: J_p J_p^T = jk jk^T */
+    const float s2 = sigma_mm * sigma_mm, f2 = sigma_px * sigma_px;
+    r_px2[0] = cov_px2[0] + f2 + s2 * (jk[0][0] * jk[0][0] + jk[0][1] * jk[0][1] + jk[0][2] * jk[0][2]);
+    r_px2[1] = cov_px2[1] + s2 * (jk[0][0] * jk[1][0] + jk[0][1] * jk[1][1] + jk[0][2] * jk[1][2]);
+    r_px2[2] = cov_px2[2] + f2 + s2 * (jk[1][0] * jk[1][0] + jk[1][1] * jk[1][1] + jk[1][2] * jk[1][2]);
+    float w[3];
+    return mfns_pose_whitener(r_px2, w);
+}
+
+void mfns_pose_meas_set(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame, int c, int i, int b,
+                        mfns_pose_meas_t *m)
+{
+    const mfns_obs_t *o = &frame->obs[c][i];
+    m->cam = (uint8_t)c;
+    m->idx = (uint8_t)i;
+    m->beacon = (int16_t)b;
+    m->u = o->u;
+    m->v = o->v;
+    m->x = o->x;
+    m->y = o->y;
+    m->p_w = map->beacon[b].p_w;
+    m->cov_px2[0] = o->cov_px2[0];
+    m->cov_px2[1] = o->cov_px2[1];
+    m->cov_px2[2] = o->cov_px2[2];
+    m->sigma_mm = map->beacon[b].sigma_mm;
+    m->w[0] = 1.0f;
+    m->w[1] = 0.0f;
+    m->w[2] = 1.0f;
+    m->active = 1;
+}
+
+void mfns_pose_weigh(const mfns_rig_t *rig, mfns_pose_meas_t *m, int n, const mfns_pose_t *pose,
+                     const mfns_pose_config_t *cfg)
+{
+    const float s = cfg->sigma_px > 0.0f ? cfg->sigma_px : 1.0f;
     for (int k = 0; k < n; k++) {
-        float r[2], jac[2][6];
-        if (!m[k].active || !mfns_pose_residual(rig, &m[k], pose, r, jac)) {
-            continue;
+        float r[3];
+        if (!m[k].active || !mfns_pose_obs_cov(&rig->cam[m[k].cam], pose, m[k].p_w, m[k].cov_px2, m[k].sigma_mm,
+                                               cfg->sigma_px, r) ||
+            !mfns_pose_whitener(r, m[k].w)) {
+            /* behind the camera (its residual costs BEHIND_COST anyway) */
+            m[k].w[0] = 1.0f / s;
+            m[k].w[1] = 0.0f;
+            m[k].w[2] = 1.0f / s;
         }
+    }
+}
+
+bool mfns_pose_wresidual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mfns_pose_t *pose,
+                         float e[2], float jac[2][6])
+{
+    float r[2];
+    if (!mfns_pose_residual(rig, m, pose, r, jac)) {
+        return false;
+    }
+    e[0] = m->w[0] * r[0];
+    e[1] = m->w[1] * r[0] + m->w[2] * r[1];
+    if (jac != NULL) {
         for (int i = 0; i < 6; i++) {
-            for (int j = 0; j <= i; j++) {
-                h[i][j] += jac[0][i] * jac[0][j] + jac[1][i] * jac[1][j];
-            }
+            const float j0 = jac[0][i], j1 = jac[1][i];
+            jac[0][i] = m->w[0] * j0;
+            jac[1][i] = m->w[1] * j0 + m->w[2] * j1;
         }
     }
-    for (int i = 0; i < 6; i++) {
-        for (int j = i + 1; j < 6; j++) {
-            h[i][j] = h[j][i];
-        }
-    }
+    return true;
 }
 
 /* A point behind a camera costs this much (in squared sigma units): LM then
  * rejects steps that turn a beacon away rather than silently dropping it. */
 #define BEHIND_COST 1e8f
 
-/* Robust cost and, when h/g are not NULL, the IRLS normal equations. */
+/* Robust cost and, when h/g are not NULL, the IRLS normal equations, on the
+ * whitened residuals (unit sigma). */
 static float linearize(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, const mfns_pose_t *pose,
-                       float sigma, float huber_k, float h[6][6], float g[6])
+                       float huber_k, float h[6][6], float g[6])
 {
     if (h != NULL) {
         for (int i = 0; i < 6; i++) {
@@ -64,17 +135,16 @@ static float linearize(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, 
         }
     }
     float cost = 0.0f;
-    const float inv_s = 1.0f / sigma;
     for (int k = 0; k < n; k++) {
         if (!m[k].active) {
             continue;
         }
         float r[2], jac[2][6] = {{0.0f}};
-        if (!mfns_pose_residual(rig, &m[k], pose, r, h != NULL ? jac : NULL)) {
+        if (!mfns_pose_wresidual(rig, &m[k], pose, r, h != NULL ? jac : NULL)) {
             cost += BEHIND_COST;
             continue;
         }
-        const float e = sqrtf(r[0] * r[0] + r[1] * r[1]) * inv_s;
+        const float e = sqrtf(r[0] * r[0] + r[1] * r[1]);
         float w = 1.0f;
         if (e <= huber_k) {
             cost += e * e;
@@ -105,20 +175,19 @@ mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m
                                 const mfns_pose_config_t *cfg, int max_iter, mfns_pose_t *pose,
                                 int *iterations)
 {
-    const float sigma = cfg->sigma_px > 0.0f ? cfg->sigma_px : 1.0f;
     const float huber_k = cfg->s.huber_k > 0.0f ? cfg->s.huber_k : INFINITY;
     float h[6][6], g[6];
-    float cost = linearize(rig, m, n, pose, sigma, huber_k, h, g);
+    float cost = linearize(rig, m, n, pose, huber_k, h, g);
     float lambda = 1e-4f;
     int it = 0;
     mfns_pose_reason_t result = MFNS_POSE_R_NOT_CONVERGED;
     for (; it < max_iter; it++) {
-        /* Scaled gradient: |g_i| / sqrt(H_ii), in units of sigma: how much
-         * the cost could still fall along each axis. */
+        /* Scaled gradient: |g_i| / sqrt(H_ii), in units of sigma (whitened):
+         * how much the cost could still fall along each axis. */
         float gmax = 0.0f;
         for (int i = 0; i < 6; i++) {
             if (h[i][i] > 0.0f) {
-                gmax = fmaxf(gmax, fabsf(g[i]) / sqrtf(h[i][i]) / sigma);
+                gmax = fmaxf(gmax, fabsf(g[i]) / sqrtf(h[i][i]));
             }
         }
         if (gmax < cfg->s.grad_tol) {
@@ -147,7 +216,7 @@ mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m
         const bool tiny = step_rot < cfg->s.step_tol && step_tr < cfg->s.step_tol;
         const mfns_pose_t trial = mfns_pose_apply(pose, d);
         float ht[6][6], gt[6];
-        const float cost_t = linearize(rig, m, n, &trial, sigma, huber_k, ht, gt);
+        const float cost_t = linearize(rig, m, n, &trial, huber_k, ht, gt);
         if (cost_t <= cost) {
             *pose = trial;
             cost = cost_t;

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import ctypes as ct
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -99,10 +99,20 @@ class SolverSettings(ct.Structure):
         ("grad_tol", ct.c_float),
         ("huber_k", ct.c_float),
         ("outlier_gate_sigma", ct.c_float),
-        ("max_residual_rms_px", ct.c_float),
+        ("max_residual_rms_sigma", ct.c_float),
         ("track_gate_px", ct.c_float),
         ("min_rcond", ct.c_float),
     ]
+
+
+CALIB_PARAMS_PER_CAMERA = 15  # nav_config.h mfns_calib_param_t (fx fy cx cy k1 k2 p1 p2 k3 theta r)
+CALIB_PARAMS = NUM_CAMERAS * CALIB_PARAMS_PER_CAMERA
+
+
+class CalibCov(ct.Structure):
+    """mfns_calib_cov_t (nav_config.h): the calibration's covariance, 45 x 45."""
+
+    _fields_ = [("present", ct.c_uint8), ("cov", (ct.c_float * CALIB_PARAMS) * CALIB_PARAMS)]
 
 
 class PoseConfig(ct.Structure):
@@ -110,6 +120,7 @@ class PoseConfig(ct.Structure):
         ("s", SolverSettings),
         ("sigma_px", ct.c_float),
         ("mode", ct.c_int),
+        ("calib_cov", ct.POINTER(CalibCov)),
     ]
 
 
@@ -157,6 +168,7 @@ class SolutionC(ct.Structure):
         ("iterations", ct.c_uint16),
         ("hypotheses", ct.c_uint16),
         ("residual_rms_px", ct.c_float),
+        ("residual_rms_sigma", ct.c_float),
         ("assoc", Assoc),
         ("inlier", (ct.c_uint8 * MAX_OBS_PER_CAMERA) * NUM_CAMERAS),
     ]
@@ -297,6 +309,10 @@ class Solution:
     residual_rms_px: float
     assoc: np.ndarray  # (3, 32) beacon index per observation, -1 none
     inlier: np.ndarray  # (3, 32) bool
+    # ROS order (r_wb_w mm, phi_w rad about world axes), pose.h
+    cov_ros: np.ndarray = field(default_factory=lambda: np.zeros((6, 6)))
+    residual_rms_sigma: float = float("nan")  # whitened RMS per coordinate
+    q_b_w: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
 
     @property
     def ok(self) -> bool:
@@ -529,26 +545,49 @@ class Flight:
         )
         return f, a
 
-    def config(self, sigma_px: float = 0.1, mode: int = MODE_ML, **settings) -> PoseConfig:
+    def config(
+        self, sigma_px: float = 0.1, mode: int = MODE_ML, calib_cov=None, **settings
+    ) -> PoseConfig:
+        """calib_cov: None (no calibration term) or the (45, 45) covariance of the calibration
+        (nav_config.h order); the config keeps the C copy alive."""
         c = PoseConfig()
         self.lib.mfns_pose_config_default(ct.byref(c))
         c.sigma_px = sigma_px
         c.mode = mode
+        if calib_cov is not None:
+            cc = self.calib_cov(calib_cov)
+            c.calib_cov = ct.pointer(cc)
+            c._calib_keep = cc  # ctypes pointers do not own their target
         for k, v in settings.items():
             setattr(c.s, k, v)
         return c
 
     @staticmethod
+    def calib_cov(cov) -> CalibCov:
+        a = np.asarray(cov, dtype=float)
+        if a.shape != (CALIB_PARAMS, CALIB_PARAMS) or not np.all(np.isfinite(a)):
+            raise MfnsError(f"calibration covariance: expected finite ({CALIB_PARAMS}, {CALIB_PARAMS}), got {a.shape}")
+        cc = CalibCov()
+        cc.present = 1
+        np.ctypeslib.as_array(cc.cov)[:] = a.astype(np.float32)
+        return cc
+
+    @staticmethod
     def frame(obs_per_camera) -> ObsFrame:
-        """obs_per_camera: three arrays (N_k, 4) of [u, v, x, y]."""
+        """obs_per_camera: three arrays (N_k, 4) of [u, v, x, y], or (N_k, 7) with the
+        centroid covariance [var u, cov uv, var v] (px^2) after them."""
         f = ObsFrame()
         for c, obs in enumerate(obs_per_camera):
-            obs = np.asarray(obs, dtype=float).reshape(-1, 4)
+            obs = np.asarray(obs, dtype=float)
+            obs = obs.reshape(-1, obs.shape[-1] if obs.ndim == 2 and obs.shape[-1] == 7 else 4)
             if len(obs) > MAX_OBS_PER_CAMERA:
                 raise MfnsError(f"camera {c}: {len(obs)} observations, at most {MAX_OBS_PER_CAMERA}")
             f.count[c] = len(obs)
-            for i, (u, v, x, y) in enumerate(obs):
-                f.obs[c][i] = Obs(u, v, x, y)
+            for i, row in enumerate(obs):
+                o = Obs(*row[:4])
+                if len(row) == 7:
+                    o.cov_px2[0], o.cov_px2[1], o.cov_px2[2] = (float(v) for v in row[4:7])
+                f.obs[c][i] = o
         return f
 
     @staticmethod
@@ -630,4 +669,7 @@ class Flight:
             residual_rms_px=float(s.residual_rms_px),
             assoc=np.ctypeslib.as_array(s.assoc.beacon).astype(int).copy(),
             inlier=np.ctypeslib.as_array(s.inlier).astype(bool).copy(),
+            cov_ros=np.ctypeslib.as_array(s.cov_ros).astype(float).copy(),
+            residual_rms_sigma=float(s.residual_rms_sigma),
+            q_b_w=np.array(list(s.q_b_w), dtype=float),
         )

@@ -10,7 +10,7 @@ squares on the pixel reprojection error, every observation kept. The flight defa
 built to reject measurement outliers, which here would hide exactly what the extension
 measures (a miscalibrated rig gives residuals of several pixels on every beacon), so:
   huber_k = 0 (no robust loss), outlier_gate_sigma = 0 (no gate),
-  max_residual_rms_px = inf (a large residual is the result, not a failure),
+  max_residual_rms_sigma = inf (a large residual is the result, not a failure),
 min_rcond = 0 (the pose pool already excludes near-critical geometry by its dilution), and a
 tighter step tolerance (1e-7 rad and 1e-4 mm) so the solve ends at the float round-off of the
 minimum rather than at the flight's 1 microradian. sigma_px = 1 only scales the gradient test.
@@ -59,7 +59,7 @@ class FlightPoseSolver:
             grad_tol=1e-7,
             huber_k=0.0,
             outlier_gate_sigma=0.0,
-            max_residual_rms_px=math.inf,
+            max_residual_rms_sigma=math.inf,
             min_rcond=0.0,
         )
         self._ncam = flight.NUM_CAMERAS

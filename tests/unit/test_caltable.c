@@ -123,7 +123,7 @@ static void render_table(const mfns_caltable_t *t, textbuf_t *o)
     add(o, "solver.grad_tol %.9g", G9(s->grad_tol));
     add(o, "solver.huber_k %.9g", G9(s->huber_k));
     add(o, "solver.outlier_gate_sigma %.9g", G9(s->outlier_gate_sigma));
-    add(o, "solver.max_residual_rms_px %.9g", G9(s->max_residual_rms_px));
+    add(o, "solver.max_residual_rms_sigma %.9g", G9(s->max_residual_rms_sigma));
     add(o, "solver.track_gate_px %.9g", G9(s->track_gate_px));
     add(o, "solver.min_rcond %.9g", G9(s->min_rcond));
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
@@ -656,22 +656,23 @@ static void test_bad_beacons_and_size(void **state)
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(7));
     /* counts that disagree with the records: one beacon more than stored
-     * (the index header is read as beacon 10: its reserved field is not 0),
-     * one fewer (beacon 9 is read as the index header: the index's count is
-     * 9 = the id, its neighbour capacity 0), and trailing bytes covered by
-     * total_size and the CRC (the index section is then too long) */
+     * (the calibration-covariance header and the index header are read as
+     * beacon 10: its sigma, the index's workspace minimum x, is negative),
+     * one fewer (beacon 9 is read as the calibration-covariance header: its
+     * count is 9 = the id), and trailing bytes covered by total_size and the
+     * CRC (the index section is then too long) */
     fresh();
     put_u16(g_bad, 18, 11);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_RESERVED, beacon_off(10) + 2);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(10) + 16);
     put_u16(g_bad, 18, 9);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_INDEX_COUNT, beacon_off(9) + 2);
+    EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_COUNT, beacon_off(9));
     fresh();
     memset(g_bad + len, 0, 8);
     put_u32(g_bad, 8, (uint32_t)len + 8);
     fix_crc(len + 8);
-    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(10));
+    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(10) + MFNS_CALTABLE_COV_HEADER_SIZE);
     /* a longer buffer than total_size is fine (a file read into a big buffer) */
     fresh();
     assert_int_equal(mfns_caltable_load(g_bad, len + 8, &g_out, NULL), MFNS_CALTABLE_OK);
@@ -683,7 +684,8 @@ static void test_bad_index(void **state)
 {
     (void)state;
     const size_t len = g_good_len;
-    const uint32_t ix = beacon_off(g_table.beacons.count);
+    /* the default table has no calibration covariance: a 4-byte section */
+    const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE;
     const uint32_t n = g_table.index.count, k = g_table.index.k_nbr;
     const uint32_t geom = ix + MFNS_BIDX_HEADER_SIZE, nbr = geom + MFNS_BIDX_GEOM_SIZE * n;
     const uint32_t pairs = nbr + n * (1u + k);
@@ -751,13 +753,152 @@ static void test_bad_index(void **state)
     assert_true(g_table.index.budget_units > 0);
 }
 
-/* A table of format version 1 (no map index) is refused as too old. */
+/* Tables of format versions 1 (no map index) and 2 (no calibration
+ * covariance, pixel sigma meant as the whole noise) are refused as too old. */
 static void test_old_version(void **state)
 {
     (void)state;
     fresh();
     put_u16(g_bad, 4, 1);
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
+    put_u16(g_bad, 4, 2);
+    EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
+}
+
+/* ---- the calibration-covariance section -------------------------------- */
+
+#define NCP MFNS_CALIB_PARAMS
+#define COV_TRI (NCP * (NCP + 1) / 2)
+
+static uint32_t cov_off(void) { return beacon_off(g_table.beacons.count); }
+
+/* Byte offset of element (i, j), i <= j, of the stored upper triangle. */
+static uint32_t cov_elem(int i, int j)
+{
+    const int e = i * NCP - i * (i - 1) / 2 + (j - i);
+    return cov_off() + MFNS_CALTABLE_COV_HEADER_SIZE + 4u * (uint32_t)e;
+}
+
+/* g_bad = the default table with the covariance c in its section (sizes and
+ * CRC fixed); returns the table's length. */
+static size_t with_cov(const double c[NCP][NCP])
+{
+    const uint32_t at = cov_off();
+    const uint32_t rest = (uint32_t)g_good_len - at - MFNS_CALTABLE_COV_HEADER_SIZE; /* the index */
+    memcpy(g_bad, g_good, at);
+    put_u16(g_bad, at, NCP);
+    put_u16(g_bad, at + 2, 0);
+    for (int i = 0; i < NCP; i++) {
+        for (int j = i; j < NCP; j++) {
+            put_f32(g_bad, cov_elem(i, j), (float)c[i][j]);
+        }
+    }
+    const uint32_t ix = at + MFNS_CALTABLE_COV_HEADER_SIZE + 4u * COV_TRI;
+    memcpy(g_bad + ix, g_good + at + MFNS_CALTABLE_COV_HEADER_SIZE, rest);
+    const size_t len = ix + rest;
+    put_u32(g_bad, 8, (uint32_t)len);
+    fix_crc(len);
+    return len;
+}
+
+/* A covariance of realistic scales (px^2, unitless, rad^2, mm^2), correlated
+ * within each camera and across cameras, positive definite by construction
+ * (B B^T + diag). */
+static void sample_cov(double c[NCP][NCP])
+{
+    static const double sd[MFNS_CALIB_PARAMS_PER_CAMERA] = {2.0, 2.0, 1.0, 1.0, 1e-3, 1e-3, 1e-4, 1e-4, 1e-3,
+                                                            5e-4, 5e-4, 5e-4, 0.5, 0.5, 0.5};
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 77);
+    double b[NCP][4];
+    for (int i = 0; i < NCP; i++) {
+        for (int k = 0; k < 4; k++) {
+            b[i][k] = mfns_rng_range(&rng, -0.5, 0.5) * sd[i % MFNS_CALIB_PARAMS_PER_CAMERA];
+        }
+    }
+    for (int i = 0; i < NCP; i++) {
+        for (int j = 0; j < NCP; j++) {
+            double v = 0.0;
+            for (int k = 0; k < 4; k++) {
+                v += b[i][k] * b[j][k];
+            }
+            const double s = sd[i % MFNS_CALIB_PARAMS_PER_CAMERA];
+            c[i][j] = v + (i == j ? 0.5 * s * s : 0.0);
+        }
+    }
+}
+
+static void test_calib_cov_section(void **state)
+{
+    (void)state;
+    static double c[NCP][NCP];
+    static mfns_caltable_t t;
+    /* the default table (no covariance in its calibration) has none */
+    assert_int_equal(g_table.calib_cov.present, 0);
+    sample_cov(c);
+    size_t len = with_cov(c);
+    uint32_t off = 0;
+    assert_int_equal(mfns_caltable_load(g_bad, len, &t, &off), MFNS_CALTABLE_OK);
+    assert_int_equal(t.calib_cov.present, 1);
+    for (int i = 0; i < NCP; i++) {
+        for (int j = 0; j < NCP; j++) {
+            assert_true(t.calib_cov.cov[i][j] == (float)c[i < j ? i : j][i < j ? j : i]);
+        }
+    }
+    assert_true(t.index.count == g_table.index.count); /* the index after it is read too */
+    /* semi-definite (two parameters perfectly correlated, one known exactly) is accepted */
+    for (int j = 0; j < NCP; j++) {
+        c[1][j] = c[0][j];
+        c[j][1] = c[j][0];
+        c[20][j] = 0.0;
+        c[j][20] = 0.0;
+    }
+    c[1][1] = c[0][0];
+    len = with_cov(c);
+    assert_int_equal(mfns_caltable_load(g_bad, len, &t, &off), MFNS_CALTABLE_OK);
+    sample_cov(c);
+    /* each check: count, reserved, finite, negative variance, covariance of
+     * an exact parameter, correlation above 1, and an indefinite triple
+     * whose pairwise correlations are each below 1 */
+    len = with_cov(c);
+    put_u16(g_bad, cov_off(), 44);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_COUNT, cov_off());
+    len = with_cov(c);
+    put_u16(g_bad, cov_off() + 2, 1);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_RESERVED, cov_off() + 2);
+    len = with_cov(c);
+    put_f32(g_bad, cov_elem(3, 17), NAN);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, cov_elem(3, 17));
+    len = with_cov(c);
+    put_f32(g_bad, cov_elem(12, 12), -1e-3f);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_PSD, cov_elem(12, 12));
+    len = with_cov(c);
+    put_f32(g_bad, cov_elem(5, 5), 0.0f);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_PSD, cov_elem(0, 5));
+    len = with_cov(c);
+    put_f32(g_bad, cov_elem(2, 30), (float)(1.01 * sqrt(c[2][2] * c[30][30])));
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_PSD, cov_elem(30, 30));
+    for (int i = 0; i < NCP; i++) {
+        for (int j = 0; j < NCP; j++) {
+            c[i][j] = i == j ? 1.0 : 0.0;
+        }
+    }
+    c[0][1] = c[1][0] = 0.9; /* corr(0,1) = corr(0,2) = 0.9, corr(1,2) = -0.9 */
+    c[0][2] = c[2][0] = 0.9;
+    c[1][2] = c[2][1] = -0.9;
+    len = with_cov(c);
+    EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_PSD, cov_elem(2, 2));
+    /* a count of 45 with the section cut short */
+    fresh();
+    put_u16(g_bad, cov_off(), NCP);
+    fix_crc(g_good_len);
+    EXPECT(g_good_len, MFNS_CALTABLE_E_SIZE_MISMATCH, cov_off());
 }
 
 /* A failed load leaves the previous table in service; a good one replaces it. */
@@ -831,6 +972,7 @@ int main(void)
         cmocka_unit_test_setup(test_bad_beacons_and_size, bad_setup),
         cmocka_unit_test_setup(test_bad_index, bad_setup),
         cmocka_unit_test_setup(test_old_version, bad_setup),
+        cmocka_unit_test_setup(test_calib_cov_section, bad_setup),
         cmocka_unit_test(test_failed_load_keeps_previous_table),
         cmocka_unit_test(test_strerror_and_crc),
         cmocka_unit_test_setup(test_file_loader, bad_setup),

@@ -87,6 +87,23 @@ def _fmt(v) -> str:
     return " ".join(f"{x:.9g}" for x in np.ravel(v))
 
 
+def calib_cov_summary(cov) -> str:
+    """One or four lines on the calibration-covariance section."""
+    if cov is None:
+        return "calibration covariance: none (unknown: no calibration term in the pose covariance)"
+    from ..table.format import CALIB_PARAM_NAMES
+
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0)).reshape(len(CAMERA_NAMES), len(CALIB_PARAM_NAMES))
+    lines = [f"calibration covariance: {cov.shape[0]} parameters (1-sigma per camera)"]
+    for name, s in zip(CAMERA_NAMES, sd, strict=True):
+        lines.append(
+            f"  {name}: fx {s[0]:.3g} fy {s[1]:.3g} cx {s[2]:.3g} cy {s[3]:.3g} px; "
+            f"k1 {s[4]:.2g} k2 {s[5]:.2g} p1 {s[6]:.2g} p2 {s[7]:.2g} k3 {s[8]:.2g}; "
+            f"theta {s[9] * 1e3:.3g} {s[10] * 1e3:.3g} {s[11] * 1e3:.3g} mrad; r {s[12]:.3g} {s[13]:.3g} {s[14]:.3g} mm"
+        )
+    return "\n".join(lines)
+
+
 def cmd_show(args) -> int:
     path = Path(args.table)
     # the flight program's load buffer bounds what it can load: nothing larger is read
@@ -100,7 +117,8 @@ def cmd_show(args) -> int:
     print(f"CRC-32 0x{t.crc32:08x} (verified by the flight loader: {core().load(data).message})")
     if len(data) > t.size_bytes:
         print(f"note: {len(data) - t.size_bytes} bytes after the table's total size (ignored by the loader)")
-    print(f"pixel noise sigma: {t.pixel_sigma_px:.6g} px")
+    print(f"pixel sigma (unmodelled error floor): {t.pixel_sigma_px:.6g} px")
+    print(calib_cov_summary(t.calib_cov))
     print("centroid: " + ", ".join(f"{k}={v:.6g}" for k, v in t.centroid.items()))
     print("solver:   " + ", ".join(f"{k}={v:.6g}" for k, v in t.solver.items()))
     for name, c in zip(CAMERA_NAMES, t.cameras, strict=True):
@@ -149,7 +167,9 @@ def register(subparsers) -> None:
         "--pixel-sigma",
         type=float,
         metavar="PX",
-        help="pixel noise the flight solver assumes (default: the calibration's pixel_noise_px)",
+        help="the unmodelled pixel error (1-sigma, px) the flight solver adds in quadrature to each "
+        "observation's own covariance, and the whole pixel noise when the centroider gives none "
+        "(default: the calibration's pixel_noise_px)",
     )
     b.add_argument(
         "--workspace",

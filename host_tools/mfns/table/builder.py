@@ -10,7 +10,7 @@ from .. import calib_results
 from ..camera import load_beacon_emission, load_beacons, rig_from_doc
 from ..errors import MfnsError
 from . import mapindex
-from .format import CameraRecord, Grid, Table, f32
+from .format import CALIB_PARAM_NAMES, CALIB_PARAMS, CAMERA_NAMES, CameraRecord, Grid, Table, f32
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
 
 
@@ -43,6 +43,55 @@ def load_beacon_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return ids, pos, sig
 
 
+def calib_covariance(doc: dict, where: str = "calibration results") -> np.ndarray | None:
+    """The (45, 45) calibration covariance the table carries (format.CALIB_PARAM_NAMES per
+    camera x, y, z) from the document's optional "covariance" {"parameters": [...], "matrix":
+    [[...]]} (docs/calib-results.md); None when absent (unknown: no calibration term).
+
+    Parameters the table does not carry (e.g. "x.skew") are dropped, which for a Gaussian is
+    exactly its marginal; table parameters the document does not list get zero variance (taken
+    as exact, with a warning). The flight loader checks that the result is positive
+    semi-definite (nothing is checked twice here).
+    """
+    cov = doc.get("covariance")
+    if cov is None:
+        return None
+    if not isinstance(cov, dict) or not isinstance(cov.get("parameters"), list):
+        raise MfnsError(f"{where}: covariance must be {{\"parameters\": [...], \"matrix\": [[...]]}}")
+    names = cov["parameters"]
+    if not all(isinstance(n, str) for n in names) or len(set(names)) != len(names):
+        raise MfnsError(f"{where}: covariance parameters must be distinct strings")
+    try:
+        m = np.asarray(cov.get("matrix"), dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise MfnsError(f"{where}: covariance matrix is not a matrix of numbers") from exc
+    n = len(names)
+    if m.shape != (n, n) or not np.all(np.isfinite(m)):
+        raise MfnsError(f"{where}: covariance matrix must be {n} x {n} finite numbers, got shape {m.shape}")
+    scale = np.sqrt(np.outer(np.abs(np.diag(m)), np.abs(np.diag(m)))) + 1e-300
+    if np.max(np.abs(m - m.T) / scale) > 1e-6:
+        raise MfnsError(f"{where}: covariance matrix is not symmetric")
+    slot = {f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i for k, c in enumerate(CAMERA_NAMES)
+            for i, p in enumerate(CALIB_PARAM_NAMES)}
+    src, dst, dropped = [], [], []
+    for j, name in enumerate(names):
+        if "." not in name or name.split(".", 1)[0] not in CAMERA_NAMES:
+            raise MfnsError(f"{where}: covariance parameter {name!r:.40}: expected CAMERA.NAME (x, y, z)")
+        if name in slot:
+            src.append(j)
+            dst.append(slot[name])
+        else:
+            dropped.append(name)
+    out = np.zeros((CALIB_PARAMS, CALIB_PARAMS))
+    out[np.ix_(dst, dst)] = 0.5 * (m + m.T)[np.ix_(src, src)]
+    if dropped:
+        _warn(f"covariance parameters not carried by the table (marginalised out): {', '.join(dropped[:8])}")
+    missing = sorted(set(slot) - {names[j] for j in src}, key=slot.get)
+    if missing:
+        _warn(f"covariance lists no {', '.join(missing[:6])}{' ...' if len(missing) > 6 else ''}: taken as exact")
+    return out
+
+
 def _warn(line: str) -> None:
     import sys
 
@@ -68,8 +117,11 @@ def build_table(
     MAX_GRID_ERROR_PX within the loader's node limit (grid.size_grid); a given
     NXxNY grid is used as is, and refused like a lens the limit cannot correct
     when it misses MAX_GRID_ERROR_PX. pixel_sigma_px overrides the calibration's
-    pixel_noise_px as the noise the flight solver assumes (centroid noise plus what
-    calibration errors add).
+    pixel_noise_px as the table's pixel sigma: the unmodelled pixel error the flight
+    solver adds in quadrature to every observation's own covariance (centroid and
+    survey), and the whole pixel noise of observations without a centroid covariance
+    (docs/caltable.md). The calibration's "covariance", when present, becomes the
+    table's calibration-covariance section (calib_covariance).
     """
     from .check import core
     from .settings import load_settings
@@ -115,5 +167,6 @@ def build_table(
         centroid=centroid if centroid is not None else dc,
         solver=solver if solver is not None else ds,
         index_section=fl.encode_index(idx),
+        calib_cov=calib_covariance(doc, str(calib_json)),
     )
     return table, errors, report

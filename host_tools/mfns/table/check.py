@@ -188,7 +188,28 @@ def field_at(data: bytes, off: int) -> str:
     n_b = struct.unpack_from("<H", data, fmt.HEADER_SIZE + 2)[0]
     if i < n_b:
         return f"beacon {i} {_name(_BEACON_FIELDS, rel)}"
-    return f"map index section, byte {off - pos - n_b * fmt.BEACON_SIZE}"
+    pos += n_b * fmt.BEACON_SIZE
+    if pos + fmt.COV_HEADER_SIZE > len(data):
+        return "calibration covariance section"
+    n_c = struct.unpack_from("<H", data, pos)[0]
+    if off < pos + fmt.COV_HEADER_SIZE:
+        return "calibration covariance " + ("parameter count" if off < pos + 2 else "reserved")
+    pos += fmt.COV_HEADER_SIZE
+    if n_c == fmt.CALIB_PARAMS and off < pos + 4 * n_c * (n_c + 1) // 2:
+        e = (off - pos) // 4
+        r = 0
+        while e >= n_c - r:  # row r of the upper triangle holds n_c - r entries
+            e -= n_c - r
+            r += 1
+        return f"calibration covariance ({_param_name(r)}, {_param_name(r + e)})"
+    if n_c == fmt.CALIB_PARAMS:
+        pos += 4 * n_c * (n_c + 1) // 2
+    return f"map index section, byte {off - pos}"
+
+
+def _param_name(i: int) -> str:
+    k, p = divmod(i, len(fmt.CALIB_PARAM_NAMES))
+    return f"{fmt.CAMERA_NAMES[k]}.{fmt.CALIB_PARAM_NAMES[p]}"
 
 
 def check_table(data: bytes) -> LoadStatus:

@@ -16,13 +16,21 @@ import numpy as np
 from ..errors import MfnsError
 
 MAGIC = b"MFTB"
-VERSION = 2
+VERSION = 3
 HEADER_SIZE = 16
 GLOBALS_SIZE = 60
 CAMERA_FIXED_SIZE = 116
 NODE_SIZE = 8
 BEACON_SIZE = 20
 NUM_CAMERAS = 3
+# The calibration-covariance section (after the beacon records): u16 count (0 or
+# CALIB_PARAMS), u16 reserved, the upper triangle row-major as f32.
+COV_HEADER_SIZE = 4
+CALIB_PARAM_NAMES = (
+    "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3",
+    "theta_x", "theta_y", "theta_z", "r_x", "r_y", "r_z",
+)  # nav_config.h mfns_calib_param_t, per camera x, y, z
+CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
 # The map-index section after the beacon records is written by the C core
 # (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
 INDEX_HEADER = struct.Struct("<HBBBBHI3f3fI4B")
@@ -37,7 +45,7 @@ SOLVER_F32 = (
     "grad_tol",
     "huber_k",
     "outlier_gate_sigma",
-    "max_residual_rms_px",
+    "max_residual_rms_sigma",
     "track_gate_px",
     "min_rcond",
 )
@@ -101,6 +109,8 @@ class Table:
     centroid: dict = field(default_factory=dict)
     solver: dict = field(default_factory=dict)
     index_section: bytes = b""  # the map index, as mfns_bidx_encode wrote it
+    # (45, 45) covariance of the calibration (CALIB_PARAM_NAMES per camera), None = unknown
+    calib_cov: np.ndarray | None = None
     version: int = VERSION
     crc32: int = 0
     size_bytes: int = 0
@@ -153,11 +163,37 @@ def encode(t: Table) -> bytes:
             body += np.ascontiguousarray(g.nodes, dtype="<i4").tobytes()
         for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
             body += _BEACON.pack(int(bid), 0, float(p[0]), float(p[1]), float(p[2]), float(s))
+        body += encode_calib_cov(t.calib_cov)
         body += t.index_section
     except struct.error as exc:
         raise MfnsError(f"value does not fit the table format: {exc}") from exc
     total = HEADER_SIZE + len(body)
     return _HEADER.pack(MAGIC, VERSION, HEADER_SIZE, total, zlib.crc32(body)) + bytes(body)
+
+
+def encode_calib_cov(cov: np.ndarray | None) -> bytes:
+    """The calibration-covariance section (docs/caltable.md): None -> count 0."""
+    if cov is None:
+        return struct.pack("<HH", 0, 0)
+    a = np.asarray(cov, dtype=float)
+    if a.shape != (CALIB_PARAMS, CALIB_PARAMS):
+        raise MfnsError(f"calibration covariance: expected ({CALIB_PARAMS}, {CALIB_PARAMS}), got {a.shape}")
+    iu = np.triu_indices(CALIB_PARAMS)
+    return struct.pack("<HH", CALIB_PARAMS, 0) + a[iu].astype("<f4").tobytes()
+
+
+def decode_calib_cov(data: bytes, pos: int) -> tuple[np.ndarray | None, int]:
+    """(covariance or None, position after the section)."""
+    n = struct.unpack_from("<H", data, pos)[0]
+    pos += COV_HEADER_SIZE
+    if n == 0:
+        return None, pos
+    m = n * (n + 1) // 2
+    tri = np.frombuffer(data, dtype="<f4", count=m, offset=pos).astype(float)
+    a = np.zeros((n, n))
+    a[np.triu_indices(n)] = tri
+    a = a + np.triu(a, 1).T
+    return a, pos + 4 * m
 
 
 def decode(data: bytes) -> Table:
@@ -206,6 +242,7 @@ def decode(data: bytes) -> Table:
         p.append((x, y, z))
         s.append(sig)
     pos += n_b * BEACON_SIZE
+    calib_cov, pos = decode_calib_cov(data, pos)
     return Table(
         cameras=cams,
         beacon_ids=np.array(ids, dtype=int),
@@ -215,6 +252,7 @@ def decode(data: bytes) -> Table:
         centroid=centroid,
         solver=solver,
         index_section=bytes(data[pos:total]),
+        calib_cov=calib_cov,
         version=version,
         crc32=crc,
         size_bytes=total,
