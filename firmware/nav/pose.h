@@ -143,7 +143,10 @@ typedef struct {
  * d p_w (distortion included). The one definition of an observation's
  * variance: the ML solve's weights and covariance, its outlier gate and
  * residual check, and the acquisition's verification use it. False when the
- * beacon is behind the camera or R is not positive definite. */
+ * beacon is behind the camera, is predicted more than MFNS_POSE_COV_MARGIN_PX
+ * outside the image (where the lens model, and so J_p, does not hold), or R
+ * is not positive definite; the solve then weights it with the floor alone. */
+#define MFNS_POSE_COV_MARGIN_PX 64.0f
 bool mfns_pose_obs_cov(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w, const float cov_px2[3],
                        float sigma_mm, float sigma_px, float r_px2[3]);
 

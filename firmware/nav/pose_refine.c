@@ -50,6 +50,14 @@ bool mfns_pose_obs_cov(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v
     if (mfns_cam_project_c(&cam->k, p_k, uv, jk) != MFNS_PROJ_OK) {
         return false;
     }
+    /* The lens model (and so J_p) holds only over the image: a beacon
+     * predicted far outside it, where the distortion polynomial explodes,
+     * has no meaningful projected survey error (a wrong pose of the
+     * acquisition would hide its misfit behind a huge R). */
+    const float mg = MFNS_POSE_COV_MARGIN_PX;
+    if (!(uv[0] >= -mg && uv[1] >= -mg && uv[0] <= (float)cam->k.width + mg && uv[1] <= (float)cam->k.height + mg)) {
+        return false;
+    }
     /* J_p = jk C_k_b^T C_w_b with both rotations orthonormal: J_p J_p^T = jk jk^T */
     const float s2 = sigma_mm * sigma_mm, f2 = sigma_px * sigma_px;
     r_px2[0] = cov_px2[0] + f2 + s2 * (jk[0][0] * jk[0][0] + jk[0][1] * jk[0][1] + jk[0][2] * jk[0][2]);
