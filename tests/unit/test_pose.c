@@ -382,6 +382,370 @@ static void test_covariance_monte_carlo_paper_geometry(void **state)
     }
 }
 
+/* ---- per-observation covariance, survey and calibration terms (issue 12) */
+
+/* The ROS-order error (r_wb_w mm, phi_w rad) of est against truth (pose.h). */
+static void ros_error(const pt_dpose_t *est, const pt_dpose_t *truth, double er[6])
+{
+    double pe[3], pt[3], mr[3][3];
+    pt_position_w(est, pe);
+    pt_position_w(truth, pt);
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            mr[i][j] = est->C[0][i] * truth->C[0][j] + est->C[1][i] * truth->C[1][j] + est->C[2][i] * truth->C[2][j];
+        }
+    }
+    er[0] = pe[0] - pt[0];
+    er[1] = pe[1] - pt[1];
+    er[2] = pe[2] - pt[2];
+    er[3] = 0.5 * (mr[2][1] - mr[1][2]);
+    er[4] = 0.5 * (mr[0][2] - mr[2][0]);
+    er[5] = 0.5 * (mr[1][0] - mr[0][1]);
+}
+
+/* Cholesky (lower) of an n x n SPD matrix in double; false when not SPD. */
+static bool dchol(int n, const double *a, double *l)
+{
+    for (int i = 0; i < n * n; i++) {
+        l[i] = 0.0;
+    }
+    for (int j = 0; j < n; j++) {
+        double d = a[j * n + j];
+        for (int k = 0; k < j; k++) {
+            d -= l[j * n + k] * l[j * n + k];
+        }
+        if (!(d > 0.0)) {
+            return false;
+        }
+        l[j * n + j] = sqrt(d);
+        for (int i = j + 1; i < n; i++) {
+            double v = a[i * n + j];
+            for (int k = 0; k < j; k++) {
+                v -= l[i * n + k] * l[j * n + k];
+            }
+            l[i * n + j] = v / l[j * n + j];
+        }
+    }
+    return true;
+}
+
+/* e^T P^-1 e with P the solution's ROS covariance. */
+static double nees6(const float p[6][6], const double e[6])
+{
+    double a[36], l[36];
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            a[i * 6 + j] = p[i][j];
+        }
+    }
+    assert_true(dchol(6, a, l));
+    double y[6], s = 0.0;
+    for (int i = 0; i < 6; i++) {
+        double v = e[i];
+        for (int k = 0; k < i; k++) {
+            v -= l[i * 6 + k] * y[k];
+        }
+        y[i] = v / l[i * 6 + i];
+        s += y[i] * y[i];
+    }
+    return s;
+}
+
+/* A pose with a dense map around it: nine beacons per camera, 0.5-1.5 m. */
+static void dense_scene(uint64_t seed, pt_dpose_t *truth, mfns_beacon_map_t *map)
+{
+    const mfns_rig_t rig = pt_paper_rig();
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, seed);
+    *truth = random_pose(&rng, 200);
+    const int per_cam[3] = {3, 3, 3};
+    *map = pt_dense_map(&rig, truth, per_cam, 500, 1500, &rng);
+}
+
+/* Heteroscedastic, correlated centroid noise: each observation its own 2x2
+ * covariance (sigmas 0.03-0.5 px, correlation -0.8..0.8) in cov_px2; the
+ * weighted solve's ROS covariance whitens the errors (mean NEES 6), and its
+ * errors are smaller than those of the solve that ignores the per-blob
+ * covariances (one table-wide sigma, the code before issue 12). */
+static void test_heteroscedastic_noise_nees(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    dense_scene(901, &truth, &map);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 902);
+    mfns_obs_frame_t clean;
+    mfns_pose_assoc_t assoc;
+    const int n = pt_make_frame(&rig, &map, &truth, 0.0, &rng, &clean, &assoc);
+    assert_true(n >= 8);
+    /* fixed per-observation covariances */
+    double lc[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA][3];
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < clean.count[c]; i++) {
+            const double su = exp(mfns_rng_range(&rng, log(0.03), log(0.5)));
+            const double sv = exp(mfns_rng_range(&rng, log(0.03), log(0.5)));
+            const double rho = mfns_rng_range(&rng, -0.8, 0.8);
+            mfns_obs_t *o = &clean.obs[c][i];
+            o->cov_px2[0] = (float)(su * su);
+            o->cov_px2[1] = (float)(rho * su * sv);
+            o->cov_px2[2] = (float)(sv * sv);
+            lc[c][i][0] = su; /* L = [[su, 0], [rho sv, sv sqrt(1 - rho^2)]] */
+            lc[c][i][1] = rho * sv;
+            lc[c][i][2] = sv * sqrt(1.0 - rho * rho);
+        }
+    }
+    mfns_pose_config_t cfg = config(1e-3); /* a negligible floor: R = the centroid's */
+    mfns_pose_config_t flat = config(0.25); /* the old solve: one sigma, covariances ignored */
+    const mfns_pose_t t0 = pt_to_float(&truth);
+    const int trials = 600;
+    double nees = 0.0, e2w = 0.0, e2f = 0.0, rw2 = 0.0;
+    int used = 0;
+    for (int t = 0; t < trials; t++) {
+        mfns_obs_frame_t f = clean, g;
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            for (int i = 0; i < f.count[c]; i++) {
+                const double z0 = mfns_rng_normal(&rng), z1 = mfns_rng_normal(&rng);
+                f.obs[c][i].u += (float)(lc[c][i][0] * z0);
+                f.obs[c][i].v += (float)(lc[c][i][1] * z0 + lc[c][i][2] * z1);
+            }
+        }
+        g = f;
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            for (int i = 0; i < g.count[c]; i++) {
+                g.obs[c][i].cov_px2[0] = g.obs[c][i].cov_px2[1] = g.obs[c][i].cov_px2[2] = 0.0f;
+            }
+        }
+        mfns_pose_solution_t sw, sf;
+        if (mfns_pose_refine(&rig, &map, &f, &assoc, &t0, &cfg, &sw) == MFNS_POSE_NO_FIX ||
+            mfns_pose_refine(&rig, &map, &g, &assoc, &t0, &flat, &sf) == MFNS_POSE_NO_FIX) {
+            continue;
+        }
+        const pt_dpose_t ew = pt_from_float(&sw.pose), ef = pt_from_float(&sf.pose);
+        double er[6], ef6[6];
+        ros_error(&ew, &truth, er);
+        ros_error(&ef, &truth, ef6);
+        nees += nees6(sw.cov_ros, er);
+        e2w += er[0] * er[0] + er[1] * er[1] + er[2] * er[2];
+        e2f += ef6[0] * ef6[0] + ef6[1] * ef6[1] + ef6[2] * ef6[2];
+        rw2 += (double)sw.residual_rms_sigma * sw.residual_rms_sigma;
+        used++;
+    }
+    assert_true(used >= trials * 99 / 100);
+    nees /= used;
+    print_message("  heteroscedastic: n=%d mean NEES %.2f (6 expected), RMS position error weighted %.4f mm vs "
+                  "one sigma %.4f mm, whitened residual mean square %.3f ((2n-6)/2n = %.3f expected)\n",
+                  n, nees, sqrt(e2w / used), sqrt(e2f / used), rw2 / used, (2.0 * n - 6.0) / (2.0 * n));
+    assert_true(fabs(nees - 6.0) < 0.6);
+    assert_true(e2w < 0.9 * e2f);
+    assert_true(fabs(rw2 / used - (2.0 * n - 6.0) / (2.0 * n)) < 0.1);
+}
+
+/* Homoscedastic data: a per-blob covariance sigma^2 I (floor negligible)
+ * gives the same pose and covariance as the table's sigma alone: the
+ * estimator is the one before issue 12 on such data. */
+static void test_homoscedastic_unchanged(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    dense_scene(911, &truth, &map);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 912);
+    const mfns_pose_config_t table = config(0.2), blob = config(1e-4);
+    const mfns_pose_t t0 = pt_to_float(&truth);
+    for (int t = 0; t < 50; t++) {
+        mfns_obs_frame_t f, g;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &map, &truth, 0.2, &rng, &f, &assoc);
+        g = f;
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            for (int i = 0; i < g.count[c]; i++) {
+                g.obs[c][i].cov_px2[0] = g.obs[c][i].cov_px2[2] = 0.04f;
+            }
+        }
+        mfns_pose_solution_t a, b;
+        assert_int_not_equal(mfns_pose_refine(&rig, &map, &f, &assoc, &t0, &table, &a), MFNS_POSE_NO_FIX);
+        assert_int_not_equal(mfns_pose_refine(&rig, &map, &g, &assoc, &t0, &blob, &b), MFNS_POSE_NO_FIX);
+        const pt_dpose_t ea = pt_from_float(&a.pose), eb = pt_from_float(&b.pose);
+        assert_true(pt_pos_err(&ea, &eb) < 1e-3 * (a.sigma_pos_mm[0] + a.sigma_pos_mm[1] + a.sigma_pos_mm[2]) + 1e-4);
+        for (int i = 0; i < 3; i++) {
+            assert_true(fabsf(a.sigma_pos_mm[i] - b.sigma_pos_mm[i]) < 1e-3f * a.sigma_pos_mm[i]);
+        }
+        assert_true(fabsf(a.residual_rms_sigma - b.residual_rms_sigma) < 1e-3f * a.residual_rms_sigma + 1e-6f);
+    }
+}
+
+/* Beacons displaced by their survey sigma (a new survey error every trial):
+ * the mean NEES is 6 only with the survey term in R. */
+static void test_survey_error_nees(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    dense_scene(921, &truth, &map);
+    const float sigma_b = 0.4f;
+    for (int b = 0; b < map.count; b++) {
+        map.beacon[b].sigma_mm = sigma_b;
+    }
+    mfns_beacon_map_t blind = map; /* the same map claiming an exact survey */
+    for (int b = 0; b < blind.count; b++) {
+        blind.beacon[b].sigma_mm = 0.0f;
+    }
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 922);
+    const mfns_pose_config_t cfg = config(0.1);
+    /* the blind solve sees residuals of ~10 of its sigmas: plain least
+     * squares (no Huber, no gate) so that it converges like the other */
+    mfns_pose_config_t cfg_blind = config(0.1);
+    cfg_blind.s.huber_k = 0.0f;
+    cfg_blind.s.outlier_gate_sigma = 0.0f;
+    cfg_blind.s.max_iterations = 100;
+    const mfns_pose_t t0 = pt_to_float(&truth);
+    const int trials = 600;
+    double nees = 0.0, nees_blind = 0.0;
+    int used = 0;
+    for (int t = 0; t < trials; t++) {
+        mfns_beacon_map_t real = map;
+        for (int b = 0; b < real.count; b++) {
+            real.beacon[b].p_w.x += (float)(sigma_b * mfns_rng_normal(&rng));
+            real.beacon[b].p_w.y += (float)(sigma_b * mfns_rng_normal(&rng));
+            real.beacon[b].p_w.z += (float)(sigma_b * mfns_rng_normal(&rng));
+        }
+        mfns_obs_frame_t f;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &real, &truth, 0.1, &rng, &f, &assoc);
+        mfns_pose_solution_t s, sb;
+        if (mfns_pose_refine(&rig, &map, &f, &assoc, &t0, &cfg, &s) == MFNS_POSE_NO_FIX ||
+            mfns_pose_refine(&rig, &blind, &f, &assoc, &t0, &cfg_blind, &sb) == MFNS_POSE_NO_FIX) {
+            continue;
+        }
+        const pt_dpose_t e = pt_from_float(&s.pose), eb = pt_from_float(&sb.pose);
+        double er[6];
+        ros_error(&e, &truth, er);
+        nees += nees6(s.cov_ros, er);
+        ros_error(&eb, &truth, er);
+        nees_blind += nees6(sb.cov_ros, er);
+        used++;
+    }
+    assert_true(used >= trials * 99 / 100);
+    nees /= used;
+    nees_blind /= used;
+    print_message("  survey error 0.4 mm: mean NEES %.2f with the survey term, %.2f without (6 expected)\n", nees,
+                  nees_blind);
+    assert_true(fabs(nees - 6.0) < 0.7);
+    assert_true(nees_blind > 12.0);
+}
+
+/* The rig perturbed by a draw from a known calibration covariance (a new
+ * draw every trial; the solver keeps the nominal rig, which is the estimate:
+ * truth = estimate - error): mean NEES 6 only with the calibration term. */
+static void test_calibration_error_nees(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    dense_scene(931, &truth, &map);
+    static const double sd[MFNS_CALIB_PARAMS_PER_CAMERA] = {0.8,  0.8,  0.5,  0.5,  3e-4, 3e-4, 3e-5, 3e-5,
+                                                            3e-4, 2e-4, 2e-4, 2e-4, 0.2,  0.2,  0.2};
+    static double cov[MFNS_CALIB_PARAMS * MFNS_CALIB_PARAMS], l[MFNS_CALIB_PARAMS * MFNS_CALIB_PARAMS];
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 932);
+    const int np = MFNS_CALIB_PARAMS;
+    /* correlated within and across cameras: 0.6 diag + rank-3 part */
+    double b[MFNS_CALIB_PARAMS][3];
+    for (int i = 0; i < np; i++) {
+        for (int k = 0; k < 3; k++) {
+            b[i][k] = mfns_rng_range(&rng, -0.6, 0.6) * sd[i % MFNS_CALIB_PARAMS_PER_CAMERA];
+        }
+    }
+    static mfns_calib_cov_t cc;
+    cc.present = 1;
+    for (int i = 0; i < np; i++) {
+        for (int j = 0; j < np; j++) {
+            const double s = sd[i % MFNS_CALIB_PARAMS_PER_CAMERA];
+            cov[i * np + j] = b[i][0] * b[j][0] + b[i][1] * b[j][1] + b[i][2] * b[j][2] + (i == j ? 0.6 * s * s : 0.0);
+            cc.cov[i][j] = (float)cov[i * np + j];
+        }
+    }
+    assert_true(dchol(np, cov, l));
+    mfns_pose_config_t with = config(0.1), without = config(0.1);
+    with.calib_cov = &cc;
+    const mfns_pose_t t0 = pt_to_float(&truth);
+    const int trials = 600;
+    double nees = 0.0, nees_without = 0.0, ratio = 0.0;
+    int used = 0;
+    for (int t = 0; t < trials; t++) {
+        double z[MFNS_CALIB_PARAMS], d[MFNS_CALIB_PARAMS];
+        for (int i = 0; i < np; i++) {
+            z[i] = mfns_rng_normal(&rng);
+        }
+        for (int i = 0; i < np; i++) {
+            d[i] = 0.0;
+            for (int k = 0; k <= i; k++) {
+                d[i] += l[i * np + k] * z[k];
+            }
+        }
+        mfns_rig_t real = rig; /* truth = estimate - error */
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            const double *e = &d[c * MFNS_CALIB_PARAMS_PER_CAMERA];
+            mfns_camera_t *k = &real.cam[c];
+            k->k.fx -= (float)e[MFNS_CALIB_FX];
+            k->k.fy -= (float)e[MFNS_CALIB_FY];
+            k->k.cx -= (float)e[MFNS_CALIB_CX];
+            k->k.cy -= (float)e[MFNS_CALIB_CY];
+            for (int q = 0; q < 5; q++) {
+                k->k.dist[q] -= (float)e[MFNS_CALIB_K1 + q];
+            }
+            /* C_k_b(est) = exp([theta]) C_k_b(true): C_true = exp(-[theta]) C_est */
+            const double w[3] = {-e[MFNS_CALIB_THETA_X], -e[MFNS_CALIB_THETA_Y], -e[MFNS_CALIB_THETA_Z]};
+            double rm[3][3];
+            pt_rot_exp(w, rm);
+            mfns_m3_t cn;
+            for (int i = 0; i < 3; i++) {
+                for (int j = 0; j < 3; j++) {
+                    cn.m[i][j] = (float)(rm[i][0] * rig.cam[c].C_k_b.m[0][j] + rm[i][1] * rig.cam[c].C_k_b.m[1][j] +
+                                         rm[i][2] * rig.cam[c].C_k_b.m[2][j]);
+                }
+            }
+            k->C_k_b = cn;
+            k->r_bk_b.x -= (float)e[MFNS_CALIB_R_X];
+            k->r_bk_b.y -= (float)e[MFNS_CALIB_R_Y];
+            k->r_bk_b.z -= (float)e[MFNS_CALIB_R_Z];
+        }
+        mfns_obs_frame_t f;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&real, &map, &truth, 0.1, &rng, &f, &assoc);
+        mfns_pose_solution_t s, s0;
+        if (mfns_pose_refine(&rig, &map, &f, &assoc, &t0, &with, &s) == MFNS_POSE_NO_FIX ||
+            mfns_pose_refine(&rig, &map, &f, &assoc, &t0, &without, &s0) == MFNS_POSE_NO_FIX) {
+            continue;
+        }
+        const pt_dpose_t e = pt_from_float(&s.pose);
+        double er[6];
+        ros_error(&e, &truth, er);
+        nees += nees6(s.cov_ros, er);
+        nees_without += nees6(s0.cov_ros, er);
+        ratio += (double)(s.sigma_pos_mm[0] / s0.sigma_pos_mm[0]);
+        /* the calibration term changes the covariance only, not the pose */
+        const pt_dpose_t e0 = pt_from_float(&s0.pose);
+        assert_true(pt_pos_err(&e, &e0) == 0.0 && pt_rot_err(e.C, e0.C) == 0.0);
+        used++;
+    }
+    assert_true(used >= trials * 95 / 100);
+    nees /= used;
+    nees_without /= used;
+    print_message("  calibration error: mean NEES %.2f with the calibration term, %.2f without (6 expected); "
+                  "sigma_x grows %.1fx\n", nees, nees_without, ratio / used);
+    assert_true(fabs(nees - 6.0) < 0.9);
+    assert_true(nees_without > 12.0);
+    assert_true(ratio / used > 1.5);
+}
+
 static void frame_for(const mfns_rig_t *rig, const int per_cam[3], double sigma, uint64_t seed, pt_dpose_t *truth,
                       mfns_beacon_map_t *map, mfns_obs_frame_t *frame, mfns_pose_assoc_t *assoc)
 {
@@ -597,6 +961,10 @@ int main(void)
         cmocka_unit_test(test_float_agrees_with_double_reference),
         cmocka_unit_test(test_converges_from_far),
         cmocka_unit_test(test_covariance_monte_carlo_paper_geometry),
+        cmocka_unit_test(test_heteroscedastic_noise_nees),
+        cmocka_unit_test(test_homoscedastic_unchanged),
+        cmocka_unit_test(test_survey_error_nees),
+        cmocka_unit_test(test_calibration_error_nees),
         cmocka_unit_test(test_status_codes),
         cmocka_unit_test(test_singular_geometry_is_reported),
         cmocka_unit_test(test_paper_mode),
