@@ -351,3 +351,117 @@ def test_pixel_sigma_override(tmp_path, repo_root):
         )
         == 2
     )
+
+
+def _calib_with_cov(src, tmp_path, names, matrix):
+    doc = json.loads(src.read_text())
+    doc["covariance"] = {"parameters": names, "matrix": np.asarray(matrix).tolist()}
+    p = tmp_path / "calib_cov.json"
+    p.write_text(json.dumps(doc))
+    return p
+
+
+def _cov_names_and_matrix(seed=3):
+    """A covariance over the table's parameters of cameras x and z (in a shuffled order) plus
+    one the table does not carry (x.skew), correlated, positive definite."""
+    from mfns.table.format import CALIB_PARAM_NAMES
+
+    names = [f"{c}.{p}" for c in ("z", "x") for p in CALIB_PARAM_NAMES] + ["x.skew"]
+    rng = np.random.default_rng(seed)
+    sd = np.array([1.0, 1.0, 0.5, 0.5, 1e-3, 1e-3, 1e-4, 1e-4, 1e-3, 3e-4, 3e-4, 3e-4, 0.3, 0.3, 0.3] * 2 + [0.1])
+    b = rng.uniform(-0.5, 0.5, (len(names), 3)) * sd[:, None]
+    return names, b @ b.T + np.diag(0.5 * sd**2)
+
+
+def test_build_carries_the_calibration_covariance(sources, tmp_path, capsys):
+    from mfns.table.format import CALIB_PARAM_NAMES, CALIB_PARAMS
+
+    names, m = _cov_names_and_matrix()
+    calib = _calib_with_cov(sources[0], tmp_path, names, m)
+    out = tmp_path / "t.mfnstbl"
+    assert main(["table", "build", str(calib), str(sources[1]), "-o", str(out), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "x.skew" in err and "marginalised out" in err  # dropped: its marginal is the rest
+    assert "y.fx" in err and "taken as exact" in err  # camera y is not in this covariance
+    data = out.read_bytes()
+    assert check_table(data).ok
+    t = decode(data)
+    assert t.version == VERSION == 3 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
+    slot = {f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i for k, c in enumerate("xyz") for i, p in enumerate(CALIB_PARAM_NAMES)}
+    for a, na in enumerate(names[:-1]):
+        for b, nb in enumerate(names[:-1]):
+            assert t.calib_cov[slot[na], slot[nb]] == np.float32(m[a, b])
+    y = slice(len(CALIB_PARAM_NAMES), 2 * len(CALIB_PARAM_NAMES))
+    assert not t.calib_cov[y].any() and not t.calib_cov[:, y].any()
+    assert encode(t) == data
+    # the size grows by the section: 4 + 4 * 45 * 46 / 2 bytes over a table without it
+    plain = tmp_path / "plain.mfnstbl"
+    assert main(["table", "build", *map(str, sources), "-o", str(plain), "-q"]) == 0
+    assert len(data) - plain.stat().st_size == 4 * CALIB_PARAMS * (CALIB_PARAMS + 1) // 2
+    capsys.readouterr()
+    assert main(["table", "show", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "calibration covariance: 45 parameters" in text
+    assert f"x: fx {np.sqrt(np.float32(m[15, 15])):.3g}" in text
+    assert main(["table", "show", str(plain)]) == 0
+    assert "calibration covariance: none (unknown: no calibration term" in capsys.readouterr().out
+
+
+def test_build_refuses_a_covariance_the_flight_loader_refuses(sources, tmp_path, capsys):
+    names, m = _cov_names_and_matrix()
+    m[0, 1] = m[1, 0] = 1.5 * np.sqrt(m[0, 0] * m[1, 1])  # correlation above 1: not PSD
+    calib = _calib_with_cov(sources[0], tmp_path, names, m)
+    out = tmp_path / "t.mfnstbl"
+    assert main(["table", "build", str(calib), str(sources[1]), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert "not positive semi-definite" in err and "calibration covariance (z." in err and "nothing written" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "names,matrix,message",
+    [
+        (["x.fx", "x.fx"], np.eye(2), "distinct"),
+        (["x.fx", "q.fy"], np.eye(2), "expected CAMERA.NAME"),
+        (["x.fx", "x.fy"], np.eye(3), "must be 2 x 2"),
+        (["x.fx", "x.fy"], [[1.0, 0.5], [0.4, 1.0]], "not symmetric"),
+        (["x.fx", "x.fy"], [[1.0, "a"], ["a", 1.0]], "not a matrix of numbers"),
+    ],
+)
+def test_build_covariance_input_errors(sources, tmp_path, capsys, names, matrix, message):
+    doc = json.loads(sources[0].read_text())
+    doc["covariance"] = {"parameters": names, "matrix": matrix if isinstance(matrix, list) else matrix.tolist()}
+    calib = tmp_path / "c.json"
+    calib.write_text(json.dumps(doc))
+    assert main(["table", "build", str(calib), str(sources[1]), "-o", str(tmp_path / "t"), "-q"]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_show_names_the_covariance_element_refused(sources, tmp_path, capsys):
+    names, m = _cov_names_and_matrix()
+    calib = _calib_with_cov(sources[0], tmp_path, names, m)
+    out = tmp_path / "t.mfnstbl"
+    assert main(["table", "build", str(calib), str(sources[1]), "-o", str(out), "-q"]) == 0
+    data = bytearray(out.read_bytes())
+    t = decode(bytes(data))
+    # the section starts after the beacon records; element (x.fx, x.fx) is its first float
+    at = 16 + 60 + sum(116 + 8 * c.grid.nx * c.grid.ny for c in t.cameras) + 20 * len(t.beacon_ids)
+    assert struct.unpack_from("<H", data, at)[0] == 45
+    data[at + 4 : at + 8] = struct.pack("<f", -1.0)
+    bad = tmp_path / "bad.mfnstbl"
+    bad.write_bytes(bytes(_refix_crc(data)))
+    capsys.readouterr()
+    assert main(["table", "show", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert f"byte offset {at + 4}: calibration covariance (x.fx, x.fx))" in err, err
+    data[at : at + 2] = struct.pack("<H", 7)
+    bad.write_bytes(bytes(_refix_crc(data)))
+    assert main(["table", "show", str(bad)]) == 2
+    assert f"byte offset {at}: calibration covariance parameter count)" in capsys.readouterr().err
+
+
+def test_version_2_tables_are_refused_as_old(built):
+    data = built.read_bytes()
+    old = data[:4] + struct.pack("<H", 2) + data[6:]
+    st = core().load(old)
+    assert not st.ok and st.offset == 4 and "rebuild it with mfns table build" in st.message
