@@ -85,12 +85,19 @@ int main(void)
     mfns_rng_seed(&rng, 2026);
     static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     printf("bench_pose: paper rig, sigma 0.1 px, %d frames per row\n", FRAMES);
-    printf("%-4s %12s %8s %12s %8s %14s %10s %10s %10s\n", "n", "refine us", "iters", "paper us", "iters",
-           "cold start us", "p99 us", "max us", "fix rate");
+    /* a calibration covariance (diagonal, of the paper method's size): the
+     * refinement with its calibration term (docs/pose.md "Covariance") */
+    static mfns_calib_cov_t calib;
+    calib.present = 1;
+    for (int i = 0; i < MFNS_CALIB_PARAMS; i++) {
+        calib.cov[i][i] = 1e-4f;
+    }
+    printf("%-4s %12s %12s %8s %12s %8s %14s %10s %10s %10s\n", "n", "refine us", "+calib us", "iters", "paper us",
+           "iters", "cold start us", "p99 us", "max us", "fix rate");
     static double all_cold[7 * FRAMES];
     int n_all = 0;
     for (int n = 4; n <= 10; n++) {
-        double t_ml = 0, t_paper = 0, t_cold = 0, t_cold_max = 0;
+        double t_ml = 0, t_calib = 0, t_paper = 0, t_cold = 0, t_cold_max = 0;
         double cold[FRAMES];
         long it_ml = 0, it_paper = 0;
         int fixes = 0;
@@ -125,6 +132,13 @@ int main(void)
             }
             t_ml += (now_us() - t0) / REPS;
             it_ml += sol.iterations;
+            cfg.calib_cov = &calib;
+            t0 = now_us();
+            for (int r = 0; r < REPS; r++) {
+                (void)mfns_pose_refine(&rig, &map, &frame, &assoc, &prev_f, &cfg, &sol);
+            }
+            t_calib += (now_us() - t0) / REPS;
+            cfg.calib_cov = NULL;
             cfg.mode = MFNS_POSE_MODE_PAPER;
             t0 = now_us();
             for (int r = 0; r < REPS; r++) {
@@ -143,8 +157,8 @@ int main(void)
             fixes += st != MFNS_POSE_NO_FIX ? 1 : 0;
         }
         qsort(cold, FRAMES, sizeof cold[0], cmp_double);
-        printf("%-4d %12.2f %8.2f %12.2f %8.2f %14.1f %10.1f %10.1f %9.1f%%\n", n, t_ml / FRAMES,
-               (double)it_ml / FRAMES, t_paper / FRAMES, (double)it_paper / FRAMES, t_cold / FRAMES,
+        printf("%-4d %12.2f %12.2f %8.2f %12.2f %8.2f %14.1f %10.1f %10.1f %9.1f%%\n", n, t_ml / FRAMES,
+               t_calib / FRAMES, (double)it_ml / FRAMES, t_paper / FRAMES, (double)it_paper / FRAMES, t_cold / FRAMES,
                quantile(cold, FRAMES, 0.99), t_cold_max, 100.0 * fixes / FRAMES);
     }
     qsort(all_cold, (size_t)n_all, sizeof all_cold[0], cmp_double);
