@@ -545,9 +545,7 @@ class Flight:
         )
         return f, a
 
-    def config(
-        self, sigma_px: float = 0.1, mode: int = MODE_ML, calib_cov=None, **settings
-    ) -> PoseConfig:
+    def config(self, sigma_px: float = 0.1, mode: int = MODE_ML, calib_cov=None, **settings) -> PoseConfig:
         """calib_cov: None (no calibration term) or the (45, 45) covariance of the calibration
         (nav_config.h order); the config keeps the C copy alive."""
         c = PoseConfig()
@@ -566,7 +564,9 @@ class Flight:
     def calib_cov(cov) -> CalibCov:
         a = np.asarray(cov, dtype=float)
         if a.shape != (CALIB_PARAMS, CALIB_PARAMS) or not np.all(np.isfinite(a)):
-            raise MfnsError(f"calibration covariance: expected finite ({CALIB_PARAMS}, {CALIB_PARAMS}), got {a.shape}")
+            raise MfnsError(
+                f"calibration covariance: expected finite ({CALIB_PARAMS}, {CALIB_PARAMS}), got {a.shape}"
+            )
         cc = CalibCov()
         cc.present = 1
         np.ctypeslib.as_array(cc.cov)[:] = a.astype(np.float32)

@@ -92,7 +92,11 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
         truth = f.pose(c_true, r_true)
         disp = scn.beacons + rng.normal(0.0, sigma_b_mm, scn.beacons.shape)
         true_cams = perturbed_rig(cams, lc @ rng.normal(size=lc.shape[0]))
-        for kind, world, eye in (("pixel", scn.beacons, cams), ("survey", disp, cams), ("calibration", scn.beacons, true_cams)):
+        for kind, world, eye in (
+            ("pixel", scn.beacons, cams),
+            ("survey", disp, cams),
+            ("calibration", scn.beacons, true_cams),
+        ):
             obs, ids = [], []
             for k in range(3):
                 uv, vis, _ = nav.project_beacons(eye[k], c_true, r_true, world)
@@ -105,7 +109,10 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
             runs = {
                 "pixel": [("pixel", map_zero, cfg)],
                 "survey": [("survey", map_sig, cfg), ("survey, no survey term", map_zero, cfg)],
-                "calibration": [("calibration", map_zero, cfg_c), ("calibration, no calibration term", map_zero, cfg)],
+                "calibration": [
+                    ("calibration", map_zero, cfg_c),
+                    ("calibration, no calibration term", map_zero, cfg),
+                ],
             }[kind]
             for name, bmap, c in runs:
                 sol = f.refine(rig, bmap, frame, assoc, truth, c)
@@ -119,7 +126,9 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
                 )
                 cases[name].append(float(e @ np.linalg.solve(sol.cov_ros, e)))
     return {
-        k: (float(np.mean(v)), float(np.mean(np.array(v) <= chi2_95)), len(v)) if v else (math.nan, math.nan, 0)
+        k: (float(np.mean(v)), float(np.mean(np.array(v) <= chi2_95)), len(v))
+        if v
+        else (math.nan, math.nan, 0)
         for k, v in cases.items()
     }
 
@@ -130,7 +139,10 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     a = p.parse_args(argv)
     res = run(a.trials, a.seed)
-    print(f"module scenario, {a.trials} poses, pixel 0.1 px, survey 0.4 mm, calibration Sigma_c (mc_nees.CALIB_SD)")
+    print(
+        f"module scenario, {a.trials} poses, pixel 0.1 px, survey 0.4 mm, "
+        "calibration Sigma_c (mc_nees.CALIB_SD)"
+    )
     print(f"{'case':36s} {'mean NEES':>10s} {'in 95 %':>8s} {'fixes':>6s}   (6 and 95 % when right)")
     for k, (m, frac, n) in res.items():
         print(f"{k:36s} {m:10.2f} {100 * frac:7.1f}% {n:6d}")

@@ -368,7 +368,9 @@ def _cov_names_and_matrix(seed=3):
 
     names = [f"{c}.{p}" for c in ("z", "x") for p in CALIB_PARAM_NAMES] + ["x.skew"]
     rng = np.random.default_rng(seed)
-    sd = np.array([1.0, 1.0, 0.5, 0.5, 1e-3, 1e-3, 1e-4, 1e-4, 1e-3, 3e-4, 3e-4, 3e-4, 0.3, 0.3, 0.3] * 2 + [0.1])
+    sd = np.array(
+        [1.0, 1.0, 0.5, 0.5, 1e-3, 1e-3, 1e-4, 1e-4, 1e-3, 3e-4, 3e-4, 3e-4, 0.3, 0.3, 0.3] * 2 + [0.1]
+    )
     b = rng.uniform(-0.5, 0.5, (len(names), 3)) * sd[:, None]
     return names, b @ b.T + np.diag(0.5 * sd**2)
 
@@ -387,7 +389,11 @@ def test_build_carries_the_calibration_covariance(sources, tmp_path, capsys):
     assert check_table(data).ok
     t = decode(data)
     assert t.version == VERSION == 3 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
-    slot = {f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i for k, c in enumerate("xyz") for i, p in enumerate(CALIB_PARAM_NAMES)}
+    slot = {
+        f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i
+        for k, c in enumerate("xyz")
+        for i, p in enumerate(CALIB_PARAM_NAMES)
+    }
     for a, na in enumerate(names[:-1]):
         for b, nb in enumerate(names[:-1]):
             assert t.calib_cov[slot[na], slot[nb]] == np.float32(m[a, b])
@@ -414,7 +420,11 @@ def test_build_refuses_a_covariance_the_flight_loader_refuses(sources, tmp_path,
     out = tmp_path / "t.mfnstbl"
     assert main(["table", "build", str(calib), str(sources[1]), "-o", str(out), "-q"]) == 2
     err = capsys.readouterr().err.splitlines()[-1]
-    assert "not positive semi-definite" in err and "calibration covariance (z." in err and "nothing written" in err
+    assert (
+        "not positive semi-definite" in err
+        and "calibration covariance (z." in err
+        and "nothing written" in err
+    )
     assert not out.exists()
 
 
@@ -430,7 +440,10 @@ def test_build_refuses_a_covariance_the_flight_loader_refuses(sources, tmp_path,
 )
 def test_build_covariance_input_errors(sources, tmp_path, capsys, names, matrix, message):
     doc = json.loads(sources[0].read_text())
-    doc["covariance"] = {"parameters": names, "matrix": matrix if isinstance(matrix, list) else matrix.tolist()}
+    doc["covariance"] = {
+        "parameters": names,
+        "matrix": matrix if isinstance(matrix, list) else matrix.tolist(),
+    }
     calib = tmp_path / "c.json"
     calib.write_text(json.dumps(doc))
     assert main(["table", "build", str(calib), str(sources[1]), "-o", str(tmp_path / "t"), "-q"]) == 2

@@ -439,7 +439,7 @@ static double nees6(const float p[6][6], const double e[6])
         }
     }
     assert_true(dchol(6, a, l));
-    double y[6], s = 0.0;
+    double y[6] = {0}, s = 0.0;
     for (int i = 0; i < 6; i++) {
         double v = e[i];
         for (int k = 0; k < i; k++) {

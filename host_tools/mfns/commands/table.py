@@ -99,7 +99,8 @@ def calib_cov_summary(cov) -> str:
         lines.append(
             f"  {name}: fx {s[0]:.3g} fy {s[1]:.3g} cx {s[2]:.3g} cy {s[3]:.3g} px; "
             f"k1 {s[4]:.2g} k2 {s[5]:.2g} p1 {s[6]:.2g} p2 {s[7]:.2g} k3 {s[8]:.2g}; "
-            f"theta {s[9] * 1e3:.3g} {s[10] * 1e3:.3g} {s[11] * 1e3:.3g} mrad; r {s[12]:.3g} {s[13]:.3g} {s[14]:.3g} mm"
+            f"theta {s[9] * 1e3:.3g} {s[10] * 1e3:.3g} {s[11] * 1e3:.3g} mrad; "
+            f"r {s[12]:.3g} {s[13]:.3g} {s[14]:.3g} mm"
         )
     return "\n".join(lines)
 

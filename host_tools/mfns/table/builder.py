@@ -57,7 +57,7 @@ def calib_covariance(doc: dict, where: str = "calibration results") -> np.ndarra
     if cov is None:
         return None
     if not isinstance(cov, dict) or not isinstance(cov.get("parameters"), list):
-        raise MfnsError(f"{where}: covariance must be {{\"parameters\": [...], \"matrix\": [[...]]}}")
+        raise MfnsError(f'{where}: covariance must be {{"parameters": [...], "matrix": [[...]]}}')
     names = cov["parameters"]
     if not all(isinstance(n, str) for n in names) or len(set(names)) != len(names):
         raise MfnsError(f"{where}: covariance parameters must be distinct strings")
@@ -71,8 +71,11 @@ def calib_covariance(doc: dict, where: str = "calibration results") -> np.ndarra
     scale = np.sqrt(np.outer(np.abs(np.diag(m)), np.abs(np.diag(m)))) + 1e-300
     if np.max(np.abs(m - m.T) / scale) > 1e-6:
         raise MfnsError(f"{where}: covariance matrix is not symmetric")
-    slot = {f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i for k, c in enumerate(CAMERA_NAMES)
-            for i, p in enumerate(CALIB_PARAM_NAMES)}
+    slot = {
+        f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i
+        for k, c in enumerate(CAMERA_NAMES)
+        for i, p in enumerate(CALIB_PARAM_NAMES)
+    }
     src, dst, dropped = [], [], []
     for j, name in enumerate(names):
         if "." not in name or name.split(".", 1)[0] not in CAMERA_NAMES:
@@ -88,7 +91,10 @@ def calib_covariance(doc: dict, where: str = "calibration results") -> np.ndarra
         _warn(f"covariance parameters not carried by the table (marginalised out): {', '.join(dropped[:8])}")
     missing = sorted(set(slot) - {names[j] for j in src}, key=slot.get)
     if missing:
-        _warn(f"covariance lists no {', '.join(missing[:6])}{' ...' if len(missing) > 6 else ''}: taken as exact")
+        _warn(
+            f"covariance lists no {', '.join(missing[:6])}{' ...' if len(missing) > 6 else ''}: "
+            "taken as exact"
+        )
     return out
 
 

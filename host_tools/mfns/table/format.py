@@ -27,8 +27,21 @@ NUM_CAMERAS = 3
 # CALIB_PARAMS), u16 reserved, the upper triangle row-major as f32.
 COV_HEADER_SIZE = 4
 CALIB_PARAM_NAMES = (
-    "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3",
-    "theta_x", "theta_y", "theta_z", "r_x", "r_y", "r_z",
+    "fx",
+    "fy",
+    "cx",
+    "cy",
+    "k1",
+    "k2",
+    "p1",
+    "p2",
+    "k3",
+    "theta_x",
+    "theta_y",
+    "theta_z",
+    "r_x",
+    "r_y",
+    "r_z",
 )  # nav_config.h mfns_calib_param_t, per camera x, y, z
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
 # The map-index section after the beacon records is written by the C core
