@@ -57,13 +57,37 @@ def must(res: subprocess.CompletedProcess, what: str) -> None:
 
 def simulate(out: Path, frames: int) -> None:
     must(
-        run(PY, "-m", "mfns", "sim", "nav", out, "--quiet", "--scenario", "module", "--seed", "2", "--frames", frames),
+        run(
+            PY,
+            "-m",
+            "mfns",
+            "sim",
+            "nav",
+            out,
+            "--quiet",
+            "--scenario",
+            "module",
+            "--seed",
+            "2",
+            "--frames",
+            frames,
+        ),
         "mfns sim nav",
     )
 
 
 def build_table(frames: Path, out: Path, beacons: Path | None = None, settings: Path | None = None) -> Path:
-    args = ["-m", "mfns", "table", "build", frames / "calib.json", beacons or frames / "beacons.csv", "-o", out, "-q"]
+    args = [
+        "-m",
+        "mfns",
+        "table",
+        "build",
+        frames / "calib.json",
+        beacons or frames / "beacons.csv",
+        "-o",
+        out,
+        "-q",
+    ]
     if settings is not None:
         args += ["--settings", settings]
     must(run(PY, *args), f"mfns table build {out.name}")
@@ -129,7 +153,7 @@ def add_spots(folder: Path, n_total: int, seed: int) -> None:
     rng = np.random.default_rng(seed)
     files = sorted(folder.glob("cam_*/*.pgm"))
     per = np.bincount(rng.integers(0, len(files), n_total), minlength=len(files))
-    for path, k in zip(files, per):
+    for path, k in zip(files, per, strict=True):
         if k == 0:
             continue
         data = path.read_bytes()
@@ -185,8 +209,16 @@ def fly(frames: Path, table: Path, work: Path, tag: str) -> dict:
         rows = list(csv.DictReader(f))
     truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
     by_frame = {int(t["frame"]): t for t in truth} if "frame" in truth.dtype.names else dict(enumerate(truth))
-    res = {"tag": tag, "cycles": len(rows), "usable": 0, "misleading": 0, "worst_mm": 0.0, "worst_sigma": 0.0,
-           "worst_nees": None, "nav_exit": nav.returncode}
+    res = {
+        "tag": tag,
+        "cycles": len(rows),
+        "usable": 0,
+        "misleading": 0,
+        "worst_mm": 0.0,
+        "worst_sigma": 0.0,
+        "worst_nees": None,
+        "nav_exit": nav.returncode,
+    }
     for row in rows:
         if row["status"] not in ("FIX", "DEGRADED"):
             continue
@@ -240,11 +272,14 @@ def main() -> int:
     base = work / "frames"
     simulate(base, args.frames)
     nominal = build_table(base, work / "nominal.mfnstbl")
-    surveyed = build_table(base, work / "survey.mfnstbl", beacons=displaced_map(base, work / "beacons_survey.csv", 5))
+    surveyed = build_table(
+        base, work / "survey.mfnstbl", beacons=displaced_map(base, work / "beacons_survey.csv", 5)
+    )
     (work / "odd.json").write_text(json.dumps({"centroid": {"threshold_dn": 2}}))
     odd = build_table(base, work / "odd.mfnstbl", settings=work / "odd.json")
-    odd_s = build_table(base, work / "odd_survey.mfnstbl", beacons=work / "beacons_survey.csv",
-                        settings=work / "odd.json")
+    odd_s = build_table(
+        base, work / "odd_survey.mfnstbl", beacons=work / "beacons_survey.csv", settings=work / "odd.json"
+    )
     results = []
 
     def both(frames: Path, name: str, t_nom: Path = nominal, t_sur: Path = surveyed) -> None:
@@ -270,8 +305,10 @@ def main() -> int:
     print("|---|---|---|---|---|---|---|")
     for r in results:
         nees = "-" if r["worst_nees"] is None else f"{r['worst_nees']:.1f}"
-        print(f"| {r['tag']} | {r['cycles']} | {r['usable']} | {r['misleading']} | {r['worst_mm']:.2f} | "
-              f"{r['worst_sigma']:.2f} | {nees} |")
+        print(
+            f"| {r['tag']} | {r['cycles']} | {r['usable']} | {r['misleading']} | {r['worst_mm']:.2f} | "
+            f"{r['worst_sigma']:.2f} | {nees} |"
+        )
     total = sum(r["misleading"] for r in results)
     print(f"misleading fixes (> 20 mm or > 5 sigma of their own covariance): {total}")
     return 1 if total else 0
