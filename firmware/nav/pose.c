@@ -181,6 +181,7 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     const int cap = cfg->s.max_iterations;
     mfns_pose_reason_t r;
     int outliers = 0;
+    bool weighed = false; /* m[].w evaluated at pose */
     if (cfg->mode == MFNS_POSE_MODE_PAPER) {
         r = mfns_pose_paper_newton(rig, m, n, cfg, cap, &pose, &iters);
     } else {
@@ -190,6 +191,7 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
         r = mfns_pose_lm(rig, m, n, cfg, cap, &pose, &iters);
         if (r == MFNS_POSE_R_NONE) {
             mfns_pose_weigh(rig, m, n, &pose, cfg);
+            weighed = true;
         }
         if (r == MFNS_POSE_R_NONE && cfg->s.outlier_gate_sigma > 0.0f) {
             /* the whitened residual |L^-1 r| in sigmas of its own covariance */
@@ -208,6 +210,7 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
                     r = MFNS_POSE_R_TOO_FEW;
                 } else if (iters < cap) {
                     r = mfns_pose_lm(rig, m, n, cfg, cap - iters, &pose, &iters);
+                    weighed = false;
                 } else {
                     r = MFNS_POSE_R_NOT_CONVERGED;
                 }
@@ -216,7 +219,9 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     }
     /* the covariance and the residual check use R at the final pose (paper
      * mode fits unweighted, and reports the same covariance) */
-    mfns_pose_weigh(rig, m, n, &pose, cfg);
+    if (!weighed) {
+        mfns_pose_weigh(rig, m, n, &pose, cfg);
+    }
     out->pose = pose; /* for diagnostics even when NO_FIX */
     out->iterations = (uint16_t)iters;
     out->outliers = (uint16_t)outliers;

@@ -545,6 +545,40 @@ static void test_heteroscedastic_noise_nees(void **state)
 /* Homoscedastic data: a per-blob covariance sigma^2 I (floor negligible)
  * gives the same pose and covariance as the table's sigma alone: the
  * estimator is the one before issue 12 on such data. */
+/* A centroid covariance that is not one (negative variance, |cov uv| above
+ * sqrt(var u var v), not finite) is bad input, never weighted. */
+static void test_bad_centroid_covariance(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    dense_scene(941, &truth, &map);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 942);
+    mfns_obs_frame_t f;
+    mfns_pose_assoc_t assoc;
+    (void)pt_make_frame(&rig, &map, &truth, 0.1, &rng, &f, &assoc);
+    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_t t0 = pt_to_float(&truth);
+    const float bad[4][3] = {{-0.01f, 0.0f, 0.01f}, {0.01f, 0.0f, -0.01f}, {0.01f, 0.011f, 0.01f}, {NAN, 0.0f, 0.01f}};
+    mfns_pose_solution_t sol;
+    for (int k = 0; k < 4; k++) {
+        mfns_obs_frame_t g = f;
+        for (int j = 0; j < 3; j++) {
+            g.obs[1][0].cov_px2[j] = bad[k][j];
+        }
+        assert_int_equal(mfns_pose_refine(&rig, &map, &g, &assoc, &t0, &cfg, &sol), MFNS_POSE_NO_FIX);
+        assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+        assert_int_equal(mfns_pose_track(&rig, &map, &g, &t0, &cfg, &sol), MFNS_POSE_NO_FIX);
+        assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    }
+    /* the edge: exactly correlated (rank 1) is a covariance; the floor keeps R definite */
+    mfns_obs_frame_t g = f;
+    g.obs[1][0].cov_px2[0] = g.obs[1][0].cov_px2[1] = g.obs[1][0].cov_px2[2] = 0.01f;
+    assert_int_not_equal(mfns_pose_refine(&rig, &map, &g, &assoc, &t0, &cfg, &sol), MFNS_POSE_NO_FIX);
+}
+
 static void test_homoscedastic_unchanged(void **state)
 {
     (void)state;
@@ -963,6 +997,7 @@ int main(void)
         cmocka_unit_test(test_covariance_monte_carlo_paper_geometry),
         cmocka_unit_test(test_heteroscedastic_noise_nees),
         cmocka_unit_test(test_homoscedastic_unchanged),
+        cmocka_unit_test(test_bad_centroid_covariance),
         cmocka_unit_test(test_survey_error_nees),
         cmocka_unit_test(test_calibration_error_nees),
         cmocka_unit_test(test_status_codes),
