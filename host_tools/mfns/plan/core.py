@@ -44,7 +44,8 @@ class Core:
         L.mfns_cam_project.restype = ct.c_int
         L.mfns_cam_in_image.argtypes = [ct.c_void_p, ct.c_float, ct.c_float]
         L.mfns_cam_in_image.restype = ct.c_bool
-        L.mfns_pose_covariance.argtypes = [P(_H66), ct.c_float, ct.c_float, P(SolutionC)]
+        # (h = J^T R^-1 J, B = J^T R^-1 J_c or NULL, calibration covariance or NULL, min_rcond, out)
+        L.mfns_pose_covariance.argtypes = [P(_H66), ct.c_void_p, ct.c_void_p, ct.c_float, P(SolutionC)]
         L.mfns_pose_covariance.restype = ct.c_int
         self.lib = L
         self.cams = cams
@@ -103,7 +104,7 @@ class Core:
                 h[i][j] = float(info[i, j])
         out = SolutionC()
         out.pose = Flight.pose(C_w_b, r_bw_b)
-        if self.lib.mfns_pose_covariance(ct.byref(h), 1.0, self.min_rcond, ct.byref(out)) != 0:
+        if self.lib.mfns_pose_covariance(ct.byref(h), None, None, self.min_rcond, ct.byref(out)) != 0:
             return None
         return np.array(list(out.sigma_pos_mm), dtype=float), np.array(list(out.sigma_euler_deg), dtype=float)
 
