@@ -54,11 +54,15 @@ def test_xtce_validates_against_the_schema(tmp_path):
     must fail: the validation is real."""
     from space_packet_parser.xtce.validation import validate_xtce
 
-    res = validate_xtce(MDB, level="all", allow_schema_download=False, raise_on_error=False, print_results=False)
+    res = validate_xtce(
+        MDB, level="all", allow_schema_download=False, raise_on_error=False, print_results=False
+    )
     assert res, str(res)
     bad = tmp_path / "bad.xml"
     bad.write_text(MDB.read_text().replace('encoding="IEEE754_1985"', 'encoding="IEEE-754"', 1))
-    res = validate_xtce(bad, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False)
+    res = validate_xtce(
+        bad, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False
+    )
     assert not res
 
 
@@ -158,9 +162,10 @@ def test_budget_matches_a_generated_stream(bins, tmp_path):
     stream = tmp_path / "gen.bin"
     subprocess.run([str(bins / "mfns-tlm-gen"), "--cycles", "40", "--file", str(stream)], check=True)
     wire = {n: w for n, w, _, _ in tlm_dict.budget()["streams"]}
-    assert stream.stat().st_size == 40 * (wire["nav"] + 3 * wire["camera"]) + 2 * wire["housekeeping"] + 2 * wire[
-        "event"
-    ]
+    assert (
+        stream.stat().st_size
+        == 40 * (wire["nav"] + 3 * wire["camera"]) + 2 * wire["housekeeping"] + 2 * wire["event"]
+    )
     assert len(cobs_frames(stream.read_bytes())) == 40 * 4 + 2 + 2
     b = tlm_dict.budget()
     assert b["bytes_per_s"] < 0.6 * 11520  # 18.6 Hz within 115200 baud, with margin
