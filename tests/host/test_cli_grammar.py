@@ -155,6 +155,7 @@ def test_ground_quiet_prints_no_counters(bins, tmp_path):
     quiet = run(bins, "mfns-ground", "--file", str(stream), "--out", str(tmp_path / "b"), "--quiet")
     assert loud.returncode == 0 and quiet.returncode == 0
     assert "frames_ok" in loud.stderr and quiet.stderr == ""
+
     def rows(d):  # without the last column, ground_utc: the receive time differs between runs
         return [ln.rsplit(",", 1)[0] for ln in (tmp_path / d / "nav.csv").read_text().splitlines()]
 
