@@ -1,5 +1,7 @@
 """The telemetry dictionary (XTCE mission database ground/mdb/mfns_tm.xml) for Python.
 
+The file itself is host_tools/mfns/data/mfns_tm.xml (package data); ground/mdb/ links to it.
+
 The XTCE file is the one definition of the telemetry packets: their CCSDS headers, every
 parameter with its encoding, unit and calibration, and every numbered code (status, reason,
 mode, camera state, event code, severity). This module reads it with the standard library
@@ -38,9 +40,9 @@ RATES = {
 
 
 def mdb_path() -> Path:
-    """The XTCE file: the package's copy (a link to ground/mdb in the source tree)."""
-    p = Path(str(resources.files("mfns.data").joinpath("mfns_tm.xml")))
-    return p if p.exists() else REPO / "ground" / "mdb" / "mfns_tm.xml"
+    """The XTCE file. It lives in the package (mfns/data, so an installed mfns has it);
+    ground/mdb/mfns_tm.xml, where ground systems (Yamcs) load it from, links to it."""
+    return Path(str(resources.files("mfns.data").joinpath("mfns_tm.xml")))
 
 
 @dataclass
