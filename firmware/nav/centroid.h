@@ -65,6 +65,13 @@
 #define MFNS_CENTROID_REFINE_MAX_SIDE 96
 #define MFNS_CENTROID_REFINE_MIN_BLUR 0.3f
 #define MFNS_CENTROID_REFINE_MIN_RADIUS 1.75f
+/* Centroid covariance (docs/centroiding.md, "Centroid covariance"): the pixel
+ * noise floor is at least the rounding of the pixel to whole DN, 1/12 DN^2
+ * (a background estimate of 0, e.g. a caller's noise-free frame, still leaves
+ * it), and the reported centroid carries its own rounding to px_q8_t,
+ * 1/12 LSB^2 per axis. */
+#define MFNS_CENTROID_QUANT_VAR_DN2 (1.0f / 12.0f)
+#define MFNS_CENTROID_Q8_VAR_PX2 (1.0 / (12.0 * (double)MFNS_PX_Q8_ONE * (double)MFNS_PX_Q8_ONE))
 /* Background estimate: at most this many sampled pixels, two passes. */
 #define MFNS_CENTROID_BG_MAX_SAMPLES 8192u
 #define MFNS_CENTROID_HIST_BINS 1024u
