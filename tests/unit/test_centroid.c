@@ -417,8 +417,9 @@ static cov_result_t run_cov_case(const cov_case_t *c, uint64_t seed)
     scene_begin(sc);
     const double pi = 3.14159265358979323846;
     for (int k = 0; k < COV_SPOTS; k++) {
-        xs[k] = 32 + 64 * (k % 4) + mfns_rng_range(&rng, -0.5, 0.5);
-        ys[k] = 32 + 64 * (k / 4) + mfns_rng_range(&rng, -0.5, 0.5);
+        const int col = k % 4, row = k / 4;
+        xs[k] = 32 + 64 * col + mfns_rng_range(&rng, -0.5, 0.5);
+        ys[k] = 32 + 64 * row + mfns_rng_range(&rng, -0.5, 0.5);
         if (c->ell_a > 0.0) {
             scene_add_ellipse(sc, xs[k], ys[k], c->ell_a, c->ell_b, c->ell_theta_deg * pi / 180.0,
                               c->peak_dn * 2.0 * pi * c->ell_a * c->ell_b);
