@@ -108,7 +108,8 @@ static void scene_render_rect(const scene_t *sc, mfns_rng_t *rng, int x0, int y0
     for (int y = y0 < 0 ? 0 : y0; y < y1 && y < sc->h; y++) {
         for (int x = x0 < 0 ? 0 : x0; x < x1 && x < sc->w; x++) {
             const double mu = g_mu[(size_t)y * sc->w + (size_t)x];
-            double v = mu + sqrt(sc->gshot * mu) * mfns_rng_normal(rng) + sc->read * mfns_rng_normal(rng);
+            /* shot + read noise as one normal: the same distribution as scene_render's two */
+            double v = mu + sqrt(sc->gshot * mu + sc->read * sc->read) * mfns_rng_normal(rng);
             v = floor(v + 0.5);
             v = v < 0 ? 0 : (v > maxv ? maxv : v);
             put_px(&f, x, y, (uint32_t)v);
@@ -409,7 +410,13 @@ static cov_result_t run_cov_case(const cov_case_t *c, uint64_t seed)
     static double eu[COV_SPOTS][COV_FRAMES], ev[COV_SPOTS][COV_FRAMES], pc[COV_SPOTS][COV_FRAMES][3];
     mfns_rng_t rng;
     mfns_rng_seed(&rng, seed);
-    const scene_t *sc = &c->sc;
+    /* the case's scene on 512 x 512 px, spots 128 px apart: on the accuracy
+     * tests' 256 x 256 the spots' pixels inflate the background noise estimate
+     * by up to 10 % (docs/centroiding.md), here by ~2 % */
+    scene_t big = c->sc;
+    big.w = 512;
+    big.h = 512;
+    const scene_t *sc = &big;
     const mfns_frame_t f = frame_of(sc);
     mfns_centroid_settings_t set = mfns_centroid_default_settings();
     set.gain_dn_per_e_q12 = (uint16_t)lround(sc->gshot * (double)MFNS_GAIN_Q12_ONE);
@@ -418,8 +425,8 @@ static cov_result_t run_cov_case(const cov_case_t *c, uint64_t seed)
     const double pi = 3.14159265358979323846;
     for (int k = 0; k < COV_SPOTS; k++) {
         const int col = k % 4, row = k / 4;
-        xs[k] = 32 + 64 * col + mfns_rng_range(&rng, -0.5, 0.5);
-        ys[k] = 32 + 64 * row + mfns_rng_range(&rng, -0.5, 0.5);
+        xs[k] = 64 + 128 * col + mfns_rng_range(&rng, -0.5, 0.5);
+        ys[k] = 64 + 128 * row + mfns_rng_range(&rng, -0.5, 0.5);
         if (c->ell_a > 0.0) {
             scene_add_ellipse(sc, xs[k], ys[k], c->ell_a, c->ell_b, c->ell_theta_deg * pi / 180.0,
                               c->peak_dn * 2.0 * pi * c->ell_a * c->ell_b);
@@ -432,15 +439,17 @@ static cov_result_t run_cov_case(const cov_case_t *c, uint64_t seed)
     }
     cov_result_t r;
     memset(&r, 0, sizeof r);
-    /* the whole frame once, then fresh noise around each spot only (+-24 px:
-     * the blob, the refinement window and beyond); the background estimate
-     * sees a new frame in every window, the same one elsewhere */
+    /* the whole frame once, then fresh noise around each spot only: over the
+     * window holding all but ~1e-9 of its flux, + 3 px (beyond it the frame is
+     * background; the blob and the refinement window lie inside). The
+     * background estimate sees fresh pixels in the windows, the same elsewhere. */
+    const int half = 3 + (c->ell_a > 0.0 ? (int)ceil(6.5 * fmax(c->ell_a, c->ell_b)) + 1 : cs_half_window(&c->spot));
     scene_render(sc, &rng, true);
     for (int m = 0; m < COV_FRAMES; m++) {
         if (m > 0) {
             for (int k = 0; k < COV_SPOTS; k++) {
                 const int cx = (int)lround(xs[k]), cy = (int)lround(ys[k]);
-                scene_render_rect(sc, &rng, cx - 24, cy - 24, cx + 25, cy + 25);
+                scene_render_rect(sc, &rng, cx - half, cy - half, cx + half + 1, cy + half + 1);
             }
         }
         assert_int_equal(run_full(&f, &set), MFNS_CENTROID_OK);
