@@ -146,8 +146,10 @@ def _covariance(cov: object, cams: list[dict]) -> None:
         raise MfnsError(f"{where} matrix: a zero variance with a nonzero covariance")
     if pos.any():
         s = np.sqrt(d[pos])
-        corr = m[np.ix_(pos, pos)] / np.outer(s, s)
-        if np.linalg.eigvalsh(corr).min() < -PSD_TOL:
+        with np.errstate(over="ignore", invalid="ignore"):
+            corr = m[np.ix_(pos, pos)] / np.outer(s, s)
+        # |correlation| <= 1 first: it also keeps inf/NaN (from extreme values) out of eigvalsh
+        if not np.all(np.abs(corr) <= 1.0 + PSD_TOL) or np.linalg.eigvalsh(corr).min() < -PSD_TOL:
             raise MfnsError(f"{where} matrix: not positive semi-definite")
     index = {nm: i for i, nm in enumerate(names)}
     for cam in cams:
