@@ -134,7 +134,7 @@ def test_multi_seed_covariance_describes_the_errors_against_truth(seeds):
 
 def test_rendered_dataset_covariance_covers_the_truth(default_run):
     """The default rendered dataset (OpenCV corners): both documents' covariances cover the truth."""
-    cal, _cmp = default_run
+    cal, cmp = default_run
     bound = chi2.ppf(0.99, 45)
     _, cov = refined_covariance(cal.refined)
     nr = nees(parameter_error(cal.refined.rig, cal.truth), cov)
@@ -144,4 +144,5 @@ def test_rendered_dataset_covariance_covers_the_truth(default_run):
     print(f"\nrendered dataset NEES (45 parameters, 99 % bound {bound:.1f}): refined {nr:.1f}, "
           f"paper {npp:.1f} (under Cov(ML) alone {n_ml:.0f})")
     assert nr < bound and npp < bound
+    assert cmp.n_parameters == 45 and (cmp.nees_refined, cmp.nees_paper) == (nr, npp)  # the report's line
     assert n_ml > 10 * bound  # without the rank-one term the paper's error is far outside

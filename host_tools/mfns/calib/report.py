@@ -13,7 +13,14 @@ from ..calib_results import FORMAT, VERSION, camera_entry
 from ..rotations import matrix_to_euler213_deg
 from .model import Observations, Rig
 from .pipeline import Calibration, paper_quantities
-from .covariance import euler_sigma, paper_covariance, refined_covariance, sigma_block
+from .covariance import (
+    euler_sigma,
+    nees,
+    paper_covariance,
+    parameter_error,
+    refined_covariance,
+    sigma_block,
+)
 from .refine import cramer_rao, quantities, rig0
 from .zhang import INTRINSIC_NAMES
 
@@ -96,6 +103,10 @@ class Comparison:
     refined_err: np.ndarray
     refined_sigma: np.ndarray
     crb: np.ndarray | None
+    # NEES of the truth under the documents' covariances (covariance.py), and their parameter count
+    nees_refined: float = float("nan")
+    nees_paper: float = float("nan")  # NaN: the paper's method was not applicable
+    n_parameters: int = 0
 
     EXTRINSIC_PREFIXES = ("rot", "r_")
 
@@ -131,7 +142,14 @@ def compare(cal: Calibration, truth: Rig, obs: Observations, truth_doc: dict | N
                 ang.append((d["Omega_deg"], d["omega_deg"]))
         if ok:
             _, crb = cramer_rao(obs, truth, prep, np.array(ang).reshape(-1, 2), cal.refined.sigma_px)
-    return Comparison(names, q_true, q_pap - q_true, q_ref - q_true, cal.refined.sigma, crb)
+    _, cov = refined_covariance(cal.refined)
+    nr = nees(parameter_error(cal.refined.rig, truth), cov)
+    np_ = float("nan")
+    if cal.paper is not None:
+        np_ = nees(parameter_error(cal.paper, truth), paper_covariance(cal.paper, cal.refined)[1])
+    return Comparison(
+        names, q_true, q_pap - q_true, q_ref - q_true, cal.refined.sigma, crb, nr, np_, len(cov)
+    )
 
 
 def accuracy_table(cmp: Comparison) -> str:
@@ -161,6 +179,14 @@ def accuracy_table(cmp: Comparison) -> str:
             lines.append(
                 f"    {g:10s} refined {np.sqrt(np.mean(z**2)):6.2f}   paper {np.sqrt(np.mean(zp**2)):8.2f}"
             )
+    if cmp.n_parameters:
+        from scipy.stats import chi2
+
+        lines.append(
+            f"  NEES of the truth under the results' covariances ({cmp.n_parameters} parameters, "
+            f"99 % bound {chi2.ppf(0.99, cmp.n_parameters):.1f}): refined {cmp.nees_refined:.1f}, "
+            f"paper {cmp.nees_paper:.1f}"
+        )
     return "\n".join(lines)
 
 
