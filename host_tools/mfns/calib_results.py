@@ -132,7 +132,9 @@ def _covariance(cov: object, cams: list[dict]) -> None:
         raise MfnsError(f"{where} parameters: duplicate names")
     missing = [f"{c}.{p}" for c in cam_names for p in COVARIANCE_PARAMETERS if f"{c}.{p}" not in names]
     if missing:
-        raise MfnsError(f"{where} parameters: missing {', '.join(missing[:4])}" + (" ..." if missing[4:] else ""))
+        raise MfnsError(
+            f"{where} parameters: missing {', '.join(missing[:4])}" + (" ..." if missing[4:] else "")
+        )
     n = len(names)
     m = V.array(cov["matrix"], f"{where} matrix", (n, n))
     d = np.diag(m)

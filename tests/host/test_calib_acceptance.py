@@ -141,8 +141,10 @@ def test_rendered_dataset_covariance_covers_the_truth(default_run):
     _, cov_p = paper_covariance(cal.paper, cal.refined)
     e_p = parameter_error(cal.paper, cal.truth)
     npp, n_ml = nees(e_p, cov_p), nees(e_p, cov)
-    print(f"\nrendered dataset NEES (45 parameters, 99 % bound {bound:.1f}): refined {nr:.1f}, "
-          f"paper {npp:.1f} (under Cov(ML) alone {n_ml:.0f})")
+    print(
+        f"\nrendered dataset NEES (45 parameters, 99 % bound {bound:.1f}): refined {nr:.1f}, "
+        f"paper {npp:.1f} (under Cov(ML) alone {n_ml:.0f})"
+    )
     assert nr < bound and npp < bound
     assert cmp.n_parameters == 45  # the report's line:
     assert (cmp.nees_refined, cmp.nees_paper) == pytest.approx((nr, npp), rel=1e-9)

@@ -41,7 +41,9 @@ def direct_cal():
     truth, board = default_truth(), Board()
     shots = make_plan(truth, board, np.random.default_rng(1), 12, 10, 8.0)
     rng = np.random.default_rng(77)
-    obs = corner_observations(truth, board, _reangle(truth, shots, rng, 8.0), rng, 0.1, angle_sigma_arcsec=8.0)
+    obs = corner_observations(
+        truth, board, _reangle(truth, shots, rng, 8.0), rng, 0.1, angle_sigma_arcsec=8.0
+    )
     return calibrate(obs), truth
 
 
@@ -91,7 +93,9 @@ def test_mfns_calib_writes_the_contract(cli_outputs, path_kind):
         np.testing.assert_allclose(s["euler_213_deg"], euler_sigma(np.array(cam["C_k_b"]), th), rtol=1e-9)
     # one covariance row per line: the file stays readable
     lines = path.read_text().splitlines()
-    assert sum(1 for ln in lines if ln.strip().startswith("[") and ln.strip().rstrip(",").count(",") == 44) == 45
+    assert (
+        sum(1 for ln in lines if ln.strip().startswith("[") and ln.strip().rstrip(",").count(",") == 44) == 45
+    )
 
 
 def test_paper_covariance_is_larger_than_the_refined_one(cli_outputs):
@@ -186,7 +190,9 @@ def test_refined_covariance_is_the_refinement_covariance_mapped(direct_cal):
         h = 1e-6 * max(1.0, abs(x[j]))
         dx = np.zeros(len(x))
         dx[j] = h
-        a[:, j] = (parameter_error(prob.rig(x + dx), base) - parameter_error(prob.rig(x - dx), base)) / (2 * h)
+        a[:, j] = (parameter_error(prob.rig(x + dx), base) - parameter_error(prob.rig(x - dx), base)) / (
+            2 * h
+        )
     expect = a @ ref.cov_params @ a.T
     sd = np.sqrt(np.diag(expect))
     np.testing.assert_allclose(cov / np.outer(sd, sd), expect / np.outer(sd, sd), atol=1e-6)

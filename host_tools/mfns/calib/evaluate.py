@@ -20,8 +20,8 @@ import numpy as np
 from tqdm import tqdm
 
 from ..simulate.calib import Shot, corner_observations, default_truth, make_plan
-from .model import Board, Rig
 from .covariance import N_PARAMETERS, nees, paper_covariance, parameter_error, refined_covariance
+from .model import Board, Rig
 from .pipeline import calibrate, paper_quantities
 from .refine import cramer_rao, quantities
 
@@ -72,7 +72,6 @@ class SeedStats:
                 f" {self.mean_sigma[i] / self.spread[i]:10.2f}"
             )
         return "\n".join(lines)
-
 
     def coverage(self) -> str:
         """NEES of the truth under the documents' covariances against chi-square(n_parameters)."""

@@ -11,8 +11,6 @@ import numpy as np
 
 from ..calib_results import FORMAT, VERSION, camera_entry
 from ..rotations import matrix_to_euler213_deg
-from .model import Observations, Rig
-from .pipeline import Calibration, paper_quantities
 from .covariance import (
     euler_sigma,
     nees,
@@ -21,6 +19,8 @@ from .covariance import (
     refined_covariance,
     sigma_block,
 )
+from .model import Observations, Rig
+from .pipeline import Calibration, paper_quantities
 from .refine import cramer_rao, quantities, rig0
 from .zhang import INTRINSIC_NAMES
 
