@@ -717,7 +717,8 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
  * ill-conditioning throws that far is left to another anchor or to the
  * completion, which uses the sound test, minimal_in_workspace). Measured on
  * 1,000 module views: the median work of views of 7+ blobs fell from 550 to
- * 188 units and the right fixes rose from 811 to 829. */
+ * 188 units and the right fixes rose from 811 to 829. Not charged: a few
+ * dozen flops against the ~1 us of a unit, within the solve's. */
 static bool band_plausible(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
 {
     const mfns_v3_t p = mfns_pose_position_w(pose);
