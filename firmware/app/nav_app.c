@@ -73,7 +73,8 @@ static struct {
     bool tlm_write_error_printed;
     bool tlm_in_error;    /* the last pump failed with a write error */
     uint32_t cycle_now;
-    uint32_t n_fix, n_no_fix;
+    uint32_t n_fix, n_degraded, n_no_fix; /* FIX, DEGRADED, NO_FIX as in the nav packets sent */
+    uint64_t last_t_us;                   /* the last cycle's time: the flight clock */
     uint32_t n_acquire, acq_units_max; /* acquisition cycles; most work in the HK interval */
     mfns_acq_progress_t acq_last;      /* the last acquisition's progress */
 } app;
@@ -515,7 +516,8 @@ static void camera_packets(uint32_t cycle, uint64_t t_us, const mfns_cam_frame_t
     }
 }
 
-static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
+/* n_cycles: cycles run so far (the one of index `cycle` included). */
+static void housekeeping(uint32_t cycle, uint32_t n_cycles, uint64_t t_us, uint32_t table_crc)
 {
     tlm_packet_t p;
     memset(&p, 0, sizeof p);
@@ -529,9 +531,11 @@ static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
     h->cycle_p95_us = mfns_cycle_stats_percentile(&app.stats, 95.0f);
     h->cycle_p99_us = mfns_cycle_stats_percentile(&app.stats, 99.0f);
     h->cycle_max_us = app.stats.max_us;
-    h->n_cycles = cycle + 1;
+    h->n_cycles = n_cycles;
     h->n_fix = app.n_fix;
+    h->n_degraded = app.n_degraded;
     h->n_no_fix = app.n_no_fix;
+    h->cams_enabled = (uint8_t)((1u << MFNS_NUM_CAMERAS) - 1u); /* the uplink (CAMERA_DISABLE) clears bits */
     h->n_tlm_dropped = app.tlm.q.dropped;
     h->n_cam_errors = (uint32_t)(app.cam_errors > UINT32_MAX ? UINT32_MAX : app.cam_errors);
     h->table_crc32 = table_crc;
@@ -708,8 +712,9 @@ static void camera_ended(uint32_t cycle, uint64_t t_us, int k)
 
 static void print_summary(const char *why, uint32_t cycle, uint32_t lost_frames, uint32_t produced)
 {
-    fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n", why,
-            cycle, app.n_fix, app.n_no_fix, lost_frames);
+    fprintf(stderr,
+            "mfns-nav: stopped (%s) after %u cycles: %u fix, %u degraded, %u no fix, %u telemetry frames dropped\n",
+            why, cycle, app.n_fix, app.n_degraded, app.n_no_fix, lost_frames);
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         const cam_slot_t *c = &app.cs[k];
         if (c->n_stale + c->n_ahead + c->n_rejected + c->n_timeouts + c->n_lost + (c->ended_reported ? 1u : 0u) > 0) {
@@ -858,14 +863,18 @@ int nav_app_run(const nav_app_opts_t *o)
             app.acq_last = app.out.acq;
             app.acq_units_max = app.out.acq.units > app.acq_units_max ? app.out.acq.units : app.acq_units_max;
         }
-        const bool fix = app.out.sol.status != MFNS_POSE_NO_FIX;
-        if (fix) {
+        tlm_packet_t p;
+        nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
+        /* counted from the packet itself, so the log, housekeeping and
+         * nav.csv say the same (a pose the packet refuses is NO_FIX) */
+        if (p.u.nav.status == TLM_NAV_FIX) {
             app.n_fix++;
+        } else if (p.u.nav.status == TLM_NAV_DEGRADED) {
+            app.n_degraded++;
         } else {
             app.n_no_fix++;
         }
-        tlm_packet_t p;
-        nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
+        app.last_t_us = t_us;
         (void)nav_tlm_send(&app.tlm, &p);
         camera_events(cycle, t_us);
         camera_health(o, cycle, t_us); /* first: the packets carry the state after this cycle */
@@ -878,7 +887,7 @@ int nav_app_run(const nav_app_opts_t *o)
         mfns_cycle_stats_add(&app.stats, (uint32_t)(end - start), (uint32_t)(start - prev_start));
         prev_start = start;
         if (t_us - last_hk_us >= 1000000u || cycle == 0) {
-            housekeeping(cycle, t_us, app.table.crc32);
+            housekeeping(cycle, cycle + 1u, t_us, app.table.crc32);
             last_hk_us = t_us;
         }
         pump_tlm(o);
@@ -909,7 +918,10 @@ int nav_app_run(const nav_app_opts_t *o)
             app.cs[k].have_held = false;
         }
     }
-    housekeeping(cycle, now_us() - t0, app.table.crc32);
+    /* The final report: stamped with the flight clock (the last cycle's
+     * time, so time never runs backwards on the ground) and counting the
+     * cycles that ran (cycle is their number here on every exit path). */
+    housekeeping(cycle > 0u ? cycle - 1u : 0u, cycle, app.last_t_us, app.table.crc32);
     close_all(o);
     /* Exact: every frame produced was sent, dropped by the queue, or is still
      * queued (never sent) now. */
