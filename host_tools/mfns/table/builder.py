@@ -43,58 +43,34 @@ def load_beacon_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return ids, pos, sig
 
 
-def calib_covariance(doc: dict, where: str = "calibration results") -> np.ndarray | None:
+def calib_covariance(doc: dict) -> np.ndarray | None:
     """The (45, 45) calibration covariance the table carries (format.CALIB_PARAM_NAMES per
-    camera x, y, z) from the document's optional "covariance" {"parameters": [...], "matrix":
-    [[...]]} (docs/calib-results.md); None when absent (unknown: no calibration term).
+    camera x, y, z) from the document's optional "covariance" (docs/calib-results.md, checked
+    by calib_results.validate when the document was loaded); None when absent (unknown: no
+    calibration term).
 
-    Parameters the table does not carry (e.g. "x.skew") are dropped, which for a Gaussian is
-    exactly its marginal; table parameters the document does not list get zero variance (taken
-    as exact, with a warning). The flight loader checks that the result is positive
-    semi-definite (nothing is checked twice here).
+    Parameters are matched by name; one the table does not carry (e.g. "x.skew") is dropped,
+    which for a Gaussian is exactly its marginal. The flight loader checks the result again
+    (positive semi-definite in float32) when the builder loads its own bytes.
     """
-    cov = doc.get("covariance")
-    if cov is None:
+    got = calib_results.covariance(doc)
+    if got is None:
         return None
-    if not isinstance(cov, dict) or not isinstance(cov.get("parameters"), list):
-        raise MfnsError(f'{where}: covariance must be {{"parameters": [...], "matrix": [[...]]}}')
-    names = cov["parameters"]
-    if not all(isinstance(n, str) for n in names) or len(set(names)) != len(names):
-        raise MfnsError(f"{where}: covariance parameters must be distinct strings")
-    try:
-        m = np.asarray(cov.get("matrix"), dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise MfnsError(f"{where}: covariance matrix is not a matrix of numbers") from exc
-    n = len(names)
-    if m.shape != (n, n) or not np.all(np.isfinite(m)):
-        raise MfnsError(f"{where}: covariance matrix must be {n} x {n} finite numbers, got shape {m.shape}")
-    scale = np.sqrt(np.outer(np.abs(np.diag(m)), np.abs(np.diag(m)))) + 1e-300
-    if np.max(np.abs(m - m.T) / scale) > 1e-6:
-        raise MfnsError(f"{where}: covariance matrix is not symmetric")
+    names, m = got
     slot = {
         f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i
         for k, c in enumerate(CAMERA_NAMES)
         for i, p in enumerate(CALIB_PARAM_NAMES)
     }
-    src, dst, dropped = [], [], []
-    for j, name in enumerate(names):
-        if "." not in name or name.split(".", 1)[0] not in CAMERA_NAMES:
-            raise MfnsError(f"{where}: covariance parameter {name!r:.40}: expected CAMERA.NAME (x, y, z)")
-        if name in slot:
-            src.append(j)
-            dst.append(slot[name])
-        else:
-            dropped.append(name)
+    src = [j for j, n in enumerate(names) if n in slot]
+    dst = [slot[names[j]] for j in src]
+    if sorted(dst) != list(range(CALIB_PARAMS)):
+        raise MfnsError("covariance: the flight table needs every camera's 15 parameters")
     out = np.zeros((CALIB_PARAMS, CALIB_PARAMS))
-    out[np.ix_(dst, dst)] = 0.5 * (m + m.T)[np.ix_(src, src)]
+    out[np.ix_(dst, dst)] = m[np.ix_(src, src)]
+    dropped = [n for n in names if n not in slot]
     if dropped:
         _warn(f"covariance parameters not carried by the table (marginalised out): {', '.join(dropped[:8])}")
-    missing = sorted(set(slot) - {names[j] for j in src}, key=slot.get)
-    if missing:
-        _warn(
-            f"covariance lists no {', '.join(missing[:6])}{' ...' if len(missing) > 6 else ''}: "
-            "taken as exact"
-        )
     return out
 
 
@@ -173,6 +149,6 @@ def build_table(
         centroid=centroid if centroid is not None else dc,
         solver=solver if solver is not None else ds,
         index_section=fl.encode_index(idx),
-        calib_cov=calib_covariance(doc, str(calib_json)),
+        calib_cov=calib_covariance(doc),
     )
     return table, errors, report
