@@ -312,10 +312,13 @@ def navigation_section(runs: list[Run]) -> list[str]:
             "| cycles with a fix | | (not given) |"
             + "".join(f" {r.report.n_used if r.report else 0} of {len(r.nav.t_s)} |" for r in exp_runs)
         )
-        lines.append("| mean NEES (6 expected) | | (not given) |" + "".join(_nees_cell(r, "mean") for r in exp_runs))
         lines.append(
-            f"| fixes inside the χ²(6) 95 % / 99 % bounds ({nees_mod.BOUND_95:.2f} / {nees_mod.BOUND_99:.2f}) "
-            "| | (not given) |" + "".join(_nees_cell(r, "inside") for r in exp_runs)
+            "| mean NEES (6 expected) | | (not given) |" + "".join(_nees_cell(r, "mean") for r in exp_runs)
+        )
+        lines.append(
+            "| fixes inside the χ²(6) 95 % / 99 % bounds "
+            f"({nees_mod.BOUND_95:.2f} / {nees_mod.BOUND_99:.2f}) | | (not given) |"
+            + "".join(_nees_cell(r, "inside") for r in exp_runs)
         )
         lines.append("")
     lines += [
@@ -323,7 +326,7 @@ def navigation_section(runs: list[Run]) -> list[str]:
         "docs/error-analysis.md): e^T P^-1 e of the 6-DOF error against truth, chi-square with 6 "
         "degrees of freedom when P is right: a mean of 6 (the bracket is its 95 % interval for that "
         "many independent fixes), 95 % and 99 % of the fixes inside the bounds. Above: the covariance "
-        "is too small (a fusion filter would over-trust the fix); below: too large. \"diagonal\" marks "
+        'is too small (a fusion filter would over-trust the fix); below: too large. "diagonal" marks '
         "a nav.csv without the covariance columns, checked with its six 1-sigma columns only.",
         "",
         "Reading it: with the true rig the errors are the centroid noise alone; the refined calibration "

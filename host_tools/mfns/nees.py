@@ -341,8 +341,7 @@ def markdown(res: Nees) -> list[str]:
     lines += [
         "| quantity | value | expected (chi-square, 6 DOF) |",
         "|---|---|---|",
-        f"| mean NEES | {res.mean:.3f} | 6 (95 % interval of the mean of {res.n} fixes: "
-        f"{lo:.2f}-{hi:.2f}) |",
+        f"| mean NEES | {res.mean:.3f} | 6 (95 % interval of the mean of {res.n} fixes: {lo:.2f}-{hi:.2f}) |",
         f"| median NEES | {res.median:.3f} | 5.35 |",
         f"| fixes inside the 95 % bound ({BOUND_95:.2f}) | {100 * res.frac_95:.1f} % | 95 % |",
         f"| fixes inside the 99 % bound ({BOUND_99:.2f}) | {100 * res.frac_99:.1f} % | 99 % |",
@@ -411,7 +410,9 @@ def plot(res: Nees, path, title: str | None = None) -> None:
     ax_h.set_ylabel("density")
     ax_h.legend(fontsize=8)
     ax_h.grid(True, alpha=0.3)
-    ax_h.set_title(f"{res.n} fixes" + (f", {res.n_not_pd} not positive definite" if res.n_not_pd else ""), fontsize=9)
+    ax_h.set_title(
+        f"{res.n} fixes" + (f", {res.n_not_pd} not positive definite" if res.n_not_pd else ""), fontsize=9
+    )
     run = f"{title}: " if title else ""
     fig.suptitle(f"{run}{res.label}")
     fig.tight_layout()

@@ -141,7 +141,15 @@ def report_of(nav: Path, truth: Path) -> rpt.Report:
 
 def test_column_names_are_the_documented_ones():
     assert N.COV_COLUMNS == tuple(COVS)
-    assert N.COV_COLUMNS[:7] == ("cov_x_x", "cov_x_y", "cov_x_z", "cov_x_rx", "cov_x_ry", "cov_x_rz", "cov_y_y")
+    assert N.COV_COLUMNS[:7] == (
+        "cov_x_x",
+        "cov_x_y",
+        "cov_x_z",
+        "cov_x_rx",
+        "cov_x_ry",
+        "cov_x_rz",
+        "cov_y_y",
+    )
     assert N.COV_COLUMNS[-1] == "cov_rz_rz" and len(N.COV_COLUMNS) == 21
     p = known_cov(np.random.default_rng(1))[None]
     assert np.array_equal(N.cov_from_columns(N.cov_to_columns(p)), p)
@@ -231,7 +239,9 @@ def test_attitude_error_convention_about_world_axes():
             # the same through the Euler angles of C_w_b, as an old nav.csv carries them
             eul = matrix_to_euler213_deg(c_b_w_est.T)
             c_from_euler = N.euler_to_c_w_b(eul[None])[0].T
-            assert N.attitude_error_deg(c_from_euler[None], c_b_w_true[None])[0] == pytest.approx(want, abs=1e-9)
+            assert N.attitude_error_deg(c_from_euler[None], c_b_w_true[None])[0] == pytest.approx(
+                want, abs=1e-9
+            )
     # the quaternion rotates body vectors into the world as C_b_w does: body x -> C_b_w[:, 0]
     assert N.quat_to_matrix(q_true[None])[0] == pytest.approx(c_b_w_true, abs=1e-12)
 
@@ -294,7 +304,9 @@ def test_malformed_covariance_columns(tmp_path, capsys):
     assert len(err) == 1 and "covariance columns" in err[0]
     # three of the four quaternion columns
     qi = header.index("q_z")
-    nav.write_text("\n".join(",".join(v for k, v in enumerate(line.split(",")) if k != qi) for line in lines) + "\n")
+    nav.write_text(
+        "\n".join(",".join(v for k, v in enumerate(line.split(",")) if k != qi) for line in lines) + "\n"
+    )
     with pytest.raises(MfnsError, match="3 of the 4 quaternion columns"):
         rpt.load_nav(nav)
     # text where a number belongs
