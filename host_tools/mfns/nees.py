@@ -228,14 +228,19 @@ def nees_values(e: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     e = np.asarray(e, dtype=float).reshape(-1, 6)
     p = np.asarray(p, dtype=float).reshape(-1, 6, 6)
     ok = np.all(np.isfinite(p), axis=(1, 2)) & np.all(np.isfinite(e), axis=1)
-    chol = np.zeros_like(p)
-    for k in np.flatnonzero(ok):
-        try:
-            chol[k] = np.linalg.cholesky(p[k])
-        except np.linalg.LinAlgError:
-            ok[k] = False
-    # solve L y = e: NEES = |y|^2
-    y = np.array([np.linalg.solve(chol[k], e[k]) for k in np.flatnonzero(ok)]).reshape(-1, 6)
+    idx = np.flatnonzero(ok)
+    try:  # every row at once; the rare failure is then found row by row
+        chol = np.linalg.cholesky(p[idx])
+    except np.linalg.LinAlgError:
+        chol = np.zeros((len(idx), 6, 6))
+        for n, k in enumerate(idx):
+            try:
+                chol[n] = np.linalg.cholesky(p[k])
+            except np.linalg.LinAlgError:
+                ok[k] = False
+        chol = chol[ok[idx]]
+    # NEES = |L^-1 e|^2
+    y = np.linalg.solve(chol, e[ok][:, :, None])[:, :, 0] if len(chol) else np.zeros((0, 6))
     nees = np.sum(y * y, axis=1)
     d = np.sqrt(np.einsum("nii->ni", p[ok]))
     z = e[ok] / d

@@ -342,6 +342,23 @@ def test_rows_without_a_usable_covariance_are_counted_not_fatal(tmp_path):
     assert "1 with a quaternion that is not a unit one" in md
     js = rpt.summary_json(rep)["nees"]
     assert js["n_not_positive_definite"] == 4 and js["n_used"] == 54
+    # no usable covariance at all: said so, the numbers empty, no figure, no crash
+    for r in rows:
+        r.update({c: "0" for c in COVS})
+    with nav.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    rep = report_of(nav, truth)
+    assert rep.nees.n == 0 and rep.nees.n_not_pd == 59
+    assert "no fix with a usable covariance" in rpt.summary_markdown(rep)
+    js = rpt.summary_json(rep)["nees"]
+    assert js["mean"] is None and js["n_not_positive_definite"] == 59
+    assert json.loads(json.dumps(js)) == js
+    assert [p.name for p in rpt.write_plots(rep, tmp_path)] == [
+        "nav_errors_vs_time.png",
+        "nav_errors_vs_yaw.png",
+    ]
 
 
 def test_no_covariance_at_all_and_no_truth(tmp_path):
