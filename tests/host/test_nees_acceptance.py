@@ -29,6 +29,8 @@ from pathlib import Path
 
 import pytest
 
+from mfns import nees as N
+
 REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"
 SIM = ["--scenario", "module", "--frames", "120", "--seed", "2"]  # mk/demo.sh's module run
@@ -70,6 +72,7 @@ def fly(out: Path, frames: Path, calib: Path) -> dict:
     assert rep.returncode == 0, rep.stderr
     doc = json.loads((out / "report" / "summary.json").read_text())
     doc["_summary_md"] = (out / "report" / "summary.md").read_text()
+    doc["_header"] = (out / "ground" / "nav.csv").read_text().split("\n", 1)[0].split(",")
     return doc
 
 
@@ -140,6 +143,13 @@ def full_nees(doc: dict) -> dict:
     assert n["n_not_positive_definite"] == 0 and n["n_bad_quaternion"] == 0, doc["_summary_md"]
     assert n["n_used"] == n["n_fixes"] == doc["n_used"] and n["n_used"] >= 60, doc["_summary_md"]
     return n
+
+
+def test_ground_writes_the_quaternion_and_covariance_columns(runs):
+    """The contract between mfns-ground and mfns report (docs/telemetry.md, nav.csv)."""
+    header = runs["true-rig"]["_header"]
+    missing = [c for c in (*N.QUAT_COLUMNS, *N.COV_COLUMNS) if c not in header]
+    assert not missing, f"nav.csv header {header} lacks {missing}"
 
 
 def test_true_rig_mean_nees_is_6_within_20_percent(runs):

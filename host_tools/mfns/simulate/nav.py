@@ -241,8 +241,8 @@ def module_trajectory(t_s: np.ndarray, rng: np.random.Generator) -> tuple[np.nda
 
 def apply_survey_error(scn: Scenario, seed: int) -> float:
     """Render the beacons away from the map by their survey sigma: each displaced by a draw
-    of N(0, sigma_mm^2 I), from a stream of its own (the trajectory and the image noise are
-    the seed's as without it). The map (scn.beacons, beacons.csv) stays nominal.
+    of N(0, sigma_mm^2 I), from a stream of its own (the map and the trajectory are the
+    seed's as without it). The map (scn.beacons, beacons.csv) stays nominal.
     Returns the RMS displacement per axis (mm)."""
     rng = np.random.default_rng([seed, 3])  # survey stream: after geometry (1) and noise (2)
     d = rng.standard_normal(scn.beacons.shape) * np.asarray(scn.beacon_sigma, dtype=float)[:, None]
