@@ -95,11 +95,19 @@ def _floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
 
 
 def _optional_floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
-    """A column that a row may leave empty (or `nan`: e.g. no covariance without a fix)."""
+    """A column a row may leave empty (no covariance without a fix) or fill with a non-finite
+    value (nan, inf: a covariance the flight code could not give). Such a row is counted as
+    one without a usable covariance (mfns.nees); text that is no number is refused."""
     out = np.empty(len(rows))
     for i, r in enumerate(rows):
         t = r[col].strip()
-        out[i] = np.nan if t in ("", "nan", "NaN") else V.csv_float(t, f"{path} line {i + 2} {col}")
+        if not t:
+            out[i] = np.nan
+            continue
+        try:
+            out[i] = float(t)
+        except ValueError:
+            raise MfnsError(f"{path} line {i + 2} {col}: {r[col]!r} is not a number") from None
     return out
 
 

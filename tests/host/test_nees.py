@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
@@ -326,6 +328,7 @@ def test_rows_without_a_usable_covariance_are_counted_not_fatal(tmp_path):
     rows[3]["cov_x_x"] = "-0.5"  # negative variance
     rows[4].update({c: "0" for c in COVS})  # all zero (e.g. a solver that gave none)
     rows[5]["cov_y_rz"] = ""  # empty field: unknown
+    rows[9]["cov_z_z"] = "inf"  # not finite
     rows[6]["cov_x_y"] = "100"  # |corr| > 1: not positive definite
     rows[7]["q_w"] = "2.0"  # not a unit quaternion
     rows[8]["status"] = "NO_FIX"  # no fix: empty covariance is fine and not counted
@@ -336,12 +339,12 @@ def test_rows_without_a_usable_covariance_are_counted_not_fatal(tmp_path):
         w.writerows(rows)
     rep = report_of(nav, truth)
     res = rep.nees
-    assert res.n_fixes == 59 and res.n_not_pd == 4 and res.n_bad_quat == 1 and res.n == 54
+    assert res.n_fixes == 59 and res.n_not_pd == 5 and res.n_bad_quat == 1 and res.n == 53
     md = rpt.summary_markdown(rep)
-    assert "4 with a covariance that is not positive definite" in md
+    assert "5 with a covariance that is not positive definite" in md
     assert "1 with a quaternion that is not a unit one" in md
     js = rpt.summary_json(rep)["nees"]
-    assert js["n_not_positive_definite"] == 4 and js["n_used"] == 54
+    assert js["n_not_positive_definite"] == 5 and js["n_used"] == 53
     # no usable covariance at all: said so, the numbers empty, no figure, no crash
     for r in rows:
         r.update({c: "0" for c in COVS})
@@ -418,3 +421,41 @@ def test_compare_has_a_nees_row_per_run(tmp_path):
     assert cells[3].startswith(f"{full.mean:.2f} [") and "diagonal" not in cells[3]
     assert cells[4].endswith("(diagonal)")
     assert any(ln.startswith("| fixes inside the χ²(6) 95 % / 99 % bounds") for ln in text.splitlines())
+
+
+CELLS = st.sampled_from(["", "nan", "0", "-1", "1", "1e-30", "1e308", "-0.0", "0.5", "abc", "inf", " 2 "])
+
+
+@settings(
+    max_examples=120,
+    deadline=None,
+    database=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(data=st.data())
+def test_hostile_covariance_and_quaternion_cells(tmp_path_factory, data):
+    """Any cell in the covariance and quaternion columns: a clear one-line refusal or a report
+    whose counts add up, never a crash."""
+    work = tmp_path_factory.mktemp("hostile")
+    nav, truth, _, _ = write_case(work, n=6, seed=2)
+    rows = list(csv.DictReader(nav.open()))
+    for r in rows:
+        for c in data.draw(st.lists(st.sampled_from(COVS + QUATS), max_size=8)):
+            r[c] = data.draw(CELLS)
+        if data.draw(st.booleans()):
+            r.update({c: data.draw(CELLS | st.floats(allow_nan=True).map(repr)) for c in COVS})
+    with nav.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    try:
+        rep = report_of(nav, truth)
+    except MfnsError as exc:
+        msg = str(exc)
+        assert msg and "\n" not in msg and "is not a number" in msg, msg
+        return
+    res = rep.nees
+    assert res.n + res.n_not_pd + res.n_bad_quat == res.n_fixes == 6
+    assert np.all(np.isfinite(res.nees)) and np.all(res.nees >= 0)
+    json.dumps(rpt.summary_json(rep), allow_nan=False)
+    rpt.summary_markdown(rep)
