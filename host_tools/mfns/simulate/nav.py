@@ -241,8 +241,9 @@ def module_trajectory(t_s: np.ndarray, rng: np.random.Generator) -> tuple[np.nda
 
 def apply_survey_error(scn: Scenario, seed: int) -> float:
     """Render the beacons away from the map by their survey sigma: each displaced by a draw
-    of N(0, sigma_mm^2 I), from a stream of its own (the map and the trajectory are the
-    seed's as without it). The map (scn.beacons, beacons.csv) stays nominal.
+    of N(0, sigma_mm^2 I), from a stream of its own seeded by `seed` (the map and the
+    trajectory are the scenario seed's as without it). The map (scn.beacons, beacons.csv)
+    stays nominal.
     Returns the RMS displacement per axis (mm)."""
     rng = np.random.default_rng([seed, 3])  # survey stream: after geometry (1) and noise (2)
     d = rng.standard_normal(scn.beacons.shape) * np.asarray(scn.beacon_sigma, dtype=float)[:, None]
@@ -660,10 +661,14 @@ def run(args) -> int:
     if not (0.0 <= args.spurious_rate <= 1.0):
         raise MfnsError("--spurious-rate must be in [0, 1]")
     scn = build_scenario(args)
+    if args.survey_seed is not None and not args.survey_error:
+        raise MfnsError("--survey-seed needs --survey-error")
     if args.survey_error:
-        rms = apply_survey_error(scn, args.seed)
+        survey_seed = args.seed if args.survey_seed is None else args.survey_seed
+        rms = apply_survey_error(scn, survey_seed)
         scn.info["survey_error"] = {
             "applied": True,
+            "seed": survey_seed,
             "rms_displacement_mm": round(rms, 5),
             "rendered_positions": "beacons_rendered.csv",
             "note": "beacons rendered displaced by N(0, sigma_mm^2 I) each; beacons.csv is the nominal map",
@@ -720,6 +725,13 @@ def register(subparsers) -> None:
         action="store_true",
         help="render each beacon displaced from the map by its survey sigma_mm (a seeded N(0, sigma^2) "
         "per axis); beacons.csv keeps the nominal map, beacons_rendered.csv the rendered positions",
+    )
+    p.add_argument(
+        "--survey-seed",
+        type=int,
+        metavar="S",
+        help="with --survey-error: seed of the displacements (default --seed), for several survey "
+        "realisations of one scenario",
     )
     p.add_argument("--force", action="store_true", help="replace an existing nav-frames folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
