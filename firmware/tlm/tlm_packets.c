@@ -10,11 +10,12 @@ static const uint8_t k_payload_len[TLM_NUM_TYPES] = {TLM_NAV_PAYLOAD_LEN, TLM_CA
                                                       TLM_HK_PAYLOAD_LEN, TLM_EVENT_PAYLOAD_LEN};
 static const char *const k_type_name[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "event"};
 static const char *const k_status_name[TLM_NAV_STATUS_COUNT] = {"NO_FIX", "FIX", "DEGRADED"};
-static const char *const k_mode_name[TLM_MODE_COUNT] = {"BOOT", "ACQUIRE", "TRACK", "SAFE"};
+static const char *const k_mode_name[TLM_MODE_COUNT] = {"BOOT", "ACQUIRE", "TRACK", "SAFE", "STANDBY"};
 static const char *const k_cam_state_name[TLM_CAM_STATE_COUNT] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED"};
 static const char *const k_event_name[TLM_EVT_CODE_COUNT] = {
     "?", "BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE",
-    "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR"};
+    "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR",
+    "CMD_ACCEPTED", "CMD_REJECTED"};
 
 const char *tlm_strerror(int err)
 {

@@ -55,7 +55,8 @@ typedef enum {
     TLM_MODE_ACQUIRE = 1,
     TLM_MODE_TRACK = 2,
     TLM_MODE_SAFE = 3,
-    TLM_MODE_COUNT = 4
+    TLM_MODE_STANDBY = 4, /* commanded standby (the uplink's SET_MODE) */
+    TLM_MODE_COUNT = 5
 } tlm_mode_t;
 /* Camera link state (docs/telemetry.md 4.2). */
 typedef enum {
@@ -81,7 +82,9 @@ typedef enum {
     TLM_EVT_FRAME_REJECTED = 10,  /* subject = camera, arg0 = driver error code, arg1 = frames rejected so far */
     TLM_EVT_CAMERA_ENDED = 11,    /* subject = camera, arg0 = last frame seq, arg1 = frames delivered */
     TLM_EVT_TLM_WRITE_ERROR = 12, /* arg0 = errno, arg1 = write errors so far */
-    TLM_EVT_CODE_COUNT = 13
+    TLM_EVT_CMD_ACCEPTED = 13,    /* subject = opcode, arg0 = command sequence count, arg1 = per opcode */
+    TLM_EVT_CMD_REJECTED = 14,    /* subject = opcode or 0, arg0 = sequence count or -1, arg1 = rejection code */
+    TLM_EVT_CODE_COUNT = 15
 } tlm_event_code_t;
 typedef enum { TLM_SEV_INFO = 0, TLM_SEV_WARNING = 1, TLM_SEV_ERROR = 2, TLM_SEV_COUNT = 3 } tlm_severity_t;
 
