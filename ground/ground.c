@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "ground_out.h"
@@ -45,7 +46,8 @@ void ground_usage(FILE *f)
             "  -v, --verbose     the live status line even when stderr is not a tty (= --status)\n"
             "  -q, --quiet       neither the status line nor the link counters at exit\n"
             "  -h, --help, --version\n"
-            "Exit status: 0 ok, 1 the source or the output failed, 2 bad usage.\n"
+            "Exit status: 0 ok, 1 the source or the output failed, 2 bad usage,\n"
+            "3 no valid frame was decoded (nothing or only garbage received).\n"
             "At exit the link counters are printed on stderr: good frames, CRC errors,\n"
             "truncated and oversize frames, bad packets, resyncs, sequence gaps.\n",
             GROUND_DEFAULT_BAUD);
@@ -168,6 +170,16 @@ static void print_status(const tlm_decoder_stats_t *s, const tlm_nav_t *nav, int
             (unsigned long)s->resyncs, have_nav ? tlm_nav_status_name(nav->status) : "-", x, y, z, yaw);
 }
 
+/* The ground receive time: UTC microseconds (CLOCK_REALTIME), 0 if unknown. */
+static int64_t utc_now_us(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0) {
+        return 0;
+    }
+    return (int64_t)ts.tv_sec * 1000000 + (int64_t)ts.tv_nsec / 1000;
+}
+
 static int open_source(const ground_opts_t *o, mfns_uart_t *u)
 {
     memset(u, 0, sizeof *u);
@@ -243,6 +255,7 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
         uint8_t buf[4096];
         size_t got = 0;
         const int rc = mfns_uart_read(&u, buf, sizeof buf, &got, 100, now);
+        const int64_t rx_utc_us = got > 0 ? utc_now_us() : 0; /* every packet of this read arrived by now */
         if (got > 0 && rec != NULL && fwrite(buf, 1, got, rec) != got) {
             fprintf(stderr, "mfns-ground: writing %s failed\n", o->record);
             rc_exit = 1;
@@ -251,7 +264,7 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
         for (size_t i = 0; i < got; i++) {
             tlm_packet_t p;
             if (tlm_decoder_push(&dec, buf[i], &p) == 1) {
-                if (ground_out_packet(&out, &p) != 0) {
+                if (ground_out_packet(&out, &p, rx_utc_us) != 0) {
                     fprintf(stderr, "mfns-ground: writing to %s failed\n", o->out_dir);
                     rc_exit = 1;
                     done = 1;
@@ -308,6 +321,10 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
     }
     if (stats_out != NULL) {
         *stats_out = dec.stats;
+    }
+    if (rc_exit == 0 && dec.stats.frames_ok == 0) {
+        fprintf(stderr, "mfns-ground: no valid frame decoded from %s (exit %d)\n", o->path, GROUND_EXIT_NO_FRAME);
+        rc_exit = GROUND_EXIT_NO_FRAME;
     }
     return rc_exit;
 }

@@ -51,8 +51,12 @@ typedef struct {
 /* 0 ok, 1 when --help or --version was printed (exit 0), -1 usage error (message on err). */
 int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err);
 void ground_usage(FILE *f);
+/* Exit code when the run ended without a single valid frame. */
+#define GROUND_EXIT_NO_FRAME 3
+
 /* Runs until EOF (files), the limits, or SIGINT/SIGTERM. Returns the process
- * exit code: 0 normal end, 1 source or output could not be opened/written.
+ * exit code: 0 normal end, 1 source or output could not be opened/written,
+ * GROUND_EXIT_NO_FRAME when no valid frame was decoded.
  * stats_out (may be NULL) gets the final decoder counters. */
 int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out);
 

@@ -33,6 +33,20 @@ void ground_gen_nav(uint32_t i, tlm_packet_t *p)
         n->sigma_pos_um[k] = 1600u + (i + (uint32_t)k * 7u) % 100u;
         n->sigma_att_udeg[k] = 150000u + (i + (uint32_t)k * 11u) % 1000u;
     }
+    if (no_fix) {
+        return; /* as the flight program: no pose, no quaternion, no covariance */
+    }
+    /* a unit quaternion about a slowly turning axis (w >= 0), and a
+     * covariance with every sign and a wide range of magnitudes */
+    const float a = 0.001f * (float)(i % 1000u);
+    n->q_q30[0] = tlm_scale_i32(0.8f, TLM_Q30_SCALE, NULL);
+    n->q_q30[1] = tlm_scale_i32(0.6f * (1.0f - a), TLM_Q30_SCALE, NULL);
+    n->q_q30[2] = tlm_scale_i32(-0.6f * a, TLM_Q30_SCALE, NULL);
+    n->q_q30[3] = tlm_scale_i32(0.0f, TLM_Q30_SCALE, NULL);
+    for (uint32_t k = 0; k < TLM_NAV_COV_N; k++) {
+        const float mag = (k == 0u || k == 6u || k == 11u) ? 2.5e-3f : 1.0e-7f * (float)(k + 1u);
+        n->cov[k] = ((i + k) % 3u == 0u ? -mag : mag) * (1.0f + 0.01f * (float)(i % 97u));
+    }
 }
 
 void ground_gen_camera(uint32_t i, uint8_t camera, tlm_packet_t *p)
@@ -72,6 +86,11 @@ void ground_gen_hk(uint32_t i, tlm_packet_t *p)
     h->acq_units_last = 900u;
     h->acq_band_last = 4;
     h->acq_best_last = 7;
+    h->n_degraded = (i + 1u) / 7u;
+    h->n_cmd_accepted = i / 100u;
+    h->n_cmd_rejected = i / 300u;
+    h->cmd_seq_last = (uint16_t)(i / 100u);
+    h->cams_enabled = 0x7u;
 }
 
 size_t ground_gen_cycle(uint32_t i, tlm_packet_t out[GROUND_GEN_MAX_PER_CYCLE])

@@ -1,13 +1,16 @@
 /* ground_out.c -- CSV and JSON Lines writers of the ground station. */
+#define _DEFAULT_SOURCE /* gmtime_r under -std=c11 */
+
 #include "ground_out.h"
 
 #include <errno.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 static const char *const k_file_stem[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "events"};
 
-#define MAX_COLS 24
+#define MAX_COLS 56
 #define VAL_LEN 32
 
 typedef struct {
@@ -51,6 +54,16 @@ static void col_num(row_t *r, const char *name, long long v, int decimals)
     r->n++;
 }
 
+/* A binary32 printed with 9 significant digits: parsing the text gives back
+ * the same float (the shortest count that round-trips every binary32). */
+static void col_f32(row_t *r, const char *name, float v)
+{
+    r->name[r->n] = name;
+    snprintf(r->val[r->n], VAL_LEN, "%.9g", (double)v);
+    r->quoted[r->n] = 0;
+    r->n++;
+}
+
 static void col_str(row_t *r, const char *name, const char *s)
 {
     r->name[r->n] = name;
@@ -59,7 +72,41 @@ static void col_str(row_t *r, const char *name, const char *s)
     r->n++;
 }
 
-static void build_row(const tlm_packet_t *p, row_t *r)
+void ground_fmt_utc(char *buf, size_t len, int64_t utc_us)
+{
+    const int64_t sec = utc_us >= 0 ? utc_us / 1000000 : -((-utc_us + 999999) / 1000000);
+    const long usec = (long)(utc_us - sec * 1000000);
+    const time_t t = (time_t)sec;
+    struct tm tm;
+    if (gmtime_r(&t, &tm) == NULL) {
+        snprintf(buf, len, "?");
+        return;
+    }
+    snprintf(buf, len, "%04d-%02d-%02dT%02d:%02d:%02d.%06ldZ", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday,
+             tm.tm_hour, tm.tm_min, tm.tm_sec, usec);
+}
+
+/* Column names of the covariance's upper triangle, row-major over the ROS
+ * order (x, y, z, rx, ry, rz): cov_x_x, cov_x_y, .. cov_rz_rz. */
+static const char *const k_cov_col[TLM_NAV_COV_N] = {
+    "cov_x_x",   "cov_x_y",   "cov_x_z",   "cov_x_rx",  "cov_x_ry",  "cov_x_rz",  "cov_y_y",
+    "cov_y_z",   "cov_y_rx",  "cov_y_ry",  "cov_y_rz",  "cov_z_z",   "cov_z_rx",  "cov_z_ry",
+    "cov_z_rz",  "cov_rx_rx", "cov_rx_ry", "cov_rx_rz", "cov_ry_ry", "cov_ry_rz", "cov_rz_rz"};
+
+/* Events whose arg1 is a CRC-32: printed in hex as in housekeeping.csv. */
+static int event_arg1_is_crc(uint16_t code)
+{
+    return code == TLM_EVT_TABLE_LOADED || code == TLM_EVT_TABLE_REFUSED;
+}
+
+static void col_hex32(row_t *r, const char *name, uint32_t v)
+{
+    char hex[VAL_LEN];
+    snprintf(hex, sizeof hex, "0x%08lx", (unsigned long)v);
+    col_str(r, name, hex);
+}
+
+static void build_row(const tlm_packet_t *p, int64_t utc_us, row_t *r)
 {
     r->n = 0;
     r->name[0] = "t_s";
@@ -95,6 +142,18 @@ static void build_row(const tlm_packet_t *p, row_t *r)
             col_num(r, satt[k], n->sigma_att_udeg[k], 6);
         }
         col_num(r, "residual_rms_px", n->residual_rms_mpx, 3);
+        static const char *const q[4] = {"q_w", "q_x", "q_y", "q_z"};
+        for (int k = 0; k < 4; k++) {
+            /* v / 2^30 is exact in a double; 10 decimals are below half the
+             * wire step (4.7e-10), so the text gives back the integer */
+            r->name[r->n] = q[k];
+            snprintf(r->val[r->n], VAL_LEN, "%.10f", (double)n->q_q30[k] / (double)TLM_Q30_SCALE);
+            r->quoted[r->n] = 0;
+            r->n++;
+        }
+        for (unsigned k = 0; k < TLM_NAV_COV_N; k++) {
+            col_f32(r, k_cov_col[k], n->cov[k]);
+        }
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -124,30 +183,40 @@ static void build_row(const tlm_packet_t *p, row_t *r)
         col_num(r, "n_no_fix", h->n_no_fix, 0);
         col_num(r, "n_tlm_dropped", h->n_tlm_dropped, 0);
         col_num(r, "n_cam_errors", h->n_cam_errors, 0);
-        char hex[VAL_LEN];
-        snprintf(hex, sizeof hex, "0x%08lx", (unsigned long)h->table_crc32);
-        col_str(r, "table_crc32", hex);
+        col_hex32(r, "table_crc32", h->table_crc32);
         col_num(r, "n_acquire", h->n_acquire, 0);
         col_num(r, "acq_units_max", h->acq_units_max, 0);
         col_num(r, "acq_units_last", h->acq_units_last, 0);
         col_num(r, "acq_band_last", h->acq_band_last, 0);
         col_num(r, "acq_best_last", h->acq_best_last, 0);
+        col_num(r, "n_degraded", h->n_degraded, 0);
+        col_num(r, "n_cmd_accepted", h->n_cmd_accepted, 0);
+        col_num(r, "n_cmd_rejected", h->n_cmd_rejected, 0);
+        col_num(r, "cmd_seq_last", h->cmd_seq_last, 0);
+        col_num(r, "cams_enabled", h->cams_enabled, 0);
         break;
     }
     case TLM_TYPE_EVENT:
     default: {
-        static const char *const sev[3] = {"INFO", "WARNING", "ERROR"};
         const tlm_event_t *e = &p->u.event;
         col_num(r, "cycle", e->cycle, 0);
         col_str(r, "event", tlm_event_name(e->code));
         col_num(r, "code", e->code, 0);
-        col_str(r, "severity", e->severity < 3u ? sev[e->severity] : "?");
+        col_str(r, "severity", tlm_severity_name(e->severity));
         col_num(r, "subject", e->subject, 0);
         col_num(r, "arg0", e->arg0, 0);
-        col_num(r, "arg1", e->arg1, 0);
+        if (event_arg1_is_crc(e->code)) {
+            col_hex32(r, "arg1", (uint32_t)e->arg1);
+        } else {
+            col_num(r, "arg1", e->arg1, 0);
+        }
         break;
     }
     }
+    r->name[r->n] = "ground_utc";
+    ground_fmt_utc(r->val[r->n], VAL_LEN, utc_us);
+    r->quoted[r->n] = 1;
+    r->n++;
 }
 
 int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen)
@@ -178,7 +247,7 @@ int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen)
         memset(&p, 0, sizeof p);
         p.type = (tlm_type_t)t;
         row_t r;
-        build_row(&p, &r);
+        build_row(&p, 0, &r);
         for (int c = 0; c < r.n; c++) {
             fprintf(o->csv[t], "%s%s", c ? "," : "", r.name[c]);
         }
@@ -187,13 +256,13 @@ int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen)
     return 0;
 }
 
-int ground_out_packet(ground_out_t *o, const tlm_packet_t *p)
+int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t utc_us)
 {
     if ((unsigned)p->type >= TLM_NUM_TYPES) {
         return -1;
     }
     row_t r;
-    build_row(p, &r);
+    build_row(p, utc_us, &r);
     FILE *c = o->csv[p->type];
     FILE *j = o->jsonl[p->type];
     fputc('{', j);

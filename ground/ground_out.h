@@ -9,6 +9,7 @@
 #define MFNS_GROUND_OUT_H
 
 #include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 
 #include "tlm_decoder.h"
@@ -24,8 +25,10 @@ typedef struct {
 /* Creates dir if needed (one level) and opens all files with headers.
  * 0, or -1 with a message in err. */
 int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen);
-/* Appends one row to the type's CSV and JSONL; 0 or -1 on a write error. */
-int ground_out_packet(ground_out_t *o, const tlm_packet_t *p);
+/* Appends one row to the type's CSV and JSONL; utc_us is the ground receive
+ * time (CLOCK_REALTIME, microseconds since 1970, column ground_utc); 0 or -1
+ * on a write error. */
+int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t utc_us);
 /* Writes DIR/stats.json from the decoder counters; 0 or -1. */
 int ground_out_stats(const ground_out_t *o, const tlm_decoder_stats_t *s, double seconds);
 /* Flushes and closes; 0 or -1 if any flush/close failed. */
@@ -33,6 +36,9 @@ int ground_out_close(ground_out_t *o);
 
 /* v / 10^decimals as an exact decimal string ("-1234.567"). */
 void ground_fmt_fixed(char *buf, size_t len, long long v, int decimals);
+/* UTC microseconds since 1970 as ISO 8601 with microseconds:
+ * 2026-12-01T23:19:33.123456Z. */
+void ground_fmt_utc(char *buf, size_t len, int64_t utc_us);
 /* CUC time as seconds with 6 decimals, rounded to the microsecond. */
 void ground_fmt_time(char *buf, size_t len, const tlm_time_t *t);
 

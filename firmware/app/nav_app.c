@@ -79,7 +79,8 @@ static struct {
     bool tlm_write_error_printed;
     bool tlm_in_error;    /* the last pump failed with a write error */
     uint32_t cycle_now;
-    uint32_t n_fix, n_no_fix;
+    uint32_t n_fix, n_degraded, n_no_fix; /* FIX, DEGRADED, NO_FIX as in the nav packets sent */
+    uint64_t last_t_us;                   /* the last cycle's time: the flight clock */
     uint32_t n_acquire, acq_units_max; /* acquisition cycles; most work in the HK interval */
     mfns_acq_progress_t acq_last;      /* the last acquisition's progress */
     /* uplink (nav_cmd.h, docs/uplink.md) */
@@ -90,12 +91,12 @@ static struct {
     bool tc_eof, tc_error_printed;
     bool standby;                      /* SET_MODE standby: frames flow, the navigator does not run */
     bool cam_enabled[MFNS_NUM_CAMERAS];
-    uint64_t t_last_us;                /* time of the last cycle (events of commands) */
 } app;
 
 #define TABLE (app.tables[app.table_cur])
 
 static uint8_t tlm_mode_now(void);
+static uint8_t cams_enabled_mask(void);
 
 static volatile sig_atomic_t stop_requested;
 
@@ -563,7 +564,8 @@ static void camera_packets(uint32_t cycle, uint64_t t_us, const mfns_cam_frame_t
     }
 }
 
-static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
+/* n_cycles: cycles run so far (the one of index `cycle` included). */
+static void housekeeping(uint32_t cycle, uint32_t n_cycles, uint64_t t_us, uint32_t table_crc)
 {
     tlm_packet_t p;
     memset(&p, 0, sizeof p);
@@ -577,9 +579,14 @@ static void housekeeping(uint32_t cycle, uint64_t t_us, uint32_t table_crc)
     h->cycle_p95_us = mfns_cycle_stats_percentile(&app.stats, 95.0f);
     h->cycle_p99_us = mfns_cycle_stats_percentile(&app.stats, 99.0f);
     h->cycle_max_us = app.stats.max_us;
-    h->n_cycles = cycle + 1;
+    h->n_cycles = n_cycles;
     h->n_fix = app.n_fix;
+    h->n_degraded = app.n_degraded;
     h->n_no_fix = app.n_no_fix;
+    h->cams_enabled = cams_enabled_mask(); /* CAMERA_DISABLE clears bits */
+    h->n_cmd_accepted = app.cmd.n_accepted;
+    h->n_cmd_rejected = app.cmd.n_rejected;
+    h->cmd_seq_last = app.cmd.seq_last;
     h->n_tlm_dropped = app.tlm.q.dropped;
     h->n_cam_errors = (uint32_t)(app.cam_errors > UINT32_MAX ? UINT32_MAX : app.cam_errors);
     h->table_crc32 = table_crc;
@@ -760,8 +767,9 @@ static void camera_ended(uint32_t cycle, uint64_t t_us, int k)
 
 static void print_summary(const char *why, uint32_t cycle, uint32_t lost_frames, uint32_t produced)
 {
-    fprintf(stderr, "mfns-nav: stopped (%s) after %u cycles: %u fix, %u no fix, %u telemetry frames dropped\n", why,
-            cycle, app.n_fix, app.n_no_fix, lost_frames);
+    fprintf(stderr,
+            "mfns-nav: stopped (%s) after %u cycles: %u fix, %u degraded, %u no fix, %u telemetry frames dropped\n",
+            why, cycle, app.n_fix, app.n_degraded, app.n_no_fix, lost_frames);
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         const cam_slot_t *c = &app.cs[k];
         if (c->n_stale + c->n_ahead + c->n_rejected + c->n_timeouts + c->n_lost + (c->ended_reported ? 1u : 0u) > 0) {
@@ -811,7 +819,7 @@ static uint8_t tlm_mode_now(void)
 static void cmd_event(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0, int32_t a1)
 {
     (void)ctx;
-    send_event(app.cycle_now, app.t_last_us, code, sev, subject, a0, a1);
+    send_event(app.cycle_now, app.last_t_us, code, sev, subject, a0, a1);
     if (code == TLM_EVT_CMD_ACCEPTED) {
         fprintf(stderr, "mfns-nav: cycle %u: command %s (seq %d) accepted\n", app.cycle_now, tc_opcode_name(subject),
                 (int)a0);
@@ -845,7 +853,7 @@ static tc_status_t cmd_set_mode(void *ctx, uint8_t mode, int32_t *arg1)
     *arg1 = mode;
     const uint8_t after = tlm_mode_now();
     if (after != before) {
-        send_event(app.cycle_now, app.t_last_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, 0, before, after);
+        send_event(app.cycle_now, app.last_t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, 0, before, after);
     }
     return TC_OK;
 }
@@ -901,7 +909,7 @@ static tc_status_t cmd_table_load(void *ctx, const char *path, int32_t *arg1)
     if (ts != MFNS_CALTABLE_OK) {
         fprintf(stderr, "mfns-nav: TABLE_LOAD %s refused: %s (at byte %u); the old table (crc %08x) stays\n", path,
                 mfns_caltable_strerror(ts), off, TABLE.crc32);
-        send_event(app.cycle_now, app.t_last_us, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, 0, (int32_t)ts, 0);
+        send_event(app.cycle_now, app.last_t_us, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, 0, (int32_t)ts, 0);
         if (had_prior) {
             (void)mfns_nav_set_prior(&app.nav, &prior);
         }
@@ -911,7 +919,7 @@ static tc_status_t cmd_table_load(void *ctx, const char *path, int32_t *arg1)
     if (had_prior) {
         (void)mfns_nav_set_prior(&app.nav, &prior); /* confirmed by the new table's beacons, or dropped */
     }
-    send_event(app.cycle_now, app.t_last_us, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, TABLE.format_version,
+    send_event(app.cycle_now, app.last_t_us, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, TABLE.format_version,
                (int32_t)TABLE.crc32);
     *arg1 = (int32_t)TABLE.crc32;
     return TC_OK;
@@ -1132,17 +1140,21 @@ int nav_app_run(const nav_app_opts_t *o)
             app.acq_last = app.out.acq;
             app.acq_units_max = app.out.acq.units > app.acq_units_max ? app.out.acq.units : app.acq_units_max;
         }
-        const bool fix = app.out.sol.status != MFNS_POSE_NO_FIX;
-        if (fix) {
-            app.n_fix++;
-        } else {
-            app.n_no_fix++;
-        }
         tlm_packet_t p;
         nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
         if (app.standby) {
             p.u.nav.mode = TLM_MODE_STANDBY;
         }
+        /* counted from the packet itself, so the log, housekeeping and
+         * nav.csv say the same (a pose the packet refuses is NO_FIX) */
+        if (p.u.nav.status == TLM_NAV_FIX) {
+            app.n_fix++;
+        } else if (p.u.nav.status == TLM_NAV_DEGRADED) {
+            app.n_degraded++;
+        } else {
+            app.n_no_fix++;
+        }
+        app.last_t_us = t_us;
         (void)nav_tlm_send(&app.tlm, &p);
         camera_events(cycle, t_us);
         camera_health(o, cycle, t_us); /* first: the packets carry the state after this cycle */
@@ -1155,10 +1167,9 @@ int nav_app_run(const nav_app_opts_t *o)
         mfns_cycle_stats_add(&app.stats, (uint32_t)(end - start), (uint32_t)(start - prev_start));
         prev_start = start;
         if (t_us - last_hk_us >= 1000000u || cycle == 0) {
-            housekeeping(cycle, t_us, TABLE.crc32);
+            housekeeping(cycle, cycle + 1u, t_us, TABLE.crc32);
             last_hk_us = t_us;
         }
-        app.t_last_us = t_us;
         pump_tlm(o);
         if (o->verbose) {
             const mfns_pose_solution_t *s = &app.out.sol;
@@ -1187,7 +1198,10 @@ int nav_app_run(const nav_app_opts_t *o)
             app.cs[k].have_held = false;
         }
     }
-    housekeeping(cycle, now_us() - t0, TABLE.crc32);
+    /* The final report: stamped with the flight clock (the last cycle's
+     * time, so time never runs backwards on the ground) and counting the
+     * cycles that ran (cycle is their number here on every exit path). */
+    housekeeping(cycle > 0u ? cycle - 1u : 0u, cycle, app.last_t_us, TABLE.crc32);
     close_all(o);
     /* Exact: every frame produced was sent, dropped by the queue, or is still
      * queued (never sent) now. */

@@ -1,6 +1,7 @@
 /* nav_tlm.c -- see nav_tlm.h. */
 #include "nav_tlm.h"
 
+#include <math.h>
 #include <string.h>
 
 void nav_tlm_init(nav_tlm_t *t)
@@ -61,11 +62,29 @@ void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_u
         n->sigma_pos_um[i] = tlm_scale_u32(s->sigma_pos_mm[i], 1000.0f, &ok);
         n->sigma_att_udeg[i] = tlm_scale_u32(s->sigma_euler_deg[i], 1e6f, &ok);
     }
+    for (int i = 0; i < 4; i++) {
+        n->q_q30[i] = tlm_scale_i32(s->q_b_w[i], TLM_Q30_SCALE, &ok);
+    }
+    /* cov_ros is in mm and rad; the interface units are mm and degrees
+     * (docs/conventions.md): scale each index that is an angle once. */
+    const float rad2deg = 57.29577951308232f;
+    unsigned k = 0;
+    for (unsigned r = 0; r < TLM_NAV_COV_DIM; r++) {
+        for (unsigned c = r; c < TLM_NAV_COV_DIM; c++) {
+            const float v = s->cov_ros[r][c] * (r >= 3u ? rad2deg : 1.0f) * (c >= 3u ? rad2deg : 1.0f);
+            ok = ok && isfinite(v);
+            n->cov[k++] = v;
+        }
+    }
     if (!ok) {
-        /* a value beyond the wire range (e.g. a position > 2 km): never send
-         * a saturated pose as valid */
+        /* a value beyond the wire range (e.g. a position > 2 km) or a
+         * covariance that is not finite: never send such a pose as valid */
         memset(n->pos_um, 0, sizeof n->pos_um);
         memset(n->att_udeg, 0, sizeof n->att_udeg);
+        memset(n->sigma_pos_um, 0, sizeof n->sigma_pos_um);
+        memset(n->sigma_att_udeg, 0, sizeof n->sigma_att_udeg);
+        memset(n->q_q30, 0, sizeof n->q_q30);
+        memset(n->cov, 0, sizeof n->cov);
         n->status = TLM_NAV_NO_FIX;
     }
 }

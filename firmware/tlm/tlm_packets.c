@@ -1,6 +1,7 @@
 /* tlm_packets.c -- packet structs <-> CCSDS packets <-> wire frames. */
 #include "tlm_packets.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "crc16.h"
@@ -16,6 +17,7 @@ static const char *const k_event_name[TLM_EVT_CODE_COUNT] = {
     "?", "BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE",
     "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR",
     "CMD_ACCEPTED", "CMD_REJECTED"};
+static const char *const k_severity_name[TLM_SEV_COUNT] = {"INFO", "WARNING", "ERROR"};
 
 const char *tlm_strerror(int err)
 {
@@ -89,6 +91,36 @@ const char *tlm_event_name(uint16_t code)
     return (code > 0u && code < TLM_EVT_CODE_COUNT) ? k_event_name[code] : "?";
 }
 
+const char *tlm_severity_name(uint8_t severity)
+{
+    return severity < TLM_SEV_COUNT ? k_severity_name[severity] : "?";
+}
+
+void tlm_put_f32(uint8_t *p, float v)
+{
+    uint32_t u;
+    memcpy(&u, &v, sizeof u); /* the bit pattern: binary32 on every target we build for */
+    tlm_put_u32(p, u);
+}
+
+float tlm_get_f32(const uint8_t *p)
+{
+    const uint32_t u = tlm_get_u32(p);
+    float v;
+    memcpy(&v, &u, sizeof v);
+    return v;
+}
+
+static bool cov_finite(const float *c)
+{
+    for (unsigned i = 0; i < TLM_NAV_COV_N; i++) {
+        if (!isfinite(c[i])) {
+            return false;
+        }
+    }
+    return true;
+}
+
 /* Field-range rules shared by encoder and decoder, so neither side accepts
  * what the other would refuse. */
 static bool payload_valid(const tlm_packet_t *p)
@@ -96,11 +128,11 @@ static bool payload_valid(const tlm_packet_t *p)
     switch (p->type) {
     case TLM_TYPE_NAV:
         return p->u.nav.status < TLM_NAV_STATUS_COUNT && p->u.nav.mode < TLM_MODE_COUNT &&
-               p->u.nav.cams_used < 8u;
+               p->u.nav.cams_used < 8u && cov_finite(p->u.nav.cov);
     case TLM_TYPE_CAMERA:
         return p->u.camera.camera < TLM_NUM_CAMERAS && p->u.camera.state < TLM_CAM_STATE_COUNT;
     case TLM_TYPE_HK:
-        return p->u.hk.mode < TLM_MODE_COUNT && p->u.hk.cpu_load_permille <= 1000u;
+        return p->u.hk.mode < TLM_MODE_COUNT && p->u.hk.cpu_load_permille <= 1000u && p->u.hk.cams_enabled < 8u;
     case TLM_TYPE_EVENT:
         return p->u.event.code > 0u && p->u.event.code < TLM_EVT_CODE_COUNT &&
                p->u.event.severity < TLM_SEV_COUNT;
@@ -140,6 +172,12 @@ static void pack_payload(const tlm_packet_t *p, uint8_t *b)
             tlm_put_u32(b + 36 + 4 * i, n->sigma_pos_um[i]);
             tlm_put_u32(b + 48 + 4 * i, n->sigma_att_udeg[i]);
         }
+        for (int i = 0; i < 4; i++) {
+            put_i32(b + 60 + 4 * i, n->q_q30[i]);
+        }
+        for (unsigned i = 0; i < TLM_NAV_COV_N; i++) {
+            tlm_put_f32(b + 76 + 4u * i, n->cov[i]);
+        }
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -171,6 +209,11 @@ static void pack_payload(const tlm_packet_t *p, uint8_t *b)
         tlm_put_u32(b + 55, h->acq_units_last);
         b[59] = h->acq_band_last;
         b[60] = h->acq_best_last;
+        tlm_put_u32(b + 61, h->n_degraded);
+        tlm_put_u32(b + 65, h->n_cmd_accepted);
+        tlm_put_u32(b + 69, h->n_cmd_rejected);
+        tlm_put_u16(b + 73, h->cmd_seq_last);
+        b[75] = h->cams_enabled;
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -207,6 +250,12 @@ static void unpack_payload(const uint8_t *b, tlm_packet_t *p)
             n->sigma_pos_um[i] = tlm_get_u32(b + 36 + 4 * i);
             n->sigma_att_udeg[i] = tlm_get_u32(b + 48 + 4 * i);
         }
+        for (int i = 0; i < 4; i++) {
+            n->q_q30[i] = get_i32(b + 60 + 4 * i);
+        }
+        for (unsigned i = 0; i < TLM_NAV_COV_N; i++) {
+            n->cov[i] = tlm_get_f32(b + 76 + 4u * i);
+        }
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -239,6 +288,11 @@ static void unpack_payload(const uint8_t *b, tlm_packet_t *p)
         h->acq_units_last = tlm_get_u32(b + 55);
         h->acq_band_last = b[59];
         h->acq_best_last = b[60];
+        h->n_degraded = tlm_get_u32(b + 61);
+        h->n_cmd_accepted = tlm_get_u32(b + 65);
+        h->n_cmd_rejected = tlm_get_u32(b + 69);
+        h->cmd_seq_last = tlm_get_u16(b + 73);
+        h->cams_enabled = b[75];
         break;
     }
     case TLM_TYPE_EVENT: {

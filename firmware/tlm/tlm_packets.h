@@ -35,12 +35,22 @@ typedef enum {
 #define TLM_APID_HK 0x103u
 #define TLM_APID_EVENT 0x104u
 
-/* Payload sizes (bytes after the 12-byte CCSDS headers). */
-#define TLM_NAV_PAYLOAD_LEN 60u
+/* Payload sizes (bytes after the 12-byte CCSDS headers). The layouts are
+ * those of the mission database ground/mdb/mfns_tm.xml (XTCE), which
+ * tests/host/test_tlm_mdb.py holds this codec to. */
+#define TLM_NAV_PAYLOAD_LEN 160u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 61u
+#define TLM_HK_PAYLOAD_LEN 76u
 #define TLM_EVENT_PAYLOAD_LEN 16u
-#define TLM_MAX_PAYLOAD 61u /* the largest payload: housekeeping */
+#define TLM_MAX_PAYLOAD 160u /* the largest payload: navigation */
+
+/* Attitude quaternion on the wire: Q1.30 signed (value * 2^30), so every
+ * component of a unit quaternion, 1.0 included, fits an int32 with a
+ * resolution of 9.3e-10. */
+#define TLM_Q30_SCALE 1073741824.0f
+/* Values in the 6x6 pose covariance: the upper triangle, row-major. */
+#define TLM_NAV_COV_DIM 6u
+#define TLM_NAV_COV_N 21u
 #define TLM_MAX_PACKET (TLM_CCSDS_HDR_LEN + TLM_MAX_PAYLOAD)
 /* Decoded frame = packet + 2 CRC bytes; the receiver's buffer bound. */
 #define TLM_MAX_FRAME (TLM_MAX_PACKET + 2u)
@@ -101,6 +111,12 @@ typedef struct {
     int32_t att_udeg[3];        /* 2-1-3 Euler of C_w_b (roll, pitch, yaw), 1e-6 deg */
     uint32_t sigma_pos_um[3];   /* 1-sigma of pos_um, 0.001 mm */
     uint32_t sigma_att_udeg[3]; /* 1-sigma of att_udeg, 1e-6 deg */
+    int32_t q_q30[4];           /* unit quaternion (w, x, y, z) of C_b_w, w >= 0, Q1.30 (TLM_Q30_SCALE) */
+    /* Pose covariance in ROS PoseWithCovariance order (x, y, z, rx, ry, rz:
+     * r_wb_w in mm, attitude error about the world axes in deg), upper
+     * triangle row-major (xx, xy, .. xrz, yy, .. rzrz): mm^2, mm deg, deg^2.
+     * IEEE-754 binary32 big-endian on the wire; always finite. */
+    float cov[TLM_NAV_COV_N];
 } tlm_nav_t;
 
 typedef struct {
@@ -134,6 +150,11 @@ typedef struct {
     uint32_t acq_units_last;    /* the work of the last acquisition */
     uint8_t acq_band_last;      /* rank window it reached (1, 2, 4, .. 32; 0 none) */
     uint8_t acq_best_last;      /* inliers of its best candidate (0 none) */
+    uint32_t n_degraded;        /* cumulative DEGRADED solutions (n_fix counts FIX only) */
+    uint32_t n_cmd_accepted;    /* telecommands accepted since boot (or RESET_COUNTERS) */
+    uint32_t n_cmd_rejected;    /* telecommands rejected */
+    uint16_t cmd_seq_last;      /* sequence count of the last accepted telecommand */
+    uint8_t cams_enabled;       /* bit k set: camera k enabled (0x7 all) */
 } tlm_hk_t;
 
 typedef struct {
@@ -172,10 +193,11 @@ const char *tlm_nav_status_name(uint8_t status);      /* "NO_FIX", "FIX", "DEGRA
 const char *tlm_mode_name(uint8_t mode);              /* "BOOT", "ACQUIRE", "TRACK", "SAFE", "?" */
 const char *tlm_cam_state_name(uint8_t state);        /* "OK", "LOST", "OFF", "SKIPPED", "ENDED", "?" */
 const char *tlm_event_name(uint16_t code);            /* "BOOT", "TABLE_LOADED", ... "?" */
+const char *tlm_severity_name(uint8_t severity);      /* "INFO", "WARNING", "ERROR", "?" */
 
 /* The CCSDS packet (headers + payload, no CRC, no framing) with sequence count
  * seq. TLM_ERR_PAYLOAD when a field is out of range (unknown enum value,
- * camera > 2), TLM_ERR_ARG for a bad type or seq > 16383. */
+ * camera > 2, a covariance value not finite), TLM_ERR_ARG for a bad type or seq > 16383. */
 int tlm_packet_encode(const tlm_packet_t *pkt, uint16_t seq, uint8_t *out, size_t cap, size_t *out_len);
 /* Parse one CCSDS packet of exactly len bytes. On error *out is zeroed and
  * the code says why; on success every field (and struct padding) is set. */
@@ -192,5 +214,9 @@ int tlm_frame_encode(tlm_encoder_t *enc, tlm_packet_t *pkt, uint8_t *out, size_t
 int32_t tlm_scale_i32(float value, float scale, bool *ok);
 uint32_t tlm_scale_u32(float value, float scale, bool *ok);
 uint16_t tlm_scale_u16(float value, float scale, bool *ok);
+
+/* IEEE-754 binary32 <-> its big-endian wire bytes (bit copy, no rounding). */
+void tlm_put_f32(uint8_t *p, float v);
+float tlm_get_f32(const uint8_t *p);
 
 #endif /* MFNS_TLM_PACKETS_H */

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import tlm_dict
 from .errors import MfnsError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -32,22 +33,9 @@ MAX_OBS_PER_CAMERA = 32
 NO_BEACON = -1
 
 STATUS = {0: "OK", 1: "DEGRADED", 2: "NO_FIX"}
-REASONS = (
-    "NONE",
-    "CAMERA_UNUSED",
-    "OUTLIERS",
-    "MINIMAL",
-    "BAD_ARG",
-    "TOO_FEW",
-    "AMBIGUOUS",
-    "NOT_IDENTIFIED",
-    "SINGULAR",
-    "NOT_CONVERGED",
-    "RESIDUAL_HIGH",
-    "TRACK_LOST",
-    "BELOW_CERTIFICATE",
-    "MINIMAL_UNCONFIRMED",
-)
+# Reason code -> name: the numbered wire codes of the telemetry dictionary (ground/mdb/mfns_tm.xml,
+# which tests/host/test_tlm_mdb.py holds to pose.h mfns_pose_reason_t).
+REASONS = tlm_dict.reason_names()
 MODE_ML, MODE_PAPER = 0, 1
 
 

@@ -123,6 +123,7 @@ static void structured_mode(const uint8_t *data, size_t size)
         case TLM_TYPE_HK:
             p.u.hk.mode %= TLM_MODE_COUNT;
             p.u.hk.cpu_load_permille %= 1001u;
+            p.u.hk.cams_enabled &= 7u;
             break;
         default:
             p.u.event.code = (uint16_t)(1u + p.u.event.code % (TLM_EVT_CODE_COUNT - 1u));

@@ -35,3 +35,107 @@ def calib_small_dataset(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("calib_small") / "ds"
     assert main(["sim", "calib", str(out), "--small", "--seed", "3", "--quiet"]) == 0
     return out
+
+
+# --------------------------------------------------------------------------- telemetry
+def cobs_frames(data: bytes) -> list[bytes]:
+    """The CCSDS packets of a recorded telemetry stream, unframed independently of the C
+    decoder: split at 0x00, COBS-decode, check and strip the CRC-16/CCITT-FALSE
+    (binascii.crc_hqx with init 0xFFFF). Frames that fail are left out."""
+    import binascii
+
+    out = []
+    for frame in data.split(b"\0"):
+        if not frame:
+            continue
+        raw, i = bytearray(), 0
+        ok = True
+        while i < len(frame):
+            code = frame[i]
+            if code == 0 or i + code > len(frame):
+                ok = False
+                break
+            raw += frame[i + 1 : i + code]
+            i += code
+            if code < 0xFF and i < len(frame):
+                raw.append(0)
+        if ok and len(raw) > 2 and binascii.crc_hqx(bytes(raw[:-2]), 0xFFFF) == int.from_bytes(raw[-2:], "big"):
+            out.append(bytes(raw[:-2]))
+    return out
+
+
+@pytest.fixture(scope="session")
+def xtce_decode():
+    """decode(stream bytes) -> list of (container name, {parameter: value}) through the XTCE
+    mission database and space-packet-parser (no project code on the way)."""
+    import warnings
+
+    from space_packet_parser.xtce.definitions import XtcePacketDefinition
+
+    from mfns import tlm_dict
+
+    definition = XtcePacketDefinition.from_xtce(tlm_dict.mdb_path())
+    names = {p.apid: p.name for p in tlm_dict.load().packets.values()}
+
+    def decode(data: bytes) -> list[tuple[str, dict]]:
+        rows = []
+        for pkt in cobs_frames(data):
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")  # a length mismatch is a failure, not a warning
+                p = definition.parse_bytes(pkt)
+            rows.append((names[int(p["ccsds_apid"])], dict(p)))
+        return rows
+
+    return decode
+
+
+CSV_FILE = {"nav": "nav", "camera": "camera", "housekeeping": "housekeeping", "event": "events"}
+
+
+def assert_packets_match_csv(decoded: list[tuple[str, dict]], out_dir: Path) -> dict[str, int]:
+    """Every packet space-packet-parser decoded equals the row mfns-ground wrote for it, field
+    by field (and the CSV has exactly the dictionary's columns). Returns rows per packet."""
+    import csv
+
+    import numpy as np
+
+    from mfns import tlm_dict
+
+    d = tlm_dict.load()
+    counts = {}
+    for name, packet in d.packets.items():
+        with open(out_dir / f"{CSV_FILE[name]}.csv", newline="") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+            cols = list(reader.fieldnames or [])
+        extra = {"t_s", "seq", "ground_utc"} | ({"event"} if name == "event" else set())
+        assert cols[:2] == ["t_s", "seq"] and cols[-1] == "ground_utc", cols
+        body = [c for c in cols if c not in extra]
+        assert len(body) == len(set(body)) and set(body) == {f.name for f in packet.fields}, (name, cols)
+        mine = [p for n, p in decoded if n == name]
+        assert len(mine) == len(rows), (name, len(mine), len(rows))
+        for p, row in zip(mine, rows, strict=True):
+            t = int(p["time_coarse_s"]) + p["time_fine"].raw_value / 65536.0
+            assert abs(float(row["t_s"]) - t) <= 0.5e-6 + 1e-9, (name, row["t_s"], t)
+            assert int(row["seq"]) == int(p["ccsds_seq_count"])
+            for f in packet.fields:
+                v, text = p[f.param], row[f.name]
+                where = (name, row["seq"], f.name, text, v)
+                if f.enum is not None:
+                    if text.lstrip("-").isdigit():
+                        assert int(text) == v.raw_value, where
+                    else:
+                        assert text == str(v) == f.enum[v.raw_value][0], where
+                elif f.encoding.startswith("IEEE754"):
+                    assert np.float32(float(text)) == np.float32(v), where
+                elif f.coefficient is not None:
+                    assert round(float(text) / f.coefficient) == v.raw_value, where
+                    assert abs(float(text) - float(v)) <= f.coefficient / 2, where
+                elif text.startswith("0x"):
+                    assert int(text, 16) == int(v) & 0xFFFFFFFF, where
+                else:
+                    assert int(text) == int(v), where
+            if name == "event":
+                assert row["event"] == str(p["evt_code"]), row
+        counts[name] = len(rows)
+    return counts

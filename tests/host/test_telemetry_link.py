@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import threading
 import tty
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -68,6 +70,15 @@ def expected_nav_row(i: int, seq: int) -> str:
     ]
     sp = [1600 + (i + k * 7) % 100 for k in range(3)]
     sa = [150000 + (i + k * 11) % 1000 for k in range(3)]
+    # quaternion (Q1.30) and covariance (binary32) of ground_gen_nav, in float32 as the C code
+    f32 = np.float32
+    a = f32(0.001) * f32(i % 1000)
+    q = [0, 0, 0, 0] if no_fix else [q30(f32(0.8)), q30(f32(0.6) * (f32(1) - a)), q30(f32(-0.6) * a), q30(f32(0))]
+    cov = []
+    for k in range(21):
+        mag = f32(2.5e-3) if k in (0, 6, 11) else f32(1.0e-7) * f32(k + 1)
+        v = (-mag if (i + k) % 3 == 0 else mag) * (f32(1) + f32(0.01) * f32(i % 97))
+        cov.append("0" if no_fix else f"{float(v):.9g}")
     cols = [
         cuc_time_str(i),
         str(seq),
@@ -83,14 +94,38 @@ def expected_nav_row(i: int, seq: int) -> str:
         *[fixed(v, 3) for v in sp],
         *[fixed(v, 6) for v in sa],
         fixed(100 + (i * 37) % 900, 3),
+        *[f"{v / 2**30:.10f}" for v in q],
+        *cov,
     ]
     return ",".join(cols)
 
 
+def q30(v: np.float32) -> int:
+    """tlm_scale_i32(v, TLM_Q30_SCALE): product in float32, rounded half away from zero."""
+    r = np.float32(v) * np.float32(2**30)
+    return int(r + np.float32(0.5)) if r >= 0 else -int(-r + np.float32(0.5))
+
+
+UTC = re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{6}Z")
+
+
+def rows(path: Path) -> list[str]:
+    """The data rows of a ground CSV without their ground_utc column (checked here)."""
+    out = []
+    for line in path.read_text().splitlines()[1:]:
+        body, utc = line.rsplit(",", 1)
+        assert UTC.fullmatch(utc), line
+        out.append(body)
+    return out
+
+
+AX = ("x", "y", "z", "rx", "ry", "rz")
 NAV_HEADER = (
     "t_s,seq,cycle,status,reason,mode,beacons_used,cams_used,iterations,x_mm,y_mm,z_mm,"
     "roll_deg,pitch_deg,yaw_deg,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,"
-    "sigma_yaw_deg,residual_rms_px"
+    "sigma_yaw_deg,residual_rms_px,q_w,q_x,q_y,q_z,"
+    + ",".join(f"cov_{a}_{b}" for i, a in enumerate(AX) for b in AX[i:])
+    + ",ground_utc"
 )
 
 
@@ -144,7 +179,7 @@ def test_pty_link_csv_equals_what_was_sent(bins, tmp_path):
     assert ground.returncode == 0, err
     nav = (out / "nav.csv").read_text().splitlines()
     assert nav[0] == NAV_HEADER
-    assert nav[1:] == [expected_nav_row(i, i) for i in range(cycles)]
+    assert rows(out / "nav.csv") == [expected_nav_row(i, i) for i in range(cycles)]
     stats = json.loads((out / "stats.json").read_text())
     assert stats["frames_ok"] == n_frames
     for key in ("crc_errors", "truncated", "oversize", "bad_packets", "resyncs", "seq_gaps"):
@@ -240,7 +275,7 @@ def test_pty_link_with_injected_faults(bins, tmp_path):
     assert stats["resyncs"] == len(hit_frames) + 1
     assert stats["packets"]["nav"]["gaps"] == len(hit_cycles)
     assert stats["packets"]["nav"]["lost"] == len(hit_cycles)
-    nav = (out / "nav.csv").read_text().splitlines()[1:]
+    nav = rows(out / "nav.csv")
     assert nav == [expected_nav_row(i, i) for i in range(cycles) if i not in hit_cycles]
     events = (out / "events.csv").read_text().splitlines()[1:]
     assert [e.split(",")[3] for e in events] == ["TABLE_LOADED"]
@@ -259,8 +294,8 @@ def test_file_replay_record_and_stdin(bins, tmp_path):
     )
     assert res.returncode == 0, res.stderr
     assert rec.read_bytes() == stream.read_bytes()
-    a = (tmp_path / "a" / "nav.csv").read_text()
-    assert a.splitlines()[1:] == [expected_nav_row(i, i) for i in range(30)]
+    a = rows(tmp_path / "a" / "nav.csv")
+    assert a == [expected_nav_row(i, i) for i in range(30)]
     with stream.open("rb") as f:
         res = subprocess.run(
             [str(bins["ground"]), "--file", "-", "--out", str(tmp_path / "b")],
@@ -271,7 +306,7 @@ def test_file_replay_record_and_stdin(bins, tmp_path):
             check=False,
         )
     assert res.returncode == 0, res.stderr
-    assert (tmp_path / "b" / "nav.csv").read_text() == a
+    assert rows(tmp_path / "b" / "nav.csv") == a
 
 
 def test_cli_errors_and_help(bins, tmp_path):
@@ -334,5 +369,5 @@ def test_fifo_transport_and_live_status(bins, tmp_path):
     err = err_bytes.decode()
     assert gen.returncode == 0, gen.stderr
     assert ground.returncode == 0, err
-    assert (out / "nav.csv").read_text().splitlines()[1:] == [expected_nav_row(i, i) for i in range(cycles)]
+    assert rows(out / "nav.csv") == [expected_nav_row(i, i) for i in range(cycles)]
     assert "\r" in err and "link ok" in err and f"frames {n_frames}" in err

@@ -2,6 +2,7 @@
  * CUC time, every packet type's round trip and its refusal rules. */
 #include "testutil.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "ccsds.h"
@@ -242,11 +243,15 @@ static void test_nav_payload_layout(void **state)
     p.u.nav.pos_um[0] = -1; /* FF FF FF FF */
     p.u.nav.att_udeg[2] = 180000000; /* 0x0ABA9500 */
     p.u.nav.sigma_att_udeg[2] = 0x11223344u;
+    p.u.nav.q_q30[0] = 1 << 30;   /* 1.0: 40 00 00 00 */
+    p.u.nav.q_q30[3] = -(1 << 29); /* -0.5: E0 00 00 00 */
+    p.u.nav.cov[0] = 1.0f;        /* binary32 3F 80 00 00 */
+    p.u.nav.cov[20] = -2.5f;      /* C0 20 00 00 */
     uint8_t b[TLM_MAX_PACKET];
     size_t n = 0;
     assert_int_equal(tlm_packet_encode(&p, 3, b, sizeof b, &n), TLM_OK);
-    assert_int_equal(n, 72);
-    const uint8_t hdr[12] = {0x09, 0x01, 0xC0, 0x03, 0x00, 65, 0, 0, 0, 7, 0x80, 0x00};
+    assert_int_equal(n, 172);
+    const uint8_t hdr[12] = {0x09, 0x01, 0xC0, 0x03, 0x00, 165, 0, 0, 0, 7, 0x80, 0x00};
     assert_memory_equal(b, hdr, 12);
     const uint8_t *pl = b + 12;
     const uint8_t head[12] = {0x0A, 0x0B, 0x0C, 0x0D, 1, 0, 2, 4, 5, 6, 0x01, 0x02};
@@ -257,6 +262,47 @@ static void test_nav_payload_layout(void **state)
     assert_memory_equal(pl + 32, yaw, 4);
     const uint8_t syaw[4] = {0x11, 0x22, 0x33, 0x44};
     assert_memory_equal(pl + 56, syaw, 4);
+    const uint8_t qw[4] = {0x40, 0x00, 0x00, 0x00}, qz[4] = {0xE0, 0x00, 0x00, 0x00};
+    assert_memory_equal(pl + 60, qw, 4);
+    assert_memory_equal(pl + 72, qz, 4);
+    const uint8_t cxx[4] = {0x3F, 0x80, 0x00, 0x00}, crzrz[4] = {0xC0, 0x20, 0x00, 0x00};
+    assert_memory_equal(pl + 76, cxx, 4);
+    assert_memory_equal(pl + 156, crzrz, 4);
+    tlm_packet_t q;
+    assert_int_equal(tlm_packet_decode(b, n, &q), TLM_OK);
+    assert_true(q.u.nav.cov[20] == -2.5f && q.u.nav.q_q30[3] == -(1 << 29));
+    /* a covariance that is not finite is refused both ways: never a pose
+     * with a meaningless covariance */
+    p.u.nav.cov[7] = NAN;
+    assert_int_equal(tlm_packet_encode(&p, 3, b, sizeof b, &n), TLM_ERR_PAYLOAD);
+    p.u.nav.cov[7] = 0.0f;
+    assert_int_equal(tlm_packet_encode(&p, 3, b, sizeof b, &n), TLM_OK);
+    const uint8_t inf[4] = {0x7F, 0x80, 0x00, 0x00};
+    memcpy(b + 12 + 76 + 4 * 7, inf, 4);
+    assert_int_equal(tlm_packet_decode(b, n, &q), TLM_ERR_PAYLOAD);
+}
+
+static void test_hk_payload_layout(void **state)
+{
+    (void)state;
+    tlm_packet_t p;
+    memset(&p, 0, sizeof p);
+    p.type = TLM_TYPE_HK;
+    p.u.hk.mode = TLM_MODE_STANDBY;
+    p.u.hk.n_degraded = 0x01020304u;
+    p.u.hk.n_cmd_accepted = 0x05060708u;
+    p.u.hk.n_cmd_rejected = 0x090A0B0Cu;
+    p.u.hk.cmd_seq_last = 0x0D0Eu;
+    p.u.hk.cams_enabled = 0x05u;
+    uint8_t b[TLM_MAX_PACKET];
+    size_t n = 0;
+    assert_int_equal(tlm_packet_encode(&p, 0, b, sizeof b, &n), TLM_OK);
+    assert_int_equal(n, 12 + 76);
+    const uint8_t tail[15] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 5};
+    assert_memory_equal(b + 12 + 61, tail, 15);
+    assert_int_equal(b[12 + 4], 4); /* STANDBY */
+    p.u.hk.cams_enabled = 8;        /* only three cameras */
+    assert_int_equal(tlm_packet_encode(&p, 0, b, sizeof b, &n), TLM_ERR_PAYLOAD);
 }
 
 static void test_packet_refusals(void **state)
@@ -423,6 +469,7 @@ int main(void)
         cmocka_unit_test(test_cuc_time),
         cmocka_unit_test(test_every_packet_type_roundtrip),
         cmocka_unit_test(test_nav_payload_layout),
+        cmocka_unit_test(test_hk_payload_layout),
         cmocka_unit_test(test_packet_refusals),
         cmocka_unit_test(test_frame_encode_sequence_counters),
         cmocka_unit_test(test_scale_helpers),

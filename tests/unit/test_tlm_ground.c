@@ -31,6 +31,10 @@ static void test_fixed_point_formatting(void **state)
     assert_string_equal(b, "4294967.295");
     ground_fmt_fixed(b, sizeof b, -42, 0);
     assert_string_equal(b, "-42");
+    ground_fmt_utc(b, sizeof b, 0);
+    assert_string_equal(b, "1970-01-01T00:00:00.000000Z");
+    ground_fmt_utc(b, sizeof b, 1796166000123456LL); /* 2026-12-01T23:00:00.123456 UTC */
+    assert_string_equal(b, "2026-12-01T23:00:00.123456Z");
     const tlm_time_t t0 = {12, 0};
     ground_fmt_time(b, sizeof b, &t0);
     assert_string_equal(b, "12.000000");
@@ -149,10 +153,38 @@ static void test_ground_run_on_recorded_stream(void **state)
     snprintf(path, sizeof path, "%s/events.jsonl", out_dir);
     read_file(path, text, sizeof text);
     assert_non_null(strstr(text, "\"event\": \"BOOT\""));
-    assert_non_null(strstr(text, "\"arg1\": 305441741"));
+    /* the table CRC in hex, as in housekeeping.csv (was signed decimal) */
+    assert_non_null(strstr(text, "\"arg1\": \"0x1234abcd\""));
+    assert_non_null(strstr(text, "\"ground_utc\": \"20"));
+    snprintf(path, sizeof path, "%s/events.csv", out_dir);
+    read_file(path, text, sizeof text);
+    assert_non_null(strstr(text, ",TABLE_LOADED,2,INFO,0,1,0x1234abcd,"));
+    snprintf(path, sizeof path, "%s/housekeeping.csv", out_dir);
+    read_file(path, text, sizeof text);
+    assert_non_null(strstr(text, ",0x1234abcd,"));
+    assert_non_null(strstr(text, "n_degraded,n_cmd_accepted,n_cmd_rejected,cmd_seq_last,cams_enabled,ground_utc\n"));
+    snprintf(path, sizeof path, "%s/nav.csv", out_dir);
+    read_file(path, text, sizeof text);
+    assert_non_null(strstr(text, ",residual_rms_px,q_w,q_x,q_y,q_z,cov_x_x,cov_x_y,cov_x_z,cov_x_rx,cov_x_ry,cov_x_rz,"
+                                 "cov_y_y,cov_y_z,cov_y_rx,cov_y_ry,cov_y_rz,cov_z_z,cov_z_rx,cov_z_ry,cov_z_rz,"
+                                 "cov_rx_rx,cov_rx_ry,cov_rx_rz,cov_ry_ry,cov_ry_rz,cov_rz_rz,ground_utc\n"));
+    /* cycle 0: q = (0.8, 0.6, 0, 0) to 1e-10, cov_x_x = -2.5e-3 (9 digits) */
+    assert_non_null(strstr(text, ",0.8000000119,0.6000000238,0.0000000000,0.0000000000,-0.00249999994,"));
     snprintf(path, sizeof path, "%s/stats.json", out_dir);
     read_file(path, text, sizeof text);
     assert_non_null(strstr(text, "\"resyncs\": 1"));
+    /* a stream with no valid frame is an error (exit 3), not an empty run */
+    f = fopen(stream_path, "wb");
+    assert_non_null(f);
+    static const uint8_t garbage[] = {0x05, 0x11, 0x22, 0x00, 0x42, 0x42, 0x00, 0x00};
+    assert_int_equal(fwrite(garbage, 1, sizeof garbage, f), sizeof garbage);
+    fclose(f);
+    assert_int_equal(ground_run(&o, &s), GROUND_EXIT_NO_FRAME);
+    assert_int_equal(s.frames_ok, 0);
+    f = fopen(stream_path, "wb"); /* empty */
+    assert_non_null(f);
+    fclose(f);
+    assert_int_equal(ground_run(&o, NULL), GROUND_EXIT_NO_FRAME);
     /* a missing input is an error, not an empty run */
     o.path = "/nonexistent/stream.bin";
     assert_int_equal(ground_run(&o, NULL), 1);

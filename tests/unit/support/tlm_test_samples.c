@@ -28,6 +28,12 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
             n->sigma_pos_um[k] = 1600u + i + (uint32_t)k * 0x100u;
             n->sigma_att_udeg[k] = 150000u + (uint32_t)k;
         }
+        for (int k = 0; k < 4; k++) {
+            n->q_q30[k] = (int32_t)((i * 2654435761u) >> (k + 1)) * (k % 2 ? -1 : 1);
+        }
+        for (uint32_t k = 0; k < TLM_NAV_COV_N; k++) {
+            n->cov[k] = (float)((int32_t)(i * 7u + k * 13u) % 201 - 100) * 1.5e-4f;
+        }
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -63,6 +69,11 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         h->acq_units_last = 0x04000000u + i;
         h->acq_band_last = (uint8_t)(1u << (i % 6u));
         h->acq_best_last = (uint8_t)(i % 255u);
+        h->n_degraded = 0x05000000u + i;
+        h->n_cmd_accepted = 0x06000000u + i;
+        h->n_cmd_rejected = 0x07000000u + i;
+        h->cmd_seq_last = (uint16_t)(i * 3u);
+        h->cams_enabled = (uint8_t)(i % 8u);
         break;
     }
     case TLM_TYPE_EVENT:
@@ -96,6 +107,11 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
             eq = eq && x->pos_um[k] == y->pos_um[k] && x->att_udeg[k] == y->att_udeg[k] &&
                  x->sigma_pos_um[k] == y->sigma_pos_um[k] && x->sigma_att_udeg[k] == y->sigma_att_udeg[k];
         }
+        for (int k = 0; k < 4; k++) {
+            eq = eq && x->q_q30[k] == y->q_q30[k];
+        }
+        /* bit-exact: the wire carries the binary32 pattern */
+        eq = eq && memcmp(x->cov, y->cov, sizeof x->cov) == 0;
         return eq;
     }
     case TLM_TYPE_CAMERA: {
@@ -114,7 +130,10 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
                x->n_tlm_dropped == y->n_tlm_dropped && x->n_cam_errors == y->n_cam_errors &&
                x->table_crc32 == y->table_crc32 && x->n_acquire == y->n_acquire &&
                x->acq_units_max == y->acq_units_max && x->acq_units_last == y->acq_units_last &&
-               x->acq_band_last == y->acq_band_last && x->acq_best_last == y->acq_best_last;
+               x->acq_band_last == y->acq_band_last && x->acq_best_last == y->acq_best_last &&
+               x->n_degraded == y->n_degraded && x->n_cmd_accepted == y->n_cmd_accepted &&
+               x->n_cmd_rejected == y->n_cmd_rejected && x->cmd_seq_last == y->cmd_seq_last &&
+               x->cams_enabled == y->cams_enabled;
     }
     case TLM_TYPE_EVENT: {
         const tlm_event_t *x = &a->u.event, *y = &b->u.event;

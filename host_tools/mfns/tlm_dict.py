@@ -1,0 +1,318 @@
+"""The telemetry dictionary (XTCE mission database ground/mdb/mfns_tm.xml) for Python.
+
+The XTCE file is the one definition of the telemetry packets: their CCSDS headers, every
+parameter with its encoding, unit and calibration, and every numbered code (status, reason,
+mode, camera state, event code, severity). This module reads it with the standard library
+only, so the host tools take the codes' names from it instead of copying them, and it renders
+the tables of docs/telemetry.md between their markers (``python -m mfns.tlm_dict --write``;
+``--check`` fails when the doc is stale). tests/host/test_tlm_mdb.py holds the C codec and
+headers to the same file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
+_X = "{" + NS["x"] + "}"
+REPO = Path(__file__).resolve().parents[2]
+
+# Framing per frame (docs/telemetry.md 2): CRC-16 (2), COBS overhead (1 below 254 bytes), 0x00.
+FRAME_OVERHEAD = 4
+CYCLE_HZ = 18.6
+UART_BITS_PER_BYTE = 10  # 8N1
+# Rates of the budget (docs/telemetry.md 5): frames per second of each packet.
+RATES = {
+    "nav": (CYCLE_HZ, "every cycle (18.6 Hz)"),
+    "camera": (3 * CYCLE_HZ, "every cycle, one per camera (3 x 18.6 Hz)"),
+    "housekeeping": (CYCLE_HZ / 19.0, "~1 Hz (every 19th cycle)"),
+    "event": (1.0, "when it happens (budget: 1/s average)"),
+}
+
+
+def mdb_path() -> Path:
+    """The XTCE file: the package's copy (a link to ground/mdb in the source tree)."""
+    p = Path(str(resources.files("mfns.data").joinpath("mfns_tm.xml")))
+    return p if p.exists() else REPO / "ground" / "mdb" / "mfns_tm.xml"
+
+
+@dataclass
+class Field:
+    param: str  # XTCE parameter name, e.g. nav_x_mm
+    name: str  # the ground CSV column, e.g. x_mm
+    type_name: str
+    kind: str  # "int", "float" or "enum"
+    bits: int
+    encoding: str  # unsigned, twosComplement, IEEE754_1985
+    coefficient: float | None  # engineering = raw * coefficient (None: raw)
+    unit: str
+    description: str
+    enum: dict[int, tuple[str, str]] | None = None  # value -> (label, description)
+    offset: int = 0  # bytes from the start of the payload (or packet, for the header)
+
+    @property
+    def size(self) -> int:
+        return self.bits // 8
+
+    @property
+    def wire_type(self) -> str:
+        if self.encoding.startswith("IEEE754"):
+            return f"f{self.bits}"
+        return ("i" if self.encoding == "twosComplement" else "u") + str(self.bits)
+
+
+@dataclass
+class Packet:
+    name: str
+    apid: int
+    description: str
+    fields: list[Field] = field(default_factory=list)
+
+    @property
+    def payload_len(self) -> int:
+        return sum(f.size for f in self.fields)
+
+
+@dataclass
+class Dictionary:
+    header: list[Field]
+    packets: dict[str, Packet]
+    enums: dict[str, dict[int, tuple[str, str]]]
+
+    def by_apid(self, apid: int) -> Packet:
+        return next(p for p in self.packets.values() if p.apid == apid)
+
+    def labels(self, enum_type: str) -> dict[int, str]:
+        return {v: lab for v, (lab, _) in self.enums[enum_type].items()}
+
+
+def _types(root: ET.Element) -> dict[str, dict]:
+    out: dict[str, dict] = {}
+    for t in root.find("x:TelemetryMetaData/x:ParameterTypeSet", NS):
+        tag = t.tag.removeprefix(_X)
+        enc = t.find("x:IntegerDataEncoding", NS)
+        fenc = t.find("x:FloatDataEncoding", NS)
+        e = enc if enc is not None else fenc
+        unit = t.find("x:UnitSet/x:Unit", NS)
+        term = t.find(".//x:PolynomialCalibrator/x:Term[@exponent='1']", NS)
+        info = {
+            "kind": {"IntegerParameterType": "int", "FloatParameterType": "float"}.get(tag, "enum"),
+            "bits": int(e.get("sizeInBits")),
+            "encoding": e.get("encoding", "unsigned" if enc is not None else "IEEE754"),
+            "coefficient": float(term.get("coefficient")) if term is not None else None,
+            "unit": unit.text if unit is not None else "",
+            "description": t.get("shortDescription", ""),
+            "enum": None,
+        }
+        if tag == "EnumeratedParameterType":
+            info["enum"] = {
+                int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
+                for x in t.findall("x:EnumerationList/x:Enumeration", NS)
+            }
+        out[t.get("name")] = info
+    return out
+
+
+def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> list[Field]:
+    out, off = [], 0
+    for entry in container.findall("x:EntryList/x:ParameterRefEntry", NS):
+        pname = entry.get("parameterRef")
+        tname, desc = params[pname]
+        t = types[tname]
+        f = Field(
+            param=pname,
+            name=pname.removeprefix(prefix),
+            type_name=tname,
+            kind=t["kind"],
+            bits=t["bits"],
+            encoding=t["encoding"],
+            coefficient=t["coefficient"],
+            unit=t["unit"],
+            description=desc,
+            enum=t["enum"],
+            offset=off // 8,
+        )
+        off += f.bits
+        out.append(f)
+    return out
+
+
+PREFIX = {"nav": "nav_", "camera": "cam_", "housekeeping": "hk_", "event": "evt_"}
+
+
+@lru_cache(maxsize=4)
+def load(path: str | None = None) -> Dictionary:
+    root = ET.parse(path or mdb_path()).getroot()
+    types = _types(root)
+    params = {
+        p.get("name"): (p.get("parameterTypeRef"), p.get("shortDescription", ""))
+        for p in root.findall("x:TelemetryMetaData/x:ParameterSet/x:Parameter", NS)
+    }
+    header, packets = [], {}
+    for c in root.findall("x:TelemetryMetaData/x:ContainerSet/x:SequenceContainer", NS):
+        name = c.get("name")
+        if c.get("abstract") == "true":
+            header = _fields(c, params, types, "")
+            continue
+        apid = int(c.find("x:BaseContainer/x:RestrictionCriteria/x:Comparison", NS).get("value"))
+        packets[name] = Packet(name, apid, c.get("shortDescription", ""), _fields(c, params, types, PREFIX[name]))
+    enums = {n: t["enum"] for n, t in types.items() if t["enum"] is not None}
+    return Dictionary(header, packets, enums)
+
+
+def reason_names() -> tuple[str, ...]:
+    """Reason code -> name (firmware/nav/pose.h mfns_pose_reason_t), as a tuple indexed by code."""
+    r = load().labels("nav_reason_t")
+    assert sorted(r) == list(range(len(r))), "reason codes must be 0..N-1"
+    return tuple(r[k] for k in range(len(r)))
+
+
+def usable_status_names() -> tuple[str, ...]:
+    """The nav statuses that carry a usable pose (all but NO_FIX)."""
+    return tuple(lab for v, lab in sorted(load().labels("nav_status_t").items()) if lab != "NO_FIX")
+
+
+# --------------------------------------------------------------------------- doc tables
+def _num(x: float) -> str:
+    return f"{x:g}"
+
+
+def _unit(f: Field) -> str:
+    if f.enum is not None:
+        if len(f.enum) > 6:
+            return f"code: {f.type_name} (table below)"
+        return ", ".join(f"{v} {lab}" for v, (lab, _) in sorted(f.enum.items()))
+    if f.coefficient is not None:
+        raw = "2^-30" if abs(f.coefficient - 2.0**-30) < 1e-20 else _num(f.coefficient)
+        return f"{f.unit} (count x {raw})"
+    return f.unit
+
+
+def _payload_table(p: Packet) -> str:
+    rows = ["| off | size | type | field | unit / codes | meaning |", "|---|---|---|---|---|---|"]
+    for f in p.fields:
+        rows.append(f"| {f.offset} | {f.size} | {f.wire_type} | {f.name} | {_unit(f)} | {f.description} |")
+    return "\n".join(rows)
+
+
+def _header_table(d: Dictionary) -> str:
+    rows = ["| bits | field | meaning |", "|---|---|---|"]
+    bit = 0
+    for f in d.header:
+        rows.append(f"| {bit}-{bit + f.bits - 1} | {f.param} | {f.description} |")
+        bit += f.bits
+    return "\n".join(rows)
+
+
+def _apid_table(d: Dictionary) -> str:
+    rows = ["| APID | packet | rate | payload bytes | packet bytes | wire bytes |", "|---|---|---|---|---|---|"]
+    for p in d.packets.values():
+        n = 12 + p.payload_len
+        rows.append(
+            f"| 0x{p.apid:03X} | {p.name}: {p.description} | {RATES[p.name][1]} | {p.payload_len} | {n} "
+            f"| {n + FRAME_OVERHEAD} |"
+        )
+    return "\n".join(rows)
+
+
+def _enum_table(d: Dictionary, enum_type: str, head: str) -> str:
+    rows = [f"| code | name | {head} |", "|---|---|---|"]
+    for v, (lab, desc) in sorted(d.enums[enum_type].items()):
+        rows.append(f"| {v} | {lab} | {desc} |")
+    return "\n".join(rows)
+
+
+def budget(d: Dictionary | None = None) -> dict:
+    d = d or load()
+    streams, total_bps, total_fps = [], 0.0, 0.0
+    for p in d.packets.values():
+        wire = 12 + p.payload_len + FRAME_OVERHEAD
+        fps = RATES[p.name][0]
+        streams.append((p.name, wire, fps, wire * fps))
+        total_bps += wire * fps
+        total_fps += fps
+    wire_of = {n: w for n, w, _, _ in streams}
+    per_cycle = wire_of["nav"] + 3 * wire_of["camera"]  # what one cycle sends
+    return {"streams": streams, "bytes_per_s": total_bps, "frames_per_s": total_fps, "per_cycle": per_cycle}
+
+
+def _budget_table(d: Dictionary) -> str:
+    b = budget(d)
+    rows = ["| stream | bytes/frame (wire) | frames/s | bytes/s |", "|---|---|---|---|"]
+    for name, wire, fps, bps in b["streams"]:
+        rows.append(f"| {name} | {wire} | {fps:.2f} | {bps:.1f} |")
+    rows.append(f"| **total** | | {b['frames_per_s']:.1f} | **{b['bytes_per_s']:.1f}** "
+                f"({b['bytes_per_s'] * 8 / 1000:.1f} kbit/s) |")
+    rows += ["", f"| baud | capacity (bytes/s) | load | per 53.8-ms cycle: {b['per_cycle']} bytes take |",
+             "|---|---|---|---|"]
+    for baud in (115200, 921600):
+        cap = baud / UART_BITS_PER_BYTE
+        rows.append(f"| {baud} | {cap:.0f} | **{100 * b['bytes_per_s'] / cap:.1f} %** "
+                    f"| {1000 * b['per_cycle'] / cap:.1f} ms |")
+    return "\n".join(rows)
+
+
+def tables(d: Dictionary | None = None) -> dict[str, str]:
+    """Every generated table of docs/telemetry.md, by marker name."""
+    d = d or load()
+    return {
+        "header": _header_table(d),
+        "apids": _apid_table(d),
+        "nav": _payload_table(d.packets["nav"]),
+        "camera": _payload_table(d.packets["camera"]),
+        "housekeeping": _payload_table(d.packets["housekeeping"]),
+        "event": _payload_table(d.packets["event"]),
+        "event_codes": _enum_table(d, "event_code_t", "subject, arg0, arg1"),
+        "reasons": _enum_table(d, "nav_reason_t", "meaning"),
+        "budget": _budget_table(d),
+    }
+
+
+_MARK = re.compile(r"(<!-- BEGIN tlm_dict:(\w+) -->\n)(.*?)(<!-- END tlm_dict:\2 -->)", re.S)
+
+
+def render_doc(text: str, d: Dictionary | None = None) -> str:
+    """text with every marked table replaced by the dictionary's; unknown markers raise."""
+    t = tables(d)
+    seen = set()
+
+    def sub(m: re.Match) -> str:
+        seen.add(m.group(2))
+        return m.group(1) + t[m.group(2)] + "\n" + m.group(4)
+
+    out = _MARK.sub(sub, text)
+    missing = set(t) - seen
+    if missing:
+        raise ValueError(f"docs/telemetry.md lacks the markers of {sorted(missing)}")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m mfns.tlm_dict", description=__doc__.splitlines()[0])
+    ap.add_argument("doc", nargs="?", default=str(REPO / "docs" / "telemetry.md"))
+    g = ap.add_mutually_exclusive_group(required=True)
+    g.add_argument("--write", action="store_true", help="regenerate the doc's tables in place")
+    g.add_argument("--check", action="store_true", help="exit 1 when the doc's tables are stale")
+    a = ap.parse_args(argv)
+    doc = Path(a.doc)
+    text = doc.read_text()
+    new = render_doc(text)
+    if a.check:
+        if new != text:
+            print(f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm_dict --write)", file=sys.stderr)
+            return 1
+        return 0
+    if new != text:
+        doc.write_text(new)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

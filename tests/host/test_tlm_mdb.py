@@ -1,0 +1,171 @@
+"""The telemetry dictionary (ground/mdb/mfns_tm.xml, XTCE) against everything that uses it
+(issue 13 items 1 and 2; issue 12 item 4).
+
+The XTCE file is the one definition of the packets. These tests fail on any difference
+between it and: the XTCE schema; the C codec's layouts (streams the C encoder wrote, decoded by
+space-packet-parser through the XTCE, must equal mfns-ground's CSVs field by field); the C
+codec's numbered codes and names (through the core library); pose.h's reason numbers; the
+Python readers' names; and the tables of docs/telemetry.md.
+"""
+
+from __future__ import annotations
+
+import ctypes as ct
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+from conftest import assert_packets_match_csv, cobs_frames
+
+from mfns import flight, report, tlm_dict
+
+REPO = Path(__file__).resolve().parents[2]
+BIN = Path(os.environ.get("MFNS_BIN", REPO / "build" / "host-sim" / "bin"))
+MDB = REPO / "ground" / "mdb" / "mfns_tm.xml"
+
+
+@pytest.fixture(scope="module")
+def bins() -> Path:
+    if "MFNS_BIN" not in os.environ:
+        res = subprocess.run(
+            ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+            cwd=REPO,
+            check=False,
+            capture_output=True,
+            text=True,
+        )
+        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    return BIN
+
+
+@pytest.fixture(scope="module")
+def lib(core_lib) -> ct.CDLL:
+    return ct.CDLL(str(core_lib))
+
+
+def test_the_package_reads_the_source_tree_dictionary():
+    assert tlm_dict.mdb_path().resolve() == MDB.resolve()
+
+
+def test_xtce_validates_against_the_schema(tmp_path):
+    """XTCE 1.2 schema (the XSD space-packet-parser ships; no download), then a broken copy
+    must fail: the validation is real."""
+    from space_packet_parser.xtce.validation import validate_xtce
+
+    res = validate_xtce(MDB, level="all", allow_schema_download=False, raise_on_error=False, print_results=False)
+    assert res, str(res)
+    bad = tmp_path / "bad.xml"
+    bad.write_text(MDB.read_text().replace('encoding="IEEE754_1985"', 'encoding="IEEE-754"', 1))
+    res = validate_xtce(bad, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False)
+    assert not res
+
+
+def test_packet_sizes_apids_and_names_match_the_c_codec(lib):
+    lib.tlm_payload_len.restype = ct.c_size_t
+    lib.tlm_type_apid.restype = ct.c_uint16
+    lib.tlm_type_name.restype = ct.c_char_p
+    d = tlm_dict.load()
+    assert len(d.packets) == 4
+    for t, p in enumerate(d.packets.values()):
+        assert lib.tlm_type_name(t).decode() == p.name
+        assert lib.tlm_type_apid(t) == p.apid
+        assert lib.tlm_payload_len(t) == p.payload_len, p.name
+    assert sum(f.bits for f in d.header) == 12 * 8
+
+
+@pytest.mark.parametrize(
+    ("fn", "enum", "width"),
+    [
+        ("tlm_nav_status_name", "nav_status_t", 256),
+        ("tlm_mode_name", "mode_t", 256),
+        ("tlm_cam_state_name", "camera_state_t", 256),
+        ("tlm_severity_name", "severity_t", 256),
+        ("tlm_event_name", "event_code_t", 1024),
+    ],
+)
+def test_numbered_codes_match_the_c_names(lib, fn, enum, width):
+    """Every code the C codec names is in the dictionary with that name, and no other."""
+    f = getattr(lib, fn)
+    f.restype = ct.c_char_p
+    f.argtypes = [ct.c_uint16 if enum == "event_code_t" else ct.c_uint8]
+    c_names = {v: f(v).decode() for v in range(width)}
+    c_names = {v: n for v, n in c_names.items() if n != "?"}
+    assert c_names == tlm_dict.load().labels(enum)
+
+
+def test_uplink_codes_agree_with_the_brief():
+    """The codes the command uplink (another branch) relies on."""
+    d = tlm_dict.load()
+    assert d.labels("mode_t")[4] == "STANDBY"
+    assert d.labels("event_code_t")[13] == "CMD_ACCEPTED" and d.labels("event_code_t")[14] == "CMD_REJECTED"
+    hk = {f.name: f.wire_type for f in d.packets["housekeeping"].fields}
+    assert hk["n_cmd_accepted"] == "u32" and hk["n_cmd_rejected"] == "u32"
+    assert hk["cmd_seq_last"] == "u16" and hk["cams_enabled"] == "u8"
+
+
+def test_reason_codes_are_explicit_in_pose_h_and_match(lib):
+    text = (REPO / "firmware" / "nav" / "pose.h").read_text()
+    body = re.search(r"typedef enum \{(.*?)\} mfns_pose_reason_t;", text, re.S).group(1)
+    entries = re.findall(r"^\s*(MFNS_POSE_R_\w+)\s*(=\s*(\d+))?\s*,", body, re.M)
+    assert entries and all(e[1] for e in entries), "every reason needs an explicit number"
+    c = {int(v): n.removeprefix("MFNS_POSE_R_") for n, _, v in entries}
+    assert len(c) == len(entries), "a reason number is used twice"
+    assert c == tlm_dict.load().labels("nav_reason_t")
+    lib.mfns_pose_strerror.restype = ct.c_char_p
+    lib.mfns_pose_strerror.argtypes = [ct.c_int]
+    texts = {lib.mfns_pose_strerror(v).decode() for v in c}
+    assert len(texts) == len(c)  # each code has its own message in the core
+
+
+def test_python_readers_take_the_names_from_the_dictionary():
+    assert flight.REASONS == tlm_dict.reason_names()
+    assert tuple(report.GOOD_STATUS) == tlm_dict.usable_status_names()
+    assert "REASONS = (" not in (REPO / "host_tools" / "mfns" / "flight.py").read_text()
+
+
+def test_docs_tables_are_generated_from_the_dictionary(tmp_path):
+    doc = REPO / "docs" / "telemetry.md"
+    text = doc.read_text()
+    assert tlm_dict.render_doc(text) == text, "stale: run .venv/bin/python -m mfns.tlm_dict --write"
+    assert tlm_dict.main([str(doc), "--check"]) == 0
+    # a changed dictionary makes the doc stale
+    mdb = tmp_path / "m.xml"
+    mdb.write_text(MDB.read_text().replace('label="TRACK_LOST"', 'label="TRACK_GONE"'))
+    assert tlm_dict.render_doc(text, tlm_dict.load(str(mdb))) != text
+
+
+def test_c_encoded_stream_decodes_through_the_xtce_to_the_ground_csv(bins, tmp_path, xtce_decode):
+    """mfns-tlm-gen (the C encoder, every packet type, varied values) -> space-packet-parser
+    with the XTCE == mfns-ground's CSVs, every field of every packet."""
+    stream = tmp_path / "gen.bin"
+    subprocess.run([str(bins / "mfns-tlm-gen"), "--cycles", "60", "--file", str(stream)], check=True)
+    res = subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(stream), "--out", str(tmp_path / "g"), "--no-status"],
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stderr
+    decoded = xtce_decode(stream.read_bytes())
+    counts = assert_packets_match_csv(decoded, tmp_path / "g")
+    assert counts == {"nav": 60, "camera": 180, "housekeeping": 3, "event": 2}
+
+
+def test_budget_matches_a_generated_stream(bins, tmp_path):
+    """docs/telemetry.md 5: the wire sizes of the dictionary are what the encoder writes."""
+    stream = tmp_path / "gen.bin"
+    subprocess.run([str(bins / "mfns-tlm-gen"), "--cycles", "40", "--file", str(stream)], check=True)
+    wire = {n: w for n, w, _, _ in tlm_dict.budget()["streams"]}
+    assert stream.stat().st_size == 40 * (wire["nav"] + 3 * wire["camera"]) + 2 * wire["housekeeping"] + 2 * wire[
+        "event"
+    ]
+    assert len(cobs_frames(stream.read_bytes())) == 40 * 4 + 2 + 2
+    b = tlm_dict.budget()
+    assert b["bytes_per_s"] < 0.6 * 11520  # 18.6 Hz within 115200 baud, with margin
+
+
+def test_space_packet_parser_is_pinned():
+    req = (REPO / "host_tools" / "requirements.txt").read_text()
+    assert re.search(r"^space-packet-parser==\d", req, re.M)
