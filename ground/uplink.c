@@ -258,8 +258,12 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
         tc_cmd_t c;
         double w = 0;
         char msg[192];
-        if (uplink_parse_line(o->cli[k], &kind, &c, &w, msg, sizeof msg) != 0 || kind != UPLINK_LINE_CMD) {
-            fprintf(err, "mfns-ground: --cmd '%s': %s\n", o->cli[k], kind == UPLINK_LINE_CMD ? msg : "not a command");
+        if (uplink_parse_line(o->cli[k], &kind, &c, &w, msg, sizeof msg) != 0) {
+            fprintf(err, "mfns-ground: --cmd '%s': %s\n", o->cli[k], msg);
+            return -1;
+        }
+        if (kind != UPLINK_LINE_CMD) {
+            fprintf(err, "mfns-ground: --cmd '%s': not a command (WAIT belongs in a --cmd-file)\n", o->cli[k]);
             return -1;
         }
     }
