@@ -40,3 +40,25 @@ fuzz-tc-decoder: $(TC_FUZZ_BIN)
 fuzz-tc-brief: $(TC_FUZZ_BIN)
 	@rm -rf build/fuzz/brief-tc
 	$(call tc_run_fuzz,fuzz-tc-brief,build/fuzz/brief-tc,$(FUZZ_BRIEF_SECONDS),1)
+
+# Yamcs' runtime in the venv (ground/requirements.txt): for `make test` and ground-yamcs only.
+.PHONY: ground-venv
+ground-venv: $(VENV)/.stamp-ground
+$(VENV)/.stamp-ground: ground/requirements.txt $(VENV)/.stamp
+	$(PY) -m pip install -q --disable-pip-version-check -r ground/requirements.txt
+	@touch $@
+deps: ground-venv
+pytest: ground-venv
+
+# The server in the foreground (Ctrl-C stops it), inside a private network namespace when
+# `unshare -n` works (root): only loopback there, so its UDP links reach nothing else. Join
+# the namespace to feed it: nsenter --net=/proc/PID/ns/net mfns-ground ... (printed).
+YAMCS_RUN ?= build/yamcs
+ground-yamcs: ground-venv
+	@mkdir -p $(YAMCS_RUN)
+	@if command -v unshare >/dev/null 2>&1 && unshare -n true 2>/dev/null; then \
+	  MFNS_NETNS=1 exec unshare -n $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
+	else \
+	  echo "ground-yamcs: no private network namespace (unshare -n refused): Yamcs' UDP link listens on all interfaces"; \
+	  exec $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
+	fi
