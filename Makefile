@@ -8,6 +8,8 @@
 #   make lint                 cppcheck + clang-tidy (C) and ruff (Python)
 #   make bench                benchmarks (speed targets are checked here, not in tests)
 #   make demo                 the main job (see README.md); installs only what it needs
+#   make faults               fault acceptance: misleading fixes under injected faults
+#   make soak SOAK_MINUTES=N  the flight program under sanitizers for N minutes
 #
 # Sources are discovered by folder, so adding a module or a test needs no edit
 # here (README.md "Adding a module"):
