@@ -169,8 +169,11 @@ def main() -> int:
             ("RSS flat within 1 %", False, f"only {len(after)} samples after the {warm:.0f} s warm-up")
         )
     summary = next((ln for ln in err.splitlines() if "stopped (" in ln), "")
-    m = re.search(r"after (\d+) cycles: (\d+) fix, (\d+) no fix, (\d+) telemetry frames dropped", summary)
-    cycles, n_fix, n_nofix, dropped = (int(v) for v in m.groups()) if m else (-1, -1, -1, -1)
+    m = re.search(
+        r"after (\d+) cycles: (\d+) fix, (\d+) degraded, (\d+) no fix, (\d+) telemetry frames dropped",
+        summary,
+    )
+    cycles, n_fix, n_deg, n_nofix, dropped = (int(v) for v in m.groups()) if m else (-1, -1, -1, -1, -1)
     out = a.work / "ground"
     shutil.rmtree(out, ignore_errors=True)
     g = subprocess.run(
@@ -182,17 +185,27 @@ def main() -> int:
     )
     nav = list(csv.DictReader(open(out / "nav.csv", newline=""))) if g.returncode == 0 else []
     hk = list(csv.DictReader(open(out / "housekeeping.csv", newline=""))) if g.returncode == 0 else []
-    fixes = sum(1 for r in nav if r["status"] in ("FIX", "DEGRADED"))
+    status = [r["status"] for r in nav]
     ok = g.returncode == 0 and "crc_errors=0 truncated=0" in g.stderr and dropped == 0
-    ok = ok and cycles == len(nav) == n_fix + n_nofix and fixes == n_fix
-    ok = ok and bool(hk) and int(hk[-1]["n_fix"]) == n_fix and int(hk[-1]["n_no_fix"]) == n_nofix
+    ok = ok and cycles == len(nav) == n_fix + n_deg + n_nofix
+    ok = ok and (status.count("FIX"), status.count("DEGRADED"), status.count("NO_FIX")) == (
+        n_fix,
+        n_deg,
+        n_nofix,
+    )
+    ok = ok and bool(hk) and int(hk[-1]["n_cycles"]) == cycles
+    ok = ok and (int(hk[-1]["n_fix"]), int(hk[-1]["n_degraded"]), int(hk[-1]["n_no_fix"])) == (
+        n_fix,
+        n_deg,
+        n_nofix,
+    )
     ok = ok and [int(r["cycle"]) for r in nav] == list(range(cycles))
     checks.append(
         (
             "counters consistent",
             ok,
-            f"{cycles} cycles, {n_fix} fix, {n_nofix} no fix, {len(nav)} nav packets decoded,"
-            f" {dropped} telemetry frames dropped",
+            f"{cycles} cycles, {n_fix} fix, {n_deg} degraded, {n_nofix} no fix,"
+            f" {len(nav)} nav packets decoded, {dropped} telemetry frames dropped",
         )
     )
     passed = 0

@@ -1,5 +1,7 @@
 """The telemetry dictionary (XTCE mission database ground/mdb/mfns_tm.xml) for Python.
 
+The file itself is host_tools/mfns/data/mfns_tm.xml (package data); ground/mdb/ links to it.
+
 The XTCE file is the one definition of the telemetry packets: their CCSDS headers, every
 parameter with its encoding, unit and calibration, and every numbered code (status, reason,
 mode, camera state, event code, severity). This module reads it with the standard library
@@ -38,9 +40,9 @@ RATES = {
 
 
 def mdb_path() -> Path:
-    """The XTCE file: the package's copy (a link to ground/mdb in the source tree)."""
-    p = Path(str(resources.files("mfns.data").joinpath("mfns_tm.xml")))
-    return p if p.exists() else REPO / "ground" / "mdb" / "mfns_tm.xml"
+    """The XTCE file. It lives in the package (mfns/data, so an installed mfns has it);
+    ground/mdb/mfns_tm.xml, where ground systems (Yamcs) load it from, links to it."""
+    return Path(str(resources.files("mfns.data").joinpath("mfns_tm.xml")))
 
 
 @dataclass
@@ -162,7 +164,9 @@ def load(path: str | None = None) -> Dictionary:
             header = _fields(c, params, types, "")
             continue
         apid = int(c.find("x:BaseContainer/x:RestrictionCriteria/x:Comparison", NS).get("value"))
-        packets[name] = Packet(name, apid, c.get("shortDescription", ""), _fields(c, params, types, PREFIX[name]))
+        packets[name] = Packet(
+            name, apid, c.get("shortDescription", ""), _fields(c, params, types, PREFIX[name])
+        )
     enums = {n: t["enum"] for n, t in types.items() if t["enum"] is not None}
     return Dictionary(header, packets, enums)
 
@@ -212,7 +216,10 @@ def _header_table(d: Dictionary) -> str:
 
 
 def _apid_table(d: Dictionary) -> str:
-    rows = ["| APID | packet | rate | payload bytes | packet bytes | wire bytes |", "|---|---|---|---|---|---|"]
+    rows = [
+        "| APID | packet | rate | payload bytes | packet bytes | wire bytes |",
+        "|---|---|---|---|---|---|",
+    ]
     for p in d.packets.values():
         n = 12 + p.payload_len
         rows.append(
@@ -248,14 +255,21 @@ def _budget_table(d: Dictionary) -> str:
     rows = ["| stream | bytes/frame (wire) | frames/s | bytes/s |", "|---|---|---|---|"]
     for name, wire, fps, bps in b["streams"]:
         rows.append(f"| {name} | {wire} | {fps:.2f} | {bps:.1f} |")
-    rows.append(f"| **total** | | {b['frames_per_s']:.1f} | **{b['bytes_per_s']:.1f}** "
-                f"({b['bytes_per_s'] * 8 / 1000:.1f} kbit/s) |")
-    rows += ["", f"| baud | capacity (bytes/s) | load | per 53.8-ms cycle: {b['per_cycle']} bytes take |",
-             "|---|---|---|---|"]
+    rows.append(
+        f"| **total** | | {b['frames_per_s']:.1f} | **{b['bytes_per_s']:.1f}** "
+        f"({b['bytes_per_s'] * 8 / 1000:.1f} kbit/s) |"
+    )
+    rows += [
+        "",
+        f"| baud | capacity (bytes/s) | load | per 53.8-ms cycle: {b['per_cycle']} bytes take |",
+        "|---|---|---|---|",
+    ]
     for baud in (115200, 921600):
         cap = baud / UART_BITS_PER_BYTE
-        rows.append(f"| {baud} | {cap:.0f} | **{100 * b['bytes_per_s'] / cap:.1f} %** "
-                    f"| {1000 * b['per_cycle'] / cap:.1f} ms |")
+        rows.append(
+            f"| {baud} | {cap:.0f} | **{100 * b['bytes_per_s'] / cap:.1f} %** "
+            f"| {1000 * b['per_cycle'] / cap:.1f} ms |"
+        )
     return "\n".join(rows)
 
 
@@ -306,7 +320,10 @@ def main(argv: list[str] | None = None) -> int:
     new = render_doc(text)
     if a.check:
         if new != text:
-            print(f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm_dict --write)", file=sys.stderr)
+            print(
+                f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm_dict --write)",
+                file=sys.stderr,
+            )
             return 1
         return 0
     if new != text:

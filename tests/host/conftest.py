@@ -59,7 +59,11 @@ def cobs_frames(data: bytes) -> list[bytes]:
             i += code
             if code < 0xFF and i < len(frame):
                 raw.append(0)
-        if ok and len(raw) > 2 and binascii.crc_hqx(bytes(raw[:-2]), 0xFFFF) == int.from_bytes(raw[-2:], "big"):
+        if (
+            ok
+            and len(raw) > 2
+            and binascii.crc_hqx(bytes(raw[:-2]), 0xFFFF) == int.from_bytes(raw[-2:], "big")
+        ):
             out.append(bytes(raw[:-2]))
     return out
 

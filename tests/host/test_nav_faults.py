@@ -435,7 +435,14 @@ def test_ground_exits_nonzero_when_no_frame_was_valid(bins, tmp_path, content):
     """Issue 13 item 6: mfns-ground exited 0 on a stream without one valid frame."""
     (tmp_path / "s.bin").write_bytes(content)
     res = subprocess.run(
-        [str(bins / "mfns-ground"), "--file", str(tmp_path / "s.bin"), "--out", str(tmp_path / "g"), "--no-status"],
+        [
+            str(bins / "mfns-ground"),
+            "--file",
+            str(tmp_path / "s.bin"),
+            "--out",
+            str(tmp_path / "g"),
+            "--no-status",
+        ],
         check=False,
         capture_output=True,
         text=True,

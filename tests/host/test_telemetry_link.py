@@ -73,7 +73,11 @@ def expected_nav_row(i: int, seq: int) -> str:
     # quaternion (Q1.30) and covariance (binary32) of ground_gen_nav, in float32 as the C code
     f32 = np.float32
     a = f32(0.001) * f32(i % 1000)
-    q = [0, 0, 0, 0] if no_fix else [q30(f32(0.8)), q30(f32(0.6) * (f32(1) - a)), q30(f32(-0.6) * a), q30(f32(0))]
+    q = (
+        [0, 0, 0, 0]
+        if no_fix
+        else [q30(f32(0.8)), q30(f32(0.6) * (f32(1) - a)), q30(f32(-0.6) * a), q30(f32(0))]
+    )
     cov = []
     for k in range(21):
         mag = f32(2.5e-3) if k in (0, 6, 11) else f32(1.0e-7) * f32(k + 1)

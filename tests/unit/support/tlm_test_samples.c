@@ -111,7 +111,12 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
             eq = eq && x->q_q30[k] == y->q_q30[k];
         }
         /* bit-exact: the wire carries the binary32 pattern */
-        eq = eq && memcmp(x->cov, y->cov, sizeof x->cov) == 0;
+        for (unsigned k = 0; k < TLM_NAV_COV_N; k++) {
+            uint32_t bx, by;
+            memcpy(&bx, &x->cov[k], sizeof bx);
+            memcpy(&by, &y->cov[k], sizeof by);
+            eq = eq && bx == by;
+        }
         return eq;
     }
     case TLM_TYPE_CAMERA: {
