@@ -86,9 +86,9 @@ int uplink_parse_line(const char *line, uplink_line_kind_t *kind, tc_cmd_t *cmd,
         *wait_s = s;
         return 0;
     }
-    for (uint8_t code = 1; code <= TC_OP_MAX; code++) {
-        if (strcasecmp(op, tc_opcode_name(code)) == 0) {
-            cmd->opcode = code;
+    for (unsigned code = 1; code <= (unsigned)TC_OP_MAX; code++) {
+        if (strcasecmp(op, tc_opcode_name((uint8_t)code)) == 0) {
+            cmd->opcode = (uint8_t)code;
         }
     }
     switch (cmd->opcode) {

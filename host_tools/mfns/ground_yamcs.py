@@ -125,7 +125,10 @@ def get(path: str, timeout: float = 10.0):
 
 def post(path: str, body: dict, timeout: float = 10.0):
     req = urllib.request.Request(
-        HTTP + path, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"}, method="POST"
+        HTTP + path,
+        data=json.dumps(body).encode(),
+        headers={"Content-Type": "application/json"},
+        method="POST",
     )
     with urllib.request.urlopen(req, timeout=timeout) as r:
         return json.loads(r.read() or b"{}")

@@ -53,7 +53,13 @@ def lib(core_lib):
     lib.tc_status_name.restype = ct.c_char_p
     lib.tc_status_name.argtypes = [ct.c_int]
     lib.tc_arg_len.argtypes = [ct.c_uint8]
-    lib.tc_packet_encode.argtypes = [ct.POINTER(Cmd), ct.c_uint16, ct.c_char_p, ct.c_size_t, ct.POINTER(ct.c_size_t)]
+    lib.tc_packet_encode.argtypes = [
+        ct.POINTER(Cmd),
+        ct.c_uint16,
+        ct.c_char_p,
+        ct.c_size_t,
+        ct.POINTER(ct.c_size_t),
+    ]
     lib.tc_packet_decode.argtypes = [ct.c_char_p, ct.c_size_t, ct.POINTER(Cmd)]
     return lib
 
@@ -92,7 +98,9 @@ def commands(root) -> tuple[list[tuple[str, str]], dict[str, dict]]:
     cmds: dict[str, dict] = {}
     for mc in mcs:
         args = {a.get("name"): a.get("argumentTypeRef") for a in mc.findall("x:ArgumentList/x:Argument", NS)}
-        order = [e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)]
+        order = [
+            e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)
+        ]
         assert sorted(order) == sorted(args), mc.get("name")  # every argument placed exactly once
         if mc.get("abstract") == "true":
             header = [(n, args[n]) for n in order]
@@ -100,7 +108,9 @@ def commands(root) -> tuple[list[tuple[str, str]], dict[str, dict]]:
         base = mc.find("x:BaseMetaCommand", NS)
         assert base is not None and base.get("metaCommandRef") == "MFNS_TC"
         assert mc.find("x:CommandContainer/x:BaseContainer", NS).get("containerRef") == "MFNS_TC_header"
-        assign = {a.get("argumentName"): a.get("argumentValue") for a in base.findall(".//x:ArgumentAssignment", NS)}
+        assign = {
+            a.get("argumentName"): a.get("argumentValue") for a in base.findall(".//x:ArgumentAssignment", NS)
+        }
         cmds[mc.get("name")] = {"assign": assign, "args": [(n, args[n]) for n in order]}
     return header, cmds
 
@@ -192,7 +202,9 @@ def test_schema_valid():
 
     # level "schema": the library's structural pass knows telemetry containers only
     # (it reads a command container's BaseContainer as a missing SequenceContainer)
-    res = validate_xtce(TC_XML, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False)
+    res = validate_xtce(
+        TC_XML, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False
+    )
     assert res, str(res)
 
 
@@ -300,7 +312,9 @@ def test_a_changed_dictionary_fails(lib, tmp_path):
     """The comparison is real: an opcode renumbered in a copy of the XTCE is caught."""
     global TC_XML
     bad = tmp_path / "tc.xml"
-    bad.write_text(TC_XML.read_text().replace('value="5" label="CAMERA_ENABLE"', 'value="9" label="CAMERA_ENABLE"'))
+    bad.write_text(
+        TC_XML.read_text().replace('value="5" label="CAMERA_ENABLE"', 'value="9" label="CAMERA_ENABLE"')
+    )
     saved, TC_XML = TC_XML, bad
     try:
         with pytest.raises(AssertionError):

@@ -82,7 +82,12 @@ def frame(packet: bytes) -> bytes:
 def tc_packet(opcode: int, seq: int, args: bytes = b"") -> bytes:
     """A TC packet by hand (the layout of docs/uplink.md), for opcodes the encoder refuses."""
     n = 2 + len(args)
-    return bytes([0x19, 0x81, 0xC0 | (seq >> 8), seq & 0xFF]) + (n - 1).to_bytes(2, "big") + bytes([opcode, 0]) + args
+    return (
+        bytes([0x19, 0x81, 0xC0 | (seq >> 8), seq & 0xFF])
+        + (n - 1).to_bytes(2, "big")
+        + bytes([opcode, 0])
+        + args
+    )
 
 
 @pytest.fixture(scope="module")
@@ -109,13 +114,26 @@ def run(tmp_path_factory) -> dict:
     d = tmp_path_factory.mktemp("uplink")
     frames = d / "frames"
     mfns("sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "40", "--seed", "3")
-    mfns("table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(d / "table.mfnstbl"))
+    mfns(
+        "table",
+        "build",
+        str(frames / "calib.json"),
+        str(frames / "beacons.csv"),
+        "-o",
+        str(d / "table.mfnstbl"),
+    )
     mfns(
         "table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"),
         "-o", str(d / "table2.mfnstbl"), "--pixel-sigma", "0.3",
     )  # fmt: skip
     truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
-    return {"dir": d, "frames": frames, "table": d / "table.mfnstbl", "table2": d / "table2.mfnstbl", "truth": truth}
+    return {
+        "dir": d,
+        "frames": frames,
+        "table": d / "table.mfnstbl",
+        "table2": d / "table2.mfnstbl",
+        "truth": truth,
+    }
 
 
 def rows(path: Path) -> list[dict]:
@@ -132,7 +150,16 @@ def encode_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> b
     src = tmp / "empty.bin"
     src.write_bytes(b"")
     out = tmp / f"tc-{seq_start}.bin"
-    args = [str(bins / "mfns-ground"), "--file", str(src), "--out", str(tmp / "g-enc"), "-q", "--tc-file", str(out)]
+    args = [
+        str(bins / "mfns-ground"),
+        "--file",
+        str(src),
+        "--out",
+        str(tmp / "g-enc"),
+        "-q",
+        "--tc-file",
+        str(out),
+    ]
     args += ["--tc-seq-start", str(seq_start)]
     for c in cmds:
         args += ["--cmd", c]
@@ -162,7 +189,8 @@ def test_round_trip_through_fifos(bins, run, tmp_path):
     (tmp_path / "later.txt").write_text("# a comment line\nWAIT 1.0\nnoop   # names are case-insensitive\n")
     ground = subprocess.Popen(
         [
-            str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status", "--max-seconds", "60",
+            str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status",
+            "--max-seconds", "60",
             "--tc-tty", str(tc), "--cmd", "NOOP", "--cmd", f"SET_POSE_HINT {hint}", "--cmd", "SET_MODE track",
             "--cmd-file", str(tmp_path / "later.txt"),
         ],
@@ -199,9 +227,10 @@ def test_round_trip_through_fifos(bins, run, tmp_path):
     def utc(s: str) -> float:
         return datetime.fromisoformat(s.replace("Z", "+00:00")).timestamp()
 
-    lat = [utc(e["ground_utc"]) - utc(s["utc"]) for e, s in zip(ev, sent)]
+    lat = [utc(e["ground_utc"]) - utc(s["utc"]) for e, s in zip(ev, sent, strict=True)]
     print(
-        f"\ncommand -> event round trip through FIFOs: at start-up {', '.join(f'{x * 1e3:.0f}' for x in lat[:3])} ms "
+        "\ncommand -> event round trip through FIFOs: at start-up "
+        f"{', '.join(f'{x * 1e3:.0f}' for x in lat[:3])} ms "
         f"(links connecting), steady state {lat[3] * 1e3:.0f} ms"
     )
     assert all(0 < x < 5.0 for x in lat)
@@ -284,7 +313,7 @@ def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
         ("3", acc, OP["RESET_COUNTERS"], 9, 0),
     ]
     assert len(got) == len(want), got
-    for g_, w in zip(got, want):
+    for g_, w in zip(got, want, strict=True):
         assert g_[:4] == w[:4] and (w[4] is None or g_[4] == w[4]), (g_, w)
     # the table swap: TABLE_REFUSED (the loader's CRC error), then TABLE_LOADED of table2
     all_ev = rows(out / "events.csv")
@@ -360,7 +389,8 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path):
     ground = subprocess.Popen(
         [
             str(bins / "mfns-ground"), "--tty", str(fifo), "--out", str(tmp_path / "g2"), "--no-status",
-            "--max-seconds", "1.5", "--tc-file", str(up), "--udp-tc", f"127.0.0.1:{tc_port}", "--tc-seq-start", "40",
+            "--max-seconds", "1.5", "--tc-file", str(up), "--udp-tc", f"127.0.0.1:{tc_port}",
+            "--tc-seq-start", "40",
         ],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -407,7 +437,8 @@ def test_nav_refuses_uplink_on_a_fifo(bins, run, tmp_path):
     fifo = tmp_path / "t.fifo"
     os.mkfifo(fifo)
     res = subprocess.run(
-        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]), "--tty", str(fifo), "--uplink"],
+        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+         "--tty", str(fifo), "--uplink"],
         capture_output=True, text=True, timeout=30, check=False,
     )  # fmt: skip
     assert res.returncode == 2

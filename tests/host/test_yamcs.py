@@ -43,14 +43,24 @@ def chain(tmp_path_factory) -> dict:
         print(f"\nSKIP test_yamcs: {reason}", file=sys.stderr)
         pytest.skip(reason)
     res = subprocess.run(
-        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"], cwd=REPO, capture_output=True, text=True
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
     )
     assert res.returncode == 0, res.stderr[-2000:]
     d = tmp_path_factory.mktemp("yamcs")
     frames = d / "frames"
     for args in (
         ["sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "60", "--seed", "3"],
-        ["table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(d / "t.mfnstbl")],
+        [
+            "table",
+            "build",
+            str(frames / "calib.json"),
+            str(frames / "beacons.csv"),
+            "-o",
+            str(d / "t.mfnstbl"),
+        ],
     ):
         r = subprocess.run([sys.executable, "-m", "mfns", *args], capture_output=True, text=True)
         assert r.returncode == 0, r.stderr
@@ -62,7 +72,8 @@ def chain(tmp_path_factory) -> dict:
         cmd = [unshare, "-n", *cmd]
         env["MFNS_NETNS"] = "1"
     else:
-        print("\nnote: no private network namespace here (unshare -n refused): Yamcs' UDP link listens on all "
+        print("\nnote: no private network namespace here (unshare -n refused): "
+              "Yamcs' UDP link listens on all "
               "interfaces for this test", file=sys.stderr)  # fmt: skip
     r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -89,7 +100,8 @@ def test_telemetry_through_yamcs_equals_ground_csv(chain):
     worst = {}
     cols = {"nav_x_mm": ("x_mm", 5e-4), "nav_y_mm": ("y_mm", 5e-4), "nav_z_mm": ("z_mm", 5e-4),
             "nav_roll_deg": ("roll_deg", 5e-7), "nav_pitch_deg": ("pitch_deg", 5e-7),
-            "nav_yaw_deg": ("yaw_deg", 5e-7), "nav_q_w": ("q_w", 1e-8), "nav_cov_x_x": ("cov_x_x", 1e-6)}  # fmt: skip
+            "nav_yaw_deg": ("yaw_deg", 5e-7), "nav_q_w": ("q_w", 1e-8),
+            "nav_cov_x_x": ("cov_x_x", 1e-6)}  # fmt: skip
     for t, cyc in cycles:
         row = nav[cyc]
         assert int(row["cycle"]) == cyc
@@ -102,7 +114,7 @@ def test_telemetry_through_yamcs_equals_ground_csv(chain):
             worst[name] = max(worst.get(name, 0.0), abs(y - g))
     # the packet time is the flight clock (CUC since boot): Yamcs' generation time, ms
     for t, cyc in cycles:
-        assert abs((utc(t) - float(nav[cyc]["t_s"]))) < 1.5e-3
+        assert abs(utc(t) - float(nav[cyc]["t_s"])) < 1.5e-3
     print(
         f"\nYamcs: up in {res['startup_s']:.1f} s; {stats['frames_ok']} packets in, 0 invalid; "
         f"{len(cycles)} nav packets read back (REST archive) equal nav.csv: max |diff| "
@@ -134,7 +146,7 @@ def test_commands_from_yamcs_reach_the_flight_program(chain):
     # the events came back to Yamcs too
     codes = [c for _, c in res["params"]["evt_code"]]
     assert codes.count("CMD_ACCEPTED") == 3
-    lat = [utc(e["ground_utc"]) - s["t"] for e, s in zip(ev, sent)]
+    lat = [utc(e["ground_utc"]) - s["t"] for e, s in zip(ev, sent, strict=True)]
     assert all(0 < x < 3.0 for x in lat), lat
     print(
         f"\nYamcs command -> UDP -> mfns-ground -> FIFO -> mfns-nav -> event back at the ground: "

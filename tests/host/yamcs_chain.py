@@ -33,16 +33,33 @@ def value(v: dict):
     ev = v.get("engValue", {})
     if ev.get("type") == "ENUMERATED":
         return ev.get("stringValue")
-    for k in ("doubleValue", "floatValue", "sint64Value", "uint64Value", "sint32Value", "uint32Value", "stringValue"):
+    for k in (
+        "doubleValue",
+        "floatValue",
+        "sint64Value",
+        "uint64Value",
+        "sint32Value",
+        "uint32Value",
+        "stringValue",
+    ):
         if k in ev:
-            return float(ev[k]) if k in ("doubleValue", "floatValue") else (ev[k] if k == "stringValue" else int(ev[k]))
+            return (
+                float(ev[k])
+                if k in ("doubleValue", "floatValue")
+                else (ev[k] if k == "stringValue" else int(ev[k]))
+            )
     return None
 
 
 def archive(name: str) -> list[tuple[str, object]]:
     q = urllib.parse.urlencode(
-        {"start": "1970-01-01T00:00:00Z", "stop": "2200-01-01T00:00:00Z", "limit": 1000, "order": "asc",
-         "source": "replay"}  # fmt: skip
+        {
+            "start": "1970-01-01T00:00:00Z",
+            "stop": "2200-01-01T00:00:00Z",
+            "limit": 1000,
+            "order": "asc",
+            "source": "replay",
+        }  # fmt: skip
     )
     out: list[tuple[str, object]] = []
     try:
@@ -88,7 +105,9 @@ def main() -> int:
         for cmd, args in (("NOOP", {}), ("SET_MODE", {"mode": "STANDBY"}), ("SET_MODE", {"mode": "ACQUIRE"})):
             t_issue = time.time()  # before the REST call: Yamcs may release the command before it answers
             r = gy.post(f"/api/processors/{gy.INSTANCE}/realtime/commands/MFNS_TC/{cmd}", {"args": args})
-            sent.append({"name": cmd, "args": args, "id": r.get("id"), "binary": r.get("binary"), "t": t_issue})
+            sent.append(
+                {"name": cmd, "args": args, "id": r.get("id"), "binary": r.get("binary"), "t": t_issue}
+            )
             time.sleep(0.15)
         res["sent"] = sent
         nav.wait(timeout=120)

@@ -85,7 +85,8 @@ static void test_header_bits(void **state)
 static void test_every_opcode_round_trips(void **state)
 {
     (void)state;
-    for (uint8_t op = 1; op <= TC_OP_MAX; op++) {
+    for (unsigned opu = 1; opu <= (unsigned)TC_OP_MAX; opu++) {
+        const uint8_t op = (uint8_t)opu;
         const tc_cmd_t c = sample(op);
         uint8_t w[TC_MAX_WIRE];
         size_t n = 0;
