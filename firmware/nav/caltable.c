@@ -154,9 +154,7 @@ static bool parse_globals(parser_t *p, uint16_t *ncam, uint16_t *nbeacon, float 
     c->max_area_px = rd_u16(b, o + 4);
     c->roi_half_size_px = rd_u16(b, o + 6);
     c->saturation_dn = rd_u16(b, o + 8);
-    if (rd_u16(b, o + 10) != 0) {
-        return fail(p, MFNS_CALTABLE_E_RESERVED, o + 10);
-    }
+    c->gain_dn_per_e_q12 = rd_u16(b, o + 10); /* any value: 0 = no shot-noise term */
     if (!f32_at(p, o + 12, &c->threshold_k_sigma) || !f32_at(p, o + 16, &c->max_elongation)) {
         return false;
     }

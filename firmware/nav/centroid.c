@@ -72,6 +72,7 @@ mfns_centroid_settings_t mfns_centroid_default_settings(void)
     s.max_elongation = 4.0f;
     s.roi_half_size_px = 24;
     s.saturation_dn = 0;
+    s.gain_dn_per_e_q12 = MFNS_CENTROID_DEFAULT_GAIN_Q12;
     return s;
 }
 
@@ -625,12 +626,23 @@ static void label_region(label_state_t *ls, const mfns_frame_t *f, const region_
 /* ------------------------------------------------------------------------ */
 /* Per-blob results */
 
+/* Pixel noise model of the covariance (docs/centroiding.md, "Centroid
+ * covariance"): var(I_i) = floor_dn2 + gain (I_i - b), the background noise
+ * (which holds the read noise, the background's shot noise and the 1/12 DN^2
+ * of rounding) plus the shot noise of the spot's own signal. */
+typedef struct {
+    float floor_dn2;   /* max(noise_dn^2, MFNS_CENTROID_QUANT_VAR_DN2) */
+    float gain_dn_per_e;
+} noise_model_t;
+
 /* l_q8: the weight level (pixel weight = value - level), b_q8 the background,
- * both Q8 DN with l_q8 >= b_q8 and 256 T > l_q8. */
-static void finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64_t b_q8, const mfns_centroid_settings_t *s,
-                        uint32_t sat, const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois, mfns_blob_t *o,
-                        float *m2)
+ * both Q8 DN with l_q8 >= b_q8 and 256 T > l_q8. The covariance of the moment
+ * centroid is filled for accepted blobs only (zero otherwise). */
+static void finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64_t b_q8, const noise_model_t *nm,
+                        const mfns_centroid_settings_t *s, uint32_t sat, const mfns_frame_t *f, const mfns_roi_t *rois,
+                        uint16_t n_rois, mfns_blob_t *o, float *m2)
 {
+    double cov[3] = {0.0, 0.0, 0.0};
     memset(o, 0, sizeof *o);
     *m2 = 0.0f;
     o->area_px = a->area;
@@ -676,6 +688,22 @@ static void finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64_t b_q8
         const double lmin = tr - disc, lmax = tr + disc;
         o->elongation = lmin > 0.0 ? (float)(lmax / lmin) : INFINITY;
         *m2 = (float)(mxx + myy - 1.0 / 6.0); /* E r^2 of the pixel centres */
+        /* Covariance, first-order in the pixel values (docs/centroiding.md):
+         * du/dI_i = (x_i - u) / W, so Cov = sum (p_i - c)(p_i - c)^T var(I_i) / W^2
+         * with var(I_i) = floor + gain (I_i - b). Sums about the centroid, from
+         * the same accumulators: geometric G = sum (p - c)(p - c)^T, weighted
+         * Q = sum (p - c)(p - c)^T (I - l) = W m (the moments above without the
+         * unit square), and the signal sum Q + (l - b) G. */
+        const double gxx = cxx - 2.0 * mu_x * cx + mu_x * mu_x * (double)n;
+        const double gyy = cyy - 2.0 * mu_y * cy + mu_y * mu_y * (double)n;
+        const double gxy = cxy - mu_x * cy - mu_y * cx + mu_x * mu_y * (double)n;
+        const double lb = (double)(l_q8 - b_q8) / 256.0, fl = (double)nm->floor_dn2, g = (double)nm->gain_dn_per_e;
+        const double sxx = W * (mxx - 1.0 / 12.0) + lb * gxx, syy = W * (myy - 1.0 / 12.0) + lb * gyy;
+        const double sxy = W * mxy + lb * gxy;
+        const double inv_w2 = 1.0 / (W * W);
+        cov[0] = (fl * gxx + g * sxx) * inv_w2 + MFNS_CENTROID_Q8_VAR_PX2;
+        cov[1] = (fl * gxy + g * sxy) * inv_w2;
+        cov[2] = (fl * gyy + g * syy) * inv_w2 + MFNS_CENTROID_Q8_VAR_PX2;
     }
     if (!have_moments) {
         /* no moment centroid for blobs beyond the cap: bounding-box centre */
@@ -710,6 +738,11 @@ static void finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64_t b_q8
         why |= MFNS_BLOB_TABLE_FULL;
     }
     o->reasons = why;
+    if (why == 0u) {
+        o->cov_px2[0] = (float)cov[0];
+        o->cov_px2[1] = (float)cov[1];
+        o->cov_px2[2] = (float)cov[2];
+    }
 }
 
 /* ------------------------------------------------------------------------ */
@@ -800,7 +833,8 @@ static bool blob_shape(const mfns_frame_t *f, const mfns_centroid_acc_t *a, uint
  * (frame or window) the blob was found in. false when the step is not a
  * finite sub-pixel move (the caller keeps the moment centroid). */
 static bool refine_step(const mfns_frame_t *f, const region_t *rg, const mfns_centroid_acc_t *a, float b, float c,
-                        float flux, float R, float s, float u0, float v0, float *du, float *dv)
+                        const noise_model_t *nm, float flux, float R, float s, float u0, float v0, float *du, float *dv,
+                        float cov[3])
 {
     /* a(r) tabulated on n + 1 nodes r_k = r_lo + k h over [r_lo, r_hi]: outside,
      * the edge derivative is below e^-10 of its peak */
@@ -834,11 +868,12 @@ static bool refine_step(const mfns_frame_t *f, const region_t *rg, const mfns_ce
     }
     const bool wide = format_bits(f->format) > 8u;
     const float inv_h = 1.0f / h, r_lo2 = r_lo * r_lo, r_hi2 = r_hi * r_hi;
-    double gx = 0.0, gy = 0.0, hxx = 0.0, hyy = 0.0, hxy = 0.0;
+    const float fl = nm->floor_dn2, gain = nm->gain_dn_per_e;
+    double gx = 0.0, gy = 0.0, hxx = 0.0, hyy = 0.0, hxy = 0.0, vxx = 0.0, vyy = 0.0, vxy = 0.0;
     for (int32_t y = y0; y <= y1; y++) {
         const uint8_t *row = row_ptr(f, (uint32_t)y);
         const float dy = (float)y - v0;
-        float rgx = 0.0f, rgy = 0.0f, rhxx = 0.0f, rhyy = 0.0f, rhxy = 0.0f;
+        float rgx = 0.0f, rgy = 0.0f, rhxx = 0.0f, rhyy = 0.0f, rhxy = 0.0f, rvxx = 0.0f, rvyy = 0.0f, rvxy = 0.0f;
         for (int32_t x = x0; x <= x1; x++) {
             const float dx = (float)x - u0, q = dx * dx + dy * dy;
             if (q < r_lo2 || q >= r_hi2) {
@@ -857,12 +892,20 @@ static bool refine_step(const mfns_frame_t *f, const region_t *rg, const mfns_ce
             rhxx += d * (w + ar_r * dx * dx);
             rhyy += d * (w + ar_r * dy * dy);
             rhxy += d * ar_r * dx * dy;
+            /* covariance: var(I) w^2 (p - c)(p - c)^T, var(I) = floor + gain (I - b)+ */
+            const float vw = (fl + gain * fmaxf(d, 0.0f)) * w * w;
+            rvxx += vw * dx * dx;
+            rvyy += vw * dy * dy;
+            rvxy += vw * dx * dy;
         }
         gx += (double)rgx;
         gy += (double)rgy;
         hxx += (double)rhxx;
         hyy += (double)rhyy;
         hxy += (double)rhxy;
+        vxx += (double)rvxx;
+        vyy += (double)rvyy;
+        vxy += (double)rvxy;
     }
     const double det = hxx * hyy - hxy * hxy;
     if (!(det > 0.0 && hxx > 0.0)) {
@@ -872,8 +915,24 @@ static bool refine_step(const mfns_frame_t *f, const region_t *rg, const mfns_ce
     if (!(fabs(sx) <= 1.0 && fabs(sy) <= 1.0)) {
         return false;
     }
+    /* Covariance of the root of the estimating equation, first order (the
+     * sandwich of M-estimation): dc/dI_i = H^-1 a_i (p_i - c), so
+     * Cov = H^-1 V H^-1 with V = sum var(I_i) a_i^2 (p_i - c)(p_i - c)^T. The
+     * Newton step from the moment centroid lands within second order of the
+     * root, so the moment centroid's own noise does not enter. */
+    const double ixx = hyy / det, iyy = hxx / det, ixy = -hxy / det; /* H^-1 */
+    const double axx = ixx * vxx + ixy * vxy, axy = ixx * vxy + ixy * vyy; /* A = H^-1 V */
+    const double ayx = ixy * vxx + iyy * vxy, ayy = ixy * vxy + iyy * vyy;
+    const double cxx = axx * ixx + axy * ixy, cyy = ayx * ixy + ayy * iyy;
+    const double cxy = 0.5 * ((axx * ixy + axy * iyy) + (ayx * ixx + ayy * ixy)); /* symmetric */
+    if (!(cxx > 0.0 && cyy > 0.0 && cxy * cxy < cxx * cyy && isfinite(cxx) && isfinite(cyy))) {
+        return false;
+    }
     *du = (float)sx;
     *dv = (float)sy;
+    cov[0] = (float)cxx + (float)MFNS_CENTROID_Q8_VAR_PX2;
+    cov[1] = (float)cxy;
+    cov[2] = (float)cyy + (float)MFNS_CENTROID_Q8_VAR_PX2;
     return true;
 }
 
@@ -882,7 +941,7 @@ static bool refine_step(const mfns_frame_t *f, const region_t *rg, const mfns_ce
  * shape to be measured (R >= MFNS_CENTROID_REFINE_MIN_RADIUS), and the step
  * succeeds. */
 CENTROID_NOINLINE static void refine_blob(const mfns_frame_t *f, const region_t *rg, const mfns_centroid_acc_t *a, uint32_t T,
-                        int64_t l_q8, int64_t b_q8, int64_t t_q8, float m2, mfns_blob_t *o)
+                        int64_t l_q8, int64_t b_q8, int64_t t_q8, const noise_model_t *nm, float m2, mfns_blob_t *o)
 {
     /* Pre-gate without touching the frame again (after the full-frame scan the
      * blob's rows are out of cache): flatness pi (peak - b) E r^2 / flux is
@@ -899,8 +958,8 @@ CENTROID_NOINLINE static void refine_blob(const mfns_frame_t *f, const region_t 
     }
     /* var(r) ~ f(r) + c: the threshold step as the noise floor (>= 1 DN) */
     const float c = fmaxf((float)t_q8 / 256.0f, 1.0f);
-    float du, dv;
-    if (!refine_step(f, rg, a, (float)b_q8 / 256.0f, c, fmaxf(o->flux_dn, 0.0f), R, s, u0, v0, &du, &dv)) {
+    float du, dv, cov[3];
+    if (!refine_step(f, rg, a, (float)b_q8 / 256.0f, c, nm, fmaxf(o->flux_dn, 0.0f), R, s, u0, v0, &du, &dv, cov)) {
         return;
     }
     px_q8_t qu, qv;
@@ -915,6 +974,9 @@ CENTROID_NOINLINE static void refine_blob(const mfns_frame_t *f, const region_t 
     }
     o->u_q8 = u;
     o->v_q8 = v;
+    o->cov_px2[0] = cov[0]; /* the refined estimator's covariance replaces the moment centroid's */
+    o->cov_px2[1] = cov[1];
+    o->cov_px2[2] = cov[2];
 }
 
 static mfns_centroid_status_t check_settings(const mfns_centroid_settings_t *s)
@@ -974,6 +1036,8 @@ mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfn
     const int64_t l_q8 = b_q8 + (int64_t)lroundf(MFNS_CENTROID_WEIGHT_LEVEL * (float)t_q8);
     out->threshold_dn = T;
     out->bg = *bg;
+    const noise_model_t nm = {fmaxf(bg->noise_dn * bg->noise_dn, MFNS_CENTROID_QUANT_VAR_DN2),
+                              (float)settings->gain_dn_per_e_q12 / MFNS_GAIN_Q12_ONE};
 
     region_t reg[MFNS_CENTROID_MAX_ROIS];
     const uint16_t n_reg = regions_of(frame, rois, n_rois, reg);
@@ -991,7 +1055,7 @@ mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfn
             }
             mfns_blob_t b;
             float m2;
-            finish_blob(&work->acc[l], l_q8, b_q8, settings, sat, frame, rois, n_rois, &b, &m2);
+            finish_blob(&work->acc[l], l_q8, b_q8, &nm, settings, sat, frame, rois, n_rois, &b, &m2);
             if ((pass == 0) != (b.reasons == 0u)) {
                 continue;
             }
@@ -1001,7 +1065,7 @@ mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfn
             }
             if (pass == 0) {
                 refine_blob(frame, &reg[n_rois == 0u ? 0u : work->acc[l].roi], &work->acc[l], T, l_q8, b_q8, t_q8,
-                            m2, &b);
+                            &nm, m2, &b);
             }
             out->blob[out->n_blobs++] = b;
             if (pass == 0) {

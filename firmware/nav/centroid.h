@@ -17,6 +17,16 @@
  * flat-topped (defocused) blobs then get one Newton step of a symmetric-profile
  * likelihood score (MFNS_CENTROID_FLAT_RATIO below, docs/centroiding.md step 7).
  *
+ * Covariance: every accepted blob's cov_px2 is the covariance of its (u, v),
+ * first-order propagation of the pixel noise through the estimator that made
+ * it (the moment centroid, or the refinement's estimating equation), with the
+ * pixel variance var(I) = max(bg.noise_dn^2, 1/12) + K (I - background),
+ * K = settings.gain_dn_per_e_q12 / MFNS_GAIN_Q12_ONE (DN per electron; 0 = no
+ * shot-noise term), plus the px_q8_t rounding. Rejected blobs have all zeros.
+ * It is the noise of the centroid, not its systematic error (pixel-phase
+ * S-curve, model mismatch); it is as good as bg.noise_dn and K are.
+ * docs/centroiding.md "Centroid covariance": derivation, limits, cost.
+ *
  * Bounds: width and height <= MFNS_CENTROID_MAX_DIM; at most
  * MFNS_CENTROID_MAX_LABELS provisional components per call, at most
  * MFNS_MAX_BLOBS_PER_CAMERA blobs reported; at most MFNS_CENTROID_MAX_ROIS
@@ -65,6 +75,13 @@
 #define MFNS_CENTROID_REFINE_MAX_SIDE 96
 #define MFNS_CENTROID_REFINE_MIN_BLUR 0.3f
 #define MFNS_CENTROID_REFINE_MIN_RADIUS 1.75f
+/* Centroid covariance (docs/centroiding.md, "Centroid covariance"): the pixel
+ * noise floor is at least the rounding of the pixel to whole DN, 1/12 DN^2
+ * (a background estimate of 0, e.g. a caller's noise-free frame, still leaves
+ * it), and the reported centroid carries its own rounding to px_q8_t,
+ * 1/12 LSB^2 per axis. */
+#define MFNS_CENTROID_QUANT_VAR_DN2 (1.0f / 12.0f)
+#define MFNS_CENTROID_Q8_VAR_PX2 (1.0 / (12.0 * (double)MFNS_PX_Q8_ONE * (double)MFNS_PX_Q8_ONE))
 /* Background estimate: at most this many sampled pixels, two passes. */
 #define MFNS_CENTROID_BG_MAX_SAMPLES 8192u
 #define MFNS_CENTROID_HIST_BINS 1024u
@@ -136,7 +153,8 @@ typedef struct {
     uint16_t reasons;       /* MFNS_BLOB_* bits; 0 = accepted */
     uint8_t roi;            /* window index, MFNS_CENTROID_FULL_FRAME for a full-frame call */
     float cov_px2[3];       /* covariance of (u, v) predicted from the photometry (px^2):
-                               var u, cov uv, var v; all zero = not computed */
+                               var u, cov uv, var v; positive definite for every accepted
+                               blob, all zero for a rejected one (header comment) */
 } mfns_blob_t;
 #define MFNS_CENTROID_FULL_FRAME 0xFFu
 

@@ -36,7 +36,18 @@ typedef struct {
     float max_elongation;       /* ratio of second-moment eigenvalues, >= 1 */
     uint16_t roi_half_size_px;  /* tracking window half size around a prediction */
     uint16_t saturation_dn;     /* pixel value treated as saturated (0 = max of format) */
+    uint16_t gain_dn_per_e_q12; /* sensor system gain K (DN per electron, EMVA 1288), Q4.12
+                                   (MFNS_GAIN_Q12_ONE = 1 DN/e-): the shot-noise variance of a
+                                   pixel grows by K DN^2 per DN of signal; the centroid
+                                   covariance uses it (docs/centroiding.md). 0 = no shot-noise
+                                   term (read-noise-limited sensor) */
 } mfns_centroid_settings_t;
+/* Q4.12 of gain_dn_per_e_q12: 1/4096 DN/e- per unit, at most 16 DN/e-. */
+#define MFNS_GAIN_Q12_ONE 4096.0f
+/* The default gain (nav_defaults.c, centroid.c): 102 / 4096 = 0.0249 DN/e- (40 e-/DN), a
+ * machine-vision CMOS sensor at 0 dB read out in 8 bits (a ~10 ke- full well over 255 DN).
+ * A table states the gain of its own camera; docs/caltable.md "Default settings". */
+#define MFNS_CENTROID_DEFAULT_GAIN_Q12 102u
 
 /* Pose solve (firmware/nav/pose.h). */
 typedef struct {

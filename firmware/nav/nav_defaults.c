@@ -17,6 +17,7 @@ void mfns_centroid_settings_default(mfns_centroid_settings_t *c)
     c->max_elongation = 3.0f;     /* LED spots are round; streaks and edges are not */
     c->roi_half_size_px = 32;     /* ~30 px of motion between frames at 18.6 fps */
     c->saturation_dn = 0;         /* the pixel format's maximum */
+    c->gain_dn_per_e_q12 = MFNS_CENTROID_DEFAULT_GAIN_Q12; /* 40 e-/DN: 8-bit CMOS at 0 dB (nav_config.h) */
 }
 
 void mfns_solver_settings_default(mfns_solver_settings_t *s)

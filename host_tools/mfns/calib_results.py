@@ -19,7 +19,19 @@ MAX_CAMERAS = 8  # a calibration (mfns calib) may hold 1..8 cameras
 NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
 
 
-MAX_BYTES = 1 * MIB  # a calibration of three cameras is ~5 KiB
+MAX_BYTES = 1 * MIB  # three cameras ~5 KiB, ~50 KiB with the covariance; eight ~350 KiB
+
+# The optional "covariance" (docs/calib-results.md): per camera, in this order; errors are
+# estimate - truth; px, 1 (distortion), rad (theta: C_k_b(est) = exp([theta x]) C_k_b(true),
+# about body axes), mm (r: r_bk_b, body frame). "skew" (px) only when it was estimated.
+COVARIANCE_PARAMETERS = (
+    "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3",
+    "theta_x", "theta_y", "theta_z", "r_x", "r_y", "r_z",
+)  # fmt: skip
+COVARIANCE_OPTIONAL = ("skew",)
+SYMMETRY_TOL = 1e-9  # |M_ij - M_ji| relative to sqrt(M_ii M_jj)
+PSD_TOL = 1e-9  # smallest eigenvalue of the correlation matrix
+SIGMA_TOL = 1e-6  # relative: sigma must be sqrt(diag) of the covariance where both exist
 
 
 def camera_name_problem(name) -> str | None:
@@ -95,7 +107,81 @@ def validate(doc: object, flight: bool = True) -> dict:
         raise MfnsError(f"cameras: duplicate names {names[:8]}")
     for i, cam in enumerate(cams):
         _camera(i, cam)
+    if "covariance" in doc:
+        _covariance(doc["covariance"], cams)
     return doc
+
+
+def _covariance(cov: object, cams: list[dict]) -> None:
+    """The optional covariance: its parameters, symmetric PSD, and the sigma blocks agree."""
+    where = "covariance"
+    cov = V.obj(cov, where)
+    V.keys(cov, where, ("parameters", "matrix"), ())
+    names = cov["parameters"]
+    if not isinstance(names, list) or not 1 <= len(names) <= MAX_CAMERAS * 16:
+        raise MfnsError(f"{where} parameters: expected a list of 1 to {MAX_CAMERAS * 16} names")
+    cam_names = [c["name"] for c in cams]
+    allowed = {f"{c}.{p}" for c in cam_names for p in COVARIANCE_PARAMETERS + COVARIANCE_OPTIONAL}
+    for i, n in enumerate(names):
+        if not isinstance(n, str) or n not in allowed:
+            raise MfnsError(
+                f"{where} parameters[{i}]: {n!r:.40} is not <camera>.<parameter> of a camera of this "
+                f"file with parameter one of {', '.join(COVARIANCE_PARAMETERS + COVARIANCE_OPTIONAL)}"
+            )
+    if len(set(names)) != len(names):
+        raise MfnsError(f"{where} parameters: duplicate names")
+    missing = [f"{c}.{p}" for c in cam_names for p in COVARIANCE_PARAMETERS if f"{c}.{p}" not in names]
+    if missing:
+        raise MfnsError(
+            f"{where} parameters: missing {', '.join(missing[:4])}" + (" ..." if missing[4:] else "")
+        )
+    n = len(names)
+    m = V.array(cov["matrix"], f"{where} matrix", (n, n))
+    d = np.diag(m)
+    if np.any(d < 0.0):
+        raise MfnsError(f"{where} matrix: negative variance of {names[int(np.argmin(d))]}")
+    scale = np.sqrt(np.outer(d, d))
+    if np.any(np.abs(m - m.T) > SYMMETRY_TOL * scale):
+        raise MfnsError(f"{where} matrix: not symmetric")
+    pos = d > 0.0
+    if np.any(m[~pos] != 0.0):
+        raise MfnsError(f"{where} matrix: a zero variance with a nonzero covariance")
+    if pos.any():
+        s = np.sqrt(d[pos])
+        with np.errstate(over="ignore", invalid="ignore"):
+            corr = m[np.ix_(pos, pos)] / np.outer(s, s)
+        # |correlation| <= 1 first: it also keeps inf/NaN (from extreme values) out of eigvalsh
+        if not np.all(np.abs(corr) <= 1.0 + PSD_TOL) or np.linalg.eigvalsh(corr).min() < -PSD_TOL:
+            raise MfnsError(f"{where} matrix: not positive semi-definite")
+    index = {nm: i for i, nm in enumerate(names)}
+    for cam in cams:
+        sig = cam.get("sigma")
+        if not isinstance(sig, dict):
+            continue
+        c = cam["name"]
+        pairs = [(k, sig.get(k), k) for k in ("fx", "fy", "cx", "cy")]
+        for key, params in (("dist", ("k1", "k2", "p1", "p2", "k3")), ("r_bk_b", ("r_x", "r_y", "r_z"))):
+            vals = sig.get(key)
+            if isinstance(vals, list) and len(vals) == len(params):
+                pairs += [(f"{key}[{j}]", vals[j], p) for j, p in enumerate(params)]
+        for key, v, par in pairs:
+            if v is None:
+                continue
+            v = V.number(v, f"camera {c} sigma {key}", 0.0)
+            ref = float(np.sqrt(m[index[f"{c}.{par}"], index[f"{c}.{par}"]]))
+            if abs(v - ref) > SIGMA_TOL * max(ref, abs(v)):
+                raise MfnsError(
+                    f"camera {c} sigma {key} = {v:.6g} disagrees with the covariance (sqrt of its "
+                    f"variance {ref:.6g})"
+                )
+
+
+def covariance(doc: dict) -> tuple[list[str], np.ndarray] | None:
+    """(parameter names, matrix) of a validated document, or None: no covariance = unknown."""
+    cov = doc.get("covariance")
+    if cov is None:
+        return None
+    return list(cov["parameters"]), np.array(cov["matrix"], dtype=float)
 
 
 def load(path: str | Path, flight: bool = True) -> dict:
@@ -127,6 +213,19 @@ def camera_entry(name, image_size, fx, fy, cx, cy, skew, dist, c_k_b, r_bk_b, si
     return entry
 
 
+def dumps(doc: dict) -> str:
+    """The document as JSON text, indented, each covariance row on one line."""
+    cov = doc.get("covariance")
+    if cov is None:
+        return json.dumps(doc, indent=2) + "\n"
+    rows = cov["matrix"]
+    marks = [f"@row{i}@" for i in range(len(rows))]
+    text = json.dumps({**doc, "covariance": {**cov, "matrix": marks}}, indent=2)
+    for mark, row in zip(marks, rows, strict=True):
+        text = text.replace(json.dumps(mark), json.dumps(row), 1)
+    return text + "\n"
+
+
 def save(doc: dict, path: str | Path, flight: bool = True) -> None:
     validate(doc, flight)
-    Path(path).write_text(json.dumps(doc, indent=2) + "\n")
+    Path(path).write_text(dumps(doc))

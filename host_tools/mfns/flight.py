@@ -159,6 +159,7 @@ class CentroidSettings(ct.Structure):
         ("max_elongation", ct.c_float),
         ("roi_half_size_px", ct.c_uint16),
         ("saturation_dn", ct.c_uint16),
+        ("gain_dn_per_e_q12", ct.c_uint16),
     ]
 
 

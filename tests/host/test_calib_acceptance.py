@@ -11,10 +11,14 @@ speed) through the same Zhang/CPC/refinement code.
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
+from mfns.calib.covariance import nees, paper_covariance, parameter_error, refined_covariance
 from mfns.calib.evaluate import run_seeds
+from mfns.calib_results import load
 from mfns.cli import main
 from mfns.commands.calib import calibrate_dataset
+from mfns.simulate.calib import truth_from_document
 
 N_SEEDS = 20
 
@@ -25,6 +29,7 @@ def default_run(tmp_path_factory):
     assert main(["sim", "calib", str(out), "--quiet"]) == 0
     _obs, rejected, cal, cmp, _t1, _t2 = calibrate_dataset(out, out / "truth.json")
     assert not rejected
+    cal.truth = truth_from_document(load(out / "truth.json", flight=False))
     return cal, cmp
 
 
@@ -105,3 +110,42 @@ def test_multi_seed_reported_sigma_matches_spread(seeds):
     assert np.all((ratio > 0.6) & (ratio < 1.6)), [
         (n, r) for n, r in zip(names, ratio, strict=True) if not 0.6 < r < 1.6
     ]
+
+
+# --- the covariance the results documents carry (docs/calib-results.md, issue 12) ----------------
+def test_multi_seed_covariance_describes_the_errors_against_truth(seeds):
+    """Refined: NEES of the truth ~ chi-square(45); paper: covered by Cov(ML) + d d^T."""
+    n = seeds.n_parameters
+    bound = chi2.ppf(0.99, n)
+    print()
+    print(seeds.coverage())
+    assert len(seeds.nees_refined) == len(seeds.nees_paper) == N_SEEDS
+    # the mean of 20 chi-square(45) draws is 45 +- 2.1 (1 sigma)
+    assert 0.85 * n <= np.mean(seeds.nees_refined) <= 1.15 * n
+    assert np.mean(seeds.nees_refined < bound) >= 0.95
+    # per parameter: error / reported sigma has unit RMS, no parameter far off
+    z = seeds.z_refined
+    assert 0.85 <= np.sqrt(np.mean(z**2)) <= 1.15
+    assert np.all(np.sqrt(np.mean(z**2, axis=0)) < 1.6)
+    # the paper's estimate: the truth lies within its covariance
+    assert np.mean(seeds.nees_paper < bound) >= 0.95
+    assert np.mean(seeds.nees_paper) <= 1.3 * n
+
+
+def test_rendered_dataset_covariance_covers_the_truth(default_run):
+    """The default rendered dataset (OpenCV corners): both documents' covariances cover the truth."""
+    cal, cmp = default_run
+    bound = chi2.ppf(0.99, 45)
+    _, cov = refined_covariance(cal.refined)
+    nr = nees(parameter_error(cal.refined.rig, cal.truth), cov)
+    _, cov_p = paper_covariance(cal.paper, cal.refined)
+    e_p = parameter_error(cal.paper, cal.truth)
+    npp, n_ml = nees(e_p, cov_p), nees(e_p, cov)
+    print(
+        f"\nrendered dataset NEES (45 parameters, 99 % bound {bound:.1f}): refined {nr:.1f}, "
+        f"paper {npp:.1f} (under Cov(ML) alone {n_ml:.0f})"
+    )
+    assert nr < bound and npp < bound
+    assert cmp.n_parameters == 45  # the report's line:
+    assert (cmp.nees_refined, cmp.nees_paper) == pytest.approx((nr, npp), rel=1e-9)
+    assert n_ml > 10 * bound  # without the rank-one term the paper's error is far outside

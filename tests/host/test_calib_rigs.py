@@ -5,7 +5,9 @@ corner observations simulated from `mfns sim calib`'s plan (0.1 px noise) and co
 refined errors with the Cramér-Rao bound of that dataset's geometry. A single realisation
 cannot hold every parameter within 1.5 sigma (13 % of Gaussian draws exceed it), so the
 check is the one of test_calib_acceptance.py: RMS of error/CRB per group (intrinsics,
-attitudes, positions) <= 1.5 and every error < 3.5 CRB.
+attitudes, positions) <= 1.5 and every error < 3.5 CRB. Every variant also checks that the
+covariances the results documents carry cover the truth (NEES below the 99 % chi-square
+bound of the parameter count, refined and paper method).
 
 On the code before issue 14 the encoder-log, no-pure-Omega, 1-camera and 4-camera variants
 fail (CPC demands exact zeros, camera z's pure-Omega views and exactly cameras x, y, z).
@@ -13,7 +15,9 @@ fail (CPC demands exact zeros, camera z's pure-Omega views and exactly cameras x
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
+from mfns.calib.covariance import N_PARAMETERS, nees, paper_covariance, parameter_error, refined_covariance
 from mfns.calib.model import Board
 from mfns.calib.pipeline import calibrate
 from mfns.calib.refine import cramer_rao, quantities
@@ -34,7 +38,23 @@ def _run(cams=("x", "y", "z"), board=None, seed=3, truth=None, **plan):
     prep = [(s.C_k_w.T, -s.C_k_w.T @ s.r_wk_w) for s in shots if s.kind == "prepared"]
     ang = np.array([(s.true_omega_big_deg, s.true_omega_small_deg) for s in shots if s.kind == "turntable"])
     _, crb = cramer_rao(obs, truth, prep, ang, SIGMA_PX)
+    _assert_covariance_covers_the_truth(cal, truth)
     return obs, cal, names, (q_ref - q_true) / crb
+
+
+def _assert_covariance_covers_the_truth(cal, truth):
+    """The results documents' covariances (docs/calib-results.md): NEES of the truth below
+    the 99 % chi-square bound of the parameter count, refined and (when it ran) the paper's."""
+    n = N_PARAMETERS * len(truth.cams)
+    bound = chi2.ppf(0.99, n)
+    _, cov = refined_covariance(cal.refined)
+    nr = nees(parameter_error(cal.refined.rig, truth), cov)
+    npp = float("nan")
+    if cal.paper is not None:
+        npp = nees(parameter_error(cal.paper, truth), paper_covariance(cal.paper, cal.refined)[1])
+        assert npp < bound, (npp, bound)
+    print(f"\n  covariance: {n} parameters, 99 % bound {bound:.1f}: NEES refined {nr:.1f}, paper {npp:.1f}")
+    assert nr < bound, (nr, bound)
 
 
 def _groups(names):

@@ -110,6 +110,42 @@ def test_calibration_json_mutated(work, calib_doc, muts):
     _assert_valid_calibration(out)
 
 
+@pytest.fixture(scope="module")
+def calib_doc_cov(calib_doc):
+    """The paper's rig with a covariance (docs/calib-results.md) agreeing with its sigma."""
+    doc = copy.deepcopy(calib_doc)
+    names, var = [], []
+    for cam in doc["cameras"]:
+        names += [f"{cam['name']}.{p}" for p in calib_results.COVARIANCE_PARAMETERS]
+        var += [0.25] * 4 + [1e-6] * 5 + [1e-8] * 3 + [s**2 for s in cam["sigma"]["r_bk_b"]]
+    m = np.diag(var)
+    m[0, 1] = m[1, 0] = 0.1  # one correlation
+    doc["covariance"] = {"parameters": names, "matrix": m.tolist()}
+    calib_results.validate(doc)
+    return doc
+
+
+@PROFILE
+@given(muts=mutations)
+def test_calibration_json_with_covariance_mutated(work, calib_doc_cov, muts):
+    doc = calib_doc_cov
+    for choice, value, delete in muts:
+        doc = _mutate(doc, choice, value, delete)
+    path = work / "calib_cov.json"
+    path.write_text(json.dumps(doc))
+    try:
+        out = calib_results.load(path)
+    except MfnsError as exc:
+        one_clear_line(exc)
+        return
+    _assert_valid_calibration(out)
+    cov = calib_results.covariance(out)
+    if cov is not None:
+        names, m = cov
+        assert m.shape == (len(names), len(names)) and np.all(np.isfinite(m))
+        assert np.all(np.diag(m) >= 0.0) and np.allclose(m, m.T, rtol=0.0, atol=1e-6)
+
+
 @PROFILE
 @given(text=st.text(max_size=200) | st.binary(max_size=200).map(lambda b: b.decode("latin-1")))
 def test_calibration_json_random_text(work, text):

@@ -115,6 +115,7 @@ static void render_table(const mfns_caltable_t *t, textbuf_t *o)
     add(o, "centroid.max_area_px %u", (unsigned)c->max_area_px);
     add(o, "centroid.roi_half_size_px %u", (unsigned)c->roi_half_size_px);
     add(o, "centroid.saturation_dn %u", (unsigned)c->saturation_dn);
+    add(o, "centroid.gain_dn_per_e_q12 %u", (unsigned)c->gain_dn_per_e_q12);
     add(o, "centroid.threshold_k_sigma %.9g", G9(c->threshold_k_sigma));
     add(o, "centroid.max_elongation %.9g", G9(c->max_elongation));
     const mfns_solver_settings_t *s = &t->solver;
@@ -470,7 +471,7 @@ static void test_bad_counts_and_settings(void **state)
         {24 + 2, 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* min_area 0 */
         {24 + 4, 0, 1, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* max_area < min_area */
         {24 + 6, 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* roi 0 */
-        {24 + 10, 0, 1, MFNS_CALTABLE_E_RESERVED},
+        /* 24 + 10: centroid.gain_dn_per_e_q12, any u16 (0 = no shot-noise term) */
         {24 + 12, 1, 0.0f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* no threshold rule */
         {24 + 12, 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
         {24 + 16, 1, 0.5f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* elongation < 1 */

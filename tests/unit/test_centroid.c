@@ -99,6 +99,24 @@ static void scene_render(const scene_t *sc, mfns_rng_t *rng, bool noise)
     }
 }
 
+/* Re-render the noise of the pixels [x0, x1) x [y0, y1) only (the rest of the
+ * frame keeps its last rendering). */
+static void scene_render_rect(const scene_t *sc, mfns_rng_t *rng, int x0, int y0, int x1, int y1)
+{
+    const mfns_frame_t f = frame_of(sc);
+    const double maxv = (double)((1u << fmt_bits(sc->fmt)) - 1u);
+    for (int y = y0 < 0 ? 0 : y0; y < y1 && y < sc->h; y++) {
+        for (int x = x0 < 0 ? 0 : x0; x < x1 && x < sc->w; x++) {
+            const double mu = g_mu[(size_t)y * sc->w + (size_t)x];
+            /* shot + read noise as one normal: the same distribution as scene_render's two */
+            double v = mu + sqrt(sc->gshot * mu + sc->read * sc->read) * mfns_rng_normal(rng);
+            v = floor(v + 0.5);
+            v = v < 0 ? 0 : (v > maxv ? maxv : v);
+            put_px(&f, x, y, (uint32_t)v);
+        }
+    }
+}
+
 static mfns_centroid_status_t run_full(const mfns_frame_t *f, const mfns_centroid_settings_t *s)
 {
     mfns_centroid_bg_t bg;
@@ -327,6 +345,355 @@ static void test_accuracy_bright_background(void **state)
         failed += !run_mc_case(&cases[i], 300 + i);
     }
     assert_int_equal(failed, 0);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Centroid covariance (cov_px2) against the scatter of repeated renderings.
+ *
+ * Per case: 16 spots at fixed sub-pixel positions (drawn once), the same
+ * expectation rendered with fresh shot + read noise COV_FRAMES times. The
+ * observed covariance is the pooled scatter of each spot's centroids about that
+ * spot's own mean (16 (M - 1) degrees of freedom per axis: 752 at M = 48, so a
+ * sigma is measured to 1/sqrt(2 * 752) = 2.6 %, and +-20 % is ~7 of those: the
+ * test cannot pass by luck, and with fixed seeds it cannot flake). The mean of
+ * the spot's fixed (systematic, pixel-phase) error is not noise and is left out.
+ * Predicted = the mean of the blobs' cov_px2. Checked per axis, and along the
+ * diagonals (u +- v)/sqrt 2, where the cov uv term decides; plus the mean
+ * whitened squared error e^T C^-1 e (2 for two degrees of freedom). */
+#define SC8G {MFNS_PIXFMT_GREY, 256, 256, 6.0, 1.0, 0.025}
+#define COV_FRAMES 48
+#define COV_SPOTS 16
+
+typedef struct {
+    const char *name;
+    scene_t sc;
+    cs_spot_t spot;   /* kind and size; ignored when ell_a > 0 */
+    double peak_dn;   /* a centred spot peaks here */
+    double ell_a, ell_b, ell_theta_deg; /* > 0: elliptical Gaussian, sigmas along its axes, rotation */
+} cov_case_t;
+
+/* Elliptical Gaussian (sigmas a, b along axes rotated by theta) integrated over
+ * each pixel by an 8 x 8 midpoint rule; flux amp. */
+static void scene_add_ellipse(const scene_t *sc, double x0, double y0, double a, double b, double theta, double amp)
+{
+    const double c = cos(theta), sn = sin(theta), pi = 3.14159265358979323846;
+    const int h = (int)ceil(6.5 * fmax(a, b)) + 1;
+    const int ix0 = (int)lround(x0) - h, iy0 = (int)lround(y0) - h;
+    for (int y = iy0; y <= iy0 + 2 * h; y++) {
+        for (int x = ix0; x <= ix0 + 2 * h; x++) {
+            if (x < 0 || y < 0 || x >= sc->w || y >= sc->h) {
+                continue;
+            }
+            double acc = 0.0;
+            for (int j = 0; j < 8; j++) {
+                for (int i = 0; i < 8; i++) {
+                    const double dx = x - 0.5 + (i + 0.5) / 8.0 - x0, dy = y - 0.5 + (j + 0.5) / 8.0 - y0;
+                    const double p = c * dx + sn * dy, q = -sn * dx + c * dy;
+                    acc += exp(-0.5 * (p * p / (a * a) + q * q / (b * b)));
+                }
+            }
+            g_mu[(size_t)y * sc->w + (size_t)x] += amp * acc / 64.0 / (2.0 * pi * a * b);
+        }
+    }
+}
+
+typedef struct {
+    double ratio_u, ratio_v, ratio_p, ratio_m; /* predicted / observed sigma: u, v, (u+v)/sqrt2, (u-v)/sqrt2 */
+    double rho_pred, rho_obs;                  /* correlation coefficients */
+    double nees;                               /* mean e^T C^-1 e, 2 expected */
+    double sigma_u;                            /* observed sigma u (px) */
+    int refined;                               /* blobs whose covariance is the refined estimator's */
+} cov_result_t;
+
+static cov_result_t run_cov_case(const cov_case_t *c, uint64_t seed)
+{
+    static double eu[COV_SPOTS][COV_FRAMES], ev[COV_SPOTS][COV_FRAMES], pc[COV_SPOTS][COV_FRAMES][3];
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, seed);
+    /* the case's scene on 512 x 512 px, spots 128 px apart: on the accuracy
+     * tests' 256 x 256 the spots' pixels inflate the background noise estimate
+     * by up to 10 % (docs/centroiding.md), here by ~2 % */
+    scene_t big = c->sc;
+    big.w = 512;
+    big.h = 512;
+    const scene_t *sc = &big;
+    const mfns_frame_t f = frame_of(sc);
+    mfns_centroid_settings_t set = mfns_centroid_default_settings();
+    set.gain_dn_per_e_q12 = (uint16_t)lround(sc->gshot * (double)MFNS_GAIN_Q12_ONE);
+    double xs[COV_SPOTS], ys[COV_SPOTS];
+    scene_begin(sc);
+    const double pi = 3.14159265358979323846;
+    for (int k = 0; k < COV_SPOTS; k++) {
+        const int col = k % 4, row = k / 4;
+        xs[k] = 64 + 128 * col + mfns_rng_range(&rng, -0.5, 0.5);
+        ys[k] = 64 + 128 * row + mfns_rng_range(&rng, -0.5, 0.5);
+        if (c->ell_a > 0.0) {
+            scene_add_ellipse(sc, xs[k], ys[k], c->ell_a, c->ell_b, c->ell_theta_deg * pi / 180.0,
+                              c->peak_dn * 2.0 * pi * c->ell_a * c->ell_b);
+        } else {
+            cs_spot_t s = c->spot;
+            s.x0 = xs[k];
+            s.y0 = ys[k];
+            scene_add_spot(sc, &s, c->peak_dn / peak_fraction(c->spot));
+        }
+    }
+    cov_result_t r;
+    memset(&r, 0, sizeof r);
+    /* the whole frame once, then fresh noise around each spot only: over the
+     * window holding all but ~1e-9 of its flux, + 3 px (beyond it the frame is
+     * background; the blob and the refinement window lie inside). The
+     * background estimate sees fresh pixels in the windows, the same elsewhere. */
+    const int half = 3 + (c->ell_a > 0.0 ? (int)ceil(6.5 * fmax(c->ell_a, c->ell_b)) + 1 : cs_half_window(&c->spot));
+    scene_render(sc, &rng, true);
+    for (int m = 0; m < COV_FRAMES; m++) {
+        if (m > 0) {
+            for (int k = 0; k < COV_SPOTS; k++) {
+                const int cx = (int)lround(xs[k]), cy = (int)lround(ys[k]);
+                scene_render_rect(sc, &rng, cx - half, cy - half, cx + half + 1, cy + half + 1);
+            }
+        }
+        assert_int_equal(run_full(&f, &set), MFNS_CENTROID_OK);
+        if (g_res.n_accepted != COV_SPOTS) {
+            for (int k = 0; k < g_res.n_blobs; k++) {
+                print_message("blob %d (%.2f, %.2f) area %u reasons 0x%x elong %.3f\n", k, g_res.blob[k].u_q8 / 256.0,
+                              g_res.blob[k].v_q8 / 256.0, g_res.blob[k].area_px, g_res.blob[k].reasons,
+                              (double)g_res.blob[k].elongation);
+            }
+        }
+        assert_int_equal(g_res.n_accepted, COV_SPOTS);
+        for (int k = 0; k < COV_SPOTS; k++) {
+            const int b = match_blob(xs[k], ys[k], 1.5);
+            assert_true(b >= 0);
+            const mfns_blob_t *bl = &g_res.blob[b];
+            eu[k][m] = bl->u_q8 / 256.0 - xs[k];
+            ev[k][m] = bl->v_q8 / 256.0 - ys[k];
+            for (int i = 0; i < 3; i++) {
+                pc[k][m][i] = bl->cov_px2[i];
+            }
+            /* a covariance, positive definite, for every accepted blob */
+            assert_true(bl->cov_px2[0] > 0.0f && bl->cov_px2[2] > 0.0f &&
+                        bl->cov_px2[1] * bl->cov_px2[1] < bl->cov_px2[0] * bl->cov_px2[2]);
+        }
+    }
+    double o[3] = {0, 0, 0}, p[3] = {0, 0, 0}, nees = 0.0;
+    for (int k = 0; k < COV_SPOTS; k++) {
+        double mu = 0.0, mv = 0.0;
+        for (int m = 0; m < COV_FRAMES; m++) {
+            mu += eu[k][m] / COV_FRAMES;
+            mv += ev[k][m] / COV_FRAMES;
+        }
+        for (int m = 0; m < COV_FRAMES; m++) {
+            const double du = eu[k][m] - mu, dv = ev[k][m] - mv;
+            o[0] += du * du;
+            o[1] += du * dv;
+            o[2] += dv * dv;
+            const double *C = pc[k][m], det = C[0] * C[2] - C[1] * C[1];
+            nees += (C[2] * du * du - 2.0 * C[1] * du * dv + C[0] * dv * dv) / det;
+            for (int i = 0; i < 3; i++) {
+                p[i] += C[i];
+            }
+        }
+    }
+    const double dof = (double)COV_SPOTS * (COV_FRAMES - 1), n = (double)COV_SPOTS * COV_FRAMES;
+    for (int i = 0; i < 3; i++) {
+        o[i] /= dof;
+        p[i] /= n;
+    }
+    r.ratio_u = sqrt(p[0] / o[0]);
+    r.ratio_v = sqrt(p[2] / o[2]);
+    r.ratio_p = sqrt((p[0] + p[2] + 2.0 * p[1]) / (o[0] + o[2] + 2.0 * o[1]));
+    r.ratio_m = sqrt((p[0] + p[2] - 2.0 * p[1]) / (o[0] + o[2] - 2.0 * o[1]));
+    r.rho_pred = p[1] / sqrt(p[0] * p[2]);
+    r.rho_obs = o[1] / sqrt(o[0] * o[2]);
+    r.nees = nees / dof; /* about each spot's sample mean: dof, not n */
+    r.sigma_u = sqrt(o[0]);
+    print_message("%-26s sigma %.2f  obs sigma (%.4f, %.4f) px  pred/obs u %.3f v %.3f  diag + %.3f - %.3f  "
+                  "rho pred %+.3f obs %+.3f  whitened %.3f  noise_dn %.3f (true %.3f)\n",
+                  c->name, c->ell_a > 0.0 ? c->ell_a : cs_spot_sigma(&c->spot), sqrt(o[0]), sqrt(o[2]), r.ratio_u,
+                  r.ratio_v, r.ratio_p, r.ratio_m, r.rho_pred, r.rho_obs, r.nees / 2.0, (double)g_res.bg.noise_dn,
+                  sqrt(sc->gshot * sc->bg + sc->read * sc->read + 1.0 / 12.0));
+    return r;
+}
+
+static bool cov_within(const cov_result_t *r)
+{
+    const double lo = 0.8, hi = 1.2;
+    return r->ratio_u >= lo && r->ratio_u <= hi && r->ratio_v >= lo && r->ratio_v <= hi && r->ratio_p >= lo &&
+           r->ratio_p <= hi && r->ratio_m >= lo && r->ratio_m <= hi && fabs(r->rho_pred - r->rho_obs) <= 0.15 &&
+           r->nees >= 2.0 * 0.8 && r->nees <= 2.0 * 1.25;
+}
+
+/* The spot sizes and brightnesses of the accuracy tests above: Gaussians keep
+ * the moment centroid (and its covariance from the moment sums), disks of
+ * R >= 2 go through the profile refinement (and get the sandwich covariance of
+ * its estimating equation). */
+static void test_covariance_matches_scatter(void **state)
+{
+    (void)state;
+    const cov_case_t cases[] = {
+        {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 0.7, 0, 0}, 3000, 0, 0, 0},
+        {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 1.0, 0, 0}, 3000, 0, 0, 0},
+        {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 1.5, 0, 0}, 3000, 0, 0, 0},
+        {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 2.0, 0, 0}, 3000, 0, 0, 0},
+        {"Y12 gauss", SC16, {CS_GAUSS, 0, 0, 3.0, 0, 0}, 3000, 0, 0, 0},
+        {"Y12 disk R1.4", SC16, {CS_DISK, 0, 0, 0, 1.4, 0.5}, 3000, 0, 0, 0},
+        {"Y12 disk R2.0", SC16, {CS_DISK, 0, 0, 0, 2.0, 0.5}, 3000, 0, 0, 0},
+        {"Y12 disk R3.0", SC16, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 3000, 0, 0, 0},
+        {"Y12 disk R4.0", SC16, {CS_DISK, 0, 0, 0, 4.0, 0.5}, 3000, 0, 0, 0},
+        {"Y12 disk R5.0", SC16, {CS_DISK, 0, 0, 0, 5.0, 0.5}, 3000, 0, 0, 0},
+        {"Y12 disk R6.0", SC16, {CS_DISK, 0, 0, 0, 6.0, 0.5}, 3000, 0, 0, 0},
+        {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 0.7, 0, 0}, 220, 0, 0, 0},
+        {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 1.0, 0, 0}, 220, 0, 0, 0},
+        {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 2.0, 0, 0}, 220, 0, 0, 0},
+        {"GREY gauss", SC8, {CS_GAUSS, 0, 0, 3.0, 0, 0}, 220, 0, 0, 0},
+        /* disks at 200 DN, not 220: over 48 renderings of the same plateau a
+         * pixel reaches 255 (4.7 sigma of shot noise) and the blob is SATURATED */
+        {"GREY disk R2.0", SC8, {CS_DISK, 0, 0, 0, 2.0, 0.5}, 200, 0, 0, 0},
+        {"GREY disk R3.0", SC8, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 200, 0, 0, 0},
+        {"GREY disk R4.0", SC8, {CS_DISK, 0, 0, 0, 4.0, 0.5}, 200, 0, 0, 0},
+        {"GREY disk R6.0", SC8, {CS_DISK, 0, 0, 0, 6.0, 0.5}, 200, 0, 0, 0},
+        {"Y12 bright-bg gauss", SC16B, {CS_GAUSS, 0, 0, 0.7, 0, 0}, 2500, 0, 0, 0},
+        {"Y12 bright-bg gauss", SC16B, {CS_GAUSS, 0, 0, 1.5, 0, 0}, 2500, 0, 0, 0},
+        {"Y12 bright-bg gauss", SC16B, {CS_GAUSS, 0, 0, 3.0, 0, 0}, 2500, 0, 0, 0},
+        {"Y12 bright-bg disk R3.0", SC16B, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 2500, 0, 0, 0},
+        {"Y12 bright-bg disk R5.8", SC16B, {CS_DISK, 0, 0, 0, 5.8, 0.5}, 2500, 0, 0, 0},
+        /* fainter spots: the background noise dominates, the threshold cuts more of the wings */
+        {"Y12 faint gauss", SC16, {CS_GAUSS, 0, 0, 1.5, 0, 0}, 150, 0, 0, 0},
+        {"Y12 faint disk R3.0", SC16, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 150, 0, 0, 0},
+        {"GREY faint gauss", SC8, {CS_GAUSS, 0, 0, 1.5, 0, 0}, 40, 0, 0, 0},
+        /* a low-gain 8-bit sensor (40 e-/DN, the default gain): shot noise smaller
+         * than the 4 e-/DN scenes', read noise 1 DN */
+        {"GREY 40e/DN gauss", SC8G, {CS_GAUSS, 0, 0, 1.3, 0, 0}, 180, 0, 0, 0},
+        {"GREY 40e/DN faint gauss", SC8G, {CS_GAUSS, 0, 0, 2.0, 0, 0}, 30, 0, 0, 0},
+        {"GREY 40e/DN disk R3.0", SC8G, {CS_DISK, 0, 0, 0, 3.0, 0.5}, 180, 0, 0, 0},
+    };
+    int failed = 0;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const cov_result_t r = run_cov_case(&cases[i], 400 + i);
+        failed += !cov_within(&r);
+    }
+    assert_int_equal(failed, 0);
+}
+
+/* An elongated, rotated spot (2.0 x 1.2 px at 30 deg: correlation ~0.4 of the
+ * centroid errors): the cov uv term is what makes the diagonal directions
+ * right; without it the predicted sigma along u + v and u - v would be equal,
+ * while the observed differ by ~1.6x. */
+static void test_covariance_elongated_spot(void **state)
+{
+    (void)state;
+    const cov_case_t cases[] = {
+        {"Y12 ellipse 2.0x1.2 30deg", SC16, {CS_GAUSS, 0, 0, 0, 0, 0}, 3000, 2.0, 1.2, 30.0},
+        {"GREY ellipse 2.0x1.2 -50deg", SC8, {CS_GAUSS, 0, 0, 0, 0, 0}, 220, 2.0, 1.2, -50.0},
+        {"Y12 bright-bg ell. 2.5x1.5 60deg", SC16B, {CS_GAUSS, 0, 0, 0, 0, 0}, 2500, 2.5, 1.5, 60.0},
+    };
+    int failed = 0;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const cov_result_t r = run_cov_case(&cases[i], 500 + i);
+        failed += !cov_within(&r);
+        /* the term matters: the observed correlation is far from 0 */
+        failed += !(fabs(r.rho_obs) > 0.25);
+    }
+    assert_int_equal(failed, 0);
+}
+
+static void draw_square(const mfns_frame_t *f, int x, int y, int s, uint32_t v);
+
+static bool cov_is_zero(const mfns_blob_t *b)
+{
+    return b->cov_px2[0] == 0.0f && b->cov_px2[1] == 0.0f && b->cov_px2[2] == 0.0f;
+}
+
+static bool cov_is_pd(const mfns_blob_t *b)
+{
+    return isfinite(b->cov_px2[0]) && isfinite(b->cov_px2[1]) && isfinite(b->cov_px2[2]) && b->cov_px2[0] > 0.0f &&
+           b->cov_px2[2] > 0.0f && b->cov_px2[1] * b->cov_px2[1] < b->cov_px2[0] * b->cov_px2[2];
+}
+
+/* The contract of cov_px2 (centroid.h): every accepted blob has a positive
+ * definite covariance, every rejected blob zeros; windows give the full
+ * frame's covariance bit for bit (same background, same pixels); the model's
+ * two terms scale as documented: without a gain, the covariance beyond the
+ * px_q8 rounding is the noise floor's variance times a geometric sum (x4 when
+ * the noise doubles), and the shot term of a bright spot is most of it. */
+static void test_covariance_contract(void **state)
+{
+    (void)state;
+    /* rejected blobs: the scene of test_rejection_reasons */
+    const scene_t sc = {MFNS_PIXFMT_Y12, 512, 512, 100.0, 0, 0};
+    const mfns_frame_t f = frame_of(&sc);
+    const mfns_centroid_bg_t bg = {100.0f, 2.0f, 0u};
+    mfns_centroid_settings_t set = mfns_centroid_default_settings();
+    scene_begin(&sc);
+    const cs_spot_t good = {CS_GAUSS, 100.3, 100.6, 1.5, 0, 0}, big = {CS_GAUSS, 400.2, 60.1, 1.5, 0, 0};
+    const cs_spot_t disk = {CS_DISK, 300.4, 420.7, 0, 4.0, 0.5}, edge = {CS_GAUSS, 1.0, 250.0, 1.2, 0, 0};
+    scene_add_spot(&sc, &good, 2000 / peak_fraction(good));
+    scene_add_spot(&sc, &disk, 2000 / peak_fraction(disk));
+    scene_add_spot(&sc, &big, 9000 / peak_fraction(big)); /* saturated */
+    scene_add_spot(&sc, &edge, 2000 / peak_fraction(edge));
+    scene_render(&sc, NULL, false);
+    put_px(&f, 30, 300, 3000);            /* too small */
+    draw_square(&f, 150, 200, 70, 1000);  /* too large */
+    draw_square(&f, 250, 250, 100, 1000); /* too large */
+    for (int x = 200; x < 230; x++) {     /* elongated */
+        put_px(&f, x, 400, 1500);
+        put_px(&f, x, 401, 1500);
+    }
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg, NULL, 0, &g_work, &g_res), MFNS_CENTROID_OK);
+    assert_int_equal(g_res.n_accepted, 2);
+    assert_true(g_res.n_blobs >= 6);
+    for (int k = 0; k < g_res.n_blobs; k++) {
+        assert_true(k < g_res.n_accepted ? cov_is_pd(&g_res.blob[k]) : cov_is_zero(&g_res.blob[k]));
+    }
+    /* a window cutting the good spot: rejected (window border), zero */
+    const mfns_roi_t cut = {102, 90, 130, 120};
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg, &cut, 1, &g_work, &g_res), MFNS_CENTROID_OK);
+    assert_int_equal(g_res.n_accepted, 0);
+    assert_true(g_res.n_blobs == 1 && cov_is_zero(&g_res.blob[0]));
+
+    /* windows against the full frame: bit-identical covariance (moment and refined) */
+    static mfns_centroid_result_t full;
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg, NULL, 0, &g_work, &full), MFNS_CENTROID_OK);
+    const float uv[2][2] = {{100.0f, 101.0f}, {301.0f, 420.0f}};
+    mfns_roi_t rois[MFNS_CENTROID_MAX_ROIS];
+    uint16_t n_rois = 0;
+    assert_int_equal(mfns_centroid_make_rois(uv, 2, 24, sc.w, sc.h, rois, MFNS_CENTROID_MAX_ROIS, &n_rois),
+                     MFNS_CENTROID_OK);
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg, rois, n_rois, &g_work, &g_res), MFNS_CENTROID_OK);
+    assert_int_equal(g_res.n_accepted, 2);
+    for (int k = 0; k < 2; k++) {
+        const int m = match_blob(full.blob[k].u_q8 / 256.0, full.blob[k].v_q8 / 256.0, 0.0);
+        assert_true(m >= 0);
+        assert_memory_equal(g_res.blob[m].cov_px2, full.blob[k].cov_px2, sizeof full.blob[k].cov_px2);
+    }
+
+    /* the noise model's terms: no gain, a fixed threshold (same pixels, same weights) */
+    set.threshold_dn = 40;
+    set.gain_dn_per_e_q12 = 0;
+    const mfns_centroid_bg_t bg1 = {100.0f, 1.5f, 0u}, bg2 = {100.0f, 3.0f, 0u};
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg1, NULL, 0, &g_work, &full), MFNS_CENTROID_OK);
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg2, NULL, 0, &g_work, &g_res), MFNS_CENTROID_OK);
+    assert_int_equal(full.n_accepted, 2);
+    assert_int_equal(g_res.n_accepted, 2);
+    const double q8 = MFNS_CENTROID_Q8_VAR_PX2;
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(g_res.blob[k].u_q8, full.blob[k].u_q8);
+        for (int i = 0; i < 3; i += 2) {
+            const double r = ((double)g_res.blob[k].cov_px2[i] - q8) / ((double)full.blob[k].cov_px2[i] - q8);
+            assert_near(r, 4.0, 4.0 * 1e-4);
+        }
+        assert_near((double)g_res.blob[k].cov_px2[1] / (double)full.blob[k].cov_px2[1], 4.0, 0.01);
+    }
+    /* with the gain (1 DN/e-: 2000 DN peak, shot variance up to 2000 DN^2 against
+     * the floor's 2.25) the shot term dominates */
+    set.gain_dn_per_e_q12 = (uint16_t)MFNS_GAIN_Q12_ONE;
+    assert_int_equal(mfns_centroid_detect(&f, &set, &bg1, NULL, 0, &g_work, &g_res), MFNS_CENTROID_OK);
+    for (int k = 0; k < 2; k++) {
+        print_message("cov u: floor only %.3g px^2, with shot noise %.3g px^2\n", (double)full.blob[k].cov_px2[0],
+                      (double)g_res.blob[k].cov_px2[0]);
+        assert_true(g_res.blob[k].cov_px2[0] > 10.0f * full.blob[k].cov_px2[0]);
+        assert_true(g_res.blob[k].cov_px2[2] > 10.0f * full.blob[k].cov_px2[2]);
+    }
 }
 
 /* ------------------------------------------------------------------------ */
@@ -689,6 +1056,7 @@ static void test_random_frames_invariants(void **state)
             assert_true(b->v_q8 >= b->y_min * 256 && b->v_q8 <= b->y_max * 256);
             assert_true(b->peak_dn >= T && b->peak_dn <= maxv);
             assert_true(b->elongation >= 1.0f);
+            assert_true(b->reasons == 0u ? cov_is_pd(b) : cov_is_zero(b));
             area += b->area_px;
         }
         if (st == MFNS_CENTROID_OK) {
@@ -822,6 +1190,9 @@ int main(void)
         cmocka_unit_test(test_accuracy_16bit),
         cmocka_unit_test(test_accuracy_8bit),
         cmocka_unit_test(test_accuracy_bright_background),
+        cmocka_unit_test(test_covariance_contract),
+        cmocka_unit_test(test_covariance_matches_scatter),
+        cmocka_unit_test(test_covariance_elongated_spot),
     };
     return cmocka_run_group_tests_name("centroid", tests, NULL, NULL);
 }

@@ -10,23 +10,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..calib_results import FORMAT, VERSION, camera_entry
-from ..rotations import matrix_to_euler213_deg, rot_exp
+from ..rotations import matrix_to_euler213_deg
+from .covariance import (
+    euler_sigma,
+    nees,
+    paper_covariance,
+    parameter_error,
+    refined_covariance,
+    sigma_block,
+)
 from .model import Observations, Rig
 from .pipeline import Calibration, paper_quantities
-from .refine import N_CAM, cramer_rao, quantities, rig0
+from .refine import cramer_rao, quantities, rig0
 from .zhang import INTRINSIC_NAMES
-
-
-def _euler_sigma(c: np.ndarray, cov_d: np.ndarray) -> np.ndarray:
-    """1-sigma of the 2-1-3 Euler angles (deg) of exp([d x]) c, d ~ N(0, cov_d) in radians."""
-    jac = np.zeros((3, 3))
-    for i in range(3):
-        d = np.zeros(3)
-        d[i] = 1e-7
-        de = matrix_to_euler213_deg(rot_exp(d) @ c) - matrix_to_euler213_deg(rot_exp(-d) @ c)
-        de = (de + 180.0) % 360.0 - 180.0
-        jac[:, i] = de / 2e-7
-    return np.sqrt(np.diag(jac @ cov_d @ jac.T))
 
 
 def euler_sigmas(cal: Calibration) -> dict[str, np.ndarray]:
@@ -34,10 +30,10 @@ def euler_sigmas(cal: Calibration) -> dict[str, np.ndarray]:
     cov = cal.refined.cov_params
     cams = cal.refined.rig.cams
     r0 = rig0(len(cams))
-    out = {"C_t_w": _euler_sigma(cal.refined.rig.C_t_w, cov[r0 : r0 + 3, r0 : r0 + 3])}
-    for k, cam in enumerate(cams):
-        i = N_CAM * k + 9
-        out[cam.name] = _euler_sigma(cam.C_k_b, cov[i : i + 3, i : i + 3])
+    out = {"C_t_w": euler_sigma(cal.refined.rig.C_t_w, cov[r0 : r0 + 3, r0 : r0 + 3])}
+    names, cov_c = refined_covariance(cal.refined)
+    for cam in cams:
+        out[cam.name] = np.array(sigma_block(names, cov_c, cam.name, cam.C_k_b)["euler_213_deg"])
     return out
 
 
@@ -107,6 +103,10 @@ class Comparison:
     refined_err: np.ndarray
     refined_sigma: np.ndarray
     crb: np.ndarray | None
+    # NEES of the truth under the documents' covariances (covariance.py), and their parameter count
+    nees_refined: float = float("nan")
+    nees_paper: float = float("nan")  # NaN: the paper's method was not applicable
+    n_parameters: int = 0
 
     EXTRINSIC_PREFIXES = ("rot", "r_")
 
@@ -142,7 +142,14 @@ def compare(cal: Calibration, truth: Rig, obs: Observations, truth_doc: dict | N
                 ang.append((d["Omega_deg"], d["omega_deg"]))
         if ok:
             _, crb = cramer_rao(obs, truth, prep, np.array(ang).reshape(-1, 2), cal.refined.sigma_px)
-    return Comparison(names, q_true, q_pap - q_true, q_ref - q_true, cal.refined.sigma, crb)
+    _, cov = refined_covariance(cal.refined)
+    nr = nees(parameter_error(cal.refined.rig, truth), cov)
+    np_ = float("nan")
+    if cal.paper is not None:
+        np_ = nees(parameter_error(cal.paper, truth), paper_covariance(cal.paper, cal.refined)[1])
+    return Comparison(
+        names, q_true, q_pap - q_true, q_ref - q_true, cal.refined.sigma, crb, nr, np_, len(cov)
+    )
 
 
 def accuracy_table(cmp: Comparison) -> str:
@@ -172,41 +179,52 @@ def accuracy_table(cmp: Comparison) -> str:
             lines.append(
                 f"    {g:10s} refined {np.sqrt(np.mean(z**2)):6.2f}   paper {np.sqrt(np.mean(zp**2)):8.2f}"
             )
+    if cmp.n_parameters:
+        from scipy.stats import chi2
+
+        lines.append(
+            f"  NEES of the truth under the results' covariances ({cmp.n_parameters} parameters, "
+            f"99 % bound {chi2.ppf(0.99, cmp.n_parameters):.1f}): refined {cmp.nees_refined:.1f}, "
+            f"paper {cmp.nees_paper:.1f}"
+        )
     return "\n".join(lines)
 
 
-def results_document(cal: Calibration, source: str) -> dict:
-    sig = dict(zip(cal.refined.names, cal.refined.sigma, strict=True))
-    es = euler_sigmas(cal)
-    r = cal.refined.rig
-    cams = []
-    for cam in r.cams:
-        n = cam.name
-        s = {key: float(sig[f"{n}.{key}"]) for key in ("fx", "fy", "cx", "cy")}
-        s["dist"] = [float(sig[f"{n}.{d}"]) for d in ("k1", "k2", "p1", "p2", "k3")]
-        s["euler_213_deg"] = [float(v) for v in es[n]]
-        s["r_bk_b"] = [float(sig[f"{n}.r_b{n}{a}"]) for a in "xyz"]
-        cams.append(
-            camera_entry(
-                n,
-                (cam.width, cam.height),
-                cam.fx,
-                cam.fy,
-                cam.cx,
-                cam.cy,
-                0.0,
-                cam.dist,
-                cam.C_k_b,
-                cam.r_bk_b,
-                s,
-            )
+def covariance_entry(names: list[str], cov: np.ndarray) -> dict:
+    """The document's "covariance" (docs/calib-results.md)."""
+    return {"parameters": list(names), "matrix": [[float(v) for v in row] for row in cov]}
+
+
+def _camera_entries(rig: Rig, names: list[str], cov: np.ndarray) -> list[dict]:
+    return [
+        camera_entry(
+            cam.name,
+            (cam.width, cam.height),
+            cam.fx,
+            cam.fy,
+            cam.cx,
+            cam.cy,
+            0.0,
+            cam.dist,
+            cam.C_k_b,
+            cam.r_bk_b,
+            sigma_block(names, cov, cam.name, cam.C_k_b),
         )
+        for cam in rig.cams
+    ]
+
+
+def results_document(cal: Calibration, source: str) -> dict:
+    """The refined solution; sigma and covariance from the refinement (covariance.py)."""
+    r = cal.refined.rig
+    names, cov = refined_covariance(cal.refined)
     return {
         "format": FORMAT,
         "version": VERSION,
         "source": source,
         "pixel_noise_px": float(cal.refined.sigma_px),
-        "cameras": cams,
+        "cameras": _camera_entries(r, names, cov),
+        "covariance": covariance_entry(names, cov),
         "rig": {
             "C_t_w": r.C_t_w.tolist(),
             "euler_t_w_deg": matrix_to_euler213_deg(r.C_t_w).tolist(),
@@ -218,35 +236,18 @@ def results_document(cal: Calibration, source: str) -> dict:
 
 
 def paper_document(cal: Calibration, source: str) -> dict:
+    """The paper's solution; covariance Cov(ML) + d d^T (covariance.paper_covariance), sigma from it."""
     p = cal.paper
     assert p is not None and cal.cpc is not None
-    cams = []
-    for k, cam in enumerate(p.cams):
-        z = cal.zhang[k]
-        s = {key: float(z.sigma[i]) for i, key in enumerate(("fx", "fy", "cx", "cy"))}
-        s["dist"] = [float(v) for v in z.sigma[4:9]]
-        cams.append(
-            camera_entry(
-                cam.name,
-                (cam.width, cam.height),
-                cam.fx,
-                cam.fy,
-                cam.cx,
-                cam.cy,
-                0.0,
-                cam.dist,
-                cam.C_k_b,
-                cam.r_bk_b,
-                s,
-            )
-        )
+    names, cov = paper_covariance(p, cal.refined)
     rms = float(np.sqrt(np.mean([z.rms_px**2 for z in cal.zhang])))
     return {
         "format": FORMAT,
         "version": VERSION,
         "source": source,
         "pixel_noise_px": max(rms, 1e-6),
-        "cameras": cams,
+        "cameras": _camera_entries(p, names, cov),
+        "covariance": covariance_entry(names, cov),
         "rig": {
             "C_t_w": p.C_t_w.tolist(),
             "euler_t_w_deg": matrix_to_euler213_deg(p.C_t_w).tolist(),

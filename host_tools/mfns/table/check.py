@@ -136,7 +136,6 @@ _HEADER_FIELDS = _fields([("magic", 4), ("version", 2), ("header_size", 2), ("to
 _GLOBAL_SPEC = (
     [("camera_count", 2), ("beacon_count", 2), ("pixel_sigma_px", 4)]
     + [(f"centroid.{n}", 2) for n in fmt.CENTROID_U16]
-    + [("centroid reserved", 2)]
     + [(f"centroid.{n}", 4) for n in fmt.CENTROID_F32]
     + [(f"solver.{n}", 2) for n in fmt.SOLVER_U16]
 )

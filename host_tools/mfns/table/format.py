@@ -29,7 +29,14 @@ INDEX_HEADER = struct.Struct("<HBBBBHI3f3fI4B")
 CAMERA_NAMES = ("x", "y", "z")
 
 # Field order of the settings records (docs/caltable.md).
-CENTROID_U16 = ("threshold_dn", "min_area_px", "max_area_px", "roi_half_size_px", "saturation_dn")
+CENTROID_U16 = (
+    "threshold_dn",
+    "min_area_px",
+    "max_area_px",
+    "roi_half_size_px",
+    "saturation_dn",
+    "gain_dn_per_e_q12",  # offset 34, reserved (0) before the centroid covariance used it
+)
 CENTROID_F32 = ("threshold_k_sigma", "max_elongation")
 SOLVER_U16 = ("max_iterations",)  # then a reserved u16 (version 1: max_hypotheses)
 SOLVER_F32 = (
@@ -43,7 +50,7 @@ SOLVER_F32 = (
 )
 
 _HEADER = struct.Struct("<4sHHII")
-_GLOBALS = struct.Struct("<HHf" + "5HH2f" + "2H7f")
+_GLOBALS = struct.Struct("<HHf" + "6H2f" + "2H7f")
 _CAMERA = struct.Struct("<4H5f5f9f3f2H4i")
 _BEACON = struct.Struct("<HHffff")
 assert _HEADER.size == HEADER_SIZE and _GLOBALS.size == GLOBALS_SIZE
@@ -121,7 +128,6 @@ def encode(t: Table) -> bytes:
                 n_b,
                 t.pixel_sigma_px,
                 *(int(t.centroid[k]) for k in CENTROID_U16),
-                0,
                 *(float(t.centroid[k]) for k in CENTROID_F32),
                 *(int(t.solver[k]) for k in SOLVER_U16),
                 0,
@@ -167,7 +173,7 @@ def decode(data: bytes) -> Table:
     magic, version, hsize, total, crc = _HEADER.unpack_from(data, 0)
     g = _GLOBALS.unpack_from(data, HEADER_SIZE)
     n_b, sigma = g[1], g[2]
-    centroid = dict(zip(CENTROID_U16, g[3:8], strict=True))
+    centroid = dict(zip(CENTROID_U16, g[3:9], strict=True))
     centroid.update(zip(CENTROID_F32, g[9:11], strict=True))
     solver = dict(zip(SOLVER_U16, g[11:12], strict=True))
     solver.update(zip(SOLVER_F32, g[13:20], strict=True))
