@@ -321,3 +321,18 @@ def test_a_changed_dictionary_fails(lib, tmp_path):
             test_opcodes_match(lib)
     finally:
         TC_XML = saved
+
+
+def test_docs_tables_match_the_dictionary():
+    """docs/uplink.md's opcode and rejection-code tables say what the XTCE says."""
+    import re
+
+    text = (REPO / "docs" / "uplink.md").read_text()
+    sec1 = text.split("## 1.")[1].split("## 2.")[0]
+    sec2 = text.split("## 2.")[1].split("## 3.")[0]
+    row = re.compile(r"^\| (\d+) \| ([A-Z_]+) \|", re.M)
+    root = tree()
+    assert {n: int(v) for v, n in row.findall(sec1)} == arg_types(root)["opcode_t"]["enum"]
+    t = root.find(".//x:EnumeratedParameterType[@name='tc_status_t']", NS)
+    xtce = {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
+    assert {n: int(v) for v, n in row.findall(sec2)} == xtce
