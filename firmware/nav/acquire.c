@@ -28,6 +28,19 @@
  * their angle differs from the angle the pair subtends at one point by up to
  * the parallax of the baseline at the nearest range. */
 #define MIN_PARALLAX_RANGE_MM 200.0f
+#define BAND_WS_TOL_MM 300.0f
+/* The band schedule (mfns_acq_search): same-image anchors to this rank,
+ * then cross anchors to this one, then the rest of both. */
+#define SCHED_SAME_FIRST 8u
+#define SCHED_CROSS_FIRST 4u
+/* Anchors of a pair alone in its image (a blob of another camera each). */
+#define MAX_CROSS_PER_PAIR 2
+/* Tolerance of the workspace test of a candidate (physical()). */
+#define WORKSPACE_TOL_MM 20.0f
+#define WORKSPACE_TOL_SIGMA 6.0f
+/* The same test on a minimal pose, in sigmas of its propagated position
+ * (sqrt of the chi-square(1) 1e-6 quantile is 4.9). */
+#define MINIMAL_WS_SIGMA 6.0f
 
 uint32_t mfns_acq_abi_size(mfns_acq_abi_t what)
 {
@@ -150,45 +163,61 @@ static void make_anchors(mfns_acq_t *q)
         ang[pos] = t;
         np = np < MFNS_ACQ_MAX_ANCHORS ? np + 1 : np;
     }
-    /* each pair with its third blob: the next nearest in its image, else
-     * (its image holds only the pair) one anchor per blob of another camera,
-     * since one such triple may be ill-conditioned where another is not */
+    /* each pair with its third blob: the next nearest in its image (first,
+     * for every pair), else (its image holds only the pair) up to
+     * MAX_CROSS_PER_PAIR anchors with a blob of another camera each, one per
+     * camera first, since one such triple may be ill-conditioned where another
+     * is not. Capped per pair so that a pair of one real blob and a
+     * reflection cannot take every anchor slot (measured: a view of 14 + 1 + 1
+     * blobs with a reflection beside the lone blob of the third camera was
+     * never identified, its six anchors all holding the reflection). */
     q->na = 0;
-    for (int a = 0; a < np && q->na < MFNS_ACQ_MAX_ANCHORS; a++) {
-        const int cam = q->blobs[pi[a]].cam;
-        const int ex[2] = {pj[a], -1};
-        const int k = nearest_in_cam(q, cam, pi[a], ex, 1);
-        for (int b = -1; b < q->nb && q->na < MFNS_ACQ_MAX_ANCHORS; b++) {
-            int kk;
-            if (b < 0) {
-                if (k < 0) {
-                    continue;
-                }
-                kk = k;
-            } else {
-                if (k >= 0) {
-                    break;
-                }
-                if (q->blobs[b].cam == cam) {
-                    continue;
-                }
-                kk = b;
+    for (int pass = 0; pass < 2; pass++) {
+        for (int a = 0; a < np && q->na < MFNS_ACQ_MAX_ANCHORS; a++) {
+            const int cam = q->blobs[pi[a]].cam;
+            const int ex[2] = {pj[a], -1};
+            const int k = nearest_in_cam(q, cam, pi[a], ex, 1);
+            if ((pass == 0) != (k >= 0)) {
+                continue;
             }
-            mfns_acq_anchor_t *an = &q->anchor[q->na++];
-            an->i = pi[a];
-            an->j = pj[a];
-            an->k = (int16_t)kk;
-            an->cross = k < 0;
-            int ex2[3] = {an->j, kk, -1};
-            an->v[0] = (int16_t)(an->cross ? -1 : nearest_in_cam(q, cam, an->i, ex2, 2));
-            ex2[2] = an->v[0];
-            an->v[1] = (int16_t)(an->v[0] < 0 ? -1 : nearest_in_cam(q, cam, an->i, ex2, 3));
-            /* too few in the anchor's image: blobs of the other cameras */
-            for (int o = 0; o < q->nb && an->v[1] < 0; o++) {
-                if (o == an->i || o == an->j || o == an->k || o == an->v[0] || q->blobs[o].cam == cam) {
-                    continue;
+            int third[MAX_CROSS_PER_PAIR];
+            int nt = 0;
+            if (k >= 0) {
+                third[nt++] = k;
+            } else {
+                /* the nearest blob of each other camera, then the next ones */
+                for (int round = 0; round < MFNS_MAX_OBS_PER_CAMERA && nt < MAX_CROSS_PER_PAIR; round++) {
+                    bool any = false;
+                    for (int c = 0; c < MFNS_NUM_CAMERAS && nt < MAX_CROSS_PER_PAIR; c++) {
+                        if (c == cam || round >= q->frame->count[c]) {
+                            continue;
+                        }
+                        any = true;
+                        third[nt++] = q->cam_blob[c][round];
+                    }
+                    if (!any) {
+                        break;
+                    }
                 }
-                an->v[an->v[0] < 0 ? 0 : 1] = (int16_t)o;
+            }
+            for (int t = 0; t < nt && q->na < MFNS_ACQ_MAX_ANCHORS; t++) {
+                const int kk = third[t];
+                mfns_acq_anchor_t *an = &q->anchor[q->na++];
+                an->i = pi[a];
+                an->j = pj[a];
+                an->k = (int16_t)kk;
+                an->cross = k < 0;
+                int ex2[3] = {an->j, kk, -1};
+                an->v[0] = (int16_t)(an->cross ? -1 : nearest_in_cam(q, cam, an->i, ex2, 2));
+                ex2[2] = an->v[0];
+                an->v[1] = (int16_t)(an->v[0] < 0 ? -1 : nearest_in_cam(q, cam, an->i, ex2, 3));
+                /* too few in the anchor's image: blobs of the other cameras */
+                for (int o = 0; o < q->nb && an->v[1] < 0; o++) {
+                    if (o == an->i || o == an->j || o == an->k || o == an->v[0] || q->blobs[o].cam == cam) {
+                        continue;
+                    }
+                    an->v[an->v[0] < 0 ? 0 : 1] = (int16_t)o;
+                }
             }
         }
     }
@@ -288,6 +317,39 @@ static int count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
     }
     q->progress.units += (uint32_t)map->count / 8u; /* ~0.1 us per beacon: three projections */
     return missing;
+}
+
+/* A pose the rig can physically have: the body origin inside the table's
+ * workspace (widened by WORKSPACE_TOL_MM plus WORKSPACE_TOL_SIGMA of the
+ * solution's own position sigma, so that a right pose is never refused for
+ * its noise), and every inlier's LED facing the camera that sees it. The
+ * truth always passes (the workspace is the contract of the table); a wrong
+ * correspondence often fits the blobs only from behind a wall or through an
+ * LED's back, and without this check such a rival would make a view
+ * ambiguous or spend the certificate. */
+static bool physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
+{
+    const mfns_v3_t p = mfns_pose_position_w(&sol->pose);
+    const float pw[3] = {p.x, p.y, p.z};
+    const float lo[3] = {q->idx->ws_min_w.x, q->idx->ws_min_w.y, q->idx->ws_min_w.z};
+    const float hi[3] = {q->idx->ws_max_w.x, q->idx->ws_max_w.y, q->idx->ws_max_w.z};
+    for (int a = 0; a < 3; a++) {
+        const float tol = WORKSPACE_TOL_MM + WORKSPACE_TOL_SIGMA * sol->sigma_pos_mm[a];
+        if (!(pw[a] >= lo[a] - tol && pw[a] <= hi[a] + tol)) {
+            return false;
+        }
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3(sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b >= 0 && b < q->map->count && sol->inlier[c][i] &&
+                !mfns_bidx_emits_toward(&q->idx->geom[b], q->map->beacon[b].p_w, ck)) {
+                return false;
+            }
+        }
+    }
+    return true;
 }
 
 static bool same_assoc(const mfns_acq_t *q, const mfns_pose_solution_t *a, const mfns_pose_solution_t *b)
@@ -394,20 +456,24 @@ static bool beacon_hits(mfns_acq_t *q, const mfns_pose_t *pose, int v, int ancho
     return false;
 }
 
-/* Cheap check of a hypothesis pose on the anchor's verification blobs: in
- * the anchor's image each must be explained by a beacon; in another camera,
- * where the minimal pose predicts worst, one of them. */
+/* Cheap check of a hypothesis pose on the anchor's verification blobs: one
+ * of them must be explained by a beacon, and in the anchor's image at most
+ * max_unexplained may be left (in another camera, where the minimal pose
+ * predicts worst, any may). A verification blob may be the reflection a
+ * certified fix is allowed to leave: requiring every one in the anchor's image
+ * lost every anchor of a view of 1 + 1 + 5 blobs with a reflection among the
+ * five (measured), the reflection being among the nearest of each blob. */
 static bool quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
 {
     q->progress.units++;
     const int cam = q->blobs[an->i].cam;
-    int tried = 0, hit = 0;
+    int tried = 0, hit = 0, missed_here = 0;
     for (int w = 0; w < 2; w++) {
         if (an->v[w] < 0) {
             continue;
         }
         const bool h = beacon_hits(q, pose, an->v[w], cam, abc);
-        if (!h && q->blobs[an->v[w]].cam == cam) {
+        if (!h && q->blobs[an->v[w]].cam == cam && ++missed_here > (int)q->idx->max_unexplained) {
             return false;
         }
         tried++;
@@ -447,11 +513,11 @@ static bool full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t 
         s2.assoc = again;
         const int n2 = mfns_pose_gather(q->map, q->frame, &again, m);
         if (n2 >= 0 && mfns_pose_refine_meas(q->rig, m, n2, &cd->sol.pose, q->cfg, &s2) != MFNS_POSE_NO_FIX &&
-            s2.beacons_used > cd->sol.beacons_used && chi2_consistent(q, &s2)) {
+            s2.beacons_used > cd->sol.beacons_used && chi2_consistent(q, &s2) && physical(q, &s2)) {
             cd->sol = s2;
         }
     }
-    if (cd->sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !chi2_consistent(q, &cd->sol)) {
+    if (cd->sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !chi2_consistent(q, &cd->sol) || !physical(q, &cd->sol)) {
         return false;
     }
     cd->inliers = (uint8_t)(cd->sol.beacons_used > 255u ? 255u : cd->sol.beacons_used);
@@ -492,6 +558,43 @@ static void fill_meas(const mfns_acq_t *q, int blob, int beacon, mfns_pose_meas_
     m->active = 1;
 }
 
+/* Can the minimal pose be a noisy copy of a physical one? Its body origin
+ * p = -C_w_b^T r_bw_b moves by dp = -C_w_b^T (dt + [r_bw_b]x dtheta) under the
+ * increment (dtheta, dt), so axis m has the variance g_m^T P g_m with
+ * g_m = (c_m x r_bw_b, c_m), c_m the m-th column of C_w_b and P the minimal
+ * pose's covariance. A pose whose origin lies outside the workspace (with the
+ * tolerance of physical()) by more than MINIMAL_WS_SIGMA of that sigma on
+ * some axis is not the truth's minimal pose (first order, like the gate of
+ * the fourth blob), and every candidate grown from it would fail physical(). */
+static bool minimal_in_workspace(const mfns_acq_t *q, const mfns_pose_t *pose,
+                                 const float cov[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N])
+{
+    const mfns_v3_t p = mfns_pose_position_w(pose);
+    const float pw[3] = {p.x, p.y, p.z};
+    const float lo[3] = {q->idx->ws_min_w.x, q->idx->ws_min_w.y, q->idx->ws_min_w.z};
+    const float hi[3] = {q->idx->ws_max_w.x, q->idx->ws_max_w.y, q->idx->ws_max_w.z};
+    for (int m = 0; m < 3; m++) {
+        const float out = pw[m] < lo[m] ? lo[m] - pw[m] : (pw[m] > hi[m] ? pw[m] - hi[m] : 0.0f);
+        if (out <= WORKSPACE_TOL_MM) {
+            continue;
+        }
+        const mfns_v3_t cm = {pose->C_w_b.m[0][m], pose->C_w_b.m[1][m], pose->C_w_b.m[2][m]};
+        const mfns_v3_t cr = mfns_v3_cross(cm, pose->r_bw_b);
+        const float g[6] = {cr.x, cr.y, cr.z, cm.x, cm.y, cm.z};
+        float var = 0.0f;
+        for (int i = 0; i < 6; i++) {
+            for (int j = 0; j < 6; j++) {
+                var += g[i] * cov[i][j] * g[j];
+            }
+        }
+        const float tol = WORKSPACE_TOL_MM + MINIMAL_WS_SIGMA * sqrtf(var > 0.0f ? var : 0.0f);
+        if (out > tol) {
+            return false;
+        }
+    }
+    return true;
+}
+
 /* Sound verification of one minimal pose in the completion: the anchor's
  * three correspondences and, for the remaining blob, every beacon within the
  * propagated gate are refined together and scored like any candidate. */
@@ -520,6 +623,9 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
     const bool have_cov = mfns_chol_factor(h, 6, 1e-12f, &f) == MFNS_SPD_OK;
     if (have_cov) {
         mfns_chol_inverse(&f, cov);
+        if (!minimal_in_workspace(q, pose, cov)) {
+            return; /* no pose near this one is physical: no fourth beacon to try */
+        }
     }
     int l = -1; /* the remaining blob */
     for (int b = 0; b < q->nb && l < 0; b++) {
@@ -594,7 +700,7 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
             m[t].active = 1;
         }
         if (mfns_pose_refine_meas(q->rig, m, 4, pose, q->cfg, &cd.sol) == MFNS_POSE_NO_FIX ||
-            cd.sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !chi2_consistent(q, &cd.sol)) {
+            cd.sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !chi2_consistent(q, &cd.sol) || !physical(q, &cd.sol)) {
             continue;
         }
         cd.inliers = (uint8_t)cd.sol.beacons_used;
@@ -602,6 +708,37 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
         cd.missing = (uint8_t)(miss > 255 ? 255 : miss);
         add_candidate(q, &cd);
     }
+}
+
+/* In the bands, a minimal pose whose body origin lies more than
+ * BAND_WS_TOL_MM outside the workspace, or that sees one of its three beacons
+ * from behind its LED, is dropped before any check of the blobs. A heuristic
+ * (the bands only order the search; a right minimal pose that
+ * ill-conditioning throws that far is left to another anchor or to the
+ * completion, which uses the sound test, minimal_in_workspace). Measured on
+ * 1,000 module views: the median work of views of 7+ blobs fell from 550 to
+ * 188 units and the right fixes rose from 811 to 829. Not charged: a few
+ * dozen flops against the ~1 us of a unit, within the solve's. */
+static bool band_plausible(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
+{
+    const mfns_v3_t p = mfns_pose_position_w(pose);
+    const float pw[3] = {p.x, p.y, p.z};
+    const float lo[3] = {q->idx->ws_min_w.x, q->idx->ws_min_w.y, q->idx->ws_min_w.z};
+    const float hi[3] = {q->idx->ws_max_w.x, q->idx->ws_max_w.y, q->idx->ws_max_w.z};
+    for (int m = 0; m < 3; m++) {
+        if (!(pw[m] >= lo[m] - BAND_WS_TOL_MM && pw[m] <= hi[m] + BAND_WS_TOL_MM)) {
+            return false;
+        }
+    }
+    const int tri[3] = {an->i, an->j, an->k};
+    for (int t = 0; t < 3; t++) {
+        const int c = q->blobs[tri[t]].cam;
+        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3(pose->C_w_b, q->rig->cam[c].r_bk_b));
+        if (!mfns_bidx_emits_toward(&q->idx->geom[abc[t]], q->map->beacon[abc[t]].p_w, ck)) {
+            return false;
+        }
+    }
+    return true;
 }
 
 /* ------------------------------------------------------------ enumeration */
@@ -628,7 +765,7 @@ static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b,
             sound_verify(q, &sols[s], an, abc);
             continue;
         }
-        if (!quick_check(q, &sols[s], an, abc)) {
+        if (!band_plausible(q, &sols[s], an, abc) || !quick_check(q, &sols[s], an, abc)) {
             continue;
         }
         mfns_acq_cand_t cd;
@@ -707,6 +844,9 @@ static void exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an)
 /* After the bands without a certified pose: a best candidate that explains
  * every blob (none unexplained, missing within the allowance) is unique if
  * the exhaustive enumeration of one anchor finds no other such candidate. */
+/* After the bands without a certified pose: a best candidate that explains
+ * every blob (none unexplained, missing within the allowance) is unique if
+ * the exhaustive enumeration of one anchor finds no other such candidate. */
 static void complete(mfns_acq_t *q)
 {
     /* the anchor to exhaust: one whose three blobs share an image (its pair
@@ -763,20 +903,30 @@ void mfns_acq_search(mfns_acq_t *q)
     make_anchors(q);
     /* Cheap anchors first: a band of an anchor whose third blob is in the
      * same image costs N (w1^2 - w0^2) pair look-ups, one whose third is in
-     * another camera N^2 (w1 - w0); so every band of the first kind comes
-     * before any of the second. */
-    for (int pass = 0; pass < 2 && !stop(q); pass++) {
-        int w0 = 0;
-        for (int w1 = 1; w0 < q->idx->k_nbr && !stop(q); w1 *= 2) {
-            const int w = w1 < q->idx->k_nbr ? w1 : q->idx->k_nbr;
+     * another camera N^2 (w1 - w0). The same-image anchors' first bands come
+     * first, then the cross anchors' first bands (a same-image triple may be
+     * too ill-conditioned for its verification to find the truth), then the
+     * rest of each kind (measured on 1,000 module views: 829 right against
+     * 824 with every same-image band first). */
+    static const struct {
+        uint8_t cross, w_max;
+    } sched[] = {{0u, SCHED_SAME_FIRST}, {1u, SCHED_CROSS_FIRST}, {0u, MFNS_BIDX_MAX_NBR}, {1u, MFNS_BIDX_MAX_NBR}};
+    int w_done[2] = {0, 0};
+    for (size_t st = 0; st < sizeof sched / sizeof sched[0] && !stop(q); st++) {
+        const int kind = sched[st].cross;
+        const int w_max = sched[st].w_max < q->idx->k_nbr ? sched[st].w_max : q->idx->k_nbr;
+        int w0 = w_done[kind];
+        for (int w1 = w0 == 0 ? 1 : 2 * w0; w0 < w_max && !stop(q); w1 *= 2) {
+            const int w = w1 < w_max ? w1 : w_max;
             q->progress.band = (uint8_t)w;
             for (int a = 0; a < q->na && !stop(q); a++) {
-                if (q->anchor[a].k >= 0 && q->anchor[a].cross == (pass == 1)) {
+                if (q->anchor[a].k >= 0 && (int)q->anchor[a].cross == kind) {
                     band(q, &q->anchor[a], w0, w);
                 }
             }
             w0 = w;
         }
+        w_done[kind] = w0;
     }
     q->progress.finished = !stop(q) || q->to_complete;
     if (!q->analysis && q->certified < 0) {

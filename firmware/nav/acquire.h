@@ -5,19 +5,25 @@
  *   1. anchors: pairs of blobs in one image, nearest pairs first (the
  *      nearest blob of a blob is, in the measured maps, the nearest beacon
  *      in space at the median); with each, a third blob (the anchor's next
- *      nearest in the same image, else a blob of another camera) and up to
- *      two verification blobs (the next ones after that);
+ *      nearest in the same image, else, at most two per pair, a blob of
+ *      another camera) and up to two verification blobs (the next ones
+ *      after that; for a pair alone in its image, the third blob's nearest
+ *      in its own image);
  *   2. bands: for anchor blobs (i, j, k) every beacon a with its neighbours
  *      b = nbr(a)[rb], c = nbr(a)[rc] (another camera's third: every c),
  *      in growing rank windows 1, 2, 4, .. k_nbr, so that likely hypotheses
  *      come first; each pair must admit its measured angle (pair intervals);
  *   3. the generalized P3P (pose_init.h) on the three rays, with the third
- *      beacon's range interval; every pose is checked on the verification
- *      blobs against the beacons near a, b, c (cheap), then associated in
+ *      beacon's range interval; every pose whose body origin is near the
+ *      workspace and that sees a, b, c from the front of their LEDs is
+ *      checked on the verification blobs against the beacons near a, b, c
+ *      (cheap; one of them may be left unexplained), then associated in
  *      pixels, refined (ML) and tested: chi-square of the residuals with
  *      per-observation variance (pixel noise plus the beacon's survey sigma
- *      projected at its range), and the count of beacons it predicts inside
- *      an image, facing the camera, that no blob explains ("missing");
+ *      projected at its range), physical (body origin inside the workspace
+ *      within its own 6 sigma, every inlier's LED facing its camera), and
+ *      the count of beacons it predicts inside an image, facing the camera,
+ *      that no blob explains ("missing");
  *   4. the certificate: a pose is a fix only with at least
  *      index.cert_inliers consistent inliers, at most index.max_missing
  *      missing beacons and at most index.max_unexplained blobs left
@@ -29,7 +35,9 @@
  *      bands end with a best candidate that explains every blob, one anchor
  *      is enumerated exhaustively (every admissible beacon triple); any
  *      other pose explaining every blob explains that anchor's three and is
- *      found there. Exactly one such pose within the allowances: the fix.
+ *      found there (a minimal pose is dropped only when its body origin is
+ *      outside the workspace by more than 6 sigma of its own propagated
+ *      covariance). Exactly one such pose within the allowances: the fix.
  *      Nothing else is reported
  *      as a fix: an unfinished search, or one that ends with only
  *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
