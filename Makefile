@@ -138,7 +138,9 @@ $(BUILD)/bin/mfns-ground: $(call obj,ground/main.c) $(LIBS_MFNS)
 # The portable core as a shared library for the Python host tools (ctypes):
 # host and flight share one implementation of the numerics.
 lib: build/host-sim/lib/libmfns_core.so
-build/host-sim/lib/libmfns_core.so: $(CORE_SRCS)
+# (the core's headers too: a changed struct must rebuild the library the
+# ctypes mirrors check their sizes against)
+build/host-sim/lib/libmfns_core.so: $(CORE_SRCS) $(wildcard $(addsuffix /*.h,$(CORE_DIRS)))
 	@mkdir -p $(@D)
 	gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(CORE_SRCS) -lm -o $@
 

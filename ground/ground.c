@@ -186,8 +186,12 @@ static int open_source(const ground_opts_t *o, mfns_uart_t *u)
     u->fd = -1;
     int rc;
     switch (o->src) {
-    case GROUND_SRC_SERIAL: rc = mfns_uart_open_serial(u, o->path, o->baud, MFNS_UART_READ); break;
-    case GROUND_SRC_TTY: rc = mfns_uart_open_path(u, o->path, o->baud, MFNS_UART_READ); break;
+    case GROUND_SRC_SERIAL:
+        rc = mfns_uart_open_serial(u, o->path, o->baud, o->source_rw ? MFNS_UART_RW : MFNS_UART_READ);
+        break;
+    case GROUND_SRC_TTY:
+        rc = mfns_uart_open_path(u, o->path, o->baud, o->source_rw ? MFNS_UART_RW : MFNS_UART_READ);
+        break;
     case GROUND_SRC_FILE:
         rc = strcmp(o->path, "-") == 0 ? mfns_uart_attach_fd(u, STDIN_FILENO, false, MFNS_UART_READ)
                                        : mfns_uart_open_path(u, o->path, 0, MFNS_UART_READ);
@@ -245,6 +249,9 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
         if (o->max_seconds > 0 && secs >= o->max_seconds) {
             break;
         }
+        if (o->hooks != NULL && o->hooks->poll != NULL) {
+            o->hooks->poll(o->hooks->ctx, &u, now); /* commands up, UDP commands in */
+        }
         uint8_t buf[4096];
         size_t got = 0;
         const int rc = mfns_uart_read(&u, buf, sizeof buf, &got, 100, now);
@@ -262,6 +269,9 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
                     rc_exit = 1;
                     done = 1;
                     break;
+                }
+                if (o->hooks != NULL && o->hooks->packet != NULL) {
+                    o->hooks->packet(o->hooks->ctx, &p); /* UDP forward */
                 }
                 if (p.type == TLM_TYPE_NAV) {
                     last_nav = p.u.nav;
@@ -294,6 +304,9 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
     if (show) {
         print_status(&dec.stats, &last_nav, have_nav, secs, link_down);
         fputc('\n', stderr);
+    }
+    if (o->hooks != NULL && o->hooks->finish != NULL) {
+        o->hooks->finish(o->hooks->ctx, &u);
     }
     mfns_uart_close(&u);
     if (rec != NULL && fclose(rec) != 0) {

@@ -12,6 +12,7 @@
 #include <stdio.h>
 
 #include "tlm_decoder.h"
+#include "uart.h"
 
 /* --baud default: the board's UART rate. */
 #ifdef MFNS_BOARD_BAUD
@@ -21,6 +22,17 @@
 #endif
 
 typedef enum { GROUND_SRC_NONE = 0, GROUND_SRC_SERIAL, GROUND_SRC_TTY, GROUND_SRC_FILE } ground_src_t;
+
+/* Hooks for the uplink and the UDP forwarder (ground/uplink.h), called from
+ * ground_run's loop: poll every iteration (<= 100 ms apart), packet for each
+ * decoded packet, finish before the source closes. src is the source link
+ * (commands go up on it with --uplink). */
+typedef struct {
+    void *ctx;
+    void (*poll)(void *ctx, mfns_uart_t *src, uint64_t now_ms);
+    void (*packet)(void *ctx, const tlm_packet_t *p);
+    void (*finish)(void *ctx, mfns_uart_t *src);
+} ground_hooks_t;
 
 typedef struct {
     ground_src_t src;
@@ -32,6 +44,8 @@ typedef struct {
     unsigned long max_frames; /* stop after this many good frames; 0 = unbounded */
     int status;               /* live status line: -1 auto (stderr is a tty), 0 off, 1 on */
     int quiet;                /* no link counters at exit */
+    int source_rw;            /* open the source read-write (commands on the same tty: --uplink) */
+    const ground_hooks_t *hooks; /* nullable: set by main.c (uplink, UDP) */
 } ground_opts_t;
 
 /* 0 ok, 1 when --help or --version was printed (exit 0), -1 usage error (message on err). */

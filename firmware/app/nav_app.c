@@ -10,6 +10,7 @@
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include "caltable_file.h"
 #include "mfns_version.h"
 #include "cycle_stats.h"
+#include "nav_cmd.h"
 #include "nav_cycle.h"
 #include "nav_tlm.h"
 #include "uart.h"
@@ -59,7 +61,11 @@ typedef struct {
  * start-up (the camera backends allocate their buffers when opened). */
 static struct {
     uint8_t table_buf[MFNS_CALTABLE_MAX_BYTES];
-    mfns_caltable_t table;
+    /* Two table slots: TABLE_LOAD validates into the spare one and swaps
+     * between cycles (cFS-style); a refused table never touches the live one. */
+    mfns_caltable_t tables[2];
+    int table_cur;           /* the slot the navigator uses */
+    mfns_pose_mode_t solver;
     mfns_nav_t nav;
     mfns_nav_output_t out;
     nav_tlm_t tlm;
@@ -77,7 +83,20 @@ static struct {
     uint64_t last_t_us;                   /* the last cycle's time: the flight clock */
     uint32_t n_acquire, acq_units_max; /* acquisition cycles; most work in the HK interval */
     mfns_acq_progress_t acq_last;      /* the last acquisition's progress */
+    /* uplink (nav_cmd.h, docs/uplink.md) */
+    nav_cmd_t cmd;
+    mfns_uart_t tc_uart;               /* --tc-tty / --tc-file (--uplink reads app.uart) */
+    uint8_t tc_rx[256];                /* bytes read and not yet fed to the handler */
+    size_t tc_len, tc_off;
+    bool tc_eof, tc_error_printed;
+    bool standby;                      /* SET_MODE standby: frames flow, the navigator does not run */
+    bool cam_enabled[MFNS_NUM_CAMERAS];
 } app;
+
+#define TABLE (app.tables[app.table_cur])
+
+static uint8_t tlm_mode_now(void);
+static uint8_t cams_enabled_mask(void);
 
 static volatile sig_atomic_t stop_requested;
 
@@ -116,9 +135,13 @@ static void usage(FILE *f)
             "  --file PATH         telemetry recorded to a file (created/truncated)\n"
             "                      (--tlm-serial, --tlm-tty, --tlm-file: the same, older spelling)\n"
             "  --baud N            UART baud rate (default %d, board %s)\n"
+            "  --tc-tty PATH       telecommands from a tty, pseudo-terminal or FIFO (docs/uplink.md)\n"
+            "  --tc-file PATH      telecommand frames recorded in a file, read to its end\n"
+            "  --uplink            telecommands on the telemetry link itself (--tty/--serial, read-write)\n"
             "  --max-cycles N      stop after N cycles\n"
             "  --init-pose X,Y,Z,ROLL,PITCH,YAW   start tracking from this pose (mm, deg;\n"
             "                      e.g. the docking port); falls back to acquisition if wrong\n"
+            "                      (for replays; in operation the ground sends SET_POSE_HINT)\n"
             "  --paper             use the paper's Eq. 3 Newton solver (baseline) instead of ML\n"
             "  -v, --verbose       one line per cycle on stderr\n"
             "  -q, --quiet         no summary line at the end (errors still go to stderr)\n"
@@ -168,7 +191,7 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
-           O_SYNC_WINDOW };
+           O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -184,6 +207,8 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
         /* the transport spelling shared with mfns-ground and mfns-tlm-gen (README) */
         {"serial", required_argument, NULL, O_SERIAL},   {"tty", required_argument, NULL, O_TTY},
         {"file", required_argument, NULL, O_FILE},
+        {"tc-tty", required_argument, NULL, O_TC_TTY}, {"tc-file", required_argument, NULL, O_TC_FILE},
+        {"uplink", no_argument, NULL, O_UPLINK},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -252,6 +277,16 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
             o->tlm_kind = c == O_SERIAL ? NAV_TLM_SERIAL : (c == O_TTY ? NAV_TLM_PATH : NAV_TLM_FILE);
             o->tlm_target = optarg;
             break;
+        case O_TC_TTY:
+        case O_TC_FILE:
+        case O_UPLINK:
+            if (o->tc_kind != NAV_TC_NONE) {
+                fprintf(err, "mfns-nav: give one telecommand input (--tc-tty, --tc-file or --uplink)\n");
+                return -1;
+            }
+            o->tc_kind = c == O_TC_TTY ? NAV_TC_PATH : (c == O_TC_FILE ? NAV_TC_FILE : NAV_TC_LINK);
+            o->tc_target = c == O_UPLINK ? NULL : optarg;
+            break;
         case O_BAUD:
             if (!parse_u32(optarg, 1200, 4000000, &o->baud)) {
                 fprintf(err, "mfns-nav: --baud wants 1200..4000000, got '%s'\n", optarg);
@@ -306,6 +341,10 @@ int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE
         fprintf(err, "mfns-nav: choose the cameras: --replay DIR, --v4l2 or --libcamera (see --help)\n");
         return -1;
     }
+    if (o->tc_kind == NAV_TC_LINK && o->tlm_kind != NAV_TLM_SERIAL && o->tlm_kind != NAV_TLM_PATH) {
+        fprintf(err, "mfns-nav: --uplink reads commands from the telemetry link: give --serial or --tty\n");
+        return -1;
+    }
     for (int k = 0; k < 3; k++) {
         if (cam_override[k] != NULL) {
             if (o->backend == MFNS_CAM_BACKEND_REPLAY) {
@@ -330,14 +369,23 @@ static void send_event(uint32_t cycle, uint64_t t_us, tlm_event_code_t code, tlm
 static int open_tlm(const nav_app_opts_t *o)
 {
     int rc = MFNS_UART_OK;
+    struct stat st;
+    if (o->tc_kind == NAV_TC_LINK && o->tlm_kind == NAV_TLM_PATH && stat(o->tlm_target, &st) == 0 &&
+        S_ISFIFO(st.st_mode)) {
+        /* a FIFO carries one direction: read-write would read our own telemetry back */
+        fprintf(stderr, "mfns-nav: --uplink needs a tty; for a FIFO give the commands their own: --tc-tty PATH\n");
+        return -1;
+    }
     switch (o->tlm_kind) {
     case NAV_TLM_NONE:
         return 0;
     case NAV_TLM_SERIAL:
-        rc = mfns_uart_open_serial(&app.uart, o->tlm_target, o->baud, MFNS_UART_WRITE);
+        rc = mfns_uart_open_serial(&app.uart, o->tlm_target, o->baud,
+                                   o->tc_kind == NAV_TC_LINK ? MFNS_UART_RW : MFNS_UART_WRITE);
         break;
     case NAV_TLM_PATH:
-        rc = mfns_uart_open_path(&app.uart, o->tlm_target, o->baud, MFNS_UART_WRITE);
+        rc = mfns_uart_open_path(&app.uart, o->tlm_target, o->baud,
+                                 o->tc_kind == NAV_TC_LINK ? MFNS_UART_RW : MFNS_UART_WRITE);
         break;
     case NAV_TLM_FILE: {
         const int fd = open(o->tlm_target, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -401,8 +449,8 @@ static mfns_cam_err_t open_camera(const nav_app_opts_t *o, int k, bool resume, u
     s.replay_resume = resume;
     s.replay_resume_after_ns = after_us * 1000u;
     s.recover_attempts = 20;
-    s.width = app.table.rig.cam[k].k.width;
-    s.height = app.table.rig.cam[k].k.height;
+    s.width = TABLE.rig.cam[k].k.width;
+    s.height = TABLE.rig.cam[k].k.height;
     cam_slot_t *c = &app.cs[k];
     mfns_cam_err_t e = mfns_cam_open(&s, &c->cam, msg, msg_size);
     if (e != MFNS_CAM_OK) {
@@ -525,7 +573,7 @@ static void housekeeping(uint32_t cycle, uint32_t n_cycles, uint64_t t_us, uint3
     p.time = tlm_time_from_us(t_us);
     tlm_hk_t *h = &p.u.hk;
     h->cycle = cycle;
-    h->mode = nav_tlm_mode(app.nav.mode);
+    h->mode = tlm_mode_now();
     h->cpu_load_permille = (uint16_t)(10.0f * mfns_cycle_stats_cpu_load_pct(&app.stats));
     h->cycle_p50_us = mfns_cycle_stats_percentile(&app.stats, 50.0f);
     h->cycle_p95_us = mfns_cycle_stats_percentile(&app.stats, 95.0f);
@@ -535,7 +583,10 @@ static void housekeeping(uint32_t cycle, uint32_t n_cycles, uint64_t t_us, uint3
     h->n_fix = app.n_fix;
     h->n_degraded = app.n_degraded;
     h->n_no_fix = app.n_no_fix;
-    h->cams_enabled = (uint8_t)((1u << MFNS_NUM_CAMERAS) - 1u); /* the uplink (CAMERA_DISABLE) clears bits */
+    h->cams_enabled = cams_enabled_mask(); /* CAMERA_DISABLE clears bits */
+    h->n_cmd_accepted = app.cmd.n_accepted;
+    h->n_cmd_rejected = app.cmd.n_rejected;
+    h->cmd_seq_last = app.cmd.seq_last;
     h->n_tlm_dropped = app.tlm.q.dropped;
     h->n_cam_errors = (uint32_t)(app.cam_errors > UINT32_MAX ? UINT32_MAX : app.cam_errors);
     h->table_crc32 = table_crc;
@@ -569,6 +620,7 @@ static void close_all(const nav_app_opts_t *o)
         }
         mfns_uart_close(&app.uart);
     }
+    mfns_uart_close(&app.tc_uart);
 }
 
 /* One stderr line per fault, the first FAULT_LINES of each kind per camera. */
@@ -655,6 +707,9 @@ static void camera_health(const nav_app_opts_t *o, uint32_t cycle, uint64_t t_us
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         cam_slot_t *c = &app.cs[k];
+        if (!app.cam_enabled[k]) {
+            continue; /* disabled by command: neither LOST nor re-opened */
+        }
         const cam_health_event_t ev = cam_health_update(&c->health, c->used);
         if (ev == CAM_HEALTH_EV_LOST) {
             c->n_lost++;
@@ -725,9 +780,213 @@ static void print_summary(const char *why, uint32_t cycle, uint32_t lost_frames,
                     c->n_reopens, c->ended_reported ? ", frames ended early" : "");
         }
     }
+    if (app.cmd.rx.frames > 0) {
+        fprintf(stderr, "mfns-nav: commands: %u accepted, %u rejected (since boot or RESET_COUNTERS)\n",
+                app.cmd.n_accepted, app.cmd.n_rejected);
+    }
     if (app.tlm_write_errors > 0 || lost_frames > 0) {
         fprintf(stderr, "mfns-nav: telemetry: %u frames produced, %u sent, %u lost (%u write errors)\n", produced,
                 app.tlm.q.sent, lost_frames, app.tlm_write_errors);
+    }
+}
+
+/* ---- telecommands (nav_cmd.h, docs/uplink.md) ---- */
+
+/* The pose of x, y, z (mm) and 2-1-3 Euler roll, pitch, yaw (deg), as a
+ * navigator prior: --init-pose and SET_POSE_HINT share it. */
+static mfns_nav_status_t set_prior_from(float x, float y, float z, float roll_deg, float pitch_deg, float yaw_deg)
+{
+    const float d2r = 0.017453292519943295f;
+    const mfns_euler_t e = {roll_deg * d2r, pitch_deg * d2r, yaw_deg * d2r};
+    const mfns_pose_t p0 = mfns_pose_from_position(mfns_euler213_to_m3(e), mfns_v3(x, y, z));
+    return mfns_nav_set_prior(&app.nav, &p0);
+}
+
+static uint8_t cams_enabled_mask(void)
+{
+    unsigned m = 0;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        m |= app.cam_enabled[k] ? (1u << k) : 0u;
+    }
+    return (uint8_t)m;
+}
+
+static uint8_t tlm_mode_now(void)
+{
+    return app.standby ? (uint8_t)TLM_MODE_STANDBY : nav_tlm_mode(app.nav.mode);
+}
+
+static void cmd_event(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0, int32_t a1)
+{
+    (void)ctx;
+    send_event(app.cycle_now, app.last_t_us, code, sev, subject, a0, a1);
+    if (code == TLM_EVT_CMD_ACCEPTED) {
+        fprintf(stderr, "mfns-nav: cycle %u: command %s (seq %d) accepted\n", app.cycle_now, tc_opcode_name(subject),
+                (int)a0);
+    } else {
+        fprintf(stderr, "mfns-nav: cycle %u: command %s (seq %d) rejected: %s\n", app.cycle_now,
+                subject != 0u ? tc_opcode_name(subject) : "-", (int)a0, tc_strerror((int)a1));
+    }
+}
+
+static tc_status_t cmd_set_mode(void *ctx, uint8_t mode, int32_t *arg1)
+{
+    (void)ctx;
+    const uint8_t before = tlm_mode_now();
+    if (mode == TLM_MODE_TRACK && !app.nav.have_prior) {
+        return TC_E_STATE; /* nothing to track from: send SET_POSE_HINT first */
+    }
+    if (mode == TLM_MODE_STANDBY) {
+        app.standby = true;
+    } else if (mode == TLM_MODE_ACQUIRE) {
+        app.standby = false;
+        mfns_nav_lose_track(&app.nav);
+    } else if (mode == TLM_MODE_TRACK) {
+        const mfns_pose_t prior = app.nav.prior;
+        if (mfns_nav_set_prior(&app.nav, &prior) != MFNS_NAV_OK) {
+            return TC_E_STATE;
+        }
+        app.standby = false;
+    } else {
+        return TC_E_ARG;
+    }
+    *arg1 = mode;
+    const uint8_t after = tlm_mode_now();
+    if (after != before) {
+        send_event(app.cycle_now, app.last_t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, 0, before, after);
+    }
+    return TC_OK;
+}
+
+static tc_status_t cmd_set_pose_hint(void *ctx, const tc_pose_hint_t *h, int32_t *arg1)
+{
+    (void)ctx;
+    (void)arg1;
+    /* a prior for the next cycles, verified there like any other: never a fix by itself */
+    const mfns_nav_status_t st =
+        set_prior_from((float)h->pos_um[0] * 1e-3f, (float)h->pos_um[1] * 1e-3f, (float)h->pos_um[2] * 1e-3f,
+                       (float)h->att_udeg[0] * 1e-6f, (float)h->att_udeg[1] * 1e-6f, (float)h->att_udeg[2] * 1e-6f);
+    return st == MFNS_NAV_OK ? TC_OK : TC_E_ARG;
+}
+
+static tc_status_t cmd_camera_enable(void *ctx, uint8_t k, bool enable, int32_t *arg1)
+{
+    (void)ctx;
+    if (k >= MFNS_NUM_CAMERAS) {
+        return TC_E_ARG;
+    }
+    app.cam_enabled[k] = enable;
+    *arg1 = cams_enabled_mask();
+    return TC_OK;
+}
+
+/* TABLE_LOAD: read and validate completely into the spare slot, then bind the
+ * navigator to it (between cycles, so no cycle ever sees half a table). The
+ * old table keeps running on any failure. */
+static tc_status_t cmd_table_load(void *ctx, const char *path, int32_t *arg1)
+{
+    (void)ctx;
+    const int spare = 1 - app.table_cur;
+    mfns_caltable_t *nt = &app.tables[spare];
+    uint32_t off = 0;
+    mfns_caltable_status_t ts = mfns_caltable_load_file(path, app.table_buf, sizeof app.table_buf, nt, &off);
+    if (ts == MFNS_CALTABLE_OK) {
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            if (nt->rig.cam[k].k.width != TABLE.rig.cam[k].k.width ||
+                nt->rig.cam[k].k.height != TABLE.rig.cam[k].k.height) {
+                ts = MFNS_CALTABLE_E_IMAGE_SIZE; /* the cameras are open at the old size */
+            }
+        }
+    }
+    const bool had_prior = app.nav.have_prior;
+    const mfns_pose_t prior = app.nav.prior;
+    if (ts == MFNS_CALTABLE_OK && mfns_nav_init(&app.nav, nt, app.solver) != MFNS_NAV_OK) {
+        ts = MFNS_CALTABLE_E_SOLVER_SETTINGS;
+        if (mfns_nav_init(&app.nav, &TABLE, app.solver) != MFNS_NAV_OK) {
+            fprintf(stderr, "mfns-nav: re-binding the old table failed\n"); /* it was bound before: cannot happen */
+        }
+    }
+    if (ts != MFNS_CALTABLE_OK) {
+        fprintf(stderr, "mfns-nav: TABLE_LOAD %s refused: %s (at byte %u); the old table (crc %08x) stays\n", path,
+                mfns_caltable_strerror(ts), off, TABLE.crc32);
+        send_event(app.cycle_now, app.last_t_us, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, 0, (int32_t)ts, 0);
+        if (had_prior) {
+            (void)mfns_nav_set_prior(&app.nav, &prior);
+        }
+        return TC_E_TABLE;
+    }
+    app.table_cur = spare;
+    if (had_prior) {
+        (void)mfns_nav_set_prior(&app.nav, &prior); /* confirmed by the new table's beacons, or dropped */
+    }
+    send_event(app.cycle_now, app.last_t_us, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, TABLE.format_version,
+               (int32_t)TABLE.crc32);
+    *arg1 = (int32_t)TABLE.crc32;
+    return TC_OK;
+}
+
+static void cmd_reset_counters(void *ctx)
+{
+    (void)ctx;
+    app.cam_errors = 0;
+}
+
+static const nav_cmd_ops_t k_cmd_ops = {NULL,           cmd_set_mode,       cmd_set_pose_hint, cmd_camera_enable,
+                                        cmd_table_load, cmd_reset_counters, cmd_event};
+
+static int open_tc(const nav_app_opts_t *o)
+{
+    nav_cmd_init(&app.cmd);
+    memset(&app.tc_uart, 0, sizeof app.tc_uart);
+    app.tc_uart.fd = -1;
+    if (o->tc_kind == NAV_TC_NONE || o->tc_kind == NAV_TC_LINK) {
+        return 0;
+    }
+    const int rc = mfns_uart_open_path(&app.tc_uart, o->tc_target, o->baud, MFNS_UART_READ);
+    if (rc == MFNS_UART_ERR_OPEN && o->tc_kind == NAV_TC_PATH) {
+        fprintf(stderr, "mfns-nav: telecommands %s not available yet (%s): retrying\n", o->tc_target,
+                strerror(app.tc_uart.last_errno));
+        return 0;
+    }
+    if (rc != MFNS_UART_OK) {
+        fprintf(stderr, "mfns-nav: telecommands %s: %s\n", o->tc_target, mfns_uart_strerror(rc));
+        return -1;
+    }
+    return 0;
+}
+
+/* Between cycles: read what the uplink has now (never waits) and handle at
+ * most NAV_CMD_MAX_PER_CYCLE commands; the rest waits for the next cycle. */
+static void poll_commands(const nav_app_opts_t *o)
+{
+    if (o->tc_kind == NAV_TC_NONE) {
+        return;
+    }
+    mfns_uart_t *u = o->tc_kind == NAV_TC_LINK ? &app.uart : &app.tc_uart;
+    unsigned left = NAV_CMD_MAX_PER_CYCLE;
+    for (int round = 0; round < 4 && left > 0u; round++) {
+        if (app.tc_off == app.tc_len) {
+            if (app.tc_eof) {
+                return;
+            }
+            size_t got = 0;
+            const int rc = mfns_uart_read(u, app.tc_rx, sizeof app.tc_rx, &got, 0, now_us() / 1000u);
+            if (rc == MFNS_UART_EOF) {
+                app.tc_eof = true; /* a recorded command file ended */
+            } else if ((rc == MFNS_UART_ERR_IO || rc == MFNS_UART_ERR_ARG) && !app.tc_error_printed) {
+                app.tc_error_printed = true;
+                fprintf(stderr, "mfns-nav: telecommand read failed: %s\n", mfns_uart_strerror(rc));
+            }
+            if (got == 0u) {
+                return;
+            }
+            app.tc_len = got;
+            app.tc_off = 0;
+        }
+        unsigned handled = 0;
+        app.tc_off += nav_cmd_feed(&app.cmd, app.tc_rx + app.tc_off, app.tc_len - app.tc_off, left, &k_cmd_ops,
+                                   &handled);
+        left -= handled;
     }
 }
 
@@ -743,8 +1002,13 @@ int nav_app_run(const nav_app_opts_t *o)
     }
     nav_tlm_init(&app.tlm);
     mfns_cycle_stats_reset(&app.stats);
+    app.solver = o->solver;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        app.cam_enabled[k] = true;
+    }
     cam_sync_init(&app.sync, o->sync_window_us);
-    if (open_tlm(o) != 0) {
+    if (open_tlm(o) != 0 || open_tc(o) != 0) {
+        mfns_uart_close(&app.uart);
         return 2;
     }
     const uint64_t t0 = now_us();
@@ -752,7 +1016,7 @@ int nav_app_run(const nav_app_opts_t *o)
 
     uint32_t err_off = 0;
     const mfns_caltable_status_t ts =
-        mfns_caltable_load_file(o->table_path, app.table_buf, sizeof app.table_buf, &app.table, &err_off);
+        mfns_caltable_load_file(o->table_path, app.table_buf, sizeof app.table_buf, &TABLE, &err_off);
     if (ts != MFNS_CALTABLE_OK) {
         fprintf(stderr, "mfns-nav: calibration table %s refused: %s (at byte %u)\n", o->table_path,
                 mfns_caltable_strerror(ts), err_off);
@@ -760,17 +1024,14 @@ int nav_app_run(const nav_app_opts_t *o)
         close_all(o);
         return 2;
     }
-    send_event(0, 0, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, app.table.format_version, (int32_t)app.table.crc32);
-    if (mfns_nav_init(&app.nav, &app.table, o->solver) != MFNS_NAV_OK || open_cameras(o) != 0) {
+    send_event(0, 0, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, TABLE.format_version, (int32_t)TABLE.crc32);
+    if (mfns_nav_init(&app.nav, &TABLE, o->solver) != MFNS_NAV_OK || open_cameras(o) != 0) {
         close_all(o);
         return 2;
     }
     if (o->have_init_pose) {
-        const float d2r = 0.017453292519943295f;
-        const mfns_euler_t e = {o->init_pose[3] * d2r, o->init_pose[4] * d2r, o->init_pose[5] * d2r};
-        const mfns_pose_t p0 = mfns_pose_from_position(mfns_euler213_to_m3(e),
-                                                       mfns_v3(o->init_pose[0], o->init_pose[1], o->init_pose[2]));
-        if (mfns_nav_set_prior(&app.nav, &p0) != MFNS_NAV_OK) {
+        if (set_prior_from(o->init_pose[0], o->init_pose[1], o->init_pose[2], o->init_pose[3], o->init_pose[4],
+                           o->init_pose[5]) != MFNS_NAV_OK) {
             fprintf(stderr, "mfns-nav: --init-pose refused\n");
             close_all(o);
             return 2;
@@ -788,6 +1049,7 @@ int nav_app_run(const nav_app_opts_t *o)
             break;
         }
         app.cycle_now = cycle;
+        poll_commands(o); /* between cycles: the previous cycle's telemetry is out */
         mfns_cam_frame_t fr[MFNS_NUM_CAMERAS];
         memset(fr, 0, sizeof fr);
         bool have[MFNS_NUM_CAMERAS] = {false, false, false};
@@ -799,6 +1061,13 @@ int nav_app_run(const nav_app_opts_t *o)
             app.cs[k].used = false;
             have[k] = gather(o, k, cycle, app.sync.have_last ? app.sync.last_us : prog_us, &fr[k], &ended[k]);
             t_frame[k] = fr[k].timestamp_ns / 1000u;
+            if (have[k] && !app.cam_enabled[k]) {
+                /* CAMERA_DISABLE: its frames keep flowing (no driver backlog) but are not fused */
+                if (mfns_cam_requeue(app.cs[k].cam, &fr[k]) != MFNS_CAM_OK) {
+                    app.cam_errors++;
+                }
+                have[k] = false;
+            }
             if (app.cs[k].health.state != CAM_HEALTH_ENDED && !ended[k]) {
                 active++;
             }
@@ -848,7 +1117,15 @@ int nav_app_run(const nav_app_opts_t *o)
             }
         }
         const mfns_nav_mode_t before = app.nav.mode;
-        const mfns_nav_status_t ns = mfns_nav_cycle(&app.nav, frames, &app.out);
+        mfns_nav_status_t ns = MFNS_NAV_OK;
+        if (app.standby) {
+            /* SET_MODE standby: cameras keep delivering, the navigator does not run */
+            memset(&app.out, 0, sizeof app.out);
+            app.out.sol.status = MFNS_POSE_NO_FIX;
+            app.out.mode = app.out.next_mode = app.nav.mode;
+        } else {
+            ns = mfns_nav_cycle(&app.nav, frames, &app.out);
+        }
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
             if (verdict[k] == CAM_SYNC_USE && mfns_cam_requeue(app.cs[k].cam, &fr[k]) != MFNS_CAM_OK) {
                 app.cam_errors++;
@@ -865,6 +1142,9 @@ int nav_app_run(const nav_app_opts_t *o)
         }
         tlm_packet_t p;
         nav_tlm_nav_packet(&app.out, cycle, t_us, &p);
+        if (app.standby) {
+            p.u.nav.mode = TLM_MODE_STANDBY;
+        }
         /* counted from the packet itself, so the log, housekeeping and
          * nav.csv say the same (a pose the packet refuses is NO_FIX) */
         if (p.u.nav.status == TLM_NAV_FIX) {
@@ -887,7 +1167,7 @@ int nav_app_run(const nav_app_opts_t *o)
         mfns_cycle_stats_add(&app.stats, (uint32_t)(end - start), (uint32_t)(start - prev_start));
         prev_start = start;
         if (t_us - last_hk_us >= 1000000u || cycle == 0) {
-            housekeeping(cycle, cycle + 1u, t_us, app.table.crc32);
+            housekeeping(cycle, cycle + 1u, t_us, TABLE.crc32);
             last_hk_us = t_us;
         }
         pump_tlm(o);
@@ -921,7 +1201,7 @@ int nav_app_run(const nav_app_opts_t *o)
     /* The final report: stamped with the flight clock (the last cycle's
      * time, so time never runs backwards on the ground) and counting the
      * cycles that ran (cycle is their number here on every exit path). */
-    housekeeping(cycle > 0u ? cycle - 1u : 0u, cycle, app.last_t_us, app.table.crc32);
+    housekeeping(cycle > 0u ? cycle - 1u : 0u, cycle, app.last_t_us, TABLE.crc32);
     close_all(o);
     /* Exact: every frame produced was sent, dropped by the queue, or is still
      * queued (never sent) now. */

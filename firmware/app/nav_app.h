@@ -24,6 +24,10 @@
  * The transmit queue drops the oldest frames rather than ever blocking the
  * loop.
  *
+ * Telecommands (nav_cmd.h) are read without blocking and acted on between
+ * cycles, at most NAV_CMD_MAX_PER_CYCLE per cycle, each answered by a
+ * CMD_ACCEPTED or CMD_REJECTED event.
+ *
  * The loop ends at the end of replayed data, after max_cycles, on SIGINT or
  * SIGTERM, or when every (non-replay) camera is gone for good.
  */
@@ -38,6 +42,10 @@
 #include "pose.h"
 
 typedef enum { NAV_TLM_NONE = 0, NAV_TLM_SERIAL, NAV_TLM_PATH, NAV_TLM_FILE } nav_tlm_kind_t;
+/* Where telecommands come from (docs/uplink.md): none, a tty/pty/FIFO by path
+ * (--tc-tty), a file of recorded frames read to its end (--tc-file), or the
+ * telemetry link itself, opened read-write (--uplink; a tty or serial port). */
+typedef enum { NAV_TC_NONE = 0, NAV_TC_PATH, NAV_TC_FILE, NAV_TC_LINK } nav_tc_kind_t;
 
 typedef struct {
     const char *table_path;
@@ -48,6 +56,8 @@ typedef struct {
     uint32_t sync_window_us;   /* frames fused in one cycle lie within this (cam_sync.h) */
     nav_tlm_kind_t tlm_kind;
     const char *tlm_target;    /* serial port, tty/FIFO path, or output file */
+    nav_tc_kind_t tc_kind;     /* telecommand input */
+    const char *tc_target;     /* its path (NAV_TC_PATH, NAV_TC_FILE) */
     uint32_t baud;
     uint32_t max_cycles;       /* 0 = until the data ends or a signal */
     mfns_pose_mode_t solver;

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from . import nees as nees_mod
 from . import report as rpt
 from .calib_results import load as load_calib
 from .errors import MfnsError
@@ -311,8 +312,23 @@ def navigation_section(runs: list[Run]) -> list[str]:
             "| cycles with a fix | | (not given) |"
             + "".join(f" {r.report.n_used if r.report else 0} of {len(r.nav.t_s)} |" for r in exp_runs)
         )
+        lines.append(
+            "| mean NEES (6 expected) | | (not given) |" + "".join(_nees_cell(r, "mean") for r in exp_runs)
+        )
+        lines.append(
+            "| fixes inside the χ²(6) 95 % / 99 % bounds "
+            f"({nees_mod.BOUND_95:.2f} / {nees_mod.BOUND_99:.2f}) | | (not given) |"
+            + "".join(_nees_cell(r, "inside") for r in exp_runs)
+        )
         lines.append("")
     lines += [
+        "The NEES rows check the covariance each fix was reported with (`mfns report`, "
+        "docs/error-analysis.md): e^T P^-1 e of the 6-DOF error against truth, chi-square with 6 "
+        "degrees of freedom when P is right: a mean of 6 (the bracket is its 95 % interval for that "
+        "many independent fixes), 95 % and 99 % of the fixes inside the bounds. Above: the covariance "
+        'is too small (a fusion filter would over-trust the fix); below: too large. "diagonal" marks '
+        "a nav.csv without the covariance columns, checked with its six 1-sigma columns only.",
+        "",
         "Reading it: with the true rig the errors are the centroid noise alone; the refined calibration "
         "adds its small residual errors; the paper-method calibration adds the chained least-squares "
         "errors of section 1, which is the effect the paper's Table 5 measures on real hardware (with "
@@ -320,6 +336,18 @@ def navigation_section(runs: list[Run]) -> list[str]:
         "",
     ]
     return lines
+
+
+def _nees_cell(r: Run, what: str) -> str:
+    """One run's NEES cell in the Table 5-style table (section 2)."""
+    res = r.report.nees if r.report is not None else None
+    if res is None or not res.n:
+        return " - |"
+    tag = " (diagonal)" if res.kind == nees_mod.DIAGONAL else ""
+    if what == "mean":
+        lo, hi = res.mean_interval()
+        return f" {res.mean:.2f} [{lo:.2f}-{hi:.2f}]{tag} |"
+    return f" {100 * res.frac_95:.0f} % / {100 * res.frac_99:.0f} %{tag} |"
 
 
 def _in_view(frames_dir: Path) -> dict[int, Counter] | None:

@@ -9,16 +9,22 @@ versus time and versus the true yaw) and a Table 5-style summary: mean and
 
 Without truth the same statistics describe the estimates themselves (useful
 for a static test, where the spread is the noise).
+
+With truth, the covariance the flight code reported with each fix is checked against the
+actual error: the NEES of mfns.nees (full 6x6 covariance columns, or the diagonal 1-sigma
+columns of an older nav.csv), in summary.md, summary.json and nees.png.
 """
 
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+import json
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from . import nees as N
 from . import validate as V
 from .errors import MfnsError
 
@@ -41,6 +47,8 @@ class NavLog:
     t_s: np.ndarray
     status: np.ndarray  # str
     values: dict[str, np.ndarray]  # axis -> value (deg or mm)
+    # optional columns (mfns.nees: covariance, quaternion, 1-sigma), NaN where a field is empty
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass
@@ -70,6 +78,7 @@ class Report:
     n_rejected_status: int
     n_unmatched: int
     status: np.ndarray | None = None  # status of each used row (FIX, DEGRADED, ...)
+    nees: N.Nees | None = None  # covariance consistency (with truth and covariance columns)
 
 
 MAX_CSV_BYTES = 256 * V.MIB  # ~1.3 M rows of nav.csv: 19 hours at 18.6 Hz
@@ -85,16 +94,43 @@ def _floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
     )
 
 
+def _optional_floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
+    """A column a row may leave empty (no covariance without a fix) or fill with a non-finite
+    value (nan, inf: a covariance the flight code could not give). Such a row is counted as
+    one without a usable covariance (mfns.nees); text that is no number is refused."""
+    out = np.empty(len(rows))
+    for i, r in enumerate(rows):
+        t = r[col].strip()
+        if not t:
+            out[i] = np.nan
+            continue
+        try:
+            out[i] = float(t)
+        except ValueError:
+            raise MfnsError(f"{path} line {i + 2} {col}: {r[col]!r} is not a number") from None
+    return out
+
+
 def load_nav(path: Path) -> NavLog:
     """nav.csv of mfns-ground (a folder is read as FOLDER/nav.csv)."""
     path = Path(path)
     if path.is_dir():
         path = path / "nav.csv"
-    rows = _read_csv(path, ["t_s", "status", *NAV_COLUMNS.values()], "navigation CSV (nav.csv)")
+    what = "navigation CSV (nav.csv)"
+    rows = _read_csv(path, ["t_s", "status", *NAV_COLUMNS.values()], what)
+    header = list(rows[0].keys()) if rows else []
+    N.check_columns(header, f"{what} {path}")
+    extra = {
+        c: _optional_floats(rows, c, path)
+        for group in (N.COV_COLUMNS, N.QUAT_COLUMNS, N.SIGMA_COLUMNS)
+        if all(c in header for c in group)
+        for c in group
+    }
     return NavLog(
         t_s=_floats(rows, "t_s", path),
         status=np.array([r["status"] for r in rows], dtype=object),
         values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()},
+        extra=extra,
     )
 
 
@@ -158,6 +194,7 @@ def build_report(
     n_rejected = int(n_rows - np.count_nonzero(keep))
     n_unmatched = 0
     truth_yaw = None
+    nees = None
     if truth is not None:
         idx = match_by_time(nav.t_s, truth.t_s, tolerance_s)
         n_unmatched = int(np.count_nonzero(keep & (idx < 0)))
@@ -168,6 +205,16 @@ def build_report(
             d = nav.values[a][keep] - truth.values[a][idx]
             series[a] = wrap_deg(d) if UNITS[a] == "deg" else d
         truth_yaw = truth.values["yaw"][idx]
+        eul = ("roll", "pitch", "yaw")
+        if len(idx):
+            nees = N.compute(
+                nav.t_s[keep],
+                np.column_stack([series[a] for a in ("x", "y", "z")]),
+                np.column_stack([series[a] for a in eul]),
+                {c: v[keep] for c, v in nav.extra.items()},
+                np.column_stack([nav.values[a][keep] for a in eul]),
+                np.column_stack([truth.values[a][idx] for a in eul]),
+            )
     else:
         series = {a: nav.values[a][keep] for a in AXES}
     n_used = int(np.count_nonzero(keep))
@@ -187,6 +234,7 @@ def build_report(
         n_rejected_status=n_rejected,
         n_unmatched=n_unmatched,
         status=nav.status[keep],
+        nees=nees,
     )
 
 
@@ -205,7 +253,39 @@ def summary_markdown(rep: Report, title: str | None = None) -> str:
         + (f", {rep.n_unmatched} without truth within tolerance" if rep.with_truth else "")
         + "."
     )
-    return "\n".join(lines) + "\n"
+    lines.append("")
+    if rep.nees is not None:
+        lines += N.markdown(rep.nees)
+    elif rep.with_truth:
+        lines += ["No covariance check: nav.csv has neither covariance (cov_*) nor 1-sigma columns.", ""]
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def summary_json(rep: Report, title: str | None = None) -> dict:
+    """The summary as data: statistics per axis and the covariance consistency (NEES)."""
+    return {
+        "title": title,
+        "kind": "error" if rep.with_truth else "estimate",
+        "n_rows": rep.n_rows,
+        "n_used": rep.n_used,
+        "n_rejected_status": rep.n_rejected_status,
+        "n_unmatched": rep.n_unmatched,
+        "axes": [
+            {
+                "axis": s.axis,
+                "unit": s.unit,
+                "mean": s.mean if np.isfinite(s.mean) else None,
+                "sigma": s.sigma if np.isfinite(s.sigma) else None,
+                "n": s.n,
+            }
+            for s in rep.stats
+        ],
+        "nees": rep.nees.to_json() if rep.nees is not None else None,
+    }
+
+
+def write_summary_json(rep: Report, path: Path, title: str | None = None) -> None:
+    Path(path).write_text(json.dumps(summary_json(rep, title), indent=2) + "\n")
 
 
 def write_summary_csv(rep: Report, path: Path) -> None:
@@ -267,4 +347,8 @@ def write_plots(rep: Report, out_dir: Path, title: str | None = None) -> list[Pa
             "nav_errors_vs_yaw.png",
             f"{run}MFNS navigation {label}s vs yaw{used}",
         )
+    if rep.nees is not None and rep.nees.n:
+        p = out_dir / "nees.png"
+        N.plot(rep.nees, p, title)
+        written.append(p)
     return written

@@ -291,6 +291,39 @@ def test_same_seed_same_files_other_seed_other_map(tmp_path):
     assert digest(a, "cam_x/000000.pgm") != digest(c, "cam_x/000000.pgm")
 
 
+def test_survey_error_displaces_the_rendered_beacons_not_the_map(tmp_path):
+    """--survey-error: the LEDs are rendered off their map positions by their sigma_mm; the
+    map, the trajectory and the truth stay those of the seed."""
+    args = ("--scenario", "module", "--frames", "3", "--seed", "11")
+    a = _sim(tmp_path / "a", *args)
+    b = _sim(tmp_path / "b", *args, "--survey-error")
+    assert (a / "beacons.csv").read_bytes() == (b / "beacons.csv").read_bytes()
+    assert (a / "truth.csv").read_bytes() == (b / "truth.csv").read_bytes()
+    assert not (a / "beacons_rendered.csv").exists()
+    nominal = read_csv_strict(a / "beacons.csv", nav.BEACONS_HEADER)
+    rendered = read_csv_strict(b / "beacons_rendered.csv", nav.BEACONS_HEADER)
+    assert [r["id"] for r in rendered] == [r["id"] for r in nominal]
+    d = np.array(
+        [
+            [float(r[k]) - float(n[k]) for k in ("x_mm", "y_mm", "z_mm")]
+            for r, n in zip(rendered, nominal, strict=True)
+        ]
+    )
+    sigma = np.array([float(n["sigma_mm"]) for n in nominal])
+    z = d / sigma[:, None]  # N(0, 1) per axis: 180 draws
+    assert abs(np.mean(z)) < 0.3 and 0.8 < np.std(z) < 1.2
+    doc = json.loads((b / "scenario.json").read_text())
+    assert doc["survey_error"]["applied"] is True
+    assert doc["survey_error"]["rms_displacement_mm"] == pytest.approx(np.sqrt(np.mean(d**2)), abs=1e-3)
+    assert "survey_error" not in json.loads((a / "scenario.json").read_text())
+    # the spots are where the displaced LEDs project (spots.csv), so the frames differ
+    spots_a = {(r["frame"], r["camera"], r["beacon_id"]): r for r in csv.DictReader((a / "spots.csv").open())}
+    spots_b = {(r["frame"], r["camera"], r["beacon_id"]): r for r in csv.DictReader((b / "spots.csv").open())}
+    common = [k for k in spots_a if k in spots_b and k[2] != "-1"]
+    shift = [abs(float(spots_a[k]["u"]) - float(spots_b[k]["u"])) for k in common]
+    assert len(common) > 10 and 0.0 < np.median(shift) < 5.0
+
+
 # --------------------------------------------------------------------------- CLI
 def test_cli_refuses_non_empty_out_and_bad_arguments(tmp_path, capsys):
     out = _sim(tmp_path / "o", "--frames", "1")

@@ -214,7 +214,7 @@ static void test_quat_rotates_as_the_matrix(void **state)
     mfns_m3_to_quat(mfns_m3_identity(), q);
     assert_near(q[0], 1.0, 1e-7);
     mfns_m3_to_quat(mfns_rot_exp(mfns_v3(0.0f, 0.0f, (float)MFNS_PI)), q);
-    assert_near((double)fabsf(q[3]), 1.0, 1e-6);
+    assert_near(fabsf(q[3]), 1.0, 1e-6);
 }
 
 int main(void)

@@ -15,8 +15,11 @@ def register(subparsers) -> None:
         description=(
             "Reads nav.csv written by mfns-ground (or its folder) and optionally a truth.csv "
             "(docs/nav-frames.md); matches them by time; writes nav_errors_vs_time.png, "
-            "nav_errors_vs_yaw.png (with truth), summary.csv and summary.md, and prints the "
-            "mean and 1-sigma per axis (roll, pitch, yaw, x, y, z)."
+            "nav_errors_vs_yaw.png (with truth), summary.csv, summary.md and summary.json, and "
+            "prints the mean and 1-sigma per axis (roll, pitch, yaw, x, y, z). With truth it also "
+            "checks the reported covariance: the NEES of every fix (e^T P^-1 e with the 6x6 "
+            "covariance columns, or the diagonal NEES of the 1-sigma columns of an older nav.csv) "
+            "against the chi-square(6) expectation, in the summary and nees.png."
         ),
     )
     p.add_argument("nav", type=Path, help="nav.csv, or the mfns-ground output folder holding it")
@@ -51,8 +54,9 @@ def run(args) -> int:
     md = rpt.summary_markdown(rep, args.title)
     (out / "summary.md").write_text(md)
     rpt.write_summary_csv(rep, out / "summary.csv")
+    rpt.write_summary_json(rep, out / "summary.json", args.title)
     written = [] if args.no_plots else rpt.write_plots(rep, out, args.title)
     print(md, end="")
-    for p in [out / "summary.csv", out / "summary.md", *written]:
+    for p in [out / "summary.csv", out / "summary.md", out / "summary.json", *written]:
         print(f"wrote {p}")
     return 0

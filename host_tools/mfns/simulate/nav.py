@@ -20,6 +20,11 @@ in the windows around spots; elsewhere a Gaussian background of the same varianc
 drawn from a 16-bit quantile table (for speed: only the windows are rendered in detail).
 Occasional spurious reflections add dimmer, wider ghost spots; every spot, real or
 spurious, is listed in the ``spots.csv`` sidecar with its true image position.
+
+``--survey-error`` renders every beacon displaced from its map position by a draw of
+N(0, sigma_mm^2 I) (its own ``sigma_mm``, from a seeded stream of its own): the map written
+to ``beacons.csv`` stays the nominal one, as a real survey is, and the positions the frames
+were rendered from go to ``beacons_rendered.csv``.
 """
 
 from __future__ import annotations
@@ -116,6 +121,12 @@ class Scenario:
     r_wb_w: np.ndarray  # (F, 3)
     euler_deg: np.ndarray  # (F, 3) 2-1-3 angles of C_w_b
     info: dict = field(default_factory=dict)
+    # (N, 3) where the beacons are rendered when that differs from the map (survey error)
+    beacons_rendered: np.ndarray | None = None
+
+    @property
+    def render_positions(self) -> np.ndarray:
+        return self.beacons if self.beacons_rendered is None else self.beacons_rendered
 
     @property
     def n_frames(self) -> int:
@@ -148,7 +159,7 @@ def visibility_counts(scn: Scenario) -> np.ndarray:
     for i in range(scn.n_frames):
         c, r = scn.pose(i)
         for k, cam in enumerate(scn.cams):
-            out[i, k] = int(project_beacons(cam, c, r, scn.beacons)[1].sum())
+            out[i, k] = int(project_beacons(cam, c, r, scn.render_positions)[1].sum())
     return out
 
 
@@ -226,6 +237,18 @@ def module_trajectory(t_s: np.ndarray, rng: np.random.Generator) -> tuple[np.nda
     att[:, 2] += 90.0 * (1.0 + np.tanh(pos[:, 0] / MODULE_TURN_WIDTH_MM))
     att[:, 2] = (att[:, 2] + 180.0) % 360.0 - 180.0
     return pos, att
+
+
+def apply_survey_error(scn: Scenario, seed: int) -> float:
+    """Render the beacons away from the map by their survey sigma: each displaced by a draw
+    of N(0, sigma_mm^2 I), from a stream of its own seeded by `seed` (the map and the
+    trajectory are the scenario seed's as without it). The map (scn.beacons, beacons.csv)
+    stays nominal.
+    Returns the RMS displacement per axis (mm)."""
+    rng = np.random.default_rng([seed, 3])  # survey stream: after geometry (1) and noise (2)
+    d = rng.standard_normal(scn.beacons.shape) * np.asarray(scn.beacon_sigma, dtype=float)[:, None]
+    scn.beacons_rendered = scn.beacons + d
+    return float(np.sqrt(np.mean(d * d))) if d.size else 0.0
 
 
 def true_rig_document(doc: dict) -> dict:
@@ -500,6 +523,13 @@ def simulate(
         wr.writerow(BEACONS_HEADER)
         for i, p, s in zip(scn.beacon_ids, scn.beacons, scn.beacon_sigma, strict=True):
             wr.writerow([int(i), f"{p[0]:.4f}", f"{p[1]:.4f}", f"{p[2]:.4f}", f"{s:.4f}"])
+    beacons_w = scn.render_positions  # where the LEDs really are (= the map without survey error)
+    if scn.beacons_rendered is not None:
+        with open(out / "beacons_rendered.csv", "w", newline="") as f:
+            wr = csv.writer(f, lineterminator="\n")
+            wr.writerow(BEACONS_HEADER)
+            for i, p, s in zip(scn.beacon_ids, beacons_w, scn.beacon_sigma, strict=True):
+                wr.writerow([int(i), f"{p[0]:.4f}", f"{p[1]:.4f}", f"{p[2]:.4f}", f"{s:.4f}"])
 
     truth_rows, frame_rows, spot_rows = [], [], []
     counts = np.zeros((scn.n_frames, 3), dtype=int)
@@ -513,14 +543,14 @@ def simulate(
             [i, f"{t:.6f}", *(_num(v) for v in scn.r_wb_w[i]), *(_num(a) for a in scn.euler_deg[i])]
         )
         for k, cam in enumerate(scn.cams):
-            uv, vis, p_c = project_beacons(cam, c_w_b, r_bw_b, scn.beacons)
+            uv, vis, p_c = project_beacons(cam, c_w_b, r_bw_b, beacons_w)
             counts[i, k] = int(vis.sum())
             ids = scn.beacon_ids[vis]
             uvv = uv[vis]
             rng_mm = np.linalg.norm(p_c[vis], axis=1)
             # LED emission angle: between its axis and the direction to the camera centre.
             cam_w = -c_w_b.T @ r_bw_b + c_w_b.T @ cam.r_bk_b
-            to_cam = cam_w - scn.beacons[vis]
+            to_cam = cam_w - beacons_w[vis]
             cos_led = np.einsum("ij,ij->i", to_cam, scn.beacon_normals[vis]) / np.linalg.norm(to_cam, axis=1)
             sig = spot_sigma(params, rng_mm)
             ref = relative_peak(params, rng_mm, cos_led, sig)
@@ -638,6 +668,18 @@ def run(args) -> int:
     if not (0.0 <= args.spurious_rate <= 1.0):
         raise MfnsError("--spurious-rate must be in [0, 1]")
     scn = build_scenario(args)
+    if args.survey_seed is not None and not args.survey_error:
+        raise MfnsError("--survey-seed needs --survey-error")
+    if args.survey_error:
+        survey_seed = args.seed if args.survey_seed is None else args.survey_seed
+        rms = apply_survey_error(scn, survey_seed)
+        scn.info["survey_error"] = {
+            "applied": True,
+            "seed": survey_seed,
+            "rms_displacement_mm": round(rms, 5),
+            "rendered_positions": "beacons_rendered.csv",
+            "note": "beacons rendered displaced by N(0, sigma_mm^2 I) each; beacons.csv is the nominal map",
+        }
     out = Path(args.out)
     prepare_out(out, args.force)
     params = RenderParams(
@@ -685,6 +727,19 @@ def register(subparsers) -> None:
     p.add_argument("--read-noise", type=float, default=1.0, help="read noise, DN (default 1)")
     p.add_argument("--blur", type=float, default=0.8, help="extra Gaussian blur sigma, px (default 0.8)")
     p.add_argument("--no-noise", action="store_true", help="no shot/read noise (quantisation stays)")
+    p.add_argument(
+        "--survey-error",
+        action="store_true",
+        help="render each beacon displaced from the map by its survey sigma_mm (a seeded N(0, sigma^2) "
+        "per axis); beacons.csv keeps the nominal map, beacons_rendered.csv the rendered positions",
+    )
+    p.add_argument(
+        "--survey-seed",
+        type=int,
+        metavar="S",
+        help="with --survey-error: seed of the displacements (default --seed), for several survey "
+        "realisations of one scenario",
+    )
     p.add_argument("--force", action="store_true", help="replace an existing nav-frames folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -1,0 +1,149 @@
+/* udp_forward.c -- see udp_forward.h. */
+#define _DEFAULT_SOURCE /* inet_pton, struct ip_mreq under -std=c11 */
+
+#include "udp_forward.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#define LOOPBACK_NET 0x7F000000u  /* 127.0.0.0/8 */
+#define LOOPBACK_MASK 0xFF000000u
+
+int udp_parse_endpoint(const char *s, bool allow_remote, uint32_t *addr_be, uint16_t *port, char *err,
+                       size_t err_size)
+{
+    const char *colon = s != NULL ? strrchr(s, ':') : NULL;
+    if (colon == NULL || colon == s || (size_t)(colon - s) >= 64u) {
+        (void)snprintf(err, err_size, "'%s': expected HOST:PORT (e.g. 127.0.0.1:10015)", s ? s : "");
+        return -1;
+    }
+    char host[64];
+    memcpy(host, s, (size_t)(colon - s));
+    host[colon - s] = '\0';
+    char *end = NULL;
+    errno = 0;
+    const unsigned long p = strtoul(colon + 1, &end, 10);
+    if (errno != 0 || end == colon + 1 || *end != '\0' || p == 0u || p > 65535u) {
+        (void)snprintf(err, err_size, "'%s': port must be 1..65535", s);
+        return -1;
+    }
+    struct in_addr a;
+    if (strcmp(host, "localhost") == 0) {
+        a.s_addr = htonl(0x7F000001u);
+    } else if (inet_pton(AF_INET, host, &a) != 1) {
+        (void)snprintf(err, err_size, "'%s': host must be an IPv4 address or localhost", s);
+        return -1;
+    }
+    if (!allow_remote && (ntohl(a.s_addr) & LOOPBACK_MASK) != LOOPBACK_NET) {
+        (void)snprintf(err, err_size, "'%s' is not a loopback address (127.x.x.x): refused; "
+                       "--udp-allow-remote allows it", s);
+        return -1;
+    }
+    *addr_be = a.s_addr;
+    *port = (uint16_t)p;
+    return 0;
+}
+
+static int udp_socket(const char *endpoint, bool allow_remote, bool bind_it, char *err, size_t err_size)
+{
+    uint32_t addr = 0;
+    uint16_t port = 0;
+    if (udp_parse_endpoint(endpoint, allow_remote, &addr, &port, err, err_size) != 0) {
+        return -1;
+    }
+    const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) {
+        (void)snprintf(err, err_size, "socket: %s", strerror(errno));
+        return -1;
+    }
+    struct sockaddr_in sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    sa.sin_port = htons(port);
+    sa.sin_addr.s_addr = addr;
+    const int rc = bind_it ? bind(fd, (const struct sockaddr *)&sa, sizeof sa)
+                           : connect(fd, (const struct sockaddr *)&sa, sizeof sa);
+    if (rc != 0) {
+        (void)snprintf(err, err_size, "%s %s: %s", bind_it ? "bind" : "connect", endpoint, strerror(errno));
+        (void)close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+int udp_forward_open(udp_forward_t *f, const char *endpoint, bool allow_remote, char *err, size_t err_size)
+{
+    memset(f, 0, sizeof *f);
+    f->fd = udp_socket(endpoint, allow_remote, false, err, err_size);
+    return f->fd < 0 ? -1 : 0;
+}
+
+int udp_forward_packet(udp_forward_t *f, const tlm_packet_t *p)
+{
+    if (f == NULL || f->fd < 0 || p == NULL) {
+        return -1;
+    }
+    uint8_t pkt[TLM_MAX_PACKET];
+    size_t n = 0;
+    /* the decoder kept the sequence count: the same bytes as on the link */
+    if (tlm_packet_encode(p, p->seq, pkt, sizeof pkt, &n) != TLM_OK) {
+        f->errors++;
+        return -1;
+    }
+    /* ECONNREFUSED (nobody listening yet) or a full buffer: counted, never waited on */
+    if (send(f->fd, pkt, n, MSG_DONTWAIT) != (ssize_t)n) {
+        f->errors++;
+        return -1;
+    }
+    f->sent++;
+    return 0;
+}
+
+void udp_forward_close(udp_forward_t *f)
+{
+    if (f != NULL && f->fd >= 0) {
+        (void)close(f->fd);
+        f->fd = -1;
+    }
+}
+
+int udp_tc_open(udp_tc_in_t *t, const char *endpoint, bool allow_remote, char *err, size_t err_size)
+{
+    memset(t, 0, sizeof *t);
+    t->fd = udp_socket(endpoint, allow_remote, true, err, err_size);
+    return t->fd < 0 ? -1 : 0;
+}
+
+int udp_tc_poll(udp_tc_in_t *t, tc_cmd_t *cmd, tc_status_t *status)
+{
+    if (t == NULL || t->fd < 0) {
+        return 0;
+    }
+    uint8_t buf[TC_MAX_PACKET + 1u]; /* one byte more: an oversize datagram shows as too long */
+    const ssize_t n = recv(t->fd, buf, sizeof buf, MSG_DONTWAIT);
+    if (n < 0) {
+        return 0; /* EAGAIN: nothing waiting (other errors: retried next poll) */
+    }
+    t->received++;
+    *status = tc_packet_decode(buf, (size_t)n, cmd);
+    if (*status != TC_OK) {
+        t->refused++;
+        return -1;
+    }
+    return 1;
+}
+
+void udp_tc_close(udp_tc_in_t *t)
+{
+    if (t != NULL && t->fd >= 0) {
+        (void)close(t->fd);
+        t->fd = -1;
+    }
+}

@@ -1,0 +1,551 @@
+/* uplink.c -- see uplink.h. */
+#define _DEFAULT_SOURCE /* strcasecmp, strtok_r under -std=c11 */
+
+#include "uplink.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <time.h>
+#include <unistd.h>
+
+#define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
+
+/* ---- grammar ---- */
+
+static int word_to_camera(const char *w, uint8_t *k)
+{
+    static const char *const names[3] = {"x", "y", "z"};
+    for (uint8_t i = 0; i < 3u; i++) {
+        if (strcasecmp(w, names[i]) == 0 || (w[0] == (char)('0' + i) && w[1] == '\0')) {
+            *k = i;
+            return 0;
+        }
+    }
+    return -1;
+}
+
+/* value * scale rounded, within +-lim: the wire integer of a pose number. */
+static int to_fixed(const char *w, double scale, int32_t lim, int32_t *out)
+{
+    char *end = NULL;
+    errno = 0;
+    const double v = strtod(w, &end);
+    if (errno != 0 || end == w || *end != '\0' || !isfinite(v)) {
+        return -1;
+    }
+    const double x = round(v * scale);
+    if (!(x >= -(double)lim && x <= (double)lim)) {
+        return -1;
+    }
+    *out = (int32_t)x;
+    return 0;
+}
+
+int uplink_parse_line(const char *line, uplink_line_kind_t *kind, tc_cmd_t *cmd, double *wait_s, char *err,
+                      size_t err_size)
+{
+    char buf[UPLINK_LINE_MAX + 1];
+    if (strlen(line) > UPLINK_LINE_MAX) {
+        (void)snprintf(err, err_size, "line longer than %d bytes", UPLINK_LINE_MAX);
+        return -1;
+    }
+    (void)snprintf(buf, sizeof buf, "%s", line);
+    char *hash = strchr(buf, '#');
+    if (hash != NULL) {
+        *hash = '\0';
+    }
+    char *w[8];
+    int n = 0;
+    char *save = NULL;
+    for (char *t = strtok_r(buf, " \t\r\n,", &save); t != NULL; t = strtok_r(NULL, " \t\r\n,", &save)) {
+        if (n == 8) {
+            (void)snprintf(err, err_size, "too many words");
+            return -1;
+        }
+        w[n++] = t;
+    }
+    memset(cmd, 0, sizeof *cmd);
+    *kind = UPLINK_LINE_EMPTY;
+    if (n == 0) {
+        return 0;
+    }
+    const char *op = w[0];
+    int want = -1; /* number of argument words */
+    if (strcasecmp(op, "WAIT") == 0) {
+        char *end = NULL;
+        const double s = n == 2 ? strtod(w[1], &end) : -1.0;
+        if (n != 2 || end == w[1] || *end != '\0' || !(s >= 0.0 && s <= 3600.0)) {
+            (void)snprintf(err, err_size, "WAIT wants seconds 0..3600");
+            return -1;
+        }
+        *kind = UPLINK_LINE_WAIT;
+        *wait_s = s;
+        return 0;
+    }
+    for (unsigned code = 1; code <= (unsigned)TC_OP_MAX; code++) {
+        if (strcasecmp(op, tc_opcode_name((uint8_t)code)) == 0) {
+            cmd->opcode = (uint8_t)code;
+        }
+    }
+    switch (cmd->opcode) {
+    case TC_OP_NOOP:
+    case TC_OP_RESET_COUNTERS: want = 0; break;
+    case TC_OP_SET_MODE:
+    case TC_OP_CAMERA_ENABLE:
+    case TC_OP_CAMERA_DISABLE:
+    case TC_OP_TABLE_LOAD: want = 1; break;
+    case TC_OP_SET_POSE_HINT: want = 6; break;
+    default:
+        (void)snprintf(err, err_size, "unknown command '%s'", op);
+        return -1;
+    }
+    if (n - 1 != want) {
+        (void)snprintf(err, err_size, "%s wants %d argument%s, got %d", tc_opcode_name(cmd->opcode), want,
+                       want == 1 ? "" : "s", n - 1);
+        return -1;
+    }
+    switch (cmd->opcode) {
+    case TC_OP_SET_MODE:
+        if (strcasecmp(w[1], "standby") == 0) {
+            cmd->u.mode = TLM_MODE_STANDBY;
+        } else if (strcasecmp(w[1], "acquire") == 0) {
+            cmd->u.mode = TLM_MODE_ACQUIRE;
+        } else if (strcasecmp(w[1], "track") == 0) {
+            cmd->u.mode = TLM_MODE_TRACK;
+        } else {
+            (void)snprintf(err, err_size, "SET_MODE wants standby, acquire or track, got '%s'", w[1]);
+            return -1;
+        }
+        break;
+    case TC_OP_CAMERA_ENABLE:
+    case TC_OP_CAMERA_DISABLE:
+        if (word_to_camera(w[1], &cmd->u.camera) != 0) {
+            (void)snprintf(err, err_size, "camera must be x, y, z or 0, 1, 2, got '%s'", w[1]);
+            return -1;
+        }
+        break;
+    case TC_OP_SET_POSE_HINT: {
+        const int32_t lim[6] = {TC_POS_UM_MAX,        TC_POS_UM_MAX,     TC_POS_UM_MAX,
+                                TC_ROLL_YAW_UDEG_MAX, TC_PITCH_UDEG_MAX, TC_ROLL_YAW_UDEG_MAX};
+        for (int i = 0; i < 6; i++) {
+            int32_t *dst = i < 3 ? &cmd->u.pose.pos_um[i] : &cmd->u.pose.att_udeg[i - 3];
+            if (to_fixed(w[1 + i], i < 3 ? 1e3 : 1e6, lim[i], dst) != 0) {
+                (void)snprintf(err, err_size,
+                               "SET_POSE_HINT X Y Z ROLL PITCH YAW: '%s' is not a number in range (|mm| <= 1e6, "
+                               "|roll|,|yaw| <= 180, |pitch| <= 90 deg)",
+                               w[1 + i]);
+                return -1;
+            }
+        }
+        break;
+    }
+    case TC_OP_TABLE_LOAD:
+        if (strlen(w[1]) >= TC_PATH_MAX) {
+            (void)snprintf(err, err_size, "TABLE_LOAD path longer than %u characters", TC_PATH_MAX - 1u);
+            return -1;
+        }
+        (void)snprintf(cmd->u.path, sizeof cmd->u.path, "%s", w[1]);
+        break;
+    default: break;
+    }
+    /* the codec's own checks (what the flight side would refuse is never sent) */
+    uint8_t tmp[TC_MAX_PACKET];
+    size_t len = 0;
+    const tc_status_t st = tc_packet_encode(cmd, 0, tmp, sizeof tmp, &len);
+    if (st != TC_OK) {
+        (void)snprintf(err, err_size, "%s: %s", tc_opcode_name(cmd->opcode), tc_strerror(st));
+        return -1;
+    }
+    *kind = UPLINK_LINE_CMD;
+    return 0;
+}
+
+/* ---- options ---- */
+
+void uplink_usage(FILE *f)
+{
+    fprintf(f,
+            "uplink (telecommands, docs/uplink.md):\n"
+            "  --cmd TEXT        send one command (repeatable, in order), e.g. --cmd 'SET_MODE acquire'\n"
+            "  --cmd-file PATH   commands, one per line, read while receiving ('-' = stdin)\n"
+            "  --tc-tty PATH     send commands to a tty, pseudo-terminal or FIFO\n"
+            "  --tc-file PATH    write the command frames to a file (created/truncated)\n"
+            "  --uplink          send commands on the --tty/--serial source itself (read-write)\n"
+            "  --tc-seq-start N  first sequence count (0..16383, default 0)\n"
+            "  grammar: NOOP | RESET_COUNTERS | SET_MODE standby|acquire|track |\n"
+            "           SET_POSE_HINT X Y Z ROLL PITCH YAW (mm, deg) | CAMERA_ENABLE x|y|z |\n"
+            "           CAMERA_DISABLE x|y|z | TABLE_LOAD PATH | WAIT SECONDS ; '#' comments\n"
+            "ground system (UDP, loopback only unless --udp-allow-remote):\n"
+            "  --udp-forward HOST:PORT  every decoded packet (CCSDS bytes) as a datagram\n"
+            "  --udp-tc HOST:PORT       receive CCSDS TC packets (e.g. Yamcs' TC link) and send them up\n"
+            "  --udp-allow-remote       allow a non-loopback HOST\n");
+}
+
+int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int *n_rest, FILE *err)
+{
+    memset(o, 0, sizeof *o);
+    int nr = 0;
+    rest[nr++] = argv[0];
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        const bool has_val = i + 1 < argc;
+        const char *needs[] = {"--cmd",          "--cmd-file", "--tc-tty", "--tc-file",
+                               "--tc-seq-start", "--udp-forward", "--udp-tc"};
+        bool mine_val = false;
+        for (size_t k = 0; k < sizeof needs / sizeof needs[0]; k++) {
+            mine_val = mine_val || strcmp(a, needs[k]) == 0;
+        }
+        if (strcmp(a, "--uplink") == 0 || strcmp(a, "--udp-allow-remote") == 0) {
+            if (a[2] == 'u' && a[3] == 'p') {
+                if (o->out != UPLINK_OUT_NONE) {
+                    fprintf(err, "mfns-ground: give one of --tc-tty, --tc-file, --uplink\n");
+                    return -1;
+                }
+                o->out = UPLINK_OUT_LINK;
+            } else {
+                o->udp_allow_remote = true;
+            }
+            continue;
+        }
+        if (!mine_val) {
+            rest[nr++] = argv[i];
+            continue;
+        }
+        if (!has_val) {
+            fprintf(err, "mfns-ground: %s: missing value (see --help)\n", a);
+            return -1;
+        }
+        const char *v = argv[++i];
+        if (strcmp(a, "--cmd") == 0) {
+            if (o->n_cli >= UPLINK_MAX_CLI) {
+                fprintf(err, "mfns-ground: at most %d --cmd (use --cmd-file)\n", UPLINK_MAX_CLI);
+                return -1;
+            }
+            o->cli[o->n_cli++] = v;
+        } else if (strcmp(a, "--cmd-file") == 0) {
+            o->cmd_file = v;
+        } else if (strcmp(a, "--tc-tty") == 0 || strcmp(a, "--tc-file") == 0) {
+            if (o->out != UPLINK_OUT_NONE) {
+                fprintf(err, "mfns-ground: give one of --tc-tty, --tc-file, --uplink\n");
+                return -1;
+            }
+            o->out = a[5] == 't' ? UPLINK_OUT_TTY : UPLINK_OUT_FILE;
+            o->out_path = v;
+        } else if (strcmp(a, "--tc-seq-start") == 0) {
+            char *end = NULL;
+            errno = 0;
+            const unsigned long s = strtoul(v, &end, 10);
+            if (errno != 0 || end == v || *end != '\0' || v[0] == '-' || s > TLM_CCSDS_SEQ_MASK) {
+                fprintf(err, "mfns-ground: --tc-seq-start wants 0..16383, got '%s'\n", v);
+                return -1;
+            }
+            o->seq_start = (uint16_t)s;
+        } else if (strcmp(a, "--udp-forward") == 0) {
+            o->udp_forward = v;
+        } else {
+            o->udp_tc = v;
+        }
+    }
+    rest[nr] = NULL;
+    *n_rest = nr;
+    /* every command line is checked before anything runs */
+    for (int k = 0; k < o->n_cli; k++) {
+        uplink_line_kind_t kind;
+        tc_cmd_t c;
+        double w = 0;
+        char msg[192];
+        if (uplink_parse_line(o->cli[k], &kind, &c, &w, msg, sizeof msg) != 0) {
+            fprintf(err, "mfns-ground: --cmd '%s': %s\n", o->cli[k], msg);
+            return -1;
+        }
+        if (kind != UPLINK_LINE_CMD) {
+            fprintf(err, "mfns-ground: --cmd '%s': not a command (WAIT belongs in a --cmd-file)\n", o->cli[k]);
+            return -1;
+        }
+    }
+    if ((o->n_cli > 0 || o->cmd_file != NULL || o->udp_tc != NULL) && o->out == UPLINK_OUT_NONE) {
+        fprintf(err, "mfns-ground: commands need a way up: --tc-tty PATH, --tc-file PATH or --uplink\n");
+        return -1;
+    }
+    char msg[192];
+    uint32_t addr;
+    uint16_t port;
+    if (o->udp_forward != NULL && udp_parse_endpoint(o->udp_forward, o->udp_allow_remote, &addr, &port, msg,
+                                                     sizeof msg) != 0) {
+        fprintf(err, "mfns-ground: --udp-forward %s\n", msg);
+        return -1;
+    }
+    if (o->udp_tc != NULL && udp_parse_endpoint(o->udp_tc, o->udp_allow_remote, &addr, &port, msg, sizeof msg) != 0) {
+        fprintf(err, "mfns-ground: --udp-tc %s\n", msg);
+        return -1;
+    }
+    return 0;
+}
+
+bool uplink_wanted(const uplink_opts_t *o)
+{
+    return o->out != UPLINK_OUT_NONE || o->udp_forward != NULL;
+}
+
+/* ---- running ---- */
+
+static void utc_now(char *buf, size_t n)
+{
+    struct timespec ts;
+    struct tm tm;
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0 || gmtime_r(&ts.tv_sec, &tm) == NULL) {
+        (void)snprintf(buf, n, "?");
+        return;
+    }
+    char s[24];
+    if (strftime(s, sizeof s, "%Y-%m-%dT%H:%M:%S", &tm) == 0) {
+        s[0] = '\0';
+    }
+    (void)snprintf(buf, n, "%.19s.%06dZ", s, (int)(ts.tv_nsec / 1000L % 1000000L));
+}
+
+static void log_cmd(uplink_t *up, uint16_t seq, const tc_cmd_t *c, const char *source, const char *text)
+{
+    if (up->log == NULL && !up->log_failed) {
+        char path[512];
+        (void)snprintf(path, sizeof path, "%s/commands.csv", up->o.out_dir ? up->o.out_dir : ".");
+        up->log = fopen(path, "w");
+        if (up->log == NULL) {
+            up->log_failed = true;
+            fprintf(stderr, "mfns-ground: cannot write %s: %s\n", path, strerror(errno));
+            return;
+        }
+        fprintf(up->log, "utc,seq,opcode,source,text\n");
+    }
+    if (up->log != NULL) {
+        char t[48];
+        utc_now(t, sizeof t);
+        char clean[UPLINK_LINE_MAX + 1];
+        size_t j = 0;
+        for (size_t i = 0; text[i] != '\0' && j < UPLINK_LINE_MAX; i++) {
+            clean[j++] = (text[i] == ',' || text[i] == '"' || text[i] == '\n' || text[i] == '\r') ? ' ' : text[i];
+        }
+        clean[j] = '\0';
+        fprintf(up->log, "%s,%u,%s,%s,%s\n", t, seq, tc_opcode_name(c->opcode), source, clean);
+        (void)fflush(up->log);
+    }
+}
+
+/* Give c the next sequence count and queue its frame. */
+static void send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const char *text)
+{
+    uint8_t wire[TC_MAX_WIRE];
+    size_t n = 0;
+    const uint16_t seq = up->next_seq;
+    const tc_status_t st = tc_frame_encode(c, seq, wire, sizeof wire, &n);
+    if (st != TC_OK || tlm_txq_push(&up->q, wire, n) != TLM_OK) {
+        up->n_errors++;
+        fprintf(stderr, "mfns-ground: command '%s' not sent: %s\n", text, tc_strerror(st));
+        return;
+    }
+    up->next_seq = (uint16_t)((seq + 1u) & TLM_CCSDS_SEQ_MASK);
+    up->n_sent++;
+    log_cmd(up, seq, c, source, text);
+}
+
+static void handle_line(uplink_t *up, const char *line, const char *source, uint64_t now_ms)
+{
+    up->line_no++;
+    uplink_line_kind_t kind;
+    tc_cmd_t c;
+    double w = 0;
+    char msg[192];
+    if (uplink_parse_line(line, &kind, &c, &w, msg, sizeof msg) != 0) {
+        up->n_errors++;
+        fprintf(stderr, "mfns-ground: %s line %lu: %s (not sent)\n", source, up->line_no, msg);
+        return;
+    }
+    if (kind == UPLINK_LINE_WAIT) {
+        up->wait_until_ms = now_ms + (uint64_t)llround(w * 1000.0);
+    } else if (kind == UPLINK_LINE_CMD) {
+        send_cmd(up, &c, source, line);
+    }
+}
+
+/* Lines of the command file/stdin available now; stops at a WAIT. */
+static void read_cmd_file(uplink_t *up, uint64_t now_ms)
+{
+    for (int round = 0; round < 16 && up->cmd_fd >= 0 && now_ms >= up->wait_until_ms; round++) {
+        char *nl = memchr(up->line, '\n', up->line_len);
+        if (nl != NULL) {
+            *nl = '\0';
+            if (!up->line_too_long) {
+                handle_line(up, up->line, "file", now_ms);
+            } else {
+                up->n_errors++;
+                fprintf(stderr, "mfns-ground: command file: line longer than %d bytes (not sent)\n", UPLINK_LINE_MAX);
+                up->line_too_long = false;
+            }
+            const size_t used = (size_t)(nl - up->line) + 1u;
+            memmove(up->line, nl + 1, up->line_len - used);
+            up->line_len -= used;
+            continue;
+        }
+        if (up->line_len == UPLINK_LINE_MAX) { /* no newline in a full buffer: drop up to the next one */
+            up->line_too_long = true;
+            up->line_len = 0;
+        }
+        const ssize_t r = read(up->cmd_fd, up->line + up->line_len, UPLINK_LINE_MAX - up->line_len);
+        if (r > 0) {
+            up->line_len += (size_t)r;
+            continue;
+        }
+        if (r == 0) { /* end: the last line may lack its newline */
+            if (up->line_len > 0u && !up->line_too_long) {
+                up->line[up->line_len] = '\0';
+                handle_line(up, up->line, "file", now_ms);
+            }
+            up->line_len = 0;
+            if (up->cmd_fd != STDIN_FILENO) {
+                (void)close(up->cmd_fd);
+            }
+            up->cmd_fd = -1;
+        }
+        break; /* EAGAIN: nothing more now */
+    }
+}
+
+static mfns_uart_t *out_link(uplink_t *up, mfns_uart_t *src)
+{
+    if (up->o.out == UPLINK_OUT_LINK) {
+        return src;
+    }
+    return up->o.out == UPLINK_OUT_NONE ? NULL : &up->tc;
+}
+
+static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
+{
+    uplink_t *up = ctx;
+    for (; up->next_cli < up->o.n_cli; up->next_cli++) {
+        handle_line(up, up->o.cli[up->next_cli], "cli", now_ms);
+    }
+    read_cmd_file(up, now_ms);
+    for (int i = 0; i < 16; i++) { /* bounded: 16 datagrams per poll */
+        tc_cmd_t c;
+        tc_status_t st = TC_OK;
+        const int r = udp_tc_poll(&up->tcin, &c, &st);
+        if (r == 0) {
+            break;
+        }
+        if (r < 0) {
+            up->n_errors++;
+            fprintf(stderr, "mfns-ground: UDP command refused: %s (not sent)\n", tc_strerror(st));
+            continue;
+        }
+        send_cmd(up, &c, "udp", tc_opcode_name(c.opcode));
+    }
+    mfns_uart_t *u = out_link(up, src);
+    if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
+        (void)mfns_uart_pump(u, &up->q, now_ms); /* a link not there yet: frames wait */
+    }
+}
+
+static void hook_packet(void *ctx, const tlm_packet_t *p)
+{
+    uplink_t *up = ctx;
+    (void)udp_forward_packet(&up->fwd, p);
+}
+
+static void hook_finish(void *ctx, mfns_uart_t *src)
+{
+    uplink_t *up = ctx;
+    mfns_uart_t *u = out_link(up, src);
+    for (int i = 0; u != NULL && i < FLUSH_TRIES && tlm_txq_frames(&up->q) > 0u; i++) {
+        (void)mfns_uart_pump(u, &up->q, mfns_uart_now_ms());
+        if (tlm_txq_frames(&up->q) > 0u) {
+            (void)usleep(10000);
+        }
+    }
+    if (tlm_txq_frames(&up->q) > 0u) {
+        fprintf(stderr, "mfns-ground: %zu commands never went up (link not there)\n", tlm_txq_frames(&up->q));
+        up->n_errors++;
+    }
+}
+
+int uplink_open(uplink_t *up, const uplink_opts_t *o)
+{
+    memset(up, 0, sizeof *up);
+    up->o = *o;
+    up->next_seq = o->seq_start;
+    up->cmd_fd = -1;
+    up->fwd.fd = -1;
+    up->tcin.fd = -1;
+    up->tc.fd = -1;
+    tlm_txq_init(&up->q);
+    up->hooks = (ground_hooks_t){up, hook_poll, hook_packet, hook_finish};
+    char err[256];
+    if (o->out == UPLINK_OUT_TTY || o->out == UPLINK_OUT_FILE) {
+        int rc;
+        if (o->out == UPLINK_OUT_FILE) {
+            const int fd = open(o->out_path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+            rc = fd < 0 ? MFNS_UART_ERR_OPEN : mfns_uart_attach_fd(&up->tc, fd, true, MFNS_UART_WRITE);
+        } else {
+            rc = mfns_uart_open_path(&up->tc, o->out_path, o->baud, MFNS_UART_WRITE);
+            if (rc == MFNS_UART_ERR_OPEN) {
+                rc = MFNS_UART_OK; /* a FIFO without its reader yet: re-opened at the retry cadence */
+            }
+        }
+        if (rc != MFNS_UART_OK) {
+            fprintf(stderr, "mfns-ground: command output %s: %s\n", o->out_path, mfns_uart_strerror(rc));
+            return -1;
+        }
+    }
+    if (o->cmd_file != NULL) {
+        up->cmd_fd = strcmp(o->cmd_file, "-") == 0 ? STDIN_FILENO : open(o->cmd_file, O_RDONLY | O_CLOEXEC);
+        if (up->cmd_fd < 0) {
+            fprintf(stderr, "mfns-ground: command file %s: %s\n", o->cmd_file, strerror(errno));
+            mfns_uart_close(&up->tc);
+            return -1;
+        }
+        const int fl = fcntl(up->cmd_fd, F_GETFL);
+        if (fl >= 0) {
+            (void)fcntl(up->cmd_fd, F_SETFL, fl | O_NONBLOCK); /* stdin: read what is there, never wait */
+        }
+    }
+    if (o->udp_forward != NULL && udp_forward_open(&up->fwd, o->udp_forward, o->udp_allow_remote, err, sizeof err)) {
+        fprintf(stderr, "mfns-ground: --udp-forward: %s\n", err);
+        (void)uplink_close(up);
+        return -1;
+    }
+    if (o->udp_tc != NULL && udp_tc_open(&up->tcin, o->udp_tc, o->udp_allow_remote, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-ground: --udp-tc: %s\n", err);
+        (void)uplink_close(up);
+        return -1;
+    }
+    return 0;
+}
+
+int uplink_close(uplink_t *up)
+{
+    if (up->cmd_fd >= 0 && up->cmd_fd != STDIN_FILENO) {
+        (void)close(up->cmd_fd);
+    }
+    up->cmd_fd = -1;
+    mfns_uart_close(&up->tc);
+    if (up->log != NULL && fclose(up->log) != 0) {
+        up->n_errors++;
+    }
+    up->log = NULL;
+    if (up->n_sent > 0u || up->n_errors > 0u || up->fwd.fd >= 0 || up->tcin.fd >= 0) {
+        fprintf(stderr, "mfns-ground: uplink: %u commands sent, %u errors", up->n_sent, up->n_errors);
+        if (up->fwd.fd >= 0) {
+            fprintf(stderr, "; UDP forward: %u packets, %u not delivered", up->fwd.sent, up->fwd.errors);
+        }
+        if (up->tcin.fd >= 0) {
+            fprintf(stderr, "; UDP commands: %u received, %u refused", up->tcin.received, up->tcin.refused);
+        }
+        fputc('\n', stderr);
+    }
+    udp_forward_close(&up->fwd);
+    udp_tc_close(&up->tcin);
+    return up->n_errors > 0u ? 1 : 0;
+}

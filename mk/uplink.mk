@@ -1,0 +1,64 @@
+# Telecommand uplink and the Yamcs ground system (docs/uplink.md).
+#
+#   make fuzz-tc-decoder     the TC deframer/decoder + flight command handler
+#                            fuzzer, FUZZ_SECONDS (60) s, corpus in build/fuzz/corpus-tc/
+#   make fuzz-tc-brief       the same for FUZZ_BRIEF_SECONDS (4) s from the committed
+#                            seeds (tests/fuzz/corpus/tc_decoder/), part of `make test`
+#   make ground-yamcs        Yamcs with the project's MDB (ground/mdb/) and config
+#                            (ground/yamcs/), HTTP on 127.0.0.1:8090, in a private
+#                            network namespace where `unshare -n` works
+
+TC_FUZZ_BIN  := build/fuzz/fuzz_tc_decoder
+TC_FUZZ_SRCS := tests/fuzz/fuzz_tc_decoder.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd.c
+
+FUZZ_TARGETS += fuzz-tc-decoder
+TEST_SUITES  += fuzz-tc-brief
+.PHONY: fuzz-tc-decoder fuzz-tc-brief ground-yamcs
+
+$(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cmd.h
+	@mkdir -p $(@D)
+	$(FUZZ_CC) $(FUZZ_FLAGS) -Ifirmware/tlm -Ifirmware/app $(TC_FUZZ_SRCS) -o $@
+
+# $(1) name, $(2) corpus dir, $(3) seconds, $(4) seed
+define tc_run_fuzz
+	@mkdir -p $(2)
+	@cp -n tests/fuzz/corpus/tc_decoder/* $(2)/ 2>/dev/null || true
+	@log=build/fuzz/$(1).log; \
+	if $(TC_FUZZ_BIN) -max_total_time=$(3) -seed=$(4) -max_len=4096 -print_final_stats=1 \
+	     -artifact_prefix=build/fuzz/tc- $(2) >$$log 2>&1; then \
+	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
+	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
+	  echo "$(1): 1 passed, 0 failed ($${execs:-?} executions in $(3) s, $${cov:-cov: ?})"; \
+	else \
+	  tail -n 40 $$log; echo "$(1): 0 passed, 1 failed"; exit 1; \
+	fi
+endef
+
+fuzz-tc-decoder: $(TC_FUZZ_BIN)
+	$(call tc_run_fuzz,fuzz-tc-decoder,build/fuzz/corpus-tc,$(FUZZ_SECONDS),0)
+
+fuzz-tc-brief: $(TC_FUZZ_BIN)
+	@rm -rf build/fuzz/brief-tc
+	$(call tc_run_fuzz,fuzz-tc-brief,build/fuzz/brief-tc,$(FUZZ_BRIEF_SECONDS),1)
+
+# Yamcs' runtime in the venv (ground/requirements.txt): for `make test` and ground-yamcs only.
+.PHONY: ground-venv
+ground-venv: $(VENV)/.stamp-ground
+$(VENV)/.stamp-ground: ground/requirements.txt $(VENV)/.stamp
+	$(PY) -m pip install -q --disable-pip-version-check -r ground/requirements.txt
+	@touch $@
+deps: ground-venv
+pytest: ground-venv
+
+# The server in the foreground (Ctrl-C stops it), inside a private network namespace when
+# `unshare -n` works (root): only loopback there, so its UDP links reach nothing else. Join
+# the namespace to feed it: nsenter --net=/proc/PID/ns/net mfns-ground ... (printed).
+YAMCS_RUN ?= build/yamcs
+ground-yamcs: ground-venv
+	@mkdir -p $(YAMCS_RUN)
+	@if command -v unshare >/dev/null 2>&1 && unshare -n true 2>/dev/null; then \
+	  MFNS_NETNS=1 exec unshare -n $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
+	else \
+	  echo "ground-yamcs: no private network namespace (unshare -n refused): Yamcs' UDP link listens on all interfaces"; \
+	  exec $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
+	fi

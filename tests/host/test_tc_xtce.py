@@ -1,0 +1,338 @@
+"""The telecommand dictionary ground/mdb/mfns_tc.xml (XTCE) against the C codec
+(firmware/tlm/tc_packets.h, through the core shared library): any difference fails.
+
+Checked: the schema; the opcode names and numbers; per command, the argument layout
+(order, sizes, signedness) by packing a packet from the XTCE alone and comparing it
+byte for byte with the C encoder's, and decoding it with the C decoder; the header
+assignments (version, type, secondary header flag, APID, sequence flags, length);
+every argument range (C accepts exactly the XTCE's valid values, at and beyond each
+bound); and the rejection codes (XTCE tc_status_t = C tc_status_name).
+"""
+
+from __future__ import annotations
+
+import ctypes as ct
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+TC_XML = REPO / "ground" / "mdb" / "mfns_tc.xml"
+NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
+PATH_MAX = 64
+
+
+class Pose(ct.Structure):
+    _fields_ = [("pos_um", ct.c_int32 * 3), ("att_udeg", ct.c_int32 * 3)]
+
+
+class U(ct.Union):
+    _fields_ = [("mode", ct.c_uint8), ("camera", ct.c_uint8), ("pose", Pose), ("path", ct.c_char * PATH_MAX)]
+
+
+class Cmd(ct.Structure):
+    """tc_cmd_t (tc_packets.h)."""
+
+    _fields_ = [
+        ("seq", ct.c_uint16),
+        ("opcode", ct.c_uint8),
+        ("have_seq", ct.c_bool),
+        ("have_opcode", ct.c_bool),
+        ("u", U),
+    ]
+
+
+@pytest.fixture(scope="module")
+def lib(core_lib):
+    if not core_lib.exists():
+        pytest.fail(f"{core_lib} missing: run `make lib`")
+    lib = ct.CDLL(str(core_lib))
+    lib.tc_opcode_name.restype = ct.c_char_p
+    lib.tc_opcode_name.argtypes = [ct.c_uint8]
+    lib.tc_status_name.restype = ct.c_char_p
+    lib.tc_status_name.argtypes = [ct.c_int]
+    lib.tc_arg_len.argtypes = [ct.c_uint8]
+    lib.tc_packet_encode.argtypes = [
+        ct.POINTER(Cmd),
+        ct.c_uint16,
+        ct.c_char_p,
+        ct.c_size_t,
+        ct.POINTER(ct.c_size_t),
+    ]
+    lib.tc_packet_decode.argtypes = [ct.c_char_p, ct.c_size_t, ct.POINTER(Cmd)]
+    return lib
+
+
+def tree():
+    return ET.parse(TC_XML).getroot()
+
+
+def arg_types(root) -> dict[str, dict]:
+    """name -> {bits, signed, kind, range, enum}."""
+    out = {}
+    for t in root.find("x:CommandMetaData/x:ArgumentTypeSet", NS):
+        kind = t.tag.split("}")[1]
+        d = {"kind": kind, "range": None, "enum": None}
+        if kind == "StringArgumentType":
+            d["bits"] = int(t.find(".//x:FixedValue", NS).text)
+            d["signed"] = False
+        else:
+            enc = t.find("x:IntegerDataEncoding", NS)
+            d["bits"] = int(enc.get("sizeInBits"))
+            d["signed"] = enc.get("encoding") == "twosComplement"
+        vr = t.find("x:ValidRangeSet/x:ValidRange", NS)
+        if vr is not None:
+            d["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive")))
+        if kind == "EnumeratedArgumentType":
+            d["enum"] = {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
+        out[t.get("name")] = d
+    return out
+
+
+def commands(root) -> tuple[list[tuple[str, str]], dict[str, dict]]:
+    """The abstract header's (name, type) layout and each concrete command's
+    assignments and own (name, type) arguments in container order."""
+    mcs = root.find("x:CommandMetaData/x:MetaCommandSet", NS)
+    header: list[tuple[str, str]] = []
+    cmds: dict[str, dict] = {}
+    for mc in mcs:
+        args = {a.get("name"): a.get("argumentTypeRef") for a in mc.findall("x:ArgumentList/x:Argument", NS)}
+        order = [
+            e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)
+        ]
+        assert sorted(order) == sorted(args), mc.get("name")  # every argument placed exactly once
+        if mc.get("abstract") == "true":
+            header = [(n, args[n]) for n in order]
+            continue
+        base = mc.find("x:BaseMetaCommand", NS)
+        assert base is not None and base.get("metaCommandRef") == "MFNS_TC"
+        assert mc.find("x:CommandContainer/x:BaseContainer", NS).get("containerRef") == "MFNS_TC_header"
+        assign = {
+            a.get("argumentName"): a.get("argumentValue") for a in base.findall(".//x:ArgumentAssignment", NS)
+        }
+        cmds[mc.get("name")] = {"assign": assign, "args": [(n, args[n]) for n in order]}
+    return header, cmds
+
+
+def pack(fields: list[tuple[int, int, bool]]) -> bytes:
+    """(value, bits, signed) big-endian, bit-packed, as XTCE lays them out."""
+    acc, nbits = 0, 0
+    for v, bits, signed in fields:
+        if signed and v < 0:
+            v += 1 << bits
+        assert 0 <= v < (1 << bits)
+        acc = (acc << bits) | v
+        nbits += bits
+    assert nbits % 8 == 0
+    return acc.to_bytes(nbits // 8, "big")
+
+
+def xtce_packet(header, cmd, types, values: dict, seq: int) -> bytes:
+    """The packet built from the XTCE alone."""
+    fields = []
+    for name, tname in header:
+        t = types[tname]
+        raw = seq if name == "ccsds_seq_count" else cmd["assign"][name]
+        v = t["enum"][raw] if t["enum"] and raw in t["enum"] else int(raw)
+        fields.append((v, t["bits"], t["signed"]))
+    out = pack(fields)
+    for name, tname in cmd["args"]:
+        t = types[tname]
+        v = values[name]
+        if t["kind"] == "StringArgumentType":
+            b = v.encode()
+            out += b + bytes(t["bits"] // 8 - len(b))
+        else:
+            out += pack([(t["enum"][v] if t["enum"] else v, t["bits"], t["signed"])])
+    return out
+
+
+def c_cmd(lib, name: str, values: dict) -> Cmd:
+    c = Cmd()
+    opcode = next(i for i in range(256) if lib.tc_opcode_name(i).decode() == name)
+    c.opcode = opcode
+    if "mode" in values:
+        c.u.mode = {"ACQUIRE": 1, "TRACK": 2, "STANDBY": 4}.get(values["mode"], values["mode"])
+    if "camera" in values:
+        c.u.camera = values["camera"]
+    if "x_um" in values:
+        for i, k in enumerate(("x_um", "y_um", "z_um")):
+            c.u.pose.pos_um[i] = values[k]
+        for i, k in enumerate(("roll_udeg", "pitch_udeg", "yaw_udeg")):
+            c.u.pose.att_udeg[i] = values[k]
+    if "path" in values:
+        c.u.path = values["path"].encode()
+    return c
+
+
+def c_encode(lib, c: Cmd, seq: int) -> tuple[int, bytes]:
+    buf = ct.create_string_buffer(128)
+    n = ct.c_size_t(0)
+    rc = lib.tc_packet_encode(ct.byref(c), seq, buf, 128, ct.byref(n))
+    return rc, buf.raw[: n.value]
+
+
+def c_decode(lib, pkt: bytes) -> tuple[int, Cmd]:
+    c = Cmd()
+    rc = lib.tc_packet_decode(pkt, len(pkt), ct.byref(c))
+    return rc, c
+
+
+SAMPLES = {
+    "NOOP": {},
+    "RESET_COUNTERS": {},
+    "SET_MODE": {"mode": "STANDBY"},
+    "SET_POSE_HINT": {
+        "x_um": 480741,
+        "y_um": -276091,
+        "z_um": 1000000000,
+        "roll_udeg": -180000000,
+        "pitch_udeg": 89999999,
+        "yaw_udeg": 168279078,
+    },
+    "CAMERA_ENABLE": {"camera": 2},
+    "CAMERA_DISABLE": {"camera": 0},
+    "TABLE_LOAD": {"path": "/data/tables/next.mfnstbl"},
+}
+
+
+def test_schema_valid():
+    from space_packet_parser.xtce.validation import validate_xtce
+
+    # level "schema": the library's structural pass knows telemetry containers only
+    # (it reads a command container's BaseContainer as a missing SequenceContainer)
+    res = validate_xtce(
+        TC_XML, level="schema", allow_schema_download=False, raise_on_error=False, print_results=False
+    )
+    assert res, str(res)
+
+
+def test_opcodes_match(lib):
+    types = arg_types(tree())
+    xtce = types["opcode_t"]["enum"]
+    c = {lib.tc_opcode_name(i).decode(): i for i in range(256) if lib.tc_opcode_name(i).decode() != "?"}
+    assert xtce == c
+    _, cmds = commands(tree())
+    assert set(cmds) == set(c)  # one MetaCommand per opcode
+    assert set(SAMPLES) == set(c)
+
+
+def test_every_command_layout_is_bit_identical(lib):
+    root = tree()
+    types = arg_types(root)
+    header, cmds = commands(root)
+    assert [n for n, _ in header] == [
+        "ccsds_version", "ccsds_type", "ccsds_sec_hdr", "ccsds_apid", "ccsds_seq_flags",
+        "ccsds_seq_count", "ccsds_length", "opcode", "reserved",
+    ]  # fmt: skip
+    for name, cmd in cmds.items():
+        opcode = types["opcode_t"]["enum"][name]
+        arg_bits = sum(types[t]["bits"] for _, t in cmd["args"])
+        assert lib.tc_arg_len(opcode) * 8 == arg_bits, name
+        assert cmd["assign"]["opcode"] == name
+        for seq in (0, 1, 0x1234, 16383):
+            want = xtce_packet(header, cmd, types, SAMPLES[name], seq)
+            assert int(cmd["assign"]["ccsds_length"]) == len(want) - 7, name  # CCSDS: bytes after header - 1
+            rc, got = c_encode(lib, c_cmd(lib, name, SAMPLES[name]), seq)
+            assert rc == 0, (name, rc)
+            assert got == want, (name, got.hex(), want.hex())
+            rc, back = c_decode(lib, want)
+            assert rc == 0, (name, lib.tc_status_name(rc))
+            assert back.opcode == opcode and back.seq == seq and back.have_seq and back.have_opcode
+
+
+def status_code(lib, label: str) -> int:
+    return next(i for i in range(64) if lib.tc_status_name(i).decode() == label)
+
+
+def test_argument_ranges_match(lib):
+    """C accepts exactly the values the XTCE calls valid, at and around each bound."""
+    root = tree()
+    types = arg_types(root)
+    header, cmds = commands(root)
+    arg_err = status_code(lib, "ARG")
+    for name, cmd in cmds.items():
+        for aname, tname in cmd["args"]:
+            t = types[tname]
+            if t["kind"] == "StringArgumentType":
+                continue
+            if t["enum"]:
+                candidates = range(256)
+                valid = set(t["enum"].values())
+            else:
+                lo, hi = t["range"]
+                candidates = [lo - 1, lo, lo + 1, 0, hi - 1, hi, hi + 1]
+                candidates = [v for v in candidates if -(1 << 31) <= v < (1 << 31) if t["signed"] or v >= 0]
+                candidates = [v for v in candidates if v < (1 << t["bits"])]
+                valid = {v for v in candidates if lo <= v <= hi}
+            for v in candidates:
+                vals = dict(SAMPLES[name])
+                vals[aname] = v if not t["enum"] else next((k for k, x in t["enum"].items() if x == v), None)
+                raw = dict(vals)
+                if t["enum"] and raw[aname] is None:
+                    # not in the enumeration: pack the raw number
+                    types_raw = dict(types)
+                    types_raw[tname] = {**t, "enum": None}
+                    raw[aname] = v
+                    pkt = xtce_packet(header, cmd, types_raw, raw, 5)
+                else:
+                    pkt = xtce_packet(header, cmd, types, vals, 5)
+                rc, _ = c_decode(lib, pkt)
+                assert (rc == 0) == (v in valid), (name, aname, v, rc)
+                if rc != 0:
+                    assert rc == arg_err
+
+
+def test_path_rules(lib):
+    """TABLE_LOAD: 1..63 printable characters, NUL-padded (the XTCE's fixed 512-bit string)."""
+    root = tree()
+    types = arg_types(root)
+    header, cmds = commands(root)
+    assert types["path_t"]["bits"] == PATH_MAX * 8
+    cmd = cmds["TABLE_LOAD"]
+    for path, ok in (("a", True), ("x" * 63, True), ("", False), ("\x01bad", False), ("t\x7f", False)):
+        pkt = xtce_packet(header, cmd, types, {"path": path}, 1)
+        rc, back = c_decode(lib, pkt)
+        assert (rc == 0) == ok, (path, rc)
+        if ok:
+            assert back.u.path.decode() == path
+
+
+def test_rejection_codes_match(lib):
+    root = tree()
+    t = root.find(".//x:EnumeratedParameterType[@name='tc_status_t']", NS)
+    xtce = {int(e.get("value")): e.get("label") for e in t.find("x:EnumerationList", NS)}
+    c = {i: lib.tc_status_name(i).decode() for i in range(1, 64) if lib.tc_status_name(i).decode() != "?"}
+    assert xtce == c
+    assert lib.tc_status_name(0).decode() == "OK"
+
+
+def test_a_changed_dictionary_fails(lib, tmp_path):
+    """The comparison is real: an opcode renumbered in a copy of the XTCE is caught."""
+    global TC_XML
+    bad = tmp_path / "tc.xml"
+    bad.write_text(
+        TC_XML.read_text().replace('value="5" label="CAMERA_ENABLE"', 'value="9" label="CAMERA_ENABLE"')
+    )
+    saved, TC_XML = TC_XML, bad
+    try:
+        with pytest.raises(AssertionError):
+            test_opcodes_match(lib)
+    finally:
+        TC_XML = saved
+
+
+def test_docs_tables_match_the_dictionary():
+    """docs/uplink.md's opcode and rejection-code tables say what the XTCE says."""
+    import re
+
+    text = (REPO / "docs" / "uplink.md").read_text()
+    sec1 = text.split("## 1.")[1].split("## 2.")[0]
+    sec2 = text.split("## 2.")[1].split("## 3.")[0]
+    row = re.compile(r"^\| (\d+) \| ([A-Z_]+) \|", re.M)
+    root = tree()
+    assert {n: int(v) for v, n in row.findall(sec1)} == arg_types(root)["opcode_t"]["enum"]
+    t = root.find(".//x:EnumeratedParameterType[@name='tc_status_t']", NS)
+    xtce = {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
+    assert {n: int(v) for v, n in row.findall(sec2)} == xtce

@@ -1,0 +1,445 @@
+"""The command uplink end to end (docs/uplink.md): mfns-ground -> TC frames -> mfns-nav on
+a replay run -> its events back through the telemetry.
+
+- a round trip through FIFOs, both programs live: every command answered by CMD_ACCEPTED
+  with its sequence count, housekeeping counts them, the pose hint is used;
+- every rejection through a recorded command stream (--tc-file): an action refused by the
+  state, a replayed and an out-of-order count, a CRC error, garbage, an unknown opcode, a
+  bad table (TABLE_LOAD refused, the old table keeps running), then STANDBY, a camera
+  disabled, a table swapped in, a wrong pose hint that never becomes a fix;
+- the UDP side: every decoded packet forwarded byte-identical, a UDP command validated,
+  re-stamped with the ground's sequence count and sent up; non-loopback refused.
+
+The frames of the link are checked with independent code here (binascii.crc_hqx is
+CRC-16/CCITT-FALSE; a 10-line COBS), the numbered codes are read from the XTCE
+dictionaries (ground/mdb/), not copied.
+"""
+
+from __future__ import annotations
+
+import binascii
+import csv
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BIN = REPO / "build" / "host-sim" / "bin"
+NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
+
+
+def enum(xml: Path, type_name: str) -> dict[str, int]:
+    root = ET.parse(xml).getroot()
+    t = root.find(f".//*[@name='{type_name}']", NS)
+    assert t is not None, type_name
+    return {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
+
+
+TC_XML = REPO / "ground" / "mdb" / "mfns_tc.xml"
+OP = enum(TC_XML, "opcode_t")
+REJ = enum(TC_XML, "tc_status_t")
+
+
+def cobs_encode(data: bytes) -> bytes:
+    out, block = bytearray(), bytearray()
+    for b in data:
+        if b == 0:
+            out += bytes([len(block) + 1]) + block
+            block = bytearray()
+        else:
+            block.append(b)
+            if len(block) == 254:
+                out += b"\xff" + block
+                block = bytearray()
+    out += bytes([len(block) + 1]) + block
+    return bytes(out)
+
+
+def cobs_decode(data: bytes) -> bytes:
+    out, i = bytearray(), 0
+    while i < len(data):
+        code = data[i]
+        out += data[i + 1 : i + code]
+        i += code
+        if code < 0xFF and i < len(data):
+            out.append(0)
+    return bytes(out)
+
+
+def frame(packet: bytes) -> bytes:
+    crc = binascii.crc_hqx(packet, 0xFFFF)  # CRC-16/CCITT-FALSE
+    return cobs_encode(packet + crc.to_bytes(2, "big")) + b"\x00"
+
+
+def tc_packet(opcode: int, seq: int, args: bytes = b"") -> bytes:
+    """A TC packet by hand (the layout of docs/uplink.md), for opcodes the encoder refuses."""
+    n = 2 + len(args)
+    return (
+        bytes([0x19, 0x81, 0xC0 | (seq >> 8), seq & 0xFF])
+        + (n - 1).to_bytes(2, "big")
+        + bytes([opcode, 0])
+        + args
+    )
+
+
+@pytest.fixture(scope="module")
+def bins() -> Path:
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=REPO,
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    return BIN
+
+
+def mfns(*args: str) -> None:
+    res = subprocess.run([sys.executable, "-m", "mfns", *args], check=False, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory) -> dict:
+    """A 40-frame replay of the module scenario and two tables of it."""
+    d = tmp_path_factory.mktemp("uplink")
+    frames = d / "frames"
+    mfns("sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "40", "--seed", "3")
+    mfns(
+        "table",
+        "build",
+        str(frames / "calib.json"),
+        str(frames / "beacons.csv"),
+        "-o",
+        str(d / "table.mfnstbl"),
+    )
+    mfns(
+        "table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"),
+        "-o", str(d / "table2.mfnstbl"), "--pixel-sigma", "0.3",
+    )  # fmt: skip
+    truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
+    return {
+        "dir": d,
+        "frames": frames,
+        "table": d / "table.mfnstbl",
+        "table2": d / "table2.mfnstbl",
+        "truth": truth,
+    }
+
+
+def rows(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def cmd_events(ground: Path) -> list[dict]:
+    return [e for e in rows(ground / "events.csv") if e["event"] in ("CMD_ACCEPTED", "CMD_REJECTED")]
+
+
+def encode_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> bytes:
+    """TC frames of command lines, by mfns-ground (--tc-file); its source is an empty file."""
+    src = tmp / "empty.bin"
+    src.write_bytes(b"")
+    out = tmp / f"tc-{seq_start}.bin"
+    args = [
+        str(bins / "mfns-ground"),
+        "--file",
+        str(src),
+        "--out",
+        str(tmp / "g-enc"),
+        "-q",
+        "--tc-file",
+        str(out),
+    ]
+    args += ["--tc-seq-start", str(seq_start)]
+    for c in cmds:
+        args += ["--cmd", c]
+    res = subprocess.run(args, capture_output=True, text=True, check=False, timeout=30)
+    # exit 3: no telemetry decoded (there is none); the commands were written
+    assert res.returncode in (0, 3), res.stderr
+    assert f"uplink: {len(cmds)} commands sent, 0 errors" in res.stderr, res.stderr
+    return out.read_bytes()
+
+
+def test_round_trip_through_fifos(bins, run, tmp_path):
+    """Both programs live on FIFOs: command -> flight -> event, with the time it took."""
+    tlm, tc = tmp_path / "tlm.fifo", tmp_path / "tc.fifo"
+    os.mkfifo(tlm)
+    os.mkfifo(tc)
+    first = run["truth"][0]
+    hint = " ".join(f"{first[k]:.6f}" for k in ("x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"))
+    nav = subprocess.Popen(
+        [
+            str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+            "--realtime", "--tty", str(tlm), "--tc-tty", str(tc),
+        ],
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    out = tmp_path / "ground"
+    # the last command from a command file, one second later: the steady-state latency
+    (tmp_path / "later.txt").write_text("# a comment line\nWAIT 1.0\nnoop   # names are case-insensitive\n")
+    ground = subprocess.Popen(
+        [
+            str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status",
+            "--max-seconds", "60",
+            "--tc-tty", str(tc), "--cmd", "NOOP", "--cmd", f"SET_POSE_HINT {hint}", "--cmd", "SET_MODE track",
+            "--cmd-file", str(tmp_path / "later.txt"),
+        ],
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        _, nav_err = nav.communicate(timeout=60)
+        time.sleep(0.5)
+        ground.send_signal(signal.SIGINT)
+        _, g_err = ground.communicate(timeout=30)
+    finally:
+        for p in (nav, ground):
+            if p.poll() is None:
+                p.kill()
+    assert nav.returncode == 0, nav_err
+    assert ground.returncode == 0, g_err
+    sent = rows(out / "commands.csv")
+    assert [(r["seq"], r["opcode"], r["source"]) for r in sent] == [
+        ("0", "NOOP", "cli"), ("1", "SET_POSE_HINT", "cli"), ("2", "SET_MODE", "cli"), ("3", "NOOP", "file"),
+    ]  # fmt: skip
+    ev = cmd_events(out)
+    assert [(e["event"], int(e["subject"]), int(e["arg0"])) for e in ev] == [
+        ("CMD_ACCEPTED", OP["NOOP"], 0),
+        ("CMD_ACCEPTED", OP["SET_POSE_HINT"], 1),
+        ("CMD_ACCEPTED", OP["SET_MODE"], 2),
+        ("CMD_ACCEPTED", OP["NOOP"], 3),
+    ], ev
+    hk = rows(out / "housekeeping.csv")[-1]
+    assert (hk["n_cmd_accepted"], hk["n_cmd_rejected"], hk["cmd_seq_last"]) == ("4", "0", "3")
+    assert "commands: 4 accepted, 0 rejected" in nav_err
+    # command (ground clock, commands.csv) -> its event back (ground receive time)
+    from datetime import datetime
+
+    def utc(s: str) -> float:
+        return datetime.fromisoformat(s.replace("Z", "+00:00")).timestamp()
+
+    lat = [utc(e["ground_utc"]) - utc(s["utc"]) for e, s in zip(ev, sent, strict=True)]
+    print(
+        "\ncommand -> event round trip through FIFOs: at start-up "
+        f"{', '.join(f'{x * 1e3:.0f}' for x in lat[:3])} ms "
+        f"(links connecting), steady state {lat[3] * 1e3:.0f} ms"
+    )
+    assert all(0 < x < 5.0 for x in lat)
+    assert lat[3] < 0.5  # a few 53.8-ms cycles plus the ground's 100-ms poll
+    # the hint was used: tracking from it, fixes close to the truth
+    nav_rows = rows(out / "nav.csv")
+    fixes = [r for r in nav_rows if r["status"] in ("FIX", "DEGRADED")]
+    assert len(fixes) >= 30
+
+
+def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
+    d = tmp_path
+    # paths on the board are short (< 64 characters): relative to mfns-nav's working directory
+    (d / "table2.mfnstbl").write_bytes(run["table2"].read_bytes())
+    bad_table = d / "bad.mfnstbl"
+    b = bytearray(run["table"].read_bytes())
+    b[100] ^= 0xFF  # body CRC now wrong
+    bad_table.write_bytes(bytes(b))
+    wrong = run["truth"][0]
+    # a hint 500 mm and 30 deg off: a prior only, it must never come out as a fix
+    wrong_hint = (
+        f"SET_POSE_HINT {wrong['x_mm'] + 500:.3f} {wrong['y_mm']:.3f} {wrong['z_mm']:.3f} "
+        f"{wrong['roll_deg']:.3f} {wrong['pitch_deg']:.3f} {(wrong['yaw_deg'] + 30 + 180) % 360 - 180:.3f}"
+    )
+    f = lambda cmds, s: encode_commands(bins, d, cmds, s)  # noqa: E731
+    noop1 = f(["NOOP"], 1)
+    stream = b"".join(
+        [
+            # cycle 0 (4 per cycle)
+            f(["SET_MODE track"], 0),  # no prior yet: STATE (the count stays usable)
+            noop1,  # accepted
+            noop1,  # replayed: SEQUENCE
+            noop1[:2] + bytes([noop1[2] ^ 0x20]) + noop1[3:],  # a flipped data bit: CRC
+            # cycle 1
+            bytes(range(1, 200)) + bytes(range(1, 200)) + b"\x00",  # garbage: OVERSIZE
+            f(["SET_MODE standby", "TABLE_LOAD bad.mfnstbl", "TABLE_LOAD table2.mfnstbl"], 2),
+            # cycle 2
+            f(["NOOP"], 3),  # older than 4: SEQUENCE (out of order)
+            f(["SET_MODE acquire", "CAMERA_DISABLE y"], 5),
+            frame(tc_packet(99, 7)),  # unknown opcode (a refused frame does not use up its count)
+            # cycle 3
+            f([wrong_hint, "CAMERA_ENABLE y", "RESET_COUNTERS"], 7),
+        ]
+    )
+    tcfile = d / "commands.bin"
+    tcfile.write_bytes(stream)
+    tlm = d / "tlm.bin"
+    nav = subprocess.run(
+        [
+            str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+            "--tlm-file", str(tlm), "--tc-file", str(tcfile),
+        ],
+        capture_output=True, text=True, timeout=120, check=False, cwd=d,
+    )  # fmt: skip
+    assert nav.returncode == 0, nav.stderr
+    out = d / "ground"
+    g = subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out), "--no-status"],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert g.returncode == 0, g.stderr
+    ev = cmd_events(out)
+    got = [(e["cycle"], e["event"][4:], int(e["subject"]), int(e["arg0"]), int(e["arg1"], 0)) for e in ev]
+    acc, rej = "ACCEPTED", "REJECTED"
+    want = [
+        ("0", rej, OP["SET_MODE"], 0, REJ["STATE"]),
+        ("0", acc, OP["NOOP"], 1, 0),
+        ("0", rej, OP["NOOP"], 1, REJ["SEQUENCE"]),
+        ("0", rej, 0, -1, REJ["CRC"]),
+        ("1", rej, 0, -1, REJ["OVERSIZE"]),
+        ("1", acc, OP["SET_MODE"], 2, 4),
+        ("1", rej, OP["TABLE_LOAD"], 3, REJ["TABLE"]),
+        ("1", acc, OP["TABLE_LOAD"], 4, None),
+        ("2", rej, OP["NOOP"], 3, REJ["SEQUENCE"]),
+        ("2", acc, OP["SET_MODE"], 5, 1),
+        ("2", acc, OP["CAMERA_DISABLE"], 6, 0b101),
+        ("2", rej, 99, 7, REJ["OPCODE"]),
+        ("3", acc, OP["SET_POSE_HINT"], 7, 0),
+        ("3", acc, OP["CAMERA_ENABLE"], 8, 0b111),
+        ("3", acc, OP["RESET_COUNTERS"], 9, 0),
+    ]
+    assert len(got) == len(want), got
+    for g_, w in zip(got, want, strict=True):
+        assert g_[:4] == w[:4] and (w[4] is None or g_[4] == w[4]), (g_, w)
+    # the table swap: TABLE_REFUSED (the loader's CRC error), then TABLE_LOADED of table2
+    all_ev = rows(out / "events.csv")
+    tab = [e for e in all_ev if e["event"] in ("TABLE_LOADED", "TABLE_REFUSED") and e["cycle"] == "1"]
+    assert [e["event"] for e in tab] == ["TABLE_REFUSED", "TABLE_LOADED"]
+    hk = rows(out / "housekeeping.csv")
+    assert hk[-1]["n_cmd_accepted"] == "0" and hk[-1]["n_cmd_rejected"] == "0"  # RESET_COUNTERS
+    assert hk[-1]["cmd_seq_last"] == "9"
+    assert hk[0]["table_crc32"] != hk[-1]["table_crc32"]  # table2 runs after the swap
+    assert int(hk[-1]["table_crc32"], 16) == got[7][4] & 0xFFFFFFFF  # CMD_ACCEPTED arg1: the new table's CRC
+    assert int(tab[1]["arg1"], 16) == got[7][4] & 0xFFFFFFFF
+    assert hk[-1]["cams_enabled"] == "7"
+    navr = {int(r["cycle"]): r for r in rows(out / "nav.csv")}
+    assert navr[1]["mode"] == "STANDBY" and navr[1]["status"] == "NO_FIX"
+    assert navr[2]["mode"] != "STANDBY"
+    assert int(navr[2]["cams_used"]) & 0b010 == 0  # camera y disabled for cycle 2
+    # the wrong hint is never a fix: every FIX/DEGRADED pose is close to the truth
+    truth = run["truth"]
+    n_fix = 0
+    for k, r in navr.items():
+        if r["status"] in ("FIX", "DEGRADED"):
+            n_fix += 1
+            assert abs(float(r["x_mm"]) - truth[k]["x_mm"]) < 3.0, (k, r["x_mm"])
+            dyaw = (float(r["yaw_deg"]) - truth[k]["yaw_deg"] + 180) % 360 - 180
+            assert abs(dyaw) < 0.2, (k, dyaw)
+    assert n_fix >= 30  # the old / new table kept navigating
+    assert "commands: 0 accepted, 0 rejected" in nav.stderr
+
+
+def test_udp_forward_and_udp_commands(bins, run, tmp_path):
+    # a short recorded stream
+    tlm = tmp_path / "tlm.bin"
+    nav = subprocess.run(
+        [
+            str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+            "--tlm-file", str(tlm), "--max-cycles", "10",
+        ],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert nav.returncode == 0, nav.stderr
+    wire = tlm.read_bytes()
+    packets = [cobs_decode(fr)[:-2] for fr in wire.split(b"\x00") if fr]
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(2.0)
+    port = rx.getsockname()[1]
+    g = subprocess.run(
+        [
+            str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp_path / "g"), "--no-status",
+            "--udp-forward", f"127.0.0.1:{port}",
+        ],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert g.returncode == 0, g.stderr
+    got = []
+    try:
+        while len(got) < len(packets):
+            got.append(rx.recv(4096))
+    except TimeoutError:
+        pass
+    rx.close()
+    assert got == packets  # every packet, in order, byte-identical
+    assert f"UDP forward: {len(packets)} packets, 0 not delivered" in g.stderr
+
+    # a ground system's commands over UDP: validated, re-stamped, sent up
+    fifo = tmp_path / "tlm.fifo"
+    os.mkfifo(fifo)
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    tc_port = s.getsockname()[1]
+    s.close()  # free for mfns-ground (a race-free enough choice on loopback)
+    up = tmp_path / "up.bin"
+    ground = subprocess.Popen(
+        [
+            str(bins / "mfns-ground"), "--tty", str(fifo), "--out", str(tmp_path / "g2"), "--no-status",
+            "--max-seconds", "1.5", "--tc-file", str(up), "--udp-tc", f"127.0.0.1:{tc_port}",
+            "--tc-seq-start", "40",
+        ],
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    time.sleep(0.5)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tx.sendto(tc_packet(OP["SET_MODE"], 1234, bytes([4])), ("127.0.0.1", tc_port))  # ground system's seq 1234
+    tx.sendto(tc_packet(OP["SET_MODE"], 1, bytes([3])), ("127.0.0.1", tc_port))  # SAFE: refused on the ground
+    tx.sendto(b"\x01\x02\x03", ("127.0.0.1", tc_port))
+    tx.close()
+    _, err = ground.communicate(timeout=30)
+    assert ground.returncode == 3, err  # nothing decoded on the FIFO (no flight program)
+    assert "UDP commands: 3 received, 2 refused" in err, err
+    frames = [fr for fr in up.read_bytes().split(b"\x00") if fr]
+    assert len(frames) == 1
+    pkt = cobs_decode(frames[0])
+    assert binascii.crc_hqx(pkt[:-2], 0xFFFF) == int.from_bytes(pkt[-2:], "big")
+    assert pkt[:-2] == tc_packet(OP["SET_MODE"], 40, bytes([4]))  # the ground's count, not 1234
+
+
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["--udp-forward", "10.1.2.3:5000"], "not a loopback address"),
+        (["--udp-tc", "0.0.0.0:5000", "--tc-file", "x.bin"], "not a loopback address"),
+        (["--cmd", "SET_MODE fly", "--tc-file", "x.bin"], "SET_MODE wants standby, acquire or track"),
+        (["--cmd", "SET_POSE_HINT 0 0 0 0 95 0", "--tc-file", "x.bin"], "not a number in range"),
+        (["--cmd", "TABLE_LOAD " + "p" * 70, "--tc-file", "x.bin"], "longer than 63"),
+        (["--cmd", "NOOP"], "commands need a way up"),
+        (["--cmd", "NOOP", "--uplink"], "--uplink sends on the source link"),
+    ],
+)
+def test_ground_refuses_bad_uplink_usage(bins, tmp_path, args, needle):
+    src = tmp_path / "e.bin"
+    src.write_bytes(b"")
+    res = subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(src), "--out", str(tmp_path / "g"), *args],
+        capture_output=True, text=True, timeout=30, check=False, cwd=tmp_path,
+    )  # fmt: skip
+    assert res.returncode == 2, res.stderr
+    assert needle in res.stderr, res.stderr
+
+
+def test_nav_refuses_uplink_on_a_fifo(bins, run, tmp_path):
+    fifo = tmp_path / "t.fifo"
+    os.mkfifo(fifo)
+    res = subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+         "--tty", str(fifo), "--uplink"],
+        capture_output=True, text=True, timeout=30, check=False,
+    )  # fmt: skip
+    assert res.returncode == 2
+    assert "--uplink needs a tty" in res.stderr
