@@ -170,7 +170,8 @@ def register(subparsers) -> None:
         metavar="PX",
         help="the unmodelled pixel error (1-sigma, px) the flight solver adds in quadrature to each "
         "observation's own covariance, and the whole pixel noise when the centroider gives none "
-        "(default: the calibration's pixel_noise_px)",
+        "(default: the RMS residual of the table's correction grids, or the calibration's pixel_noise_px "
+        "when it carries a covariance, whichever is larger)",
     )
     b.add_argument(
         "--workspace",

@@ -80,6 +80,27 @@ def _warn(line: str) -> None:
     print(f"mfns table: warning: {line}", file=sys.stderr)
 
 
+# The smallest default floor (px): the centroid's Q23.8 output step is 1/256 px, whose
+# rounding (1/256/sqrt(12) = 0.0011 px) the centroider's covariance already carries; a
+# floor below it would claim a grid better than the arithmetic that reads it.
+MIN_FLOOR_PX = 0.001
+
+
+def default_floor_px(errors: list[GridError], doc: dict) -> float:
+    """The default unmodelled pixel error. The centroider gives each blob's noise and the
+    calibration's covariance its own term in the pose covariance; what no term carries is
+    the grid's interpolation residual (the RMS over the cameras of their grids' RMS) and,
+    for an estimated calibration (one with a covariance), the misfit its own images left:
+    its pixel_noise_px, the RMS reprojection residual of the calibration, which also keeps
+    the solver's gates and residual check from refusing the calibration's systematic error
+    as outliers. A document without a covariance is taken as an exact rig (grid residual
+    only; build_table warns). Never below MIN_FLOOR_PX."""
+    rms = float(np.sqrt(np.mean([e.rms_px**2 for e in errors])))
+    if doc.get("covariance") is not None:
+        rms = max(rms, float(doc["pixel_noise_px"]))
+    return max(rms, MIN_FLOOR_PX)
+
+
 def build_table(
     calib_json: str | Path,
     beacons_csv: str | Path,
@@ -98,12 +119,13 @@ def build_table(
     grid None: each camera gets the coarsest grid that corrects its lens to
     MAX_GRID_ERROR_PX within the loader's node limit (grid.size_grid); a given
     NXxNY grid is used as is, and refused like a lens the limit cannot correct
-    when it misses MAX_GRID_ERROR_PX. pixel_sigma_px overrides the calibration's
-    pixel_noise_px as the table's pixel sigma: the unmodelled pixel error the flight
-    solver adds in quadrature to every observation's own covariance (centroid and
-    survey), and the whole pixel noise of observations without a centroid covariance
-    (docs/caltable.md). The calibration's "covariance", when present, becomes the
-    table's calibration-covariance section (calib_covariance).
+    when it misses MAX_GRID_ERROR_PX. pixel_sigma_px is the table's pixel sigma: the
+    unmodelled pixel error the flight solver adds in quadrature to every observation's
+    own covariance (centroid and survey), and the whole pixel noise of observations
+    without a centroid covariance (docs/caltable.md). Default: default_floor_px (the
+    grids' RMS residual, and an estimated calibration's own reprojection residual). The calibration's "covariance", when present, becomes the table's
+    calibration-covariance section (calib_covariance); a calibration without one gives
+    no calibration term, which is right only for an exact rig (a warning says so).
     """
     from .check import core
     from .settings import load_settings
@@ -128,7 +150,12 @@ def build_table(
                 )
         errors.append(err)
         cams.append(rec)
-    sigma = float(f32(doc["pixel_noise_px"] if pixel_sigma_px is None else pixel_sigma_px))
+    sigma = float(f32(default_floor_px(errors, doc) if pixel_sigma_px is None else pixel_sigma_px))
+    if doc.get("covariance") is None and pixel_sigma_px is None:
+        _warn(
+            f"{calib_json}: no calibration covariance: the table carries no calibration uncertainty "
+            f"(right for an exact rig; otherwise give --pixel-sigma at the calibration's residual level)"
+        )
     if doc.get("cameras") is not None and len(doc["cameras"]) != 3:
         raise MfnsError(f"{calib_json}: the flight table holds exactly three cameras (x, y, z)")
     from ..flight import Flight
