@@ -123,7 +123,8 @@ def build_table(
     unmodelled pixel error the flight solver adds in quadrature to every observation's
     own covariance (centroid and survey), and the whole pixel noise of observations
     without a centroid covariance (docs/caltable.md). Default: default_floor_px (the
-    grids' RMS residual, and an estimated calibration's own reprojection residual). The calibration's "covariance", when present, becomes the table's
+    grids' RMS residual, and an estimated calibration's own reprojection residual).
+    The calibration's "covariance", when present, becomes the table's
     calibration-covariance section (calib_covariance); a calibration without one gives
     no calibration term, which is right only for an exact rig (a warning says so).
     """
