@@ -329,7 +329,10 @@ def navigation_section(runs: list[Run]) -> list[str]:
         'is too small (a fusion filter would over-trust the fix); below: too large. "diagonal" marks '
         "a nav.csv without the covariance columns, checked with its six 1-sigma columns only.",
         "",
-        "Reading it: with the true rig the errors are the centroid noise alone; the refined calibration "
+        "Reading it: with the true rig the errors are the centroid noise and, where the run's "
+        "scenario.json says the LEDs were rendered with a survey error (`mfns sim nav --survey-error`, "
+        "as `make demo` does), the beacons' survey error, common to all fixes that see the same "
+        "beacons (a bias per view, not noise); the refined calibration "
         "adds its small residual errors; the paper-method calibration adds the chained least-squares "
         "errors of section 1, which is the effect the paper's Table 5 measures on real hardware (with "
         "real centroid noise, hand-matched beacons and the algebraic solver on top).",
