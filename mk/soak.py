@@ -30,27 +30,28 @@ def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
 
 def make_base(work: Path) -> Path:
     base = work / "base"
-    if (base / "frames" / "frames.csv").exists() and (base / "table.mfnstbl").exists():
-        return base
-    shutil.rmtree(base, ignore_errors=True)
-    base.mkdir(parents=True)
     py = [sys.executable, "-m", "mfns"]
     frames = base / "frames"
-    run(
-        [
-            *py,
-            "sim",
-            "nav",
-            str(frames),
-            "--quiet",
-            "--scenario",
-            "module",
-            "--frames",
-            str(BASE_FRAMES),
-            "--seed",
-            "3",
-        ]
-    )
+    # The frames are kept between runs (mfns sim nav is deterministic); the table is
+    # always rebuilt: a cached one may be of an older format than the loader takes.
+    if not (frames / "frames.csv").exists():
+        shutil.rmtree(base, ignore_errors=True)
+        base.mkdir(parents=True)
+        run(
+            [
+                *py,
+                "sim",
+                "nav",
+                str(frames),
+                "--quiet",
+                "--scenario",
+                "module",
+                "--frames",
+                str(BASE_FRAMES),
+                "--seed",
+                "3",
+            ]
+        )
     run(
         [
             *py,
