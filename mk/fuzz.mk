@@ -40,7 +40,7 @@ build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(wildcard drivers/camera/re
 define reader_run_fuzz
 	@mkdir -p $(2)
 	@cp -n tests/fuzz/corpus/$(1)/* $(2)/ 2>/dev/null || true
-	@if [ "$(1)" = caltable ] && [ -f $(GEN)/default.mfnstbl ]; then cp -n $(GEN)/default.mfnstbl $(2)/default-even; \
+	@if [ "$(1)" = caltable ] && [ -f $(GEN)/default.mfnstbl ]; then cp $(GEN)/default.mfnstbl $(2)/default-even; \
 	  { printf '\001'; cat $(GEN)/default.mfnstbl; } > $(2)/default-odd; fi
 	@log=build/fuzz/$(1).log; \
 	if build/fuzz/fuzz_$(1) -max_total_time=$(3) -seed=$(4) -max_len=$(fuzz_maxlen_$(1)) -print_final_stats=1 \
