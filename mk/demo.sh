@@ -109,13 +109,13 @@ echo "== plan: a better layout for the paper's 10 beacons and the module's 60 (a
   --seed 2 --quiet
 drop_frames module --scenario module --frames 120 --seed 2 --survey-error
 simulate turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \
-  --beacon-map "$out/plan/turntable/beacons.csv"
+  --beacon-map "$out/plan/turntable/beacons.csv" --survey-error
 navigate turntable-planned true-rig "$out/turntable-planned/frames/calib.json" ""
 drop_frames turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \
-  --beacon-map "$out/plan/turntable/beacons.csv"
-simulate module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv"
+  --beacon-map "$out/plan/turntable/beacons.csv" --survey-error
+simulate module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv" --survey-error
 navigate module-planned true-rig "$out/module-planned/frames/calib.json" ""
-drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv"
+drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv" --survey-error
 
 echo "== the paper's comparison: Tables 3 and 5, availability, figures"
 "$py" -m mfns compare "$out" -o "$out/report.md"
