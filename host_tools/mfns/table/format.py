@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..calib_results import COVARIANCE_PARAMETERS
 from ..errors import MfnsError
 
 MAGIC = b"MFTB"
@@ -26,23 +27,9 @@ NUM_CAMERAS = 3
 # The calibration-covariance section (after the beacon records): u16 count (0 or
 # CALIB_PARAMS), u16 reserved, the upper triangle row-major as f32.
 COV_HEADER_SIZE = 4
-CALIB_PARAM_NAMES = (
-    "fx",
-    "fy",
-    "cx",
-    "cy",
-    "k1",
-    "k2",
-    "p1",
-    "p2",
-    "k3",
-    "theta_x",
-    "theta_y",
-    "theta_z",
-    "r_x",
-    "r_y",
-    "r_z",
-)  # nav_config.h mfns_calib_param_t, per camera x, y, z
+# Per camera x, y, z, in the order of nav_config.h mfns_calib_param_t: the calibration-
+# results contract's own parameter list (docs/calib-results.md), defined once there.
+CALIB_PARAM_NAMES = COVARIANCE_PARAMETERS
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
 # The map-index section after the beacon records is written by the C core
 # (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
