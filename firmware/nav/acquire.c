@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "acquire_certify.h"
+#include "acquire_cycle.h"
 #include "pose_init.h"
 #include "pose_internal.h"
 #include "spd.h"
@@ -57,6 +58,8 @@ uint32_t mfns_acq_abi_size(mfns_acq_abi_t what)
         return (uint32_t)sizeof(mfns_bidx_params_t);
     case MFNS_ACQ_ABI_CERTIFY:
         return (uint32_t)sizeof(mfns_certify_result_t);
+    case MFNS_ACQ_ABI_CYCLE:
+        return (uint32_t)sizeof(mfns_acq_cycle_t);
     }
     return 0;
 }
@@ -594,7 +597,12 @@ static bool minimal_in_workspace(const mfns_acq_t *q, const mfns_pose_t *pose,
  * propagated gate are refined together and scored like any candidate. */
 static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
 {
-    q->progress.units += 2u + (uint32_t)q->map->count / 32u; /* pair look-ups; residuals counted below */
+    /* Charges here are measured, like every unit (acquire.h): with a minimal
+     * pose's covariance, the map's pair look-ups and a residual per 4 beacons
+     * left, a completion costs about 1 us per unit on the benchmark host, as
+     * the bands do (it was 0.3 us with a unit per residual, docs/pose.md). */
+    q->progress.units += (uint32_t)q->map->count / 64u;
+    uint32_t n_res = 2u; /* the covariance of the three: half a unit */
     const int tri[3] = {an->i, an->j, an->k};
     mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
     float h[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N] = {{0.0f}};
@@ -647,7 +655,11 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
         }
         fill_meas(q, l, d, &m[3]);
         float r[2], jac[2][6];
-        q->progress.units++; /* a residual with its Jacobian and the gate: ~0.3 us */
+        n_res++; /* a residual with its Jacobian and the gate: ~0.3 us */
+        if ((n_res & 3u) == 0u) {
+            q->progress.units++;
+        }
+
         if (!mfns_pose_residual(q->rig, &m[3], pose, r, jac)) {
             continue;
         }
@@ -703,6 +715,7 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
         cd.missing = (uint8_t)(miss > 255 ? 255 : miss);
         add_candidate(q, &cd);
     }
+    q->progress.units += (n_res & 3u) >= 2u ? 1u : 0u; /* the rest, rounded */
 }
 
 /* In the bands, a minimal pose whose body origin lies more than
@@ -739,10 +752,17 @@ static bool band_plausible(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
 /* ------------------------------------------------------------ enumeration */
 
 
-static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b, int c)
+/* One hypothesis at loop indices (a, r1, r2) of its enumeration: they are
+ * the cursor, so that a hypothesis the budget refuses is the first one the
+ * next call tries. */
+static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b, int c, int r1, int r2)
 {
     if (q->progress.units + 1u > q->budget) {
         q->progress.budget_out = true;
+        q->cur.a = (int16_t)a;
+        q->cur.r1 = (int16_t)r1;
+        q->cur.r2 = (int16_t)r2;
+        q->cur.resume = 1u;
         return;
     }
     q->progress.units++;
@@ -770,6 +790,27 @@ static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b,
     }
 }
 
+/* Where a resumed enumeration starts: the cursor's loop indices once, then
+ * 0 (loops written as for (x = start(..)); the start applies only while
+ * every outer index is still at the cursor's). */
+typedef struct {
+    int a, r1, r2;
+    bool on; /* still on the cursor's path */
+} resume_t;
+
+static resume_t resume_point(mfns_acq_t *q)
+{
+    resume_t r = {0, 0, 0, false};
+    if (q->cur.resume != 0u) {
+        r.a = q->cur.a;
+        r.r1 = q->cur.r1;
+        r.r2 = q->cur.r2;
+        r.on = true;
+        q->cur.resume = 0u;
+    }
+    return r;
+}
+
 /* Band [w0, w1) of one anchor: hypotheses whose ranks (rb, rc) reach it. */
 static void band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1)
 {
@@ -777,9 +818,12 @@ static void band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1)
     const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
     const float tij = ray_angle(bi, bj), tik = ray_angle(bi, bk), tjk = ray_angle(bj, bk);
     const float pik = parallax_pad(bi, bk), pjk = parallax_pad(bj, bk);
-    for (int a = 0; a < ix->count && !stop(q); a++) {
+    resume_t rs = resume_point(q);
+    for (int a = rs.a; a < ix->count && !stop(q); a++) {
         const int na = ix->nbr_count[a];
-        for (int rb = 0; rb < na && rb < w1 && !stop(q); rb++) {
+        const bool on_a = rs.on && a == rs.a;
+        for (int rb = on_a ? rs.r1 : 0; rb < na && rb < w1 && !stop(q); rb++) {
+            const bool on_b = on_a && rb == rs.r1;
             const int b = ix->nbr[a][rb];
             if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, 0.0f)) {
                 continue;
@@ -788,22 +832,22 @@ static void band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1)
                 if (rb < w0) {
                     continue;
                 }
-                for (int c = 0; c < ix->count && !stop(q); c++) {
+                for (int c = on_b ? rs.r2 : 0; c < ix->count && !stop(q); c++) {
                     if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
                         mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
-                        hypothesis(q, an, a, b, c);
+                        hypothesis(q, an, a, b, c, rb, c);
                     }
                 }
                 continue;
             }
-            for (int rc = 0; rc < na && rc < w1 && !stop(q); rc++) {
+            for (int rc = on_b ? rs.r2 : 0; rc < na && rc < w1 && !stop(q); rc++) {
                 if (rb < w0 && rc < w0) {
                     continue; /* an earlier band's */
                 }
                 const int c = ix->nbr[a][rc];
                 if (c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, 0.0f) &&
                     mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, 0.0f)) {
-                    hypothesis(q, an, a, b, c);
+                    hypothesis(q, an, a, b, c, rb, rc);
                 }
             }
         }
@@ -821,53 +865,64 @@ static void exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an)
     const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
     const float tij = ray_angle(bi, bj), tik = ray_angle(bi, bk), tjk = ray_angle(bj, bk);
     const float pij = parallax_pad(bi, bj), pik = parallax_pad(bi, bk), pjk = parallax_pad(bj, bk);
-    for (int a = 0; a < ix->count && !stop(q); a++) {
-        for (int b = 0; b < ix->count && !stop(q); b++) {
+    resume_t rs = resume_point(q);
+    for (int a = rs.a; a < ix->count && !stop(q); a++) {
+        const bool on_a = rs.on && a == rs.a;
+        for (int b = on_a ? rs.r1 : 0; b < ix->count && !stop(q); b++) {
+            const bool on_b = on_a && b == rs.r1;
             if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, pij)) {
                 continue;
             }
-            for (int c = 0; c < ix->count && !stop(q); c++) {
+            for (int c = on_b ? rs.r2 : 0; c < ix->count && !stop(q); c++) {
                 if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
                     mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
-                    hypothesis(q, an, a, b, c);
+                    hypothesis(q, an, a, b, c, b, c);
                 }
             }
         }
     }
 }
 
-/* After the bands without a certified pose: a best candidate that explains
- * every blob (none unexplained, missing within the allowance) is unique if
- * the exhaustive enumeration of one anchor finds no other such candidate. */
-/* After the bands without a certified pose: a best candidate that explains
- * every blob (none unexplained, missing within the allowance) is unique if
- * the exhaustive enumeration of one anchor finds no other such candidate. */
-static void complete(mfns_acq_t *q)
+/* The anchor the completion exhausts: one whose three blobs share an image
+ * (its pair look-ups prune), else the first; -1 none. */
+static int completion_anchor(const mfns_acq_t *q)
 {
-    /* the anchor to exhaust: one whose three blobs share an image (its pair
-     * look-ups prune), else the first */
     int an = -1;
     for (int a = 0; a < q->na; a++) {
         if (q->anchor[a].k >= 0 && (an < 0 || (q->anchor[an].cross && !q->anchor[a].cross))) {
             an = a;
         }
     }
-    if (q->best < 0 || an < 0 || q->progress.budget_out) {
-        return;
+    return an;
+}
+
+/* After the bands without a certified pose: does the best candidate explain
+ * every blob of a 4-blob frame (none unexplained, missing within the
+ * allowance)? Then the completion can certify it. */
+static bool completion_applies(const mfns_acq_t *q)
+{
+    if (q->analysis || q->certified >= 0 || q->best < 0 || completion_anchor(q) < 0) {
+        return false;
     }
     const mfns_acq_cand_t *b = &q->cand[q->best];
-    if (q->nb != MFNS_ACQ_MIN_BLOBS || (int)b->inliers != q->nb || b->missing > q->idx->max_missing) {
-        return; /* the sound check covers one blob beyond the anchor's three */
-    }
-    const bool was = q->analysis;
+    /* the sound check covers one blob beyond the anchor's three */
+    return q->nb == MFNS_ACQ_MIN_BLOBS && (int)b->inliers == q->nb && b->missing <= q->idx->max_missing;
+}
+
+/* The completion, from the cursor: exhaust one anchor, collecting every
+ * candidate (never stopping on the first); then a best candidate that
+ * explains every blob is unique if no other candidate does. */
+static void run_completion(mfns_acq_t *q)
+{
+    const int an = completion_anchor(q);
     q->analysis = true; /* collect, never stop on the first */
     q->exhaustive = true;
     q->to_complete = false;
     exhaust(q, &q->anchor[an]);
     q->exhaustive = false;
-    q->analysis = was;
+    q->analysis = false;
     if (q->progress.budget_out) {
-        return;
+        return; /* the cursor holds the place */
     }
     /* unique: no other pose explains every blob within the allowances (a
      * rival with more missing beacons could be the truth with a beacon
@@ -885,49 +940,96 @@ static void complete(mfns_acq_t *q)
         q->certified = keep;
         q->progress.completed = true;
     }
+    q->cur.phase = MFNS_ACQ_PHASE_DONE;
+}
+
+/* Cheap anchors first: a band of an anchor whose third blob is in the same
+ * image costs N (w1^2 - w0^2) pair look-ups, one whose third is in another
+ * camera N^2 (w1 - w0). The same-image anchors' first bands come first, then
+ * the cross anchors' first bands (a same-image triple may be too
+ * ill-conditioned for its verification to find the truth), then the rest of
+ * each kind (measured on 1,000 module views: 829 right against 824 with every
+ * same-image band first). */
+static const struct {
+    uint8_t cross, w_max;
+} SCHED[] = {{0u, SCHED_SAME_FIRST}, {1u, SCHED_CROSS_FIRST}, {0u, MFNS_BIDX_MAX_NBR}, {1u, MFNS_BIDX_MAX_NBR}};
+#define SCHED_STEPS ((uint8_t)(sizeof SCHED / sizeof SCHED[0]))
+
+/* The window after ranks [0, w0): doubling, capped at w_max. */
+static uint8_t next_window(int w0, int w_max)
+{
+    const int w = w0 == 0 ? 1 : 2 * w0;
+    return (uint8_t)(w < w_max ? w : w_max);
+}
+
+/* The bands, from the cursor: every step of the schedule, every window of
+ * it, every anchor of its kind. */
+static void run_bands(mfns_acq_t *q)
+{
+    mfns_acq_cursor_t *u = &q->cur;
+    while (u->stage < SCHED_STEPS && !stop(q)) {
+        const int kind = SCHED[u->stage].cross;
+        const int w_max = SCHED[u->stage].w_max < q->idx->k_nbr ? SCHED[u->stage].w_max : q->idx->k_nbr;
+        if (u->w == 0u) { /* the step starts after the windows its kind has done */
+            u->w0 = u->w_done[kind];
+            u->w = next_window(u->w0, w_max);
+            u->anchor = 0u;
+        }
+        if ((int)u->w0 >= w_max) {
+            u->w_done[kind] = u->w0;
+            u->stage++;
+            u->w = 0u;
+            continue;
+        }
+        q->progress.band = u->w;
+        while (u->anchor < q->na && !stop(q)) {
+            const mfns_acq_anchor_t *an = &q->anchor[u->anchor];
+            if (an->k >= 0 && (int)an->cross == kind) {
+                band(q, an, u->w0, u->w);
+            }
+            if (!stop(q)) {
+                u->anchor++;
+            }
+        }
+        if (!stop(q)) { /* the window is done: the next one */
+            u->w0 = u->w;
+            u->w = next_window(u->w0, w_max);
+            u->anchor = 0u;
+        }
+    }
+}
+
+/* Run the search from its cursor until it ends or the call's budget does. */
+static void run(mfns_acq_t *q)
+{
+    if (q->cur.phase == MFNS_ACQ_PHASE_BANDS) {
+        run_bands(q);
+        if (q->progress.budget_out && !q->to_complete && q->certified < 0) {
+            return;
+        }
+        q->progress.finished = true;
+        q->cur.phase = completion_applies(q) ? MFNS_ACQ_PHASE_COMPLETE : MFNS_ACQ_PHASE_DONE;
+    }
+    if (q->cur.phase == MFNS_ACQ_PHASE_COMPLETE) {
+        run_completion(q);
+    }
+    q->progress.certified = q->certified >= 0;
 }
 
 void mfns_acq_search(mfns_acq_t *q)
 {
     memset(&q->progress, 0, sizeof q->progress);
+    memset(&q->cur, 0, sizeof q->cur);
     q->ncand = 0;
     q->best = -1;
     q->certified = -1;
     q->exhaustive = false;
     q->to_complete = false;
     make_anchors(q);
-    /* Cheap anchors first: a band of an anchor whose third blob is in the
-     * same image costs N (w1^2 - w0^2) pair look-ups, one whose third is in
-     * another camera N^2 (w1 - w0). The same-image anchors' first bands come
-     * first, then the cross anchors' first bands (a same-image triple may be
-     * too ill-conditioned for its verification to find the truth), then the
-     * rest of each kind (measured on 1,000 module views: 829 right against
-     * 824 with every same-image band first). */
-    static const struct {
-        uint8_t cross, w_max;
-    } sched[] = {{0u, SCHED_SAME_FIRST}, {1u, SCHED_CROSS_FIRST}, {0u, MFNS_BIDX_MAX_NBR}, {1u, MFNS_BIDX_MAX_NBR}};
-    int w_done[2] = {0, 0};
-    for (size_t st = 0; st < sizeof sched / sizeof sched[0] && !stop(q); st++) {
-        const int kind = sched[st].cross;
-        const int w_max = sched[st].w_max < q->idx->k_nbr ? sched[st].w_max : q->idx->k_nbr;
-        int w0 = w_done[kind];
-        for (int w1 = w0 == 0 ? 1 : 2 * w0; w0 < w_max && !stop(q); w1 *= 2) {
-            const int w = w1 < w_max ? w1 : w_max;
-            q->progress.band = (uint8_t)w;
-            for (int a = 0; a < q->na && !stop(q); a++) {
-                if (q->anchor[a].k >= 0 && (int)q->anchor[a].cross == kind) {
-                    band(q, &q->anchor[a], w0, w);
-                }
-            }
-            w0 = w;
-        }
-        w_done[kind] = w0;
-    }
-    q->progress.finished = !stop(q) || q->to_complete;
-    if (!q->analysis && q->certified < 0) {
-        complete(q);
-    }
-    q->progress.certified = q->certified >= 0;
+    q->cur.phase = MFNS_ACQ_PHASE_BANDS;
+    q->progress.calls = 1u;
+    run(q);
+    q->progress.units_total = q->progress.units;
 }
 
 static bool valid_inputs(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_beacon_index_t *idx,
@@ -951,6 +1053,7 @@ bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_
                       uint32_t budget_units, bool analysis)
 {
     memset(&acq->progress, 0, sizeof acq->progress);
+    memset(&acq->cur, 0, sizeof acq->cur);
     acq->ncand = 0;
     acq->best = -1;
     acq->certified = -1;
@@ -960,11 +1063,32 @@ bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_
     acq->rig = rig;
     acq->map = map;
     acq->idx = idx;
-    acq->frame = frame;
+    acq->frame_copy = *frame; /* a resumed search reads it after the caller's frame has moved on */
+    acq->frame = &acq->frame_copy;
     acq->cfg = cfg;
     acq->budget = budget_units;
     acq->analysis = analysis;
     return setup(acq);
+}
+
+/* The outcome of the search so far into out. */
+static mfns_pose_status_t result(const mfns_acq_t *acq, mfns_pose_solution_t *out)
+{
+    const uint32_t hyp = acq->progress.hypotheses;
+    if (acq->certified >= 0) {
+        *out = acq->cand[acq->certified].sol;
+    } else {
+        mfns_pose_reason_t reason = acq->progress.rivals > 0 ? MFNS_POSE_R_AMBIGUOUS : MFNS_POSE_R_NOT_IDENTIFIED;
+        for (int i = 0; i < acq->ncand && acq->best >= 0; i++) {
+            if (i != acq->best && acq->cand[i].inliers == acq->cand[acq->best].inliers &&
+                acq->cand[i].missing == acq->cand[acq->best].missing) {
+                reason = MFNS_POSE_R_AMBIGUOUS;
+            }
+        }
+        mfns_pose_solution_clear(out, reason);
+    }
+    out->hypotheses = (uint16_t)(hyp > 0xFFFFu ? 0xFFFFu : hyp);
+    return out->status;
 }
 
 mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
@@ -988,19 +1112,40 @@ mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
         return out->status;
     }
     mfns_acq_search(acq);
-    const uint32_t hyp = acq->progress.hypotheses;
-    if (acq->certified >= 0) {
-        *out = acq->cand[acq->certified].sol;
-    } else {
-        mfns_pose_reason_t reason = acq->progress.rivals > 0 ? MFNS_POSE_R_AMBIGUOUS : MFNS_POSE_R_NOT_IDENTIFIED;
-        for (int i = 0; i < acq->ncand && acq->best >= 0; i++) {
-            if (i != acq->best && acq->cand[i].inliers == acq->cand[acq->best].inliers &&
-                acq->cand[i].missing == acq->cand[acq->best].missing) {
-                reason = MFNS_POSE_R_AMBIGUOUS;
-            }
-        }
-        mfns_pose_solution_clear(out, reason);
+    return result(acq, out);
+}
+
+bool mfns_acq_pending(const mfns_acq_t *acq)
+{
+    return acq != NULL && acq->progress.budget_out && acq->certified < 0 &&
+           (acq->cur.phase == MFNS_ACQ_PHASE_BANDS || acq->cur.phase == MFNS_ACQ_PHASE_COMPLETE);
+}
+
+mfns_pose_status_t mfns_acq_resume(mfns_acq_t *acq, uint32_t budget_units, mfns_pose_solution_t *out)
+{
+    if (out == NULL) {
+        return MFNS_POSE_NO_FIX;
     }
-    out->hypotheses = (uint16_t)(hyp > 0xFFFFu ? 0xFFFFu : hyp);
-    return out->status;
+    mfns_pose_solution_clear(out, MFNS_POSE_R_BAD_ARG);
+    if (!mfns_acq_pending(acq)) {
+        return out->status;
+    }
+    acq->progress.units = 0u;
+    acq->progress.budget_out = false;
+    acq->progress.calls = (uint16_t)(acq->progress.calls < 0xFFFFu ? acq->progress.calls + 1u : 0xFFFFu);
+    acq->budget = budget_units;
+    run(acq);
+    acq->progress.units_total += acq->progress.units;
+    return result(acq, out);
+}
+
+void mfns_acq_reset(mfns_acq_t *acq)
+{
+    if (acq != NULL) {
+        memset(&acq->progress, 0, sizeof acq->progress);
+        memset(&acq->cur, 0, sizeof acq->cur);
+        acq->ncand = 0;
+        acq->best = -1;
+        acq->certified = -1;
+    }
 }

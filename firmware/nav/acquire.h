@@ -43,6 +43,12 @@
  *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
  *      two different correspondences tie).
  *
+ * Resumable: a search the budget stops keeps its place (mfns_acq_cursor_t)
+ * and its own copy of the frame, and mfns_acq_resume() goes on from the very
+ * hypothesis the budget refused, so a search split over calls tries exactly
+ * the hypotheses, in the same order, of one call with their summed budget
+ * (test_acquire.c). acquire_cycle.h schedules this over navigation cycles.
+ *
  * Work units: one per P3P solve and per cheap check, VERIFY_UNITS plus one
  * per 8 beacons per full verification (association of every beacon +
  * refinement), one per 8 beacons for the missing-beacon count; a call stops
@@ -68,9 +74,13 @@
 #define MFNS_ACQ_VERIFY_UNITS 8u
 #define MFNS_ACQ_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)
 
-/* Where the search stands (telemetry: housekeeping). */
+/* Where the search stands (telemetry: housekeeping). units and budget_out
+ * are the last call's; the rest covers the whole search (every call since
+ * mfns_acquire started it). */
 typedef struct {
     uint32_t units;        /* work spent by the call */
+    uint32_t units_total;  /* work spent by the search over all its calls */
+    uint16_t calls;        /* calls the search has taken (1: started, not resumed) */
     uint32_t hypotheses;   /* P3P solves */
     uint16_t verified;     /* poses that reached full verification */
     uint8_t anchors;       /* anchors of the frame */
@@ -101,11 +111,35 @@ typedef struct {
     bool cross;         /* the third blob is in another camera */
 } mfns_acq_anchor_t;
 
-/* Caller storage of one acquisition (about 24 KB): place it with the
- * navigator (static). Meaningless between calls except progress. */
+/* Where a search stands between calls: the phase, the band schedule's step
+ * and window, the anchor, and the loop indices of the hypothesis the budget
+ * refused (the next call starts there). */
+typedef enum {
+    MFNS_ACQ_PHASE_IDLE = 0, /* no search (or its input was refused) */
+    MFNS_ACQ_PHASE_BANDS,    /* growing hypotheses along the neighbour lists */
+    MFNS_ACQ_PHASE_COMPLETE, /* the exhaustive completion of a 4-blob frame */
+    MFNS_ACQ_PHASE_DONE,     /* ended: certified, or nothing left to try */
+} mfns_acq_phase_t;
+
+typedef struct {
+    uint8_t phase;      /* mfns_acq_phase_t */
+    uint8_t stage;      /* band schedule step */
+    uint8_t w_done[2];  /* windows done per anchor kind (same image, cross) */
+    uint8_t w0, w;      /* the window being enumerated: ranks [w0, w); w 0: the step starts */
+    uint8_t anchor;     /* the anchor being enumerated */
+    uint8_t resume;     /* the loops start at (a, r1, r2) once */
+    int16_t a, r1, r2;  /* beacon a, then ranks or beacons of b and c */
+} mfns_acq_cursor_t;
+
+/* Caller storage of one acquisition (about 11 KB): place it with the
+ * navigator (static). A search stopped by its budget stays resumable until
+ * the next mfns_acquire on this storage; rig, map, index and config must stay
+ * in place until then (the frame is copied). */
 typedef struct {
     mfns_acq_progress_t progress;
-    /* per call */
+    mfns_acq_cursor_t cur;
+    mfns_obs_frame_t frame_copy; /* the searched frame, kept for a resume */
+    /* bound by mfns_acq_prepare */
     const mfns_rig_t *rig;
     const mfns_beacon_map_t *map;
     const mfns_beacon_index_t *idx;
@@ -133,6 +167,18 @@ mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
                                 const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
                                 const mfns_pose_config_t *cfg, uint32_t budget_units, mfns_pose_solution_t *out);
 
+/* Go on with the search mfns_acquire (or an earlier resume) left unfinished
+ * on its budget, for at most budget_units more: same outcomes as
+ * mfns_acquire. With no such search (none started, certified, ended, or its
+ * input refused): NO_FIX with reason BAD_ARG and no work done. */
+mfns_pose_status_t mfns_acq_resume(mfns_acq_t *acq, uint32_t budget_units, mfns_pose_solution_t *out);
+
+/* Did the last call stop on its budget with hypotheses left to try? */
+bool mfns_acq_pending(const mfns_acq_t *acq);
+
+/* Drop any search: nothing is pending afterwards. */
+void mfns_acq_reset(mfns_acq_t *acq);
+
 /* sizeof of the acquisition's API structs, for the ctypes mirrors of the
  * host tools (host_tools/mfns/flight.py). */
 typedef enum {
@@ -142,6 +188,7 @@ typedef enum {
     MFNS_ACQ_ABI_EMIT,       /* mfns_beacon_emit_t */
     MFNS_ACQ_ABI_PARAMS,     /* mfns_bidx_params_t */
     MFNS_ACQ_ABI_CERTIFY,    /* mfns_certify_result_t (acquire_certify.h) */
+    MFNS_ACQ_ABI_CYCLE,      /* mfns_acq_cycle_t (acquire_cycle.h) */
 } mfns_acq_abi_t;
 uint32_t mfns_acq_abi_size(mfns_acq_abi_t what);
 

@@ -54,6 +54,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     nav->pose_cfg.calib_cov = &table->calib_cov; /* the table outlives the cycle */
     nav->pose_cfg.mode = mode;
     nav->mode = MFNS_NAV_MODE_ACQUIRE;
+    mfns_acq_cycle_reset(&nav->acq);
     nav->magic = NAV_MAGIC;
     return MFNS_NAV_OK;
 }
@@ -248,13 +249,17 @@ static bool minimal_agrees(const mfns_nav_t *nav, const mfns_pose_solution_t *s)
 }
 
 /* Acquisition on the whole frames already measured into nav->obs, within
- * the table's work budget. */
+ * the table's work budget: this frame's search and the one carried from an
+ * earlier frame (acquire_cycle.h). */
 static void acquire(mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     const mfns_caltable_t *t = nav->table;
-    (void)mfns_acquire(&nav->acq, &t->rig, &t->beacons, &t->index, &nav->obs, &nav->pose_cfg,
-                       t->index.budget_units, &out->sol); /* the status is also in out->sol.status */
-    out->acq = nav->acq.progress;
+    mfns_acq_cycle_report_t rep;
+    (void)mfns_acq_cycle_run(&nav->acq, &t->rig, &t->beacons, &t->index, &nav->obs, &nav->pose_cfg,
+                             t->index.budget_units, &out->sol, &rep); /* the status is also in out->sol.status */
+    out->acq = rep.progress;
+    out->acq_carry_age = rep.carry_age;
+    out->acq_source = rep.source;
     out->acquired = true;
 }
 
@@ -334,6 +339,9 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         nav->have_prior = true;
         nav->coast = 0;
         nav->mode = MFNS_NAV_MODE_TRACK;
+        if (!out->acquired) {
+            mfns_acq_cycle_reset(&nav->acq); /* tracking holds: a carried search is moot */
+        }
     } else if (track && nav->coast < MFNS_NAV_MAX_COAST) {
         /* Coast: move the prior on by the predicted motion, keep the motion. */
         nav->coast++;

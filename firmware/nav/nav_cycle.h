@@ -15,10 +15,13 @@
  * prediction coasts for at most MFNS_NAV_MAX_COAST cycles, so tracking resumes
  * as soon as beacons return; a coasted pose is only a search prior, never
  * output as a fix. A TRACK cycle that gives no fix is redone once, in the
- * same cycle, as ACQUIRE on whole frames (acquire.h, within the table's work
- * budget); after the coast the prior is dropped, so a stale pose is never
- * reused, and every ACQUIRE cycle searches afresh: the navigator recovers
- * from a lost track by itself. This file is the one owner of that policy.
+ * same cycle, as ACQUIRE on whole frames (acquire_cycle.h, within the
+ * table's work budget); after the coast the prior is dropped, so a stale pose
+ * is never reused, and every ACQUIRE cycle searches its frame afresh while a
+ * search its budget stopped goes on beside it for a bounded number of
+ * cycles: the navigator recovers from a lost track by itself. This file is
+ * the one owner of that policy (track-else-acquire); acquire_cycle.h owns how
+ * acquisition spends its budget over cycles.
  *
  * A camera that delivers no frame (NULL: dead, timed out, being recovered)
  * contributes nothing and is reported as such; the solve goes on with the
@@ -34,7 +37,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "acquire.h"
+#include "acquire_cycle.h"
 #include "caltable.h"
 #include "centroid.h"
 #include "pose.h"
@@ -80,7 +83,9 @@ typedef struct {
     bool reacquired;           /* TRACK failed and the cycle was redone as ACQUIRE */
     uint16_t coasting;         /* cycles the prediction has coasted without a fix (0 = none) */
     bool acquired;             /* the cycle ran acquisition (acq holds its progress) */
-    mfns_acq_progress_t acq;   /* search progress of that acquisition */
+    mfns_acq_progress_t acq;   /* search progress of that acquisition (units: the cycle's total) */
+    uint16_t acq_carry_age;    /* cycles a search has been carried over (0: none carried) */
+    uint8_t acq_source;        /* mfns_acq_source_t: where a fix came from */
     mfns_nav_cam_diag_t cam[MFNS_NUM_CAMERAS];
 } mfns_nav_output_t;
 
@@ -96,8 +101,8 @@ typedef struct {
     mfns_pose_t predicted;  /* prediction used by this cycle's TRACK */
     uint16_t coast;         /* consecutive TRACK cycles without a fix */
     uint32_t magic; /* set by init: guards against use of a zeroed struct */
+    mfns_acq_cycle_t acq;   /* acquisition, with a search carried over cycles */
     /* scratch, meaningless between cycles */
-    mfns_acq_t acq;
     mfns_centroid_work_t work;
     mfns_centroid_result_t cres;
     mfns_obs_frame_t obs;

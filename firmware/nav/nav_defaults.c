@@ -43,7 +43,10 @@ void mfns_bidx_params_default(mfns_bidx_params_t *p)
     p->cert_inliers = MFNS_BIDX_MIN_CERT; /* replaced by the map analysis (acquire_certify.c) */
     p->max_missing = 1;           /* one predicted beacon may be hidden (occlusion, image edge) */
     p->max_unexplained = 1;       /* one blob may be a reflection (no beacon) */
-    /* ~25 ms of search on the benchmark host (1.0 us per unit, docs/pose.md),
-     * half the 53.8 ms frame period at 18.6 Hz, the rest for centroiding. */
-    p->budget_units = 25000u;
+    /* ~16 ms of search per cycle on the benchmark host (0.9-1.3 us per unit,
+     * docs/pose.md): under the 20 ms per-cycle p99 of issue 11 and a third of
+     * the 53.8 ms frame period at 18.6 Hz, the rest for centroiding and
+     * telemetry. A search that needs more goes on over the next cycles
+     * (acquire_cycle.h). A slower flight board needs a smaller number. */
+    p->budget_units = 15000u;
 }

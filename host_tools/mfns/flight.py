@@ -216,6 +216,8 @@ class BidxParams(ct.Structure):
 class AcqProgress(ct.Structure):
     _fields_ = [
         ("units", ct.c_uint32),
+        ("units_total", ct.c_uint32),
+        ("calls", ct.c_uint16),
         ("hypotheses", ct.c_uint32),
         ("verified", ct.c_uint16),
         ("anchors", ct.c_uint8),
@@ -228,6 +230,21 @@ class AcqProgress(ct.Structure):
         ("completed", ct.c_bool),
         ("rivals", ct.c_uint8),
     ]
+
+
+class AcqCycleReport(ct.Structure):
+    _fields_ = [
+        ("progress", AcqProgress),
+        ("carried_units", ct.c_uint32),
+        ("carry_age", ct.c_uint16),
+        ("source", ct.c_uint8),
+        ("carry_dropped", ct.c_bool),
+        ("bridge_refused", ct.c_bool),
+    ]
+
+
+# mfns_acq_source_t (acquire_cycle.h)
+ACQ_SOURCES = ("NONE", "FRESH", "CARRIED")
 
 
 class CertifyCase(ct.Structure):
@@ -259,6 +276,7 @@ class CertifyResult(ct.Structure):
 _ABI = [Rig, BeaconMap, ObsFrame, Assoc, Pose, PoseConfig, SolutionC]
 # mfns_acq_abi_size order (acquire.h); the state itself is opaque here (a byte buffer).
 _ACQ_ABI = [None, AcqProgress, BeaconIndex, BeaconEmit, BidxParams, CertifyResult]
+_ACQ_ABI_CYCLE = len(_ACQ_ABI)  # mfns_acq_cycle_t: opaque too
 
 
 @dataclass
@@ -266,6 +284,8 @@ class Progress:
     """Where an acquisition stopped (mfns_acq_progress_t)."""
 
     units: int
+    units_total: int
+    calls: int
     hypotheses: int
     verified: int
     anchors: int
@@ -370,6 +390,26 @@ class Flight:
             P(SolutionC),
         ]
         L.mfns_acquire.restype = ct.c_int
+        L.mfns_acq_resume.argtypes = [ct.c_void_p, ct.c_uint32, P(SolutionC)]
+        L.mfns_acq_resume.restype = ct.c_int
+        L.mfns_acq_pending.argtypes = [ct.c_void_p]
+        L.mfns_acq_pending.restype = ct.c_bool
+        self._acq_cycle_state = (ct.c_uint8 * L.mfns_acq_abi_size(_ACQ_ABI_CYCLE))()
+        L.mfns_acq_cycle_reset.argtypes = [ct.c_void_p]
+        L.mfns_acq_cycle_reset.restype = None
+        L.mfns_acq_cycle_reset(self._acq_cycle_state)
+        L.mfns_acq_cycle_run.argtypes = [
+            ct.c_void_p,
+            P(Rig),
+            P(BeaconMap),
+            P(BeaconIndex),
+            P(ObsFrame),
+            P(PoseConfig),
+            ct.c_uint32,
+            P(SolutionC),
+            P(AcqCycleReport),
+        ]
+        L.mfns_acq_cycle_run.restype = ct.c_int
         L.mfns_bidx_params_default.argtypes = [P(BidxParams)]
         L.mfns_bidx_params_default.restype = None
         L.mfns_bidx_build.argtypes = [
@@ -633,6 +673,39 @@ class Flight:
         )
         pr = AcqProgress.from_buffer(self._acq_state)
         return self._solution(s), Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
+
+    def acquire_resume(self, budget_units: int) -> tuple[Solution, Progress]:
+        """Go on with the search the last acquire (or resume) left on its budget (acquire.h)."""
+        s = SolutionC()
+        self.lib.mfns_acq_resume(self._acq_state, int(budget_units), ct.byref(s))
+        pr = AcqProgress.from_buffer(self._acq_state)
+        return self._solution(s), Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
+
+    def acquire_pending(self) -> bool:
+        return bool(self.lib.mfns_acq_pending(self._acq_state))
+
+    def acq_cycle_reset(self) -> None:
+        """Forget any carried search (acquire_cycle.h)."""
+        self.lib.mfns_acq_cycle_reset(self._acq_cycle_state)
+
+    def acq_cycle(self, rig, bmap, idx, frame, cfg, budget_units: int | None = None):
+        """One navigation cycle's acquisition (acquire_cycle.h): a fresh search of frame and
+        the carried one -> (Solution, report with progress, carried_units, carry_age, source)."""
+        s = SolutionC()
+        rep = AcqCycleReport()
+        budget = idx.budget_units if budget_units is None else int(budget_units)
+        self.lib.mfns_acq_cycle_run(
+            self._acq_cycle_state,
+            ct.byref(rig),
+            ct.byref(bmap),
+            ct.byref(idx),
+            ct.byref(frame),
+            ct.byref(cfg),
+            budget,
+            ct.byref(s),
+            ct.byref(rep),
+        )
+        return self._solution(s), rep
 
     def strerror(self, reason: str | int) -> str:
         code = REASONS.index(reason) if isinstance(reason, str) else int(reason)

@@ -125,6 +125,35 @@ class SweepResult:
         return self.right + self.wrong + sum(self.reasons.values())
 
 
+def acquisition_frame(cams, beacons, C, r, sigma, rng, normals=None, spurious_rate=0.0):
+    """One frame of the acquisition sweeps: every visible beacon with pixel noise sigma,
+    without those whose LED faces away (normals, (N, 3), optional), and with a reflection
+    (a blob of no beacon, id -1) in spurious_rate of the frames; at most 32 per camera."""
+    obs, ids = make_frame(cams, beacons, C, r, sigma, rng)
+    if normals is not None:
+        p_w = -C.T @ r
+        for k, cam in enumerate(cams):
+            ck = p_w + C.T @ cam.r_bk_b
+            keep = np.einsum("ij,ij->i", ck - beacons[ids[k]], normals[ids[k]]) > 0
+            obs[k], ids[k] = obs[k][keep], ids[k][keep]
+    if spurious_rate > 0 and rng.uniform() < spurious_rate:
+        k = int(rng.integers(len(cams)))
+        cam = cams[k]
+        uv = rng.uniform([0.0, 0.0], [cam.width - 1.0, cam.height - 1.0])
+        obs[k] = np.vstack([obs[k], np.concatenate([uv, cam.undistort_pixels(uv[None])[0]])])
+        ids[k] = np.concatenate([ids[k], [-1]])
+    for k in range(len(cams)):
+        obs[k], ids[k] = obs[k][:32], ids[k][:32]
+    return obs, ids
+
+
+def identification_right(sol, ids) -> bool:
+    """Every inlier of the fix carries its own beacon (a reflection taken for one is wrong)."""
+    return all(
+        (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i] for c in range(len(ids)) for i in range(len(ids[c]))
+    )
+
+
 def identification_sweep(
     flight,
     rig,
@@ -139,32 +168,16 @@ def identification_sweep(
     normals=None,
     spurious_rate: float = 0.0,
 ) -> SweepResult:
-    """Cold acquisition (flight.acquire, no prior) on one frame of each pose. beacons are
-    the positions the frames are made from (they may differ from the map's by a survey
-    error); normals (optional, (N, 3)) drop beacons whose LED faces away from a camera;
-    spurious_rate adds a reflection (a blob of no beacon) to that share of frames. A fix
-    is wrong when an inlier carries another beacon than its own (or a reflection is taken
-    for a beacon): a wrong identification. A right fix may leave a blob unused (counted
-    in `partial`)."""
+    """Cold acquisition (flight.acquire, no prior) on one frame of each pose, one call.
+    beacons are the positions the frames are made from (they may differ from the map's by
+    a survey error); normals and spurious_rate as in acquisition_frame. A fix is wrong
+    when an inlier carries another beacon than its own (or a reflection is taken for a
+    beacon): a wrong identification. A right fix may leave a blob unused (`partial`)."""
     import time
 
     res = SweepResult()
     for C, r in poses:
-        obs, ids = make_frame(cams, beacons, C, r, sigma, rng)
-        if normals is not None:
-            p_w = -C.T @ r
-            for k, cam in enumerate(cams):
-                ck = p_w + C.T @ cam.r_bk_b
-                keep = np.einsum("ij,ij->i", ck - beacons[ids[k]], normals[ids[k]]) > 0
-                obs[k], ids[k] = obs[k][keep], ids[k][keep]
-        if spurious_rate > 0 and rng.uniform() < spurious_rate:
-            k = int(rng.integers(len(cams)))
-            cam = cams[k]
-            uv = rng.uniform([0.0, 0.0], [cam.width - 1.0, cam.height - 1.0])
-            obs[k] = np.vstack([obs[k], np.concatenate([uv, cam.undistort_pixels(uv[None])[0]])])
-            ids[k] = np.concatenate([ids[k], [-1]])
-        for k in range(len(cams)):
-            obs[k], ids[k] = obs[k][:32], ids[k][:32]
+        obs, ids = acquisition_frame(cams, beacons, C, r, sigma, rng, normals, spurious_rate)
         t0 = time.perf_counter()
         sol, pr = flight.acquire(rig, bmap, idx, flight.frame(obs), cfg)
         res.seconds.append(time.perf_counter() - t0)
@@ -172,14 +185,74 @@ def identification_sweep(
         if not sol.ok:
             res.reasons[sol.reason] = res.reasons.get(sol.reason, 0) + 1
             continue
-        correct = all(
-            (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
-            for c in range(len(ids))
-            for i in range(len(ids[c]))
-        )
+        correct = identification_right(sol, ids)
         res.partial += int(correct and sol.beacons_used != sum(int(np.sum(i >= 0)) for i in ids))
         res.right += int(correct)
         res.wrong += int(not correct)
         if not correct:
+            res.wrong_cases.append((C, r, sol.r_wb_w, sol.beacons_used))
+    return res
+
+
+@dataclass
+class CycleSweepResult:
+    right: int = 0
+    wrong: int = 0
+    no_fix: int = 0
+    bridged: int = 0  # fixes from a carried search, verified on a later frame
+    cycles_to_fix: list = field(default_factory=list)  # per right fix: 1 = the first cycle
+    seconds: list = field(default_factory=list)  # per cycle (C, through ctypes)
+    units: list = field(default_factory=list)  # work units per cycle
+    last_reasons: dict = field(default_factory=dict)  # the last cycle's reason, per pose without a fix
+    wrong_cases: list = field(default_factory=list)
+
+
+def acquisition_cycles_sweep(
+    flight,
+    rig,
+    bmap,
+    idx,
+    cams,
+    beacons,
+    poses,
+    sigma: float,
+    rng: np.random.Generator,
+    cfg,
+    max_cycles: int,
+    normals=None,
+    spurious_rate: float = 0.0,
+) -> CycleSweepResult:
+    """Acquisition over navigation cycles (flight.acq_cycle: acquire_cycle.h) of a robot
+    holding still at each pose: every cycle a new frame (new pixel noise, a reflection in
+    spurious_rate of them), at most max_cycles cycles, stopping at the first fix. Counts
+    right and wrong fixes as identification_sweep does, the cycles each right fix took,
+    and every cycle's time and work."""
+    import time
+
+    from .flight import ACQ_SOURCES
+
+    carried = ACQ_SOURCES.index("CARRIED")
+    res = CycleSweepResult()
+    for C, r in poses:
+        flight.acq_cycle_reset()
+        sol = None
+        for cyc in range(1, max_cycles + 1):
+            obs, ids = acquisition_frame(cams, beacons, C, r, sigma, rng, normals, spurious_rate)
+            t0 = time.perf_counter()
+            sol, rep = flight.acq_cycle(rig, bmap, idx, flight.frame(obs), cfg)
+            res.seconds.append(time.perf_counter() - t0)
+            res.units.append(rep.progress.units)
+            if sol.ok:
+                break
+        if sol is None or not sol.ok:
+            res.no_fix += 1
+            res.last_reasons[sol.reason] = res.last_reasons.get(sol.reason, 0) + 1
+            continue
+        if identification_right(sol, ids):
+            res.right += 1
+            res.cycles_to_fix.append(cyc)
+            res.bridged += int(rep.source == carried)
+        else:
+            res.wrong += 1
             res.wrong_cases.append((C, r, sol.r_wb_w, sol.beacons_used))
     return res

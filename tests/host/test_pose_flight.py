@@ -9,6 +9,7 @@ import pytest
 
 from mfns import pose_sim
 from mfns.flight import Flight
+from mfns.table import mapindex
 
 
 @pytest.fixture(scope="module")
@@ -114,3 +115,71 @@ def test_tracking_from_previous_pose(flight, paper):
     assert sol.hypotheses == 0
     assert np.allclose(sol.euler_deg, [0.0, 0.0, 30.0], atol=0.05)
     assert np.linalg.norm(sol.r_wb_w) < 1.0
+
+
+@pytest.fixture(scope="module")
+def module_map(flight):
+    """The 60-beacon module of `mfns sim nav --scenario module` with its index (a short
+    map analysis: the certificate only has to be the table's kind, not its value)."""
+    from mfns.simulate import nav
+
+    cams = pose_sim.paper_rig()
+    pos, nrm = nav.module_beacons(60, np.random.default_rng([2, 1]))
+    rig, bmap = flight.rig(cams), flight.beacon_map(pos, 0.4)
+    ws = mapindex.default_workspace(pos)
+    idx, _ = mapindex.build(flight, rig, bmap, (nrm, np.full(len(pos), 90.0)), ws, 0.3, samples=40)
+    return cams, pos, nrm, rig, bmap, idx, ws
+
+
+def test_module_search_resumed_over_calls_equals_one_call(flight, module_map):
+    """A search split into calls of 2,000 units ends exactly as one call with room for
+    all of it (same hypotheses, same outcome), in the module's bands and in its 4-blob
+    completions (acquire.h, "Resumable")."""
+    cams, pos, nrm, rig, bmap, idx, ws = module_map
+    rng = np.random.default_rng(21)
+    cfg = flight.config(sigma_px=0.3)
+    split = completed = 0
+    for C, r in mapindex.random_poses(rng, ws[0], ws[1], 400):
+        obs, ids = pose_sim.acquisition_frame(cams, pos, C, r, 0.3, rng, nrm)
+        if sum(len(i) for i in ids) < 4:
+            continue
+        frame = flight.frame(obs)
+        one, p1 = flight.acquire(rig, bmap, idx, frame, cfg, budget_units=2_000_000)
+        assert not p1.budget_out
+        many, p2 = flight.acquire(rig, bmap, idx, frame, cfg, budget_units=2000)
+        while flight.acquire_pending():
+            many, p2 = flight.acquire_resume(2000)
+        split += p2.calls > 1
+        completed += p1.completed
+        assert (one.status, one.reason) == (many.status, many.reason)
+        assert p2.hypotheses == p1.hypotheses
+        assert (one.assoc == many.assoc).all()
+        if one.ok:
+            assert pose_sim.identification_right(one, ids)
+        if split >= 12 and completed >= 2:
+            break
+    assert split >= 12 and completed >= 2, (split, completed)
+
+
+def test_module_acquisition_over_cycles(flight, module_map):
+    """A robot holding still in the module: over at most 40 cycles of the table's
+    budget, the navigator's acquisition (acquire_cycle.h) identifies views a single
+    cycle cannot (4-blob views certified by a completion carried over cycles, then
+    confirmed on the current frame), never a wrong one, and no cycle spends more than
+    its budget."""
+    cams, pos, nrm, rig, bmap, idx, ws = module_map
+    rng = np.random.default_rng(22)
+    cfg = flight.config(sigma_px=0.3)
+    poses = []
+    for C, r in mapindex.random_poses(rng, ws[0], ws[1], 4000):
+        obs, ids = pose_sim.acquisition_frame(cams, pos, C, r, 0.0, rng, nrm)
+        if sum(len(i) for i in ids) == 4:  # the hard views: 4 beacons
+            poses.append((C, r))
+        if len(poses) == 12:
+            break
+    res = pose_sim.acquisition_cycles_sweep(flight, rig, bmap, idx, cams, pos, poses, 0.3, rng, cfg, 40, nrm)
+    print(f"4-beacon views over cycles: {res.right} right ({res.bridged} carried), {res.wrong} wrong, "
+          f"{res.no_fix} no fix {res.last_reasons}; cycles {res.cycles_to_fix}")
+    assert res.wrong == 0
+    assert res.bridged >= 6  # most 4-blob views need more than one cycle's budget
+    assert max(res.units) <= idx.budget_units + 200

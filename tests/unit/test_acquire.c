@@ -12,6 +12,7 @@
 
 #include "acquire.h"
 #include "acquire_certify.h"
+#include "acquire_cycle.h"
 #include "pose_testlib.h"
 
 /* Test code computes in double from the float model on purpose. */
@@ -22,6 +23,7 @@
 
 static mfns_beacon_index_t g_idx, g_idx2;
 static mfns_acq_t g_acq, g_acq2;
+static mfns_acq_cycle_t g_cyc;
 
 static mfns_pose_config_t config(double sigma)
 {
@@ -529,6 +531,208 @@ static void test_reflection_among_verification_blobs(void **state)
     assert_true(right >= 3);
 }
 
+/* Resumable: a search split over many small budgets tries the same
+ * hypotheses, in the same order, and ends the same way as one call with
+ * room for all of them, both in the bands and in a 4-blob view's exhaustive
+ * completion; the caller's frame may change between the calls (the search
+ * keeps its own copy); with nothing pending a resume does no work. */
+static void test_resume_equals_one_call(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    const mfns_beacon_map_t map = pt_paper_map();
+    build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
+    const mfns_pose_config_t cfg = config(0.3);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 511);
+    int split = 0, completed = 0, fixes = 0;
+    for (int t = 0; t < 40; t++) {
+        pt_dpose_t truth;
+        assert_true(pt_random_visible_pose(&rig, &map, POS_RANGE_MM, 4, 1000000, &rng, &truth) >= 4);
+        mfns_obs_frame_t frame;
+        mfns_pose_assoc_t tassoc;
+        (void)pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &tassoc);
+        mfns_pose_solution_t one, many;
+        const mfns_pose_status_t a = mfns_acquire(&g_acq, &rig, &map, &g_idx, &frame, &cfg, 10000000u, &one);
+        assert_false(g_acq.progress.budget_out);
+        assert_false(mfns_acq_pending(&g_acq));
+        const uint32_t hyp = g_acq.progress.hypotheses, total = g_acq.progress.units_total;
+        completed += g_acq.progress.completed ? 1 : 0;
+        const uint32_t step = 1u + (uint32_t)t % 7u * 9u; /* 1 .. 55 units a call */
+        mfns_pose_status_t b = mfns_acquire(&g_acq2, &rig, &map, &g_idx, &frame, &cfg, step, &many);
+        mfns_obs_frame_t junk = frame;
+        memset(&frame, 0, sizeof frame); /* the caller's frame moves on */
+        uint32_t calls = 1u;
+        while (mfns_acq_pending(&g_acq2)) {
+            assert_int_equal(b, MFNS_POSE_NO_FIX);
+            assert_true(g_acq2.progress.units <= step + 4u * MFNS_ACQ_VERIFY_UNITS + 64u);
+            b = mfns_acq_resume(&g_acq2, step, &many);
+            calls++;
+            assert_true(calls < 200000u);
+        }
+        frame = junk;
+        split += calls > 1u ? 1 : 0;
+        assert_int_equal(a, b);
+        assert_int_equal(one.reason, many.reason);
+        assert_int_equal(g_acq2.progress.hypotheses, hyp);
+        assert_int_equal(g_acq2.progress.calls, calls);
+        assert_true(g_acq2.progress.units_total >= total);
+        if (a != MFNS_POSE_NO_FIX) {
+            fixes++;
+            assert_memory_equal(&one.assoc, &many.assoc, sizeof one.assoc);
+            assert_true(assoc_right(&many, &frame, &tassoc));
+        }
+    }
+    print_message("resumed searches: %d of 40 split over calls, %d completions, %d fixes\n", split, completed, fixes);
+    assert_true(split >= 30);
+    assert_true(completed >= 1);
+    mfns_acq_reset(&g_acq2);
+    assert_false(mfns_acq_pending(&g_acq2));
+    mfns_pose_solution_t sol;
+    assert_int_equal(mfns_acq_resume(&g_acq2, 1000u, &sol), MFNS_POSE_NO_FIX);
+    assert_int_equal(sol.reason, MFNS_POSE_R_BAD_ARG);
+    assert_int_equal(g_acq2.progress.units, 0u);
+    assert_int_equal(mfns_acq_resume(NULL, 1000u, &sol), MFNS_POSE_NO_FIX);
+}
+
+/* A frame whose certification needs a 4-blob completion (the paper's map)
+ * and a budget far too small for one cycle: each cycle's fresh search gives
+ * up, the carried search goes on, and a few cycles later the identification
+ * is certified on the first frame and verified on the current one (a new
+ * frame of the same pose, with new noise): a right fix from a carried
+ * search. Every cycle stays within its budget. With the robot gone elsewhere
+ * when the carried search ends, the bridge refuses: no fix. */
+static void test_cycle_carries_a_search(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    const mfns_beacon_map_t map = pt_paper_map();
+    build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
+    const mfns_pose_config_t cfg = config(0.3);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 512);
+    /* a 4-blob pose whose one-call search certifies by completion */
+    pt_dpose_t truth;
+    mfns_obs_frame_t frame;
+    mfns_pose_assoc_t tassoc;
+    uint32_t need = 0u;
+    for (int t = 0; t < 2000 && need == 0u; t++) {
+        assert_true(pt_random_visible_pose(&rig, &map, POS_RANGE_MM, 4, 1000000, &rng, &truth) >= 4);
+        if (pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &tassoc) != 4) {
+            continue;
+        }
+        mfns_pose_solution_t sol;
+        if (mfns_acquire(&g_acq, &rig, &map, &g_idx, &frame, &cfg, 10000000u, &sol) != MFNS_POSE_NO_FIX &&
+            g_acq.progress.completed && g_acq.progress.units_total > 200u) {
+            need = g_acq.progress.units_total;
+        }
+    }
+    assert_true(need > 0u);
+    const uint32_t budget = need / 6u; /* several cycles' work */
+    mfns_acq_cycle_reset(&g_cyc);
+    mfns_acq_cycle_report_t rep;
+    mfns_pose_solution_t out;
+    int cycles = 0;
+    bool fixed = false;
+    for (; cycles < 60 && !fixed; cycles++) {
+        (void)pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &tassoc);
+        const mfns_pose_status_t st = mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, &frame, &cfg, budget, &out, &rep);
+        assert_true(rep.progress.units <= budget + 8u * MFNS_ACQ_VERIFY_UNITS);
+        fixed = st != MFNS_POSE_NO_FIX;
+        if (!fixed) {
+            assert_true(g_cyc.carrying);
+            assert_true(rep.carried_units > 0u || cycles == 0);
+        }
+    }
+    print_message("carried search: fix after %d cycles of %u units (one call needs %u)\n", cycles, budget, need);
+    assert_true(fixed);
+    assert_true(cycles >= 3);
+    assert_int_equal(rep.source, MFNS_ACQ_SRC_CARRIED);
+    assert_true(assoc_right(&out, &frame, &tassoc));
+    assert_true(out.beacons_used >= MFNS_ACQ_MIN_BLOBS);
+    const pt_dpose_t est = pt_from_float(&out.pose);
+    assert_true(pt_pos_err(&est, &truth) < 5.0);
+    assert_false(g_cyc.carrying);
+    /* the same, but the robot turns away before the carried search ends:
+     * the current frames show other beacons, and no fix is made from the
+     * old frame's identification */
+    mfns_acq_cycle_reset(&g_cyc);
+    (void)pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &tassoc);
+    assert_int_equal(mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, &frame, &cfg, budget, &out, &rep),
+                     MFNS_POSE_NO_FIX);
+    assert_true(g_cyc.carrying);
+    /* the body turned about its z axis until fewer than 4 beacons are in
+     * view (C' = Rz C, r' = Rz r keeps the position) */
+    pt_dpose_t away = truth;
+    mfns_obs_frame_t f2;
+    mfns_pose_assoc_t a2;
+    int n_away = 4;
+    for (int step = 1; step < 36 && n_away >= 4; step++) {
+        const double ang = 0.17 * step, c = cos(ang), sn = sin(ang);
+        const double rz[3][3] = {{c, sn, 0.0}, {-sn, c, 0.0}, {0.0, 0.0, 1.0}};
+        for (int i = 0; i < 3; i++) {
+            away.r[i] = 0.0;
+            for (int j = 0; j < 3; j++) {
+                away.C[i][j] = 0.0;
+                away.r[i] += rz[i][j] * truth.r[j];
+                for (int k = 0; k < 3; k++) {
+                    away.C[i][j] += rz[i][k] * truth.C[k][j];
+                }
+            }
+        }
+        n_away = pt_make_frame(&rig, &map, &away, 0.3, &rng, &f2, &a2);
+    }
+    assert_true(n_away < 4);
+    bool refused = false;
+    for (int k = 0; k < 60 && g_cyc.carrying; k++) {
+        (void)pt_make_frame(&rig, &map, &away, 0.3, &rng, &f2, &a2);
+        assert_int_equal(mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, &f2, &cfg, budget, &out, &rep),
+                         MFNS_POSE_NO_FIX);
+        refused = refused || rep.bridge_refused;
+    }
+    assert_false(g_cyc.carrying);
+    assert_true(refused);
+    /* bad input */
+    assert_int_equal(mfns_acq_cycle_run(NULL, &rig, &map, &g_idx, &frame, &cfg, budget, &out, &rep), MFNS_POSE_NO_FIX);
+    assert_int_equal(out.reason, MFNS_POSE_R_BAD_ARG);
+    assert_int_equal(mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, &frame, &cfg, budget, &out, NULL),
+                     MFNS_POSE_NO_FIX);
+    assert_int_equal(mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, NULL, &cfg, budget, &out, &rep), MFNS_POSE_NO_FIX);
+    assert_int_equal(out.reason, MFNS_POSE_R_BAD_ARG);
+}
+
+/* A carried search ends after MFNS_ACQ_CARRY_MAX_CYCLES cycles. */
+static void test_cycle_carry_is_bounded(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    const mfns_beacon_map_t map = pt_paper_map();
+    build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
+    const mfns_pose_config_t cfg = config(0.3);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 513);
+    pt_dpose_t truth;
+    assert_true(pt_random_visible_pose(&rig, &map, POS_RANGE_MM, 4, 1000000, &rng, &truth) >= 4);
+    mfns_obs_frame_t frame;
+    mfns_pose_assoc_t tassoc;
+    mfns_acq_cycle_reset(&g_cyc);
+    mfns_acq_cycle_report_t rep;
+    mfns_pose_solution_t out;
+    bool dropped = false;
+    uint16_t oldest = 0u;
+    for (uint32_t k = 0; k < 2u * MFNS_ACQ_CARRY_MAX_CYCLES + 4u; k++) {
+        (void)pt_make_frame(&rig, &map, &truth, 0.3, &rng, &frame, &tassoc);
+        /* 2 units: one hypothesis a cycle, never enough */
+        assert_int_equal(mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, &frame, &cfg, 2u, &out, &rep),
+                         MFNS_POSE_NO_FIX);
+        assert_true(rep.carry_age <= MFNS_ACQ_CARRY_MAX_CYCLES);
+        oldest = rep.carry_age > oldest ? rep.carry_age : oldest;
+        dropped = dropped || rep.carry_dropped;
+    }
+    assert_true(dropped);
+    assert_int_equal(oldest, MFNS_ACQ_CARRY_MAX_CYCLES);
+}
+
 /* The map analysis: the paper's map needs no more than the minimum; a map
  * that repeats itself (two identical clusters, one shifted by 400 mm) shows
  * rivals that explain every blob, so its certificate rises. */
@@ -604,6 +808,9 @@ int main(void)
         cmocka_unit_test(test_fix_is_physical),
         cmocka_unit_test(test_reflection_beside_lone_blob),
         cmocka_unit_test(test_reflection_among_verification_blobs),
+        cmocka_unit_test(test_resume_equals_one_call),
+        cmocka_unit_test(test_cycle_carries_a_search),
+        cmocka_unit_test(test_cycle_carry_is_bounded),
         cmocka_unit_test(test_certify),
     };
     return cmocka_run_group_tests_name("acquire", tests, NULL, NULL);
