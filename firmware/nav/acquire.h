@@ -124,7 +124,7 @@ typedef enum {
 typedef struct {
     uint8_t phase;      /* mfns_acq_phase_t */
     uint8_t stage;      /* band schedule step */
-    uint8_t w_done[2];  /* windows done per anchor kind (same image, cross) */
+    uint8_t w_done[3];  /* windows done per pass kind (same image, cross, same-image shape pass) */
     uint8_t w0, w;      /* the window being enumerated: ranks [w0, w); w 0: the step starts */
     uint8_t anchor;     /* the anchor being enumerated */
     uint8_t resume;     /* the loops start at (a, r1, r2) once */
@@ -149,6 +149,9 @@ typedef struct {
     bool analysis; /* certify mode: no early stop, keep every candidate */
     bool exhaustive; /* in the completion: checks scan the whole map */
     bool to_complete; /* a candidate explains every blob: go to the completion */
+    bool settled;     /* the completion found two full explanations: AMBIGUOUS */
+    bool pause_before_completion; /* stop (pending) where the completion would start */
+    bool paused;      /* stopped there */
     mfns_acq_blob_t blobs[MFNS_ACQ_MAX_MEAS];
     int16_t cam_blob[MFNS_NUM_CAMERAS][MFNS_MAX_OBS_PER_CAMERA];
     int nb;
@@ -173,7 +176,8 @@ mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
  * input refused): NO_FIX with reason BAD_ARG and no work done. */
 mfns_pose_status_t mfns_acq_resume(mfns_acq_t *acq, uint32_t budget_units, mfns_pose_solution_t *out);
 
-/* Did the last call stop on its budget with hypotheses left to try? */
+/* Did the last call stop on its budget (or before a completion, mfns_acq_start)
+ * with hypotheses left to try? */
 bool mfns_acq_pending(const mfns_acq_t *acq);
 
 /* Drop any search: nothing is pending afterwards. */
@@ -192,7 +196,15 @@ typedef enum {
 } mfns_acq_abi_t;
 uint32_t mfns_acq_abi_size(mfns_acq_abi_t what);
 
-/* Internal to the acquisition modules (acquire.c, acquire_certify.c):
+/* Internal to the acquisition modules (acquire.c, acquire_certify.c,
+ * acquire_cycle.c). mfns_acquire, optionally stopping (pending, resumable)
+ * where a 4-blob frame's completion would start, so that a caller already
+ * completing another frame of the same view need not pay for this one's: */
+mfns_pose_status_t mfns_acq_start(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                  const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
+                                  const mfns_pose_config_t *cfg, uint32_t budget_units, bool pause_before_completion,
+                                  mfns_pose_solution_t *out);
+/* The acquisition modules also use:
  * check the inputs and set acq up for frame (false on bad input), then run
  * the search and fill its candidates. */
 bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,

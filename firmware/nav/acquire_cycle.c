@@ -65,7 +65,9 @@ mfns_pose_status_t mfns_acq_cycle_run(mfns_acq_cycle_t *ac, const mfns_rig_t *ri
                                                      MFNS_ACQ_SHARE_ONE_Q8)
                                         : budget_units;
     mfns_acq_t *fresh = &ac->search[ac->fresh];
-    (void)mfns_acquire(fresh, rig, map, idx, frame, cfg, share, out); /* the status is in out */
+    /* while a search is carried, this frame's own 4-blob completion waits:
+     * the carried one is further on (a still robot shows the same view) */
+    (void)mfns_acq_start(fresh, rig, map, idx, frame, cfg, share, ac->carrying, out); /* the status is in out */
     rep->progress = fresh->progress;
     uint32_t used = fresh->progress.units;
     if (usable(out)) {

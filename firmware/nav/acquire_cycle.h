@@ -7,8 +7,10 @@
  *
  * Each cycle, within budget_units in all:
  *   1. the fresh search of this cycle's frame, with the whole budget when no
- *      search is carried, else with MFNS_ACQ_FRESH_SHARE of it (an easy view
- *      is certified in a few hundred units: docs/pose.md);
+ *      search is carried, else with MFNS_ACQ_FRESH_SHARE_Q8 of it (an easy
+ *      view is certified in a few hundred units: docs/pose.md) and stopping
+ *      where a 4-blob completion would start (the carried search of a still
+ *      robot is the same view, further on);
  *   2. a fresh search that its budget stopped becomes the carried search
  *      when none is carried (the oldest unfinished search is kept: a search
  *      replaced every cycle would never end);
@@ -34,11 +36,11 @@
 
 #include "acquire.h"
 
-/* Cycles a search may be carried: 1.1 s at 18.6 Hz, long enough for the
- * exhaustive completion of a 4-blob view of the 60-beacon module (about 0.4
- * s of budget at the p99, docs/pose.md); older frames are poor priors for
- * the bridge. */
-#define MFNS_ACQ_CARRY_MAX_CYCLES 20u
+/* Cycles a search may be carried: 1.7 s at 18.6 Hz, long enough for the
+ * exhaustive completion of nearly every 4-blob view of the 60-beacon module
+ * (docs/pose.md); an older frame is a poor prior for the bridge (which then
+ * refuses: no fix). */
+#define MFNS_ACQ_CARRY_MAX_CYCLES 32u
 /* The fresh search's share of the budget while a search is carried, in
  * 1/256ths (half). */
 #define MFNS_ACQ_FRESH_SHARE_Q8 128u
