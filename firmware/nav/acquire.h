@@ -13,6 +13,10 @@
  *      b = nbr(a)[rb], c = nbr(a)[rc] (another camera's third: every c),
  *      in growing rank windows 1, 2, 4, .. k_nbr, so that likely hypotheses
  *      come first; each pair must admit its measured angle (pair intervals);
+ *      for a third blob in the same image, the triples whose beacon
+ *      distances have the shares of the measured angles (the "shape") come
+ *      first, to rank 8 and then to k_nbr, each before the other triples of
+ *      those ranks (an order only: every triple is tried in the end);
  *   3. the generalized P3P (pose_init.h) on the three rays, with the third
  *      beacon's range interval; every pose whose body origin is near the
  *      workspace and that sees a, b, c from the front of their LEDs is
@@ -37,8 +41,8 @@
  *      other pose explaining every blob explains that anchor's three and is
  *      found there (a minimal pose is dropped only when its body origin is
  *      outside the workspace by more than 6 sigma of its own propagated
- *      covariance). Exactly one such pose within the allowances: the fix.
- *      Nothing else is reported
+ *      covariance). Exactly one such pose within the allowances: the fix;
+ *      a second one ends the completion as AMBIGUOUS. Nothing else is reported
  *      as a fix: an unfinished search, or one that ends with only
  *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
  *      two different correspondences tie).

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..flight import Flight
+from ..table.mapindex import ANALYSIS_BUDGET_FACTOR
 
 
 class IdentMargin:
@@ -25,7 +26,7 @@ class IdentMargin:
         self.bmap = flight.beacon_map(beacons_w, np.asarray(sigma_mm, dtype=float))
         self.idx = flight.build_index(rig, self.bmap, lo, hi)
         self.cfg = flight.config(sigma_px=sigma_px)
-        self.budget = 2 * self.idx.budget_units
+        self.budget = ANALYSIS_BUDGET_FACTOR * self.idx.budget_units  # as `mfns table build` analyses
 
     def margin(self, C_w_b, r_bw_b) -> float | None:
         pose = self.fl.pose(C_w_b, r_bw_b)
