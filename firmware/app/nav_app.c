@@ -1178,6 +1178,12 @@ int nav_app_run(const nav_app_opts_t *o)
                     s->beacons_used, app.out.cam[0].observations, app.out.cam[1].observations, app.out.cam[2].observations,
                     (double)s->r_wb_w.x, (double)s->r_wb_w.y, (double)s->r_wb_w.z, (double)s->euler_deg.roll,
                     (double)s->euler_deg.pitch, (double)s->euler_deg.yaw, (double)s->residual_rms_px);
+            if (app.out.acquired) {
+                fprintf(stderr, "  acquisition: %u work units, band %u, best %u inliers%s%s\n", app.out.acq.units,
+                        app.out.acq.band, app.out.acq.best_inliers,
+                        app.out.acq_source == MFNS_ACQ_SRC_CARRIED ? ", fix from a search carried over cycles" : "",
+                        app.out.acq_carry_age > 0u ? ", a search carried on" : "");
+            }
         }
         bool all_off = true;
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {

@@ -147,7 +147,7 @@ typedef struct {
     uint32_t table_crc32;       /* CRC-32 of the loaded calibration table, 0 = none */
     uint32_t n_acquire;         /* cumulative cycles that ran lost-in-space acquisition */
     uint32_t acq_units_max;     /* most acquisition work (units, acquire.h) of one cycle in the interval */
-    uint32_t acq_units_last;    /* the work of the last acquisition */
+    uint32_t acq_units_last;    /* the work of the last acquisition cycle (own + carried search) */
     uint8_t acq_band_last;      /* rank window it reached (1, 2, 4, .. 32; 0 none) */
     uint8_t acq_best_last;      /* inliers of its best candidate (0 none) */
     uint32_t n_degraded;        /* cumulative DEGRADED solutions (n_fix counts FIX only) */

@@ -170,6 +170,51 @@ static void test_acquire_then_track(void **state)
     assert_false(out.mode_changed);
 }
 
+/* A budget far too small for one cycle: the navigator's acquisition carries
+ * its search over the next cycles (acquire_cycle.h) and gets the fix from it,
+ * verified on the current frames, with no fix reported before; then it
+ * tracks. */
+static void test_search_carried_over_cycles(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 97);
+    render_background(&rng);
+    render_beacons();
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    const uint32_t need = out.acq.units_total, saved = table.index.budget_units;
+    assert_true(need >= 10u);
+    table.index.budget_units = need / 5u;
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    int cycles = 0;
+    bool carried_seen = false;
+    for (; cycles < 40; cycles++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.mode, MFNS_NAV_MODE_ACQUIRE);
+        assert_true(out.acquired);
+        assert_true(out.acq.units <= table.index.budget_units + 4u * MFNS_ACQ_VERIFY_UNITS + 64u);
+        carried_seen = carried_seen || out.acq_carry_age > 0u;
+        if (out.sol.status != MFNS_POSE_NO_FIX) {
+            break;
+        }
+    }
+    table.index.budget_units = saved;
+    print_message("fix after %d cycles at %u units a cycle (one cycle needs %u)\n", cycles + 1, need / 5u, need);
+    assert_true(cycles >= 2);
+    assert_true(carried_seen);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_int_equal(out.acq_source, MFNS_ACQ_SRC_CARRIED);
+    assert_pose_close(&out.sol);
+    assert_int_equal(out.next_mode, MFNS_NAV_MODE_TRACK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.mode, MFNS_NAV_MODE_TRACK);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+}
+
 static void test_dead_camera_is_reported_and_others_still_solve(void **state)
 {
     (void)state;
@@ -353,6 +398,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_acquire_then_track),
+        cmocka_unit_test(test_search_carried_over_cycles),
         cmocka_unit_test(test_dead_camera_is_reported_and_others_still_solve),
         cmocka_unit_test(test_no_beacons_gives_no_fix_and_drops_the_prior),
         cmocka_unit_test(test_tracking_from_a_given_pose),
