@@ -1088,7 +1088,8 @@ static void run(mfns_acq_t *q)
     q->progress.certified = q->certified >= 0;
 }
 
-void mfns_acq_search(mfns_acq_t *q)
+/* No search: progress, cursor and candidates cleared. */
+static void clear_search(mfns_acq_t *q)
 {
     memset(&q->progress, 0, sizeof q->progress);
     memset(&q->cur, 0, sizeof q->cur);
@@ -1099,6 +1100,11 @@ void mfns_acq_search(mfns_acq_t *q)
     q->to_complete = false;
     q->settled = false;
     q->paused = false;
+}
+
+void mfns_acq_search(mfns_acq_t *q)
+{
+    clear_search(q);
     make_anchors(q);
     q->cur.phase = MFNS_ACQ_PHASE_BANDS;
     q->progress.calls = 1u;
@@ -1126,11 +1132,7 @@ bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_
                       const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
                       uint32_t budget_units, bool analysis)
 {
-    memset(&acq->progress, 0, sizeof acq->progress);
-    memset(&acq->cur, 0, sizeof acq->cur);
-    acq->ncand = 0;
-    acq->best = -1;
-    acq->certified = -1;
+    clear_search(acq);
     if (!valid_inputs(rig, map, idx, frame, cfg)) {
         return false;
     }
@@ -1227,12 +1229,6 @@ mfns_pose_status_t mfns_acq_resume(mfns_acq_t *acq, uint32_t budget_units, mfns_
 void mfns_acq_reset(mfns_acq_t *acq)
 {
     if (acq != NULL) {
-        memset(&acq->progress, 0, sizeof acq->progress);
-        memset(&acq->cur, 0, sizeof acq->cur);
-        acq->ncand = 0;
-        acq->best = -1;
-        acq->certified = -1;
-        acq->paused = false;
-        acq->settled = false;
+        clear_search(acq);
     }
 }

@@ -671,15 +671,17 @@ class Flight:
             budget,
             ct.byref(s),
         )
+        return self._solution(s), self._acq_progress()
+
+    def _acq_progress(self) -> Progress:
         pr = AcqProgress.from_buffer(self._acq_state)
-        return self._solution(s), Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
+        return Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
 
     def acquire_resume(self, budget_units: int) -> tuple[Solution, Progress]:
         """Go on with the search the last acquire (or resume) left on its budget (acquire.h)."""
         s = SolutionC()
         self.lib.mfns_acq_resume(self._acq_state, int(budget_units), ct.byref(s))
-        pr = AcqProgress.from_buffer(self._acq_state)
-        return self._solution(s), Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
+        return self._solution(s), self._acq_progress()
 
     def acquire_pending(self) -> bool:
         return bool(self.lib.mfns_acq_pending(self._acq_state))
