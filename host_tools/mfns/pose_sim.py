@@ -150,7 +150,9 @@ def acquisition_frame(cams, beacons, C, r, sigma, rng, normals=None, spurious_ra
 def identification_right(sol, ids) -> bool:
     """Every inlier of the fix carries its own beacon (a reflection taken for one is wrong)."""
     return all(
-        (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i] for c in range(len(ids)) for i in range(len(ids[c]))
+        (not sol.inlier[c][i]) or sol.assoc[c][i] == ids[c][i]
+        for c in range(len(ids))
+        for i in range(len(ids[c]))
     )
 
 
@@ -236,7 +238,9 @@ def acquisition_cycles_sweep(
     for C, r in poses:
         flight.acq_cycle_reset()
         sol = None
-        for cyc in range(1, max_cycles + 1):
+        cycles = 0
+        for _ in range(max_cycles):
+            cycles += 1
             obs, ids = acquisition_frame(cams, beacons, C, r, sigma, rng, normals, spurious_rate)
             t0 = time.perf_counter()
             sol, rep = flight.acq_cycle(rig, bmap, idx, flight.frame(obs), cfg)
@@ -250,7 +254,7 @@ def acquisition_cycles_sweep(
             continue
         if identification_right(sol, ids):
             res.right += 1
-            res.cycles_to_fix.append(cyc)
+            res.cycles_to_fix.append(cycles)
             res.bridged += int(rep.source == carried)
         else:
             res.wrong += 1

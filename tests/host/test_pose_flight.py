@@ -178,8 +178,10 @@ def test_module_acquisition_over_cycles(flight, module_map):
         if len(poses) == 12:
             break
     res = pose_sim.acquisition_cycles_sweep(flight, rig, bmap, idx, cams, pos, poses, 0.3, rng, cfg, 40, nrm)
-    print(f"4-beacon views over cycles: {res.right} right ({res.bridged} carried), {res.wrong} wrong, "
-          f"{res.no_fix} no fix {res.last_reasons}; cycles {res.cycles_to_fix}")
+    print(
+        f"4-beacon views over cycles: {res.right} right ({res.bridged} carried), {res.wrong} wrong, "
+        f"{res.no_fix} no fix {res.last_reasons}; cycles {res.cycles_to_fix}"
+    )
     assert res.wrong == 0
     assert res.bridged >= 6  # most 4-blob views need more than one cycle's budget
     assert max(res.units) <= idx.budget_units + 200
