@@ -953,17 +953,15 @@ static int completion_anchor(const mfns_acq_t *q)
     return an;
 }
 
-/* After the bands without a certified pose: does the best candidate explain
- * every blob of a 4-blob frame (none unexplained, missing within the
- * allowance)? Then the completion can certify it. */
+/* After the bands of a 4-blob frame without a certified pose (the sound
+ * check covers one blob beyond the anchor's three), the completion runs,
+ * whether or not the bands found an explanation of every blob: it finds
+ * every such explanation itself, so a truth the neighbour lists cannot
+ * reach is found there too (measured: 6 of 300 module four-blob views
+ * searched without a budget had no full explanation after the bands). */
 static bool completion_applies(const mfns_acq_t *q)
 {
-    if (q->analysis || q->certified >= 0 || q->best < 0 || completion_anchor(q) < 0) {
-        return false;
-    }
-    const mfns_acq_cand_t *b = &q->cand[q->best];
-    /* the sound check covers one blob beyond the anchor's three */
-    return q->nb == MFNS_ACQ_MIN_BLOBS && (int)b->inliers == q->nb && b->missing <= q->idx->max_missing;
+    return !q->analysis && q->certified < 0 && completion_anchor(q) >= 0 && q->nb == MFNS_ACQ_MIN_BLOBS;
 }
 
 /* The completion, from the cursor: exhaust one anchor, collecting every

@@ -36,7 +36,7 @@
  *      over the sampled workspace, so the search stops at the first
  *      certified pose. A frame with fewer blobs than that (4 blobs: the
  *      certificate is at least 5) is certified by completion instead: when the
- *      bands end with a best candidate that explains every blob, one anchor
+ *      bands end (at once when a candidate explains every blob), one anchor
  *      is enumerated exhaustively (every admissible beacon triple); any
  *      other pose explaining every blob explains that anchor's three and is
  *      found there (a minimal pose is dropped only when its body origin is
