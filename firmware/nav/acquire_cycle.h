@@ -25,7 +25,7 @@
  * the gate, the bridge fails: no fix, and the search starts again. This is
  * the trust tracking already gives a prediction coasted over as many cycles.
  *
- * All state is the caller's (two searches, about 22 KB); no heap; every
+ * All state is the caller's (two searches, 23,096 B); no heap; every
  * loop bounded by the budget.
  */
 #ifndef MFNS_ACQUIRE_CYCLE_H
