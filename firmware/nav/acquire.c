@@ -34,10 +34,10 @@
  * then cross anchors to this one, then the rest of both. */
 #define SCHED_SAME_FIRST 8u
 #define SCHED_CROSS_FIRST 4u
-/* The shape pass (first in the schedule): a same-image triple whose pair
- * angles, as shares of their sum, differ from the beacons' pair distances,
- * as shares of theirs, by more than this on any pair is left to the later
- * full passes. A heuristic order, never a filter (the full passes try every
+/* The shape pass (first in each rank range of the schedule, SCHED below): a
+ * same-image triple whose pair angles, as shares of their sum, differ from
+ * the beacons' pair distances, as shares of theirs, by more than this on any
+ * pair is left to the full pass of that range. A heuristic order, never a filter (the full passes try every
  * triple the shape pass did not): measured on 3,000 module poses, the true
  * triple of three blobs in one image passes 90 % of the time and a random
  * beacon triple 19 % (at 0.05: 73 % and 5 %; at 0.2: 99 % and 61 %). */
@@ -420,7 +420,7 @@ static void add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd)
     }
     q->progress.best_inliers = q->cand[q->best].inliers;
     q->progress.best_missing = q->cand[q->best].missing;
-    if (q->exhaustive && q->cur.phase == MFNS_ACQ_PHASE_COMPLETE) {
+    if (q->exhaustive) { /* only the completion enumerates exhaustively */
         /* two identifications that explain every blob: the completion's
          * answer is AMBIGUOUS whatever else it finds, so it ends here */
         int full = 0;
@@ -679,7 +679,6 @@ static void sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_
         if ((n_res & 3u) == 0u) {
             q->progress.units++;
         }
-
         if (!mfns_pose_residual(q->rig, &m[3], pose, r, jac)) {
             continue;
         }

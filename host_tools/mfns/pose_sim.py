@@ -233,11 +233,12 @@ def acquisition_cycles_sweep(
 
     from .flight import ACQ_SOURCES
 
+    if max_cycles < 1:
+        raise ValueError(f"max_cycles must be at least 1, not {max_cycles}")
     carried = ACQ_SOURCES.index("CARRIED")
     res = CycleSweepResult()
     for C, r in poses:
         flight.acq_cycle_reset()
-        sol = None
         cycles = 0
         for _ in range(max_cycles):
             cycles += 1
@@ -248,7 +249,7 @@ def acquisition_cycles_sweep(
             res.units.append(rep.progress.units)
             if sol.ok:
                 break
-        if sol is None or not sol.ok:
+        if not sol.ok:
             res.no_fix += 1
             res.last_reasons[sol.reason] = res.last_reasons.get(sol.reason, 0) + 1
             continue
