@@ -2,6 +2,7 @@
 #define _DEFAULT_SOURCE /* gmtime_r under -std=c11 */
 
 #include "ground_out.h"
+#include "ground_row.h"
 
 #include <errno.h>
 #include <string.h>
@@ -10,15 +11,8 @@
 
 static const char *const k_file_stem[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "events"};
 
-#define MAX_COLS 56
-#define VAL_LEN 32
-
-typedef struct {
-    const char *name[MAX_COLS];
-    char val[MAX_COLS][VAL_LEN];
-    int quoted[MAX_COLS]; /* JSON string (names, hex) rather than number */
-    int n;
-} row_t;
+#define VAL_LEN GROUND_ROW_VAL_LEN
+typedef ground_row_t row_t;
 
 void ground_fmt_fixed(char *buf, size_t len, long long v, int decimals)
 {
@@ -46,7 +40,7 @@ void ground_fmt_time(char *buf, size_t len, const tlm_time_t *t)
     snprintf(buf, len, "%llu.%06llu", us / 1000000ull, us % 1000000ull);
 }
 
-static void col_num(row_t *r, const char *name, long long v, int decimals)
+void ground_row_num(row_t *r, const char *name, long long v, int decimals)
 {
     r->name[r->n] = name;
     ground_fmt_fixed(r->val[r->n], VAL_LEN, v, decimals);
@@ -56,7 +50,7 @@ static void col_num(row_t *r, const char *name, long long v, int decimals)
 
 /* A binary32 printed with 9 significant digits: parsing the text gives back
  * the same float (the shortest count that round-trips every binary32). */
-static void col_f32(row_t *r, const char *name, float v)
+void ground_row_f32(row_t *r, const char *name, float v)
 {
     r->name[r->n] = name;
     snprintf(r->val[r->n], VAL_LEN, "%.9g", (double)v);
@@ -64,7 +58,7 @@ static void col_f32(row_t *r, const char *name, float v)
     r->n++;
 }
 
-static void col_str(row_t *r, const char *name, const char *s)
+void ground_row_str(row_t *r, const char *name, const char *s)
 {
     r->name[r->n] = name;
     snprintf(r->val[r->n], VAL_LEN, "%s", s);
@@ -86,26 +80,24 @@ void ground_fmt_utc(char *buf, size_t len, int64_t utc_us)
              tm.tm_hour, tm.tm_min, tm.tm_sec, usec);
 }
 
-/* Column names of the covariance's upper triangle, row-major over the ROS
- * order (x, y, z, rx, ry, rz): cov_x_x, cov_x_y, .. cov_rz_rz. */
-static const char *const k_cov_col[TLM_NAV_COV_N] = {
-    "cov_x_x",   "cov_x_y",   "cov_x_z",   "cov_x_rx",  "cov_x_ry",  "cov_x_rz",  "cov_y_y",
-    "cov_y_z",   "cov_y_rx",  "cov_y_ry",  "cov_y_rz",  "cov_z_z",   "cov_z_rx",  "cov_z_ry",
-    "cov_z_rz",  "cov_rx_rx", "cov_rx_ry", "cov_rx_rz", "cov_ry_ry", "cov_ry_rz", "cov_rz_rz"};
-
-/* Events whose arg1 is a CRC-32: printed in hex as in housekeeping.csv. */
-static int event_arg1_is_crc(uint16_t code)
-{
-    return code == TLM_EVT_TABLE_LOADED || code == TLM_EVT_TABLE_REFUSED;
-}
-
-static void col_hex32(row_t *r, const char *name, uint32_t v)
+void ground_row_hex32(row_t *r, const char *name, uint32_t v)
 {
     char hex[VAL_LEN];
     snprintf(hex, sizeof hex, "0x%08lx", (unsigned long)v);
-    col_str(r, name, hex);
+    ground_row_str(r, name, hex);
 }
 
+void ground_row_q30(row_t *r, const char *name, int32_t v)
+{
+    /* v / 2^30 is exact in a double; 10 decimals are below half the wire step
+     * (4.7e-10), so the text gives back the integer */
+    r->name[r->n] = name;
+    snprintf(r->val[r->n], VAL_LEN, "%.10f", (double)v / (double)TLM_Q30_SCALE);
+    r->quoted[r->n] = 0;
+    r->n++;
+}
+
+/* t_s, seq, the packet's columns (ground_cols_gen.c), ground_utc. */
 static void build_row(const tlm_packet_t *p, int64_t utc_us, row_t *r)
 {
     r->n = 0;
@@ -113,106 +105,8 @@ static void build_row(const tlm_packet_t *p, int64_t utc_us, row_t *r)
     ground_fmt_time(r->val[0], VAL_LEN, &p->time);
     r->quoted[0] = 0;
     r->n = 1;
-    col_num(r, "seq", p->seq, 0);
-    static const char *const axis[3] = {"x", "y", "z"};
-    switch (p->type) {
-    case TLM_TYPE_NAV: {
-        static const char *const pos[3] = {"x_mm", "y_mm", "z_mm"};
-        static const char *const att[3] = {"roll_deg", "pitch_deg", "yaw_deg"};
-        static const char *const spos[3] = {"sigma_x_mm", "sigma_y_mm", "sigma_z_mm"};
-        static const char *const satt[3] = {"sigma_roll_deg", "sigma_pitch_deg", "sigma_yaw_deg"};
-        const tlm_nav_t *n = &p->u.nav;
-        col_num(r, "cycle", n->cycle, 0);
-        col_str(r, "status", tlm_nav_status_name(n->status));
-        col_num(r, "reason", n->reason, 0);
-        col_str(r, "mode", tlm_mode_name(n->mode));
-        col_num(r, "beacons_used", n->beacons_used, 0);
-        col_num(r, "cams_used", n->cams_used, 0);
-        col_num(r, "iterations", n->iterations, 0);
-        for (int k = 0; k < 3; k++) {
-            col_num(r, pos[k], n->pos_um[k], 3);
-        }
-        for (int k = 0; k < 3; k++) {
-            col_num(r, att[k], n->att_udeg[k], 6);
-        }
-        for (int k = 0; k < 3; k++) {
-            col_num(r, spos[k], n->sigma_pos_um[k], 3);
-        }
-        for (int k = 0; k < 3; k++) {
-            col_num(r, satt[k], n->sigma_att_udeg[k], 6);
-        }
-        col_num(r, "residual_rms_px", n->residual_rms_mpx, 3);
-        static const char *const q[4] = {"q_w", "q_x", "q_y", "q_z"};
-        for (int k = 0; k < 4; k++) {
-            /* v / 2^30 is exact in a double; 10 decimals are below half the
-             * wire step (4.7e-10), so the text gives back the integer */
-            r->name[r->n] = q[k];
-            snprintf(r->val[r->n], VAL_LEN, "%.10f", (double)n->q_q30[k] / (double)TLM_Q30_SCALE);
-            r->quoted[r->n] = 0;
-            r->n++;
-        }
-        for (unsigned k = 0; k < TLM_NAV_COV_N; k++) {
-            col_f32(r, k_cov_col[k], n->cov[k]);
-        }
-        break;
-    }
-    case TLM_TYPE_CAMERA: {
-        const tlm_camera_t *c = &p->u.camera;
-        col_num(r, "cycle", c->cycle, 0);
-        col_str(r, "camera", c->camera < 3u ? axis[c->camera] : "?");
-        col_str(r, "state", tlm_cam_state_name(c->state));
-        col_num(r, "blobs", c->blobs, 0);
-        col_num(r, "beacons_identified", c->beacons_identified, 0);
-        col_num(r, "exposure_us", c->exposure_us, 0);
-        col_num(r, "gain_db", c->gain_cdb, 2);
-        col_num(r, "frame_seq", c->frame_seq, 0);
-        col_num(r, "frames_dropped", c->frames_dropped, 0);
-        break;
-    }
-    case TLM_TYPE_HK: {
-        const tlm_hk_t *h = &p->u.hk;
-        col_num(r, "cycle", h->cycle, 0);
-        col_str(r, "mode", tlm_mode_name(h->mode));
-        col_num(r, "cpu_load_pct", h->cpu_load_permille, 1);
-        col_num(r, "cycle_p50_us", h->cycle_p50_us, 0);
-        col_num(r, "cycle_p95_us", h->cycle_p95_us, 0);
-        col_num(r, "cycle_p99_us", h->cycle_p99_us, 0);
-        col_num(r, "cycle_max_us", h->cycle_max_us, 0);
-        col_num(r, "n_cycles", h->n_cycles, 0);
-        col_num(r, "n_fix", h->n_fix, 0);
-        col_num(r, "n_no_fix", h->n_no_fix, 0);
-        col_num(r, "n_tlm_dropped", h->n_tlm_dropped, 0);
-        col_num(r, "n_cam_errors", h->n_cam_errors, 0);
-        col_hex32(r, "table_crc32", h->table_crc32);
-        col_num(r, "n_acquire", h->n_acquire, 0);
-        col_num(r, "acq_units_max", h->acq_units_max, 0);
-        col_num(r, "acq_units_last", h->acq_units_last, 0);
-        col_num(r, "acq_band_last", h->acq_band_last, 0);
-        col_num(r, "acq_best_last", h->acq_best_last, 0);
-        col_num(r, "n_degraded", h->n_degraded, 0);
-        col_num(r, "n_cmd_accepted", h->n_cmd_accepted, 0);
-        col_num(r, "n_cmd_rejected", h->n_cmd_rejected, 0);
-        col_num(r, "cmd_seq_last", h->cmd_seq_last, 0);
-        col_num(r, "cams_enabled", h->cams_enabled, 0);
-        break;
-    }
-    case TLM_TYPE_EVENT:
-    default: {
-        const tlm_event_t *e = &p->u.event;
-        col_num(r, "cycle", e->cycle, 0);
-        col_str(r, "event", tlm_event_name(e->code));
-        col_num(r, "code", e->code, 0);
-        col_str(r, "severity", tlm_severity_name(e->severity));
-        col_num(r, "subject", e->subject, 0);
-        col_num(r, "arg0", e->arg0, 0);
-        if (event_arg1_is_crc(e->code)) {
-            col_hex32(r, "arg1", (uint32_t)e->arg1);
-        } else {
-            col_num(r, "arg1", e->arg1, 0);
-        }
-        break;
-    }
-    }
+    ground_row_num(r, "seq", p->seq, 0);
+    ground_row_fields(p, r);
     r->name[r->n] = "ground_utc";
     ground_fmt_utc(r->val[r->n], VAL_LEN, utc_us);
     r->quoted[r->n] = 1;

@@ -91,15 +91,8 @@ int uplink_parse_line(const char *line, uplink_line_kind_t *kind, tc_cmd_t *cmd,
             cmd->opcode = (uint8_t)code;
         }
     }
-    switch (cmd->opcode) {
-    case TC_OP_NOOP:
-    case TC_OP_RESET_COUNTERS: want = 0; break;
-    case TC_OP_SET_MODE:
-    case TC_OP_CAMERA_ENABLE:
-    case TC_OP_CAMERA_DISABLE:
-    case TC_OP_TABLE_LOAD: want = 1; break;
-    case TC_OP_SET_POSE_HINT: want = 6; break;
-    default:
+    want = tc_arg_count(cmd->opcode); /* one word per XTCE argument */
+    if (want < 0) {
         (void)snprintf(err, err_size, "unknown command '%s'", op);
         return -1;
     }

@@ -4,9 +4,9 @@
 #   make fuzz          runs every FUZZ_TARGETS entry; fuzz-tlm-decoder runs 60 s
 #                      (TLM_FUZZ_SECONDS) and keeps its corpus in build/fuzz/
 #   make fuzz-brief    10 s of the same fuzzer, part of `make test`
-#   make tlm-docs      regenerates the tables of docs/telemetry.md from the
-#                      telemetry dictionary ground/mdb/mfns_tm.xml (XTCE);
-#                      tests/host/test_tlm_mdb.py fails while they are stale
+#   make tlm-docs      regenerates everything generated from the dictionaries,
+#                      the tables of docs/telemetry.md included (= make contracts,
+#                      mk/contracts.mk)
 
 TLM_FUZZ_CC      ?= clang
 TLM_FUZZ_SECONDS ?= 60
@@ -17,8 +17,7 @@ FUZZ_TARGETS += fuzz-tlm-decoder
 TEST_SUITES  += fuzz-brief
 .PHONY: fuzz-tlm-decoder fuzz-brief tlm-docs
 
-tlm-docs: venv
-	$(PY) -m mfns.tlm_dict --write docs/telemetry.md
+tlm-docs: contracts
 
 $(TLM_FUZZ_BIN): $(TLM_FUZZ_SRCS) $(wildcard firmware/tlm/*.h)
 	@mkdir -p $(@D)

@@ -63,27 +63,12 @@ typedef enum {
     MFNS_POSE_NO_FIX,   /* no pose: see reason */
 } mfns_pose_status_t;
 
-/* Why a solution is not a full fix. The numbers are wire codes (the nav
- * packet's reason, docs/telemetry.md, ground/mdb/mfns_tm.xml): each is
- * explicit and never reused; a new reason takes the next free number. */
-typedef enum {
-    MFNS_POSE_R_NONE = 0,
-    /* DEGRADED reasons (the pose is usable) */
-    MFNS_POSE_R_CAMERA_UNUSED = 1,  /* a camera contributes no inlier */
-    MFNS_POSE_R_OUTLIERS = 2,       /* observations were gated out as outliers */
-    MFNS_POSE_R_MINIMAL = 3,        /* exactly 3 beacons: no redundancy, residual unchecked */
-    /* NO_FIX reasons */
-    MFNS_POSE_R_BAD_ARG = 4,        /* null pointer, count above the maxima, bad index, not finite */
-    MFNS_POSE_R_TOO_FEW = 5,        /* fewer than 3 beacons usable */
-    MFNS_POSE_R_AMBIGUOUS = 6,      /* several poses explain the observations equally */
-    MFNS_POSE_R_NOT_IDENTIFIED = 7, /* no hypothesis verified within the bound */
-    MFNS_POSE_R_SINGULAR = 8,       /* rank-deficient or ill-conditioned geometry */
-    MFNS_POSE_R_NOT_CONVERGED = 9,  /* iteration cap reached, or diverged */
-    MFNS_POSE_R_RESIDUAL_HIGH = 10, /* whitened inlier RMS above max_residual_rms_sigma */
-    MFNS_POSE_R_TRACK_LOST = 11,    /* tracking gate kept fewer than 3 beacons */
-    MFNS_POSE_R_BELOW_CERTIFICATE = 12,   /* fewer blobs than the map's certificate needs for a unique fix */
-    MFNS_POSE_R_MINIMAL_UNCONFIRMED = 13, /* three beacons whose pose disagrees with the prediction */
-} mfns_pose_reason_t;
+/* Why a solution is not a full fix: mfns_pose_reason_t, MFNS_POSE_R_NONE = 0,
+ * DEGRADED reasons (the pose is usable) CAMERA_UNUSED, OUTLIERS, MINIMAL, then
+ * NO_FIX reasons. The numbers are wire codes (the nav packet's reason), so the
+ * enum is generated from the telemetry dictionary ground/mdb/mfns_tm.xml
+ * (nav_reason_t) with explicit, never reused numbers; docs/telemetry.md lists them. */
+#include "nav_codes_gen.h"
 
 typedef enum {
     MFNS_POSE_MODE_ML = 0,    /* reprojection error in pixels, robust, on the manifold */

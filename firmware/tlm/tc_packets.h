@@ -2,9 +2,10 @@
  * same framing and check as the telemetry (COBS over packet + CRC-16/CCITT-
  * FALSE, 0x00 delimiter; docs/telemetry.md 1-2). Portable: the ground station
  * encodes with it, the flight program decodes and validates with it.
- * Layouts, opcodes and rejection codes: docs/uplink.md; the XTCE definition
- * ground/mdb/mfns_tc.xml is checked against this file by
- * tests/host/test_tc_xtce.py (a difference fails the test).
+ * Layouts, opcodes and rejection codes: docs/uplink.md. The XTCE dictionary
+ * ground/mdb/mfns_tc.xml is the master: the opcodes, rejection codes, argument
+ * lengths, layouts and ranges are generated from it by mk/gen_contracts.py
+ * (tc_codes_gen.h, tc_packets_gen.c).
  *
  * Packet (all big-endian):
  *   0  6  CCSDS primary header: version 0, type 1 (telecommand), secondary
@@ -34,53 +35,17 @@
 #include "ccsds.h"
 #include "cobs.h"
 
-#define TC_APID 0x181u               /* the MFNS command APID (telemetry uses 0x101..0x104) */
+#include "tc_codes_gen.h" /* TC_APID, tc_opcode_t, TC_OPCODE_LIST, tc_status_t, ranges */
+
 #define TC_SEC_HDR_LEN 2u            /* opcode + reserved */
 #define TC_HDR_LEN (TLM_CCSDS_PRI_LEN + TC_SEC_HDR_LEN)
-#define TC_PATH_MAX 64u              /* TABLE_LOAD path field: NUL-padded, at most 63 characters */
-#define TC_MAX_ARGS TC_PATH_MAX      /* the largest argument block */
 #define TC_MAX_PACKET (TC_HDR_LEN + TC_MAX_ARGS)
 #define TC_MAX_FRAME (TC_MAX_PACKET + 2u) /* packet + CRC-16 */
 #define TC_MAX_WIRE (TLM_COBS_MAX_ENCODED(TC_MAX_FRAME) + 1u)
 
-/* Opcodes: explicit numbers, the wire values. */
-typedef enum {
-    TC_OP_NOOP = 1,           /* no arguments: answers CMD_ACCEPTED */
-    TC_OP_RESET_COUNTERS = 2, /* no arguments: command counters and camera error count to 0 */
-    TC_OP_SET_MODE = 3,       /* u8 mode: tlm_mode_t STANDBY (4), ACQUIRE (1) or TRACK (2) */
-    TC_OP_SET_POSE_HINT = 4,  /* 3 x i32 pos_um (r_wb_w), 3 x i32 att_udeg (2-1-3 of C_w_b) */
-    TC_OP_CAMERA_ENABLE = 5,  /* u8 camera 0..2 */
-    TC_OP_CAMERA_DISABLE = 6, /* u8 camera 0..2 */
-    TC_OP_TABLE_LOAD = 7,     /* char path[TC_PATH_MAX], NUL-padded */
-    TC_OP_MAX = 7
-} tc_opcode_t;
-
-/* Why a command was refused: 0 OK, then explicit numbers (the wire values of
- * CMD_REJECTED arg1). 1-10 and 14 come from the codec, 11-13 from the flight side. */
-typedef enum {
-    TC_OK = 0,
-    TC_E_FRAME = 1,     /* COBS structure broken (a frame cut short) */
-    TC_E_OVERSIZE = 2,  /* no delimiter within TC_MAX_FRAME decoded bytes */
-    TC_E_RUNT = 3,      /* shorter than the headers + CRC */
-    TC_E_CRC = 4,       /* CRC-16 mismatch */
-    TC_E_HEADER = 5,    /* version, type, secondary header flag or sequence flags wrong */
-    TC_E_LENGTH = 6,    /* length field disagrees with the frame */
-    TC_E_APID = 7,      /* not TC_APID */
-    TC_E_OPCODE = 8,    /* unknown opcode, or the reserved byte not 0 */
-    TC_E_ARG_LEN = 9,   /* argument bytes wrong for the opcode */
-    TC_E_ARG = 10,      /* an argument out of range (mode, camera, pose, path) */
-    TC_E_SEQUENCE = 11, /* sequence count replayed or older than the last accepted */
-    TC_E_STATE = 12,    /* not possible now (e.g. TRACK with no pose to track from) */
-    TC_E_TABLE = 13,    /* TABLE_LOAD: the table was refused (TABLE_REFUSED says why) */
-    TC_E_NULL = 14,     /* programming error: a NULL pointer or too small a buffer */
-    TC_STATUS_MAX = 14
-} tc_status_t;
-
-/* Pose limits of SET_POSE_HINT (the wire units of docs/telemetry.md 4.1). */
-#define TC_POS_UM_MAX 1000000000   /* |x|, |y|, |z| <= 1 km */
-#define TC_ROLL_YAW_UDEG_MAX 180000000
-#define TC_PITCH_UDEG_MAX 90000000
-
+/* The decoded arguments: one member of tc_cmd_t.u per command (the XTCE
+ * arguments' c_field names them; the generated code fails to compile when one
+ * is missing). */
 typedef struct {
     int32_t pos_um[3];   /* r_wb_w, 0.001 mm */
     int32_t att_udeg[3]; /* roll, pitch, yaw of C_w_b (2-1-3), 1e-6 deg */
@@ -101,6 +66,8 @@ typedef struct {
 
 /* Argument bytes of an opcode; -1 for an unknown opcode. */
 int tc_arg_len(uint8_t opcode);
+/* Arguments (XTCE arguments, as typed by a ground operator) of an opcode; -1 if unknown. */
+int tc_arg_count(uint8_t opcode);
 const char *tc_opcode_name(uint8_t opcode);  /* "NOOP", ... "?" */
 const char *tc_status_name(int status);      /* "OK", "FRAME", ... "?" */
 const char *tc_strerror(int status);         /* one line of English, never NULL */
@@ -130,5 +97,14 @@ void tc_deframer_init(tc_deframer_t *d);
  * byte: then *status says whether *out holds a valid command (TC_OK) or why
  * the frame was refused (out->have_seq/have_opcode tell what was readable). */
 bool tc_deframer_push(tc_deframer_t *d, uint8_t byte, tc_cmd_t *out, tc_status_t *status);
+
+/* For the generated tc_packets_gen.c: every argument of c->opcode in range
+ * (TC_OK, TC_E_ARG; TC_E_OPCODE for an unknown opcode); the argument bytes at
+ * a (tc_arg_len bytes) from c->u and back; a NUL-padded string field of cap
+ * bytes holds 1..cap-1 printable ASCII characters and zeros after them. */
+tc_status_t tc_args_check(const tc_cmd_t *c);
+void tc_args_pack(const tc_cmd_t *c, uint8_t *a);
+void tc_args_unpack(const uint8_t *a, tc_cmd_t *c);
+bool tc_string_valid(const char *s, size_t cap);
 
 #endif /* MFNS_TLM_TC_PACKETS_H */

@@ -58,6 +58,13 @@ class Field:
     description: str
     enum: dict[int, tuple[str, str]] | None = None  # value -> (label, description)
     offset: int = 0  # bytes from the start of the payload (or packet, for the header)
+    valid_range: tuple[float, float] | None = None  # raw (wire) inclusive bounds, XTCE ValidRange
+    anc: dict[str, str] = field(default_factory=dict)  # the parameter's XTCE AncillaryData
+
+    @property
+    def c_field(self) -> str:
+        """The C struct member (firmware/tlm/tlm_packets_gen.h), e.g. pos_um[0]."""
+        return self.anc.get("c_field", self.name)
 
     @property
     def size(self) -> int:
@@ -104,7 +111,11 @@ def _types(root: ET.Element) -> dict[str, dict]:
         e = enc if enc is not None else fenc
         unit = t.find("x:UnitSet/x:Unit", NS)
         term = t.find(".//x:PolynomialCalibrator/x:Term[@exponent='1']", NS)
+        vr = t.find("x:ValidRange", NS)
         info = {
+            "valid_range": (float(vr.get("minInclusive")), float(vr.get("maxInclusive")))
+            if vr is not None
+            else None,
             "kind": {"IntegerParameterType": "int", "FloatParameterType": "float"}.get(tag, "enum"),
             "bits": int(e.get("sizeInBits")),
             "encoding": e.get("encoding", "unsigned" if enc is not None else "IEEE754"),
@@ -126,7 +137,7 @@ def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> li
     out, off = [], 0
     for entry in container.findall("x:EntryList/x:ParameterRefEntry", NS):
         pname = entry.get("parameterRef")
-        tname, desc = params[pname]
+        tname, desc, anc = params[pname]
         t = types[tname]
         f = Field(
             param=pname,
@@ -140,10 +151,16 @@ def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> li
             description=desc,
             enum=t["enum"],
             offset=off // 8,
+            valid_range=t["valid_range"],
+            anc=anc,
         )
         off += f.bits
         out.append(f)
     return out
+
+
+def _ancillary(e: ET.Element) -> dict[str, str]:
+    return {a.get("name"): (a.text or "") for a in e.findall("x:AncillaryDataSet/x:AncillaryData", NS)}
 
 
 PREFIX = {"nav": "nav_", "camera": "cam_", "housekeeping": "hk_", "event": "evt_"}
@@ -154,7 +171,7 @@ def load(path: str | None = None) -> Dictionary:
     root = ET.parse(path or mdb_path()).getroot()
     types = _types(root)
     params = {
-        p.get("name"): (p.get("parameterTypeRef"), p.get("shortDescription", ""))
+        p.get("name"): (p.get("parameterTypeRef"), p.get("shortDescription", ""), _ancillary(p))
         for p in root.findall("x:TelemetryMetaData/x:ParameterSet/x:Parameter", NS)
     }
     header, packets = [], {}
@@ -169,6 +186,120 @@ def load(path: str | None = None) -> Dictionary:
         )
     enums = {n: t["enum"] for n, t in types.items() if t["enum"] is not None}
     return Dictionary(header, packets, enums)
+
+
+# --------------------------------------------------------------------------- telecommands
+def tc_mdb_path() -> Path:
+    """The telecommand XTCE (package data, like the telemetry one; ground/mdb/ links to it)."""
+    return Path(str(resources.files("mfns.data").joinpath("mfns_tc.xml")))
+
+
+@dataclass
+class Arg:
+    name: str  # XTCE argument name, e.g. x_um
+    type_name: str
+    kind: str  # "int", "enum" or "string"
+    bits: int
+    signed: bool
+    description: str
+    valid_range: tuple[int, int] | None = None  # inclusive, XTCE ValidRange
+    enum: dict[int, tuple[str, str]] | None = None
+    offset: int = 0  # bytes from the start of the arguments
+    anc: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def size(self) -> int:
+        return self.bits // 8
+
+    @property
+    def c_field(self) -> str:
+        """Its member of tc_cmd_t.u (firmware/tlm/tc_packets.h), e.g. pose.pos_um[0]."""
+        return self.anc.get("c_field", self.name)
+
+
+@dataclass
+class Command:
+    name: str
+    opcode: int
+    description: str
+    args: list[Arg] = field(default_factory=list)
+
+    @property
+    def arg_len(self) -> int:
+        return sum(a.size for a in self.args)
+
+
+@dataclass
+class TcDictionary:
+    apid: int
+    header: list[tuple[str, int]]  # (argument, bits) of the abstract header, in order
+    commands: dict[str, Command]  # by opcode order
+    statuses: dict[int, tuple[str, str]]  # tc_status_t: value -> (label, description)
+
+
+def _tc_types(root: ET.Element) -> dict[str, dict]:
+    out: dict[str, dict] = {}
+    for t in root.find("x:CommandMetaData/x:ArgumentTypeSet", NS):
+        tag = t.tag.removeprefix(_X)
+        vr = t.find("x:ValidRangeSet/x:ValidRange", NS)
+        info = {"description": t.get("shortDescription", ""), "enum": None}
+        info["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive"))) if vr is not None else None
+        if tag == "StringArgumentType":
+            info.update(kind="string", bits=int(t.find(".//x:FixedValue", NS).text), signed=False)
+        else:
+            enc = t.find("x:IntegerDataEncoding", NS)
+            info.update(
+                kind="enum" if tag == "EnumeratedArgumentType" else "int",
+                bits=int(enc.get("sizeInBits")),
+                signed=enc.get("encoding") == "twosComplement",
+            )
+        if tag == "EnumeratedArgumentType":
+            info["enum"] = {
+                int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
+                for x in t.findall("x:EnumerationList/x:Enumeration", NS)
+            }
+        out[t.get("name")] = info
+    return out
+
+
+@lru_cache(maxsize=4)
+def load_tc(path: str | None = None) -> TcDictionary:
+    root = ET.parse(path or tc_mdb_path()).getroot()
+    types = _tc_types(root)
+    statuses = {
+        int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
+        for x in root.findall(
+            "x:TelemetryMetaData/x:ParameterTypeSet/x:EnumeratedParameterType[@name='tc_status_t']//x:Enumeration", NS
+        )
+    }
+    opcodes = {lab: v for v, (lab, _) in types["opcode_t"]["enum"].items()}
+    header: list[tuple[str, int]] = []
+    cmds: list[Command] = []
+    apid = None
+    for mc in root.findall("x:CommandMetaData/x:MetaCommandSet/x:MetaCommand", NS):
+        decl = {a.get("name"): a for a in mc.findall("x:ArgumentList/x:Argument", NS)}
+        order = [e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)]
+        if sorted(order) != sorted(decl):
+            raise ValueError(f"{mc.get('name')}: every argument must be placed exactly once")
+        if mc.get("abstract") == "true":
+            header = [(n, types[decl[n].get("argumentTypeRef")]["bits"]) for n in order]
+            continue
+        assign = {a.get("argumentName"): a.get("argumentValue") for a in mc.findall(".//x:ArgumentAssignment", NS)}
+        apid = int(assign["ccsds_apid"])
+        cmd = Command(mc.get("name"), opcodes[assign["opcode"]], mc.get("shortDescription", ""))
+        off = 0
+        for n in order:
+            tname = decl[n].get("argumentTypeRef")
+            t = types[tname]
+            a = Arg(n, tname, t["kind"], t["bits"], t["signed"], decl[n].get("shortDescription") or t["description"],
+                    t["range"], t["enum"], off // 8, _ancillary(decl[n]))
+            off += t["bits"]
+            cmd.args.append(a)
+        if int(assign["ccsds_length"]) != 2 + cmd.arg_len - 1:
+            raise ValueError(f"{cmd.name}: ccsds_length disagrees with its arguments")
+        cmds.append(cmd)
+    cmds.sort(key=lambda c: c.opcode)
+    return TcDictionary(apid, header, {c.name: c for c in cmds}, statuses)
 
 
 def reason_names() -> tuple[str, ...]:

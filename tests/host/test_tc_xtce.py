@@ -1,5 +1,6 @@
-"""The telecommand dictionary ground/mdb/mfns_tc.xml (XTCE) against the C codec
-(firmware/tlm/tc_packets.h, through the core shared library): any difference fails.
+"""The telecommand dictionary ground/mdb/mfns_tc.xml (XTCE), the master, against the C codec
+generated from it (firmware/tlm/tc_codes_gen.h, tc_packets_gen.c by mk/gen_contracts.py,
+through the core shared library): any difference fails, so these test the generator's output.
 
 Checked: the schema; the opcode names and numbers; per command, the argument layout
 (order, sizes, signedness) by packing a packet from the XTCE alone and comparing it

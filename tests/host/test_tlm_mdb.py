@@ -1,8 +1,9 @@
 """The telemetry dictionary (ground/mdb/mfns_tm.xml, XTCE) against everything that uses it
 (issue 13 items 1 and 2; issue 12 item 4).
 
-The XTCE file is the one definition of the packets. These tests fail on any difference
-between it and: the XTCE schema; the C codec's layouts (streams the C encoder wrote, decoded by
+The XTCE file is the one definition of the packets; mk/gen_contracts.py generates the C codec,
+codes, ground columns and doc tables from it. These tests fail when a generated file is stale,
+when the generator does not follow the dictionary, and on any difference between it and: the XTCE schema; the C codec's layouts (streams the C encoder wrote, decoded by
 space-packet-parser through the XTCE, must equal mfns-ground's CSVs field by field); the C
 codec's numbered codes and names (through the core library); pose.h's reason numbers; the
 Python readers' names; and the tables of docs/telemetry.md.
@@ -109,8 +110,45 @@ def test_uplink_codes_agree_with_the_brief():
     assert hk["cmd_seq_last"] == "u16" and hk["cams_enabled"] == "u8"
 
 
+def test_generated_contracts_are_fresh():
+    """Every file mk/gen_contracts.py writes from the dictionaries is what it would write now."""
+    res = subprocess.run(
+        ["python3", str(REPO / "mk" / "gen_contracts.py"), "--check"], capture_output=True, text=True, check=False
+    )
+    assert res.returncode == 0, res.stderr
+
+
+def test_generator_follows_the_dictionary(tmp_path):
+    """The generation is real: a housekeeping field added to a copy of the XTCE appears in the
+    struct, the encoder, the decoder, the payload length and the ground columns."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("gen_contracts", REPO / "mk" / "gen_contracts.py")
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    text = MDB.read_text()
+    text = text.replace(
+        '<xtce:Parameter name="evt_cycle"',
+        '<xtce:Parameter name="hk_test_field" parameterTypeRef="u16" shortDescription="t"/>\n'
+        '      <xtce:Parameter name="evt_cycle"',
+    ).replace(
+        '<xtce:ParameterRefEntry parameterRef="hk_cams_enabled"/>',
+        '<xtce:ParameterRefEntry parameterRef="hk_cams_enabled"/><xtce:ParameterRefEntry parameterRef="hk_test_field"/>',
+    )
+    bad = tmp_path / "tm.xml"
+    bad.write_text(text)
+    out = {p.name: t for p, t in gen.outputs(bad).items()}
+    assert "uint16_t test_field;" in out["tlm_packets_gen.h"]
+    assert "#define TLM_HK_PAYLOAD_LEN 78u" in out["tlm_packets_gen.h"]
+    assert "tlm_put_u16(b + 76, s->test_field);" in out["tlm_packets_gen.c"]
+    assert "s->test_field = tlm_get_u16(b + 76);" in out["tlm_packets_gen.c"]
+    assert 'ground_row_num(r, "test_field", s->test_field, 0);' in out["ground_cols_gen.c"]
+
+
 def test_reason_codes_are_explicit_in_pose_h_and_match(lib):
-    text = (REPO / "firmware" / "nav" / "pose.h").read_text()
+    """pose.h takes the enum from the generated nav_codes_gen.h: explicit numbers, the dictionary's."""
+    assert '#include "nav_codes_gen.h"' in (REPO / "firmware" / "nav" / "pose.h").read_text()
+    text = (REPO / "firmware" / "nav" / "nav_codes_gen.h").read_text()
     body = re.search(r"typedef enum \{(.*?)\} mfns_pose_reason_t;", text, re.S).group(1)
     entries = re.findall(r"^\s*(MFNS_POSE_R_\w+)\s*(=\s*(\d+))?\s*,", body, re.M)
     assert entries and all(e[1] for e in entries), "every reason needs an explicit number"
