@@ -9,11 +9,11 @@
 int tc_arg_len(uint8_t opcode)
 {
     switch (opcode) {
-    case TC_OP_NOOP: return 0;
+    case TC_OP_NOOP:
     case TC_OP_RESET_COUNTERS: return 0;
     case TC_OP_SET_MODE: return 1;
     case TC_OP_SET_POSE_HINT: return 24;
-    case TC_OP_CAMERA_ENABLE: return 1;
+    case TC_OP_CAMERA_ENABLE:
     case TC_OP_CAMERA_DISABLE: return 1;
     case TC_OP_TABLE_LOAD: return 64;
     default: return -1;
@@ -23,12 +23,12 @@ int tc_arg_len(uint8_t opcode)
 int tc_arg_count(uint8_t opcode)
 {
     switch (opcode) {
-    case TC_OP_NOOP: return 0;
+    case TC_OP_NOOP:
     case TC_OP_RESET_COUNTERS: return 0;
     case TC_OP_SET_MODE: return 1;
     case TC_OP_SET_POSE_HINT: return 6;
-    case TC_OP_CAMERA_ENABLE: return 1;
-    case TC_OP_CAMERA_DISABLE: return 1;
+    case TC_OP_CAMERA_ENABLE:
+    case TC_OP_CAMERA_DISABLE:
     case TC_OP_TABLE_LOAD: return 1;
     default: return -1;
     }
@@ -96,9 +96,7 @@ tc_status_t tc_args_check(const tc_cmd_t *c)
 {
     switch (c->opcode) {
     case TC_OP_NOOP:
-        return TC_OK;
-    case TC_OP_RESET_COUNTERS:
-        return TC_OK;
+    case TC_OP_RESET_COUNTERS: return TC_OK;
     case TC_OP_SET_MODE:
         return ((c->u.mode == 1u || c->u.mode == 2u || c->u.mode == 4u)) ? TC_OK : TC_E_ARG;
     case TC_OP_SET_POSE_HINT:
@@ -109,7 +107,6 @@ tc_status_t tc_args_check(const tc_cmd_t *c)
                 c->u.pose.att_udeg[1] >= -90000000 && c->u.pose.att_udeg[1] <= 90000000 &&
                 c->u.pose.att_udeg[2] >= -180000000 && c->u.pose.att_udeg[2] <= 180000000) ? TC_OK : TC_E_ARG;
     case TC_OP_CAMERA_ENABLE:
-        return (c->u.camera <= 2u) ? TC_OK : TC_E_ARG;
     case TC_OP_CAMERA_DISABLE:
         return (c->u.camera <= 2u) ? TC_OK : TC_E_ARG;
     case TC_OP_TABLE_LOAD:
@@ -133,8 +130,6 @@ void tc_args_pack(const tc_cmd_t *c, uint8_t *a)
         tlm_put_u32(a + 20, (uint32_t)c->u.pose.att_udeg[2]);
         break;
     case TC_OP_CAMERA_ENABLE:
-        a[0] = c->u.camera;
-        break;
     case TC_OP_CAMERA_DISABLE:
         a[0] = c->u.camera;
         break;
@@ -160,8 +155,6 @@ void tc_args_unpack(const uint8_t *a, tc_cmd_t *c)
         c->u.pose.att_udeg[2] = (int32_t)tlm_get_u32(a + 20);
         break;
     case TC_OP_CAMERA_ENABLE:
-        c->u.camera = a[0];
-        break;
     case TC_OP_CAMERA_DISABLE:
         c->u.camera = a[0];
         break;

@@ -269,7 +269,8 @@ def load_tc(path: str | None = None) -> TcDictionary:
     statuses = {
         int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
         for x in root.findall(
-            "x:TelemetryMetaData/x:ParameterTypeSet/x:EnumeratedParameterType[@name='tc_status_t']//x:Enumeration", NS
+            "x:TelemetryMetaData/x:ParameterTypeSet/x:EnumeratedParameterType[@name='tc_status_t']//x:Enumeration",
+            NS,
         )
     }
     opcodes = {lab: v for v, (lab, _) in types["opcode_t"]["enum"].items()}
@@ -278,21 +279,35 @@ def load_tc(path: str | None = None) -> TcDictionary:
     apid = None
     for mc in root.findall("x:CommandMetaData/x:MetaCommandSet/x:MetaCommand", NS):
         decl = {a.get("name"): a for a in mc.findall("x:ArgumentList/x:Argument", NS)}
-        order = [e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)]
+        order = [
+            e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)
+        ]
         if sorted(order) != sorted(decl):
             raise ValueError(f"{mc.get('name')}: every argument must be placed exactly once")
         if mc.get("abstract") == "true":
             header = [(n, types[decl[n].get("argumentTypeRef")]["bits"]) for n in order]
             continue
-        assign = {a.get("argumentName"): a.get("argumentValue") for a in mc.findall(".//x:ArgumentAssignment", NS)}
+        assign = {
+            a.get("argumentName"): a.get("argumentValue") for a in mc.findall(".//x:ArgumentAssignment", NS)
+        }
         apid = int(assign["ccsds_apid"])
         cmd = Command(mc.get("name"), opcodes[assign["opcode"]], mc.get("shortDescription", ""))
         off = 0
         for n in order:
             tname = decl[n].get("argumentTypeRef")
             t = types[tname]
-            a = Arg(n, tname, t["kind"], t["bits"], t["signed"], decl[n].get("shortDescription") or t["description"],
-                    t["range"], t["enum"], off // 8, _ancillary(decl[n]))
+            a = Arg(
+                n,
+                tname,
+                t["kind"],
+                t["bits"],
+                t["signed"],
+                decl[n].get("shortDescription") or t["description"],
+                t["range"],
+                t["enum"],
+                off // 8,
+                _ancillary(decl[n]),
+            )
             off += t["bits"]
             cmd.args.append(a)
         if int(assign["ccsds_length"]) != 2 + cmd.arg_len - 1:

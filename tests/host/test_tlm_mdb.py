@@ -3,7 +3,8 @@
 
 The XTCE file is the one definition of the packets; mk/gen_contracts.py generates the C codec,
 codes, ground columns and doc tables from it. These tests fail when a generated file is stale,
-when the generator does not follow the dictionary, and on any difference between it and: the XTCE schema; the C codec's layouts (streams the C encoder wrote, decoded by
+when the generator does not follow the dictionary, and on any difference between it and: the
+XTCE schema; the C codec's layouts (streams the C encoder wrote, decoded by
 space-packet-parser through the XTCE, must equal mfns-ground's CSVs field by field); the C
 codec's numbered codes and names (through the core library); pose.h's reason numbers; the
 Python readers' names; and the tables of docs/telemetry.md.
@@ -113,7 +114,10 @@ def test_uplink_codes_agree_with_the_brief():
 def test_generated_contracts_are_fresh():
     """Every file mk/gen_contracts.py writes from the dictionaries is what it would write now."""
     res = subprocess.run(
-        ["python3", str(REPO / "mk" / "gen_contracts.py"), "--check"], capture_output=True, text=True, check=False
+        ["python3", str(REPO / "mk" / "gen_contracts.py"), "--check"],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert res.returncode == 0, res.stderr
 
@@ -133,7 +137,8 @@ def test_generator_follows_the_dictionary(tmp_path):
         '      <xtce:Parameter name="evt_cycle"',
     ).replace(
         '<xtce:ParameterRefEntry parameterRef="hk_cams_enabled"/>',
-        '<xtce:ParameterRefEntry parameterRef="hk_cams_enabled"/><xtce:ParameterRefEntry parameterRef="hk_test_field"/>',
+        '<xtce:ParameterRefEntry parameterRef="hk_cams_enabled"/>'
+        '<xtce:ParameterRefEntry parameterRef="hk_test_field"/>',
     )
     bad = tmp_path / "tm.xml"
     bad.write_text(text)
