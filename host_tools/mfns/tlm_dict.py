@@ -7,8 +7,9 @@ parameter with its encoding, unit and calibration, and every numbered code (stat
 mode, camera state, event code, severity). This module reads it with the standard library
 only, so the host tools take the codes' names from it instead of copying them, and it renders
 the tables of docs/telemetry.md between their markers (``python -m mfns.tlm_dict --write``;
-``--check`` fails when the doc is stale). tests/host/test_tlm_mdb.py holds the C codec and
-headers to the same file.
+``--check`` fails when the doc is stale). It also reads the telecommand dictionary
+(``load_tc``). mk/gen_contracts.py generates the C codecs, codes, ground columns and doc tables
+from both through this module (standard library only, so it runs before any venv exists).
 """
 
 from __future__ import annotations
