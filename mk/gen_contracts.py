@@ -267,6 +267,42 @@ def valid_expr(f, var: str) -> str | None:
     return None
 
 
+# Wire type -> one field's statement; {v} the C lvalue, {o} the byte offset expression.
+PACK = {
+    "u8": "b[{o}] = {v};",
+    "u16": "tlm_put_u16(b + {o}, {v});",
+    "i16": "tlm_put_u16(b + {o}, (uint16_t){v});",
+    "u32": "tlm_put_u32(b + {o}, {v});",
+    "i32": "tlm_put_u32(b + {o}, (uint32_t){v});",
+    "f32": "tlm_put_f32(b + {o}, {v});",
+}
+UNPACK = {
+    "u8": "{v} = b[{o}];",
+    "u16": "{v} = tlm_get_u16(b + {o});",
+    "i16": "{v} = get_i16(b + {o});",
+    "u32": "{v} = tlm_get_u32(b + {o});",
+    "i32": "{v} = get_i32(b + {o});",
+    "f32": "{v} = tlm_get_f32(b + {o});",
+}
+
+
+def layout_lines(p, tmpl: dict) -> list[str]:
+    """One statement per field; an array whose elements lie back to back becomes a bounded loop."""
+    out = []
+    for m, _ct, n, fs in members(p):
+        step = fs[0].size
+        if n is not None and n > 1 and all(f.offset == fs[0].offset + step * i for i, f in enumerate(fs)):
+            o = f"{fs[0].offset}u + {step}u * i"
+            out += [
+                f"        for (unsigned i = 0; i < {n}u; i++) {{",
+                "            " + tmpl[fs[0].wire_type].format(v=f"s->{m}[i]", o=o),
+                "        }",
+            ]
+        else:
+            out += ["        " + tmpl[f.wire_type].format(v=f"s->{f.c_field}", o=f.offset) for f in fs]
+    return out
+
+
 def tlm_packets_c(d) -> str:
     L = [
         banner(TM_SRC).rstrip(),
@@ -337,46 +373,17 @@ def tlm_packets_c(d) -> str:
         for _v, (lab, _desc) in sorted(d.enums[xt].items()):
             L.append(f"    case {prefix}{lab.upper()}: return {cstr(lab)};")
         L += ['    default: return "?";', "    }", "}", ""]
-    # pack
-    L += ["void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)", "{", "    switch (p->type) {"]
-    for p in pk:
-        suf, _s, um = C_PACKETS[p.name]
-        L.append(f"    case TLM_TYPE_{suf}: {{")
-        L.append(f"        const {C_PACKETS[p.name][1]} *s = &p->u.{um};")
-        for f in p.fields:
-            v, o, w = f"s->{f.c_field}", f.offset, f.wire_type
-            L.append(
-                {
-                    "u8": f"        b[{o}] = {v};",
-                    "u16": f"        tlm_put_u16(b + {o}, {v});",
-                    "i16": f"        tlm_put_u16(b + {o}, (uint16_t){v});",
-                    "u32": f"        tlm_put_u32(b + {o}, {v});",
-                    "i32": f"        tlm_put_u32(b + {o}, (uint32_t){v});",
-                    "f32": f"        tlm_put_f32(b + {o}, {v});",
-                }[w]
-            )
-        L += ["        break;", "    }"]
-    L += ["    default: break;", "    }", "}", ""]
-    # unpack
-    L += ["void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "{", "    switch (p->type) {"]
-    for p in pk:
-        suf, _s, um = C_PACKETS[p.name]
-        L.append(f"    case TLM_TYPE_{suf}: {{")
-        L.append(f"        {C_PACKETS[p.name][1]} *s = &p->u.{um};")
-        for f in p.fields:
-            v, o, w = f"s->{f.c_field}", f.offset, f.wire_type
-            L.append(
-                {
-                    "u8": f"        {v} = b[{o}];",
-                    "u16": f"        {v} = tlm_get_u16(b + {o});",
-                    "i16": f"        {v} = get_i16(b + {o});",
-                    "u32": f"        {v} = tlm_get_u32(b + {o});",
-                    "i32": f"        {v} = get_i32(b + {o});",
-                    "f32": f"        {v} = tlm_get_f32(b + {o});",
-                }[w]
-            )
-        L += ["        break;", "    }"]
-    L += ["    default: break;", "    }", "}", ""]
+    for fn, const, tmpl in (
+        ("tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)", "const ", PACK),
+        ("tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "", UNPACK),
+    ):
+        L += [f"void {fn}", "{", "    switch (p->type) {"]
+        for p in pk:
+            suf, sname, um = C_PACKETS[p.name]
+            L += [f"    case TLM_TYPE_{suf}: {{", f"        {const}{sname} *s = &p->u.{um};"]
+            L += layout_lines(p, tmpl)
+            L += ["        break;", "    }"]
+        L += ["    default: break;", "    }", "}", ""]
     # valid
     L += ["bool tlm_payload_valid(const tlm_packet_t *p)", "{", "    switch (p->type) {"]
     for p in pk:

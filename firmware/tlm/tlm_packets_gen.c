@@ -135,43 +135,24 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         b[8] = s->cams_used;
         b[9] = s->iterations;
         tlm_put_u16(b + 10, s->residual_rms_mpx);
-        tlm_put_u32(b + 12, (uint32_t)s->pos_um[0]);
-        tlm_put_u32(b + 16, (uint32_t)s->pos_um[1]);
-        tlm_put_u32(b + 20, (uint32_t)s->pos_um[2]);
-        tlm_put_u32(b + 24, (uint32_t)s->att_udeg[0]);
-        tlm_put_u32(b + 28, (uint32_t)s->att_udeg[1]);
-        tlm_put_u32(b + 32, (uint32_t)s->att_udeg[2]);
-        tlm_put_u32(b + 36, s->sigma_pos_um[0]);
-        tlm_put_u32(b + 40, s->sigma_pos_um[1]);
-        tlm_put_u32(b + 44, s->sigma_pos_um[2]);
-        tlm_put_u32(b + 48, s->sigma_att_udeg[0]);
-        tlm_put_u32(b + 52, s->sigma_att_udeg[1]);
-        tlm_put_u32(b + 56, s->sigma_att_udeg[2]);
-        tlm_put_u32(b + 60, (uint32_t)s->q_q30[0]);
-        tlm_put_u32(b + 64, (uint32_t)s->q_q30[1]);
-        tlm_put_u32(b + 68, (uint32_t)s->q_q30[2]);
-        tlm_put_u32(b + 72, (uint32_t)s->q_q30[3]);
-        tlm_put_f32(b + 76, s->cov[0]);
-        tlm_put_f32(b + 80, s->cov[1]);
-        tlm_put_f32(b + 84, s->cov[2]);
-        tlm_put_f32(b + 88, s->cov[3]);
-        tlm_put_f32(b + 92, s->cov[4]);
-        tlm_put_f32(b + 96, s->cov[5]);
-        tlm_put_f32(b + 100, s->cov[6]);
-        tlm_put_f32(b + 104, s->cov[7]);
-        tlm_put_f32(b + 108, s->cov[8]);
-        tlm_put_f32(b + 112, s->cov[9]);
-        tlm_put_f32(b + 116, s->cov[10]);
-        tlm_put_f32(b + 120, s->cov[11]);
-        tlm_put_f32(b + 124, s->cov[12]);
-        tlm_put_f32(b + 128, s->cov[13]);
-        tlm_put_f32(b + 132, s->cov[14]);
-        tlm_put_f32(b + 136, s->cov[15]);
-        tlm_put_f32(b + 140, s->cov[16]);
-        tlm_put_f32(b + 144, s->cov[17]);
-        tlm_put_f32(b + 148, s->cov[18]);
-        tlm_put_f32(b + 152, s->cov[19]);
-        tlm_put_f32(b + 156, s->cov[20]);
+        for (unsigned i = 0; i < 3u; i++) {
+            tlm_put_u32(b + 12u + 4u * i, (uint32_t)s->pos_um[i]);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            tlm_put_u32(b + 24u + 4u * i, (uint32_t)s->att_udeg[i]);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            tlm_put_u32(b + 36u + 4u * i, s->sigma_pos_um[i]);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            tlm_put_u32(b + 48u + 4u * i, s->sigma_att_udeg[i]);
+        }
+        for (unsigned i = 0; i < 4u; i++) {
+            tlm_put_u32(b + 60u + 4u * i, (uint32_t)s->q_q30[i]);
+        }
+        for (unsigned i = 0; i < 21u; i++) {
+            tlm_put_f32(b + 76u + 4u * i, s->cov[i]);
+        }
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -241,43 +222,24 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->cams_used = b[8];
         s->iterations = b[9];
         s->residual_rms_mpx = tlm_get_u16(b + 10);
-        s->pos_um[0] = get_i32(b + 12);
-        s->pos_um[1] = get_i32(b + 16);
-        s->pos_um[2] = get_i32(b + 20);
-        s->att_udeg[0] = get_i32(b + 24);
-        s->att_udeg[1] = get_i32(b + 28);
-        s->att_udeg[2] = get_i32(b + 32);
-        s->sigma_pos_um[0] = tlm_get_u32(b + 36);
-        s->sigma_pos_um[1] = tlm_get_u32(b + 40);
-        s->sigma_pos_um[2] = tlm_get_u32(b + 44);
-        s->sigma_att_udeg[0] = tlm_get_u32(b + 48);
-        s->sigma_att_udeg[1] = tlm_get_u32(b + 52);
-        s->sigma_att_udeg[2] = tlm_get_u32(b + 56);
-        s->q_q30[0] = get_i32(b + 60);
-        s->q_q30[1] = get_i32(b + 64);
-        s->q_q30[2] = get_i32(b + 68);
-        s->q_q30[3] = get_i32(b + 72);
-        s->cov[0] = tlm_get_f32(b + 76);
-        s->cov[1] = tlm_get_f32(b + 80);
-        s->cov[2] = tlm_get_f32(b + 84);
-        s->cov[3] = tlm_get_f32(b + 88);
-        s->cov[4] = tlm_get_f32(b + 92);
-        s->cov[5] = tlm_get_f32(b + 96);
-        s->cov[6] = tlm_get_f32(b + 100);
-        s->cov[7] = tlm_get_f32(b + 104);
-        s->cov[8] = tlm_get_f32(b + 108);
-        s->cov[9] = tlm_get_f32(b + 112);
-        s->cov[10] = tlm_get_f32(b + 116);
-        s->cov[11] = tlm_get_f32(b + 120);
-        s->cov[12] = tlm_get_f32(b + 124);
-        s->cov[13] = tlm_get_f32(b + 128);
-        s->cov[14] = tlm_get_f32(b + 132);
-        s->cov[15] = tlm_get_f32(b + 136);
-        s->cov[16] = tlm_get_f32(b + 140);
-        s->cov[17] = tlm_get_f32(b + 144);
-        s->cov[18] = tlm_get_f32(b + 148);
-        s->cov[19] = tlm_get_f32(b + 152);
-        s->cov[20] = tlm_get_f32(b + 156);
+        for (unsigned i = 0; i < 3u; i++) {
+            s->pos_um[i] = get_i32(b + 12u + 4u * i);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            s->att_udeg[i] = get_i32(b + 24u + 4u * i);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            s->sigma_pos_um[i] = tlm_get_u32(b + 36u + 4u * i);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            s->sigma_att_udeg[i] = tlm_get_u32(b + 48u + 4u * i);
+        }
+        for (unsigned i = 0; i < 4u; i++) {
+            s->q_q30[i] = get_i32(b + 60u + 4u * i);
+        }
+        for (unsigned i = 0; i < 21u; i++) {
+            s->cov[i] = tlm_get_f32(b + 76u + 4u * i);
+        }
         break;
     }
     case TLM_TYPE_CAMERA: {
