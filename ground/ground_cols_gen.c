@@ -5,6 +5,9 @@
  * values printed exactly (fixed point from the wire integer), codes by their label. */
 #include "ground_row.h"
 
+/* the widest row: t_s, seq, ground_utc and the packet's columns */
+_Static_assert(48 <= GROUND_ROW_MAX_COLS, "ground_row_t too narrow for a packet");
+
 void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
 {
     switch (p->type) {

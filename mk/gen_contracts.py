@@ -257,7 +257,12 @@ def valid_expr(f, var: str) -> str | None:
     if f.wire_type == "f32":
         return f"isfinite({var})"
     if f.enum is not None:
-        return f"{C_ENUMS[f.type_name][3]}({var})[0] != '?'"
+        _ct, prefix, count, fn, _a = C_ENUMS[f.type_name]
+        vals = sorted(f.enum)
+        if vals != list(range(vals[0], vals[-1] + 1)):  # gaps: the name function knows the codes
+            return f"{fn}({var})[0] != '?'"
+        upper = f"{var} < {count or 'TLM_NUM_CAMERAS'}"
+        return upper if vals[0] == 0 else f"{var} >= {prefix}{f.enum[vals[0]][0].upper()} && {upper}"
     if f.valid_range is not None:
         lo, hi = (int(x) for x in f.valid_range)
         signed = f.wire_type.startswith("i")
@@ -385,10 +390,33 @@ def tlm_packets_c(d) -> str:
             L += ["        break;", "    }"]
         L += ["    default: break;", "    }", "}", ""]
     # valid
+    valid: dict[str, list[str]] = {}
+    for p in pk:
+        suf, um, conds = C_PACKETS[p.name][0], C_PACKETS[p.name][2], []
+        for m, _ct, n, fs in members(p):
+            if n is not None and fs[0].wire_type == "f32" and "check" not in fs[0].anc:
+                conds.append(
+                    f"all_finite(p->u.{um}.{m}, TLM_{suf}_{m.upper()}_N)"
+                )  # a float array: one bounded loop
+            else:
+                conds += [c for f in fs if (c := valid_expr(f, f"p->u.{um}.{f.c_field}")) is not None]
+        valid[p.name] = conds
+    if any("all_finite(" in c for cs in valid.values() for c in cs):
+        L += [
+            "static bool all_finite(const float *v, unsigned n)",
+            "{",
+            "    for (unsigned i = 0; i < n; i++) {",
+            "        if (!isfinite(v[i])) {",
+            "            return false;",
+            "        }",
+            "    }",
+            "    return true;",
+            "}",
+            "",
+        ]
     L += ["bool tlm_payload_valid(const tlm_packet_t *p)", "{", "    switch (p->type) {"]
     for p in pk:
-        suf, _s, um = C_PACKETS[p.name]
-        conds = [c for f in p.fields if (c := valid_expr(f, f"p->u.{um}.{f.c_field}")) is not None]
+        suf, conds = C_PACKETS[p.name][0], valid[p.name]
         L.append(f"    case TLM_TYPE_{suf}:")
         L.append("        return " + (" &&\n               ".join(conds) if conds else "true") + ";")
     L += ["    default: return false;", "    }", "}", ""]
@@ -412,10 +440,13 @@ def ground_cols_c(d) -> str:
         " * values printed exactly (fixed point from the wire integer), codes by their label. */",
         '#include "ground_row.h"',
         "",
+        "@ASSERT@",
+        "",
         "void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)",
         "{",
         "    switch (p->type) {",
     ]
+    ncols = 0
     for p in d.packets.values():
         suf, sname, um = C_PACKETS[p.name]
         order = [f for f in p.fields if "ground_after" not in f.anc]
@@ -423,6 +454,7 @@ def ground_cols_c(d) -> str:
             if "ground_after" in f.anc:
                 i = next(k for k, g in enumerate(order) if g.name == f.anc["ground_after"])
                 order.insert(i + 1, f)
+        ncols = max(ncols, 3 + len(order) + sum("ground_label_column" in f.anc for f in order))
         L += [f"    case TLM_TYPE_{suf}: {{", f"        const {sname} *s = &p->u.{um};"]
         for f in order:
             v, n = f"s->{f.c_field}", cstr(f.name)
@@ -457,6 +489,10 @@ def ground_cols_c(d) -> str:
                 dec = decimals(f.coefficient) if f.coefficient is not None else 0
                 L.append(f"        ground_row_num(r, {n}, {v}, {dec});")
         L += ["        break;", "    }"]
+    L[L.index("@ASSERT@")] = (
+        f"/* the widest row: t_s, seq, ground_utc and the packet's columns */\n"
+        f'_Static_assert({ncols} <= GROUND_ROW_MAX_COLS, "ground_row_t too narrow for a packet");'
+    )
     L += ["    default: break;", "    }", "}", ""]
     return "\n".join(L)
 
@@ -548,11 +584,14 @@ def tc_check(a, v: str) -> str:
     if a.kind == "string":
         return f"tc_string_valid(c->u.{a.c_field}, sizeof c->u.{a.c_field})"
     if a.kind == "enum":
-        return "(" + " || ".join(f"{v} == {x}u" for x in sorted(a.enum)) + ")"
+        return "(" + " || ".join(f"{v} == {x}u /* {lab} */" for x, (lab, _) in sorted(a.enum.items())) + ")"
     lo, hi = a.valid_range
-    if a.signed:
-        return f"{v} >= {lo} && {v} <= {hi}"
-    return f"{v} <= {hi}u" if lo <= 0 else f"{v} >= {lo}u && {v} <= {hi}u"
+    k = type_const(a.type_name)
+    if lo == -hi:
+        return f"{v} >= -{k}_MAX && {v} <= {k}_MAX"
+    if lo == 0 and not a.signed:
+        return f"{v} <= {k}_MAX"
+    return f"{v} >= {k}_MIN && {v} <= {k}_MAX"
 
 
 def tc_packets_c(t) -> str:

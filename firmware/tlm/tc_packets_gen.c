@@ -98,17 +98,17 @@ tc_status_t tc_args_check(const tc_cmd_t *c)
     case TC_OP_NOOP:
     case TC_OP_RESET_COUNTERS: return TC_OK;
     case TC_OP_SET_MODE:
-        return ((c->u.mode == 1u || c->u.mode == 2u || c->u.mode == 4u)) ? TC_OK : TC_E_ARG;
+        return ((c->u.mode == 1u /* ACQUIRE */ || c->u.mode == 2u /* TRACK */ || c->u.mode == 4u /* STANDBY */)) ? TC_OK : TC_E_ARG;
     case TC_OP_SET_POSE_HINT:
-        return (c->u.pose.pos_um[0] >= -1000000000 && c->u.pose.pos_um[0] <= 1000000000 &&
-                c->u.pose.pos_um[1] >= -1000000000 && c->u.pose.pos_um[1] <= 1000000000 &&
-                c->u.pose.pos_um[2] >= -1000000000 && c->u.pose.pos_um[2] <= 1000000000 &&
-                c->u.pose.att_udeg[0] >= -180000000 && c->u.pose.att_udeg[0] <= 180000000 &&
-                c->u.pose.att_udeg[1] >= -90000000 && c->u.pose.att_udeg[1] <= 90000000 &&
-                c->u.pose.att_udeg[2] >= -180000000 && c->u.pose.att_udeg[2] <= 180000000) ? TC_OK : TC_E_ARG;
+        return (c->u.pose.pos_um[0] >= -TC_POS_UM_MAX && c->u.pose.pos_um[0] <= TC_POS_UM_MAX &&
+                c->u.pose.pos_um[1] >= -TC_POS_UM_MAX && c->u.pose.pos_um[1] <= TC_POS_UM_MAX &&
+                c->u.pose.pos_um[2] >= -TC_POS_UM_MAX && c->u.pose.pos_um[2] <= TC_POS_UM_MAX &&
+                c->u.pose.att_udeg[0] >= -TC_ROLL_YAW_UDEG_MAX && c->u.pose.att_udeg[0] <= TC_ROLL_YAW_UDEG_MAX &&
+                c->u.pose.att_udeg[1] >= -TC_PITCH_UDEG_MAX && c->u.pose.att_udeg[1] <= TC_PITCH_UDEG_MAX &&
+                c->u.pose.att_udeg[2] >= -TC_ROLL_YAW_UDEG_MAX && c->u.pose.att_udeg[2] <= TC_ROLL_YAW_UDEG_MAX) ? TC_OK : TC_E_ARG;
     case TC_OP_CAMERA_ENABLE:
     case TC_OP_CAMERA_DISABLE:
-        return (c->u.camera <= 2u) ? TC_OK : TC_E_ARG;
+        return (c->u.camera <= TC_CAMERA_MAX) ? TC_OK : TC_E_ARG;
     case TC_OP_TABLE_LOAD:
         return (tc_string_valid(c->u.path, sizeof c->u.path)) ? TC_OK : TC_E_ARG;
     default: return TC_E_OPCODE;

@@ -296,44 +296,34 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
     }
 }
 
+static bool all_finite(const float *v, unsigned n)
+{
+    for (unsigned i = 0; i < n; i++) {
+        if (!isfinite(v[i])) {
+            return false;
+        }
+    }
+    return true;
+}
+
 bool tlm_payload_valid(const tlm_packet_t *p)
 {
     switch (p->type) {
     case TLM_TYPE_NAV:
-        return tlm_nav_status_name(p->u.nav.status)[0] != '?' &&
-               tlm_mode_name(p->u.nav.mode)[0] != '?' &&
+        return p->u.nav.status < TLM_NAV_STATUS_COUNT &&
+               p->u.nav.mode < TLM_MODE_COUNT &&
                p->u.nav.cams_used <= 7u &&
-               isfinite(p->u.nav.cov[0]) &&
-               isfinite(p->u.nav.cov[1]) &&
-               isfinite(p->u.nav.cov[2]) &&
-               isfinite(p->u.nav.cov[3]) &&
-               isfinite(p->u.nav.cov[4]) &&
-               isfinite(p->u.nav.cov[5]) &&
-               isfinite(p->u.nav.cov[6]) &&
-               isfinite(p->u.nav.cov[7]) &&
-               isfinite(p->u.nav.cov[8]) &&
-               isfinite(p->u.nav.cov[9]) &&
-               isfinite(p->u.nav.cov[10]) &&
-               isfinite(p->u.nav.cov[11]) &&
-               isfinite(p->u.nav.cov[12]) &&
-               isfinite(p->u.nav.cov[13]) &&
-               isfinite(p->u.nav.cov[14]) &&
-               isfinite(p->u.nav.cov[15]) &&
-               isfinite(p->u.nav.cov[16]) &&
-               isfinite(p->u.nav.cov[17]) &&
-               isfinite(p->u.nav.cov[18]) &&
-               isfinite(p->u.nav.cov[19]) &&
-               isfinite(p->u.nav.cov[20]);
+               all_finite(p->u.nav.cov, TLM_NAV_COV_N);
     case TLM_TYPE_CAMERA:
-        return tlm_camera_name(p->u.camera.camera)[0] != '?' &&
-               tlm_cam_state_name(p->u.camera.state)[0] != '?';
+        return p->u.camera.camera < TLM_NUM_CAMERAS &&
+               p->u.camera.state < TLM_CAM_STATE_COUNT;
     case TLM_TYPE_HK:
-        return tlm_mode_name(p->u.hk.mode)[0] != '?' &&
+        return p->u.hk.mode < TLM_MODE_COUNT &&
                p->u.hk.cpu_load_permille <= 1000u &&
                p->u.hk.cams_enabled <= 7u;
     case TLM_TYPE_EVENT:
-        return tlm_event_name(p->u.event.code)[0] != '?' &&
-               tlm_severity_name(p->u.event.severity)[0] != '?';
+        return p->u.event.code >= TLM_EVT_BOOT && p->u.event.code < TLM_EVT_CODE_COUNT &&
+               p->u.event.severity < TLM_SEV_COUNT;
     default: return false;
     }
 }
