@@ -374,10 +374,24 @@ def tlm_packets_c(d) -> str:
         "",
     ]
     for xt, (_ct, prefix, _c, fn, arg) in C_ENUMS.items():
-        L += [f"const char *{fn}({arg} code)", "{", "    switch (code) {"]
-        for _v, (lab, _desc) in sorted(d.enums[xt].items()):
-            L.append(f"    case {prefix}{lab.upper()}: return {cstr(lab)};")
-        L += ['    default: return "?";', "    }", "}", ""]
+        vals = sorted(d.enums[xt])
+        L += [f"const char *{fn}({arg} code)", "{"]
+        if vals == list(range(vals[0], vals[-1] + 1)):  # contiguous: a table (smaller than a switch)
+            names = ", ".join(cstr(d.enums[xt][v][0]) for v in vals)
+            first, last = (f"{prefix}{d.enums[xt][v][0].upper()}" for v in (vals[0], vals[-1]))
+            cond = f"code <= {last}" if vals[0] == 0 else f"code >= {first} && code <= {last}"
+            idx = "code" if vals[0] == 0 else f"code - {first}"
+            L += [
+                f"    static const char *const k_name[{len(vals)}] = {{{names}}};",
+                f'    return ({cond}) ? k_name[{idx}] : "?";',
+            ]
+        else:
+            L.append("    switch (code) {")
+            for v in vals:
+                lab = d.enums[xt][v][0]
+                L.append(f"    case {prefix}{lab.upper()}: return {cstr(lab)};")
+            L += ['    default: return "?";', "    }"]
+        L += ["}", ""]
     for fn, const, tmpl in (
         ("tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)", "const ", PACK),
         ("tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "", UNPACK),

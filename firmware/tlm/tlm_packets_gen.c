@@ -49,77 +49,38 @@ const char *tlm_type_name(tlm_type_t type)
 
 const char *tlm_nav_status_name(uint8_t code)
 {
-    switch (code) {
-    case TLM_NAV_NO_FIX: return "NO_FIX";
-    case TLM_NAV_FIX: return "FIX";
-    case TLM_NAV_DEGRADED: return "DEGRADED";
-    default: return "?";
-    }
+    static const char *const k_name[3] = {"NO_FIX", "FIX", "DEGRADED"};
+    return (code <= TLM_NAV_DEGRADED) ? k_name[code] : "?";
 }
 
 const char *tlm_mode_name(uint8_t code)
 {
-    switch (code) {
-    case TLM_MODE_BOOT: return "BOOT";
-    case TLM_MODE_ACQUIRE: return "ACQUIRE";
-    case TLM_MODE_TRACK: return "TRACK";
-    case TLM_MODE_SAFE: return "SAFE";
-    case TLM_MODE_STANDBY: return "STANDBY";
-    default: return "?";
-    }
+    static const char *const k_name[5] = {"BOOT", "ACQUIRE", "TRACK", "SAFE", "STANDBY"};
+    return (code <= TLM_MODE_STANDBY) ? k_name[code] : "?";
 }
 
 const char *tlm_camera_name(uint8_t code)
 {
-    switch (code) {
-    case TLM_CAMERA_X: return "x";
-    case TLM_CAMERA_Y: return "y";
-    case TLM_CAMERA_Z: return "z";
-    default: return "?";
-    }
+    static const char *const k_name[3] = {"x", "y", "z"};
+    return (code <= TLM_CAMERA_Z) ? k_name[code] : "?";
 }
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    switch (code) {
-    case TLM_CAM_OK: return "OK";
-    case TLM_CAM_LOST: return "LOST";
-    case TLM_CAM_OFF: return "OFF";
-    case TLM_CAM_SKIPPED: return "SKIPPED";
-    case TLM_CAM_ENDED: return "ENDED";
-    default: return "?";
-    }
+    static const char *const k_name[5] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED"};
+    return (code <= TLM_CAM_ENDED) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
 {
-    switch (code) {
-    case TLM_SEV_INFO: return "INFO";
-    case TLM_SEV_WARNING: return "WARNING";
-    case TLM_SEV_ERROR: return "ERROR";
-    default: return "?";
-    }
+    static const char *const k_name[3] = {"INFO", "WARNING", "ERROR"};
+    return (code <= TLM_SEV_ERROR) ? k_name[code] : "?";
 }
 
 const char *tlm_event_name(uint16_t code)
 {
-    switch (code) {
-    case TLM_EVT_BOOT: return "BOOT";
-    case TLM_EVT_TABLE_LOADED: return "TABLE_LOADED";
-    case TLM_EVT_TABLE_REFUSED: return "TABLE_REFUSED";
-    case TLM_EVT_CAMERA_LOST: return "CAMERA_LOST";
-    case TLM_EVT_CAMERA_RECOVERED: return "CAMERA_RECOVERED";
-    case TLM_EVT_MODE_CHANGE: return "MODE_CHANGE";
-    case TLM_EVT_TLM_DROPPED: return "TLM_DROPPED";
-    case TLM_EVT_CAMERA_STALE: return "CAMERA_STALE";
-    case TLM_EVT_CAMERA_OUT_OF_STEP: return "CAMERA_OUT_OF_STEP";
-    case TLM_EVT_FRAME_REJECTED: return "FRAME_REJECTED";
-    case TLM_EVT_CAMERA_ENDED: return "CAMERA_ENDED";
-    case TLM_EVT_TLM_WRITE_ERROR: return "TLM_WRITE_ERROR";
-    case TLM_EVT_CMD_ACCEPTED: return "CMD_ACCEPTED";
-    case TLM_EVT_CMD_REJECTED: return "CMD_REJECTED";
-    default: return "?";
-    }
+    static const char *const k_name[14] = {"BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE", "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR", "CMD_ACCEPTED", "CMD_REJECTED"};
+    return (code >= TLM_EVT_BOOT && code <= TLM_EVT_CMD_REJECTED) ? k_name[code - TLM_EVT_BOOT] : "?";
 }
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
