@@ -516,6 +516,57 @@ def type_const(tname: str) -> str:
     return "TC_" + tname.removesuffix("_t").upper()
 
 
+# A command whose arguments' c_field is "member.field" gets a struct: member -> its C type name.
+C_ARG_STRUCTS = {"pose": "tc_pose_hint_t"}
+
+
+def _arg_ctype(a) -> str:
+    return ("int" if a.signed else "uint") + f"{a.bits}_t"
+
+
+def tc_args_union(t) -> list[str]:
+    """The decoded arguments: tc_args_t, one union member per c_field base (a scalar, a string,
+    or a struct of the dotted fields), in opcode order; comments name the commands."""
+    union: dict[str, dict] = {}
+    for c in t.commands.values():
+        for a in c.args:
+            top, _, sub = a.c_field.partition(".")
+            u = union.setdefault(top, {"cmds": [], "args": []})
+            if c.name not in u["cmds"]:
+                u["cmds"].append(c.name)
+            if all(a.c_field != b.c_field for b in u["args"]):
+                u["args"].append(a)
+    L: list[str] = []
+    body: list[str] = []
+    for top, u in union.items():
+        cmds = ", ".join(u["cmds"])
+        a0 = u["args"][0]
+        if "." in a0.c_field:
+            sname = C_ARG_STRUCTS[top]
+            fields: dict[str, list] = {}
+            for a in u["args"]:
+                base, idx = split_field(a.c_field.partition(".")[2])
+                fields.setdefault(base, []).append((idx, a))
+            L += [f"/* The arguments of {cmds}. */", "typedef struct {"]
+            for base, items in fields.items():
+                n = "" if items[0][0] is None else f"[{len(items)}]"
+                names = ", ".join(a.name for _i, a in items)
+                doc = ccomment(items[0][1].description)
+                L.append(f"    {_arg_ctype(items[0][1])} {base}{n}; /* {names}: {doc} */")
+            L += [f"}} {sname};", ""]
+            body.append(f"    {sname} {top}; /* {cmds} */")
+        elif a0.kind == "string":
+            body.append(f"    char {top}[{type_const(a0.type_name)}_MAX]; /* {cmds}: NUL-padded */")
+        else:
+            body.append(f"    {_arg_ctype(a0)} {top}; /* {cmds}: {ccomment(a0.description)} */")
+    return L + [
+        "/* The decoded arguments of a command: the member its opcode uses (tc_cmd_t.u). */",
+        "typedef union {",
+        *body,
+        "} tc_args_t;",
+    ]
+
+
 def tc_codes_h(t) -> str:
     L = [
         banner(TC_SRC).rstrip(),
@@ -523,6 +574,8 @@ def tc_codes_h(t) -> str:
         " * counts, the rejection codes (CMD_REJECTED arg1) and every argument range. */",
         "#ifndef MFNS_TC_CODES_GEN_H",
         "#define MFNS_TC_CODES_GEN_H",
+        "",
+        "#include <stdint.h>",
         "",
         f"#define TC_APID 0x{t.apid:03X}u /* the MFNS command APID */",
         "",
@@ -576,7 +629,7 @@ def tc_codes_h(t) -> str:
                     L.append(f"#define {k}_MIN {lo} /* {ccomment(a.description)} */")
                     L.append(f"#define {k}_MAX {hi}")
     L.append(f"#define TC_MAX_ARGS {max(c.arg_len for c in cmds)}u /* the largest argument block */")
-    L += ["", "#endif /* MFNS_TC_CODES_GEN_H */", ""]
+    L += [""] + tc_args_union(t) + ["", "#endif /* MFNS_TC_CODES_GEN_H */", ""]
     return "\n".join(L)
 
 

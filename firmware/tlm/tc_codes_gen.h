@@ -4,6 +4,8 @@
 #ifndef MFNS_TC_CODES_GEN_H
 #define MFNS_TC_CODES_GEN_H
 
+#include <stdint.h>
+
 #define TC_APID 0x181u /* the MFNS command APID */
 
 /* Opcodes: explicit numbers, the wire values. */
@@ -57,5 +59,19 @@ typedef enum {
 #define TC_CAMERA_MAX 2
 #define TC_PATH_MAX 64u /* a path on the board: printable ASCII, 1..63 characters, NUL-padded to 64 bytes */
 #define TC_MAX_ARGS 64u /* the largest argument block */
+
+/* The arguments of SET_POSE_HINT. */
+typedef struct {
+    int32_t pos_um[3]; /* x_um, y_um, z_um: position r_wb_w, 0.001 mm */
+    int32_t att_udeg[3]; /* roll_udeg, pitch_udeg, yaw_udeg: roll or yaw of C_w_b (2-1-3), 1e-6 deg */
+} tc_pose_hint_t;
+
+/* The decoded arguments of a command: the member its opcode uses (tc_cmd_t.u). */
+typedef union {
+    uint8_t mode; /* SET_MODE: SET_MODE target (tlm_mode_t values) */
+    tc_pose_hint_t pose; /* SET_POSE_HINT */
+    uint8_t camera; /* CAMERA_ENABLE, CAMERA_DISABLE: camera index: 0 X, 1 Y, 2 Z */
+    char path[TC_PATH_MAX]; /* TABLE_LOAD: NUL-padded */
+} tc_args_t;
 
 #endif /* MFNS_TC_CODES_GEN_H */

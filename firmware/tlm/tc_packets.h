@@ -35,7 +35,7 @@
 #include "ccsds.h"
 #include "cobs.h"
 
-#include "tc_codes_gen.h" /* TC_APID, tc_opcode_t, TC_OPCODE_LIST, tc_status_t, ranges */
+#include "tc_codes_gen.h" /* TC_APID, tc_opcode_t, TC_OPCODE_LIST, tc_status_t, ranges, tc_args_t */
 
 #define TC_SEC_HDR_LEN 2u            /* opcode + reserved */
 #define TC_HDR_LEN (TLM_CCSDS_PRI_LEN + TC_SEC_HDR_LEN)
@@ -43,25 +43,12 @@
 #define TC_MAX_FRAME (TC_MAX_PACKET + 2u) /* packet + CRC-16 */
 #define TC_MAX_WIRE (TLM_COBS_MAX_ENCODED(TC_MAX_FRAME) + 1u)
 
-/* The decoded arguments: one member of tc_cmd_t.u per command (the XTCE
- * arguments' c_field names them; the generated code fails to compile when one
- * is missing). */
-typedef struct {
-    int32_t pos_um[3];   /* r_wb_w, 0.001 mm */
-    int32_t att_udeg[3]; /* roll, pitch, yaw of C_w_b (2-1-3), 1e-6 deg */
-} tc_pose_hint_t;
-
 typedef struct {
     uint16_t seq;     /* CCSDS sequence count (valid when have_seq) */
     uint8_t opcode;   /* tc_opcode_t (valid when have_opcode) */
     bool have_seq;    /* the header was readable: seq is the sender's */
     bool have_opcode; /* the opcode byte was readable */
-    union {
-        uint8_t mode;        /* SET_MODE: tlm_mode_t */
-        uint8_t camera;      /* CAMERA_ENABLE / CAMERA_DISABLE */
-        tc_pose_hint_t pose; /* SET_POSE_HINT */
-        char path[TC_PATH_MAX]; /* TABLE_LOAD, NUL-terminated */
-    } u;
+    tc_args_t u;      /* the arguments (tc_codes_gen.h: the XTCE arguments' c_field) */
 } tc_cmd_t;
 
 /* Argument bytes of an opcode; -1 for an unknown opcode. */
