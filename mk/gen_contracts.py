@@ -796,7 +796,7 @@ def _arg_text(a) -> str:
     if a.kind == "enum":
         return f"{ty} {a.name}: " + ", ".join(f"{v} {lab}" for v, (lab, _) in sorted(a.enum.items()))
     lo, hi = a.valid_range
-    return f"{ty} {a.name} {lo}..{hi}"
+    return f"{ty} {a.name} {lo}..{hi}" + (f" {a.unit}" if a.unit else "")
 
 
 def tc_tables(t) -> dict[str, str]:

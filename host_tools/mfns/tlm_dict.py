@@ -207,6 +207,7 @@ class Arg:
     enum: dict[int, tuple[str, str]] | None = None
     offset: int = 0  # bytes from the start of the arguments
     anc: dict[str, str] = field(default_factory=dict)
+    unit: str = ""
 
     @property
     def size(self) -> int:
@@ -243,7 +244,12 @@ def _tc_types(root: ET.Element) -> dict[str, dict]:
     for t in root.find("x:CommandMetaData/x:ArgumentTypeSet", NS):
         tag = t.tag.removeprefix(_X)
         vr = t.find("x:ValidRangeSet/x:ValidRange", NS)
-        info = {"description": t.get("shortDescription", ""), "enum": None}
+        unit = t.find("x:UnitSet/x:Unit", NS)
+        info = {
+            "description": t.get("shortDescription", ""),
+            "enum": None,
+            "unit": unit.text if unit is not None else "",
+        }
         info["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive"))) if vr is not None else None
         if tag == "StringArgumentType":
             info.update(kind="string", bits=int(t.find(".//x:FixedValue", NS).text), signed=False)
@@ -308,6 +314,7 @@ def load_tc(path: str | None = None) -> TcDictionary:
                 t["enum"],
                 off // 8,
                 _ancillary(decl[n]),
+                t["unit"],
             )
             off += t["bits"]
             cmd.args.append(a)
