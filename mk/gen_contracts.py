@@ -672,61 +672,24 @@ def tc_packets_c(t) -> str:
         "",
         '#include "tlm_packets.h"',
         "",
-        "int tc_arg_len(uint8_t opcode)",
-        "{",
-        "    switch (opcode) {",
     ]
-    L += cases([(f"TC_OP_{c.name}", [f"return {c.arg_len};"]) for c in cmds])
+    st = sorted(t.statuses.items())
+    for sig, var, items, default in (
+        ("int tc_arg_len(uint8_t opcode)", "opcode",
+         [(f"TC_OP_{c.name}", c.arg_len) for c in cmds], "-1"),
+        ("int tc_arg_count(uint8_t opcode)", "opcode",
+         [(f"TC_OP_{c.name}", len(c.args)) for c in cmds], "-1"),
+        ("const char *tc_opcode_name(uint8_t opcode)", "opcode",
+         [(f"TC_OP_{c.name}", cstr(c.name)) for c in cmds], '"?"'),
+        ("const char *tc_status_name(int status)", "status",
+         [("TC_OK", '"OK"')] + [(f"TC_E_{lab}", cstr(lab)) for _v, (lab, _d) in st], '"?"'),
+        ("const char *tc_strerror(int status)", "status",
+         [("TC_OK", '"ok"')] + [(f"TC_E_{lab}", cstr(d)) for _v, (lab, d) in st], '"unknown command status"'),
+    ):  # fmt: skip
+        L += [sig, "{", f"    switch ({var}) {{"]
+        L += cases([(label, [f"return {v};"]) for label, v in items])
+        L += [f"    default: return {default};", "    }", "}", ""]
     L += [
-        "    default: return -1;",
-        "    }",
-        "}",
-        "",
-        "int tc_arg_count(uint8_t opcode)",
-        "{",
-        "    switch (opcode) {",
-    ]
-    L += cases([(f"TC_OP_{c.name}", [f"return {len(c.args)};"]) for c in cmds])
-    L += [
-        "    default: return -1;",
-        "    }",
-        "}",
-        "",
-        "const char *tc_opcode_name(uint8_t opcode)",
-        "{",
-        "    switch (opcode) {",
-    ]
-    for c in cmds:
-        L.append(f"    case TC_OP_{c.name}: return {cstr(c.name)};")
-    L += [
-        '    default: return "?";',
-        "    }",
-        "}",
-        "",
-        "const char *tc_status_name(int status)",
-        "{",
-        "    switch (status) {",
-        '    case TC_OK: return "OK";',
-    ]
-    for _v, (lab, _d) in sorted(t.statuses.items()):
-        L.append(f"    case TC_E_{lab}: return {cstr(lab)};")
-    L += [
-        '    default: return "?";',
-        "    }",
-        "}",
-        "",
-        "const char *tc_strerror(int status)",
-        "{",
-        "    switch (status) {",
-        '    case TC_OK: return "ok";',
-    ]
-    for _v, (lab, desc) in sorted(t.statuses.items()):
-        L.append(f"    case TC_E_{lab}: return {cstr(desc)};")
-    L += [
-        '    default: return "unknown command status";',
-        "    }",
-        "}",
-        "",
         "tc_status_t tc_args_check(const tc_cmd_t *c)",
         "{",
         "    switch (c->opcode) {",
