@@ -21,6 +21,7 @@
 #include "nav_cmd.h"
 #include "nav_cycle.h"
 #include "nav_tlm.h"
+#include "txq_drain.h"
 #include "uart.h"
 
 #ifndef MFNS_BOARD_NAME
@@ -413,7 +414,7 @@ static void pump_tlm(const nav_app_opts_t *o)
 {
     if (o->tlm_kind != NAV_TLM_NONE) {
         /* link loss: frames wait, oldest dropped; a write error is counted and reported */
-        const int rc = mfns_uart_pump(&app.uart, &app.tlm.q, now_us() / 1000u);
+        const int rc = txq_drain(&app.tlm.q, &app.uart, now_us() / 1000u);
         if (rc == MFNS_UART_ERR_IO) {
             app.tlm_write_errors++;
             if (!app.tlm_in_error) { /* reaches the ground if the link comes back */
