@@ -11,6 +11,9 @@
  *   nav_tc_in.h       command input: uplink bytes to the dispatch
  *   nav_cmd_dispatch.h  sequence guard, table dispatch, one event per command
  *   nav_cmds.h        what each command does
+ * and their helpers: cam_sync.h (which frames a cycle fuses, camera health
+ * rules), cycle_stats.h (cycle timing), caltable_file.h (a table from a
+ * file), txq_drain.h (the transmit queue into the link).
  *
  * Start-up (the only phase that may fail hard): open the telemetry link and
  * the command input, load and validate the calibration table, bind the

@@ -93,6 +93,7 @@ static const nav_cmd_fn_t k_table[] = {
     [TC_OP_TABLE_LOAD] = f_table,
 };
 static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], f_event};
+static const nav_cmd_fn_t k_no_actions[sizeof k_table / sizeof k_table[0]]; /* all NULL */
 
 static int setup(void **state)
 {
@@ -330,8 +331,7 @@ static void test_null_safety(void **state)
     nav_cmd_handle(&c, NULL, TC_OK, &k_ops);
     assert_int_equal(g.ev[0].code, TLM_EVT_CMD_REJECTED);
     assert_int_equal(g.ev[0].a1, TC_E_NULL);
-    const nav_cmd_fn_t none[sizeof k_table / sizeof k_table[0]] = {NULL};
-    const nav_cmd_ops_t bare = {NULL, none, sizeof none / sizeof none[0], f_event};
+    const nav_cmd_ops_t bare = {NULL, k_no_actions, sizeof k_no_actions / sizeof k_no_actions[0], f_event};
     tc_cmd_t cmd;
     memset(&cmd, 0, sizeof cmd);
     cmd.opcode = TC_OP_SET_MODE;
