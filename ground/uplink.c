@@ -12,6 +12,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "txq_drain.h"
+
 #define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
 
 /* ---- grammar ---- */
@@ -438,7 +440,7 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
     }
     mfns_uart_t *u = out_link(up, src);
     if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
-        (void)mfns_uart_pump(u, &up->q, now_ms); /* a link not there yet: frames wait */
+        (void)txq_drain(&up->q, u, now_ms); /* a link not there yet: frames wait */
     }
 }
 
@@ -453,7 +455,7 @@ static void hook_finish(void *ctx, mfns_uart_t *src)
     uplink_t *up = ctx;
     mfns_uart_t *u = out_link(up, src);
     for (int i = 0; u != NULL && i < FLUSH_TRIES && tlm_txq_frames(&up->q) > 0u; i++) {
-        (void)mfns_uart_pump(u, &up->q, mfns_uart_now_ms());
+        (void)txq_drain(&up->q, u, mfns_uart_now_ms());
         if (tlm_txq_frames(&up->q) > 0u) {
             (void)usleep(10000);
         }

@@ -9,13 +9,13 @@
 #                            network namespace where `unshare -n` works
 
 TC_FUZZ_BIN  := build/fuzz/fuzz_tc_decoder
-TC_FUZZ_SRCS := tests/fuzz/fuzz_tc_decoder.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd.c
+TC_FUZZ_SRCS := tests/fuzz/fuzz_tc_decoder.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd_dispatch.c
 
 FUZZ_TARGETS += fuzz-tc-decoder
 TEST_SUITES  += fuzz-tc-brief
 .PHONY: fuzz-tc-decoder fuzz-tc-brief ground-yamcs
 
-$(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cmd.h
+$(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cmd_dispatch.h
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_FLAGS) -Ifirmware/tlm -Ifirmware/app $(TC_FUZZ_SRCS) -o $@
 

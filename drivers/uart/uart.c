@@ -1,5 +1,5 @@
-/* uart.c -- transport common layer (connection state, retry cadence, queue
- * pumping) and the POSIX file-descriptor backend. See uart.h. */
+/* uart.c -- transport common layer (connection state, retry cadence) and the
+ * POSIX file-descriptor backend. See uart.h. */
 #define _DEFAULT_SOURCE /* cfmakeraw, cfsetspeed under -std=c11 */
 
 #include "uart.h"
@@ -177,7 +177,7 @@ static int open_by_path(mfns_uart_t *u, mfns_uart_kind_t kind, const char *path,
     u->reopenable = true;
     const int rc = backend_connect(u);
     if (rc != MFNS_UART_OK) {
-        /* Still usable: pump/read/service retry at the cadence. */
+        /* Still usable: write/read/service retry at the cadence. */
         u->next_retry_ms = mfns_uart_now_ms() + u->retry_ms;
         u->stats.open_failures++;
         return rc;
@@ -316,36 +316,6 @@ int mfns_uart_write(mfns_uart_t *u, const uint8_t *data, size_t n, size_t *writt
         u->stats.short_writes++;
     }
     return rc;
-}
-
-int mfns_uart_pump(mfns_uart_t *u, tlm_txq_t *q, uint64_t now_ms)
-{
-    if (u == NULL || q == NULL) {
-        return MFNS_UART_ERR_ARG;
-    }
-    /* Bounded: each pass either writes at least one byte of a finite queue
-     * or stops; at most the queue's size in passes. */
-    for (uint32_t pass = 0; pass < TLM_TXQ_BYTES; pass++) {
-        const uint8_t *p = NULL;
-        const size_t n = tlm_txq_peek(q, &p);
-        if (n == 0u) {
-            return MFNS_UART_OK;
-        }
-        size_t w = 0;
-        const int rc = mfns_uart_write(u, p, n, &w, now_ms);
-        if (rc == MFNS_UART_ERR_GONE) {
-            tlm_txq_discard_partial(q);
-            return rc;
-        }
-        if (rc != MFNS_UART_OK) {
-            return rc;
-        }
-        tlm_txq_consume(q, w);
-        if (w < n) {
-            return MFNS_UART_OK; /* port full: come back next cycle */
-        }
-    }
-    return MFNS_UART_OK;
 }
 
 static int fd_read(mfns_uart_t *u, uint8_t *buf, size_t cap, size_t *got, int timeout_ms)

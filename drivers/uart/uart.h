@@ -6,13 +6,15 @@
  *           raw mode and the baud rate), a FIFO, a regular file, or an fd
  *           the caller already has (stdin, an openpty() master).
  *
- * Writes never block: the flight program queues frames in a tlm_txq_t (drop
- * oldest, firmware/tlm/tlm_txq.h) and calls mfns_uart_pump() each cycle,
- * which writes what the port accepts now and returns.
+ * Bytes only: the transport knows nothing of packets, frames or queues.
+ * Writes never block: mfns_uart_write() takes what the port accepts now,
+ * says how many bytes that was (possibly 0) and returns. Callers keep what
+ * is not yet written; the flight program queues frames in a tlm_txq_t (drop
+ * oldest) and empties it with txq_drain() (firmware/app/txq_drain.h).
  *
  * Reconnect: when a port opened by path vanishes (USB adapter unplugged,
  * EIO/ENODEV/ENXIO, pty or FIFO peer gone), the transport closes it, counts a
- * disconnect and re-opens it from pump/read calls no more often than the
+ * disconnect and re-opens it from write/read calls no more often than the
  * retry cadence: retry_min_ms, doubling per failure up to retry_max_ms.
  * Time is passed in (now_ms, any monotonic millisecond clock such as
  * mfns_uart_now_ms()) so the cadence is testable.
@@ -26,8 +28,6 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
-
-#include "tlm_txq.h"
 
 typedef enum {
     MFNS_UART_OK = 0,
@@ -91,14 +91,13 @@ int mfns_uart_open_auto(mfns_uart_t *u, const char *path, uint32_t baud, mfns_ua
  * non-blocking; raw mode if it is a tty. Never re-opened. */
 int mfns_uart_attach_fd(mfns_uart_t *u, int fd, bool owns, mfns_uart_dir_t dir);
 
-/* Write what the port takes now (possibly 0 bytes); never blocks. */
+/* Write what the port takes now; never blocks. *written gets the bytes
+ * taken (0..n; fewer than n when the port is full, counted in short_writes).
+ * Re-opens first if disconnected and due. Returns MFNS_UART_OK, or
+ * ERR_ARG, ERR_CLOSED (not connected: nothing written), ERR_GONE (the port
+ * vanished: closed, re-open attempts follow), ERR_IO (other write error;
+ * last_errno says which). */
 int mfns_uart_write(mfns_uart_t *u, const uint8_t *data, size_t n, size_t *written, uint64_t now_ms);
-/* Move queued frames to the port until it is full or the queue is empty.
- * On a disconnect the rest of a half-sent frame is discarded (the queue
- * counts it) so the next connection starts on a frame boundary. Returns OK,
- * or MFNS_UART_ERR_CLOSED/GONE/IO (frames then stay queued, dropping oldest
- * as new ones arrive). */
-int mfns_uart_pump(mfns_uart_t *u, tlm_txq_t *q, uint64_t now_ms);
 /* Wait up to timeout_ms for input and read what is there (*got may be 0 on
  * timeout). While disconnected it waits (bounded by timeout_ms) and
  * re-opens when due. MFNS_UART_EOF at the end of a file or pipe. */

@@ -25,6 +25,12 @@
 #define MFNS_SYNC_WINDOW_US_MAX 1000000u
 #define MFNS_CAM_LOST_CYCLES 10u           /* 0.54 s at 18.6 fps */
 #define MFNS_CAM_REOPEN_CYCLES 10u
+#define MFNS_CAM_FRAME_PERIOD_US 53800u    /* 18.6 fps, the cameras' rate (docs/cameras.md) */
+
+_Static_assert(2u * MFNS_SYNC_WINDOW_US_DEFAULT < MFNS_CAM_FRAME_PERIOD_US,
+               "the default window is below half the frame period: one camera never brings two frames to one cycle");
+_Static_assert(MFNS_SYNC_WINDOW_US_DEFAULT <= MFNS_SYNC_WINDOW_US_MAX, "the default window is a valid --sync-window-ms");
+_Static_assert(MFNS_CAM_LOST_CYCLES >= 1u && MFNS_CAM_REOPEN_CYCLES >= 1u, "LOST and re-open need at least one cycle");
 
 typedef enum { CAM_SYNC_NONE = 0, CAM_SYNC_USE, CAM_SYNC_AHEAD } cam_sync_verdict_t;
 

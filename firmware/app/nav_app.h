@@ -1,76 +1,98 @@
 /* nav_app.h -- the flight program mfns-nav: cameras -> navigation cycle ->
- * telemetry, on Linux. main.c is argument parsing around nav_app_run().
+ * telemetry, on Linux. The whole program's state is one nav_app_t that the
+ * caller owns (main.c); its rooms:
  *
- * Start-up (the only phase that may fail hard): load and validate the
- * calibration table, open the three cameras and the telemetry link. A table
- * that fails validation is refused with its error and the program stops after
- * sending a TABLE_REFUSED event: navigating on a wrong table would produce
- * poses marked valid that are not.
+ *   main.c            options, then nav_app_run
+ *   nav_opts.h        the command line
+ *   nav_app.h (here)  start-up, shutdown, the exit code, the state
+ *   nav_loop.h        the loop and one cycle
+ *   nav_cams.h        cameras: open, gather, synchronise, health
+ *   nav_tlm.h         every packet sent, the transmit queue and its link
+ *   nav_tc_in.h       command input: uplink bytes to the dispatch
+ *   nav_cmd_dispatch.h  sequence guard, table dispatch, one event per command
+ *   nav_cmds.h        what each command does
+ * and their helpers: cam_sync.h (which frames a cycle fuses, camera health
+ * rules), cycle_stats.h (cycle timing), caltable_file.h (a table from a
+ * file), txq_drain.h (the transmit queue into the link).
+ *
+ * Start-up (the only phase that may fail hard): open the telemetry link and
+ * the command input, load and validate the calibration table, bind the
+ * navigator, open the three cameras, apply --init-pose. A table that fails
+ * validation is refused with its error and the program stops after sending
+ * a TABLE_REFUSED event: navigating on a wrong table would produce poses
+ * marked valid that are not.
  *
  * The telemetry link may be absent at start (a FIFO without a reader, an
  * adapter not plugged in): it is retried like a link lost later. Write errors
  * are counted, reported on stderr and give exit code 3.
  *
- * The loop: one cycle per frame set. Each camera is dequeued with a timeout
- * (none for a camera already LOST, so it never stalls the others). A cycle
- * fuses only frames within sync_window_us of each other (cam_sync.h): an
- * out-of-step frame is held for the cycle it belongs to, a stale one dropped.
- * A camera that times out, is rejected, lost or recovering contributes no
- * frame that cycle; after MFNS_CAM_LOST_CYCLES such cycles it is LOST (event,
- * one stderr line), re-opened every MFNS_CAM_REOPEN_CYCLES, and RECOVERED on
- * its next fused frame; a replay camera whose rows end early is ENDED.
- * Telemetry per cycle: the nav solution and one diagnostics packet per
- * camera; housekeeping once per second of frame time; events as they happen.
- * The transmit queue drops the oldest frames rather than ever blocking the
- * loop.
- *
- * Telecommands (nav_cmd.h) are read without blocking and acted on between
- * cycles, at most NAV_CMD_MAX_PER_CYCLE per cycle, each answered by a
- * CMD_ACCEPTED or CMD_REJECTED event.
- *
  * The loop ends at the end of replayed data, after max_cycles, on SIGINT or
- * SIGTERM, or when every (non-replay) camera is gone for good.
+ * SIGTERM, or when every (non-replay) camera is gone for good; then a final
+ * housekeeping packet, the queue drained for up to 2 s, and (unless --quiet)
+ * a summary on stderr.
  */
 #ifndef MFNS_NAV_APP_H
 #define MFNS_NAV_APP_H
 
 #include <stdbool.h>
 #include <stdint.h>
-#include <stdio.h>
 
-#include "drivers/camera/camera.h"
-#include "pose.h"
+#include "caltable.h"
+#include "cycle_stats.h"
+#include "nav_cams.h"
+#include "nav_cycle.h"
+#include "nav_opts.h"
+#include "nav_tc_in.h"
+#include "nav_tlm.h"
 
-typedef enum { NAV_TLM_NONE = 0, NAV_TLM_SERIAL, NAV_TLM_PATH, NAV_TLM_FILE } nav_tlm_kind_t;
-/* Where telecommands come from (docs/uplink.md): none, a tty/pty/FIFO by path
- * (--tc-tty), a file of recorded frames read to its end (--tc-file), or the
- * telemetry link itself, opened read-write (--uplink; a tty or serial port). */
-typedef enum { NAV_TC_NONE = 0, NAV_TC_PATH, NAV_TC_FILE, NAV_TC_LINK } nav_tc_kind_t;
+#define NAV_APP_TABLE_SLOTS 2
 
+/* Counted from the nav packets sent, so the log, housekeeping and nav.csv
+ * say the same (a pose the packet refuses is NO_FIX). */
 typedef struct {
-    const char *table_path;
-    mfns_cam_backend_t backend;
-    const char *cam_path[3];   /* V4L2 devices / libcamera ids; replay: all the same folder */
-    bool realtime;             /* replay paced to the recorded timestamps */
-    int frame_timeout_ms;
-    uint32_t sync_window_us;   /* frames fused in one cycle lie within this (cam_sync.h) */
-    nav_tlm_kind_t tlm_kind;
-    const char *tlm_target;    /* serial port, tty/FIFO path, or output file */
-    nav_tc_kind_t tc_kind;     /* telecommand input */
-    const char *tc_target;     /* its path (NAV_TC_PATH, NAV_TC_FILE) */
-    uint32_t baud;
-    uint32_t max_cycles;       /* 0 = until the data ends or a signal */
-    mfns_pose_mode_t solver;
-    bool verbose;              /* one line per cycle on stderr */
-    bool quiet;                /* no summary line at the end */
-    bool have_init_pose;       /* --init-pose: track from this pose at start */
-    float init_pose[6];        /* x, y, z mm; roll, pitch, yaw deg (r_wb_w, 2-1-3 of C_w_b) */
-} nav_app_opts_t;
+    uint32_t n_fix, n_degraded, n_no_fix;
+    uint32_t n_acquire;             /* acquisition cycles */
+    uint32_t acq_units_max;         /* most work in the housekeeping interval */
+    mfns_acq_progress_t acq_last;   /* the last acquisition's progress */
+} nav_counts_t;
 
-/* 0 ok, 1 when --help/--version was printed (exit 0), -1 usage error (message on err). */
-int nav_app_parse_args(int argc, char **argv, nav_app_opts_t *o, FILE *out, FILE *err);
-/* Runs the program; returns the process exit code (0 ok, 2 start-up failure,
- * 3 telemetry write errors: the record on the link is incomplete). */
-int nav_app_run(const nav_app_opts_t *o);
+typedef struct nav_app {
+    uint8_t table_buf[MFNS_CALTABLE_MAX_BYTES];
+    /* Two table slots: TABLE_LOAD validates into the spare one and swaps
+     * between cycles (cFS-style); a refused table never touches the live one. */
+    mfns_caltable_t tables[NAV_APP_TABLE_SLOTS];
+    int table_cur;                  /* the slot the navigator uses */
+    mfns_pose_mode_t solver;
+    mfns_nav_t nav;
+    mfns_nav_output_t out;          /* the last cycle's */
+    bool standby;                   /* SET_MODE standby: frames flow, the navigator does not run */
+    nav_cams_t cams;
+    nav_tlm_t tlm;
+    nav_tc_in_t tc;
+    nav_counts_t count;
+    mfns_cycle_stats_t stats;       /* cycle timing over the housekeeping interval */
+    uint32_t cycle_now;             /* the cycle running (or the last one) */
+    uint64_t last_t_us;             /* the last cycle's time: the flight clock */
+    uint64_t t0_us;                 /* program clock at start-up */
+    uint64_t prev_start_us;         /* the previous cycle's start (cycle period) */
+    uint64_t last_hk_us;            /* flight clock of the last housekeeping */
+} nav_app_t;
+
+/* Runs the program on app (any contents: it is reset first; nothing is
+ * allocated after start-up, the camera backends allocate their buffers when
+ * opened); returns the process exit code (0 ok, 2 start-up failure, 3
+ * telemetry write errors: the record on the link is incomplete). */
+int nav_app_run(nav_app_t *app, const nav_opts_t *o);
+
+/* CLOCK_MONOTONIC in microseconds: the program's clock. */
+uint64_t nav_app_now_us(void);
+/* The table the navigator uses now. */
+const mfns_caltable_t *nav_app_table(const nav_app_t *app);
+/* Telemetry mode now: STANDBY, or the navigator's ACQUIRE/TRACK. */
+uint8_t nav_app_tlm_mode(const nav_app_t *app);
+/* The pose of x, y, z (mm) and 2-1-3 Euler roll, pitch, yaw (deg), as the
+ * navigator's prior: --init-pose and SET_POSE_HINT share it. */
+mfns_nav_status_t nav_app_set_prior(nav_app_t *app, float x, float y, float z, float roll_deg, float pitch_deg,
+                                    float yaw_deg);
 
 #endif /* MFNS_NAV_APP_H */

@@ -1,8 +1,22 @@
 /* nav_tlm.c -- see nav_tlm.h. */
+#define _DEFAULT_SOURCE /* usleep under -std=c11 */
+
 #include "nav_tlm.h"
 
+#include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "math/units.h"
+#include "nav_app.h"
+#include "nav_cams.h"
+#include "txq_drain.h"
+
+#define FLUSH_TRIES 200 /* x 10 ms: telemetry drain at exit */
+#define FLUSH_WAIT_US 10000u
 
 void nav_tlm_init(nav_tlm_t *t)
 {
@@ -53,21 +67,21 @@ void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_u
     bool ok = true;
     n->status = (uint8_t)(s->status == MFNS_POSE_OK ? TLM_NAV_FIX : TLM_NAV_DEGRADED);
     n->beacons_used = (uint8_t)(s->beacons_used > 255 ? 255 : s->beacons_used);
-    n->residual_rms_mpx = tlm_scale_u16(s->residual_rms_px, 1000.0f, &ok);
+    n->residual_rms_mpx = tlm_scale_u16(s->residual_rms_px, MFNS_MPX_PER_PX_F, &ok);
     const float pos[3] = {s->r_wb_w.x, s->r_wb_w.y, s->r_wb_w.z};
     const float att[3] = {s->euler_deg.roll, s->euler_deg.pitch, s->euler_deg.yaw};
     for (int i = 0; i < 3; i++) {
-        n->pos_um[i] = tlm_scale_i32(pos[i], 1000.0f, &ok);
-        n->att_udeg[i] = tlm_scale_i32(att[i], 1e6f, &ok);
-        n->sigma_pos_um[i] = tlm_scale_u32(s->sigma_pos_mm[i], 1000.0f, &ok);
-        n->sigma_att_udeg[i] = tlm_scale_u32(s->sigma_euler_deg[i], 1e6f, &ok);
+        n->pos_um[i] = tlm_scale_i32(pos[i], MFNS_UM_PER_MM_F, &ok);
+        n->att_udeg[i] = tlm_scale_i32(att[i], MFNS_UDEG_PER_DEG_F, &ok);
+        n->sigma_pos_um[i] = tlm_scale_u32(s->sigma_pos_mm[i], MFNS_UM_PER_MM_F, &ok);
+        n->sigma_att_udeg[i] = tlm_scale_u32(s->sigma_euler_deg[i], MFNS_UDEG_PER_DEG_F, &ok);
     }
     for (int i = 0; i < 4; i++) {
         n->q_q30[i] = tlm_scale_i32(s->q_b_w[i], TLM_Q30_SCALE, &ok);
     }
     /* cov_ros is in mm and rad; the interface units are mm and degrees
      * (docs/conventions.md): scale each index that is an angle once. */
-    const float rad2deg = 57.29577951308232f;
+    const float rad2deg = MFNS_DEG_PER_RAD_F;
     unsigned k = 0;
     for (unsigned r = 0; r < TLM_NAV_COV_DIM; r++) {
         for (unsigned c = r; c < TLM_NAV_COV_DIM; c++) {
@@ -103,4 +117,171 @@ int nav_tlm_event(nav_tlm_t *t, uint32_t cycle, uint64_t t_us, tlm_event_code_t 
     p.u.event.arg0 = arg0;
     p.u.event.arg1 = arg1;
     return nav_tlm_send(t, &p);
+}
+
+/* Opens the telemetry output. A port or FIFO that is absent (no reader yet,
+ * adapter not plugged) is not fatal: the transport re-opens it at its retry
+ * cadence, exactly as after a link lost later; frames wait in the queue. */
+int nav_tlm_open(nav_tlm_t *t, const nav_opts_t *o)
+{
+    t->kind = o->tlm_kind;
+    t->target = o->tlm_target;
+    int rc = MFNS_UART_OK;
+    struct stat st;
+    if (o->tc_kind == NAV_TC_LINK && o->tlm_kind == NAV_TLM_PATH && stat(o->tlm_target, &st) == 0 &&
+        S_ISFIFO(st.st_mode)) {
+        /* a FIFO carries one direction: read-write would read our own telemetry back */
+        fprintf(stderr, "mfns-nav: --uplink needs a tty; for a FIFO give the commands their own: --tc-tty PATH\n");
+        return -1;
+    }
+    switch (o->tlm_kind) {
+    case NAV_TLM_NONE:
+        return 0;
+    case NAV_TLM_SERIAL:
+        rc = mfns_uart_open_serial(&t->uart, o->tlm_target, o->baud,
+                                   o->tc_kind == NAV_TC_LINK ? MFNS_UART_RW : MFNS_UART_WRITE);
+        break;
+    case NAV_TLM_PATH:
+        rc = mfns_uart_open_path(&t->uart, o->tlm_target, o->baud,
+                                 o->tc_kind == NAV_TC_LINK ? MFNS_UART_RW : MFNS_UART_WRITE);
+        break;
+    case NAV_TLM_FILE: {
+        const int fd = open(o->tlm_target, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        if (fd < 0) {
+            fprintf(stderr, "mfns-nav: cannot create telemetry file %s: %s\n", o->tlm_target, strerror(errno));
+            return -1;
+        }
+        rc = mfns_uart_attach_fd(&t->uart, fd, true, MFNS_UART_WRITE);
+        break;
+    }
+    }
+    if (rc == MFNS_UART_ERR_OPEN && o->tlm_kind != NAV_TLM_FILE) {
+        fprintf(stderr, "mfns-nav: telemetry %s not available yet (%s): retrying every %u..%u ms\n", o->tlm_target,
+                strerror(t->uart.last_errno), t->uart.retry_min_ms, t->uart.retry_max_ms);
+        return 0;
+    }
+    if (rc != MFNS_UART_OK) {
+        fprintf(stderr, "mfns-nav: telemetry %s: %s\n", o->tlm_target, mfns_uart_strerror(rc));
+        return -1;
+    }
+    return 0;
+}
+
+void nav_tlm_drain(nav_tlm_t *t, uint32_t cycle, uint64_t now_ms)
+{
+    if (t->kind == NAV_TLM_NONE) {
+        /* no link: discard, as a disconnected UART would */
+        const uint8_t *d = NULL;
+        for (int i = 0; i < (int)TLM_TXQ_FRAMES && tlm_txq_peek(&t->q, &d) > 0; i++) {
+            tlm_txq_consume(&t->q, tlm_txq_peek(&t->q, &d));
+        }
+        return;
+    }
+    /* link loss: frames wait, oldest dropped; a write error is counted and reported */
+    const int rc = txq_drain(&t->q, &t->uart, now_ms);
+    if (rc == MFNS_UART_ERR_IO) {
+        t->write_errors++;
+        if (!t->in_error) { /* reaches the ground if the link comes back */
+            t->in_error = true;
+            (void)nav_tlm_event(t, cycle, 0, TLM_EVT_TLM_WRITE_ERROR, TLM_SEV_ERROR, 0, t->uart.last_errno,
+                                (int32_t)t->write_errors); /* failures counted in encode_errors */
+        }
+        if (!t->write_error_printed) {
+            t->write_error_printed = true;
+            fprintf(stderr, "mfns-nav: telemetry write to %s failed: %s (counting; frames wait in the queue)\n",
+                    t->target, strerror(t->uart.last_errno));
+        }
+    } else if (rc == MFNS_UART_OK) {
+        t->in_error = false;
+    }
+}
+
+void nav_tlm_flush_and_close(nav_tlm_t *t, uint32_t cycle)
+{
+    if (t->kind == NAV_TLM_NONE) {
+        return;
+    }
+    for (int i = 0; i < FLUSH_TRIES && tlm_txq_frames(&t->q) > 0; i++) {
+        nav_tlm_drain(t, cycle, mfns_uart_now_ms());
+        if (tlm_txq_frames(&t->q) > 0) {
+            (void)usleep(FLUSH_WAIT_US); /* a wait cut short by a signal only shortens it: tries stay bounded */
+        }
+    }
+    mfns_uart_close(&t->uart);
+}
+
+static uint8_t camera_state(const nav_cam_t *c)
+{
+    switch (c->health.state) {
+    case CAM_HEALTH_LOST: return TLM_CAM_LOST;
+    case CAM_HEALTH_OFF: return TLM_CAM_OFF;
+    case CAM_HEALTH_ENDED: return TLM_CAM_ENDED;
+    case CAM_HEALTH_UP: break;
+    }
+    return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
+}
+
+void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfns_nav_output_t *out, uint32_t cycle,
+                            uint64_t t_us)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const nav_cam_t *cs = &cams->cam[k];
+        tlm_packet_t p;
+        memset(&p, 0, sizeof p);
+        p.type = TLM_TYPE_CAMERA;
+        p.time = tlm_time_from_us(t_us);
+        tlm_camera_t *c = &p.u.camera;
+        mfns_cam_stats_t st;
+        memset(&st, 0, sizeof st);
+        if (cs->cam) {
+            (void)mfns_cam_get_stats(cs->cam, &st); /* zeros on failure are the honest answer */
+        }
+        c->cycle = cycle;
+        c->camera = (uint8_t)k;
+        c->state = camera_state(cs);
+        c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
+        c->beacons_identified = (uint8_t)out->cam[k].identified;
+        c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;
+        c->frame_seq = cs->used ? cs->frame.sequence : 0;
+        c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
+        (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
+    }
+}
+
+void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
+{
+    tlm_packet_t p;
+    memset(&p, 0, sizeof p);
+    p.type = TLM_TYPE_HK;
+    p.time = tlm_time_from_us(t_us);
+    tlm_hk_t *h = &p.u.hk;
+    h->cycle = cycle;
+    h->mode = nav_app_tlm_mode(app);
+    h->cpu_load_permille = (uint16_t)(10.0f * mfns_cycle_stats_cpu_load_pct(&app->stats));
+    h->cycle_p50_us = mfns_cycle_stats_percentile(&app->stats, 50.0f);
+    h->cycle_p95_us = mfns_cycle_stats_percentile(&app->stats, 95.0f);
+    h->cycle_p99_us = mfns_cycle_stats_percentile(&app->stats, 99.0f);
+    h->cycle_max_us = app->stats.max_us;
+    h->n_cycles = n_cycles;
+    h->n_fix = app->count.n_fix;
+    h->n_degraded = app->count.n_degraded;
+    h->n_no_fix = app->count.n_no_fix;
+    h->cams_enabled = nav_cams_enabled_mask(&app->cams); /* CAMERA_DISABLE clears bits */
+    h->n_cmd_accepted = app->tc.cmd.n_accepted;
+    h->n_cmd_rejected = app->tc.cmd.n_rejected;
+    h->cmd_seq_last = app->tc.cmd.seq_last;
+    h->n_tlm_dropped = t->q.dropped;
+    h->n_cam_errors = (uint32_t)(app->cams.errors > UINT32_MAX ? UINT32_MAX : app->cams.errors);
+    h->table_crc32 = nav_app_table(app)->crc32;
+    h->n_acquire = app->count.n_acquire;
+    h->acq_units_max = app->count.acq_units_max;
+    h->acq_units_last = app->count.acq_last.units;
+    h->acq_band_last = app->count.acq_last.band;
+    h->acq_best_last = app->count.acq_last.best_inliers;
+    (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
+    if (t->q.dropped != t->last_dropped_reported) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_TLM_DROPPED, TLM_SEV_WARNING, 0,
+                            (int32_t)(t->q.dropped - t->last_dropped_reported), 0);
+        t->last_dropped_reported = t->q.dropped;
+    }
 }

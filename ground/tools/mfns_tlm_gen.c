@@ -19,6 +19,7 @@
 #include "ground_gen.h"
 #include "mfns_version.h"
 #include "tlm_txq.h"
+#include "txq_drain.h"
 #include "uart.h"
 
 static tlm_txq_t g_q;
@@ -56,7 +57,7 @@ static int parse_num(const char *s, double lo, double hi, double *v)
 static int drain(mfns_uart_t *u, size_t keep_below, int timeout_ms)
 {
     for (int t = 0; t < timeout_ms && tlm_txq_bytes(&g_q) > keep_below; t++) {
-        const int rc = mfns_uart_pump(u, &g_q, mfns_uart_now_ms());
+        const int rc = txq_drain(&g_q, u, mfns_uart_now_ms());
         if (rc != MFNS_UART_OK) {
             fprintf(stderr, "mfns-tlm-gen: %s\n", mfns_uart_strerror(rc));
             return -1;
@@ -183,7 +184,7 @@ int main(int argc, char **argv)
             }
         }
         if (transport && rc == 0) {
-            (void)mfns_uart_pump(&u, &g_q, mfns_uart_now_ms());
+            (void)txq_drain(&g_q, &u, mfns_uart_now_ms());
         }
     }
     if (transport) {

@@ -1,6 +1,6 @@
 /* libFuzzer target for the telecommand receiver: the TC deframer and
  * decoder (firmware/tlm/tc_packets.h) and the flight command handler behind
- * them (firmware/app/nav_cmd.h), with actions that check what they get.
+ * them (firmware/app/nav_cmd_dispatch.h), with actions that check what they get.
  *
  * The first input byte picks a mode:
  *   even  the rest is a raw byte stream fed to the handler NAV_CMD_MAX_PER_CYCLE
@@ -24,7 +24,7 @@
 
 #include "cobs.h"
 #include "crc16.h"
-#include "nav_cmd.h"
+#include "nav_cmd_dispatch.h"
 #include "tc_packets.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -101,7 +101,43 @@ static void a_event(void *c, tlm_event_code_t code, tlm_severity_t sev, uint8_t 
     g.events++;
 }
 
-static const nav_cmd_ops_t k_ops = {NULL, a_mode, a_pose, a_cam, a_table, a_reset, a_event};
+/* The dispatch's table (indexed by opcode) over the checking actions above. */
+static tc_status_t t_noop(void *c, const tc_cmd_t *cmd, int32_t *a1)
+{
+    (void)c;
+    (void)cmd;
+    (void)a1;
+    return TC_OK;
+}
+static tc_status_t t_mode(void *c, const tc_cmd_t *cmd, int32_t *a1)
+{
+    return a_mode(c, cmd->u.mode, a1);
+}
+static tc_status_t t_pose(void *c, const tc_cmd_t *cmd, int32_t *a1)
+{
+    return a_pose(c, &cmd->u.pose, a1);
+}
+static tc_status_t t_cam(void *c, const tc_cmd_t *cmd, int32_t *a1)
+{
+    return a_cam(c, cmd->u.camera, cmd->opcode == TC_OP_CAMERA_ENABLE, a1);
+}
+static tc_status_t t_table(void *c, const tc_cmd_t *cmd, int32_t *a1)
+{
+    return a_table(c, cmd->u.path, a1);
+}
+static tc_status_t t_reset(void *c, const tc_cmd_t *cmd, int32_t *a1)
+{
+    (void)cmd;
+    (void)a1;
+    a_reset(c);
+    return TC_OK;
+}
+static const nav_cmd_fn_t k_table[] = {
+    [TC_OP_NOOP] = t_noop,          [TC_OP_RESET_COUNTERS] = t_reset, [TC_OP_SET_MODE] = t_mode,
+    [TC_OP_SET_POSE_HINT] = t_pose, [TC_OP_CAMERA_ENABLE] = t_cam,    [TC_OP_CAMERA_DISABLE] = t_cam,
+    [TC_OP_TABLE_LOAD] = t_table,
+};
+static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], a_event};
 
 static void check_oneshot(const uint8_t *pkt, size_t n)
 {

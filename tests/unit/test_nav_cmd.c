@@ -1,5 +1,5 @@
-/* Unit tests of the flight command handler (firmware/app/nav_cmd.h) with
- * recording fake actions: every opcode reaches its action and answers
+/* Unit tests of the flight command dispatch (firmware/app/nav_cmd_dispatch.h)
+ * with a table of recording fake actions: every opcode reaches its action and answers
  * CMD_ACCEPTED with the documented arguments; every rejection (frame faults,
  * replayed and out-of-order sequence counts, an action refusing) answers
  * CMD_REJECTED with its code and touches nothing; the per-cycle bound; the
@@ -10,7 +10,9 @@
 
 #include "cobs.h"
 #include "crc16.h"
-#include "nav_cmd.h"
+#include "nav_app.h"
+#include "nav_cmd_dispatch.h"
+#include "nav_cmds.h"
 
 typedef struct {
     int code, sev, subject;
@@ -28,43 +30,54 @@ static struct {
     tc_status_t refuse; /* what the actions answer */
 } g;
 
-static tc_status_t f_mode(void *ctx, uint8_t mode, int32_t *arg1)
+static tc_status_t f_noop(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+{
+    (void)ctx;
+    (void)cmd;
+    (void)arg1;
+    return TC_OK;
+}
+static tc_status_t f_mode(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     (void)ctx;
     g.calls_mode++;
-    g.mode = mode;
-    *arg1 = mode;
+    g.mode = cmd->u.mode;
+    *arg1 = cmd->u.mode;
     return g.refuse;
 }
-static tc_status_t f_pose(void *ctx, const tc_pose_hint_t *h, int32_t *arg1)
+static tc_status_t f_pose(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     (void)ctx;
     (void)arg1;
     g.calls_pose++;
-    g.pose = *h;
+    g.pose = cmd->u.pose;
     return g.refuse;
 }
-static tc_status_t f_cam(void *ctx, uint8_t k, bool en, int32_t *arg1)
+static tc_status_t f_cam(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     (void)ctx;
+    const bool en = cmd->opcode == TC_OP_CAMERA_ENABLE;
     g.calls_cam++;
-    g.cam = k;
+    g.cam = cmd->u.camera;
     g.enable = en;
     *arg1 = en ? 7 : 3;
     return g.refuse;
 }
-static tc_status_t f_table(void *ctx, const char *path, int32_t *arg1)
+static tc_status_t f_table(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     (void)ctx;
     g.calls_table++;
-    (void)snprintf(g.path, sizeof g.path, "%s", path);
+    (void)snprintf(g.path, sizeof g.path, "%s", cmd->u.path);
     *arg1 = 0x1234;
     return g.refuse;
 }
-static void f_reset(void *ctx)
+static tc_status_t f_reset(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     (void)ctx;
+    (void)cmd;
+    (void)arg1;
     g.calls_reset++;
+    return TC_OK;
 }
 static void f_event(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0, int32_t a1)
 {
@@ -73,7 +86,14 @@ static void f_event(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_
     g.ev[g.n_ev++] = (ev_t){(int)code, (int)sev, subject, a0, a1};
 }
 
-static const nav_cmd_ops_t k_ops = {NULL, f_mode, f_pose, f_cam, f_table, f_reset, f_event};
+/* The program's table shape (firmware/app/nav_cmds.c) with recording fakes. */
+static const nav_cmd_fn_t k_table[] = {
+    [TC_OP_NOOP] = f_noop,           [TC_OP_RESET_COUNTERS] = f_reset, [TC_OP_SET_MODE] = f_mode,
+    [TC_OP_SET_POSE_HINT] = f_pose,  [TC_OP_CAMERA_ENABLE] = f_cam,    [TC_OP_CAMERA_DISABLE] = f_cam,
+    [TC_OP_TABLE_LOAD] = f_table,
+};
+static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], f_event};
+static const nav_cmd_fn_t k_no_actions[sizeof k_table / sizeof k_table[0]]; /* all NULL */
 
 static int setup(void **state)
 {
@@ -311,7 +331,7 @@ static void test_null_safety(void **state)
     nav_cmd_handle(&c, NULL, TC_OK, &k_ops);
     assert_int_equal(g.ev[0].code, TLM_EVT_CMD_REJECTED);
     assert_int_equal(g.ev[0].a1, TC_E_NULL);
-    const nav_cmd_ops_t bare = {NULL, NULL, NULL, NULL, NULL, NULL, f_event};
+    const nav_cmd_ops_t bare = {NULL, k_no_actions, sizeof k_no_actions / sizeof k_no_actions[0], f_event};
     tc_cmd_t cmd;
     memset(&cmd, 0, sizeof cmd);
     cmd.opcode = TC_OP_SET_MODE;
@@ -319,6 +339,62 @@ static void test_null_safety(void **state)
     cmd.have_seq = cmd.have_opcode = true;
     nav_cmd_handle(&c, &cmd, TC_OK, &bare); /* no action: refused, not a crash */
     assert_int_equal(g.ev[1].a1, TC_E_STATE);
+}
+
+static void test_opcode_outside_table(void **state)
+{
+    (void)state;
+    nav_cmd_t c;
+    nav_cmd_init(&c);
+    tc_cmd_t cmd;
+    memset(&cmd, 0, sizeof cmd);
+    cmd.have_seq = cmd.have_opcode = true;
+    cmd.seq = 5;
+    cmd.opcode = (uint8_t)(sizeof k_table / sizeof k_table[0]); /* one past the table */
+    nav_cmd_handle(&c, &cmd, TC_OK, &k_ops);
+    cmd.opcode = 0; /* no opcode 0 */
+    nav_cmd_handle(&c, &cmd, TC_OK, &k_ops);
+    assert_int_equal(g.n_ev, 2);
+    assert_int_equal(g.ev[0].code, TLM_EVT_CMD_REJECTED);
+    assert_int_equal(g.ev[0].a1, TC_E_OPCODE);
+    assert_int_equal(g.ev[1].a1, TC_E_OPCODE);
+    assert_int_equal(c.n_rejected, 2);
+    assert_false(c.have_last);
+}
+
+/* The program's own table (nav_cmds.c): an action for every opcode the
+ * dictionary has, and CAMERA_DISABLE/ENABLE acting on the program's state. */
+static nav_app_t g_app;
+
+static void test_program_table(void **state)
+{
+    (void)state;
+    memset(&g_app, 0, sizeof g_app);
+    nav_tlm_init(&g_app.tlm);
+    nav_cams_init(&g_app.cams, MFNS_SYNC_WINDOW_US_DEFAULT);
+    const nav_cmd_ops_t ops = nav_cmds_ops(&g_app);
+    assert_ptr_equal(ops.ctx, &g_app);
+    assert_int_equal(ops.table_len, (size_t)TC_OP_MAX + 1u);
+    for (unsigned op = 1; op <= TC_OP_MAX; op++) {
+        assert_non_null(ops.table[op]);
+    }
+    tc_cmd_t cmd;
+    memset(&cmd, 0, sizeof cmd);
+    cmd.opcode = TC_OP_CAMERA_DISABLE;
+    cmd.u.camera = 1;
+    int32_t arg1 = -1;
+    assert_int_equal(ops.table[TC_OP_CAMERA_DISABLE](ops.ctx, &cmd, &arg1), TC_OK);
+    assert_false(g_app.cams.cam[1].enabled);
+    assert_int_equal(arg1, 5);
+    cmd.opcode = TC_OP_CAMERA_ENABLE;
+    assert_int_equal(ops.table[TC_OP_CAMERA_ENABLE](ops.ctx, &cmd, &arg1), TC_OK);
+    assert_int_equal(arg1, 7);
+    cmd.u.camera = MFNS_NUM_CAMERAS;
+    assert_int_equal(ops.table[TC_OP_CAMERA_ENABLE](ops.ctx, &cmd, &arg1), TC_E_ARG);
+    g_app.cams.errors = 9;
+    assert_int_equal(ops.table[TC_OP_RESET_COUNTERS](ops.ctx, &cmd, &arg1), TC_OK);
+    assert_int_equal(g_app.cams.errors, 0);
+    assert_int_equal(ops.table[TC_OP_NOOP](ops.ctx, &cmd, &arg1), TC_OK);
 }
 
 int main(void)
@@ -330,6 +406,8 @@ int main(void)
         cmocka_unit_test_setup(test_frame_faults_rejected, setup),
         cmocka_unit_test_setup(test_bound_per_cycle, setup),
         cmocka_unit_test_setup(test_null_safety, setup),
+        cmocka_unit_test_setup(test_opcode_outside_table, setup),
+        cmocka_unit_test_setup(test_program_table, setup),
     };
     return cmocka_run_group_tests_name("nav_cmd", tests, NULL, NULL);
 }

@@ -17,6 +17,7 @@
 #include "tlm_decoder.h"
 #include "tlm_test_samples.h"
 #include "tlm_txq.h"
+#include "txq_drain.h"
 #include "uart.h"
 
 static tlm_txq_t g_q;
@@ -109,13 +110,13 @@ static void test_frames_over_pty(void **state)
         size_t n = 0;
         assert_int_equal(tlm_frame_encode(&enc, &sent[i], f, sizeof f, &n), TLM_OK);
         assert_int_equal(tlm_txq_push(&g_q, f, n), TLM_OK);
-        assert_int_equal(mfns_uart_pump(&w, &g_q, mfns_uart_now_ms()), MFNS_UART_OK);
+        assert_int_equal(txq_drain(&g_q, &w, mfns_uart_now_ms()), MFNS_UART_OK);
         if (i % 16 == 15) {
             ngot += read_decode(&r, &d, got + ngot, N - ngot, 4);
         }
     }
     for (int t = 0; t < 200 && ngot < N; t++) {
-        assert_int_equal(mfns_uart_pump(&w, &g_q, mfns_uart_now_ms()), MFNS_UART_OK);
+        assert_int_equal(txq_drain(&g_q, &w, mfns_uart_now_ms()), MFNS_UART_OK);
         ngot += read_decode(&r, &d, got + ngot, N - ngot, 4);
     }
     assert_int_equal(g_q.dropped, 0);
@@ -149,7 +150,7 @@ static void test_full_port_never_blocks_and_drops_oldest(void **state)
         size_t n = 0;
         assert_int_equal(tlm_frame_encode(&enc, &pk, f, sizeof f, &n), TLM_OK);
         assert_int_equal(tlm_txq_push(&g_q, f, n), TLM_OK);
-        assert_int_equal(mfns_uart_pump(&w, &g_q, mfns_uart_now_ms()), MFNS_UART_OK);
+        assert_int_equal(txq_drain(&g_q, &w, mfns_uart_now_ms()), MFNS_UART_OK);
     }
     assert_true(w.stats.short_writes > 0);
     assert_true(g_q.dropped > 0);
@@ -159,7 +160,7 @@ static void test_full_port_never_blocks_and_drops_oldest(void **state)
     static tlm_packet_t got[N];
     uint32_t ngot = 0;
     for (int t = 0; t < 2000 && (tlm_txq_frames(&g_q) > 0 || t < 3); t++) {
-        assert_int_equal(mfns_uart_pump(&w, &g_q, mfns_uart_now_ms()), MFNS_UART_OK);
+        assert_int_equal(txq_drain(&g_q, &w, mfns_uart_now_ms()), MFNS_UART_OK);
         ngot += read_decode(&r, &d, got + ngot, N - ngot, 8);
     }
     ngot += read_decode(&r, &d, got + ngot, N - ngot, 8);
@@ -200,7 +201,7 @@ static void test_fifo_reader_vanishes_and_returns(void **state)
         tlm_test_sample(&pk, TLM_TYPE_NAV, i);
         assert_int_equal(tlm_frame_encode(&enc, &pk, f, sizeof f, &n), TLM_OK);
         assert_int_equal(tlm_txq_push(&g_q, f, n), TLM_OK);
-        assert_int_equal(mfns_uart_pump(&w, &g_q, now), MFNS_UART_OK);
+        assert_int_equal(txq_drain(&g_q, &w, now), MFNS_UART_OK);
     }
     assert_int_equal(read_decode(&r, &d, got, 64, 4), 5);
     /* the reader goes away: the next write fails with EPIPE (not SIGPIPE) */
@@ -208,7 +209,7 @@ static void test_fifo_reader_vanishes_and_returns(void **state)
     tlm_test_sample(&pk, TLM_TYPE_NAV, 5);
     assert_int_equal(tlm_frame_encode(&enc, &pk, f, sizeof f, &n), TLM_OK);
     assert_int_equal(tlm_txq_push(&g_q, f, n), TLM_OK);
-    assert_int_equal(mfns_uart_pump(&w, &g_q, now), MFNS_UART_ERR_GONE);
+    assert_int_equal(txq_drain(&g_q, &w, now), MFNS_UART_ERR_GONE);
     assert_int_equal(w.stats.disconnects, 1);
     assert_false(w.connected);
     /* 10 s without a reader, pumping every 10 ms: re-open attempts at 0.1,
@@ -219,7 +220,7 @@ static void test_fifo_reader_vanishes_and_returns(void **state)
         tlm_test_sample(&pk, TLM_TYPE_NAV, 5u + (uint32_t)t);
         assert_int_equal(tlm_frame_encode(&enc, &pk, f, sizeof f, &n), TLM_OK);
         assert_int_equal(tlm_txq_push(&g_q, f, n), TLM_OK);
-        assert_int_equal(mfns_uart_pump(&w, &g_q, now), MFNS_UART_ERR_CLOSED);
+        assert_int_equal(txq_drain(&g_q, &w, now), MFNS_UART_ERR_CLOSED);
     }
     assert_true(w.stats.open_failures >= 11 && w.stats.open_failures <= 13);
     assert_true(g_q.dropped > 0); /* 1000 frames do not fit: oldest dropped */
@@ -234,7 +235,7 @@ static void test_fifo_reader_vanishes_and_returns(void **state)
     static tlm_packet_t got2[TLM_TXQ_FRAMES + 8];
     uint32_t ngot = 0;
     for (int t = 0; t < 100 && tlm_txq_frames(&g_q) > 0; t++) {
-        assert_int_equal(mfns_uart_pump(&w, &g_q, now), MFNS_UART_OK);
+        assert_int_equal(txq_drain(&g_q, &w, now), MFNS_UART_OK);
         ngot += read_decode(&r, &d, got2 + ngot, TLM_TXQ_FRAMES + 8 - ngot, 4);
     }
     ngot += read_decode(&r, &d, got2 + ngot, TLM_TXQ_FRAMES + 8 - ngot, 4);

@@ -1,7 +1,8 @@
-/* nav_cmd.h -- the flight program's command handler: TC frames in
- * (firmware/tlm/tc_packets.h), one event out per command, actions through
- * the program's hooks. Kept apart from nav_app.c so that every opcode and
- * every rejection is unit-tested without cameras (tests/unit/test_nav_cmd.c).
+/* nav_cmd_dispatch.h -- the flight program's command dispatch: TC frames in
+ * (firmware/tlm/tc_packets.h), the sequence guard, one call through a table
+ * indexed by opcode, one event out per command. The program's commands
+ * themselves are in nav_cmds.h; the dispatch is kept apart so that every
+ * rejection is unit-tested with a table of fakes (tests/unit/test_nav_cmd.c).
  *
  * Every frame that ends (a delimiter after data, or an overflow) is one
  * command: it gets exactly one CMD_ACCEPTED or CMD_REJECTED event
@@ -16,34 +17,44 @@
  * older count is TC_E_SEQUENCE. A command refused for its contents or the
  * state does not move the reference, so it can be sent again once fixed.
  *
+ * The table: table[opcode] (tc_opcode_t) is the command's function; an
+ * opcode of 0 or past the table is TC_E_OPCODE (the decoder refuses those
+ * first), a NULL entry TC_E_STATE (this program has no action for it).
+ * RESET_COUNTERS also zeroes the dispatch's own counters and is not counted.
+ *
  * Bounded: nav_cmd_feed stops after max_cmds commands, so a flood of frames
- * (or garbage) costs a cycle at most that many handler calls; the bytes left
- * are fed on the next cycle. Nothing here blocks or allocates.
+ * (or garbage) costs a cycle at most that many calls; the bytes left are fed
+ * on the next cycle. Nothing here blocks or allocates.
  */
-#ifndef MFNS_NAV_CMD_H
-#define MFNS_NAV_CMD_H
+#ifndef MFNS_NAV_CMD_DISPATCH_H
+#define MFNS_NAV_CMD_DISPATCH_H
 
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
+#include "ccsds.h"
 #include "tc_packets.h"
 #include "tlm_packets.h"
 
 #define NAV_CMD_MAX_PER_CYCLE 4u /* commands handled between two cycles */
 #define NAV_CMD_SEQ_WINDOW 8191u /* counts ahead of the last accepted that are "newer" */
+_Static_assert(NAV_CMD_SEQ_WINDOW == TLM_CCSDS_SEQ_MASK / 2u,
+               "newer = (seq - last) mod 2^14 in 1..8191: half the sequence space ahead");
 
-/* What the program does for a command. Each action returns TC_OK or the
- * tc_status_t to refuse with (TC_E_STATE, TC_E_TABLE, ...) and may set
- * *arg1 (the event's arg1 on acceptance). */
+/* One command's action: TC_OK, or the tc_status_t to refuse with
+ * (TC_E_STATE, TC_E_ARG, TC_E_TABLE, ...); may set *arg1 (the CMD_ACCEPTED
+ * event's arg1). cmd holds the decoded arguments (cmd->u per opcode). */
+typedef tc_status_t (*nav_cmd_fn_t)(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
+/* How the dispatch's events leave (the program: telemetry and one stderr line). */
+typedef void (*nav_cmd_event_fn_t)(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject,
+                                   int32_t arg0, int32_t arg1);
+
 typedef struct {
-    void *ctx;
-    tc_status_t (*set_mode)(void *ctx, uint8_t mode, int32_t *arg1);
-    tc_status_t (*set_pose_hint)(void *ctx, const tc_pose_hint_t *hint, int32_t *arg1);
-    tc_status_t (*camera_enable)(void *ctx, uint8_t camera, bool enable, int32_t *arg1);
-    tc_status_t (*table_load)(void *ctx, const char *path, int32_t *arg1);
-    void (*reset_counters)(void *ctx);
-    void (*event)(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t arg0, int32_t arg1);
+    void *ctx;                  /* passed to every call */
+    const nav_cmd_fn_t *table;  /* indexed by opcode */
+    size_t table_len;           /* entries in table */
+    nav_cmd_event_fn_t event;   /* required */
 } nav_cmd_ops_t;
 
 typedef struct {
@@ -64,10 +75,11 @@ size_t nav_cmd_feed(nav_cmd_t *c, const uint8_t *data, size_t n, unsigned max_cm
                     unsigned *handled);
 
 /* One decoded frame's outcome (status from the deframer): checks the
- * sequence, acts, and sends its event. Exposed for tests. */
+ * sequence, calls the opcode's function, and sends its event. Exposed for
+ * tests. */
 void nav_cmd_handle(nav_cmd_t *c, const tc_cmd_t *cmd, tc_status_t status, const nav_cmd_ops_t *ops);
 
-/* RESET_COUNTERS' effect on the handler's own counters. */
+/* RESET_COUNTERS' effect on the dispatch's own counters. */
 void nav_cmd_reset_counters(nav_cmd_t *c);
 
-#endif /* MFNS_NAV_CMD_H */
+#endif /* MFNS_NAV_CMD_DISPATCH_H */

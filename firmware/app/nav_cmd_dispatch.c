@@ -1,5 +1,5 @@
-/* nav_cmd.c -- see nav_cmd.h. */
-#include "nav_cmd.h"
+/* nav_cmd_dispatch.c -- see nav_cmd_dispatch.h. */
+#include "nav_cmd_dispatch.h"
 
 #include <string.h>
 
@@ -48,29 +48,12 @@ void nav_cmd_handle(nav_cmd_t *c, const tc_cmd_t *cmd, tc_status_t status, const
     }
     int32_t arg1 = 0;
     tc_status_t st = TC_OK;
-    switch (cmd->opcode) {
-    case TC_OP_NOOP: break;
-    case TC_OP_RESET_COUNTERS:
-        /* cFS style: the counters read 0 afterwards; this command is not counted */
-        if (ops->reset_counters != NULL) {
-            ops->reset_counters(ops->ctx);
-        }
-        nav_cmd_reset_counters(c);
-        break;
-    case TC_OP_SET_MODE: st = ops->set_mode != NULL ? ops->set_mode(ops->ctx, cmd->u.mode, &arg1) : TC_E_STATE; break;
-    case TC_OP_SET_POSE_HINT:
-        st = ops->set_pose_hint != NULL ? ops->set_pose_hint(ops->ctx, &cmd->u.pose, &arg1) : TC_E_STATE;
-        break;
-    case TC_OP_CAMERA_ENABLE:
-    case TC_OP_CAMERA_DISABLE:
-        st = ops->camera_enable != NULL
-                 ? ops->camera_enable(ops->ctx, cmd->u.camera, cmd->opcode == TC_OP_CAMERA_ENABLE, &arg1)
-                 : TC_E_STATE;
-        break;
-    case TC_OP_TABLE_LOAD:
-        st = ops->table_load != NULL ? ops->table_load(ops->ctx, cmd->u.path, &arg1) : TC_E_STATE;
-        break;
-    default: st = TC_E_OPCODE; break; /* the decoder refuses these; kept for safety */
+    if (cmd->opcode == 0u || ops->table == NULL || cmd->opcode >= ops->table_len) {
+        st = TC_E_OPCODE; /* the decoder refuses these; kept for safety */
+    } else if (ops->table[cmd->opcode] == NULL) {
+        st = TC_E_STATE; /* no action for it in this program */
+    } else {
+        st = ops->table[cmd->opcode](ops->ctx, cmd, &arg1);
     }
     if (st != TC_OK) {
         reject(c, cmd, st, ops);
@@ -79,7 +62,9 @@ void nav_cmd_handle(nav_cmd_t *c, const tc_cmd_t *cmd, tc_status_t status, const
     c->have_last = true;
     c->seq_last = cmd->seq;
     c->last_status = TC_OK;
-    if (cmd->opcode != TC_OP_RESET_COUNTERS) {
+    if (cmd->opcode == TC_OP_RESET_COUNTERS) {
+        nav_cmd_reset_counters(c); /* cFS style: the counters read 0 afterwards; this command is not counted */
+    } else {
         c->n_accepted++;
     }
     ops->event(ops->ctx, TLM_EVT_CMD_ACCEPTED, TLM_SEV_INFO, cmd->opcode, (int32_t)cmd->seq, arg1);

@@ -1,0 +1,405 @@
+/* nav_cams.c -- see nav_cams.h. */
+#include "nav_cams.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+
+#define RECOVER_ATTEMPTS 20 /* driver-level recovery tries before it reports the camera gone */
+
+static const char k_letter[MFNS_NUM_CAMERAS] = {'x', 'y', 'z'};
+
+static void send_event(nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us, tlm_event_code_t code, tlm_severity_t sev,
+                       int k, int32_t a0, int32_t a1)
+{
+    (void)nav_tlm_event(tlm, cycle, t_us, code, sev, (uint8_t)k, a0, a1); /* failures counted in tlm */
+}
+
+void nav_cams_init(nav_cams_t *cs, uint32_t sync_window_us)
+{
+    memset(cs, 0, sizeof *cs);
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        cs->cam[k].letter = k_letter[k];
+        cs->cam[k].enabled = true;
+    }
+    cam_sync_init(&cs->sync, sync_window_us);
+}
+
+/* Opens and starts camera k; with resume (a re-open), a replay camera goes
+ * on after frame time after_us instead of from its first frame. */
+static mfns_cam_err_t open_camera(nav_cam_t *c, const nav_opts_t *o, int k, bool resume, uint64_t after_us,
+                                  char *msg, size_t msg_size)
+{
+    mfns_cam_settings_t s = mfns_cam_default_settings(o->backend, o->cam_path[k]);
+    s.replay_camera = c->letter;
+    s.replay_realtime = o->realtime;
+    s.replay_resume = resume;
+    s.replay_resume_after_ns = after_us * 1000u;
+    s.recover_attempts = RECOVER_ATTEMPTS;
+    s.width = c->width;
+    s.height = c->height;
+    mfns_cam_err_t e = mfns_cam_open(&s, &c->cam, msg, msg_size);
+    if (e != MFNS_CAM_OK) {
+        return e;
+    }
+    e = mfns_cam_start(c->cam);
+    if (e != MFNS_CAM_OK) {
+        (void)snprintf(msg, msg_size, "start: %s", mfns_cam_message(c->cam));
+        mfns_cam_close(c->cam);
+        c->cam = NULL;
+    }
+    return e;
+}
+
+int nav_cams_open(nav_cams_t *cs, const nav_opts_t *o, const mfns_caltable_t *table)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        cam_health_init(&c->health);
+        c->width = table->rig.cam[k].k.width;
+        c->height = table->rig.cam[k].k.height;
+        char msg[MFNS_CAM_MSG_LEN];
+        const mfns_cam_err_t e = open_camera(c, o, k, false, 0, msg, sizeof msg);
+        if (e != MFNS_CAM_OK) {
+            fprintf(stderr, "mfns-nav: camera %c: %s: %s\n", c->letter, mfns_cam_strerror(e), msg);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* One stderr line per fault, the first NAV_CAMS_FAULT_LINES of each kind per camera. */
+static void fault_line(uint32_t *printed, char letter, const char *line)
+{
+    if (*printed >= NAV_CAMS_FAULT_LINES + 1u) {
+        return;
+    }
+    if (++*printed > NAV_CAMS_FAULT_LINES) {
+        fprintf(stderr, "mfns-nav: camera %c: further faults of this kind in telemetry only\n", letter);
+        return;
+    }
+    fprintf(stderr, "mfns-nav: camera %c: %s\n", letter, line);
+}
+
+/* A dequeue that gave no frame: counted, reported, and the camera's state
+ * moved on (ENDED at the end of a replay, OFF when the device is gone). */
+static void dequeue_failed(nav_cams_t *cs, nav_cam_t *c, int k, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle,
+                           uint64_t event_t_us, mfns_cam_err_t e)
+{
+    c->last_err = e;
+    if (e == MFNS_CAM_E_END) {
+        c->ended = true;
+    } else if (e == MFNS_CAM_E_DATA) {
+        c->n_rejected++;
+        cs->errors++;
+        send_event(tlm, cycle, event_t_us, TLM_EVT_FRAME_REJECTED, TLM_SEV_WARNING, k, (int32_t)e,
+                   (int32_t)c->n_rejected);
+        char line[256];
+        (void)snprintf(line, sizeof line, "cycle %u: frame rejected: %s", cycle, mfns_cam_message(c->cam));
+        fault_line(&c->lines_rejected, c->letter, line);
+    } else {
+        cs->errors++; /* timeout, device lost or recovering, I/O: no frame this cycle */
+        if (e == MFNS_CAM_E_TIMEOUT) {
+            c->n_timeouts++;
+        }
+        if (e == MFNS_CAM_E_NO_DEVICE) {
+            c->health.state = CAM_HEALTH_OFF;
+        }
+        if (o->verbose) {
+            fprintf(stderr, "mfns-nav: cycle %u camera %c: %s: %s\n", cycle, c->letter, mfns_cam_strerror(e),
+                    mfns_cam_message(c->cam));
+        }
+    }
+}
+
+/* The frame of camera k for this cycle, into c->frame: the one held from an
+ * earlier cycle, or a fresh one; stale frames are given back and the camera
+ * asked again (bounded) so it catches up. Returns true with a frame. */
+static bool gather_one(nav_cams_t *cs, int k, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle,
+                       uint64_t event_t_us)
+{
+    nav_cam_t *c = &cs->cam[k];
+    mfns_cam_frame_t *fr = &c->frame;
+    if (c->have_held) {
+        *fr = c->held;
+        c->have_held = false;
+        return true;
+    }
+    if (!c->cam || c->health.state == CAM_HEALTH_ENDED) {
+        return false;
+    }
+    /* a camera already down is asked without waiting: it never stalls the others */
+    const bool down = c->health.state != CAM_HEALTH_UP;
+    for (int attempt = 0; attempt < NAV_CAMS_STALE_TRIES; attempt++) {
+        /* after a stale frame the fresh one may still be on its way: wait for it as usual */
+        const mfns_cam_err_t e = mfns_cam_dequeue(c->cam, fr, down ? 0 : o->frame_timeout_ms);
+        if (e != MFNS_CAM_OK) {
+            dequeue_failed(cs, c, k, tlm, o, cycle, event_t_us, e);
+            return false;
+        }
+        const uint64_t t = fr->timestamp_ns / 1000u;
+        if (!cam_sync_is_stale(&cs->sync, t)) {
+            return true;
+        }
+        c->n_stale++;
+        const int32_t off = cam_sync_offset_us(t, cs->sync.last_us);
+        send_event(tlm, cycle, event_t_us, TLM_EVT_CAMERA_STALE, TLM_SEV_WARNING, k, off, (int32_t)fr->sequence);
+        char line[192];
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: frame %u at %.6f s is stale (%.1f ms after the last cycle's %.6f s): dropped", cycle,
+                       fr->sequence, (double)t * 1e-6, (double)off * 1e-3, (double)cs->sync.last_us * 1e-6);
+        fault_line(&c->lines_stale, c->letter, line);
+        (void)mfns_cam_requeue(c->cam, fr); /* a stale frame given back: a failure shows at the next dequeue */
+    }
+    return false;
+}
+
+int nav_cams_gather(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle, uint64_t event_t_us)
+{
+    int active = 0;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        memset(&c->frame, 0, sizeof c->frame);
+        c->used = false;
+        c->ended = false;
+        c->verdict = CAM_SYNC_NONE;
+        c->have = gather_one(cs, k, tlm, o, cycle, event_t_us);
+        if (c->have && !c->enabled) {
+            /* CAMERA_DISABLE: its frames keep flowing (no driver backlog) but are not fused */
+            if (mfns_cam_requeue(c->cam, &c->frame) != MFNS_CAM_OK) {
+                cs->errors++;
+            }
+            c->have = false;
+        }
+        if (c->health.state != CAM_HEALTH_ENDED && !c->ended) {
+            active++;
+        }
+    }
+    return active;
+}
+
+void nav_cams_report_ended(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        if (!c->ended) {
+            continue;
+        }
+        c->health.state = CAM_HEALTH_ENDED;
+        if (c->ended_reported) {
+            continue;
+        }
+        c->ended_reported = true;
+        cs->errors++;
+        mfns_cam_stats_t st;
+        memset(&st, 0, sizeof st);
+        (void)mfns_cam_get_stats(c->cam, &st); /* zeros on failure are the honest answer */
+        send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_ENDED, TLM_SEV_WARNING, k, (int32_t)c->last_seq,
+                   (int32_t)(st.frames > INT32_MAX ? INT32_MAX : st.frames));
+        fprintf(stderr,
+                "mfns-nav: camera %c: recorded frames ended at cycle %u (last frame %u) while other cameras go on\n",
+                c->letter, cycle, c->last_seq);
+    }
+}
+
+/* The driver's frame as the navigator reads it; false for a pixel format it
+ * does not know or a payload shorter than the image. */
+static bool to_nav_frame(const mfns_cam_frame_t *f, mfns_frame_t *nf)
+{
+    mfns_pixfmt_t fmt;
+    switch (f->pixfmt) {
+    case MFNS_CAM_PIX_GREY: fmt = MFNS_PIXFMT_GREY; break;
+    case MFNS_CAM_PIX_Y10: fmt = MFNS_PIXFMT_Y10; break;
+    case MFNS_CAM_PIX_Y12: fmt = MFNS_PIXFMT_Y12; break;
+    case MFNS_CAM_PIX_Y16: fmt = MFNS_PIXFMT_Y16; break;
+    default: return false;
+    }
+    if (f->width > UINT16_MAX || f->height > UINT16_MAX || (uint64_t)f->stride * f->height > f->bytesused) {
+        return false; /* short payload: never centroid past the data */
+    }
+    *nf = (mfns_frame_t){f->data, (uint16_t)f->width, (uint16_t)f->height, f->stride, fmt};
+    return true;
+}
+
+/* An out-of-step frame: left out of this cycle, kept for the one it belongs to. */
+static void hold_ahead(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us)
+{
+    const uint64_t t_frame = c->frame.timestamp_ns / 1000u;
+    c->held = c->frame;
+    c->have_held = true;
+    c->n_ahead++;
+    const int32_t off = cam_sync_offset_us(t_frame, t_us);
+    send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_OUT_OF_STEP, TLM_SEV_WARNING, k, off, (int32_t)c->frame.sequence);
+    char line[192];
+    (void)snprintf(line, sizeof line,
+                   "cycle %u: frame %u at %.6f s is %.1f ms ahead of the cycle's %.6f s (out of step): "
+                   "held for a later cycle",
+                   cycle, c->frame.sequence, (double)t_frame * 1e-6, (double)off * 1e-3, (double)t_us * 1e-6);
+    fault_line(&c->lines_ahead, c->letter, line);
+}
+
+uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t clock_t_us,
+                              const mfns_frame_t *frames[MFNS_NUM_CAMERAS])
+{
+    bool have[MFNS_NUM_CAMERAS];
+    uint64_t t_frame[MFNS_NUM_CAMERAS];
+    cam_sync_verdict_t verdict[MFNS_NUM_CAMERAS];
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        have[k] = cs->cam[k].have;
+        t_frame[k] = cs->cam[k].frame.timestamp_ns / 1000u;
+    }
+    uint64_t t_us = 0;
+    if (!cam_sync_cycle(&cs->sync, have, t_frame, MFNS_NUM_CAMERAS, verdict, &t_us)) {
+        t_us = clock_t_us; /* no camera delivered: stamp with the program's clock */
+    }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        c->verdict = verdict[k];
+        frames[k] = NULL;
+        if (verdict[k] == CAM_SYNC_AHEAD) {
+            hold_ahead(c, k, tlm, cycle, t_us);
+        } else if (verdict[k] == CAM_SYNC_USE) {
+            c->last_seq = c->frame.sequence;
+            if (to_nav_frame(&c->frame, &c->nav_frame)) {
+                frames[k] = &c->nav_frame;
+                c->used = true;
+            } else {
+                c->last_err = MFNS_CAM_E_DATA;
+                cs->errors++;
+            }
+        }
+    }
+    return t_us;
+}
+
+void nav_cams_give_back_used(nav_cams_t *cs)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        if (c->verdict == CAM_SYNC_USE && mfns_cam_requeue(c->cam, &c->frame) != MFNS_CAM_OK) {
+            cs->errors++;
+        }
+    }
+}
+
+void nav_cams_driver_events(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us, uint64_t now_ms)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        const uint32_t ev = c->cam ? mfns_cam_take_events(c->cam) : 0u;
+        if ((ev & MFNS_CAM_EV_LOST) != 0U) {
+            c->lost_at_ms = now_ms;
+            send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, k, MFNS_CAM_E_LOST, 0);
+        }
+        if ((ev & MFNS_CAM_EV_RECOVERED) != 0U) {
+            send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_RECOVERED, TLM_SEV_INFO, k, (int32_t)(now_ms - c->lost_at_ms),
+                       0);
+        }
+        if ((ev & MFNS_CAM_EV_RECOVERY_FAILED) != 0U) {
+            c->health.state = CAM_HEALTH_OFF;
+            send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_ERROR, k, MFNS_CAM_E_NO_DEVICE, 0);
+        }
+    }
+}
+
+/* A camera down for MFNS_CAM_REOPEN_CYCLES: closed and opened again, a
+ * replay going on after the cycle's frame time. */
+static void reopen(nav_cam_t *c, int k, const nav_opts_t *o, uint64_t t_us)
+{
+    c->n_reopens++;
+    mfns_cam_close(c->cam);
+    c->cam = NULL;
+    c->have_held = false;
+    char msg[MFNS_CAM_MSG_LEN];
+    const mfns_cam_err_t e = open_camera(c, o, k, true, t_us, msg, sizeof msg);
+    if (e != MFNS_CAM_OK) {
+        c->last_err = e;
+        if (o->verbose) {
+            fprintf(stderr, "mfns-nav: camera %c: re-open: %s: %s\n", c->letter, mfns_cam_strerror(e), msg);
+        }
+    }
+}
+
+void nav_cams_update_health(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle, uint64_t t_us)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        if (!c->enabled) {
+            continue; /* disabled by command: neither LOST nor re-opened */
+        }
+        const cam_health_event_t ev = cam_health_update(&c->health, c->used);
+        if (ev == CAM_HEALTH_EV_LOST) {
+            c->n_lost++;
+            send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, k, (int32_t)c->last_err,
+                       (int32_t)c->health.missed);
+            fprintf(stderr, "mfns-nav: camera %c lost: no valid frame for %u cycles (cycle %u; last: %s)\n", c->letter,
+                    c->health.missed, cycle, mfns_cam_strerror(c->last_err));
+        } else if (ev == CAM_HEALTH_EV_RECOVERED) {
+            c->n_recovered++;
+            const uint64_t outage_us = t_us - c->last_used_us;
+            send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_RECOVERED, TLM_SEV_INFO, k,
+                       (int32_t)(outage_us / 1000u > INT32_MAX ? INT32_MAX : outage_us / 1000u),
+                       (int32_t)c->health.outage);
+            fprintf(stderr, "mfns-nav: camera %c recovered at cycle %u after %u cycles (%.1f ms of frame time)\n",
+                    c->letter, cycle, c->health.outage, (double)outage_us * 1e-3);
+        }
+        if (c->used) {
+            c->last_used_us = t_us;
+        }
+        if (cam_health_reopen_due(&c->health)) {
+            reopen(c, k, o, t_us);
+        }
+    }
+}
+
+bool nav_cams_all_gone(const nav_cams_t *cs)
+{
+    bool all_off = true;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const cam_health_state_t s = cs->cam[k].health.state;
+        all_off = all_off && (s == CAM_HEALTH_OFF || s == CAM_HEALTH_ENDED);
+    }
+    return all_off;
+}
+
+uint8_t nav_cams_enabled_mask(const nav_cams_t *cs)
+{
+    unsigned m = 0;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        m |= cs->cam[k].enabled ? (1u << k) : 0u;
+    }
+    return (uint8_t)m;
+}
+
+void nav_cams_release_held(nav_cams_t *cs)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        if (c->have_held) {
+            (void)mfns_cam_requeue(c->cam, &c->held); /* the camera closes next: nothing to count */
+            c->have_held = false;
+        }
+    }
+}
+
+void nav_cams_close(nav_cams_t *cs)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        mfns_cam_close(cs->cam[k].cam);
+        cs->cam[k].cam = NULL;
+    }
+}
+
+void nav_cams_print_faults(const nav_cams_t *cs)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const nav_cam_t *c = &cs->cam[k];
+        if (c->n_stale + c->n_ahead + c->n_rejected + c->n_timeouts + c->n_lost + (c->ended_reported ? 1u : 0u) > 0) {
+            fprintf(stderr,
+                    "mfns-nav: camera %c faults: %u rejected, %u stale, %u out of step, %u timeouts, %u lost, "
+                    "%u recovered, %u re-opens%s\n",
+                    c->letter, c->n_rejected, c->n_stale, c->n_ahead, c->n_timeouts, c->n_lost, c->n_recovered,
+                    c->n_reopens, c->ended_reported ? ", frames ended early" : "");
+        }
+    }
+}

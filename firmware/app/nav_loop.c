@@ -1,0 +1,166 @@
+/* nav_loop.c -- see nav_loop.h. */
+#include "nav_loop.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "math/units.h"
+#include "nav_cmds.h"
+
+_Static_assert(NAV_LOOP_HK_PERIOD_US == MFNS_US_PER_S, "housekeeping once per second of frame time");
+
+typedef enum { CYCLE_GO_ON = 0, CYCLE_DATA_ENDED, CYCLE_CAMERAS_GONE } cycle_end_t;
+
+static uint64_t now_ms(void)
+{
+    return nav_app_now_us() / 1000u;
+}
+
+void nav_loop_housekeeping(nav_app_t *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
+{
+    nav_tlm_housekeeping(&app->tlm, app, cycle, n_cycles, t_us);
+    app->count.acq_units_max = 0; /* per report interval */
+    mfns_cycle_stats_reset(&app->stats);
+}
+
+/* Between cycles: the commands that came in. */
+static void take_commands(nav_app_t *app)
+{
+    const nav_cmd_ops_t ops = nav_cmds_ops(app);
+    nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, now_ms());
+}
+
+/* The navigator on this cycle's frames (or, in STANDBY, an empty NO_FIX
+ * output), the frames back to their drivers, the acquisition counters. */
+static void navigate(nav_app_t *app, uint32_t cycle, const mfns_frame_t *frames[MFNS_NUM_CAMERAS])
+{
+    mfns_nav_status_t ns = MFNS_NAV_OK;
+    if (app->standby) {
+        /* SET_MODE standby: cameras keep delivering, the navigator does not run */
+        memset(&app->out, 0, sizeof app->out);
+        app->out.sol.status = MFNS_POSE_NO_FIX;
+        app->out.mode = app->out.next_mode = app->nav.mode;
+    } else {
+        ns = mfns_nav_cycle(&app->nav, frames, &app->out);
+    }
+    nav_cams_give_back_used(&app->cams);
+    if (ns != MFNS_NAV_OK) {
+        fprintf(stderr, "mfns-nav: cycle %u: %s\n", cycle, mfns_nav_strerror(ns));
+        app->out.sol.status = MFNS_POSE_NO_FIX;
+    }
+    if (app->out.acquired) {
+        nav_counts_t *n = &app->count;
+        n->n_acquire++;
+        n->acq_last = app->out.acq;
+        n->acq_units_max = app->out.acq.units > n->acq_units_max ? app->out.acq.units : n->acq_units_max;
+    }
+}
+
+/* The cycle's nav packet, counted by the status it carries. */
+static void send_solution(nav_app_t *app, uint32_t cycle, uint64_t t_us)
+{
+    tlm_packet_t p;
+    nav_tlm_nav_packet(&app->out, cycle, t_us, &p);
+    if (app->standby) {
+        p.u.nav.mode = TLM_MODE_STANDBY;
+    }
+    /* counted from the packet itself, so the log, housekeeping and
+     * nav.csv say the same (a pose the packet refuses is NO_FIX) */
+    if (p.u.nav.status == TLM_NAV_FIX) {
+        app->count.n_fix++;
+    } else if (p.u.nav.status == TLM_NAV_DEGRADED) {
+        app->count.n_degraded++;
+    } else {
+        app->count.n_no_fix++;
+    }
+    app->last_t_us = t_us;
+    (void)nav_tlm_send(&app->tlm, &p); /* failures counted in tlm */
+}
+
+static void print_cycle(const nav_app_t *app, uint32_t cycle)
+{
+    const mfns_nav_output_t *out = &app->out;
+    const mfns_pose_solution_t *s = &out->sol;
+    fprintf(stderr,
+            "cycle %u %s %s (%s) used %u blobs %u/%u/%u pos %.2f %.2f %.2f mm att %.3f %.3f %.3f deg rms %.3f px\n",
+            cycle, mfns_nav_mode_str(out->mode), mfns_pose_status_str(s->status), mfns_pose_strerror(s->reason),
+            s->beacons_used, out->cam[0].observations, out->cam[1].observations, out->cam[2].observations,
+            (double)s->r_wb_w.x, (double)s->r_wb_w.y, (double)s->r_wb_w.z, (double)s->euler_deg.roll,
+            (double)s->euler_deg.pitch, (double)s->euler_deg.yaw, (double)s->residual_rms_px);
+    if (out->acquired) {
+        fprintf(stderr, "  acquisition: %u work units, band %u, best %u inliers%s%s\n", out->acq.units, out->acq.band,
+                out->acq.best_inliers,
+                out->acq_source == MFNS_ACQ_SRC_CARRIED ? ", fix from a search carried over cycles" : "",
+                out->acq_carry_age > 0u ? ", a search carried on" : "");
+    }
+}
+
+static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle)
+{
+    app->cycle_now = cycle;
+    take_commands(app); /* between cycles: the previous cycle's telemetry is out */
+    nav_cams_t *cams = &app->cams;
+    const uint64_t prog_us = nav_app_now_us() - app->t0_us;
+    const uint64_t event_t_us = cams->sync.have_last ? cams->sync.last_us : prog_us;
+    if (nav_cams_gather(cams, &app->tlm, o, cycle, event_t_us) == 0) {
+        return CYCLE_DATA_ENDED; /* every camera's data ended (a held frame would have kept it active) */
+    }
+    nav_cams_report_ended(cams, &app->tlm, cycle, event_t_us);
+    const uint64_t start = nav_app_now_us();
+    const mfns_frame_t *frames[MFNS_NUM_CAMERAS];
+    const uint64_t t_us = nav_cams_synchronise(cams, &app->tlm, cycle, start - app->t0_us, frames);
+    const mfns_nav_mode_t before = app->nav.mode;
+    navigate(app, cycle, frames);
+    send_solution(app, cycle, t_us);
+    nav_cams_driver_events(cams, &app->tlm, cycle, t_us, now_ms());
+    nav_cams_update_health(cams, &app->tlm, o, cycle, t_us); /* first: the packets carry the state after this cycle */
+    nav_tlm_camera_packets(&app->tlm, cams, &app->out, cycle, t_us);
+    if (app->out.mode_changed) {
+        (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, (uint8_t)app->out.sol.reason,
+                            nav_tlm_mode(before), nav_tlm_mode(app->out.next_mode)); /* failures counted in tlm */
+    }
+    const uint64_t end = nav_app_now_us();
+    mfns_cycle_stats_add(&app->stats, (uint32_t)(end - start), (uint32_t)(start - app->prev_start_us));
+    app->prev_start_us = start;
+    if (t_us - app->last_hk_us >= NAV_LOOP_HK_PERIOD_US || cycle == 0) {
+        nav_loop_housekeeping(app, cycle, cycle + 1u, t_us);
+        app->last_hk_us = t_us;
+    }
+    nav_tlm_drain(&app->tlm, app->cycle_now, now_ms());
+    if (o->verbose) {
+        print_cycle(app, cycle);
+    }
+    if (nav_cams_all_gone(cams) && o->backend != MFNS_CAM_BACKEND_REPLAY) {
+        return CYCLE_CAMERAS_GONE;
+    }
+    return CYCLE_GO_ON;
+}
+
+const char *nav_loop_run(nav_app_t *app, const nav_opts_t *o, const volatile sig_atomic_t *stop, uint32_t *cycles)
+{
+    const uint32_t max_cycles = o->max_cycles > 0 ? o->max_cycles : UINT32_MAX - 1;
+    app->last_hk_us = 0;
+    app->prev_start_us = nav_app_now_us();
+    uint32_t cycle = 0;
+    const char *why = "data ended";
+    for (cycle = 0; cycle < max_cycles; cycle++) {
+        if (*stop) {
+            why = "signal";
+            break;
+        }
+        const cycle_end_t end = run_cycle(app, o, cycle);
+        if (end == CYCLE_DATA_ENDED) {
+            break;
+        }
+        if (end == CYCLE_CAMERAS_GONE) {
+            why = "every camera is gone";
+            cycle++;
+            break;
+        }
+    }
+    if (cycle >= max_cycles) {
+        why = "cycle limit";
+    }
+    *cycles = cycle;
+    return why;
+}
