@@ -29,7 +29,7 @@ static void cmd_event(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint
     }
 }
 
-static tc_status_t cmd_noop(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_NOOP(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     (void)ctx;
     (void)cmd;
@@ -37,7 +37,7 @@ static tc_status_t cmd_noop(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     return TC_OK;
 }
 
-static tc_status_t cmd_reset_counters(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_RESET_COUNTERS(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     nav_app_t *app = ctx;
     (void)cmd;
@@ -46,7 +46,7 @@ static tc_status_t cmd_reset_counters(void *ctx, const tc_cmd_t *cmd, int32_t *a
     return TC_OK;
 }
 
-static tc_status_t cmd_set_mode(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_SET_MODE(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     nav_app_t *app = ctx;
     const uint8_t mode = cmd->u.mode;
@@ -76,7 +76,7 @@ static tc_status_t cmd_set_mode(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     return TC_OK;
 }
 
-static tc_status_t cmd_set_pose_hint(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_SET_POSE_HINT(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     nav_app_t *app = ctx;
     const tc_pose_hint_t *h = &cmd->u.pose;
@@ -101,12 +101,12 @@ static tc_status_t camera_enable(nav_app_t *app, uint8_t k, bool enable, int32_t
     return TC_OK;
 }
 
-static tc_status_t cmd_camera_enable(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_CAMERA_ENABLE(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     return camera_enable(ctx, cmd->u.camera, true, arg1);
 }
 
-static tc_status_t cmd_camera_disable(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_CAMERA_DISABLE(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     return camera_enable(ctx, cmd->u.camera, false, arg1);
 }
@@ -114,7 +114,7 @@ static tc_status_t cmd_camera_disable(void *ctx, const tc_cmd_t *cmd, int32_t *a
 /* TABLE_LOAD: read and validate completely into the spare slot, then bind the
  * navigator to it (between cycles, so no cycle ever sees half a table). The
  * old table keeps running on any failure. */
-static tc_status_t cmd_table_load(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     nav_app_t *app = ctx;
     const char *path = cmd->u.path;
@@ -157,17 +157,14 @@ static tc_status_t cmd_table_load(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     return TC_OK;
 }
 
-/* Indexed by the opcode (tc_packets.h); an opcode without an entry is
- * refused by the dispatch. */
-static const nav_cmd_fn_t k_cmds[] = {
-    [TC_OP_NOOP] = cmd_noop,
-    [TC_OP_RESET_COUNTERS] = cmd_reset_counters,
-    [TC_OP_SET_MODE] = cmd_set_mode,
-    [TC_OP_SET_POSE_HINT] = cmd_set_pose_hint,
-    [TC_OP_CAMERA_ENABLE] = cmd_camera_enable,
-    [TC_OP_CAMERA_DISABLE] = cmd_camera_disable,
-    [TC_OP_TABLE_LOAD] = cmd_table_load,
-};
+/* Indexed by the opcode, generated from the dictionary: TC_OPCODE_LIST
+ * (tc_codes_gen.h, from mfns_tc.xml) names every command, and each must
+ * have its cmd_<NAME> above, so a command added to the dictionary does not
+ * build until its action is written here (cFS sample_app's dispatch table,
+ * generated). An opcode without an entry is refused by the dispatch. */
+#define NAV_CMD_ENTRY(NAME, opcode, arg_bytes, arg_count) [TC_OP_##NAME] = cmd_##NAME,
+static const nav_cmd_fn_t k_cmds[] = {TC_OPCODE_LIST(NAV_CMD_ENTRY)};
+#undef NAV_CMD_ENTRY
 _Static_assert(sizeof k_cmds / sizeof k_cmds[0] == (size_t)TC_OP_MAX + 1u,
                "one entry per opcode up to the dictionary's last (a new opcode needs its command here)");
 

@@ -3,6 +3,8 @@
  * dispatch (nav_cmd_dispatch.h) calls after the sequence guard. Each runs
  * between cycles, so no cycle ever sees a command half done.
  *
+ * One function cmd_<NAME> per opcode of the dictionary (TC_OPCODE_LIST):
+ *
  *   NOOP            nothing; accepted
  *   RESET_COUNTERS  camera error count to 0 (the dispatch zeroes its own)
  *   SET_MODE        STANDBY (frames flow, the navigator does not run),

@@ -17,7 +17,7 @@
  *
  * Every command has a fixed length, so a ground system can build it from
  * its database alone. The sequence count is the replay guard: the flight
- * side (firmware/app/nav_cmd.h) accepts only counts newer than the last one.
+ * side (firmware/app/nav_cmd_dispatch.h) accepts only counts newer than the last one.
  *
  * Decoding validates completely (header, length, APID, opcode, argument
  * length and every argument value) and fills nothing half-valid: on failure
