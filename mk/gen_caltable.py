@@ -194,7 +194,6 @@ def gen_h(L: Layout) -> str:
 #ifndef MFNS_CALTABLE_LAYOUT_GEN_H
 #define MFNS_CALTABLE_LAYOUT_GEN_H
 
-#include <stdbool.h>
 #include <stdint.h>
 """
     )
@@ -251,16 +250,7 @@ typedef enum {"""
     o.append("")
     o.append("extern const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT];")
     o.append("")
-    o.append(
-        """static inline bool mfns_caltable_in_range(const mfns_caltable_field_t *f, float v)
-{
-    const bool lo_ok = (f->flags & MFNS_CALTABLE_LO_OPEN) != 0u ? v > f->lo : v >= f->lo;
-    const bool hi_ok = (f->flags & MFNS_CALTABLE_HI_OPEN) != 0u ? v < f->hi : v <= f->hi;
-    return lo_ok && hi_ok;
-}
-
-#endif /* MFNS_CALTABLE_LAYOUT_GEN_H */"""
-    )
+    o.append("#endif /* MFNS_CALTABLE_LAYOUT_GEN_H */")
     return "\n".join(o) + "\n"
 
 
@@ -291,6 +281,8 @@ def gen_c(L: Layout) -> str:
     o.append("const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT] = {")
     for f in L.checked():
         lo_open, lo, hi, hi_open = f.range
+        # an infinite bound is no bound: closed at +-FLT_MAX, every finite value passes it
+        lo_open, hi_open = lo_open and math.isfinite(lo), hi_open and math.isfinite(hi)
         flags = " | ".join(
             n for n, on in (("MFNS_CALTABLE_LO_OPEN", lo_open), ("MFNS_CALTABLE_HI_OPEN", hi_open)) if on
         )

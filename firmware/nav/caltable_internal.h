@@ -20,6 +20,14 @@ _Static_assert(MFNS_CALTABLE_NODE_SIZE == sizeof(q16_16_t[2]), "a grid node is t
 /* Beacon indices of the map index are u8. */
 _Static_assert(MFNS_MAX_BEACONS <= 256, "map index entries are u8");
 
+/* v within the generated range f (caltable_layout_gen.h mfns_caltable_field_t). */
+static inline bool mfns_caltable_in_range(const mfns_caltable_field_t *f, float v)
+{
+    const bool lo_ok = (f->flags & MFNS_CALTABLE_LO_OPEN) != 0u ? v > f->lo : v >= f->lo;
+    const bool hi_ok = (f->flags & MFNS_CALTABLE_HI_OPEN) != 0u ? v < f->hi : v <= f->hi;
+    return lo_ok && hi_ok;
+}
+
 /* ---- little-endian readers; the caller has checked the bounds. */
 static inline uint16_t mfns_ct_u16(const uint8_t *b, uint32_t o)
 {

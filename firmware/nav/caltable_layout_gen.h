@@ -6,7 +6,6 @@
 #ifndef MFNS_CALTABLE_LAYOUT_GEN_H
 #define MFNS_CALTABLE_LAYOUT_GEN_H
 
-#include <stdbool.h>
 #include <stdint.h>
 
 #define MFNS_CALTABLE_MAGIC "MFTB"
@@ -224,12 +223,5 @@ typedef enum {
 } mfns_caltable_field_id_t;
 
 extern const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT];
-
-static inline bool mfns_caltable_in_range(const mfns_caltable_field_t *f, float v)
-{
-    const bool lo_ok = (f->flags & MFNS_CALTABLE_LO_OPEN) != 0u ? v > f->lo : v >= f->lo;
-    const bool hi_ok = (f->flags & MFNS_CALTABLE_HI_OPEN) != 0u ? v < f->hi : v <= f->hi;
-    return lo_ok && hi_ok;
-}
 
 #endif /* MFNS_CALTABLE_LAYOUT_GEN_H */
