@@ -94,7 +94,7 @@ def c_number(v: float, kind: str) -> str:
 
 
 class Field:
-    def __init__(self, rec: "Record", d: dict, offset: int, consts: dict):
+    def __init__(self, rec: Record, d: dict, offset: int, consts: dict):
         self.rec = rec
         self.name = d["name"]
         self.kind, self.count = parse_type(d["type"])
@@ -167,7 +167,9 @@ class Layout:
         names = {s["name"] for s in self.status}
         for i, s in enumerate(self.status):
             if s["value"] != i:
-                raise LayoutError(f"status {s['name']}: value {s['value']}, expected {i} (explicit and contiguous)")
+                raise LayoutError(
+                    f"status {s['name']}: value {s['value']}, expected {i} (explicit and contiguous)"
+                )
         if len(names) != len(self.status):
             raise LayoutError("repeated status name")
         for r in self.records.values():
@@ -382,9 +384,13 @@ def gen_py(L: Layout) -> str:
     fields = {r.key: [(f.name, f.offset, f.kind, f.count) for f in r.fields] for r in L.records.values()}
     o += py_dict("FIELDS", fields, "record -> ((name, offset, type, count), ...)")
     shapes = {r.key: {f.name: list(f.shape) for f in r.fields if f.shape} for r in L.records.values()}
-    o += py_dict("SHAPE", {k: v for k, v in shapes.items() if v}, "record -> {array field: its (rows, columns)}")
+    o += py_dict(
+        "SHAPE", {k: v for k, v in shapes.items() if v}, "record -> {array field: its (rows, columns)}"
+    )
     reserved = {r.key: [f.name for f in r.fields if f.reserved] for r in L.records.values()}
-    o += py_dict("RESERVED", {k: v for k, v in reserved.items() if v}, "record -> its reserved fields (written 0)")
+    o += py_dict(
+        "RESERVED", {k: v for k, v in reserved.items() if v}, "record -> its reserved fields (written 0)"
+    )
     structs = {
         r.key: "<" + "".join((f"{f.count}" if f.count > 1 else "") + TYPES[f.kind][1] for f in r.fields)
         for r in L.records.values()
@@ -392,17 +398,29 @@ def gen_py(L: Layout) -> str:
     o += py_dict("STRUCT", structs, "record -> little-endian struct format of its fields")
     defaults = {}
     for r in L.records.values():
-        d = {f.name: (f32_round(f.default) if f.kind == "f32" else int(f.default)) for f in r.fields if f.default is not None}
+        d = {
+            f.name: (f32_round(f.default) if f.kind == "f32" else int(f.default))
+            for f in r.fields
+            if f.default is not None
+        }
         if d:
             defaults[r.key] = d
-    o += py_dict("DEFAULTS", defaults, "record -> {field: default}; f32 fields hold the binary32 value the table stores")
+    o += py_dict(
+        "DEFAULTS",
+        defaults,
+        "record -> {field: default}; f32 fields hold the binary32 value the table stores",
+    )
     mins = {}
     for r in L.records.values():
         d = {f.name: float(f.default_min) for f in r.fields if f.default_min is not None}
         if d:
             mins[r.key] = d
     o += py_dict("DEFAULT_MIN", mins, "record -> {field: the least a computed default may be}")
-    o += py_dict("STATUS", {s["value"]: [s["name"], s["message"]] for s in L.status}, "status value -> (name, message) of mfns_caltable_status_t")
+    o += py_dict(
+        "STATUS",
+        {s["value"]: [s["name"], s["message"]] for s in L.status},
+        "status value -> (name, message) of mfns_caltable_status_t",
+    )
     return "\n".join(o) + "\n"
 
 
@@ -528,7 +546,9 @@ def outputs(L: Layout) -> dict[str, str]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--check", action="store_true", help="write nothing; exit 1 when a generated file is stale")
+    ap.add_argument(
+        "--check", action="store_true", help="write nothing; exit 1 when a generated file is stale"
+    )
     args = ap.parse_args(argv)
     try:
         with open(ROOT / SRC, "rb") as fh:

@@ -15,6 +15,12 @@ static const uint32_t crc_nibble[16] = {
     0xEDB88320u, 0xF00F9344u, 0xD6D6A3E8u, 0xCB61B38Cu, 0x9B64C2B0u, 0x86D3D2D4u, 0xA00AE278u, 0xBDBDF21Cu,
 };
 
+_Static_assert(sizeof crc_nibble == 64u, "the nibble table is 64 bytes");
+/* total_size is a u32 and offsets are uint32_t: the largest table must fit. */
+_Static_assert((uint64_t)MFNS_CALTABLE_MAX_BYTES < (uint64_t)UINT32_MAX, "tables are addressed in 32 bits");
+/* the calibration-covariance section with its 45 parameters: 4,144 bytes (docs/caltable.md) */
+_Static_assert(MFNS_CALTABLE_COV_MAX_SIZE == 4144u, "covariance section size");
+
 uint32_t mfns_crc32(uint32_t crc, const uint8_t *p, size_t n)
 {
     uint32_t c = ~crc;

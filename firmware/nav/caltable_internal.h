@@ -17,8 +17,6 @@ _Static_assert(MFNS_CALTABLE_INDEX_HEADER_SIZE == MFNS_BIDX_HEADER_SIZE, "map in
 _Static_assert(MFNS_CALTABLE_INDEX_GEOM_SIZE == MFNS_BIDX_GEOM_SIZE, "map index geometry: caltable vs beacon_index");
 /* A node is the grid's {u', v'} pair of Q16.16 values. */
 _Static_assert(MFNS_CALTABLE_NODE_SIZE == sizeof(q16_16_t[2]), "a grid node is two q16_16_t");
-/* Beacon indices of the map index are u8. */
-_Static_assert(MFNS_MAX_BEACONS <= 256, "map index entries are u8");
 
 /* v within the generated range f (caltable_layout_gen.h mfns_caltable_field_t). */
 static inline bool mfns_caltable_in_range(const mfns_caltable_field_t *f, float v)

@@ -16,6 +16,8 @@
 #define MFNS_MAX_BLOBS_PER_CAMERA 64 /* blob table of the centroider, per camera */
 #define MFNS_MAX_OBS_PER_CAMERA 32   /* corrected observations handed to the solver */
 #define MFNS_MAX_GRID_NODES 16384    /* correction-grid nodes per camera (nx*ny): a k1 = -0.21 lens needs 15,429 for 0.01 px */
+_Static_assert(MFNS_MAX_BEACONS <= 256, "beacon indices fit in a u8");
+_Static_assert(MFNS_MAX_GRID_NODES >= 15429, "a k1 = -0.21 lens needs 15,429 nodes for 0.01 px");
 
 typedef struct {
     uint16_t id;       /* beacon id as surveyed (telemetry reports it) */
