@@ -3,6 +3,17 @@
 # python from the committed sources (never committed as binaries); the
 # undistortion benchmark.
 
+# The table's contract is generated from one definition, caltable_layout.toml, by
+# mk/gen_caltable.py (plain python3: it runs before the venv exists) into committed
+# files. Every `make` of all, size, lib and tests checks they are not stale: edit the
+# definition, run `python3 mk/gen_caltable.py`, commit both.
+# Generated: firmware/nav/caltable_layout_gen.h/.c, firmware/nav/nav_defaults_gen.c,
+# host_tools/mfns/table/layout_gen.py and the tables of docs/caltable.md.
+.PHONY: caltable-gen-check
+caltable-gen-check:
+	@python3 mk/gen_caltable.py --check
+all size lib tests: caltable-gen-check
+
 CALTABLE_SRC := host_tools/mfns/data/paper_calib.json host_tools/mfns/data/paper_beacons.csv
 CALTABLE_PY  := $(wildcard host_tools/mfns/table/*.py) host_tools/mfns/commands/table.py \
                 host_tools/mfns/camera.py host_tools/mfns/calib_results.py host_tools/mfns/validate.py

@@ -118,7 +118,7 @@ typedef struct {
     uint32_t budget_units;
 } mfns_bidx_params_t;
 
-/* The defaults `mfns table build` writes (nav_defaults.c holds the numbers). */
+/* The defaults `mfns table build` writes (nav_defaults_gen.c, from caltable_layout.toml). */
 void mfns_bidx_params_default(mfns_bidx_params_t *p);
 
 /* Build the index of map for rig over the workspace box. emit may be NULL

@@ -8,6 +8,7 @@
 
 #include <stdint.h>
 
+#include "caltable_layout_gen.h"
 #include "camera.h"
 
 /* Compile-time maxima: every table and buffer of the core is sized by these. */
@@ -15,6 +16,8 @@
 #define MFNS_MAX_BLOBS_PER_CAMERA 64 /* blob table of the centroider, per camera */
 #define MFNS_MAX_OBS_PER_CAMERA 32   /* corrected observations handed to the solver */
 #define MFNS_MAX_GRID_NODES 16384    /* correction-grid nodes per camera (nx*ny): a k1 = -0.21 lens needs 15,429 for 0.01 px */
+_Static_assert(MFNS_MAX_BEACONS <= 256, "beacon indices fit in a u8");
+_Static_assert(MFNS_MAX_GRID_NODES >= 15429, "a k1 = -0.21 lens needs 15,429 nodes for 0.01 px");
 
 typedef struct {
     uint16_t id;       /* beacon id as surveyed (telemetry reports it) */
@@ -44,10 +47,11 @@ typedef struct {
 } mfns_centroid_settings_t;
 /* Q4.12 of gain_dn_per_e_q12: 1/4096 DN/e- per unit, at most 16 DN/e-. */
 #define MFNS_GAIN_Q12_ONE 4096.0f
-/* The default gain (nav_defaults.c, centroid.c): 102 / 4096 = 0.0249 DN/e- (40 e-/DN), a
+/* The default gain (nav_defaults_gen.c, centroid.c): 102 / 4096 = 0.0249 DN/e- (40 e-/DN), a
  * machine-vision CMOS sensor at 0 dB read out in 8 bits (a ~10 ke- full well over 255 DN).
- * A table states the gain of its own camera; docs/caltable.md "Default settings". */
-#define MFNS_CENTROID_DEFAULT_GAIN_Q12 102u
+ * A table states the gain of its own camera; the number is the calibration table's default
+ * (caltable_layout.toml, docs/caltable.md "Default settings"). */
+#define MFNS_CENTROID_DEFAULT_GAIN_Q12 MFNS_CALTABLE_DEFAULT_GLOBALS_CENTROID_GAIN_DN_PER_E_Q12
 
 /* Pose solve (firmware/nav/pose.h). */
 typedef struct {
@@ -93,8 +97,9 @@ typedef struct {
 } mfns_calib_cov_t;
 
 /* The default settings: one set, used by the flight code's tests and tools
- * and written into every table by `mfns table build` (which reads them from
- * here through the shared library). nav_defaults.c gives the reasons. */
+ * and written into every table by `mfns table build`. Generated
+ * (nav_defaults_gen.c) from the table's definition, caltable_layout.toml, which
+ * gives the reasons. */
 void mfns_centroid_settings_default(mfns_centroid_settings_t *c);
 void mfns_solver_settings_default(mfns_solver_settings_t *s);
 

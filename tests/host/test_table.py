@@ -460,3 +460,55 @@ def test_version_2_tables_are_refused_as_old(built):
     old = data[:4] + struct.pack("<H", 2) + data[6:]
     st = core().load(old)
     assert not st.ok and st.offset == 4 and "rebuild it with mfns table build" in st.message
+
+
+# ---- the one definition (firmware/nav/caltable_layout.toml) and what is generated from it
+
+
+def _generator(repo_root):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("gen_caltable", repo_root / "mk" / "gen_caltable.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_generated_files_are_fresh(repo_root):
+    """What `make` checks: every file generated from the definition matches it."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "mk/gen_caltable.py", "--check"], cwd=repo_root, capture_output=True)
+    assert r.returncode == 0, r.stderr.decode()
+
+
+def test_generator_refuses_an_inconsistent_definition(repo_root):
+    import tomllib
+
+    gen = _generator(repo_root)
+    doc = tomllib.loads((repo_root / gen.SRC).read_text())
+    doc["record"]["beacon"]["size"] = 24  # the fields fill 20 bytes
+    with pytest.raises(gen.LayoutError, match="record beacon: fields sum to 20 bytes"):
+        gen.Layout(doc)
+    doc = tomllib.loads((repo_root / gen.SRC).read_text())
+    doc["status"][3]["value"] = 7  # codes are explicit and contiguous
+    with pytest.raises(gen.LayoutError, match="explicit and contiguous"):
+        gen.Layout(doc)
+    doc = tomllib.loads((repo_root / gen.SRC).read_text())
+    doc["record"]["globals"]["field"][2]["default"] = 11.0  # pixel sigma's range is (0, 10]
+    with pytest.raises(gen.LayoutError, match="outside its range"):
+        gen.Layout(doc)
+
+
+def test_c_and_python_share_the_generated_defaults_and_statuses():
+    """The C core's defaults (nav_defaults_gen.c) and messages (caltable_layout_gen.c), through
+    the shared library, are the builder's (layout_gen.py): both generated from one definition."""
+    from mfns.flight import Flight
+    from mfns.table import layout_gen
+    from mfns.table.settings import defaults
+
+    assert Flight().default_settings() == defaults()
+    lib = core().lib
+    for code, (_, message) in layout_gen.STATUS.items():
+        assert lib.mfns_caltable_strerror(code).decode() == message

@@ -373,16 +373,23 @@ static void fix_crc(size_t len)
     put_u32(g_bad, 12, mfns_crc32(0, g_bad + 16, n - 16));
 }
 
+/* Offsets of the generated layout (caltable_layout_gen.h), shorter. */
+#define GLB(f) (MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_OFF_GLOBALS_##f)
+#define CAM(f) MFNS_CALTABLE_OFF_CAMERA_##f
+#define BCN(f) MFNS_CALTABLE_OFF_BEACON_##f
+#define IDX(f) MFNS_CALTABLE_OFF_INDEX_##f
+#define GEO(f) MFNS_CALTABLE_OFF_INDEX_GEOM_##f
+
 static uint32_t cam_off(int k)
 {
-    uint32_t o = 76;
+    uint32_t o = MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_GLOBALS_SIZE;
     for (int i = 0; i < k; i++) {
-        o += 116u + 8u * (uint32_t)(g_table.grid[i].nx * g_table.grid[i].ny);
+        o += MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * (uint32_t)(g_table.grid[i].nx * g_table.grid[i].ny);
     }
     return o;
 }
 
-static uint32_t beacon_off(int i) { return cam_off(3) + 20u * (uint32_t)i; }
+static uint32_t beacon_off(int i) { return cam_off(3) + MFNS_CALTABLE_BEACON_SIZE * (uint32_t)i; }
 
 /* Load g_bad[0..len) into a sentinel-filled g_out: must fail with want (and
  * at want_off unless want_off is UINT32_MAX) and leave g_out untouched. */
@@ -461,30 +468,30 @@ static void test_bad_counts_and_settings(void **state)
         float value;
         mfns_caltable_status_t want;
     } cases[] = {
-        {16, 0, 2, MFNS_CALTABLE_E_CAMERA_COUNT},
-        {16, 0, 4, MFNS_CALTABLE_E_CAMERA_COUNT},
-        {18, 0, 0, MFNS_CALTABLE_E_BEACON_COUNT},
-        {18, 0, MFNS_MAX_BEACONS + 1, MFNS_CALTABLE_E_BEACON_COUNT},
-        {20, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
-        {20, 1, 0.0f, MFNS_CALTABLE_E_PIXEL_SIGMA},
-        {20, 1, 11.0f, MFNS_CALTABLE_E_PIXEL_SIGMA},
-        {24 + 2, 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* min_area 0 */
-        {24 + 4, 0, 1, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* max_area < min_area */
-        {24 + 6, 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* roi 0 */
-        /* 24 + 10: centroid.gain_dn_per_e_q12, any u16 (0 = no shot-noise term) */
-        {24 + 12, 1, 0.0f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* no threshold rule */
-        {24 + 12, 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
-        {24 + 16, 1, 0.5f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* elongation < 1 */
-        {44, 0, 0, MFNS_CALTABLE_E_SOLVER_SETTINGS},           /* max_iterations */
-        {44, 0, 1001, MFNS_CALTABLE_E_SOLVER_SETTINGS},
-        {44 + 2, 0, 1, MFNS_CALTABLE_E_RESERVED},              /* version 1's max_hypotheses */
-        {44 + 4, 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},    /* step_tol */
-        {44 + 8, 1, -1e-6f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* grad_tol */
-        {44 + 12, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},         /* huber_k */
-        {44 + 16, 1, -3.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* outlier gate */
-        {44 + 20, 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},   /* max rms */
-        {44 + 24, 1, 5000.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},/* track gate */
-        {44 + 28, 1, 1.5f, MFNS_CALTABLE_E_SOLVER_SETTINGS},   /* min_rcond */
+        {GLB(CAMERA_COUNT), 0, 2, MFNS_CALTABLE_E_CAMERA_COUNT},
+        {GLB(CAMERA_COUNT), 0, 4, MFNS_CALTABLE_E_CAMERA_COUNT},
+        {GLB(BEACON_COUNT), 0, 0, MFNS_CALTABLE_E_BEACON_COUNT},
+        {GLB(BEACON_COUNT), 0, MFNS_MAX_BEACONS + 1, MFNS_CALTABLE_E_BEACON_COUNT},
+        {GLB(PIXEL_SIGMA_PX), 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
+        {GLB(PIXEL_SIGMA_PX), 1, 0.0f, MFNS_CALTABLE_E_PIXEL_SIGMA},
+        {GLB(PIXEL_SIGMA_PX), 1, 11.0f, MFNS_CALTABLE_E_PIXEL_SIGMA},
+        {GLB(CENTROID_MIN_AREA_PX), 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* min_area 0 */
+        {GLB(CENTROID_MAX_AREA_PX), 0, 1, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* max_area < min_area */
+        {GLB(CENTROID_ROI_HALF_SIZE_PX), 0, 0, MFNS_CALTABLE_E_CENTROID_SETTINGS},     /* roi 0 */
+        /* centroid.gain_dn_per_e_q12, any u16 (0 = no shot-noise term) */
+        {GLB(CENTROID_THRESHOLD_K_SIGMA), 1, 0.0f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* no threshold rule */
+        {GLB(CENTROID_THRESHOLD_K_SIGMA), 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
+        {GLB(CENTROID_MAX_ELONGATION), 1, 0.5f, MFNS_CALTABLE_E_CENTROID_SETTINGS}, /* elongation < 1 */
+        {GLB(SOLVER_MAX_ITERATIONS), 0, 0, MFNS_CALTABLE_E_SOLVER_SETTINGS},           /* max_iterations */
+        {GLB(SOLVER_MAX_ITERATIONS), 0, 1001, MFNS_CALTABLE_E_SOLVER_SETTINGS},
+        {GLB(SOLVER_RESERVED), 0, 1, MFNS_CALTABLE_E_RESERVED},              /* version 1's max_hypotheses */
+        {GLB(SOLVER_STEP_TOL), 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},    /* step_tol */
+        {GLB(SOLVER_GRAD_TOL), 1, -1e-6f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* grad_tol */
+        {GLB(SOLVER_HUBER_K), 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},         /* huber_k */
+        {GLB(SOLVER_OUTLIER_GATE_SIGMA), 1, -3.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},  /* outlier gate */
+        {GLB(SOLVER_MAX_RESIDUAL_RMS_SIGMA), 1, 0.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},   /* max rms */
+        {GLB(SOLVER_TRACK_GATE_PX), 1, 5000.0f, MFNS_CALTABLE_E_SOLVER_SETTINGS},/* track gate */
+        {GLB(SOLVER_MIN_RCOND), 1, 1.5f, MFNS_CALTABLE_E_SOLVER_SETTINGS},   /* min_rcond */
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         fresh();
@@ -509,59 +516,59 @@ static void test_bad_cameras(void **state)
         fix_crc(len);
         EXPECT(len, MFNS_CALTABLE_E_CAMERA_ID, o);
         fresh();
-        put_u16(g_bad, o + 6, 7);
+        put_u16(g_bad, o + CAM(RESERVED), 7);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_RESERVED, o + 6);
+        EXPECT(len, MFNS_CALTABLE_E_RESERVED, o + CAM(RESERVED));
         fresh();
-        put_u16(g_bad, o + 4, 0); /* height */
+        put_u16(g_bad, o + CAM(HEIGHT), 0);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_IMAGE_SIZE, o + 2);
+        EXPECT(len, MFNS_CALTABLE_E_IMAGE_SIZE, o + CAM(WIDTH));
         /* NaN in every float of the record, one at a time */
-        for (uint32_t f = 0; f < 22; f++) {
+        for (uint32_t f = 0; f < (CAM(GRID_NX) - CAM(FX)) / 4u; f++) {
             fresh();
-            put_f32(g_bad, o + 8 + 4 * f, NAN);
+            put_f32(g_bad, o + CAM(FX) + 4 * f, NAN);
             fix_crc(len);
-            EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, o + 8 + 4 * f);
+            EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, o + CAM(FX) + 4 * f);
         }
         fresh();
-        put_f32(g_bad, o + 8 + 4 * 20, -INFINITY);
+        put_f32(g_bad, o + CAM(R_BK_B) + 4, -INFINITY);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, o + 88);
+        EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, o + CAM(R_BK_B) + 4);
         fresh();
-        put_f32(g_bad, o + 8, -1599.0f);
+        put_f32(g_bad, o + CAM(FX), -1599.0f);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_FOCAL, o + 8);
+        EXPECT(len, MFNS_CALTABLE_E_FOCAL, o + CAM(FX));
         fresh();
-        put_f32(g_bad, o + 12, 0.0f);
+        put_f32(g_bad, o + CAM(FY), 0.0f);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_FOCAL, o + 12);
+        EXPECT(len, MFNS_CALTABLE_E_FOCAL, o + CAM(FY));
         fresh();
-        put_f32(g_bad, o + 16, 1280.0f); /* cx just outside [-0.5, 1279.5] */
+        put_f32(g_bad, o + CAM(CX), 1280.0f); /* cx just outside [-0.5, 1279.5] */
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_PRINCIPAL_POINT, o + 16);
+        EXPECT(len, MFNS_CALTABLE_E_PRINCIPAL_POINT, o + CAM(CX));
         fresh();
-        put_f32(g_bad, o + 20, -1.0f);
+        put_f32(g_bad, o + CAM(CY), -1.0f);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_PRINCIPAL_POINT, o + 20);
+        EXPECT(len, MFNS_CALTABLE_E_PRINCIPAL_POINT, o + CAM(CY));
         fresh();
-        put_f32(g_bad, o + 28 + 4, 5000.0f); /* k2 */
+        put_f32(g_bad, o + CAM(DIST) + 4, 5000.0f); /* k2 */
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_LENS, o + 32);
+        EXPECT(len, MFNS_CALTABLE_E_LENS, o + CAM(DIST) + 4);
         /* rotation: off by 2e-5 in one entry (twice the tolerance), and a reflection */
         fresh();
-        put_f32(g_bad, o + 48 + 4 * 4, get_f32(g_bad, o + 48 + 4 * 4) + 2e-5f);
+        put_f32(g_bad, o + CAM(C_K_B) + 4 * 4, get_f32(g_bad, o + CAM(C_K_B) + 4 * 4) + 2e-5f);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_ROTATION, o + 48);
+        EXPECT(len, MFNS_CALTABLE_E_ROTATION, o + CAM(C_K_B));
         fresh();
         for (uint32_t c = 0; c < 3; c++) {
-            put_f32(g_bad, o + 48 + 4 * c, -get_f32(g_bad, o + 48 + 4 * c));
+            put_f32(g_bad, o + CAM(C_K_B) + 4 * c, -get_f32(g_bad, o + CAM(C_K_B) + 4 * c));
         }
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_ROTATION, o + 48);
+        EXPECT(len, MFNS_CALTABLE_E_ROTATION, o + CAM(C_K_B));
         fresh();
-        put_f32(g_bad, o + 84 + 8, 2e4f);
+        put_f32(g_bad, o + CAM(R_BK_B) + 8, 2e4f);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_EXTRINSICS, o + 92);
+        EXPECT(len, MFNS_CALTABLE_E_EXTRINSICS, o + CAM(R_BK_B) + 8);
     }
 }
 
@@ -573,48 +580,48 @@ static void test_bad_grids(void **state)
         const uint32_t o = cam_off(k);
         const mfns_undist_grid_t *g = &g_table.grid[k];
         fresh();
-        put_u16(g_bad, o + 96, 1);
+        put_u16(g_bad, o + CAM(GRID_NX), 1);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + 96);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + CAM(GRID_NX));
         fresh();
-        put_u16(g_bad, o + 98, (uint16_t)(MFNS_MAX_GRID_NODES / g->nx + 1)); /* oversize node count */
+        put_u16(g_bad, o + CAM(GRID_NY), (uint16_t)(MFNS_MAX_GRID_NODES / g->nx + 1)); /* oversize node count */
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + 96);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_DIMS, o + CAM(GRID_NX));
         /* one more column than stored: the nodes no longer line up (the last
          * camera's then read beacon and index bytes as nodes) */
         fresh();
-        put_u16(g_bad, o + 96, (uint16_t)(g->nx + 1));
+        put_u16(g_bad, o + CAM(GRID_NX), (uint16_t)(g->nx + 1));
         fix_crc(len);
         EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, ANY);
         /* one row fewer: too short to cover the image */
         fresh();
-        put_u16(g_bad, o + 98, (uint16_t)(g->ny - 1));
+        put_u16(g_bad, o + CAM(GRID_NY), (uint16_t)(g->ny - 1));
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + 104);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + CAM(GRID_ORIGIN_V_Q8));
         fresh();
-        put_u32(g_bad, o + 108, 0);
+        put_u32(g_bad, o + CAM(GRID_STEP_U_Q8), 0);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_STEP, o + 108);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_STEP, o + CAM(GRID_STEP_U_Q8));
         fresh();
-        put_u32(g_bad, o + 112, 70000);
+        put_u32(g_bad, o + CAM(GRID_STEP_V_Q8), 70000);
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_STEP, o + 112);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_STEP, o + CAM(GRID_STEP_V_Q8));
         fresh();
-        put_u32(g_bad, o + 100, 0); /* origin at pixel 0: the first half pixel is uncovered */
+        put_u32(g_bad, o + CAM(GRID_ORIGIN_U_Q8), 0); /* origin at pixel 0: the first half pixel is uncovered */
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + 100);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + CAM(GRID_ORIGIN_U_Q8));
         fresh();
-        put_u32(g_bad, o + 112, (uint32_t)(g->step_v_q8 - 8)); /* short of the last row */
+        put_u32(g_bad, o + CAM(GRID_STEP_V_Q8), (uint32_t)(g->step_v_q8 - 8)); /* short of the last row */
         fix_crc(len);
-        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + 104);
+        EXPECT(len, MFNS_CALTABLE_E_GRID_COVERAGE, o + CAM(GRID_ORIGIN_V_Q8));
         /* one node's value off by 0.05 px (u) / 0.02 px (v) */
-        const uint32_t node = o + 116 + 8u * 1234u;
+        const uint32_t node = o + MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * 1234u;
         fresh();
         put_u32(g_bad, node, get_u32(g_bad, node) + 3277u);
         fix_crc(len);
         EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, node);
         fresh();
-        put_u32(g_bad, node + 4, get_u32(g_bad, node + 4) - 1311u);
+        put_u32(g_bad, node + MFNS_CALTABLE_OFF_NODE_V_Q16, get_u32(g_bad, node + MFNS_CALTABLE_OFF_NODE_V_Q16) - 1311u);
         fix_crc(len);
         EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, node);
         /* within the tolerance: 0.005 px is accepted (the check is not exact equality) */
@@ -626,8 +633,8 @@ static void test_bad_grids(void **state)
     }
     /* a grid from another camera's lens: swap the nodes of X into Z */
     fresh();
-    const uint32_t nbytes = 8u * (uint32_t)(g_table.grid[0].nx * g_table.grid[0].ny);
-    memcpy(g_bad + cam_off(2) + 116, g_good + cam_off(0) + 116, nbytes);
+    const uint32_t nbytes = MFNS_CALTABLE_NODE_SIZE * (uint32_t)(g_table.grid[0].nx * g_table.grid[0].ny);
+    memcpy(g_bad + cam_off(2) + MFNS_CALTABLE_CAMERA_FIXED_SIZE, g_good + cam_off(0) + MFNS_CALTABLE_CAMERA_FIXED_SIZE, nbytes);
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_GRID_VALUES, ANY);
 }
@@ -637,21 +644,21 @@ static void test_bad_beacons_and_size(void **state)
     (void)state;
     const size_t len = g_good_len;
     fresh();
-    put_f32(g_bad, beacon_off(3) + 16, 0.0f);
+    put_f32(g_bad, beacon_off(3) + BCN(SIGMA_MM), 0.0f);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(3) + 16);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(3) + BCN(SIGMA_MM));
     fresh();
-    put_f32(g_bad, beacon_off(3) + 4, 2e7f);
+    put_f32(g_bad, beacon_off(3) + BCN(P_W), 2e7f);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(3) + 4);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(3) + BCN(P_W));
     fresh();
-    put_f32(g_bad, beacon_off(9) + 12, NAN);
+    put_f32(g_bad, beacon_off(9) + BCN(P_W) + 8, NAN);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, beacon_off(9) + 12);
+    EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, beacon_off(9) + BCN(P_W) + 8);
     fresh();
-    put_u16(g_bad, beacon_off(9) + 2, 1);
+    put_u16(g_bad, beacon_off(9) + BCN(RESERVED), 1);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_RESERVED, beacon_off(9) + 2);
+    EXPECT(len, MFNS_CALTABLE_E_RESERVED, beacon_off(9) + BCN(RESERVED));
     fresh();
     put_u16(g_bad, beacon_off(7), 2); /* same id as beacon 2 */
     fix_crc(len);
@@ -663,10 +670,10 @@ static void test_bad_beacons_and_size(void **state)
      * count is 9 = the id), and trailing bytes covered by total_size and the
      * CRC (the index section is then too long) */
     fresh();
-    put_u16(g_bad, 18, 11);
+    put_u16(g_bad, GLB(BEACON_COUNT), 11);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(10) + 16);
-    put_u16(g_bad, 18, 9);
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(10) + BCN(SIGMA_MM));
+    put_u16(g_bad, GLB(BEACON_COUNT), 9);
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_COUNT, beacon_off(9));
     fresh();
@@ -688,7 +695,7 @@ static void test_bad_index(void **state)
     /* the default table has no calibration covariance: a 4-byte section */
     const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE;
     const uint32_t n = g_table.index.count, k = g_table.index.k_nbr;
-    const uint32_t geom = ix + MFNS_BIDX_HEADER_SIZE, nbr = geom + MFNS_BIDX_GEOM_SIZE * n;
+    const uint32_t geom = ix + MFNS_CALTABLE_INDEX_HEADER_SIZE, nbr = geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * n;
     const uint32_t pairs = nbr + n * (1u + k);
     assert_int_equal(MFNS_BIDX_SECTION_SIZE(n, k), len - ix);
     const struct {
@@ -697,22 +704,22 @@ static void test_bad_index(void **state)
         float value;
         mfns_caltable_status_t want;
     } cases[] = {
-        {ix, 2, 9, MFNS_CALTABLE_E_INDEX_COUNT},
-        {ix + 2, 0, 0, MFNS_CALTABLE_E_INDEX_COUNT},
-        {ix + 2, 0, MFNS_BIDX_MAX_NBR + 1, MFNS_CALTABLE_E_INDEX_COUNT},
-        {ix + 3, 0, MFNS_BIDX_MAX_MISSING + 1, MFNS_CALTABLE_E_INDEX_POLICY},
-        {ix + 4, 0, MFNS_BIDX_MAX_CERT + 1, MFNS_CALTABLE_E_INDEX_POLICY},
-        {ix + 5, 0, 1, MFNS_CALTABLE_E_RESERVED},
-        {ix + 8, 3, 0, MFNS_CALTABLE_E_INDEX_POLICY},
-        {ix + 12, 1, 1e6f, MFNS_CALTABLE_E_INDEX_WORKSPACE}, /* min x above max x */
-        {ix + 16, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
-        {ix + 40, 0, MFNS_BIDX_MIN_CERT - 1, MFNS_CALTABLE_E_INDEX_POLICY},
-        {ix + 40, 0, MFNS_BIDX_MAX_CERT + 1, MFNS_CALTABLE_E_INDEX_POLICY},
-        {ix + 43, 0, 4, MFNS_CALTABLE_E_INDEX_POLICY}, /* beyond max_missing: 0 */
-        {geom + 24 * 2, 1, 0.5f, MFNS_CALTABLE_E_INDEX_GEOMETRY},      /* axis not unit */
-        {geom + 24 * 2 + 12, 1, 1.5f, MFNS_CALTABLE_E_INDEX_GEOMETRY}, /* cosine */
-        {geom + 24 * 2 + 16, 1, 1e9f, MFNS_CALTABLE_E_INDEX_GEOMETRY}, /* range min above max */
-        {geom + 24 * 2 + 20, 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
+        {ix + IDX(BEACONS), 2, 9, MFNS_CALTABLE_E_INDEX_COUNT},
+        {ix + IDX(K_NBR), 0, 0, MFNS_CALTABLE_E_INDEX_COUNT},
+        {ix + IDX(K_NBR), 0, MFNS_BIDX_MAX_NBR + 1, MFNS_CALTABLE_E_INDEX_COUNT},
+        {ix + IDX(MAX_MISSING), 0, MFNS_BIDX_MAX_MISSING + 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + IDX(MAX_UNEXPLAINED), 0, MFNS_BIDX_MAX_CERT + 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + IDX(RESERVED), 0, 1, MFNS_CALTABLE_E_RESERVED},
+        {ix + IDX(BUDGET_UNITS), 3, 0, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + IDX(WS_MIN_W), 1, 1e6f, MFNS_CALTABLE_E_INDEX_WORKSPACE}, /* min x above max x */
+        {ix + IDX(WS_MIN_W) + 4, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
+        {ix + IDX(CERT_INLIERS), 0, MFNS_BIDX_MIN_CERT - 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + IDX(CERT_INLIERS), 0, MFNS_BIDX_MAX_CERT + 1, MFNS_CALTABLE_E_INDEX_POLICY},
+        {ix + IDX(CERT_INLIERS) + 3, 0, 4, MFNS_CALTABLE_E_INDEX_POLICY}, /* beyond max_missing: 0 */
+        {geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * 2 + GEO(AXIS_W), 1, 0.5f, MFNS_CALTABLE_E_INDEX_GEOMETRY},      /* axis not unit */
+        {geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * 2 + GEO(COS_HALF_ANGLE), 1, 1.5f, MFNS_CALTABLE_E_INDEX_GEOMETRY}, /* cosine */
+        {geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * 2 + GEO(RANGE_MIN_MM), 1, 1e9f, MFNS_CALTABLE_E_INDEX_GEOMETRY}, /* range min above max */
+        {geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * 2 + GEO(RANGE_MAX_MM), 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
         {nbr, 0, (float)k + 1, MFNS_CALTABLE_E_INDEX_NEIGHBOUR},          /* count */
         {nbr + 1, 0, (float)n, MFNS_CALTABLE_E_INDEX_NEIGHBOUR},          /* index out of the map */
         {nbr + 1, 0, 0, MFNS_CALTABLE_E_INDEX_NEIGHBOUR},                 /* itself (beacon 0) */
@@ -866,9 +873,9 @@ static void test_calib_cov_section(void **state)
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_COUNT, cov_off());
     len = with_cov(c);
-    put_u16(g_bad, cov_off() + 2, 1);
+    put_u16(g_bad, cov_off() + MFNS_CALTABLE_OFF_CALIB_COV_RESERVED, 1);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_RESERVED, cov_off() + 2);
+    EXPECT(len, MFNS_CALTABLE_E_RESERVED, cov_off() + MFNS_CALTABLE_OFF_CALIB_COV_RESERVED);
     len = with_cov(c);
     put_f32(g_bad, cov_elem(3, 17), NAN);
     fix_crc(len);

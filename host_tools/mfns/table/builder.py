@@ -12,6 +12,7 @@ from ..errors import MfnsError
 from . import mapindex
 from .format import CALIB_PARAM_NAMES, CALIB_PARAMS, CAMERA_NAMES, CameraRecord, Grid, Table, f32
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
+from .layout_gen import DEFAULT_MIN
 
 
 def _record(k: int, e: dict) -> CameraRecord:
@@ -80,10 +81,11 @@ def _warn(line: str) -> None:
     print(f"mfns table: warning: {line}", file=sys.stderr)
 
 
-# The smallest default floor (px): the centroid's Q23.8 output step is 1/256 px, whose
-# rounding (1/256/sqrt(12) = 0.0011 px) the centroider's covariance already carries; a
-# floor below it would claim a grid better than the arithmetic that reads it.
-MIN_FLOOR_PX = 0.001
+# The smallest default floor (px), the table definition's (caltable_layout.toml): the
+# centroid's Q23.8 output step is 1/256 px, whose rounding (1/256/sqrt(12) = 0.0011 px)
+# the centroider's covariance already carries; a floor below it would claim a grid
+# better than the arithmetic that reads it.
+MIN_FLOOR_PX = DEFAULT_MIN["globals"]["pixel_sigma_px"]
 
 
 def default_floor_px(errors: list[GridError], doc: dict) -> float:

@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import MfnsError
 from ..flight import DEFAULT_LIB
 from . import format as fmt
+from . import layout_gen
 
 
 @dataclass
@@ -123,40 +124,29 @@ def core() -> CoreTables:
     return _CORE
 
 
-def _fields(spec: list[tuple[str, int]]) -> list[tuple[int, str]]:
-    """(start offset, name) of consecutive fields of the given sizes."""
-    out, pos = [], 0
-    for name, size in spec:
-        out.append((pos, name))
-        pos += size
+def _fields(record: str) -> list[tuple[int, str]]:
+    """(start offset, name) of each value of a record, from the generated layout: an array's
+    elements by index, a matrix's (layout_gen.SHAPE) by row and column."""
+    out = []
+    for name, off, kind, count in layout_gen.FIELDS[record]:
+        size = {"u8": 1, "char": 1, "u16": 2}.get(kind, 4)
+        if count == 1 or kind == "char":
+            out.append((off, name))
+        elif name in layout_gen.SHAPE.get(record, {}):
+            rows, cols = layout_gen.SHAPE[record][name]
+            cells = [(r, c) for r in range(rows) for c in range(cols)]
+            out += [(off + size * (cols * r + c), f"{name}[{r}][{c}]") for r, c in cells]
+        else:
+            out += [(off + size * i, f"{name}[{i}]") for i in range(count)]
     return out
 
 
-_HEADER_FIELDS = _fields([("magic", 4), ("version", 2), ("header_size", 2), ("total_size", 4), ("crc32", 4)])
-_GLOBAL_SPEC = (
-    [("camera_count", 2), ("beacon_count", 2), ("pixel_sigma_px", 4)]
-    + [(f"centroid.{n}", 2) for n in fmt.CENTROID_U16]
-    + [(f"centroid.{n}", 4) for n in fmt.CENTROID_F32]
-    + [(f"solver.{n}", 2) for n in fmt.SOLVER_U16]
-)
-# u16 slots of the solver record not named by the format are reserved (version 2: one)
-_SOLVER_RESERVED = fmt.GLOBALS_SIZE - sum(n for _, n in _GLOBAL_SPEC) - 4 * len(fmt.SOLVER_F32)
-assert _SOLVER_RESERVED in (0, 2)
-_GLOBAL_FIELDS = _fields(
-    _GLOBAL_SPEC
-    + ([("solver reserved", _SOLVER_RESERVED)] if _SOLVER_RESERVED else [])
-    + [(f"solver.{n}", 4) for n in fmt.SOLVER_F32]
-)
-_CAMERA_FIELDS = _fields(
-    [("camera_id", 2), ("width", 2), ("height", 2), ("reserved", 2)]
-    + [(n, 4) for n in ("fx", "fy", "cx", "cy", "skew")]
-    + [(f"dist[{i}]", 4) for i in range(5)]
-    + [(f"C_k_b[{r}][{c}]", 4) for r in range(3) for c in range(3)]
-    + [(f"r_bk_b[{i}]", 4) for i in range(3)]
-    + [("grid nx", 2), ("grid ny", 2)]
-    + [(f"grid {n}", 4) for n in ("origin_u_q8", "origin_v_q8", "step_u_q8", "step_v_q8")]
-)
-_BEACON_FIELDS = _fields([("id", 2), ("reserved", 2), ("x_mm", 4), ("y_mm", 4), ("z_mm", 4), ("sigma_mm", 4)])
+_HEADER_FIELDS = _fields("header")
+_GLOBAL_FIELDS = _fields("globals")
+_CAMERA_FIELDS = _fields("camera")
+_BEACON_FIELDS = _fields("beacon")
+_GRID_NX = fmt.Record("camera").offset("grid.nx")  # then grid.ny
+_BEACON_COUNT = fmt.Record("globals").offset("beacon_count")
 
 
 def _name(fields: list[tuple[int, str]], rel: int) -> str:
@@ -177,14 +167,14 @@ def field_at(data: bytes, off: int) -> str:
             return f"camera {name} {_name(_CAMERA_FIELDS, off - pos)}"
         if pos + fmt.CAMERA_FIXED_SIZE > len(data):
             return f"camera {name} record"
-        nx, ny = struct.unpack_from("<HH", data, pos + 96)
+        nx, ny = struct.unpack_from("<HH", data, pos + _GRID_NX)
         pos += fmt.CAMERA_FIXED_SIZE
         if off < pos + nx * ny * fmt.NODE_SIZE:
             n = (off - pos) // fmt.NODE_SIZE
             return f"camera {name} grid node (i={n % nx}, j={n // nx})"
         pos += nx * ny * fmt.NODE_SIZE
     i, rel = divmod(off - pos, fmt.BEACON_SIZE)
-    n_b = struct.unpack_from("<H", data, fmt.HEADER_SIZE + 2)[0]
+    n_b = struct.unpack_from("<H", data, fmt.HEADER_SIZE + _BEACON_COUNT)[0]
     if i < n_b:
         return f"beacon {i} {_name(_BEACON_FIELDS, rel)}"
     pos += n_b * fmt.BEACON_SIZE

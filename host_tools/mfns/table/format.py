@@ -15,54 +15,86 @@ import numpy as np
 
 from ..calib_results import COVARIANCE_PARAMETERS
 from ..errors import MfnsError
+from . import layout_gen as L
 
-MAGIC = b"MFTB"
-VERSION = 3
-HEADER_SIZE = 16
-GLOBALS_SIZE = 60
-CAMERA_FIXED_SIZE = 116
-NODE_SIZE = 8
-BEACON_SIZE = 20
-NUM_CAMERAS = 3
+# The layout is generated from the one definition (firmware/nav/caltable_layout.toml,
+# mk/gen_caltable.py): sizes, field order and types, struct formats.
+MAGIC = L.MAGIC
+VERSION = L.VERSION
+HEADER_SIZE = L.SIZE["header"]
+GLOBALS_SIZE = L.SIZE["globals"]
+CAMERA_FIXED_SIZE = L.SIZE["camera"]
+NODE_SIZE = L.SIZE["node"]
+BEACON_SIZE = L.SIZE["beacon"]
+NUM_CAMERAS = L.CONSTANTS["MFNS_NUM_CAMERAS"]
 # The calibration-covariance section (after the beacon records): u16 count (0 or
 # CALIB_PARAMS), u16 reserved, the upper triangle row-major as f32.
-COV_HEADER_SIZE = 4
+COV_HEADER_SIZE = L.SIZE["calib_cov"]
 # Per camera x, y, z, in the order of nav_config.h mfns_calib_param_t: the calibration-
 # results contract's own parameter list (docs/calib-results.md), defined once there.
 CALIB_PARAM_NAMES = COVARIANCE_PARAMETERS
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
-# The map-index section after the beacon records is written by the C core
-# (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
-INDEX_HEADER = struct.Struct("<HBBBBHI3f3fI4B")
+assert CALIB_PARAMS == L.CONSTANTS["MFNS_CALIB_PARAMS"]
 CAMERA_NAMES = ("x", "y", "z")
 
-# Field order of the settings records (docs/caltable.md).
-CENTROID_U16 = (
-    "threshold_dn",
-    "min_area_px",
-    "max_area_px",
-    "roi_half_size_px",
-    "saturation_dn",
-    "gain_dn_per_e_q12",  # offset 34, reserved (0) before the centroid covariance used it
-)
-CENTROID_F32 = ("threshold_k_sigma", "max_elongation")
-SOLVER_U16 = ("max_iterations",)  # then a reserved u16 (version 1: max_hypotheses)
-SOLVER_F32 = (
-    "step_tol",
-    "grad_tol",
-    "huber_k",
-    "outlier_gate_sigma",
-    "max_residual_rms_sigma",
-    "track_gate_px",
-    "min_rcond",
-)
 
-_HEADER = struct.Struct("<4sHHII")
-_GLOBALS = struct.Struct("<HHf" + "6H2f" + "2H7f")
-_CAMERA = struct.Struct("<4H5f5f9f3f2H4i")
-_BEACON = struct.Struct("<HHffff")
-assert _HEADER.size == HEADER_SIZE and _GLOBALS.size == GLOBALS_SIZE
-assert _CAMERA.size == CAMERA_FIXED_SIZE and _BEACON.size == BEACON_SIZE and INDEX_HEADER.size == 44
+class Record:
+    """One fixed-size record of the layout: pack/unpack by field name (arrays as tuples;
+    reserved fields are written 0)."""
+
+    def __init__(self, key: str):
+        self.key = key
+        self.size = L.SIZE[key]
+        self.fields = L.FIELDS[key]
+        self.reserved = set(L.RESERVED.get(key, ()))
+        self.struct = struct.Struct(L.STRUCT[key])
+        assert self.struct.size == self.size
+
+    def offset(self, name: str) -> int:
+        return next(off for n, off, _, _ in self.fields if n == name)
+
+    def pack(self, values: dict) -> bytes:
+        flat = []
+        for name, _, kind, count in self.fields:
+            v = 0 if name in self.reserved else values[name]
+            if count > 1 and kind != "char":
+                flat.extend(v)
+            else:
+                flat.append(v)
+        return self.struct.pack(*flat)
+
+    def unpack(self, data: bytes, offset: int) -> dict:
+        it = iter(self.struct.unpack_from(data, offset))
+        return {
+            name: tuple(next(it) for _ in range(count)) if count > 1 and kind != "char" else next(it)
+            for name, _, kind, count in self.fields
+        }
+
+
+_HEADER = Record("header")
+_GLOBALS = Record("globals")
+_CAMERA = Record("camera")
+_BEACON = Record("beacon")
+_COV = Record("calib_cov")
+# The map-index section after the beacon records is written by the C core
+# (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
+_INDEX = Record("index")
+INDEX_HEADER = _INDEX.struct
+
+
+def _settings(prefix: str, kind: str) -> tuple[str, ...]:
+    return tuple(
+        n[len(prefix) :]
+        for n, _, k, _ in L.FIELDS["globals"]
+        if n.startswith(prefix) and k == kind and n not in _GLOBALS.reserved
+    )
+
+
+# The settings records' fields by type (docs/caltable.md "Globals").
+CENTROID_U16 = _settings("centroid.", "u16")
+CENTROID_F32 = _settings("centroid.", "f32")
+SOLVER_U16 = _settings("solver.", "u16")
+SOLVER_F32 = _settings("solver.", "f32")
 
 
 def f32(x):
@@ -134,63 +166,66 @@ def encode(t: Table) -> bytes:
     try:
         body = bytearray(
             _GLOBALS.pack(
-                NUM_CAMERAS,
-                n_b,
-                t.pixel_sigma_px,
-                *(int(t.centroid[k]) for k in CENTROID_U16),
-                *(float(t.centroid[k]) for k in CENTROID_F32),
-                *(int(t.solver[k]) for k in SOLVER_U16),
-                0,
-                *(float(t.solver[k]) for k in SOLVER_F32),
+                {
+                    "camera_count": NUM_CAMERAS,
+                    "beacon_count": n_b,
+                    "pixel_sigma_px": t.pixel_sigma_px,
+                    **{f"centroid.{k}": int(t.centroid[k]) for k in CENTROID_U16},
+                    **{f"centroid.{k}": float(t.centroid[k]) for k in CENTROID_F32},
+                    **{f"solver.{k}": int(t.solver[k]) for k in SOLVER_U16},
+                    **{f"solver.{k}": float(t.solver[k]) for k in SOLVER_F32},
+                }
             )
         )
         for c in t.cameras:
             g = c.grid
             body += _CAMERA.pack(
-                c.camera_id,
-                c.width,
-                c.height,
-                0,
-                c.fx,
-                c.fy,
-                c.cx,
-                c.cy,
-                c.skew,
-                *np.asarray(c.dist, dtype=float).tolist(),
-                *np.asarray(c.C_k_b, dtype=float).ravel().tolist(),
-                *np.asarray(c.r_bk_b, dtype=float).tolist(),
-                g.nx,
-                g.ny,
-                g.origin_u_q8,
-                g.origin_v_q8,
-                g.step_u_q8,
-                g.step_v_q8,
+                {
+                    "camera_id": c.camera_id,
+                    "width": c.width,
+                    "height": c.height,
+                    "fx": c.fx,
+                    "fy": c.fy,
+                    "cx": c.cx,
+                    "cy": c.cy,
+                    "skew": c.skew,
+                    "dist": np.asarray(c.dist, dtype=float).tolist(),
+                    "C_k_b": np.asarray(c.C_k_b, dtype=float).ravel().tolist(),
+                    "r_bk_b": np.asarray(c.r_bk_b, dtype=float).tolist(),
+                    "grid.nx": g.nx,
+                    "grid.ny": g.ny,
+                    "grid.origin_u_q8": g.origin_u_q8,
+                    "grid.origin_v_q8": g.origin_v_q8,
+                    "grid.step_u_q8": g.step_u_q8,
+                    "grid.step_v_q8": g.step_v_q8,
+                }
             )
             body += np.ascontiguousarray(g.nodes, dtype="<i4").tobytes()
         for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
-            body += _BEACON.pack(int(bid), 0, float(p[0]), float(p[1]), float(p[2]), float(s))
+            body += _BEACON.pack({"id": int(bid), "p_w": [float(x) for x in p[:3]], "sigma_mm": float(s)})
         body += encode_calib_cov(t.calib_cov)
         body += t.index_section
     except struct.error as exc:
         raise MfnsError(f"value does not fit the table format: {exc}") from exc
     total = HEADER_SIZE + len(body)
-    return _HEADER.pack(MAGIC, VERSION, HEADER_SIZE, total, zlib.crc32(body)) + bytes(body)
+    header = {"magic": MAGIC, "version": VERSION, "header_size": HEADER_SIZE, "total_size": total}
+    return _HEADER.pack({**header, "crc32": zlib.crc32(body)}) + bytes(body)
 
 
 def encode_calib_cov(cov: np.ndarray | None) -> bytes:
     """The calibration-covariance section (docs/caltable.md): None -> count 0."""
     if cov is None:
-        return struct.pack("<HH", 0, 0)
+        return _COV.pack({"count": 0})
     a = np.asarray(cov, dtype=float)
     if a.shape != (CALIB_PARAMS, CALIB_PARAMS):
         raise MfnsError(f"calibration covariance: expected ({CALIB_PARAMS}, {CALIB_PARAMS}), got {a.shape}")
     iu = np.triu_indices(CALIB_PARAMS)
-    return struct.pack("<HH", CALIB_PARAMS, 0) + a[iu].astype("<f4").tobytes()
+    return _COV.pack({"count": CALIB_PARAMS}) + a[iu].astype("<f4").tobytes()
 
 
 def decode_calib_cov(data: bytes, pos: int) -> tuple[np.ndarray | None, int]:
     """(covariance or None, position after the section)."""
-    n = struct.unpack_from("<H", data, pos)[0]
+    n = _COV.unpack(data, pos)["count"]
     pos += COV_HEADER_SIZE
     if n == 0:
         return None, pos
@@ -206,18 +241,17 @@ def decode(data: bytes) -> Table:
     """Parse a table the flight loader has accepted (table/check.py: read_table), for
     display and tests. No checks here: the loader is the one validator; bytes after the
     header's total_size are ignored, as the loader ignores them."""
-    magic, version, hsize, total, crc = _HEADER.unpack_from(data, 0)
-    g = _GLOBALS.unpack_from(data, HEADER_SIZE)
-    n_b, sigma = g[1], g[2]
-    centroid = dict(zip(CENTROID_U16, g[3:9], strict=True))
-    centroid.update(zip(CENTROID_F32, g[9:11], strict=True))
-    solver = dict(zip(SOLVER_U16, g[11:12], strict=True))
-    solver.update(zip(SOLVER_F32, g[13:20], strict=True))
+    h = _HEADER.unpack(data, 0)
+    version, total, crc = h["version"], h["total_size"], h["crc32"]
+    g = _GLOBALS.unpack(data, HEADER_SIZE)
+    n_b, sigma = g["beacon_count"], g["pixel_sigma_px"]
+    centroid = {k: g[f"centroid.{k}"] for k in CENTROID_U16 + CENTROID_F32}
+    solver = {k: g[f"solver.{k}"] for k in SOLVER_U16 + SOLVER_F32}
     pos = HEADER_SIZE + GLOBALS_SIZE
     cams = []
     for k in range(NUM_CAMERAS):
-        v = _CAMERA.unpack_from(data, pos)
-        nx, ny = v[26], v[27]
+        v = _CAMERA.unpack(data, pos)
+        nx, ny = v["grid.nx"], v["grid.ny"]
         pos += CAMERA_FIXED_SIZE
         nodes = (
             np.frombuffer(data, dtype="<i4", count=nx * ny * 2, offset=pos)
@@ -228,25 +262,27 @@ def decode(data: bytes) -> Table:
         cams.append(
             CameraRecord(
                 camera_id=k,
-                width=v[1],
-                height=v[2],
-                fx=v[4],
-                fy=v[5],
-                cx=v[6],
-                cy=v[7],
-                skew=v[8],
-                dist=np.array(v[9:14], dtype=float),
-                C_k_b=np.array(v[14:23], dtype=float).reshape(3, 3),
-                r_bk_b=np.array(v[23:26], dtype=float),
-                grid=Grid(v[28], v[29], v[30], v[31], nodes),
+                width=v["width"],
+                height=v["height"],
+                fx=v["fx"],
+                fy=v["fy"],
+                cx=v["cx"],
+                cy=v["cy"],
+                skew=v["skew"],
+                dist=np.array(v["dist"], dtype=float),
+                C_k_b=np.array(v["C_k_b"], dtype=float).reshape(3, 3),
+                r_bk_b=np.array(v["r_bk_b"], dtype=float),
+                grid=Grid(
+                    *(v[f"grid.{n}"] for n in ("origin_u_q8", "origin_v_q8", "step_u_q8", "step_v_q8")), nodes
+                ),
             )
         )
     ids, p, s = [], [], []
     for i in range(n_b):
-        bid, _, x, y, z, sig = _BEACON.unpack_from(data, pos + i * BEACON_SIZE)
-        ids.append(bid)
-        p.append((x, y, z))
-        s.append(sig)
+        b = _BEACON.unpack(data, pos + i * BEACON_SIZE)
+        ids.append(b["id"])
+        p.append(b["p_w"])
+        s.append(b["sigma_mm"])
     pos += n_b * BEACON_SIZE
     calib_cov, pos = decode_calib_cov(data, pos)
     return Table(
@@ -267,16 +303,16 @@ def decode(data: bytes) -> Table:
 
 def index_summary(t: Table) -> dict:
     """The header of a decoded table's map index (docs/caltable.md "Map index")."""
-    h = INDEX_HEADER.unpack_from(t.index_section, 0)
+    h = _INDEX.unpack(t.index_section, 0)
     return {
-        "beacons": h[0],
-        "k_nbr": h[1],
-        "max_missing": h[2],
-        "max_unexplained": h[3],
-        "analysis_max_rival": h[5],
-        "budget_units": h[6],
-        "workspace_min_mm": list(h[7:10]),
-        "workspace_max_mm": list(h[10:13]),
-        "analysis_samples": h[13],
-        "cert_inliers": list(h[14 : 15 + h[2]]),
+        "beacons": h["beacons"],
+        "k_nbr": h["k_nbr"],
+        "max_missing": h["max_missing"],
+        "max_unexplained": h["max_unexplained"],
+        "analysis_max_rival": h["analysis_max_rival"],
+        "budget_units": h["budget_units"],
+        "workspace_min_mm": list(h["ws_min_w"]),
+        "workspace_max_mm": list(h["ws_max_w"]),
+        "analysis_samples": h["analysis_samples"],
+        "cert_inliers": list(h["cert_inliers"][: 1 + h["max_missing"]]),
     }

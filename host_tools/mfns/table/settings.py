@@ -1,5 +1,6 @@
-"""Default centroid and solver settings of the calibration table (docs/caltable.md
-"Default settings" gives the reasons; the numbers are the C core's, nav_defaults.c).
+"""Default centroid and solver settings of the calibration table: the one definition's
+(firmware/nav/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
+settings" gives the reasons, and the C core's nav_defaults_gen.c has the same numbers).
 `mfns table build --settings FILE` overrides any of them from a JSON object
 {"centroid": {...}, "solver": {...}}."""
 
@@ -8,15 +9,17 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import validate as V
-from .format import CENTROID_U16, SOLVER_U16
+from . import layout_gen
+from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16
 
 
 def defaults() -> tuple[dict, dict]:
-    """(centroid, solver) defaults: the C core's one set (firmware/nav/nav_defaults.c),
-    through the shared library, so tables and the flight code's tests agree."""
-    from ..flight import Flight
-
-    return Flight().default_settings()
+    """(centroid, solver) defaults, as the table stores them (f32 values in binary32)."""
+    d = layout_gen.DEFAULTS["globals"]
+    return (
+        {k: d[f"centroid.{k}"] for k in CENTROID_U16 + CENTROID_F32},
+        {k: d[f"solver.{k}"] for k in SOLVER_U16 + SOLVER_F32},
+    )
 
 
 MAX_BYTES = 64 * 1024
