@@ -144,14 +144,20 @@ class Flight:
         """From three mfns.camera.Camera (x, y, z)."""
         r = Rig()
         for i, c in enumerate(cameras):
-            k = r.cam[i].k
-            k.fx, k.fy, k.cx, k.cy, k.skew = c.fx, c.fy, c.cx, c.cy, c.skew
-            for j in range(5):
-                k.dist[j] = float(c.dist[j])
-            k.width, k.height = int(c.width), int(c.height)
+            r.cam[i].k = Flight.intrinsics(c)
             r.cam[i].C_k_b = _m3(c.C_k_b)
             r.cam[i].r_bk_b = _v3(c.r_bk_b)
         return r
+
+    @staticmethod
+    def intrinsics(c) -> Intrinsics:
+        """The lens of one mfns.camera.Camera as the C core holds it (binary32)."""
+        k = Intrinsics()
+        k.fx, k.fy, k.cx, k.cy, k.skew = c.fx, c.fy, c.cx, c.cy, c.skew
+        for j in range(5):
+            k.dist[j] = float(c.dist[j])
+        k.width, k.height = int(c.width), int(c.height)
+        return k
 
     @staticmethod
     def beacon_map(points, sigma_mm=0.0, ids=None) -> BeaconMap:
