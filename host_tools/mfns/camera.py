@@ -1,4 +1,6 @@
-"""The MFNS imaging model in numpy (double precision), mirroring math/camera.h.
+"""The MFNS imaging model in numpy (double precision), mirroring math/camera.h: the one
+numpy lens model (vectorised: simulation, calibration and the host reference solver use
+it; tests/host/test_camera_model.py holds it to the C model through the binding).
 
 Pinhole with skew and the 5-coefficient Bouguet/OpenCV distortion [k1, k2, p1, p2, k3];
 three cameras on the body (C_k_b maps camera coordinates into the body, r_bk_b in mm);
@@ -68,14 +70,8 @@ class Camera:
 
     # --- normalized <-> pixel -------------------------------------------------
     def distort(self, xy: np.ndarray) -> np.ndarray:
-        """Undistorted normalized (N, 2) -> distorted normalized (N, 2)."""
-        k1, k2, p1, p2, k3 = self.dist
-        x, y = xy[..., 0], xy[..., 1]
-        r2 = x * x + y * y
-        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-        yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-        return np.stack([xd, yd], axis=-1)
+        """Undistorted normalized (..., 2) -> distorted normalized (..., 2)."""
+        return distort(self.dist, xy)
 
     def distorted_to_pixel(self, xyd: np.ndarray) -> np.ndarray:
         u = self.fx * xyd[..., 0] + self.skew * xyd[..., 1] + self.cx
@@ -108,14 +104,40 @@ class Camera:
         return xy
 
     # --- 3-D -> pixel ------------------------------------------------------------
+    def normalized_to_pixel(self, xy: np.ndarray) -> np.ndarray:
+        """Undistorted normalized (..., 2) -> pixels (..., 2): distortion, then K."""
+        return self.distorted_to_pixel(self.distort(xy))
+
     def project_camera_points(self, p_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Points in the camera frame (N, 3) mm -> (pixels (N, 2), in_front mask (N,))."""
-        p_c = np.atleast_2d(np.asarray(p_c, dtype=float))
-        z = p_c[:, 2]
+        """Points in the camera frame (..., 3) mm -> (pixels (..., 2), in_front mask (...)).
+
+        Behind (depth below 1 mm, camera.h MFNS_CAM_MIN_DEPTH_MM): a placeholder pixel and
+        False; (N, 3) or (3,) give (N, 2)."""
+        p_c = np.asarray(p_c, dtype=float)
+        if p_c.ndim < 2:
+            p_c = np.atleast_2d(p_c)
+        z = p_c[..., 2]
         front = z >= 1.0
         zs = np.where(front, z, 1.0)
-        xy = p_c[:, :2] / zs[:, None]
-        return self.distorted_to_pixel(self.distort(xy)), front
+        xy = p_c[..., :2] / zs[..., None]
+        return self.normalized_to_pixel(xy), front
+
+    def project_jacobian(self, p_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Camera-frame points (N, 3), in front -> (uv (N, 2), d(uv)/d(p_c) (N, 2, 3)),
+        distortion included (camera.h mfns_cam_project_c with its Jacobian)."""
+        z = p_c[:, 2]
+        x = p_c[:, 0] / z
+        y = p_c[:, 1] / z
+        xyd, dd = distort_jacobian(self.dist, np.stack([x, y], axis=-1))
+        uv = self.distorted_to_pixel(xyd)
+        n = len(z)
+        dn = np.zeros((n, 2, 3))  # d(x, y)/d(p_c)
+        dn[:, 0, 0] = 1.0 / z
+        dn[:, 0, 2] = -x / z
+        dn[:, 1, 1] = 1.0 / z
+        dn[:, 1, 2] = -y / z
+        kk = np.array([[self.fx, self.skew], [0.0, self.fy]])
+        return uv, np.einsum("ij,njk,nkl->nil", kk, dd, dn)
 
     def world_to_camera(self, C_w_b: np.ndarray, r_bw_b: np.ndarray, p_w: np.ndarray) -> np.ndarray:
         p_b = np.atleast_2d(p_w) @ np.asarray(C_w_b).T + np.asarray(r_bw_b)
@@ -130,12 +152,42 @@ class Camera:
         return uv, front & self.in_image(uv)
 
     def in_image(self, uv: np.ndarray) -> np.ndarray:
+        """On the sensor: [-0.5, W-0.5) x [-0.5, H-0.5) (camera.h mfns_cam_in_image)."""
         return (
-            (uv[:, 0] >= -0.5)
-            & (uv[:, 1] >= -0.5)
-            & (uv[:, 0] < self.width - 0.5)
-            & (uv[:, 1] < self.height - 0.5)
+            (uv[..., 0] >= -0.5)
+            & (uv[..., 1] >= -0.5)
+            & (uv[..., 0] < self.width - 0.5)
+            & (uv[..., 1] < self.height - 0.5)
         )
+
+
+def _distort(dist, xy: np.ndarray, jacobian: bool):
+    k1, k2, p1, p2, k3 = dist
+    x, y = xy[..., 0], xy[..., 1]
+    r2 = x * x + y * y
+    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
+    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
+    xyd = np.stack([xd, yd], axis=-1)
+    if not jacobian:
+        return xyd, None
+    dr = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d radial / d r2
+    dxd_dx = radial + 2.0 * x * x * dr + 2.0 * p1 * y + 6.0 * p2 * x
+    dxd_dy = 2.0 * x * y * dr + 2.0 * p1 * x + 2.0 * p2 * y
+    dyd_dy = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x
+    jac = np.stack([np.stack([dxd_dx, dxd_dy], -1), np.stack([dxd_dy, dyd_dy], -1)], -2)
+    return xyd, jac
+
+
+def distort(dist, xy: np.ndarray) -> np.ndarray:
+    """The lens: undistorted normalized (..., 2) -> distorted normalized (..., 2) with the
+    5 coefficients dist = [k1, k2, p1, p2, k3] (camera.h mfns_cam_distort, in double)."""
+    return _distort(dist, xy, False)[0]
+
+
+def distort_jacobian(dist, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """distort and its Jacobian d(xd, yd)/d(x, y) (..., 2, 2)."""
+    return _distort(dist, xy, True)
 
 
 def rig_from_doc(doc: dict) -> list[Camera]:

@@ -1,10 +1,11 @@
 """The flight pose solver (firmware/nav/pose.h) and acquisition (acquire.h, beacon_index.h)
-from Python, through ctypes.
+from Python: numpy in, numpy out.
 
 Host tools, tests and benchmarks call the same C code the navigation computer runs:
-``make lib`` builds build/host-sim/lib/libmfns_core.so from the portable core. The
-ctypes structures below mirror the C structs field by field; ``Flight()`` checks their
-sizes against the library (mfns_pose_abi_size) and refuses a mismatched library.
+``make lib`` builds build/host-sim/lib/libmfns_core.so from the portable core. The ctypes
+structures and prototypes are the binding's (binding.py: loaded in one place, held to the
+headers field by field when the library is built); this module builds their inputs and
+reads their outputs.
 """
 
 from __future__ import annotations
@@ -12,271 +13,59 @@ from __future__ import annotations
 import ctypes as ct
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from . import tlm_dict
+from .binding import (  # noqa: F401 (re-exported: the names host tools use)
+    ACQ_ABI_CYCLE,
+    ACQ_ABI_STATE,
+    ACQ_SOURCES,
+    CALIB_PARAMS,
+    CALIB_PARAMS_PER_CAMERA,
+    M3,
+    MAX_BEACONS,
+    MAX_CERT,
+    MAX_MEAS,
+    MAX_MISSING,
+    MAX_NBR,
+    MAX_OBS_PER_CAMERA,
+    MAX_PAIRS,
+    NO_BEACON,
+    NUM_CAMERAS,
+    V3,
+    AcqCycleReport,
+    AcqProgress,
+    Assoc,
+    Beacon,
+    BeaconEmit,
+    BeaconGeom,
+    BeaconIndex,
+    BeaconMap,
+    BidxParams,
+    CalibCov,
+    CameraC,
+    CentroidSettings,
+    CertifyCase,
+    CertifyResult,
+    Euler,
+    Intrinsics,
+    Obs,
+    ObsFrame,
+    Pose,
+    PoseConfig,
+    Rig,
+    SolutionC,
+    SolverSettings,
+)
+from .binding import load as load_core
 from .errors import MfnsError
-
-REPO = Path(__file__).resolve().parents[2]
-DEFAULT_LIB = REPO / "build" / "host-sim" / "lib" / "libmfns_core.so"
-
-NUM_CAMERAS = 3
-MAX_BEACONS = 256
-MAX_NBR = 32
-MAX_PAIRS = MAX_BEACONS * (MAX_BEACONS - 1) // 2
-MAX_MEAS = 3 * 32
-MAX_CERT = 16
-MAX_MISSING = 3
-MAX_OBS_PER_CAMERA = 32
-NO_BEACON = -1
 
 STATUS = {0: "OK", 1: "DEGRADED", 2: "NO_FIX"}
 # Reason code -> name: the numbered wire codes of the telemetry dictionary (ground/mdb/mfns_tm.xml,
 # which tests/host/test_tlm_mdb.py holds to pose.h mfns_pose_reason_t).
 REASONS = tlm_dict.reason_names()
 MODE_ML, MODE_PAPER = 0, 1
-
-
-class V3(ct.Structure):
-    _fields_ = [("x", ct.c_float), ("y", ct.c_float), ("z", ct.c_float)]
-
-
-class M3(ct.Structure):
-    _fields_ = [("m", (ct.c_float * 3) * 3)]
-
-
-class Intrinsics(ct.Structure):
-    _fields_ = [
-        ("fx", ct.c_float),
-        ("fy", ct.c_float),
-        ("cx", ct.c_float),
-        ("cy", ct.c_float),
-        ("skew", ct.c_float),
-        ("dist", ct.c_float * 5),
-        ("width", ct.c_uint16),
-        ("height", ct.c_uint16),
-    ]
-
-
-class CameraC(ct.Structure):
-    _fields_ = [("k", Intrinsics), ("C_k_b", M3), ("r_bk_b", V3)]
-
-
-class Rig(ct.Structure):
-    _fields_ = [("cam", CameraC * NUM_CAMERAS)]
-
-
-class Pose(ct.Structure):
-    _fields_ = [("C_w_b", M3), ("r_bw_b", V3)]
-
-
-class Beacon(ct.Structure):
-    _fields_ = [("id", ct.c_uint16), ("p_w", V3), ("sigma_mm", ct.c_float)]
-
-
-class BeaconMap(ct.Structure):
-    _fields_ = [("count", ct.c_uint16), ("beacon", Beacon * MAX_BEACONS)]
-
-
-class SolverSettings(ct.Structure):
-    _fields_ = [
-        ("max_iterations", ct.c_uint16),
-        ("step_tol", ct.c_float),
-        ("grad_tol", ct.c_float),
-        ("huber_k", ct.c_float),
-        ("outlier_gate_sigma", ct.c_float),
-        ("max_residual_rms_sigma", ct.c_float),
-        ("track_gate_px", ct.c_float),
-        ("min_rcond", ct.c_float),
-    ]
-
-
-CALIB_PARAMS_PER_CAMERA = 15  # nav_config.h mfns_calib_param_t (fx fy cx cy k1 k2 p1 p2 k3 theta r)
-CALIB_PARAMS = NUM_CAMERAS * CALIB_PARAMS_PER_CAMERA
-
-
-class CalibCov(ct.Structure):
-    """mfns_calib_cov_t (nav_config.h): the calibration's covariance, 45 x 45."""
-
-    _fields_ = [("present", ct.c_uint8), ("cov", (ct.c_float * CALIB_PARAMS) * CALIB_PARAMS)]
-
-
-class PoseConfig(ct.Structure):
-    _fields_ = [
-        ("s", SolverSettings),
-        ("sigma_px", ct.c_float),
-        ("mode", ct.c_int),
-        ("calib_cov", ct.POINTER(CalibCov)),
-    ]
-
-
-class Obs(ct.Structure):
-    _fields_ = [
-        ("u", ct.c_float),
-        ("v", ct.c_float),
-        ("x", ct.c_float),
-        ("y", ct.c_float),
-        ("cov_px2", ct.c_float * 3),
-    ]
-
-
-class ObsFrame(ct.Structure):
-    _fields_ = [
-        ("count", ct.c_uint16 * NUM_CAMERAS),
-        ("obs", (Obs * MAX_OBS_PER_CAMERA) * NUM_CAMERAS),
-        ("dark", ct.c_uint8 * NUM_CAMERAS),
-    ]
-
-
-class Assoc(ct.Structure):
-    _fields_ = [("beacon", (ct.c_int16 * MAX_OBS_PER_CAMERA) * NUM_CAMERAS)]
-
-
-class Euler(ct.Structure):
-    _fields_ = [("roll", ct.c_float), ("pitch", ct.c_float), ("yaw", ct.c_float)]
-
-
-class SolutionC(ct.Structure):
-    _fields_ = [
-        ("status", ct.c_int),
-        ("reason", ct.c_int),
-        ("pose", Pose),
-        ("r_wb_w", V3),
-        ("euler_deg", Euler),
-        ("q_b_w", ct.c_float * 4),
-        ("cov", (ct.c_float * 6) * 6),
-        ("cov_ros", (ct.c_float * 6) * 6),
-        ("sigma_pos_mm", ct.c_float * 3),
-        ("sigma_euler_deg", ct.c_float * 3),
-        ("beacons_used", ct.c_uint16),
-        ("outliers", ct.c_uint16),
-        ("cameras_used", ct.c_uint16),
-        ("iterations", ct.c_uint16),
-        ("hypotheses", ct.c_uint16),
-        ("residual_rms_px", ct.c_float),
-        ("residual_rms_sigma", ct.c_float),
-        ("assoc", Assoc),
-        ("inlier", (ct.c_uint8 * MAX_OBS_PER_CAMERA) * NUM_CAMERAS),
-    ]
-
-
-class CentroidSettings(ct.Structure):
-    _fields_ = [
-        ("threshold_dn", ct.c_uint16),
-        ("threshold_k_sigma", ct.c_float),
-        ("min_area_px", ct.c_uint16),
-        ("max_area_px", ct.c_uint16),
-        ("max_elongation", ct.c_float),
-        ("roi_half_size_px", ct.c_uint16),
-        ("saturation_dn", ct.c_uint16),
-        ("gain_dn_per_e_q12", ct.c_uint16),
-    ]
-
-
-class BeaconEmit(ct.Structure):
-    _fields_ = [("axis_w", V3), ("cos_half_angle", ct.c_float)]
-
-
-class BeaconGeom(ct.Structure):
-    _fields_ = [("emit", BeaconEmit), ("range_min_mm", ct.c_float), ("range_max_mm", ct.c_float)]
-
-
-class BeaconIndex(ct.Structure):
-    _fields_ = [
-        ("count", ct.c_uint16),
-        ("k_nbr", ct.c_uint8),
-        ("max_missing", ct.c_uint8),
-        ("max_unexplained", ct.c_uint8),
-        ("budget_units", ct.c_uint32),
-        ("ws_min_w", V3),
-        ("ws_max_w", V3),
-        ("analysis_samples", ct.c_uint32),
-        ("analysis_max_rival", ct.c_uint16),
-        ("cert_inliers", ct.c_uint8 * (MAX_MISSING + 1)),
-        ("geom", BeaconGeom * MAX_BEACONS),
-        ("nbr_count", ct.c_uint8 * MAX_BEACONS),
-        ("nbr", (ct.c_uint8 * MAX_NBR) * MAX_BEACONS),
-        ("pair_lo", ct.c_uint8 * MAX_PAIRS),
-        ("pair_hi", ct.c_uint8 * MAX_PAIRS),
-    ]
-
-
-class BidxParams(ct.Structure):
-    _fields_ = [
-        ("k_nbr", ct.c_uint8),
-        ("cert_inliers", ct.c_uint8),
-        ("max_missing", ct.c_uint8),
-        ("max_unexplained", ct.c_uint8),
-        ("budget_units", ct.c_uint32),
-    ]
-
-
-class AcqProgress(ct.Structure):
-    _fields_ = [
-        ("units", ct.c_uint32),
-        ("units_total", ct.c_uint32),
-        ("calls", ct.c_uint16),
-        ("hypotheses", ct.c_uint32),
-        ("verified", ct.c_uint16),
-        ("anchors", ct.c_uint8),
-        ("band", ct.c_uint8),
-        ("best_inliers", ct.c_uint8),
-        ("best_missing", ct.c_uint8),
-        ("finished", ct.c_bool),
-        ("budget_out", ct.c_bool),
-        ("certified", ct.c_bool),
-        ("completed", ct.c_bool),
-        ("rivals", ct.c_uint8),
-    ]
-
-
-class AcqCycleReport(ct.Structure):
-    _fields_ = [
-        ("progress", AcqProgress),
-        ("carried_units", ct.c_uint32),
-        ("carry_age", ct.c_uint16),
-        ("source", ct.c_uint8),
-        ("carry_dropped", ct.c_bool),
-        ("bridge_refused", ct.c_bool),
-    ]
-
-
-# mfns_acq_source_t (acquire_cycle.h)
-ACQ_SOURCES = ("NONE", "FRESH", "CARRIED")
-
-
-class CertifyCase(ct.Structure):
-    _fields_ = [
-        ("sample", ct.c_uint32),
-        ("n_blobs", ct.c_uint16),
-        ("rival_inliers", ct.c_uint16),
-        ("rival_missing", ct.c_uint16),
-        ("truth_id", ct.c_uint16 * MAX_MEAS),
-        ("rival_id", ct.c_int32 * MAX_MEAS),
-    ]
-
-
-class CertifyResult(ct.Structure):
-    _fields_ = [
-        ("samples", ct.c_uint32),
-        ("usable", ct.c_uint32),
-        ("truth_found", ct.c_uint32),
-        ("ambiguous", ct.c_uint32),
-        ("rival_hist", ct.c_uint32 * (MAX_CERT + 1)),
-        ("max_rival", ct.c_uint16),
-        ("rival_by_missing", ct.c_uint16 * (MAX_MISSING + 1)),
-        ("cert_inliers", ct.c_uint8 * (MAX_MISSING + 1)),
-        ("cert_capped", ct.c_uint8),
-        ("worst", CertifyCase),
-    ]
-
-
-_ABI = [Rig, BeaconMap, ObsFrame, Assoc, Pose, PoseConfig, SolutionC]
-# mfns_acq_abi_size order (acquire.h); the state itself is opaque here (a byte buffer).
-_ACQ_ABI = [None, AcqProgress, BeaconIndex, BeaconEmit, BidxParams, CertifyResult]
-_ACQ_ABI_CYCLE = len(_ACQ_ABI)  # mfns_acq_cycle_t: opaque too
 
 
 @dataclass
@@ -344,116 +133,10 @@ class Flight:
     """The C pose solver. lib: path of libmfns_core.so (default: $MFNS_CORE_LIB or the build)."""
 
     def __init__(self, lib: str | os.PathLike | None = None):
-        path = Path(lib or os.environ.get("MFNS_CORE_LIB", DEFAULT_LIB))
-        if not path.exists():
-            raise MfnsError(f"{path}: no such library (run: make lib)")
-        self.lib = ct.CDLL(str(path))
-        L = self.lib
-        L.mfns_pose_abi_size.restype = ct.c_uint32
-        L.mfns_pose_abi_size.argtypes = [ct.c_int]
-        for i, cls in enumerate(_ABI):
-            if L.mfns_pose_abi_size(i) != ct.sizeof(cls):
-                raise MfnsError(
-                    f"{path}: {cls.__name__} is {L.mfns_pose_abi_size(i)} bytes in C, {ct.sizeof(cls)} here"
-                )
-        P = ct.POINTER
-        L.mfns_pose_config_default.argtypes = [P(PoseConfig)]
-        L.mfns_pose_config_default.restype = None
-        L.mfns_pose_refine.argtypes = [
-            P(Rig),
-            P(BeaconMap),
-            P(ObsFrame),
-            P(Assoc),
-            P(Pose),
-            P(PoseConfig),
-            P(SolutionC),
-        ]
-        L.mfns_pose_track.argtypes = [P(Rig), P(BeaconMap), P(ObsFrame), P(Pose), P(PoseConfig), P(SolutionC)]
-        for f in (L.mfns_pose_refine, L.mfns_pose_track):
-            f.restype = ct.c_int
-        L.mfns_acq_abi_size.restype = ct.c_uint32
-        L.mfns_acq_abi_size.argtypes = [ct.c_int]
-        for i, cls in enumerate(_ACQ_ABI):
-            if cls is not None and L.mfns_acq_abi_size(i) != ct.sizeof(cls):
-                raise MfnsError(
-                    f"{path}: {cls.__name__} is {L.mfns_acq_abi_size(i)} bytes in C, {ct.sizeof(cls)} here"
-                )
-        self._acq_state = (ct.c_uint8 * L.mfns_acq_abi_size(0))()
-        L.mfns_acquire.argtypes = [
-            ct.c_void_p,
-            P(Rig),
-            P(BeaconMap),
-            P(BeaconIndex),
-            P(ObsFrame),
-            P(PoseConfig),
-            ct.c_uint32,
-            P(SolutionC),
-        ]
-        L.mfns_acquire.restype = ct.c_int
-        L.mfns_acq_resume.argtypes = [ct.c_void_p, ct.c_uint32, P(SolutionC)]
-        L.mfns_acq_resume.restype = ct.c_int
-        L.mfns_acq_pending.argtypes = [ct.c_void_p]
-        L.mfns_acq_pending.restype = ct.c_bool
-        self._acq_cycle_state = (ct.c_uint8 * L.mfns_acq_abi_size(_ACQ_ABI_CYCLE))()
-        L.mfns_acq_cycle_reset.argtypes = [ct.c_void_p]
-        L.mfns_acq_cycle_reset.restype = None
+        self.lib = L = load_core(lib)  # prototypes declared and sizes checked there (binding.py)
+        self._acq_state = (ct.c_uint8 * L.mfns_acq_abi_size(ACQ_ABI_STATE))()
+        self._acq_cycle_state = (ct.c_uint8 * L.mfns_acq_abi_size(ACQ_ABI_CYCLE))()
         L.mfns_acq_cycle_reset(self._acq_cycle_state)
-        L.mfns_acq_cycle_run.argtypes = [
-            ct.c_void_p,
-            P(Rig),
-            P(BeaconMap),
-            P(BeaconIndex),
-            P(ObsFrame),
-            P(PoseConfig),
-            ct.c_uint32,
-            P(SolutionC),
-            P(AcqCycleReport),
-        ]
-        L.mfns_acq_cycle_run.restype = ct.c_int
-        L.mfns_bidx_params_default.argtypes = [P(BidxParams)]
-        L.mfns_bidx_params_default.restype = None
-        L.mfns_bidx_build.argtypes = [
-            P(Rig),
-            P(BeaconMap),
-            P(BeaconEmit),
-            V3,
-            V3,
-            P(BidxParams),
-            P(BeaconIndex),
-        ]
-        L.mfns_bidx_build.restype = ct.c_int
-        L.mfns_bidx_encode.argtypes = [P(BeaconIndex), ct.c_void_p, ct.c_uint32, P(ct.c_uint32)]
-        L.mfns_bidx_encode.restype = ct.c_int
-        L.mfns_bidx_section_size.argtypes = [ct.c_uint32, ct.c_uint32]
-        L.mfns_bidx_section_size.restype = ct.c_uint32
-        L.mfns_bidx_strerror.argtypes = [ct.c_int]
-        L.mfns_bidx_strerror.restype = ct.c_char_p
-        L.mfns_certify.argtypes = [
-            ct.c_void_p,
-            P(Rig),
-            P(BeaconMap),
-            P(BeaconIndex),
-            P(PoseConfig),
-            P(Pose),
-            ct.c_uint32,
-            ct.c_uint32,
-            P(ObsFrame),
-            P(CertifyResult),
-        ]
-        L.mfns_certify.restype = ct.c_int
-        L.mfns_certify_finish.argtypes = [P(CertifyResult), P(BeaconIndex)]
-        L.mfns_certify_accumulate.argtypes = [P(CertifyResult), P(CertifyResult), ct.c_uint32]
-        L.mfns_certify_apply.argtypes = [P(BeaconIndex), P(CertifyResult)]
-        for f in (L.mfns_certify_finish, L.mfns_certify_accumulate, L.mfns_certify_apply):
-            f.restype = None
-        L.mfns_certify_frame.argtypes = [P(Rig), P(BeaconMap), P(BeaconIndex), P(Pose), P(ObsFrame), P(Assoc)]
-        L.mfns_certify_frame.restype = None
-        L.mfns_centroid_settings_default.argtypes = [P(CentroidSettings)]
-        L.mfns_centroid_settings_default.restype = None
-        L.mfns_solver_settings_default.argtypes = [P(SolverSettings)]
-        L.mfns_solver_settings_default.restype = None
-        L.mfns_pose_strerror.argtypes = [ct.c_int]
-        L.mfns_pose_strerror.restype = ct.c_char_p
 
     # --- building the C inputs -------------------------------------------------------
     @staticmethod
@@ -461,14 +144,20 @@ class Flight:
         """From three mfns.camera.Camera (x, y, z)."""
         r = Rig()
         for i, c in enumerate(cameras):
-            k = r.cam[i].k
-            k.fx, k.fy, k.cx, k.cy, k.skew = c.fx, c.fy, c.cx, c.cy, c.skew
-            for j in range(5):
-                k.dist[j] = float(c.dist[j])
-            k.width, k.height = int(c.width), int(c.height)
+            r.cam[i].k = Flight.intrinsics(c)
             r.cam[i].C_k_b = _m3(c.C_k_b)
             r.cam[i].r_bk_b = _v3(c.r_bk_b)
         return r
+
+    @staticmethod
+    def intrinsics(c) -> Intrinsics:
+        """The lens of one mfns.camera.Camera as the C core holds it (binary32)."""
+        k = Intrinsics()
+        k.fx, k.fy, k.cx, k.cy, k.skew = c.fx, c.fy, c.cx, c.cy, c.skew
+        for j in range(5):
+            k.dist[j] = float(c.dist[j])
+        k.width, k.height = int(c.width), int(c.height)
+        return k
 
     @staticmethod
     def beacon_map(points, sigma_mm=0.0, ids=None) -> BeaconMap:

@@ -36,34 +36,6 @@ PoseSolver = Callable[
 ]
 
 
-def projection_jacobian(cam: Camera, p_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Camera-frame points (N, 3) -> (uv (N, 2), d(uv)/d(p_c) (N, 2, 3)), distortion included."""
-    k1, k2, p1, p2, k3 = cam.dist
-    z = p_c[:, 2]
-    x = p_c[:, 0] / z
-    y = p_c[:, 1] / z
-    r2 = x * x + y * y
-    rad = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    drad = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d rad / d r2
-    xd = x * rad + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * rad + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-    dxd_dx = rad + 2.0 * x * x * drad + 2.0 * p1 * y + 6.0 * p2 * x
-    dxd_dy = 2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y
-    dyd_dx = 2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y
-    dyd_dy = rad + 2.0 * y * y * drad + 6.0 * p1 * y + 2.0 * p2 * x
-    uv = np.stack([cam.fx * xd + cam.skew * yd + cam.cx, cam.fy * yd + cam.cy], axis=1)
-    # d(x, y)/d(p_c)
-    n = len(z)
-    dn = np.zeros((n, 2, 3))
-    dn[:, 0, 0] = 1.0 / z
-    dn[:, 0, 2] = -x / z
-    dn[:, 1, 1] = 1.0 / z
-    dn[:, 1, 2] = -y / z
-    dd = np.stack([np.stack([dxd_dx, dxd_dy], 1), np.stack([dyd_dx, dyd_dy], 1)], 1)  # (N, 2, 2)
-    kk = np.array([[cam.fx, cam.skew], [0.0, cam.fy]])
-    return uv, np.einsum("ij,njk,nkl->nil", kk, dd, dn)
-
-
 def _skew_rows(v: np.ndarray) -> np.ndarray:
     """(N, 3) -> (N, 3, 3) cross-product matrices [v x]."""
     out = np.zeros((len(v), 3, 3))
@@ -85,7 +57,7 @@ def residuals_and_jacobian(cams, cam_idx, points_w, uv, c_w_b, r_bw_b) -> tuple[
         if not np.any(sel):
             continue
         p_c = (p_b[sel] - cam.r_bk_b) @ cam.C_k_b
-        pred, d_uv = projection_jacobian(cam, p_c)
+        pred, d_uv = cam.project_jacobian(p_c)
         res[sel] = pred - uv[sel]
         d_b = d_uv @ cam.C_k_b.T  # d uv / d p_b  (N, 2, 3)
         # d p_b / d dtheta = [q x] (C <- (I - [dtheta x]) C), d p_b / d r = I

@@ -16,6 +16,7 @@ from importlib import resources
 import numpy as np
 
 from .camera import Camera, load_beacons, rig_from_doc
+from .rotations import random_rotations
 
 
 def paper_rig() -> list[Camera]:
@@ -28,38 +29,13 @@ def paper_beacons() -> np.ndarray:
         return load_beacons(p)[1]
 
 
-def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
-    """n uniformly distributed rotation matrices (from unit quaternions)."""
-    q = rng.normal(size=(n, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
-        ],
-        axis=1,
-    )
-
-
 def visible_counts(cams: list[Camera], beacons: np.ndarray, C: np.ndarray, r_bw_b: np.ndarray) -> np.ndarray:
     """Beacons in view (in front, inside the image) for poses C (n,3,3), r_bw_b (n,3)."""
     p_b = np.einsum("nij,bj->nbi", C, beacons) + r_bw_b[:, None, :]
     total = np.zeros(len(C), dtype=int)
     for cam in cams:
-        p_c = (p_b - cam.r_bk_b) @ cam.C_k_b
-        z = p_c[..., 2]
-        front = z >= 1.0
-        xy = p_c[..., :2] / np.where(front, z, 1.0)[..., None]
-        uv = cam.distorted_to_pixel(cam.distort(xy))
-        inside = (
-            (uv[..., 0] >= -0.5)
-            & (uv[..., 1] >= -0.5)
-            & (uv[..., 0] < cam.width - 0.5)
-            & (uv[..., 1] < cam.height - 0.5)
-        )
-        total += np.sum(front & inside, axis=1)
+        uv, front = cam.project_camera_points((p_b - cam.r_bk_b) @ cam.C_k_b)
+        total += np.sum(front & cam.in_image(uv), axis=1)
     return total
 
 

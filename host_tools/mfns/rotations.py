@@ -89,3 +89,18 @@ def rx(a: float) -> np.ndarray:
 def rz(a: float) -> np.ndarray:
     """Active rotation about z (the turntable's main axis): R3(-a)."""
     return r3(-a)
+
+
+def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
+    """n uniformly distributed rotation matrices (from unit quaternions)."""
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w, x, y, z = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=1,
+    )

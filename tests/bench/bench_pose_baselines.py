@@ -29,6 +29,7 @@ import pycolmap  # noqa: E402
 
 from mfns import pose_sim  # noqa: E402
 from mfns.flight import MODE_PAPER, Flight, SolutionC  # noqa: E402
+from mfns.rotations import random_rotations  # noqa: E402
 
 SIGMA = 0.3
 FRAMES = 100
@@ -37,7 +38,7 @@ FRAMES = 100
 def make_scene(rng, cams, n):
     """A random body pose and n beacons in view (spread over the cameras) plus out-of-view
     ones up to 10: (C_w_b, r_bw_b, beacons (10, 3))."""
-    C = pose_sim.random_rotations(rng, 1)[0]
+    C = random_rotations(rng, 1)[0]
     pos = rng.uniform(-200, 200, 3)
     r = -C @ pos
     per = [(n + 2) // 3, (n + 1) // 3, n // 3]

@@ -273,11 +273,9 @@ def test_quaternion_matches_the_flight_cores(core_lib):
     is the matrix it came from."""
     if not core_lib.exists():
         pytest.skip("make lib first")
-    from mfns.flight import M3
+    from mfns.binding import M3, load
 
-    lib = ct.CDLL(str(core_lib))
-    lib.mfns_m3_to_quat.argtypes = [M3, ct.POINTER(ct.c_float)]
-    lib.mfns_m3_to_quat.restype = None
+    lib = load(core_lib)
     rots = Rotation.random(500, random_state=11).as_matrix()
     rots[:3] = [np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), np.diag([-1.0, -1.0, 1.0])]
     for r in rots:

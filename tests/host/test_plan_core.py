@@ -35,7 +35,7 @@ def _c_in_view(core, k, C, r, pts):
     out = np.zeros(len(pts), dtype=bool)
     for i, p in enumerate(pts):
         if core.lib.mfns_cam_project(cam, ct.byref(pose), V3(*map(float, p)), ct.byref(uv), None) == 0:
-            out[i] = core.lib.mfns_cam_in_image(ct.addressof(core.rig.cam[k].k), uv[0], uv[1])
+            out[i] = core.lib.mfns_cam_in_image(ct.byref(core.rig.cam[k].k), uv[0], uv[1])
     return out
 
 

@@ -10,6 +10,8 @@ import zlib
 import numpy as np
 import pytest
 
+from mfns.binding import UndistGrid
+from mfns.binding import load as load_core
 from mfns.cli import main
 from mfns.table.builder import build_table
 from mfns.table.check import TableRefused, check_table, core
@@ -259,28 +261,13 @@ def test_builder_refuses_a_lens_it_cannot_correct_with_the_figure(sources, tmp_p
 def test_grid_error_is_measured_with_the_c_interpolation(sources, core_lib):
     """grid_error evaluates with mfns_undistort_grid_px itself: one call per point through
     ctypes agrees with the batch evaluation bit for bit, and points outside are refused."""
-    lib = ctypes.CDLL(str(core_lib))
-
-    class Grid(ctypes.Structure):
-        _fields_ = [
-            ("nx", ctypes.c_uint16),
-            ("ny", ctypes.c_uint16),
-            ("origin_u_q8", ctypes.c_int32),
-            ("origin_v_q8", ctypes.c_int32),
-            ("step_u_q8", ctypes.c_int32),
-            ("step_v_q8", ctypes.c_int32),
-            ("node", ctypes.POINTER(ctypes.c_int32)),
-        ]
-
+    lib = load_core(core_lib)
     table = build_table(*sources)[0]
     g = table.cameras[0].grid
     nodes = np.ascontiguousarray(g.nodes, dtype=np.int32)
-    cg = Grid(g.nx, g.ny, g.origin_u_q8, g.origin_v_q8, g.step_u_q8, g.step_v_q8,
-              nodes.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)))  # fmt: skip
+    cg = UndistGrid(g.nx, g.ny, g.origin_u_q8, g.origin_v_q8, g.step_u_q8, g.step_v_q8,
+              nodes.ctypes.data_as(ctypes.POINTER(ctypes.c_int32 * 2)))  # fmt: skip
     f = lib.mfns_undistort_grid_px
-    f.argtypes = [ctypes.POINTER(Grid), ctypes.c_int32, ctypes.c_int32]
-    f.argtypes += [ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_int32)]
-    f.restype = ctypes.c_int
     rng = np.random.default_rng(3)
     uq = rng.integers(-3000, 1300 * 256, 500)
     vq = rng.integers(-3000, 1040 * 256, 500)

@@ -18,51 +18,20 @@ from pathlib import Path
 
 import pytest
 
+from mfns.binding import TC_PATH_MAX as PATH_MAX
+from mfns.binding import TcCmd as Cmd
+from mfns.binding import load as load_core
+
 REPO = Path(__file__).resolve().parents[2]
 TC_XML = REPO / "ground" / "mdb" / "mfns_tc.xml"
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
-PATH_MAX = 64
-
-
-class Pose(ct.Structure):
-    _fields_ = [("pos_um", ct.c_int32 * 3), ("att_udeg", ct.c_int32 * 3)]
-
-
-class U(ct.Union):
-    _fields_ = [("mode", ct.c_uint8), ("camera", ct.c_uint8), ("pose", Pose), ("path", ct.c_char * PATH_MAX)]
-
-
-class Cmd(ct.Structure):
-    """tc_cmd_t (tc_packets.h)."""
-
-    _fields_ = [
-        ("seq", ct.c_uint16),
-        ("opcode", ct.c_uint8),
-        ("have_seq", ct.c_bool),
-        ("have_opcode", ct.c_bool),
-        ("u", U),
-    ]
 
 
 @pytest.fixture(scope="module")
 def lib(core_lib):
     if not core_lib.exists():
         pytest.fail(f"{core_lib} missing: run `make lib`")
-    lib = ct.CDLL(str(core_lib))
-    lib.tc_opcode_name.restype = ct.c_char_p
-    lib.tc_opcode_name.argtypes = [ct.c_uint8]
-    lib.tc_status_name.restype = ct.c_char_p
-    lib.tc_status_name.argtypes = [ct.c_int]
-    lib.tc_arg_len.argtypes = [ct.c_uint8]
-    lib.tc_packet_encode.argtypes = [
-        ct.POINTER(Cmd),
-        ct.c_uint16,
-        ct.c_char_p,
-        ct.c_size_t,
-        ct.POINTER(ct.c_size_t),
-    ]
-    lib.tc_packet_decode.argtypes = [ct.c_char_p, ct.c_size_t, ct.POINTER(Cmd)]
-    return lib
+    return load_core(core_lib)  # tc_cmd_t is binding.TcCmd, held to tc_packets.h by make lib
 
 
 def tree():

@@ -22,6 +22,7 @@ import pytest
 from conftest import assert_packets_match_csv, cobs_frames
 
 from mfns import flight, report, tlm_dict
+from mfns.binding import load as load_core
 
 REPO = Path(__file__).resolve().parents[2]
 BIN = Path(os.environ.get("MFNS_BIN", REPO / "build" / "host-sim" / "bin"))
@@ -44,7 +45,7 @@ def bins() -> Path:
 
 @pytest.fixture(scope="module")
 def lib(core_lib) -> ct.CDLL:
-    return ct.CDLL(str(core_lib))
+    return load_core(core_lib)
 
 
 def test_the_package_reads_the_source_tree_dictionary():

@@ -45,14 +45,9 @@ def _rot_stack(axis: int, a: np.ndarray) -> np.ndarray:
 
 
 def _project(intr: np.ndarray, p_c: np.ndarray) -> np.ndarray:
-    fx, fy, cx, cy, k1, k2, p1, p2, k3 = intr
-    x = p_c[..., 0] / p_c[..., 2]
-    y = p_c[..., 1] / p_c[..., 2]
-    r2 = x * x + y * y
-    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-    return np.stack([fx * xd + cx, fy * yd + cy], axis=-1)
+    """Camera-frame points through intrinsics [fx, fy, cx, cy, k1, k2, p1, p2, k3] (skew 0)."""
+    lens = Camera("", intr[0], intr[1], intr[2], intr[3], 0.0, intr[4:9])
+    return lens.normalized_to_pixel(p_c[..., :2] / p_c[..., 2:3])
 
 
 @dataclass

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..errors import MfnsError
-from ..flight import V3, CameraC, Flight, Pose, SolutionC
+from ..flight import V3, CameraC, Flight, SolutionC
 
 # Prune beyond this multiple of the pinhole half-diagonal (normalized): the lenses of
 # docs/system.md Table 2 image the corner at ~0.51, so 3x leaves a wide margin.
@@ -38,16 +38,7 @@ class Core:
 
     def __init__(self, cams: list[Camera], lib=None):
         self.flight = Flight(lib)
-        L = self.flight.lib
-        P = ct.POINTER
-        L.mfns_cam_project.argtypes = [P(CameraC), P(Pose), V3, P(_F2), P(_J26)]
-        L.mfns_cam_project.restype = ct.c_int
-        L.mfns_cam_in_image.argtypes = [ct.c_void_p, ct.c_float, ct.c_float]
-        L.mfns_cam_in_image.restype = ct.c_bool
-        # (h = J^T R^-1 J, B = J^T R^-1 J_c or NULL, calibration covariance or NULL, min_rcond, out)
-        L.mfns_pose_covariance.argtypes = [P(_H66), ct.c_void_p, ct.c_void_p, ct.c_float, P(SolutionC)]
-        L.mfns_pose_covariance.restype = ct.c_int
-        self.lib = L
+        self.lib = self.flight.lib  # prototypes: binding.py
         self.cams = cams
         self.rig = Flight.rig(cams)
         self.min_rcond = float(self.flight.config().s.min_rcond)
@@ -68,7 +59,7 @@ class Core:
         if len(cand) == 0:
             return uv, vis, jac
         cam = ct.byref(self.rig.cam[k])
-        kk = ct.addressof(self.rig.cam[k].k)
+        kk = ct.byref(self.rig.cam[k].k)
         pose = Flight.pose(C_w_b, r_bw_b)
         pref = ct.byref(pose)
         u2, j = _F2(), _J26()

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MfnsError
-from ..pose_sim import random_rotations
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, random_rotations
 from ..simulate.nav import MODULE_ATT_AMP_DEG, MODULE_POS_AMP_MM
 
 

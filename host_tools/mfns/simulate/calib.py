@@ -320,26 +320,6 @@ def corner_observations(
 
 
 # --- rendering -------------------------------------------------------------------------------
-def undistort_grid(cam: Camera, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pixel grids -> undistorted normalized coordinates (fixed-point iteration, checked)."""
-    yd = (v - cam.cy) / cam.fy
-    xd = (u - cam.cx - cam.skew * yd) / cam.fx
-    k1, k2, p1, p2, k3 = cam.dist
-    x, y = xd.copy(), yd.copy()
-    for _ in range(40):
-        r2 = x * x + y * y
-        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-        dx = 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x)
-        dy = p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y
-        x = (xd - dx) / radial
-        y = (yd - dy) / radial
-    back = cam.distort(np.stack([x, y], axis=-1))
-    err = np.max(np.abs(back[..., 0] - xd)) * cam.fx
-    if err > 1e-6:
-        raise MfnsError(f"camera {cam.name}: distortion inverse did not converge ({err:.2g} px)")
-    return x, y
-
-
 def _wave(s: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Square wave sign(sin(pi s)) box-filtered over width w (units of squares), w << 1."""
     n = np.round(s)
@@ -387,7 +367,8 @@ class Renderer:
         self.rays = []
         for dv in offs:
             for du in offs:
-                x, y = undistort_grid(cam, u + du, v + dv)
+                xy = cam.undistort_pixels(np.stack([u + du, v + dv], axis=-1))
+                x, y = xy[..., 0], xy[..., 1]
                 self.rays.append((x, y))
         rr = ((u - cam.cx) ** 2 + (v - cam.cy) ** 2) / (cam.fx**2)
         self.vignette = 1.0 / (1.0 + rr) ** 2  # cos^4 of the field angle

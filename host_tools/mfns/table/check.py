@@ -15,12 +15,11 @@ import ctypes as ct
 import os
 import struct
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
+from ..binding import load as load_core
 from ..errors import MfnsError
-from ..flight import DEFAULT_LIB
 from . import format as fmt
 from . import layout_gen
 
@@ -49,32 +48,13 @@ class TableRefused(MfnsError):
 
 
 class CoreTables:
-    """ctypes binding of the loader and the grid evaluation of the C core."""
+    """The loader and the grid evaluation of the C core (through the binding)."""
 
     def __init__(self, lib: str | os.PathLike | None = None):
-        path = Path(lib or os.environ.get("MFNS_CORE_LIB", DEFAULT_LIB))
-        if not path.exists():
-            raise MfnsError(f"{path}: no such library (run: make lib): tables are checked by the C loader")
-        L = ct.CDLL(str(path))
-        for name in ("table_size", "max_bytes", "max_grid_nodes", "max_beacons"):
-            f = getattr(L, f"mfns_caltable_host_{name}")
-            f.argtypes, f.restype = [], ct.c_uint32
-        L.mfns_caltable_load.argtypes = [ct.c_char_p, ct.c_size_t, ct.c_void_p, ct.POINTER(ct.c_uint32)]
-        L.mfns_caltable_load.restype = ct.c_int
-        L.mfns_caltable_strerror.argtypes = [ct.c_int]
-        L.mfns_caltable_strerror.restype = ct.c_char_p
-        i32p = ct.POINTER(ct.c_int32)
-        L.mfns_caltable_host_grid_eval.argtypes = [
-            *[ct.c_uint16] * 2,
-            *[ct.c_int32] * 4,
-            i32p,
-            ct.c_uint32,
-            i32p,
-            i32p,
-            i32p,
-            ct.POINTER(ct.c_uint8),
-        ]
-        L.mfns_caltable_host_grid_eval.restype = ct.c_int
+        try:
+            L = load_core(lib)  # the one loader, prototypes declared there (binding.py)
+        except MfnsError as e:
+            raise MfnsError(f"{e}: tables are checked by the C loader") from e
         self.lib = L
         self.max_bytes = int(L.mfns_caltable_host_max_bytes())
         self.max_grid_nodes = int(L.mfns_caltable_host_max_grid_nodes())

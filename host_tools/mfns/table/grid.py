@@ -1,6 +1,6 @@
-"""The distortion-correction grid: build it, measure its worst-case error with the flight
-code's own interpolation (mfns_undistort_grid_px through the C core), and size it for the
-lens at hand.
+"""The distortion-correction grid: build it with the C builder (mfns_undist_grid_build),
+measure its worst-case error with the flight code's own interpolation
+(mfns_undistort_grid_px through the C core), and size it for the lens at hand.
 
 Nodes hold the undistorted (ideal pinhole) pixel position u' = fx x + skew y + cx,
 v' = fy y + cy of pixel (origin + i*step) in Q16.16 pixels; inputs are px_q8 (1/256 px).
@@ -8,17 +8,21 @@ v' = fy y + cy of pixel (origin + i*step) in Q16.16 pixels; inputs are px_q8 (1/
 
 from __future__ import annotations
 
+import ctypes as ct
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..binding import UndistGrid
 from ..camera import Camera
 from ..errors import MfnsError
+from ..flight import Flight
 from .format import CameraRecord, Grid
 
 MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)
 ORIGIN_Q8 = -128  # pixel -0.5: the image corner under the pixel-centre convention
 MIN_STEP_Q8, MAX_STEP_Q8 = 256, 65535
+UNDIST_BAD_INPUT = 1  # mfns_undist_status_t MFNS_UNDIST_BAD_INPUT (undistort.h)
 
 
 def record_camera(rec: CameraRecord) -> Camera:
@@ -59,23 +63,31 @@ def step_q8(size_px: int, n: int) -> int:
 
 
 def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int | None = None) -> Grid:
-    """max_nodes: the flight limit (MFNS_MAX_GRID_NODES of the C core when None); lifted
-    only by studies of grids beyond it."""
-    if max_nodes is None:
-        from .check import core
+    """The grid of nx x ny nodes over cam's whole image, built by the C builder
+    (math/undistort.h mfns_undist_grid_build, through the binding): the nodes that fly are
+    the C core's. max_nodes: the flight limit (MFNS_MAX_GRID_NODES of the C core when
+    None); lifted only by studies of grids beyond it."""
+    from .check import core
 
+    if max_nodes is None:
         max_nodes = core().max_grid_nodes
     if nx * ny > max_nodes:
         raise MfnsError(f"grid {nx}x{ny} has {nx * ny} nodes, more than MFNS_MAX_GRID_NODES ({max_nodes})")
-    su, sv = step_q8(cam.width, nx), step_q8(cam.height, ny)
-    gu = (ORIGIN_Q8 + su * np.arange(nx)) / 256.0
-    gv = (ORIGIN_Q8 + sv * np.arange(ny)) / 256.0
-    uu, vv = np.meshgrid(gu, gv)
-    ideal = ideal_pixels(cam, np.column_stack([uu.ravel(), vv.ravel()]))
-    if np.max(np.abs(ideal)) >= 32767:
+    step_q8(cam.width, nx), step_q8(cam.height, ny)  # the spacing's own message when out of range
+    lib = core().lib
+    k = Flight.intrinsics(cam)
+    nodes = np.zeros((ny, nx, 2), dtype=np.int32)
+    g = UndistGrid()
+    st = lib.mfns_undist_grid_build(ct.byref(k), nx, ny, nodes.ctypes.data, nx * ny, ct.byref(g))
+    if st == UNDIST_BAD_INPUT:  # dims and steps were checked above: a node beyond Q16.16
         raise MfnsError(f"camera {cam.name}: undistorted positions beyond the Q16.16 range")
-    nodes = np.round(ideal * 65536.0).astype(np.int64).reshape(ny, nx, 2).astype(np.int32)
-    return Grid(ORIGIN_Q8, ORIGIN_Q8, su, sv, nodes)
+    if st != 0:
+        raise MfnsError(
+            f"camera {cam.name}: the distortion model has no inverse over the grid "
+            f"({lib.mfns_undist_strerror(st).decode()})"
+        )
+    assert (g.origin_u_q8, g.origin_v_q8) == (ORIGIN_Q8, ORIGIN_Q8)
+    return Grid(g.origin_u_q8, g.origin_v_q8, g.step_u_q8, g.step_v_q8, nodes)
 
 
 @dataclass

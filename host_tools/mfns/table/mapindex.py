@@ -69,7 +69,7 @@ def parse_workspace(text: str) -> tuple[np.ndarray, np.ndarray]:
 
 def random_poses(rng: np.random.Generator, lo, hi, n: int):
     """n poses (C_w_b, r_bw_b): body origin uniform in the box, attitude uniform."""
-    from ..pose_sim import random_rotations
+    from ..rotations import random_rotations
 
     C = random_rotations(rng, n)
     p = rng.uniform(lo, hi, size=(n, 3))
