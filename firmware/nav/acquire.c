@@ -5,8 +5,6 @@
 #include <stddef.h>
 #include <string.h>
 
-#include "acquire_certify.h"
-#include "acquire_cycle.h"
 #include "pose_init.h"
 #include "pose_internal.h"
 #include "spd.h"
@@ -50,27 +48,6 @@
 /* The same test on a minimal pose, in sigmas of its propagated position
  * (sqrt of the chi-square(1) 1e-6 quantile is 4.9). */
 #define MINIMAL_WS_SIGMA 6.0f
-
-uint32_t mfns_acq_abi_size(mfns_acq_abi_t what)
-{
-    switch (what) {
-    case MFNS_ACQ_ABI_STATE:
-        return (uint32_t)sizeof(mfns_acq_t);
-    case MFNS_ACQ_ABI_PROGRESS:
-        return (uint32_t)sizeof(mfns_acq_progress_t);
-    case MFNS_ACQ_ABI_INDEX:
-        return (uint32_t)sizeof(mfns_beacon_index_t);
-    case MFNS_ACQ_ABI_EMIT:
-        return (uint32_t)sizeof(mfns_beacon_emit_t);
-    case MFNS_ACQ_ABI_PARAMS:
-        return (uint32_t)sizeof(mfns_bidx_params_t);
-    case MFNS_ACQ_ABI_CERTIFY:
-        return (uint32_t)sizeof(mfns_certify_result_t);
-    case MFNS_ACQ_ABI_CYCLE:
-        return (uint32_t)sizeof(mfns_acq_cycle_t);
-    }
-    return 0;
-}
 
 static float ray_angle(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
 {

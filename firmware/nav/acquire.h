@@ -187,19 +187,6 @@ bool mfns_acq_pending(const mfns_acq_t *acq);
 /* Drop any search: nothing is pending afterwards. */
 void mfns_acq_reset(mfns_acq_t *acq);
 
-/* sizeof of the acquisition's API structs, for the ctypes mirrors of the
- * host tools (host_tools/mfns/flight.py). */
-typedef enum {
-    MFNS_ACQ_ABI_STATE = 0,  /* mfns_acq_t */
-    MFNS_ACQ_ABI_PROGRESS,   /* mfns_acq_progress_t */
-    MFNS_ACQ_ABI_INDEX,      /* mfns_beacon_index_t */
-    MFNS_ACQ_ABI_EMIT,       /* mfns_beacon_emit_t */
-    MFNS_ACQ_ABI_PARAMS,     /* mfns_bidx_params_t */
-    MFNS_ACQ_ABI_CERTIFY,    /* mfns_certify_result_t (acquire_certify.h) */
-    MFNS_ACQ_ABI_CYCLE,      /* mfns_acq_cycle_t (acquire_cycle.h) */
-} mfns_acq_abi_t;
-uint32_t mfns_acq_abi_size(mfns_acq_abi_t what);
-
 /* Internal to the acquisition modules (acquire.c, acquire_certify.c,
  * acquire_cycle.c). mfns_acquire, optionally stopping (pending, resumable)
  * where a 4-blob frame's completion would start, so that a caller already

@@ -118,6 +118,12 @@ typedef struct {
     uint32_t budget_units;
 } mfns_bidx_params_t;
 
+/* ---- Ground side: the build and the serialisation of the index, defined
+ * in firmware/host/beacon_index_build.c (the default parameters in
+ * nav_defaults.c, with the other defaults; firmware/host is linked into libmfns_core.so and the
+ * unit tests, never into the flight image; `make size` fails a flight module
+ * that calls them). Declared here beside the layout they fill. */
+
 /* The defaults `mfns table build` writes (nav_defaults.c holds the numbers). */
 void mfns_bidx_params_default(mfns_bidx_params_t *p);
 
@@ -134,6 +140,11 @@ mfns_bidx_status_t mfns_bidx_encode(const mfns_beacon_index_t *idx, uint8_t *buf
 /* MFNS_BIDX_SECTION_SIZE(n, k) as a function, for the host tools (ctypes). */
 uint32_t mfns_bidx_section_size(uint32_t n, uint32_t k);
 
+/* The widest angle between two pixels of any camera of the rig (rad). */
+float mfns_bidx_rig_fov_diag_rad(const mfns_rig_t *rig);
+
+/* ---- Flight side: the look-ups of the acquisition (beacon_index.c). */
+
 /* Position of the unordered pair (a, b), a != b, in pair_lo/pair_hi. */
 static inline uint32_t mfns_bidx_pair_slot(uint32_t n, uint32_t a, uint32_t b)
 {
@@ -146,9 +157,6 @@ bool mfns_bidx_pair_admits(const mfns_beacon_index_t *idx, uint32_t a, uint32_t 
 
 /* Is beacon b (emission cone) facing the point p_w? */
 bool mfns_bidx_emits_toward(const mfns_beacon_geom_t *g, mfns_v3_t p_beacon_w, mfns_v3_t p_w);
-
-/* The widest angle between two pixels of any camera of the rig (rad). */
-float mfns_bidx_rig_fov_diag_rad(const mfns_rig_t *rig);
 
 const char *mfns_bidx_strerror(mfns_bidx_status_t s);
 

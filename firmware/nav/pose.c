@@ -68,27 +68,6 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
     return "unknown pose reason";
 }
 
-uint32_t mfns_pose_abi_size(mfns_pose_abi_t what)
-{
-    switch (what) {
-    case MFNS_POSE_ABI_RIG:
-        return (uint32_t)sizeof(mfns_rig_t);
-    case MFNS_POSE_ABI_MAP:
-        return (uint32_t)sizeof(mfns_beacon_map_t);
-    case MFNS_POSE_ABI_FRAME:
-        return (uint32_t)sizeof(mfns_obs_frame_t);
-    case MFNS_POSE_ABI_ASSOC:
-        return (uint32_t)sizeof(mfns_pose_assoc_t);
-    case MFNS_POSE_ABI_POSE:
-        return (uint32_t)sizeof(mfns_pose_t);
-    case MFNS_POSE_ABI_CONFIG:
-        return (uint32_t)sizeof(mfns_pose_config_t);
-    case MFNS_POSE_ABI_SOLUTION:
-        return (uint32_t)sizeof(mfns_pose_solution_t);
-    }
-    return 0;
-}
-
 void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason)
 {
     memset(out, 0, sizeof(*out));
