@@ -187,23 +187,4 @@ bool mfns_acq_pending(const mfns_acq_t *acq);
 /* Drop any search: nothing is pending afterwards. */
 void mfns_acq_reset(mfns_acq_t *acq);
 
-/* Internal to the acquisition modules (acquire.c, acquire_certify.c,
- * acquire_cycle.c). mfns_acquire, optionally stopping (pending, resumable)
- * where a 4-blob frame's completion would start, so that a caller already
- * completing another frame of the same view need not pay for this one's: */
-mfns_pose_status_t mfns_acq_start(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                                  const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
-                                  const mfns_pose_config_t *cfg, uint32_t budget_units, bool pause_before_completion,
-                                  mfns_pose_solution_t *out);
-/* The acquisition modules also use:
- * check the inputs and set acq up for frame (false on bad input), then run
- * the search and fill its candidates. */
-bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                      const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
-                      uint32_t budget_units, bool analysis);
-void mfns_acq_search(mfns_acq_t *acq);
-/* A candidate within the index's missing and unexplained allowances (the
- * certificate then only asks for enough inliers). */
-bool mfns_acq_acceptable(const mfns_acq_t *acq, const mfns_acq_cand_t *cd);
-
 #endif /* MFNS_ACQUIRE_H */
