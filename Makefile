@@ -113,7 +113,8 @@ help:
 
 # --------------------------------------------------------------------------
 # Compilation
-$(BUILD)/obj/%.o: %.c
+# (the board's flags are in board.mk: a changed flag rebuilds its objects)
+$(BUILD)/obj/%.o: %.c boards/$(BOARD)/board.mk
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
 
@@ -231,6 +232,11 @@ pytest: venv lib $(GEN_FILES)
 
 # --------------------------------------------------------------------------
 # Bare-metal size check of the portable core.
+# The flight core only (CORE_SRCS: firmware/host is not in it): text per
+# module, the whole image (every function kept, with libm), and the worst
+# stack depth per entry point from GCC's call graph (mk/stack.py; the board
+# compiles with -fstack-usage -fcallgraph-info=su). docs/budgets.md.
+STACK_ALSO := mfns_centroid_detect mfns_acq_cycle_run mfns_pose_track
 ifeq ($(BOARD_KIND),baremetal)
 size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	@mk/size.sh "$(SIZE)" "$(NM)" "$(BUILD)" $(CORE_OBJS)
@@ -238,6 +244,7 @@ size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
 	  -lm -Wl,-Map=$(BUILD)/core.map -o $(BUILD)/core.elf
 	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
+	@python3 mk/stack.py --min 64 $(addprefix --also ,$(STACK_ALSO)) $(CORE_OBJS:.o=.ci)
 else
 size:
 	@$(MAKE) --no-print-directory BOARD=cortex-m7-core size
