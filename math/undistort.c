@@ -127,7 +127,7 @@ static bool axis_cell(px_q8_t p, px_q8_t origin, px_q8_t step, uint16_t n, uint3
     }
     const uint32_t t = du - i * s;
     *cell = i;
-    *w = (q16_16_t)(((t << 16) + s / 2u) / s);
+    *w = (q16_16_t)(((t << MFNS_Q16_16_FRAC_BITS) + s / 2u) / s);
     return true;
 }
 
@@ -171,8 +171,8 @@ mfns_undist_status_t mfns_undistort_grid(const mfns_undist_grid_t *g, const mfns
     }
     /* Subtract the principal point before going to float so the integer part
      * of a ~1000 px coordinate does not eat the fraction's bits. */
-    const float du = (float)((int64_t)uq - (int64_t)mfns_q16_from_float(k->cx)) * (1.0f / 65536.0f);
-    const float dv = (float)((int64_t)vq - (int64_t)mfns_q16_from_float(k->cy)) * (1.0f / 65536.0f);
+    const float du = (float)((int64_t)uq - (int64_t)mfns_q16_from_float(k->cx)) * (1.0f / (float)MFNS_Q16_16_ONE);
+    const float dv = (float)((int64_t)vq - (int64_t)mfns_q16_from_float(k->cy)) * (1.0f / (float)MFNS_Q16_16_ONE);
     const float yy = dv / k->fy;
     *y = yy;
     *x = (du - k->skew * yy) / k->fx;

@@ -44,6 +44,9 @@
  * weights are computed in 32-bit integers. */
 #define MFNS_UNDIST_GRID_MIN_STEP_Q8 256
 #define MFNS_UNDIST_GRID_MAX_STEP_Q8 65535
+_Static_assert(MFNS_UNDIST_GRID_MIN_STEP_Q8 == MFNS_PX_Q8_ONE, "the smallest node spacing is 1 px");
+_Static_assert(MFNS_UNDIST_GRID_MAX_STEP_Q8 < (1 << 16), "cell weights: t << 16 with t < step fits uint32");
+_Static_assert(MFNS_UNDIST_DEFAULT_ITER <= MFNS_UNDIST_MAX_ITER, "the recommended cap is within the bound");
 
 typedef enum {
     MFNS_UNDIST_OK = 0,

@@ -11,7 +11,7 @@ static bool step_for(uint16_t width, uint16_t n, px_q8_t *step)
     if (n < 2) {
         return false;
     }
-    const uint32_t span = (uint32_t)width * 256u;
+    const uint32_t span = (uint32_t)width * (uint32_t)MFNS_PX_Q8_ONE;
     const uint32_t s = (span + (uint32_t)n - 2u) / ((uint32_t)n - 1u); /* ceil */
     if (s < MFNS_UNDIST_GRID_MIN_STEP_Q8 || s > MFNS_UNDIST_GRID_MAX_STEP_Q8) {
         return false;
@@ -31,8 +31,8 @@ mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t
     const px_q8_t origin = -128; /* -0.5 px: the image corner */
     for (uint32_t j = 0; j < ny; j++) {
         for (uint32_t i = 0; i < nx; i++) {
-            const double u = ((double)origin + (double)i * (double)su) / 256.0;
-            const double v = ((double)origin + (double)j * (double)sv) / 256.0;
+            const double u = ((double)origin + (double)i * (double)su) / (double)MFNS_PX_Q8_ONE;
+            const double v = ((double)origin + (double)j * (double)sv) / (double)MFNS_PX_Q8_ONE;
             double x, y;
             const mfns_undist_status_t s = mfns_undistort_d(k, u, v, MFNS_UNDIST_MAX_ITER, &x, &y, NULL);
             if (s != MFNS_UNDIST_OK) {
@@ -44,8 +44,8 @@ mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t
                 return MFNS_UNDIST_BAD_INPUT; /* beyond Q16.16 */
             }
             const size_t idx = (size_t)j * nx + i;
-            node[idx][0] = (q16_16_t)lround(up * 65536.0);
-            node[idx][1] = (q16_16_t)lround(vp * 65536.0);
+            node[idx][0] = (q16_16_t)lround(up * (double)MFNS_Q16_16_ONE);
+            node[idx][1] = (q16_16_t)lround(vp * (double)MFNS_Q16_16_ONE);
         }
     }
     g->nx = nx;

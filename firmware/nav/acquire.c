@@ -31,6 +31,8 @@ static const struct {
 } SCHED[] = {{KIND_SHAPE, SCHED_SAME_FIRST}, {KIND_SAME, SCHED_SAME_FIRST},   {KIND_CROSS, SCHED_CROSS_FIRST},
              {KIND_SHAPE, MFNS_BIDX_MAX_NBR}, {KIND_SAME, MFNS_BIDX_MAX_NBR}, {KIND_CROSS, MFNS_BIDX_MAX_NBR}};
 #define SCHED_STEPS ((uint8_t)(sizeof SCHED / sizeof SCHED[0]))
+_Static_assert(sizeof SCHED / sizeof SCHED[0] <= 255u, "cursor.stage is u8");
+_Static_assert(KIND_SHAPE < sizeof(((mfns_acq_cursor_t *)0)->w_done), "cursor.w_done has one slot per kind");
 
 /* The window after ranks [0, w0): doubling, capped at w_max. */
 static uint8_t next_window(int w0, int w_max)

@@ -77,6 +77,12 @@
 #define MFNS_ACQ_MAX_CAND 8
 #define MFNS_ACQ_VERIFY_UNITS 8u
 #define MFNS_ACQ_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)
+_Static_assert(MFNS_ACQ_MIN_BLOBS < MFNS_BIDX_MIN_CERT,
+               "a 4-blob frame is below every certificate: only the completion certifies it");
+_Static_assert(MFNS_MAX_OBS_PER_CAMERA <= 256, "mfns_acq_blob_t.idx is a u8");
+_Static_assert(MFNS_ACQ_MAX_MEAS <= INT16_MAX, "cam_blob[][] and the anchors hold blob indices in int16");
+_Static_assert(MFNS_ACQ_MAX_ANCHORS <= 255, "progress.anchors and cursor.anchor are u8");
+_Static_assert(MFNS_MAX_BEACONS <= INT16_MAX, "the cursor holds beacon indices in int16");
 
 /* Where the search stands (telemetry: housekeeping). units and budget_out
  * are the last call's; the rest covers the whole search (every call since

@@ -28,7 +28,7 @@ float mfns_acq_parallax_pad(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
     }
     const float base = mfns_v3_norm(mfns_v3_sub(a->c, b->c));
     const float s = base / MIN_PARALLAX_RANGE_MM;
-    return s >= 1.0f ? 3.14159265f : asinf(s);
+    return s >= 1.0f ? MFNS_PI_F : asinf(s);
 }
 
 bool mfns_acq_setup(mfns_acq_t *q)

@@ -28,6 +28,11 @@
  * a minimal pose (the completion's sound test). */
 #define MFNS_ACQ_WORKSPACE_TOL_MM 20.0f
 
+/* The acquisition gathers a frame's blobs (every one, or the completion's 4)
+ * into the pose solver's measurement arrays. */
+_Static_assert(MFNS_ACQ_MAX_MEAS <= MFNS_POSE_MAX_MEAS, "a frame's blobs fit the solver's measurements");
+_Static_assert(MFNS_ACQ_MIN_BLOBS <= MFNS_POSE_MAX_MEAS, "the completion refines 4 measurements");
+
 /* ---- The entry points of the acquisition's callers in the core
  * (acquire_cycle.c, firmware/host/acquire_certify.c), beside mfns_acquire.
  *

@@ -9,8 +9,8 @@
 #include <string.h>
 
 #include "pose_internal.h"
+#include "units.h"
 
-#define RAD2DEG 57.29577951308232f
 
 void mfns_pose_config_default(mfns_pose_config_t *cfg)
 {
@@ -229,9 +229,9 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     out->r_wb_w = mfns_pose_position_w(&pose);
     mfns_euler_t e;
     (void)mfns_m3_to_euler213(pose.C_w_b, &e);
-    out->euler_deg.roll = e.roll * RAD2DEG;
-    out->euler_deg.pitch = e.pitch * RAD2DEG;
-    out->euler_deg.yaw = e.yaw * RAD2DEG;
+    out->euler_deg.roll = e.roll * MFNS_DEG_PER_RAD_F;
+    out->euler_deg.pitch = e.pitch * MFNS_DEG_PER_RAD_F;
+    out->euler_deg.yaw = e.yaw * MFNS_DEG_PER_RAD_F;
     mfns_m3_to_quat(mfns_m3_transpose(pose.C_w_b), out->q_b_w);
     if (r != MFNS_POSE_R_NONE) {
         out->reason = r;
