@@ -3,7 +3,8 @@
 #
 #   make                      flight program + ground station for BOARD (default host-sim)
 #   make BOARD=sitss-nav      cross-build for the aarch64 flight board
-#   make size                 portable core for a bare-metal Cortex-M7, sized per module
+#   make size                 flight core for a bare-metal Cortex-M7: text per module,
+#                             worst stack depth per entry point (docs/budgets.md)
 #   make test                 everything: deps, native, ASan+UBSan, qemu-aarch64, pytest, ...
 #   make lint                 cppcheck + clang-tidy (C) and ruff (Python)
 #   make bench                benchmarks (speed targets are checked here, not in tests)

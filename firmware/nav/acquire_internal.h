@@ -30,7 +30,8 @@
 
 /* The acquisition gathers a frame's blobs (every one, or the completion's 4)
  * into the pose solver's measurement arrays. */
-_Static_assert(MFNS_ACQ_MAX_MEAS <= MFNS_POSE_MAX_MEAS, "a frame's blobs fit the solver's measurements");
+_Static_assert(sizeof(((mfns_acq_t *)0)->blobs) / sizeof(mfns_acq_blob_t) <= MFNS_POSE_MAX_MEAS,
+               "a frame's blobs fit the solver's measurements");
 _Static_assert(MFNS_ACQ_MIN_BLOBS <= MFNS_POSE_MAX_MEAS, "the completion refines 4 measurements");
 
 /* ---- The entry points of the acquisition's callers in the core
