@@ -3,7 +3,8 @@
 #
 #   make                      flight program + ground station for BOARD (default host-sim)
 #   make BOARD=sitss-nav      cross-build for the aarch64 flight board
-#   make size                 portable core for a bare-metal Cortex-M7, sized per module
+#   make size                 flight core for a bare-metal Cortex-M7: text per module,
+#                             worst stack depth per entry point (docs/budgets.md)
 #   make test                 everything: deps, native, ASan+UBSan, qemu-aarch64, pytest, ...
 #   make lint                 cppcheck + clang-tidy (C) and ruff (Python)
 #   make bench                benchmarks (speed targets are checked here, not in tests)
@@ -13,7 +14,10 @@
 #
 # Sources are discovered by folder, so adding a module or a test needs no edit
 # here (README.md "Adding a module"):
-#   math/*.c firmware/nav/*.c firmware/tlm/*.c     portable core (no OS, no heap)
+#   math/*.c firmware/nav/*.c firmware/tlm/*.c     portable core (no OS, no heap): flies
+#   firmware/host/*.c                               host-only core (builders, analyses,
+#                                                   binding hooks): libmfns_core.so and
+#                                                   the unit tests, never a flight image
 #   drivers/*/*.c firmware/app/*.c ground/*.c       Linux-only code
 #   tests/unit/test_*.c                             one cmocka binary each
 #   tests/unit/support/*.c                          helpers linked into every test
@@ -45,6 +49,14 @@ CFLAGS_ALL = $(CSTD) $(WARN) $(BOARD_CFLAGS) $(BOARD_DEFINES) $(INCLUDES) $(SAN_
 
 CORE_DIRS  := math firmware/nav firmware/tlm
 CORE_SRCS  := $(sort $(wildcard $(addsuffix /*.c,$(CORE_DIRS))))
+# The host-only core: code of the core that runs on the ground only (index
+# and grid builders, the map analysis, the struct-size hooks of the Python
+# binding). Same rules as the core (no OS, no heap) but never in mfns-nav or
+# the Cortex-M7 image; its headers are seen only by its own objects, the
+# tests and the shared library, so a flight module cannot include them.
+HOST_CORE_DIR  := firmware/host
+HOST_CORE_SRCS := $(sort $(wildcard $(HOST_CORE_DIR)/*.c))
+HOST_INCLUDES  := -I$(HOST_CORE_DIR)
 APP_MAINS  := firmware/app/main.c ground/main.c
 LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c ground/*.c)))
 SUPPORT_SRCS := $(sort $(wildcard tests/unit/support/*.c))
@@ -53,6 +65,7 @@ TESTS      := $(patsubst tests/unit/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
 
 obj = $(patsubst %.c,$(BUILD)/obj/%.o,$(1))
 CORE_OBJS    := $(call obj,$(CORE_SRCS))
+HOST_CORE_OBJS := $(call obj,$(HOST_CORE_SRCS))
 LINUX_OBJS   := $(call obj,$(LINUX_SRCS))
 SUPPORT_OBJS := $(call obj,$(SUPPORT_SRCS))
 
@@ -101,9 +114,13 @@ help:
 
 # --------------------------------------------------------------------------
 # Compilation
-$(BUILD)/obj/%.o: %.c
+# (the board's flags are in board.mk: a changed flag rebuilds its objects)
+$(BUILD)/obj/%.o: %.c boards/$(BOARD)/board.mk
 	@mkdir -p $(@D)
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
+
+# Only the host-only core and the tests see the host-only headers.
+$(BUILD)/obj/$(HOST_CORE_DIR)/%.o $(BUILD)/obj/tests/%.o: INCLUDES += $(HOST_INCLUDES)
 
 $(BUILD)/obj/%.o: %.cpp
 	@mkdir -p $(@D)
@@ -111,6 +128,11 @@ $(BUILD)/obj/%.o: %.cpp
 	  $(shell $(PKG_CONFIG) --cflags libcamera) -MMD -MP -c $< -o $@
 
 $(BUILD)/libmfns_core.a: $(CORE_OBJS)
+	@mkdir -p $(@D)
+	@rm -f $@
+	$(AR) rcs $@ $^
+
+$(BUILD)/libmfns_host.a: $(HOST_CORE_OBJS)
 	@mkdir -p $(@D)
 	@rm -f $@
 	$(AR) rcs $@ $^
@@ -126,6 +148,9 @@ $(BUILD)/libmfns_testsupport.a: $(SUPPORT_OBJS)
 	$(AR) rcs $@ $^
 
 LIBS_MFNS := $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
+# The tests and the benchmarks link the host-only core too (before the core:
+# it calls into it).
+LIBS_HOST := $(BUILD)/libmfns_host.a
 
 $(BUILD)/bin/mfns-nav: $(call obj,firmware/app/main.c) $(LIBS_MFNS)
 	@mkdir -p $(@D)
@@ -135,20 +160,22 @@ $(BUILD)/bin/mfns-ground: $(call obj,ground/main.c) $(LIBS_MFNS)
 	@mkdir -p $(@D)
 	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 
-# The portable core as a shared library for the Python host tools (ctypes):
-# host and flight share one implementation of the numerics.
+# The portable core and the host-only core as a shared library for the
+# Python host tools (ctypes): host and flight share one implementation of the
+# numerics.
 lib: build/host-sim/lib/libmfns_core.so
 # (the core's headers too: a changed struct must rebuild the library the
 # ctypes mirrors check their sizes against)
-build/host-sim/lib/libmfns_core.so: $(CORE_SRCS) $(wildcard $(addsuffix /*.h,$(CORE_DIRS)))
+build/host-sim/lib/libmfns_core.so: $(CORE_SRCS) $(HOST_CORE_SRCS) \
+                                    $(wildcard $(addsuffix /*.h,$(CORE_DIRS) $(HOST_CORE_DIR)))
 	@mkdir -p $(@D)
-	gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(CORE_SRCS) -lm -o $@
+	gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(HOST_INCLUDES) $(CORE_SRCS) $(HOST_CORE_SRCS) -lm -o $@
 
 # --------------------------------------------------------------------------
 # Unit tests: one binary per tests/unit/test_*.c, run from the repo root.
-$(BUILD)/tests/%: $(BUILD)/obj/tests/unit/%.o $(BUILD)/libmfns_testsupport.a $(LIBS_MFNS)
+$(BUILD)/tests/%: $(BUILD)/obj/tests/unit/%.o $(BUILD)/libmfns_testsupport.a $(LIBS_HOST) $(LIBS_MFNS)
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $< $(BUILD)/libmfns_testsupport.a $(LIBS_MFNS) $(LIBS) -o $@
+	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $< $(BUILD)/libmfns_testsupport.a $(LIBS_HOST) $(LIBS_MFNS) $(LIBS) -o $@
 
 tests: $(TESTS) $(GEN_FILES)
 
@@ -206,6 +233,11 @@ pytest: venv lib $(GEN_FILES)
 
 # --------------------------------------------------------------------------
 # Bare-metal size check of the portable core.
+# The flight core only (CORE_SRCS: firmware/host is not in it): text per
+# module, the whole image (every function kept, with libm), and the worst
+# stack depth per entry point from GCC's call graph (mk/stack.py; the board
+# compiles with -fstack-usage -fcallgraph-info=su). docs/budgets.md.
+STACK_ALSO := mfns_centroid_detect mfns_acq_cycle_run mfns_pose_track
 ifeq ($(BOARD_KIND),baremetal)
 size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	@mk/size.sh "$(SIZE)" "$(NM)" "$(BUILD)" $(CORE_OBJS)
@@ -213,6 +245,7 @@ size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
 	  -lm -Wl,-Map=$(BUILD)/core.map -o $(BUILD)/core.elf
 	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
+	@python3 mk/stack.py --min 64 $(addprefix --also ,$(STACK_ALSO)) $(CORE_OBJS:.o=.ci)
 else
 size:
 	@$(MAKE) --no-print-directory BOARD=cortex-m7-core size

@@ -30,6 +30,9 @@ typedef int32_t px_q8_t;
 #define MFNS_PX_Q8_ONE ((px_q8_t)256)
 #define MFNS_PX_Q8_MAX INT32_MAX
 #define MFNS_PX_Q8_MIN INT32_MIN
+_Static_assert(MFNS_Q16_16_ONE == (1 << MFNS_Q16_16_FRAC_BITS), "Q16.16: one is 2^16");
+_Static_assert(MFNS_PX_Q8_ONE == (1 << MFNS_PX_Q8_FRAC_BITS), "px_q8: one pixel is 2^8");
+_Static_assert(sizeof(q16_16_t) == 4 && sizeof(px_q8_t) == 4, "both formats are int32_t");
 
 /* Saturate a 64-bit intermediate into int32_t. */
 int32_t mfns_sat_i32(int64_t v);

@@ -38,10 +38,12 @@ static void distort_d(const double c[5], double x, double y, double *xd, double 
     j[1][1] = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x;
 }
 
-/* Pixel -> undistorted normalized in double; outputs written only on OK. */
-static mfns_undist_status_t undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter,
+mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter,
                                         double *x_out, double *y_out, int *iters)
 {
+    if (k == NULL || x_out == NULL || y_out == NULL) {
+        return MFNS_UNDIST_BAD_INPUT;
+    }
     const double fx = (double)k->fx, fy = (double)k->fy, skew = (double)k->skew;
     const double c[5] = {(double)k->dist[0], (double)k->dist[1], (double)k->dist[2], (double)k->dist[3],
                          (double)k->dist[4]};
@@ -91,7 +93,7 @@ mfns_undist_status_t mfns_undistort_iter(const mfns_intrinsics_t *k, float u, fl
         return MFNS_UNDIST_BAD_INPUT;
     }
     double xd, yd;
-    const mfns_undist_status_t s = undistort_d(k, (double)u, (double)v, max_iter, &xd, &yd, iters);
+    const mfns_undist_status_t s = mfns_undistort_d(k, (double)u, (double)v, max_iter, &xd, &yd, iters);
     if (s == MFNS_UNDIST_OK) {
         *x = (float)xd;
         *y = (float)yd;
@@ -125,7 +127,7 @@ static bool axis_cell(px_q8_t p, px_q8_t origin, px_q8_t step, uint16_t n, uint3
     }
     const uint32_t t = du - i * s;
     *cell = i;
-    *w = (q16_16_t)(((t << 16) + s / 2u) / s);
+    *w = (q16_16_t)(((t << MFNS_Q16_16_FRAC_BITS) + s / 2u) / s);
     return true;
 }
 
@@ -169,62 +171,10 @@ mfns_undist_status_t mfns_undistort_grid(const mfns_undist_grid_t *g, const mfns
     }
     /* Subtract the principal point before going to float so the integer part
      * of a ~1000 px coordinate does not eat the fraction's bits. */
-    const float du = (float)((int64_t)uq - (int64_t)mfns_q16_from_float(k->cx)) * (1.0f / 65536.0f);
-    const float dv = (float)((int64_t)vq - (int64_t)mfns_q16_from_float(k->cy)) * (1.0f / 65536.0f);
+    const float du = (float)((int64_t)uq - (int64_t)mfns_q16_from_float(k->cx)) * (1.0f / (float)MFNS_Q16_16_ONE);
+    const float dv = (float)((int64_t)vq - (int64_t)mfns_q16_from_float(k->cy)) * (1.0f / (float)MFNS_Q16_16_ONE);
     const float yy = dv / k->fy;
     *y = yy;
     *x = (du - k->skew * yy) / k->fx;
-    return MFNS_UNDIST_OK;
-}
-
-static bool step_for(uint16_t width, uint16_t n, px_q8_t *step)
-{
-    if (n < 2) {
-        return false;
-    }
-    const uint32_t span = (uint32_t)width * 256u;
-    const uint32_t s = (span + (uint32_t)n - 2u) / ((uint32_t)n - 1u); /* ceil */
-    if (s < MFNS_UNDIST_GRID_MIN_STEP_Q8 || s > MFNS_UNDIST_GRID_MAX_STEP_Q8) {
-        return false;
-    }
-    *step = (px_q8_t)s;
-    return true;
-}
-
-mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t nx, uint16_t ny,
-                                            q16_16_t (*node)[2], size_t node_cap, mfns_undist_grid_t *g)
-{
-    px_q8_t su, sv;
-    if (k == NULL || node == NULL || g == NULL || (size_t)nx * ny > node_cap || !step_for(k->width, nx, &su) ||
-        !step_for(k->height, ny, &sv)) {
-        return MFNS_UNDIST_BAD_INPUT;
-    }
-    const px_q8_t origin = -128; /* -0.5 px: the image corner */
-    for (uint32_t j = 0; j < ny; j++) {
-        for (uint32_t i = 0; i < nx; i++) {
-            const double u = ((double)origin + (double)i * (double)su) / 256.0;
-            const double v = ((double)origin + (double)j * (double)sv) / 256.0;
-            double x, y;
-            const mfns_undist_status_t s = undistort_d(k, u, v, MFNS_UNDIST_MAX_ITER, &x, &y, NULL);
-            if (s != MFNS_UNDIST_OK) {
-                return s;
-            }
-            const double up = (double)k->fx * x + (double)k->skew * y + (double)k->cx;
-            const double vp = (double)k->fy * y + (double)k->cy;
-            if (!(fabs(up) < 32767.0 && fabs(vp) < 32767.0)) {
-                return MFNS_UNDIST_BAD_INPUT; /* beyond Q16.16 */
-            }
-            const size_t idx = (size_t)j * nx + i;
-            node[idx][0] = (q16_16_t)lround(up * 65536.0);
-            node[idx][1] = (q16_16_t)lround(vp * 65536.0);
-        }
-    }
-    g->nx = nx;
-    g->ny = ny;
-    g->origin_u_q8 = origin;
-    g->origin_v_q8 = origin;
-    g->step_u_q8 = su;
-    g->step_v_q8 = sv;
-    g->node = (const q16_16_t(*)[2])node;
     return MFNS_UNDIST_OK;
 }

@@ -44,6 +44,9 @@
  * weights are computed in 32-bit integers. */
 #define MFNS_UNDIST_GRID_MIN_STEP_Q8 256
 #define MFNS_UNDIST_GRID_MAX_STEP_Q8 65535
+_Static_assert(MFNS_UNDIST_GRID_MIN_STEP_Q8 == MFNS_PX_Q8_ONE, "the smallest node spacing is 1 px");
+_Static_assert(MFNS_UNDIST_GRID_MAX_STEP_Q8 < (1 << 16), "cell weights: t << 16 with t < step fits uint32");
+_Static_assert(MFNS_UNDIST_DEFAULT_ITER <= MFNS_UNDIST_MAX_ITER, "the recommended cap is within the bound");
 
 typedef enum {
     MFNS_UNDIST_OK = 0,
@@ -72,6 +75,12 @@ typedef struct {
 mfns_undist_status_t mfns_undistort_iter(const mfns_intrinsics_t *k, float u, float v, int max_iter,
                                          float *x, float *y, int *iters);
 
+/* (a) in double throughout: the iteration of mfns_undistort_iter (which
+ * rounds its result to float) and of the grid builder's nodes. Outputs are
+ * written only on OK. */
+mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter,
+                                      double *x, double *y, int *iters);
+
 /* (b) pixel -> undistorted pixel (Q16.16). */
 mfns_undist_status_t mfns_undistort_grid_px(const mfns_undist_grid_t *g, px_q8_t u_q8, px_q8_t v_q8,
                                             q16_16_t *u_und_q16, q16_16_t *v_und_q16);
@@ -86,7 +95,8 @@ mfns_undist_status_t mfns_undistort_grid(const mfns_undist_grid_t *g, const mfns
  * for v. Nodes are computed with the iterative inverse in double. For
  * tools and tests (the flight path loads grids from the table). Fails with
  * BAD_INPUT when nx*ny > node_cap or a step is out of range, with the
- * status of the inverse when a node does not converge. */
+ * status of the inverse when a node does not converge. Built on the ground:
+ * firmware/host/undist_grid_build.c (not in the flight image). */
 mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t nx, uint16_t ny,
                                             q16_16_t (*node)[2], size_t node_cap, mfns_undist_grid_t *g);
 

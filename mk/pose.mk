@@ -5,7 +5,7 @@ BENCH_TARGETS += bench-pose
 
 POSE_BENCH := $(BUILD)/bench/bench_pose
 
-$(POSE_BENCH): $(BUILD)/obj/tests/bench/bench_pose.o $(BUILD)/libmfns_testsupport.a \
+$(POSE_BENCH): $(BUILD)/obj/tests/bench/bench_pose.o $(BUILD)/libmfns_testsupport.a $(BUILD)/libmfns_host.a \
                $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 	@mkdir -p $(@D)
 	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@

@@ -1,14 +1,18 @@
 # Board: cortex-m7-core -- not a flight target today but the proof that the
-# portable core (math/, firmware/nav/, firmware/tlm/) needs no OS and no heap:
-# it is compiled for a bare-metal Cortex-M7 with hard float and sized.
+# flight core (math/, firmware/nav/, firmware/tlm/; not firmware/host/, which
+# runs on the ground) needs no OS and no heap: it is compiled for a bare-metal
+# Cortex-M7 with hard float, sized, and its stack depth bounded (make size).
 BOARD_KIND      := baremetal
 CC              := arm-none-eabi-gcc
 AR              := arm-none-eabi-ar
 SIZE            := arm-none-eabi-size
 NM              := arm-none-eabi-nm
 # -fno-math-errno: otherwise sqrtf drags newlib's errno path in (+100 B data).
+# -fstack-usage -fcallgraph-info=su: each object's frames and calls (.su,
+# .ci beside the .o), read by mk/stack.py for the worst stack depth per entry.
 BOARD_CFLAGS    := -mcpu=cortex-m7 -mthumb -mfpu=fpv5-d16 -mfloat-abi=hard -O2 \
-                   -ffunction-sections -fdata-sections -fno-math-errno
+                   -ffunction-sections -fdata-sections -fno-math-errno \
+                   -fstack-usage -fcallgraph-info=su
 BOARD_LDFLAGS   := --specs=nano.specs -nostartfiles -T boards/cortex-m7-core/link.ld \
                    -Wl,--gc-sections
 BOARD_DEFINES   := -DMFNS_BOARD_NAME=\"cortex-m7-core\"

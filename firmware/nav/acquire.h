@@ -77,6 +77,12 @@
 #define MFNS_ACQ_MAX_CAND 8
 #define MFNS_ACQ_VERIFY_UNITS 8u
 #define MFNS_ACQ_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)
+_Static_assert(MFNS_ACQ_MIN_BLOBS < MFNS_BIDX_MIN_CERT,
+               "a 4-blob frame is below every certificate: only the completion certifies it");
+_Static_assert(MFNS_MAX_OBS_PER_CAMERA <= 256, "mfns_acq_blob_t.idx is a u8");
+_Static_assert(MFNS_ACQ_MAX_MEAS <= INT16_MAX, "cam_blob[][] and the anchors hold blob indices in int16");
+_Static_assert(MFNS_ACQ_MAX_ANCHORS <= 255, "progress.anchors and cursor.anchor are u8");
+_Static_assert(MFNS_MAX_BEACONS <= INT16_MAX, "the cursor holds beacon indices in int16");
 
 /* Where the search stands (telemetry: housekeeping). units and budget_out
  * are the last call's; the rest covers the whole search (every call since
@@ -186,37 +192,5 @@ bool mfns_acq_pending(const mfns_acq_t *acq);
 
 /* Drop any search: nothing is pending afterwards. */
 void mfns_acq_reset(mfns_acq_t *acq);
-
-/* sizeof of the acquisition's API structs, for the ctypes mirrors of the
- * host tools (host_tools/mfns/flight.py). */
-typedef enum {
-    MFNS_ACQ_ABI_STATE = 0,  /* mfns_acq_t */
-    MFNS_ACQ_ABI_PROGRESS,   /* mfns_acq_progress_t */
-    MFNS_ACQ_ABI_INDEX,      /* mfns_beacon_index_t */
-    MFNS_ACQ_ABI_EMIT,       /* mfns_beacon_emit_t */
-    MFNS_ACQ_ABI_PARAMS,     /* mfns_bidx_params_t */
-    MFNS_ACQ_ABI_CERTIFY,    /* mfns_certify_result_t (acquire_certify.h) */
-    MFNS_ACQ_ABI_CYCLE,      /* mfns_acq_cycle_t (acquire_cycle.h) */
-} mfns_acq_abi_t;
-uint32_t mfns_acq_abi_size(mfns_acq_abi_t what);
-
-/* Internal to the acquisition modules (acquire.c, acquire_certify.c,
- * acquire_cycle.c). mfns_acquire, optionally stopping (pending, resumable)
- * where a 4-blob frame's completion would start, so that a caller already
- * completing another frame of the same view need not pay for this one's: */
-mfns_pose_status_t mfns_acq_start(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                                  const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
-                                  const mfns_pose_config_t *cfg, uint32_t budget_units, bool pause_before_completion,
-                                  mfns_pose_solution_t *out);
-/* The acquisition modules also use:
- * check the inputs and set acq up for frame (false on bad input), then run
- * the search and fill its candidates. */
-bool mfns_acq_prepare(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                      const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
-                      uint32_t budget_units, bool analysis);
-void mfns_acq_search(mfns_acq_t *acq);
-/* A candidate within the index's missing and unexplained allowances (the
- * certificate then only asks for enough inliers). */
-bool mfns_acq_acceptable(const mfns_acq_t *acq, const mfns_acq_cand_t *cd);
 
 #endif /* MFNS_ACQUIRE_H */

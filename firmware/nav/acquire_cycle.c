@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+#include "acquire_internal.h"
+
 void mfns_acq_cycle_reset(mfns_acq_cycle_t *ac)
 {
     if (ac == NULL) {

@@ -45,6 +45,8 @@
  * 1/256ths (half). */
 #define MFNS_ACQ_FRESH_SHARE_Q8 128u
 #define MFNS_ACQ_SHARE_ONE_Q8 256u
+_Static_assert(MFNS_ACQ_FRESH_SHARE_Q8 <= MFNS_ACQ_SHARE_ONE_Q8, "the fresh search's share is at most the budget");
+_Static_assert(MFNS_ACQ_CARRY_MAX_CYCLES <= UINT16_MAX, "carry_age is u16");
 
 typedef enum {
     MFNS_ACQ_SRC_NONE = 0,  /* no fix this cycle */

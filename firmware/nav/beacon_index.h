@@ -34,7 +34,7 @@
  * a missed hypothesis, never a wrong fix: verification decides.
  *
  * Sizes: the table section is MFNS_BIDX_SECTION_SIZE(N, k) bytes (for 256
- * beacons and k = 32: 79,912 B). Build time is O(N^2) pair evaluations times
+ * beacons and k = 32: 79,916 B). Build time is O(N^2) pair evaluations times
  * the face samples (bounded loops); no heap.
  */
 #ifndef MFNS_BEACON_INDEX_H
@@ -45,12 +45,13 @@
 
 #include "camera.h"
 #include "nav_config.h"
+#include "units.h"
 
 #define MFNS_BIDX_MAX_NBR 32u
 #define MFNS_BIDX_MAX_PAIRS ((MFNS_MAX_BEACONS * (MFNS_MAX_BEACONS - 1)) / 2)
 /* Angle codes: an ang_u8 value q stands for q * MFNS_BIDX_ANGLE_LSB_RAD, 0 .. pi. */
 #define MFNS_BIDX_ANGLE_CODES 255u
-#define MFNS_BIDX_ANGLE_LSB_RAD (3.14159265358979f / (float)MFNS_BIDX_ANGLE_CODES)
+#define MFNS_BIDX_ANGLE_LSB_RAD (MFNS_PI_F / (float)MFNS_BIDX_ANGLE_CODES)
 #define MFNS_BIDX_ANGLE_PAD_RAD 0.02f /* ~1.1 deg on each side of a computed interval */
 /* Certificate bounds: 3 inliers make a hypothesis and a 4th alone is matched
  * by chance even in the paper's 10-beacon map (a recorded frame: a pose
@@ -63,6 +64,14 @@
  * required inliers per missing count 0 .. this. */
 #define MFNS_BIDX_MAX_MISSING 3u
 
+/* The invariants the layout and the comments above rely on. */
+_Static_assert(MFNS_MAX_BEACONS <= 256, "nbr[][] holds beacon indices in a u8");
+_Static_assert(MFNS_BIDX_MAX_NBR <= 255u, "nbr_count and k_nbr are u8");
+_Static_assert(MFNS_BIDX_ANGLE_CODES <= 255u, "pair_lo/pair_hi are ang_u8 codes");
+_Static_assert(MFNS_BIDX_MIN_CERT >= 5u && MFNS_BIDX_MIN_CERT <= MFNS_BIDX_MAX_CERT,
+               "an early stop needs at least 5 inliers; the table's bounds are ordered");
+_Static_assert(MFNS_BIDX_MAX_CERT <= 255u, "cert_inliers[] is u8");
+
 /* Table section layout (docs/caltable.md "Map index"), offsets in the section. */
 #define MFNS_BIDX_HEADER_SIZE 44u
 #define MFNS_BIDX_GEOM_SIZE 24u
@@ -70,6 +79,7 @@
     (MFNS_BIDX_HEADER_SIZE + MFNS_BIDX_GEOM_SIZE * (uint32_t)(n) + (uint32_t)(n) * (1u + (uint32_t)(k)) + \
      (uint32_t)(n) * ((uint32_t)(n) - 1u))
 #define MFNS_BIDX_MAX_SECTION_SIZE MFNS_BIDX_SECTION_SIZE(MFNS_MAX_BEACONS, MFNS_BIDX_MAX_NBR)
+_Static_assert(MFNS_BIDX_SECTION_SIZE(256u, 32u) == 79916u, "the size quoted at the top of this file");
 
 /* Emission of one LED: axis (unit, or zero for "all directions") and the
  * cosine of its half-angle (visible where cos(angle to the axis) >= it). */
@@ -118,6 +128,12 @@ typedef struct {
     uint32_t budget_units;
 } mfns_bidx_params_t;
 
+/* ---- Ground side: the build and the serialisation of the index, defined
+ * in firmware/host/beacon_index_build.c (the default parameters in
+ * nav_defaults_gen.c, generated from caltable_layout.toml, with the other defaults; firmware/host is linked into libmfns_core.so and the
+ * unit tests, never into the flight image; `make size` fails a flight module
+ * that calls them). Declared here beside the layout they fill. */
+
 /* The defaults `mfns table build` writes (nav_defaults_gen.c, from caltable_layout.toml). */
 void mfns_bidx_params_default(mfns_bidx_params_t *p);
 
@@ -134,6 +150,11 @@ mfns_bidx_status_t mfns_bidx_encode(const mfns_beacon_index_t *idx, uint8_t *buf
 /* MFNS_BIDX_SECTION_SIZE(n, k) as a function, for the host tools (ctypes). */
 uint32_t mfns_bidx_section_size(uint32_t n, uint32_t k);
 
+/* The widest angle between two pixels of any camera of the rig (rad). */
+float mfns_bidx_rig_fov_diag_rad(const mfns_rig_t *rig);
+
+/* ---- Flight side: the look-ups of the acquisition (beacon_index.c). */
+
 /* Position of the unordered pair (a, b), a != b, in pair_lo/pair_hi. */
 static inline uint32_t mfns_bidx_pair_slot(uint32_t n, uint32_t a, uint32_t b)
 {
@@ -146,9 +167,6 @@ bool mfns_bidx_pair_admits(const mfns_beacon_index_t *idx, uint32_t a, uint32_t 
 
 /* Is beacon b (emission cone) facing the point p_w? */
 bool mfns_bidx_emits_toward(const mfns_beacon_geom_t *g, mfns_v3_t p_beacon_w, mfns_v3_t p_w);
-
-/* The widest angle between two pixels of any camera of the rig (rad). */
-float mfns_bidx_rig_fov_diag_rad(const mfns_rig_t *rig);
 
 const char *mfns_bidx_strerror(mfns_bidx_status_t s);
 

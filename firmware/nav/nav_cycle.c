@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "undistort.h"
+#include "units.h"
 
 #define NAV_MAGIC 0x4E415631u /* "NAV1" */
 
@@ -238,10 +239,9 @@ static bool minimal_agrees(const mfns_nav_t *nav, const mfns_pose_solution_t *s)
         chi_p += d[i] * d[i] / (s->sigma_pos_mm[i] * s->sigma_pos_mm[i] + pp * pp);
     }
     /* attitude: the rotation angle against the largest angular sigma */
-    const float deg2rad = 0.01745329252f;
     float sr = 0.0f;
     for (int i = 0; i < 3; i++) {
-        sr = fmaxf(sr, s->sigma_euler_deg[i] * deg2rad);
+        sr = fmaxf(sr, s->sigma_euler_deg[i] * MFNS_RAD_PER_DEG_F);
     }
     const float da = mfns_rot_angle_between(s->pose.C_w_b, nav->predicted.C_w_b);
     const float chi_r = da * da / (sr * sr + pr * pr);

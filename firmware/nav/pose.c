@@ -9,8 +9,8 @@
 #include <string.h>
 
 #include "pose_internal.h"
+#include "units.h"
 
-#define RAD2DEG 57.29577951308232f
 
 void mfns_pose_config_default(mfns_pose_config_t *cfg)
 {
@@ -66,27 +66,6 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return "fewer blobs than the map's certificate needs for a unique fix";
     }
     return "unknown pose reason";
-}
-
-uint32_t mfns_pose_abi_size(mfns_pose_abi_t what)
-{
-    switch (what) {
-    case MFNS_POSE_ABI_RIG:
-        return (uint32_t)sizeof(mfns_rig_t);
-    case MFNS_POSE_ABI_MAP:
-        return (uint32_t)sizeof(mfns_beacon_map_t);
-    case MFNS_POSE_ABI_FRAME:
-        return (uint32_t)sizeof(mfns_obs_frame_t);
-    case MFNS_POSE_ABI_ASSOC:
-        return (uint32_t)sizeof(mfns_pose_assoc_t);
-    case MFNS_POSE_ABI_POSE:
-        return (uint32_t)sizeof(mfns_pose_t);
-    case MFNS_POSE_ABI_CONFIG:
-        return (uint32_t)sizeof(mfns_pose_config_t);
-    case MFNS_POSE_ABI_SOLUTION:
-        return (uint32_t)sizeof(mfns_pose_solution_t);
-    }
-    return 0;
 }
 
 void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason)
@@ -250,9 +229,9 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     out->r_wb_w = mfns_pose_position_w(&pose);
     mfns_euler_t e;
     (void)mfns_m3_to_euler213(pose.C_w_b, &e);
-    out->euler_deg.roll = e.roll * RAD2DEG;
-    out->euler_deg.pitch = e.pitch * RAD2DEG;
-    out->euler_deg.yaw = e.yaw * RAD2DEG;
+    out->euler_deg.roll = e.roll * MFNS_DEG_PER_RAD_F;
+    out->euler_deg.pitch = e.pitch * MFNS_DEG_PER_RAD_F;
+    out->euler_deg.yaw = e.yaw * MFNS_DEG_PER_RAD_F;
     mfns_m3_to_quat(mfns_m3_transpose(pose.C_w_b), out->q_b_w);
     if (r != MFNS_POSE_R_NONE) {
         out->reason = r;

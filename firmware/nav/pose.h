@@ -167,18 +167,6 @@ void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reas
 
 const char *mfns_pose_status_str(mfns_pose_status_t s);
 
-/* sizeof of the API structs, so that foreign-function mirrors (the Python
- * host tools' ctypes, host_tools/mfns/flight.py) can check their layout. */
-typedef enum {
-    MFNS_POSE_ABI_RIG = 0,
-    MFNS_POSE_ABI_MAP,
-    MFNS_POSE_ABI_FRAME,
-    MFNS_POSE_ABI_ASSOC,
-    MFNS_POSE_ABI_POSE,
-    MFNS_POSE_ABI_CONFIG,
-    MFNS_POSE_ABI_SOLUTION,
-} mfns_pose_abi_t;
-uint32_t mfns_pose_abi_size(mfns_pose_abi_t what);
 const char *mfns_pose_strerror(mfns_pose_reason_t r);
 
 #endif /* MFNS_POSE_H */

@@ -9,8 +9,8 @@
 
 #include "pose_internal.h"
 #include "spd.h"
+#include "units.h"
 
-#define RAD2DEG 57.29577951308232f
 
 /* d(u, v) / d(calibration parameters of the observing camera) (nav_config.h
  * order) at pose, with the errors' conventions of mfns_calib_cov_t: a mount
@@ -212,10 +212,10 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         for (int r = 0; r < 3; r++) {
             float v = de[r];
             /* angles wrap at +-pi */
-            if (v > 3.14159265f) {
-                v -= 6.28318531f;
-            } else if (v < -3.14159265f) {
-                v += 6.28318531f;
+            if (v > MFNS_PI_F) {
+                v -= MFNS_TWO_PI_F;
+            } else if (v < -MFNS_PI_F) {
+                v += MFNS_TWO_PI_F;
             }
             jo[3 + r][c] = v / (2.0f * hstep);
             jo[3 + r][c + 3] = 0.0f;
@@ -260,7 +260,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         if (r < 3) {
             out->sigma_pos_mm[r] = sd;
         } else {
-            out->sigma_euler_deg[r - 3] = sd * RAD2DEG;
+            out->sigma_euler_deg[r - 3] = sd * MFNS_DEG_PER_RAD_F;
         }
     }
     return MFNS_POSE_R_NONE;

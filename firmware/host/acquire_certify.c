@@ -3,7 +3,7 @@
 
 #include <string.h>
 
-#include "pose_internal.h"
+#include "acquire_internal.h"
 
 void mfns_certify_frame(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_beacon_index_t *idx,
                         const mfns_pose_t *pose, mfns_obs_frame_t *frame, mfns_pose_assoc_t *truth)

@@ -1,0 +1,331 @@
+/* acquire_verify.c -- the acquisition's checks of a hypothesis pose
+ * (acquire.h, step 3) and its list of candidates (acquire_internal.h). */
+#include <math.h>
+#include <string.h>
+
+#include "acquire_internal.h"
+
+/* The verification blobs are the anchor's nearest neighbours in the image,
+ * where the minimal pose's prediction error is smallest: they are checked
+ * with half the minimal gate (a false hypothesis then passes ~4x less often;
+ * measured, the right one still passes, docs/pose.md). */
+#define QUICK_GATE_FACTOR 2.0f
+
+/* Predicted beacons closer than this to the image border are not counted as
+ * missing (a spot cut by the border may be refused by the centroider). */
+#define MISSING_EDGE_PX 8.0f
+
+/* The workspace test of a candidate (mfns_acq_physical) widens the box by
+ * this many of the solution's own position sigma as well. */
+#define WORKSPACE_TOL_SIGMA 6.0f
+
+/* Upper 1e-5 quantiles of chi-square with k = 1..16 degrees of freedom. */
+static const float chi2_q[16] = {19.51f, 23.03f, 25.90f, 28.47f, 30.86f, 33.11f, 35.26f, 37.33f,
+                                 39.34f, 41.30f, 43.21f, 45.08f, 46.91f, 48.72f, 50.49f, 52.24f};
+
+static float chi2_quantile(int dof)
+{
+    if (dof <= 16) {
+        return chi2_q[dof - 1];
+    }
+    /* Wilson-Hilferty, z = 4.265 (1e-5) */
+    const float a = 2.0f / (9.0f * (float)dof);
+    const float b = 1.0f - a + 4.265f * sqrtf(a);
+    return (float)dof * b * b * b;
+}
+
+/* The residuals of the inliers are plausible under the noise: sum of
+ * r_i^T R_i^-1 r_i below the chi-square quantile with 2n - 6 degrees of
+ * freedom at 1e-5, where R_i is the observation's covariance of the ML solve
+ * (mfns_pose_obs_cov: centroid, floor, and the beacon's survey error seen at
+ * its range). A right pose fails once in 1e5; a rival correspondence that
+ * fits "nearly" is rejected. */
+bool mfns_acq_chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
+{
+    const int dof = 2 * (int)sol->beacons_used - 6;
+    if (dof <= 0) {
+        return true;
+    }
+    float chi2 = 0.0f;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b == MFNS_POSE_NO_BEACON || !sol->inlier[c][i]) {
+                continue;
+            }
+            const mfns_camera_t *cam = &q->rig->cam[c];
+            const mfns_obs_t *o = &q->frame->obs[c][i];
+            float uv[2], rc[3], w[3];
+            if (mfns_cam_project(cam, &sol->pose, q->map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK ||
+                !mfns_pose_obs_cov(cam, &sol->pose, q->map->beacon[b].p_w, o->cov_px2, q->map->beacon[b].sigma_mm,
+                                   q->cfg->sigma_px, rc) ||
+                !mfns_pose_whitener(rc, w)) {
+                return false;
+            }
+            const float du = uv[0] - o->u, dv = uv[1] - o->v;
+            const float e0 = w[0] * du, e1 = w[1] * du + w[2] * dv;
+            chi2 += e0 * e0 + e1 * e1;
+        }
+    }
+    return chi2 <= chi2_quantile(dof);
+}
+
+/* Beacons predicted inside an image (away from its border), in front of the
+ * camera and facing it, that no inlier of the solution accounts for. */
+int mfns_acq_count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
+{
+    const mfns_beacon_map_t *map = q->map;
+    bool used[MFNS_MAX_BEACONS] = {false};
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b >= 0 && b < map->count && sol->inlier[c][i]) {
+                used[b] = true;
+            }
+        }
+    }
+    /* camera centres in the world: r_wb_w + C_b_w r_bk_b; a full list kept the
+     * brightest and a dark camera saw nothing, so neither can miss a beacon */
+    mfns_v3_t ck[MFNS_NUM_CAMERAS];
+    bool looks[MFNS_NUM_CAMERAS];
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        ck[c] = mfns_v3_add(mfns_pose_position_w(&sol->pose), mfns_m3_tmul_v3(sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        looks[c] = q->frame->count[c] < MFNS_MAX_OBS_PER_CAMERA && q->frame->dark[c] == 0U;
+    }
+    int missing = 0;
+    const float m = MISSING_EDGE_PX;
+    for (int b = 0; b < map->count; b++) {
+        for (int c = 0; c < MFNS_NUM_CAMERAS && !used[b]; c++) {
+            const mfns_camera_t *cam = &q->rig->cam[c];
+            float uv[2];
+            if (!looks[c] || mfns_cam_project(cam, &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+                continue;
+            }
+            if (uv[0] < m - 0.5f || uv[1] < m - 0.5f || uv[0] > (float)cam->k.width - 0.5f - m ||
+                uv[1] > (float)cam->k.height - 0.5f - m ||
+                !mfns_bidx_emits_toward(&q->idx->geom[b], map->beacon[b].p_w, ck[c])) {
+                continue;
+            }
+            missing++;
+            break;
+        }
+    }
+    q->progress.units += (uint32_t)map->count / 8u; /* ~0.1 us per beacon: three projections */
+    return missing;
+}
+
+/* A pose the rig can physically have: the body origin inside the table's
+ * workspace (widened by MFNS_ACQ_WORKSPACE_TOL_MM plus WORKSPACE_TOL_SIGMA of the
+ * solution's own position sigma, so that a right pose is never refused for
+ * its noise), and every inlier's LED facing the camera that sees it. The
+ * truth always passes (the workspace is the contract of the table); a wrong
+ * correspondence often fits the blobs only from behind a wall or through an
+ * LED's back, and without this check such a rival would make a view
+ * ambiguous or spend the certificate. */
+bool mfns_acq_physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
+{
+    const mfns_v3_t p = mfns_pose_position_w(&sol->pose);
+    const float pw[3] = {p.x, p.y, p.z};
+    const float lo[3] = {q->idx->ws_min_w.x, q->idx->ws_min_w.y, q->idx->ws_min_w.z};
+    const float hi[3] = {q->idx->ws_max_w.x, q->idx->ws_max_w.y, q->idx->ws_max_w.z};
+    for (int a = 0; a < 3; a++) {
+        const float tol = MFNS_ACQ_WORKSPACE_TOL_MM + WORKSPACE_TOL_SIGMA * sol->sigma_pos_mm[a];
+        if (!(pw[a] >= lo[a] - tol && pw[a] <= hi[a] + tol)) {
+            return false;
+        }
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3(sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b >= 0 && b < q->map->count && sol->inlier[c][i] &&
+                !mfns_bidx_emits_toward(&q->idx->geom[b], q->map->beacon[b].p_w, ck)) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+static bool same_assoc(const mfns_acq_t *q, const mfns_pose_solution_t *a, const mfns_pose_solution_t *b)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            const int16_t ba = a->inlier[c][i] ? a->assoc.beacon[c][i] : MFNS_POSE_NO_BEACON;
+            const int16_t bb = b->inlier[c][i] ? b->assoc.beacon[c][i] : MFNS_POSE_NO_BEACON;
+            if (ba != bb) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+bool mfns_acq_acceptable(const mfns_acq_t *q, const mfns_acq_cand_t *cd)
+{
+    return cd->missing <= q->idx->max_missing && q->nb - (int)cd->inliers <= (int)q->idx->max_unexplained;
+}
+
+static bool better(const mfns_acq_cand_t *a, const mfns_acq_cand_t *b)
+{
+    return a->inliers > b->inliers || (a->inliers == b->inliers && a->missing < b->missing);
+}
+
+void mfns_acq_add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd)
+{
+    for (int i = 0; i < q->ncand; i++) {
+        if (same_assoc(q, &q->cand[i].sol, &cd->sol)) {
+            return;
+        }
+    }
+    int slot = q->ncand;
+    if (q->ncand < MFNS_ACQ_MAX_CAND) {
+        q->ncand++;
+    } else {
+        int worst = 0;
+        for (int i = 1; i < q->ncand; i++) {
+            if (better(&q->cand[worst], &q->cand[i])) {
+                worst = i;
+            }
+        }
+        if (!better(cd, &q->cand[worst])) {
+            return;
+        }
+        slot = worst;
+    }
+    q->cand[slot] = *cd;
+    q->best = 0;
+    for (int i = 1; i < q->ncand; i++) {
+        if (better(&q->cand[i], &q->cand[q->best])) {
+            q->best = i;
+        }
+    }
+    q->progress.best_inliers = q->cand[q->best].inliers;
+    q->progress.best_missing = q->cand[q->best].missing;
+    if (q->exhaustive) { /* only the completion enumerates exhaustively */
+        /* two identifications that explain every blob: the completion's
+         * answer is AMBIGUOUS whatever else it finds, so it ends here */
+        int full = 0;
+        for (int i = 0; i < q->ncand; i++) {
+            full += ((int)q->cand[i].inliers == q->nb && q->cand[i].missing <= q->idx->max_missing) ? 1 : 0;
+        }
+        q->settled = full >= 2;
+    }
+    if (!q->analysis && mfns_acq_acceptable(q, cd)) {
+        if (cd->inliers >= q->idx->cert_inliers[cd->missing]) {
+            q->certified = slot;
+        } else if ((int)cd->inliers == q->nb && q->nb == MFNS_ACQ_MIN_BLOBS) {
+            /* every blob explained, yet too few for the certificate: only the
+             * completion can certify it, so the bands stop here */
+            q->to_complete = true;
+        }
+    }
+}
+
+/* Does a beacon land within the quick gate of blob v (normalized
+ * coordinates, no distortion)? In the anchor's image only the beacons near
+ * a, b or c can (their neighbour lists); in another camera's, any. */
+static bool beacon_hits(mfns_acq_t *q, const mfns_pose_t *pose, int v, int anchor_cam, const int abc[3])
+{
+    const mfns_acq_blob_t *bv = &q->blobs[v];
+    const mfns_camera_t *cam = &q->rig->cam[bv->cam];
+    const mfns_m3_t m = mfns_m3_mul(mfns_m3_transpose(cam->C_k_b), pose->C_w_b);
+    const mfns_v3_t t = mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(pose->r_bw_b, cam->r_bk_b));
+    const mfns_obs_t *o = &q->frame->obs[bv->cam][bv->idx];
+    const bool local = bv->cam == anchor_cam && !q->exhaustive;
+    /* another camera looks ~90 deg away: the minimal pose's rotation error
+     * has a long lever there, so it gets the full minimal gate */
+    const float g = bv->cam == anchor_cam ? QUICK_GATE_FACTOR * q->gate_n[bv->cam] / MFNS_ACQ_MINIMAL_GATE_FACTOR
+                                          : q->gate_n[bv->cam];
+    const int lists = local ? 3 : 1;
+    for (int l = 0; l < lists; l++) {
+        const int a = abc[l];
+        const int n = local ? q->idx->nbr_count[a] : q->map->count;
+        q->progress.units += local ? 0u : (uint32_t)n / 64u;
+        for (int r = 0; r < n; r++) {
+            const int b = local ? q->idx->nbr[a][r] : r;
+            if (b == abc[0] || b == abc[1] || b == abc[2]) {
+                continue;
+            }
+            const mfns_v3_t p = mfns_v3_add(mfns_m3_mul_v3(m, q->map->beacon[b].p_w), t);
+            if (p.z < MFNS_CAM_MIN_DEPTH_MM) {
+                continue;
+            }
+            const float dx = p.x / p.z - o->x, dy = p.y / p.z - o->y;
+            if (dx * dx + dy * dy <= g * g) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+/* Cheap check of a hypothesis pose on the anchor's verification blobs: one
+ * of them must be explained by a beacon, and in the anchor's image at most
+ * max_unexplained may be left (in another camera, where the minimal pose
+ * predicts worst, any may). A verification blob may be the reflection a
+ * certified fix is allowed to leave: requiring every one in the anchor's image
+ * lost every anchor of a view of 1 + 1 + 5 blobs with a reflection among the
+ * five (measured), the reflection being among the nearest of each blob. */
+bool mfns_acq_quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3])
+{
+    q->progress.units++;
+    const int cam = q->blobs[an->i].cam;
+    int tried = 0, hit = 0, missed_here = 0;
+    for (int w = 0; w < 2; w++) {
+        if (an->v[w] < 0) {
+            continue;
+        }
+        const bool h = beacon_hits(q, pose, an->v[w], cam, abc);
+        if (!h && q->blobs[an->v[w]].cam == cam && ++missed_here > (int)q->idx->max_unexplained) {
+            return false;
+        }
+        tried++;
+        hit += h ? 1 : 0;
+    }
+    return tried == 0 || hit > 0;
+}
+
+/* Associate in pixels, refine, associate again; the candidate or false. */
+bool mfns_acq_full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t *cd)
+{
+    /* an association projects every beacon into every camera: ~0.1 us per beacon */
+    q->progress.units += MFNS_ACQ_VERIFY_UNITS + (uint32_t)q->map->count / 8u;
+    q->progress.verified++;
+    memset(cd, 0, sizeof *cd);
+    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MFNS_ACQ_MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
+                            &cd->sol.assoc) < (int)MFNS_ACQ_MIN_BLOBS) {
+        return false;
+    }
+    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    const int n = mfns_pose_gather(q->map, q->frame, &cd->sol.assoc, m);
+    if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd->sol) == MFNS_POSE_NO_FIX) {
+        return false;
+    }
+    /* The minimal pose predicts the other beacons only roughly: associate
+     * again from the refined pose, with the tracking gate and then a wider
+     * one, keeping a re-solve that explains more blobs and stays consistent. */
+    for (int round = 0; round < 2; round++) {
+        const float gate = q->cfg->s.track_gate_px * (round == 0 ? 1.0f : MFNS_ACQ_MINIMAL_GATE_FACTOR);
+        mfns_pose_assoc_t again;
+        if (mfns_pose_associate(q->rig, q->map, q->frame, &cd->sol.pose, gate, &again) <= cd->sol.beacons_used) {
+            continue;
+        }
+        q->progress.units += MFNS_ACQ_VERIFY_UNITS + (uint32_t)q->map->count / 8u;
+        mfns_pose_solution_t s2;
+        memset(&s2, 0, sizeof s2);
+        s2.assoc = again;
+        const int n2 = mfns_pose_gather(q->map, q->frame, &again, m);
+        if (n2 >= 0 && mfns_pose_refine_meas(q->rig, m, n2, &cd->sol.pose, q->cfg, &s2) != MFNS_POSE_NO_FIX &&
+            s2.beacons_used > cd->sol.beacons_used && mfns_acq_chi2_consistent(q, &s2) && mfns_acq_physical(q, &s2)) {
+            cd->sol = s2;
+        }
+    }
+    if (cd->sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &cd->sol) || !mfns_acq_physical(q, &cd->sol)) {
+        return false;
+    }
+    cd->inliers = (uint8_t)(cd->sol.beacons_used > 255u ? 255u : cd->sol.beacons_used);
+    const int miss = mfns_acq_count_missing(q, &cd->sol);
+    cd->missing = (uint8_t)(miss > 255 ? 255 : miss);
+    return true;
+}
