@@ -38,10 +38,10 @@ static void distort_d(const double c[5], double x, double y, double *xd, double 
     j[1][1] = radial + 2.0 * y * y * dr + 6.0 * p1 * y + 2.0 * p2 * x;
 }
 
-mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter,
-                                        double *x_out, double *y_out, int *iters)
+mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter, double tol_px,
+                                      double *x_out, double *y_out, int *iters)
 {
-    if (k == NULL || x_out == NULL || y_out == NULL) {
+    if (k == NULL || x_out == NULL || y_out == NULL || !(tol_px > 0.0)) {
         return MFNS_UNDIST_BAD_INPUT;
     }
     const double fx = (double)k->fx, fy = (double)k->fy, skew = (double)k->skew;
@@ -65,7 +65,7 @@ mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, doub
         if (!isfinite(ru) || !isfinite(rv)) {
             return MFNS_UNDIST_NOT_CONVERGED;
         }
-        if (fabs(ru) <= MFNS_UNDIST_TOL_PX && fabs(rv) <= MFNS_UNDIST_TOL_PX) {
+        if (fabs(ru) <= tol_px && fabs(rv) <= tol_px) {
             *x_out = x;
             *y_out = y;
             if (iters != NULL) {
@@ -93,7 +93,7 @@ mfns_undist_status_t mfns_undistort_iter(const mfns_intrinsics_t *k, float u, fl
         return MFNS_UNDIST_BAD_INPUT;
     }
     double xd, yd;
-    const mfns_undist_status_t s = mfns_undistort_d(k, (double)u, (double)v, max_iter, &xd, &yd, iters);
+    const mfns_undist_status_t s = mfns_undistort_d(k, (double)u, (double)v, max_iter, MFNS_UNDIST_TOL_PX, &xd, &yd, iters);
     if (s == MFNS_UNDIST_OK) {
         *x = (float)xd;
         *y = (float)yd;

@@ -39,6 +39,13 @@
 #define MFNS_UNDIST_MAX_ITER 50
 #define MFNS_UNDIST_DEFAULT_ITER 10
 #define MFNS_UNDIST_TOL_PX 1e-6
+/* The grid builder's criterion: a node is the exact inverse to double
+ * precision (about 1e-12 px above the ~4e-13 px rounding floor of a 2,000 px
+ * focal length), so its Q16.16 rounding does not depend on where the
+ * iteration stopped (at 1e-6 px, 0.1 % of the nodes of the paper's lenses
+ * rounded to the neighbouring 1.5e-5 px value: measured against the double
+ * Newton of host_tools/mfns/camera.py, which the tables were built with). */
+#define MFNS_UNDIST_GRID_TOL_PX 1e-11
 
 /* (b): the span between nodes is limited to [1, 256) px so that the cell
  * weights are computed in 32-bit integers. */
@@ -76,9 +83,11 @@ mfns_undist_status_t mfns_undistort_iter(const mfns_intrinsics_t *k, float u, fl
                                          float *x, float *y, int *iters);
 
 /* (a) in double throughout: the iteration of mfns_undistort_iter (which
- * rounds its result to float) and of the grid builder's nodes. Outputs are
- * written only on OK. */
-mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter,
+ * rounds its result to float, tol_px = MFNS_UNDIST_TOL_PX) and of the grid
+ * builder's nodes (MFNS_UNDIST_GRID_TOL_PX). Converged: the re-distortion
+ * residual is within tol_px (> 0) on both axes. Outputs are written only
+ * on OK. */
+mfns_undist_status_t mfns_undistort_d(const mfns_intrinsics_t *k, double u, double v, int max_iter, double tol_px,
                                       double *x, double *y, int *iters);
 
 /* (b) pixel -> undistorted pixel (Q16.16). */

@@ -34,7 +34,7 @@ mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t
             const double u = ((double)origin + (double)i * (double)su) / (double)MFNS_PX_Q8_ONE;
             const double v = ((double)origin + (double)j * (double)sv) / (double)MFNS_PX_Q8_ONE;
             double x, y;
-            const mfns_undist_status_t s = mfns_undistort_d(k, u, v, MFNS_UNDIST_MAX_ITER, &x, &y, NULL);
+            const mfns_undist_status_t s = mfns_undistort_d(k, u, v, MFNS_UNDIST_MAX_ITER, MFNS_UNDIST_GRID_TOL_PX, &x, &y, NULL);
             if (s != MFNS_UNDIST_OK) {
                 return s;
             }
