@@ -34,15 +34,7 @@ static mfns_cam_err_t queue_buffer(mfns_cam_t *h, uint32_t i)
     mfns_cam_v4l2_t *v = &h->b.v4l2;
     struct v4l2_buffer b;
     struct v4l2_plane planes[VIDEO_MAX_PLANES];
-    memset(&b, 0, sizeof b);
-    memset(planes, 0, sizeof planes);
-    b.type = v->buf_type;
-    b.memory = V4L2_MEMORY_MMAP;
-    b.index = i;
-    if (mfns_cam_v4l2_is_mplane(v)) {
-        b.m.planes = planes;
-        b.length = 1;
-    }
+    mfns_cam_v4l2_buffer_init(v, &b, planes, i, 1u);
     if (mfns_cam_v4l2_xioctl(h, VIDIOC_QBUF, &b) != 0) {
         return mfns_cam_fail(h, errno == ENODEV ? MFNS_CAM_E_LOST : MFNS_CAM_E_IO, "VIDIOC_QBUF(%u) failed: %s", i,
                              strerror(errno));
@@ -160,14 +152,7 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
     for (int tries = 0; tries < MFNS_CAM_V4L2_MAX_DQ_TRIES; tries++) {
         struct v4l2_buffer b;
         struct v4l2_plane planes[VIDEO_MAX_PLANES];
-        memset(&b, 0, sizeof b);
-        memset(planes, 0, sizeof planes);
-        b.type = v->buf_type;
-        b.memory = V4L2_MEMORY_MMAP;
-        if (mfns_cam_v4l2_is_mplane(v)) {
-            b.m.planes = planes;
-            b.length = VIDEO_MAX_PLANES;
-        }
+        mfns_cam_v4l2_buffer_init(v, &b, planes, 0u, VIDEO_MAX_PLANES);
         if (mfns_cam_v4l2_xioctl(h, VIDIOC_DQBUF, &b) == 0) {
             const uint32_t i = b.index;
             if (i >= v->nbuf || !v->buf[i].start || v->buf[i].held) {

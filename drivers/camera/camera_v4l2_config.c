@@ -287,15 +287,7 @@ static mfns_cam_err_t setup_buffers(mfns_cam_t *h)
     for (uint32_t i = 0; i < v->nbuf; i++) {
         struct v4l2_buffer b;
         struct v4l2_plane planes[VIDEO_MAX_PLANES];
-        memset(&b, 0, sizeof b);
-        memset(planes, 0, sizeof planes);
-        b.type = v->buf_type;
-        b.memory = V4L2_MEMORY_MMAP;
-        b.index = i;
-        if (mfns_cam_v4l2_is_mplane(v)) {
-            b.m.planes = planes;
-            b.length = VIDEO_MAX_PLANES;
-        }
+        mfns_cam_v4l2_buffer_init(v, &b, planes, i, VIDEO_MAX_PLANES);
         if (mfns_cam_v4l2_xioctl(h, VIDIOC_QUERYBUF, &b) != 0) {
             return mfns_cam_fail(h, errno == ENODEV ? MFNS_CAM_E_LOST : MFNS_CAM_E_BUFFERS,
                                  "VIDIOC_QUERYBUF(%u) failed: %s", i, strerror(errno));

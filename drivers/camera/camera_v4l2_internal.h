@@ -12,6 +12,7 @@
 #include <linux/videodev2.h>
 #include <stdbool.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "camera_backend.h"
 #include "camera_v4l2.h"
@@ -28,6 +29,24 @@ int mfns_cam_v4l2_xioctl(mfns_cam_t *h, unsigned long request, void *arg);
 static inline bool mfns_cam_v4l2_is_mplane(const mfns_cam_v4l2_t *v)
 {
     return v->buf_type == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
+}
+
+/* A zeroed mmap buffer descriptor of the handle's type for buffer `index`;
+ * on a multi-planar device it points at `planes` (zeroed, VIDEO_MAX_PLANES
+ * of them) and announces n_planes of them. */
+static inline void mfns_cam_v4l2_buffer_init(const mfns_cam_v4l2_t *v, struct v4l2_buffer *b,
+                                             struct v4l2_plane planes[VIDEO_MAX_PLANES], uint32_t index,
+                                             uint32_t n_planes)
+{
+    memset(b, 0, sizeof *b);
+    memset(planes, 0, VIDEO_MAX_PLANES * sizeof planes[0]);
+    b->type = v->buf_type;
+    b->memory = V4L2_MEMORY_MMAP;
+    b->index = index;
+    if (mfns_cam_v4l2_is_mplane(v)) {
+        b->m.planes = planes;
+        b->length = n_planes;
+    }
 }
 
 /* ---- configuring and releasing (camera_v4l2_config.c) -------------------- */

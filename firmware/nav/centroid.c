@@ -59,7 +59,7 @@ const char *mfns_blob_reason_name(uint16_t reason_bit)
 /* ------------------------------------------------------------------------ */
 /* Input checks */
 
-mfns_centroid_status_t mfns_centroid_check_frame(const mfns_frame_t *f)
+static mfns_centroid_status_t check_frame(const mfns_frame_t *f)
 {
     if (f == NULL || f->data == NULL) {
         return MFNS_CENTROID_ERR_NULL;
@@ -78,7 +78,7 @@ mfns_centroid_status_t mfns_centroid_check_frame(const mfns_frame_t *f)
     return MFNS_CENTROID_OK;
 }
 
-mfns_centroid_status_t mfns_centroid_check_rois(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n)
+static mfns_centroid_status_t check_rois(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n)
 {
     if (n == 0u) {
         return MFNS_CENTROID_OK;
@@ -102,6 +102,12 @@ mfns_centroid_status_t mfns_centroid_check_rois(const mfns_frame_t *f, const mfn
         }
     }
     return MFNS_CENTROID_OK;
+}
+
+mfns_centroid_status_t mfns_centroid_check_inputs(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois)
+{
+    const mfns_centroid_status_t st = check_frame(f);
+    return st != MFNS_CENTROID_OK ? st : check_rois(f, rois, n_rois);
 }
 
 uint16_t mfns_centroid_regions(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois,
@@ -150,11 +156,7 @@ mfns_centroid_status_t mfns_centroid_detect(const mfns_frame_t *frame, const mfn
     if (settings == NULL || bg == NULL || work == NULL) {
         return MFNS_CENTROID_ERR_NULL;
     }
-    mfns_centroid_status_t st = mfns_centroid_check_frame(frame);
-    if (st != MFNS_CENTROID_OK) {
-        return st;
-    }
-    st = mfns_centroid_check_rois(frame, rois, n_rois);
+    mfns_centroid_status_t st = mfns_centroid_check_inputs(frame, rois, n_rois);
     if (st != MFNS_CENTROID_OK) {
         return st;
     }

@@ -133,11 +133,7 @@ mfns_centroid_status_t mfns_centroid_background(const mfns_frame_t *frame, const
     if (work == NULL || bg == NULL) {
         return MFNS_CENTROID_ERR_NULL;
     }
-    mfns_centroid_status_t st = mfns_centroid_check_frame(frame);
-    if (st != MFNS_CENTROID_OK) {
-        return st;
-    }
-    st = mfns_centroid_check_rois(frame, rois, n_rois);
+    const mfns_centroid_status_t st = mfns_centroid_check_inputs(frame, rois, n_rois);
     if (st != MFNS_CENTROID_OK) {
         return st;
     }

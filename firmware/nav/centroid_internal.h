@@ -97,9 +97,9 @@ typedef struct {
     uint32_t x0, y0, x1, y1;
 } mfns_centroid_region_t;
 
-/* Input checks (centroid.c). */
-mfns_centroid_status_t mfns_centroid_check_frame(const mfns_frame_t *f);
-mfns_centroid_status_t mfns_centroid_check_rois(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n);
+/* Input checks (centroid.c): the frame (pointer, format, size, stride), then
+ * the windows (count, inside the frame, none overlapping). */
+mfns_centroid_status_t mfns_centroid_check_inputs(const mfns_frame_t *f, const mfns_roi_t *rois, uint16_t n_rois);
 
 /* The regions of a call: the frame (n_rois == 0) or the windows; reg holds
  * MFNS_CENTROID_MAX_ROIS. Returns their count (centroid.c). */
