@@ -23,6 +23,13 @@ const mfns_cam_backend_ops_t mfns_cam_libcamera_ops = {mfns_lcam_open,    mfns_l
 static mfns_cam_t g_pool[MFNS_CAM_MAX_HANDLES];
 static atomic_bool g_used[MFNS_CAM_MAX_HANDLES];
 
+/* The invariants camera.h states (C only: camera.h is also C++'s). */
+_Static_assert(MFNS_CAM_E_COUNT_ == 20, "camera error codes are numbered in telemetry: append, never renumber");
+_Static_assert(MFNS_CAM_MIN_BUFFERS <= MFNS_CAM_DEFAULT_BUFFERS && MFNS_CAM_DEFAULT_BUFFERS <= MFNS_CAM_MAX_BUFFERS,
+               "the default buffer count must be a valid one");
+_Static_assert((uint64_t)MFNS_CAM_MAX_DIM * MFNS_CAM_MAX_DIM * 2u <= UINT32_MAX,
+               "a frame of MFNS_CAM_MAX_DIM^2 16-bit pixels must fit the uint32_t byte counts");
+
 static const char *const g_err_names[MFNS_CAM_E_COUNT_] = {
     [MFNS_CAM_OK] = "ok",
     [MFNS_CAM_E_ARG] = "invalid argument",
@@ -45,6 +52,7 @@ static const char *const g_err_names[MFNS_CAM_E_COUNT_] = {
     [MFNS_CAM_E_END] = "end of recorded frames",
     [MFNS_CAM_E_DATA] = "malformed recorded frames",
 };
+_Static_assert(sizeof g_err_names / sizeof g_err_names[0] == MFNS_CAM_E_COUNT_, "one name per camera error code");
 
 const char *mfns_cam_strerror(mfns_cam_err_t e)
 {
@@ -148,7 +156,7 @@ mfns_cam_settings_t mfns_cam_default_settings(mfns_cam_backend_t backend, const 
     s.backend = backend;
     s.path = path;
     s.pixfmt = MFNS_CAM_PIX_ANY;
-    s.buffer_count = 4;
+    s.buffer_count = MFNS_CAM_DEFAULT_BUFFERS;
     s.exposure_us = -1;
     s.gain = -1;
     s.frame_rate_hz = 0.0f;
@@ -288,7 +296,7 @@ mfns_cam_err_t mfns_cam_open(const mfns_cam_settings_t *s, mfns_cam_t **out, cha
     (void)snprintf(h->path, sizeof h->path, "%s", s->path);
     h->s.path = h->path;
     if (h->s.buffer_count == 0) {
-        h->s.buffer_count = 4;
+        h->s.buffer_count = MFNS_CAM_DEFAULT_BUFFERS;
     }
     h->info.backend = s->backend;
     h->generation = 1;

@@ -36,51 +36,55 @@ extern "C" {
 #define MFNS_CAM_MAX_HANDLES 6u  /* three flight cameras + spares for tests/tools */
 #define MFNS_CAM_MAX_BUFFERS 16u /* per handle */
 #define MFNS_CAM_MIN_BUFFERS 2u  /* fewer cannot stream without losing every other frame */
+#define MFNS_CAM_DEFAULT_BUFFERS 4u /* settings.buffer_count = 0 asks for this many */
 #define MFNS_CAM_MAX_DIM 8192u   /* width/height limit accepted from any source */
 #define MFNS_CAM_MAX_TIMEOUT_MS 60000
 #define MFNS_CAM_MSG_LEN 192u
 
+/* Error codes. The numbers are part of the telemetry contract (CAMERA_LOST
+ * event, arg0: docs/telemetry.md, docs/cameras.md "Errors"): explicit, never
+ * renumbered; a new code takes the next number. */
 typedef enum {
     MFNS_CAM_OK = 0,
-    MFNS_CAM_E_ARG,         /* bad argument or settings value */
-    MFNS_CAM_E_NO_SLOT,     /* all MFNS_CAM_MAX_HANDLES handles in use */
-    MFNS_CAM_E_BACKEND,     /* backend not built into this program (e.g. libcamera) */
-    MFNS_CAM_E_OPEN,        /* device/folder could not be opened */
-    MFNS_CAM_E_NOT_CAPTURE, /* device is not a streaming video-capture device */
-    MFNS_CAM_E_FORMAT,      /* requested pixel format / size not offered */
-    MFNS_CAM_E_CONTROL,     /* exposure, gain or frame rate unsupported or out of range */
-    MFNS_CAM_E_BUFFERS,     /* driver gave fewer than MFNS_CAM_MIN_BUFFERS buffers */
-    MFNS_CAM_E_MMAP,        /* mapping a driver buffer failed */
-    MFNS_CAM_E_STREAM,      /* STREAMON/STREAMOFF or backend start/stop failed */
-    MFNS_CAM_E_STATE,       /* call not valid in the handle's state */
-    MFNS_CAM_E_BUSY,        /* every buffer is held by the caller: requeue first */
-    MFNS_CAM_E_TIMEOUT,     /* no good frame within the timeout */
-    MFNS_CAM_E_IO,          /* unexpected syscall failure (errno in the message) */
-    MFNS_CAM_E_LOST,        /* device vanished; recovery is in progress (call again) */
-    MFNS_CAM_E_NO_DEVICE,   /* device vanished and recovery attempts are exhausted */
-    MFNS_CAM_E_NO_CAMERA,   /* libcamera: no such camera on this system */
-    MFNS_CAM_E_END,         /* replay: no more frames (not an error of the data) */
-    MFNS_CAM_E_DATA,        /* replay: malformed frames.csv, scenario.json or PGM */
-    MFNS_CAM_E_COUNT_
+    MFNS_CAM_E_ARG = 1,         /* bad argument or settings value */
+    MFNS_CAM_E_NO_SLOT = 2,     /* all MFNS_CAM_MAX_HANDLES handles in use */
+    MFNS_CAM_E_BACKEND = 3,     /* backend not built into this program (e.g. libcamera) */
+    MFNS_CAM_E_OPEN = 4,        /* device/folder could not be opened */
+    MFNS_CAM_E_NOT_CAPTURE = 5, /* device is not a streaming video-capture device */
+    MFNS_CAM_E_FORMAT = 6,      /* requested pixel format / size not offered */
+    MFNS_CAM_E_CONTROL = 7,     /* exposure, gain or frame rate unsupported or out of range */
+    MFNS_CAM_E_BUFFERS = 8,     /* driver gave fewer than MFNS_CAM_MIN_BUFFERS buffers */
+    MFNS_CAM_E_MMAP = 9,        /* mapping a driver buffer failed */
+    MFNS_CAM_E_STREAM = 10,     /* STREAMON/STREAMOFF or backend start/stop failed */
+    MFNS_CAM_E_STATE = 11,      /* call not valid in the handle's state */
+    MFNS_CAM_E_BUSY = 12,       /* every buffer is held by the caller: requeue first */
+    MFNS_CAM_E_TIMEOUT = 13,    /* no good frame within the timeout */
+    MFNS_CAM_E_IO = 14,         /* unexpected syscall failure (errno in the message) */
+    MFNS_CAM_E_LOST = 15,       /* device vanished; recovery is in progress (call again) */
+    MFNS_CAM_E_NO_DEVICE = 16,  /* device vanished and recovery attempts are exhausted */
+    MFNS_CAM_E_NO_CAMERA = 17,  /* libcamera: no such camera on this system */
+    MFNS_CAM_E_END = 18,        /* replay: no more frames (not an error of the data) */
+    MFNS_CAM_E_DATA = 19,       /* replay: malformed frames.csv, scenario.json or PGM */
+    MFNS_CAM_E_COUNT_ = 20      /* number of codes (camera.c checks its name table against it) */
 } mfns_cam_err_t;
 
 typedef enum {
     MFNS_CAM_BACKEND_V4L2 = 0,
-    MFNS_CAM_BACKEND_LIBCAMERA,
-    MFNS_CAM_BACKEND_REPLAY,
-    MFNS_CAM_BACKEND_COUNT_
+    MFNS_CAM_BACKEND_LIBCAMERA = 1,
+    MFNS_CAM_BACKEND_REPLAY = 2,
+    MFNS_CAM_BACKEND_COUNT_ = 3
 } mfns_cam_backend_t;
 
 /* Monochrome formats only (the MFNS cameras are mono). 16-bit formats are
  * native-endian 16-bit words with the value in the low bits (V4L2 Y10/Y12
  * layout); replay converts PGM's big-endian samples to this. */
 typedef enum {
-    MFNS_CAM_PIX_ANY = 0, /* open: accept what the source gives (replay, or device default) */
-    MFNS_CAM_PIX_GREY,    /* 8 bit */
-    MFNS_CAM_PIX_Y10,     /* 10 bit in 16 */
-    MFNS_CAM_PIX_Y12,     /* 12 bit in 16 */
-    MFNS_CAM_PIX_Y16,     /* 16 bit */
-    MFNS_CAM_PIX_COUNT_
+    MFNS_CAM_PIX_ANY = 0,  /* open: accept what the source gives (replay, or device default) */
+    MFNS_CAM_PIX_GREY = 1, /* 8 bit */
+    MFNS_CAM_PIX_Y10 = 2,  /* 10 bit in 16 */
+    MFNS_CAM_PIX_Y12 = 3,  /* 12 bit in 16 */
+    MFNS_CAM_PIX_Y16 = 4,  /* 16 bit */
+    MFNS_CAM_PIX_COUNT_ = 5
 } mfns_cam_pixfmt_t;
 
 struct mfns_cam_sys; /* V4L2 syscall seam, drivers/camera/camera_v4l2.h */
@@ -92,7 +96,7 @@ typedef struct {
     const char *path;
     uint32_t width, height;   /* 0 = the source's current/recorded size */
     mfns_cam_pixfmt_t pixfmt; /* MFNS_CAM_PIX_ANY = the source's */
-    uint32_t buffer_count;    /* MFNS_CAM_MIN_BUFFERS..MFNS_CAM_MAX_BUFFERS; 0 = 4 */
+    uint32_t buffer_count;    /* MFNS_CAM_MIN_BUFFERS..MFNS_CAM_MAX_BUFFERS; 0 = MFNS_CAM_DEFAULT_BUFFERS */
     int32_t exposure_us;      /* < 0: leave the device's setting */
     int32_t gain;             /* V4L2_CID_GAIN device units / libcamera gain x100; < 0: leave */
     float frame_rate_hz;      /* 0: leave the device's rate */

@@ -203,9 +203,9 @@ typedef struct {
     uint32_t hist[4 * MFNS_CENTROID_HIST_BINS];
 } mfns_centroid_work_t;
 
-/* Settings a flight pipeline starts from before the calibration table
- * overrides them: 5-sigma threshold, 3..4000 px, elongation <= 4. */
-mfns_centroid_settings_t mfns_centroid_default_settings(void);
+/* Settings: the calibration table's (mfns_caltable_t.centroid). The default
+ * set, which every table built with defaults carries, is
+ * mfns_centroid_settings_default (nav_config.h, nav_defaults_gen.c): the one set. */
 
 /* Median and MAD of at most MFNS_CENTROID_BG_MAX_SAMPLES pixels on a regular
  * grid over the frame (rois == NULL, n_rois == 0) or over the windows.

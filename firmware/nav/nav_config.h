@@ -47,7 +47,7 @@ typedef struct {
 } mfns_centroid_settings_t;
 /* Q4.12 of gain_dn_per_e_q12: 1/4096 DN/e- per unit, at most 16 DN/e-. */
 #define MFNS_GAIN_Q12_ONE 4096.0f
-/* The default gain (nav_defaults_gen.c, centroid.c): 102 / 4096 = 0.0249 DN/e- (40 e-/DN), a
+/* The default gain (nav_defaults_gen.c): 102 / 4096 = 0.0249 DN/e- (40 e-/DN), a
  * machine-vision CMOS sensor at 0 dB read out in 8 bits (a ~10 ke- full well over 255 DN).
  * A table states the gain of its own camera; the number is the calibration table's default
  * (caltable_layout.toml, docs/caltable.md "Default settings"). */

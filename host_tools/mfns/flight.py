@@ -175,7 +175,7 @@ class Flight:
         return m
 
     def default_settings(self) -> tuple[dict, dict]:
-        """(centroid, solver) defaults of the C core (nav_defaults.c): the one set."""
+        """(centroid, solver) defaults of the C core (nav_defaults_gen.c): the one set."""
         c, s = CentroidSettings(), SolverSettings()
         self.lib.mfns_centroid_settings_default(ct.byref(c))
         self.lib.mfns_solver_settings_default(ct.byref(s))

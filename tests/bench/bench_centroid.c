@@ -131,7 +131,8 @@ int main(int argc, char **argv)
     const int once = argc > 2 && strcmp(argv[2], "--once") == 0;
     double truth[NSPOTS][2];
     make_frame(truth);
-    const mfns_centroid_settings_t set = mfns_centroid_default_settings();
+    mfns_centroid_settings_t set; /* the flight settings (nav_defaults_gen.c) */
+    mfns_centroid_settings_default(&set);
     if (once) {
         return bench_centroid_once(&set) == MFNS_CENTROID_OK ? 0 : 1;
     }
