@@ -1,6 +1,6 @@
 """The identification margin column, from the acquisition's map analysis (issue 11).
 
-For one pose sample, the C core's map analysis (firmware/nav/acquire_certify.h, the one
+For one pose sample, the C core's map analysis (firmware/host/acquire_certify.h, the one
 `mfns table build` runs over its workspace to set the certificate) makes the frame the rig
 sees from that pose and runs the flight acquisition on it without stopping early: every
 correspondence that explains the blobs within the noise is found. The margin is the number
