@@ -10,7 +10,7 @@
 # files are committed, so a bare cross build such as `make size` still works).
 
 CONTRACTS_SRCS := host_tools/mfns/data/mfns_tm.xml host_tools/mfns/data/mfns_tc.xml \
-                  host_tools/mfns/tlm_dict.py mk/gen_contracts.py
+                  host_tools/mfns/tlm_dict.py mk/gen_contracts.py mk/gen_output.py
 CONTRACTS_OUTS := firmware/tlm/tlm_codes_gen.h firmware/nav/nav_codes_gen.h \
                   firmware/tlm/tlm_packets_gen.h firmware/tlm/tlm_packets_gen.c \
                   firmware/tlm/tc_codes_gen.h firmware/tlm/tc_packets_gen.c \

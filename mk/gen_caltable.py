@@ -545,6 +545,10 @@ def outputs(L: Layout) -> dict[str, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # mk/ is no package: the generators run as scripts and tests import them by path
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from gen_output import write_or_check
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
         "--check", action="store_true", help="write nothing; exit 1 when a generated file is stale"
@@ -557,24 +561,9 @@ def main(argv: list[str] | None = None) -> int:
     except (LayoutError, KeyError, tomllib.TOMLDecodeError, OSError) as exc:
         print(f"gen_caltable.py: {SRC}: {exc}", file=sys.stderr)
         return 2
-    stale = []
-    for rel, text in files.items():
-        path = ROOT / rel
-        old = path.read_text(encoding="utf-8") if path.exists() else None
-        if old == text:
-            continue
-        stale.append(rel)
-        if not args.check:
-            path.write_text(text, encoding="utf-8")
-    if args.check and stale:
-        print(
-            f"gen_caltable.py: stale (edit {SRC}, then run python3 mk/gen_caltable.py): {', '.join(stale)}",
-            file=sys.stderr,
-        )
-        return 1
-    for rel in stale:
-        print(f"gen_caltable.py: wrote {rel}")
-    return 0
+    return write_or_check(
+        ROOT, files, args.check, "gen_caltable.py", f"edit {SRC}, then run python3 mk/gen_caltable.py"
+    )
 
 
 if __name__ == "__main__":

@@ -823,26 +823,14 @@ def outputs(tm_path: Path = TM_XML, tc_path: Path = TC_XML) -> dict[Path, str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # mk/ is no package: the generators run as scripts and tests import them by path
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from gen_output import write_or_check
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="exit 1 when a generated file is stale")
     a = ap.parse_args(argv)
-    stale = []
-    for path, text in outputs().items():
-        old = path.read_text() if path.exists() else None
-        if old == text:
-            continue
-        stale.append(path.relative_to(REPO))
-        if not a.check:
-            path.write_text(text)
-    if a.check and stale:
-        print(
-            "stale generated files (run python3 mk/gen_contracts.py): " + " ".join(map(str, stale)),
-            file=sys.stderr,
-        )
-        return 1
-    for p in stale:
-        print(f"wrote {p}")
-    return 0
+    return write_or_check(REPO, outputs(), a.check, "gen_contracts.py", "run python3 mk/gen_contracts.py")
 
 
 if __name__ == "__main__":
