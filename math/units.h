@@ -20,11 +20,10 @@
 #define MFNS_DEG_PER_RAD_F 57.29577951308232f
 #define MFNS_RAD_PER_DEG_F 0.017453292519943295f
 
-/* Telemetry and telecommand wire units (docs/telemetry.md): micrometres and
- * micro-degrees in int32, milli-pixels. */
+/* Unit factors. The telemetry's wire scales are not here: they are the XTCE
+ * dictionary's calibrators, generated as TLM_SCALE_* (tlm_codes_gen.h). */
 #define MFNS_UM_PER_MM_F 1000.0f
 #define MFNS_UDEG_PER_DEG_F 1.0e6f
-#define MFNS_MPX_PER_PX_F 1000.0f
 #define MFNS_US_PER_S 1000000u
 #define MFNS_MS_PER_S 1000u
 

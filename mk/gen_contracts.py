@@ -106,6 +106,21 @@ def enum_block(ctype: str, prefix: str, values: dict, count: str | None, doc: st
     return out
 
 
+def scale_defines(d) -> list[str]:
+    """One TLM_SCALE_<TYPE> per calibrated parameter type: wire counts per engineering unit,
+    the inverse of the XTCE calibrator's coefficient, so the flight code scales by the
+    dictionary's number and not by a copy of it."""
+    seen: dict[str, tuple[float, str]] = {}
+    for p in d.packets.values():
+        for f in p.fields:
+            if f.coefficient is not None and f.kind == "float" and f.encoding != "IEEE754_1985":
+                seen.setdefault(f.type_name, (f.coefficient, f.unit))
+    out = ["/* Wire counts per engineering unit of each scaled type (1 / its calibrator coefficient). */"]
+    for name, (coef, unit) in sorted(seen.items()):
+        out.append(f"#define TLM_SCALE_{name.upper()} {1.0 / coef!r}f /* counts per {unit} */")
+    return out + [""]
+
+
 def tlm_codes_h(d, types_doc: dict) -> str:
     L = [
         banner(TM_SRC).rstrip(),
@@ -119,6 +134,7 @@ def tlm_codes_h(d, types_doc: dict) -> str:
         if count is None:
             L.append(f"#define TLM_NUM_CAMERAS {max(d.enums[xt]) + 1}u")
         L.append("")
+    L += scale_defines(d)
     L += ["#endif /* MFNS_TLM_CODES_GEN_H */", ""]
     return "\n".join(L)
 

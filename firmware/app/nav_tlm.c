@@ -67,17 +67,17 @@ void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_u
     bool ok = true;
     n->status = (uint8_t)(s->status == MFNS_POSE_OK ? TLM_NAV_FIX : TLM_NAV_DEGRADED);
     n->beacons_used = (uint8_t)(s->beacons_used > 255 ? 255 : s->beacons_used);
-    n->residual_rms_mpx = tlm_scale_u16(s->residual_rms_px, MFNS_MPX_PER_PX_F, &ok);
+    n->residual_rms_mpx = tlm_scale_u16(s->residual_rms_px, TLM_SCALE_PX_FROM_MPX_U16, &ok);
     const float pos[3] = {s->r_wb_w.x, s->r_wb_w.y, s->r_wb_w.z};
     const float att[3] = {s->euler_deg.roll, s->euler_deg.pitch, s->euler_deg.yaw};
     for (int i = 0; i < 3; i++) {
-        n->pos_um[i] = tlm_scale_i32(pos[i], MFNS_UM_PER_MM_F, &ok);
-        n->att_udeg[i] = tlm_scale_i32(att[i], MFNS_UDEG_PER_DEG_F, &ok);
-        n->sigma_pos_um[i] = tlm_scale_u32(s->sigma_pos_mm[i], MFNS_UM_PER_MM_F, &ok);
-        n->sigma_att_udeg[i] = tlm_scale_u32(s->sigma_euler_deg[i], MFNS_UDEG_PER_DEG_F, &ok);
+        n->pos_um[i] = tlm_scale_i32(pos[i], TLM_SCALE_MM_FROM_UM_I32, &ok);
+        n->att_udeg[i] = tlm_scale_i32(att[i], TLM_SCALE_DEG_FROM_UDEG_I32, &ok);
+        n->sigma_pos_um[i] = tlm_scale_u32(s->sigma_pos_mm[i], TLM_SCALE_MM_FROM_UM_U32, &ok);
+        n->sigma_att_udeg[i] = tlm_scale_u32(s->sigma_euler_deg[i], TLM_SCALE_DEG_FROM_UDEG_U32, &ok);
     }
     for (int i = 0; i < 4; i++) {
-        n->q_q30[i] = tlm_scale_i32(s->q_b_w[i], TLM_Q30_SCALE, &ok);
+        n->q_q30[i] = tlm_scale_i32(s->q_b_w[i], TLM_SCALE_Q30_I32, &ok);
     }
     /* cov_ros is in mm and rad; the interface units are mm and degrees
      * (docs/conventions.md): scale each index that is an angle once. */
@@ -257,7 +257,7 @@ void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycl
     tlm_hk_t *h = &p.u.hk;
     h->cycle = cycle;
     h->mode = nav_app_tlm_mode(app);
-    h->cpu_load_permille = (uint16_t)(10.0f * mfns_cycle_stats_cpu_load_pct(&app->stats));
+    h->cpu_load_permille = (uint16_t)(TLM_SCALE_PCT_FROM_PERMILLE_U16 * mfns_cycle_stats_cpu_load_pct(&app->stats));
     h->cycle_p50_us = mfns_cycle_stats_percentile(&app->stats, 50.0f);
     h->cycle_p95_us = mfns_cycle_stats_percentile(&app->stats, 95.0f);
     h->cycle_p99_us = mfns_cycle_stats_percentile(&app->stats, 99.0f);

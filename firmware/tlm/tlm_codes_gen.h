@@ -66,4 +66,14 @@ typedef enum {
     TLM_EVT_CODE_COUNT = 15
 } tlm_event_code_t;
 
+/* Wire counts per engineering unit of each scaled type (1 / its calibrator coefficient). */
+#define TLM_SCALE_DB_FROM_CDB_I16 100.0f /* counts per dB */
+#define TLM_SCALE_DEG_FROM_UDEG_I32 1000000.0f /* counts per deg */
+#define TLM_SCALE_DEG_FROM_UDEG_U32 1000000.0f /* counts per deg */
+#define TLM_SCALE_MM_FROM_UM_I32 1000.0f /* counts per mm */
+#define TLM_SCALE_MM_FROM_UM_U32 1000.0f /* counts per mm */
+#define TLM_SCALE_PCT_FROM_PERMILLE_U16 10.0f /* counts per % */
+#define TLM_SCALE_PX_FROM_MPX_U16 1000.0f /* counts per px */
+#define TLM_SCALE_Q30_I32 1073741824.0f /* counts per 1 */
+
 #endif /* MFNS_TLM_CODES_GEN_H */

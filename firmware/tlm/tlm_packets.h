@@ -29,7 +29,7 @@
 /* Attitude quaternion on the wire: Q1.30 signed (value * 2^30), so every
  * component of a unit quaternion, 1.0 included, fits an int32 with a
  * resolution of 9.3e-10. */
-#define TLM_Q30_SCALE 1073741824.0f
+#define TLM_Q30_SCALE TLM_SCALE_Q30_I32 /* the dictionary's q30_i32 calibrator (tlm_codes_gen.h) */
 /* The 6x6 pose covariance: its upper triangle, row-major (TLM_NAV_COV_N values). */
 #define TLM_NAV_COV_DIM 6u
 _Static_assert(TLM_NAV_COV_N == TLM_NAV_COV_DIM * (TLM_NAV_COV_DIM + 1u) / 2u, "covariance: the upper triangle");
