@@ -12,7 +12,9 @@
 #include "caltable.h"
 
 /* Returns MFNS_CALTABLE_E_FILE_OPEN / _FILE_READ / _FILE_TOO_BIG for file
- * problems, otherwise the loader's status. err_offset (nullable) as in
+ * problems, MFNS_CALTABLE_E_FILE_NOT_REGULAR for a path that is not a regular
+ * file (a FIFO, device or directory: never waited on, so a TABLE_LOAD cannot
+ * stall the cycle), otherwise the loader's status. err_offset (nullable) as in
  * mfns_caltable_load. A buffer of MFNS_CALTABLE_MAX_BYTES holds any table this
  * build accepts. */
 mfns_caltable_status_t mfns_caltable_load_file(const char *path, uint8_t *buf, size_t buf_size,

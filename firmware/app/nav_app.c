@@ -158,5 +158,13 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
         fprintf(stderr, "mfns-nav: telemetry incomplete: %u write errors (exit 3)\n", app->tlm.write_errors);
         return 3;
     }
+    if (o->tlm_kind != NAV_TLM_NONE && produced > 0u && app->tlm.q.sent == 0u) {
+        /* a link that never opened: nothing reached the ground, which is a
+         * failure however cleanly the loop ran (issue 24: it exited 0) */
+        fprintf(stderr, "mfns-nav: telemetry %s never opened (%s after %u attempts): none of %u frames sent (exit 3)\n",
+                o->tlm_target, app->tlm.uart.last_errno != 0 ? strerror(app->tlm.uart.last_errno) : "not connected",
+                app->tlm.uart.stats.open_failures, produced);
+        return 3;
+    }
     return 0;
 }

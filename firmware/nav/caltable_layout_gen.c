@@ -68,6 +68,7 @@ const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT] = {
     [MFNS_CALTABLE_E_INDEX_PAIR] = "calibration table map index: pair angle interval reversed",
     [MFNS_CALTABLE_E_CALIB_COV_COUNT] = "calibration table calibration covariance: parameter count is neither 0 nor 45",
     [MFNS_CALTABLE_E_CALIB_COV_PSD] = "calibration table calibration covariance: not positive semi-definite (negative variance or inconsistent correlations)",
+    [MFNS_CALTABLE_E_FILE_NOT_REGULAR] = "calibration table path is not a regular file (a FIFO, device or directory is refused: it could block the cycle)",
 };
 
 const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT] = {

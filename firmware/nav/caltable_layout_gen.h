@@ -157,7 +157,8 @@ typedef enum {
     MFNS_CALTABLE_E_INDEX_PAIR = 39, /* map index: pair angle interval reversed */
     MFNS_CALTABLE_E_CALIB_COV_COUNT = 40, /* calibration covariance: parameter count neither 0 nor MFNS_CALIB_PARAMS */
     MFNS_CALTABLE_E_CALIB_COV_PSD = 41, /* calibration covariance: negative variance or not positive semi-definite */
-    MFNS_CALTABLE_STATUS_COUNT = 42
+    MFNS_CALTABLE_E_FILE_NOT_REGULAR = 42, /* (caltable_file.h) not a regular file */
+    MFNS_CALTABLE_STATUS_COUNT = 43
 } mfns_caltable_status_t;
 
 /* One-line message of each status (index = value). */

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mfns.table.layout_gen import STATUS
 
 REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"
@@ -443,3 +444,42 @@ def test_nav_refuses_uplink_on_a_fifo(bins, run, tmp_path):
     )  # fmt: skip
     assert res.returncode == 2
     assert "--uplink needs a tty" in res.stderr
+
+
+def test_table_fifo_never_stalls_the_cycle(bins, run, tmp_path):
+    """A TABLE_LOAD of a FIFO (and --table given one) is refused at once with its
+    own loader code; the cycle goes on (it used to block until a signal)."""
+    d = tmp_path
+    os.mkfifo(d / "t.fifo")
+    tcfile = d / "commands.bin"
+    tcfile.write_bytes(encode_commands(bins, d, ["TABLE_LOAD t.fifo"], 1))
+    tlm = d / "tlm.bin"
+    nav = subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+         "--tlm-file", str(tlm), "--tc-file", str(tcfile)],
+        capture_output=True, text=True, timeout=60, check=False, cwd=d,
+    )  # fmt: skip
+    assert nav.returncode == 0, nav.stderr
+    out = d / "ground"
+    subprocess.run([str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out), "--no-status"], check=True)
+    refused = [e for e in rows(out / "events.csv") if e["event"] == "TABLE_REFUSED"]
+    not_regular = next(v for v, (name, _) in STATUS.items() if name == "E_FILE_NOT_REGULAR")
+    assert len(refused) == 1 and int(refused[0]["arg0"]) == not_regular, refused  # and the old table flies on
+    navrows = rows(out / "nav.csv")
+    assert len(navrows) == 40 and sum(r["status"] in ("FIX", "DEGRADED") for r in navrows[2:]) > 30
+    start = subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(d / "t.fifo"), "--replay", str(run["frames"])],
+        capture_output=True, text=True, timeout=30, check=False,
+    )  # fmt: skip
+    assert start.returncode != 0 and "not a regular file" in start.stderr, start.stderr
+
+
+def test_nav_exits_nonzero_when_no_telemetry_ever_left(bins, run, tmp_path):
+    """--tty to a port that never appears: the run is not a success (it exited 0)."""
+    res = subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+         "--tty", str(tmp_path / "nonexistent" / "tty"), "--max-cycles", "5", "-q"],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert res.returncode == 3, res.stderr
+    assert "never opened" in res.stderr and "No such file or directory" in res.stderr

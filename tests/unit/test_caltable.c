@@ -5,11 +5,14 @@
  * iterative inverse match Python's exact inverse; and every validation
  * failure is provoked with a table crafted from the good one (patched bytes,
  * CRC fixed up when the check under test comes after the CRC). */
+#define _DEFAULT_SOURCE /* mkdtemp, mkfifo under -std=c11 */
 #include "testutil.h"
 
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "caltable.h"
 #include "caltable_file.h"
@@ -958,8 +961,18 @@ static void test_file_loader(void **state)
     assert_int_equal(mfns_caltable_load_file(path, buf, g_good_len - 1, &g_out, NULL), MFNS_CALTABLE_E_FILE_TOO_BIG);
     assert_int_equal(mfns_caltable_load_file("/nonexistent/mfns.tbl", buf, sizeof buf, &g_out, NULL),
                      MFNS_CALTABLE_E_FILE_OPEN);
+    /* a directory, and a FIFO with no writer: refused at once, never waited on
+     * (a TABLE_LOAD of a FIFO used to block the whole cycle) */
     assert_int_equal(mfns_caltable_load_file(mfns_test_gen_dir(), buf, sizeof buf, &g_out, NULL),
-                     MFNS_CALTABLE_E_FILE_READ);
+                     MFNS_CALTABLE_E_FILE_NOT_REGULAR);
+    char dir[] = "/tmp/mfns-caltable-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char fifo[64];
+    (void)snprintf(fifo, sizeof fifo, "%s/table.fifo", dir);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    assert_int_equal(mfns_caltable_load_file(fifo, buf, sizeof buf, &g_out, NULL), MFNS_CALTABLE_E_FILE_NOT_REGULAR);
+    assert_int_equal(unlink(fifo), 0);
+    assert_int_equal(rmdir(dir), 0);
     gen_path(path, sizeof path, "caltable_values.txt"); /* a file that is not a table */
     assert_int_equal(mfns_caltable_load_file(path, buf, sizeof buf, &g_out, NULL), MFNS_CALTABLE_E_MAGIC);
     assert_int_equal(mfns_caltable_load_file(NULL, buf, sizeof buf, &g_out, NULL), MFNS_CALTABLE_E_ARG);

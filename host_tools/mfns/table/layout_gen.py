@@ -350,4 +350,8 @@ STATUS = {
         "E_CALIB_COV_PSD",
         "calibration table calibration covariance: not positive semi-definite (negative variance or inconsistent correlations)",
     ),
+    42: (
+        "E_FILE_NOT_REGULAR",
+        "calibration table path is not a regular file (a FIFO, device or directory is refused: it could block the cycle)",
+    ),
 }
