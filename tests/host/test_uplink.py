@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from mfns.table.layout_gen import STATUS
 
 REPO = Path(__file__).resolve().parents[2]
@@ -461,7 +462,9 @@ def test_table_fifo_never_stalls_the_cycle(bins, run, tmp_path):
     )  # fmt: skip
     assert nav.returncode == 0, nav.stderr
     out = d / "ground"
-    subprocess.run([str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out), "--no-status"], check=True)
+    subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out), "--no-status"], check=True
+    )
     refused = [e for e in rows(out / "events.csv") if e["event"] == "TABLE_REFUSED"]
     not_regular = next(v for v, (name, _) in STATUS.items() if name == "E_FILE_NOT_REGULAR")
     assert len(refused) == 1 and int(refused[0]["arg0"]) == not_regular, refused  # and the old table flies on
