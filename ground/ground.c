@@ -4,6 +4,7 @@
 #include "ground.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
@@ -147,12 +148,12 @@ static void print_counters(FILE *f, const tlm_decoder_stats_t *s, double secs)
 {
     fprintf(f,
             "mfns-ground: %.1f s, %lu bytes: frames_ok=%lu crc_errors=%lu truncated=%lu oversize=%lu "
-            "bad_packets=%lu resyncs=%lu seq_gaps=%lu seq_lost=%lu (nav=%lu camera=%lu housekeeping=%lu "
+            "bad_packets=%lu resyncs=%lu seq_gaps=%lu seq_lost=%lu seq_back=%lu (nav=%lu camera=%lu housekeeping=%lu "
             "event=%lu)\n",
             secs, (unsigned long)s->bytes, (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
             (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->bad_packets,
             (unsigned long)s->resyncs, (unsigned long)s->seq_gaps, (unsigned long)s->seq_lost,
-            (unsigned long)s->type[TLM_TYPE_NAV].packets, (unsigned long)s->type[TLM_TYPE_CAMERA].packets,
+            (unsigned long)s->seq_back, (unsigned long)s->type[TLM_TYPE_NAV].packets, (unsigned long)s->type[TLM_TYPE_CAMERA].packets,
             (unsigned long)s->type[TLM_TYPE_HK].packets, (unsigned long)s->type[TLM_TYPE_EVENT].packets);
 }
 
@@ -192,10 +193,21 @@ static int open_source(const ground_opts_t *o, mfns_uart_t *u)
     case GROUND_SRC_TTY:
         rc = mfns_uart_open_path(u, o->path, o->baud, o->source_rw ? MFNS_UART_RW : MFNS_UART_READ);
         break;
-    case GROUND_SRC_FILE:
-        rc = strcmp(o->path, "-") == 0 ? mfns_uart_attach_fd(u, STDIN_FILENO, false, MFNS_UART_READ)
-                                       : mfns_uart_open_path(u, o->path, 0, MFNS_UART_READ);
+    case GROUND_SRC_FILE: {
+        /* --file ends at the end of its input whatever it is (a file, a
+         * pipe, /dev/null, a FIFO whose writer closed): attached, never
+         * re-opened, so a read of 0 is the end. */
+        const int fd = strcmp(o->path, "-") == 0 ? STDIN_FILENO : open(o->path, O_RDONLY | O_CLOEXEC | O_NOCTTY);
+        if (fd < 0) {
+            fprintf(stderr, "mfns-ground: %s: cannot open the recording: %s\n", o->path, strerror(errno));
+            return MFNS_UART_ERR_OPEN;
+        }
+        rc = mfns_uart_attach_fd(u, fd, fd != STDIN_FILENO, MFNS_UART_READ);
+        if (rc != MFNS_UART_OK && fd != STDIN_FILENO) {
+            (void)close(fd); /* not attached: still ours */
+        }
         break;
+    }
     default: rc = MFNS_UART_ERR_ARG; break;
     }
     if (rc != MFNS_UART_OK) {
@@ -237,7 +249,8 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
     (void)sigaction(SIGINT, &sa, NULL);
     (void)sigaction(SIGTERM, &sa, NULL);
 
-    const int show = o->status < 0 ? isatty(STDERR_FILENO) : o->status;
+    /* -q is quiet: no status line unless --status asked for one */
+    const int show = o->status < 0 ? (!o->quiet && isatty(STDERR_FILENO)) : o->status;
     const uint64_t t0 = mfns_uart_now_ms();
     uint64_t last_status = 0;
     tlm_nav_t last_nav;

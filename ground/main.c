@@ -36,6 +36,7 @@ int main(int argc, char **argv)
     }
     uo.out_dir = o.out_dir;
     uo.baud = o.baud;
+    uo.quiet = o.quiet != 0;
     if (uplink_open(&up, &uo) != 0) {
         return 1;
     }

@@ -530,7 +530,9 @@ int uplink_close(uplink_t *up)
         up->n_errors++;
     }
     up->log = NULL;
-    if (up->n_sent > 0u || up->n_errors > 0u || up->fwd.fd >= 0 || up->tcin.fd >= 0) {
+    /* the counters; under -q only when something failed */
+    if ((!up->o.quiet && (up->n_sent > 0u || up->fwd.fd >= 0 || up->tcin.fd >= 0)) || up->n_errors > 0u ||
+        up->fwd.errors > 0u) {
         fprintf(stderr, "mfns-ground: uplink: %u commands sent, %u errors", up->n_sent, up->n_errors);
         if (up->fwd.fd >= 0) {
             fprintf(stderr, "; UDP forward: %u packets, %u not delivered", up->fwd.sent, up->fwd.errors);

@@ -50,6 +50,7 @@ typedef struct {
     const char *udp_tc;                /* HOST:PORT or NULL */
     bool udp_allow_remote;
     const char *out_dir;               /* for commands.csv (from ground_opts_t) */
+    bool quiet;                        /* -q (from ground_opts_t): no counters at exit, errors only */
     uint32_t baud;
 } uplink_opts_t;
 

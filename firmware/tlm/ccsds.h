@@ -21,6 +21,8 @@
 #define TLM_CCSDS_APID_MAX 0x7FFu
 #define TLM_CCSDS_APID_IDLE 0x7FFu /* reserved by CCSDS for idle packets */
 #define TLM_CCSDS_SEQ_MASK 0x3FFFu
+#define TLM_CCSDS_SEQ_HALF 0x2000u /* half the modulus: a jump this far or more is backwards */
+_Static_assert(2u * TLM_CCSDS_SEQ_HALF == TLM_CCSDS_SEQ_MASK + 1u, "half of the 2^14 sequence modulus");
 #define TLM_CCSDS_SEQ_UNSEGMENTED 3u
 
 typedef struct {

@@ -44,13 +44,21 @@ static void count_sequence(tlm_decoder_t *d, const tlm_packet_t *p)
     if (s->seen) {
         const uint16_t expected = (uint16_t)((s->last_seq + 1u) & TLM_CCSDS_SEQ_MASK);
         if (p->seq != expected) {
-            /* Modulo 2^14: a repeated or older count reads as a large gap,
-             * which is what it is to a receiver that cannot tell. */
-            const uint32_t missing = (uint32_t)((p->seq - expected) & TLM_CCSDS_SEQ_MASK);
+            /* Modulo 2^14 a count can only be read one way: a jump of less
+             * than half the modulus forward is that many packets lost; half
+             * or more is a count that went back (a repeat, a reorder, a
+             * restarted sender), counted as such and never as ~16,000 lost
+             * (490 shuffled frames read as 4,095,661 lost before). */
+            const uint32_t ahead = (uint32_t)((p->seq - expected) & TLM_CCSDS_SEQ_MASK);
             s->gaps++;
-            s->lost += missing;
             d->stats.seq_gaps++;
-            d->stats.seq_lost += missing;
+            if (ahead < TLM_CCSDS_SEQ_HALF) {
+                s->lost += ahead;
+                d->stats.seq_lost += ahead;
+            } else {
+                s->back++;
+                d->stats.seq_back++;
+            }
         }
     }
     s->seen = 1;

@@ -21,7 +21,8 @@
 typedef struct {
     uint32_t packets;  /* good packets of this type */
     uint32_t gaps;     /* sequence discontinuities (count != previous + 1 mod 2^14) */
-    uint32_t lost;     /* packets missing according to those gaps */
+    uint32_t lost;     /* packets missing according to those gaps (forward jumps only) */
+    uint32_t back;     /* counts that went back (repeated, reordered, or a restarted sender) */
     uint16_t last_seq; /* valid when seen */
     uint8_t seen;
 } tlm_apid_stats_t;
@@ -37,6 +38,7 @@ typedef struct {
     uint32_t bytes_discarded; /* bytes skipped while hunting for a delimiter after an oversize */
     uint32_t seq_gaps;        /* sum of the per-type gaps */
     uint32_t seq_lost;        /* sum of the per-type lost */
+    uint32_t seq_back;        /* sum of the per-type back */
     tlm_apid_stats_t type[TLM_NUM_TYPES];
 } tlm_decoder_stats_t;
 

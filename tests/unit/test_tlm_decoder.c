@@ -361,6 +361,30 @@ static void test_sequence_gaps(void **state)
     }
     assert_int_equal(d.stats.seq_gaps, 0);
     assert_int_equal(d.stats.type[TLM_TYPE_NAV].last_seq, 1);
+
+    /* counts that go back (a repeat, a reorder, a restarted sender) are gaps
+     * counted as back, never as ~16,000 lost: 5, 6, 7, then 3 (back), 4 (next),
+     * 4 (repeat: back), then 8190 ahead of 5 (lost 8185, the largest forward
+     * reading) and 0 after it (8192 ahead of 8190+1: half the modulus, back) */
+    const uint16_t seqs[] = {5, 6, 7, 3, 4, 4, 5, 8190, 0};
+    const uint32_t want_back[] = {0, 0, 0, 1, 1, 2, 2, 2, 3};
+    const uint32_t want_lost[] = {0, 0, 0, 0, 0, 0, 0, 8184, 8184};
+    tlm_decoder_init(&d);
+    for (size_t i = 0; i < sizeof seqs / sizeof seqs[0]; i++) {
+        enc.next_seq[TLM_TYPE_NAV] = seqs[i];
+        tlm_packet_t p, q;
+        tlm_test_sample(&p, TLM_TYPE_NAV, (uint32_t)i);
+        uint8_t f[TLM_MAX_WIRE];
+        size_t fl = 0;
+        assert_int_equal(tlm_frame_encode(&enc, &p, f, sizeof f, &fl), TLM_OK);
+        for (size_t k = 0; k < fl; k++) {
+            (void)tlm_decoder_push(&d, f[k], &q);
+        }
+        assert_int_equal(d.stats.seq_back, want_back[i]);
+        assert_int_equal(d.stats.seq_lost, want_lost[i]);
+        assert_int_equal(d.stats.type[TLM_TYPE_NAV].back, want_back[i]);
+    }
+    assert_int_equal(d.stats.frames_ok, sizeof seqs / sizeof seqs[0]);
 }
 
 static void test_random_fault_soak(void **state)
