@@ -245,6 +245,12 @@ size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
 	  -lm -Wl,-Map=$(BUILD)/core.map -o $(BUILD)/core.elf
 	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
+	@roots=$$(mk/flight_roots.sh "$(NM)" firmware/app $(CORE_OBJS)) && \
+	  $(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) $$roots $(BUILD)/obj/boards/cortex-m7-core/entry.o $(CORE_OBJS) \
+	  -lm -Wl,-Map=$(BUILD)/flight.map -o $(BUILD)/flight.elf && \
+	  echo "flight: $$(echo $$roots | wc -w) core functions called by firmware/app, section GC from them" && \
+	  $(SIZE) $(BUILD)/flight.elf | sed 's/^/flight: /'
+	@python3 mk/map_text.py $(BUILD)/flight.map $(BUILD)/obj
 	@python3 mk/stack.py --min 64 $(addprefix --also ,$(STACK_ALSO)) $(CORE_OBJS:.o=.ci)
 else
 size:
