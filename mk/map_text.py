@@ -32,8 +32,10 @@ def main() -> int:
         else:
             lib += size
     verdict = "met" if own <= GOAL else f"NOT met ({own - GOAL} B over)"
-    print(f"flight: {own} B of the core's own code and constants + {lib} B of libm/libgcc/libc; "
-          f"goal {GOAL} B for the core's own: {verdict}")
+    print(
+        f"flight: {own} B of the core's own code and constants + {lib} B of libm/libgcc/libc; "
+        f"goal {GOAL} B for the core's own: {verdict}"
+    )
     return 0
 
 
