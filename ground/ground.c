@@ -42,6 +42,10 @@ void ground_usage(FILE *f)
             "  --record FILE     also save the raw received bytes (replay with --file)\n"
             "  --max-seconds S   stop after S seconds\n"
             "  --max-frames N    stop after N good frames\n"
+            "  --pace X          with --file: release packets at X times the pace of their\n"
+            "                    flight times (1 = as recorded, 10 = ten times faster);\n"
+            "                    default: as fast as the file reads (a UDP receiver may\n"
+            "                    then drop what its socket buffer cannot hold)\n"
             "  --status          always show the live status line (default: when stderr is a tty)\n"
             "  --no-status       never show it\n"
             "  -v, --verbose     the live status line even when stderr is not a tty (= --status)\n"
@@ -126,6 +130,12 @@ int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
                 return -1;
             }
             o->max_seconds = v;
+        } else if (strcmp(a, "--pace") == 0) {
+            if (parse_number(val, 0.001, 1e6, &v) != 0) {
+                fprintf(err, "mfns-ground: --pace: expected a speed factor in [0.001, 1e6], got '%s'\n", val);
+                return -1;
+            }
+            o->pace = v;
         } else if (strcmp(a, "--max-frames") == 0) {
             if (parse_number(val, 1, 4e9, &v) != 0 || v != (double)(unsigned long)v) {
                 fprintf(err, "mfns-ground: --max-frames: expected a positive integer, got '%s'\n", val);
@@ -136,6 +146,10 @@ int ground_parse_args(int argc, char **argv, ground_opts_t *o, FILE *err)
             fprintf(err, "mfns-ground: %s: unknown option (see --help)\n", a);
             return -1;
         }
+    }
+    if (o->pace > 0 && o->src != GROUND_SRC_FILE) {
+        fprintf(err, "mfns-ground: --pace paces a recording: give it with --file\n");
+        return -1;
     }
     if (o->src == GROUND_SRC_NONE) {
         fprintf(err, "mfns-ground: no source: give --serial DEV, --tty PATH or --file PATH (see --help)\n");
@@ -179,6 +193,47 @@ static int64_t utc_now_us(void)
         return 0;
     }
     return (int64_t)ts.tv_sec * 1000000 + (int64_t)ts.tv_nsec / 1000;
+}
+
+/* Pacing of a recording (--pace): the wall time at which a packet of flight
+ * time t_us is due, given the first packet's pair. Flight time that goes back
+ * (a reboot, a shuffled file) re-anchors at once instead of waiting; a jump
+ * forward waits at most GROUND_PACE_MAX_WAIT_S (so a gap of hours in a
+ * recording does not hang the replay), then re-anchors too. */
+#define GROUND_PACE_MAX_WAIT_S 5.0
+typedef struct {
+    int anchored;
+    uint64_t t0_flight_us;
+    uint64_t t0_wall_ms;
+} pace_t;
+
+static uint64_t packet_time_us(const tlm_packet_t *p)
+{
+    return (uint64_t)p->time.coarse_s * 1000000u + (((uint64_t)p->time.fine * 1000000u) >> 16);
+}
+
+static void pace_packet(pace_t *pc, double pace, const tlm_packet_t *p, volatile sig_atomic_t *stop)
+{
+    const uint64_t t = packet_time_us(p);
+    const uint64_t now = mfns_uart_now_ms();
+    if (!pc->anchored || t < pc->t0_flight_us) {
+        *pc = (pace_t){1, t, now};
+        return;
+    }
+    const double due_ms = (double)(t - pc->t0_flight_us) / 1000.0 / pace;
+    const double waited_ms = (double)(now - pc->t0_wall_ms);
+    double wait_ms = due_ms - waited_ms;
+    if (wait_ms > GROUND_PACE_MAX_WAIT_S * 1000.0) {
+        *pc = (pace_t){1, t, now}; /* a gap in the recording: go on from here */
+        return;
+    }
+    /* sleep in slices so a signal ends the replay promptly */
+    for (int i = 0; wait_ms > 0.0 && !*stop && i < 1000; i++) {
+        const double slice = wait_ms < 50.0 ? wait_ms : 50.0;
+        const struct timespec ts = {0, (long)(slice * 1e6)};
+        (void)nanosleep(&ts, NULL); /* EINTR: the loop re-checks stop */
+        wait_ms -= slice;
+    }
 }
 
 static int open_source(const ground_opts_t *o, mfns_uart_t *u)
@@ -256,6 +311,7 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
     tlm_nav_t last_nav;
     memset(&last_nav, 0, sizeof last_nav);
     int have_nav = 0, link_down = 0, rc_exit = 0, done = 0;
+    pace_t pace = {0, 0, 0};
     while (!g_stop && !done) {
         const uint64_t now = mfns_uart_now_ms();
         const double secs = (double)(now - t0) / 1000.0;
@@ -277,7 +333,12 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
         for (size_t i = 0; i < got; i++) {
             tlm_packet_t p;
             if (tlm_decoder_push(&dec, buf[i], &p) == 1) {
-                if (ground_out_packet(&out, &p, rx_utc_us) != 0) {
+                int64_t utc_us = rx_utc_us;
+                if (o->pace > 0) {
+                    pace_packet(&pace, o->pace, &p, &g_stop);
+                    utc_us = utc_now_us(); /* released now: its receipt time */
+                }
+                if (ground_out_packet(&out, &p, utc_us) != 0) {
                     fprintf(stderr, "mfns-ground: writing to %s failed\n", o->out_dir);
                     rc_exit = 1;
                     done = 1;

@@ -42,6 +42,7 @@ typedef struct {
     const char *record;       /* optional: copy of the raw received bytes (replay with --file) */
     double max_seconds;       /* 0 = unbounded */
     unsigned long max_frames; /* stop after this many good frames; 0 = unbounded */
+    double pace;              /* --file: packets released at pace x their flight-time spacing; 0 = at once */
     int status;               /* live status line: -1 auto (stderr is a tty), 0 off, 1 on */
     int quiet;                /* no link counters at exit */
     int source_rw;            /* open the source read-write (commands on the same tty: --uplink) */

@@ -535,7 +535,12 @@ int uplink_close(uplink_t *up)
         up->fwd.errors > 0u) {
         fprintf(stderr, "mfns-ground: uplink: %u commands sent, %u errors", up->n_sent, up->n_errors);
         if (up->fwd.fd >= 0) {
-            fprintf(stderr, "; UDP forward: %u packets, %u not delivered", up->fwd.sent, up->fwd.errors);
+            /* UDP confirms nothing: what the receiver dropped is only seen there
+             * (pace a recording with --pace so its socket buffer keeps up) */
+            fprintf(stderr,
+                    "; UDP forward: %u packets sent, %u refused by the socket (UDP confirms no delivery: "
+                    "count at the receiver)",
+                    up->fwd.sent, up->fwd.errors);
         }
         if (up->tcin.fd >= 0) {
             fprintf(stderr, "; UDP commands: %u received, %u refused", up->tcin.received, up->tcin.refused);

@@ -411,3 +411,34 @@ def test_file_source_ends_quiet_is_quiet_and_backward_counts_are_not_losses(bins
     assert st["seq_lost"] <= st["seq_gaps"] * len(frames)
     assert st["seq_back"] > st["seq_gaps"] // 4
     assert sum(t["back"] for t in st["packets"].values()) == st["seq_back"]
+
+
+def test_file_replay_paced_by_flight_time(bins, tmp_path):
+    """--pace X replays a recording at X times its flight-time pace (issue 26:
+    a full-speed replay overflowed the UDP receiver), and only with --file."""
+    import time
+
+    stream = tmp_path / "tlm.bin"
+    subprocess.run([str(bins["gen"]), "--cycles", "40", "--out", str(stream)], check=True, timeout=30)
+    fast = subprocess.run(
+        [str(bins["ground"]), "--file", str(stream), "--out", str(tmp_path / "f"), "-q"],
+        check=True,
+        timeout=30,
+    )
+    assert fast.returncode == 0
+    t = [float(r.split(",")[0]) for r in rows(tmp_path / "f" / "nav.csv")]
+    span = max(t) - min(t)
+    assert span > 0.5
+    t0 = time.monotonic()
+    subprocess.run(
+        [str(bins["ground"]), "--file", str(stream), "--out", str(tmp_path / "p"), "-q", "--pace", "4"],
+        check=True,
+        timeout=60,
+    )
+    took = time.monotonic() - t0
+    assert took >= 0.9 * span / 4, (took, span)
+    assert rows(tmp_path / "p" / "nav.csv") == rows(tmp_path / "f" / "nav.csv")
+    bad = subprocess.run(
+        [str(bins["ground"]), "--tty", "/dev/null", "--pace", "2"], capture_output=True, text=True, timeout=30
+    )
+    assert bad.returncode == 2 and "--pace" in bad.stderr
