@@ -170,6 +170,18 @@ def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict
     return res
 
 
+def failed_run(tag: str, fault: str, why: str) -> dict:
+    """The row of a run that could not be set up or flown."""
+    res = score.score_run([], [], None, {}, 1.0)
+    return res | {
+        "run": tag,
+        "fault": fault,
+        "error": why.strip().splitlines()[0][:300],
+        "reports": {},
+        "seconds": {"nav": 0.0, "ground": 0.0, "score": 0.0},
+    }
+
+
 def report_cell(r: dict) -> str:
     if not r["reports"]:
         return "-"
@@ -182,7 +194,7 @@ def report_cell(r: dict) -> str:
 
 def table_row(r: dict) -> str:
     if r.get("error") and not r["cycles"]:
-        return f"| {r['run']} | FAILED: {r['error']} | | | | | | | | |"
+        return f"| {r['run']} | FAILED: {r['error'].replace('|', '/')} | | | | | | | | |"
     mis = str(r["misleading"])
     if r["misleading_stamp"]:
         mis += f" ({r['misleading_stamp']} by stamp, up to {r['worst_stamp_s']:.3f} s)"
@@ -368,26 +380,32 @@ def main() -> int:
     def one(job: tuple[Fault, list[str]]) -> list[dict]:
         fault, tags = job
         t0 = time.monotonic()
-        folder, done = base, {}
-        if fault.prepare is not None:
-            folder = inject.link_frames(base, work / "runs" / f"frames_{slug(fault.name)}")
-            done = fault.prepare(folder) or {}
-        content = {key: v for key, v in done.items() if isinstance(key, tuple)}
-        info = {key: v for key, v in done.items() if not isinstance(key, tuple)}
-        prep_seconds[fault.name] = time.monotonic() - t0
-        ctx = {
-            "truth": truth,
-            "capture": score.capture_times(frames_rows, content),
-            "period_s": 1.0 / float(scen["rate_hz"]),
-            "described": described,
-        }
-        out = []
+        folder, out = base, []
         try:
+            done = {}
+            if fault.prepare is not None:
+                folder = inject.link_frames(base, work / "runs" / f"frames_{slug(fault.name)}")
+                done = fault.prepare(folder) or {}
+            content = {key: v for key, v in done.items() if isinstance(key, tuple)}
+            info = {key: v for key, v in done.items() if not isinstance(key, tuple)}
+            prep_seconds[fault.name] = time.monotonic() - t0
+            ctx = {
+                "truth": truth,
+                "capture": score.capture_times(frames_rows, content),
+                "period_s": 1.0 / float(scen["rate_hz"]),
+                "described": described,
+            }
             for tag in tags:
                 t_nom, t_sur = fault.tables
                 table = t_sur() if tag.endswith(SURVEY) else t_nom()
                 out.append(fly(folder, table, work, tag, fault, ctx) | ({"inject": info} if info else {}))
                 print(f"fault_acceptance: {table_row(out[-1])}", flush=True)
+        except Exception as e:  # one fault that cannot be set up is a failed row, not a lost campaign
+            flown = {r["run"] for r in out}
+            for tag in tags:
+                if tag not in flown:
+                    out.append(failed_run(tag, fault.name, f"{type(e).__name__}: {e}"))
+                    print(f"fault_acceptance: {table_row(out[-1])}", flush=True)
         finally:
             if folder != base:
                 shutil.rmtree(folder, ignore_errors=True)
