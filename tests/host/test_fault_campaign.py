@@ -277,6 +277,14 @@ def test_first_report_by_name_and_subject() -> None:
     got = score.first_report(ev, "beacon", 1, 3, {"FDE_OUTLIER": "beacon"})
     assert got == {"cycle": 5, "delay": 2, "event": "FDE_OUTLIER"}
     assert score.dictionary_subjects().get("CAMERA_STALE") == "camera"
+    # coming back is no report; a beacon id above 254 is in arg1
+    ev = [
+        {"cycle": "4", "seq": "0", "event": "CAMERA_HEALTHY", "subject": "2"},
+        {"cycle": "4", "seq": "1", "event": "BEACON_READMITTED", "subject": "255", "arg1": "300"},
+        {"cycle": "6", "seq": "2", "event": "BEACON_EXCLUDED", "subject": "255", "arg1": "300"},
+    ]
+    assert score.first_report(ev, "camera", 2, 0) is None
+    assert score.first_report(ev, "beacon", 300, 1) == {"cycle": 6, "delay": 5, "event": "BEACON_EXCLUDED"}
     cams = [
         {"cycle": "3", "camera": "x", "frame_seq": "29"},
         {"cycle": "4", "camera": "x", "frame_seq": "30"},

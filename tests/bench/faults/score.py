@@ -22,10 +22,12 @@ position norm (mm) or the rotation angle (deg). A level that is not a finite pos
 no level (counted apart). Runs without such columns skip this.
 
 Reporting: the first event at or after the fault's onset cycle whose name is not an ordinary
-one and whose subject is the faulty camera (camera index) or beacon (id). What an event's
+one (start-up, mode, link, commands, and anything coming back: *_RECOVERED, *_HEALTHY,
+*_READMITTED, *_ENDED) and whose subject is the faulty camera (camera index) or beacon (id). What an event's
 subject holds comes from the TM dictionary's description of it ("subject camera ...",
-"subject beacon ..."), else from its name (CAMERA/FRAME: camera; BEACON/LED: beacon). Names
-come from events.csv, never numeric codes.
+"subject beacon ..."), else from its name (CAMERA/FRAME: camera; BEACON/LED: beacon); a beacon
+subject of 255 (an id above 254) is read from arg1. Names come from events.csv, never numeric
+codes.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 AXES_ROS = ("x", "y", "z", "rx", "ry", "rz")
+SUBJECT_SATURATED = 255  # a beacon id above 254 in an event's u8 subject; arg1 then carries it
 CAMERAS = "xyz"  # camera index k = bit k of cams_used (docs/telemetry.md)
 USABLE = ("FIX", "DEGRADED")
 LIMIT_MM = 20.0
@@ -46,7 +49,8 @@ LIMIT_SIGMA = 5.0
 NEES_5SIGMA = 39.3  # chi-square(6) quantile at the two-sided 5-sigma tail, 5.7e-7
 STAMP_TOL_S = 1e-4  # telemetry time is 2^-16 s (15 us) and truncated: well inside this
 # Events that are no report of a fault: start-up, mode, link, commands, and a camera coming
-# back or ending its replay.
+# back or ending its replay; and any event whose name says something came back (ORDINARY_ENDS).
+ORDINARY_ENDS = ("_RECOVERED", "_HEALTHY", "_READMITTED", "_ENDED")
 ORDINARY = frozenset(
     {
         "BOOT",
@@ -364,11 +368,15 @@ def first_report(
     not ordinary: {"cycle", "delay", "event"} or None. described: dictionary_subjects()."""
     for r in sorted(events, key=lambda r: (int(r["cycle"]), int(r.get("seq", 0) or 0))):
         name = r.get("event", "")
-        if name in ORDINARY or event_subject_kind(name, described) != kind or int(r["cycle"]) < onset:
+        if name in ORDINARY or name.endswith(ORDINARY_ENDS) or int(r["cycle"]) < onset:
             continue
-        subj = r.get("subject", "")
+        if event_subject_kind(name, described) != kind:
+            continue
+        subj = r.get("subject", "").strip()
         if kind == "camera" and subj in CAMERAS:
             subj = str(CAMERAS.index(subj))
-        if subj.strip().lstrip("-").isdigit() and int(subj) == subject:
+        if kind == "beacon" and subj == str(SUBJECT_SATURATED):  # the id does not fit: arg1 has it
+            subj = r.get("arg1", "").strip()
+        if subj.lstrip("-").isdigit() and int(subj) == subject:
             return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
     return None
