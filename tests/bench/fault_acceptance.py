@@ -48,6 +48,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from faults import inject, score  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
+# The programs flown and the Python that simulates and builds tables: this tree's, or another
+# checkout's (--tree) so that one campaign measures any build without change.
 PY = sys.executable
 BIN = REPO / "build/host-sim/bin"
 NAV_TIMEOUT_S = 900.0
@@ -350,8 +352,23 @@ def main() -> int:
         help="fly only the runs whose name contains TEXT (case-insensitive; repeatable)",
     )
     ap.add_argument("-j", "--jobs", type=int, default=2, help="faults flown in parallel (default 2)")
+    ap.add_argument(
+        "--tree",
+        type=Path,
+        default=None,
+        help="fly another checkout's build: its build/host-sim/bin, its .venv Python (simulation, "
+        "tables) and its TM dictionary (default: this one)",
+    )
     ap.add_argument("--keep-frames", action="store_true", help="keep the simulated frames at the end")
     args = ap.parse_args()
+    global PY, BIN
+    mdb = None
+    if args.tree is not None:
+        tree = args.tree.resolve()
+        BIN = tree / "build/host-sim/bin"
+        if (tree / ".venv/bin/python").exists():
+            PY = str(tree / ".venv/bin/python")
+        mdb = tree / "host_tools/mfns/data/mfns_tm.xml"
     t_start = time.monotonic()
     work = args.work.resolve()
     shutil.rmtree(work, ignore_errors=True)
@@ -364,7 +381,7 @@ def main() -> int:
     scen = json.loads((base / "scenario.json").read_text())
     truth = score.Truth.load(base / "truth.csv")
     tables = Tables(base, work)
-    described = score.dictionary_subjects()
+    described = score.dictionary_subjects(mdb)
     faults = campaign(base, work, args.frames, tables)
 
     def wanted(tag: str) -> bool:

@@ -321,13 +321,14 @@ def score_run(
 
 
 # --------------------------------------------------------------------------- reporting
-def dictionary_subjects() -> dict[str, str]:
+def dictionary_subjects(mdb: Path | None = None) -> dict[str, str]:
     """Event name -> "camera" or "beacon" where the TM dictionary's description of the event
-    code says "subject camera ..." or "subject beacon ..." (empty without the mfns package)."""
+    code says "subject camera ..." or "subject beacon ..." (mdb: the dictionary file, default
+    the mfns package's; empty without the mfns package)."""
     try:
         from mfns import tlm_dict
 
-        codes = tlm_dict.load().enums["event_code_t"]
+        codes = tlm_dict.load(str(mdb) if mdb else None).enums["event_code_t"]
     except Exception:  # the scorer also runs on its own (tests): the names alone then
         return {}
     out = {}
