@@ -206,7 +206,8 @@ def table_row(r: dict) -> str:
     elif r["worst_pl_ratio"] is None:
         pl = f"no PL ({r['pl_missing']})"
     else:
-        pl = f"{r['worst_pl_ratio']:.2f} ({r['pl_exceeded']} > PL)"
+        met = ", ".join(f"{v:.3g} {c.rsplit('_', 1)[-1]}" for c, v in r["pl_max"].items())
+        pl = f"{r['worst_pl_ratio']:.2f} ({r['pl_exceeded']} > PL; PL up to {met})"
     return (
         f"| {r['run']} | {r['cycles']} | {r['usable']} | {mis} | {r['worst_mm']:.2f} | "
         f"{r['worst_deg']:.3f} | {r['worst_sigma']:.2f} | {nees} | {pl} | {report_cell(r)} |"
