@@ -1,49 +1,59 @@
 #!/usr/bin/env python3
-"""Issue 17's fault acceptance, as a rerunnable measurement (make faults).
+"""The fault campaign of `make faults` (issues 17 and 23), as a rerunnable measurement.
 
-Over the demo's module scenario (mfns sim nav --scenario module --seed 2, 120
-frames), the flight program is run with injected faults, each also with the
-beacons of the table displaced from the rendered ones by their survey sigma
-(sigma_mm of beacons.csv), and every usable fix (FIX or DEGRADED) is compared
-with truth:
+Over the demo's module scenario (mfns sim nav --scenario module --seed 2, 120 frames), the
+flight program is run with injected faults, each twice: with the table built from the map the
+frames were rendered with, and with every beacon of the table displaced by a draw of its survey
+sigma (sigma_mm of beacons.csv). The faults (onsets for 120 frames; they scale with --frames):
 
-- clean;
-- desynchronising rows: one hostile row of frames.csv (5 or 7 fields, a NUL,
-  a ../ path, a negative exposure, camera w, a duplicate) every 8 frames, the
-  camera rotating;
-- a camera dying: camera y's frames missing from frame 40 on;
-- a CRC-valid odd table: the fixed threshold 2 DN (a flood of blobs);
-- 5,000 spurious spots over the run (Gaussian dots of random size and
-  brightness at random places).
+- clean; a CRC-valid odd table (fixed threshold 2 DN: a flood of blobs);
+- hostile frames.csv rows every 8 frames; camera y dying at frame 40; 5,000 spurious spots;
+- each camera frozen from frame 30 (its images byte copies of frame 30, stamps advancing), and
+  cameras x and y frozen together;
+- each camera's clock stepping -1 s from frame 40 and +5 s from frame 70 (frames.csv t_s);
+- each camera's frames one and two periods stale from frame 30 (image f is image f-n, the row
+  keeps t_f: stamped on arrival but old);
+- the most often seen beacon (spots.csv) moved 5, 20 and 50 mm off its wall and along it after
+  the survey (the table says where the frames show it minus the move);
+- that beacon's LED dead (its spot erased from every image; the table keeps it).
 
-A fix is misleading when it is more than 20 mm from truth, or more than 5
-sigma of its own covariance on any axis of position (mm) or attitude (the
-covariance's rotation axes when nav.csv has them, else the Euler sigmas).
-With the full 6x6 covariance the NEES is reported too, against the
-chi-square(6) quantile of the same tail probability as 5 sigma (5.7e-7:
-NEES 39.3). Exits 1 when any fix is misleading.
+Scoring is tests/bench/faults/score.py (a misleading fix: usable and > 20 mm or > 1 deg from
+truth at its frames' capture time, beyond 5 sigma of its own covariance or NEES 39.3, or stamped
+more than one frame period from its frames' capture time; protection levels where nav.csv has
+pl_* columns; the cycles from onset to the first report of the faulty camera or beacon in
+events.csv). Prints a markdown table, writes WORK/results.json, exits 1 when any fix is
+misleading (or a run could not be flown).
 
-    python tests/bench/fault_acceptance.py [--work DIR] [--frames N]
+    python tests/bench/fault_acceptance.py [--work DIR] [--frames N] [--only TEXT] [-j N]
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
+import re
 import shutil
 import subprocess
 import sys
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from faults import inject, score  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
+# The programs flown and the Python that simulates and builds tables: this tree's, or another
+# checkout's (--tree) so that one campaign measures any build without change.
 PY = sys.executable
 BIN = REPO / "build/host-sim/bin"
-AXES_ROS = ("x", "y", "z", "rx", "ry", "rz")
-NEES_5SIGMA = 39.3  # chi-square(6) quantile at the two-sided 5-sigma tail, 5.7e-7
+NAV_TIMEOUT_S = 900.0
+SURVEY = " + survey error"
 
 
 def run(*args, timeout: float | None = None) -> subprocess.CompletedProcess:
@@ -52,7 +62,7 @@ def run(*args, timeout: float | None = None) -> subprocess.CompletedProcess:
 
 def must(res: subprocess.CompletedProcess, what: str) -> None:
     if res.returncode != 0:
-        sys.exit(f"fault_acceptance: {what} failed ({res.returncode}):\n{res.stderr[-2000:]}")
+        raise RuntimeError(f"{what} failed ({res.returncode}):\n{res.stderr[-2000:]}")
 
 
 def simulate(out: Path, frames: int) -> None:
@@ -76,242 +86,401 @@ def simulate(out: Path, frames: int) -> None:
     )
 
 
-def build_table(frames: Path, out: Path, beacons: Path | None = None, settings: Path | None = None) -> Path:
-    args = [
-        "-m",
-        "mfns",
-        "table",
-        "build",
-        frames / "calib.json",
-        beacons or frames / "beacons.csv",
-        "-o",
-        out,
-        "-q",
-    ]
-    if settings is not None:
-        args += ["--settings", settings]
-    must(run(PY, *args), f"mfns table build {out.name}")
-    return out
+class Tables:
+    """Calibration tables built on first use (once, whichever run asks first)."""
+
+    def __init__(self, frames: Path, work: Path):
+        self.frames, self.work = frames, work
+        self.lock = threading.Lock()
+        self.made: dict[str, tuple[threading.Lock, list]] = {}
+        self.seconds = 0.0
+
+    def get(self, name: str, beacons: Callable[[], Path] | None = None, settings: Path | None = None) -> Path:
+        with self.lock:
+            entry = self.made.setdefault(name, (threading.Lock(), []))
+        with entry[0]:
+            if not entry[1]:
+                t0 = time.monotonic()
+                out = self.work / "tables" / f"{name}.mfnstbl"
+                out.parent.mkdir(exist_ok=True)
+                args = ["-m", "mfns", "table", "build", self.frames / "calib.json"]
+                args += [beacons() if beacons else self.frames / "beacons.csv", "-o", out, "-q"]
+                if settings is not None:
+                    args += ["--settings", settings]
+                must(run(PY, *args), f"mfns table build {name}")
+                entry[1].append(out)
+                with self.lock:
+                    self.seconds += time.monotonic() - t0
+            return entry[1][0]
 
 
-def displaced_map(frames: Path, out: Path, seed: int) -> Path:
-    """beacons.csv with every beacon moved by N(0, sigma_mm) per coordinate."""
-    rng = np.random.default_rng(seed)
-    with open(frames / "beacons.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    with open(out, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        for r in rows:
-            s = float(r["sigma_mm"])
-            for a in ("x_mm", "y_mm", "z_mm"):
-                r[a] = f"{float(r[a]) + rng.normal(0.0, s):.4f}"
-            w.writerow(r)
-    return out
+@dataclass
+class Fault:
+    name: str
+    prepare: Callable[[Path], dict] | None = None  # folder -> content map (inject.py)
+    tables: tuple[Callable[[], Path], Callable[[], Path]] | None = None  # nominal, survey
+    onset_frame: int | None = None
+    subjects: list[tuple[str, int, str]] = field(default_factory=list)  # (kind, id, label)
 
 
-def copy_frames(src: Path, dst: Path) -> Path:
-    if dst.exists():
-        shutil.rmtree(dst)
-    shutil.copytree(src, dst)
-    return dst
+def slug(tag: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "_", tag.lower()).strip("_")[:80]
 
 
-HOSTILE = [
-    lambda r: [r.rsplit(b",", 1)[0]],
-    lambda r: [r + b",7"],
-    lambda r: [r.replace(b"cam_", b"cam\0")],
-    lambda r: [r.replace(b"cam_", b"../cam_")],
-    lambda r: [b",".join(r.split(b",")[:4] + [b"-5"] + r.split(b",")[5:])],
-    lambda r: [b",".join(r.split(b",")[:2] + [b"w"] + r.split(b",")[3:])],
-    lambda r: [r, r],
-]
+def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict) -> dict:
+    out = work / "runs" / slug(tag)
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    res: dict = {"run": tag, "fault": fault.name, "survey_error": tag.endswith(SURVEY)}
+    t0 = time.monotonic()
+    try:
+        nav = run(
+            BIN / "mfns-nav",
+            "--table",
+            table,
+            "--replay",
+            frames,
+            "--file",
+            out / "tlm.bin",
+            "-q",
+            timeout=NAV_TIMEOUT_S,
+        )
+        res["nav_exit"] = nav.returncode
+    except subprocess.TimeoutExpired:
+        res["nav_exit"] = "timeout"
+    t1 = time.monotonic()
+    g = run(BIN / "mfns-ground", "--file", out / "tlm.bin", "--out", out / "ground", "--no-status")
+    t2 = time.monotonic()
+    nav_rows = score.read_csv(out / "ground/nav.csv")
+    cam_rows = score.read_csv(out / "ground/camera.csv")
+    events = score.read_csv(out / "ground/events.csv")
+    res["error"] = None
+    if res["nav_exit"] != 0 or g.returncode != 0 or not nav_rows:
+        res["error"] = (
+            f"mfns-nav exit {res['nav_exit']}, mfns-ground exit {g.returncode}, {len(nav_rows)} nav rows"
+        )
+    res.update(score.score_run(nav_rows, cam_rows, ctx["truth"], ctx["capture"], ctx["period_s"]))
+    reports = {}
+    if fault.onset_frame is not None:
+        onset = score.onset_cycle(cam_rows, fault.onset_frame)
+        res["onset_cycle"] = onset
+        for kind, ident, label in fault.subjects:
+            reports[label] = score.first_report(events, kind, ident, onset, ctx["described"])
+    res["reports"] = reports
+    res["seconds"] = {"nav": t1 - t0, "ground": t2 - t1, "score": time.monotonic() - t2}
+    return res
 
 
-def desync_rows(folder: Path, n_frames: int) -> None:
-    lines = (folder / "frames.csv").read_bytes().split(b"\n")
-    out = []
-    for ln in lines:
-        parts = ln.split(b",")
-        if len(parts) > 2 and parts[0].isdigit():
-            f = int(parts[0])
-            cam = "xyz"[(f // 8) % 3]
-            if f % 8 == 3 and parts[2] == cam.encode():
-                out += HOSTILE[(f // 8) % len(HOSTILE)](ln)
-                continue
-        out.append(ln)
-    (folder / "frames.csv").write_bytes(b"\n".join(out))
+def failed_run(tag: str, fault: str, why: str) -> dict:
+    """The row of a run that could not be set up or flown."""
+    res = score.score_run([], [], None, {}, 1.0)
+    return res | {
+        "run": tag,
+        "fault": fault,
+        "error": why.strip().splitlines()[0][:300],
+        "reports": {},
+        "seconds": {"nav": 0.0, "ground": 0.0, "score": 0.0},
+    }
 
 
-def kill_camera(folder: Path, cam: str, first: int) -> None:
-    for p in sorted((folder / f"cam_{cam}").glob("*.pgm")):
-        if int(p.stem) >= first:
-            p.unlink()
+def report_cell(r: dict) -> str:
+    if not r["reports"]:
+        return "-"
+    cells = []
+    for label, rep in r["reports"].items():
+        text = "not reported" if rep is None else f"{rep['delay']} ({rep['event']})"
+        cells.append(text if len(r["reports"]) == 1 else f"{label}: {text}")
+    return "; ".join(cells)
 
 
-def add_spots(folder: Path, n_total: int, seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    files = sorted(folder.glob("cam_*/*.pgm"))
-    per = np.bincount(rng.integers(0, len(files), n_total), minlength=len(files))
-    for path, k in zip(files, per, strict=True):
-        if k == 0:
-            continue
-        data = path.read_bytes()
-        parts = data.split(b"\n", 3)
-        w, h = map(int, parts[1].split())
-        maxv = int(parts[2])
-        dtype = np.uint8 if maxv < 256 else np.dtype(">u2")
-        px = np.frombuffer(parts[3], dtype=dtype).reshape(h, w).astype(float)
-        for _ in range(k):
-            u, v = rng.uniform(5, w - 5), rng.uniform(5, h - 5)
-            s, a = rng.uniform(0.8, 2.0), rng.uniform(40, 200)
-            y0, x0 = int(v) - 6, int(u) - 6
-            yy, xx = np.mgrid[y0 : y0 + 13, x0 : x0 + 13]
-            ok = (yy >= 0) & (yy < h) & (xx >= 0) & (xx < w)
-            px[yy[ok], xx[ok]] += a * np.exp(-((xx[ok] - u) ** 2 + (yy[ok] - v) ** 2) / (2 * s * s))
-        out = np.clip(px, 0, maxv).astype(dtype)
-        path.write_bytes(b"\n".join(parts[:3]) + b"\n" + out.tobytes())
-
-
-def rot_from_euler213_deg(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """C_w_b = R3(yaw) R1(roll) R2(pitch), frame rotations (docs/conventions.md)."""
-    f, t, p = np.radians([roll, pitch, yaw])
-    r1 = np.array([[1, 0, 0], [0, math.cos(f), math.sin(f)], [0, -math.sin(f), math.cos(f)]])
-    r2 = np.array([[math.cos(t), 0, -math.sin(t)], [0, 1, 0], [math.sin(t), 0, math.cos(t)]])
-    r3 = np.array([[math.cos(p), math.sin(p), 0], [-math.sin(p), math.cos(p), 0], [0, 0, 1]])
-    return r3 @ r1 @ r2
-
-
-def quat_to_m3(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
+def table_row(r: dict) -> str:
+    if r.get("error") and not r["cycles"]:
+        return f"| {r['run']} | FAILED: {r['error'].replace('|', '/')} | | | | | | | | |"
+    mis = str(r["misleading"])
+    if r["misleading_stamp"]:
+        mis += f" ({r['misleading_stamp']} by stamp, up to {r['worst_stamp_s']:.3f} s)"
+    nees = "-" if r["worst_nees"] is None else f"{r['worst_nees']:.1f}"
+    if not r["pl_columns"]:
+        pl = "-"
+    elif r["worst_pl_ratio"] is None:
+        pl = f"no PL ({r['pl_missing']})"
+    else:
+        met = ", ".join(f"{v:.3g} {c.rsplit('_', 1)[-1]}" for c, v in r["pl_max"].items())
+        pl = f"{r['worst_pl_ratio']:.2f} ({r['pl_exceeded']} > PL; PL up to {met})"
+    return (
+        f"| {r['run']} | {r['cycles']} | {r['usable']} | {mis} | {r['worst_mm']:.2f} | "
+        f"{r['worst_deg']:.3f} | {r['worst_sigma']:.2f} | {nees} | {pl} | {report_cell(r)} |"
     )
 
 
-def rot_log(r: np.ndarray) -> np.ndarray:
-    c = max(-1.0, min(1.0, 0.5 * (np.trace(r) - 1.0)))
-    th = math.acos(c)
-    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    return 0.5 * v if th < 1e-6 else th / (2 * math.sin(th)) * v
+def campaign(base: Path, work: Path, n_frames: int, tables: Tables) -> list[Fault]:
+    """The faults, in the order of the table."""
+    survey_map = work / "beacons_survey.csv"
+    odd_json = work / "odd.json"
+    odd_json.write_text(json.dumps({"centroid": {"threshold_dn": 2}}))
+
+    def nom() -> Path:
+        return tables.get("nominal")
+
+    def sur() -> Path:
+        return tables.get("survey", lambda: survey_map)
+
+    def k(frame_of_120: int) -> int:
+        return max(1, round(frame_of_120 * n_frames / 120))
+
+    cam_idx = {c: i for i, c in enumerate(score.CAMERAS)}
+
+    def cam(*cs: str) -> list[tuple[str, int, str]]:
+        return [("camera", cam_idx[c], c) for c in cs]
+
+    faults = [
+        Fault("clean", tables=(nom, sur)),
+        Fault(
+            "CRC-valid odd table (threshold 2 DN)",
+            tables=(
+                lambda: tables.get("odd", settings=odd_json),
+                lambda: tables.get("odd_survey", lambda: survey_map, odd_json),
+            ),
+        ),
+        Fault("hostile rows every 8 frames", inject.desync_rows),
+        Fault(
+            f"camera y dies at frame {k(40)}",
+            lambda f: inject.kill_camera(f, "y", k(40)),
+            None,
+            k(40),
+            cam("y"),
+        ),
+        Fault("5,000 spurious spots", lambda f: inject.add_spots(f, 5000, 9)),
+    ]
+    for c in score.CAMERAS:
+        faults.append(
+            Fault(
+                f"camera {c} frozen at frame {k(30)}",
+                lambda f, c=c: inject.freeze_camera(f, c, k(30)),
+                None,
+                k(30),
+                cam(c),
+            )
+        )
+
+    def freeze_xy(f: Path) -> dict:
+        return inject.freeze_camera(f, "x", k(30)) | inject.freeze_camera(f, "y", k(30))
+
+    faults.append(Fault(f"cameras x and y frozen at frame {k(30)}", freeze_xy, None, k(30), cam("x", "y")))
+    for dt, first in ((-1.0, k(40)), (5.0, k(70))):
+        for c in score.CAMERAS:
+            faults.append(
+                Fault(
+                    f"camera {c} clock {dt:+g} s at frame {first}",
+                    lambda f, c=c, dt=dt, first=first: inject.clock_step(f, c, first, dt),
+                    None,
+                    first,
+                    cam(c),
+                )
+            )
+    for n in (1, 2):
+        for c in score.CAMERAS:
+            faults.append(
+                Fault(
+                    f"camera {c} frames {n} period{'s' if n > 1 else ''} stale from frame {k(30)}",
+                    lambda f, c=c, n=n: inject.stale_frames(f, c, k(30), n),
+                    None,
+                    k(30),
+                    cam(c),
+                )
+            )
+
+    rows = inject.read_beacons(base / "beacons.csv")
+    b = inject.most_seen_beacon(base / "spots.csv")
+    seen = inject.first_seen_frame(base / "spots.csv", b) or 0
+    axis, inward = inject.beacon_wall(rows, b)
+    print(
+        f"fault_acceptance: beacon {b} (most seen, first in frame {seen}) is on the "
+        f"{'min' if inward > 0 else 'max'} {'xyz'[axis]} wall",
+        flush=True,
+    )
+    beacon = [("beacon", b, str(b))]
+    for along in (False, True):
+        for d in (5.0, 20.0, 50.0):
+            mv = inject.move_vector(rows, b, d, along)
+            ax = int(abs(mv).argmax())
+            where = f"{'along' if along else 'off'} its wall ({'+' if mv[ax] > 0 else '-'}{'xyz'[ax]})"
+            key = f"moved_{b}_{'along' if along else 'normal'}_{d:g}"
+
+            def t_nom(mv=mv, key=key) -> Path:
+                return tables.get(
+                    key, lambda: inject.moved_beacon_map(base / "beacons.csv", work / f"{key}.csv", b, mv)
+                )
+
+            def t_sur(mv=mv, key=key) -> Path:
+                return tables.get(
+                    key + "_survey",
+                    lambda: inject.moved_beacon_map(survey_map, work / f"{key}_survey.csv", b, mv),
+                )
+
+            faults.append(Fault(f"beacon {b} moved {d:g} mm {where}", None, (t_nom, t_sur), seen, beacon))
+    faults.append(
+        Fault(
+            f"beacon {b} LED dead", lambda f: {"spots_erased": inject.dead_led(f, b, 11)}, None, seen, beacon
+        )
+    )
+    for f in faults:
+        f.tables = f.tables or (nom, sur)
+    return faults
 
 
-def fly(frames: Path, table: Path, work: Path, tag: str) -> dict:
-    tlm = work / f"{tag}.bin"
-    nav = run(BIN / "mfns-nav", "--table", table, "--replay", frames, "--file", tlm, timeout=1800)
-    gdir = work / f"ground_{tag}"
-    run(BIN / "mfns-ground", "--file", tlm, "--out", gdir, "--no-status")
-    with open(gdir / "nav.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
-    by_frame = {int(t["frame"]): t for t in truth} if "frame" in truth.dtype.names else dict(enumerate(truth))
-    res = {
-        "tag": tag,
-        "cycles": len(rows),
-        "usable": 0,
-        "misleading": 0,
-        "worst_mm": 0.0,
-        "worst_sigma": 0.0,
-        "worst_nees": None,
-        "nav_exit": nav.returncode,
-    }
-    for row in rows:
-        if row["status"] not in ("FIX", "DEGRADED"):
-            continue
-        res["usable"] += 1
-        t = by_frame[int(row["cycle"])]
-        d_pos = np.array([float(row[a + "_mm"]) - float(t[a + "_mm"]) for a in "xyz"])
-        c_true = rot_from_euler213_deg(float(t["roll_deg"]), float(t["pitch_deg"]), float(t["yaw_deg"]))
-        if "q_w" in row and f"cov_{AXES_ROS[0]}_{AXES_ROS[0]}" in row:
-            c_b_w_est = quat_to_m3(np.array([float(row[k]) for k in ("q_w", "q_x", "q_y", "q_z")]))
-            # C_b_w(est) = exp(phi_w) C_b_w(true)
-            phi_deg = np.degrees(rot_log(c_b_w_est @ c_true))
-            e = np.concatenate([d_pos, phi_deg])
-            p = np.zeros((6, 6))
-            for i, a in enumerate(AXES_ROS):
-                for j in range(i, 6):
-                    p[i, j] = p[j, i] = float(row[f"cov_{a}_{AXES_ROS[j]}"])
-            sig = np.sqrt(np.maximum(np.diag(p), 1e-18))
-            try:
-                nees = float(e @ np.linalg.solve(p, e))
-            except np.linalg.LinAlgError:
-                nees = math.inf
-            res["worst_nees"] = max(res["worst_nees"] or 0.0, nees)
-        else:
-            e_eul = np.array(
-                [float(row[a + "_deg"]) - float(t[a + "_deg"]) for a in ("roll", "pitch", "yaw")]
-            )
-            e_eul = (e_eul + 180.0) % 360.0 - 180.0
-            e = np.concatenate([d_pos, e_eul])
-            sig = np.array(
-                [float(row[f"sigma_{a}_mm"]) for a in "xyz"]
-                + [float(row[f"sigma_{a}_deg"]) for a in ("roll", "pitch", "yaw")]
-            )
-            nees = None
-        z = float(np.max(np.abs(e) / np.maximum(sig, 1e-9)))
-        far = float(np.max(np.abs(d_pos)))
-        res["worst_mm"] = max(res["worst_mm"], far)
-        res["worst_sigma"] = max(res["worst_sigma"], z)
-        if far > 20.0 or z > 5.0 or (nees is not None and nees > NEES_5SIGMA):
-            res["misleading"] += 1
-    return res
+def finite(o):
+    """JSON has no inf or nan: they become null."""
+    if isinstance(o, float):
+        return o if math.isfinite(o) else None
+    if isinstance(o, dict):
+        return {k: finite(v) for k, v in o.items()}
+    if isinstance(o, list | tuple):
+        return [finite(v) for v in o]
+    return o
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", type=Path, default=REPO / "build/faults")
     ap.add_argument("--frames", type=int, default=120)
+    ap.add_argument(
+        "--only",
+        action="append",
+        default=[],
+        metavar="TEXT",
+        help="fly only the runs whose name contains TEXT (case-insensitive; repeatable)",
+    )
+    ap.add_argument("-j", "--jobs", type=int, default=2, help="faults flown in parallel (default 2)")
+    ap.add_argument(
+        "--tree",
+        type=Path,
+        default=None,
+        help="fly another checkout's build: its build/host-sim/bin, its .venv Python (simulation, "
+        "tables) and its TM dictionary (default: this one)",
+    )
+    ap.add_argument("--keep-frames", action="store_true", help="keep the simulated frames at the end")
     args = ap.parse_args()
-    work = args.work
+    global PY, BIN
+    mdb = None
+    if args.tree is not None:
+        tree = args.tree.resolve()
+        BIN = tree / "build/host-sim/bin"
+        if (tree / ".venv/bin/python").exists():
+            PY = str(tree / ".venv/bin/python")
+        mdb = tree / "host_tools/mfns/data/mfns_tm.xml"
+    t_start = time.monotonic()
+    work = args.work.resolve()
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
     base = work / "frames"
     simulate(base, args.frames)
-    nominal = build_table(base, work / "nominal.mfnstbl")
-    surveyed = build_table(
-        base, work / "survey.mfnstbl", beacons=displaced_map(base, work / "beacons_survey.csv", 5)
+    t_sim = time.monotonic() - t_start
+    inject.displaced_map(base / "beacons.csv", work / "beacons_survey.csv", 5)
+    frames_rows = inject.frame_rows(base)
+    scen = json.loads((base / "scenario.json").read_text())
+    truth = score.Truth.load(base / "truth.csv")
+    tables = Tables(base, work)
+    described = score.dictionary_subjects(mdb)
+    faults = campaign(base, work, args.frames, tables)
+
+    def wanted(tag: str) -> bool:
+        return not args.only or any(o.lower() in tag.lower() for o in args.only)
+
+    jobs = [(f, [t for t in (f.name, f.name + SURVEY) if wanted(t)]) for f in faults]
+    jobs = [(f, tags) for f, tags in jobs if tags]
+    if not jobs:
+        print(f"fault_acceptance: no run matches {args.only}", file=sys.stderr)
+        return 2
+    prep_seconds: dict[str, float] = {}
+
+    def one(job: tuple[Fault, list[str]]) -> list[dict]:
+        fault, tags = job
+        t0 = time.monotonic()
+        folder, out = base, []
+        try:
+            done = {}
+            if fault.prepare is not None:
+                folder = inject.link_frames(base, work / "runs" / f"frames_{slug(fault.name)}")
+                done = fault.prepare(folder) or {}
+            content = {key: v for key, v in done.items() if isinstance(key, tuple)}
+            info = {key: v for key, v in done.items() if not isinstance(key, tuple)}
+            prep_seconds[fault.name] = time.monotonic() - t0
+            ctx = {
+                "truth": truth,
+                "capture": score.capture_times(frames_rows, content),
+                "period_s": 1.0 / float(scen["rate_hz"]),
+                "described": described,
+            }
+            for tag in tags:
+                t_nom, t_sur = fault.tables
+                table = t_sur() if tag.endswith(SURVEY) else t_nom()
+                out.append(fly(folder, table, work, tag, fault, ctx) | ({"inject": info} if info else {}))
+                print(f"fault_acceptance: {table_row(out[-1])}", flush=True)
+        except Exception as e:  # one fault that cannot be set up is a failed row, not a lost campaign
+            flown = {r["run"] for r in out}
+            for tag in tags:
+                if tag not in flown:
+                    out.append(failed_run(tag, fault.name, f"{type(e).__name__}: {e}"))
+                    print(f"fault_acceptance: {table_row(out[-1])}", flush=True)
+        finally:
+            if folder != base:
+                shutil.rmtree(folder, ignore_errors=True)
+        return out
+
+    with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        results = [r for rs in pool.map(one, jobs) for r in rs]
+    if not args.keep_frames:
+        for d in base.glob("cam_*"):
+            shutil.rmtree(d)
+    wall = time.monotonic() - t_start
+
+    print()
+    print(
+        "| run | cycles | usable | misleading | worst mm | worst deg | worst sigma | worst NEES | "
+        "worst error/PL | cycles to report |"
     )
-    (work / "odd.json").write_text(json.dumps({"centroid": {"threshold_dn": 2}}))
-    odd = build_table(base, work / "odd.mfnstbl", settings=work / "odd.json")
-    odd_s = build_table(
-        base, work / "odd_survey.mfnstbl", beacons=work / "beacons_survey.csv", settings=work / "odd.json"
-    )
-    results = []
-
-    def both(frames: Path, name: str, t_nom: Path = nominal, t_sur: Path = surveyed) -> None:
-        results.append(fly(frames, t_nom, work, name))
-        results.append(fly(frames, t_sur, work, name + " + survey error"))
-
-    both(base, "clean")
-    both(base, "CRC-valid odd table (threshold 2 DN)", odd, odd_s)
-    f = copy_frames(base, work / "desync")
-    desync_rows(f, args.frames)
-    both(f, "hostile rows every 8 frames")
-    f = copy_frames(base, work / "dying")
-    kill_camera(f, "y", 40)
-    both(f, "camera y dies at frame 40")
-    shutil.rmtree(work / "desync")
-    shutil.rmtree(work / "dying")
-    f = copy_frames(base, work / "spots")
-    add_spots(f, 5000, 9)
-    both(f, "5,000 spurious spots")
-    shutil.rmtree(f)
-
-    print("| run | cycles | usable | misleading | worst mm | worst sigma (any axis) | worst NEES |")
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
-        nees = "-" if r["worst_nees"] is None else f"{r['worst_nees']:.1f}"
-        print(
-            f"| {r['tag']} | {r['cycles']} | {r['usable']} | {r['misleading']} | {r['worst_mm']:.2f} | "
-            f"{r['worst_sigma']:.2f} | {nees} |"
-        )
+        print(table_row(r))
     total = sum(r["misleading"] for r in results)
-    print(f"misleading fixes (> 20 mm or > 5 sigma of their own covariance): {total}")
-    return 1 if total else 0
+    failed = [r["run"] for r in results if r.get("error")]
+    secs = {
+        "wall": wall,
+        "simulate": t_sim,
+        "tables": tables.seconds,
+        "prepare": sum(prep_seconds.values()),
+        "nav": sum(r["seconds"]["nav"] for r in results),
+        "ground": sum(r["seconds"]["ground"] for r in results),
+        "score": sum(r["seconds"]["score"] for r in results),
+    }
+    print(
+        f"misleading fixes (usable and > {score.LIMIT_MM:g} mm or > {score.LIMIT_DEG:g} deg from truth at "
+        f"their frames' capture time, > {score.LIMIT_SIGMA:g} sigma of their own covariance, or stamped more "
+        f"than one frame period from it): {total} in {sum(1 for r in results if r['misleading'])} of "
+        f"{len(results)} runs"
+    )
+    if failed:
+        print(f"runs not flown cleanly: {len(failed)}: {'; '.join(failed)}")
+    print(
+        "seconds: " + ", ".join(f"{k} {v:.1f}" for k, v in secs.items()) + " (summed over runs except wall)"
+    )
+    (work / "results.json").write_text(
+        json.dumps(
+            {
+                "frames": args.frames,
+                "only": args.only,
+                "total_misleading": total,
+                "failed": failed,
+                "seconds": secs,
+                "runs": finite(results),
+            },
+            indent=1,
+            default=str,
+        )
+    )
+    return 1 if total or failed else 0
 
 
 if __name__ == "__main__":
