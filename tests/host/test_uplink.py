@@ -159,7 +159,7 @@ def encode_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> b
         str(src),
         "--out",
         str(tmp / "g-enc"),
-        "-q",
+        "--no-status",  # not -q: it silences the uplink counters read below
         "--tc-file",
         str(out),
     ]
