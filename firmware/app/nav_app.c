@@ -88,6 +88,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     }
     app->t0_us = nav_app_now_us();
     app->clock_monotonic = o->backend != MFNS_CAM_BACKEND_REPLAY;
+    nav_time_init(&app->time, app->clock_monotonic);
     send_event(app, TLM_EVT_BOOT, TLM_SEV_INFO, NAV_APP_VERSION, 0);
 
     uint32_t err_off = 0;
@@ -141,6 +142,11 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
     if (rc != 0) {
         return rc;
     }
+    /* housekeeping at start (n_cycles 0): its time correlation reaches the
+     * ground before the first nav packet, so every packet of the run has the
+     * flight's UTC (docs/telemetry.md "Time"), and the ground sees the table
+     * and the cameras enabled before the first cycle */
+    nav_loop_housekeeping(app, 0u, 0u, app->clock_monotonic ? nav_app_now_us() : 0u);
     nav_tlm_drain(&app->tlm, app->cycle_now, nav_app_now_us() / 1000u);
 
     uint32_t cycles = 0;

@@ -33,7 +33,13 @@ nav_time_pair_t nav_time_correlate(int64_t utc_now_us, uint64_t mono_now_us, uin
     return p;
 }
 
-nav_time_pair_t nav_time_pair_now(uint64_t t_flight_us, bool monotonic)
+void nav_time_init(nav_time_t *t, bool monotonic)
+{
+    memset(t, 0, sizeof *t);
+    t->monotonic = monotonic;
+}
+
+nav_time_pair_t nav_time_pair_now(nav_time_t *t, uint64_t t_flight_us)
 {
     struct timespec rt, mt;
     if (clock_gettime(CLOCK_REALTIME, &rt) != 0 || clock_gettime(CLOCK_MONOTONIC, &mt) != 0) {
@@ -45,5 +51,18 @@ nav_time_pair_t nav_time_pair_now(uint64_t t_flight_us, bool monotonic)
     const bool synced = state != TIME_ERROR && state >= 0 && (tx.status & STA_UNSYNC) == 0;
     const int64_t utc_now_us = (int64_t)rt.tv_sec * (int64_t)MFNS_US_PER_S + (int64_t)rt.tv_nsec / 1000;
     const uint64_t mono_now_us = (uint64_t)mt.tv_sec * MFNS_US_PER_S + (uint64_t)mt.tv_nsec / 1000u;
-    return nav_time_correlate(utc_now_us, mono_now_us, t_flight_us, monotonic, synced);
+    if (t->monotonic) {
+        return nav_time_correlate(utc_now_us, mono_now_us, t_flight_us, true, synced);
+    }
+    nav_time_pair_t p = nav_time_correlate(utc_now_us, mono_now_us, t_flight_us, false, synced);
+    if (p.quality == TLM_TIMEQ_NONE || t_flight_us > (uint64_t)INT64_MAX) {
+        return p;
+    }
+    if (!t->anchored) {
+        t->anchored = true;
+        t->offset_us = utc_now_us - (int64_t)t_flight_us;
+    }
+    /* the anchor's UTC for this recorded time, same quality as now */
+    const nav_time_pair_t q = nav_time_correlate((int64_t)t_flight_us + t->offset_us, 0u, 0u, false, synced);
+    return q.quality == TLM_TIMEQ_NONE ? p : q;
 }

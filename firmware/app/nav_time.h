@@ -12,9 +12,12 @@
  * forwards to Yamcs).
  *
  * The pair: for a monotonic flight clock, UTC(t) = UTC(now) - (mono(now) - t),
- * read back to back; for a replay, whose recorded times are not on this
- * board's clock, the recording's time is paired with the moment it is flown
- * (a replay appears at the time it ran). The quality says what the UTC is
+ * read back to back (each housekeeping pairs afresh: the ground follows the
+ * clocks' drift); for a replay, whose recorded times are not on this board's
+ * clock, the recording's first paired time is anchored to the moment it is
+ * flown and every later pair keeps that offset (a replay appears at the time
+ * it ran, as if flown in real time, and its UTC never goes back however fast
+ * the replay runs). The quality says what the UTC is
  * worth: NONE when the board's clock was never set (before 2020-01-01: no
  * board in service is), SYNCED when the kernel reports the clock synchronised
  * (ntp_adjtime: not TIME_ERROR, STA_UNSYNC clear: NTP, PTP or GNSS via chrony),
@@ -42,7 +45,17 @@ typedef struct {
 nav_time_pair_t nav_time_correlate(int64_t utc_now_us, uint64_t mono_now_us, uint64_t t_flight_us, bool monotonic,
                                    bool synced);
 
-/* The pair for flight time t_flight_us now, from this board's clocks. */
-nav_time_pair_t nav_time_pair_now(uint64_t t_flight_us, bool monotonic);
+/* The correlation state of one run (caller-owned): a replay's anchor. */
+typedef struct {
+    bool monotonic;      /* the flight clock is CLOCK_MONOTONIC (else a recording's time) */
+    bool anchored;       /* replay: the offset below is set */
+    int64_t offset_us;   /* replay: UTC - recorded time, from the first pair */
+} nav_time_t;
+
+void nav_time_init(nav_time_t *t, bool monotonic);
+
+/* The pair for flight time t_flight_us now, from this board's clocks (a
+ * replay: from its anchor, set by the first call that has UTC). */
+nav_time_pair_t nav_time_pair_now(nav_time_t *t, uint64_t t_flight_us);
 
 #endif /* MFNS_NAV_TIME_H */

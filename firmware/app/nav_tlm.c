@@ -249,7 +249,7 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
     }
 }
 
-void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
+void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
 {
     tlm_packet_t p;
     memset(&p, 0, sizeof p);
@@ -279,7 +279,7 @@ void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycl
     h->acq_units_last = app->count.acq_last.units;
     h->acq_band_last = app->count.acq_last.band;
     h->acq_best_last = app->count.acq_last.best_inliers;
-    const nav_time_pair_t utc = nav_time_pair_now(t_us, app->clock_monotonic); /* CCSDS-style time correlation */
+    const nav_time_pair_t utc = nav_time_pair_now(&app->time, t_us); /* CCSDS-style time correlation */
     h->utc_s = utc.utc_s;
     h->utc_us = utc.utc_us;
     h->time_quality = utc.quality;

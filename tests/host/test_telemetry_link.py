@@ -132,7 +132,7 @@ NAV_HEADER = (
     "roll_deg,pitch_deg,yaw_deg,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,"
     "sigma_yaw_deg,residual_rms_px,q_w,q_x,q_y,q_z,"
     + ",".join(f"cov_{a}_{b}" for i, a in enumerate(AX) for b in AX[i:])
-    + ",ground_utc"
+    + ",utc,time_source,ground_utc"
 )
 
 

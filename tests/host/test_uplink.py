@@ -382,12 +382,12 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path):
     # primary header): forwarded as UTC from the flight's time correlation (UNIX epoch,
     # docs/telemetry.md "Time"), which is the nav.csv utc column
     assert len(got) == len(packets)
-    assert [g[:6] + g[12:] for g in got] == [p[:6] + p[12:] for p in packets]
+    assert [d[:6] + d[12:] for d in got] == [p[:6] + p[12:] for p in packets]
     utc_rows = [r["utc"] for r in rows(tmp_path / "g" / "nav.csv")]
-    fwd_nav = [g for g in got if int.from_bytes(g[0:2], "big") & 0x7FF == 257]
+    fwd_nav = [d for d in got if int.from_bytes(d[0:2], "big") & 0x7FF == 257]
     assert len(fwd_nav) == len(utc_rows) == 10
-    for g, u in zip(fwd_nav, utc_rows, strict=True):
-        t = int.from_bytes(g[6:10], "big") + int.from_bytes(g[10:12], "big") / 65536.0
+    for d, u in zip(fwd_nav, utc_rows, strict=True):
+        t = int.from_bytes(d[6:10], "big") + int.from_bytes(d[10:12], "big") / 65536.0
         want = datetime.datetime.fromisoformat(u.replace("Z", "+00:00")).timestamp()
         assert abs(t - want) < 2e-5, (t, u)
         assert abs(t - time.time()) < 600  # a real time, not 1970
@@ -525,10 +525,9 @@ def test_packets_carry_utc_through_the_flight_time_correlation(bins, run, tmp_pa
     for h in hk:  # the pair: UTC when the run flew this flight time
         assert t0 - 1 <= int(h["utc_s"]) + int(h["utc_us"]) * 1e-6 <= t1 + 1
         assert h["time_source"].startswith("FLIGHT_")
+    assert hk[0]["n_cycles"] == "0"  # the start-up housekeeping: its pair precedes every nav packet
     nav = rows(out / "nav.csv")
-    first_hk_seq = 0  # housekeeping follows cycle 0's nav packet: that one is correlated at receipt
-    assert nav[first_hk_seq]["time_source"] == "GROUND_RECEIPT"
-    later = nav[1:]
+    later = nav
     assert all(r["time_source"] == hk[0]["time_source"] for r in later)
     for r in later:
         assert t0 - 1 <= ts(r["utc"]) <= t1 + 1

@@ -39,8 +39,19 @@ static void test_flight_pair_monotonic_and_replay(void **state)
     /* beyond the u32 seconds of the field */
     p = nav_time_correlate(((int64_t)UINT32_MAX + 10) * US, 0u, 0u, false, false);
     assert_int_equal(p.quality, TLM_TIMEQ_NONE);
-    /* this board's clocks: plausible, never later than now */
-    p = nav_time_pair_now(0u, false);
+    /* this board's clocks: plausible; a replay anchored at its first pair keeps
+     * its offset (its UTC advances exactly as the recording's time, never back) */
+    nav_time_t nt;
+    nav_time_init(&nt, false);
+    p = nav_time_pair_now(&nt, 1000000u);
+    if (p.quality != TLM_TIMEQ_NONE) {
+        assert_true(p.utc_s >= (uint32_t)NAV_TIME_UTC_PLAUSIBLE_S);
+        const nav_time_pair_t later = nav_time_pair_now(&nt, 61000000u); /* 60 s of recording, flown at once */
+        assert_int_equal(((int64_t)later.utc_s - (int64_t)p.utc_s) * US + (int64_t)later.utc_us - (int64_t)p.utc_us,
+                         60 * US);
+    }
+    nav_time_init(&nt, true); /* live: pairs afresh, never later than now */
+    p = nav_time_pair_now(&nt, 0u);
     assert_true(p.quality == TLM_TIMEQ_NONE || p.utc_s >= (uint32_t)NAV_TIME_UTC_PLAUSIBLE_S);
 }
 
