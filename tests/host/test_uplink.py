@@ -521,16 +521,21 @@ def test_packets_carry_utc_through_the_flight_time_correlation(bins, run, tmp_pa
         return datetime.datetime.fromisoformat(u.replace("Z", "+00:00")).timestamp()
 
     hk = rows(out / "housekeeping.csv")
+    nav = rows(out / "nav.csv")
+    # a replay's recorded time is anchored at its first pair (when it started), so its
+    # UTC runs as if flown in real time: up to the recording's span after the start
+    span = float(nav[-1]["t_s"])
     assert hk and all(h["time_quality"] in ("SYSTEM", "SYNCED") for h in hk)
-    for h in hk:  # the pair: UTC when the run flew this flight time
-        assert t0 - 1 <= int(h["utc_s"]) + int(h["utc_us"]) * 1e-6 <= t1 + 1
+    for h in hk:
+        u = int(h["utc_s"]) + int(h["utc_us"]) * 1e-6
+        assert t0 - 1 <= u <= t1 + span + 1
+        assert abs((u - ts(hk[0]["utc"])) - float(h["t_s"])) < 2e-5  # one anchor: UTC = anchor + t_s
         assert h["time_source"].startswith("FLIGHT_")
     assert hk[0]["n_cycles"] == "0"  # the start-up housekeeping: its pair precedes every nav packet
-    nav = rows(out / "nav.csv")
     later = nav
     assert all(r["time_source"] == hk[0]["time_source"] for r in later)
     for r in later:
-        assert t0 - 1 <= ts(r["utc"]) <= t1 + 1
+        assert t0 - 1 <= ts(r["utc"]) <= t1 + span + 1
     # within one pair, UTC advances exactly as the flight time does
     a, b = later[0], later[1]
     assert abs((ts(b["utc"]) - ts(a["utc"])) - (float(b["t_s"]) - float(a["t_s"]))) < 2e-5
