@@ -338,14 +338,19 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
                     pace_packet(&pace, o->pace, &p, &g_stop);
                     utc_us = utc_now_us(); /* released now: its receipt time */
                 }
-                if (ground_out_packet(&out, &p, utc_us) != 0) {
+                int64_t pkt_utc_us = 0;
+                if (ground_out_packet(&out, &p, utc_us, &pkt_utc_us) != 0) {
                     fprintf(stderr, "mfns-ground: writing to %s failed\n", o->out_dir);
                     rc_exit = 1;
                     done = 1;
                     break;
                 }
                 if (o->hooks != NULL && o->hooks->packet != NULL) {
-                    o->hooks->packet(o->hooks->ctx, &p); /* UDP forward */
+                    /* forwarded with its time correlated to UTC (UNIX epoch: Yamcs
+                     * shows it at its real time, docs/telemetry.md "Time") */
+                    tlm_packet_t fwd = p;
+                    fwd.time = tlm_time_from_us(pkt_utc_us > 0 ? (uint64_t)pkt_utc_us : 0u);
+                    o->hooks->packet(o->hooks->ctx, &fwd);
                 }
                 if (p.type == TLM_TYPE_NAV) {
                     last_nav = p.u.nav;

@@ -98,6 +98,9 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "n_cmd_rejected", s->n_cmd_rejected, 0);
         ground_row_num(r, "cmd_seq_last", s->cmd_seq_last, 0);
         ground_row_num(r, "cams_enabled", s->cams_enabled, 0);
+        ground_row_num(r, "utc_s", s->utc_s, 0);
+        ground_row_num(r, "utc_us", s->utc_us, 0);
+        ground_row_str(r, "time_quality", tlm_time_quality_name(s->time_quality));
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -97,8 +97,9 @@ void ground_row_q30(row_t *r, const char *name, int32_t v)
     r->n++;
 }
 
-/* t_s, seq, the packet's columns (ground_cols_gen.c), ground_utc. */
-static void build_row(const tlm_packet_t *p, int64_t utc_us, row_t *r)
+/* t_s, seq, the packet's columns (ground_cols_gen.c), utc and time_source
+ * (its UTC: time_corr.h), ground_utc (when it was received). */
+static void build_row(const tlm_packet_t *p, int64_t pkt_utc_us, time_src_t src, int64_t utc_us, row_t *r)
 {
     r->n = 0;
     r->name[0] = "t_s";
@@ -107,6 +108,11 @@ static void build_row(const tlm_packet_t *p, int64_t utc_us, row_t *r)
     r->n = 1;
     ground_row_num(r, "seq", p->seq, 0);
     ground_row_fields(p, r);
+    r->name[r->n] = "utc";
+    ground_fmt_utc(r->val[r->n], VAL_LEN, pkt_utc_us);
+    r->quoted[r->n] = 1;
+    r->n++;
+    ground_row_str(r, "time_source", time_corr_src_name(src));
     r->name[r->n] = "ground_utc";
     ground_fmt_utc(r->val[r->n], VAL_LEN, utc_us);
     r->quoted[r->n] = 1;
@@ -116,6 +122,7 @@ static void build_row(const tlm_packet_t *p, int64_t utc_us, row_t *r)
 int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen)
 {
     memset(o, 0, sizeof *o);
+    time_corr_init(&o->corr);
     if (strlen(dir) >= sizeof o->dir - 32u) {
         snprintf(err, errlen, "output folder name too long");
         return -1;
@@ -141,7 +148,7 @@ int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen)
         memset(&p, 0, sizeof p);
         p.type = (tlm_type_t)t;
         row_t r;
-        build_row(&p, 0, &r);
+        build_row(&p, 0, TIME_SRC_GROUND_RECEIPT, 0, &r);
         for (int c = 0; c < r.n; c++) {
             fprintf(o->csv[t], "%s%s", c ? "," : "", r.name[c]);
         }
@@ -150,13 +157,18 @@ int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen)
     return 0;
 }
 
-int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t utc_us)
+int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t rx_utc_us, int64_t *pkt_utc_us)
 {
     if ((unsigned)p->type >= TLM_NUM_TYPES) {
         return -1;
     }
+    time_src_t src = TIME_SRC_GROUND_RECEIPT;
+    const int64_t utc = time_corr_packet(&o->corr, p, rx_utc_us, &src);
+    if (pkt_utc_us != NULL) {
+        *pkt_utc_us = utc;
+    }
     row_t r;
-    build_row(p, utc_us, &r);
+    build_row(p, utc, src, rx_utc_us, &r);
     FILE *c = o->csv[p->type];
     FILE *j = o->jsonl[p->type];
     fputc('{', j);

@@ -13,6 +13,7 @@
 #include <stdio.h>
 
 #include "tlm_decoder.h"
+#include "time_corr.h"
 #include "tlm_packets.h"
 
 typedef struct {
@@ -20,15 +21,17 @@ typedef struct {
     FILE *jsonl[TLM_NUM_TYPES];
     unsigned long rows[TLM_NUM_TYPES];
     char dir[256];
+    time_corr_t corr; /* the UTC of each packet (columns utc, time_source) */
 } ground_out_t;
 
 /* Creates dir if needed (one level) and opens all files with headers.
  * 0, or -1 with a message in err. */
 int ground_out_open(ground_out_t *o, const char *dir, char *err, size_t errlen);
-/* Appends one row to the type's CSV and JSONL; utc_us is the ground receive
- * time (CLOCK_REALTIME, microseconds since 1970, column ground_utc); 0 or -1
- * on a write error. */
-int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t utc_us);
+/* Appends one row to the type's CSV and JSONL; rx_utc_us is the ground receive
+ * time (CLOCK_REALTIME, microseconds since 1970, column ground_utc); the
+ * packet's own UTC (time_corr.h: columns utc, time_source) goes to
+ * *pkt_utc_us (nullable). 0 or -1 on a write error. */
+int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t rx_utc_us, int64_t *pkt_utc_us);
 /* Writes DIR/stats.json from the decoder counters; 0 or -1. */
 int ground_out_stats(const ground_out_t *o, const tlm_decoder_stats_t *s, double seconds);
 /* Flushes and closes; 0 or -1 if any flush/close failed. */

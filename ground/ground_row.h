@@ -9,7 +9,7 @@
 
 #include "tlm_packets.h"
 
-#define GROUND_ROW_MAX_COLS 56
+#define GROUND_ROW_MAX_COLS 64
 #define GROUND_ROW_VAL_LEN 32
 
 typedef struct {

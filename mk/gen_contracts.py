@@ -61,6 +61,13 @@ C_ENUMS = {
     "camera_state_t": ("tlm_cam_state_t", "TLM_CAM_", "TLM_CAM_STATE_COUNT", "tlm_cam_state_name", "uint8_t"),
     "severity_t": ("tlm_severity_t", "TLM_SEV_", "TLM_SEV_COUNT", "tlm_severity_name", "uint8_t"),
     "event_code_t": ("tlm_event_code_t", "TLM_EVT_", "TLM_EVT_CODE_COUNT", "tlm_event_name", "uint16_t"),
+    "time_quality_t": (
+        "tlm_time_quality_t",
+        "TLM_TIMEQ_",
+        "TLM_TIME_QUALITY_COUNT",
+        "tlm_time_quality_name",
+        "uint8_t",
+    ),
 }
 # Packet container -> (tlm_type_t constant suffix, struct, union member).
 C_PACKETS = {

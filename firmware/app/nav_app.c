@@ -55,7 +55,10 @@ mfns_nav_status_t nav_app_set_prior(nav_app_t *app, float x, float y, float z, f
 
 static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, int32_t a0, int32_t a1)
 {
-    (void)nav_tlm_event(&app->tlm, 0, 0, code, sev, 0, a0, a1); /* failures counted in tlm */
+    /* start-up events: the flight clock now (CLOCK_MONOTONIC live; 0, the
+     * first frame's time, in a replay) */
+    const uint64_t t_us = app->clock_monotonic ? nav_app_now_us() : 0u;
+    (void)nav_tlm_event(&app->tlm, 0, t_us, code, sev, 0, a0, a1); /* failures counted in tlm */
 }
 
 static void close_all(nav_app_t *app)
@@ -84,6 +87,8 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         return 2;
     }
     app->t0_us = nav_app_now_us();
+    app->clock_monotonic = o->backend != MFNS_CAM_BACKEND_REPLAY;
+    nav_time_init(&app->time, app->clock_monotonic);
     send_event(app, TLM_EVT_BOOT, TLM_SEV_INFO, NAV_APP_VERSION, 0);
 
     uint32_t err_off = 0;
@@ -137,6 +142,11 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
     if (rc != 0) {
         return rc;
     }
+    /* housekeeping at start (n_cycles 0): its time correlation reaches the
+     * ground before the first nav packet, so every packet of the run has the
+     * flight's UTC (docs/telemetry.md "Time"), and the ground sees the table
+     * and the cameras enabled before the first cycle */
+    nav_loop_housekeeping(app, 0u, 0u, app->clock_monotonic ? nav_app_now_us() : 0u);
     nav_tlm_drain(&app->tlm, app->cycle_now, nav_app_now_us() / 1000u);
 
     uint32_t cycles = 0;

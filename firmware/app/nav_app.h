@@ -43,6 +43,7 @@
 #include "nav_cycle.h"
 #include "nav_opts.h"
 #include "nav_tc_in.h"
+#include "nav_time.h"
 #include "nav_tlm.h"
 
 #define NAV_APP_TABLE_SLOTS 2
@@ -74,6 +75,12 @@ typedef struct nav_app {
     uint32_t cycle_now;             /* the cycle running (or the last one) */
     uint64_t last_t_us;             /* the last cycle's time: the flight clock */
     uint64_t t0_us;                 /* program clock at start-up */
+    /* The flight clock is CLOCK_MONOTONIC (live cameras stamp with it; a
+     * cycle without frames is stamped with it too), or, in a replay, the
+     * recorded time (a cycle without frames: the program's time since start).
+     * nav_time.h pairs it with UTC accordingly. */
+    bool clock_monotonic;
+    nav_time_t time;                /* its correlation to UTC (housekeeping) */
     uint64_t prev_start_us;         /* the previous cycle's start (cycle period) */
     uint64_t last_hk_us;            /* flight clock of the last housekeeping */
 } nav_app_t;

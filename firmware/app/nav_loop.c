@@ -100,7 +100,7 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
     app->cycle_now = cycle;
     take_commands(app); /* between cycles: the previous cycle's telemetry is out */
     nav_cams_t *cams = &app->cams;
-    const uint64_t prog_us = nav_app_now_us() - app->t0_us;
+    const uint64_t prog_us = app->clock_monotonic ? nav_app_now_us() : nav_app_now_us() - app->t0_us;
     const uint64_t event_t_us = cams->sync.have_last ? cams->sync.last_us : prog_us;
     if (nav_cams_gather(cams, &app->tlm, o, cycle, event_t_us) == 0) {
         return CYCLE_DATA_ENDED; /* every camera's data ended (a held frame would have kept it active) */
@@ -108,7 +108,10 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
     nav_cams_report_ended(cams, &app->tlm, cycle, event_t_us);
     const uint64_t start = nav_app_now_us();
     const mfns_frame_t *frames[MFNS_NUM_CAMERAS];
-    const uint64_t t_us = nav_cams_synchronise(cams, &app->tlm, cycle, start - app->t0_us, frames);
+    /* a cycle no camera delivered to is stamped with the flight clock's own
+     * domain: CLOCK_MONOTONIC live (the cameras' stamps), time since start in a replay */
+    const uint64_t clock_t_us = app->clock_monotonic ? start : start - app->t0_us;
+    const uint64_t t_us = nav_cams_synchronise(cams, &app->tlm, cycle, clock_t_us, frames);
     const mfns_nav_mode_t before = app->nav.mode;
     navigate(app, cycle, frames);
     send_solution(app, cycle, t_us);

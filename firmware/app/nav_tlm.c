@@ -2,6 +2,7 @@
 #define _DEFAULT_SOURCE /* usleep under -std=c11 */
 
 #include "nav_tlm.h"
+#include "nav_time.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -248,7 +249,7 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
     }
 }
 
-void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
+void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
 {
     tlm_packet_t p;
     memset(&p, 0, sizeof p);
@@ -278,6 +279,10 @@ void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycl
     h->acq_units_last = app->count.acq_last.units;
     h->acq_band_last = app->count.acq_last.band;
     h->acq_best_last = app->count.acq_last.best_inliers;
+    const nav_time_pair_t utc = nav_time_pair_now(&app->time, t_us); /* CCSDS-style time correlation */
+    h->utc_s = utc.utc_s;
+    h->utc_us = utc.utc_us;
+    h->time_quality = utc.quality;
     (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
     if (t->q.dropped != t->last_dropped_reported) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_TLM_DROPPED, TLM_SEV_WARNING, 0,

@@ -77,8 +77,9 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
                             uint64_t t_us);
 /* The housekeeping packet of app's counters (n_cycles: cycles run so far,
  * the one of index cycle included), then a TLM_DROPPED event when frames
- * were dropped since the last one. Reads only; the caller starts the next
- * report interval. */
-void nav_tlm_housekeeping(nav_tlm_t *t, const struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us);
+ * were dropped since the last one. Reads the counters (and moves app's time
+ * correlation on: a replay anchors at its first pair); the caller starts the
+ * next report interval. */
+void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us);
 
 #endif /* MFNS_NAV_TLM_H */

@@ -66,6 +66,14 @@ typedef enum {
     TLM_EVT_CODE_COUNT = 15
 } tlm_event_code_t;
 
+/* what the UTC of a housekeeping packet is worth */
+typedef enum {
+    TLM_TIMEQ_NONE = 0, /* the board has no UTC (clock not set): the ground correlates at receipt */
+    TLM_TIMEQ_SYSTEM = 1, /* UTC from the board's clock, not known to be synchronised */
+    TLM_TIMEQ_SYNCED = 2, /* UTC from the board's clock, synchronised (kernel NTP/PTP status) */
+    TLM_TIME_QUALITY_COUNT = 3
+} tlm_time_quality_t;
+
 /* Wire counts per engineering unit of each scaled type (1 / its calibrator coefficient). */
 #define TLM_SCALE_DB_FROM_CDB_I16 100.0f /* counts per dB */
 #define TLM_SCALE_DEG_FROM_UDEG_I32 1000000.0f /* counts per deg */

@@ -83,6 +83,12 @@ const char *tlm_event_name(uint16_t code)
     return (code >= TLM_EVT_BOOT && code <= TLM_EVT_CMD_REJECTED) ? k_name[code - TLM_EVT_BOOT] : "?";
 }
 
+const char *tlm_time_quality_name(uint8_t code)
+{
+    static const char *const k_name[3] = {"NONE", "SYSTEM", "SYNCED"};
+    return (code <= TLM_TIMEQ_SYNCED) ? k_name[code] : "?";
+}
+
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
 {
     switch (p->type) {
@@ -154,6 +160,9 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         tlm_put_u32(b + 69, s->n_cmd_rejected);
         tlm_put_u16(b + 73, s->cmd_seq_last);
         b[75] = s->cams_enabled;
+        tlm_put_u32(b + 76, s->utc_s);
+        tlm_put_u32(b + 80, s->utc_us);
+        b[84] = s->time_quality;
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -241,6 +250,9 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->n_cmd_rejected = tlm_get_u32(b + 69);
         s->cmd_seq_last = tlm_get_u16(b + 73);
         s->cams_enabled = b[75];
+        s->utc_s = tlm_get_u32(b + 76);
+        s->utc_us = tlm_get_u32(b + 80);
+        s->time_quality = b[84];
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -281,7 +293,8 @@ bool tlm_payload_valid(const tlm_packet_t *p)
     case TLM_TYPE_HK:
         return p->u.hk.mode < TLM_MODE_COUNT &&
                p->u.hk.cpu_load_permille <= 1000u &&
-               p->u.hk.cams_enabled <= 7u;
+               p->u.hk.cams_enabled <= 7u &&
+               p->u.hk.time_quality < TLM_TIME_QUALITY_COUNT;
     case TLM_TYPE_EVENT:
         return p->u.event.code >= TLM_EVT_BOOT && p->u.event.code < TLM_EVT_CODE_COUNT &&
                p->u.event.severity < TLM_SEV_COUNT;

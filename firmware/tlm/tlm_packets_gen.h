@@ -26,7 +26,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 160u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 76u
+#define TLM_HK_PAYLOAD_LEN 85u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_MAX_PAYLOAD 160u
 
@@ -92,6 +92,9 @@ typedef struct {
     uint32_t n_cmd_rejected; /* hk_n_cmd_rejected: telecommands rejected */
     uint16_t cmd_seq_last; /* hk_cmd_seq_last: sequence count of the last accepted telecommand */
     uint8_t cams_enabled; /* hk_cams_enabled: bit k set: camera k enabled (0x7: all); < 8 */
+    uint32_t utc_s; /* hk_utc_s: time correlation: UTC at this packet's flight time, whole seconds since 1970-01-01T00:00:00Z (UNIX time, no leap seconds; 0 when hk_time_quality is NONE) [s] */
+    uint32_t utc_us; /* hk_utc_us: time correlation: the microseconds of that UTC (0..999999) [us] */
+    uint8_t time_quality; /* hk_time_quality: what hk_utc is worth [time_quality_t] */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */
@@ -126,6 +129,7 @@ const char *tlm_camera_name(uint8_t code); /* the XTCE label, "?" for an unknown
 const char *tlm_cam_state_name(uint8_t code); /* the XTCE label, "?" for an unknown code */
 const char *tlm_severity_name(uint8_t code); /* the XTCE label, "?" for an unknown code */
 const char *tlm_event_name(uint16_t code); /* the XTCE label, "?" for an unknown code */
+const char *tlm_time_quality_name(uint8_t code); /* the XTCE label, "?" for an unknown code */
 
 /* The payload of p (p->type valid) at b (tlm_payload_len bytes), and back; the range
  * check both ends apply (XTCE enumerations and ValidRange, floats finite). */

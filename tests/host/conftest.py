@@ -112,8 +112,8 @@ def assert_packets_match_csv(decoded: list[tuple[str, dict]], out_dir: Path) -> 
             reader = csv.DictReader(f)
             rows = list(reader)
             cols = list(reader.fieldnames or [])
-        extra = {"t_s", "seq", "ground_utc"} | ({"event"} if name == "event" else set())
-        assert cols[:2] == ["t_s", "seq"] and cols[-1] == "ground_utc", cols
+        extra = {"t_s", "seq", "utc", "time_source", "ground_utc"} | ({"event"} if name == "event" else set())
+        assert cols[:2] == ["t_s", "seq"] and cols[-3:] == ["utc", "time_source", "ground_utc"], cols
         body = [c for c in cols if c not in extra]
         assert len(body) == len(set(body)) and set(body) == {f.name for f in packet.fields}, (name, cols)
         mine = [p for n, p in decoded if n == name]

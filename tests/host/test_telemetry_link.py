@@ -114,11 +114,14 @@ UTC = re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{6}Z")
 
 
 def rows(path: Path) -> list[str]:
-    """The data rows of a ground CSV without their ground_utc column (checked here)."""
+    """The data rows of a ground CSV without their utc, time_source and ground_utc
+    columns (checked here: the synthetic stream carries no time correlation, so
+    its UTC is the ground's at receipt)."""
     out = []
     for line in path.read_text().splitlines()[1:]:
-        body, utc = line.rsplit(",", 1)
-        assert UTC.fullmatch(utc), line
+        body, utc, source, received = line.rsplit(",", 3)
+        assert UTC.fullmatch(utc) and UTC.fullmatch(received), line
+        assert source in ("GROUND_RECEIPT", "FLIGHT_SYSTEM", "FLIGHT_SYNCED"), line
         out.append(body)
     return out
 
@@ -129,7 +132,7 @@ NAV_HEADER = (
     "roll_deg,pitch_deg,yaw_deg,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,"
     "sigma_yaw_deg,residual_rms_px,q_w,q_x,q_y,q_z,"
     + ",".join(f"cov_{a}_{b}" for i, a in enumerate(AX) for b in AX[i:])
-    + ",ground_utc"
+    + ",utc,time_source,ground_utc"
 )
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import binascii
 import csv
+import datetime
 import os
 import signal
 import socket
@@ -377,7 +378,19 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path):
     except TimeoutError:
         pass
     rx.close()
-    assert got == packets  # every packet, in order, byte-identical
+    # every packet, in order, byte-identical but for its CUC time (bytes 6..11 after the
+    # primary header): forwarded as UTC from the flight's time correlation (UNIX epoch,
+    # docs/telemetry.md "Time"), which is the nav.csv utc column
+    assert len(got) == len(packets)
+    assert [d[:6] + d[12:] for d in got] == [p[:6] + p[12:] for p in packets]
+    utc_rows = [r["utc"] for r in rows(tmp_path / "g" / "nav.csv")]
+    fwd_nav = [d for d in got if int.from_bytes(d[0:2], "big") & 0x7FF == 257]
+    assert len(fwd_nav) == len(utc_rows) == 10
+    for d, u in zip(fwd_nav, utc_rows, strict=True):
+        t = int.from_bytes(d[6:10], "big") + int.from_bytes(d[10:12], "big") / 65536.0
+        want = datetime.datetime.fromisoformat(u.replace("Z", "+00:00")).timestamp()
+        assert abs(t - want) < 2e-5, (t, u)
+        assert abs(t - time.time()) < 600  # a real time, not 1970
     assert f"UDP forward: {len(packets)} packets sent, 0 refused by the socket" in g.stderr
 
     # a ground system's commands over UDP: validated, re-stamped, sent up
@@ -486,3 +499,43 @@ def test_nav_exits_nonzero_when_no_telemetry_ever_left(bins, run, tmp_path):
     )  # fmt: skip
     assert res.returncode == 3, res.stderr
     assert "never opened" in res.stderr and "No such file or directory" in res.stderr
+
+
+def test_packets_carry_utc_through_the_flight_time_correlation(bins, run, tmp_path):
+    """Issue 24 item 5 / 26 item 1: housekeeping pairs its flight time with UTC and
+    the ground gives every packet its UTC (the runs no longer land on 1970)."""
+    tlm = tmp_path / "tlm.bin"
+    t0 = time.time()
+    subprocess.run(
+        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+         "--tlm-file", str(tlm), "-q"],
+        check=True, timeout=120,
+    )  # fmt: skip
+    out = tmp_path / "g"
+    subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out), "-q"], check=True, timeout=60
+    )
+    t1 = time.time()
+
+    def ts(u: str) -> float:
+        return datetime.datetime.fromisoformat(u.replace("Z", "+00:00")).timestamp()
+
+    hk = rows(out / "housekeeping.csv")
+    nav = rows(out / "nav.csv")
+    # a replay's recorded time is anchored at its first pair (when it started), so its
+    # UTC runs as if flown in real time: up to the recording's span after the start
+    span = float(nav[-1]["t_s"])
+    assert hk and all(h["time_quality"] in ("SYSTEM", "SYNCED") for h in hk)
+    for h in hk:
+        u = int(h["utc_s"]) + int(h["utc_us"]) * 1e-6
+        assert t0 - 1 <= u <= t1 + span + 1
+        assert abs((u - ts(hk[0]["utc"])) - float(h["t_s"])) < 2e-5  # one anchor: UTC = anchor + t_s
+        assert h["time_source"].startswith("FLIGHT_")
+    assert hk[0]["n_cycles"] == "0"  # the start-up housekeeping: its pair precedes every nav packet
+    later = nav
+    assert all(r["time_source"] == hk[0]["time_source"] for r in later)
+    for r in later:
+        assert t0 - 1 <= ts(r["utc"]) <= t1 + span + 1
+    # within one pair, UTC advances exactly as the flight time does
+    a, b = later[0], later[1]
+    assert abs((ts(b["utc"]) - ts(a["utc"])) - (float(b["t_s"]) - float(a["t_s"]))) < 2e-5
