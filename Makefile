@@ -86,7 +86,7 @@ endif
 # One pkg-config call per library: a missing cmocka (the demo set of mk/deps.sh
 # has none) must not drop libserialport from the link of the flight programs.
 LIBS = $(shell $(PKG_CONFIG) --libs libserialport 2>/dev/null) $(shell $(PKG_CONFIG) --libs cmocka 2>/dev/null) \
-       $(LIBCAMERA_LIBS) -lm -lpthread
+       $(shell $(PKG_CONFIG) --libs libsystemd 2>/dev/null) $(LIBCAMERA_LIBS) -lm -lpthread
 
 .PHONY: all flight tests unit test test-all deps deps-demo venv lint size bench fuzz demo clean gen lib help
 .DEFAULT_GOAL := all

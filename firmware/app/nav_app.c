@@ -53,6 +53,13 @@ mfns_nav_status_t nav_app_set_prior(nav_app_t *app, float x, float y, float z, f
     return mfns_nav_set_prior(&app->nav, &p0);
 }
 
+static void send_event_subject(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
+                               int32_t a1)
+{
+    const uint64_t t_us = app->clock_monotonic ? nav_app_now_us() : 0u;
+    (void)nav_tlm_event(&app->tlm, 0, t_us, code, sev, subject, a0, a1); /* failures counted in tlm */
+}
+
 static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, int32_t a0, int32_t a1)
 {
     /* start-up events: the flight clock now (CLOCK_MONOTONIC live; 0, the
@@ -89,7 +96,11 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     app->t0_us = nav_app_now_us();
     app->clock_monotonic = o->backend != MFNS_CAM_BACKEND_REPLAY;
     nav_time_init(&app->time, app->clock_monotonic);
-    send_event(app, TLM_EVT_BOOT, TLM_SEV_INFO, NAV_APP_VERSION, 0);
+    /* BOOT says how the previous run ended (the service unit records it):
+     * a restart after a crash or a hang is an event the ground sees */
+    const nav_exit_reason_t last = nav_service_read_exit(o->last_exit);
+    send_event_subject(app, TLM_EVT_BOOT, last == NAV_EXIT_NONE || last == NAV_EXIT_CLEAN ? TLM_SEV_INFO : TLM_SEV_WARNING,
+                       (uint8_t)last, NAV_APP_VERSION, 0);
 
     uint32_t err_off = 0;
     mfns_caltable_t *table = &app->tables[app->table_cur];
@@ -138,6 +149,7 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
 int nav_app_run(nav_app_t *app, const nav_opts_t *o)
 {
     memset(app, 0, sizeof *app);
+    nav_service_init(&app->service);
     const int rc = start_up(app, o);
     if (rc != 0) {
         return rc;
@@ -147,6 +159,10 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
      * flight's UTC (docs/telemetry.md "Time"), and the ground sees the table
      * and the cameras enabled before the first cycle */
     nav_loop_housekeeping(app, 0u, 0u, app->clock_monotonic ? nav_app_now_us() : 0u);
+    if (o->mlock) {
+        (void)nav_service_lock_memory(); /* refused: said on stderr, runs unlocked */
+    }
+    nav_service_ready(&app->service, "navigating");
     nav_tlm_drain(&app->tlm, app->cycle_now, nav_app_now_us() / 1000u);
 
     uint32_t cycles = 0;
@@ -156,6 +172,7 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
      * time, so time never runs backwards on the ground) and counting the
      * cycles that ran. */
     nav_loop_housekeeping(app, cycles > 0u ? cycles - 1u : 0u, cycles, app->last_t_us);
+    nav_service_stopping(&app->service, why);
     close_all(app);
     /* Exact: every frame produced was sent, dropped by the queue, or is still
      * queued (never sent) now. */

@@ -43,6 +43,7 @@
 #include "nav_cycle.h"
 #include "nav_opts.h"
 #include "nav_tc_in.h"
+#include "nav_service.h"
 #include "nav_time.h"
 #include "nav_tlm.h"
 
@@ -81,6 +82,7 @@ typedef struct nav_app {
      * nav_time.h pairs it with UTC accordingly. */
     bool clock_monotonic;
     nav_time_t time;                /* its correlation to UTC (housekeeping) */
+    nav_service_t service;          /* the supervisor: readiness, watchdog (nav_service.h) */
     uint64_t prev_start_us;         /* the previous cycle's start (cycle period) */
     uint64_t last_hk_us;            /* flight clock of the last housekeeping */
 } nav_app_t;

@@ -130,6 +130,7 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
         app->last_hk_us = t_us;
     }
     nav_tlm_drain(&app->tlm, app->cycle_now, now_ms());
+    nav_service_alive(&app->service, nav_app_now_us()); /* the supervisor's watchdog: the loop runs */
     if (o->verbose) {
         print_cycle(app, cycle);
     }

@@ -53,6 +53,9 @@ static void usage(FILE *f)
             "  --paper             use the paper's Eq. 3 Newton solver (baseline) instead of ML\n"
             "  -v, --verbose       one line per cycle on stderr\n"
             "  -q, --quiet         no summary line at the end (errors still go to stderr)\n"
+            "  --mlock             lock all memory after start-up (a page fault never delays a cycle)\n"
+            "  --last-exit FILE    how the previous run ended, as the service unit records it\n"
+            "                      (carried by the BOOT event; docs/operations.md)\n"
             "  -h, --help, --version\n"
             "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target),\n"
             "3 telemetry incomplete (write errors).\n",
@@ -99,7 +102,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
-           O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK };
+           O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -117,6 +120,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         {"file", required_argument, NULL, O_FILE},
         {"tc-tty", required_argument, NULL, O_TC_TTY}, {"tc-file", required_argument, NULL, O_TC_FILE},
         {"uplink", no_argument, NULL, O_UPLINK},
+        {"mlock", no_argument, NULL, O_MLOCK}, {"last-exit", required_argument, NULL, O_LAST_EXIT},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -207,6 +211,8 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
                 return -1;
             }
             break;
+        case O_MLOCK: o->mlock = true; break;
+        case O_LAST_EXIT: o->last_exit = optarg; break;
         case O_INIT:
             if (!parse_pose(optarg, o->init_pose)) {
                 fprintf(err, "mfns-nav: --init-pose wants six numbers X,Y,Z,ROLL,PITCH,YAW, got '%s'\n", optarg);

@@ -45,6 +45,8 @@ typedef struct {
     bool quiet;                /* no summary line at the end */
     bool have_init_pose;       /* --init-pose: track from this pose at start */
     float init_pose[6];        /* x, y, z mm; roll, pitch, yaw deg (r_wb_w, 2-1-3 of C_w_b) */
+    bool mlock;                /* --mlock: lock all memory after start-up (nav_service.h) */
+    const char *last_exit;     /* --last-exit FILE: how the previous run ended (nav_service.h), or NULL */
 } nav_opts_t;
 
 /* 0 ok, 1 when --help/--version was printed (exit 0), -1 usage error (message on err). */

@@ -49,7 +49,7 @@ typedef enum {
 
 /* event code (0 is never sent) */
 typedef enum {
-    TLM_EVT_BOOT = 1, /* subject 0; arg0 software version; arg1 board id */
+    TLM_EVT_BOOT = 1, /* subject how the previous run ended (0 first start or no record, 1 stopped cleanly, 2 exited with an error, 3 killed by a signal, 4 crashed with a core dump, 5 the supervisor's watchdog fired: the loop hung, 6 other; --last-exit); arg0 software version; arg1 board id */
     TLM_EVT_TABLE_LOADED = 2, /* subject 0; arg0 table version; arg1 table CRC-32 */
     TLM_EVT_TABLE_REFUSED = 3, /* subject 0; arg0 loader error code; arg1 table CRC-32 or 0 */
     TLM_EVT_CAMERA_LOST = 4, /* subject camera; arg0 driver error code; arg1 0 (driver) or cycles without a frame (program) */

@@ -1,0 +1,186 @@
+"""mfns-nav as a supervised service (issue 24 items 3, 4): the systemd notify
+protocol spoken to a socket this test owns (READY, watchdog pings from the
+cycle loop, STOPPING), the previous run's end carried by the BOOT event, the
+unit file, `make install` and the arm64 `make deb` (lintian clean)."""
+
+from __future__ import annotations
+
+import csv
+import os
+import shutil
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BIN = REPO / "build" / "host-sim" / "bin"
+
+
+def rows(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def replay(tmp_path_factory) -> dict:
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=REPO, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr[-2000:]
+    d = tmp_path_factory.mktemp("svc")
+    frames = d / "frames"
+    for args in (
+        ["sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "30", "--seed", "4"],
+        [
+            "table",
+            "build",
+            str(frames / "calib.json"),
+            str(frames / "beacons.csv"),
+            "-o",
+            str(d / "t.mfnstbl"),
+        ],
+    ):
+        r = subprocess.run([sys.executable, "-m", "mfns", *args], capture_output=True, text=True, check=False)
+        assert r.returncode == 0, r.stderr
+    return {"dir": d, "frames": frames, "table": d / "t.mfnstbl"}
+
+
+def test_notify_protocol_ready_watchdog_stopping(replay, tmp_path):
+    sock_path = str(tmp_path / "notify.sock")
+    rx = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    rx.bind(sock_path)
+    rx.settimeout(5.0)
+    env = dict(os.environ, NOTIFY_SOCKET=sock_path, WATCHDOG_USEC="200000")
+    nav = subprocess.Popen(
+        [str(BIN / "mfns-nav"), "--table", str(replay["table"]), "--replay", str(replay["frames"]),
+         "--realtime", "--file", str(tmp_path / "t.bin"), "-q"],
+        env=env, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    msgs = []
+    try:
+        while True:
+            m = rx.recv(4096).decode()
+            msgs.append(m)
+            if m.startswith("STOPPING=1"):
+                break
+    finally:
+        rx.close()
+        err = nav.communicate(timeout=30)[1]
+    assert nav.returncode == 0, err
+    assert msgs[0].startswith("READY=1") and "STATUS=navigating" in msgs[0], msgs
+    pings = [m for m in msgs if m == "WATCHDOG=1"]
+    # 30 frames paced at 18.6 Hz (1.6 s), one ping per half interval (100 ms)
+    assert 8 <= len(pings) <= 20, msgs
+    assert msgs[-1].startswith("STOPPING=1") and "data ended" in msgs[-1]
+
+
+def test_no_supervisor_no_notify(replay, tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("NOTIFY_SOCKET", "WATCHDOG_USEC")}
+    res = subprocess.run(
+        [str(BIN / "mfns-nav"), "--table", str(replay["table"]), "--replay", str(replay["frames"]),
+         "--file", str(tmp_path / "t.bin"), "-q", "--max-cycles", "5"],
+        env=env, capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert res.returncode == 0 and res.stderr == ""
+
+
+@pytest.mark.parametrize(
+    ("record", "subject", "severity"),
+    [(None, 0, "INFO"), ("success exited 0", 1, "INFO"), ("core-dump dumped SEGV", 4, "WARNING"),
+     ("watchdog killed ABRT", 5, "WARNING")],
+)  # fmt: skip
+def test_boot_event_says_how_the_last_run_ended(replay, tmp_path, record, subject, severity):
+    last = tmp_path / "last-exit"
+    if record is not None:
+        # what the unit's ExecStopPost writes, through the installed script itself
+        env = dict(os.environ, SERVICE_RESULT=record.split()[0], EXIT_CODE=record.split()[1],
+                   EXIT_STATUS=record.split()[2])  # fmt: skip
+        subprocess.run([str(REPO / "boards/sitss-nav/service/record-exit"), str(last)], env=env, check=True)
+        assert last.read_text() == record + "\n"
+    tlm = tmp_path / "t.bin"
+    subprocess.run(
+        [str(BIN / "mfns-nav"), "--table", str(replay["table"]), "--replay", str(replay["frames"]),
+         "--file", str(tlm), "-q", "--max-cycles", "3", "--last-exit", str(last), "--mlock"],
+        check=True, timeout=60, capture_output=True, text=True,
+    )  # fmt: skip
+    out = tmp_path / "g"
+    subprocess.run([str(BIN / "mfns-ground"), "--file", str(tlm), "--out", str(out), "-q"], check=True)
+    boot = [e for e in rows(out / "events.csv") if e["event"] == "BOOT"]
+    assert len(boot) == 1 and int(boot[0]["subject"]) == subject and boot[0]["severity"] == severity
+
+
+def test_unit_file_verifies():
+    if shutil.which("systemd-analyze") is None:
+        pytest.skip("systemd-analyze is not installed")
+    unit = REPO / "boards/sitss-nav/service/mfns-nav.service"
+    res = subprocess.run(
+        ["systemd-analyze", "verify", str(unit)], capture_output=True, text=True, check=False
+    )
+    # on the development host the programs are not installed under /usr: that is the only finding allowed
+    findings = [ln for ln in (res.stdout + res.stderr).splitlines() if ln.strip()]
+    assert all("is not executable: No such file or directory" in ln for ln in findings), findings
+    text = unit.read_text()
+    for key in (
+        "Type=notify",
+        "WatchdogSec=",
+        "Restart=always",
+        "ExecStopPost=",
+        "LimitMEMLOCK=",
+        "--last-exit",
+    ):
+        assert key in text
+
+
+def test_make_install_tree(tmp_path):
+    res = subprocess.run(
+        ["make", "--no-print-directory", "BOARD=host-sim", "install", f"DESTDIR={tmp_path}", "PREFIX=/usr"],
+        cwd=REPO, capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    for p in ("usr/bin/mfns-nav", "usr/bin/mfns-ground", "usr/lib/mfns-nav/record-exit",
+              "usr/lib/systemd/system/mfns-nav.service", "etc/default/mfns-nav",
+              "usr/share/doc/mfns-nav/operations.md"):  # fmt: skip
+        assert (tmp_path / p).exists(), p
+    assert os.access(tmp_path / "usr/bin/mfns-nav", os.X_OK)
+    local = tmp_path / "local"
+    subprocess.run(
+        ["make", "--no-print-directory", "BOARD=host-sim", "install", f"DESTDIR={local}", "PREFIX=/opt/mfns"],
+        cwd=REPO, capture_output=True, check=True,
+    )  # fmt: skip
+    unit = (local / "opt/mfns/lib/systemd/system/mfns-nav.service").read_text()
+    assert "ExecStart=/opt/mfns/bin/mfns-nav" in unit and "/opt/mfns/etc/default/mfns-nav" in unit
+    assert (local / "opt/mfns/etc/default/mfns-nav").exists()
+
+
+def test_make_deb_for_the_board():
+    if shutil.which("dpkg-deb") is None or shutil.which("aarch64-linux-gnu-gcc") is None:
+        pytest.skip("dpkg-deb or the aarch64 cross compiler is missing")
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=sitss-nav", "deb"],
+        cwd=REPO, capture_output=True, text=True, check=False, timeout=900,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    debs = list((REPO / "build/sitss-nav/deb").glob("mfns-nav_*_arm64.deb"))
+    assert len(debs) == 1
+    info = subprocess.run(
+        ["dpkg-deb", "--info", str(debs[0])], capture_output=True, text=True, check=True
+    ).stdout
+    assert "Architecture: arm64" in info and "libsystemd0" in info and "libserialport0" in info
+    files = subprocess.run(
+        ["dpkg-deb", "--contents", str(debs[0])], capture_output=True, text=True, check=True
+    )
+    for p in ("./usr/bin/mfns-nav", "./usr/lib/systemd/system/mfns-nav.service", "./etc/default/mfns-nav",
+              "./usr/share/man/man1/mfns-nav.1.gz"):  # fmt: skip
+        assert p in files.stdout, p
+    conff = subprocess.run(
+        ["dpkg-deb", "--field", str(debs[0]), "Package"], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    assert conff == "mfns-nav"
+    lint = REPO / "build/sitss-nav/deb/lintian.txt"
+    if shutil.which("lintian") is not None:
+        text = lint.read_text()
+        assert not [ln for ln in text.splitlines() if ln.startswith(("E:", "W:"))], text
