@@ -267,8 +267,8 @@ static void ev_clear(mfns_integrity_eval_t *ev)
 
 /* The per-axis bound of one hypothesis into pl; its normalised separation
  * returned. var_ss, var_k: the projected diagonals. */
-static float test_axes(const float s[6], const float var_ss[6], const float var_k[6], float k_fa, float k_md,
-                       float pl[6])
+static float test_axes(const float s[6], const float var_ss[6], const float var_k[6], const float off[6], float k_fa,
+                       float k_md, float pl[6])
 {
     float worst = 0.0f;
     for (int j = 0; j < 6; j++) {
@@ -278,7 +278,7 @@ static float test_axes(const float s[6], const float var_ss[6], const float var_
         const float t = k_fa * sqrtf(vss);
         const float ns = t > 0.0f ? fabsf(s[j]) / t : (s[j] == 0.0f ? 0.0f : INFINITY);
         worst = fmaxf(worst, ns);
-        pl[j] = fmaxf(pl[j], t + k_md * sqrtf(fmaxf(var_k[j], 0.0f)));
+        pl[j] = fmaxf(pl[j], t + k_md * sqrtf(fmaxf(var_k[j], 0.0f)) + off[j]);
     }
     return worst;
 }
@@ -330,10 +330,18 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
     ev->k_md = mfns_integrity_q_inv(set->p_md);
     const float k_ff = mfns_integrity_q_inv(0.5f * set->p_md);
 
-    float pl[6], var0[6];
+    /* The robust (Huber) fix x0 differs from the least-squares one the
+     * separations refer to by dx_0 (0 when no residual is beyond huber_k):
+     * its size on each axis is added to every bound. */
+    float pl[6], var0[6], off[6];
     project_diag(w.g, p0f, var0);
     for (int j = 0; j < 6; j++) {
-        pl[j] = k_ff * sqrtf(fmaxf(var0[j], 0.0f));
+        float v = 0.0f;
+        for (int i = 0; i < 6; i++) {
+            v += w.g[j][i] * w.dx0[i];
+        }
+        off[j] = fabsf(v);
+        pl[j] = k_ff * sqrtf(fmaxf(var0[j], 0.0f)) + off[j];
     }
     float pl_b[6]; /* fault-free and beacon hypotheses only */
     for (int j = 0; j < 6; j++) {
@@ -384,7 +392,7 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
         float var_ss[6], var_k[6];
         project_diag(w.g, pss, var_ss);
         project_diag(w.g, pkf, var_k);
-        const float ns = test_axes(s, var_ss, var_k, ev->k_fa, ev->k_md, is_cam ? pl : pl_b);
+        const float ns = test_axes(s, var_ss, var_k, off, ev->k_fa, ev->k_md, is_cam ? pl : pl_b);
         if (probe != NULL && same_hyp(probe, &hyp[q])) {
             ev->probe_norm_sep = ns;
         }
