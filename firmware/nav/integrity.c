@@ -14,16 +14,6 @@
 _Static_assert(MFNS_INTEGRITY_AXES == 6 && MFNS_SPD_MAX_N >= 6, "6 output axes, 6x6 information");
 _Static_assert(MFNS_INTEGRITY_MAX_HYP >= MFNS_POSE_MAX_MEAS + MFNS_NUM_CAMERAS, "a hypothesis per beacon and camera");
 
-void mfns_integrity_settings_default(mfns_integrity_settings_t *s)
-{
-    s->alert_limit_pos_mm = MFNS_INTEGRITY_DEFAULT_AL_POS_MM;
-    s->alert_limit_att_deg = MFNS_INTEGRITY_DEFAULT_AL_ATT_DEG;
-    s->p_fa = MFNS_INTEGRITY_DEFAULT_P_FA;
-    s->p_md = MFNS_INTEGRITY_DEFAULT_P_MD;
-    s->hold_cycles = MFNS_INTEGRITY_DEFAULT_HOLD_CYCLES;
-    s->require_camera_monitor = MFNS_INTEGRITY_DEFAULT_REQUIRE_CAMERA_MONITOR;
-}
-
 bool mfns_integrity_settings_valid(const mfns_integrity_settings_t *s)
 {
     return s != NULL && s->alert_limit_pos_mm > 0.0f && isfinite(s->alert_limit_pos_mm) &&

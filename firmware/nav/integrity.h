@@ -66,40 +66,11 @@
 
 #include "pose.h"
 
-/* Integrity settings (docs/pose.md; defaults mfns_integrity_settings_default). */
-typedef struct {
-    float alert_limit_pos_mm;  /* a fix is usable only with PL_pos_mm <= this */
-    float alert_limit_att_deg; /* and PL_att_deg <= this */
-    float p_fa;                /* total false-alarm probability per fix, (0, 0.5) */
-    float p_md;                /* missed-detection probability, (0, 0.5) */
-    uint16_t hold_cycles;      /* an excluded beacon or camera stays out this many cycles */
-    /* 1: a fix is usable only when every single-camera fault is bounded too
-     * (monitorable and inside the alert limits). 0: a fix whose camera
-     * faults cannot be bounded within the alert limits, but whose beacon
-     * faults can, is usable as DEGRADED CAMERA_UNMONITORED: a camera fault
-     * (a stale, late or frozen frame) is then left to the camera health
-     * monitor (frame_health.h); camera hypotheses that are monitorable are
-     * still tested and excluded. */
-    uint8_t require_camera_monitor;
-} mfns_integrity_settings_t;
-
-#define MFNS_INTEGRITY_DEFAULT_AL_POS_MM 20.0f
-#define MFNS_INTEGRITY_DEFAULT_AL_ATT_DEG 1.0f
-/* 1e-5 per fix: at 18.6 Hz one false alarm per ~1.5 h of fault-free flight
- * (an alarm costs one cycle's fix or one needless exclusion, not safety). */
-#define MFNS_INTEGRITY_DEFAULT_P_FA 1e-5f
-/* 1e-3: a fault that makes the error exceed the PL goes unnoticed at most
- * once in 1000 fault occurrences. */
-#define MFNS_INTEGRITY_DEFAULT_P_MD 1e-3f
-/* 19 cycles ~ 1 s at 18.6 Hz: a knocked beacon or a stale camera is a
- * persistent fault; testing it again every cycle would let it flicker back. */
-#define MFNS_INTEGRITY_DEFAULT_HOLD_CYCLES 19u
-/* 0: see require_camera_monitor and docs/pose.md (with two cameras of three
- * or four beacons each, as the demo cabin gives, no single-camera fault can
- * be bounded within 20 mm). */
-#define MFNS_INTEGRITY_DEFAULT_REQUIRE_CAMERA_MONITOR 0u
-
-void mfns_integrity_settings_default(mfns_integrity_settings_t *s);
+/* The settings (mfns_integrity_settings_t, nav_config.h) come from the
+ * calibration table's integrity section; mfns_integrity_settings_default
+ * (nav_defaults_gen.c) gives its defaults: alert limits 20 mm and 1 deg,
+ * P_fa 1e-5 per fix, P_md 1e-3, hold 19 cycles, camera faults not required
+ * to be bounded (docs/caltable.md "Default settings" gives the reasons). */
 bool mfns_integrity_settings_valid(const mfns_integrity_settings_t *s);
 
 /* Upper-tail Gaussian quantile: z with Q(z) = P(N(0,1) > z) = p, p in

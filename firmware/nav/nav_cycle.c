@@ -56,7 +56,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     nav->pose_cfg.mode = mode;
     nav->mode = MFNS_NAV_MODE_ACQUIRE;
     mfns_acq_cycle_reset(&nav->acq);
-    mfns_integrity_settings_default(&nav->integ_set);
+    nav->integ_set = table->integrity;
     mfns_integrity_memory_reset(&nav->integ_mem);
     nav->magic = NAV_MAGIC;
     return MFNS_NAV_OK;
