@@ -12,7 +12,8 @@
 #include "units.h"
 
 _Static_assert(MFNS_INTEGRITY_AXES == 6 && MFNS_SPD_MAX_N >= 6, "6 output axes, 6x6 information");
-_Static_assert(MFNS_INTEGRITY_MAX_HYP >= MFNS_POSE_MAX_MEAS + MFNS_NUM_CAMERAS, "a hypothesis per beacon and camera");
+_Static_assert(MFNS_INTEGRITY_MAX_HYP >= MFNS_MAX_OBS_PER_CAMERA * MFNS_NUM_CAMERAS + 3,
+               "a hypothesis per observed beacon and per camera");
 
 bool mfns_integrity_settings_valid(const mfns_integrity_settings_t *s)
 {

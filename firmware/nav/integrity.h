@@ -56,7 +56,10 @@
  * Work is bounded: at most MFNS_INTEGRITY_MAX_HYP hypotheses, each one pass
  * over at most MFNS_POSE_MAX_MEAS observations (one projection each) and a
  * 6x6 Cholesky; with a calibration covariance, 2 x 6 x 45 x 45 multiply-adds
- * more per hypothesis. No heap, no OS call; stack below 8 KB.
+ * more per hypothesis. No heap, no OS call. Stack: mfns_integrity_evaluate
+ * about 12.4 KB on the Cortex-M7 (the gathered observations, 6 x 45
+ * calibration matrices), mfns_integrity_fde 1.8 KB above it; the deepest
+ * chain of the navigation cycle stays the acquisition's (17 KB).
  */
 #ifndef MFNS_INTEGRITY_H
 #define MFNS_INTEGRITY_H

@@ -89,54 +89,76 @@ static void held_report(const mfns_integrity_memory_t *mem, mfns_integrity_resul
     }
 }
 
-/* Count the holds down; the first item whose hold has run out is tested on
- * full (the fix with every item): re-admitted when its separation passes,
- * else held again. At most one test per cycle. */
+/* Whether probe has an inlier in full. */
+static bool present_in(const mfns_pose_solution_t *full, const mfns_obs_frame_t *frame,
+                       const mfns_integrity_hyp_t *probe)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int k = 0; k < frame->count[c] && k < MFNS_MAX_OBS_PER_CAMERA; k++) {
+            const int16_t b = full->assoc.beacon[c][k];
+            if (full->inlier[c][k] != 0U && b != MFNS_POSE_NO_BEACON &&
+                (probe->kind == MFNS_INTEGRITY_HYP_BEACON ? b == probe->id : c == probe->id)) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+/* The re-admission test of a held item on full (the fix with every item):
+ * true when it is seen and its separation passes; not seen this cycle,
+ * there is nothing to test it against and it stays held. */
+static bool passes_again(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame,
+                         const mfns_pose_config_t *cfg, const mfns_integrity_settings_t *set,
+                         const mfns_pose_solution_t *full, const mfns_integrity_hyp_t *probe)
+{
+    mfns_integrity_eval_t ev;
+    return usable(full) && present_in(full, frame, probe) &&
+           mfns_integrity_evaluate(rig, map, frame, full, cfg, set, probe, &ev) == MFNS_INTEGRITY_OK &&
+           ev.probe_norm_sep <= 1.0f;
+}
+
+/* Count the holds down; the first item whose hold has run out is tested
+ * (passes_again): re-admitted when it passes, else held again. At most one
+ * test per cycle. */
 static void readmit(mfns_integrity_memory_t *mem, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                     const mfns_obs_frame_t *frame, const mfns_pose_config_t *cfg,
                     const mfns_integrity_settings_t *set, const mfns_pose_solution_t *full,
                     mfns_integrity_result_t *res)
 {
     bool tested = false;
-    for (int i = 0; i < MFNS_INTEGRITY_MAX_HELD_BEACONS + MFNS_NUM_CAMERAS; i++) {
-        const bool is_b = i < MFNS_INTEGRITY_MAX_HELD_BEACONS;
-        const int c = i - MFNS_INTEGRITY_MAX_HELD_BEACONS;
-        uint16_t *hold = is_b ? &mem->beacon_hold[i] : &mem->cam_hold[c];
-        if ((is_b && mem->beacon[i] < 0) || (!is_b && mem->cam_held[c] == 0U)) {
+    for (int i = 0; i < MFNS_INTEGRITY_MAX_HELD_BEACONS; i++) {
+        if (mem->beacon[i] < 0) {
             continue;
         }
-        if (*hold > 0U) {
-            (*hold)--;
-            continue;
-        }
-        if (tested) {
-            continue;
-        }
-        tested = true;
-        mfns_integrity_hyp_t probe = {.kind = is_b ? (uint8_t)MFNS_INTEGRITY_HYP_BEACON : (uint8_t)MFNS_INTEGRITY_HYP_CAMERA,
-                                      .id = (int16_t)(is_b ? mem->beacon[i] : c)};
-        mfns_integrity_eval_t ev;
-        bool present = false;
-        for (int cc = 0; cc < MFNS_NUM_CAMERAS; cc++) {
-            for (int k = 0; k < frame->count[cc] && k < MFNS_MAX_OBS_PER_CAMERA; k++) {
-                const int16_t b = full->assoc.beacon[cc][k];
-                present = present || (full->inlier[cc][k] != 0U && b != MFNS_POSE_NO_BEACON &&
-                                       (is_b ? b == probe.id : cc == c));
-            }
-        }
-        /* not seen this cycle: nothing to test it against; it stays held */
-        if (present && usable(full) &&
-            mfns_integrity_evaluate(rig, map, frame, full, cfg, set, &probe, &ev) == MFNS_INTEGRITY_OK &&
-            ev.probe_norm_sep <= 1.0f) {
-            if (is_b) {
+        if (mem->beacon_hold[i] > 0U) {
+            mem->beacon_hold[i]--;
+        } else if (!tested) {
+            tested = true;
+            const mfns_integrity_hyp_t probe = {.kind = (uint8_t)MFNS_INTEGRITY_HYP_BEACON, .id = mem->beacon[i]};
+            if (passes_again(rig, map, frame, cfg, set, full, &probe)) {
                 res->readmitted_beacon = mem->beacon[i];
                 mem->beacon[i] = -1;
             } else {
+                mem->beacon_hold[i] = set->hold_cycles;
+            }
+        }
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (mem->cam_held[c] == 0U) {
+            continue;
+        }
+        if (mem->cam_hold[c] > 0U) {
+            mem->cam_hold[c]--;
+        } else if (!tested) {
+            tested = true;
+            const mfns_integrity_hyp_t probe = {.kind = (uint8_t)MFNS_INTEGRITY_HYP_CAMERA, .id = (int16_t)c};
+            if (passes_again(rig, map, frame, cfg, set, full, &probe)) {
                 res->readmitted_camera = (int8_t)c;
                 mem->cam_held[c] = 0U;
+            } else {
+                mem->cam_hold[c] = set->hold_cycles;
             }
-        } else {
-            *hold = set->hold_cycles;
         }
     }
 }

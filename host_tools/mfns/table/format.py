@@ -80,7 +80,9 @@ _COV = Record("calib_cov")
 _INTEG = Record("integrity")
 INTEGRITY_SIZE = _INTEG.size
 INTEGRITY_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["integrity"] if n not in _INTEG.reserved)
-INTEGRITY_INT = tuple(n for n, _, k, _ in L.FIELDS["integrity"] if k in ("u8", "u16") and n not in _INTEG.reserved)
+INTEGRITY_INT = tuple(
+    n for n, _, k, _ in L.FIELDS["integrity"] if k in ("u8", "u16") and n not in _INTEG.reserved
+)
 # The map-index section after the beacon records is written by the C core
 # (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
 _INDEX = Record("index")
@@ -212,7 +214,9 @@ def encode(t: Table) -> bytes:
             body += _BEACON.pack({"id": int(bid), "p_w": [float(x) for x in p[:3]], "sigma_mm": float(s)})
         body += encode_calib_cov(t.calib_cov)
         integ = {**L.DEFAULTS["integrity"], **t.integrity}
-        body += _INTEG.pack({k: int(integ[k]) if k in INTEGRITY_INT else float(integ[k]) for k in INTEGRITY_FIELDS})
+        body += _INTEG.pack(
+            {k: int(integ[k]) if k in INTEGRITY_INT else float(integ[k]) for k in INTEGRITY_FIELDS}
+        )
         body += t.index_section
     except struct.error as exc:
         raise MfnsError(f"value does not fit the table format: {exc}") from exc
