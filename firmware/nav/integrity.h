@@ -146,6 +146,8 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
  *     NO_FIX FAULT_DETECTED (or the reduced fix's own reason).
  * A held item whose hold has run out is tested again (the fix with it,
  * probe): it is re-admitted when its separation passes, else held again.
+ * The hold counts cycles with a fix from the solver (without one there is
+ * nothing to test it against).
  * Bound per cycle: 2 re-solves, 4 evaluations.
  * ---------------------------------------------------------------------- */
 #define MFNS_INTEGRITY_MAX_HELD_BEACONS 4
