@@ -6,7 +6,7 @@
 #include "ground_row.h"
 
 /* the widest row: t_s, seq, ground_utc and the packet's columns */
-_Static_assert(48 <= GROUND_ROW_MAX_COLS, "ground_row_t too narrow for a packet");
+_Static_assert(50 <= GROUND_ROW_MAX_COLS, "ground_row_t too narrow for a packet");
 
 void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
 {
@@ -58,6 +58,8 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_f32(r, "cov_ry_ry", s->cov[18]);
         ground_row_f32(r, "cov_ry_rz", s->cov[19]);
         ground_row_f32(r, "cov_rz_rz", s->cov[20]);
+        ground_row_num(r, "pl_pos_mm", s->pl_pos_um, 3);
+        ground_row_num(r, "pl_att_deg", s->pl_att_udeg, 6);
         break;
     }
     case TLM_TYPE_CAMERA: {

@@ -75,6 +75,8 @@ static void send_solution(nav_app_t *app, uint32_t cycle, uint64_t t_us)
     }
     app->last_t_us = t_us;
     (void)nav_tlm_send(&app->tlm, &p); /* failures counted in tlm */
+    nav_tlm_integrity_events(&app->tlm, &app->out, &app->nav.table->beacons, app->nav.integ_set.hold_cycles, cycle,
+                             t_us);
 }
 
 static void print_cycle(const nav_app_t *app, uint32_t cycle)

@@ -61,6 +61,14 @@ void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_u
         }
     }
     n->iterations = (uint8_t)(s->iterations > 255 ? 255 : s->iterations);
+    /* protection levels on every packet (a NO_FIX refused for its PL shows
+     * it); none (not evaluated, infinite) saturates to the maximum */
+    bool pl_ok = true;
+    n->pl_pos_um = tlm_scale_u32(o->integrity.pl_pos_mm, TLM_SCALE_MM_FROM_UM_U32, &pl_ok);
+    n->pl_pos_um = pl_ok ? n->pl_pos_um : UINT32_MAX;
+    pl_ok = true;
+    n->pl_att_udeg = tlm_scale_u32(o->integrity.pl_att_deg, TLM_SCALE_DEG_FROM_UDEG_U32, &pl_ok);
+    n->pl_att_udeg = pl_ok ? n->pl_att_udeg : UINT32_MAX;
     if (s->status == MFNS_POSE_NO_FIX) {
         n->status = TLM_NAV_NO_FIX;
         return; /* pose fields stay zero */
@@ -101,6 +109,32 @@ void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_u
         memset(n->q_q30, 0, sizeof n->q_q30);
         memset(n->cov, 0, sizeof n->cov);
         n->status = TLM_NAV_NO_FIX;
+    }
+}
+
+void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mfns_beacon_map_t *map,
+                              uint16_t hold_cycles, uint32_t cycle, uint64_t t_us)
+{
+    const mfns_integrity_result_t *r = &o->integrity;
+    const float ns = r->detect_norm_sep * 100.0f;
+    const int32_t sep = ns < 2.0e9f ? (int32_t)ns : INT32_MAX; /* also for NaN: no */
+    if (r->new_beacon_exclusion && r->excluded_beacon >= 0 && r->excluded_beacon < (int)map->count) {
+        const uint16_t id = map->beacon[r->excluded_beacon].id;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_EXCLUDED, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
+                            sep, id);
+    }
+    if (r->new_camera_exclusion && r->excluded_camera >= 0) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_EXCLUDED, TLM_SEV_WARNING, (uint8_t)r->excluded_camera,
+                            sep, hold_cycles);
+    }
+    if (r->readmitted_beacon >= 0 && r->readmitted_beacon < (int)map->count) {
+        const uint16_t id = map->beacon[r->readmitted_beacon].id;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_READMITTED, TLM_SEV_INFO, (uint8_t)(id > 255u ? 255u : id),
+                            0, id);
+    }
+    if (r->readmitted_camera >= 0) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
+                            0);
     }
 }
 

@@ -68,6 +68,10 @@ int nav_tlm_event(nav_tlm_t *t, uint32_t cycle, uint64_t t_us, tlm_event_code_t 
                   uint8_t subject, int32_t arg0, int32_t arg1);
 /* The navigation solution packet of a cycle (see above for NO_FIX). */
 void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_us, tlm_packet_t *p);
+/* The integrity events of a cycle's output (BEACON_EXCLUDED, CAMERA_EXCLUDED
+ * once per exclusion episode, *_READMITTED), beacon subjects as survey ids. */
+void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mfns_beacon_map_t *map,
+                              uint16_t hold_cycles, uint32_t cycle, uint64_t t_us);
 /* Telemetry mode of a navigation mode (ACQUIRE/TRACK). */
 uint8_t nav_tlm_mode(mfns_nav_mode_t m);
 /* One CAMERA packet per camera: its state after this cycle's health update,

@@ -44,7 +44,8 @@
 #define MFNS_CALTABLE_MAX_BYTES                                                                           \
     (MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_GLOBALS_SIZE +                                             \
      MFNS_NUM_CAMERAS * (MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * MFNS_MAX_GRID_NODES) + \
-     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_CALTABLE_COV_MAX_SIZE + MFNS_BIDX_MAX_SECTION_SIZE)
+     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_CALTABLE_COV_MAX_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE + \
+     MFNS_BIDX_MAX_SECTION_SIZE)
 
 /* Acceptance limits (docs/caltable.md "Validation"). */
 #define MFNS_CALTABLE_ROT_TOL 1e-5f      /* max |C^T C - I| entry */
@@ -60,6 +61,7 @@ typedef struct {
     mfns_calib_cov_t calib_cov;            /* the calibration's uncertainty (present = 0: unknown) */
     mfns_centroid_settings_t centroid;
     mfns_solver_settings_t solver;
+    mfns_integrity_settings_t integrity;   /* fault detection and exclusion (integrity.h) */
     float pixel_sigma_px;                  /* 1-sigma unmodelled pixel error (pose.h mfns_pose_config_t) */
     uint16_t format_version;
     uint32_t size_bytes;

@@ -87,6 +87,7 @@ bool mfns_ct_parse_camera(mfns_ct_parser_t *p, uint32_t *pos, uint16_t index, mf
                           mfns_undist_grid_t *g, q16_16_t (*dst_nodes)[2]);
 bool mfns_ct_parse_beacons(mfns_ct_parser_t *p, uint32_t pos, uint16_t n, mfns_beacon_map_t *dst);
 bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_t *dst);
+bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_settings_t *dst);
 bool mfns_ct_parse_index(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, mfns_beacon_index_t *dst);
 
 #endif /* MFNS_CALTABLE_INTERNAL_H */

@@ -1,11 +1,13 @@
 /* caltable_sections.c -- the loader's variable sections (caltable_internal.h):
- * the calibration covariance and the map index. Offsets and ranges are the
+ * the calibration covariance, the integrity settings and the map index. Offsets and ranges are the
  * generated ones (caltable_layout_gen.h); the order of the checks is the
  * loader's contract (the first failure is the one reported). */
 #include <math.h>
 
 #include "caltable_internal.h"
 
+#define I_OFF(f) MFNS_CALTABLE_OFF_INTEGRITY_##f
+#define I_ID(f) MFNS_CALTABLE_F_INTEGRITY_##f
 #define X_OFF(f) MFNS_CALTABLE_OFF_INDEX_##f
 #define X_ID(f) MFNS_CALTABLE_F_INDEX_##f
 #define XG_OFF(f) MFNS_CALTABLE_OFF_INDEX_GEOM_##f
@@ -175,6 +177,41 @@ static bool index_header(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, fl
     return true;
 }
 _Static_assert(MFNS_CALTABLE_OFF_INDEX_WS_MAX_W == MFNS_CALTABLE_OFF_INDEX_WS_MIN_W + 12u, "workspace: 6 floats");
+
+
+/* The integrity settings at *pos (docs/caltable.md "Integrity settings"): four
+ * f32 (alert limits, P_fa, P_md), u16 hold, u8 require_camera_monitor, u8
+ * reserved; each in its generated range (status INTEGRITY_SETTINGS).
+ * Advances *pos past the section. */
+bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_settings_t *dst)
+{
+    const uint8_t *b = p->b;
+    const uint32_t o = *pos;
+    if (p->size - o < MFNS_CALTABLE_INTEGRITY_SIZE) {
+        return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
+    }
+    mfns_integrity_settings_t s;
+    if (!mfns_ct_f32_at(p, o + I_OFF(ALERT_LIMIT_POS_MM), &s.alert_limit_pos_mm) ||
+        !mfns_ct_check(p, o, I_ID(ALERT_LIMIT_POS_MM), s.alert_limit_pos_mm) ||
+        !mfns_ct_f32_at(p, o + I_OFF(ALERT_LIMIT_ATT_DEG), &s.alert_limit_att_deg) ||
+        !mfns_ct_check(p, o, I_ID(ALERT_LIMIT_ATT_DEG), s.alert_limit_att_deg) ||
+        !mfns_ct_f32_at(p, o + I_OFF(P_FA), &s.p_fa) || !mfns_ct_check(p, o, I_ID(P_FA), s.p_fa) ||
+        !mfns_ct_f32_at(p, o + I_OFF(P_MD), &s.p_md) || !mfns_ct_check(p, o, I_ID(P_MD), s.p_md)) {
+        return false;
+    }
+    s.hold_cycles = mfns_ct_u16(b, o + I_OFF(HOLD_CYCLES));
+    s.require_camera_monitor = b[o + I_OFF(REQUIRE_CAMERA_MONITOR)];
+    if (!mfns_ct_check(p, o, I_ID(HOLD_CYCLES), (float)s.hold_cycles) ||
+        !mfns_ct_check(p, o, I_ID(REQUIRE_CAMERA_MONITOR), (float)s.require_camera_monitor) ||
+        !mfns_ct_check(p, o, I_ID(RESERVED), (float)b[o + I_OFF(RESERVED)])) {
+        return false;
+    }
+    if (dst != NULL) {
+        *dst = s;
+    }
+    *pos = o + MFNS_CALTABLE_INTEGRITY_SIZE;
+    return true;
+}
 
 /* The map-index section at pos (beacon_index.h; docs/caltable.md "Map
  * index"), which must end exactly at total_size. */

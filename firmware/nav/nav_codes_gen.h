@@ -9,7 +9,7 @@ typedef enum {
     MFNS_POSE_R_NONE = 0, /* full fix */
     MFNS_POSE_R_CAMERA_UNUSED = 1, /* DEGRADED: a camera contributes no inlier */
     MFNS_POSE_R_OUTLIERS = 2, /* DEGRADED: observations were gated out as outliers */
-    MFNS_POSE_R_MINIMAL = 3, /* DEGRADED: exactly 3 beacons, no redundancy, residual unchecked */
+    MFNS_POSE_R_MINIMAL = 3, /* NO_FIX: exactly 3 beacons, no redundancy to check a fault; pose for tracking and diagnostics only (before issue 23 this was DEGRADED) */
     MFNS_POSE_R_BAD_ARG = 4, /* NO_FIX: bad input (null, counts above the maxima, bad index, not finite) */
     MFNS_POSE_R_TOO_FEW = 5, /* NO_FIX: fewer than 3 beacons usable */
     MFNS_POSE_R_AMBIGUOUS = 6, /* NO_FIX: several poses explain the observations equally */
@@ -20,6 +20,11 @@ typedef enum {
     MFNS_POSE_R_TRACK_LOST = 11, /* NO_FIX: the tracking gate kept fewer than 3 beacons */
     MFNS_POSE_R_BELOW_CERTIFICATE = 12, /* NO_FIX: fewer blobs than the map's certificate needs for a unique fix */
     MFNS_POSE_R_MINIMAL_UNCONFIRMED = 13, /* NO_FIX: three beacons whose pose disagrees with the prediction */
+    MFNS_POSE_R_UNMONITORED = 14, /* NO_FIX: a single beacon or camera fault cannot be checked (no redundancy against it: a camera whose removal leaves too few beacons); pose for diagnostics only */
+    MFNS_POSE_R_PL_EXCEEDS_AL = 15, /* NO_FIX: the fault tests pass but a protection level exceeds the table's alert limit */
+    MFNS_POSE_R_FAULT_DETECTED = 16, /* NO_FIX: a beacon or camera is inconsistent with the rest and excluding it does not give a certified fix */
+    MFNS_POSE_R_EXCLUDED = 17, /* DEGRADED: a beacon or camera found faulty (this or an earlier cycle) is left out; the rest pass the tests within the alert limits */
+    MFNS_POSE_R_CAMERA_UNMONITORED = 18, /* DEGRADED: every single-beacon fault is bounded within the alert limits, a single-camera fault is not (no redundancy against a camera): the protection levels cover beacon faults only; camera faults are left to the camera health checks */
 } mfns_pose_reason_t;
 
 #endif /* MFNS_NAV_CODES_GEN_H */

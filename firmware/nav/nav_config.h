@@ -65,6 +65,24 @@ typedef struct {
     float min_rcond;            /* normal equations below this are singular geometry */
 } mfns_solver_settings_t;
 
+/* Integrity: fault detection and exclusion and the protection level
+ * (firmware/nav/integrity.h, docs/pose.md "Integrity"). */
+typedef struct {
+    float alert_limit_pos_mm;  /* a fix is usable only with its position PL <= this (per world axis) */
+    float alert_limit_att_deg; /* and its attitude PL <= this */
+    float p_fa;                /* total false-alarm probability per fix, (0, 0.5) */
+    float p_md;                /* missed-detection probability, (0, 0.5) */
+    uint16_t hold_cycles;      /* an excluded beacon or camera stays out this many cycles */
+    /* 1: a fix is usable only when every single-camera fault is bounded too
+     * (monitorable and inside the alert limits). 0: a fix whose camera
+     * faults cannot be bounded within the alert limits, but whose beacon
+     * faults can, is usable as DEGRADED CAMERA_UNMONITORED: a camera fault
+     * (a stale, late or frozen frame) is then left to the camera health
+     * checks; camera hypotheses that are monitorable are still tested and
+     * excluded. */
+    uint8_t require_camera_monitor;
+} mfns_integrity_settings_t;
+
 /* Calibration uncertainty (docs/caltable.md "Calibration covariance"): the
  * covariance of the calibration's errors (estimate minus truth), jointly over
  * the three cameras, MFNS_CALIB_PARAMS_PER_CAMERA parameters per camera in the
@@ -102,5 +120,6 @@ typedef struct {
  * gives the reasons. */
 void mfns_centroid_settings_default(mfns_centroid_settings_t *c);
 void mfns_solver_settings_default(mfns_solver_settings_t *s);
+void mfns_integrity_settings_default(mfns_integrity_settings_t *s);
 
 #endif /* MFNS_NAV_CONFIG_H */

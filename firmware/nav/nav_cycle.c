@@ -56,6 +56,8 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     nav->pose_cfg.mode = mode;
     nav->mode = MFNS_NAV_MODE_ACQUIRE;
     mfns_acq_cycle_reset(&nav->acq);
+    nav->integ_set = table->integrity;
+    mfns_integrity_memory_reset(&nav->integ_mem);
     nav->magic = NAV_MAGIC;
     return MFNS_NAV_OK;
 }
@@ -288,6 +290,17 @@ static bool has_fix(const mfns_pose_solution_t *s)
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
 }
 
+/* A pose that may carry the track on though it is not usable: a solve
+ * refused only for want of redundancy or for its protection level, never
+ * one with a detected fault. A three-beacon (MINIMAL) pose only from
+ * tracking, where it has agreed with the prediction (minimal_agrees). */
+static bool carries_track(const mfns_pose_solution_t *s, bool tracked)
+{
+    return has_fix(s) || (s->status == MFNS_POSE_NO_FIX &&
+                          ((s->reason == MFNS_POSE_R_MINIMAL && tracked) || s->reason == MFNS_POSE_R_UNMONITORED ||
+                           s->reason == MFNS_POSE_R_PL_EXCEEDS_AL));
+}
+
 mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
                                  mfns_nav_output_t *out)
 {
@@ -307,11 +320,14 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     if (st == MFNS_NAV_OK && track) {
         const mfns_caltable_t *t = nav->table;
         (void)mfns_pose_track(&t->rig, &t->beacons, &nav->obs, &nav->predicted, &nav->pose_cfg, &out->sol);
-        if (out->sol.status == MFNS_POSE_DEGRADED && out->sol.reason == MFNS_POSE_R_MINIMAL &&
+        /* a three-beacon pose is never usable (pose.c: NO_FIX MINIMAL); it
+         * carries the track only when it agrees with the prediction */
+        if (out->sol.status == MFNS_POSE_NO_FIX && out->sol.reason == MFNS_POSE_R_MINIMAL &&
             !minimal_agrees(nav, &out->sol)) {
             mfns_pose_solution_clear(&out->sol, MFNS_POSE_R_MINIMAL_UNCONFIRMED);
         }
-        if (!has_fix(&out->sol) && out->sol.reason != MFNS_POSE_R_MINIMAL_UNCONFIRMED) {
+        if (!has_fix(&out->sol) && out->sol.reason != MFNS_POSE_R_MINIMAL_UNCONFIRMED &&
+            out->sol.reason != MFNS_POSE_R_MINIMAL) {
             out->reacquired = true;
             out->mode = MFNS_NAV_MODE_ACQUIRE;
             st = measure(nav, frames, false, out);
@@ -323,6 +339,9 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         acquire(nav, out);
     }
     if (st == MFNS_NAV_OK) {
+        const mfns_caltable_t *t = nav->table;
+        (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
+                                 &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         count_identified(nav, out);
     }
     if (st != MFNS_NAV_OK) {
@@ -330,7 +349,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         mfns_nav_lose_track(nav);
         return st;
     }
-    if (has_fix(&out->sol)) {
+    if (carries_track(&out->sol, !out->acquired)) {
         /* velocity only between two real fixes: never from a hint or a coast */
         nav->prev = nav->prior;
         nav->have_prev = nav->have_prior && nav->prior_is_fix;

@@ -23,6 +23,15 @@
  * the one owner of that policy (track-else-acquire); acquire_cycle.h owns how
  * acquisition spends its budget over cycles.
  *
+ * Integrity (integrity.h): every fix the solver gives, tracked or
+ * acquired, goes through fault detection and exclusion; only a fix whose
+ * single-fault tests pass and whose protection levels are inside the alert
+ * limits stays usable (OK or DEGRADED). A fix refused for want of
+ * redundancy (MINIMAL: three beacons; UNMONITORED; PL_EXCEEDS_AL) still
+ * moves the tracking prior on, as before, but is never output as usable; a
+ * fix with a fault that could not be excluded (FAULT_DETECTED) does not: the
+ * prediction coasts.
+ *
  * A camera that delivers no frame (NULL: dead, timed out, being recovered)
  * contributes nothing and is reported as such; the solve goes on with the
  * others (the pose solver then reports DEGRADED or NO_FIX by itself).
@@ -40,6 +49,7 @@
 #include "acquire_cycle.h"
 #include "caltable.h"
 #include "centroid.h"
+#include "integrity.h"
 #include "pose.h"
 
 #define MFNS_NAV_MAX_COAST 10 /* cycles (0.54 s at 18.6 Hz) */
@@ -87,6 +97,9 @@ typedef struct {
     uint16_t acq_carry_age;    /* cycles a search has been carried over (0: none carried) */
     uint8_t acq_source;        /* mfns_acq_source_t: where a fix came from */
     mfns_nav_cam_diag_t cam[MFNS_NUM_CAMERAS];
+    /* Fault detection and exclusion on the fix (integrity.h): protection
+     * levels, the tests, what is held out; sol is the fix after it. */
+    mfns_integrity_result_t integrity;
 } mfns_nav_output_t;
 
 typedef struct {
@@ -102,6 +115,8 @@ typedef struct {
     uint16_t coast;         /* consecutive TRACK cycles without a fix */
     uint32_t magic; /* set by init: guards against use of a zeroed struct */
     mfns_acq_cycle_t acq;   /* acquisition, with a search carried over cycles */
+    mfns_integrity_settings_t integ_set; /* alert limits, P_fa, P_md, hold */
+    mfns_integrity_memory_t integ_mem;   /* beacons and cameras held out by FDE */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;
     mfns_centroid_result_t cres;

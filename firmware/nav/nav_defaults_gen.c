@@ -35,6 +35,17 @@ void mfns_solver_settings_default(mfns_solver_settings_t *p)
     p->min_rcond = MFNS_CALTABLE_DEFAULT_GLOBALS_SOLVER_MIN_RCOND;
 }
 
+void mfns_integrity_settings_default(mfns_integrity_settings_t *p)
+{
+    memset(p, 0, sizeof *p);
+    p->alert_limit_pos_mm = MFNS_CALTABLE_DEFAULT_INTEGRITY_ALERT_LIMIT_POS_MM;
+    p->alert_limit_att_deg = MFNS_CALTABLE_DEFAULT_INTEGRITY_ALERT_LIMIT_ATT_DEG;
+    p->p_fa = MFNS_CALTABLE_DEFAULT_INTEGRITY_P_FA;
+    p->p_md = MFNS_CALTABLE_DEFAULT_INTEGRITY_P_MD;
+    p->hold_cycles = MFNS_CALTABLE_DEFAULT_INTEGRITY_HOLD_CYCLES;
+    p->require_camera_monitor = MFNS_CALTABLE_DEFAULT_INTEGRITY_REQUIRE_CAMERA_MONITOR;
+}
+
 void mfns_bidx_params_default(mfns_bidx_params_t *p)
 {
     memset(p, 0, sizeof *p);

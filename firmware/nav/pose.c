@@ -43,7 +43,7 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
     case MFNS_POSE_R_OUTLIERS:
         return "observations rejected as outliers";
     case MFNS_POSE_R_MINIMAL:
-        return "only three beacons: no redundancy to check the fit";
+        return "only three beacons: no redundancy to check a fault (pose for tracking only)";
     case MFNS_POSE_R_BAD_ARG:
         return "bad argument: null pointer, count above maximum, bad beacon index or non-finite input";
     case MFNS_POSE_R_TOO_FEW:
@@ -64,6 +64,16 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return "three beacons only, and their pose disagrees with the tracking prediction";
     case MFNS_POSE_R_BELOW_CERTIFICATE:
         return "fewer blobs than the map's certificate needs for a unique fix";
+    case MFNS_POSE_R_UNMONITORED:
+        return "a single beacon or camera fault cannot be checked: no redundancy against it";
+    case MFNS_POSE_R_PL_EXCEEDS_AL:
+        return "protection level above the alert limit";
+    case MFNS_POSE_R_FAULT_DETECTED:
+        return "a beacon or camera is inconsistent with the rest and cannot be excluded";
+    case MFNS_POSE_R_EXCLUDED:
+        return "a faulty beacon or camera is excluded; the rest certify the fix";
+    case MFNS_POSE_R_CAMERA_UNMONITORED:
+        return "beacon faults bounded; a single-camera fault cannot be bounded within the alert limits";
     }
     return "unknown pose reason";
 }
@@ -251,7 +261,9 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     }
     out->cameras_used = (uint16_t)((cam_used[0] ? 1 : 0) + (cam_used[1] ? 1 : 0) + (cam_used[2] ? 1 : 0));
     if (distinct_active(m, n) == 3) {
-        out->status = MFNS_POSE_DEGRADED;
+        /* no redundancy: nothing can check a fault, so never usable; the pose
+         * and covariance stay filled for tracking and diagnostics */
+        out->status = MFNS_POSE_NO_FIX;
         out->reason = MFNS_POSE_R_MINIMAL;
     } else if (outliers > 0) {
         out->status = MFNS_POSE_DEGRADED;

@@ -63,7 +63,11 @@ typedef enum {
     TLM_EVT_TLM_WRITE_ERROR = 12, /* subject 0; arg0 errno; arg1 write errors so far */
     TLM_EVT_CMD_ACCEPTED = 13, /* subject opcode; arg0 command sequence count; arg1 opcode-specific */
     TLM_EVT_CMD_REJECTED = 14, /* subject opcode or 0; arg0 command sequence count or -1; arg1 rejection code */
-    TLM_EVT_CODE_COUNT = 15
+    TLM_EVT_BEACON_EXCLUDED = 20, /* subject beacon survey id (255 when above 254); arg0 normalised separation x100 of the fault test that excluded it (100 = threshold); arg1 beacon survey id (sent once per exclusion episode) */
+    TLM_EVT_CAMERA_EXCLUDED = 21, /* subject camera; arg0 normalised separation x100 of its fault test (100 = threshold); arg1 hold, cycles (sent once per exclusion episode) */
+    TLM_EVT_BEACON_READMITTED = 22, /* subject beacon survey id (255 when above 254); arg0 0; arg1 beacon survey id: its fault test passed again after the hold */
+    TLM_EVT_CAMERA_READMITTED = 23, /* subject camera; arg0 0; arg1 0: its fault test passed again after the hold */
+    TLM_EVT_CODE_COUNT = 24
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

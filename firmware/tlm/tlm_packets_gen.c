@@ -79,8 +79,27 @@ const char *tlm_severity_name(uint8_t code)
 
 const char *tlm_event_name(uint16_t code)
 {
-    static const char *const k_name[14] = {"BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE", "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR", "CMD_ACCEPTED", "CMD_REJECTED"};
-    return (code >= TLM_EVT_BOOT && code <= TLM_EVT_CMD_REJECTED) ? k_name[code - TLM_EVT_BOOT] : "?";
+    switch (code) {
+    case TLM_EVT_BOOT: return "BOOT";
+    case TLM_EVT_TABLE_LOADED: return "TABLE_LOADED";
+    case TLM_EVT_TABLE_REFUSED: return "TABLE_REFUSED";
+    case TLM_EVT_CAMERA_LOST: return "CAMERA_LOST";
+    case TLM_EVT_CAMERA_RECOVERED: return "CAMERA_RECOVERED";
+    case TLM_EVT_MODE_CHANGE: return "MODE_CHANGE";
+    case TLM_EVT_TLM_DROPPED: return "TLM_DROPPED";
+    case TLM_EVT_CAMERA_STALE: return "CAMERA_STALE";
+    case TLM_EVT_CAMERA_OUT_OF_STEP: return "CAMERA_OUT_OF_STEP";
+    case TLM_EVT_FRAME_REJECTED: return "FRAME_REJECTED";
+    case TLM_EVT_CAMERA_ENDED: return "CAMERA_ENDED";
+    case TLM_EVT_TLM_WRITE_ERROR: return "TLM_WRITE_ERROR";
+    case TLM_EVT_CMD_ACCEPTED: return "CMD_ACCEPTED";
+    case TLM_EVT_CMD_REJECTED: return "CMD_REJECTED";
+    case TLM_EVT_BEACON_EXCLUDED: return "BEACON_EXCLUDED";
+    case TLM_EVT_CAMERA_EXCLUDED: return "CAMERA_EXCLUDED";
+    case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
+    case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
+    default: return "?";
+    }
 }
 
 const char *tlm_time_quality_name(uint8_t code)
@@ -120,6 +139,8 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         for (unsigned i = 0; i < 21u; i++) {
             tlm_put_f32(b + 76u + 4u * i, s->cov[i]);
         }
+        tlm_put_u32(b + 160, s->pl_pos_um);
+        tlm_put_u32(b + 164, s->pl_att_udeg);
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -210,6 +231,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         for (unsigned i = 0; i < 21u; i++) {
             s->cov[i] = tlm_get_f32(b + 76u + 4u * i);
         }
+        s->pl_pos_um = tlm_get_u32(b + 160);
+        s->pl_att_udeg = tlm_get_u32(b + 164);
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -296,7 +319,7 @@ bool tlm_payload_valid(const tlm_packet_t *p)
                p->u.hk.cams_enabled <= 7u &&
                p->u.hk.time_quality < TLM_TIME_QUALITY_COUNT;
     case TLM_TYPE_EVENT:
-        return p->u.event.code >= TLM_EVT_BOOT && p->u.event.code < TLM_EVT_CODE_COUNT &&
+        return tlm_event_name(p->u.event.code)[0] != '?' &&
                p->u.event.severity < TLM_SEV_COUNT;
     default: return false;
     }

@@ -24,11 +24,11 @@ typedef enum {
 #define TLM_APID_HK 0x103u
 #define TLM_APID_EVENT 0x104u
 
-#define TLM_NAV_PAYLOAD_LEN 160u
+#define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
 #define TLM_HK_PAYLOAD_LEN 85u
 #define TLM_EVENT_PAYLOAD_LEN 16u
-#define TLM_MAX_PAYLOAD 160u
+#define TLM_MAX_PAYLOAD 168u
 
 #define TLM_NAV_POS_UM_N 3u
 #define TLM_NAV_ATT_UDEG_N 3u
@@ -52,6 +52,8 @@ typedef struct {
     uint32_t sigma_att_udeg[TLM_NAV_SIGMA_ATT_UDEG_N]; /* nav_sigma_roll_deg, nav_sigma_pitch_deg, nav_sigma_yaw_deg: 1-sigma of roll [1e-06 deg per count] */
     int32_t q_q30[TLM_NAV_Q_Q30_N]; /* nav_q_w, nav_q_x, nav_q_y, nav_q_z: unit quaternion (w, x, y, z) of C_b_w (body to world), Hamilton, w >= 0: w [2^-30 1 per count] */
     float cov[TLM_NAV_COV_N]; /* nav_cov_x_x, nav_cov_x_y, nav_cov_x_z, nav_cov_x_rx, nav_cov_x_ry, nav_cov_x_rz, nav_cov_y_y, nav_cov_y_z, nav_cov_y_rx, nav_cov_y_ry, nav_cov_y_rz, nav_cov_z_z, nav_cov_z_rx, nav_cov_z_ry, nav_cov_z_rz, nav_cov_rx_rx, nav_cov_rx_ry, nav_cov_rx_rz, nav_cov_ry_ry, nav_cov_ry_rz, nav_cov_rz_rz: pose covariance [x][x] (ROS PoseWithCovariance order x, y, z, rx, ry, rz: r_wb_w error and the attitude error about the world axes; upper triangle row-major) [mm^2] */
+    uint32_t pl_pos_um; /* nav_pl_pos_mm: protection level of position (docs/pose.md Integrity): the largest error on any world axis of r_wb_w that a single undetected beacon or camera fault (or no fault) could cause, at the table's missed-detection probability; saturates at 4294.967295 mm, which also means none (no fix evaluated, or unmonitorable) [0.001 mm per count] */
+    uint32_t pl_att_udeg; /* nav_pl_att_deg: protection level of attitude: the largest error about any world axis, as nav_pl_pos_mm; saturates at 4294.967295 deg (none) [1e-06 deg per count] */
 } tlm_nav_t;
 
 /* camera: camera diagnostics (one per camera) (APID 0x102) */

@@ -120,15 +120,18 @@ def test_module_tracking_from_docking_pose(bins, tmp_path):
 
 
 def test_turntable_acquisition_never_reports_a_wrong_fix(bins, tmp_path):
-    """The paper's run: 1-4 beacons in view, no prior. Few fixes, all of them right."""
+    """The paper's run: 1-4 beacons in view, no prior. Few fixes, all of them right. Since
+    issue 23 a fix must be certified against a single faulty beacon within the alert limits
+    (docs/pose.md "Integrity"): with at most four beacons none is, so none may be usable;
+    whatever is usable must be right."""
     rows, truth, log = run_chain(
         bins, tmp_path, ["--scenario", "turntable", "--frames", "80", "--yaw-span", "60", "--seed", "4"], []
     )
     assert len(rows) == 80
     cyc, dp, da = errors(rows, truth)
-    assert len(cyc) >= 1, log
-    assert np.max(np.abs(dp)) < 3.0
-    assert np.max(np.abs(da)) < 0.2
+    if len(cyc):
+        assert np.max(np.abs(dp)) < 3.0, log
+        assert np.max(np.abs(da)) < 0.2, log
     no_fix = [r for r in rows if r["status"] == "NO_FIX"]
     assert no_fix, "with <= 2 beacons in view most cycles must be NO_FIX"
     for r in no_fix:  # a NO_FIX row carries no pose

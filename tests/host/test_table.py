@@ -190,6 +190,16 @@ def test_build_input_errors(sources, tmp_path, capsys):
     assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 0
     t = decode((tmp_path / "t.mfnstbl").read_bytes())
     assert t.centroid["min_area_px"] == 5 and t.solver["max_iterations"] == 7
+    # the integrity settings (docs/caltable.md "Integrity settings")
+    settings.write_text(json.dumps({"integrity": {"alert_limit_pos_mm": 50, "require_camera_monitor": 1}}))
+    assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 0
+    t = decode((tmp_path / "t.mfnstbl").read_bytes())
+    assert t.integrity["alert_limit_pos_mm"] == 50 and t.integrity["require_camera_monitor"] == 1
+    assert t.integrity["p_fa"] == pytest.approx(1e-5) and t.integrity["hold_cycles"] == 19
+    settings.write_text(json.dumps({"integrity": {"p_fa": 0.7}}))
+    assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 2
+    err = capsys.readouterr().err
+    assert "integrity settings out of range" in err and "integrity.p_fa" in err, err
 
 
 def test_grid_error_below_requirement_and_shrinks_with_spacing(sources):
@@ -375,7 +385,7 @@ def test_build_carries_the_calibration_covariance(sources, tmp_path, capsys):
     data = out.read_bytes()
     assert check_table(data).ok
     t = decode(data)
-    assert t.version == VERSION == 3 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
+    assert t.version == VERSION == 4 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
     slot = {
         f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i
         for k, c in enumerate("xyz")

@@ -100,6 +100,8 @@ def expected_nav_row(i: int, seq: int) -> str:
         fixed(100 + (i * 37) % 900, 3),
         *[f"{v / 2**30:.10f}" for v in q],
         *cov,
+        fixed(0, 3),  # pl_pos_mm: ground_gen_nav leaves the protection levels 0
+        fixed(0, 6),  # pl_att_deg
     ]
     return ",".join(cols)
 
@@ -132,7 +134,7 @@ NAV_HEADER = (
     "roll_deg,pitch_deg,yaw_deg,sigma_x_mm,sigma_y_mm,sigma_z_mm,sigma_roll_deg,sigma_pitch_deg,"
     "sigma_yaw_deg,residual_rms_px,q_w,q_x,q_y,q_z,"
     + ",".join(f"cov_{a}_{b}" for i, a in enumerate(AX) for b in AX[i:])
-    + ",utc,time_source,ground_utc"
+    + ",pl_pos_mm,pl_att_deg,utc,time_source,ground_utc"
 )
 
 

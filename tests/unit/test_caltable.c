@@ -667,15 +667,15 @@ static void test_bad_beacons_and_size(void **state)
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(7));
     /* counts that disagree with the records: one beacon more than stored
-     * (the calibration-covariance header and the index header are read as
-     * beacon 10: its sigma, the index's workspace minimum x, is negative),
+     * (the calibration-covariance header and the integrity settings are read
+     * as beacon 10: its id is the covariance count, 0, beacon 0's id),
      * one fewer (beacon 9 is read as the calibration-covariance header: its
      * count is 9 = the id), and trailing bytes covered by total_size and the
      * CRC (the index section is then too long) */
     fresh();
     put_u16(g_bad, GLB(BEACON_COUNT), 11);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(10) + BCN(SIGMA_MM));
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(10));
     put_u16(g_bad, GLB(BEACON_COUNT), 9);
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_COUNT, beacon_off(9));
@@ -683,7 +683,8 @@ static void test_bad_beacons_and_size(void **state)
     memset(g_bad + len, 0, 8);
     put_u32(g_bad, 8, (uint32_t)len + 8);
     fix_crc(len + 8);
-    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH, beacon_off(10) + MFNS_CALTABLE_COV_HEADER_SIZE);
+    EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH,
+           beacon_off(10) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE);
     /* a longer buffer than total_size is fine (a file read into a big buffer) */
     fresh();
     assert_int_equal(mfns_caltable_load(g_bad, len + 8, &g_out, NULL), MFNS_CALTABLE_OK);
@@ -695,8 +696,9 @@ static void test_bad_index(void **state)
 {
     (void)state;
     const size_t len = g_good_len;
-    /* the default table has no calibration covariance: a 4-byte section */
-    const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE;
+    /* the default table has no calibration covariance: a 4-byte section, then
+     * the integrity settings */
+    const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE;
     const uint32_t n = g_table.index.count, k = g_table.index.k_nbr;
     const uint32_t geom = ix + MFNS_CALTABLE_INDEX_HEADER_SIZE, nbr = geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * n;
     const uint32_t pairs = nbr + n * (1u + k);
@@ -774,6 +776,58 @@ static void test_old_version(void **state)
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
     put_u16(g_bad, 4, 2);
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
+    put_u16(g_bad, 4, 3); /* version 3: no integrity settings: rebuild */
+    EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
+}
+
+/* The integrity settings section (docs/caltable.md "Integrity settings"):
+ * the defaults load, and each field outside its range is refused at its
+ * offset. */
+static void test_integrity_section(void **state)
+{
+    (void)state;
+    mfns_integrity_settings_t d;
+    mfns_integrity_settings_default(&d);
+    assert_true(g_table.integrity.alert_limit_pos_mm == d.alert_limit_pos_mm &&
+                g_table.integrity.alert_limit_att_deg == d.alert_limit_att_deg && g_table.integrity.p_fa == d.p_fa &&
+                g_table.integrity.p_md == d.p_md && g_table.integrity.hold_cycles == d.hold_cycles &&
+                g_table.integrity.require_camera_monitor == d.require_camera_monitor);
+    const uint32_t o = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE;
+    const struct {
+        uint32_t off;
+        int kind; /* 0: u8, 1: f32, 2: u16 */
+        float value;
+        mfns_caltable_status_t want;
+    } cases[] = {
+        {MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_POS_MM, 1, 0.0f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_POS_MM, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
+        {MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_ATT_DEG, 1, 181.0f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_P_FA, 1, 0.5f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_P_FA, 1, 0.0f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_P_MD, 1, -1e-3f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_HOLD_CYCLES, 2, 10001.0f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_REQUIRE_CAMERA_MONITOR, 0, 2.0f, MFNS_CALTABLE_E_INTEGRITY_SETTINGS},
+        {MFNS_CALTABLE_OFF_INTEGRITY_RESERVED, 0, 1.0f, MFNS_CALTABLE_E_RESERVED},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        fresh();
+        if (cases[i].kind == 1) {
+            put_f32(g_bad, o + cases[i].off, cases[i].value);
+        } else if (cases[i].kind == 2) {
+            put_u16(g_bad, o + cases[i].off, (uint16_t)cases[i].value);
+        } else {
+            g_bad[o + cases[i].off] = (uint8_t)cases[i].value;
+        }
+        fix_crc(g_good_len);
+        EXPECT(g_good_len, cases[i].want, o + cases[i].off);
+    }
+    /* the strict camera rule is a valid setting */
+    fresh();
+    g_bad[o + MFNS_CALTABLE_OFF_INTEGRITY_REQUIRE_CAMERA_MONITOR] = 1;
+    fix_crc(g_good_len);
+    assert_int_equal(mfns_caltable_load(g_bad, g_good_len, &g_out, NULL), MFNS_CALTABLE_OK);
+    assert_int_equal(g_out.integrity.require_camera_monitor, 1);
+    memcpy(&g_out, &g_sentinel, sizeof g_out);
 }
 
 /* ---- the calibration-covariance section -------------------------------- */
@@ -993,6 +1047,7 @@ int main(void)
         cmocka_unit_test_setup(test_bad_beacons_and_size, bad_setup),
         cmocka_unit_test_setup(test_bad_index, bad_setup),
         cmocka_unit_test_setup(test_old_version, bad_setup),
+        cmocka_unit_test_setup(test_integrity_section, bad_setup),
         cmocka_unit_test_setup(test_calib_cov_section, bad_setup),
         cmocka_unit_test(test_failed_load_keeps_previous_table),
         cmocka_unit_test(test_strerror_and_crc),

@@ -247,11 +247,13 @@ static void test_nav_payload_layout(void **state)
     p.u.nav.q_q30[3] = -(1 << 29); /* -0.5: E0 00 00 00 */
     p.u.nav.cov[0] = 1.0f;        /* binary32 3F 80 00 00 */
     p.u.nav.cov[20] = -2.5f;      /* C0 20 00 00 */
+    p.u.nav.pl_pos_um = 0x01020304u;
+    p.u.nav.pl_att_udeg = 0xFFFFFFFFu; /* none */
     uint8_t b[TLM_MAX_PACKET];
     size_t n = 0;
     assert_int_equal(tlm_packet_encode(&p, 3, b, sizeof b, &n), TLM_OK);
-    assert_int_equal(n, 172);
-    const uint8_t hdr[12] = {0x09, 0x01, 0xC0, 0x03, 0x00, 165, 0, 0, 0, 7, 0x80, 0x00};
+    assert_int_equal(n, 180); /* 12 header + 168 payload (pl_pos_um, pl_att_udeg at 160, 164) */
+    const uint8_t hdr[12] = {0x09, 0x01, 0xC0, 0x03, 0x00, 173, 0, 0, 0, 7, 0x80, 0x00};
     assert_memory_equal(b, hdr, 12);
     const uint8_t *pl = b + 12;
     const uint8_t head[12] = {0x0A, 0x0B, 0x0C, 0x0D, 1, 0, 2, 4, 5, 6, 0x01, 0x02};
@@ -268,6 +270,9 @@ static void test_nav_payload_layout(void **state)
     const uint8_t cxx[4] = {0x3F, 0x80, 0x00, 0x00}, crzrz[4] = {0xC0, 0x20, 0x00, 0x00};
     assert_memory_equal(pl + 76, cxx, 4);
     assert_memory_equal(pl + 156, crzrz, 4);
+    const uint8_t plp[4] = {0x01, 0x02, 0x03, 0x04}, pla[4] = {0xFF, 0xFF, 0xFF, 0xFF};
+    assert_memory_equal(pl + 160, plp, 4);
+    assert_memory_equal(pl + 164, pla, 4);
     tlm_packet_t q;
     assert_int_equal(tlm_packet_decode(b, n, &q), TLM_OK);
     assert_true(q.u.nav.cov[20] == -2.5f && q.u.nav.q_q30[3] == -(1 << 29));

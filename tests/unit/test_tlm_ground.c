@@ -173,7 +173,8 @@ static void test_ground_run_on_recorded_stream(void **state)
     read_file(path, text, sizeof text);
     assert_non_null(strstr(text, ",residual_rms_px,q_w,q_x,q_y,q_z,cov_x_x,cov_x_y,cov_x_z,cov_x_rx,cov_x_ry,cov_x_rz,"
                                  "cov_y_y,cov_y_z,cov_y_rx,cov_y_ry,cov_y_rz,cov_z_z,cov_z_rx,cov_z_ry,cov_z_rz,"
-                                 "cov_rx_rx,cov_rx_ry,cov_rx_rz,cov_ry_ry,cov_ry_rz,cov_rz_rz,utc,time_source,ground_utc\n"));
+                                 "cov_rx_rx,cov_rx_ry,cov_rx_rz,cov_ry_ry,cov_ry_rz,cov_rz_rz,pl_pos_mm,pl_att_deg,utc,"
+                                 "time_source,ground_utc\n"));
     /* cycle 0: q = (0.8, 0.6, 0, 0) to 1e-10, cov_x_x = -2.5e-3 (9 digits) */
     assert_non_null(strstr(text, ",0.8000000119,0.6000000238,0.0000000000,0.0000000000,-0.00249999994,"));
     snprintf(path, sizeof path, "%s/stats.json", out_dir);

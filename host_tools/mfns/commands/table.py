@@ -25,10 +25,11 @@ def _grid_arg(text: str | None) -> tuple[int, int] | None:
 
 def cmd_build(args) -> int:
     from ..table.builder import build_table
-    from ..table.settings import load_settings
+    from ..table.settings import load_integrity, load_settings
 
     grid = _grid_arg(args.grid)
     centroid, solver = load_settings(args.settings)
+    integrity = load_integrity(args.settings)
     if args.pixel_sigma is not None and not 0.0 < args.pixel_sigma <= 10.0:
         raise MfnsError(f"--pixel-sigma {args.pixel_sigma}: expected a value in (0, 10] px")
     from ..table import mapindex
@@ -56,6 +57,7 @@ def cmd_build(args) -> int:
             certify_samples=args.certify_samples,
             seed=args.seed,
             progress=bar.update,
+            integrity=integrity,
         )
     data = encode(table)
     try:
@@ -122,6 +124,7 @@ def cmd_show(args) -> int:
     print(calib_cov_summary(t.calib_cov))
     print("centroid: " + ", ".join(f"{k}={v:.6g}" for k, v in t.centroid.items()))
     print("solver:   " + ", ".join(f"{k}={v:.6g}" for k, v in t.solver.items()))
+    print("integrity: " + ", ".join(f"{k}={v:.6g}" for k, v in t.integrity.items()))
     for name, c in zip(CAMERA_NAMES, t.cameras, strict=True):
         g = c.grid
         print(f"camera {name} (id {c.camera_id}): {c.width}x{c.height} px")

@@ -114,6 +114,7 @@ def build_table(
     certify_samples: int = mapindex.DEFAULT_SAMPLES,
     seed: int = 1,
     progress=None,
+    integrity: dict | None = None,
 ) -> tuple[Table, list[GridError], mapindex.IndexReport]:
     """The table, per camera the measured worst-case error of its grid, and the report
     of its map index (workspace default: mapindex.default_workspace).
@@ -129,6 +130,7 @@ def build_table(
     The calibration's "covariance", when present, becomes the table's
     calibration-covariance section (calib_covariance); a calibration without one gives
     no calibration term, which is right only for an exact rig (a warning says so).
+    integrity: the integrity settings (settings.load_integrity); None = the defaults.
     """
     from .check import core
     from .settings import load_settings
@@ -180,5 +182,6 @@ def build_table(
         solver=solver if solver is not None else ds,
         index_section=fl.encode_index(idx),
         calib_cov=calib_covariance(doc),
+        integrity=dict(integrity) if integrity is not None else {},
     )
     return table, errors, report

@@ -125,6 +125,7 @@ _HEADER_FIELDS = _fields("header")
 _GLOBAL_FIELDS = _fields("globals")
 _CAMERA_FIELDS = _fields("camera")
 _BEACON_FIELDS = _fields("beacon")
+_INTEGRITY_FIELDS = _fields("integrity")
 _GRID_NX = fmt.Record("camera").offset("grid.nx")  # then grid.ny
 _BEACON_COUNT = fmt.Record("globals").offset("beacon_count")
 
@@ -173,6 +174,9 @@ def field_at(data: bytes, off: int) -> str:
         return f"calibration covariance ({_param_name(r)}, {_param_name(r + e)})"
     if n_c == fmt.CALIB_PARAMS:
         pos += 4 * n_c * (n_c + 1) // 2
+    if off < pos + fmt.INTEGRITY_SIZE:
+        return f"integrity.{_name(_INTEGRITY_FIELDS, off - pos)}"
+    pos += fmt.INTEGRITY_SIZE
     return f"map index section, byte {off - pos}"
 
 

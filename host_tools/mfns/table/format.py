@@ -76,6 +76,13 @@ _GLOBALS = Record("globals")
 _CAMERA = Record("camera")
 _BEACON = Record("beacon")
 _COV = Record("calib_cov")
+# The integrity settings (after the calibration covariance, format version 4).
+_INTEG = Record("integrity")
+INTEGRITY_SIZE = _INTEG.size
+INTEGRITY_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["integrity"] if n not in _INTEG.reserved)
+INTEGRITY_INT = tuple(
+    n for n, _, k, _ in L.FIELDS["integrity"] if k in ("u8", "u16") and n not in _INTEG.reserved
+)
 # The map-index section after the beacon records is written by the C core
 # (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
 _INDEX = Record("index")
@@ -150,6 +157,8 @@ class Table:
     index_section: bytes = b""  # the map index, as mfns_bidx_encode wrote it
     # (45, 45) covariance of the calibration (CALIB_PARAM_NAMES per camera), None = unknown
     calib_cov: np.ndarray | None = None
+    # integrity settings (INTEGRITY_FIELDS); empty = the defaults
+    integrity: dict = field(default_factory=dict)
     version: int = VERSION
     crc32: int = 0
     size_bytes: int = 0
@@ -204,6 +213,10 @@ def encode(t: Table) -> bytes:
         for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
             body += _BEACON.pack({"id": int(bid), "p_w": [float(x) for x in p[:3]], "sigma_mm": float(s)})
         body += encode_calib_cov(t.calib_cov)
+        integ = {**L.DEFAULTS["integrity"], **t.integrity}
+        body += _INTEG.pack(
+            {k: int(integ[k]) if k in INTEGRITY_INT else float(integ[k]) for k in INTEGRITY_FIELDS}
+        )
         body += t.index_section
     except struct.error as exc:
         raise MfnsError(f"value does not fit the table format: {exc}") from exc
@@ -285,6 +298,9 @@ def decode(data: bytes) -> Table:
         s.append(b["sigma_mm"])
     pos += n_b * BEACON_SIZE
     calib_cov, pos = decode_calib_cov(data, pos)
+    iv = _INTEG.unpack(data, pos)
+    integrity = {k: iv[k] for k in INTEGRITY_FIELDS}
+    pos += _INTEG.size
     return Table(
         cameras=cams,
         beacon_ids=np.array(ids, dtype=int),
@@ -295,6 +311,7 @@ def decode(data: bytes) -> Table:
         solver=solver,
         index_section=bytes(data[pos:total]),
         calib_cov=calib_cov,
+        integrity=integrity,
         version=version,
         crc32=crc,
         size_bytes=total,

@@ -7,8 +7,8 @@ writes; the flight loader's status codes."""
 # ruff: noqa: E501
 
 MAGIC = b"MFTB"
-VERSION = 3
-MIN_VERSION = 3
+VERSION = 4
+MIN_VERSION = 4
 # the build's compile-time constants the ranges name
 CONSTANTS = {
     "MFNS_NUM_CAMERAS": 3,
@@ -30,6 +30,7 @@ SIZE = {
     "node": 8,
     "beacon": 20,
     "calib_cov": 4,
+    "integrity": 20,
     "index": 44,
     "index_geom": 24,
 }
@@ -98,6 +99,15 @@ FIELDS = {
         ("count", 0, "u16", 1),
         ("reserved", 2, "u16", 1),
     ),
+    "integrity": (
+        ("alert_limit_pos_mm", 0, "f32", 1),
+        ("alert_limit_att_deg", 4, "f32", 1),
+        ("p_fa", 8, "f32", 1),
+        ("p_md", 12, "f32", 1),
+        ("hold_cycles", 16, "u16", 1),
+        ("require_camera_monitor", 18, "u8", 1),
+        ("reserved", 19, "u8", 1),
+    ),
     "index": (
         ("beacons", 0, "u16", 1),
         ("k_nbr", 2, "u8", 1),
@@ -133,6 +143,7 @@ RESERVED = {
     "camera": ("reserved",),
     "beacon": ("reserved",),
     "calib_cov": ("reserved",),
+    "integrity": ("reserved",),
     "index": ("reserved",),
 }
 # record -> little-endian struct format of its fields
@@ -143,6 +154,7 @@ STRUCT = {
     "node": "<ii",
     "beacon": "<HH3ff",
     "calib_cov": "<HH",
+    "integrity": "<ffffHBB",
     "index": "<HBBBBHI3f3fI4B",
     "index_geom": "<3ffff",
 }
@@ -165,6 +177,14 @@ DEFAULTS = {
         "solver.max_residual_rms_sigma": 20.0,
         "solver.track_gate_px": 20.0,
         "solver.min_rcond": 1.0000000116860974e-07,
+    },
+    "integrity": {
+        "alert_limit_pos_mm": 20.0,
+        "alert_limit_att_deg": 1.0,
+        "p_fa": 9.999999747378752e-06,
+        "p_md": 0.0010000000474974513,
+        "hold_cycles": 19,
+        "require_camera_monitor": 0,
     },
     "index": {
         "k_nbr": 32,
@@ -353,5 +373,9 @@ STATUS = {
     42: (
         "E_FILE_NOT_REGULAR",
         "calibration table path is not a regular file (a FIFO, device or directory is refused: it could block the cycle)",
+    ),
+    43: (
+        "E_INTEGRITY_SETTINGS",
+        "calibration table integrity settings out of range (alert limits, probabilities, hold)",
     ),
 }

@@ -2,7 +2,8 @@
 (firmware/nav/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
 settings" gives the reasons, and the C core's nav_defaults_gen.c has the same numbers).
 `mfns table build --settings FILE` overrides any of them from a JSON object
-{"centroid": {...}, "solver": {...}}."""
+{"centroid": {...}, "solver": {...}, "integrity": {...}} (integrity: the fault detection
+and exclusion settings, docs/pose.md "Integrity")."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from pathlib import Path
 
 from .. import validate as V
 from . import layout_gen
-from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16
+from .format import CENTROID_F32, CENTROID_U16, INTEGRITY_FIELDS, INTEGRITY_INT, SOLVER_F32, SOLVER_U16
 
 
 def defaults() -> tuple[dict, dict]:
@@ -31,7 +32,7 @@ def _typed(section: str, key: str, v: object) -> int | float:
     are the flight loader's to decide: `mfns table build` checks the table it writes with
     it (firmware/nav/caltable.c), so there is no second copy of them here."""
     name = f"{section}.{key}"
-    if key in CENTROID_U16 or key in SOLVER_U16:
+    if key in CENTROID_U16 or key in SOLVER_U16 or (section == "integrity" and key in INTEGRITY_INT):
         return V.integer(v, name, 0, 65535)
     return V.number(v, name, -F32_MAX, F32_MAX)
 
@@ -42,10 +43,31 @@ def load_settings(path: str | Path | None) -> tuple[dict, dict]:
         return centroid, solver
     what = f"settings {path}"
     doc = V.obj(V.load_json(path, "settings", MAX_BYTES), what)
-    V.keys(doc, what, (), ("centroid", "solver"))
+    V.keys(doc, what, (), ("centroid", "solver", "integrity"))
     for section, dst in (("centroid", centroid), ("solver", solver)):
         given = V.obj(doc.get(section, {}), f"{what}: {section}")
         V.keys(given, f"{what}: {section}", (), dst)
         for k, v in given.items():
             dst[k] = _typed(section, k, v)
     return centroid, solver
+
+
+def integrity_defaults() -> dict:
+    """The integrity settings' defaults, as the table stores them."""
+    d = layout_gen.DEFAULTS["integrity"]
+    return {k: d[k] for k in INTEGRITY_FIELDS}
+
+
+def load_integrity(path: str | Path | None) -> dict:
+    """The integrity settings: the defaults, overridden by the settings file's
+    "integrity" object (ranges are the flight loader's to check)."""
+    dst = integrity_defaults()
+    if path is None:
+        return dst
+    what = f"settings {path}"
+    doc = V.obj(V.load_json(path, "settings", MAX_BYTES), what)
+    given = V.obj(doc.get("integrity", {}), f"{what}: integrity")
+    V.keys(given, f"{what}: integrity", (), dst)
+    for k, v in given.items():
+        dst[k] = _typed("integrity", k, v)
+    return dst

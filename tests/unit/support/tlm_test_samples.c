@@ -34,6 +34,8 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         for (uint32_t k = 0; k < TLM_NAV_COV_N; k++) {
             n->cov[k] = (float)((int32_t)(i * 7u + k * 13u) % 201 - 100) * 1.5e-4f;
         }
+        n->pl_pos_um = 15000u + i;
+        n->pl_att_udeg = 400000u + i * 3u;
         break;
     }
     case TLM_TYPE_CAMERA: {
@@ -82,6 +84,10 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         p->type = TLM_TYPE_EVENT;
         e->cycle = i;
         e->code = (uint16_t)(1u + i % (TLM_EVT_CODE_COUNT - 1u));
+        /* the dictionary's codes may have gaps (ranges reserved for other work) */
+        for (unsigned k = 0; k < TLM_EVT_CODE_COUNT && tlm_event_name(e->code)[0] == '?'; k++) {
+            e->code = (uint16_t)(e->code % (TLM_EVT_CODE_COUNT - 1u) + 1u);
+        }
         e->severity = (uint8_t)(i % TLM_SEV_COUNT);
         e->subject = (uint8_t)(i % 3u);
         e->arg0 = -(int32_t)i - 1;
@@ -102,7 +108,8 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
         const tlm_nav_t *x = &a->u.nav, *y = &b->u.nav;
         int eq = x->cycle == y->cycle && x->status == y->status && x->reason == y->reason &&
                  x->mode == y->mode && x->beacons_used == y->beacons_used && x->cams_used == y->cams_used &&
-                 x->iterations == y->iterations && x->residual_rms_mpx == y->residual_rms_mpx;
+                 x->iterations == y->iterations && x->residual_rms_mpx == y->residual_rms_mpx &&
+                 x->pl_pos_um == y->pl_pos_um && x->pl_att_udeg == y->pl_att_udeg;
         for (int k = 0; k < 3; k++) {
             eq = eq && x->pos_um[k] == y->pos_um[k] && x->att_udeg[k] == y->att_udeg[k] &&
                  x->sigma_pos_um[k] == y->sigma_pos_um[k] && x->sigma_att_udeg[k] == y->sigma_att_udeg[k];
