@@ -98,6 +98,8 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "n_cmd_rejected", s->n_cmd_rejected, 0);
         ground_row_num(r, "cmd_seq_last", s->cmd_seq_last, 0);
         ground_row_num(r, "cams_enabled", s->cams_enabled, 0);
+        ground_row_num(r, "tc_epoch", s->tc_epoch, 0);
+        ground_row_num(r, "tc_arsn_last", s->tc_arsn_last, 0);
         break;
     }
     case TLM_TYPE_EVENT: {

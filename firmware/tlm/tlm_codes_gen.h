@@ -63,7 +63,8 @@ typedef enum {
     TLM_EVT_TLM_WRITE_ERROR = 12, /* subject 0; arg0 errno; arg1 write errors so far */
     TLM_EVT_CMD_ACCEPTED = 13, /* subject opcode; arg0 command sequence count; arg1 opcode-specific */
     TLM_EVT_CMD_REJECTED = 14, /* subject opcode or 0; arg0 command sequence count or -1; arg1 rejection code */
-    TLM_EVT_CODE_COUNT = 15
+    TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
+    TLM_EVT_CODE_COUNT = 26
 } tlm_event_code_t;
 
 /* Wire counts per engineering unit of each scaled type (1 / its calibrator coefficient). */

@@ -79,8 +79,24 @@ const char *tlm_severity_name(uint8_t code)
 
 const char *tlm_event_name(uint16_t code)
 {
-    static const char *const k_name[14] = {"BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE", "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR", "CMD_ACCEPTED", "CMD_REJECTED"};
-    return (code >= TLM_EVT_BOOT && code <= TLM_EVT_CMD_REJECTED) ? k_name[code - TLM_EVT_BOOT] : "?";
+    switch (code) {
+    case TLM_EVT_BOOT: return "BOOT";
+    case TLM_EVT_TABLE_LOADED: return "TABLE_LOADED";
+    case TLM_EVT_TABLE_REFUSED: return "TABLE_REFUSED";
+    case TLM_EVT_CAMERA_LOST: return "CAMERA_LOST";
+    case TLM_EVT_CAMERA_RECOVERED: return "CAMERA_RECOVERED";
+    case TLM_EVT_MODE_CHANGE: return "MODE_CHANGE";
+    case TLM_EVT_TLM_DROPPED: return "TLM_DROPPED";
+    case TLM_EVT_CAMERA_STALE: return "CAMERA_STALE";
+    case TLM_EVT_CAMERA_OUT_OF_STEP: return "CAMERA_OUT_OF_STEP";
+    case TLM_EVT_FRAME_REJECTED: return "FRAME_REJECTED";
+    case TLM_EVT_CAMERA_ENDED: return "CAMERA_ENDED";
+    case TLM_EVT_TLM_WRITE_ERROR: return "TLM_WRITE_ERROR";
+    case TLM_EVT_CMD_ACCEPTED: return "CMD_ACCEPTED";
+    case TLM_EVT_CMD_REJECTED: return "CMD_REJECTED";
+    case TLM_EVT_TC_AUTH: return "TC_AUTH";
+    default: return "?";
+    }
 }
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
@@ -154,6 +170,8 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         tlm_put_u32(b + 69, s->n_cmd_rejected);
         tlm_put_u16(b + 73, s->cmd_seq_last);
         b[75] = s->cams_enabled;
+        tlm_put_u32(b + 76, s->tc_epoch);
+        tlm_put_u32(b + 80, s->tc_arsn_last);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -241,6 +259,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->n_cmd_rejected = tlm_get_u32(b + 69);
         s->cmd_seq_last = tlm_get_u16(b + 73);
         s->cams_enabled = b[75];
+        s->tc_epoch = tlm_get_u32(b + 76);
+        s->tc_arsn_last = tlm_get_u32(b + 80);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -283,7 +303,7 @@ bool tlm_payload_valid(const tlm_packet_t *p)
                p->u.hk.cpu_load_permille <= 1000u &&
                p->u.hk.cams_enabled <= 7u;
     case TLM_TYPE_EVENT:
-        return p->u.event.code >= TLM_EVT_BOOT && p->u.event.code < TLM_EVT_CODE_COUNT &&
+        return tlm_event_name(p->u.event.code)[0] != '?' &&
                p->u.event.severity < TLM_SEV_COUNT;
     default: return false;
     }

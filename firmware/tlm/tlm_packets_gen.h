@@ -26,7 +26,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 160u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 76u
+#define TLM_HK_PAYLOAD_LEN 84u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_MAX_PAYLOAD 160u
 
@@ -92,6 +92,8 @@ typedef struct {
     uint32_t n_cmd_rejected; /* hk_n_cmd_rejected: telecommands rejected */
     uint16_t cmd_seq_last; /* hk_cmd_seq_last: sequence count of the last accepted telecommand */
     uint8_t cams_enabled; /* hk_cams_enabled: bit k set: camera k enabled (0x7: all); < 8 */
+    uint32_t tc_epoch; /* hk_tc_epoch: boot epoch of the telecommand anti-replay counter (high 32 bits a signed command must carry; 0: uplink not authenticated) */
+    uint32_t tc_arsn_last; /* hk_tc_arsn_last: low 32 bits of the last accepted anti-replay counter in this epoch (0: none yet); the ground signs with a larger one */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */

@@ -82,6 +82,10 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         p->type = TLM_TYPE_EVENT;
         e->cycle = i;
         e->code = (uint16_t)(1u + i % (TLM_EVT_CODE_COUNT - 1u));
+        /* the codes may have gaps (helpers own ranges): step to the next defined one */
+        for (unsigned k = 0; k < TLM_EVT_CODE_COUNT && strcmp(tlm_event_name(e->code), "?") == 0; k++) {
+            e->code = (uint16_t)(e->code % (TLM_EVT_CODE_COUNT - 1u) + 1u);
+        }
         e->severity = (uint8_t)(i % TLM_SEV_COUNT);
         e->subject = (uint8_t)(i % 3u);
         e->arg0 = -(int32_t)i - 1;
