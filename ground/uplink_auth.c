@@ -17,10 +17,7 @@ int uplink_auth_open(uplink_auth_t *a, const char *key_path, uint32_t epoch, cha
     }
     a->on = true;
     a->key = keys[0]; /* the first key signs (docs/uplink.md: rotation) */
-    tc_auth_t wipe_keys;
-    tc_auth_init(&wipe_keys, keys, n, 0);
-    tc_auth_clear(&wipe_keys);
-    memset(keys, 0, sizeof keys);
+    tc_auth_wipe(keys, sizeof keys);
     a->epoch = epoch;
     a->epoch_known = epoch != 0u;
     a->next_count = 1u;
@@ -70,8 +67,5 @@ void uplink_auth_housekeeping(uplink_auth_t *a, const tlm_hk_t *hk)
 
 void uplink_auth_close(uplink_auth_t *a)
 {
-    tc_auth_t t;
-    tc_auth_init(&t, &a->key, 1, 0);
-    tc_auth_clear(&t);
-    memset(a, 0, sizeof *a);
+    tc_auth_wipe(a, sizeof *a);
 }

@@ -26,13 +26,11 @@ static int open_auth(nav_tc_in_t *tc, const nav_opts_t *o)
     uint32_t epoch = 0;
     if (tc_state_next_epoch(o->state_dir, &epoch, err, sizeof err) != 0) {
         fprintf(stderr, "mfns-nav: --state-dir %s\n", err);
-        tc_auth_init(&tc->auth, keys, n, 0);
-        tc_auth_clear(&tc->auth);
-        memset(keys, 0, sizeof keys);
+        tc_auth_wipe(keys, sizeof keys);
         return -1;
     }
     tc_auth_init(&tc->auth, keys, n, epoch);
-    memset(keys, 0, sizeof keys); /* the copy in tc->auth is the one kept */
+    tc_auth_wipe(keys, sizeof keys); /* the copy in tc->auth is the one kept */
     return 0;
 }
 

@@ -29,7 +29,7 @@ bool tc_auth_available(void)
 #endif
 }
 
-static void wipe(void *p, size_t n)
+void tc_auth_wipe(void *p, size_t n)
 {
 #ifdef MFNS_HAVE_LIBCRYPTO
     OPENSSL_cleanse(p, n);
@@ -51,7 +51,7 @@ int tc_auth_mac(const uint8_t key[TC_AUTH_KEY_BYTES], const uint8_t *data, size_
         return -1;
     }
     memcpy(mac, full, TC_SEC_MAC_LEN);
-    wipe(full, sizeof full);
+    tc_auth_wipe(full, sizeof full);
     return 0;
 #else
     (void)key;
@@ -142,7 +142,7 @@ static int parse_keys(char *text, tc_auth_key_t *keys, unsigned max, unsigned *n
         if (r < 0) {
             (void)snprintf(err, err_size, "line %u: want 'ID HEX' (ID %u..%u, %u hex digits)", line_no, TC_SPI_MIN,
                            TC_SPI_MAX, 2u * TC_AUTH_KEY_BYTES);
-            wipe(&k, sizeof k);
+            tc_auth_wipe(&k, sizeof k);
             return -1;
         }
         if (r == 0) {
@@ -151,17 +151,17 @@ static int parse_keys(char *text, tc_auth_key_t *keys, unsigned max, unsigned *n
         for (unsigned j = 0; j < *n; j++) {
             if (keys[j].id == k.id) {
                 (void)snprintf(err, err_size, "line %u: key id %u given twice", line_no, k.id);
-                wipe(&k, sizeof k);
+                tc_auth_wipe(&k, sizeof k);
                 return -1;
             }
         }
         if (*n >= max) {
             (void)snprintf(err, err_size, "more than %u keys", max);
-            wipe(&k, sizeof k);
+            tc_auth_wipe(&k, sizeof k);
             return -1;
         }
         keys[(*n)++] = k;
-        wipe(&k, sizeof k);
+        tc_auth_wipe(&k, sizeof k);
     }
     if (*n == 0u) {
         (void)snprintf(err, err_size, "no key in it");
@@ -210,15 +210,15 @@ int tc_auth_read_keys(const char *path, tc_auth_key_t *keys, unsigned max, unsig
     (void)close(fd);
     if (len > TC_AUTH_FILE_MAX) {
         (void)snprintf(err, err_size, "%s: longer than %d bytes", path, TC_AUTH_FILE_MAX);
-        wipe(text, sizeof text);
+        tc_auth_wipe(text, sizeof text);
         return -1;
     }
     text[len] = '\0';
     char msg[160];
     const int rc = parse_keys(text, keys, max, n, msg, sizeof msg);
-    wipe(text, sizeof text);
+    tc_auth_wipe(text, sizeof text);
     if (rc != 0) {
-        wipe(keys, sizeof *keys * max);
+        tc_auth_wipe(keys, sizeof *keys * max);
         *n = 0;
         (void)snprintf(err, err_size, "%s: %s", path, msg);
     }
@@ -240,7 +240,7 @@ void tc_auth_init(tc_auth_t *a, const tc_auth_key_t *keys, unsigned n, uint32_t 
 
 void tc_auth_clear(tc_auth_t *a)
 {
-    wipe(a->keys, sizeof a->keys);
+    tc_auth_wipe(a->keys, sizeof a->keys);
     a->n_keys = 0;
 }
 

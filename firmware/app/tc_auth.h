@@ -79,6 +79,8 @@ void tc_auth_init(tc_auth_t *a, const tc_auth_key_t *keys, unsigned n, uint32_t 
 tc_status_t tc_auth_check(tc_auth_t *a, const tc_cmd_t *cmd);
 /* Wipes the keys. */
 void tc_auth_clear(tc_auth_t *a);
+/* Zeroes n bytes at p in a way the compiler keeps (key material on the stack). */
+void tc_auth_wipe(void *p, size_t n);
 
 /* Ground side: the wire frame of cmd signed with key (id = SPI) and arsn.
  * TC_OK, or the codec's status (TC_E_NULL also when the MAC failed). */
