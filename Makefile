@@ -83,10 +83,22 @@ LIBCAMERA_LIBS := $(shell $(PKG_CONFIG) --libs libcamera)
 else
 LINK := $(CC)
 endif
+# libcrypto (OpenSSL, Debian libssl-dev; libssl-dev:arm64 for sitss-nav) for the
+# telecommand MAC (firmware/app/tc_auth.c). A Linux build without it still builds, but
+# its programs load no key: commands then need --tc-insecure (docs/uplink.md).
+ifeq ($(BOARD_KIND),linux)
+HAVE_LIBCRYPTO := $(shell $(PKG_CONFIG) --exists libcrypto 2>/dev/null && echo 1)
+ifneq ($(HAVE_LIBCRYPTO),)
+CFLAGS_ALL += -DMFNS_HAVE_LIBCRYPTO=1
+CRYPTO_LIBS := $(shell $(PKG_CONFIG) --libs libcrypto)
+else
+$(warning BOARD=$(BOARD): no libcrypto for this target (libssl-dev$(if $(filter qemu-aarch64,$(RUN)),:arm64)): built without telecommand authentication, --tc-key refused)
+endif
+endif
 # One pkg-config call per library: a missing cmocka (the demo set of mk/deps.sh
 # has none) must not drop libserialport from the link of the flight programs.
 LIBS = $(shell $(PKG_CONFIG) --libs libserialport 2>/dev/null) $(shell $(PKG_CONFIG) --libs cmocka 2>/dev/null) \
-       $(shell $(PKG_CONFIG) --libs libsystemd 2>/dev/null) $(LIBCAMERA_LIBS) -lm -lpthread
+       $(shell $(PKG_CONFIG) --libs libsystemd 2>/dev/null) $(LIBCAMERA_LIBS) $(CRYPTO_LIBS) -lm -lpthread
 
 .PHONY: all flight tests unit test test-all deps deps-demo venv lint size bench fuzz demo clean gen lib help
 .DEFAULT_GOAL := all

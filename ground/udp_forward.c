@@ -11,6 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #define LOOPBACK_NET 0x7F000000u  /* 127.0.0.0/8 */
@@ -145,5 +147,61 @@ void udp_tc_close(udp_tc_in_t *t)
     if (t != NULL && t->fd >= 0) {
         (void)close(t->fd);
         t->fd = -1;
+    }
+}
+
+int udp_tc_open_unix(udp_tc_in_t *t, const char *path, char *err, size_t err_size)
+{
+    memset(t, 0, sizeof *t);
+    t->fd = -1;
+    struct sockaddr_un sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sun_family = AF_UNIX;
+    if (strlen(path) >= sizeof sa.sun_path) {
+        (void)snprintf(err, err_size, "%s: path longer than %zu bytes", path, sizeof sa.sun_path - 1u);
+        return -1;
+    }
+    memcpy(sa.sun_path, path, strlen(path) + 1u);
+    struct stat st;
+    if (lstat(path, &st) == 0) {
+        if (!S_ISSOCK(st.st_mode)) {
+            (void)snprintf(err, err_size, "%s exists and is not a socket (not replaced)", path);
+            return -1;
+        }
+        (void)unlink(path); /* a stale socket of an earlier run */
+    }
+    const int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    if (fd < 0) {
+        (void)snprintf(err, err_size, "socket: %s", strerror(errno));
+        return -1;
+    }
+    /* created 0600 from the start (umask), so no other user can connect in the
+     * window before a chmod */
+    const mode_t old = umask(0177);
+    const int rc = bind(fd, (const struct sockaddr *)&sa, sizeof sa);
+    const int bind_errno = errno;
+    (void)umask(old);
+    if (rc != 0) {
+        (void)snprintf(err, err_size, "%s: %s", path, strerror(bind_errno));
+        (void)close(fd);
+        return -1;
+    }
+    if (chmod(path, 0600) != 0) {
+        (void)snprintf(err, err_size, "%s: chmod: %s", path, strerror(errno));
+        (void)close(fd);
+        (void)unlink(path);
+        return -1;
+    }
+    t->fd = fd;
+    return 0;
+}
+
+void udp_tc_close_unix(udp_tc_in_t *t, const char *path)
+{
+    if (t != NULL && t->fd >= 0) {
+        udp_tc_close(t);
+        if (path != NULL) {
+            (void)unlink(path);
+        }
     }
 }

@@ -48,4 +48,11 @@ int udp_tc_open(udp_tc_in_t *t, const char *endpoint, bool allow_remote, char *e
 int udp_tc_poll(udp_tc_in_t *t, tc_cmd_t *cmd, tc_status_t *status);
 void udp_tc_close(udp_tc_in_t *t);
 
+/* The same intake on a Unix datagram socket at path (--tc-socket): created
+ * with mode 0600 (only this user's processes may send; the operator may
+ * chmod/chgrp it to widen that), refused when path exists and is not a
+ * socket; a stale socket is replaced. Removed again by udp_tc_close_unix. */
+int udp_tc_open_unix(udp_tc_in_t *t, const char *path, char *err, size_t err_size);
+void udp_tc_close_unix(udp_tc_in_t *t, const char *path);
+
 #endif /* MFNS_GROUND_UDP_FORWARD_H */

@@ -159,133 +159,6 @@ int uplink_parse_line(const char *line, uplink_line_kind_t *kind, tc_cmd_t *cmd,
     return 0;
 }
 
-/* ---- options ---- */
-
-void uplink_usage(FILE *f)
-{
-    fprintf(f,
-            "uplink (telecommands, docs/uplink.md):\n"
-            "  --cmd TEXT        send one command (repeatable, in order), e.g. --cmd 'SET_MODE acquire'\n"
-            "  --cmd-file PATH   commands, one per line, read while receiving ('-' = stdin)\n"
-            "  --tc-tty PATH     send commands to a tty, pseudo-terminal or FIFO\n"
-            "  --tc-file PATH    write the command frames to a file (created/truncated)\n"
-            "  --uplink          send commands on the --tty/--serial source itself (read-write)\n"
-            "  --tc-seq-start N  first sequence count (0..16383, default 0)\n"
-            "  grammar: NOOP | RESET_COUNTERS | SET_MODE standby|acquire|track |\n"
-            "           SET_POSE_HINT X Y Z ROLL PITCH YAW (mm, deg) | CAMERA_ENABLE x|y|z |\n"
-            "           CAMERA_DISABLE x|y|z | TABLE_LOAD PATH | WAIT SECONDS ; '#' comments\n"
-            "ground system (UDP, loopback only unless --udp-allow-remote):\n"
-            "  --udp-forward HOST:PORT  every decoded packet (CCSDS bytes) as a datagram\n"
-            "  --udp-tc HOST:PORT       receive CCSDS TC packets (e.g. Yamcs' TC link) and send them up\n"
-            "  --udp-allow-remote       allow a non-loopback HOST\n");
-}
-
-int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int *n_rest, FILE *err)
-{
-    memset(o, 0, sizeof *o);
-    int nr = 0;
-    rest[nr++] = argv[0];
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const bool has_val = i + 1 < argc;
-        const char *needs[] = {"--cmd",          "--cmd-file", "--tc-tty", "--tc-file",
-                               "--tc-seq-start", "--udp-forward", "--udp-tc"};
-        bool mine_val = false;
-        for (size_t k = 0; k < sizeof needs / sizeof needs[0]; k++) {
-            mine_val = mine_val || strcmp(a, needs[k]) == 0;
-        }
-        if (strcmp(a, "--uplink") == 0 || strcmp(a, "--udp-allow-remote") == 0) {
-            if (a[2] == 'u' && a[3] == 'p') {
-                if (o->out != UPLINK_OUT_NONE) {
-                    fprintf(err, "mfns-ground: give one of --tc-tty, --tc-file, --uplink\n");
-                    return -1;
-                }
-                o->out = UPLINK_OUT_LINK;
-            } else {
-                o->udp_allow_remote = true;
-            }
-            continue;
-        }
-        if (!mine_val) {
-            rest[nr++] = argv[i];
-            continue;
-        }
-        if (!has_val) {
-            fprintf(err, "mfns-ground: %s: missing value (see --help)\n", a);
-            return -1;
-        }
-        const char *v = argv[++i];
-        if (strcmp(a, "--cmd") == 0) {
-            if (o->n_cli >= UPLINK_MAX_CLI) {
-                fprintf(err, "mfns-ground: at most %d --cmd (use --cmd-file)\n", UPLINK_MAX_CLI);
-                return -1;
-            }
-            o->cli[o->n_cli++] = v;
-        } else if (strcmp(a, "--cmd-file") == 0) {
-            o->cmd_file = v;
-        } else if (strcmp(a, "--tc-tty") == 0 || strcmp(a, "--tc-file") == 0) {
-            if (o->out != UPLINK_OUT_NONE) {
-                fprintf(err, "mfns-ground: give one of --tc-tty, --tc-file, --uplink\n");
-                return -1;
-            }
-            o->out = a[5] == 't' ? UPLINK_OUT_TTY : UPLINK_OUT_FILE;
-            o->out_path = v;
-        } else if (strcmp(a, "--tc-seq-start") == 0) {
-            char *end = NULL;
-            errno = 0;
-            const unsigned long s = strtoul(v, &end, 10);
-            if (errno != 0 || end == v || *end != '\0' || v[0] == '-' || s > TLM_CCSDS_SEQ_MASK) {
-                fprintf(err, "mfns-ground: --tc-seq-start wants 0..16383, got '%s'\n", v);
-                return -1;
-            }
-            o->seq_start = (uint16_t)s;
-        } else if (strcmp(a, "--udp-forward") == 0) {
-            o->udp_forward = v;
-        } else {
-            o->udp_tc = v;
-        }
-    }
-    rest[nr] = NULL;
-    *n_rest = nr;
-    /* every command line is checked before anything runs */
-    for (int k = 0; k < o->n_cli; k++) {
-        uplink_line_kind_t kind;
-        tc_cmd_t c;
-        double w = 0;
-        char msg[192];
-        if (uplink_parse_line(o->cli[k], &kind, &c, &w, msg, sizeof msg) != 0) {
-            fprintf(err, "mfns-ground: --cmd '%s': %s\n", o->cli[k], msg);
-            return -1;
-        }
-        if (kind != UPLINK_LINE_CMD) {
-            fprintf(err, "mfns-ground: --cmd '%s': not a command (WAIT belongs in a --cmd-file)\n", o->cli[k]);
-            return -1;
-        }
-    }
-    if ((o->n_cli > 0 || o->cmd_file != NULL || o->udp_tc != NULL) && o->out == UPLINK_OUT_NONE) {
-        fprintf(err, "mfns-ground: commands need a way up: --tc-tty PATH, --tc-file PATH or --uplink\n");
-        return -1;
-    }
-    char msg[192];
-    uint32_t addr;
-    uint16_t port;
-    if (o->udp_forward != NULL && udp_parse_endpoint(o->udp_forward, o->udp_allow_remote, &addr, &port, msg,
-                                                     sizeof msg) != 0) {
-        fprintf(err, "mfns-ground: --udp-forward %s\n", msg);
-        return -1;
-    }
-    if (o->udp_tc != NULL && udp_parse_endpoint(o->udp_tc, o->udp_allow_remote, &addr, &port, msg, sizeof msg) != 0) {
-        fprintf(err, "mfns-ground: --udp-tc %s\n", msg);
-        return -1;
-    }
-    return 0;
-}
-
-bool uplink_wanted(const uplink_opts_t *o)
-{
-    return o->out != UPLINK_OUT_NONE || o->udp_forward != NULL;
-}
-
 /* ---- running ---- */
 
 static void utc_now(char *buf, size_t n)
@@ -336,7 +209,7 @@ static void send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const 
     uint8_t wire[TC_MAX_WIRE];
     size_t n = 0;
     const uint16_t seq = up->next_seq;
-    const tc_status_t st = tc_frame_encode(c, seq, wire, sizeof wire, &n);
+    const tc_status_t st = uplink_auth_frame(&up->auth, c, seq, wire, sizeof wire, &n);
     if (st != TC_OK || tlm_txq_push(&up->q, wire, n) != TLM_OK) {
         up->n_errors++;
         fprintf(stderr, "mfns-ground: command '%s' not sent: %s\n", text, tc_strerror(st));
@@ -417,28 +290,41 @@ static mfns_uart_t *out_link(uplink_t *up, mfns_uart_t *src)
     return up->o.out == UPLINK_OUT_NONE ? NULL : &up->tc;
 }
 
-static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
+/* One Unix/UDP intake: at most 16 datagrams per poll. */
+static void poll_intake(uplink_t *up, udp_tc_in_t *in, const char *source)
 {
-    uplink_t *up = ctx;
-    for (; up->next_cli < up->o.n_cli; up->next_cli++) {
-        handle_line(up, up->o.cli[up->next_cli], "cli", now_ms);
-    }
-    read_cmd_file(up, now_ms);
-    for (int i = 0; i < 16; i++) { /* bounded: 16 datagrams per poll */
+    for (int i = 0; i < 16; i++) {
         tc_cmd_t c;
         tc_status_t st = TC_OK;
-        const int r = udp_tc_poll(&up->tcin, &c, &st);
+        const int r = udp_tc_poll(in, &c, &st);
         if (r == 0) {
             break;
         }
         if (r < 0) {
             up->n_errors++;
-            fprintf(stderr, "mfns-ground: UDP command refused: %s (not sent)\n", tc_strerror(st));
+            fprintf(stderr, "mfns-ground: %s command refused: %s (not sent)\n", source, tc_strerror(st));
             continue;
         }
-        send_cmd(up, &c, "udp", tc_opcode_name(c.opcode));
+        send_cmd(up, &c, source, tc_opcode_name(c.opcode));
     }
+}
+
+static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
+{
+    uplink_t *up = ctx;
     mfns_uart_t *u = out_link(up, src);
+    if (!uplink_auth_ready(&up->auth)) { /* signing: the board's epoch not known yet; commands wait */
+        if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
+            (void)txq_drain(&up->q, u, now_ms);
+        }
+        return;
+    }
+    for (; up->next_cli < up->o.n_cli; up->next_cli++) {
+        handle_line(up, up->o.cli[up->next_cli], "cli", now_ms);
+    }
+    read_cmd_file(up, now_ms);
+    poll_intake(up, &up->tcin, "udp");
+    poll_intake(up, &up->sockin, "socket");
     if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
         (void)txq_drain(&up->q, u, now_ms); /* a link not there yet: frames wait */
     }
@@ -447,6 +333,9 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
 static void hook_packet(void *ctx, const tlm_packet_t *p)
 {
     uplink_t *up = ctx;
+    if (p->type == TLM_TYPE_HK) {
+        uplink_auth_housekeeping(&up->auth, &p->u.hk);
+    }
     (void)udp_forward_packet(&up->fwd, p);
 }
 
@@ -464,6 +353,11 @@ static void hook_finish(void *ctx, mfns_uart_t *src)
         fprintf(stderr, "mfns-ground: %zu commands never went up (link not there)\n", tlm_txq_frames(&up->q));
         up->n_errors++;
     }
+    if (!uplink_auth_ready(&up->auth) && (up->next_cli < up->o.n_cli || up->cmd_fd >= 0)) {
+        fprintf(stderr, "mfns-ground: commands not sent: the board's command epoch never arrived in housekeeping "
+                        "(give --tc-epoch N to sign for a known one)\n");
+        up->n_errors++;
+    }
 }
 
 int uplink_open(uplink_t *up, const uplink_opts_t *o)
@@ -474,10 +368,18 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
     up->cmd_fd = -1;
     up->fwd.fd = -1;
     up->tcin.fd = -1;
+    up->sockin.fd = -1;
     up->tc.fd = -1;
     tlm_txq_init(&up->q);
     up->hooks = (ground_hooks_t){up, hook_poll, hook_packet, hook_finish};
-    char err[256];
+    char err[384];
+    if (uplink_auth_open(&up->auth, o->tc_key, o->tc_epoch, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-ground: --tc-key %s\n", err);
+        return -1;
+    }
+    if (o->tc_count_start != 0u) {
+        up->auth.next_count = o->tc_count_start;
+    }
     if (o->out == UPLINK_OUT_TTY || o->out == UPLINK_OUT_FILE) {
         int rc;
         if (o->out == UPLINK_OUT_FILE) {
@@ -516,6 +418,11 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
         (void)uplink_close(up);
         return -1;
     }
+    if (o->tc_socket != NULL && udp_tc_open_unix(&up->sockin, o->tc_socket, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-ground: --tc-socket: %s\n", err);
+        (void)uplink_close(up);
+        return -1;
+    }
     return 0;
 }
 
@@ -531,7 +438,7 @@ int uplink_close(uplink_t *up)
     }
     up->log = NULL;
     /* the counters; under -q only when something failed */
-    if ((!up->o.quiet && (up->n_sent > 0u || up->fwd.fd >= 0 || up->tcin.fd >= 0)) || up->n_errors > 0u ||
+    if ((!up->o.quiet && (up->n_sent > 0u || up->fwd.fd >= 0 || up->tcin.fd >= 0 || up->sockin.fd >= 0)) || up->n_errors > 0u ||
         up->fwd.errors > 0u) {
         fprintf(stderr, "mfns-ground: uplink: %u commands sent, %u errors", up->n_sent, up->n_errors);
         if (up->fwd.fd >= 0) {
@@ -545,9 +452,17 @@ int uplink_close(uplink_t *up)
         if (up->tcin.fd >= 0) {
             fprintf(stderr, "; UDP commands: %u received, %u refused", up->tcin.received, up->tcin.refused);
         }
+        if (up->sockin.fd >= 0) {
+            fprintf(stderr, "; socket commands: %u received, %u refused", up->sockin.received, up->sockin.refused);
+        }
+        if (up->auth.on) {
+            fprintf(stderr, "; signed for epoch %u up to count %u", up->auth.epoch, up->auth.next_count - 1u);
+        }
         fputc('\n', stderr);
     }
     udp_forward_close(&up->fwd);
     udp_tc_close(&up->tcin);
+    udp_tc_close_unix(&up->sockin, up->o.tc_socket);
+    uplink_auth_close(&up->auth);
     return up->n_errors > 0u ? 1 : 0;
 }

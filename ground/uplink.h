@@ -8,7 +8,8 @@
  *
  * The ground station is the one sender on the uplink, so it owns the
  * sequence count: every command, whatever its source, gets the next count
- * (starting at --tc-seq-start, default 0). Every command sent is logged in
+ * (starting at --tc-seq-start, default 0); with --tc-key it also signs every
+ * one (uplink_auth.h). Every command sent is logged in
  * OUT/commands.csv (utc, seq, opcode, source, text).
  *
  * Command grammar (one per line; '#' starts a comment; names are
@@ -33,6 +34,7 @@
 #include "tc_packets.h"
 #include "tlm_txq.h"
 #include "udp_forward.h"
+#include "uplink_auth.h"
 
 #define UPLINK_MAX_CLI 32   /* --cmd options */
 #define UPLINK_LINE_MAX 256 /* a command line, bytes */
@@ -48,6 +50,10 @@ typedef struct {
     uint16_t seq_start;
     const char *udp_forward;           /* HOST:PORT or NULL */
     const char *udp_tc;                /* HOST:PORT or NULL */
+    const char *tc_socket;             /* --tc-socket PATH: Unix datagram socket, mode 0600, or NULL */
+    const char *tc_key;                /* --tc-key FILE: sign every command (uplink_auth.h) */
+    uint32_t tc_epoch;                 /* --tc-epoch N, 0 = learn from housekeeping */
+    uint32_t tc_count_start;           /* --tc-count-start N, 0 = default (1) */
     bool udp_allow_remote;
     const char *out_dir;               /* for commands.csv (from ground_opts_t) */
     bool quiet;                        /* -q (from ground_opts_t): no counters at exit, errors only */
@@ -80,6 +86,8 @@ typedef struct {
     bool log_failed;
     udp_forward_t fwd;
     udp_tc_in_t tcin;
+    udp_tc_in_t sockin;      /* --tc-socket */
+    uplink_auth_t auth;
     uint32_t n_sent, n_errors;
 } uplink_t;
 

@@ -10,7 +10,7 @@
 # packages and the command to install them, and fails.
 set -euo pipefail
 set_name=${1:-test}
-DEMO_PKGS="build-essential pkg-config libserialport-dev libsystemd-dev linux-libc-dev python3 python3-venv"
+DEMO_PKGS="build-essential pkg-config libserialport-dev libsystemd-dev libssl-dev linux-libc-dev python3 python3-venv"
 # libc6-dev-arm64-cross and libnewlib-arm-none-eabi are only "recommended" by
 # the cross compilers: without them the aarch64 build lacks libc headers and
 # the Cortex-M build lacks nano.specs, so they are named explicitly.
@@ -18,7 +18,7 @@ TEST_PKGS="$DEMO_PKGS libcmocka-dev
  gcc-aarch64-linux-gnu g++-aarch64-linux-gnu libc6-dev-arm64-cross qemu-user
  gcc-arm-none-eabi libnewlib-arm-none-eabi cppcheck clang-tidy clang libclang-rt-14-dev
  valgrind libcamera-dev lintian"
-ARM64_PKGS="libcmocka-dev:arm64 libserialport-dev:arm64 libsystemd-dev:arm64"
+ARM64_PKGS="libcmocka-dev:arm64 libserialport-dev:arm64 libsystemd-dev:arm64 libssl-dev:arm64"
 case $set_name in
   demo) pkgs=$DEMO_PKGS; foreign= ;;
   test) pkgs="$TEST_PKGS $ARM64_PKGS"; foreign=arm64 ;;

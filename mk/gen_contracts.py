@@ -590,6 +590,37 @@ def tc_args_union(t) -> list[str]:
     ]
 
 
+def tc_security(path: Path) -> list[str]:
+    """The security header and trailer sizes and the SPI range, from the XTCE argument types
+    tc_spi_t, tc_arsn_t, tc_mac_t (docs/uplink.md 1a)."""
+    import xml.etree.ElementTree as ET
+
+    ns = {"x": "http://www.omg.org/spec/XTCE/20180204"}
+    root = ET.parse(path).getroot()
+
+    def typ(name: str):
+        e = root.find(f".//x:ArgumentTypeSet/*[@name='{name}']", ns)
+        if e is None:
+            raise SystemExit(f"gen_contracts: {path}: no argument type {name}")
+        return e
+
+    spi, arsn, mac = typ("tc_spi_t"), typ("tc_arsn_t"), typ("tc_mac_t")
+    spi_bits = int(spi.get("sizeInBits"))
+    arsn_bits = int(arsn.get("sizeInBits"))
+    mac_bits = int(mac.find(".//x:FixedValue", ns).text)
+    rng = spi.find(".//x:ValidRange", ns)
+    lo, hi = int(rng.get("minInclusive")), int(rng.get("maxInclusive"))
+    assert spi_bits % 8 == 0 and arsn_bits % 8 == 0 and mac_bits % 8 == 0, "byte-aligned security fields"
+    return [
+        "/* Security header (after the primary header) and trailer of a secured command (SDLS style). */",
+        f"#define TC_SEC_SPI_LEN {spi_bits // 8}u /* {ccomment(spi.get('shortDescription'))} */",
+        f"#define TC_SEC_ARSN_LEN {arsn_bits // 8}u /* {ccomment(arsn.get('shortDescription'))} */",
+        f"#define TC_SEC_MAC_LEN {mac_bits // 8}u /* {ccomment(mac.get('shortDescription'))} */",
+        f"#define TC_SPI_MIN {lo}u",
+        f"#define TC_SPI_MAX {hi}u",
+    ]
+
+
 def tc_codes_h(t) -> str:
     L = [
         banner(TC_SRC).rstrip(),
@@ -652,7 +683,7 @@ def tc_codes_h(t) -> str:
                     L.append(f"#define {k}_MIN {lo} /* {ccomment(a.description)} */")
                     L.append(f"#define {k}_MAX {hi}")
     L.append(f"#define TC_MAX_ARGS {max(c.arg_len for c in cmds)}u /* the largest argument block */")
-    L += [""] + tc_args_union(t) + ["", "#endif /* MFNS_TC_CODES_GEN_H */", ""]
+    L += [""] + tc_security(TC_XML) + [""] + tc_args_union(t) + ["", "#endif /* MFNS_TC_CODES_GEN_H */", ""]
     return "\n".join(L)
 
 

@@ -41,6 +41,46 @@ fuzz-tc-brief: $(TC_FUZZ_BIN)
 	@rm -rf build/fuzz/brief-tc
 	$(call tc_run_fuzz,fuzz-tc-brief,build/fuzz/brief-tc,$(FUZZ_BRIEF_SECONDS),1)
 
+# Authenticated commands (docs/uplink.md 1a): the security header + MAC check + dispatch
+# fuzzer, and mfns-ground's command inputs (grammar, UDP/Unix datagram intake, signing).
+#   make fuzz-tc-auth fuzz-uplink-grammar   FUZZ_SECONDS (60) s each, corpora in build/fuzz/
+TC_AUTH_FUZZERS := tc_auth uplink_grammar
+fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd_dispatch.c \
+                     firmware/app/tc_auth.c
+fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(sort $(wildcard firmware/tlm/*.c)) \
+                     firmware/app/tc_auth.c firmware/app/txq_drain.c ground/uplink.c ground/uplink_auth.c \
+                     ground/udp_forward.c $(sort $(wildcard drivers/uart/*.c))
+FUZZ_TARGETS += $(addprefix fuzz-,$(subst _,-,$(TC_AUTH_FUZZERS)))
+.PHONY: fuzz-tc-auth fuzz-uplink-grammar
+
+define auth_fuzz_bin
+build/fuzz/fuzz_$(1): $$(fuzz_srcs_$(1)) $$(wildcard firmware/tlm/*.h firmware/app/*.h ground/*.h)
+	@mkdir -p $$(@D)
+	$$(FUZZ_CC) $$(FUZZ_FLAGS) -DMFNS_HAVE_LIBCRYPTO=1 $$(INCLUDES) $$(fuzz_srcs_$(1)) \
+	  $$(shell pkg-config --libs libserialport) -lcrypto -lm -o $$@
+endef
+$(foreach f,$(TC_AUTH_FUZZERS),$(eval $(call auth_fuzz_bin,$(f))))
+
+# $(1) name, $(2) seconds, $(3) seed
+define auth_run_fuzz
+	@mkdir -p build/fuzz/corpus-$(1)
+	@cp -n tests/fuzz/corpus/$(1)/* build/fuzz/corpus-$(1)/ 2>/dev/null || true
+	@log=build/fuzz/$(1).log; \
+	if build/fuzz/fuzz_$(1) -max_total_time=$(2) -seed=$(3) -max_len=512 -print_final_stats=1 \
+	     -artifact_prefix=build/fuzz/$(1)- build/fuzz/corpus-$(1) >$$log 2>&1; then \
+	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
+	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
+	  echo "fuzz-$(1): 1 passed, 0 failed ($${execs:-?} executions in $(2) s, $${cov:-cov: ?})"; \
+	else \
+	  tail -n 40 $$log; echo "fuzz-$(1): 0 passed, 1 failed"; exit 1; \
+	fi
+endef
+
+fuzz-tc-auth: build/fuzz/fuzz_tc_auth
+	$(call auth_run_fuzz,tc_auth,$(FUZZ_SECONDS),0)
+fuzz-uplink-grammar: build/fuzz/fuzz_uplink_grammar
+	$(call auth_run_fuzz,uplink_grammar,$(FUZZ_SECONDS),0)
+
 # Yamcs' runtime in the venv (ground/requirements.txt): for `make test` and ground-yamcs only.
 .PHONY: ground-venv
 ground-venv: $(VENV)/.stamp-ground

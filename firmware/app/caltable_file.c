@@ -30,12 +30,17 @@ mfns_caltable_status_t mfns_caltable_load_file(const char *path, uint8_t *buf, s
         (void)close(fd); /* refused: nothing was read */
         return MFNS_CALTABLE_E_FILE_NOT_REGULAR;
     }
+    if (st_file.st_size < 0 || (uint64_t)st_file.st_size > (uint64_t)buf_size) {
+        (void)close(fd); /* a huge file is refused by its size, before a byte is read */
+        return MFNS_CALTABLE_E_FILE_TOO_BIG;
+    }
     FILE *f = fdopen(fd, "rb");
     if (f == NULL) {
         (void)close(fd); /* fdopen failed: the fd is still ours */
         return MFNS_CALTABLE_E_FILE_OPEN;
     }
-    /* fread until EOF, bounded by the buffer; one byte more than fits means too big */
+    /* fread until EOF, bounded by the buffer; one byte more than fits means too
+     * big (a file that grows after the fstat: at most buf_size + 1 bytes are read) */
     size_t len = 0;
     mfns_caltable_status_t st = MFNS_CALTABLE_OK;
     for (;;) {

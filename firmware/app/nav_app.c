@@ -101,6 +101,10 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     const nav_exit_reason_t last = nav_service_read_exit(o->last_exit);
     send_event_subject(app, TLM_EVT_BOOT, last == NAV_EXIT_NONE || last == NAV_EXIT_CLEAN ? TLM_SEV_INFO : TLM_SEV_WARNING,
                        (uint8_t)last, NAV_APP_VERSION, 0);
+    if (o->tc_kind != NAV_TC_NONE) { /* the uplink's security, once: epoch 0 = not authenticated */
+        send_event(app, TLM_EVT_TC_AUTH, app->tc.auth.insecure ? TLM_SEV_WARNING : TLM_SEV_INFO,
+                   (int32_t)app->tc.auth.epoch, (int32_t)app->tc.auth.n_keys);
+    }
 
     uint32_t err_off = 0;
     mfns_caltable_t *table = &app->tables[app->table_cur];
@@ -139,6 +143,11 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
     if (app->tc.cmd.rx.frames > 0) {
         fprintf(stderr, "mfns-nav: commands: %u accepted, %u rejected (since boot or RESET_COUNTERS)\n",
                 app->tc.cmd.n_accepted, app->tc.cmd.n_rejected);
+        const tc_auth_t *a = &app->tc.auth;
+        fprintf(stderr,
+                "mfns-nav: authentication (epoch %u): %u passed, refused %u missing, %u unknown key, %u bad MAC, "
+                "%u replayed, %u stale epoch\n",
+                a->epoch, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4]);
     }
     if (app->tlm.write_errors > 0 || lost_frames > 0) {
         fprintf(stderr, "mfns-nav: telemetry: %u frames produced, %u sent, %u lost (%u write errors)\n", produced,

@@ -42,6 +42,13 @@ void nav_cmd_handle(nav_cmd_t *c, const tc_cmd_t *cmd, tc_status_t status, const
         reject(c, cmd, cmd == NULL ? TC_E_NULL : status, ops);
         return;
     }
+    if (ops->auth != NULL) {
+        const tc_status_t a = ops->auth(ops->ctx, cmd);
+        if (a != TC_OK) {
+            reject(c, cmd, a, ops);
+            return;
+        }
+    }
     if (!seq_is_newer(c, cmd->seq)) {
         reject(c, cmd, TC_E_SEQUENCE, ops);
         return;

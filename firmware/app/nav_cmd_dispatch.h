@@ -11,6 +11,9 @@
  *   CMD_REJECTED  subject = opcode or 0 (unreadable), arg0 = sequence count or
  *                 -1 (unreadable), arg1 = tc_status_t (the reason)
  *
+ * Authentication (ops->auth, tc_auth.h) comes first: a command that fails
+ * it is CMD_REJECTED with its AUTH_* code and nothing else happens.
+ *
  * Sequence guard (replay protection): the first command after boot may have
  * any count; later ones are accepted only when their count is newer than the
  * last accepted one, i.e. (seq - last) mod 2^14 in 1..8191. A replayed or
@@ -46,6 +49,10 @@ _Static_assert(NAV_CMD_SEQ_WINDOW == TLM_CCSDS_SEQ_MASK / 2u,
  * (TC_E_STATE, TC_E_ARG, TC_E_TABLE, ...); may set *arg1 (the CMD_ACCEPTED
  * event's arg1). cmd holds the decoded arguments (cmd->u per opcode). */
 typedef tc_status_t (*nav_cmd_fn_t)(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
+/* Authentication of a decoded command (firmware/app/tc_auth.h): TC_OK or
+ * an AUTH_* code. Called before the sequence guard and the action, so an
+ * unauthenticated command neither acts nor moves the sequence reference. */
+typedef tc_status_t (*nav_cmd_auth_fn_t)(void *ctx, const tc_cmd_t *cmd);
 /* How the dispatch's events leave (the program: telemetry and one stderr line). */
 typedef void (*nav_cmd_event_fn_t)(void *ctx, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject,
                                    int32_t arg0, int32_t arg1);
@@ -55,6 +62,7 @@ typedef struct {
     const nav_cmd_fn_t *table;  /* indexed by opcode */
     size_t table_len;           /* entries in table */
     nav_cmd_event_fn_t event;   /* required */
+    nav_cmd_auth_fn_t auth;     /* NULL: no authentication (unit tests of the dispatch alone) */
 } nav_cmd_ops_t;
 
 typedef struct {

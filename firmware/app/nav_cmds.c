@@ -168,7 +168,14 @@ static const nav_cmd_fn_t k_cmds[] = {TC_OPCODE_LIST(NAV_CMD_ENTRY)};
 _Static_assert(sizeof k_cmds / sizeof k_cmds[0] == (size_t)TC_OP_MAX + 1u,
                "one entry per opcode up to the dictionary's last (a new opcode needs its command here)");
 
+/* Every command is authenticated first (tc_auth.h; insecure mode passes plain ones). */
+static tc_status_t cmd_auth(void *ctx, const tc_cmd_t *cmd)
+{
+    nav_app_t *app = ctx;
+    return tc_auth_check(&app->tc.auth, cmd);
+}
+
 nav_cmd_ops_t nav_cmds_ops(struct nav_app *app)
 {
-    return (nav_cmd_ops_t){app, k_cmds, sizeof k_cmds / sizeof k_cmds[0], cmd_event};
+    return (nav_cmd_ops_t){app, k_cmds, sizeof k_cmds / sizeof k_cmds[0], cmd_event, cmd_auth};
 }

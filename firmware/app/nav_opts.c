@@ -46,6 +46,10 @@ static void usage(FILE *f)
             "  --tc-tty PATH       telecommands from a tty, pseudo-terminal or FIFO (docs/uplink.md)\n"
             "  --tc-file PATH      telecommand frames recorded in a file, read to its end\n"
             "  --uplink            telecommands on the telemetry link itself (--tty/--serial, read-write)\n"
+            "  --tc-key FILE       the board's command keys ('ID HEX' lines, mode 0600/0400, yours):\n"
+            "                      every command must be signed (docs/uplink.md); needs --state-dir\n"
+            "  --state-dir DIR     where the boot epoch of the anti-replay counter is kept\n"
+            "  --tc-insecure       accept commands WITHOUT authentication (tests, bench; a warning)\n"
             "  --max-cycles N      stop after N cycles\n"
             "  --init-pose X,Y,Z,ROLL,PITCH,YAW   start tracking from this pose (mm, deg;\n"
             "                      e.g. the docking port); falls back to acquisition if wrong\n"
@@ -102,7 +106,8 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
-           O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT };
+           O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT, O_TC_KEY, O_STATE_DIR,
+           O_TC_INSECURE };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -121,6 +126,8 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         {"tc-tty", required_argument, NULL, O_TC_TTY}, {"tc-file", required_argument, NULL, O_TC_FILE},
         {"uplink", no_argument, NULL, O_UPLINK},
         {"mlock", no_argument, NULL, O_MLOCK}, {"last-exit", required_argument, NULL, O_LAST_EXIT},
+        {"tc-key", required_argument, NULL, O_TC_KEY}, {"state-dir", required_argument, NULL, O_STATE_DIR},
+        {"tc-insecure", no_argument, NULL, O_TC_INSECURE},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -199,6 +206,15 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
             o->tc_kind = c == O_TC_TTY ? NAV_TC_PATH : (c == O_TC_FILE ? NAV_TC_FILE : NAV_TC_LINK);
             o->tc_target = c == O_UPLINK ? NULL : optarg;
             break;
+        case O_TC_KEY:
+            o->tc_key_path = optarg;
+            break;
+        case O_STATE_DIR:
+            o->state_dir = optarg;
+            break;
+        case O_TC_INSECURE:
+            o->tc_insecure = true;
+            break;
         case O_BAUD:
             if (!parse_u32(optarg, 1200, 4000000, &o->baud)) {
                 fprintf(err, "mfns-nav: --baud wants 1200..4000000, got '%s'\n", optarg);
@@ -257,6 +273,19 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
     }
     if (o->tc_kind == NAV_TC_LINK && o->tlm_kind != NAV_TLM_SERIAL && o->tlm_kind != NAV_TLM_PATH) {
         fprintf(err, "mfns-nav: --uplink reads commands from the telemetry link: give --serial or --tty\n");
+        return -1;
+    }
+    if (o->tc_insecure && o->tc_key_path != NULL) {
+        fprintf(err, "mfns-nav: --tc-key and --tc-insecure exclude each other\n");
+        return -1;
+    }
+    if (o->tc_key_path != NULL && o->state_dir == NULL) {
+        fprintf(err, "mfns-nav: --tc-key needs --state-dir DIR (the anti-replay boot epoch is kept there)\n");
+        return -1;
+    }
+    if (o->tc_kind != NAV_TC_NONE && o->tc_key_path == NULL && !o->tc_insecure) {
+        fprintf(err, "mfns-nav: a command input needs --tc-key FILE --state-dir DIR (signed commands), or "
+                     "--tc-insecure to accept them without authentication (docs/uplink.md)\n");
         return -1;
     }
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {

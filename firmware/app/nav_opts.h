@@ -5,6 +5,7 @@
  * (MFNS_BOARD_CAM_X/Y/Z, MFNS_BOARD_BAUD, MFNS_BOARD_NAME from boards/<b>/)
  * and refusing, with one line on err, every combination the program cannot
  * run: no table, no cameras, two telemetry outputs or two command inputs,
+ * a command input with neither --tc-key (and --state-dir) nor --tc-insecure,
  * --uplink without a link it can read, --cam-x/y/z with --replay, numbers
  * out of range. --help writes the usage and --version the one version
  * (mk/version.sh) on out. The strings in nav_opts_t point into argv.
@@ -38,6 +39,9 @@ typedef struct {
     const char *tlm_target;    /* serial port, tty/FIFO path, or output file */
     nav_tc_kind_t tc_kind;     /* telecommand input */
     const char *tc_target;     /* its path (NAV_TC_PATH, NAV_TC_FILE) */
+    const char *tc_key_path;   /* --tc-key: the board's keys (tc_auth.h) */
+    const char *state_dir;     /* --state-dir: the persisted boot epoch (tc_state.h) */
+    bool tc_insecure;          /* --tc-insecure: commands without authentication */
     uint32_t baud;
     uint32_t max_cycles;       /* 0 = until the data ends or a signal */
     mfns_pose_mode_t solver;

@@ -4,13 +4,49 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "tc_state.h"
+
+/* Keys and epoch, or insecure mode (nav_opts_parse made sure one is given
+ * whenever there is a command input). */
+static int open_auth(nav_tc_in_t *tc, const nav_opts_t *o)
+{
+    if (o->tc_insecure) {
+        tc_auth_init(&tc->auth, NULL, 0, 0);
+        fprintf(stderr, "mfns-nav: WARNING: --tc-insecure: telecommands are NOT authenticated; anyone who can "
+                        "write to the uplink commands this board\n");
+        return 0;
+    }
+    tc_auth_key_t keys[TC_AUTH_MAX_KEYS];
+    unsigned n = 0;
+    char err[384];
+    if (tc_auth_read_keys(o->tc_key_path, keys, TC_AUTH_MAX_KEYS, &n, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-nav: --tc-key %s\n", err);
+        return -1;
+    }
+    uint32_t epoch = 0;
+    if (tc_state_next_epoch(o->state_dir, &epoch, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-nav: --state-dir %s\n", err);
+        tc_auth_wipe(keys, sizeof keys);
+        return -1;
+    }
+    tc_auth_init(&tc->auth, keys, n, epoch);
+    tc_auth_wipe(keys, sizeof keys); /* the copy in tc->auth is the one kept */
+    return 0;
+}
+
 int nav_tc_in_open(nav_tc_in_t *tc, const nav_opts_t *o)
 {
     memset(tc, 0, sizeof *tc);
     tc->kind = o->tc_kind;
     nav_cmd_init(&tc->cmd);
     tc->uart.fd = -1;
-    if (o->tc_kind == NAV_TC_NONE || o->tc_kind == NAV_TC_LINK) {
+    if (o->tc_kind == NAV_TC_NONE) {
+        return 0;
+    }
+    if (open_auth(tc, o) != 0) {
+        return -1;
+    }
+    if (o->tc_kind == NAV_TC_LINK) {
         return 0;
     }
     const int rc = mfns_uart_open_path(&tc->uart, o->tc_target, o->baud, MFNS_UART_READ);
@@ -61,5 +97,6 @@ void nav_tc_in_poll(nav_tc_in_t *tc, mfns_uart_t *link, const nav_cmd_ops_t *ops
 
 void nav_tc_in_close(nav_tc_in_t *tc)
 {
+    tc_auth_clear(&tc->auth);
     mfns_uart_close(&tc->uart);
 }

@@ -20,6 +20,7 @@
 #include <stdint.h>
 
 #include "nav_cmd_dispatch.h"
+#include "tc_auth.h"
 #include "nav_opts.h"
 #include "uart.h"
 
@@ -29,6 +30,7 @@
 typedef struct {
     nav_tc_kind_t kind;
     nav_cmd_t cmd;                   /* deframer, sequence guard, counters */
+    tc_auth_t auth;                  /* keys, boot epoch, anti-replay reference (tc_auth.h) */
     mfns_uart_t uart;                /* --tc-tty / --tc-file (--uplink reads the telemetry link) */
     uint8_t rx[NAV_TC_IN_RX_BYTES];  /* bytes read and not yet fed to the dispatch */
     size_t len, off;
@@ -36,7 +38,10 @@ typedef struct {
     bool error_printed;
 } nav_tc_in_t;
 
-/* Opens the input o names. 0, or -1 after one stderr line. */
+/* Opens the input o names, with its authentication: the keys of
+ * --tc-key and the next boot epoch in --state-dir (tc_state.h, written
+ * here, once), or insecure mode (--tc-insecure, a warning line). 0, or -1
+ * after one stderr line. */
 int nav_tc_in_open(nav_tc_in_t *tc, const nav_opts_t *o);
 /* Between cycles: reads what the input has now (never waits) and handles
  * at most NAV_CMD_MAX_PER_CYCLE commands through ops. link is the telemetry

@@ -48,7 +48,12 @@ typedef enum {
     TC_E_STATE = 12, /* command not possible in the current state */
     TC_E_TABLE = 13, /* calibration table refused (old table kept) */
     TC_E_NULL = 14, /* NULL pointer or buffer too small */
-    TC_STATUS_MAX = 14
+    TC_E_AUTH_MISSING = 15, /* command not authenticated (no security header, or SPI 0) while keys are configured */
+    TC_E_AUTH_KEY_UNKNOWN = 16, /* security header names a key id (SPI) not loaded on the board */
+    TC_E_AUTH_BAD_MAC = 17, /* MAC (HMAC-SHA-256/128) of the command does not verify */
+    TC_E_AUTH_REPLAY = 18, /* anti-replay counter not newer than the last accepted one of this boot epoch */
+    TC_E_AUTH_STALE_EPOCH = 19, /* anti-replay counter from another boot epoch (signed before the last reboot) */
+    TC_STATUS_MAX = 19
 } tc_status_t;
 
 /* Argument ranges (XTCE ValidRange, inclusive) and string fields (bytes, NUL-padded). */
@@ -59,6 +64,13 @@ typedef enum {
 #define TC_CAMERA_MAX 2
 #define TC_PATH_MAX 64u /* a path on the board: printable ASCII, 1..63 characters, NUL-padded to 64 bytes */
 #define TC_MAX_ARGS 64u /* the largest argument block */
+
+/* Security header (after the primary header) and trailer of a secured command (SDLS style). */
+#define TC_SEC_SPI_LEN 2u /* security parameter index: the key id, 1..255 */
+#define TC_SEC_ARSN_LEN 8u /* anti-replay sequence number: boot epoch (high 32 bits) and count in the epoch (low 32 bits) */
+#define TC_SEC_MAC_LEN 16u /* message authentication code: HMAC-SHA-256 truncated to 16 bytes */
+#define TC_SPI_MIN 1u
+#define TC_SPI_MAX 255u
 
 /* The arguments of SET_POSE_HINT. */
 typedef struct {

@@ -108,26 +108,119 @@ tc_status_t tc_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out)
     return st;
 }
 
-tc_status_t tc_frame_encode(const tc_cmd_t *cmd, uint16_t seq, uint8_t *out, size_t cap, size_t *out_len)
+tc_status_t tc_packet_frame(const uint8_t *pkt, size_t n, uint8_t *out, size_t cap, size_t *out_len)
 {
-    if (out == NULL || out_len == NULL) {
+    if (pkt == NULL || out == NULL || out_len == NULL || n > TC_MAX_SEC_PACKET) {
         return TC_E_NULL;
     }
     uint8_t frame[TC_MAX_FRAME];
-    size_t n = 0;
-    const tc_status_t st = tc_packet_encode(cmd, seq, frame, sizeof frame - 2u, &n);
-    if (st != TC_OK) {
-        return st;
-    }
+    memcpy(frame, pkt, n);
     tlm_put_u16(frame + n, tlm_crc16(frame, n));
-    n += 2u;
     size_t enc = 0;
-    if (cap < 1u || tlm_cobs_encode(frame, n, out, cap - 1u, &enc) != TLM_OK) {
+    if (cap < 1u || tlm_cobs_encode(frame, n + 2u, out, cap - 1u, &enc) != TLM_OK) {
         return TC_E_NULL;
     }
     out[enc] = 0u;
     *out_len = enc + 1u;
     return TC_OK;
+}
+
+tc_status_t tc_frame_encode(const tc_cmd_t *cmd, uint16_t seq, uint8_t *out, size_t cap, size_t *out_len)
+{
+    if (out == NULL || out_len == NULL) {
+        return TC_E_NULL;
+    }
+    uint8_t pkt[TC_MAX_PACKET];
+    size_t n = 0;
+    const tc_status_t st = tc_packet_encode(cmd, seq, pkt, sizeof pkt, &n);
+    if (st != TC_OK) {
+        return st;
+    }
+    return tc_packet_frame(pkt, n, out, cap, out_len);
+}
+
+static void put_u64(uint8_t *p, uint64_t v)
+{
+    for (unsigned i = 0; i < 8u; i++) {
+        p[i] = (uint8_t)(v >> (56u - 8u * i));
+    }
+}
+
+static uint64_t get_u64(const uint8_t *p)
+{
+    uint64_t v = 0;
+    for (unsigned i = 0; i < 8u; i++) {
+        v = (v << 8) | p[i];
+    }
+    return v;
+}
+
+tc_status_t tc_sec_packet_encode(const tc_cmd_t *cmd, uint16_t seq, uint16_t spi, uint64_t arsn, uint8_t *out,
+                                 size_t cap, size_t *auth_len)
+{
+    if (out == NULL || auth_len == NULL) {
+        return TC_E_NULL;
+    }
+    if (spi < TC_SPI_MIN || spi > TC_SPI_MAX) {
+        return TC_E_HEADER;
+    }
+    uint8_t plain[TC_MAX_PACKET];
+    size_t n = 0;
+    const tc_status_t st = tc_packet_encode(cmd, seq, plain, sizeof plain, &n);
+    if (st != TC_OK) {
+        return st;
+    }
+    if (cap < n + TC_SEC_OVERHEAD) {
+        return TC_E_NULL;
+    }
+    memcpy(out, plain, TLM_CCSDS_PRI_LEN);
+    tlm_put_u16(out + 4, (uint16_t)(n + TC_SEC_OVERHEAD - TLM_CCSDS_PRI_LEN - 1u));
+    tlm_put_u16(out + TC_SEC_SPI_OFF, spi);
+    put_u64(out + TC_SEC_ARSN_OFF, arsn);
+    memcpy(out + TLM_CCSDS_PRI_LEN + TC_SEC_PREFIX_LEN, plain + TLM_CCSDS_PRI_LEN, n - TLM_CCSDS_PRI_LEN);
+    *auth_len = n + TC_SEC_PREFIX_LEN;
+    return TC_OK;
+}
+
+tc_status_t tc_any_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out)
+{
+    if (in == NULL || len <= TLM_CCSDS_PRI_LEN || in[TC_SEC_SPI_OFF] != 0u) {
+        return tc_packet_decode(in, len, out); /* plain (or too short to tell: its own RUNT) */
+    }
+    if (out == NULL) {
+        return TC_E_NULL;
+    }
+    memset(out, 0, sizeof *out);
+    tlm_ccsds_hdr_t h;
+    (void)tlm_ccsds_unpack(in, &h); /* the primary header first: a TM frame is HEADER, as when plain */
+    out->seq = h.seq;
+    out->have_seq = true;
+    if (h.version != 0u || h.type != 1u || h.sec_hdr != 1u || h.seq_flags != TC_SEQ_FLAGS) {
+        return TC_E_HEADER;
+    }
+    if (len < TC_HDR_LEN + TC_SEC_OVERHEAD) {
+        return TC_E_RUNT;
+    }
+    if (len > TC_MAX_SEC_PACKET) {
+        return TC_E_OVERSIZE;
+    }
+    /* the command as a plain packet: primary header with the length less
+     * the security bytes, then opcode, reserved, arguments */
+    uint8_t plain[TC_MAX_PACKET + TC_SEC_OVERHEAD];
+    const size_t pn = len - TC_SEC_OVERHEAD;
+    memcpy(plain, in, TLM_CCSDS_PRI_LEN);
+    const uint16_t dlen = tlm_get_u16(in + 4);
+    tlm_put_u16(plain + 4, (uint16_t)(dlen >= TC_SEC_OVERHEAD ? dlen - TC_SEC_OVERHEAD : 0xFFFFu));
+    memcpy(plain + TLM_CCSDS_PRI_LEN, in + TLM_CCSDS_PRI_LEN + TC_SEC_PREFIX_LEN, pn - TLM_CCSDS_PRI_LEN);
+    const tc_status_t st = tc_packet_decode(plain, pn, out);
+    tc_sec_t *s = &out->sec;
+    s->present = true;
+    s->spi = tlm_get_u16(in + TC_SEC_SPI_OFF);
+    s->arsn = get_u64(in + TC_SEC_ARSN_OFF);
+    s->auth_len = (uint16_t)(len - TC_SEC_MAC_LEN);
+    memcpy(s->auth, in, s->auth_len);
+    memcpy(s->mac, in + s->auth_len, TC_SEC_MAC_LEN);
+    return st;
 }
 
 void tc_deframer_init(tc_deframer_t *d)
@@ -155,7 +248,7 @@ static tc_status_t finish(const tc_deframer_t *d, tc_cmd_t *out)
     if (tlm_crc16(frame, n - 2u) != tlm_get_u16(frame + n - 2u)) {
         return TC_E_CRC;
     }
-    return tc_packet_decode(frame, n - 2u, out);
+    return tc_any_packet_decode(frame, n - 2u, out);
 }
 
 bool tc_deframer_push(tc_deframer_t *d, uint8_t byte, tc_cmd_t *out, tc_status_t *status)

@@ -40,8 +40,39 @@
 #define TC_SEC_HDR_LEN 2u            /* opcode + reserved */
 #define TC_HDR_LEN (TLM_CCSDS_PRI_LEN + TC_SEC_HDR_LEN)
 #define TC_MAX_PACKET (TC_HDR_LEN + TC_MAX_ARGS)
-#define TC_MAX_FRAME (TC_MAX_PACKET + 2u) /* packet + CRC-16 */
+
+/* Secured packet (SDLS style, docs/uplink.md 1a; sizes generated from the
+ * dictionary's tc_spi_t, tc_arsn_t, tc_mac_t):
+ *   0   6  CCSDS primary header (data length covers everything below)
+ *   6   2  SPI: the key id, TC_SPI_MIN..TC_SPI_MAX (so byte 6 is 0)
+ *   8   8  ARSN: anti-replay sequence number, boot epoch << 32 | count
+ *   16  2+n opcode, reserved, arguments (as a plain packet)
+ *   ..  16 MAC over every byte before it (computed outside this codec)
+ * A plain packet has its opcode (>= 1) at byte 6, a secured one 0 there:
+ * that byte tells them apart. The codec frames and parses; it computes and
+ * checks no MAC (the portable core has no cryptography): firmware/app/
+ * tc_auth.h does. */
+#define TC_SEC_PREFIX_LEN (TC_SEC_SPI_LEN + TC_SEC_ARSN_LEN) /* the security header */
+#define TC_SEC_OVERHEAD (TC_SEC_PREFIX_LEN + TC_SEC_MAC_LEN) /* bytes a secured packet adds */
+#define TC_SEC_SPI_OFF TLM_CCSDS_PRI_LEN
+#define TC_SEC_ARSN_OFF (TC_SEC_SPI_OFF + TC_SEC_SPI_LEN)
+#define TC_MAX_SEC_PACKET (TC_MAX_PACKET + TC_SEC_OVERHEAD)
+#define TC_MAX_AUTH (TC_MAX_SEC_PACKET - TC_SEC_MAC_LEN) /* bytes the MAC covers, at most */
+#define TC_MAX_FRAME (TC_MAX_SEC_PACKET + 2u) /* packet + CRC-16 */
 #define TC_MAX_WIRE (TLM_COBS_MAX_ENCODED(TC_MAX_FRAME) + 1u)
+_Static_assert(TC_SPI_MAX <= 0xFFu, "SPI high byte 0: byte 6 tells a secured packet from a plain one");
+_Static_assert(TC_SPI_MIN >= 1u, "SPI 0 is 'no security' (SDLS reserves it)");
+_Static_assert(TC_SEC_ARSN_LEN == 8u, "ARSN is a 64-bit epoch << 32 | count");
+
+/* The security header and trailer of a received secured packet. */
+typedef struct {
+    bool present;                   /* the packet was secured (byte 6 == 0) */
+    uint16_t spi;                   /* key id as received (0 or > TC_SPI_MAX: not a key) */
+    uint64_t arsn;                  /* anti-replay sequence number */
+    uint8_t mac[TC_SEC_MAC_LEN];    /* the MAC as received */
+    uint16_t auth_len;              /* bytes of auth the MAC covers */
+    uint8_t auth[TC_MAX_AUTH];      /* the packet up to the MAC (header, security header, data) */
+} tc_sec_t;
 
 typedef struct {
     uint16_t seq;     /* CCSDS sequence count (valid when have_seq) */
@@ -49,6 +80,7 @@ typedef struct {
     bool have_seq;    /* the header was readable: seq is the sender's */
     bool have_opcode; /* the opcode byte was readable */
     tc_args_t u;      /* the arguments (tc_codes_gen.h: the XTCE arguments' c_field) */
+    tc_sec_t sec;     /* security header and trailer (sec.present: secured packet) */
 } tc_cmd_t;
 
 /* Argument bytes of an opcode; -1 for an unknown opcode. */
@@ -68,7 +100,24 @@ tc_status_t tc_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out);
 /* The wire frame: COBS(packet || CRC16 big-endian) then 0x00. cap >= TC_MAX_WIRE suffices. */
 tc_status_t tc_frame_encode(const tc_cmd_t *cmd, uint16_t seq, uint8_t *out, size_t cap, size_t *out_len);
 
+/* The secured packet of cmd without its MAC: primary header (length
+ * counting the MAC), SPI, ARSN, opcode, reserved, arguments. *auth_len gets
+ * the bytes written (what the MAC covers); the caller appends
+ * TC_SEC_MAC_LEN bytes of MAC at out + *auth_len (cap must leave room:
+ * TC_MAX_SEC_PACKET suffices). spi must be TC_SPI_MIN..TC_SPI_MAX. */
+tc_status_t tc_sec_packet_encode(const tc_cmd_t *cmd, uint16_t seq, uint16_t spi, uint64_t arsn, uint8_t *out,
+                                 size_t cap, size_t *auth_len);
+/* Either form: a plain packet (byte 6 >= 1) as tc_packet_decode; a secured
+ * one (byte 6 == 0) parsed into out->sec (present, spi, arsn, mac, auth)
+ * and its command validated as tc_packet_decode does. TC_E_RUNT when
+ * shorter than a secured header + trailer. */
+tc_status_t tc_any_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out);
+/* A packet (plain or secured, MAC included) as a wire frame: COBS(packet ||
+ * CRC16) then 0x00. */
+tc_status_t tc_packet_frame(const uint8_t *pkt, size_t n, uint8_t *out, size_t cap, size_t *out_len);
+
 /* Streaming receiver of TC frames, byte at a time, bounded buffer, no heap.
+ * Frames carry plain or secured packets (tc_any_packet_decode).
  * Consecutive 0x00 (idle fill) are ignored; a frame that outgrows the buffer
  * is reported once (TC_E_OVERSIZE) and skipped to the next delimiter. */
 typedef struct {

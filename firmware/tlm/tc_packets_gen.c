@@ -66,6 +66,11 @@ const char *tc_status_name(int status)
     case TC_E_STATE: return "STATE";
     case TC_E_TABLE: return "TABLE";
     case TC_E_NULL: return "NULL";
+    case TC_E_AUTH_MISSING: return "AUTH_MISSING";
+    case TC_E_AUTH_KEY_UNKNOWN: return "AUTH_KEY_UNKNOWN";
+    case TC_E_AUTH_BAD_MAC: return "AUTH_BAD_MAC";
+    case TC_E_AUTH_REPLAY: return "AUTH_REPLAY";
+    case TC_E_AUTH_STALE_EPOCH: return "AUTH_STALE_EPOCH";
     default: return "?";
     }
 }
@@ -88,6 +93,11 @@ const char *tc_strerror(int status)
     case TC_E_STATE: return "command not possible in the current state";
     case TC_E_TABLE: return "calibration table refused (old table kept)";
     case TC_E_NULL: return "NULL pointer or buffer too small";
+    case TC_E_AUTH_MISSING: return "command not authenticated (no security header, or SPI 0) while keys are configured";
+    case TC_E_AUTH_KEY_UNKNOWN: return "security header names a key id (SPI) not loaded on the board";
+    case TC_E_AUTH_BAD_MAC: return "MAC (HMAC-SHA-256/128) of the command does not verify";
+    case TC_E_AUTH_REPLAY: return "anti-replay counter not newer than the last accepted one of this boot epoch";
+    case TC_E_AUTH_STALE_EPOCH: return "anti-replay counter from another boot epoch (signed before the last reboot)";
     default: return "unknown command status";
     }
 }

@@ -67,7 +67,8 @@ typedef enum {
     TLM_EVT_CAMERA_EXCLUDED = 21, /* subject camera; arg0 normalised separation x100 of its fault test (100 = threshold); arg1 hold, cycles (sent once per exclusion episode) */
     TLM_EVT_BEACON_READMITTED = 22, /* subject beacon survey id (255 when above 254); arg0 0; arg1 beacon survey id: its fault test passed again after the hold */
     TLM_EVT_CAMERA_READMITTED = 23, /* subject camera; arg0 0; arg1 0: its fault test passed again after the hold */
-    TLM_EVT_CODE_COUNT = 24
+    TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
+    TLM_EVT_CODE_COUNT = 26
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

@@ -98,6 +98,7 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_CAMERA_EXCLUDED: return "CAMERA_EXCLUDED";
     case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
     case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
+    case TLM_EVT_TC_AUTH: return "TC_AUTH";
     default: return "?";
     }
 }
@@ -184,6 +185,8 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         tlm_put_u32(b + 76, s->utc_s);
         tlm_put_u32(b + 80, s->utc_us);
         b[84] = s->time_quality;
+        tlm_put_u32(b + 85, s->tc_epoch);
+        tlm_put_u32(b + 89, s->tc_arsn_last);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -276,6 +279,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->utc_s = tlm_get_u32(b + 76);
         s->utc_us = tlm_get_u32(b + 80);
         s->time_quality = b[84];
+        s->tc_epoch = tlm_get_u32(b + 85);
+        s->tc_arsn_last = tlm_get_u32(b + 89);
         break;
     }
     case TLM_TYPE_EVENT: {

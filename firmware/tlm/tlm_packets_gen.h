@@ -26,7 +26,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 85u
+#define TLM_HK_PAYLOAD_LEN 93u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_MAX_PAYLOAD 168u
 
@@ -97,6 +97,8 @@ typedef struct {
     uint32_t utc_s; /* hk_utc_s: time correlation: UTC at this packet's flight time, whole seconds since 1970-01-01T00:00:00Z (UNIX time, no leap seconds; 0 when hk_time_quality is NONE) [s] */
     uint32_t utc_us; /* hk_utc_us: time correlation: the microseconds of that UTC (0..999999) [us] */
     uint8_t time_quality; /* hk_time_quality: what hk_utc is worth [time_quality_t] */
+    uint32_t tc_epoch; /* hk_tc_epoch: boot epoch of the telecommand anti-replay counter (high 32 bits a signed command must carry; 0: uplink not authenticated) */
+    uint32_t tc_arsn_last; /* hk_tc_arsn_last: low 32 bits of the last accepted anti-replay counter in this epoch (0: none yet); the ground signs with a larger one */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */

@@ -51,6 +51,8 @@ NO_BEACON = -1
 CALIB_PARAMS_PER_CAMERA = 15  # nav_config.h mfns_calib_param_t (fx fy cx cy k1 k2 p1 p2 k3 theta r)
 CALIB_PARAMS = NUM_CAMERAS * CALIB_PARAMS_PER_CAMERA
 TC_PATH_MAX = 64
+TC_SEC_MAC_LEN = 16
+TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
 
 # (Python value, C expression): binding_check.py asserts each equal
 CONSTANTS = {
@@ -65,6 +67,8 @@ CONSTANTS = {
     "NO_BEACON": (NO_BEACON, "MFNS_POSE_NO_BEACON"),
     "CALIB_PARAMS": (CALIB_PARAMS, "MFNS_CALIB_PARAMS"),
     "TC_PATH_MAX": (TC_PATH_MAX, "TC_PATH_MAX"),
+    "TC_SEC_MAC_LEN": (TC_SEC_MAC_LEN, "TC_SEC_MAC_LEN"),
+    "TC_MAX_AUTH": (TC_MAX_AUTH, "TC_MAX_AUTH"),
 }
 
 
@@ -361,6 +365,18 @@ class TcArgs(ct.Union):
     ]
 
 
+class TcSec(ct.Structure):
+    _c_ = ("tc_packets.h", "tc_sec_t")
+    _fields_ = [
+        ("present", ct.c_bool),
+        ("spi", ct.c_uint16),
+        ("arsn", ct.c_uint64),
+        ("mac", ct.c_uint8 * TC_SEC_MAC_LEN),
+        ("auth_len", ct.c_uint16),
+        ("auth", ct.c_uint8 * TC_MAX_AUTH),
+    ]
+
+
 class TcCmd(ct.Structure):
     _c_ = ("tc_packets.h", "tc_cmd_t")
     _fields_ = [
@@ -369,6 +385,7 @@ class TcCmd(ct.Structure):
         ("have_seq", ct.c_bool),
         ("have_opcode", ct.c_bool),
         ("u", TcArgs),
+        ("sec", TcSec),
     ]
 
 
@@ -401,6 +418,7 @@ STRUCTS = [
     CertifyCase,
     CertifyResult,
     TcPoseHint,
+    TcSec,
     TcCmd,
 ]
 

@@ -31,6 +31,8 @@ _Static_assert(MFNS_MAX_OBS_PER_CAMERA == 32, "binding.py MAX_OBS_PER_CAMERA = 3
 _Static_assert(MFNS_POSE_NO_BEACON == -1, "binding.py NO_BEACON = -1: C MFNS_POSE_NO_BEACON differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_CALIB_PARAMS == 45, "binding.py CALIB_PARAMS = 45: C MFNS_CALIB_PARAMS differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_PATH_MAX == 64, "binding.py TC_PATH_MAX = 64: C TC_PATH_MAX differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(TC_SEC_MAC_LEN == 16, "binding.py TC_SEC_MAC_LEN = 16: C TC_SEC_MAC_LEN differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(TC_MAX_AUTH == 82, "binding.py TC_MAX_AUTH = 82: C TC_MAX_AUTH differs"); /* NOLINT(misc-redundant-expression) */
 
 /* V3 = mfns_v3_t (linalg.h) */
 _Static_assert(sizeof(mfns_v3_t) == 12u, "binding.py V3: 12 bytes here");
@@ -445,8 +447,25 @@ _Static_assert(offsetof(tc_pose_hint_t, att_udeg) == 12u, "binding.py TcPoseHint
 _Static_assert(sizeof(MFNS_FIELD(tc_pose_hint_t, att_udeg)) == 3u * sizeof(MFNS_FIELD(tc_pose_hint_t, att_udeg)[0]), "binding.py TcPoseHint.att_udeg: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(tc_pose_hint_t, att_udeg)[0], int32_t: 1, default: 0), "binding.py TcPoseHint.att_udeg: C type is not int32_t[3]");
 
+/* TcSec = tc_sec_t (tc_packets.h) */
+_Static_assert(sizeof(tc_sec_t) == 120u, "binding.py TcSec: 120 bytes here");
+_Static_assert(offsetof(tc_sec_t, present) == 0u, "binding.py TcSec.present: offset 0 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, present), _Bool: 1, default: 0), "binding.py TcSec.present: C type is not _Bool");
+_Static_assert(offsetof(tc_sec_t, spi) == 2u, "binding.py TcSec.spi: offset 2 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, spi), uint16_t: 1, default: 0), "binding.py TcSec.spi: C type is not uint16_t");
+_Static_assert(offsetof(tc_sec_t, arsn) == 8u, "binding.py TcSec.arsn: offset 8 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, arsn), uint64_t: 1, default: 0), "binding.py TcSec.arsn: C type is not uint64_t");
+_Static_assert(offsetof(tc_sec_t, mac) == 16u, "binding.py TcSec.mac: offset 16 here");
+_Static_assert(sizeof(MFNS_FIELD(tc_sec_t, mac)) == 16u * sizeof(MFNS_FIELD(tc_sec_t, mac)[0]), "binding.py TcSec.mac: 16 elements");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, mac)[0], uint8_t: 1, default: 0), "binding.py TcSec.mac: C type is not uint8_t[16]");
+_Static_assert(offsetof(tc_sec_t, auth_len) == 32u, "binding.py TcSec.auth_len: offset 32 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, auth_len), uint16_t: 1, default: 0), "binding.py TcSec.auth_len: C type is not uint16_t");
+_Static_assert(offsetof(tc_sec_t, auth) == 34u, "binding.py TcSec.auth: offset 34 here");
+_Static_assert(sizeof(MFNS_FIELD(tc_sec_t, auth)) == 82u * sizeof(MFNS_FIELD(tc_sec_t, auth)[0]), "binding.py TcSec.auth: 82 elements");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, auth)[0], uint8_t: 1, default: 0), "binding.py TcSec.auth: C type is not uint8_t[82]");
+
 /* TcCmd = tc_cmd_t (tc_packets.h) */
-_Static_assert(sizeof(tc_cmd_t) == 72u, "binding.py TcCmd: 72 bytes here");
+_Static_assert(sizeof(tc_cmd_t) == 192u, "binding.py TcCmd: 192 bytes here");
 _Static_assert(offsetof(tc_cmd_t, seq) == 0u, "binding.py TcCmd.seq: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, seq), uint16_t: 1, default: 0), "binding.py TcCmd.seq: C type is not uint16_t");
 _Static_assert(offsetof(tc_cmd_t, opcode) == 2u, "binding.py TcCmd.opcode: offset 2 here");
@@ -466,3 +485,5 @@ _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.pose), tc_pose_hint_t: 1, default
 _Static_assert(offsetof(tc_cmd_t, u.path) == 8u, "binding.py TcCmd.u.path: offset 8 here");
 _Static_assert(sizeof(MFNS_FIELD(tc_cmd_t, u.path)) == 64u * sizeof(MFNS_FIELD(tc_cmd_t, u.path)[0]), "binding.py TcCmd.u.path: 64 elements");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.path)[0], char: 1, default: 0), "binding.py TcCmd.u.path: C type is not char[64]");
+_Static_assert(offsetof(tc_cmd_t, sec) == 72u, "binding.py TcCmd.sec: offset 72 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, sec), tc_sec_t: 1, default: 0), "binding.py TcCmd.sec: C type is not tc_sec_t");

@@ -251,8 +251,9 @@ def _tc_types(root: ET.Element) -> dict[str, dict]:
             "unit": unit.text if unit is not None else "",
         }
         info["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive"))) if vr is not None else None
-        if tag == "StringArgumentType":
-            info.update(kind="string", bits=int(t.find(".//x:FixedValue", NS).text), signed=False)
+        if tag in ("StringArgumentType", "BinaryArgumentType"):  # binary: the security trailer (MAC)
+            kind = "string" if tag == "StringArgumentType" else "binary"
+            info.update(kind=kind, bits=int(t.find(".//x:FixedValue", NS).text), signed=False)
         else:
             enc = t.find("x:IntegerDataEncoding", NS)
             info.update(

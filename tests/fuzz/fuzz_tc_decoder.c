@@ -137,7 +137,7 @@ static const nav_cmd_fn_t k_table[] = {
     [TC_OP_SET_POSE_HINT] = t_pose, [TC_OP_CAMERA_ENABLE] = t_cam,    [TC_OP_CAMERA_DISABLE] = t_cam,
     [TC_OP_TABLE_LOAD] = t_table,
 };
-static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], a_event};
+static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], a_event, NULL};
 
 static void check_oneshot(const uint8_t *pkt, size_t n)
 {

@@ -44,7 +44,7 @@ def arg_types(root) -> dict[str, dict]:
     for t in root.find("x:CommandMetaData/x:ArgumentTypeSet", NS):
         kind = t.tag.split("}")[1]
         d = {"kind": kind, "range": None, "enum": None}
-        if kind == "StringArgumentType":
+        if kind in ("StringArgumentType", "BinaryArgumentType"):  # binary: the MAC trailer (tc_mac_t)
             d["bits"] = int(t.find(".//x:FixedValue", NS).text)
             d["signed"] = False
         else:

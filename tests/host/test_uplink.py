@@ -10,6 +10,10 @@ a replay run -> its events back through the telemetry.
 - the UDP side: every decoded packet forwarded byte-identical, a UDP command validated,
   re-stamped with the ground's sequence count and sent up; non-loopback refused.
 
+Every command is signed (mfns-ground --tc-key, mfns-nav --tc-key --state-dir, docs/uplink.md
+1a) with a key made here for the test; the authentication's own rejections are in
+test_uplink_auth.py.
+
 The frames of the link are checked with independent code here (binascii.crc_hqx is
 CRC-16/CCITT-FALSE; a 10-line COBS), the numbered codes are read from the XTCE
 dictionaries (ground/mdb/), not copied.
@@ -20,6 +24,8 @@ from __future__ import annotations
 import binascii
 import csv
 import datetime
+import hashlib
+import hmac
 import os
 import signal
 import socket
@@ -93,6 +99,28 @@ def tc_packet(opcode: int, seq: int, args: bytes = b"") -> bytes:
     )
 
 
+def make_key(path: Path, key_id: int = 1) -> bytes:
+    """A fresh board key in a key file of mode 0600 (never one from the repository)."""
+    key = os.urandom(32)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(fd, "w") as f:
+        f.write(f"# test key\n{key_id} {key.hex()}\n")
+    return key
+
+
+@pytest.fixture(scope="module")
+def key(tmp_path_factory) -> Path:
+    p = tmp_path_factory.mktemp("key") / "board.key"
+    make_key(p)
+    return p
+
+
+def nav_auth(key: Path, state: Path) -> list[str]:
+    """mfns-nav's options for signed commands (a fresh state directory: epoch 1)."""
+    state.mkdir(exist_ok=True)
+    return ["--tc-key", str(key), "--state-dir", str(state)]
+
+
 @pytest.fixture(scope="module")
 def bins() -> Path:
     res = subprocess.run(
@@ -148,8 +176,17 @@ def cmd_events(ground: Path) -> list[dict]:
     return [e for e in rows(ground / "events.csv") if e["event"] in ("CMD_ACCEPTED", "CMD_REJECTED")]
 
 
-def encode_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> bytes:
-    """TC frames of command lines, by mfns-ground (--tc-file); its source is an empty file."""
+def encode_commands(
+    bins: Path,
+    tmp: Path,
+    cmds: list[str],
+    seq_start: int,
+    key: Path,
+    count: int | None = None,
+    epoch: int = 1,
+) -> bytes:
+    """TC frames of command lines, by mfns-ground (--tc-file), signed with key for epoch and
+    anti-replay counts from count (default seq_start + 1); its source is an empty file."""
     src = tmp / "empty.bin"
     src.write_bytes(b"")
     out = tmp / f"tc-{seq_start}.bin"
@@ -163,7 +200,8 @@ def encode_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> b
         "--tc-file",
         str(out),
     ]
-    args += ["--tc-seq-start", str(seq_start)]
+    args += ["--tc-seq-start", str(seq_start), "--tc-key", str(key), "--tc-epoch", str(epoch)]
+    args += ["--tc-count-start", str(seq_start + 1 if count is None else count)]
     for c in cmds:
         args += ["--cmd", c]
     res = subprocess.run(args, capture_output=True, text=True, check=False, timeout=30)
@@ -173,8 +211,9 @@ def encode_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> b
     return out.read_bytes()
 
 
-def test_round_trip_through_fifos(bins, run, tmp_path):
-    """Both programs live on FIFOs: command -> flight -> event, with the time it took."""
+def test_round_trip_through_fifos(bins, run, tmp_path, key):
+    """Both programs live on FIFOs: command -> flight -> event, with the time it took. The
+    ground learns the board's epoch from housekeeping and signs every command."""
     tlm, tc = tmp_path / "tlm.fifo", tmp_path / "tc.fifo"
     os.mkfifo(tlm)
     os.mkfifo(tc)
@@ -183,7 +222,7 @@ def test_round_trip_through_fifos(bins, run, tmp_path):
     nav = subprocess.Popen(
         [
             str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
-            "--realtime", "--tty", str(tlm), "--tc-tty", str(tc),
+            "--realtime", "--tty", str(tlm), "--tc-tty", str(tc), *nav_auth(key, tmp_path / "state"),
         ],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -195,7 +234,7 @@ def test_round_trip_through_fifos(bins, run, tmp_path):
             str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status",
             "--max-seconds", "60",
             "--tc-tty", str(tc), "--cmd", "NOOP", "--cmd", f"SET_POSE_HINT {hint}", "--cmd", "SET_MODE track",
-            "--cmd-file", str(tmp_path / "later.txt"),
+            "--cmd-file", str(tmp_path / "later.txt"), "--tc-key", str(key),
         ],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -224,6 +263,8 @@ def test_round_trip_through_fifos(bins, run, tmp_path):
     hk = rows(out / "housekeeping.csv")[-1]
     assert (hk["n_cmd_accepted"], hk["n_cmd_rejected"], hk["cmd_seq_last"]) == ("4", "0", "3")
     assert "commands: 4 accepted, 0 rejected" in nav_err
+    assert "authentication (epoch 1): 4 passed" in nav_err
+    assert (hk["tc_epoch"], hk["tc_arsn_last"]) == ("1", "4")
     # command (ground clock, commands.csv) -> its event back (ground receive time)
     from datetime import datetime
 
@@ -244,7 +285,7 @@ def test_round_trip_through_fifos(bins, run, tmp_path):
     assert len(fixes) >= 30
 
 
-def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
+def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path, key):
     d = tmp_path
     # paths on the board are short (< 64 characters): relative to mfns-nav's working directory
     (d / "table2.mfnstbl").write_bytes(run["table2"].read_bytes())
@@ -258,24 +299,24 @@ def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
         f"SET_POSE_HINT {wrong['x_mm'] + 500:.3f} {wrong['y_mm']:.3f} {wrong['z_mm']:.3f} "
         f"{wrong['roll_deg']:.3f} {wrong['pitch_deg']:.3f} {(wrong['yaw_deg'] + 30 + 180) % 360 - 180:.3f}"
     )
-    f = lambda cmds, s: encode_commands(bins, d, cmds, s)  # noqa: E731
+    f = lambda cmds, s, n=None: encode_commands(bins, d, cmds, s, key, n)  # noqa: E731
     noop1 = f(["NOOP"], 1)
     stream = b"".join(
         [
             # cycle 0 (4 per cycle)
             f(["SET_MODE track"], 0),  # no prior yet: STATE (the count stays usable)
             noop1,  # accepted
-            noop1,  # replayed: SEQUENCE
+            noop1,  # replayed: its anti-replay count is used up (AUTH_REPLAY, before the sequence guard)
             noop1[:2] + bytes([noop1[2] ^ 0x20]) + noop1[3:],  # a flipped data bit: CRC
             # cycle 1
             bytes(range(1, 200)) + bytes(range(1, 200)) + b"\x00",  # garbage: OVERSIZE
             f(["SET_MODE standby", "TABLE_LOAD bad.mfnstbl", "TABLE_LOAD table2.mfnstbl"], 2),
             # cycle 2
-            f(["NOOP"], 3),  # older than 4: SEQUENCE (out of order)
-            f(["SET_MODE acquire", "CAMERA_DISABLE y"], 5),
+            f(["NOOP"], 3, 6),  # freshly signed, but its count older than 4: SEQUENCE (out of order)
+            f(["SET_MODE acquire", "CAMERA_DISABLE y"], 5, 7),
             frame(tc_packet(99, 7)),  # unknown opcode (a refused frame does not use up its count)
             # cycle 3
-            f([wrong_hint, "CAMERA_ENABLE y", "RESET_COUNTERS"], 7),
+            f([wrong_hint, "CAMERA_ENABLE y", "RESET_COUNTERS"], 7, 9),
         ]
     )
     tcfile = d / "commands.bin"
@@ -284,7 +325,7 @@ def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
     nav = subprocess.run(
         [
             str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
-            "--tlm-file", str(tlm), "--tc-file", str(tcfile),
+            "--tlm-file", str(tlm), "--tc-file", str(tcfile), *nav_auth(key, d / "state"),
         ],
         capture_output=True, text=True, timeout=120, check=False, cwd=d,
     )  # fmt: skip
@@ -301,7 +342,7 @@ def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
     want = [
         ("0", rej, OP["SET_MODE"], 0, REJ["STATE"]),
         ("0", acc, OP["NOOP"], 1, 0),
-        ("0", rej, OP["NOOP"], 1, REJ["SEQUENCE"]),
+        ("0", rej, OP["NOOP"], 1, REJ["AUTH_REPLAY"]),
         ("0", rej, 0, -1, REJ["CRC"]),
         ("1", rej, 0, -1, REJ["OVERSIZE"]),
         ("1", acc, OP["SET_MODE"], 2, 4),
@@ -346,7 +387,7 @@ def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path):
     assert "commands: 0 accepted, 0 rejected" in nav.stderr
 
 
-def test_udp_forward_and_udp_commands(bins, run, tmp_path):
+def test_udp_forward_and_udp_commands(bins, run, tmp_path, key):
     # a short recorded stream
     tlm = tmp_path / "tlm.bin"
     nav = subprocess.run(
@@ -405,7 +446,7 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path):
         [
             str(bins / "mfns-ground"), "--tty", str(fifo), "--out", str(tmp_path / "g2"), "--no-status",
             "--max-seconds", "1.5", "--tc-file", str(up), "--udp-tc", f"127.0.0.1:{tc_port}",
-            "--tc-seq-start", "40",
+            "--tc-seq-start", "40", "--tc-key", str(key), "--tc-epoch", "3",
         ],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -422,7 +463,16 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path):
     assert len(frames) == 1
     pkt = cobs_decode(frames[0])
     assert binascii.crc_hqx(pkt[:-2], 0xFFFF) == int.from_bytes(pkt[-2:], "big")
-    assert pkt[:-2] == tc_packet(OP["SET_MODE"], 40, bytes([4]))  # the ground's count, not 1234
+    # the ground's count, not 1234, and signed: the security header after the primary header,
+    # the MAC (HMAC-SHA-256, first 16 bytes) over everything before it, checked here with hashlib
+    plain = tc_packet(OP["SET_MODE"], 40, bytes([4]))
+    spkt = pkt[:-2]
+    assert len(spkt) == len(plain) + 26
+    assert spkt[:4] == plain[:4] and int.from_bytes(spkt[4:6], "big") == len(spkt) - 7
+    assert spkt[6:8] == b"\x00\x01" and int.from_bytes(spkt[8:16], "big") == (3 << 32) | 1
+    assert spkt[16:-16] == plain[6:]
+    k = bytes.fromhex(key.read_text().split("\n")[1].split()[1])
+    assert spkt[-16:] == hmac.new(k, spkt[:-16], hashlib.sha256).digest()[:16]
 
 
 @pytest.mark.parametrize(
@@ -435,6 +485,8 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path):
         (["--cmd", "TABLE_LOAD " + "p" * 70, "--tc-file", "x.bin"], "longer than 63"),
         (["--cmd", "NOOP"], "commands need a way up"),
         (["--cmd", "NOOP", "--uplink"], "--uplink sends on the source link"),
+        (["--cmd", "NOOP", "--tc-file", "x.bin", "--tc-epoch", "2"], "give --tc-key FILE too"),
+        (["--cmd", "NOOP", "--tc-file", "x.bin", "--tc-epoch", "0", "--tc-key", "k"], "--tc-epoch wants"),
     ],
 )
 def test_ground_refuses_bad_uplink_usage(bins, tmp_path, args, needle):
@@ -453,24 +505,24 @@ def test_nav_refuses_uplink_on_a_fifo(bins, run, tmp_path):
     os.mkfifo(fifo)
     res = subprocess.run(
         [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
-         "--tty", str(fifo), "--uplink"],
+         "--tty", str(fifo), "--uplink", "--tc-insecure"],
         capture_output=True, text=True, timeout=30, check=False,
     )  # fmt: skip
     assert res.returncode == 2
     assert "--uplink needs a tty" in res.stderr
 
 
-def test_table_fifo_never_stalls_the_cycle(bins, run, tmp_path):
+def test_table_fifo_never_stalls_the_cycle(bins, run, tmp_path, key):
     """A TABLE_LOAD of a FIFO (and --table given one) is refused at once with its
     own loader code; the cycle goes on (it used to block until a signal)."""
     d = tmp_path
     os.mkfifo(d / "t.fifo")
     tcfile = d / "commands.bin"
-    tcfile.write_bytes(encode_commands(bins, d, ["TABLE_LOAD t.fifo"], 1))
+    tcfile.write_bytes(encode_commands(bins, d, ["TABLE_LOAD t.fifo"], 1, key))
     tlm = d / "tlm.bin"
     nav = subprocess.run(
         [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
-         "--tlm-file", str(tlm), "--tc-file", str(tcfile)],
+         "--tlm-file", str(tlm), "--tc-file", str(tcfile), *nav_auth(key, d / "state")],
         capture_output=True, text=True, timeout=60, check=False, cwd=d,
     )  # fmt: skip
     assert nav.returncode == 0, nav.stderr
@@ -539,3 +591,63 @@ def test_packets_carry_utc_through_the_flight_time_correlation(bins, run, tmp_pa
     # within one pair, UTC advances exactly as the flight time does
     a, b = later[0], later[1]
     assert abs((ts(b["utc"]) - ts(a["utc"])) - (float(b["t_s"]) - float(a["t_s"]))) < 2e-5
+
+
+def test_table_huge_growing_or_device_never_stalls(bins, run, tmp_path, key):
+    """Issue 25 item 4: a huge file is refused by its size before a byte is read
+    (E_FILE_TOO_BIG), a device (/dev/zero) as not regular, a file that grows while it is
+    loaded is read at most to the buffer's size + 1 (refused, or loaded as the bytes it had)
+    -- and every cycle runs."""
+    d = tmp_path
+    huge = d / "huge.mfnstbl"
+    with open(huge, "wb") as f:
+        f.truncate(8 << 30)  # 8 GiB, sparse: reading it would take many cycles
+    grow = d / "grow.mfnstbl"
+    good = run["table"].read_bytes()
+    grow.write_bytes(good)
+    tcfile = d / "commands.bin"
+    tcfile.write_bytes(
+        encode_commands(bins, d, ["TABLE_LOAD huge.mfnstbl", "TABLE_LOAD /dev/zero"], 1, key)
+        + encode_commands(bins, d, ["TABLE_LOAD grow.mfnstbl"], 3, key)
+    )
+    tlm = d / "tlm.bin"
+    import threading
+
+    stop = threading.Event()
+
+    def grower() -> None:  # appends while mfns-nav runs (and loads it)
+        with open(grow, "ab") as f:
+            while not stop.is_set():
+                f.write(b"\x55" * 65536)
+                f.flush()
+                time.sleep(0.001)
+
+    th = threading.Thread(target=grower)
+    th.start()
+    try:
+        t0 = time.monotonic()
+        nav = subprocess.run(
+            [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+             "--tlm-file", str(tlm), "--tc-file", str(tcfile), *nav_auth(key, d / "state")],
+            capture_output=True, text=True, timeout=120, check=False, cwd=d,
+        )  # fmt: skip
+        wall = time.monotonic() - t0
+    finally:
+        stop.set()
+        th.join()
+    assert nav.returncode == 0, nav.stderr
+    out = d / "ground"
+    subprocess.run(
+        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out), "--no-status"], check=True
+    )
+    code = {name: v for v, (name, _) in STATUS.items()}
+    tab = [(e["event"], int(e["arg0"])) for e in rows(out / "events.csv") if e["event"].startswith("TABLE_")]
+    assert tab[0] == ("TABLE_LOADED", tab[0][1])  # the start-up table
+    assert tab[1] == ("TABLE_REFUSED", code["E_FILE_TOO_BIG"])
+    assert tab[2] == ("TABLE_REFUSED", code["E_FILE_NOT_REGULAR"])
+    # the growing one: refused (too big, or the table's own size/CRC check on what was read)
+    # or loaded with the bytes it had -- either way a decision, never a stall
+    assert len(tab) == 4 and tab[3][0] in ("TABLE_REFUSED", "TABLE_LOADED"), tab
+    navrows = rows(out / "nav.csv")
+    assert len(navrows) == 40 and sum(r["status"] in ("FIX", "DEGRADED") for r in navrows[2:]) > 30
+    print(f"\nhuge / device / growing table loads: {wall:.2f} s for the 40-cycle replay; growing: {tab[3]}")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -89,15 +90,26 @@ def main() -> int:
                 f.unlink()
             os.mkfifo(f)
         nav_log, g_log = open(out / "nav.log", "w"), open(out / "ground.log", "w")
+        # a throw-away board key (mode 0600) and a fresh state directory: mfns-ground signs
+        # what Yamcs sends (docs/uplink.md 1a), mfns-nav verifies
+        key, state = out / "board.key", out / "state"
+        if key.exists():
+            key.unlink()
+        fd = os.open(key, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(fd, "w") as f:
+            f.write(f"1 {os.urandom(32).hex()}\n")
+        shutil.rmtree(state, ignore_errors=True)
+        state.mkdir()
         nav = subprocess.Popen(
             [str(bins / "mfns-nav"), "--table", str(table), "--replay", str(frames), "--realtime",
-             "--tty", str(tlm), "--tc-tty", str(tc)],
+             "--tty", str(tlm), "--tc-tty", str(tc), "--tc-key", str(key), "--state-dir", str(state)],
             stderr=nav_log,
         )  # fmt: skip
         ground = subprocess.Popen(
             [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out / "ground"), "--no-status",
              "--max-seconds", "60", "--tc-tty", str(tc),
-             "--udp-forward", f"127.0.0.1:{gy.TM_PORT}", "--udp-tc", f"127.0.0.1:{gy.TC_PORT}"],
+             "--udp-forward", f"127.0.0.1:{gy.TM_PORT}", "--udp-tc", f"127.0.0.1:{gy.TC_PORT}",
+             "--tc-key", str(key)],
             stderr=g_log,
         )  # fmt: skip
         time.sleep(0.5)

@@ -92,7 +92,7 @@ static const nav_cmd_fn_t k_table[] = {
     [TC_OP_SET_POSE_HINT] = f_pose,  [TC_OP_CAMERA_ENABLE] = f_cam,    [TC_OP_CAMERA_DISABLE] = f_cam,
     [TC_OP_TABLE_LOAD] = f_table,
 };
-static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], f_event};
+static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], f_event, NULL};
 static const nav_cmd_fn_t k_no_actions[sizeof k_table / sizeof k_table[0]]; /* all NULL */
 
 static int setup(void **state)
@@ -331,7 +331,7 @@ static void test_null_safety(void **state)
     nav_cmd_handle(&c, NULL, TC_OK, &k_ops);
     assert_int_equal(g.ev[0].code, TLM_EVT_CMD_REJECTED);
     assert_int_equal(g.ev[0].a1, TC_E_NULL);
-    const nav_cmd_ops_t bare = {NULL, k_no_actions, sizeof k_no_actions / sizeof k_no_actions[0], f_event};
+    const nav_cmd_ops_t bare = {NULL, k_no_actions, sizeof k_no_actions / sizeof k_no_actions[0], f_event, NULL};
     tc_cmd_t cmd;
     memset(&cmd, 0, sizeof cmd);
     cmd.opcode = TC_OP_SET_MODE;

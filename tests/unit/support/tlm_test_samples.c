@@ -84,8 +84,8 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         p->type = TLM_TYPE_EVENT;
         e->cycle = i;
         e->code = (uint16_t)(1u + i % (TLM_EVT_CODE_COUNT - 1u));
-        /* the dictionary's codes may have gaps (ranges reserved for other work) */
-        for (unsigned k = 0; k < TLM_EVT_CODE_COUNT && tlm_event_name(e->code)[0] == '?'; k++) {
+        /* the codes may have gaps (helpers own ranges): step to the next defined one */
+        for (unsigned k = 0; k < TLM_EVT_CODE_COUNT && strcmp(tlm_event_name(e->code), "?") == 0; k++) {
             e->code = (uint16_t)(e->code % (TLM_EVT_CODE_COUNT - 1u) + 1u);
         }
         e->severity = (uint8_t)(i % TLM_SEV_COUNT);
