@@ -59,8 +59,17 @@ class BuildPyWithCore(build_py):
                 "repository: pip install ./host_tools, or pip wheel ./host_tools)"
             )
         out = Path(self.build_lib).resolve() / "mfns" / LIB_NAME
-        cmd = ["make", "-s", "--no-print-directory", "-C", str(REPO), "pkg-core-lib",
-               f"PKG_CORE_LIB={out}", f"PYTHON={sys.executable}", "BOARD=host-sim"]
+        cmd = [
+            "make",
+            "-s",
+            "--no-print-directory",
+            "-C",
+            str(REPO),
+            "pkg-core-lib",
+            f"PKG_CORE_LIB={out}",
+            f"PYTHON={sys.executable}",
+            "BOARD=host-sim",
+        ]
         self.announce(" ".join(cmd), level=2)
         try:
             subprocess.run(cmd, check=True)

@@ -31,7 +31,11 @@ from pathlib import Path
 # which the wheel's build step copies into mfns/data/yamcs (host_tools/setup.py). In the
 # repository (editable install) the tree's copy is read.
 DATA = Path(__file__).resolve().parent / "data"
-ETC = DATA / "yamcs" if (DATA / "yamcs").is_dir() else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
+ETC = (
+    DATA / "yamcs"
+    if (DATA / "yamcs").is_dir()
+    else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
+)
 MDB_FILES = (DATA / "mfns_tm.xml", DATA / "mfns_tc.xml")
 HTTP = "http://127.0.0.1:8090"
 INSTANCE = "mfns"

@@ -94,7 +94,9 @@ def test_sim_calib_refuses_non_empty_output(small_dataset, capsys):
     assert "not empty" in capsys.readouterr().err
 
 
-def test_calib_without_output_writes_into_the_dataset_not_the_current_folder(small_dataset, tmp_path, monkeypatch):
+def test_calib_without_output_writes_into_the_dataset_not_the_current_folder(
+    small_dataset, tmp_path, monkeypatch
+):
     """Issue 28 item 5: no -o -> DATASET/calib/calib_results.json and its exports beside it."""
     import shutil
 

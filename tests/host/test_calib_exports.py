@@ -166,7 +166,14 @@ def test_per_camera_plots(exported, tmp_path):
 
 def _rpy_matrix(roll, pitch, yaw):
     """URDF's rpy: fixed axes X, Y, Z, i.e. Rz(yaw) Ry(pitch) Rx(roll) (independent of exports)."""
-    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    cr, sr, cp, sp, cy, sy = (
+        np.cos(roll),
+        np.sin(roll),
+        np.cos(pitch),
+        np.sin(pitch),
+        np.cos(yaw),
+        np.sin(yaw),
+    )
     rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
     ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
     rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
@@ -186,7 +193,9 @@ def test_urdf_mounts_read_back_equal_the_mount_matrices(exported):
     assert root.tag == "robot"
     links = {e.get("name") for e in root.findall("link")}
     joints = {e.find("child").get("link"): e for e in root.findall("joint")}
-    tf = {c["name"]: c for c in yaml.safe_load((out.parent / "res_body_to_camera.yaml").read_text())["cameras"]}
+    tf = {
+        c["name"]: c for c in yaml.safe_load((out.parent / "res_body_to_camera.yaml").read_text())["cameras"]
+    }
     for cam in cal.refined.rig.cams:
         child = f"camera_{cam.name}"
         assert {"body", child} <= links

@@ -186,7 +186,10 @@ def test_report_refuses_the_truth_of_another_run(tmp_path, capsys):
     nav_p, truth_p, _, _ = write_case(tmp_path / "a", n=120)
     _, long_truth, _, _ = write_case(tmp_path / "long", n=200, seed=2)
     _, short_truth, _, _ = write_case(tmp_path / "short", n=60, seed=3)
-    assert main(["report", str(nav_p), "--truth", str(truth_p), "--out", str(tmp_path / "ok"), "--no-plots"]) == 0
+    assert (
+        main(["report", str(nav_p), "--truth", str(truth_p), "--out", str(tmp_path / "ok"), "--no-plots"])
+        == 0
+    )
     capsys.readouterr()
     for bad in (long_truth, short_truth):
         out = tmp_path / f"bad_{bad.parent.name}"

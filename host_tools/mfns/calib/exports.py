@@ -236,7 +236,8 @@ def urdf_mounts(cams: list[Camera], robot: str = "mfns") -> str:
             f'  <joint name="body_to_camera_{cam.name}" type="fixed">',
             '    <parent link="body"/>',
             f'    <child link="camera_{cam.name}"/>',
-            f'    <origin xyz="{" ".join(_num(v) for v in xyz)}" rpy="{_num(roll)} {_num(pitch)} {_num(yaw)}"/>',
+            f'    <origin xyz="{" ".join(_num(v) for v in xyz)}" '
+            f'rpy="{" ".join(_num(v) for v in (roll, pitch, yaw))}"/>',
             "  </joint>",
         ]
     out.append("</robot>")
