@@ -307,6 +307,7 @@ def quantities(rig: Rig, ref: Rig) -> tuple[list[str], np.ndarray]:
 # direction are named in the refusal.
 UNOBSERVABLE_RCOND = 1e-8
 UNOBSERVABLE_SHARE = 0.3
+MAX_NAMED = 8  # names in the one-line refusal (many weak directions usually mean a failed solve)
 
 
 def parameter_names(prob: Problem) -> list[str]:
@@ -362,10 +363,12 @@ def check_observable(jac: np.ndarray, prob: Problem) -> None:
     for i in picked:
         seen.setdefault(names[i], None)
     hints = dict.fromkeys(_fix_hint(n) for n in seen)
+    listed = list(seen)[:MAX_NAMED]
+    more = f" and {len(seen) - len(listed)} more" if len(seen) > len(listed) else ""
     raise MfnsError(
-        f"calibration: the images do not determine {'; '.join(seen)} "
-        f"({len(weak) + int(dead.sum())} unobservable directions of the joint model); "
-        f"what would fix it: {'; '.join(hints)}"
+        f"calibration: the images do not determine {'; '.join(listed)}{more} "
+        f"({len(weak) + int(dead.sum())} unobservable directions of the joint model at the "
+        f"refined solution); what would fix it: {'; '.join(list(hints)[:MAX_NAMED])}"
     )
 
 
