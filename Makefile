@@ -178,10 +178,13 @@ $(BUILD)/bin/mfns-ground: $(call obj,ground/main.c) $(LIBS_MFNS)
 lib: build/host-sim/lib/libmfns_core.so
 # (the core's headers too: a changed struct must rebuild the library the
 # ctypes mirrors check their sizes against)
+# CORE_LIB_CC is the library's one recipe: the wheel's build backend runs it too
+# (host_tools/setup.py -> mk/pkg.mk pkg-core-lib).
+CORE_LIB_CC = gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(HOST_INCLUDES) $(CORE_SRCS) $(HOST_CORE_SRCS) -lm
 build/host-sim/lib/libmfns_core.so: $(CORE_SRCS) $(HOST_CORE_SRCS) \
                                     $(wildcard $(addsuffix /*.h,$(CORE_DIRS) $(HOST_CORE_DIR)))
 	@mkdir -p $(@D)
-	gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(HOST_INCLUDES) $(CORE_SRCS) $(HOST_CORE_SRCS) -lm -o $@
+	$(CORE_LIB_CC) -o $@
 
 # --------------------------------------------------------------------------
 # Unit tests: one binary per tests/unit/test_*.c, run from the repo root.

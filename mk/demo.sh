@@ -119,6 +119,8 @@ drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map 
 
 echo "== the paper's comparison: Tables 3 and 5, availability, figures"
 "$py" -m mfns compare "$out" -o "$out/report.md"
+# README's module accuracy is this run's (between its demo-accuracy markers)
+"$py" mk/readme_accuracy.py "$out" README.md
 cat <<EOF
 demo: done in $((SECONDS - t_start)) s; everything is in $out/ ($(du -sh "$out" | cut -f1)):
   $out/report.md                      the report: our numbers beside the paper's (start here)

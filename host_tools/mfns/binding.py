@@ -2,8 +2,8 @@
 
 Every host tool and test that calls C code imports this module: it declares each C struct
 the host passes (ctypes, field by field), each constant the host sizes arrays with, and the
-prototype of each function it calls, and it loads the library in one place (`load`: the
-path given, else $MFNS_CORE_LIB, else the build; a clear error when it is missing).
+prototype of each function it calls, and it loads the library in one place (`load`, in
+the order of `lib_path`; a clear error when it is missing).
 
 How the declarations are held to the headers: they are the input of a generator,
 `binding_check.py` (standard library only), which writes `binding_check_gen.c`: for every
@@ -36,6 +36,9 @@ from pathlib import Path
 from .errors import MfnsError
 
 REPO = Path(__file__).resolve().parents[2]
+# the installed package's own library (the wheel's build step puts it there, host_tools/setup.py)
+PACKAGE_LIB = Path(__file__).resolve().parent / "libmfns_core.so"
+# the tree's build (`make lib`): what an editable install (make venv) loads
 DEFAULT_LIB = REPO / "build" / "host-sim" / "lib" / "libmfns_core.so"
 
 # --- constants (each checked against its C macro) ---------------------------------------
@@ -549,8 +552,18 @@ _LOADED: dict[str, ct.CDLL] = {}
 
 
 def lib_path(path: str | os.PathLike | None = None) -> Path:
-    """The library to load: path, else $MFNS_CORE_LIB, else the build's (make lib)."""
-    return Path(path or os.environ.get("MFNS_CORE_LIB") or DEFAULT_LIB)
+    """The library to load (README "Installing the host tools" says the same), first found of:
+    1. `path` when a caller gives one (tests, `mfns mc --lib`);
+    2. the package's own mfns/libmfns_core.so (an installed wheel: `pip install ./host_tools`);
+    3. $MFNS_CORE_LIB (an editable install pointed at another build);
+    4. the tree's build/host-sim/lib/libmfns_core.so (`make lib`; an editable install).
+    The package's own library comes before the variable: an installed wheel always runs the
+    core it was built with, whatever the environment says."""
+    if path:
+        return Path(path)
+    if PACKAGE_LIB.exists():
+        return PACKAGE_LIB
+    return Path(os.environ.get("MFNS_CORE_LIB") or DEFAULT_LIB)
 
 
 def load(path: str | os.PathLike | None = None) -> ct.CDLL:
@@ -561,7 +574,10 @@ def load(path: str | os.PathLike | None = None) -> ct.CDLL:
     if key in _LOADED:
         return _LOADED[key]
     if not p.exists():
-        raise MfnsError(f"{p}: no such library (run: make lib, or set MFNS_CORE_LIB)")
+        raise MfnsError(
+            f"{p}: no such library (in the repository run: make lib, or set MFNS_CORE_LIB; "
+            "or install the wheel: pip install ./host_tools)"
+        )
     L = ct.CDLL(str(p))
     for name, (restype, argtypes) in PROTOTYPES.items():
         f = getattr(L, name, None)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,22 @@ def camera_name_problem(name) -> str | None:
     return None
 
 
+# The focal length a pinhole camera of this model can have, from the field of view it gives
+# across the image: from MIN_FOV_DEG (a long telescope) to MAX_FOV_DEG (wider is a fisheye,
+# which the pinhole-plus-radial model does not describe). Outside it the numbers are not a
+# camera: the table's float32 grids overflow or degenerate (numpy warnings, then an error
+# far from the cause), so the one reader of the format refuses them here, by name.
+MIN_FOV_DEG, MAX_FOV_DEG = 0.5, 170.0
+
+
+def focal_range_px(side_px: int) -> tuple[float, float]:
+    """(lowest, highest) focal length in px for an image side of side_px pixels."""
+    return (
+        side_px / (2.0 * math.tan(math.radians(MAX_FOV_DEG) / 2.0)),
+        side_px / (2.0 * math.tan(math.radians(MIN_FOV_DEG) / 2.0)),
+    )
+
+
 def _camera(i: int, cam: object) -> None:
     where = f"camera {i}"
     cam = V.obj(cam, where)
@@ -55,8 +72,14 @@ def _camera(i: int, cam: object) -> None:
         raise MfnsError(f"{where} image_size: expected [width, height], got {size!r:.40}")
     w = V.integer(size[0], f"{where} image_size width", 1, 65535)
     h = V.integer(size[1], f"{where} image_size height", 1, 65535)
-    V.number(cam["fx"], f"{where} fx", 0.0, None, lo_open=True)
-    V.number(cam["fy"], f"{where} fy", 0.0, None, lo_open=True)
+    for key, side in (("fx", w), ("fy", h)):
+        lo, hi = focal_range_px(side)
+        f = V.number(cam[key], f"{where} {key}", 0.0, None, lo_open=True)
+        if not lo <= f <= hi:
+            raise MfnsError(
+                f"{where} {key}: {f:g} px outside {lo:.3g}..{hi:.3g} px, the focal lengths that give "
+                f"an image {side} px across a field of view of {MIN_FOV_DEG:g} to {MAX_FOV_DEG:g} deg"
+            )
     V.number(cam["cx"], f"{where} cx", -0.5, w - 0.5)
     V.number(cam["cy"], f"{where} cy", -0.5, h - 0.5)
     V.number(cam["skew"], f"{where} skew")

@@ -215,7 +215,10 @@ EMISSION_COLUMNS = ("axis_x", "axis_y", "axis_z", "half_angle_deg")
 def load_beacon_emission(path) -> tuple[np.ndarray, np.ndarray] | None:
     """The optional emission columns of a beacon CSV -> (unit axes (N, 3), half-angles deg),
     or None when the CSV has none of them. Axes are normalised; a zero axis means an LED
-    that emits everywhere. Raises MfnsError (one line) on a partial set or bad values."""
+    that emits everywhere and must say so with half_angle_deg 180 (a zero axis with a
+    narrower cone names no direction). Raises MfnsError (one line) on a partial set or bad
+    values. `load_beacons`, the reader every command uses, runs these checks too, so a file
+    one command refuses no other accepts."""
     rows = V.read_csv(path, "beacon CSV", BEACON_COLUMNS, max_bytes=4 * V.MIB)
     present = [c for c in EMISSION_COLUMNS if rows and c in rows[0]]
     if not present:
@@ -232,9 +235,12 @@ def load_beacon_emission(path) -> tuple[np.ndarray, np.ndarray] | None:
         if not 0 < h <= 180:
             raise MfnsError(f"{where} half_angle_deg: expected (0, 180], got {h:g}")
         norm = float(np.linalg.norm(a))
-        if norm == 0:
-            h = 180.0
-        elif not 0.5 <= norm <= 2.0:
+        if norm == 0 and h != 180:
+            raise MfnsError(
+                f"{where}: a zero emission axis with half_angle_deg {h:g} names no direction "
+                "(give the LED's axis, or half_angle_deg 180 for one that emits everywhere)"
+            )
+        if norm != 0 and not 0.5 <= norm <= 2.0:
             raise MfnsError(
                 f"{where}: emission axis of length {norm:.3g} is not a direction (give a unit vector)"
             )
@@ -262,4 +268,5 @@ def load_beacons(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         sig.append(s)
     if len(set(ids)) != len(ids):
         raise MfnsError(f"beacon CSV {path}: duplicate beacon ids")
+    load_beacon_emission(path)  # the optional columns: checked wherever the map is read
     return np.array(ids, dtype=int), np.array(pos, dtype=float).reshape(-1, 3), np.array(sig, dtype=float)

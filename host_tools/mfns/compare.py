@@ -275,6 +275,7 @@ def _load_runs(demo: Path) -> list[Run]:
             if not nav_path.is_file():
                 continue
             nav = rpt.load_nav(nav_path)
+            rpt.check_same_run(nav, truth, str(nav_path))  # another run's truth: refused
             try:
                 rep = rpt.build_report(nav, truth)
             except MfnsError:
@@ -376,15 +377,19 @@ def _in_view(frames_dir: Path) -> dict[int, Counter] | None:
 
 
 def _reason_text(code: int) -> tuple[str, str]:
-    """(name, description) of a pose reason code, from the C core when the library is built."""
-    from . import flight
+    """(name, meaning) of a pose reason code: the C core's text (mfns_pose_strerror), else the
+    TM dictionary's description of the code (package data: always there), else why not. The
+    meaning column is never left silently empty."""
+    from . import flight, tlm_dict
 
     name = flight.REASONS[code] if 0 <= code < len(flight.REASONS) else f"code {code}"
     try:
         text = flight.Flight().strerror(code)
-    except (MfnsError, OSError):
+    except (MfnsError, OSError, AttributeError):
         text = ""
-    return name, text
+    if not text:
+        text = tlm_dict.load().enums.get("nav_reason_t", {}).get(code, ("", ""))[1]
+    return name, text or f"(no meaning: code {code} is in neither the core library nor the TM dictionary)"
 
 
 def _scenario_line(exp_dir: Path) -> str:
@@ -568,8 +573,10 @@ def planning_section(runs: list[Run], demo: Path) -> list[str]:
         if base is None or not nav_path.is_file() or not truth_path.is_file():
             continue
         nav = rpt.load_nav(nav_path)
+        truth = rpt.load_truth(truth_path)
+        rpt.check_same_run(nav, truth, str(nav_path))
         try:
-            rep = rpt.build_report(nav, rpt.load_truth(truth_path))
+            rep = rpt.build_report(nav, truth)
         except MfnsError:
             rep = None
         for label, n, r in (("original", base.nav, base.report), ("planned", nav, rep)):

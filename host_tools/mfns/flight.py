@@ -130,7 +130,7 @@ def _v3(a) -> V3:
 
 
 class Flight:
-    """The C pose solver. lib: path of libmfns_core.so (default: $MFNS_CORE_LIB or the build)."""
+    """The C pose solver. lib: path of libmfns_core.so (default: binding.lib_path's order)."""
 
     def __init__(self, lib: str | os.PathLike | None = None):
         self.lib = L = load_core(lib)  # prototypes declared and sizes checked there (binding.py)

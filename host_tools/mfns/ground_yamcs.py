@@ -26,9 +26,17 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
-ETC = REPO / "ground" / "yamcs" / "etc"
-MDB = REPO / "ground" / "mdb"
+# What the server needs from the project, found without the repository: the dictionaries
+# are the package's data (ground/mdb links to them); the configuration is ground/yamcs/etc,
+# which the wheel's build step copies into mfns/data/yamcs (host_tools/setup.py). In the
+# repository (editable install) the tree's copy is read.
+DATA = Path(__file__).resolve().parent / "data"
+ETC = (
+    DATA / "yamcs"
+    if (DATA / "yamcs").is_dir()
+    else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
+)
+MDB_FILES = (DATA / "mfns_tm.xml", DATA / "mfns_tc.xml")
 HTTP = "http://127.0.0.1:8090"
 INSTANCE = "mfns"
 TM_PORT = 10015  # Yamcs listens: mfns-ground --udp-forward 127.0.0.1:10015
@@ -87,7 +95,9 @@ def prepare(rundir: Path) -> Path:
     """rundir/etc (a copy of ground/yamcs/etc), rundir/mdb (the dictionaries), rundir/data."""
     rundir.mkdir(parents=True, exist_ok=True)
     shutil.copytree(ETC, rundir / "etc", dirs_exist_ok=True)
-    shutil.copytree(MDB, rundir / "mdb", dirs_exist_ok=True)
+    (rundir / "mdb").mkdir(exist_ok=True)
+    for f in MDB_FILES:
+        shutil.copyfile(f, rundir / "mdb" / f.name)
     (rundir / "data").mkdir(exist_ok=True)
     (rundir / "tmp").mkdir(exist_ok=True)
     return rundir

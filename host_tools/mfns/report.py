@@ -18,6 +18,7 @@ columns of an older nav.csv), in summary.md, summary.json and nees.png.
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,6 +56,7 @@ class NavLog:
 class Truth:
     t_s: np.ndarray
     values: dict[str, np.ndarray]
+    path: Path | None = None
 
 
 @dataclass
@@ -144,7 +146,51 @@ def load_truth(path: Path) -> Truth:
         order = np.argsort(t, kind="stable")
         rows = [rows[i] for i in order]
         t = t[order]
-    return Truth(t_s=t, values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()})
+    _check_run_record(path, len(rows))
+    return Truth(t_s=t, values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()}, path=path)
+
+
+def _check_run_record(path: Path, n_rows: int) -> None:
+    """A truth.csv beside a scenario.json that records its run (`mfns sim nav`: "run") must be
+    that run's truth file: the same digest (and so the same rows)."""
+    scen = path.parent / "scenario.json"
+    try:
+        run = json.loads(scen.read_text()).get("run") if scen.is_file() else None
+    except (OSError, ValueError, AttributeError):
+        run = None  # not a nav-frames record: nothing to hold the truth to
+    if not isinstance(run, dict) or not isinstance(run.get("truth_sha256"), str):
+        return
+    if hashlib.sha256(path.read_bytes()).hexdigest() != run["truth_sha256"]:
+        raise MfnsError(
+            f"{path}: not the truth of the run {scen} records ({n_rows} rows here, "
+            f"{run.get('truth_rows')} there; the digest differs)"
+        )
+
+
+def check_same_run(nav: NavLog, truth: Truth, nav_name: str, partial: bool = False) -> None:
+    """Refuse to compare a nav log with the truth of another run (MfnsError, one line).
+
+    nav.csv carries no run identity (mfns-ground writes what the flight program sent), so the
+    check is on what both record: a nav log of the run has no more cycles than the truth has
+    frames and lies within the truth's time span; unless `partial`, it also covers that span
+    (to two frame periods at each end: the first and last cycles may be lost on the link).
+    Another scenario's truth fails one of these (a longer run's truth fails the coverage)."""
+    if len(nav.t_s) == 0 or len(truth.t_s) < 2:
+        return
+    t = nav.t_s[np.isfinite(nav.t_s)]
+    if len(t) == 0:
+        return
+    period = float(np.median(np.diff(truth.t_s)))
+    slack = 2.0 * max(period, 0.0)
+    n0, n1, t0, t1 = float(t.min()), float(t.max()), float(truth.t_s[0]), float(truth.t_s[-1])
+    what = (
+        f"{nav_name} ({len(nav.t_s)} cycles, {n0:.2f}..{n1:.2f} s) and {truth.path or 'the truth'} "
+        f"({len(truth.t_s)} frames, {t0:.2f}..{t1:.2f} s) are not the same run"
+    )
+    if len(nav.t_s) > len(truth.t_s) or n0 < t0 - slack or n1 > t1 + slack:
+        raise MfnsError(what)
+    if not partial and (n0 - t0 > slack or t1 - n1 > slack):
+        raise MfnsError(f"{what} (the nav log covers part of it: --partial accepts that)")
 
 
 def wrap_deg(a: np.ndarray) -> np.ndarray:

@@ -126,6 +126,20 @@ def test_one_loader_with_a_clear_error(tmp_path, monkeypatch):
     assert binding.lib_path() == binding.DEFAULT_LIB
 
 
+def test_the_package_library_comes_first(tmp_path, monkeypatch):
+    """Issue 28 item 1, lib_path's order: a given path, the package's own library (an installed
+    wheel), $MFNS_CORE_LIB, the tree's build."""
+    own = tmp_path / "mfns" / "libmfns_core.so"
+    own.parent.mkdir()
+    own.write_bytes(b"")
+    monkeypatch.setattr(binding, "PACKAGE_LIB", own)
+    monkeypatch.setenv("MFNS_CORE_LIB", str(tmp_path / "env.so"))
+    assert binding.lib_path() == own
+    assert binding.lib_path(tmp_path / "given.so") == tmp_path / "given.so"
+    own.unlink()
+    assert binding.lib_path() == tmp_path / "env.so"
+
+
 def test_no_module_loads_the_library_on_its_own():
     """ctypes.CDLL appears in binding.py only (host tools and tests)."""
     hits = []

@@ -92,3 +92,21 @@ def test_calib_cli_errors_are_one_line(tmp_path, capsys):
 def test_sim_calib_refuses_non_empty_output(small_dataset, capsys):
     assert main(["sim", "calib", str(small_dataset), "--quiet"]) == 2
     assert "not empty" in capsys.readouterr().err
+
+
+def test_calib_without_output_writes_into_the_dataset_not_the_current_folder(
+    small_dataset, tmp_path, monkeypatch
+):
+    """Issue 28 item 5: no -o -> DATASET/calib/calib_results.json and its exports beside it."""
+    import shutil
+
+    ds = tmp_path / "ds"
+    shutil.copytree(small_dataset, ds)
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
+    assert main(["calib", str(ds), "--quiet"]) == 0
+    assert list(cwd.iterdir()) == []
+    names = {p.name for p in (ds / "calib").iterdir()}
+    assert {"calib_results.json", "calib_results_mounts.urdf", "calib_results_camchain.yaml"} <= names
+    load(ds / "calib" / "calib_results.json")

@@ -162,3 +162,59 @@ def test_per_camera_plots(exported, tmp_path):
         assert img is not None and img.shape[0] > 300
         # nothing clipped: the outermost rows and columns are background (tight bounding box)
         assert np.all(img[0] == 255) and np.all(img[:, 0] == 255)
+
+
+def _rpy_matrix(roll, pitch, yaw):
+    """URDF's rpy: fixed axes X, Y, Z, i.e. Rz(yaw) Ry(pitch) Rx(roll) (independent of exports)."""
+    cr, sr, cp, sp, cy, sy = (
+        np.cos(roll),
+        np.sin(roll),
+        np.cos(pitch),
+        np.sin(pitch),
+        np.cos(yaw),
+        np.sin(yaw),
+    )
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def test_urdf_mounts_read_back_equal_the_mount_matrices(exported):
+    """Issue 28 item 6: the URDF's fixed joints, read back with an XML parser, give each camera's
+    mount: origin xyz = r_bk_b in metres, R(rpy) = C_k_b, and a body point computed through the
+    joint equals the body_to_camera.yaml transform's."""
+    import xml.etree.ElementTree as ET
+
+    cal, out, paths, _notes = exported
+    path = out.parent / "res_mounts.urdf"
+    assert path in paths
+    root = ET.parse(path).getroot()
+    assert root.tag == "robot"
+    links = {e.get("name") for e in root.findall("link")}
+    joints = {e.find("child").get("link"): e for e in root.findall("joint")}
+    tf = {
+        c["name"]: c for c in yaml.safe_load((out.parent / "res_body_to_camera.yaml").read_text())["cameras"]
+    }
+    for cam in cal.refined.rig.cams:
+        child = f"camera_{cam.name}"
+        assert {"body", child} <= links
+        j = joints[child]
+        assert j.get("type") == "fixed" and j.find("parent").get("link") == "body"
+        o = j.find("origin")
+        xyz = np.array([float(v) for v in o.get("xyz").split()])
+        rpy = [float(v) for v in o.get("rpy").split()]
+        np.testing.assert_allclose(xyz, np.asarray(cam.r_bk_b) * 1e-3, atol=1e-12)
+        np.testing.assert_allclose(_rpy_matrix(*rpy), cam.C_k_b, atol=1e-9)
+        p_k = np.array([10.0, -20.0, 500.0])
+        via_urdf = _rpy_matrix(*rpy) @ p_k * 1e-3 + xyz  # metres
+        t = np.asarray(tf[cam.name]["T_b_k_mm"], float)
+        np.testing.assert_allclose(via_urdf * 1e3, t[:3, :3] @ p_k + t[:3, 3], atol=1e-6)
+
+
+@pytest.mark.parametrize("pitch", [np.pi / 2, -np.pi / 2, 0.3])
+def test_urdf_rpy_round_trip_also_at_gimbal_lock(pitch):
+    from mfns.calib.exports import urdf_rpy
+
+    c = _rpy_matrix(0.7, pitch, -2.1)
+    np.testing.assert_allclose(_rpy_matrix(*urdf_rpy(c)), c, atol=1e-9)

@@ -226,3 +226,34 @@ def _turned(shot, board):
     centre = np.array([(board.cols - 1) * board.square, (board.rows - 1) * board.square, 0.0])
     # reversed corners: object point k is seen where N-1-k = Rz(pi) p_k + centre is
     return c_w_k @ rz(np.pi), t + c_w_k @ centre
+
+
+def test_unobservable_parameters_are_refused_by_name():
+    """Issue 28 item 2 (part): the information test of the joint model. A well-posed rig passes
+    (its weakest direction sits near 1e-3 of the strongest); a parameter the images do not
+    determine (a column of the Jacobian the data cannot tell from another, or one without
+    information) is refused by name with what views would fix it, not reported with NaN
+    sigmas after a singular inverse."""
+    from mfns.calib.refine import check_observable, parameter_names
+    from mfns.errors import MfnsError
+
+    truth = default_truth()
+    rng = np.random.default_rng(21)
+    shots = make_plan(truth, Board(), rng, 10, 4)
+    cal = calibrate(corner_observations(truth, Board(), shots, rng, SIGMA_PX))
+    prob = cal.refined.problem
+    jac = prob.jacobian(cal.refined.x)
+    check_observable(jac, prob)  # well posed: no error
+    names = parameter_names(prob)
+    assert len(names) == jac.shape[1]
+    i_fx, i_fy = names.index("camera y fx"), names.index("camera y fy")
+    same = jac.copy()
+    same[:, i_fy] = 2.0 * same[:, i_fx]  # fy's effect indistinguishable from fx's
+    with pytest.raises(MfnsError, match="do not determine camera y fx; camera y fy") as e:
+        check_observable(same, prob)
+    assert "more images of camera y" in str(e.value)
+    i_h = names.index("body height h above the turntable")
+    none = jac.copy()
+    none[:, i_h] = 0.0  # no information at all on h
+    with pytest.raises(MfnsError, match="body height h.*caliper height"):
+        check_observable(none, prob)

@@ -169,3 +169,19 @@ def test_planned_layouts_beside_the_originals(demo):
     assert "## 5. Beacon layouts planned" in text
     assert "| module | original | 8 / 10 (80.0 %) |" in text
     assert "| module | planned | 8 / 10 (80.0 %) |" in text
+
+
+def test_meaning_column_is_never_silently_empty(monkeypatch):
+    """Issue 28 item 1: without the core library the meaning of a reason comes from the TM
+    dictionary (package data), never an empty cell."""
+    from mfns import flight
+    from mfns.errors import MfnsError
+
+    def no_library(*_a, **_k):
+        raise MfnsError("no such library")
+
+    monkeypatch.setattr(flight, "Flight", no_library)
+    for code, name in enumerate(flight.REASONS):
+        got_name, text = compare._reason_text(code)
+        assert got_name == name and text.strip(), (code, name)
+    assert "no meaning" in compare._reason_text(250)[1]

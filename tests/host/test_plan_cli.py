@@ -100,7 +100,7 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
         (["analyze", "OUT", "--workspace", "box"], "needs --box"),
         (["analyze", "OUT", "--workspace", "box", "--box", "1,2,3"], "expected 6"),
         (["analyze", "OUT", "--workspace", "truth"], "needs --truth"),
-        (["analyze", "OUT", "--samples", "0"], "at least 1"),
+        (["analyze", "OUT", "--samples", "0"], "expected 1..100000 pose samples"),
         (["analyze", "OUT", "--beacons", "/nonexistent.csv"], "nonexistent"),
         (["analyze", "OUT", "--pixel-sigma", "-1"], "positive"),
         (["optimize", "OUT", "--surfaces", "/nonexistent.json"], "no such surface file"),

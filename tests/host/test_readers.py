@@ -236,3 +236,66 @@ def test_report_time_tolerance_checked(tmp_path, capsys):
 )
 def test_mc_refuses_bad_arguments(tmp_path, capsys, argv, message):
     assert message in _run(["mc", tmp_path / "o", "--quiet", *argv], capsys)
+
+
+# --- issue 28 item 5: one reader and one set of checks per input format, every command ----
+_EMISSION_HEAD = "id,x_mm,y_mm,z_mm,sigma_mm,axis_x,axis_y,axis_z,half_angle_deg\n"
+_EMISSION_ROWS = ["2,100,0,0,0.4,0,0,1,60", "3,0,100,0,0.4,0,0,1,60", "4,0,0,100,0.4,0,0,1,60"]
+
+
+@pytest.mark.parametrize(
+    "row, message",
+    [
+        ("1,0,0,0,0.4,0,0,1,nan", "half_angle_deg: 'nan' is not finite"),
+        ("1,0,0,0,0.4,0,0,0,60", "zero emission axis with half_angle_deg 60"),
+    ],
+)
+def test_emission_columns_refused_alike_by_plan_and_table(
+    tmp_path, capsys, sources, need_core_lib, row, message
+):
+    csv_path = tmp_path / "beacons.csv"
+    csv_path.write_text(_EMISSION_HEAD + "\n".join([row, *_EMISSION_ROWS]) + "\n")
+    errs = [
+        _run(
+            ["plan", "analyze", tmp_path / "p", "--beacons", csv_path, "--samples", 3, "--no-ident-margin"],
+            capsys,
+        ),
+        _run(["table", "build", sources[0], csv_path, "-o", tmp_path / "t.tbl"], capsys),
+    ]
+    for err in errs:
+        assert message in err, err
+    assert errs[0].split("error: ", 1)[1] == errs[1].split("error: ", 1)[1]  # the same reader's words
+
+
+def test_zero_axis_that_emits_everywhere_is_accepted(tmp_path):
+    from mfns.camera import load_beacon_emission, load_beacons
+
+    csv_path = tmp_path / "beacons.csv"
+    csv_path.write_text(_EMISSION_HEAD + "\n".join(["1,0,0,0,0.4,0,0,0,180", *_EMISSION_ROWS]) + "\n")
+    assert len(load_beacons(csv_path)[0]) == 4
+    axes, half = load_beacon_emission(csv_path)
+    assert half[0] == 180 and not axes[0].any()
+
+
+@pytest.mark.parametrize("samples", ["1000000000", "0"])
+def test_sample_counts_are_bounded(tmp_path, capsys, samples):
+    err = _run(["plan", "analyze", tmp_path / "p", "--samples", samples, "--no-ident-margin"], capsys)
+    assert "expected 1..100000 pose samples" in err
+    assert not (tmp_path / "p").exists() or not any((tmp_path / "p").iterdir())
+
+
+@pytest.mark.parametrize("fx", [1e300, 1e-30, 5.0])
+def test_absurd_focal_length_is_one_line_without_numpy_warnings(tmp_path, capsys, sources, fx):
+    import warnings
+
+    doc = _calib(sources, _set("cameras.0.fx", fx))
+    rig = tmp_path / "rig.json"
+    rig.write_text(json.dumps(doc))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a numpy RuntimeWarning before the error fails here
+        for argv in (
+            ["table", "build", rig, sources[1], "-o", tmp_path / "t.tbl"],
+            ["plan", "analyze", tmp_path / "p", "--rig", rig, "--samples", 3, "--no-ident-margin"],
+        ):
+            err = _run(argv, capsys)
+            assert "camera x fx" in err and "field of view" in err, err

@@ -175,3 +175,48 @@ def test_report_on_ground_station_output(tmp_path):
     z = next(s for s in rep.stats if s.axis == "z")
     expected = [500.0 + i / 1000 for i in range(60) if i % 10 != 9]
     assert z.mean == pytest.approx(np.mean(expected), abs=1e-9)
+
+
+def test_report_refuses_the_truth_of_another_run(tmp_path, capsys):
+    """Issue 28 item 3: another scenario's truth (a longer run, a shorter run) is refused with
+    one line and exit 2, before anything is written; the run's own truth is accepted."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "long").mkdir()
+    (tmp_path / "short").mkdir()
+    nav_p, truth_p, _, _ = write_case(tmp_path / "a", n=120)
+    _, long_truth, _, _ = write_case(tmp_path / "long", n=200, seed=2)
+    _, short_truth, _, _ = write_case(tmp_path / "short", n=60, seed=3)
+    assert (
+        main(["report", str(nav_p), "--truth", str(truth_p), "--out", str(tmp_path / "ok"), "--no-plots"])
+        == 0
+    )
+    capsys.readouterr()
+    for bad in (long_truth, short_truth):
+        out = tmp_path / f"bad_{bad.parent.name}"
+        assert main(["report", str(nav_p), "--truth", str(bad), "--out", str(out), "--no-plots"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "not the same run" in err[0], err
+        assert not out.exists()
+    # a nav log of part of the run: refused unless --partial, and still held to the span
+    nav = rpt.load_nav(nav_p)
+    part = rpt.NavLog(nav.t_s[:50], nav.status[:50], {a: v[:50] for a, v in nav.values.items()}, {})
+    truth = rpt.load_truth(truth_p)
+    with pytest.raises(MfnsError, match="--partial"):
+        rpt.check_same_run(part, truth, "nav")
+    rpt.check_same_run(part, truth, "nav", partial=True)
+    with pytest.raises(MfnsError, match="not the same run"):
+        rpt.check_same_run(nav, rpt.load_truth(short_truth), "nav", partial=True)
+
+
+def test_truth_file_is_held_to_its_run_record(tmp_path):
+    """A scenario.json that records its run ("run": truth_sha256) refuses another truth.csv."""
+    import hashlib
+    import json
+
+    _, truth_p, _, _ = write_case(tmp_path, n=30)
+    digest = hashlib.sha256(truth_p.read_bytes()).hexdigest()
+    (tmp_path / "scenario.json").write_text(json.dumps({"run": {"truth_sha256": digest, "truth_rows": 30}}))
+    rpt.load_truth(truth_p)
+    truth_p.write_text(truth_p.read_text() + "30,99.0,0,0,0,0,0,0\n")
+    with pytest.raises(MfnsError, match="not the truth of the run"):
+        rpt.load_truth(truth_p)

@@ -1,5 +1,5 @@
 """Output files of `mfns calib`: results JSON, OpenCV YAML, Kalibr camchain, ROS camera_info,
-body->camera transforms.
+body->camera transforms (YAML and a URDF of the mounts).
 
 Frames (docs/conventions.md): `C_k_b` maps camera-k coordinates into the body frame and
 `r_bk_b` is camera k's origin in the body frame, so p_b = C_k_b p_k + r_bk_b. The 4x4
@@ -191,6 +191,59 @@ def body_transforms(cams: list[Camera]) -> str:
     return "\n".join(out) + "\n"
 
 
+# Below this |cos(pitch)| the URDF roll and yaw are not separable (pitch = +-90 deg): roll is
+# set to 0 and yaw carries the whole rotation about the vertical (exact, not an approximation).
+_GIMBAL_COS = 1e-9
+
+
+def urdf_rpy(c: np.ndarray) -> tuple[float, float, float]:
+    """URDF's (roll, pitch, yaw) in radians of the rotation matrix c.
+
+    URDF's convention (the <origin rpy> of a joint): fixed axes X, then Y, then Z, i.e.
+    c = Rz(yaw) @ Ry(pitch) @ Rx(roll), with pitch in [-pi/2, pi/2]."""
+    c = np.asarray(c, float)
+    pitch = float(np.arcsin(np.clip(-c[2, 0], -1.0, 1.0)))
+    if np.hypot(c[0, 0], c[1, 0]) > _GIMBAL_COS:
+        roll = float(np.arctan2(c[2, 1], c[2, 2]))
+        yaw = float(np.arctan2(c[1, 0], c[0, 0]))
+    else:
+        roll = 0.0
+        yaw = float(np.arctan2(-c[0, 1], c[1, 1]))
+    return roll, pitch, yaw
+
+
+def urdf_mounts(cams: list[Camera], robot: str = "mfns") -> str:
+    """A URDF of the body-to-camera mounts: a `body` link, one link per camera, fixed joints.
+
+    Each joint has parent `body` and child `camera_<name>`; its <origin> is the camera frame
+    in the body frame, as URDF defines a joint origin (the child frame expressed in the
+    parent's): xyz = r_bk_b in metres, rpy from C_k_b (`urdf_rpy`), so a point p_k of the
+    camera frame is p_b = C_k_b p_k + r_bk_b in the body frame, the same transform as T_b_k
+    of <stem>_body_to_camera.yaml. The camera frames are mfns's (docs/conventions.md)."""
+    out = [
+        '<?xml version="1.0"?>',
+        "<!-- Camera mounts from mfns calib. Joint origin = camera frame in the body frame:",
+        "     p_body = R(rpy) p_camera + xyz; xyz = r_bk_b (m), R(rpy) = Rz(yaw) Ry(pitch) Rx(roll)",
+        "     = C_k_b (rad). The same transforms as <stem>_body_to_camera.yaml (T_b_k). -->",
+        f'<robot name="{robot}">',
+        '  <link name="body"/>',
+    ]
+    for cam in cams:
+        roll, pitch, yaw = urdf_rpy(cam.C_k_b)
+        xyz = np.asarray(cam.r_bk_b, float) * 1e-3
+        out += [
+            f'  <link name="camera_{cam.name}"/>',
+            f'  <joint name="body_to_camera_{cam.name}" type="fixed">',
+            '    <parent link="body"/>',
+            f'    <child link="camera_{cam.name}"/>',
+            f'    <origin xyz="{" ".join(_num(v) for v in xyz)}" '
+            f'rpy="{" ".join(_num(v) for v in (roll, pitch, yaw))}"/>',
+            "  </joint>",
+        ]
+    out.append("</robot>")
+    return "\n".join(out) + "\n"
+
+
 def write_opencv_yaml(cam: Camera, path: Path, sigma_px: float) -> None:
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
     fs.writeComment(f"camera {cam.name} from mfns calib. {FRAME_NOTE}.")
@@ -232,5 +285,8 @@ def write_outputs(cal: Calibration, out: Path, source: str) -> tuple[list[Path],
     written.append(path)
     path = out.with_name(f"{out.stem}_body_to_camera.yaml")
     path.write_text(body_transforms(cams))
+    written.append(path)
+    path = out.with_name(f"{out.stem}_mounts.urdf")
+    path.write_text(urdf_mounts(cams))
     written.append(path)
     return written, notes

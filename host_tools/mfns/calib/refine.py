@@ -298,6 +298,80 @@ def quantities(rig: Rig, ref: Rig) -> tuple[list[str], np.ndarray]:
     return names, np.array(vals, dtype=float)
 
 
+# Observability of the joint model (issue 28 item 2): a direction of the parameters whose
+# singular value, in the Jacobian with unit-norm columns, is below UNOBSERVABLE_RCOND of the
+# largest is not determined by the images (the information along it is 1e-16 of the best
+# determined one: a 1-sigma 1e8 times larger, i.e. nothing). Float64 leaves ~1e-16 of noise
+# on the singular values of a well-posed problem, far below; the well-posed rigs of the tests
+# sit at 1e-4 and above. The parameters with a weight above UNOBSERVABLE_SHARE in such a
+# direction are named in the refusal.
+UNOBSERVABLE_RCOND = 1e-8
+UNOBSERVABLE_SHARE = 0.3
+MAX_NAMED = 8  # names in the one-line refusal (many weak directions usually mean a failed solve)
+
+
+def parameter_names(prob: Problem) -> list[str]:
+    """A name for every entry of the parameter vector (the refusal's words)."""
+    names = []
+    for k in range(prob.n_cams):
+        cam = prob.obs.camera_names[k]
+        names += [f"camera {cam} {n}" for n in INTRINSIC_NAMES]
+        names += [f"camera {cam} mount attitude C_k_b ({a})" for a in "xyz"]
+        names += [f"camera {cam} mount position r_bk_b ({a})" for a in "xyz"]
+    names += [f"turntable attitude C_t_w ({a})" for a in "xyz"]
+    names += [f"turntable position r_wt_w ({a})" for a in "xyz"]
+    names += ["body height h above the turntable"]
+    for im in prob.tt:
+        names += [f"angles of {prob.obs.camera_names[im.camera]}/{im.name} ({a})" for a in ("Omega", "omega")]
+    for im in prob.prep:
+        names += [f"board pose of {prob.obs.camera_names[im.camera]}/{im.name}"] * 6
+    return names
+
+
+def _fix_hint(name: str) -> str:
+    if name.startswith("camera ") and "mount" in name:
+        cam = name.split()[1]
+        return (
+            f"turntable images in which camera {cam} sees the board at several turns (about both "
+            "axes, or about one axis when another camera sees turns about both)"
+        )
+    if name.startswith("camera "):
+        cam = name.split()[1]
+        return f"more images of camera {cam} with the board filling the view at varied tilts"
+    if name.startswith("turntable"):
+        return "turntable images turned about both axes (Omega and omega) in at least one camera"
+    if name.startswith("body height"):
+        return "the caliper height (dataset caliper_height_mm)"
+    return "the image named, or drop it"
+
+
+def check_observable(jac: np.ndarray, prob: Problem) -> None:
+    """Refuse, naming the parameters, when the images do not determine them (the information
+    of the joint model: rank and conditioning of the Jacobian), rather than print NaN sigmas."""
+    scale = np.linalg.norm(jac, axis=0)
+    dead = scale == 0
+    scale[dead] = 1.0
+    _u, sv, vt = np.linalg.svd(jac / scale, full_matrices=False)
+    weak = vt[sv < UNOBSERVABLE_RCOND * sv[0]]
+    if not dead.any() and len(weak) == 0:
+        return
+    names = parameter_names(prob)
+    picked = [i for i in np.flatnonzero(dead)]
+    for v in weak:
+        picked += [int(i) for i in np.flatnonzero(np.abs(v) > UNOBSERVABLE_SHARE)]
+    seen: dict[str, None] = {}
+    for i in picked:
+        seen.setdefault(names[i], None)
+    hints = dict.fromkeys(_fix_hint(n) for n in seen)
+    listed = list(seen)[:MAX_NAMED]
+    more = f" and {len(seen) - len(listed)} more" if len(seen) > len(listed) else ""
+    raise MfnsError(
+        f"calibration: the images do not determine {'; '.join(listed)}{more} "
+        f"({len(weak) + int(dead.sum())} unobservable directions of the joint model at the "
+        f"refined solution); what would fix it: {'; '.join(list(hints)[:MAX_NAMED])}"
+    )
+
+
 @dataclass
 class RefineResult:
     rig: Rig
@@ -345,6 +419,7 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200,
     if check is not None:
         check(rms)
     jac = prob.jacobian(x)
+    check_observable(jac, prob)
     try:
         cov = np.linalg.inv(jac.T @ jac)
     except np.linalg.LinAlgError as exc:

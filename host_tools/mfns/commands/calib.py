@@ -83,7 +83,7 @@ def _run(args) -> int:
     text += ["", intrinsics_table(cal), "", extrinsics_table(cal)]
     if cmp is not None:
         text += ["", accuracy_table(cmp)]
-    out = Path(args.output)
+    out = Path(args.output) if args.output else Path(args.dataset) / "calib" / "calib_results.json"
     written, notes = write_outputs(cal, out, f"mfns calib {args.dataset}")
     text += ["", *notes]
     if args.plots:
@@ -116,7 +116,11 @@ def register(subparsers) -> None:
     p.add_argument("dataset", metavar="DATASET", help="dataset folder (docs/calib-dataset.md)")
     p.add_argument("--truth", help="truth.json of a simulated dataset: adds errors and the Cramér-Rao bound")
     p.add_argument(
-        "-o", "--output", default="calib_results.json", help="results JSON (default calib_results.json)"
+        "-o",
+        "--output",
+        default=None,
+        help="results JSON; the exports are written beside it, named after it (default "
+        "DATASET/calib/calib_results.json: never into the current folder)",
     )
     p.add_argument("--plots", metavar="DIR", help="write PNG plots into DIR")
     p.add_argument("--report", metavar="FILE", help="also write the text report to FILE")

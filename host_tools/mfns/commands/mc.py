@@ -29,7 +29,8 @@ def register(subparsers) -> None:
         choices=("flight", "reference"),
         default="flight",
         help="pose solver of the extension: flight = the C solver of firmware/nav/pose.h through "
-        "build/host-sim/lib/libmfns_core.so (run `make lib` first); reference = the host "
+        "the core library (the installed package's own, else $MFNS_CORE_LIB, else the tree's "
+        "`make lib`); reference = the host "
         "Python Gauss-Newton (mfns.pose_ref) (default flight)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")

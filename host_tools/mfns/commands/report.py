@@ -35,6 +35,12 @@ def register(subparsers) -> None:
     )
     p.add_argument("--all-status", action="store_true", help="also use NO_FIX rows (default: FIX, DEGRADED)")
     p.add_argument("--no-plots", action="store_true", help="summary only")
+    p.add_argument(
+        "--partial",
+        action="store_true",
+        help="the nav log covers part of the truth's run (e.g. mfns-nav --max-cycles); it must "
+        "still lie within the truth's time span",
+    )
     p.add_argument("--title", help="name of the run, heading the summary and every figure")
     p.set_defaults(func=run)
 
@@ -45,6 +51,8 @@ def run(args) -> int:
         raise MfnsError(f"--time-tolerance {args.time_tolerance}: expected seconds in [0, 3600)")
     nav = rpt.load_nav(nav_path)
     truth = rpt.load_truth(args.truth) if args.truth is not None else None
+    if truth is not None:
+        rpt.check_same_run(nav, truth, str(nav_path), partial=args.partial)
     rep = rpt.build_report(nav, truth, tolerance_s=args.time_tolerance, all_status=args.all_status)
     out = args.out if args.out is not None else (nav_path if nav_path.is_dir() else nav_path.parent)
     try:

@@ -21,6 +21,8 @@ from .core import Core, require_map_size
 from .crlb import CalibrationError
 
 BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
+# the optimiser's work: 10 million annealing moves per restart and 1000 restarts are hours
+MAX_ITERATIONS, MAX_RESTARTS = 10_000_000, 1000
 # Survey 1-sigma the optimiser assumes for new beacons unless --beacon-sigma is given:
 # the paper's map accuracy (docs/system.md Table 4).
 DEFAULT_SURVEY_SIGMA_MM = 0.3963
@@ -142,6 +144,9 @@ def run_optimize(args) -> int:
     require_map_size(args.count)
     if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
         raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
+    # bounded like the samples: beyond these a run is hours (a typo, not a plan)
+    if args.iterations > MAX_ITERATIONS or args.restarts > MAX_RESTARTS:
+        raise MfnsError(f"--iterations at most {MAX_ITERATIONS}, --restarts at most {MAX_RESTARTS}")
     doc, cams = _load_rig(args)
     core = Core(cams)
     surf, keep = surfaces.load(args.surfaces)

@@ -129,6 +129,13 @@ def module(n: int, rng: np.random.Generator) -> Workspace:
     )
 
 
+# Pose samples of one workspace: each holds a pose, its view and its bound (about 1 ms of
+# analysis, 50 ms with the identification margin), so 100,000 is minutes to hours of work and
+# tens of MB of samples.csv; more is a typo (1e9 ended in a MemoryError). Every command that
+# samples a workspace comes through here.
+MAX_SAMPLES = 100_000
+
+
 def _check_n(n: int) -> None:
-    if n < 1:
-        raise MfnsError("--samples must be at least 1")
+    if not 1 <= n <= MAX_SAMPLES:
+        raise MfnsError(f"--samples {n}: expected 1..{MAX_SAMPLES} pose samples")

@@ -30,6 +30,7 @@ were rendered from go to ``beacons_rendered.csv``.
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
 import shutil
@@ -593,6 +594,16 @@ def simulate(
             wr.writerow(header)
             wr.writerows(rows)
 
+    # the run's identity (docs/nav-frames.md "run"): the truth file's digest, its row count and
+    # time span, so `mfns report` can refuse a truth file that is not this run's (deterministic:
+    # the same seed and arguments give the same identity)
+    truth_bytes = (out / "truth.csv").read_bytes()
+    run = {
+        "truth_sha256": hashlib.sha256(truth_bytes).hexdigest(),
+        "truth_rows": len(truth_rows),
+        "t_first_s": float(truth_rows[0][1]) if truth_rows else None,
+        "t_last_s": float(truth_rows[-1][1]) if truth_rows else None,
+    }
     vis_stats = visibility_stats(counts)
     pixel_noise = float(np.median(all_sigma_c)) if all_sigma_c else 0.0
     doc = {
@@ -615,6 +626,7 @@ def simulate(
         "rig": scn.calib_doc.get("source", ""),
         "spots_file": "spots.csv",
         "spurious_spots": n_spurious,
+        "run": run,
         "visibility": vis_stats,
         "render": params.to_json(),
         **scn.info,
