@@ -487,6 +487,13 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
     f->timestamp_ns = (uint64_t)llround(row->t_s * 1e9);
     f->sequence = row->frame;
     f->dropped_before = mfns_cam_seq_delivered(h, row->frame);
+    f->ts_source = MFNS_CAM_TS_RECORDED;
+    f->arrival_ns = 0; /* as fast as asked: no arrival clock */
+    if (h->s.replay_realtime) {
+        /* paced: the arrival on the recording's time base (first row's t_s at t0) */
+        const double arrival_s = r->t_first + (double)(mfns_cam_now_ns() - r->t0_ns) * 1e-9;
+        f->arrival_ns = arrival_s > 0.0 ? (uint64_t)llround(arrival_s * 1e9) : 0u;
+    }
     f->exposure_us = row->exposure_us;
     f->buf_index = k;
     return MFNS_CAM_OK;

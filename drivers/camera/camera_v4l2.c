@@ -142,6 +142,19 @@ static mfns_cam_err_t recover(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
 }
 
 /* ---- capture -------------------------------------------------------------- */
+/* What the buffer's timestamp is (flags of VIDIOC_DQBUF): only a
+ * CLOCK_MONOTONIC capture stamp can be compared with the arrival time. */
+static mfns_cam_ts_source_t ts_source(uint32_t flags)
+{
+    switch (flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) {
+    case V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC:
+        return (flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE ? MFNS_CAM_TS_MONOTONIC_SOE
+                                                                                        : MFNS_CAM_TS_MONOTONIC_EOF;
+    case V4L2_BUF_FLAG_TIMESTAMP_COPY: return MFNS_CAM_TS_COPY;
+    default: return MFNS_CAM_TS_UNKNOWN;
+    }
+}
+
 static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadline_ns)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
@@ -187,6 +200,9 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
             f->timestamp_ns = (uint64_t)b.timestamp.tv_sec * 1000000000u + (uint64_t)b.timestamp.tv_usec * 1000u;
             f->sequence = b.sequence;
             f->dropped_before = mfns_cam_seq_delivered(h, b.sequence);
+            f->ts_source = ts_source(b.flags);
+            const int64_t now = sys->now_ns(sys->ctx);
+            f->arrival_ns = now > 0 ? (uint64_t)now : 0u;
             f->exposure_us = v->exposure_us;
             f->buf_index = i;
             return MFNS_CAM_OK;

@@ -14,7 +14,18 @@
  * to. A fused frame is handed to the navigator as an mfns_frame_t and given
  * back to its driver once the navigator is done (nav_cams_give_back_used).
  *
- * Health: a camera that times out, is rejected, lost or recovering gives no
+ * Data health (firmware/nav/frame_health.h): every frame dequeued is
+ * checked before synchronisation (frozen content or sequence, a stamp that
+ * jumps against the camera's cadence or its arrival, a late frame) and the
+ * cameras' sequence numbers are checked against each other; a camera the
+ * monitor holds out contributes no frame (given back at once), so neither
+ * the synchronisation nor the cycle's time nor the navigator ever sees it.
+ * Its frames still flow (it is neither LOST nor re-opened for that); the
+ * camera packet shows its health state; each transition is an event.
+ * A stepped clock, once confirmed, is re-aligned: its stamps are corrected
+ * before synchronisation.
+ *
+ * Link health: a camera that times out, is rejected, lost or recovering gives no
  * frame that cycle; after MFNS_CAM_LOST_CYCLES such cycles it is LOST (event,
  * one stderr line), re-opened every MFNS_CAM_REOPEN_CYCLES, and RECOVERED on
  * its next fused frame; a replay camera whose rows end early is ENDED.
@@ -31,6 +42,7 @@
 
 #include "cam_sync.h"
 #include "drivers/camera/camera.h"
+#include "frame_health.h"
 #include "nav_opts.h"
 #include "nav_tlm.h"
 
@@ -51,6 +63,7 @@ typedef struct {
     cam_sync_verdict_t verdict; /* what synchronisation made of the frame */
     mfns_frame_t nav_frame;     /* the frame as the navigator reads it (valid when used) */
     bool used;                  /* the frame is fused this cycle */
+    bool held_out;              /* the data health monitor left its frame out this cycle */
     /* across cycles */
     mfns_cam_frame_t held;      /* a frame ahead of the cycle, kept for a later one */
     bool have_held;
@@ -61,11 +74,14 @@ typedef struct {
     uint32_t last_seq;
     uint32_t n_stale, n_ahead, n_rejected, n_timeouts, n_lost, n_recovered, n_reopens;
     uint32_t lines_stale, lines_ahead, lines_rejected;
+    uint32_t lines_health[FH_EV_HEALTHY + 1]; /* stderr lines per kind of health event */
+    uint32_t n_held_out;        /* frames the health monitor left out */
 } nav_cam_t;
 
 typedef struct nav_cams {
     nav_cam_t cam[MFNS_NUM_CAMERAS];
     cam_sync_t sync;
+    fh_monitor_t health;        /* camera data health, every camera */
     uint64_t errors;            /* housekeeping n_cam_errors; RESET_COUNTERS zeroes it */
 } nav_cams_t;
 

@@ -67,8 +67,8 @@ const char *tlm_camera_name(uint8_t code)
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    static const char *const k_name[5] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED"};
-    return (code <= TLM_CAM_ENDED) ? k_name[code] : "?";
+    static const char *const k_name[10] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED", "PROBATION", "FROZEN", "CLOCK_FAULT", "LATE", "OUT_OF_STEP"};
+    return (code <= TLM_CAM_OUT_OF_STEP) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
@@ -79,8 +79,8 @@ const char *tlm_severity_name(uint8_t code)
 
 const char *tlm_event_name(uint16_t code)
 {
-    static const char *const k_name[14] = {"BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE", "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR", "CMD_ACCEPTED", "CMD_REJECTED"};
-    return (code >= TLM_EVT_BOOT && code <= TLM_EVT_CMD_REJECTED) ? k_name[code - TLM_EVT_BOOT] : "?";
+    static const char *const k_name[19] = {"BOOT", "TABLE_LOADED", "TABLE_REFUSED", "CAMERA_LOST", "CAMERA_RECOVERED", "MODE_CHANGE", "TLM_DROPPED", "CAMERA_STALE", "CAMERA_OUT_OF_STEP", "FRAME_REJECTED", "CAMERA_ENDED", "TLM_WRITE_ERROR", "CMD_ACCEPTED", "CMD_REJECTED", "CAMERA_FROZEN", "CAMERA_CLOCK_JUMP", "CAMERA_LATE", "CAMERA_SEQ_MISMATCH", "CAMERA_HEALTHY"};
+    return (code >= TLM_EVT_BOOT && code <= TLM_EVT_CAMERA_HEALTHY) ? k_name[code - TLM_EVT_BOOT] : "?";
 }
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
