@@ -78,8 +78,10 @@ static void cadence_clean_step(fh_cam_t *c, uint32_t seq, uint64_t t_us, uint32_
         if (c->learn_steps > 0u) {
             const float prior = (float)(c->prev_t_us - c->anchor_t_us) / (float)(c->prev_seq - c->anchor_seq);
             if (absf_i64(dt - round_i64((float)ds * prior)) > FH_LEARN_TOL_FRAC * prior) {
-                learn_restart(c); /* a step that does not fit: learning starts again from it */
-                c->learn_steps = 1;
+                /* a step that does not fit: learning starts again after it */
+                c->anchor_seq = seq;
+                c->anchor_t_us = t_us;
+                c->learn_steps = 0;
                 return;
             }
         }
@@ -337,8 +339,8 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
         for (unsigned k = j + 1u; k < m->n; k++) {
             int64_t f = 0;
             v[j][k] = v[k][j] = check_pair(m, j, k, &f);
-            frames[j][k] = f;
-            frames[k][j] = -f;
+            frames[k][j] = f; /* frames[a][b]: camera a's disagreement with b, frames */
+            frames[j][k] = -f;
         }
     }
     /* among the healthy cameras: the odd one out, or every camera of a disagreeing pair */
@@ -424,9 +426,9 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
                 continue;
             }
             const fh_pair_t *p = &m->pair[pair_index(j, k)];
-            const bool fresh_pair_in_step =
-                !p->valid && a->period_known && absf_i64((int64_t)b->t_us - (int64_t)a->t_us) <=
-                                                    FH_CROSS_TOL_FRAC * a->period_us;
+            const float period = a->period_known ? a->period_us : b->period_us;
+            const bool fresh_pair_in_step = !p->valid && (a->period_known || b->period_known) &&
+                                            absf_i64((int64_t)b->t_us - (int64_t)a->t_us) <= FH_CROSS_TOL_FRAC * period;
             if (v[j][k] == PAIR_AGREE || fresh_pair_in_step) {
                 pair_anchor(m, j, k);
             }
