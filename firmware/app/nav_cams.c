@@ -154,6 +154,8 @@ static bool health_check(nav_cams_t *cs, int k, nav_tlm_t *tlm, uint32_t cycle, 
     mfns_cam_frame_t *fr = &c->frame;
     mfns_frame_t nf;
     const bool image = to_nav_frame(fr, &nf);
+    bool flat = true;
+    const uint64_t digest = image ? fh_digest(&nf, &flat) : 0u;
     const fh_frame_t in = {
         .sequence = fr->sequence,
         .dropped_before = fr->dropped_before,
@@ -161,8 +163,8 @@ static bool health_check(nav_cams_t *cs, int k, nav_tlm_t *tlm, uint32_t cycle, 
         .arrival_us = fr->arrival_ns / 1000u,
         .arrival_valid = fr->arrival_ns != 0u,
         .ts_source = fh_source(fr->ts_source),
-        .digest = image ? fh_digest(&nf) : 0u,
-        .digest_valid = image,
+        .digest = digest,
+        .digest_valid = image && !flat, /* a uniform frame has nothing to freeze */
     };
     health_event(c, k, tlm, cycle, event_t_us, fh_observe(&cs->health, (unsigned)k, &in));
     if (!fh_usable(&cs->health, (unsigned)k)) {

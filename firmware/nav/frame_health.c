@@ -468,17 +468,24 @@ void fh_reopened(fh_monitor_t *m, unsigned k, bool seq_continues)
 
 /* ---- digest ------------------------------------------------------------- */
 
-static uint64_t fnv_bytes(uint64_t h, const uint8_t *p, uint32_t n)
+/* FNV-1a over n bytes; *diff set when a byte differs from first. */
+static uint64_t fnv_bytes(uint64_t h, const uint8_t *p, uint32_t n, uint8_t first, bool *diff)
 {
+    uint8_t acc = 0;
     for (uint32_t i = 0; i < n; i++) {
         h ^= p[i];
         h *= FNV64_PRIME;
+        acc |= (uint8_t)(p[i] ^ first);
     }
+    *diff = *diff || acc != 0u;
     return h;
 }
 
-uint64_t fh_digest(const mfns_frame_t *f)
+uint64_t fh_digest(const mfns_frame_t *f, bool *flat)
 {
+    bool dummy = true;
+    bool *fl = flat ? flat : &dummy;
+    *fl = true;
     if (!f || !f->data || f->width == 0u || f->height == 0u) {
         return 0;
     }
@@ -487,16 +494,20 @@ uint64_t fh_digest(const mfns_frame_t *f)
     if (f->stride_bytes < row_bytes) {
         return 0;
     }
+    bool diff = false;
     const uint8_t hdr[5] = {(uint8_t)(f->width & 0xffu), (uint8_t)(f->width >> 8), (uint8_t)(f->height & 0xffu),
                             (uint8_t)(f->height >> 8), (uint8_t)f->format};
-    uint64_t h = fnv_bytes(FNV64_OFFSET, hdr, (uint32_t)sizeof hdr);
+    bool hdr_diff = false;
+    uint64_t h = fnv_bytes(FNV64_OFFSET, hdr, (uint32_t)sizeof hdr, 0u, &hdr_diff);
     const uint8_t *base = (const uint8_t *)f->data;
+    const uint8_t first = base[0];
     for (uint32_t r = 0; r < f->height; r += FH_DIGEST_ROW_STEP) {
-        h = fnv_bytes(h, base + (size_t)r * f->stride_bytes, row_bytes);
+        h = fnv_bytes(h, base + (size_t)r * f->stride_bytes, row_bytes, first, &diff);
     }
     const uint32_t last = (uint32_t)f->height - 1u;
     if (last % FH_DIGEST_ROW_STEP != 0u) {
-        h = fnv_bytes(h, base + (size_t)last * f->stride_bytes, row_bytes);
+        h = fnv_bytes(h, base + (size_t)last * f->stride_bytes, row_bytes, first, &diff);
     }
+    *fl = !diff;
     return h;
 }

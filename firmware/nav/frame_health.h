@@ -13,7 +13,8 @@
  *                Misses: a pipeline that freezes the image but adds fresh
  *                noise; a frozen image whose stamps and sequence advance and
  *                that alternates between two buffers (A B A B: each differs
- *                from the one before). False alarm: a noise-free (simulated,
+ *                from the one before); a frozen uniform image (no content:
+ *                not compared, see fh_digest). False alarm: a noise-free (simulated,
  *                or fully black/saturated) image of a static scene, or two
  *                frames that differ only in rows the digest does not sample.
  *   CLOCK_FAULT  the stamp step against the camera's own cadence:
@@ -209,8 +210,12 @@ void fh_reopened(fh_monitor_t *m, unsigned k, bool seq_continues);
 /* FNV-1a/64 over the image bytes of every FH_DIGEST_ROW_STEP-th row and the
  * last row (width * bytes per pixel of each: row padding never read), with
  * the size and format. Cost: height / FH_DIGEST_ROW_STEP + 1 rows, one
- * multiply per byte (about 1/16 of the frame). 0 for a NULL frame/data. */
-uint64_t fh_digest(const mfns_frame_t *f);
+ * multiply per byte (about 1/16 of the frame). 0 for a NULL frame/data.
+ * *flat (may be NULL): every sampled byte is the same (a uniform frame: dark
+ * cabin, covered lens). Such a frame has nothing to freeze and no beacon to
+ * mislead with; the caller passes it with digest_valid = false, so a dark
+ * spell is not FROZEN and costs no probation when the light returns. */
+uint64_t fh_digest(const mfns_frame_t *f, bool *flat);
 const char *fh_state_name(fh_state_t s);
 
 #endif /* MFNS_FRAME_HEALTH_H */

@@ -405,11 +405,16 @@ static void test_timestamp_source_and_arrival(void **state)
 {
     fixture_t *fx = *state;
     open_start(fx);
-    mfns_cam_frame_t f = cycle(fx); /* the fake's default: monotonic, end of frame, 2 ms to dequeue */
+    mfns_cam_frame_t f = cycle(fx); /* already queued when asked: its arrival is unknown */
+    assert_int_equal(f.ts_source, MFNS_CAM_TS_MONOTONIC_EOF);
+    assert_int_equal(f.arrival_ns, 0u);
+    fx->dev.eagain_next = 1; /* waited for (poll): the fake's default 2 ms from stamp to dequeue */
+    f = cycle(fx);
     assert_int_equal(f.ts_source, MFNS_CAM_TS_MONOTONIC_EOF);
     assert_int_equal(f.arrival_ns - f.timestamp_ns, 2000000u);
     fx->dev.ts_flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
     fx->dev.arrival_delay_ns = 90000000; /* 90 ms late */
+    fx->dev.eagain_next = 1;
     f = cycle(fx);
     assert_int_equal(f.ts_source, MFNS_CAM_TS_MONOTONIC_SOE);
     assert_int_equal(f.arrival_ns - f.timestamp_ns, 90000000u);

@@ -467,40 +467,52 @@ static void test_digest_sees_a_pixel_ignores_padding(void **state)
     memcpy(b, a, sizeof b);
     mfns_frame_t fa = {a, W, H, STRIDE, MFNS_PIXFMT_GREY};
     mfns_frame_t fb = {b, W, H, STRIDE, MFNS_PIXFMT_GREY};
-    assert_true(fh_digest(&fa) == fh_digest(&fb));
+    assert_true(fh_digest(&fa, NULL) == fh_digest(&fb, NULL));
     /* padding past the image bytes of every row: never read */
     for (unsigned r = 0; r < H; r++) {
         for (unsigned c = W; c < STRIDE; c++) {
             b[r * STRIDE + c] ^= 0xffu;
         }
     }
-    assert_true(fh_digest(&fa) == fh_digest(&fb));
+    assert_true(fh_digest(&fa, NULL) == fh_digest(&fb, NULL));
     /* one pixel of a sampled row */
     b[FH_DIGEST_ROW_STEP * STRIDE + 17] ^= 1u;
-    assert_true(fh_digest(&fa) != fh_digest(&fb));
+    assert_true(fh_digest(&fa, NULL) != fh_digest(&fb, NULL));
     b[FH_DIGEST_ROW_STEP * STRIDE + 17] ^= 1u;
     /* the last row is always sampled */
     b[(H - 1) * STRIDE + W - 1] ^= 1u;
-    assert_true(fh_digest(&fa) != fh_digest(&fb));
+    assert_true(fh_digest(&fa, NULL) != fh_digest(&fb, NULL));
     b[(H - 1) * STRIDE + W - 1] ^= 1u;
     /* a row between samples: the stated miss */
     b[1 * STRIDE + 3] ^= 1u;
-    assert_true(fh_digest(&fa) == fh_digest(&fb));
+    assert_true(fh_digest(&fa, NULL) == fh_digest(&fb, NULL));
     /* 16-bit: both bytes of a pixel count */
     static uint16_t w16[W * H];
     for (size_t i = 0; i < W * H; i++) {
         w16[i] = (uint16_t)(i & 0x3ffu);
     }
     mfns_frame_t f16 = {w16, W, H, W * 2u, MFNS_PIXFMT_Y10};
-    const uint64_t d16 = fh_digest(&f16);
+    const uint64_t d16 = fh_digest(&f16, NULL);
     w16[W - 1] ^= 0x100u; /* high byte of the last pixel of row 0 */
-    assert_true(fh_digest(&f16) != d16);
+    assert_true(fh_digest(&f16, NULL) != d16);
+    /* a uniform frame is flat; one different pixel in a sampled row is not */
+    static uint8_t u[STRIDE * H];
+    memset(u, 6, sizeof u);
+    mfns_frame_t fu = {u, W, H, STRIDE, MFNS_PIXFMT_GREY};
+    bool flat = false;
+    (void)fh_digest(&fu, &flat);
+    assert_true(flat);
+    u[(H - 1) * STRIDE] = 7;
+    (void)fh_digest(&fu, &flat);
+    assert_false(flat);
+    (void)fh_digest(&fa, &flat);
+    assert_false(flat);
     /* bad frames: 0, never a read */
     mfns_frame_t bad = {NULL, W, H, STRIDE, MFNS_PIXFMT_GREY};
-    assert_true(fh_digest(&bad) == 0u);
+    assert_true(fh_digest(&bad, NULL) == 0u);
     bad.data = a;
     bad.stride_bytes = W - 1u;
-    assert_true(fh_digest(&bad) == 0u);
+    assert_true(fh_digest(&bad, NULL) == 0u);
 }
 
 static void test_bad_arguments(void **state)
