@@ -104,8 +104,9 @@ static void health_event(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, ui
         break;
     case FH_EV_CLOCK_JUMP:
         code = TLM_EVT_CAMERA_CLOCK_JUMP;
-        (void)snprintf(line, sizeof line, "cycle %u: frame %lld: clock stepped by %.3f ms against its cadence: left out",
-                       cycle, (long long)ev.arg1, (double)ev.arg0 * 1e-3);
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: frame %lld: clock stepped by %.3f ms against its cadence: left out", cycle,
+                       (long long)ev.arg1, (double)ev.arg0 * 1e-3);
         break;
     case FH_EV_LATE:
         code = TLM_EVT_CAMERA_LATE;
@@ -122,8 +123,9 @@ static void health_event(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, ui
     case FH_EV_HEALTHY:
         code = TLM_EVT_CAMERA_HEALTHY;
         sev = TLM_SEV_INFO;
-        (void)snprintf(line, sizeof line, "cycle %u: healthy again after %lld fault-free frames (clock correction %.3f ms)",
-                       cycle, (long long)ev.arg0, (double)ev.arg1 * 1e-3);
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: healthy again after %lld fault-free frames (clock correction %.3f ms)", cycle,
+                       (long long)ev.arg0, (double)ev.arg1 * 1e-3);
         break;
     case FH_EV_NONE:
     default: return;

@@ -231,7 +231,8 @@ fh_event_t fh_observe(fh_monitor_t *m, unsigned k, const fh_frame_t *f)
                     a0 = step;
                 }
             } else if (!rebase && fault == FH_HEALTHY) {
-                cadence_clean_step(c, f->sequence, f->capture_us, (uint32_t)ds, (int64_t)f->capture_us - (int64_t)c->prev_t_us);
+                const int64_t dt = (int64_t)f->capture_us - (int64_t)c->prev_t_us;
+                cadence_clean_step(c, f->sequence, f->capture_us, (uint32_t)ds, dt);
             }
         }
     }

@@ -37,7 +37,13 @@
  *                a slow drift of the clock rate (tracked as the period);
  *                a step across a re-open of a backend that restarts its
  *                sequence numbers (V4L2, libcamera): the arrival check still
- *                sees it there.
+ *                sees it there. A driver that leaves dropped frames out of
+ *                its sequence numbers (V4L2 says they count) looks like a
+ *                clock step of whole periods: re-aligned by it, the camera
+ *                would be a frame off; with a valid arrival clock the
+ *                corrected stamp then shows a period more latency (LATE when
+ *                the normal latency is under half a period), without one it
+ *                is missed.
  *   LATE         arrival - capture > FH_LATE_PERIODS periods (arrival clock
  *                valid and the stamp a capture stamp on the arrival's clock):
  *                a healthy pipeline hands a frame over before the next one
@@ -87,18 +93,21 @@
 
 #define FH_MAX_CAMERAS 3u
 #define FH_PAIRS (FH_MAX_CAMERAS * (FH_MAX_CAMERAS - 1u) / 2u)
-#define FH_JITTER_FRAC 0.1f        /* stated bound of one stamp's jitter, fraction of the period */
+#define FH_JITTER_PERMILLE 100u    /* stated bound of one stamp's jitter: 0.1 of the period */
+#define FH_JITTER_FRAC ((float)FH_JITTER_PERMILLE / 1000.0f)
 #define FH_LEARN_STEPS 8u          /* consistent steps before the period is trusted */
 #define FH_LEARN_TOL_FRAC 0.3f     /* a learning step within this fraction of the estimate is consistent */
 #define FH_MAX_DSEQ 10000u         /* a gap longer than this re-baselines instead of being judged */
 #define FH_LATE_PERIODS 1.5f       /* arrival - capture above this many periods is LATE */
 #define FH_LATE_UNLEARNED_US 200000u /* the LATE bound before the period is learned */
-#define FH_CROSS_TOL_FRAC 0.5f     /* cross-camera mismatch: half a period */
+#define FH_CROSS_TOL_PERMILLE 500u /* cross-camera mismatch: half a period */
+#define FH_CROSS_TOL_FRAC ((float)FH_CROSS_TOL_PERMILLE / 1000.0f)
 #define FH_RATE_MATCH_FRAC 0.01f   /* periods of a pair within 1 %: same rate, cross-check applies */
 #define FH_PROBATION_FRAMES 10u    /* consecutive fault-free frames before a camera is fused again */
 #define FH_DIGEST_ROW_STEP 16u     /* digest: every 16th row (and the last) */
 
-_Static_assert(3.0f * FH_JITTER_FRAC < FH_CROSS_TOL_FRAC, "a step the cadence check lets through is below the cross-check's");
+_Static_assert(3u * FH_JITTER_PERMILLE < FH_CROSS_TOL_PERMILLE,
+               "a step the cadence check lets through (3 J at dseq 1) is below the cross-check's tolerance");
 _Static_assert(FH_LEARN_STEPS >= 2u && FH_PROBATION_FRAMES >= 1u, "learning and probation need frames");
 _Static_assert(FH_DIGEST_ROW_STEP >= 1u, "the digest samples rows");
 
