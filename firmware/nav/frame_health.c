@@ -393,26 +393,41 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
             m->cam[k].clean_now = false;
         }
     }
-    /* a camera in probation against every healthy camera it can be compared with */
+    /* a camera in probation against every healthy camera it can be compared
+     * with; with none, against the others in probation (their corrections
+     * were measured each on its own cadence: agreeing, they confirm each
+     * other; disagreeing, neither is confirmed nor blamed) */
+    bool prob[FH_MAX_CAMERAS] = {false, false, false};
+    bool any_ref = false;
+    for (unsigned k = 0; k < m->n; k++) {
+        const fh_cam_t *c = &m->cam[k];
+        prob[k] = c->present && c->clean_now && c->state == FH_PROBATION;
+        any_ref = any_ref || (healthy[k] && !flag[k]);
+    }
     for (unsigned k = 0; k < m->n; k++) {
         fh_cam_t *c = &m->cam[k];
-        if (!c->present || !c->clean_now || c->state != FH_PROBATION) {
+        if (!prob[k]) {
             continue;
         }
-        bool bad = false, good = false;
+        bool bad = false, good = false, peer_bad = false;
         int o = -1;
         for (unsigned j = 0; j < m->n; j++) {
-            if (j == k || !healthy[j] || flag[j]) {
+            if (j == k) {
                 continue;
             }
-            bad = bad || v[k][j] == PAIR_DISAGREE;
-            good = good || v[k][j] == PAIR_AGREE;
-            o = v[k][j] == PAIR_DISAGREE ? (int)j : o;
+            if (healthy[j] && !flag[j]) {
+                bad = bad || v[k][j] == PAIR_DISAGREE;
+                good = good || v[k][j] == PAIR_AGREE;
+                o = v[k][j] == PAIR_DISAGREE ? (int)j : o;
+            } else if (!any_ref && prob[j]) {
+                peer_bad = peer_bad || v[k][j] == PAIR_DISAGREE;
+                good = good || v[k][j] == PAIR_AGREE;
+            }
         }
         if (bad) {
             ev[k] = enter_fault(c, FH_OUT_OF_STEP, frames[k][o], o);
             c->clean_now = false;
-        } else if (good) {
+        } else if (good && !peer_bad) {
             c->confirmed = true;
             ev[k] = maybe_healthy(c);
         }

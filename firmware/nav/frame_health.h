@@ -77,9 +77,11 @@
  * (event). A camera whose clock stepped is re-aligned by the measured step
  * (its stamps are corrected by fh_correction_us) but comes back only when
  * the cross-check has confirmed the corrected stamps against a healthy
- * camera during its probation; without a healthy camera to confirm it, or
- * when the step could not be measured (period not yet learned, stamp later
- * than arrival), it stays out.
+ * camera during its probation (with no healthy camera at all, e.g. every
+ * clock stepped at once: against another camera in probation, whose
+ * correction was measured on its own cadence; two that disagree confirm
+ * neither); with nothing to confirm it, or when the step could not be
+ * measured (period not yet learned, stamp later than arrival), it stays out.
  *
  * Every loop is bounded by FH_MAX_CAMERAS or the sampled rows of a frame.
  */

@@ -287,6 +287,33 @@ static void test_clock_step_without_reference_stays_out(void **state)
     clock_step(5000000, false);
 }
 
+/* Every clock steps at once (+5 s): no healthy camera is left, each camera's
+ * own measured correction is confirmed by the others' and all come back. */
+static void test_all_clocks_step_confirm_each_other(void **state)
+{
+    (void)state;
+    rig_t r;
+    rig_init(&r, P18_US, 0.05, 11);
+    for (uint32_t f = 0; f < 40; f++) {
+        rig_cycle(&r, f, NULL);
+    }
+    for (unsigned k = 0; k < 3; k++) {
+        r.offset_us[k] = 5000000;
+    }
+    rig_cycle(&r, 40, NULL);
+    for (unsigned k = 0; k < 3; k++) {
+        assert_int_equal(r.obs[k].kind, FH_EV_CLOCK_JUMP);
+        assert_false(fh_usable(&r.m, k));
+    }
+    for (uint32_t f = 41; f < 41 + FH_PROBATION_FRAMES; f++) {
+        rig_cycle(&r, f, NULL);
+    }
+    for (unsigned k = 0; k < 3; k++) {
+        assert_true(fh_usable(&r.m, k));
+        assert_near((double)fh_correction_us(&r.m, k), -5e6, 0.3 * P18_US);
+    }
+}
+
 static void test_small_step_below_tolerance_passes(void **state)
 {
     (void)state;
@@ -542,6 +569,7 @@ int main(void)
         cmocka_unit_test(test_clock_step_ahead_realigned_when_confirmed),
         cmocka_unit_test(test_clock_step_back_realigned_when_confirmed),
         cmocka_unit_test(test_clock_step_without_reference_stays_out),
+        cmocka_unit_test(test_all_clocks_step_confirm_each_other),
         cmocka_unit_test(test_small_step_below_tolerance_passes),
         cmocka_unit_test(test_stamp_backwards_while_learning),
         cmocka_unit_test(test_late_and_future_stamps),
