@@ -375,7 +375,13 @@ uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, ui
     }
     uint64_t t_us = 0;
     if (!cam_sync_cycle(&cs->sync, have, t_frame, MFNS_NUM_CAMERAS, verdict, &t_us)) {
-        t_us = clock_t_us; /* no camera delivered: stamp with the program's clock */
+        /* no camera delivered (or every one held out): the last fused cycle's
+         * frame time moved on by the program's clock since, so the stamps
+         * stay on the frames' time base and never step back; before any
+         * frame, the program's clock */
+        t_us = cs->sync.have_last ? cs->sync.last_us + (clock_t_us - cs->last_fused_clock_us) : clock_t_us;
+    } else {
+        cs->last_fused_clock_us = clock_t_us;
     }
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];

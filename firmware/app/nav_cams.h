@@ -83,6 +83,7 @@ typedef struct nav_cams {
     cam_sync_t sync;
     fh_monitor_t health;        /* camera data health, every camera */
     uint64_t errors;            /* housekeeping n_cam_errors; RESET_COUNTERS zeroes it */
+    uint64_t last_fused_clock_us; /* program clock of the last cycle that fused a frame */
 } nav_cams_t;
 
 /* Every camera enabled, none open; the sync window in microseconds. */
@@ -98,8 +99,10 @@ int nav_cams_gather(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o, uint32_
 void nav_cams_report_ended(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us);
 /* Decides which gathered frames this cycle fuses, holds those ahead and
  * fills frames[k] (NULL for a camera without a fused frame). Returns the
- * cycle's time: the frames' reference time, or clock_t_us when no camera
- * delivered. */
+ * cycle's time: the fused frames' reference time (a camera held out by the
+ * health monitor never sets it); when no camera delivered, the last fused
+ * cycle's time moved on by the program clock (clock_t_us) since, or
+ * clock_t_us before any frame. */
 uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t clock_t_us,
                               const mfns_frame_t *frames[MFNS_NUM_CAMERAS]);
 /* Gives the frames fused this cycle back to their drivers (after the navigator). */
