@@ -244,6 +244,12 @@ static bool gather_one(nav_cams_t *cs, int k, nav_tlm_t *tlm, const nav_opts_t *
             dequeue_failed(cs, c, k, tlm, o, cycle, event_t_us, e);
             return false;
         }
+        /* a device the driver re-opened by itself (recovery) restarts its sequence numbers */
+        c->driver_events |= mfns_cam_take_events(c->cam);
+        if ((c->driver_events & MFNS_CAM_EV_RECOVERED) != 0U && !c->recovery_seen) {
+            c->recovery_seen = true;
+            fh_reopened(&cs->health, (unsigned)k, o->backend == MFNS_CAM_BACKEND_REPLAY);
+        }
         if (c->enabled && !health_check(cs, k, tlm, cycle, event_t_us)) {
             hold_out(cs, c); /* one frame per cycle: its frames keep pace with the others' */
             return false;
@@ -417,7 +423,9 @@ void nav_cams_driver_events(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];
-        const uint32_t ev = c->cam ? mfns_cam_take_events(c->cam) : 0u;
+        const uint32_t ev = c->driver_events | (c->cam ? mfns_cam_take_events(c->cam) : 0u);
+        c->driver_events = 0;
+        c->recovery_seen = false;
         if ((ev & MFNS_CAM_EV_LOST) != 0U) {
             c->lost_at_ms = now_ms;
             send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, k, MFNS_CAM_E_LOST, 0);

@@ -76,6 +76,8 @@ typedef struct {
     uint32_t lines_stale, lines_ahead, lines_rejected;
     uint32_t lines_health[FH_EV_HEALTHY + 1]; /* stderr lines per kind of health event */
     uint32_t n_held_out;        /* frames the health monitor left out */
+    uint32_t driver_events;     /* MFNS_CAM_EV_* taken at dequeue, reported after the cycle */
+    bool recovery_seen;         /* the health monitor was told of this cycle's driver recovery */
 } nav_cam_t;
 
 typedef struct nav_cams {
