@@ -257,7 +257,8 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
         c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
         c->beacons_identified = (uint8_t)out->cam[k].identified;
         c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;
-        c->frame_seq = cs->used ? cs->frame.sequence : 0;
+        /* a frame the health monitor left out still names its sequence number */
+        c->frame_seq = cs->used || cs->held_out ? cs->frame.sequence : 0;
         c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
         (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
     }
