@@ -117,6 +117,18 @@ typedef struct {
     const struct mfns_cam_sys *sys;
 } mfns_cam_settings_t;
 
+/* Where a frame's timestamp_ns comes from (V4L2 buffer flags
+ * V4L2_BUF_FLAG_TIMESTAMP_MASK and V4L2_BUF_FLAG_TSTAMP_SRC_MASK, portable):
+ * the camera data health checks (firmware/nav/frame_health.h) compare a
+ * capture stamp with the frame's arrival only when both are on one clock. */
+typedef enum {
+    MFNS_CAM_TS_UNKNOWN = 0,     /* V4L2 TIMESTAMP_UNKNOWN (or no statement) */
+    MFNS_CAM_TS_MONOTONIC_SOE,   /* CLOCK_MONOTONIC, start of exposure */
+    MFNS_CAM_TS_MONOTONIC_EOF,   /* CLOCK_MONOTONIC, end of frame (last pixel) */
+    MFNS_CAM_TS_COPY,            /* V4L2 TIMESTAMP_COPY: copied from an output buffer, not a capture time */
+    MFNS_CAM_TS_RECORDED         /* replay: the recorded capture time (frames.csv t_s) */
+} mfns_cam_ts_source_t;
+
 typedef struct {
     const void *data;         /* first pixel of row 0 */
     size_t bytesused;         /* valid bytes at data (the driver's bytesused) */
@@ -127,6 +139,10 @@ typedef struct {
                                  replay: the recorded t_s (frames.csv row) */
     uint32_t sequence;        /* driver frame counter (replay: the row's frame index) */
     uint32_t dropped_before;  /* frames missing between the previous frame and this one */
+    uint64_t arrival_ns;      /* when the frame was dequeued, on timestamp_ns's time base
+                                 (V4L2/libcamera: CLOCK_MONOTONIC; replay: only when
+                                 paced, the recording's time base); 0 = unknown */
+    mfns_cam_ts_source_t ts_source; /* what timestamp_ns is */
     int32_t exposure_us;      /* exposure in effect, -1 if unknown */
     /* for requeue; do not change */
     uint32_t buf_index;

@@ -339,6 +339,11 @@ mfns_cam_err_t dequeue_impl(mfns_cam_t *h, mfns_cam_frame_t *f, int timeout_ms)
         f->timestamp_ns = md.timestamp;
         f->sequence = md.sequence;
         f->dropped_before = mfns_cam_seq_delivered(h, md.sequence);
+        /* libcamera's timestamp is the sensor's CLOCK_MONOTONIC capture time;
+         * it does not say start of exposure or end of frame. The completion
+         * queue does not say when a request completed: arrival unknown. */
+        f->ts_source = MFNS_CAM_TS_MONOTONIC_EOF;
+        f->arrival_ns = 0;
         f->exposure_us = c->exposure_us;
         f->buf_index = static_cast<uint32_t>(idx);
         return MFNS_CAM_OK;

@@ -448,6 +448,7 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
         return mfns_cam_fail(h, MFNS_CAM_E_END, "replay %s camera %c: end of frames", h->path, h->s.replay_camera);
     }
     const mfns_replay_row_t *row = &r->folder->rows[r->row];
+    uint64_t arrival_ns = 0;
     if (row->status != MFNS_ROW_OK) {
         r->have_row = false; /* a bad row is consumed: it costs this camera this one frame */
         char why[MFNS_CAM_MSG_LEN];
@@ -467,7 +468,12 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
             sleep_until(deadline);
             return mfns_cam_fail(h, MFNS_CAM_E_TIMEOUT, "replay: next frame due in %.3f s", (double)(due - now) * 1e-9);
         }
-        sleep_until(due);
+        if (due > now) {
+            sleep_until(due);
+            /* it came while we waited: its arrival on the recording's time base */
+            const double s = r->t_first + (double)(mfns_cam_now_ns() - r->t0_ns) * 1e-9;
+            arrival_ns = s > 0.0 ? (uint64_t)llround(s * 1e9) : 0u;
+        }
     }
     uint8_t *dst = r->mem + (size_t)k * r->frame_bytes;
     mfns_pgm_header_t hd;
@@ -487,6 +493,8 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
     f->timestamp_ns = (uint64_t)llround(row->t_s * 1e9);
     f->sequence = row->frame;
     f->dropped_before = mfns_cam_seq_delivered(h, row->frame);
+    f->ts_source = MFNS_CAM_TS_RECORDED;
+    f->arrival_ns = arrival_ns; /* 0 unless paced and waited for */
     f->exposure_us = row->exposure_us;
     f->buf_index = k;
     return MFNS_CAM_OK;

@@ -142,6 +142,19 @@ static mfns_cam_err_t recover(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
 }
 
 /* ---- capture -------------------------------------------------------------- */
+/* What the buffer's timestamp is (flags of VIDIOC_DQBUF): only a
+ * CLOCK_MONOTONIC capture stamp can be compared with the arrival time. */
+static mfns_cam_ts_source_t ts_source(uint32_t flags)
+{
+    switch (flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) {
+    case V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC:
+        return (flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE ? MFNS_CAM_TS_MONOTONIC_SOE
+                                                                                        : MFNS_CAM_TS_MONOTONIC_EOF;
+    case V4L2_BUF_FLAG_TIMESTAMP_COPY: return MFNS_CAM_TS_COPY;
+    default: return MFNS_CAM_TS_UNKNOWN;
+    }
+}
+
 static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadline_ns)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
@@ -149,6 +162,10 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
     if (held_count(v) >= v->nbuf) {
         return mfns_cam_fail(h, MFNS_CAM_E_BUSY, "all %u buffers are held by the caller", v->nbuf);
     }
+    /* The arrival is known only for a frame that came while we waited for it:
+     * one already queued when we asked arrived at some unknown earlier time
+     * (the program was behind), and its dequeue time says nothing. */
+    bool waited = false;
     for (int tries = 0; tries < MFNS_CAM_V4L2_MAX_DQ_TRIES; tries++) {
         struct v4l2_buffer b;
         struct v4l2_plane planes[VIDEO_MAX_PLANES];
@@ -187,6 +204,9 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
             f->timestamp_ns = (uint64_t)b.timestamp.tv_sec * 1000000000u + (uint64_t)b.timestamp.tv_usec * 1000u;
             f->sequence = b.sequence;
             f->dropped_before = mfns_cam_seq_delivered(h, b.sequence);
+            f->ts_source = ts_source(b.flags);
+            const int64_t now = waited ? sys->now_ns(sys->ctx) : 0;
+            f->arrival_ns = now > 0 ? (uint64_t)now : 0u;
             f->exposure_us = v->exposure_us;
             f->buf_index = i;
             return MFNS_CAM_OK;
@@ -221,6 +241,7 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
                                  (long long)left_ms);
         }
         /* POLLIN, or POLLERR/POLLHUP: the next DQBUF says which (ENODEV -> lost). */
+        waited = true;
     }
     return mfns_cam_fail(h, MFNS_CAM_E_IO, "no good frame from %s in %d attempts (%llu damaged so far)", h->path,
                          MFNS_CAM_V4L2_MAX_DQ_TRIES, (unsigned long long)h->stats.error_frames);

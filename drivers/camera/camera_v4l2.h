@@ -7,6 +7,7 @@
 
 #include <poll.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <sys/types.h>
 
 struct mfns_cam_sys {
@@ -19,6 +20,8 @@ struct mfns_cam_sys {
     /* With nfds == 0 this is the backend's only way to sleep (waiting out a
      * timeout while a lost device is absent), so a fake can skip the wait. */
     int (*poll)(void *ctx, struct pollfd *fds, nfds_t nfds, int timeout_ms);
+    /* CLOCK_MONOTONIC in ns: a frame's arrival time (at dequeue). */
+    int64_t (*now_ns)(void *ctx);
 };
 typedef struct mfns_cam_sys mfns_cam_sys_t;
 

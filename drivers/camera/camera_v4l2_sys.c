@@ -48,7 +48,14 @@ static int sys_poll(void *ctx, struct pollfd *fds, nfds_t nfds, int timeout_ms)
     return poll(fds, nfds, timeout_ms);
 }
 
-const mfns_cam_sys_t mfns_cam_sys_linux = {NULL, sys_open, sys_close, sys_ioctl, sys_mmap, sys_munmap, sys_poll};
+static int64_t sys_now_ns(void *ctx)
+{
+    (void)ctx;
+    return mfns_cam_now_ns();
+}
+
+const mfns_cam_sys_t mfns_cam_sys_linux = {NULL,      sys_open, sys_close, sys_ioctl, sys_mmap,
+                                           sys_munmap, sys_poll, sys_now_ns};
 
 const mfns_cam_sys_t *mfns_cam_v4l2_sys(const mfns_cam_t *h)
 {

@@ -7,6 +7,8 @@
 
 #define RECOVER_ATTEMPTS 20 /* driver-level recovery tries before it reports the camera gone */
 
+_Static_assert(FH_MAX_CAMERAS == MFNS_NUM_CAMERAS, "the health monitor watches every camera");
+
 static const char k_letter[MFNS_NUM_CAMERAS] = {'x', 'y', 'z'};
 
 static void send_event(nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us, tlm_event_code_t code, tlm_severity_t sev,
@@ -23,6 +25,7 @@ void nav_cams_init(nav_cams_t *cs, uint32_t sync_window_us)
         cs->cam[k].enabled = true;
     }
     cam_sync_init(&cs->sync, sync_window_us);
+    fh_init(&cs->health, MFNS_NUM_CAMERAS);
 }
 
 /* Opens and starts camera k; with resume (a re-open), a replay camera goes
@@ -81,6 +84,109 @@ static void fault_line(uint32_t *printed, char letter, const char *line)
     fprintf(stderr, "mfns-nav: camera %c: %s\n", letter, line);
 }
 
+static int32_t sat_i32(int64_t v)
+{
+    return v > INT32_MAX ? INT32_MAX : v < -INT32_MAX ? -INT32_MAX : (int32_t)v;
+}
+
+/* A health monitor event of camera k: telemetry, and one stderr line (the
+ * first NAV_CAMS_FAULT_LINES of each kind). */
+static void health_event(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us, fh_event_t ev)
+{
+    char line[192];
+    tlm_event_code_t code;
+    tlm_severity_t sev = TLM_SEV_WARNING;
+    switch (ev.kind) {
+    case FH_EV_FROZEN:
+        code = TLM_EVT_CAMERA_FROZEN;
+        (void)snprintf(line, sizeof line, "cycle %u: frame %lld %s: frozen, left out", cycle, (long long)ev.arg1,
+                       ev.arg0 == 0 ? "has the previous frame's content" : "repeats the previous sequence number");
+        break;
+    case FH_EV_CLOCK_JUMP:
+        code = TLM_EVT_CAMERA_CLOCK_JUMP;
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: frame %lld: clock stepped by %.3f ms against its cadence: left out", cycle,
+                       (long long)ev.arg1, (double)ev.arg0 * 1e-3);
+        break;
+    case FH_EV_LATE:
+        code = TLM_EVT_CAMERA_LATE;
+        (void)snprintf(line, sizeof line, "cycle %u: frame %lld arrived %.3f ms after its capture stamp: left out",
+                       cycle, (long long)ev.arg1, (double)ev.arg0 * 1e-3);
+        break;
+    case FH_EV_SEQ_MISMATCH:
+        code = TLM_EVT_CAMERA_SEQ_MISMATCH;
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: sequence numbers disagree with camera %c's by %lld frames for the frames' times: "
+                       "left out",
+                       cycle, (char)('x' + (int)ev.arg1), (long long)ev.arg0);
+        break;
+    case FH_EV_HEALTHY:
+        code = TLM_EVT_CAMERA_HEALTHY;
+        sev = TLM_SEV_INFO;
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: healthy again after %lld fault-free frames (clock correction %.3f ms)", cycle,
+                       (long long)ev.arg0, (double)ev.arg1 * 1e-3);
+        break;
+    case FH_EV_NONE:
+    default: return;
+    }
+    send_event(tlm, cycle, t_us, code, sev, k, sat_i32(ev.arg0), sat_i32(ev.arg1));
+    fault_line(&c->lines_health[ev.kind], c->letter, line);
+}
+
+static fh_ts_source_t fh_source(mfns_cam_ts_source_t s)
+{
+    switch (s) {
+    case MFNS_CAM_TS_MONOTONIC_SOE: return FH_TS_CAPTURE_SOE;
+    case MFNS_CAM_TS_MONOTONIC_EOF: return FH_TS_CAPTURE_EOF;
+    case MFNS_CAM_TS_COPY: return FH_TS_COPY;
+    case MFNS_CAM_TS_RECORDED: return FH_TS_RECORDED;
+    case MFNS_CAM_TS_UNKNOWN:
+    default: return FH_TS_UNKNOWN;
+    }
+}
+
+static bool to_nav_frame(const mfns_cam_frame_t *f, mfns_frame_t *nf);
+
+/* A fresh frame of camera k through the health monitor: its stamp corrected
+ * by the camera's clock re-alignment; false when the camera is held out. */
+static bool health_check(nav_cams_t *cs, int k, nav_tlm_t *tlm, uint32_t cycle, uint64_t event_t_us)
+{
+    nav_cam_t *c = &cs->cam[k];
+    mfns_cam_frame_t *fr = &c->frame;
+    mfns_frame_t nf;
+    const bool image = to_nav_frame(fr, &nf);
+    bool flat = true;
+    const uint64_t digest = image ? fh_digest(&nf, &flat) : 0u;
+    const fh_frame_t in = {
+        .sequence = fr->sequence,
+        .dropped_before = fr->dropped_before,
+        .capture_us = fr->timestamp_ns / 1000u,
+        .arrival_us = fr->arrival_ns / 1000u,
+        .arrival_valid = fr->arrival_ns != 0u,
+        .ts_source = fh_source(fr->ts_source),
+        .digest = digest,
+        .digest_valid = image && !flat, /* a uniform frame has nothing to freeze */
+    };
+    health_event(c, k, tlm, cycle, event_t_us, fh_observe(&cs->health, (unsigned)k, &in));
+    if (!fh_usable(&cs->health, (unsigned)k)) {
+        return false;
+    }
+    const int64_t t_ns = (int64_t)fr->timestamp_ns + fh_correction_us(&cs->health, (unsigned)k) * 1000;
+    fr->timestamp_ns = t_ns > 0 ? (uint64_t)t_ns : 0u;
+    return true;
+}
+
+/* A frame the health monitor leaves out: given back at once. */
+static void hold_out(nav_cams_t *cs, nav_cam_t *c)
+{
+    c->held_out = true;
+    c->n_held_out++;
+    if (mfns_cam_requeue(c->cam, &c->frame) != MFNS_CAM_OK) {
+        cs->errors++;
+    }
+}
+
 /* A dequeue that gave no frame: counted, reported, and the camera's state
  * moved on (ENDED at the end of a replay, OFF when the device is gone). */
 static void dequeue_failed(nav_cams_t *cs, nav_cam_t *c, int k, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle,
@@ -121,8 +227,9 @@ static bool gather_one(nav_cams_t *cs, int k, nav_tlm_t *tlm, const nav_opts_t *
     nav_cam_t *c = &cs->cam[k];
     mfns_cam_frame_t *fr = &c->frame;
     if (c->have_held) {
-        *fr = c->held;
+        *fr = c->held; /* checked (and its stamp corrected) when it came */
         c->have_held = false;
+        fh_present_again(&cs->health, (unsigned)k, fr->sequence, fr->timestamp_ns / 1000u);
         return true;
     }
     if (!c->cam || c->health.state == CAM_HEALTH_ENDED) {
@@ -135,6 +242,16 @@ static bool gather_one(nav_cams_t *cs, int k, nav_tlm_t *tlm, const nav_opts_t *
         const mfns_cam_err_t e = mfns_cam_dequeue(c->cam, fr, down ? 0 : o->frame_timeout_ms);
         if (e != MFNS_CAM_OK) {
             dequeue_failed(cs, c, k, tlm, o, cycle, event_t_us, e);
+            return false;
+        }
+        /* a device the driver re-opened by itself (recovery) restarts its sequence numbers */
+        c->driver_events |= mfns_cam_take_events(c->cam);
+        if ((c->driver_events & MFNS_CAM_EV_RECOVERED) != 0U && !c->recovery_seen) {
+            c->recovery_seen = true;
+            fh_reopened(&cs->health, (unsigned)k, o->backend == MFNS_CAM_BACKEND_REPLAY);
+        }
+        if (c->enabled && !health_check(cs, k, tlm, cycle, event_t_us)) {
+            hold_out(cs, c); /* one frame per cycle: its frames keep pace with the others' */
             return false;
         }
         const uint64_t t = fr->timestamp_ns / 1000u;
@@ -157,10 +274,12 @@ static bool gather_one(nav_cams_t *cs, int k, nav_tlm_t *tlm, const nav_opts_t *
 int nav_cams_gather(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle, uint64_t event_t_us)
 {
     int active = 0;
+    fh_begin_cycle(&cs->health);
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];
         memset(&c->frame, 0, sizeof c->frame);
         c->used = false;
+        c->held_out = false;
         c->ended = false;
         c->verdict = CAM_SYNC_NONE;
         c->have = gather_one(cs, k, tlm, o, cycle, event_t_us);
@@ -244,13 +363,31 @@ uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, ui
     bool have[MFNS_NUM_CAMERAS];
     uint64_t t_frame[MFNS_NUM_CAMERAS];
     cam_sync_verdict_t verdict[MFNS_NUM_CAMERAS];
+    /* the cameras' sequence numbers against each other, before any frame can set the cycle's time */
+    fh_event_t ev[FH_MAX_CAMERAS];
+    fh_cross_check(&cs->health, ev);
+    const uint64_t event_t_us = cs->sync.have_last ? cs->sync.last_us : clock_t_us;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav_cam_t *c = &cs->cam[k];
+        health_event(c, k, tlm, cycle, event_t_us, ev[k]);
+        if (c->have && c->enabled && !fh_usable(&cs->health, (unsigned)k)) {
+            hold_out(cs, c);
+            c->have = false;
+        }
+    }
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         have[k] = cs->cam[k].have;
         t_frame[k] = cs->cam[k].frame.timestamp_ns / 1000u;
     }
     uint64_t t_us = 0;
     if (!cam_sync_cycle(&cs->sync, have, t_frame, MFNS_NUM_CAMERAS, verdict, &t_us)) {
-        t_us = clock_t_us; /* no camera delivered: stamp with the program's clock */
+        /* no camera delivered (or every one held out): the last fused cycle's
+         * frame time moved on by the program's clock since, so the stamps
+         * stay on the frames' time base and never step back; before any
+         * frame, the program's clock */
+        t_us = cs->sync.have_last ? cs->sync.last_us + (clock_t_us - cs->last_fused_clock_us) : clock_t_us;
+    } else {
+        cs->last_fused_clock_us = clock_t_us;
     }
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];
@@ -286,7 +423,9 @@ void nav_cams_driver_events(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];
-        const uint32_t ev = c->cam ? mfns_cam_take_events(c->cam) : 0u;
+        const uint32_t ev = c->driver_events | (c->cam ? mfns_cam_take_events(c->cam) : 0u);
+        c->driver_events = 0;
+        c->recovery_seen = false;
         if ((ev & MFNS_CAM_EV_LOST) != 0U) {
             c->lost_at_ms = now_ms;
             send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, k, MFNS_CAM_E_LOST, 0);
@@ -303,15 +442,19 @@ void nav_cams_driver_events(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint
 }
 
 /* A camera down for MFNS_CAM_REOPEN_CYCLES: closed and opened again, a
- * replay going on after the cycle's frame time. */
-static void reopen(nav_cam_t *c, int k, const nav_opts_t *o, uint64_t t_us)
+ * replay going on after the cycle's frame time (on the camera's own clock:
+ * the cycle's time less its clock correction). */
+static void reopen(nav_cams_t *cs, nav_cam_t *c, int k, const nav_opts_t *o, uint64_t t_us)
 {
     c->n_reopens++;
     mfns_cam_close(c->cam);
     c->cam = NULL;
     c->have_held = false;
+    /* replay carries on with the recorded frame numbers; a device restarts its counter */
+    fh_reopened(&cs->health, (unsigned)k, o->backend == MFNS_CAM_BACKEND_REPLAY);
+    const int64_t own = (int64_t)t_us - fh_correction_us(&cs->health, (unsigned)k);
     char msg[MFNS_CAM_MSG_LEN];
-    const mfns_cam_err_t e = open_camera(c, o, k, true, t_us, msg, sizeof msg);
+    const mfns_cam_err_t e = open_camera(c, o, k, true, own > 0 ? (uint64_t)own : 0u, msg, sizeof msg);
     if (e != MFNS_CAM_OK) {
         c->last_err = e;
         if (o->verbose) {
@@ -327,7 +470,8 @@ void nav_cams_update_health(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o,
         if (!c->enabled) {
             continue; /* disabled by command: neither LOST nor re-opened */
         }
-        const cam_health_event_t ev = cam_health_update(&c->health, c->used);
+        /* a camera the data health monitor holds out still delivers: not lost */
+        const cam_health_event_t ev = cam_health_update(&c->health, c->used || c->held_out);
         if (ev == CAM_HEALTH_EV_LOST) {
             c->n_lost++;
             send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_LOST, TLM_SEV_WARNING, k, (int32_t)c->last_err,
@@ -347,7 +491,7 @@ void nav_cams_update_health(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o,
             c->last_used_us = t_us;
         }
         if (cam_health_reopen_due(&c->health)) {
-            reopen(c, k, o, t_us);
+            reopen(cs, c, k, o, t_us);
         }
     }
 }
@@ -394,6 +538,14 @@ void nav_cams_print_faults(const nav_cams_t *cs)
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         const nav_cam_t *c = &cs->cam[k];
+        const fh_cam_t *h = &cs->health.cam[k];
+        if (h->n_frozen + h->n_clock + h->n_late + h->n_seq > 0) {
+            fprintf(stderr,
+                    "mfns-nav: camera %c health: %u frozen, %u clock faults, %u late, %u out of step, %u back healthy, "
+                    "%u frames left out, now %s\n",
+                    c->letter, h->n_frozen, h->n_clock, h->n_late, h->n_seq, h->n_healthy, c->n_held_out,
+                    fh_state_name(h->state));
+        }
         if (c->n_stale + c->n_ahead + c->n_rejected + c->n_timeouts + c->n_lost + (c->ended_reported ? 1u : 0u) > 0) {
             fprintf(stderr,
                     "mfns-nav: camera %c faults: %u rejected, %u stale, %u out of step, %u timeouts, %u lost, "

@@ -14,7 +14,18 @@
  * to. A fused frame is handed to the navigator as an mfns_frame_t and given
  * back to its driver once the navigator is done (nav_cams_give_back_used).
  *
- * Health: a camera that times out, is rejected, lost or recovering gives no
+ * Data health (firmware/nav/frame_health.h): every frame dequeued is
+ * checked before synchronisation (frozen content or sequence, a stamp that
+ * jumps against the camera's cadence or its arrival, a late frame) and the
+ * cameras' sequence numbers are checked against each other; a camera the
+ * monitor holds out contributes no frame (given back at once), so neither
+ * the synchronisation nor the cycle's time nor the navigator ever sees it.
+ * Its frames still flow (it is neither LOST nor re-opened for that); the
+ * camera packet shows its health state; each transition is an event.
+ * A stepped clock, once confirmed, is re-aligned: its stamps are corrected
+ * before synchronisation.
+ *
+ * Link health: a camera that times out, is rejected, lost or recovering gives no
  * frame that cycle; after MFNS_CAM_LOST_CYCLES such cycles it is LOST (event,
  * one stderr line), re-opened every MFNS_CAM_REOPEN_CYCLES, and RECOVERED on
  * its next fused frame; a replay camera whose rows end early is ENDED.
@@ -31,6 +42,7 @@
 
 #include "cam_sync.h"
 #include "drivers/camera/camera.h"
+#include "frame_health.h"
 #include "nav_opts.h"
 #include "nav_tlm.h"
 
@@ -51,6 +63,7 @@ typedef struct {
     cam_sync_verdict_t verdict; /* what synchronisation made of the frame */
     mfns_frame_t nav_frame;     /* the frame as the navigator reads it (valid when used) */
     bool used;                  /* the frame is fused this cycle */
+    bool held_out;              /* the data health monitor left its frame out this cycle */
     /* across cycles */
     mfns_cam_frame_t held;      /* a frame ahead of the cycle, kept for a later one */
     bool have_held;
@@ -61,12 +74,18 @@ typedef struct {
     uint32_t last_seq;
     uint32_t n_stale, n_ahead, n_rejected, n_timeouts, n_lost, n_recovered, n_reopens;
     uint32_t lines_stale, lines_ahead, lines_rejected;
+    uint32_t lines_health[FH_EV_HEALTHY + 1]; /* stderr lines per kind of health event */
+    uint32_t n_held_out;        /* frames the health monitor left out */
+    uint32_t driver_events;     /* MFNS_CAM_EV_* taken at dequeue, reported after the cycle */
+    bool recovery_seen;         /* the health monitor was told of this cycle's driver recovery */
 } nav_cam_t;
 
 typedef struct nav_cams {
     nav_cam_t cam[MFNS_NUM_CAMERAS];
     cam_sync_t sync;
+    fh_monitor_t health;        /* camera data health, every camera */
     uint64_t errors;            /* housekeeping n_cam_errors; RESET_COUNTERS zeroes it */
+    uint64_t last_fused_clock_us; /* program clock of the last cycle that fused a frame */
 } nav_cams_t;
 
 /* Every camera enabled, none open; the sync window in microseconds. */
@@ -82,8 +101,10 @@ int nav_cams_gather(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o, uint32_
 void nav_cams_report_ended(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us);
 /* Decides which gathered frames this cycle fuses, holds those ahead and
  * fills frames[k] (NULL for a camera without a fused frame). Returns the
- * cycle's time: the frames' reference time, or clock_t_us when no camera
- * delivered. */
+ * cycle's time: the fused frames' reference time (a camera held out by the
+ * health monitor never sets it); when no camera delivered, the last fused
+ * cycle's time moved on by the program clock (clock_t_us) since, or
+ * clock_t_us before any frame. */
 uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t clock_t_us,
                               const mfns_frame_t *frames[MFNS_NUM_CAMERAS]);
 /* Gives the frames fused this cycle back to their drivers (after the navigator). */

@@ -245,13 +245,28 @@ void nav_tlm_flush_and_close(nav_tlm_t *t, uint32_t cycle)
     mfns_uart_close(&t->uart);
 }
 
-static uint8_t camera_state(const nav_cam_t *c)
+/* The camera's state: the link's when it is off or ended, else the data
+ * health monitor's when it holds the camera out, else the link's. */
+static uint8_t camera_state(const struct nav_cams *cams, int k)
 {
+    const nav_cam_t *c = &cams->cam[k];
     switch (c->health.state) {
-    case CAM_HEALTH_LOST: return TLM_CAM_LOST;
     case CAM_HEALTH_OFF: return TLM_CAM_OFF;
     case CAM_HEALTH_ENDED: return TLM_CAM_ENDED;
+    case CAM_HEALTH_LOST:
     case CAM_HEALTH_UP: break;
+    }
+    switch (fh_state(&cams->health, (unsigned)k)) {
+    case FH_PROBATION: return TLM_CAM_PROBATION;
+    case FH_FROZEN: return TLM_CAM_FROZEN;
+    case FH_CLOCK_FAULT: return TLM_CAM_CLOCK_FAULT;
+    case FH_LATE: return TLM_CAM_LATE;
+    case FH_OUT_OF_STEP: return TLM_CAM_OUT_OF_STEP;
+    case FH_HEALTHY:
+    case FH_STATE_COUNT: break;
+    }
+    if (c->health.state == CAM_HEALTH_LOST) {
+        return TLM_CAM_LOST;
     }
     return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
 }
@@ -273,11 +288,12 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
         }
         c->cycle = cycle;
         c->camera = (uint8_t)k;
-        c->state = camera_state(cs);
+        c->state = camera_state(cams, k);
         c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
         c->beacons_identified = (uint8_t)out->cam[k].identified;
         c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;
-        c->frame_seq = cs->used ? cs->frame.sequence : 0;
+        /* a frame the health monitor left out still names its sequence number */
+        c->frame_seq = cs->used || cs->held_out ? cs->frame.sequence : 0;
         c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
         (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
     }

@@ -36,7 +36,12 @@ typedef enum {
     TLM_CAM_OFF = 2, /* driver recovery exhausted; re-opened every 10 */
     TLM_CAM_SKIPPED = 3, /* no usable frame this cycle: timeout, rejected, stale or out of step */
     TLM_CAM_ENDED = 4, /* replay: its recorded frames ended before the others' */
-    TLM_CAM_STATE_COUNT = 5
+    TLM_CAM_PROBATION = 5, /* health: fault-free again, left out until 10 consecutive fault-free frames (clock re-alignment confirmed) */
+    TLM_CAM_FROZEN = 6, /* health: frame content identical to the previous frame or sequence not advancing: left out */
+    TLM_CAM_CLOCK_FAULT = 7, /* health: stamp stepped against the camera's cadence, went backwards or is after arrival: left out */
+    TLM_CAM_LATE = 8, /* health: arrival - capture above 1.5 frame periods: left out */
+    TLM_CAM_OUT_OF_STEP = 9, /* health: sequence numbers disagree with the other cameras' for the frames' times: left out */
+    TLM_CAM_STATE_COUNT = 10
 } tlm_cam_state_t;
 
 /* event severity */
@@ -63,6 +68,11 @@ typedef enum {
     TLM_EVT_TLM_WRITE_ERROR = 12, /* subject 0; arg0 errno; arg1 write errors so far */
     TLM_EVT_CMD_ACCEPTED = 13, /* subject opcode; arg0 command sequence count; arg1 opcode-specific */
     TLM_EVT_CMD_REJECTED = 14, /* subject opcode or 0; arg0 command sequence count or -1; arg1 rejection code */
+    TLM_EVT_CAMERA_FROZEN = 15, /* subject camera; arg0 0 same content or 1 sequence not advancing; arg1 frame sequence */
+    TLM_EVT_CAMERA_CLOCK_JUMP = 16, /* subject camera; arg0 step, us (stamp - expected from its cadence, or arrival - stamp when stamped after arrival); arg1 frame sequence */
+    TLM_EVT_CAMERA_LATE = 17, /* subject camera; arg0 arrival - capture, us; arg1 frame sequence */
+    TLM_EVT_CAMERA_SEQ_MISMATCH = 18, /* subject camera; arg0 disagreement with the other camera, frames; arg1 the other camera */
+    TLM_EVT_CAMERA_HEALTHY = 19, /* subject camera; arg0 fault-free frames of its probation; arg1 clock correction applied, us */
     TLM_EVT_BEACON_EXCLUDED = 20, /* subject beacon survey id (255 when above 254); arg0 normalised separation x100 of the fault test that excluded it (100 = threshold); arg1 beacon survey id (sent once per exclusion episode) */
     TLM_EVT_CAMERA_EXCLUDED = 21, /* subject camera; arg0 normalised separation x100 of its fault test (100 = threshold); arg1 hold, cycles (sent once per exclusion episode) */
     TLM_EVT_BEACON_READMITTED = 22, /* subject beacon survey id (255 when above 254); arg0 0; arg1 beacon survey id: its fault test passed again after the hold */

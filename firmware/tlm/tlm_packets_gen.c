@@ -67,8 +67,8 @@ const char *tlm_camera_name(uint8_t code)
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    static const char *const k_name[5] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED"};
-    return (code <= TLM_CAM_ENDED) ? k_name[code] : "?";
+    static const char *const k_name[10] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED", "PROBATION", "FROZEN", "CLOCK_FAULT", "LATE", "OUT_OF_STEP"};
+    return (code <= TLM_CAM_OUT_OF_STEP) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
@@ -94,6 +94,11 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_TLM_WRITE_ERROR: return "TLM_WRITE_ERROR";
     case TLM_EVT_CMD_ACCEPTED: return "CMD_ACCEPTED";
     case TLM_EVT_CMD_REJECTED: return "CMD_REJECTED";
+    case TLM_EVT_CAMERA_FROZEN: return "CAMERA_FROZEN";
+    case TLM_EVT_CAMERA_CLOCK_JUMP: return "CAMERA_CLOCK_JUMP";
+    case TLM_EVT_CAMERA_LATE: return "CAMERA_LATE";
+    case TLM_EVT_CAMERA_SEQ_MISMATCH: return "CAMERA_SEQ_MISMATCH";
+    case TLM_EVT_CAMERA_HEALTHY: return "CAMERA_HEALTHY";
     case TLM_EVT_BEACON_EXCLUDED: return "BEACON_EXCLUDED";
     case TLM_EVT_CAMERA_EXCLUDED: return "CAMERA_EXCLUDED";
     case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";

@@ -190,6 +190,8 @@ static void test_replay_8bit_camera_y(void **state)
         assert_int_equal(f.timestamp_ns, (uint64_t)k * 50000000u);
         assert_int_equal(f.exposure_us, 1000 + (int)k);
         assert_int_equal(f.dropped_before, 0);
+        assert_int_equal(f.ts_source, MFNS_CAM_TS_RECORDED);
+        assert_int_equal(f.arrival_ns, 0u); /* as fast as asked: no arrival clock */
         check_pixels(&f, 1, 255);
         assert_int_equal(mfns_cam_requeue(g_cam, &f), MFNS_CAM_OK);
     }
@@ -260,6 +262,7 @@ static void test_replay_paces_to_timestamps(void **state)
     const double t0 = now_s();
     assert_int_equal(mfns_cam_dequeue(g_cam, &f, 100), MFNS_CAM_OK); /* first frame at once */
     assert_int_equal(f.timestamp_ns, 10000000000u);
+    assert_int_equal(f.arrival_ns, 0u); /* not waited for: its arrival is unknown */
     assert_int_equal(mfns_cam_requeue(g_cam, &f), MFNS_CAM_OK);
     /* next one is due 200 ms later: a 10 ms wait times out, the frame stays */
     const double t1 = now_s();
@@ -270,6 +273,8 @@ static void test_replay_paces_to_timestamps(void **state)
     assert_int_equal(f.sequence, 1);
     assert_int_equal(f.timestamp_ns, 10200000000u);
     assert_true(dt >= 0.199); /* slept to the recorded time */
+    /* waited for: its arrival on the recording's time base, at or just after its stamp */
+    assert_true(f.arrival_ns >= f.timestamp_ns && f.arrival_ns < f.timestamp_ns + 100000000u);
     mfns_cam_stats_t st;
     assert_int_equal(mfns_cam_get_stats(g_cam, &st), MFNS_CAM_OK);
     assert_int_equal(st.timeouts, 1);

@@ -399,6 +399,33 @@ static void test_bytesused_is_honoured(void **state)
     assert_int_equal(st.error_frames, 1);
 }
 
+/* The buffer's timestamp flags become the frame's ts_source and the seam's
+ * clock at dequeue its arrival time (camera data health, frame_health.h). */
+static void test_timestamp_source_and_arrival(void **state)
+{
+    fixture_t *fx = *state;
+    open_start(fx);
+    mfns_cam_frame_t f = cycle(fx); /* already queued when asked: its arrival is unknown */
+    assert_int_equal(f.ts_source, MFNS_CAM_TS_MONOTONIC_EOF);
+    assert_int_equal(f.arrival_ns, 0u);
+    fx->dev.eagain_next = 1; /* waited for (poll): the fake's default 2 ms from stamp to dequeue */
+    f = cycle(fx);
+    assert_int_equal(f.ts_source, MFNS_CAM_TS_MONOTONIC_EOF);
+    assert_int_equal(f.arrival_ns - f.timestamp_ns, 2000000u);
+    fx->dev.ts_flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
+    fx->dev.arrival_delay_ns = 90000000; /* 90 ms late */
+    fx->dev.eagain_next = 1;
+    f = cycle(fx);
+    assert_int_equal(f.ts_source, MFNS_CAM_TS_MONOTONIC_SOE);
+    assert_int_equal(f.arrival_ns - f.timestamp_ns, 90000000u);
+    fx->dev.ts_flags = V4L2_BUF_FLAG_TIMESTAMP_COPY;
+    f = cycle(fx);
+    assert_int_equal(f.ts_source, MFNS_CAM_TS_COPY);
+    fx->dev.ts_flags = V4L2_BUF_FLAG_TIMESTAMP_UNKNOWN;
+    f = cycle(fx);
+    assert_int_equal(f.ts_source, MFNS_CAM_TS_UNKNOWN);
+}
+
 static void test_sequence_gaps_count_as_drops(void **state)
 {
     fixture_t *fx = *state;
@@ -701,6 +728,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_error_flagged_buffers_are_requeued, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bytesused_is_honoured, setup, teardown),
         cmocka_unit_test_setup_teardown(test_sequence_gaps_count_as_drops, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_timestamp_source_and_arrival, setup, teardown),
         cmocka_unit_test_setup_teardown(test_mmap_failure_unwinds, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reqbufs_fewer_buffers, setup, teardown),
         cmocka_unit_test_setup_teardown(test_enodev_then_device_returns, setup, teardown),

@@ -38,6 +38,8 @@ void fakev4l2_init(fakev4l2_dev_t *d)
     d->tpf_num = 1;
     d->tpf_den = 30;
     d->exposure_auto = 3; /* aperture priority, like a webcam out of the box */
+    d->ts_flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_EOF;
+    d->arrival_delay_ns = 2000000; /* 2 ms from capture stamp to dequeue */
 }
 
 void fakev4l2_free(fakev4l2_dev_t *d)
@@ -282,7 +284,7 @@ static int do_dqbuf(fakev4l2_dev_t *d, struct v4l2_buffer *b)
     d->last_bytesused = used;
     b->index = idx;
     b->sequence = seq;
-    b->flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC;
+    b->flags = d->ts_flags;
     if (d->error_flag_next > 0) {
         d->error_flag_next--;
         b->flags |= V4L2_BUF_FLAG_ERROR;
@@ -290,6 +292,7 @@ static int do_dqbuf(fakev4l2_dev_t *d, struct v4l2_buffer *b)
     b->field = V4L2_FIELD_NONE;
     b->timestamp.tv_sec = 1000 + seq / 10;
     b->timestamp.tv_usec = (seq % 10) * 53763;
+    d->last_stamp_ns = (int64_t)b->timestamp.tv_sec * 1000000000 + (int64_t)b->timestamp.tv_usec * 1000;
     if (d->mplane) {
         b->length = 1;
         b->m.planes[0].bytesused = used;
@@ -540,8 +543,15 @@ static int f_poll(void *ctx, struct pollfd *fds, nfds_t nfds, int timeout_ms)
     return 1;
 }
 
+/* Arrival: the last frame's stamp plus the configured delay. */
+static int64_t f_now_ns(void *ctx)
+{
+    const fakev4l2_dev_t *d = ctx;
+    return d->last_stamp_ns + d->arrival_delay_ns;
+}
+
 mfns_cam_sys_t fakev4l2_sys(fakev4l2_dev_t *d)
 {
-    mfns_cam_sys_t s = {d, f_open, f_close, f_ioctl, f_mmap, f_munmap, f_poll};
+    mfns_cam_sys_t s = {d, f_open, f_close, f_ioctl, f_mmap, f_munmap, f_poll, f_now_ns};
     return s;
 }

@@ -34,6 +34,8 @@ typedef struct {
     /* --- 8-byte fields --- */
     unsigned long eintr_request; /* fault: EINTR only for this request (0 = any) */
     long slept_ms;               /* record: poll(NULL, 0, t) sleeps asked for */
+    int64_t arrival_delay_ns;    /* now_ns() answers the last frame's stamp plus this */
+    int64_t last_stamp_ns;       /* state: the last frame's stamp */
     fakev4l2_alloc_t allocs[FAKEV4L2_MAX_ALLOCS];
     unsigned long trace[FAKEV4L2_TRACE_LEN]; /* record: every ioctl request in order */
     /* --- device description (set before opening) --- */
@@ -52,6 +54,7 @@ typedef struct {
     int error_flag_next;        /* next N frames carry V4L2_BUF_FLAG_ERROR */
     int short_next;             /* next N frames have bytesused below a full image */
     uint32_t seq_skip_next;     /* sequence jumps by this before the next frame */
+    uint32_t ts_flags;          /* timestamp flags of every frame (init: MONOTONIC | SRC_EOF) */
     int mmap_fail_at;           /* 0-based mmap call that fails with ENOMEM; -1 none */
     int unplug_at_dqbuf;        /* the DQBUF call (1-based count) at which it vanishes; 0 none */
     int replug_after_opens;     /* while unplugged: opens that fail before it is back; -1 never */
