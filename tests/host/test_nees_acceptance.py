@@ -28,8 +28,8 @@ A covariance can only be held to the truth when the table's inputs are true:
   (the demo's seed first, then the next ones; not chosen).
 
 The tables are built with `mfns table build`'s defaults (no `--pixel-sigma` budget): the
-point is that the covariance is right by itself; only the integrity alert limits are opened
-(OPEN_ALERT_LIMITS) so that the NEES is measured on every certified fix. The calibration is the demo's (`mfns sim
+point is that the covariance is right by itself; only the integrity alert limits are
+opened (OPEN_ALERT_LIMITS) so that the NEES is measured on every certified fix. The calibration is the demo's (`mfns sim
 calib` + `mfns calib`, about 30 s), run while the navigation frames are simulated.
 """
 
