@@ -29,8 +29,9 @@ A covariance can only be held to the truth when the table's inputs are true:
 
 The tables are built with `mfns table build`'s defaults (no `--pixel-sigma` budget): the
 point is that the covariance is right by itself; only the integrity alert limits are
-opened (OPEN_ALERT_LIMITS) so that the NEES is measured on every certified fix. The calibration is the demo's (`mfns sim
-calib` + `mfns calib`, about 30 s), run while the navigation frames are simulated.
+opened (OPEN_ALERT_LIMITS) so that the NEES is measured on every certified fix. The
+calibration is the demo's (`mfns sim calib` + `mfns calib`, about 30 s), run while the
+navigation frames are simulated.
 """
 
 from __future__ import annotations
