@@ -181,7 +181,7 @@ _Static_assert(MFNS_CALTABLE_OFF_INDEX_WS_MAX_W == MFNS_CALTABLE_OFF_INDEX_WS_MI
 
 /* The integrity settings at *pos (docs/caltable.md "Integrity settings"): four
  * f32 (alert limits, P_fa, P_md), u16 hold, u8 require_camera_monitor, u8
- * reserved; each in its generated range (status INTEGRITY_SETTINGS).
+ * monitor_only; each in its generated range (status INTEGRITY_SETTINGS).
  * Advances *pos past the section. */
 bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_settings_t *dst)
 {
@@ -201,9 +201,10 @@ bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_
     }
     s.hold_cycles = mfns_ct_u16(b, o + I_OFF(HOLD_CYCLES));
     s.require_camera_monitor = b[o + I_OFF(REQUIRE_CAMERA_MONITOR)];
+    s.monitor_only = b[o + I_OFF(MONITOR_ONLY)];
     if (!mfns_ct_check(p, o, I_ID(HOLD_CYCLES), (float)s.hold_cycles) ||
         !mfns_ct_check(p, o, I_ID(REQUIRE_CAMERA_MONITOR), (float)s.require_camera_monitor) ||
-        !mfns_ct_check(p, o, I_ID(RESERVED), (float)b[o + I_OFF(RESERVED)])) {
+        !mfns_ct_check(p, o, I_ID(MONITOR_ONLY), (float)s.monitor_only)) {
         return false;
     }
     if (dst != NULL) {

@@ -19,7 +19,8 @@ bool mfns_integrity_settings_valid(const mfns_integrity_settings_t *s)
 {
     return s != NULL && s->alert_limit_pos_mm > 0.0f && isfinite(s->alert_limit_pos_mm) &&
            s->alert_limit_att_deg > 0.0f && isfinite(s->alert_limit_att_deg) && s->p_fa > 0.0f &&
-           s->p_fa < 0.5f && s->p_md > 0.0f && s->p_md < 0.5f && s->require_camera_monitor <= 1U;
+           s->p_fa < 0.5f && s->p_md > 0.0f && s->p_md < 0.5f && s->require_camera_monitor <= 1U &&
+           s->monitor_only <= 1U;
 }
 
 /* AS 241 PPND7 (Wichura 1988), 7-digit accuracy, for the lower tail p <= 0.5:

@@ -81,6 +81,10 @@ typedef struct {
      * checks; camera hypotheses that are monitorable are still tested and
      * excluded. */
     uint8_t require_camera_monitor;
+    /* 1: monitor only (a bench, never flight): a fix refused only for want of
+     * redundancy or for its protection level is DEGRADED with that reason
+     * instead of NO_FIX; a detected fault is still refused (nav_cycle.c). */
+    uint8_t monitor_only;
 } mfns_integrity_settings_t;
 
 /* Calibration uncertainty (docs/caltable.md "Calibration covariance"): the

@@ -301,6 +301,21 @@ static bool carries_track(const mfns_pose_solution_t *s, bool tracked)
                            s->reason == MFNS_POSE_R_PL_EXCEEDS_AL));
 }
 
+/* A table in monitor-only mode (a bench, never flight; nav_config.h): a pose
+ * refused only for want of redundancy or for its protection level is marked
+ * DEGRADED with that reason (the PL it has, or none, goes out with it); one
+ * with a detected fault (FAULT_DETECTED), or a three-beacon pose that
+ * disagreed with the prediction (MINIMAL_UNCONFIRMED), stays refused. */
+static void monitor_only(const mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    mfns_pose_solution_t *s = &out->sol;
+    if (nav->integ_set.monitor_only != 0U && s->status == MFNS_POSE_NO_FIX &&
+        (s->reason == MFNS_POSE_R_MINIMAL || s->reason == MFNS_POSE_R_UNMONITORED ||
+         s->reason == MFNS_POSE_R_PL_EXCEEDS_AL)) {
+        s->status = MFNS_POSE_DEGRADED;
+    }
+}
+
 mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
                                  mfns_nav_output_t *out)
 {
@@ -342,6 +357,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         const mfns_caltable_t *t = nav->table;
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
+        monitor_only(nav, out);
         count_identified(nav, out);
     }
     if (st != MFNS_NAV_OK) {

@@ -44,6 +44,7 @@ void mfns_integrity_settings_default(mfns_integrity_settings_t *p)
     p->p_md = MFNS_CALTABLE_DEFAULT_INTEGRITY_P_MD;
     p->hold_cycles = MFNS_CALTABLE_DEFAULT_INTEGRITY_HOLD_CYCLES;
     p->require_camera_monitor = MFNS_CALTABLE_DEFAULT_INTEGRITY_REQUIRE_CAMERA_MONITOR;
+    p->monitor_only = MFNS_CALTABLE_DEFAULT_INTEGRITY_MONITOR_ONLY;
 }
 
 void mfns_bidx_params_default(mfns_bidx_params_t *p)

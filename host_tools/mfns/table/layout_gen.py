@@ -106,7 +106,7 @@ FIELDS = {
         ("p_md", 12, "f32", 1),
         ("hold_cycles", 16, "u16", 1),
         ("require_camera_monitor", 18, "u8", 1),
-        ("reserved", 19, "u8", 1),
+        ("monitor_only", 19, "u8", 1),
     ),
     "index": (
         ("beacons", 0, "u16", 1),
@@ -143,7 +143,6 @@ RESERVED = {
     "camera": ("reserved",),
     "beacon": ("reserved",),
     "calib_cov": ("reserved",),
-    "integrity": ("reserved",),
     "index": ("reserved",),
 }
 # record -> little-endian struct format of its fields
@@ -185,6 +184,7 @@ DEFAULTS = {
         "p_md": 0.0010000000474974513,
         "hold_cycles": 19,
         "require_camera_monitor": 0,
+        "monitor_only": 0,
     },
     "index": {
         "k_nbr": 32,
