@@ -60,13 +60,13 @@ WHY = {
     "prediction: without redundancy it could be a wrong identification, so it is not used",
     "TRACK_LOST": "while tracking, the gate around the predicted images kept fewer than three beacons",
     "CAMERA_UNUSED": "a usable pose, but a camera contributed no beacon (its field of view holds none)",
-    "MINIMAL": "exactly three beacons: no redundancy to check a fault, so never usable (it still "
-    "carries the track; usable before issue 23)",
+    "MINIMAL": "exactly three beacons: no redundancy to check a fault, so refused by a flight table "
+    "(it still carries the track); DEGRADED, marked, in a monitor-only bench table",
     "OUTLIERS": "a usable pose after observations were gated out as outliers",
     "UNMONITORED": "a single beacon or camera fault could not be checked (no redundancy against it): "
-    "refused (docs/pose.md Integrity)",
+    "refused by a flight table, DEGRADED in a monitor-only bench table (docs/pose.md Integrity)",
     "PL_EXCEEDS_AL": "the fault tests passed but the protection level exceeds the table's alert limit: "
-    "too few beacons to bound a single fault",
+    "too few beacons to bound a single fault (DEGRADED in a monitor-only bench table)",
     "FAULT_DETECTED": "a beacon or camera disagrees with the rest and excluding it left no certified fix",
     "EXCLUDED": "a usable pose with a faulty beacon or camera left out",
     "CAMERA_UNMONITORED": "a usable pose whose beacon faults are bounded but not a camera fault "
