@@ -16,7 +16,11 @@
 
 #include "tlm_packets.h"
 
-#define TLM_TXQ_BYTES 4096u /* ~45 nav cycles of all packet types; 44 ms at 921600 baud */
+/* 8192: ~27 cycles of nav + three camera packets (298 B each since the
+ * protection levels), ~1.4 s of telemetry at the full rate, 89 ms at 921600
+ * baud; it was 4096 until the packets grew (issue 23/24), when a link that
+ * comes up within half a second began to lose frames. */
+#define TLM_TXQ_BYTES 8192u
 #define TLM_TXQ_FRAMES 128u /* frame-length slots (power of two) */
 
 typedef struct {

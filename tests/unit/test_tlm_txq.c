@@ -74,20 +74,21 @@ static void test_drops_oldest_when_full(void **state)
 {
     (void)state;
     tlm_txq_init(&g_q);
-    /* 100-byte frames: 40 fit in 4096 bytes */
-    for (int i = 0; i < 60; i++) {
+    /* 200 frames of 50 bytes mean = 10,000 bytes pushed, more than the bytes
+     * and the frame slots hold; the queue holds the newest */
+    _Static_assert(100u * 100u > TLM_TXQ_BYTES && 200u > TLM_TXQ_FRAMES, "the test overfills the queue");
+    for (int i = 0; i < 100; i++) {
         push_tagged(&g_q, (uint8_t)(i + 1), 60);
         push_tagged(&g_q, (uint8_t)(i + 101), 40);
     }
-    /* 120 frames of 50 bytes mean = 6000 bytes pushed; the queue holds the newest */
     assert_true(tlm_txq_bytes(&g_q) <= TLM_TXQ_BYTES);
-    assert_int_equal(g_q.pushed, 120);
-    assert_int_equal(g_q.dropped + tlm_txq_frames(&g_q), 120);
+    assert_int_equal(g_q.pushed, 200);
+    assert_int_equal(g_q.dropped + tlm_txq_frames(&g_q), 200);
     assert_true(g_q.dropped > 0);
     static uint8_t out[TLM_TXQ_BYTES];
     const size_t n = drain(&g_q, out, 0);
     /* the last frame out is the last frame pushed, and the first is not the first pushed */
-    assert_int_equal(out[n - 1], 160);
+    assert_int_equal(out[n - 1], 200);
     assert_int_not_equal(out[0], 1);
     /* contents form whole frames in push order */
     size_t pos = 0;
@@ -121,7 +122,8 @@ static void test_started_frame_is_never_dropped(void **state)
     static uint8_t out[TLM_TXQ_BYTES * 2];
     /* 30 bytes of the head frame written, then the queue overflows */
     assert_int_equal(drain(&g_q, out, 30), 30);
-    for (int i = 0; i < 100; i++) {
+    _Static_assert(150u * 70u > TLM_TXQ_BYTES, "the test overfills the queue");
+    for (int i = 0; i < 150; i++) {
         push_tagged(&g_q, (uint8_t)(i + 1), 70);
     }
     assert_true(g_q.dropped > 0);
@@ -132,7 +134,7 @@ static void test_started_frame_is_never_dropped(void **state)
     }
     /* then whole 70-byte frames, ending with the newest */
     assert_int_equal((n - 45) % 70, 0);
-    assert_int_equal(out[30 + n - 1], 100);
+    assert_int_equal(out[30 + n - 1], 150);
     for (size_t pos = 75; pos < 30 + n; pos += 70) {
         for (size_t k = 0; k < 70; k++) {
             assert_int_equal(out[pos + k], out[pos]);
