@@ -25,14 +25,6 @@ static mfns_beacon_index_t g_idx, g_idx2;
 static mfns_acq_t g_acq, g_acq2;
 static mfns_acq_cycle_t g_cyc;
 
-static mfns_pose_config_t config(double sigma)
-{
-    mfns_pose_config_t cfg;
-    mfns_pose_config_default(&cfg);
-    cfg.sigma_px = (float)sigma;
-    return cfg;
-}
-
 /* The index of the paper's map over the poses the tests draw (the body within
  * +-POS_RANGE_MM of the origin), certificate cert. */
 static void build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, uint8_t cert, mfns_beacon_index_t *idx)
@@ -149,7 +141,7 @@ static void test_acquire_random_poses(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.3);
+    const mfns_pose_config_t cfg = pt_config(0.3);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 501);
     int right = 0;
@@ -188,7 +180,7 @@ static void test_spurious_blobs_rejected(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 502);
     int right = 0, trials = 12;
@@ -230,7 +222,7 @@ static void test_recorded_near_ambiguous_frame(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.3);
+    const mfns_pose_config_t cfg = pt_config(0.3);
     static const float obs[4][4] = {{903.105426f, 363.764402f, 0.169908079f, -0.0994497338f},
                                     {502.471894f, 248.971333f, -0.0733044977f, -0.160835456f},
                                     {854.441387f, 146.100465f, 0.127789894f, -0.240418007f},
@@ -268,7 +260,7 @@ static void test_three_blobs_never_certified(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 503);
     /* turntable at yaw 0: beacon 8 in X, 9 in Z -> two beacons */
@@ -315,7 +307,7 @@ static void test_tracking(void **state)
     (void)state;
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 504);
     for (int t = 0; t < 50; t++) {
@@ -349,7 +341,7 @@ static void test_budget_bad_input_and_state(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 505);
     pt_dpose_t truth;
@@ -394,7 +386,7 @@ static void test_fix_is_physical(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 507);
     int tried = 0;
@@ -457,7 +449,7 @@ static void test_reflection_beside_lone_blob(void **state)
     mfns_bidx_params_default(&par);
     assert_int_equal(mfns_bidx_build(&rig, &map, NULL, mfns_v3(-50, -50, -50), mfns_v3(50, 50, 50), &par, &g_idx),
                      MFNS_BIDX_OK);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     int right = 0;
     for (int t = 0; t < 4; t++) {
         mfns_obs_frame_t frame;
@@ -501,7 +493,7 @@ static void test_reflection_among_verification_blobs(void **state)
     mfns_bidx_params_default(&par);
     assert_int_equal(mfns_bidx_build(&rig, &map, NULL, mfns_v3(-50, -50, -50), mfns_v3(50, 50, 50), &par, &g_idx),
                      MFNS_BIDX_OK);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     int right = 0;
     for (int t = 0; t < 4; t++) {
         mfns_obs_frame_t frame;
@@ -542,7 +534,7 @@ static void test_resume_equals_one_call(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.3);
+    const mfns_pose_config_t cfg = pt_config(0.3);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 511);
     int split = 0, completed = 0, fixes = 0;
@@ -608,7 +600,7 @@ static void test_cycle_carries_a_search(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.3);
+    const mfns_pose_config_t cfg = pt_config(0.3);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 512);
     /* a 4-blob pose whose one-call search certifies by completion */
@@ -708,7 +700,7 @@ static void test_cycle_carry_is_bounded(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.3);
+    const mfns_pose_config_t cfg = pt_config(0.3);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 513);
     pt_dpose_t truth;
@@ -742,7 +734,7 @@ static void test_certify(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     const mfns_beacon_map_t map = pt_paper_map();
     build_index(&rig, &map, MFNS_BIDX_MIN_CERT, &g_idx);
-    const mfns_pose_config_t cfg = config(0.3);
+    const mfns_pose_config_t cfg = pt_config(0.3);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 506);
     static mfns_pose_t poses[16];

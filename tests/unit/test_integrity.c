@@ -12,24 +12,6 @@
 
 #define DEG (MFNS_PI / 180.0)
 
-static mfns_pose_config_t config(double sigma)
-{
-    mfns_pose_config_t cfg;
-    mfns_pose_config_default(&cfg);
-    cfg.sigma_px = (float)sigma;
-    return cfg;
-}
-
-static pt_dpose_t random_pose(mfns_rng_t *rng, double pos_range)
-{
-    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    double c[3][3];
-    pt_random_rotation(rng, MFNS_PI, eye, c);
-    const double r[3] = {mfns_rng_range(rng, -pos_range, pos_range), mfns_rng_range(rng, -pos_range, pos_range),
-                         mfns_rng_range(rng, -pos_range, pos_range)};
-    return pt_pose(c, r);
-}
-
 typedef struct {
     mfns_rig_t rig;
     mfns_beacon_map_t map;
@@ -48,10 +30,10 @@ static mfns_pose_status_t make_scene(const int per_cam[3], double sigma, uint64_
     mfns_rng_t rng;
     mfns_rng_seed(&rng, seed);
     sc.rig = pt_paper_rig();
-    sc.truth = random_pose(&rng, 200);
+    sc.truth = pt_random_pose(&rng, 200);
     sc.map = pt_dense_map(&sc.rig, &sc.truth, per_cam, 500, 1500, &rng);
     (void)pt_make_frame(&sc.rig, &sc.map, &sc.truth, sigma, &rng, &sc.frame, &sc.assoc);
-    sc.cfg = config(sigma);
+    sc.cfg = pt_config(sigma);
     const mfns_pose_t t = pt_to_float(&sc.truth);
     return mfns_pose_refine(&sc.rig, &sc.map, &sc.frame, &sc.assoc, &t, &sc.cfg, &sc.sol);
 }

@@ -11,24 +11,6 @@
 
 #define DEG (MFNS_PI / 180.0)
 
-static mfns_pose_config_t config(double sigma)
-{
-    mfns_pose_config_t cfg;
-    mfns_pose_config_default(&cfg);
-    cfg.sigma_px = (float)sigma;
-    return cfg;
-}
-
-static pt_dpose_t random_pose(mfns_rng_t *rng, double pos_range)
-{
-    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    double c[3][3];
-    pt_random_rotation(rng, MFNS_PI, eye, c);
-    const double r[3] = {mfns_rng_range(rng, -pos_range, pos_range), mfns_rng_range(rng, -pos_range, pos_range),
-                         mfns_rng_range(rng, -pos_range, pos_range)};
-    return pt_pose(c, r);
-}
-
 /* The truth perturbed by exactly `angle` rad about a random axis and
  * `dist` mm in a random direction. */
 static pt_dpose_t perturbed(const pt_dpose_t *truth, double angle, double dist, mfns_rng_t *rng)
@@ -72,7 +54,7 @@ static void test_exact_recovery_noise_free(void **state)
     mfns_rng_seed(&rng, 101);
     double worst_pos = 0, worst_rot = 0;
     for (int t = 0; t < 200; t++) {
-        const pt_dpose_t truth = random_pose(&rng, 500);
+        const pt_dpose_t truth = pt_random_pose(&rng, 500);
         const int per_cam[3] = {1 + t % 3, 1 + (t / 3) % 3, 1 + (t / 9) % 3};
         const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 400, 1500, &rng);
         mfns_obs_frame_t frame;
@@ -81,7 +63,7 @@ static void test_exact_recovery_noise_free(void **state)
         assert_int_equal(n, map.count);
         const pt_dpose_t init = perturbed(&truth, 5 * DEG, 50, &rng);
         const mfns_pose_t init_f = pt_to_float(&init);
-        const mfns_pose_config_t cfg = config(0.1);
+        const mfns_pose_config_t cfg = pt_config(0.1);
         mfns_pose_solution_t sol;
         const mfns_pose_status_t st = mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol);
         assert_int_equal(st, n == 3 ? MFNS_POSE_NO_FIX : MFNS_POSE_OK); /* 3: MINIMAL, pose kept */
@@ -115,7 +97,7 @@ static void test_float_agrees_with_double_reference(void **state)
     mfns_rng_seed(&rng, 102);
     double worst_pos = 0, worst_rot = 0;
     for (int t = 0; t < 200; t++) {
-        const pt_dpose_t truth = random_pose(&rng, 500);
+        const pt_dpose_t truth = pt_random_pose(&rng, 500);
         const int per_cam[3] = {2 + t % 3, 1 + (t / 3) % 3, 2};
         const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 400, 1500, &rng);
         mfns_obs_frame_t frame;
@@ -125,7 +107,7 @@ static void test_float_agrees_with_double_reference(void **state)
         assert_true(pt_ref_refine(&rig, &map, &frame, &assoc, &ref) > 0);
         const pt_dpose_t init = perturbed(&truth, 3 * DEG, 30, &rng);
         const mfns_pose_t init_f = pt_to_float(&init);
-        const mfns_pose_config_t cfg = config(0.3);
+        const mfns_pose_config_t cfg = pt_config(0.3);
         mfns_pose_solution_t sol;
         assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol), MFNS_POSE_OK);
         const pt_dpose_t est = pt_from_float(&sol.pose);
@@ -145,7 +127,7 @@ static void test_converges_from_far(void **state)
     mfns_rng_seed(&rng, 103);
     int ok = 0, trials = 200;
     for (int t = 0; t < trials; t++) {
-        const pt_dpose_t truth = random_pose(&rng, 300);
+        const pt_dpose_t truth = pt_random_pose(&rng, 300);
         const int per_cam[3] = {2, 2, 2};
         const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 500, 1500, &rng);
         mfns_obs_frame_t frame;
@@ -156,7 +138,7 @@ static void test_converges_from_far(void **state)
         assert_true(pt_rot_err(init.C, truth.C) >= 30 * DEG - 1e-9);
         assert_true(pt_pos_err(&init, &truth) >= 200 - 1e-6);
         const mfns_pose_t init_f = pt_to_float(&init);
-        const mfns_pose_config_t cfg = config(0.1);
+        const mfns_pose_config_t cfg = pt_config(0.1);
         mfns_pose_solution_t sol;
         const mfns_pose_status_t st = mfns_pose_refine(&rig, &map, &frame, &assoc, &init_f, &cfg, &sol);
         const pt_dpose_t est = pt_from_float(&sol.pose);
@@ -246,7 +228,7 @@ static void whiten(const float pred[6][6], const double m2[6][6], double *diag_o
 static void monte_carlo(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const pt_dpose_t *truth, double sigma,
                         int trials, mfns_rng_t *rng)
 {
-    const mfns_pose_config_t cfg = config(sigma);
+    const mfns_pose_config_t cfg = pt_config(sigma);
     mfns_obs_frame_t frame;
     mfns_pose_assoc_t assoc;
     const int n = pt_make_frame(rig, map, truth, 0.0, rng, &frame, &assoc);
@@ -457,7 +439,7 @@ static void dense_scene(uint64_t seed, pt_dpose_t *truth, mfns_beacon_map_t *map
     const mfns_rig_t rig = pt_paper_rig();
     mfns_rng_t rng;
     mfns_rng_seed(&rng, seed);
-    *truth = random_pose(&rng, 200);
+    *truth = pt_random_pose(&rng, 200);
     const int per_cam[3] = {3, 3, 3};
     *map = pt_dense_map(&rig, truth, per_cam, 500, 1500, &rng);
 }
@@ -496,8 +478,8 @@ static void test_heteroscedastic_noise_nees(void **state)
             lc[c][i][2] = sv * sqrt(1.0 - rho * rho);
         }
     }
-    mfns_pose_config_t cfg = config(1e-3); /* a negligible floor: R = the centroid's */
-    mfns_pose_config_t flat = config(0.25); /* the old solve: one sigma, covariances ignored */
+    mfns_pose_config_t cfg = pt_config(1e-3); /* a negligible floor: R = the centroid's */
+    mfns_pose_config_t flat = pt_config(0.25); /* the old solve: one sigma, covariances ignored */
     const mfns_pose_t t0 = pt_to_float(&truth);
     const int trials = 600;
     double nees = 0.0, e2w = 0.0, e2f = 0.0, rw2 = 0.0;
@@ -559,7 +541,7 @@ static void test_bad_centroid_covariance(void **state)
     mfns_obs_frame_t f;
     mfns_pose_assoc_t assoc;
     (void)pt_make_frame(&rig, &map, &truth, 0.1, &rng, &f, &assoc);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     const mfns_pose_t t0 = pt_to_float(&truth);
     const float bad[4][3] = {{-0.01f, 0.0f, 0.01f}, {0.01f, 0.0f, -0.01f}, {0.01f, 0.011f, 0.01f}, {NAN, 0.0f, 0.01f}};
     mfns_pose_solution_t sol;
@@ -588,7 +570,7 @@ static void test_homoscedastic_unchanged(void **state)
     dense_scene(911, &truth, &map);
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 912);
-    const mfns_pose_config_t table = config(0.2), blob = config(1e-4);
+    const mfns_pose_config_t table = pt_config(0.2), blob = pt_config(1e-4);
     const mfns_pose_t t0 = pt_to_float(&truth);
     for (int t = 0; t < 50; t++) {
         mfns_obs_frame_t f, g;
@@ -631,10 +613,10 @@ static void test_survey_error_nees(void **state)
     }
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 922);
-    const mfns_pose_config_t cfg = config(0.1);
+    const mfns_pose_config_t cfg = pt_config(0.1);
     /* the blind solve sees residuals of ~10 of its sigmas: plain least
      * squares (no Huber, no gate) so that it converges like the other */
-    mfns_pose_config_t cfg_blind = config(0.1);
+    mfns_pose_config_t cfg_blind = pt_config(0.1);
     cfg_blind.s.huber_k = 0.0f;
     cfg_blind.s.outlier_gate_sigma = 0.0f;
     cfg_blind.s.max_iterations = 100;
@@ -707,7 +689,7 @@ static void test_calibration_error_nees(void **state)
         }
     }
     assert_true(dchol(np, cov, l));
-    mfns_pose_config_t with = config(0.1), without = config(0.1);
+    mfns_pose_config_t with = pt_config(0.1), without = pt_config(0.1);
     with.calib_cov = &cc;
     const mfns_pose_t t0 = pt_to_float(&truth);
     const int trials = 600;
@@ -785,7 +767,7 @@ static void frame_for(const mfns_rig_t *rig, const int per_cam[3], double sigma,
 {
     mfns_rng_t rng;
     mfns_rng_seed(&rng, seed);
-    *truth = random_pose(&rng, 200);
+    *truth = pt_random_pose(&rng, 200);
     *map = pt_dense_map(rig, truth, per_cam, 500, 1500, &rng);
     (void)pt_make_frame(rig, map, truth, sigma, &rng, frame, assoc);
 }
@@ -799,7 +781,7 @@ static void test_status_codes(void **state)
     mfns_obs_frame_t frame;
     mfns_pose_assoc_t assoc;
     mfns_pose_solution_t sol;
-    mfns_pose_config_t cfg = config(0.1);
+    mfns_pose_config_t cfg = pt_config(0.1);
     const int all[3] = {2, 2, 2};
     frame_for(&rig, all, 0.1, 201, &truth, &map, &frame, &assoc);
     const mfns_pose_t tf = pt_to_float(&truth);
@@ -882,7 +864,7 @@ static void test_status_codes(void **state)
 
     /* residual too high: noise far above the table's sigma, gate off */
     frame_for(&rig, many, 3.0, 205, &truth, &map, &frame, &assoc);
-    cfg = config(0.1);
+    cfg = pt_config(0.1);
     cfg.s.outlier_gate_sigma = 0.0f;
     cfg.s.max_residual_rms_sigma = 10.0f; /* 1 px at 0.1 px (the dense map has no survey error) */
     cfg.s.max_iterations = 50; /* converge at 3 px of noise: the residual must decide */
@@ -898,7 +880,7 @@ static void test_status_codes(void **state)
     mfns_rng_seed(&rng, 207);
     const pt_dpose_t far = perturbed(&truth, 30 * DEG, 200, &rng);
     const mfns_pose_t ff = pt_to_float(&far);
-    cfg = config(0.1);
+    cfg = pt_config(0.1);
     cfg.s.max_iterations = 1;
     assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &ff, &cfg, &sol), MFNS_POSE_NO_FIX);
     assert_int_equal(sol.reason, MFNS_POSE_R_NOT_CONVERGED);
@@ -911,7 +893,7 @@ static void test_singular_geometry_is_reported(void **state)
     const mfns_rig_t rig = pt_paper_rig();
     mfns_rng_t rng;
     mfns_rng_seed(&rng, 301);
-    const pt_dpose_t truth = random_pose(&rng, 100);
+    const pt_dpose_t truth = pt_random_pose(&rng, 100);
     /* four beacons on one line through camera Z's field of view: rotation
      * about that line (with the matching translation) is unobservable */
     const int zonly[3] = {0, 0, 2};
@@ -925,7 +907,7 @@ static void test_singular_geometry_is_reported(void **state)
     mfns_pose_assoc_t assoc;
     assert_int_equal(pt_make_frame(&rig, &map, &truth, 0.0, &rng, &frame, &assoc), 4);
     const mfns_pose_t tf = pt_to_float(&truth);
-    mfns_pose_config_t cfg = config(0.1);
+    mfns_pose_config_t cfg = pt_config(0.1);
     mfns_pose_solution_t sol;
     assert_int_equal(mfns_pose_refine(&rig, &map, &frame, &assoc, &tf, &cfg, &sol), MFNS_POSE_NO_FIX);
     assert_int_equal(sol.reason, MFNS_POSE_R_SINGULAR);
@@ -942,7 +924,7 @@ static void test_paper_mode(void **state)
     mfns_rng_seed(&rng, 401);
     double ml_s2 = 0, paper_s2 = 0;
     for (int t = 0; t < 100; t++) {
-        const pt_dpose_t truth = random_pose(&rng, 300);
+        const pt_dpose_t truth = pt_random_pose(&rng, 300);
         const int per_cam[3] = {2, 1, 2};
         const mfns_beacon_map_t map = pt_dense_map(&rig, &truth, per_cam, 400, 1500, &rng);
         mfns_obs_frame_t frame;
@@ -950,7 +932,7 @@ static void test_paper_mode(void **state)
         (void)pt_make_frame(&rig, &map, &truth, 0.0, &rng, &frame, &assoc);
         const pt_dpose_t init = perturbed(&truth, 3 * DEG, 30, &rng);
         const mfns_pose_t init_f = pt_to_float(&init);
-        mfns_pose_config_t cfg = config(0.3);
+        mfns_pose_config_t cfg = pt_config(0.3);
         cfg.mode = MFNS_POSE_MODE_PAPER;
         mfns_pose_solution_t sol;
         /* noise-free: the algebraic and the ML error share the exact solution */

@@ -422,16 +422,21 @@ mfns_beacon_map_t pt_dense_map(const mfns_rig_t *rig, const pt_dpose_t *pose, co
     return m;
 }
 
+pt_dpose_t pt_random_pose(mfns_rng_t *rng, double pos_range)
+{
+    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    double c[3][3];
+    pt_random_rotation(rng, MFNS_PI, eye, c);
+    const double r[3] = {mfns_rng_range(rng, -pos_range, pos_range), mfns_rng_range(rng, -pos_range, pos_range),
+                         mfns_rng_range(rng, -pos_range, pos_range)};
+    return pt_pose(c, r);
+}
+
 int pt_random_visible_pose(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double pos_range, int min_visible,
                            int max_tries, mfns_rng_t *rng, pt_dpose_t *pose)
 {
-    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     for (int t = 0; t < max_tries; t++) {
-        double c[3][3];
-        pt_random_rotation(rng, MFNS_PI, eye, c);
-        const double r[3] = {mfns_rng_range(rng, -pos_range, pos_range), mfns_rng_range(rng, -pos_range, pos_range),
-                             mfns_rng_range(rng, -pos_range, pos_range)};
-        *pose = pt_pose(c, r);
+        *pose = pt_random_pose(rng, pos_range);
         int n = 0;
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
             for (int b = 0; b < map->count; b++) {
@@ -445,4 +450,12 @@ int pt_random_visible_pose(const mfns_rig_t *rig, const mfns_beacon_map_t *map, 
         }
     }
     return 0;
+}
+
+mfns_pose_config_t pt_config(double sigma)
+{
+    mfns_pose_config_t cfg;
+    mfns_pose_config_default(&cfg);
+    cfg.sigma_px = (float)sigma;
+    return cfg;
 }

@@ -56,6 +56,11 @@ mfns_beacon_map_t pt_dense_map(const mfns_rig_t *rig, const pt_dpose_t *pose, co
 /* A random pose (uniform attitude, position within +-pos_range mm per axis)
  * at which at least min_visible beacons of the map are visible; tries at
  * most max_tries poses, returns the visible count (0 when none found). */
+/* A pose of uniformly random attitude and position in [-pos_range, pos_range] mm per axis. */
+pt_dpose_t pt_random_pose(mfns_rng_t *rng, double pos_range);
+/* The solver's default configuration with the pixel sigma sigma. */
+mfns_pose_config_t pt_config(double sigma);
+
 int pt_random_visible_pose(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double pos_range, int min_visible,
                            int max_tries, mfns_rng_t *rng, pt_dpose_t *pose);
 #endif
