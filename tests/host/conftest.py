@@ -3,11 +3,29 @@
 from __future__ import annotations
 
 import os
+import subprocess
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def bins() -> Path:
+    """The host-sim flight programs' folder, built now (make is incremental), or
+    MFNS_BIN's as given. Test files with programs of another shape define their own."""
+    if "MFNS_BIN" in os.environ:
+        return Path(os.environ["MFNS_BIN"])
+    res = subprocess.run(
+        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
+        cwd=REPO,
+        check=False,
+        capture_output=True,
+        text=True,
+    )
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    return REPO / "build" / "host-sim" / "bin"
 
 
 @pytest.fixture(scope="session")

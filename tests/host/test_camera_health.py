@@ -26,20 +26,6 @@ HEALTH_STATES = {"PROBATION", "FROZEN", "CLOCK_FAULT", "LATE", "OUT_OF_STEP"}
 
 
 @pytest.fixture(scope="module")
-def bins() -> Path:
-    if "MFNS_BIN" not in os.environ:
-        res = subprocess.run(
-            ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-            cwd=REPO,
-            check=False,
-            capture_output=True,
-            text=True,
-        )
-        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    return BIN
-
-
-@pytest.fixture(scope="module")
 def base(tmp_path_factory) -> dict:
     d = tmp_path_factory.mktemp("health")
     frames = d / "frames"

@@ -28,20 +28,6 @@ FRAMES = 20
 
 
 @pytest.fixture(scope="module")
-def bins() -> Path:
-    if "MFNS_BIN" not in os.environ:
-        res = subprocess.run(
-            ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-            cwd=REPO,
-            check=False,
-            capture_output=True,
-            text=True,
-        )
-        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    return BIN
-
-
-@pytest.fixture(scope="module")
 def base(tmp_path_factory) -> dict:
     d = tmp_path_factory.mktemp("faults")
     frames = d / "frames"
