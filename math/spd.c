@@ -1,5 +1,6 @@
 /* spd.c -- see spd.h. */
 #include "spd.h"
+#include "core_text.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -15,15 +16,15 @@ const char *mfns_spd_strerror(mfns_spd_status_t s)
 {
     switch (s) {
     case MFNS_SPD_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_SPD_BAD_ARG:
-        return "bad argument: dimension outside 1..6 or null pointer";
+        return MFNS_MSG("bad argument: dimension outside 1..6 or null pointer");
     case MFNS_SPD_NOT_POSITIVE:
-        return "matrix singular, indefinite or not finite";
+        return MFNS_MSG("matrix singular, indefinite or not finite");
     case MFNS_SPD_ILL_CONDITIONED:
-        return "matrix ill-conditioned (rcond below limit)";
+        return MFNS_MSG("matrix ill-conditioned (rcond below limit)");
     }
-    return "unknown spd status";
+    return MFNS_MSG("unknown spd status");
 }
 
 mfns_spd_status_t mfns_chol_factor(const float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N], int n,

@@ -1,5 +1,6 @@
 /* undistort.c -- see undistort.h. */
 #include "undistort.h"
+#include "core_text.h"
 
 #include <math.h>
 
@@ -7,19 +8,19 @@ const char *mfns_undist_strerror(mfns_undist_status_t s)
 {
     switch (s) {
     case MFNS_UNDIST_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_UNDIST_BAD_INPUT:
-        return "bad input (NULL, not finite, or iteration cap outside 1..MFNS_UNDIST_MAX_ITER)";
+        return MFNS_MSG("bad input (NULL, not finite, or iteration cap outside 1..MFNS_UNDIST_MAX_ITER)");
     case MFNS_UNDIST_NOT_CONVERGED:
-        return "distortion inverse did not converge within the iteration cap";
+        return MFNS_MSG("distortion inverse did not converge within the iteration cap");
     case MFNS_UNDIST_SINGULAR:
-        return "distortion model folds over (Jacobian not positive): no inverse";
+        return MFNS_MSG("distortion model folds over (Jacobian not positive): no inverse");
     case MFNS_UNDIST_OUTSIDE:
-        return "pixel outside the correction grid";
+        return MFNS_MSG("pixel outside the correction grid");
     case MFNS_UNDIST_BAD_GRID:
-        return "correction grid header inconsistent";
+        return MFNS_MSG("correction grid header inconsistent");
     default:
-        return "unknown undistortion status";
+        return MFNS_MSG("unknown undistortion status");
     }
 }
 

@@ -260,6 +260,7 @@ def gen_c(L: Layout) -> str:
     o = [f"/* {BANNER}. */"]
     o.append("/* caltable_layout_gen.c -- see caltable_layout_gen.h. */")
     o.append('#include "caltable.h"')
+    o.append('#include "core_text.h"')
     o.append("")
     o.append("#include <float.h>")
     o.append("")
@@ -277,7 +278,7 @@ def gen_c(L: Layout) -> str:
     o.append("const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT] = {")
     for s in L.status:
         msg = s["message"].replace("\\", "\\\\").replace('"', '\\"')
-        o.append(f'    [MFNS_CALTABLE_{s["name"]}] = "{msg}",')
+        o.append(f'    [MFNS_CALTABLE_{s["name"]}] = MFNS_MSG("{msg}"),')
     o.append("};")
     o.append("")
     o.append("const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT] = {")

@@ -724,6 +724,7 @@ def tc_packets_c(t) -> str:
         "",
         "#include <string.h>",
         "",
+        '#include "core_text.h"',
         '#include "tlm_packets.h"',
         "",
     ]
@@ -734,11 +735,12 @@ def tc_packets_c(t) -> str:
         ("int tc_arg_count(uint8_t opcode)", "opcode",
          [(f"TC_OP_{c.name}", len(c.args)) for c in cmds], "-1"),
         ("const char *tc_opcode_name(uint8_t opcode)", "opcode",
-         [(f"TC_OP_{c.name}", cstr(c.name)) for c in cmds], '"?"'),
+         [(f"TC_OP_{c.name}", f"MFNS_MSG({cstr(c.name)})") for c in cmds], '"?"'),
         ("const char *tc_status_name(int status)", "status",
-         [("TC_OK", '"OK"')] + [(f"TC_E_{lab}", cstr(lab)) for _v, (lab, _d) in st], '"?"'),
+         [("TC_OK", '"OK"')] + [(f"TC_E_{lab}", f"MFNS_MSG({cstr(lab)})") for _v, (lab, _d) in st], '"?"'),
         ("const char *tc_strerror(int status)", "status",
-         [("TC_OK", '"ok"')] + [(f"TC_E_{lab}", cstr(d)) for _v, (lab, d) in st], '"unknown command status"'),
+         [("TC_OK", '"ok"')] + [(f"TC_E_{lab}", f"MFNS_MSG({cstr(d)})") for _v, (lab, d) in st],
+         'MFNS_MSG("unknown command status")'),
     ):  # fmt: skip
         L += [sig, "{", f"    switch ({var}) {{"]
         L += cases([(label, [f"return {v};"]) for label, v in items])

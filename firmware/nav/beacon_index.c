@@ -1,6 +1,7 @@
 /* beacon_index.c -- see beacon_index.h: the look-ups the acquisition makes
  * in flight. The index is built on the ground (firmware/host/beacon_index_build.c). */
 #include "beacon_index.h"
+#include "core_text.h"
 
 #define EMIT_PAD_COS 0.05f /* cone tests are widened by this (cosine units, ~3 deg at 90 deg) */
 
@@ -8,17 +9,17 @@ const char *mfns_bidx_strerror(mfns_bidx_status_t s)
 {
     switch (s) {
     case MFNS_BIDX_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_BIDX_E_ARG:
-        return "map index: null pointer, beacon count or parameter out of range";
+        return MFNS_MSG("map index: null pointer, beacon count or parameter out of range");
     case MFNS_BIDX_E_WORKSPACE:
-        return "map index: workspace box not finite or empty";
+        return MFNS_MSG("map index: workspace box not finite or empty");
     case MFNS_BIDX_E_EMIT:
-        return "map index: emission axis not unit (or zero) or half-angle cosine outside [-1, 1]";
+        return MFNS_MSG("map index: emission axis not unit (or zero) or half-angle cosine outside [-1, 1]");
     case MFNS_BIDX_E_SPACE:
-        return "map index: output buffer too small";
+        return MFNS_MSG("map index: output buffer too small");
     }
-    return "map index: unknown status";
+    return MFNS_MSG("map index: unknown status");
 }
 
 bool mfns_bidx_emits_toward(const mfns_beacon_geom_t *g, mfns_v3_t p_beacon_w, mfns_v3_t p_w)

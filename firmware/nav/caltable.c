@@ -3,6 +3,7 @@
  * the messages, the header checks and the validate-then-commit of the body;
  * caltable_records.c and caltable_sections.c parse the body's parts. */
 #include "caltable.h"
+#include "core_text.h"
 
 #include <math.h>
 #include <string.h>
@@ -38,7 +39,7 @@ const char *mfns_caltable_strerror(mfns_caltable_status_t s)
     if ((unsigned)s < (unsigned)MFNS_CALTABLE_STATUS_COUNT) {
         return mfns_caltable_status_text[s];
     }
-    return "calibration table: unknown status";
+    return MFNS_MSG("calibration table: unknown status");
 }
 
 bool mfns_ct_fail(mfns_ct_parser_t *p, mfns_caltable_status_t st, uint32_t off)

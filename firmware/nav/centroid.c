@@ -2,6 +2,7 @@
  * statuses, the input checks and mfns_centroid_detect, the pipeline that runs
  * the other centroid*.c files' steps in order (centroid_internal.h lists them). */
 #include "centroid.h"
+#include "core_text.h"
 
 #include <math.h>
 #include <string.h>
@@ -12,25 +13,25 @@ const char *mfns_centroid_strerror(mfns_centroid_status_t s)
 {
     switch (s) {
     case MFNS_CENTROID_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_CENTROID_TABLE_FULL:
-        return "more blobs than the blob/label tables hold: result incomplete";
+        return MFNS_MSG("more blobs than the blob/label tables hold: result incomplete");
     case MFNS_CENTROID_ERR_NULL:
-        return "a required pointer is NULL";
+        return MFNS_MSG("a required pointer is NULL");
     case MFNS_CENTROID_ERR_SIZE:
-        return "frame width or height is 0 or larger than MFNS_CENTROID_MAX_DIM";
+        return MFNS_MSG("frame width or height is 0 or larger than MFNS_CENTROID_MAX_DIM");
     case MFNS_CENTROID_ERR_STRIDE:
-        return "frame stride smaller than a row or not a whole number of pixels";
+        return MFNS_MSG("frame stride smaller than a row or not a whole number of pixels");
     case MFNS_CENTROID_ERR_FORMAT:
-        return "unsupported pixel format (GREY, Y10, Y12, Y16 only)";
+        return MFNS_MSG("unsupported pixel format (GREY, Y10, Y12, Y16 only)");
     case MFNS_CENTROID_ERR_SETTINGS:
-        return "centroid settings out of range";
+        return MFNS_MSG("centroid settings out of range");
     case MFNS_CENTROID_ERR_ROI:
-        return "window empty, outside the frame, overlapping another, or too many windows";
+        return MFNS_MSG("window empty, outside the frame, overlapping another, or too many windows");
     case MFNS_CENTROID_ERR_BACKGROUND:
-        return "background or noise estimate not finite, negative or beyond the pixel format";
+        return MFNS_MSG("background or noise estimate not finite, negative or beyond the pixel format");
     default:
-        return "unknown centroid status";
+        return MFNS_MSG("unknown centroid status");
     }
 }
 
@@ -38,21 +39,21 @@ const char *mfns_blob_reason_name(uint16_t reason_bit)
 {
     switch (reason_bit) {
     case MFNS_BLOB_TOO_SMALL:
-        return "too small";
+        return MFNS_MSG("too small");
     case MFNS_BLOB_TOO_LARGE:
-        return "too large";
+        return MFNS_MSG("too large");
     case MFNS_BLOB_SATURATED:
-        return "saturated";
+        return MFNS_MSG("saturated");
     case MFNS_BLOB_IMAGE_BORDER:
-        return "touches image border";
+        return MFNS_MSG("touches image border");
     case MFNS_BLOB_ROI_BORDER:
-        return "touches window border";
+        return MFNS_MSG("touches window border");
     case MFNS_BLOB_ELONGATED:
-        return "elongated";
+        return MFNS_MSG("elongated");
     case MFNS_BLOB_TABLE_FULL:
-        return "incomplete: label table full";
+        return MFNS_MSG("incomplete: label table full");
     default:
-        return "?";
+        return MFNS_MSG("?");
     }
 }
 

@@ -1,5 +1,6 @@
 /* nav_cycle.c -- see nav_cycle.h. */
 #include "nav_cycle.h"
+#include "core_text.h"
 
 #include <math.h>
 #include <string.h>
@@ -13,13 +14,13 @@ const char *mfns_nav_strerror(mfns_nav_status_t s)
 {
     switch (s) {
     case MFNS_NAV_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_NAV_E_ARG:
-        return "navigation cycle: null pointer or not initialised";
+        return MFNS_MSG("navigation cycle: null pointer or not initialised");
     case MFNS_NAV_E_TABLE:
-        return "navigation cycle: calibration-table settings refused by the centroider";
+        return MFNS_MSG("navigation cycle: calibration-table settings refused by the centroider");
     }
-    return "navigation cycle: unknown status";
+    return MFNS_MSG("navigation cycle: unknown status");
 }
 
 const char *mfns_nav_mode_str(mfns_nav_mode_t m)
@@ -31,15 +32,15 @@ const char *mfns_nav_cam_state_str(mfns_nav_cam_state_t s)
 {
     switch (s) {
     case MFNS_NAV_CAM_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_NAV_CAM_NO_FRAME:
-        return "no frame";
+        return MFNS_MSG("no frame");
     case MFNS_NAV_CAM_FRAME_ERROR:
-        return "frame refused";
+        return MFNS_MSG("frame refused");
     case MFNS_NAV_CAM_TABLE_FULL:
-        return "blob table full";
+        return MFNS_MSG("blob table full");
     }
-    return "?";
+    return MFNS_MSG("?");
 }
 
 mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode)

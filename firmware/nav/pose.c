@@ -3,6 +3,7 @@
  * tracking. Acquisition is acquire.c, the solvers pose_refine.c /
  * pose_paper.c / pose_init.c. */
 #include "pose.h"
+#include "core_text.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -24,58 +25,58 @@ const char *mfns_pose_status_str(mfns_pose_status_t s)
 {
     switch (s) {
     case MFNS_POSE_OK:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_POSE_DEGRADED:
-        return "degraded";
+        return MFNS_MSG("degraded");
     case MFNS_POSE_NO_FIX:
-        return "no fix";
+        return MFNS_MSG("no fix");
     }
-    return "unknown pose status";
+    return MFNS_MSG("unknown pose status");
 }
 
 const char *mfns_pose_strerror(mfns_pose_reason_t r)
 {
     switch (r) {
     case MFNS_POSE_R_NONE:
-        return "ok";
+        return MFNS_MSG("ok");
     case MFNS_POSE_R_CAMERA_UNUSED:
-        return "a camera contributes no beacon";
+        return MFNS_MSG("a camera contributes no beacon");
     case MFNS_POSE_R_OUTLIERS:
-        return "observations rejected as outliers";
+        return MFNS_MSG("observations rejected as outliers");
     case MFNS_POSE_R_MINIMAL:
-        return "only three beacons: no redundancy to check a fault (pose for tracking only)";
+        return MFNS_MSG("only three beacons: no redundancy to check a fault (pose for tracking only)");
     case MFNS_POSE_R_BAD_ARG:
-        return "bad argument: null pointer, count above maximum, bad beacon index or non-finite input";
+        return MFNS_MSG("bad argument: null pointer, count above maximum, bad beacon index or non-finite input");
     case MFNS_POSE_R_TOO_FEW:
-        return "fewer than three beacons usable";
+        return MFNS_MSG("fewer than three beacons usable");
     case MFNS_POSE_R_AMBIGUOUS:
-        return "several poses explain the observations: ambiguous";
+        return MFNS_MSG("several poses explain the observations: ambiguous");
     case MFNS_POSE_R_NOT_IDENTIFIED:
-        return "no beacon identification certified within the work budget";
+        return MFNS_MSG("no beacon identification certified within the work budget");
     case MFNS_POSE_R_SINGULAR:
-        return "singular or ill-conditioned beacon geometry";
+        return MFNS_MSG("singular or ill-conditioned beacon geometry");
     case MFNS_POSE_R_NOT_CONVERGED:
-        return "refinement did not converge within the iteration cap";
+        return MFNS_MSG("refinement did not converge within the iteration cap");
     case MFNS_POSE_R_RESIDUAL_HIGH:
-        return "residual RMS above the limit";
+        return MFNS_MSG("residual RMS above the limit");
     case MFNS_POSE_R_TRACK_LOST:
-        return "tracking gate kept fewer than three beacons";
+        return MFNS_MSG("tracking gate kept fewer than three beacons");
     case MFNS_POSE_R_MINIMAL_UNCONFIRMED:
-        return "three beacons only, and their pose disagrees with the tracking prediction";
+        return MFNS_MSG("three beacons only, and their pose disagrees with the tracking prediction");
     case MFNS_POSE_R_BELOW_CERTIFICATE:
-        return "fewer blobs than the map's certificate needs for a unique fix";
+        return MFNS_MSG("fewer blobs than the map's certificate needs for a unique fix");
     case MFNS_POSE_R_UNMONITORED:
-        return "a single beacon or camera fault cannot be checked: no redundancy against it";
+        return MFNS_MSG("a single beacon or camera fault cannot be checked: no redundancy against it");
     case MFNS_POSE_R_PL_EXCEEDS_AL:
-        return "protection level above the alert limit";
+        return MFNS_MSG("protection level above the alert limit");
     case MFNS_POSE_R_FAULT_DETECTED:
-        return "a beacon or camera is inconsistent with the rest and cannot be excluded";
+        return MFNS_MSG("a beacon or camera is inconsistent with the rest and cannot be excluded");
     case MFNS_POSE_R_EXCLUDED:
-        return "a faulty beacon or camera is excluded; the rest certify the fix";
+        return MFNS_MSG("a faulty beacon or camera is excluded; the rest certify the fix");
     case MFNS_POSE_R_CAMERA_UNMONITORED:
-        return "beacon faults bounded; a single-camera fault cannot be bounded within the alert limits";
+        return MFNS_MSG("beacon faults bounded; a single-camera fault cannot be bounded within the alert limits");
     }
-    return "unknown pose reason";
+    return MFNS_MSG("unknown pose reason");
 }
 
 void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason)

@@ -4,6 +4,7 @@
 
 #include <string.h>
 
+#include "core_text.h"
 #include "tlm_packets.h"
 
 int tc_arg_len(uint8_t opcode)
@@ -37,13 +38,13 @@ int tc_arg_count(uint8_t opcode)
 const char *tc_opcode_name(uint8_t opcode)
 {
     switch (opcode) {
-    case TC_OP_NOOP: return "NOOP";
-    case TC_OP_RESET_COUNTERS: return "RESET_COUNTERS";
-    case TC_OP_SET_MODE: return "SET_MODE";
-    case TC_OP_SET_POSE_HINT: return "SET_POSE_HINT";
-    case TC_OP_CAMERA_ENABLE: return "CAMERA_ENABLE";
-    case TC_OP_CAMERA_DISABLE: return "CAMERA_DISABLE";
-    case TC_OP_TABLE_LOAD: return "TABLE_LOAD";
+    case TC_OP_NOOP: return MFNS_MSG("NOOP");
+    case TC_OP_RESET_COUNTERS: return MFNS_MSG("RESET_COUNTERS");
+    case TC_OP_SET_MODE: return MFNS_MSG("SET_MODE");
+    case TC_OP_SET_POSE_HINT: return MFNS_MSG("SET_POSE_HINT");
+    case TC_OP_CAMERA_ENABLE: return MFNS_MSG("CAMERA_ENABLE");
+    case TC_OP_CAMERA_DISABLE: return MFNS_MSG("CAMERA_DISABLE");
+    case TC_OP_TABLE_LOAD: return MFNS_MSG("TABLE_LOAD");
     default: return "?";
     }
 }
@@ -52,25 +53,25 @@ const char *tc_status_name(int status)
 {
     switch (status) {
     case TC_OK: return "OK";
-    case TC_E_FRAME: return "FRAME";
-    case TC_E_OVERSIZE: return "OVERSIZE";
-    case TC_E_RUNT: return "RUNT";
-    case TC_E_CRC: return "CRC";
-    case TC_E_HEADER: return "HEADER";
-    case TC_E_LENGTH: return "LENGTH";
-    case TC_E_APID: return "APID";
-    case TC_E_OPCODE: return "OPCODE";
-    case TC_E_ARG_LEN: return "ARG_LEN";
-    case TC_E_ARG: return "ARG";
-    case TC_E_SEQUENCE: return "SEQUENCE";
-    case TC_E_STATE: return "STATE";
-    case TC_E_TABLE: return "TABLE";
-    case TC_E_NULL: return "NULL";
-    case TC_E_AUTH_MISSING: return "AUTH_MISSING";
-    case TC_E_AUTH_KEY_UNKNOWN: return "AUTH_KEY_UNKNOWN";
-    case TC_E_AUTH_BAD_MAC: return "AUTH_BAD_MAC";
-    case TC_E_AUTH_REPLAY: return "AUTH_REPLAY";
-    case TC_E_AUTH_STALE_EPOCH: return "AUTH_STALE_EPOCH";
+    case TC_E_FRAME: return MFNS_MSG("FRAME");
+    case TC_E_OVERSIZE: return MFNS_MSG("OVERSIZE");
+    case TC_E_RUNT: return MFNS_MSG("RUNT");
+    case TC_E_CRC: return MFNS_MSG("CRC");
+    case TC_E_HEADER: return MFNS_MSG("HEADER");
+    case TC_E_LENGTH: return MFNS_MSG("LENGTH");
+    case TC_E_APID: return MFNS_MSG("APID");
+    case TC_E_OPCODE: return MFNS_MSG("OPCODE");
+    case TC_E_ARG_LEN: return MFNS_MSG("ARG_LEN");
+    case TC_E_ARG: return MFNS_MSG("ARG");
+    case TC_E_SEQUENCE: return MFNS_MSG("SEQUENCE");
+    case TC_E_STATE: return MFNS_MSG("STATE");
+    case TC_E_TABLE: return MFNS_MSG("TABLE");
+    case TC_E_NULL: return MFNS_MSG("NULL");
+    case TC_E_AUTH_MISSING: return MFNS_MSG("AUTH_MISSING");
+    case TC_E_AUTH_KEY_UNKNOWN: return MFNS_MSG("AUTH_KEY_UNKNOWN");
+    case TC_E_AUTH_BAD_MAC: return MFNS_MSG("AUTH_BAD_MAC");
+    case TC_E_AUTH_REPLAY: return MFNS_MSG("AUTH_REPLAY");
+    case TC_E_AUTH_STALE_EPOCH: return MFNS_MSG("AUTH_STALE_EPOCH");
     default: return "?";
     }
 }
@@ -79,26 +80,26 @@ const char *tc_strerror(int status)
 {
     switch (status) {
     case TC_OK: return "ok";
-    case TC_E_FRAME: return "command frame broken (COBS structure, cut short)";
-    case TC_E_OVERSIZE: return "command frame too long (no delimiter)";
-    case TC_E_RUNT: return "command frame shorter than its headers";
-    case TC_E_CRC: return "command frame CRC-16 mismatch";
-    case TC_E_HEADER: return "command CCSDS header: version, type, flags";
-    case TC_E_LENGTH: return "command length field disagrees with the frame";
-    case TC_E_APID: return "not the MFNS command APID";
-    case TC_E_OPCODE: return "unknown opcode (or reserved byte not zero)";
-    case TC_E_ARG_LEN: return "argument length wrong for the opcode";
-    case TC_E_ARG: return "argument out of range";
-    case TC_E_SEQUENCE: return "sequence count replayed or out of order";
-    case TC_E_STATE: return "command not possible in the current state";
-    case TC_E_TABLE: return "calibration table refused (old table kept)";
-    case TC_E_NULL: return "NULL pointer or buffer too small";
-    case TC_E_AUTH_MISSING: return "command not authenticated (no security header, or SPI 0) while keys are configured";
-    case TC_E_AUTH_KEY_UNKNOWN: return "security header names a key id (SPI) not loaded on the board";
-    case TC_E_AUTH_BAD_MAC: return "MAC (HMAC-SHA-256/128) of the command does not verify";
-    case TC_E_AUTH_REPLAY: return "anti-replay counter not newer than the last accepted one of this boot epoch";
-    case TC_E_AUTH_STALE_EPOCH: return "anti-replay counter from another boot epoch (signed before the last reboot)";
-    default: return "unknown command status";
+    case TC_E_FRAME: return MFNS_MSG("command frame broken (COBS structure, cut short)");
+    case TC_E_OVERSIZE: return MFNS_MSG("command frame too long (no delimiter)");
+    case TC_E_RUNT: return MFNS_MSG("command frame shorter than its headers");
+    case TC_E_CRC: return MFNS_MSG("command frame CRC-16 mismatch");
+    case TC_E_HEADER: return MFNS_MSG("command CCSDS header: version, type, flags");
+    case TC_E_LENGTH: return MFNS_MSG("command length field disagrees with the frame");
+    case TC_E_APID: return MFNS_MSG("not the MFNS command APID");
+    case TC_E_OPCODE: return MFNS_MSG("unknown opcode (or reserved byte not zero)");
+    case TC_E_ARG_LEN: return MFNS_MSG("argument length wrong for the opcode");
+    case TC_E_ARG: return MFNS_MSG("argument out of range");
+    case TC_E_SEQUENCE: return MFNS_MSG("sequence count replayed or out of order");
+    case TC_E_STATE: return MFNS_MSG("command not possible in the current state");
+    case TC_E_TABLE: return MFNS_MSG("calibration table refused (old table kept)");
+    case TC_E_NULL: return MFNS_MSG("NULL pointer or buffer too small");
+    case TC_E_AUTH_MISSING: return MFNS_MSG("command not authenticated (no security header, or SPI 0) while keys are configured");
+    case TC_E_AUTH_KEY_UNKNOWN: return MFNS_MSG("security header names a key id (SPI) not loaded on the board");
+    case TC_E_AUTH_BAD_MAC: return MFNS_MSG("MAC (HMAC-SHA-256/128) of the command does not verify");
+    case TC_E_AUTH_REPLAY: return MFNS_MSG("anti-replay counter not newer than the last accepted one of this boot epoch");
+    case TC_E_AUTH_STALE_EPOCH: return MFNS_MSG("anti-replay counter from another boot epoch (signed before the last reboot)");
+    default: return MFNS_MSG("unknown command status");
     }
 }
 

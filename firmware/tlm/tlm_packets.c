@@ -2,6 +2,7 @@
  * CCSDS headers, framing and CRC. The payload layouts and their range checks
  * are generated from the XTCE (tlm_packets_gen.c). */
 #include "tlm_packets.h"
+#include "core_text.h"
 
 #include <string.h>
 
@@ -10,20 +11,20 @@
 const char *tlm_strerror(int err)
 {
     switch (err) {
-    case TLM_OK: return "ok";
-    case TLM_ERR_NULL: return "telemetry: NULL argument";
-    case TLM_ERR_BUFFER: return "telemetry: output buffer too small";
-    case TLM_ERR_COBS: return "telemetry: truncated frame (COBS block runs past the delimiter)";
-    case TLM_ERR_CRC: return "telemetry: frame CRC mismatch";
-    case TLM_ERR_OVERSIZE: return "telemetry: oversize frame (no delimiter within the maximum frame length)";
-    case TLM_ERR_RUNT: return "telemetry: truncated frame (shorter than header and CRC)";
-    case TLM_ERR_HEADER: return "telemetry: bad CCSDS primary header (version, type or flags)";
-    case TLM_ERR_LENGTH: return "telemetry: CCSDS packet length disagrees with the frame";
-    case TLM_ERR_APID: return "telemetry: unknown APID";
-    case TLM_ERR_PAYLOAD: return "telemetry: payload size or field out of range for its packet type";
-    case TLM_ERR_ARG: return "telemetry: argument out of range";
-    case TLM_ERR_EMPTY: return "telemetry: transmit queue empty";
-    default: return "unknown telemetry error";
+    case TLM_OK: return MFNS_MSG("ok");
+    case TLM_ERR_NULL: return MFNS_MSG("telemetry: NULL argument");
+    case TLM_ERR_BUFFER: return MFNS_MSG("telemetry: output buffer too small");
+    case TLM_ERR_COBS: return MFNS_MSG("telemetry: truncated frame (COBS block runs past the delimiter)");
+    case TLM_ERR_CRC: return MFNS_MSG("telemetry: frame CRC mismatch");
+    case TLM_ERR_OVERSIZE: return MFNS_MSG("telemetry: oversize frame (no delimiter within the maximum frame length)");
+    case TLM_ERR_RUNT: return MFNS_MSG("telemetry: truncated frame (shorter than header and CRC)");
+    case TLM_ERR_HEADER: return MFNS_MSG("telemetry: bad CCSDS primary header (version, type or flags)");
+    case TLM_ERR_LENGTH: return MFNS_MSG("telemetry: CCSDS packet length disagrees with the frame");
+    case TLM_ERR_APID: return MFNS_MSG("telemetry: unknown APID");
+    case TLM_ERR_PAYLOAD: return MFNS_MSG("telemetry: payload size or field out of range for its packet type");
+    case TLM_ERR_ARG: return MFNS_MSG("telemetry: argument out of range");
+    case TLM_ERR_EMPTY: return MFNS_MSG("telemetry: transmit queue empty");
+    default: return MFNS_MSG("unknown telemetry error");
     }
 }
 
