@@ -24,6 +24,7 @@
  * dictionary's calibrators, generated as TLM_SCALE_* (tlm_codes_gen.h). */
 #define MFNS_UM_PER_MM_F 1000.0f
 #define MFNS_UDEG_PER_DEG_F 1.0e6f
+#define MFNS_M_PER_MM_F 1.0e-3f
 #define MFNS_US_PER_S 1000000u
 #define MFNS_MS_PER_S 1000u
 

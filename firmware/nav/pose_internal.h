@@ -4,6 +4,7 @@
 #define MFNS_POSE_INTERNAL_H
 
 #include "pose.h"
+#include "spd.h"
 
 #define MFNS_POSE_MAX_MEAS (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)
 
@@ -42,6 +43,14 @@ int mfns_pose_gather(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame
 mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
                                 const mfns_pose_config_t *cfg, int max_iter, mfns_pose_t *pose,
                                 int *iterations);
+
+/* One Newton step of both iterations: solves a d = -g by Cholesky (a is the
+ * 6x6 normal matrix, damped or not, rotation first, translation in mm), and
+ * gives the step's norms: *step_rot_rad, *step_tr_m (mm scaled to m, so one
+ * tolerance serves both). False when a is not positive definite at
+ * min_rcond (the caller's SINGULAR). */
+bool mfns_pose_newton_step(float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N], const float g[6], float min_rcond,
+                           float d[6], float *step_rot_rad, float *step_tr_m);
 
 /* The paper's Newton (Gauss-Newton) iteration on Eq. 3's algebraic residual
  * x*Zc - Xc, y*Zc - Yc in the camera frame (mm), undamped, unweighted. */

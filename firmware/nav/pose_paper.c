@@ -66,19 +66,12 @@ mfns_pose_reason_t mfns_pose_paper_newton(const mfns_rig_t *rig, const mfns_pose
                 }
             }
         }
-        mfns_chol_t f;
-        if (mfns_chol_factor(a, 6, cfg->s.min_rcond, &f) != MFNS_SPD_OK) {
+        float d[6], step_rot, step_tr;
+        if (!mfns_pose_newton_step(a, g, cfg->s.min_rcond, d, &step_rot, &step_tr)) {
             result = MFNS_POSE_R_SINGULAR;
             break;
         }
-        float d[6];
-        mfns_chol_solve(&f, g, d);
-        for (int i = 0; i < 6; i++) {
-            d[i] = -d[i];
-        }
         *pose = mfns_pose_apply(pose, d);
-        const float step_rot = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const float step_tr = sqrtf(d[3] * d[3] + d[4] * d[4] + d[5] * d[5]) * 1e-3f;
         if (!isfinite(step_rot) || !isfinite(step_tr)) {
             break;
         }

@@ -9,6 +9,7 @@
 
 #include "pose_internal.h"
 #include "spd.h"
+#include "units.h"
 
 bool mfns_pose_residual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mfns_pose_t *pose,
                         float r[2], float jac[2][6])
@@ -179,6 +180,22 @@ static float linearize(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, 
     return cost;
 }
 
+bool mfns_pose_newton_step(float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N], const float g[6], float min_rcond,
+                           float d[6], float *step_rot_rad, float *step_tr_m)
+{
+    mfns_chol_t f;
+    if (mfns_chol_factor(a, 6, min_rcond, &f) != MFNS_SPD_OK) {
+        return false;
+    }
+    mfns_chol_solve(&f, g, d);
+    for (int i = 0; i < 6; i++) {
+        d[i] = -d[i];
+    }
+    *step_rot_rad = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    *step_tr_m = sqrtf(d[3] * d[3] + d[4] * d[4] + d[5] * d[5]) * MFNS_M_PER_MM_F;
+    return true;
+}
+
 mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
                                 const mfns_pose_config_t *cfg, int max_iter, mfns_pose_t *pose,
                                 int *iterations)
@@ -209,18 +226,11 @@ mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m
             }
             a[i][i] = h[i][i] * (1.0f + lambda);
         }
-        mfns_chol_t f;
-        if (mfns_chol_factor(a, 6, 0.0f, &f) != MFNS_SPD_OK) {
+        float d[6], step_rot, step_tr;
+        if (!mfns_pose_newton_step(a, g, 0.0f, d, &step_rot, &step_tr)) {
             result = MFNS_POSE_R_SINGULAR;
             break;
         }
-        float d[6];
-        mfns_chol_solve(&f, g, d);
-        for (int i = 0; i < 6; i++) {
-            d[i] = -d[i];
-        }
-        const float step_rot = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        const float step_tr = sqrtf(d[3] * d[3] + d[4] * d[4] + d[5] * d[5]) * 1e-3f;
         const bool tiny = step_rot < cfg->s.step_tol && step_tr < cfg->s.step_tol;
         const mfns_pose_t trial = mfns_pose_apply(pose, d);
         float ht[6][6], gt[6];
