@@ -206,6 +206,9 @@ def handler(state: State, page: Path):
     class H(BaseHTTPRequestHandler):
         def do_GET(self):  # noqa: N802 (http.server's name)
             if self.path in ("/", "/index.html"):
+                if not page.is_file():  # an installed wheel: the page lives in the repository
+                    self.send_error(404, f"{page} not found: run make ground-view from the repository")
+                    return
                 body, ctype = page.read_bytes(), "text/html; charset=utf-8"
             elif self.path.startswith("/state.json"):
                 try:
