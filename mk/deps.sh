@@ -18,6 +18,8 @@ TEST_PKGS="$DEMO_PKGS libcmocka-dev
  gcc-aarch64-linux-gnu g++-aarch64-linux-gnu libc6-dev-arm64-cross qemu-user
  gcc-arm-none-eabi libnewlib-arm-none-eabi cppcheck clang-tidy clang libclang-rt-14-dev
  valgrind libcamera-dev lintian"
+# headless Chromium: the operator view's end-to-end test (tests/host/test_yamcs.py)
+TEST_PKGS="$TEST_PKGS chromium"
 ARM64_PKGS="libcmocka-dev:arm64 libserialport-dev:arm64 libsystemd-dev:arm64 libssl-dev:arm64"
 case $set_name in
   demo) pkgs=$DEMO_PKGS; foreign= ;;

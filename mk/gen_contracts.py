@@ -815,6 +815,8 @@ def _arg_text(a) -> str:
     if a.kind == "enum":
         return f"{ty} {a.name}: " + ", ".join(f"{v} {lab}" for v, (lab, _) in sorted(a.enum.items()))
     lo, hi = a.valid_range
+    if a.scale != 1.0:  # engineering units on the ground, counts of a.scale on the wire
+        return f"{ty} {a.name} {lo * a.scale:g}..{hi * a.scale:g} {a.unit} (wire: counts of {a.scale:g} {a.unit})"
     return f"{ty} {a.name} {lo}..{hi}" + (f" {a.unit}" if a.unit else "")
 
 

@@ -7,13 +7,16 @@
 #   make ground-yamcs        Yamcs with the project's MDB (ground/mdb/) and config
 #                            (ground/yamcs/), HTTP on 127.0.0.1:8090, in a private
 #                            network namespace where `unshare -n` works
+#   make ground-view         the operator's view (ground/operator/) of a running Yamcs,
+#                            http://127.0.0.1:8095/ (docs/operators.md); run it in Yamcs'
+#                            namespace: nsenter --net=/proc/PID/ns/net make ground-view
 
 TC_FUZZ_BIN  := build/fuzz/fuzz_tc_decoder
 TC_FUZZ_SRCS := tests/fuzz/fuzz_tc_decoder.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd_dispatch.c
 
 FUZZ_TARGETS += fuzz-tc-decoder
 TEST_SUITES  += fuzz-tc-brief
-.PHONY: fuzz-tc-decoder fuzz-tc-brief ground-yamcs
+.PHONY: fuzz-tc-decoder fuzz-tc-brief ground-yamcs ground-view
 
 $(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cmd_dispatch.h
 	@mkdir -p $(@D)
@@ -102,3 +105,8 @@ ground-yamcs: ground-venv
 	  echo "ground-yamcs: no private network namespace (unshare -n refused): Yamcs' UDP link listens on all interfaces"; \
 	  exec $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
 	fi
+
+# The operator's view over Yamcs (host_tools/mfns/ground_yamcs_view.py): in the foreground, Ctrl-C stops it.
+GROUND_VIEW_PORT ?= 8095
+ground-view: ground-venv
+	exec $(PY) -m mfns.ground_yamcs_view --port $(GROUND_VIEW_PORT)

