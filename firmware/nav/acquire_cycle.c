@@ -57,7 +57,7 @@ static mfns_pose_t cv_predict(const mfns_acq_catchup_t *cu)
 }
 
 typedef enum {
-    CU_GOING = 0, /* the budget stopped it: goes on next cycle */
+    CU_GOING = 0, /* goes on next cycle (the budget stopped it, or the current frame did not verify) */
     CU_DONE,      /* verified on the current frame: out is the fix */
     CU_REFUSED,   /* a step could not be bridged: no fix */
 } cu_state_t;
@@ -111,15 +111,26 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
             }
             continue;
         }
-        /* not verified: the current frame must verify; others may be coasted over */
+        /* not verified. A three-beacon pose inside the gate carries the
+         * identification on, as it carries the navigator's track, but verifies
+         * nothing; any other frame is coasted over, at most
+         * MFNS_ACQ_CATCHUP_MAX_COAST in a row. The current frame unverified: the
+         * catch-up waits for the next one (never a fix from an unverified frame). */
+        if (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL) {
+            cu->prev = cu->pose;
+            cu->have_prev = cu->coast == 0u;
+            cu->pose = s.pose;
+            cu->coast = 0u;
+            continue;
+        }
         cu->coast++;
-        if (next == now || cu->coast > MFNS_ACQ_CATCHUP_MAX_COAST) {
+        if (cu->coast > MFNS_ACQ_CATCHUP_MAX_COAST) {
             return CU_REFUSED;
         }
         cu->prev = cu->pose; /* the coast keeps the motion (have_prev stays) */
         cu->pose = pred;
     }
-    return cu->seq == now ? CU_REFUSED : CU_GOING; /* at now without a verified step: refused */
+    return CU_GOING;
 }
 
 /* Go on with a catch-up (or start one): the fix when it reaches the current

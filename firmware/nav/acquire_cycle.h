@@ -25,11 +25,16 @@
  * (mfns_pose_track, the tracking gate around the beacons it predicts). A step
  * is verified when tracking gives a usable pose of at least
  * MFNS_ACQ_MIN_BLOBS beacons; a frame that does not verify is coasted over
- * (the prediction moves on), at most MFNS_ACQ_CATCHUP_MAX_COAST in a row.
- * Only a pose verified on the current frame is the fix (source CARRIED); a
- * robot that moved beyond the gate between two stored frames, more coasted
- * frames in a row, a frame the ring no longer holds, or a current frame that
- * does not verify: no fix (bridge_refused), and the search starts again.
+ * (the prediction moves on), at most MFNS_ACQ_CATCHUP_MAX_COAST in a row; a
+ * three-beacon pose inside the gate carries it on without verifying it (as
+ * it carries the navigator's track: only while the robot sees three of the
+ * beacons it predicts, each frame within the gate). Only a pose
+ * verified on the current frame is the fix (source CARRIED): a current frame
+ * that does not verify counts as a coasted one and the catch-up goes on with
+ * the next cycle's frame. A robot that moved beyond the gate between two
+ * stored frames (then nothing verifies), more coasted frames in a row, or a
+ * frame the ring no longer holds: no fix (bridge_refused), and the search
+ * starts again.
  * Each step costs MFNS_ACQ_CATCHUP_STEP_UNITS of the cycle's budget; a
  * catch-up the budget stops goes on, first, in the next cycle (the ring keeps
  * the frames). This is the trust tracking gives a robot it follows frame by

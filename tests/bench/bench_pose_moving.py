@@ -64,12 +64,16 @@ def path(
     return out
 
 
-def run_row(fl, rig, bmap, idx, cams, truth, nrm, cfg, rng, starts, rate_hz, speed, max_cycles):
+def run_row(fl, rig, bmap, idx, cams, truth, nrm, cfg, seed, starts, rate_hz, speed, max_cycles):
+    """Each start draws from its own stream (seed, start): every row flies the same
+    starts, whatever an earlier start took."""
     carried = ACQ_SOURCES.index("CARRIED")
     to_fix, wrong, bridged, secs, units, wrong_cases = [], 0, 0, [], [], []
     misses: dict[str, int] = {}  # starts without a fix: what their cycles saw
-    n = 0
+    n, tries = 0, 0
     while n < starts:
+        rng = np.random.default_rng([seed, 27, tries])
+        tries += 1
         poses = path(rng, max_cycles, rate_hz, speed)
         obs, ids = pose_sim.acquisition_frame(cams, truth, *poses[0], SIGMA_PX, rng, nrm, 0.0)
         if sum(int(np.sum(i >= 0)) for i in ids) < 4:
@@ -127,7 +131,7 @@ def run_map(name: str, starts: int, seed: int, rates, speeds, max_cycles: int) -
         for speed in speeds:
             t0 = time.perf_counter()
             ctf, wrong, bridged, ms, un, wcases, misses = run_row(
-                fl, rig, bmap, idx, cams, truth, nrm, cfg, rng, starts, rate, speed, max_cycles
+                fl, rig, bmap, idx, cams, truth, nrm, cfg, seed, starts, rate, speed, max_cycles
             )
             cells = " | ".join(
                 f"{100.0 * np.sum(ctf <= w) / starts:.2f} %" for w in WITHIN if w <= max_cycles
