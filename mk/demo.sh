@@ -109,11 +109,11 @@ navigate module paper-calibration "$out/calib/refined_paper.json" ""
 # number of LEDs: the paper's 10 on its frame, the module's 60 on its walls.
 echo "== plan: a better layout for the paper's 10 beacons and the module's 60 (about 1 min)"
 "$py" -m mfns plan optimize "$out/plan/turntable" --surfaces paper-frame --count 10 --samples 240 \
-  --pixel-sigma 0.0155 --beacon-sigma 0 --no-calib-sigma --baseline host_tools/mfns/data/paper_beacons.csv \
+  --pixel-sigma 0.0155 --no-calib-sigma --baseline host_tools/mfns/data/paper_beacons.csv \
   --seed 1 --quiet
 "$py" -m mfns plan optimize "$out/plan/module" --surfaces module --workspace module --count 60 --samples 800 \
   --grid 100 --min-spacing 150 --iterations 4000 --restarts 1 --margin 1 \
-  --pixel-sigma 0.0155 --beacon-sigma 0 --no-calib-sigma --baseline "$out/module/frames/beacons.csv" \
+  --pixel-sigma 0.0155 --no-calib-sigma --baseline "$out/module/frames/beacons.csv" \
   --seed 2 --quiet
 drop_frames module --scenario module --frames 120 --seed 2 --survey-error
 simulate turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \

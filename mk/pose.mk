@@ -1,6 +1,7 @@
 # Pose solver (issue 5): benchmarks.
 #   make bench-pose      C timings (refinement warm start, cold start) and the
-#                        Python comparison with PoseLib and pycolmap
+#                        Python comparison with PoseLib and pycolmap, the
+#                        acquisition sweeps (still, and a moving robot)
 BENCH_TARGETS += bench-pose
 
 POSE_BENCH := $(BUILD)/bench/bench_pose
@@ -15,3 +16,4 @@ bench-pose: $(POSE_BENCH) lib venv
 	$(RUN) $(POSE_BENCH)
 	$(PY) tests/bench/bench_pose_baselines.py
 	$(PY) tests/bench/bench_ident.py
+	$(PY) tests/bench/bench_pose_moving.py

@@ -354,6 +354,9 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     } else if (st == MFNS_NAV_OK) {
         acquire(nav, out);
     }
+    if (!out->acquired) {
+        mfns_acq_cycle_skip(&nav->acq); /* the catch-up ring numbers every cycle (acquire_cycle.h) */
+    }
     if (st == MFNS_NAV_OK) {
         const mfns_caltable_t *t = nav->table;
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,

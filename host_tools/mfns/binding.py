@@ -315,6 +315,8 @@ class AcqCycleReport(ct.Structure):
         ("source", ct.c_uint8),
         ("carry_dropped", ct.c_bool),
         ("bridge_refused", ct.c_bool),
+        ("catchup_steps", ct.c_uint16),
+        ("catchup_pending", ct.c_bool),
     ]
 
 

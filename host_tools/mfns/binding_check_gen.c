@@ -381,7 +381,7 @@ _Static_assert(offsetof(mfns_acq_progress_t, rivals) == 26u, "binding.py AcqProg
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_progress_t, rivals), uint8_t: 1, default: 0), "binding.py AcqProgress.rivals: C type is not uint8_t");
 
 /* AcqCycleReport = mfns_acq_cycle_report_t (acquire_cycle.h) */
-_Static_assert(sizeof(mfns_acq_cycle_report_t) == 40u, "binding.py AcqCycleReport: 40 bytes here");
+_Static_assert(sizeof(mfns_acq_cycle_report_t) == 44u, "binding.py AcqCycleReport: 44 bytes here");
 _Static_assert(offsetof(mfns_acq_cycle_report_t, progress) == 0u, "binding.py AcqCycleReport.progress: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, progress), mfns_acq_progress_t: 1, default: 0), "binding.py AcqCycleReport.progress: C type is not mfns_acq_progress_t");
 _Static_assert(offsetof(mfns_acq_cycle_report_t, carried_units) == 28u, "binding.py AcqCycleReport.carried_units: offset 28 here");
@@ -394,6 +394,10 @@ _Static_assert(offsetof(mfns_acq_cycle_report_t, carry_dropped) == 35u, "binding
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, carry_dropped), _Bool: 1, default: 0), "binding.py AcqCycleReport.carry_dropped: C type is not _Bool");
 _Static_assert(offsetof(mfns_acq_cycle_report_t, bridge_refused) == 36u, "binding.py AcqCycleReport.bridge_refused: offset 36 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, bridge_refused), _Bool: 1, default: 0), "binding.py AcqCycleReport.bridge_refused: C type is not _Bool");
+_Static_assert(offsetof(mfns_acq_cycle_report_t, catchup_steps) == 38u, "binding.py AcqCycleReport.catchup_steps: offset 38 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, catchup_steps), uint16_t: 1, default: 0), "binding.py AcqCycleReport.catchup_steps: C type is not uint16_t");
+_Static_assert(offsetof(mfns_acq_cycle_report_t, catchup_pending) == 40u, "binding.py AcqCycleReport.catchup_pending: offset 40 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, catchup_pending), _Bool: 1, default: 0), "binding.py AcqCycleReport.catchup_pending: C type is not _Bool");
 
 /* CertifyCase = mfns_certify_case_t (acquire_certify.h) */
 _Static_assert(sizeof(mfns_certify_case_t) == 588u, "binding.py CertifyCase: 588 bytes here");

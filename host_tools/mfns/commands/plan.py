@@ -84,6 +84,22 @@ def register(subparsers) -> None:
         help="optimise for 4 + MARGIN beacons in view: a reserve for poses between the samples (default 0)",
     )
     o.add_argument("--restarts", type=int, default=3, help="independent runs, the best kept (default 3)")
-    o.add_argument("--baseline", help="beacons.csv to compare with (analysed on the same samples)")
+    o.add_argument(
+        "--baseline",
+        help="beacons.csv to compare with (analysed on the same samples; "
+        "its sigma_mm is the default survey sigma)",
+    )
+    o.add_argument(
+        "--no-certify",
+        action="store_true",
+        help="leave certifiable one-call acquisition (>= 5 beacons in view, fewest ambiguous views) "
+        "out of the objective",
+    )
+    o.add_argument(
+        "--ident-samples",
+        type=int,
+        default=100,
+        help="views the map analysis checks per restart for ambiguity (~50 ms each; 0: none) (default 100)",
+    )
     o.set_defaults(func=run.run_optimize)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

@@ -16,8 +16,21 @@ contributions, so a move costs only the poses the moved beacon touches.
    a penalty per pose without a fix and per missing beacon, with a geometric
    temperature schedule. score = max(max position 1-sigma / POS_SCALE_MM,
    max attitude 1-sigma / ATT_SCALE_DEG) of a pose with a fix; worst and mean over them.
-   The best layout seen, by the lexicographic objective (poses with a fix, -missing
-   beacons below the fix threshold, -worst score, -mean score), is returned.
+   The best layout seen, by the lexicographic objective (poses with a fix, poses whose
+   view the acquisition can certify in one call, -missing beacons below the fix
+   threshold, -worst score, -mean score), is returned.
+
+Certifiable acquisition (issue 27): a view of exactly four beacons is below every
+certificate (firmware/nav/acquire.h: at least MFNS_BIDX_MIN_CERT = 5 inliers); the
+acquisition certifies it only by an exhaustive completion of ~N^3/5 gP3P solves, tens of
+cycles' budget, and 5.7 % of the module's four-blob views stay ambiguous
+(docs/pose.md). So the objective counts, right after the poses with a fix, the poses
+with at least CERT_MIN_IN_VIEW (+ margin) beacons in view, and the annealing energy
+charges for each pose below it. The identification margin of the acquisition's map
+analysis (ident.py: the C core through the binding, ~50 ms a pose) is too slow for the
+inner loop: run.py computes it for each restart's layout on a sample of poses and
+prefers the layout with the fewest ambiguous views (margin <= 0) among those of equal
+objective.
 
 Deterministic for a seed (no wall-clock budget); run time is reported.
 """
@@ -46,6 +59,11 @@ ANNEAL_T0 = 0.05
 ANNEAL_T_END = 1e-4
 # Energy cost of a pose losing its fix, relative to the greedy layout's worst + mean score.
 ANNEAL_FIX_WEIGHT = 0.5
+# Beacons in view the acquisition certifies in one call (acquire.h: MFNS_BIDX_MIN_CERT).
+CERT_MIN_IN_VIEW = 5
+# Energy cost of a pose below CERT_MIN_IN_VIEW, relative to a pose losing its fix: a
+# four-beacon view still gets a fix, over cycles (the carried search).
+ANNEAL_CERT_WEIGHT = 0.5
 
 
 @dataclass
@@ -93,6 +111,7 @@ class State:
     prob: Problem
     chosen: list[int] = field(default_factory=list)
     target: int = FIX_MIN_IN_VIEW  # beacons in view that count as a fix for the objective
+    cert: int = CERT_MIN_IN_VIEW  # beacons in view the acquisition certifies in one call
 
     def __post_init__(self):
         P = self.prob.ws.n
@@ -133,10 +152,11 @@ class State:
 
     def objective(self) -> tuple:
         fix = self.count >= self.target
+        cert = self.count >= max(self.cert, self.target)
         deficit = int(np.clip(self.target - self.count, 0, None).sum())
         worst = float(self.score[fix].max()) if fix.any() else np.inf
         mean = float(self.score[fix].mean()) if fix.any() else np.inf
-        return (int(fix.sum()), -deficit, -worst, -mean)
+        return (int(fix.sum()), int(cert.sum()), -deficit, -worst, -mean)
 
     def snapshot(self, p: np.ndarray):
         return list(self.chosen), self.count[p].copy(), self.H[p].copy(), self.score[p].copy()
@@ -163,10 +183,11 @@ def better(a: tuple, b: tuple) -> bool:
 
 def _energy(obj: tuple, n_poses: int, scale: float) -> float:
     """Annealing energy: worst + mean score, plus `scale` per pose without a fix and per
-    missing beacon below the fix threshold (so the search may cross a layout that loses
-    a fix for a moment; the best layout kept is judged lexicographically)."""
-    sig = (-obj[2] - obj[3]) if np.isfinite(obj[2]) else 0.0
-    return sig + scale * ((n_poses - obj[0]) + (-obj[1]))
+    missing beacon below the fix threshold, and ANNEAL_CERT_WEIGHT * `scale` per pose
+    the acquisition cannot certify in one call (so the search may cross a layout that
+    loses a fix for a moment; the best layout kept is judged lexicographically)."""
+    sig = (-obj[3] - obj[4]) if np.isfinite(obj[3]) else 0.0
+    return sig + scale * ((n_poses - obj[0]) + ANNEAL_CERT_WEIGHT * (n_poses - obj[1]) + (-obj[2]))
 
 
 def _accept(d: float, temp: float, rng: np.random.Generator) -> bool:
@@ -214,14 +235,17 @@ def optimize(
     near_mm: float = 200.0,
     progress: bool = False,
     margin: int = 0,
+    certify: bool = True,
 ) -> Result:
     """margin: the objective counts a pose as fixed only with FIX_MIN_IN_VIEW + margin
-    beacons in view -- a reserve against poses between the samples."""
+    beacons in view, and certifiable with CERT_MIN_IN_VIEW + margin -- a reserve against
+    poses between the samples. certify False: no certifiable term (the objective before
+    issue 27: every pose with a fix counts as certifiable)."""
     from tqdm import tqdm
 
     from ..errors import MfnsError
 
-    st = State(prob, target=FIX_MIN_IN_VIEW + margin)
+    st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=(CERT_MIN_IN_VIEW if certify else 0) + margin)
     t0 = time.perf_counter()
     spacing = _Spacing(prob.cand, min_spacing_mm, near_mm)
     for _ in tqdm(range(n_beacons), desc="plan: greedy", unit="beacon", disable=not progress):
@@ -251,7 +275,7 @@ def optimize(
     tried = kept = 0
     cur = best_obj = greedy_obj
     best = list(st.chosen)
-    f0 = -cur[2] - cur[3] if np.isfinite(cur[2]) else 1.0
+    f0 = -cur[3] - cur[4] if np.isfinite(cur[3]) else 1.0
     scale = ANNEAL_FIX_WEIGHT * f0
     e_cur = _energy(cur, prob.ws.n, scale)
     order = rng.permutation(n_beacons)
@@ -285,9 +309,9 @@ def optimize(
     return Result(best, best_obj, greedy_obj, t1 - t0, time.perf_counter() - t1, tried, kept)
 
 
-def evaluate(prob: Problem, chosen: list[int], margin: int = 0) -> tuple:
+def evaluate(prob: Problem, chosen: list[int], margin: int = 0, certify: bool = True) -> tuple:
     """The objective of a given layout (candidate indices)."""
-    st = State(prob, target=FIX_MIN_IN_VIEW + margin)
+    st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=(CERT_MIN_IN_VIEW if certify else 0) + margin)
     for c in chosen:
         st.move(None, c)
     return st.objective()

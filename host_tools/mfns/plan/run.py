@@ -23,8 +23,9 @@ from .crlb import CalibrationError
 BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
 # the optimiser's work: 10 million annealing moves per restart and 1000 restarts are hours
 MAX_ITERATIONS, MAX_RESTARTS = 10_000_000, 1000
-# Survey 1-sigma the optimiser assumes for new beacons unless --beacon-sigma is given:
-# the paper's map accuracy (docs/system.md Table 4).
+# Survey 1-sigma the optimiser assumes for new beacons unless --beacon-sigma is given or
+# the --baseline beacons.csv states one (its median sigma_mm: the same survey places the
+# new layout): the paper's map accuracy (docs/system.md Table 4).
 DEFAULT_SURVEY_SIGMA_MM = 0.3963
 
 
@@ -129,6 +130,52 @@ def run_analyze(args) -> int:
     return 0
 
 
+def _survey_sigma(args) -> tuple[float, str]:
+    """The survey 1-sigma of the new layout and where it comes from: --beacon-sigma, else
+    the sigma_mm beacons.csv of --baseline states (median), else the paper's."""
+    if args.beacon_sigma is not None:
+        if not args.beacon_sigma >= 0:
+            raise MfnsError("--beacon-sigma must be >= 0")
+        return float(args.beacon_sigma), "--beacon-sigma"
+    if args.baseline:
+        _, _, bsig = load_beacon_csv(args.baseline)
+        return float(np.median(bsig)), f"sigma_mm of {args.baseline} (median)"
+    return DEFAULT_SURVEY_SIGMA_MM, "the paper's map accuracy (docs/system.md Table 4)"
+
+
+def ident_check(core, layout: np.ndarray, sigma_mm: float, ws, sigma_px: float, n: int) -> dict:
+    """The acquisition's map analysis (ident.py, the C core through the binding) on the
+    first n pose samples of ws with >= 4 beacons in view: how many views are ambiguous
+    (identification margin <= 0: the flight code refuses them) and the margins."""
+    from .ident import IdentMargin
+
+    lo, hi = ws.r_wb_w.min(axis=0), ws.r_wb_w.max(axis=0)
+    span = np.maximum(hi - lo, 1.0)
+    im = IdentMargin(
+        core.flight,
+        core.rig,
+        layout,
+        np.full(len(layout), sigma_mm),
+        lo - 0.05 * span - 1.0,
+        hi + 0.05 * span + 1.0,
+        sigma_px,
+    )
+    m = []
+    for i in range(ws.n):
+        if len(m) >= n:
+            break
+        v = im.margin(ws.C_w_b[i], ws.r_bw_b(i))
+        if v is not None:
+            m.append(v)
+    a = np.array(m, dtype=float)
+    return {
+        "views": len(m),
+        "ambiguous": int(np.sum(a <= 0)) if len(a) else 0,
+        "margin_le_1": int(np.sum(a <= 1)) if len(a) else 0,
+        "margin_median": float(np.median(a)) if len(a) else None,
+    }
+
+
 def write_beacons(path: Path, pos: np.ndarray, sigma_mm: float) -> None:
     """beacons.csv as `mfns sim nav` writes and reads it (docs/nav-frames.md)."""
     with open(path, "w", newline="") as f:
@@ -152,23 +199,41 @@ def run_optimize(args) -> int:
     surf, keep = surfaces.load(args.surfaces)
     keep += [surfaces.parse_box(k) for k in args.keep_out or []]
     cand, _ = surfaces.candidates(surf, args.grid, keep)
-    survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM
+    survey, survey_from = _survey_sigma(args)
     sigma_px, _, calib, noise = _noise(args, doc, core, np.zeros(0))
-    noise = f"pixel {sigma_px:g} px; survey {survey:g} mm; calibration not in the optimiser's objective"
+    noise = (
+        f"pixel {sigma_px:g} px; survey {survey:g} mm ({survey_from}); "
+        "calibration not in the optimiser's objective"
+    )
     check_noise = noise + ("; the analysis includes the rig's calibration sigma" if calib else "")
     ws = build_workspace(args, stream=0)
     progress = not args.quiet
     t0 = time.perf_counter()
     prob = opt.build_problem(core, cand, ws, sigma_px, survey, progress)
-    res, search_s = None, []
+    res, res_ident, search_s = None, None, []
+    certify = not args.no_certify
     for r in range(args.restarts):
         rng = np.random.default_rng([args.seed, 7, r])
         one = opt.optimize(
-            prob, args.count, args.min_spacing, args.iterations, rng, progress=progress, margin=args.margin
+            prob,
+            args.count,
+            args.min_spacing,
+            args.iterations,
+            rng,
+            progress=progress,
+            margin=args.margin,
+            certify=certify,
         )
         search_s.append(round(one.greedy_s + one.search_s, 2))
-        if res is None or opt.better(one.objective, res.objective):
-            res = one
+        # the identification margin (C map analysis) decides between layouts of equal
+        # availability and certifiable views: fewer ambiguous views first
+        one_ident = (
+            ident_check(core, cand[one.chosen], survey, ws, sigma_px, args.ident_samples)
+            if certify and args.ident_samples > 0
+            else None
+        )
+        if res is None or _preferred(one, one_ident, res, res_ident):
+            res, res_ident = one, one_ident
     total_s = time.perf_counter() - t0
     out = Path(args.out)
     _prepare(out)
@@ -190,6 +255,10 @@ def run_optimize(args) -> int:
         "moves_tried": res.moves_tried,
         "moves_kept": res.moves_kept,
         "seed": args.seed,
+        "certifiable_objective": certify,
+        "survey_sigma_mm": survey,
+        "survey_sigma_from": survey_from,
+        "ident": res_ident,
         "objective": _obj_doc(res.objective, ws.n),
         "greedy_objective": _obj_doc(res.greedy_objective, ws.n),
         "run_time_s": {
@@ -218,6 +287,8 @@ def run_optimize(args) -> int:
         plan_doc["baseline"]["sigma_p99"] = {
             k: v["p99"] for k, v in bs["sigma_percentiles_over_fix_samples"].items()
         }
+        if certify and args.ident_samples > 0:
+            plan_doc["baseline"]["ident"] = ident_check(core, bpos, survey, ws, sigma_px, args.ident_samples)
     plan_doc["sigma_p99"] = {k: v["p99"] for k, v in s["sigma_percentiles_over_fix_samples"].items()}
     (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     rt = plan_doc["run_time_s"]
@@ -228,17 +299,35 @@ def run_optimize(args) -> int:
         f"annealing {rt['per_restart']} s; best: {res.moves_kept}/{res.moves_tried} moves kept)\n"
         f"  -> {out / 'beacons.csv'}",
     )
+    if res_ident is not None:
+        print(
+            f"  identification (map analysis, {res_ident['views']} views): "
+            f"{res_ident['ambiguous']} ambiguous, "
+            f"margin median {res_ident['margin_median']}; survey sigma {survey:g} mm ({survey_from})"
+        )
     if args.baseline:
         print(f"  baseline {args.baseline}: availability {plan_doc['baseline']['availability_pct']} %")
     return 0
 
 
+def _preferred(a, a_ident, b, b_ident) -> bool:
+    """Layout a over b: more poses with a fix, then more certifiable in one call, then
+    fewer ambiguous views (the map analysis), then the rest of the objective."""
+    ka, kb = a.objective[:2], b.objective[:2]
+    if ka != kb:
+        return ka > kb
+    if a_ident is not None and b_ident is not None and a_ident["ambiguous"] != b_ident["ambiguous"]:
+        return a_ident["ambiguous"] < b_ident["ambiguous"]
+    return opt.better(a.objective, b.objective)
+
+
 def _obj_doc(obj: tuple, n: int) -> dict:
     return {
         "poses_with_fix": f"{obj[0]}/{n}",
-        "missing_beacons": -obj[1],
-        "worst_score": -obj[2],
-        "mean_score": -obj[3],
+        "poses_certifiable_in_one_call": f"{obj[1]}/{n}",
+        "missing_beacons": -obj[2],
+        "worst_score": -obj[3],
+        "mean_score": -obj[4],
         "score": f"max(position 1-sigma / {opt.POS_SCALE_MM:g} mm, "
         f"attitude 1-sigma / {opt.ATT_SCALE_DEG:g} deg)",
     }

@@ -1,0 +1,108 @@
+"""One-call acquisition on a planned beacon layout against the original (issue 27): the
+flight acquisition (mfns_acquire, C through ctypes, one call of one cycle's budget) from
+random poses, on each layout with its own table-built index and certificate (as `mfns
+table build` makes them: mapindex.build), sigma 0.3 px, beacons displaced by the survey
+sigma their beacons.csv states, LEDs aimed along the nearest wall's normal (as `mfns sim
+nav --beacon-map` renders them), a reflection in 10 % of the frames.
+
+Poses: the module scenario's reachable poses (mfns.plan.workspace.module: the space the
+planner optimises over) with >= 4 beacons in view, on an independent stream; with --box,
+bench_ident.py's uniform attitude in the map's default workspace box instead.
+
+    python tests/bench/bench_pose_layout.py PLANNED.csv ORIGINAL.csv [--poses N] [--seed S] [--box]
+
+Prints per layout: right / wrong / no fix (reasons), the share of poses with >= 4 and
+>= 5 beacons in view, and the call's time. Target (issue 27), the module's 60 LEDs:
+>= 99.9 % right, 0 wrong on the planned layout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_ident import SIGMA_PX, SPURIOUS_RATE, visible_poses  # noqa: E402
+
+from mfns import pose_sim  # noqa: E402
+from mfns.flight import Flight  # noqa: E402
+from mfns.plan import workspace  # noqa: E402
+from mfns.simulate import nav  # noqa: E402
+from mfns.table import mapindex  # noqa: E402
+from mfns.table.builder import load_beacon_csv  # noqa: E402
+
+
+def module_poses(fl, rig, bmap, idx, rng, n):
+    """n poses of the module workspace with >= 4 beacons in view (the C core's visibility)."""
+    out = []
+    while len(out) < n:
+        ws = workspace.module(2048, rng)
+        for i in range(ws.n):
+            C, r = ws.C_w_b[i], ws.r_bw_b(i)
+            f, _ = fl.view(rig, bmap, idx, fl.pose(C, r))
+            if sum(f.count) >= 4:
+                out.append((C, r))
+                if len(out) == n:
+                    break
+    return out
+
+
+def run(csv: str, n: int, seed: int, box: bool) -> bool:
+    fl = Flight()
+    cams = pose_sim.paper_rig()
+    rig = fl.rig(cams)
+    _, pos, sig = load_beacon_csv(csv)
+    nrm = nav.wall_normals(pos)
+    bmap = fl.beacon_map(pos, sig)
+    ws = mapindex.default_workspace(pos)
+    t0 = time.perf_counter()
+    idx, report = mapindex.build(fl, rig, bmap, (nrm, np.full(len(pos), 90.0)), ws, SIGMA_PX)
+    t_index = time.perf_counter() - t0
+    rng = np.random.default_rng([seed, 2727])
+    if box:
+        poses = visible_poses(fl, rig, bmap, idx, rng, ws[0], ws[1], n)
+    else:
+        poses = module_poses(fl, rig, bmap, idx, rng, n)
+    truth = pos + rng.normal(0.0, 1.0, pos.shape) * sig[:, None]
+    in_view = np.array([sum(fl.view(rig, bmap, idx, fl.pose(C, r))[0].count) for C, r in poses])
+    cfg = fl.config(sigma_px=SIGMA_PX)
+    t0 = time.perf_counter()
+    res = pose_sim.identification_sweep(
+        fl, rig, bmap, idx, cams, truth, poses, SIGMA_PX, rng, cfg, nrm, SPURIOUS_RATE
+    )
+    ms = np.array(res.seconds) * 1e3
+    print(
+        f"== {csv}: {len(pos)} beacons, survey sigma {np.median(sig):g} mm; "
+        f"index {t_index:.0f} s ({report.lines()[2]})"
+    )
+    print(
+        f"   one call: {res.right} right ({100.0 * res.right / n:.2f} %), {res.wrong} wrong of {n}; "
+        f"no fix {res.reasons}; blobs in view >= 5: {100.0 * np.mean(in_view >= 5):.1f} %, "
+        f"exactly 4: {100.0 * np.mean(in_view == 4):.1f} %; ms median {np.median(ms):.2f}, "
+        f"p99 {np.percentile(ms, 99):.2f} ({time.perf_counter() - t0:.0f} s)",
+        flush=True,
+    )
+    return res.wrong == 0
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("layouts", nargs="+", help="beacons.csv files (id,x_mm,y_mm,z_mm,sigma_mm)")
+    ap.add_argument("--poses", type=int, default=5000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--box", action="store_true", help="uniform attitude in the map's default box")
+    a = ap.parse_args()
+    ok = True
+    for csv in a.layouts:
+        ok &= run(csv, a.poses, a.seed, a.box)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
