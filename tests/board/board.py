@@ -64,7 +64,10 @@ class Board:
         self.t_start = time.monotonic()
         self.qemu = subprocess.Popen(
             [str(REPO / "boards/sitss-nav/image/boot.sh"), str(IMAGE), str(self.work / "run")],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, bufsize=0,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            bufsize=0,
         )
         self._spawn(self._read_console)
         self._spawn(self._read_udp)
@@ -72,9 +75,25 @@ class Board:
         pty = m.group(1)
         port = self.udp.getsockname()[1]
         self.ground = subprocess.Popen(
-            [str(GROUND), "--tty", pty, "--uplink", "--tc-key", str(IMAGE / "tc.key"), "--cmd-file", "-",
-             "--out", str(self.work / "ground"), "--udp-forward", f"127.0.0.1:{port}", "--no-status", "-q"],
-            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=open(self.work / "ground.err", "w"),
+            [
+                str(GROUND),
+                "--tty",
+                pty,
+                "--uplink",
+                "--tc-key",
+                str(IMAGE / "tc.key"),
+                "--cmd-file",
+                "-",
+                "--out",
+                str(self.work / "ground"),
+                "--udp-forward",
+                f"127.0.0.1:{port}",
+                "--no-status",
+                "-q",
+            ],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=open(self.work / "ground.err", "w"),
             bufsize=0,
         )
 
@@ -120,7 +139,7 @@ class Board:
         while not self._stop:
             try:
                 data = self.udp.recv(65536)
-            except (TimeoutError, socket.timeout):
+            except TimeoutError:
                 continue
             except OSError:
                 break
@@ -162,7 +181,9 @@ class Board:
             if self.qemu.poll() is not None:
                 break
             time.sleep(0.05)
-        raise AssertionError(f"no console line matching {pattern!r} within {timeout_s} s\n" + self.console_tail())
+        raise AssertionError(
+            f"no console line matching {pattern!r} within {timeout_s} s\n" + self.console_tail()
+        )
 
     def console_tail(self, n: int = 40) -> str:
         with self.lock:
@@ -192,7 +213,9 @@ class Board:
     def wait_event(self, name: str, timeout_s: float, since: float = 0.0, where=None) -> Packet:
         return self.wait_packet(
             lambda p: p.kind == "event" and self.event_name(p) == name and (where is None or where(p)),
-            timeout_s, since, f"{name} event",
+            timeout_s,
+            since,
+            f"{name} event",
         )
 
     # ------------------------------------------------------------------ acting

@@ -27,10 +27,9 @@ import csv
 import json
 import shutil
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import pytest
-
 from board import GROUND, IMAGE, REPO, Board
 
 pytestmark = pytest.mark.skipif(
@@ -79,7 +78,9 @@ def test_service_comes_up_by_itself(board):
 
 def test_selftest_events(board):
     names = [n for n in board.event_codes if n.startswith("SELFTEST_")]
-    assert names, "the dictionary has no SELFTEST_* events (issue 24 item 3: the start-up self-test is not merged)"
+    assert names, (
+        "the dictionary has no SELFTEST_* events (issue 24 item 3: the start-up self-test is not merged)"
+    )
     board.wait_event("SELFTEST_DONE", 30)
     got = {board.event_name(p): p for p in board.events() if board.event_name(p).startswith("SELFTEST_")}
     for n in ("SELFTEST_TABLE", "SELFTEST_CAMERA", "SELFTEST_UART", "SELFTEST_CLOCK", "SELFTEST_DONE"):
@@ -104,8 +105,11 @@ def test_nav_packets_carry_utc(board):
 
 
 def test_noop_round_trip(board):
-    board.wait_packet(lambda p: p.kind == "housekeeping" and int(p.fields["tc_epoch"]) > 0, 30,
-                      what="housekeeping with the boot epoch")
+    board.wait_packet(
+        lambda p: p.kind == "housekeeping" and int(p.fields["tc_epoch"]) > 0,
+        30,
+        what="housekeeping with the boot epoch",
+    )
     times = []
     for _ in range(3):
         t0 = board.command("NOOP")
@@ -149,7 +153,9 @@ def test_table_load_survives_reboot(board):
     t1 = board.shell("reboot")
     board.wait_console(r"sitss-nav image up", 180, since=t1)
     boot = board.wait_event("BOOT", 180, since=t1)
-    hk2 = board.wait_packet(lambda p: p.kind == "housekeeping", 60, since=boot.t, what="housekeeping after reboot")
+    hk2 = board.wait_packet(
+        lambda p: p.kind == "housekeeping", 60, since=boot.t, what="housekeeping after reboot"
+    )
     RESULTS["reboot_to_first_packet_s"] = round(hk2.t - t1, 2)
     assert int(hk2.fields["table_crc32"]) == new_crc, (
         f"after the reboot the board runs table CRC {int(hk2.fields['table_crc32']):#010x}, "
@@ -168,4 +174,4 @@ def test_ground_csv_has_utc(board):
     for r in rows[:5] + rows[-5:]:
         assert r["utc"], r
         t = datetime.fromisoformat(r["utc"].replace("Z", "+00:00"))
-        assert abs((t - datetime.now(timezone.utc)).total_seconds()) < 3600, r["utc"]
+        assert abs((t - datetime.now(UTC)).total_seconds()) < 3600, r["utc"]

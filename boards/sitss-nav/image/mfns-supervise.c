@@ -144,11 +144,12 @@ static int parse(int argc, char **argv, opts_t *o)
 static int notify_socket(const char *path)
 {
     struct sockaddr_un sa = {.sun_family = AF_UNIX};
-    if (strlen(path) >= sizeof sa.sun_path) {
+    const size_t len = strlen(path);
+    if (len >= sizeof sa.sun_path) {
         syslog(LOG_ERR, "notify socket path too long: %s", path);
         return -1;
     }
-    strcpy(sa.sun_path, path);
+    memcpy(sa.sun_path, path, len + 1u);
     const int fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
     if (fd < 0) {
         syslog(LOG_ERR, "notify socket: %m");

@@ -17,7 +17,7 @@ def modinfo_depends(ko: Path) -> list[str]:
     data = ko.read_bytes()
     for field in data.split(b"\0"):
         if field.startswith(b"depends="):
-            v = field[len(b"depends="):].decode()
+            v = field[len(b"depends=") :].decode()
             return [d for d in v.split(",") if d]
     return []
 
