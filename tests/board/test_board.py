@@ -76,6 +76,19 @@ def test_service_comes_up_by_itself(board):
     assert int(boot[0].fields["subject"]) == 0, "first start: the BOOT event's subject is 0 (no previous run)"
 
 
+def test_realtime_priority_and_locked_memory(board):
+    """The supervisor ran the program SCHED_FIFO 50 and its --mlock held (both permitted here)."""
+    t0 = board.shell(
+        "pid=$(pidof mfns-nav); echo RT=$(cut -d' ' -f40,41 /proc/$pid/stat)"
+        " LCK=$(grep VmLck /proc/$pid/status | tr -s ' ')"
+    )
+    m = board.wait_console(r"RT=(\d+) (\d+) LCK=VmLck: (\d+) kB", 20, since=t0)
+    rt_priority, policy, locked_kb = (int(g) for g in m.groups())
+    assert (policy, rt_priority) == (1, 50), f"policy {policy} (1 = SCHED_FIFO), priority {rt_priority}"
+    assert locked_kb > 1000, f"{locked_kb} kB locked"
+    RESULTS["locked_kb"] = locked_kb
+
+
 def test_selftest_events(board):
     names = [n for n in board.event_codes if n.startswith("SELFTEST_")]
     assert names, (
