@@ -21,7 +21,7 @@ SUPERVISE_CFLAGS := $(CSTD) $(WARN) -O2 -g
 .PHONY: image board-test image-run
 ifeq ($(BOARD),sitss-nav)
 image: $(IMAGE_DIR)/image.txt
-$(IMAGE_DIR)/image.txt: $(BUILD)/bin/mfns-nav $(BUILD)/bin/mfns-supervise $(BUILD)/bin/mfns-cam-setup $(GEN)/default.mfnstbl \
+$(IMAGE_DIR)/image.txt: $(BUILD)/bin/mfns-nav $(BUILD)/bin/mfns-supervise $(BUILD)/bin/mfns-cam-setup $(BUILD)/bin/mfns-frame-feed $(GEN)/default.mfnstbl \
                         $(IMAGE_DIR)/tables/alt.mfnstbl $(IMAGE_SRC) boards/sitss-nav/service/mfns-nav.default mk/image.mk
 	@mk/deps.sh image
 	@boards/sitss-nav/image/build.sh $(IMAGE_DIR) $(BUILD)/bin $(GEN)/default.mfnstbl $(IMAGE_DIR)/tables
@@ -41,11 +41,20 @@ image:
 	@$(MAKE) --no-print-directory BOARD=sitss-nav image
 endif
 
+# The board test's frames disk: LED frames rendered by `mfns sim nav` (the
+# turntable scenario: the paper's rig and beacons, the image's table), 8 per
+# camera, as an ext4 image the guest streams into vivid's loop.
+$(IMAGE_DIR)/frames.img: $(VENV)/.stamp build/host-sim/lib/libmfns_core.so mk/image.mk
+	@rm -rf $(IMAGE_DIR)/frames && mkdir -p $(IMAGE_DIR)
+	@$(PY) -m mfns sim nav -q --scenario turntable --frames 8 --out $(IMAGE_DIR)/frames
+	@rm -f $@ && mke2fs -q -F -t ext4 -L mfns-frames -d $(IMAGE_DIR)/frames $@ 48M
+
 # Without qemu-system-aarch64 (and not root to install it) the test skips and says so.
 board-test: venv lib
 	@mk/deps.sh image || echo "board-test: the image's host tools are missing (above): the test skips"
 	@if command -v qemu-system-aarch64 >/dev/null; then \
-	  $(MAKE) --no-print-directory BOARD=host-sim flight && $(MAKE) --no-print-directory BOARD=sitss-nav image; fi
+	  $(MAKE) --no-print-directory BOARD=host-sim flight && $(MAKE) --no-print-directory BOARD=sitss-nav image \
+	  && $(MAKE) --no-print-directory $(IMAGE_DIR)/frames.img; fi
 	@nice $(PY) -m pytest -q -rs -p no:cacheprovider tests/board
 
 image-run: image

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# boot.sh IMAGE_DIR RUN_DIR: boot the sitss-nav image under qemu-system-aarch64
+# boot.sh IMAGE_DIR RUN_DIR [FRAMES_IMG]: boot the sitss-nav image under qemu-system-aarch64
 # -M virt (TCG, nice'd) -- make image-run, and tests/board (docs/operations.md
 # "The image").
 #   console      the first PL011 (ttyAMA0) on stdio: kernel messages, the
@@ -10,9 +10,11 @@
 #   state        RUN_DIR/state.img (a copy of IMAGE_DIR/state.img on first boot)
 #                as a virtio disk: /var/lib/mfns, kept across boots
 #   cameras      three vivid instances, loaded by the image's rcS
+#   frames       FRAMES_IMG (optional third argument): the board test's disk of
+#                rendered frames (label mfns-frames), streamed into the cameras by rcS
 # QEMU_EXTRA adds options (e.g. QEMU_EXTRA='-smp 2').
 set -euo pipefail
-img=$1 run=$2
+img=$1 run=$2 frames=${3:-}
 mkdir -p "$run"
 [ -f "$run/state.img" ] || cp "$img/state.img" "$run/state.img"
 exec nice qemu-system-aarch64 -M virt -cpu cortex-a53 -m 512 -smp 1 \
@@ -22,4 +24,5 @@ exec nice qemu-system-aarch64 -M virt -cpu cortex-a53 -m 512 -smp 1 \
   -chardev stdio,id=con,signal=off -serial chardev:con \
   -device virtio-serial-device -chardev pty,id=uart -device virtconsole,chardev=uart \
   -drive if=none,id=state,format=raw,file="$run/state.img" -device virtio-blk-device,drive=state \
+  ${frames:+-drive if=none,id=frames,format=raw,readonly=on,file="$frames" -device virtio-blk-device,drive=frames} \
   ${QEMU_EXTRA:-}

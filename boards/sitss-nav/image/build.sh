@@ -74,8 +74,8 @@ ln -sf /bin/busybox "$root/init"
 
 # --- the programs, the supervisor
 install -m 0755 "$bin/mfns-nav" "$root/usr/bin/mfns-nav"
-install -m 0755 "$bin/mfns-supervise" "$bin/mfns-cam-setup" "$root/usr/sbin/"
-"$triplet-strip" --strip-unneeded "$root/usr/bin/mfns-nav" "$root/usr/sbin/mfns-supervise" "$root/usr/sbin/mfns-cam-setup"
+install -m 0755 "$bin/mfns-supervise" "$bin/mfns-cam-setup" "$bin/mfns-frame-feed" "$root/usr/sbin/"
+"$triplet-strip" --strip-unneeded "$root/usr/bin/mfns-nav" "$root"/usr/sbin/mfns-*
 
 # --- shared libraries: NEEDED, recursively, from the packages that own them
 declare -A have=()

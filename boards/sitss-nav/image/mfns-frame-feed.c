@@ -1,0 +1,186 @@
+/* mfns-frame-feed -- the board test's camera stimulus (docs/operations.md "The
+ * image"): streams rendered LED frames (8-bit PGM, `mfns sim nav`) into a vivid
+ * instance's video output, which vivid's output-to-capture loop ("Loop Video")
+ * hands to its capture node, where mfns-nav reads them through the kernel's
+ * V4L2 driver. Never part of a flight configuration: rcS starts it only when
+ * the board test's frames disk is attached.
+ *
+ * The loop carries frames only when the HDMI output and the HDMI input have the
+ * same DV timings, format and field; so both get the DMT timings of the frame
+ * size (1280 x 1024 p60, the paper's cameras) and GREY, progressive. The
+ * output then "displays" one buffer per frame period and gives it back; the
+ * frames are queued in order, round and round.
+ *
+ * Usage: mfns-frame-feed CAPTURE OUTPUT FRAME.pgm...   (returns once streaming;
+ * a background process feeds until killed) */
+#define _DEFAULT_SOURCE /* O_CLOEXEC, MAP_SHARED, struct timespec under -std=c11 */
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <linux/v4l2-dv-timings.h>
+#include <linux/videodev2.h>
+
+#define WIDTH 1280u
+#define HEIGHT 1024u
+#define FRAME_BYTES ((size_t)WIDTH * HEIGHT)
+#define MAX_FRAMES 64
+#define NUM_BUFS 4u
+#define CTRL_SCAN_MAX 512 /* controls enumerated to find "Loop Video" */
+
+static int fail(const char *what, const char *dev)
+{
+    fprintf(stderr, "mfns-frame-feed: %s: %s: %s\n", dev, what, strerror(errno));
+    return 1;
+}
+
+/* An 8-bit binary PGM of WIDTH x HEIGHT into buf. */
+static int read_pgm(const char *path, unsigned char *buf)
+{
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "mfns-frame-feed: %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    unsigned w = 0, h = 0, maxval = 0;
+    const int n = fscanf(f, "P5 %u %u %u", &w, &h, &maxval);
+    const int sep = fgetc(f); /* the one whitespace byte before the pixels */
+    const int ok = n == 3 && w == WIDTH && h == HEIGHT && maxval == 255u && sep != EOF &&
+                   fread(buf, 1, FRAME_BYTES, f) == FRAME_BYTES;
+    (void)fclose(f);
+    if (!ok) {
+        fprintf(stderr, "mfns-frame-feed: %s: not an 8-bit %ux%u PGM\n", path, WIDTH, HEIGHT);
+        return -1;
+    }
+    return 0;
+}
+
+static int set_node(int fd, const char *dev, enum v4l2_buf_type type)
+{
+    struct v4l2_dv_timings t = V4L2_DV_BT_DMT_1280X1024P60;
+    if (ioctl(fd, VIDIOC_S_DV_TIMINGS, &t) != 0) {
+        return fail("VIDIOC_S_DV_TIMINGS 1280x1024p60", dev);
+    }
+    struct v4l2_format f;
+    memset(&f, 0, sizeof f);
+    f.type = type;
+    f.fmt.pix.width = WIDTH;
+    f.fmt.pix.height = HEIGHT;
+    f.fmt.pix.pixelformat = V4L2_PIX_FMT_GREY;
+    f.fmt.pix.field = V4L2_FIELD_NONE;
+    if (ioctl(fd, VIDIOC_S_FMT, &f) != 0) {
+        return fail("VIDIOC_S_FMT", dev);
+    }
+    if (f.fmt.pix.width != WIDTH || f.fmt.pix.height != HEIGHT || f.fmt.pix.pixelformat != V4L2_PIX_FMT_GREY ||
+        f.fmt.pix.bytesperline != WIDTH) {
+        fprintf(stderr, "mfns-frame-feed: %s: format %ux%u stride %u is not GREY %ux%u\n", dev, f.fmt.pix.width,
+                f.fmt.pix.height, f.fmt.pix.bytesperline, WIDTH, HEIGHT);
+        return 1;
+    }
+    return 0;
+}
+
+/* vivid's "Loop Video" control on the capture node (found by name: its id is private to vivid). */
+static int enable_loop(int fd, const char *dev)
+{
+    struct v4l2_queryctrl q;
+    memset(&q, 0, sizeof q);
+    q.id = V4L2_CTRL_FLAG_NEXT_CTRL;
+    for (int i = 0; i < CTRL_SCAN_MAX && ioctl(fd, VIDIOC_QUERYCTRL, &q) == 0; i++) {
+        if (strcmp((const char *)q.name, "Loop Video") == 0) {
+            struct v4l2_control c = {.id = q.id, .value = 1};
+            return ioctl(fd, VIDIOC_S_CTRL, &c) == 0 ? 0 : fail("set Loop Video", dev);
+        }
+        q.id |= V4L2_CTRL_FLAG_NEXT_CTRL;
+    }
+    fprintf(stderr, "mfns-frame-feed: %s: no \"Loop Video\" control (not vivid?)\n", dev);
+    return 1;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 4 || argc - 3 > MAX_FRAMES) {
+        fprintf(stderr, "usage: mfns-frame-feed CAPTURE OUTPUT FRAME.pgm... (1..%d frames)\n", MAX_FRAMES);
+        return 2;
+    }
+    const int nframes = argc - 3;
+    unsigned char *frames = malloc(FRAME_BYTES * (size_t)nframes);
+    if (frames == NULL) {
+        fprintf(stderr, "mfns-frame-feed: no memory for %d frames\n", nframes);
+        return 1;
+    }
+    for (int i = 0; i < nframes; i++) {
+        if (read_pgm(argv[3 + i], frames + FRAME_BYTES * (size_t)i) != 0) {
+            return 1;
+        }
+    }
+    const int cap = open(argv[1], O_RDWR | O_CLOEXEC);
+    const int out = open(argv[2], O_RDWR | O_CLOEXEC);
+    if (cap < 0 || out < 0) {
+        return fail("open", cap < 0 ? argv[1] : argv[2]);
+    }
+    if (set_node(out, argv[2], V4L2_BUF_TYPE_VIDEO_OUTPUT) != 0 ||
+        set_node(cap, argv[1], V4L2_BUF_TYPE_VIDEO_CAPTURE) != 0 || enable_loop(cap, argv[1]) != 0) {
+        return 1;
+    }
+    struct v4l2_requestbuffers rb = {.count = NUM_BUFS, .type = V4L2_BUF_TYPE_VIDEO_OUTPUT,
+                                     .memory = V4L2_MEMORY_MMAP};
+    if (ioctl(out, VIDIOC_REQBUFS, &rb) != 0 || rb.count < 2u) {
+        return fail("VIDIOC_REQBUFS", argv[2]);
+    }
+    unsigned char *map[NUM_BUFS] = {NULL};
+    int next = 0;
+    for (unsigned i = 0; i < rb.count && i < NUM_BUFS; i++) {
+        struct v4l2_buffer b = {.index = i, .type = V4L2_BUF_TYPE_VIDEO_OUTPUT, .memory = V4L2_MEMORY_MMAP};
+        if (ioctl(out, VIDIOC_QUERYBUF, &b) != 0 || b.length < FRAME_BYTES) {
+            return fail("VIDIOC_QUERYBUF", argv[2]);
+        }
+        map[i] = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, out, b.m.offset);
+        if (map[i] == MAP_FAILED) {
+            return fail("mmap", argv[2]);
+        }
+        memcpy(map[i], frames + FRAME_BYTES * (size_t)next, FRAME_BYTES);
+        next = (next + 1) % nframes;
+        b.bytesused = (unsigned)FRAME_BYTES;
+        b.field = V4L2_FIELD_NONE;
+        if (ioctl(out, VIDIOC_QBUF, &b) != 0) {
+            return fail("VIDIOC_QBUF", argv[2]);
+        }
+    }
+    enum v4l2_buf_type type = V4L2_BUF_TYPE_VIDEO_OUTPUT;
+    if (ioctl(out, VIDIOC_STREAMON, &type) != 0) {
+        return fail("VIDIOC_STREAMON", argv[2]);
+    }
+    fprintf(stderr, "mfns-frame-feed: %s -> %s: %d frames, looped\n", argv[2], argv[1], nframes);
+    /* set up: the caller (rcS) goes on, the feeding goes on in the background */
+    const pid_t pid = fork();
+    if (pid < 0) {
+        return fail("fork", argv[2]);
+    }
+    if (pid > 0) {
+        return 0;
+    }
+    for (;;) { /* until killed: the board test's stimulus */
+        struct v4l2_buffer b = {.type = V4L2_BUF_TYPE_VIDEO_OUTPUT, .memory = V4L2_MEMORY_MMAP};
+        if (ioctl(out, VIDIOC_DQBUF, &b) != 0) {
+            if (errno == EINTR || errno == EAGAIN) {
+                continue;
+            }
+            return fail("VIDIOC_DQBUF", argv[2]);
+        }
+        memcpy(map[b.index], frames + FRAME_BYTES * (size_t)next, FRAME_BYTES);
+        next = (next + 1) % nframes;
+        b.bytesused = (unsigned)FRAME_BYTES;
+        b.field = V4L2_FIELD_NONE;
+        if (ioctl(out, VIDIOC_QBUF, &b) != 0) {
+            return fail("VIDIOC_QBUF", argv[2]);
+        }
+    }
+}
