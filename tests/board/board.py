@@ -153,7 +153,11 @@ class Board:
                 kind = self.names[int(p["ccsds_apid"])]
                 p = self._fields(kind, p)
             except Exception as e:  # noqa: BLE001 -- an undecodable packet is recorded, the test fails on it
-                kind, p = "undecodable", {"error": repr(e)}
+                apid = int.from_bytes(data[:2], "big") & 0x7FF if len(data) >= 2 else -1
+                kind, p = (
+                    "undecodable",
+                    {"error": repr(e), "apid": apid, "bytes": len(data), "hex": data[:48].hex()},
+                )
             with self.lock:
                 self.packets.append(Packet(kind, dict(p), now, data))
 

@@ -31,7 +31,7 @@
 #define WIDTH 1280u
 #define HEIGHT 1024u
 #define FRAME_BYTES ((size_t)WIDTH * HEIGHT)
-#define MAX_FRAMES 64
+#define MAX_FRAMES 16
 #define NUM_BUFS 4u
 #define CTRL_SCAN_MAX 512 /* controls enumerated to find "Loop Video" */
 
@@ -41,7 +41,24 @@ static int fail(const char *what, const char *dev)
     return 1;
 }
 
-/* An 8-bit binary PGM of WIDTH x HEIGHT into buf. */
+/* The next whitespace-separated number of a PGM header; -1 when there is none. */
+static long pgm_number(FILE *f)
+{
+    char tok[16];
+    size_t n = 0;
+    int c = fgetc(f);
+    while (c == ' ' || c == '\n' || c == '\r' || c == '\t') {
+        c = fgetc(f);
+    }
+    while (c >= '0' && c <= '9' && n + 1u < sizeof tok) {
+        tok[n++] = (char)c;
+        c = fgetc(f);
+    }
+    tok[n] = '\0';
+    return n > 0u ? strtol(tok, NULL, 10) : -1; /* c: the one whitespace byte before the pixels */
+}
+
+/* An 8-bit binary PGM of WIDTH x HEIGHT into buf (the header `mfns sim nav` writes). */
 static int read_pgm(const char *path, unsigned char *buf)
 {
     FILE *f = fopen(path, "rb");
@@ -49,11 +66,14 @@ static int read_pgm(const char *path, unsigned char *buf)
         fprintf(stderr, "mfns-frame-feed: %s: %s\n", path, strerror(errno));
         return -1;
     }
-    unsigned w = 0, h = 0, maxval = 0;
-    const int n = fscanf(f, "P5 %u %u %u", &w, &h, &maxval);
-    const int sep = fgetc(f); /* the one whitespace byte before the pixels */
-    const int ok = n == 3 && w == WIDTH && h == HEIGHT && maxval == 255u && sep != EOF &&
-                   fread(buf, 1, FRAME_BYTES, f) == FRAME_BYTES;
+    const int c0 = fgetc(f);
+    const int c1 = fgetc(f);
+    const int magic = c0 == 'P' && c1 == '5';
+    const long w = magic ? pgm_number(f) : -1;
+    const long h = magic ? pgm_number(f) : -1;
+    const long maxval = magic ? pgm_number(f) : -1;
+    const int ok =
+        w == (long)WIDTH && h == (long)HEIGHT && maxval == 255 && fread(buf, 1, FRAME_BYTES, f) == FRAME_BYTES;
     (void)fclose(f);
     if (!ok) {
         fprintf(stderr, "mfns-frame-feed: %s: not an 8-bit %ux%u PGM\n", path, WIDTH, HEIGHT);
@@ -110,12 +130,8 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: mfns-frame-feed CAPTURE OUTPUT FRAME.pgm... (1..%d frames)\n", MAX_FRAMES);
         return 2;
     }
+    static unsigned char frames[FRAME_BYTES * MAX_FRAMES]; /* a test tool's whole stimulus, loaded once */
     const int nframes = argc - 3;
-    unsigned char *frames = malloc(FRAME_BYTES * (size_t)nframes);
-    if (frames == NULL) {
-        fprintf(stderr, "mfns-frame-feed: no memory for %d frames\n", nframes);
-        return 1;
-    }
     for (int i = 0; i < nframes; i++) {
         if (read_pgm(argv[3 + i], frames + FRAME_BYTES * (size_t)i) != 0) {
             return 1;
