@@ -7,7 +7,8 @@
  *
  * The loop carries frames only when the HDMI output and the HDMI input have the
  * same DV timings, format and field; so both get the DMT timings of the frame
- * size (1280 x 1024 p60, the paper's cameras) and GREY, progressive. The
+ * size (1280 x 1024 p60, the paper's cameras) and GREY, progressive; vivid's
+ * on-screen text (counters drawn over the top rows) is switched off. The
  * output then "displays" one buffer per frame period and gives it back; the
  * frames are queued in order, round and round.
  *
@@ -33,6 +34,8 @@
 #define FRAME_BYTES ((size_t)WIDTH * HEIGHT)
 #define MAX_FRAMES 16
 #define NUM_BUFS 4u
+#define OSD_NONE 2 /* vivid's "OSD Text Mode" menu: 0 all, 1 counters only, 2 none (text over the frame) */
+#define CHECK_FRAMES 6     /* captured to check the loop */
 #define CTRL_SCAN_MAX 512 /* controls enumerated to find "Loop Video" */
 
 static int fail(const char *what, const char *dev)
@@ -107,21 +110,81 @@ static int set_node(int fd, const char *dev, enum v4l2_buf_type type)
     return 0;
 }
 
-/* vivid's "Loop Video" control on the capture node (found by name: its id is private to vivid). */
-static int enable_loop(int fd, const char *dev)
+/* A vivid control on the capture node, found by name (vivid's ids are private). */
+static int set_ctrl(int fd, const char *dev, const char *name, int value)
 {
     struct v4l2_queryctrl q;
     memset(&q, 0, sizeof q);
     q.id = V4L2_CTRL_FLAG_NEXT_CTRL;
     for (int i = 0; i < CTRL_SCAN_MAX && ioctl(fd, VIDIOC_QUERYCTRL, &q) == 0; i++) {
-        if (strcmp((const char *)q.name, "Loop Video") == 0) {
-            struct v4l2_control c = {.id = q.id, .value = 1};
-            return ioctl(fd, VIDIOC_S_CTRL, &c) == 0 ? 0 : fail("set Loop Video", dev);
+        if (strcmp((const char *)q.name, name) == 0) {
+            struct v4l2_control c = {.id = q.id, .value = value};
+            return ioctl(fd, VIDIOC_S_CTRL, &c) == 0 ? 0 : fail(name, dev);
         }
         q.id |= V4L2_CTRL_FLAG_NEXT_CTRL;
     }
-    fprintf(stderr, "mfns-frame-feed: %s: no \"Loop Video\" control (not vivid?)\n", dev);
+    fprintf(stderr, "mfns-frame-feed: %s: no \"%s\" control (not vivid?)\n", dev, name);
     return 1;
+}
+
+/* Does the loop carry the frames? One frame from the capture node (before the
+ * flight program owns it) against the frames fed: the share of equal bytes in
+ * the best match, on stderr ("loop carries the frames: ..." or "does NOT"). */
+static void check_loop(int cap, const char *dev, const unsigned char *frames, int nframes)
+{
+    struct v4l2_requestbuffers rb = {.count = 2, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
+    if (ioctl(cap, VIDIOC_REQBUFS, &rb) != 0 || rb.count < 1u) {
+        (void)fail("check: VIDIOC_REQBUFS", dev);
+        return;
+    }
+    unsigned char *map[2] = {NULL, NULL};
+    size_t len[2] = {0, 0};
+    for (unsigned i = 0; i < rb.count && i < 2u; i++) {
+        struct v4l2_buffer b = {.index = i, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
+        if (ioctl(cap, VIDIOC_QUERYBUF, &b) != 0) {
+            (void)fail("check: VIDIOC_QUERYBUF", dev);
+            return;
+        }
+        len[i] = b.length;
+        map[i] = mmap(NULL, b.length, PROT_READ, MAP_SHARED, cap, b.m.offset);
+        if (map[i] == MAP_FAILED || ioctl(cap, VIDIOC_QBUF, &b) != 0) {
+            (void)fail("check: mmap/VIDIOC_QBUF", dev);
+            return;
+        }
+    }
+    enum v4l2_buf_type type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    size_t best = 0;
+    if (ioctl(cap, VIDIOC_STREAMON, &type) != 0) {
+        (void)fail("check: VIDIOC_STREAMON", dev);
+    }
+    /* a few frames: the first may predate the output's first displayed frame */
+    for (int n = 0; n < CHECK_FRAMES && best < FRAME_BYTES; n++) {
+        struct v4l2_buffer b = {.type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
+        if (ioctl(cap, VIDIOC_DQBUF, &b) != 0 || b.index >= 2u) {
+            (void)fail("check: VIDIOC_DQBUF", dev);
+            break;
+        }
+        for (int k = 0; k < nframes && b.bytesused >= FRAME_BYTES; k++) {
+            const unsigned char *f = frames + FRAME_BYTES * (size_t)k;
+            size_t same = 0;
+            for (size_t i = 0; i < FRAME_BYTES; i++) {
+                same += map[b.index][i] == f[i];
+            }
+            best = same > best ? same : best;
+        }
+        (void)ioctl(cap, VIDIOC_QBUF, &b); /* back for the next one; a failure ends at the next DQBUF */
+    }
+    const double share = (double)best / (double)FRAME_BYTES;
+    fprintf(stderr, "mfns-frame-feed: %s: loop %s the frames: %.4f of a captured frame's bytes equal a fed frame's\n",
+            dev, share > 0.99 ? "carries" : "does NOT carry", share);
+    (void)ioctl(cap, VIDIOC_STREAMOFF, &type);
+    for (unsigned i = 0; i < 2u; i++) {
+        if (map[i] != NULL && map[i] != MAP_FAILED) {
+            (void)munmap(map[i], len[i]);
+        }
+    }
+    struct v4l2_requestbuffers none = {.count = 0, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
+    (void)ioctl(cap, VIDIOC_REQBUFS, &none); /* free: the flight program sets its own */
 }
 
 int main(int argc, char **argv)
@@ -143,7 +206,8 @@ int main(int argc, char **argv)
         return fail("open", cap < 0 ? argv[1] : argv[2]);
     }
     if (set_node(out, argv[2], V4L2_BUF_TYPE_VIDEO_OUTPUT) != 0 ||
-        set_node(cap, argv[1], V4L2_BUF_TYPE_VIDEO_CAPTURE) != 0 || enable_loop(cap, argv[1]) != 0) {
+        set_node(cap, argv[1], V4L2_BUF_TYPE_VIDEO_CAPTURE) != 0 || set_ctrl(cap, argv[1], "Loop Video", 1) != 0 ||
+        set_ctrl(cap, argv[1], "OSD Text Mode", OSD_NONE) != 0) {
         return 1;
     }
     struct v4l2_requestbuffers rb = {.count = NUM_BUFS, .type = V4L2_BUF_TYPE_VIDEO_OUTPUT,
@@ -175,6 +239,7 @@ int main(int argc, char **argv)
         return fail("VIDIOC_STREAMON", argv[2]);
     }
     fprintf(stderr, "mfns-frame-feed: %s -> %s: %d frames, looped\n", argv[2], argv[1], nframes);
+    check_loop(cap, argv[1], frames, nframes);
     /* set up: the caller (rcS) goes on, the feeding goes on in the background */
     const pid_t pid = fork();
     if (pid < 0) {
