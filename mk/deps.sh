@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# deps.sh [demo|test]: make sure the Debian packages of one set are installed.
+# deps.sh [demo|test|image]: make sure the Debian packages of one set are installed.
 #   demo  what `make demo` needs: the host C compiler, pkg-config, libserialport,
 #         libsystemd (the service's notify protocol, firmware/app/nav_service.h)
 #         and Python's venv module (the Python packages come from the venv, mk/venv.sh)
 #   test  (default) everything `make test` needs: the demo set plus cmocka, the
 #         aarch64 and Cortex-M cross compilers, qemu, the linters, clang's fuzzer
 #         runtime, valgrind and libcamera
+#   image what `make image` and `make board-test` add (mk/image.mk): qemu-system-arm
+#         (qemu-system-aarch64), cpio and e2fsprogs (mke2fs -d) on the host; the
+#         arm64 packages of the image itself are fetched with apt-get download
 # As root it installs what is missing (apt); otherwise it names the missing
 # packages and the command to install them, and fails.
 set -euo pipefail
@@ -23,8 +26,9 @@ TEST_PKGS="$TEST_PKGS chromium"
 ARM64_PKGS="libcmocka-dev:arm64 libserialport-dev:arm64 libsystemd-dev:arm64 libssl-dev:arm64"
 case $set_name in
   demo) pkgs=$DEMO_PKGS; foreign= ;;
+  image) pkgs="qemu-system-arm cpio e2fsprogs qemu-user gcc-aarch64-linux-gnu $ARM64_PKGS"; foreign=arm64 ;;
   test) pkgs="$TEST_PKGS $ARM64_PKGS"; foreign=arm64 ;;
-  *) echo "usage: mk/deps.sh [demo|test]" >&2; exit 2 ;;
+  *) echo "usage: mk/deps.sh [demo|test|image]" >&2; exit 2 ;;
 esac
 
 missing=()
