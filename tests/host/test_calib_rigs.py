@@ -234,7 +234,9 @@ def test_a_rig_turning_about_one_axis_only_is_refused_by_name_before_the_refinem
 
     truth = default_truth(("z",))
     rng = np.random.default_rng(3)
-    obs = corner_observations(truth, Board(), make_plan(truth, Board(), rng, 12, 8, single_axis=("z",)), rng, 0.1)
+    obs = corner_observations(
+        truth, Board(), make_plan(truth, Board(), rng, 12, 8, single_axis=("z",)), rng, 0.1
+    )
     t0 = time.monotonic()
     with pytest.raises(MfnsError) as e:
         calibrate(obs)

@@ -124,11 +124,17 @@ def board_continues(img: np.ndarray, uv: np.ndarray, board: Board) -> list[str]:
     along_y = np.arange(-1, board.rows) + 0.5
     for name, pts_out, pts_in in (
         ("before row 0", [(a, -d) for a in along_x], [(a, -0.5) for a in along_x]),
-        (f"after row {board.rows - 1}", [(a, board.rows - 1 + d) for a in along_x],
-         [(a, board.rows - 0.5) for a in along_x]),
+        (
+            f"after row {board.rows - 1}",
+            [(a, board.rows - 1 + d) for a in along_x],
+            [(a, board.rows - 0.5) for a in along_x],
+        ),
         ("before column 0", [(-d, a) for a in along_y], [(-0.5, a) for a in along_y]),
-        (f"after column {board.cols - 1}", [(board.cols - 1 + d, a) for a in along_y],
-         [(board.cols - 0.5, a) for a in along_y]),
+        (
+            f"after column {board.cols - 1}",
+            [(board.cols - 1 + d, a) for a in along_y],
+            [(board.cols - 0.5, a) for a in along_y],
+        ),
     ):
         out = _sample(img, h, np.array(pts_out))
         inn = _sample(img, h, np.array(pts_in))

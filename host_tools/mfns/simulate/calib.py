@@ -227,7 +227,9 @@ def single_axis_line(truth: Rig, board: Board, k: int, n: int, rng, max_outside:
     fine = 0.5
 
     def ok(a, b):
-        return view_ok(cam, *truth.camera_pose(k, np.deg2rad(a), np.deg2rad(b)), board, max_outside=max_outside)
+        return view_ok(
+            cam, *truth.camera_pose(k, np.deg2rad(a), np.deg2rad(b)), board, max_outside=max_outside
+        )
 
     best: tuple[float, list] = (0.0, [])
     for fixed in np.arange(-90.0, 90.0 + 1e-9, 2.5):  # omega fixed, Omega turning
