@@ -335,3 +335,14 @@ def test_unobservable_parameters_are_refused_by_name():
     none[:, i_h] = 0.0  # no information at all on h
     with pytest.raises(MfnsError, match="body height h.*caliper height"):
         check_observable(none, prob)
+
+
+def test_sim_calib_single_axis_names_are_checked(tmp_path, capsys):
+    """`mfns sim calib --single-axis CAMS`: an unknown camera is a one-line error before any
+    rendering."""
+    from mfns.cli import main
+
+    assert main(["sim", "calib", str(tmp_path / "d"), "--small", "--single-axis", "z,q", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--single-axis: ['q'] not among the cameras" in err[0], err
+    assert not (tmp_path / "d").exists() or not any((tmp_path / "d").iterdir())
