@@ -37,7 +37,7 @@ step() { # label [--lines FILE --total N] -- command...
   "$py" mk/demo_step.py --n "$n" --of "$N" --log "$log" --label "$label" "$@"
 }
 frames_of() { # scenario -> its frame count (the flight program's cycles)
-  "$py" -c 'import json,sys; print(json.load(open(sys.argv[1]))["frames"])' "$out/$1/frames/scenario.json"
+  "$py" -c 'import json,sys; print(json.load(open(sys.argv[1]))["n_frames"])' "$out/$1/frames/scenario.json"
 }
 
 echo "demo: $N steps; every step's messages and the runs' summaries go to $log"
