@@ -37,6 +37,22 @@ GEN   := build/gen
 VENV  := .venv
 PY    := $(VENV)/bin/python
 
+# Quiet rules (the kernel's convention): a rule prints one short line ("  CC    file"); the
+# compiler's own messages still show, so a failure is seen where it happens. V=1 prints the
+# commands instead; make -s prints neither (make 4 keeps the one-letter flags in MAKEFLAGS'
+# first word).
+V ?= 0
+ifeq ($(V),1)
+Q :=
+say :=
+else ifneq ($(findstring s,$(firstword -$(MAKEFLAGS))),)
+Q := @
+say :=
+else
+Q := @
+say = @printf '  %-5s %s\n' '$(1)' '$(2)';
+endif
+
 WARN := -Wall -Wextra -Werror -Wconversion -Wshadow -Wdouble-promotion \
         -Wstrict-prototypes -Wmissing-prototypes -Wvla -Wformat=2 -Wundef
 CSTD := -std=c11
@@ -129,35 +145,35 @@ help:
 # (the board's flags are in board.mk: a changed flag rebuilds its objects)
 $(BUILD)/obj/%.o: %.c boards/$(BOARD)/board.mk
 	@mkdir -p $(@D)
-	$(CC) $(CFLAGS_ALL) -c $< -o $@
+	$(call say,CC,$<)$(CC) $(CFLAGS_ALL) -c $< -o $@
 
 # Only the host-only core and the tests see the host-only headers.
 $(BUILD)/obj/$(HOST_CORE_DIR)/%.o $(BUILD)/obj/tests/%.o: INCLUDES += $(HOST_INCLUDES)
 
 $(BUILD)/obj/%.o: %.cpp
 	@mkdir -p $(@D)
-	$(CXX) -std=c++17 -Wall -Wextra -Werror $(BOARD_CFLAGS) $(INCLUDES) $(SAN_FLAGS) \
+	$(call say,CXX,$<)$(CXX) -std=c++17 -Wall -Wextra -Werror $(BOARD_CFLAGS) $(INCLUDES) $(SAN_FLAGS) \
 	  $(shell $(PKG_CONFIG) --cflags libcamera) -MMD -MP -c $< -o $@
 
 $(BUILD)/libmfns_core.a: $(CORE_OBJS)
 	@mkdir -p $(@D)
 	@rm -f $@
-	$(AR) rcs $@ $^
+	$(call say,AR,$@)$(AR) rcs $@ $^
 
 $(BUILD)/libmfns_host.a: $(HOST_CORE_OBJS)
 	@mkdir -p $(@D)
 	@rm -f $@
-	$(AR) rcs $@ $^
+	$(call say,AR,$@)$(AR) rcs $@ $^
 
 $(BUILD)/libmfns_linux.a: $(LINUX_OBJS) $(LIBCAMERA_OBJS)
 	@mkdir -p $(@D)
 	@rm -f $@
-	$(AR) rcs $@ $^
+	$(call say,AR,$@)$(AR) rcs $@ $^
 
 $(BUILD)/libmfns_testsupport.a: $(SUPPORT_OBJS)
 	@mkdir -p $(@D)
 	@rm -f $@
-	$(AR) rcs $@ $^
+	$(call say,AR,$@)$(AR) rcs $@ $^
 
 LIBS_MFNS := $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 # The tests and the benchmarks link the host-only core too (before the core:
@@ -166,11 +182,11 @@ LIBS_HOST := $(BUILD)/libmfns_host.a
 
 $(BUILD)/bin/mfns-nav: $(call obj,firmware/app/main.c) $(LIBS_MFNS)
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 
 $(BUILD)/bin/mfns-ground: $(call obj,ground/main.c) $(LIBS_MFNS)
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 
 # The portable core and the host-only core as a shared library for the
 # Python host tools (ctypes): host and flight share one implementation of the
@@ -184,13 +200,13 @@ CORE_LIB_CC = gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(HOST_INCLUDES)
 build/host-sim/lib/libmfns_core.so: $(CORE_SRCS) $(HOST_CORE_SRCS) \
                                     $(wildcard $(addsuffix /*.h,$(CORE_DIRS) $(HOST_CORE_DIR)))
 	@mkdir -p $(@D)
-	$(CORE_LIB_CC) -o $@
+	$(call say,LD,$@)$(CORE_LIB_CC) -o $@
 
 # --------------------------------------------------------------------------
 # Unit tests: one binary per tests/unit/test_*.c, run from the repo root.
 $(BUILD)/tests/%: $(BUILD)/obj/tests/unit/%.o $(BUILD)/libmfns_testsupport.a $(LIBS_HOST) $(LIBS_MFNS)
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $< $(BUILD)/libmfns_testsupport.a $(LIBS_HOST) $(LIBS_MFNS) $(LIBS) -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $< $(BUILD)/libmfns_testsupport.a $(LIBS_HOST) $(LIBS_MFNS) $(LIBS) -o $@
 
 tests: $(TESTS) $(GEN_FILES)
 

@@ -39,4 +39,4 @@ bench-undistort: $(BUILD)/bench/bench_undistort $(GEN)/default.mfnstbl
 
 $(BUILD)/bench/bench_undistort: $(call obj,tests/bench/bench_undistort.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ -lm -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ -lm -o $@

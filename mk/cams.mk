@@ -8,4 +8,4 @@ bench-camera: $(BUILD)/bench/bench_camera
 
 $(BUILD)/bench/bench_camera: $(call obj,tests/bench/bench_camera.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBCAMERA_LIBS) -lm -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBCAMERA_LIBS) -lm -o $@

@@ -13,69 +13,66 @@
 #      Fig. 11 style, per run), then one report beside the paper's numbers
 #      (mfns compare: build/demo/report.md).
 # Output in build/demo/ (under 200 MB: the raw frames, 1.2 GB, are removed once
-# the three runs of a scenario have read them). Prints where everything went.
+# the three runs of a scenario have read them). The console gets one line per step
+# (mk/demo_step.py: a progress bar on a terminal); everything the steps print, the
+# runs' summaries included, goes to build/demo/demo.log; build/demo/README.txt says
+# where everything went.
 set -euo pipefail
 py=${PY:-.venv/bin/python}
-bin=${BIN:-build/host-sim/bin}
+export PY=$py BIN=${BIN:-build/host-sim/bin}
 out=build/demo
 rm -rf "$out"
 mkdir -p "$out"
 t_start=$SECONDS
+log=$out/demo.log
+: >"$log"
 
-echo "== calibration: simulate the turntable calibration, then calibrate (about 25 s)"
-"$py" -m mfns sim calib "$out/calib/dataset" --quiet
-"$py" -m mfns calib "$out/calib/dataset" --truth "$out/calib/dataset/truth.json" \
-  -o "$out/calib/refined.json" --report "$out/calib/report.txt" --quiet
-echo "   calibration report: $out/calib/report.txt"
-
-simulate() { # name, sim args...
-  local name=$1; shift
-  echo "== $name: simulate ($*)"
-  "$py" -m mfns sim nav "$out/$name/frames" "$@" --quiet
+# One console line per step: the steps below, counted by hand (the end checks it).
+N=17
+n=0
+step() { # label [--lines FILE --total N] -- command...
+  n=$((n + 1))
+  local label=$1
+  shift
+  "$py" mk/demo_step.py --n "$n" --of "$N" --log "$log" --label "$label" "$@"
+}
+frames_of() { # scenario -> its frame count (the flight program's cycles)
+  "$py" -c 'import json,sys; print(json.load(open(sys.argv[1]))["n_frames"])' "$out/$1/frames/scenario.json"
 }
 
-navigate() { # scenario, label, calib json, extra mfns-nav args, extra table args
-  local name=$1 label=$2 calib=$3 nav_args=$4 table_args=${5:-}
-  local d=$out/$name/$label
-  mkdir -p "$d"
-  echo "== $name / $label: table from $(basename "$calib"), flight program -> FIFO -> ground station"
-  # shellcheck disable=SC2086
-  "$py" -m mfns table build "$calib" "$out/$name/frames/beacons.csv" -o "$d/table.mfnstbl" $table_args >"$d/table.log"
-  local fifo=$d/uart.fifo
-  mkfifo "$fifo"
-  "$bin/mfns-ground" --tty "$fifo" --out "$d/ground" --record "$d/telemetry.bin" --no-status \
-    --max-seconds 600 2>"$d/ground.log" &
-  local gpid=$!
-  sleep 0.3
-  local init args
-  init=$(sed -n 2p "$out/$name/frames/truth.csv" | cut -d, -f3-8)
-  args=${nav_args//@INIT@/$init}
-  # shellcheck disable=SC2086
-  "$bin/mfns-nav" --table "$d/table.mfnstbl" --replay "$out/$name/frames" --tlm-tty "$fifo" $args 2>"$d/nav.log"
-  # the ground station keeps a FIFO open for writers that come and go: stop
-  # it once the flight program has finished and the last bytes are read
-  sleep 0.5
-  kill -INT "$gpid"
-  wait "$gpid" || true
-  echo "   $(tail -n 1 "$d/nav.log")"
-  echo "   $(tail -n 1 "$d/ground.log")"
-  "$py" -m mfns report "$d/ground" --truth "$out/$name/frames/truth.csv" --out "$d/report" \
-    --title "$name / $label" | grep -v '^wrote'
-  rm -f "$fifo"
+echo "demo: $N steps; every step's messages and the runs' summaries go to $log"
+step "calibration: simulate the turntable images" -- \
+  "$py" -m mfns sim calib "$out/calib/dataset"
+step "calibration: Zhang, the paper's CPC, the joint refinement" -- \
+  "$py" -m mfns calib "$out/calib/dataset" --truth "$out/calib/dataset/truth.json" \
+  -o "$out/calib/refined.json" --report "$out/calib/report.txt"
+
+simulate() { # name, sim args...
+  local name=$1
+  shift
+  step "$name: simulate ($*)" -- "$py" -m mfns sim nav "$out/$name/frames" "$@"
+}
+
+navigate() { # scenario, label, calib json, extra mfns-nav args, extra table args (mk/demo_nav.sh)
+  local name=$1 label=$2
+  step "$name / $label: table, flight program, ground station, report" \
+    --lines "$out/$name/$label/ground/nav.csv" --total "$(frames_of "$name")" -- \
+    mk/demo_nav.sh "$out" "$@"
 }
 
 # The frames (PGM, ~1 GB per scenario) are needed only by the replay camera:
 # once the three runs have read them, keep what describes them and how to make
 # them again (mfns sim nav is deterministic for a seed).
 drop_frames() { # name, the sim args used
-  local name=$1; shift
+  local name=$1
+  shift
   local f=$out/$name/frames
   local size
   size=$(du -sh "$f" | cut -f1)
   rm -rf "$f"/cam_x "$f"/cam_y "$f"/cam_z
   printf 'The camera frames of this folder (%s) were removed after use by mk/demo.sh.\nTo make them again: mfns sim nav OUT %s\n' \
     "$size" "$*" >"$f/FRAMES-REMOVED.txt"
-  echo "   removed the $size of frames of $name (scenario.json, truth.csv, spots.csv kept; $f/FRAMES-REMOVED.txt)"
+  echo "   removed the $size of frames of $name (scenario.json, truth.csv, spots.csv kept; $f/FRAMES-REMOVED.txt)" >>"$log"
 }
 
 # The paper's run: the robot starts from no knowledge (acquisition). The LEDs
@@ -107,14 +104,15 @@ navigate module paper-calibration "$out/calib/refined_paper.json" ""
 
 # Beacon layouts planned by mfns plan (docs/planning.md) for the same rig and
 # number of LEDs: the paper's 10 on its frame, the module's 60 on its walls.
-echo "== plan: a better layout for the paper's 10 beacons and the module's 60 (about 1 min)"
-"$py" -m mfns plan optimize "$out/plan/turntable" --surfaces paper-frame --count 10 --samples 240 \
+step "plan: a better layout for the paper's 10 beacons" -- \
+  "$py" -m mfns plan optimize "$out/plan/turntable" --surfaces paper-frame --count 10 --samples 240 \
   --pixel-sigma 0.0155 --no-calib-sigma --baseline host_tools/mfns/data/paper_beacons.csv \
-  --seed 1 --quiet
-"$py" -m mfns plan optimize "$out/plan/module" --surfaces module --workspace module --count 60 --samples 800 \
+  --seed 1
+step "plan: a better layout for the module's 60 beacons" -- \
+  "$py" -m mfns plan optimize "$out/plan/module" --surfaces module --workspace module --count 60 --samples 800 \
   --grid 100 --min-spacing 150 --iterations 4000 --restarts 1 --margin 1 \
   --pixel-sigma 0.0155 --no-calib-sigma --baseline "$out/module/frames/beacons.csv" \
-  --seed 2 --quiet
+  --seed 2
 drop_frames module --scenario module --frames 120 --seed 2 --survey-error
 simulate turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \
   --beacon-map "$out/plan/turntable/beacons.csv" --survey-error
@@ -125,13 +123,16 @@ simulate module-planned --scenario module --frames 120 --seed 2 --beacon-map "$o
 navigate module-planned true-rig "$out/module-planned/frames/calib.json" ""
 drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv" --survey-error
 
-echo "== the paper's comparison: Tables 3 and 5, availability, figures"
-"$py" -m mfns compare "$out" -o "$out/report.md"
-# README's module accuracy is this run's (between its demo-accuracy markers)
-"$py" mk/readme_accuracy.py "$out" README.md
-cat <<EOF
-demo: done in $((SECONDS - t_start)) s; everything is in $out/ ($(du -sh "$out" | cut -f1)):
+# The paper's comparison, then README's module accuracy from this run (between its
+# demo-accuracy markers).
+# shellcheck disable=SC2016
+step "the paper's comparison (Tables 3 and 5, availability, figures), README's accuracy" -- \
+  bash -c '"$1" -m mfns compare "$2" -o "$2/report.md" && "$1" mk/readme_accuracy.py "$2" README.md' _ "$py" "$out"
+[ "$n" -eq "$N" ] || echo "demo: $n steps ran but N=$N in mk/demo.sh" >&2
+cat >"$out/README.txt" <<EOF
+What make demo wrote (mk/demo.sh):
   $out/report.md                      the report: our numbers beside the paper's (start here)
+  $out/demo.log                       every step's messages, the runs' summaries included
   $out/calib/report.txt               calibration, Tables 2-3 style, against truth and the Cramer-Rao bound
   $out/calib/refined.json, refined_paper.json   the two calibrations (docs/calib-results.md)
   $out/calib/dataset/                 the simulated calibration images and truth.json
@@ -145,3 +146,4 @@ demo: done in $((SECONDS - t_start)) s; everything is in $out/ ($(du -sh "$out" 
   (EXP: turntable, module, and the planned turntable-planned, module-planned (true-rig);
    TABLE: true-rig, refined-calibration, paper-calibration)
 EOF
+echo "demo: done in $((SECONDS - t_start)) s; the report: $out/report.md (start here); what is where: $out/README.txt ($(du -sh "$out" | cut -f1))"

@@ -9,7 +9,7 @@ POSE_BENCH := $(BUILD)/bench/bench_pose
 $(POSE_BENCH): $(BUILD)/obj/tests/bench/bench_pose.o $(BUILD)/libmfns_testsupport.a $(BUILD)/libmfns_host.a \
                $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 
 .PHONY: bench-pose
 bench-pose: $(POSE_BENCH) lib venv

@@ -54,7 +54,7 @@ TLM_GEN_BIN := $(BUILD)/bin/mfns-tlm-gen
 flight: $(TLM_GEN_BIN)
 $(TLM_GEN_BIN): $(call obj,ground/tools/mfns_tlm_gen.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 	@mkdir -p $(@D)
-	$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
+	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 endif
 
 # make bench: codec throughput on the host (encode frames/s, decode MB/s).

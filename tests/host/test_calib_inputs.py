@@ -149,11 +149,41 @@ def test_board_the_images_do_not_show_fails_fast(ds, tmp_path, capsys):
     assert time.monotonic() - t0 < 30.0  # not after every image (257 s on the old code)
 
 
-def test_board_declared_smaller_than_printed_is_a_clear_error(ds, tmp_path, capsys):
+def test_board_declared_smaller_than_printed_is_caught_from_the_images(ds, tmp_path, capsys):
     """A smaller board is found inside the printed one, at different places per image: every
-    image fits alone, the turntable chain does not (the old code: 'Singular matrix')."""
+    image fits alone, only the turntable chain breaks (the old code: 'Singular matrix', then
+    a refusal after the 13.6 s refinement). The images show squares past the detected grid:
+    a one-line error naming the board parameter, after the first images of a camera, before
+    any solve."""
     v = _variant(ds, tmp_path, meta=_set(("board", "inner_corners"), [6, 3])(_meta(ds)))
-    _fails(["calib", str(v), "--quiet", "-o", str(tmp_path / "r.json")], capsys, "check board.inner_corners")
+    t0 = time.monotonic()
+    _fails(
+        ["calib", str(v), "--quiet", "-o", str(tmp_path / "r.json")],
+        capsys,
+        "board.inner_corners 6 x 3 is smaller than the printed board: images/",
+    )
+    assert time.monotonic() - t0 < 30.0
+
+
+def test_board_check_sees_squares_past_the_grid_and_the_margin_of_a_right_board(ds):
+    """board_continues on the rendered images: the declared 9 x 6 board has its margin on every
+    side (no side flagged); 6 x 3 and 8 x 3 found inside it are flagged on some side."""
+    from mfns.calib.dataset import board_continues, detect_chessboard
+    from mfns.calib.model import Board
+
+    files = sorted((ds / "images").rglob("*.png"))[::4]
+    assert len(files) >= 8
+    found_inside = 0
+    for f in files:
+        img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+        uv = detect_chessboard(img, Board(9, 6))
+        assert uv is not None and board_continues(img, uv, Board(9, 6)) == [], f
+        for small in (Board(6, 3), Board(8, 3)):
+            uv = detect_chessboard(img, small)
+            if uv is not None:
+                found_inside += 1
+                assert board_continues(img, uv, small), (f, small.cols, small.rows)
+    assert found_inside >= len(files)  # the smaller grids are found (what made the old failure late)
 
 
 def test_images_without_the_board_are_reported_per_camera(ds, tmp_path):

@@ -6,6 +6,7 @@ import ctypes
 import json
 import struct
 import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -371,6 +372,20 @@ def _cov_names_and_matrix(seed=3):
     sd = np.array(per * 3 + [0.1])
     b = rng.uniform(-0.5, 0.5, (len(names), 3)) * sd[:, None]
     return names, b @ b.T + np.diag(0.5 * sd**2)
+
+
+def test_a_covariance_lacking_a_carried_parameter_is_refused_as_docs_caltable_says(sources, tmp_path, capsys):
+    """docs/caltable.md "Calibration covariance": a parameter the table carries but the JSON
+    does not list is refused (it once said "zero variance", which the builder never did)."""
+    names, m = _cov_names_and_matrix()
+    drop = names.index("y.k3")
+    keep = [i for i in range(len(names)) if i != drop]
+    calib = _calib_with_cov(sources[0], tmp_path, [names[i] for i in keep], m[np.ix_(keep, keep)])
+    assert main(["table", "build", str(calib), str(sources[1]), "-o", str(tmp_path / "t.mfnstbl"), "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].endswith("covariance parameters: missing y.k3"), err
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "caltable.md").read_text()
+    assert '("covariance parameters: missing y.k3"' in doc
 
 
 def test_build_carries_the_calibration_covariance(sources, tmp_path, capsys):

@@ -83,6 +83,70 @@ def detect_chessboard(img: np.ndarray, board: Board) -> np.ndarray | None:
     return orient_corners(c.reshape(-1, 2).astype(float), img, board)
 
 
+BEYOND = "the printed board continues beyond the detected grid"
+BEYOND_RATIO = 0.5  # colour steps past the grid / steps along the outer squares: ~0 margin, ~1 squares
+BEYOND_IMAGES = 2  # images of one camera showing it before the run stops
+
+
+def _sample(img: np.ndarray, h: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Mean of a 3x3 patch at board points (n, 2) in squares mapped by the homography h (NaN
+    where the patch leaves the image)."""
+    uv = cv2.perspectiveTransform(pts.reshape(-1, 1, 2).astype(np.float64), h).reshape(-1, 2)
+    out = np.full(len(pts), np.nan)
+    for i, (u, v) in enumerate(uv):
+        x, y = int(round(u)), int(round(v))
+        if 1 <= x < img.shape[1] - 1 and 1 <= y < img.shape[0] - 1:
+            out[i] = float(img[y - 1 : y + 2, x - 1 : x + 2].mean())
+    return out
+
+
+def board_continues(img: np.ndarray, uv: np.ndarray, board: Board) -> list[str]:
+    """Sides of the detected grid past which the printed board has more squares.
+
+    A declared board smaller than the printed one is found inside it: every image fits alone
+    (Zhang), only the turntable chain breaks, after the whole refinement. The images tell at
+    once: past the declared outer squares a correct board has its white margin (uniform), a
+    larger printed board another row of squares (alternating). Along each side, the colour
+    steps between neighbouring cells just past the outer squares (inside the margin:
+    min(0.3 square, half the margin) past them) are compared with the steps between the
+    outer squares themselves; a ratio above BEYOND_RATIO means squares. Checked through the
+    homography of the detected corners (lens distortion moves the samples by a few pixels,
+    well inside a cell). Misses: a side the image cuts off or shows too small (undecided, not
+    a failure); a wrong square_mm (the images fix the board only up to scale: a wrong square
+    scales every position, which the chain absorbs)."""
+    grid = np.stack(np.meshgrid(np.arange(board.cols), np.arange(board.rows)), axis=-1).reshape(-1, 2)
+    h, _ = cv2.findHomography(grid.astype(np.float64), uv.astype(np.float64))
+    if h is None:
+        return []
+    d = 1.0 + min(0.3, 0.5 * board.margin / board.square)
+    sides = []
+    along_x = np.arange(-1, board.cols) + 0.5  # cell centres along a row (outer squares included)
+    along_y = np.arange(-1, board.rows) + 0.5
+    for name, pts_out, pts_in in (
+        ("before row 0", [(a, -d) for a in along_x], [(a, -0.5) for a in along_x]),
+        (
+            f"after row {board.rows - 1}",
+            [(a, board.rows - 1 + d) for a in along_x],
+            [(a, board.rows - 0.5) for a in along_x],
+        ),
+        ("before column 0", [(-d, a) for a in along_y], [(-0.5, a) for a in along_y]),
+        (
+            f"after column {board.cols - 1}",
+            [(board.cols - 1 + d, a) for a in along_y],
+            [(board.cols - 0.5, a) for a in along_y],
+        ),
+    ):
+        out = _sample(img, h, np.array(pts_out))
+        inn = _sample(img, h, np.array(pts_in))
+        step_out, step_in = np.abs(np.diff(out)), np.abs(np.diff(inn))
+        ok = np.isfinite(step_out) & np.isfinite(step_in)
+        if ok.sum() < 2 or np.mean(step_in[ok]) < 10.0:  # too little of the side in view
+            continue
+        if np.mean(step_out[ok]) > BEYOND_RATIO * np.mean(step_in[ok]):
+            sides.append(name)
+    return sides
+
+
 def detect_charuco(img: np.ndarray, board: Board) -> tuple[np.ndarray | None, str]:
     """(N, 2) px with NaN rows for corners not seen, or (None, reason)."""
     det = cv2.aruco.CharucoDetector(board.charuco())
@@ -128,7 +192,8 @@ def _detect_file(job: tuple[str, Board, tuple[int, int]]) -> tuple[np.ndarray | 
         return None, f"OpenCV: {str(exc).strip().splitlines()[-1][:100]}"
     if uv is None:
         return None, f"no {board.cols}x{board.rows}-corner chessboard found"
-    return uv, ""
+    sides = board_continues(img, uv, board)
+    return uv, f"{BEYOND} ({', '.join(sides)})" if sides else ""
 
 
 # --- dataset.json --------------------------------------------------------------------------
@@ -355,12 +420,22 @@ def detect_all(rows: list[Row], meta: DatasetMeta, workers: int | None = None, p
     results: list[tuple[np.ndarray | None, str] | None] = [None] * len(rows)
     tried: dict[int, int] = {}
     found: dict[int, int] = {}
+    beyond: dict[int, int] = {}
 
     def record(i: int, res) -> None:
         results[i] = res
         cam = rows[i].camera
         tried[cam] = tried.get(cam, 0) + 1
         found[cam] = found.get(cam, 0) + (res[0] is not None)
+        if res[0] is not None and res[1].startswith(BEYOND):
+            beyond[cam] = beyond.get(cam, 0) + 1
+            if beyond[cam] >= min(BEYOND_IMAGES, sum(r.camera == cam for r in rows)):
+                b = meta.board
+                raise MfnsError(
+                    f"board.inner_corners {b.cols} x {b.rows} is smaller than the printed board: "
+                    f"{rows[i].rel} shows squares past the detected grid ({res[1][len(BEYOND) + 2 : -1]}); "
+                    "count the inner corners (where four squares meet) along each side"
+                )
         if tried[cam] == min(FAIL_FAST_IMAGES, sum(r.camera == cam for r in rows)) and found[cam] == 0:
             raise MfnsError(
                 f"camera {meta.cameras[cam]}: none of its first {tried[cam]} images shows the board "

@@ -80,7 +80,13 @@ def resolve_half_turns(obs: Observations, zhang: list[ZhangResult]) -> list[int]
             if im.kind == "turntable":
                 a = turntable_matrix(np.deg2rad(im.omega_big_deg), np.deg2rad(im.omega_small_deg))
                 tt.append((where[id(im)], a, z.camera_in_world(i)[0]))
-        check_turntable_geometry(obs, k, [a for _i, a, _c in tt])
+        if not check_turntable_geometry(obs, k, [a for _i, a, _c in tt]):
+            raise MfnsError(
+                f"camera {obs.camera_names[k]}: on a half-turn-symmetric board (inner_corners "
+                f"{obs.board.cols} x {obs.board.rows}) turntable images about one axis only do not "
+                "tell which corner is the first; use a board with one odd and one even square count, "
+                "or turn this camera about both axes"
+            )
         turned = _camera_turns(obs, k, tt)
         flips += [i for (i, _a, _c), t in zip(tt, turned, strict=True) if t]
     return flips

@@ -54,11 +54,8 @@ def _turntable_views(obs: Observations, zhang: ZhangResult, k: int):
     return out
 
 
-def check_turntable_geometry(obs: Observations, k: int, mats: list[np.ndarray]) -> None:
-    """The mount of camera k is determined only by turns about two different axes."""
-    name = obs.camera_names[k]
-    if len(mats) < 3:
-        raise MfnsError(f"camera {name}: {len(mats)} turntable images with the board found, need >= 3")
+def turn_axes_spread(mats: list[np.ndarray]) -> bool:
+    """True when the relative turns of these turntable matrices are about two different axes."""
     axes = []
     for a in mats[1:]:
         v = rot_log(mats[0].T @ a)
@@ -67,11 +64,24 @@ def check_turntable_geometry(obs: Observations, k: int, mats: list[np.ndarray]) 
     spread = max(
         (np.linalg.norm(np.cross(u, v)) for i, u in enumerate(axes) for v in axes[i + 1 :]), default=0.0
     )
-    if spread < np.sin(np.deg2rad(MIN_AXIS_SPREAD_DEG)):
+    return bool(spread >= np.sin(np.deg2rad(MIN_AXIS_SPREAD_DEG)))
+
+
+def check_turntable_geometry(obs: Observations, k: int, mats: list[np.ndarray]) -> bool:
+    """Camera k has turntable images to start from; True when they turn about two axes.
+
+    Turns about one axis only do not fix the camera's own hand-eye problem, but they do when
+    the turntable is fixed by the other cameras (the joint model: whether the rig is
+    observable is decided from its Jacobian, refine.check_observable, not here).
+    """
+    name = obs.camera_names[k]
+    if len(mats) < 1:
         raise MfnsError(
-            f"camera {name}: its turntable images turn about one axis only; the mount needs turns "
-            f"about both axes (Omega and omega)"
+            f"calibration: the images do not determine camera {name} mount attitude C_k_b and mount "
+            f"position r_bk_b (no turntable image with the board found); what would fix it: "
+            f"turntable images in which camera {name} sees the board"
         )
+    return turn_axes_spread(mats)
 
 
 def rotations_closed_form(views: list[list[tuple[np.ndarray, np.ndarray]]]):
@@ -99,11 +109,23 @@ def rotations_closed_form(views: list[list[tuple[np.ndarray, np.ndarray]]]):
 
 def solve_hand_eye(obs: Observations, zhang: list[ZhangResult]) -> HandEyeResult:
     views = [_turntable_views(obs, zhang[k], k) for k in range(obs.n_cams)]
-    for k, v in enumerate(views):
-        check_turntable_geometry(obs, k, [a for a, _c, _r in v])
+    both = [check_turntable_geometry(obs, k, [a for a, _c, _r in v]) for k, v in enumerate(views)]
     n = obs.n_cams
     eye = np.eye(3)
-    c_t_w, c_k_b = rotations_closed_form([[(a, c) for a, c, _r in v] for v in views])
+    # C_t_w from every camera's turns at once (one camera about Zt and another about Xt fix it
+    # as well as one camera about both); each mount then from the shared C_t_w: a camera whose
+    # images turn about one axis only gets C_k_b = (C_t_w A_i)^T C_k'_w averaged over its images,
+    # which its own hand-eye problem could not give.
+    try:
+        c_t_w, c_k_b = rotations_closed_form([[(a, c) for a, c, _r in v] for v in views])
+    except MfnsError:
+        # every camera turns about one and the same axis: C_t_w is not determined about it.
+        # Start from the set-up's alignment with the board (docs/system.md §5); the Jacobian
+        # test of the joint model (refine.check_observable) then names what is undetermined.
+        c_t_w, c_k_b, both = np.eye(3), [np.eye(3)] * n, [False] * n
+    for k, v in enumerate(views):
+        if not both[k]:
+            c_k_b[k] = _so3(sum((c_t_w @ a).T @ c for a, c, _r in v))
     # positions: r_i = r_wt + C_t_w A_i p_k, linear in (r_wt, p_1..p_n)
     rows, rhs = [], []
     for k, v in enumerate(views):

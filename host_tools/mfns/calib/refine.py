@@ -339,13 +339,16 @@ def _fix_hint(name: str) -> str:
         cam = name.split()[1]
         return f"more images of camera {cam} with the board filling the view at varied tilts"
     if name.startswith("turntable"):
-        return "turntable images turned about both axes (Omega and omega) in at least one camera"
+        return (
+            "turntable images turned about both axes (Omega and omega) in at least one camera, or "
+            "cameras whose images turn about different axes"
+        )
     if name.startswith("body height"):
         return "the caliper height (dataset caliper_height_mm)"
     return "the image named, or drop it"
 
 
-def check_observable(jac: np.ndarray, prob: Problem) -> None:
+def check_observable(jac: np.ndarray, prob: Problem, where: str = "the refined solution") -> None:
     """Refuse, naming the parameters, when the images do not determine them (the information
     of the joint model: rank and conditioning of the Jacobian), rather than print NaN sigmas."""
     scale = np.linalg.norm(jac, axis=0)
@@ -356,19 +359,24 @@ def check_observable(jac: np.ndarray, prob: Problem) -> None:
     if not dead.any() and len(weak) == 0:
         return
     names = parameter_names(prob)
-    picked = [i for i in np.flatnonzero(dead)]
-    for v in weak:
-        picked += [int(i) for i in np.flatnonzero(np.abs(v) > UNOBSERVABLE_SHARE)]
     seen: dict[str, None] = {}
-    for i in picked:
+    hints: dict[str, None] = {}
+    for i in np.flatnonzero(dead):
         seen.setdefault(names[i], None)
-    hints = dict.fromkeys(_fix_hint(n) for n in seen)
+        hints.setdefault(_fix_hint(names[i]), None)
+    for v in weak:
+        mine = [names[int(i)] for i in np.flatnonzero(np.abs(v) > UNOBSERVABLE_SHARE)]
+        seen.update(dict.fromkeys(mine))
+        # a direction that moves the turntable is fixed by turns about another axis, whatever
+        # else it moves with it (a mount, the body height along the axis)
+        tt = [n for n in mine if n.startswith("turntable")]
+        hints.update(dict.fromkeys(_fix_hint(n) for n in (tt[:1] or mine)))
     listed = list(seen)[:MAX_NAMED]
     more = f" and {len(seen) - len(listed)} more" if len(seen) > len(listed) else ""
     raise MfnsError(
         f"calibration: the images do not determine {'; '.join(listed)}{more} "
-        f"({len(weak) + int(dead.sum())} unobservable directions of the joint model at the "
-        f"refined solution); what would fix it: {'; '.join(list(hints)[:MAX_NAMED])}"
+        f"({len(weak) + int(dead.sum())} unobservable directions of the joint model at "
+        f"{where}); what would fix it: {'; '.join(list(hints)[:MAX_NAMED])}"
     )
 
 
@@ -391,6 +399,10 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200,
 
     check(rms_px), if given, runs before the covariance and may refuse the fit.
     """
+    # Observability first (a rank deficiency of the model is one of the geometry, not of the
+    # point): one Jacobian at the start refuses an unobservable rig before the refinement runs.
+    prob = Problem(obs, start, sigma_px)
+    check_observable(prob.jacobian(prob.x0()), prob, "the start")
     x = None
     for _ in range(2):
         prob = Problem(obs, start, sigma_px)

@@ -167,13 +167,18 @@ def choose_turntable_angles(
     step_deg: float = 2.5,
     pure_omega_views: bool = True,
     max_outside: float = 0.0,
+    single_axis: bool = False,
 ):
     """Nominal (Omega, omega) in degrees for camera k, >= n views with the board in view.
 
     Camera Z gets pure-Omega views (omega = 0, Eqs. A14/A16), pure-omega views (Omega = 0,
     Eq. A10) and mixed ones; without `pure_omega_views` it gets pure-omega and mixed views only
     (the paper's chain cannot start). Other cameras get views spread over the feasible set.
+    `single_axis`: every view on one line of the turntable (single_axis_line), so the
+    camera's images turn about one axis only.
     """
+    if single_axis:
+        return single_axis_line(truth, board, k, n, rng, max_outside)
     cam = truth.cams[k]
     big = np.arange(-180.0, 180.0, step_deg)
     small = np.arange(-90.0, 90.0 + 1e-9, step_deg)
@@ -211,6 +216,36 @@ def choose_turntable_angles(
     if n_mixed > 0:
         sel += [tuple(mixed[i]) for i in _spread(mixed, n_mixed, rng)]
     return sel
+
+
+def single_axis_line(truth: Rig, board: Board, k: int, n: int, rng, max_outside: float = 0.0):
+    """n views of camera k on one line of the turntable: a fixed Omega with omega turning (turns
+    about the auxiliary axis) or a fixed omega with Omega turning (about the main axis),
+    whichever line spans the widest turn (ties: the main axis). Images that turn about one axis
+    only: the camera's own hand-eye problem cannot fix its mount, the shared turntable can."""
+    cam = truth.cams[k]
+    fine = 0.5
+
+    def ok(a, b):
+        return view_ok(
+            cam, *truth.camera_pose(k, np.deg2rad(a), np.deg2rad(b)), board, max_outside=max_outside
+        )
+
+    best: tuple[float, list] = (0.0, [])
+    for fixed in np.arange(-90.0, 90.0 + 1e-9, 2.5):  # omega fixed, Omega turning
+        line = [(a, fixed) for a in np.arange(-180.0, 180.0, fine) if ok(a, fixed)]
+        span = line[-1][0] - line[0][0] if line else 0.0
+        if span > best[0] + 1e-9:
+            best = (span, line)
+    for fixed in np.arange(-180.0, 180.0, 2.5):  # Omega fixed, omega turning
+        line = [(fixed, b) for b in np.arange(-90.0, 90.0 + 1e-9, fine) if ok(fixed, b)]
+        span = line[-1][1] - line[0][1] if line else 0.0
+        if span > best[0] + 1e-9:
+            best = (span, line)
+    line = np.array(best[1]).reshape(-1, 2)
+    if len(line) < n:
+        raise MfnsError(f"camera {cam.name}: only {len(line)} single-axis turntable views see the board")
+    return [tuple(line[i]) for i in _spread(line, n, rng)]
 
 
 def _look_at(center_w, target_w, roll) -> np.ndarray:
@@ -258,17 +293,26 @@ def make_plan(
     angle_log: str = "commanded",
     pure_omega_views: bool = True,
     max_outside: float = 0.0,
+    single_axis: tuple[str, ...] = (),
 ) -> list[Shot]:
     """The shots of a dataset. angle_log "commanded": the log holds the commanded angles and
     the true ones are off by N(0, sigma); "encoder": the true angles are commanded + N(0, sigma)
     and the log holds them with the encoder's N(0, sigma) noise (pure-axis images then log e.g.
-    omega = 0.0021 deg instead of 0)."""
+    omega = 0.0021 deg instead of 0). The cameras named in `single_axis` get turntable views
+    about one axis only (single_axis_line)."""
     if angle_log not in ("commanded", "encoder"):
         raise MfnsError(f"angle log {angle_log!r}: expected commanded or encoder")
     shots: list[Shot] = []
     for k in range(len(truth.cams)):
         views = choose_turntable_angles(
-            truth, board, k, n_turntable, rng, pure_omega_views=pure_omega_views, max_outside=max_outside
+            truth,
+            board,
+            k,
+            n_turntable,
+            rng,
+            pure_omega_views=pure_omega_views,
+            max_outside=max_outside,
+            single_axis=truth.cams[k].name in single_axis,
         )
         for i, (a, b) in enumerate(views):
             ta = a + rng.normal(0.0, angle_sigma_arcsec) / 3600.0
@@ -570,6 +614,10 @@ def run(args) -> int:
         raise MfnsError("--noise, --blur and --angle-noise must be >= 0, --supersample >= 1")
     if n_tt < 10:
         raise MfnsError("--turntable-views must be >= 10")
+    single = tuple(n.strip() for n in args.single_axis.split(",") if n.strip())
+    unknown = [n for n in single if n not in [c.name for c in truth.cams]]
+    if unknown:
+        raise MfnsError(f"--single-axis: {unknown} not among the cameras {[c.name for c in truth.cams]}")
     shots = make_plan(
         truth,
         board,
@@ -580,6 +628,7 @@ def run(args) -> int:
         angle_log=args.angle_log,
         pure_omega_views=not args.no_pure_omega,
         max_outside=args.max_outside,
+        single_axis=single,
     )
     caliper = float(-truth.r_wb_w[2] + rng.normal(0.0, CALIPER_SIGMA_MM))
     write_dataset(
@@ -651,6 +700,13 @@ def register(subparsers) -> None:
         dest="no_pure_omega",
         action="store_true",
         help="camera z gets no pure-Omega (omega = 0) views: the paper's CPC cannot run",
+    )
+    p.add_argument(
+        "--single-axis",
+        default="",
+        metavar="CAMS",
+        help="comma-separated cameras whose turntable images turn about one axis only (one line of "
+        "the turntable: a fixed Omega or a fixed omega); the others fix the turntable",
     )
     p.add_argument("--board", choices=("chessboard", "charuco"), default="chessboard", help="board type")
     p.add_argument(
