@@ -104,6 +104,8 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
     case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
     case TLM_EVT_TC_AUTH: return "TC_AUTH";
+    case TLM_EVT_BEACON_BIASED: return "BEACON_BIASED";
+    case TLM_EVT_CAMERA_BIASED: return "CAMERA_BIASED";
     default: return "?";
     }
 }
@@ -192,6 +194,7 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         b[84] = s->time_quality;
         tlm_put_u32(b + 85, s->tc_epoch);
         tlm_put_u32(b + 89, s->tc_arsn_last);
+        tlm_put_u16(b + 93, s->n_beacons_biased);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -301,6 +304,7 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->time_quality = b[84];
         s->tc_epoch = tlm_get_u32(b + 85);
         s->tc_arsn_last = tlm_get_u32(b + 89);
+        s->n_beacons_biased = tlm_get_u16(b + 93);
         break;
     }
     case TLM_TYPE_EVENT: {

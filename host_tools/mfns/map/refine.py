@@ -340,7 +340,18 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
         ev, vec = np.linalg.eigh(cd)
         ev = np.maximum(ev, 0.05 * pb.sigma_survey[i] ** 2)  # a beacon the data barely see
         chi[i] = float(b3[i] @ (vec @ np.diag(1.0 / ev) @ vec.T) @ b3[i])
-    sig = np.sqrt(np.array([np.linalg.eigvalsh(c).max() for c in cov_b]))
+    # The written sigma: the table weighs beacons as independent, but the refined map's
+    # datum error (the common shift of every beacon, as well known as the survey's mean) is
+    # seen whole by every fix, not averaged over its n beacons. Carried by the independent
+    # sigma: sigma_w^2 = lambda_max(cov_b) + n_fix * sigma_datum^2, with n_fix the median
+    # associations per fix and sigma_datum^2 the largest eigenvalue of the covariance of
+    # the beacons' mean position.
+    cbb = cov[: 3 * nb, : 3 * nb].reshape(nb, 3, nb, 3)
+    datum_var = float(np.linalg.eigvalsh(cbb.sum(axis=(0, 2)) / nb**2).max())
+    per_fix = float(np.median(np.bincount(pb.fix)))
+    sig = np.sqrt(np.array([np.linalg.eigvalsh(c).max() for c in cov_b]) + per_fix * datum_var)
+    info["sigma_datum_mm"] = float(np.sqrt(datum_var))
+    info["associations_per_fix"] = per_fix
     n_obs = np.bincount(pb.bea, minlength=nb)
     rot = np.zeros((3, 3))
     off = np.zeros((3, 3))
