@@ -130,6 +130,7 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "count", s->count, 0);
         ground_row_str(r, "camera", tlm_camera_name(s->camera));
         ground_row_num(r, "beacon_id", s->beacon_id, 0);
+        ground_row_num(r, "used", s->used, 0);
         ground_row_f32(r, "u_px", s->uv_px[0]);
         ground_row_f32(r, "v_px", s->uv_px[1]);
         ground_row_f32(r, "cov_uu_px2", s->cov_px2[0]);

@@ -127,6 +127,7 @@ drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map 
 
 echo "== the paper's comparison: Tables 3 and 5, availability, figures"
 "$py" -m mfns compare "$out" -o "$out/report.md"
+"$py" -m mfns.map.refine_demo "$out/self-survey" --report "$out/report.md" # self-survey: the map before and after (docs/self_survey.md)
 # README's module accuracy is this run's (between its demo-accuracy markers)
 "$py" mk/readme_accuracy.py "$out" README.md
 cat <<EOF

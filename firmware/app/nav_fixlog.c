@@ -20,39 +20,79 @@ static bool usable(const mfns_pose_solution_t *s)
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
 }
 
-unsigned nav_fixlog_packets(const mfns_nav_output_t *out, const mfns_obs_frame_t *obs, const mfns_beacon_map_t *map,
-                            uint32_t cycle, uint64_t t_us, tlm_packet_t *pkts, unsigned max)
+static void put(tlm_packet_t *p, uint32_t cycle, uint64_t t_us, int k, uint16_t id, const mfns_obs_t *o, bool used)
 {
-    if (out == NULL || obs == NULL || map == NULL || pkts == NULL || !usable(&out->sol)) {
+    memset(p, 0, sizeof *p);
+    p->type = TLM_TYPE_FIXOBS;
+    p->time = tlm_time_from_us(t_us);
+    tlm_fixobs_t *f = &p->u.fixobs;
+    f->cycle = cycle;
+    f->camera = (uint8_t)k;
+    f->beacon_id = id;
+    f->used = used ? 1U : 0U;
+    f->uv_px[0] = o->u;
+    f->uv_px[1] = o->v;
+    f->cov_px2[0] = o->cov_px2[0];
+    f->cov_px2[1] = o->cov_px2[1];
+    f->cov_px2[2] = o->cov_px2[2];
+}
+
+/* The beacon predicted nearest to o at the fix's pose, within gate_px, that
+ * no observation of camera k is associated with; -1 none. */
+static int nearest_free(const mfns_camera_t *cam, const mfns_pose_t *pose, const mfns_beacon_map_t *map,
+                        const mfns_pose_solution_t *s, const mfns_obs_frame_t *obs, int k, const mfns_obs_t *o,
+                        float gate_px)
+{
+    int best = -1;
+    float best_d2 = gate_px * gate_px;
+    for (uint16_t b = 0; b < map->count && b < MFNS_MAX_BEACONS; b++) {
+        float uv[2];
+        if (mfns_cam_project(cam, pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+            continue;
+        }
+        const float du = uv[0] - o->u, dv = uv[1] - o->v, d2 = du * du + dv * dv;
+        if (d2 >= best_d2) {
+            continue;
+        }
+        bool taken = false;
+        for (uint16_t j = 0; j < obs->count[k] && j < MFNS_MAX_OBS_PER_CAMERA && !taken; j++) {
+            taken = s->assoc.beacon[k][j] == (int16_t)b;
+        }
+        if (!taken) {
+            best = (int)b;
+            best_d2 = d2;
+        }
+    }
+    return best;
+}
+
+unsigned nav_fixlog_packets(const mfns_nav_output_t *out, const mfns_obs_frame_t *obs, const mfns_rig_t *rig,
+                            const mfns_beacon_map_t *map, float gate_px, uint32_t cycle, uint64_t t_us,
+                            tlm_packet_t *pkts, unsigned max)
+{
+    if (out == NULL || obs == NULL || rig == NULL || map == NULL || pkts == NULL || !usable(&out->sol)) {
         return 0;
     }
     const mfns_pose_solution_t *s = &out->sol;
     unsigned n = 0;
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        for (uint16_t i = 0; i < obs->count[k] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+        for (uint16_t i = 0; i < obs->count[k] && i < MFNS_MAX_OBS_PER_CAMERA && n < max; i++) {
             const int16_t b = s->assoc.beacon[k][i];
-            if (b < 0 || (uint16_t)b >= map->count || s->inlier[k][i] == 0U || n >= max) {
-                continue;
-            }
             const mfns_obs_t *o = &obs->obs[k][i];
-            tlm_packet_t *p = &pkts[n];
-            memset(p, 0, sizeof *p);
-            p->type = TLM_TYPE_FIXOBS;
-            p->time = tlm_time_from_us(t_us);
-            tlm_fixobs_t *f = &p->u.fixobs;
-            f->cycle = cycle;
-            f->index = (uint8_t)n;
-            f->camera = (uint8_t)k;
-            f->beacon_id = map->beacon[b].id;
-            f->uv_px[0] = o->u;
-            f->uv_px[1] = o->v;
-            f->cov_px2[0] = o->cov_px2[0];
-            f->cov_px2[1] = o->cov_px2[1];
-            f->cov_px2[2] = o->cov_px2[2];
-            n++;
+            if (b >= 0 && (uint16_t)b < map->count && s->inlier[k][i] != 0U) {
+                put(&pkts[n++], cycle, t_us, k, map->beacon[b].id, o, true);
+            } else if (gate_px > 0.0f) {
+                const int nb = b >= 0 && (uint16_t)b < map->count
+                                   ? (int)b
+                                   : nearest_free(&rig->cam[k], &s->pose, map, s, obs, k, o, gate_px);
+                if (nb >= 0) {
+                    put(&pkts[n++], cycle, t_us, k, map->beacon[nb].id, o, false);
+                }
+            }
         }
     }
     for (unsigned i = 0; i < n; i++) {
+        pkts[i].u.fixobs.index = (uint8_t)i;
         pkts[i].u.fixobs.count = (uint8_t)n;
     }
     return n;

@@ -68,10 +68,15 @@ typedef struct {
 } nav_fixlog_t;
 
 /* The FIXOBS packets of a usable fix (status OK or DEGRADED): one per inlier
- * association of out->sol over obs, beacons named by their survey id in map.
- * Returns how many were written to pkts (at most max; 0 for no fix). */
-unsigned nav_fixlog_packets(const mfns_nav_output_t *out, const mfns_obs_frame_t *obs, const mfns_beacon_map_t *map,
-                            uint32_t cycle, uint64_t t_us, tlm_packet_t *pkts, unsigned max);
+ * association of out->sol over obs (used 1), beacons named by their survey
+ * id in map; then (gate_px > 0) every other blob associated with the beacon
+ * predicted nearest at the fix's pose within gate_px that no blob of its
+ * camera is associated with (used 0: a beacon the fix gated out or integrity
+ * holds out is exactly what the self-survey must see). Returns how many were
+ * written to pkts (at most max; 0 for no fix). */
+unsigned nav_fixlog_packets(const mfns_nav_output_t *out, const mfns_obs_frame_t *obs, const mfns_rig_t *rig,
+                            const mfns_beacon_map_t *map, float gate_px, uint32_t cycle, uint64_t t_us,
+                            tlm_packet_t *pkts, unsigned max);
 
 /* Start the log in dir (created if absent; existing fixlog files there are
  * counted in the rotation). file_bytes 0 / files 0: the defaults above.

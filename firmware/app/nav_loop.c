@@ -64,8 +64,9 @@ static void send_fix_record(nav_app_t *app, const tlm_packet_t *nav_pkt, uint32_
     if (nav_pkt->u.nav.status == TLM_NAV_NO_FIX || app->standby) {
         return;
     }
-    const unsigned n = nav_fixlog_packets(&app->out, &app->nav.obs, &app->nav.table->beacons, cycle, t_us,
-                                          app->fix_pkts, NAV_FIXLOG_MAX_ASSOC);
+    const mfns_caltable_t *t = app->nav.table;
+    const unsigned n = nav_fixlog_packets(&app->out, &app->nav.obs, &t->rig, &t->beacons, t->solver.track_gate_px,
+                                          cycle, t_us, app->fix_pkts, NAV_FIXLOG_MAX_ASSOC);
     (void)nav_fixlog_record(&app->fixlog, nav_pkt, app->fix_pkts, n); /* dropped ones are counted */
     if (n > 0u && (!app->fix_down_sent || t_us - app->last_fix_down_us >= NAV_LOOP_FIX_DOWNLINK_PERIOD_US)) {
         for (unsigned i = 0; i < n; i++) {

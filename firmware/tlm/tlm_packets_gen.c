@@ -214,11 +214,12 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         b[5] = s->count;
         b[6] = s->camera;
         tlm_put_u16(b + 7, s->beacon_id);
+        b[9] = s->used;
         for (unsigned i = 0; i < 2u; i++) {
-            tlm_put_f32(b + 9u + 4u * i, s->uv_px[i]);
+            tlm_put_f32(b + 10u + 4u * i, s->uv_px[i]);
         }
         for (unsigned i = 0; i < 3u; i++) {
-            tlm_put_f32(b + 17u + 4u * i, s->cov_px2[i]);
+            tlm_put_f32(b + 18u + 4u * i, s->cov_px2[i]);
         }
         break;
     }
@@ -324,11 +325,12 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->count = b[5];
         s->camera = b[6];
         s->beacon_id = tlm_get_u16(b + 7);
+        s->used = b[9];
         for (unsigned i = 0; i < 2u; i++) {
-            s->uv_px[i] = tlm_get_f32(b + 9u + 4u * i);
+            s->uv_px[i] = tlm_get_f32(b + 10u + 4u * i);
         }
         for (unsigned i = 0; i < 3u; i++) {
-            s->cov_px2[i] = tlm_get_f32(b + 17u + 4u * i);
+            s->cov_px2[i] = tlm_get_f32(b + 18u + 4u * i);
         }
         break;
     }

@@ -30,7 +30,7 @@ typedef enum {
 #define TLM_CAMERA_PAYLOAD_LEN 22u
 #define TLM_HK_PAYLOAD_LEN 95u
 #define TLM_EVENT_PAYLOAD_LEN 16u
-#define TLM_FIXOBS_PAYLOAD_LEN 29u
+#define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
 
 #define TLM_NAV_POS_UM_N 3u
@@ -124,6 +124,7 @@ typedef struct {
     uint8_t count; /* fix_count: associations recorded for the fix (its inlier observations) */
     uint8_t camera; /* fix_camera: camera of the observation [camera_id_t] */
     uint16_t beacon_id; /* fix_beacon_id: survey id of the beacon it was associated with (beacons.csv id) */
+    uint8_t used; /* fix_used: 1: an inlier of the fix; 0: a blob the fix did not use (gated out, or its beacon held out by integrity) associated afterwards with the nearest beacon predicted within the tracking gate, for the self-survey only */
     float uv_px[TLM_FIXOBS_UV_PX_N]; /* fix_u_px, fix_v_px: measured centroid column, distorted pixels (pixel centres at integers) [px] */
     float cov_px2[TLM_FIXOBS_COV_PX2_N]; /* fix_cov_uu_px2, fix_cov_uv_px2, fix_cov_vv_px2: centroid covariance [u][u] (the centroider's, before the solver's pixel floor) [px^2] */
 } tlm_fixobs_t;

@@ -11,12 +11,14 @@
 #include <unistd.h>
 
 #include "nav_fixlog.h"
+#include "pose_testlib.h"
 #include "tlm_decoder.h"
 
 static nav_fixlog_t log_; /* 270 kB: static storage, as the app keeps it */
 static mfns_nav_output_t out;
 static mfns_obs_frame_t obs;
 static mfns_beacon_map_t map;
+static mfns_rig_t rig; /* zero: no re-association in these tests (gate 0) */
 static tlm_packet_t pk[NAV_FIXLOG_MAX_ASSOC];
 
 /* A DEGRADED fix of 5 associations (one gated out), beacon ids 100 + index. */
@@ -58,7 +60,7 @@ static void test_packets_of_a_fix(void **state)
 {
     (void)state;
     a_fix();
-    const unsigned n = nav_fixlog_packets(&out, &obs, &map, 7u, 1000u, pk, NAV_FIXLOG_MAX_ASSOC);
+    const unsigned n = nav_fixlog_packets(&out, &obs, &rig, &map, 0.0f, 7u, 1000u, pk, NAV_FIXLOG_MAX_ASSOC);
     assert_int_equal(n, 5);
     for (unsigned i = 0; i < n; i++) {
         assert_int_equal(pk[i].type, TLM_TYPE_FIXOBS);
@@ -73,9 +75,52 @@ static void test_packets_of_a_fix(void **state)
     assert_int_equal(pk[4].u.fixobs.beacon_id, 105); /* [2][1] (104) was gated out */
     assert_true(pk[4].u.fixobs.uv_px[0] == 302.0f);
     /* no fix, no record; the cap holds */
-    assert_int_equal(nav_fixlog_packets(&out, &obs, &map, 7u, 1000u, pk, 2u), 2);
+    assert_int_equal(nav_fixlog_packets(&out, &obs, &rig, &map, 0.0f, 7u, 1000u, pk, 2u), 2);
     out.sol.status = MFNS_POSE_NO_FIX;
-    assert_int_equal(nav_fixlog_packets(&out, &obs, &map, 7u, 1000u, pk, NAV_FIXLOG_MAX_ASSOC), 0);
+    assert_int_equal(nav_fixlog_packets(&out, &obs, &rig, &map, 0.0f, 7u, 1000u, pk, NAV_FIXLOG_MAX_ASSOC), 0);
+}
+
+/* A blob the fix did not use is recorded for the survey with the beacon
+ * predicted nearest within the gate (used 0); without a gate it is not. */
+static void test_unused_blob_reassociated_within_the_gate(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 5);
+    static mfns_rig_t prig;
+    static mfns_beacon_map_t pmap;
+    prig = pt_paper_rig();
+    const pt_dpose_t truth = pt_random_pose(&rng, 100);
+    const int per_cam[3] = {4, 4, 4};
+    pmap = pt_dense_map(&prig, &truth, per_cam, 1500, 3000, &rng);
+    mfns_pose_assoc_t assoc;
+    const int n_obs = pt_make_frame(&prig, &pmap, &truth, 0.02, &rng, &obs, &assoc);
+    assert_true(n_obs >= 10);
+    memset(&out, 0, sizeof out);
+    out.sol.status = MFNS_POSE_OK;
+    out.sol.pose = pt_to_float(&truth);
+    out.sol.assoc = assoc;
+    for (int k = 0; k < 3; k++) {
+        for (int i = 0; i < obs.count[k]; i++) {
+            out.sol.inlier[k][i] = 1U;
+        }
+    }
+    const int16_t held = out.sol.assoc.beacon[1][0];
+    out.sol.assoc.beacon[1][0] = MFNS_POSE_NO_BEACON; /* held out by integrity, say */
+    out.sol.inlier[1][0] = 0U;
+    unsigned n = nav_fixlog_packets(&out, &obs, &prig, &pmap, 10.0f, 3u, 0u, pk, NAV_FIXLOG_MAX_ASSOC);
+    assert_int_equal(n, (unsigned)n_obs);
+    unsigned unused = 0;
+    for (unsigned i = 0; i < n; i++) {
+        if (pk[i].u.fixobs.used == 0U) {
+            unused++;
+            assert_int_equal(pk[i].u.fixobs.camera, 1);
+            assert_int_equal(pk[i].u.fixobs.beacon_id, pmap.beacon[held].id);
+        }
+    }
+    assert_int_equal(unused, 1);
+    n = nav_fixlog_packets(&out, &obs, &prig, &pmap, 0.0f, 3u, 0u, pk, NAV_FIXLOG_MAX_ASSOC);
+    assert_int_equal(n, (unsigned)n_obs - 1u);
 }
 
 static size_t file_size(const char *path)
@@ -96,7 +141,7 @@ static void test_log_rotates_and_reads_back(void **state)
     char dir[] = "/tmp/mfns_fixlog_XXXXXX";
     assert_non_null(mkdtemp(dir));
     a_fix();
-    const unsigned n = nav_fixlog_packets(&out, &obs, &map, 0u, 0u, pk, NAV_FIXLOG_MAX_ASSOC);
+    const unsigned n = nav_fixlog_packets(&out, &obs, &rig, &map, 0.0f, 0u, 0u, pk, NAV_FIXLOG_MAX_ASSOC);
     /* files of ~2 records, 3 kept */
     assert_int_equal(nav_fixlog_open(&log_, dir, 600u, 3u), 0);
     tlm_packet_t nav;
@@ -149,7 +194,7 @@ static void test_full_ring_drops_and_counts(void **state)
     char dir[] = "/tmp/mfns_fixlog_XXXXXX";
     assert_non_null(mkdtemp(dir));
     a_fix();
-    const unsigned n = nav_fixlog_packets(&out, &obs, &map, 0u, 0u, pk, NAV_FIXLOG_MAX_ASSOC);
+    const unsigned n = nav_fixlog_packets(&out, &obs, &rig, &map, 0.0f, 0u, 0u, pk, NAV_FIXLOG_MAX_ASSOC);
     assert_int_equal(nav_fixlog_open(&log_, dir, 0u, 0u), 0);
     /* 2000 records in a tight loop: far faster than the writer's 10 ms
      * cadence empties the 256 kB ring (1.3 MB offered) */
@@ -178,6 +223,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_packets_of_a_fix),
+        cmocka_unit_test(test_unused_blob_reassociated_within_the_gate),
         cmocka_unit_test(test_log_rotates_and_reads_back),
         cmocka_unit_test(test_full_ring_drops_and_counts),
     };

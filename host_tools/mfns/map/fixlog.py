@@ -36,6 +36,7 @@ class Fix:
     cov: np.ndarray  # (6, 6): x, y, z mm, rx, ry, rz deg (world axes), docs/telemetry.md
     camera: np.ndarray = field(default_factory=lambda: np.zeros(0, int))  # (M,)
     beacon_id: np.ndarray = field(default_factory=lambda: np.zeros(0, int))  # (M,)
+    used: np.ndarray = field(default_factory=lambda: np.ones(0, bool))  # (M,) an inlier of the fix
     uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (M, 2) px
     cov_uv: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))  # (M, 2, 2) px^2
 
@@ -55,7 +56,11 @@ def unframe(data: bytes) -> list[bytes]:
             i += code
             if code < 0xFF and i < len(frame):
                 raw.append(0)
-        if ok and len(raw) > 2 and binascii.crc_hqx(bytes(raw[:-2]), 0xFFFF) == int.from_bytes(raw[-2:], "big"):
+        if (
+            ok
+            and len(raw) > 2
+            and binascii.crc_hqx(bytes(raw[:-2]), 0xFFFF) == int.from_bytes(raw[-2:], "big")
+        ):
             out.append(bytes(raw[:-2]))
     return out
 
@@ -134,6 +139,7 @@ def fixes_from_packets(packets: list[bytes]) -> tuple[list[Fix], int]:
                 cov=_pose_cov(n),
                 camera=np.array([int(r["camera"]) for r in rows]),
                 beacon_id=np.array([int(r["beacon_id"]) for r in rows]),
+                used=np.array([bool(r["used"]) for r in rows]),
                 uv=np.array([[r["u_px"], r["v_px"]] for r in rows]),
                 cov_uv=np.array(
                     [[[r["cov_uu_px2"], r["cov_uv_px2"]], [r["cov_uv_px2"], r["cov_vv_px2"]]] for r in rows]

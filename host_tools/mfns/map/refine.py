@@ -145,7 +145,9 @@ def build_problem(
     for f_i, f in enumerate(fixes):
         for c, b, u, r in zip(f.camera, f.beacon_id, f.uv, f.cov_uv, strict=True):
             if int(b) not in index:
-                raise MfnsError(f"fix of cycle {f.cycle}: beacon id {int(b)} is not in the survey's beacons.csv")
+                raise MfnsError(
+                    f"fix of cycle {f.cycle}: beacon id {int(b)} is not in the survey's beacons.csv"
+                )
             fx.append(f_i)
             cm.append(int(c))
             be.append(index[int(b)])
@@ -280,8 +282,9 @@ def _irls(pb: Problem, x: np.ndarray, max_iter: int) -> tuple[np.ndarray, dict]:
     by less than 1e-9 of itself (or after max_iter)."""
     res, J = _model(pb, x, True)
     cost = _huber_cost(res)
-    lam, it = 1e-4, 0
+    lam, iterations = 1e-4, 0
     for it in range(1, max_iter + 1):
+        iterations = it
         w = _huber_weights(res)
         JW = J.T @ sp.diags(w)
         H = (JW @ J).tocsc()
@@ -300,7 +303,7 @@ def _irls(pb: Problem, x: np.ndarray, max_iter: int) -> tuple[np.ndarray, dict]:
             lam *= 10.0
             if lam > 1e6:
                 break
-    return x, {"iterations": it, "cost": cost, "damping": lam}
+    return x, {"iterations": iterations, "cost": cost, "damping": lam}
 
 
 def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:

@@ -85,6 +85,7 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         f->index = (uint8_t)(i % f->count);
         f->camera = (uint8_t)(i % 3u);
         f->beacon_id = (uint16_t)(i * 7u);
+        f->used = (uint8_t)(i % 2u);
         f->uv_px[0] = 12.25f + (float)i;
         f->uv_px[1] = 1000.5f - (float)i;
         f->cov_px2[0] = 0.01f;
@@ -169,7 +170,7 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
     case TLM_TYPE_FIXOBS: {
         const tlm_fixobs_t *x = &a->u.fixobs, *y = &b->u.fixobs;
         int eq = x->cycle == y->cycle && x->index == y->index && x->count == y->count && x->camera == y->camera &&
-                 x->beacon_id == y->beacon_id;
+                 x->beacon_id == y->beacon_id && x->used == y->used;
         /* bit-exact: the wire carries the binary32 pattern */
         eq = eq && memcmp(x->uv_px, y->uv_px, sizeof x->uv_px) == 0 &&
              memcmp(x->cov_px2, y->cov_px2, sizeof x->cov_px2) == 0;
