@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -190,10 +191,15 @@ static uint32_t last_file_no(const char *dir)
         return 0;
     }
     for (struct dirent *e = readdir(d); e != NULL; e = readdir(d)) { /* bounded by the directory */
-        unsigned no = 0;
-        char tail[8] = "";
-        if (sscanf(e->d_name, "fixlog_%6u.%3s", &no, tail) == 2 && strcmp(tail, "tlm") == 0 && no > best) {
-            best = no;
+        /* fixlog_NNNNNN.tlm exactly */
+        const char *name = e->d_name;
+        if (strlen(name) != 17u || strncmp(name, "fixlog_", 7u) != 0 || strcmp(name + 13, ".tlm") != 0) {
+            continue;
+        }
+        char *end = NULL;
+        const unsigned long no = strtoul(name + 7, &end, 10);
+        if (end == name + 13 && no > best && no <= UINT32_MAX) {
+            best = (uint32_t)no;
         }
     }
     (void)closedir(d);

@@ -306,6 +306,59 @@ def _irls(pb: Problem, x: np.ndarray, max_iter: int) -> tuple[np.ndarray, dict]:
     return x, {"iterations": iterations, "cost": cost, "damping": lam}
 
 
+def _sigma_scale(
+    pb: Problem, J: sp.csr_matrix, cov_bb: np.ndarray, lam: np.ndarray, n_fix: int = 100
+) -> float:
+    """The scale s >= 1 of the written sigmas (s * sqrt(lam), independent per beacon) with
+    which a fix's covariance explains the map's correlated error on average over (up to
+    n_fix of) the logged fixes: mean tr(P_tab(s)^-1 P_map) / 6 = 1, by bisection."""
+    off_b = 6 * pb.n_fix
+    picks = np.unique(np.linspace(0, pb.n_fix - 1, min(n_fix, pb.n_fix)).astype(int))
+    Jc = J.tocsc()
+    per_fix = []
+    for f in picks:
+        obs = np.nonzero(pb.fix == f)[0]
+        rows = np.ravel(np.column_stack([2 * obs, 2 * obs + 1]))
+        Jf = Jc[rows, :]
+        Jp = Jf[:, 6 * f : 6 * f + 6].toarray()
+        bs = np.unique(pb.bea[obs])
+        cols = np.ravel(off_b + 3 * bs[:, None] + np.arange(3))
+        Jb = Jf[:, cols].toarray()
+        cidx = np.ravel(3 * bs[:, None] + np.arange(3))
+        A = Jp.T @ Jp
+        Ai = np.linalg.inv(A)
+        G = Ai @ Jp.T @ Jb
+        P_map = Ai + G @ cov_bb[np.ix_(cidx, cidx)] @ G.T
+        # each observation's 2x2 map term under the table's model: J_b,i s^2 lam_b J_b,i^T
+        lam_o = lam[pb.bea[obs]]
+        Jbo = np.array(
+            [
+                Jb[2 * i : 2 * i + 2, 3 * int(np.searchsorted(bs, pb.bea[o])) :][:, :3]
+                for i, o in enumerate(obs)
+            ]
+        )
+        per_fix.append((Jp, P_map, lam_o, Jbo))
+
+    def ratio(s: float) -> float:
+        r = []
+        for Jp, P_map, lam_o, Jbo in per_fix:
+            info = np.zeros((6, 6))
+            for i in range(len(lam_o)):
+                R = np.eye(2) + s * s * lam_o[i] * Jbo[i] @ Jbo[i].T
+                Ji = Jp[2 * i : 2 * i + 2]
+                info += Ji.T @ np.linalg.solve(R, Ji)
+            r.append(np.trace(info @ P_map) / 6.0)
+        return float(np.mean(r))
+
+    lo, hi = 1.0, 10.0
+    if ratio(lo) <= 1.0:
+        return lo
+    for _ in range(40):  # bisection on a decreasing function: 40 halvings of [1, 10]
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ratio(mid) > 1.0 else (lo, mid)
+    return hi
+
+
 def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
     x, info = _irls(pb, np.zeros(pb.n_par), max_iter)
     if polish_nfev > 0:
@@ -344,17 +397,17 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
         ev = np.maximum(ev, 0.05 * pb.sigma_survey[i] ** 2)  # a beacon the data barely see
         chi[i] = float(b3[i] @ (vec @ np.diag(1.0 / ev) @ vec.T) @ b3[i])
     # The written sigma: the table weighs beacons as independent, but the refined map's
-    # datum error (the common shift of every beacon, as well known as the survey's mean) is
-    # seen whole by every fix, not averaged over its n beacons. Carried by the independent
-    # sigma: sigma_w^2 = lambda_max(cov_b) + n_fix * sigma_datum^2, with n_fix the median
-    # associations per fix and sigma_datum^2 the largest eigenvalue of the covariance of
-    # the beacons' mean position.
+    # errors are correlated (the datum: a shift common to every beacon, which every fix
+    # sees whole). The written sigma is sqrt(lambda_max) of each beacon's covariance times
+    # one scale s >= 1, chosen so that on the logged fixes' own geometry the fix covariance
+    # the table will give, P_tab(s), explains the one the full map covariance implies,
+    # P_map: mean over fixes of tr(P_tab^-1 P_map) / 6 = 1 (the expected NEES / 6).
+    lam = np.array([np.linalg.eigvalsh(c).max() for c in cov_b])
+    s_scale = _sigma_scale(pb, J, cov[: 3 * nb, : 3 * nb], lam)
+    sig = s_scale * np.sqrt(lam)
     cbb = cov[: 3 * nb, : 3 * nb].reshape(nb, 3, nb, 3)
-    datum_var = float(np.linalg.eigvalsh(cbb.sum(axis=(0, 2)) / nb**2).max())
-    per_fix = float(np.median(np.bincount(pb.fix)))
-    sig = np.sqrt(np.array([np.linalg.eigvalsh(c).max() for c in cov_b]) + per_fix * datum_var)
-    info["sigma_datum_mm"] = float(np.sqrt(datum_var))
-    info["associations_per_fix"] = per_fix
+    info["sigma_datum_mm"] = float(np.sqrt(np.linalg.eigvalsh(cbb.sum(axis=(0, 2)) / nb**2).max()))
+    info["sigma_scale"] = float(s_scale)
     n_obs = np.bincount(pb.bea, minlength=nb)
     rot = np.zeros((3, 3))
     off = np.zeros((3, 3))
