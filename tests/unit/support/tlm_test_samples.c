@@ -172,8 +172,14 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
         int eq = x->cycle == y->cycle && x->index == y->index && x->count == y->count && x->camera == y->camera &&
                  x->beacon_id == y->beacon_id && x->used == y->used;
         /* bit-exact: the wire carries the binary32 pattern */
-        eq = eq && memcmp(x->uv_px, y->uv_px, sizeof x->uv_px) == 0 &&
-             memcmp(x->cov_px2, y->cov_px2, sizeof x->cov_px2) == 0;
+        for (unsigned k = 0; k < TLM_FIXOBS_UV_PX_N + TLM_FIXOBS_COV_PX2_N; k++) {
+            const float *fx = k < TLM_FIXOBS_UV_PX_N ? &x->uv_px[k] : &x->cov_px2[k - TLM_FIXOBS_UV_PX_N];
+            const float *fy = k < TLM_FIXOBS_UV_PX_N ? &y->uv_px[k] : &y->cov_px2[k - TLM_FIXOBS_UV_PX_N];
+            uint32_t bx, by;
+            memcpy(&bx, fx, sizeof bx);
+            memcpy(&by, fy, sizeof by);
+            eq = eq && bx == by;
+        }
         return eq;
     }
     default:
