@@ -105,6 +105,7 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_str(r, "time_quality", tlm_time_quality_name(s->time_quality));
         ground_row_num(r, "tc_epoch", s->tc_epoch, 0);
         ground_row_num(r, "tc_arsn_last", s->tc_arsn_last, 0);
+        ground_row_num(r, "n_beacons_biased", s->n_beacons_biased, 0);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -120,6 +121,21 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         } else {
             ground_row_num(r, "arg1", s->arg1, 0);
         }
+        break;
+    }
+    case TLM_TYPE_FIXOBS: {
+        const tlm_fixobs_t *s = &p->u.fixobs;
+        ground_row_num(r, "cycle", s->cycle, 0);
+        ground_row_num(r, "index", s->index, 0);
+        ground_row_num(r, "count", s->count, 0);
+        ground_row_str(r, "camera", tlm_camera_name(s->camera));
+        ground_row_num(r, "beacon_id", s->beacon_id, 0);
+        ground_row_num(r, "used", s->used, 0);
+        ground_row_f32(r, "u_px", s->uv_px[0]);
+        ground_row_f32(r, "v_px", s->uv_px[1]);
+        ground_row_f32(r, "cov_uu_px2", s->cov_px2[0]);
+        ground_row_f32(r, "cov_uv_px2", s->cov_px2[1]);
+        ground_row_f32(r, "cov_vv_px2", s->cov_px2[2]);
         break;
     }
     default: break;

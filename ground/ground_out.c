@@ -9,7 +9,7 @@
 #include <sys/stat.h>
 #include <time.h>
 
-static const char *const k_file_stem[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "events"};
+static const char *const k_file_stem[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "events", "fixobs"};
 
 #define VAL_LEN GROUND_ROW_VAL_LEN
 typedef ground_row_t row_t;

@@ -28,7 +28,7 @@ log=$out/demo.log
 : >"$log"
 
 # One console line per step: the steps below, counted by hand (the end checks it).
-N=17
+N=18
 n=0
 step() { # label [--lines FILE --total N] -- command...
   n=$((n + 1))
@@ -128,6 +128,8 @@ drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map 
 # shellcheck disable=SC2016
 step "the paper's comparison (Tables 3 and 5, availability, figures), README's accuracy" -- \
   bash -c '"$1" -m mfns compare "$2" -o "$2/report.md" && "$1" mk/readme_accuracy.py "$2" README.md' _ "$py" "$out"
+step "self-survey: the module's map refined from its own fixes, before and after (docs/self_survey.md)" -- \
+  "$py" -m mfns.map.refine_demo "$out/self-survey" --report "$out/report.md"
 [ "$n" -eq "$N" ] || echo "demo: $n steps ran but N=$N in mk/demo.sh" >&2
 cat >"$out/README.txt" <<EOF
 What make demo wrote (mk/demo.sh):
@@ -143,6 +145,7 @@ What make demo wrote (mk/demo.sh):
   $out/EXP/TABLE/report/              Fig. 11-style plots and summary.md of that run
   $out/EXP/TABLE/nav.log, ground.log  the programs' messages
   $out/plan/turntable, plan/module   mfns plan: the planned layouts (beacons.csv), their analysis
+  $out/self-survey/                   mfns map refine: the module's fix log, the refined beacons.csv, before/after runs
   (EXP: turntable, module, and the planned turntable-planned, module-planned (true-rig);
    TABLE: true-rig, refined-calibration, paper-calibration)
 EOF

@@ -75,6 +75,7 @@ C_PACKETS = {
     "camera": ("CAMERA", "tlm_camera_t", "camera"),
     "housekeeping": ("HK", "tlm_hk_t", "hk"),
     "event": ("EVENT", "tlm_event_t", "event"),
+    "fixobs": ("FIXOBS", "tlm_fixobs_t", "fixobs"),
 }
 CTYPE = {
     "u8": "uint8_t",

@@ -70,6 +70,7 @@ static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev
 
 static void close_all(nav_app_t *app)
 {
+    nav_fixlog_close(&app->fixlog); /* no-op when not open */
     nav_cams_close(&app->cams);
     nav_tlm_flush_and_close(&app->tlm, app->cycle_now);
     nav_tc_in_close(&app->tc);
@@ -122,6 +123,10 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         close_all(app);
         return 2;
     }
+    if (o->fixlog_dir != NULL && nav_fixlog_open(&app->fixlog, o->fixlog_dir, 0u, 0u) != 0) {
+        close_all(app);
+        return 2;
+    }
     if (o->have_init_pose) {
         const float *ip = o->init_pose;
         if (nav_app_set_prior(app, ip[0], ip[1], ip[2], ip[3], ip[4], ip[5]) != MFNS_NAV_OK) {
@@ -148,6 +153,11 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
                 "mfns-nav: authentication (epoch %u): %u passed, refused %u missing, %u unknown key, %u bad MAC, "
                 "%u replayed, %u stale epoch\n",
                 a->epoch, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4]);
+    }
+    if (app->fixlog.dir[0] != '\0') {
+        fprintf(stderr, "mfns-nav: fix log %s: %u fixes recorded, %u dropped, %u write errors\n", app->fixlog.dir,
+                atomic_load(&app->fixlog.records), atomic_load(&app->fixlog.dropped_records),
+                atomic_load(&app->fixlog.write_errors));
     }
     if (app->tlm.write_errors > 0 || lost_frames > 0) {
         fprintf(stderr, "mfns-nav: telemetry: %u frames produced, %u sent, %u lost (%u write errors)\n", produced,

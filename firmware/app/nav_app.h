@@ -41,6 +41,7 @@
 #include "cycle_stats.h"
 #include "nav_cams.h"
 #include "nav_cycle.h"
+#include "nav_fixlog.h"
 #include "nav_opts.h"
 #include "nav_tc_in.h"
 #include "nav_service.h"
@@ -85,6 +86,12 @@ typedef struct nav_app {
     nav_service_t service;          /* the supervisor: readiness, watchdog (nav_service.h) */
     uint64_t prev_start_us;         /* the previous cycle's start (cycle period) */
     uint64_t last_hk_us;            /* flight clock of the last housekeeping */
+    /* The fix record (nav_fixlog.h): the on-board log (--fixlog) and the
+     * downlink of one fix per NAV_LOOP_FIX_DOWNLINK_PERIOD_US. */
+    nav_fixlog_t fixlog;
+    tlm_packet_t fix_pkts[NAV_FIXLOG_MAX_ASSOC];
+    uint64_t last_fix_down_us;
+    bool fix_down_sent;
 } nav_app_t;
 
 /* Runs the program on app (any contents: it is reset first; nothing is

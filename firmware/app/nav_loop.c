@@ -56,6 +56,46 @@ static void navigate(nav_app_t *app, uint32_t cycle, const mfns_frame_t *frames[
     }
 }
 
+/* The fix record of a usable fix (nav_fixlog.h): every one into the
+ * on-board log, one per NAV_LOOP_FIX_DOWNLINK_PERIOD_US down the link (its
+ * pose is the nav packet just sent). */
+static void send_fix_record(nav_app_t *app, const tlm_packet_t *nav_pkt, uint32_t cycle, uint64_t t_us)
+{
+    if (nav_pkt->u.nav.status == TLM_NAV_NO_FIX || app->standby) {
+        return;
+    }
+    const mfns_caltable_t *t = app->nav.table;
+    const unsigned n = nav_fixlog_packets(&app->out, &app->nav.obs, &t->rig, &t->beacons, t->solver.track_gate_px,
+                                          cycle, t_us, app->fix_pkts, NAV_FIXLOG_MAX_ASSOC);
+    (void)nav_fixlog_record(&app->fixlog, nav_pkt, app->fix_pkts, n); /* dropped ones are counted */
+    if (n > 0u && (!app->fix_down_sent || t_us - app->last_fix_down_us >= NAV_LOOP_FIX_DOWNLINK_PERIOD_US)) {
+        for (unsigned i = 0; i < n; i++) {
+            (void)nav_tlm_send(&app->tlm, &app->fix_pkts[i]); /* failures counted in tlm */
+        }
+        app->last_fix_down_us = t_us;
+        app->fix_down_sent = true;
+    }
+}
+
+/* The self-survey monitor's findings (beacon_monitor.h): one event each; a
+ * biased beacon is down-weighted in the live table (its sigma_mm scaled)
+ * until a refined map is loaded (a new table starts a new monitor). */
+static void survey_monitor(nav_app_t *app, uint32_t cycle, uint64_t t_us)
+{
+    const mfns_bmon_report_t *r = &app->out.bmon;
+    if (r->beacon_chi2 > 0.0f && r->new_beacon >= 0 && app->nav.table == &app->tables[app->table_cur]) {
+        mfns_beacon_t *b = &app->tables[app->table_cur].beacons.beacon[r->new_beacon];
+        b->sigma_mm *= app->nav.bmon.sigma_scale[r->new_beacon];
+        (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_BEACON_BIASED, TLM_SEV_WARNING,
+                            (uint8_t)(b->id > 254u ? 255u : b->id), (int32_t)(r->beacon_chi2 * 100.0f),
+                            (int32_t)b->id); /* failures counted in tlm */
+    }
+    if (r->camera_chi2 > 0.0f && r->new_camera >= 0) {
+        (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_CAMERA_BIASED, TLM_SEV_WARNING, (uint8_t)r->new_camera,
+                            (int32_t)(r->camera_chi2 * 100.0f), 0);
+    }
+}
+
 /* The cycle's nav packet, counted by the status it carries. */
 static void send_solution(nav_app_t *app, uint32_t cycle, uint64_t t_us)
 {
@@ -77,6 +117,8 @@ static void send_solution(nav_app_t *app, uint32_t cycle, uint64_t t_us)
     (void)nav_tlm_send(&app->tlm, &p); /* failures counted in tlm */
     nav_tlm_integrity_events(&app->tlm, &app->out, &app->nav.table->beacons, app->nav.integ_set.hold_cycles, cycle,
                              t_us);
+    send_fix_record(app, &p, cycle, t_us);
+    survey_monitor(app, cycle, t_us);
 }
 
 static void print_cycle(const nav_app_t *app, uint32_t cycle)

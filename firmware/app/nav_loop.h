@@ -20,6 +20,7 @@
 #include "nav_app.h"
 
 #define NAV_LOOP_HK_PERIOD_US 1000000u /* housekeeping: once per second of frame time */
+#define NAV_LOOP_FIX_DOWNLINK_PERIOD_US 1000000u /* fix record: one fix per second down the link (docs/telemetry.md 5) */
 
 /* Runs cycles until one of the ends above; *stop is polled before each
  * cycle. Returns why it ended ("data ended", "cycle limit", "signal",

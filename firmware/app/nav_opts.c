@@ -60,6 +60,8 @@ static void usage(FILE *f)
             "  --mlock             lock all memory after start-up (a page fault never delays a cycle)\n"
             "  --last-exit FILE    how the previous run ended, as the service unit records it\n"
             "                      (carried by the BOOT event; docs/operations.md)\n"
+            "  --fixlog DIR        record every usable fix (associations, pose) to a rotating\n"
+            "                      on-board log in DIR for the self-survey (docs/self_survey.md)\n"
             "  -h, --help, --version\n"
             "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target),\n"
             "3 telemetry incomplete (write errors).\n",
@@ -107,7 +109,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
            O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT, O_TC_KEY, O_STATE_DIR,
-           O_TC_INSECURE };
+           O_TC_INSECURE, O_FIXLOG };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -128,6 +130,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         {"mlock", no_argument, NULL, O_MLOCK}, {"last-exit", required_argument, NULL, O_LAST_EXIT},
         {"tc-key", required_argument, NULL, O_TC_KEY}, {"state-dir", required_argument, NULL, O_STATE_DIR},
         {"tc-insecure", no_argument, NULL, O_TC_INSECURE},
+        {"fixlog", required_argument, NULL, O_FIXLOG},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -229,6 +232,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
             break;
         case O_MLOCK: o->mlock = true; break;
         case O_LAST_EXIT: o->last_exit = optarg; break;
+        case O_FIXLOG: o->fixlog_dir = optarg; break;
         case O_INIT:
             if (!parse_pose(optarg, o->init_pose)) {
                 fprintf(err, "mfns-nav: --init-pose wants six numbers X,Y,Z,ROLL,PITCH,YAW, got '%s'\n", optarg);

@@ -51,6 +51,7 @@ typedef struct {
     float init_pose[6];        /* x, y, z mm; roll, pitch, yaw deg (r_wb_w, 2-1-3 of C_w_b) */
     bool mlock;                /* --mlock: lock all memory after start-up (nav_service.h) */
     const char *last_exit;     /* --last-exit FILE: how the previous run ended (nav_service.h), or NULL */
+    const char *fixlog_dir;    /* --fixlog DIR: the fix record's on-board log (nav_fixlog.h), or NULL */
 } nav_opts_t;
 
 /* 0 ok, 1 when --help/--version was printed (exit 0), -1 usage error (message on err). */

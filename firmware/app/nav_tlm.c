@@ -323,6 +323,7 @@ void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uin
     h->cmd_seq_last = app->tc.cmd.seq_last;
     h->tc_epoch = app->tc.auth.epoch;           /* not secret: the ground signs with it */
     h->tc_arsn_last = app->tc.auth.count_last;
+    h->n_beacons_biased = app->nav.bmon.n_flagged;
     h->n_tlm_dropped = t->q.dropped;
     h->n_cam_errors = (uint32_t)(app->cams.errors > UINT32_MAX ? UINT32_MAX : app->cams.errors);
     h->table_crc32 = nav_app_table(app)->crc32;

@@ -59,6 +59,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     mfns_acq_cycle_reset(&nav->acq);
     nav->integ_set = table->integrity;
     mfns_integrity_memory_reset(&nav->integ_mem);
+    mfns_bmon_reset(&nav->bmon);
     nav->magic = NAV_MAGIC;
     return MFNS_NAV_OK;
 }
@@ -362,6 +363,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         monitor_only(nav, out);
+        (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
+                               &out->bmon); /* arguments checked above */
         count_identified(nav, out);
     }
     if (st != MFNS_NAV_OK) {

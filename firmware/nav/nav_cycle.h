@@ -47,6 +47,7 @@
 #include <stdint.h>
 
 #include "acquire_cycle.h"
+#include "beacon_monitor.h"
 #include "caltable.h"
 #include "centroid.h"
 #include "integrity.h"
@@ -100,6 +101,7 @@ typedef struct {
     /* Fault detection and exclusion on the fix (integrity.h): protection
      * levels, the tests, what is held out; sol is the fix after it. */
     mfns_integrity_result_t integrity;
+    mfns_bmon_report_t bmon; /* slow-bias monitor (beacon_monitor.h): beacon_chi2 > 0 when one was reported */
 } mfns_nav_output_t;
 
 typedef struct {
@@ -117,6 +119,7 @@ typedef struct {
     mfns_acq_cycle_t acq;   /* acquisition, with a search carried over cycles */
     mfns_integrity_settings_t integ_set; /* alert limits, P_fa, P_md, hold */
     mfns_integrity_memory_t integ_mem;   /* beacons and cameras held out by FDE */
+    mfns_bmon_t bmon;                    /* slow residual bias per beacon and camera (beacon_monitor.h) */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;
     mfns_centroid_result_t cres;

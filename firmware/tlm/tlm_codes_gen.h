@@ -78,7 +78,9 @@ typedef enum {
     TLM_EVT_BEACON_READMITTED = 22, /* subject beacon survey id (255 when above 254); arg0 0; arg1 beacon survey id: its fault test passed again after the hold */
     TLM_EVT_CAMERA_READMITTED = 23, /* subject camera; arg0 0; arg1 0: its fault test passed again after the hold */
     TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
-    TLM_EVT_CODE_COUNT = 26
+    TLM_EVT_BEACON_BIASED = 30, /* self-survey monitor (docs/self_survey.md): a beacon's mean whitened residual over at least 32 of its fixes is biased beyond chi-square(2) at 1e-4; it is down-weighted (its sigma_mm times 1 + the bias) until the map is refined: subject beacon survey id (255 when above 254); arg0 the bias's chi-square x100; arg1 beacon survey id (sent once) */
+    TLM_EVT_CAMERA_BIASED = 31, /* self-survey monitor: the residuals of a camera's beacons shift together (mean over at least 32 fixes beyond chi-square(2) at 1e-4: a mount that moved?): subject camera; arg0 chi-square x100; arg1 0 (sent once) */
+    TLM_EVT_CODE_COUNT = 32
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

@@ -18,9 +18,9 @@ static int32_t get_i32(const uint8_t *b)
     return (u & 0x80000000u) ? (int32_t)(-(int64_t)(~u) - 1) : (int32_t)u;
 }
 
-static const uint16_t k_apid[TLM_NUM_TYPES] = {TLM_APID_NAV, TLM_APID_CAMERA, TLM_APID_HK, TLM_APID_EVENT};
-static const uint8_t k_payload_len[TLM_NUM_TYPES] = {TLM_NAV_PAYLOAD_LEN, TLM_CAMERA_PAYLOAD_LEN, TLM_HK_PAYLOAD_LEN, TLM_EVENT_PAYLOAD_LEN};
-static const char *const k_type_name[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "event"};
+static const uint16_t k_apid[TLM_NUM_TYPES] = {TLM_APID_NAV, TLM_APID_CAMERA, TLM_APID_HK, TLM_APID_EVENT, TLM_APID_FIXOBS};
+static const uint8_t k_payload_len[TLM_NUM_TYPES] = {TLM_NAV_PAYLOAD_LEN, TLM_CAMERA_PAYLOAD_LEN, TLM_HK_PAYLOAD_LEN, TLM_EVENT_PAYLOAD_LEN, TLM_FIXOBS_PAYLOAD_LEN};
+static const char *const k_type_name[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "event", "fixobs"};
 
 uint16_t tlm_type_apid(tlm_type_t type)
 {
@@ -104,6 +104,8 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
     case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
     case TLM_EVT_TC_AUTH: return "TC_AUTH";
+    case TLM_EVT_BEACON_BIASED: return "BEACON_BIASED";
+    case TLM_EVT_CAMERA_BIASED: return "CAMERA_BIASED";
     default: return "?";
     }
 }
@@ -192,6 +194,7 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         b[84] = s->time_quality;
         tlm_put_u32(b + 85, s->tc_epoch);
         tlm_put_u32(b + 89, s->tc_arsn_last);
+        tlm_put_u16(b + 93, s->n_beacons_biased);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -202,6 +205,22 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         b[7] = s->subject;
         tlm_put_u32(b + 8, (uint32_t)s->arg0);
         tlm_put_u32(b + 12, (uint32_t)s->arg1);
+        break;
+    }
+    case TLM_TYPE_FIXOBS: {
+        const tlm_fixobs_t *s = &p->u.fixobs;
+        tlm_put_u32(b + 0, s->cycle);
+        b[4] = s->index;
+        b[5] = s->count;
+        b[6] = s->camera;
+        tlm_put_u16(b + 7, s->beacon_id);
+        b[9] = s->used;
+        for (unsigned i = 0; i < 2u; i++) {
+            tlm_put_f32(b + 10u + 4u * i, s->uv_px[i]);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            tlm_put_f32(b + 18u + 4u * i, s->cov_px2[i]);
+        }
         break;
     }
     default: break;
@@ -286,6 +305,7 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->time_quality = b[84];
         s->tc_epoch = tlm_get_u32(b + 85);
         s->tc_arsn_last = tlm_get_u32(b + 89);
+        s->n_beacons_biased = tlm_get_u16(b + 93);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -296,6 +316,22 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->subject = b[7];
         s->arg0 = get_i32(b + 8);
         s->arg1 = get_i32(b + 12);
+        break;
+    }
+    case TLM_TYPE_FIXOBS: {
+        tlm_fixobs_t *s = &p->u.fixobs;
+        s->cycle = tlm_get_u32(b + 0);
+        s->index = b[4];
+        s->count = b[5];
+        s->camera = b[6];
+        s->beacon_id = tlm_get_u16(b + 7);
+        s->used = b[9];
+        for (unsigned i = 0; i < 2u; i++) {
+            s->uv_px[i] = tlm_get_f32(b + 10u + 4u * i);
+        }
+        for (unsigned i = 0; i < 3u; i++) {
+            s->cov_px2[i] = tlm_get_f32(b + 18u + 4u * i);
+        }
         break;
     }
     default: break;
@@ -331,6 +367,10 @@ bool tlm_payload_valid(const tlm_packet_t *p)
     case TLM_TYPE_EVENT:
         return tlm_event_name(p->u.event.code)[0] != '?' &&
                p->u.event.severity < TLM_SEV_COUNT;
+    case TLM_TYPE_FIXOBS:
+        return p->u.fixobs.camera < TLM_NUM_CAMERAS &&
+               all_finite(p->u.fixobs.uv_px, TLM_FIXOBS_UV_PX_N) &&
+               all_finite(p->u.fixobs.cov_px2, TLM_FIXOBS_COV_PX2_N);
     default: return false;
     }
 }

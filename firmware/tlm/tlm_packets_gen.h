@@ -16,18 +16,21 @@ typedef enum {
     TLM_TYPE_CAMERA = 1, /* camera diagnostics (one per camera) */
     TLM_TYPE_HK = 2, /* housekeeping */
     TLM_TYPE_EVENT = 3, /* event */
-    TLM_NUM_TYPES = 4
+    TLM_TYPE_FIXOBS = 4, /* fix record: one association of a usable fix (the self-survey's input, docs/self_survey.md); on-board log every fix, downlink about one fix per second */
+    TLM_NUM_TYPES = 5
 } tlm_type_t;
 
 #define TLM_APID_NAV 0x101u
 #define TLM_APID_CAMERA 0x102u
 #define TLM_APID_HK 0x103u
 #define TLM_APID_EVENT 0x104u
+#define TLM_APID_FIXOBS 0x105u
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 93u
+#define TLM_HK_PAYLOAD_LEN 95u
 #define TLM_EVENT_PAYLOAD_LEN 16u
+#define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
 
 #define TLM_NAV_POS_UM_N 3u
@@ -99,6 +102,7 @@ typedef struct {
     uint8_t time_quality; /* hk_time_quality: what hk_utc is worth [time_quality_t] */
     uint32_t tc_epoch; /* hk_tc_epoch: boot epoch of the telecommand anti-replay counter (high 32 bits a signed command must carry; 0: uplink not authenticated) */
     uint32_t tc_arsn_last; /* hk_tc_arsn_last: low 32 bits of the last accepted anti-replay counter in this epoch (0: none yet); the ground signs with a larger one */
+    uint16_t n_beacons_biased; /* hk_n_beacons_biased: beacons the self-survey monitor reported biased and down-weights (BEACON_BIASED) since the table was loaded */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */
@@ -111,6 +115,20 @@ typedef struct {
     int32_t arg1; /* evt_arg1: per code (a CRC-32 is printed hex) */
 } tlm_event_t;
 
+#define TLM_FIXOBS_UV_PX_N 2u
+#define TLM_FIXOBS_COV_PX2_N 3u
+/* fixobs: fix record: one association of a usable fix (the self-survey's input, docs/self_survey.md); on-board log every fix, downlink about one fix per second (APID 0x105) */
+typedef struct {
+    uint32_t cycle; /* fix_cycle: navigation cycle of the fix: its pose and covariance are the nav packet of this cycle (docs/self_survey.md) */
+    uint8_t index; /* fix_index: this association's index in the fix, 0 .. fix_count - 1 */
+    uint8_t count; /* fix_count: associations recorded for the fix (its inlier observations) */
+    uint8_t camera; /* fix_camera: camera of the observation [camera_id_t] */
+    uint16_t beacon_id; /* fix_beacon_id: survey id of the beacon it was associated with (beacons.csv id) */
+    uint8_t used; /* fix_used: 1: an inlier of the fix; 0: a blob the fix did not use (gated out, or its beacon held out by integrity) associated afterwards with the nearest beacon predicted within the tracking gate, for the self-survey only */
+    float uv_px[TLM_FIXOBS_UV_PX_N]; /* fix_u_px, fix_v_px: measured centroid column, distorted pixels (pixel centres at integers) [px] */
+    float cov_px2[TLM_FIXOBS_COV_PX2_N]; /* fix_cov_uu_px2, fix_cov_uv_px2, fix_cov_vv_px2: centroid covariance [u][u] (the centroider's, before the solver's pixel floor) [px^2] */
+} tlm_fixobs_t;
+
 typedef struct {
     tlm_type_t type;
     uint16_t seq;    /* CCSDS sequence count: written by tlm_frame_encode, read by the decoder */
@@ -120,6 +138,7 @@ typedef struct {
         tlm_camera_t camera;
         tlm_hk_t hk;
         tlm_event_t event;
+        tlm_fixobs_t fixobs;
     } u;
 } tlm_packet_t;
 

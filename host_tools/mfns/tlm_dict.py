@@ -37,6 +37,8 @@ RATES = {
     "camera": (3 * CYCLE_HZ, "every cycle, one per camera (3 x 18.6 Hz)"),
     "housekeeping": (CYCLE_HZ / 19.0, "~1 Hz (every 19th cycle)"),
     "event": (1.0, "when it happens (budget: 1/s average)"),
+    # the fix record (docs/self_survey.md): one fix of ~12 associations per second
+    "fixobs": (12.0, "one fix per second, one per association (budget: 12/s)"),
 }
 
 
@@ -164,7 +166,7 @@ def _ancillary(e: ET.Element) -> dict[str, str]:
     return {a.get("name"): (a.text or "") for a in e.findall("x:AncillaryDataSet/x:AncillaryData", NS)}
 
 
-PREFIX = {"nav": "nav_", "camera": "cam_", "housekeeping": "hk_", "event": "evt_"}
+PREFIX = {"nav": "nav_", "camera": "cam_", "housekeeping": "hk_", "event": "evt_", "fixobs": "fix_"}
 
 
 @lru_cache(maxsize=4)

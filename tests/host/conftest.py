@@ -111,7 +111,13 @@ def xtce_decode():
     return decode
 
 
-CSV_FILE = {"nav": "nav", "camera": "camera", "housekeeping": "housekeeping", "event": "events"}
+CSV_FILE = {
+    "nav": "nav",
+    "camera": "camera",
+    "housekeeping": "housekeeping",
+    "event": "events",
+    "fixobs": "fixobs",
+}
 
 
 def assert_packets_match_csv(decoded: list[tuple[str, dict]], out_dir: Path) -> dict[str, int]:

@@ -78,6 +78,21 @@ void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
         h->cams_enabled = (uint8_t)(i % 8u);
         break;
     }
+    case TLM_TYPE_FIXOBS: {
+        tlm_fixobs_t *f = &p->u.fixobs;
+        f->cycle = i;
+        f->count = (uint8_t)(1u + i % 12u);
+        f->index = (uint8_t)(i % f->count);
+        f->camera = (uint8_t)(i % 3u);
+        f->beacon_id = (uint16_t)(i * 7u);
+        f->used = (uint8_t)(i % 2u);
+        f->uv_px[0] = 12.25f + (float)i;
+        f->uv_px[1] = 1000.5f - (float)i;
+        f->cov_px2[0] = 0.01f;
+        f->cov_px2[1] = -0.002f;
+        f->cov_px2[2] = 0.015f;
+        break;
+    }
     case TLM_TYPE_EVENT:
     default: {
         tlm_event_t *e = &p->u.event;
@@ -151,6 +166,21 @@ int tlm_test_packets_equal(const tlm_packet_t *a, const tlm_packet_t *b)
         const tlm_event_t *x = &a->u.event, *y = &b->u.event;
         return x->cycle == y->cycle && x->code == y->code && x->severity == y->severity &&
                x->subject == y->subject && x->arg0 == y->arg0 && x->arg1 == y->arg1;
+    }
+    case TLM_TYPE_FIXOBS: {
+        const tlm_fixobs_t *x = &a->u.fixobs, *y = &b->u.fixobs;
+        int eq = x->cycle == y->cycle && x->index == y->index && x->count == y->count && x->camera == y->camera &&
+                 x->beacon_id == y->beacon_id && x->used == y->used;
+        /* bit-exact: the wire carries the binary32 pattern */
+        for (unsigned k = 0; k < TLM_FIXOBS_UV_PX_N + TLM_FIXOBS_COV_PX2_N; k++) {
+            const float *fx = k < TLM_FIXOBS_UV_PX_N ? &x->uv_px[k] : &x->cov_px2[k - TLM_FIXOBS_UV_PX_N];
+            const float *fy = k < TLM_FIXOBS_UV_PX_N ? &y->uv_px[k] : &y->cov_px2[k - TLM_FIXOBS_UV_PX_N];
+            uint32_t bx, by;
+            memcpy(&bx, fx, sizeof bx);
+            memcpy(&by, fy, sizeof by);
+            eq = eq && bx == by;
+        }
+        return eq;
     }
     default:
         return 0;

@@ -1,0 +1,115 @@
+"""mfns map refine (host_tools/mfns/map/refine.py, docs/self_survey.md) against truth, on
+synthetic fixes made with the one numpy lens model: the module's walls and trajectory, the
+survey error rendered, centroid noise, the fixes' poses as the flight gives them (truth plus
+their own error). The refinement must beat the survey, keep its covariance honest, flag a
+beacon moved 5 mm (and only it) and a camera mount turned 0.1 deg (and only it)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mfns import calib_results
+from mfns.camera import pose_from_position, rig_from_doc
+from mfns.map import refine
+from mfns.map.fixlog import Fix
+from mfns.rotations import euler213_deg_to_matrix, rot_exp
+from mfns.simulate.nav import PAPER_CALIB, module_beacons, module_trajectory, project_beacons
+
+PIXEL_SIGMA = 0.02  # px, the order of the module's centroids
+SURVEY_SIGMA = 0.4  # mm, beacons.csv
+
+
+def scene(seed=2, n_fix=200, moved=None, cam_rot_deg=None):
+    """(fixes, cams, ids, survey map, sigma, true map). moved: (beacon index, mm vector);
+    cam_rot_deg: (camera, rotation vector deg) applied to the true rig only."""
+    rng = np.random.default_rng([seed, 1])
+    p_survey, _ = module_beacons(60, rng)
+    t = np.arange(n_fix) * 1.5  # one fix every 1.5 s: 5 minutes
+    r_wb, att = module_trajectory(t, rng)
+    noise = np.random.default_rng([seed, 9])
+    p_true = p_survey + noise.normal(0.0, SURVEY_SIGMA, p_survey.shape)
+    if moved is not None:
+        p_true[moved[0]] += moved[1]
+    cams = rig_from_doc(calib_results.load(PAPER_CALIB))
+    true_cams = rig_from_doc(calib_results.load(PAPER_CALIB))
+    if cam_rot_deg is not None:
+        k, w = cam_rot_deg
+        true_cams[k].C_k_b = rot_exp(np.deg2rad(w)) @ true_cams[k].C_k_b
+    fixes = []
+    for i in range(n_fix):
+        C = euler213_deg_to_matrix(att[i])
+        r_bw = pose_from_position(C, r_wb[i])
+        cam_i, bid, uv = [], [], []
+        for k, c in enumerate(true_cams):
+            u, vis, _ = project_beacons(c, C, r_bw, p_true)
+            for b in np.nonzero(vis)[0]:
+                cam_i.append(k)
+                bid.append(b)
+                uv.append(u[b] + noise.normal(0.0, PIXEL_SIGMA, 2))
+        if len(bid) < 5:
+            continue
+        # the flight's fix: truth off by about its own sigma (0.3 mm, 0.01 deg)
+        C_fix = C @ rot_exp(noise.normal(0.0, np.deg2rad(0.01), 3))
+        fixes.append(
+            Fix(
+                cycle=i,
+                t_s=float(t[i]),
+                status="FIX",
+                C_w_b=C_fix,
+                r_wb_w=r_wb[i] + noise.normal(0.0, 0.3, 3),
+                cov=np.eye(6),
+                camera=np.array(cam_i),
+                beacon_id=np.array(bid),
+                uv=np.array(uv),
+                cov_uv=np.tile(PIXEL_SIGMA**2 * np.eye(2), (len(bid), 1, 1)),
+            )
+        )
+    return fixes, cams, np.arange(60), p_survey, np.full(60, SURVEY_SIGMA), p_true
+
+
+def run(fixes, cams, ids, p, s, mounts=False):
+    pb = refine.build_problem(fixes, cams, ids, p, s, mounts=mounts, pixel_floor_px=0.005)
+    return refine.refine(pb)
+
+
+def test_refinement_beats_the_survey_and_its_sigma_is_honest():
+    fixes, cams, ids, p, s, truth = scene()
+    assert len(fixes) > 150
+    res = run(fixes, cams, ids, p, s)
+    before = np.sqrt(np.mean((p - truth) ** 2))
+    after = np.sqrt(np.mean((res.p - truth) ** 2))
+    assert before > 0.3
+    assert after < 0.15 < before / 2, (before, after)
+    assert 0.7 < res.sigma0 < 1.3  # the noise model holds
+    # the written sigma covers the error (it carries the datum's common part: conservative)
+    z = np.abs(res.p - truth) / res.sigma[:, None]
+    assert np.mean(z**2) < 1.5
+    assert not res.moved.any()  # nothing flagged on a map within its survey
+
+
+def test_moved_beacon_is_flagged_alone():
+    fixes, cams, ids, p, s, truth = scene(moved=(17, np.array([0.0, 3.0, 4.0])))  # 5 mm
+    res = run(fixes, cams, ids, p, s)
+    assert list(ids[res.moved]) == [17], res.chi2_moved[res.moved]
+    assert res.chi2_moved[17] > 4 * refine.CHI2_3
+    assert np.linalg.norm(res.p[17] - truth[17]) < 0.5  # the refined place follows the LED
+
+
+@pytest.mark.parametrize("cam", [1])
+def test_turned_camera_mount_is_flagged_alone(cam):
+    fixes, cams, ids, p, s, truth = scene(cam_rot_deg=(cam, [0.1, 0.0, 0.0]))
+    res = run(fixes, cams, ids, p, s, mounts=True)
+    assert list(np.nonzero(res.mount_moved)[0]) == [cam], res.mount_chi2
+    assert abs(res.mount_rot_deg[cam, 0] - 0.1) < 0.02
+    assert not res.moved.any()  # the mount, not the beacons, took the shift
+
+
+def test_refuses_a_log_of_another_map():
+    fixes, cams, ids, p, s, _ = scene(n_fix=20)
+    from mfns.errors import MfnsError
+
+    with pytest.raises(MfnsError, match="not in the survey"):
+        refine.build_problem(fixes, cams, ids[:30], p[:30], s[:30])
+    with pytest.raises(MfnsError, match="no fixes"):
+        refine.build_problem([], cams, ids, p, s)
