@@ -341,6 +341,8 @@ def tlm_packets_c(d) -> str:
         "#include <math.h>",
         "#include <string.h>",
         "",
+        '#include "core_text.h"',
+        "",
         "static int16_t get_i16(const uint8_t *b)",
         "{",
         "    const uint16_t g = tlm_get_u16(b);",
@@ -367,7 +369,7 @@ def tlm_packets_c(d) -> str:
         + "};"
     )
     L.append(
-        "static const char *const k_type_name[TLM_NUM_TYPES] = {" + ", ".join(cstr(p.name) for p in pk) + "};"
+        "static const char *const k_type_name[TLM_NUM_TYPES] = {" + ", ".join(f"MFNS_MSG({cstr(p.name)})" for p in pk) + "};"
     )
     L += [
         "",
@@ -401,7 +403,7 @@ def tlm_packets_c(d) -> str:
         vals = sorted(d.enums[xt])
         L += [f"const char *{fn}({arg} code)", "{"]
         if vals == list(range(vals[0], vals[-1] + 1)):  # contiguous: a table (smaller than a switch)
-            names = ", ".join(cstr(d.enums[xt][v][0]) for v in vals)
+            names = ", ".join(f"MFNS_MSG({cstr(d.enums[xt][v][0])})" for v in vals)
             first, last = (f"{prefix}{d.enums[xt][v][0].upper()}" for v in (vals[0], vals[-1]))
             cond = f"code <= {last}" if vals[0] == 0 else f"code >= {first} && code <= {last}"
             idx = "code" if vals[0] == 0 else f"code - {first}"
@@ -413,7 +415,7 @@ def tlm_packets_c(d) -> str:
             L.append("    switch (code) {")
             for v in vals:
                 lab = d.enums[xt][v][0]
-                L.append(f"    case {prefix}{lab.upper()}: return {cstr(lab)};")
+                L.append(f"    case {prefix}{lab.upper()}: return MFNS_MSG({cstr(lab)});")
             L += ['    default: return "?";', "    }"]
         L += ["}", ""]
     for fn, const, tmpl in (

@@ -5,6 +5,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "core_text.h"
+
 static int16_t get_i16(const uint8_t *b)
 {
     const uint16_t g = tlm_get_u16(b);
@@ -20,7 +22,7 @@ static int32_t get_i32(const uint8_t *b)
 
 static const uint16_t k_apid[TLM_NUM_TYPES] = {TLM_APID_NAV, TLM_APID_CAMERA, TLM_APID_HK, TLM_APID_EVENT, TLM_APID_FIXOBS};
 static const uint8_t k_payload_len[TLM_NUM_TYPES] = {TLM_NAV_PAYLOAD_LEN, TLM_CAMERA_PAYLOAD_LEN, TLM_HK_PAYLOAD_LEN, TLM_EVENT_PAYLOAD_LEN, TLM_FIXOBS_PAYLOAD_LEN};
-static const char *const k_type_name[TLM_NUM_TYPES] = {"nav", "camera", "housekeeping", "event", "fixobs"};
+static const char *const k_type_name[TLM_NUM_TYPES] = {MFNS_MSG("nav"), MFNS_MSG("camera"), MFNS_MSG("housekeeping"), MFNS_MSG("event"), MFNS_MSG("fixobs")};
 
 uint16_t tlm_type_apid(tlm_type_t type)
 {
@@ -49,70 +51,70 @@ const char *tlm_type_name(tlm_type_t type)
 
 const char *tlm_nav_status_name(uint8_t code)
 {
-    static const char *const k_name[3] = {"NO_FIX", "FIX", "DEGRADED"};
+    static const char *const k_name[3] = {MFNS_MSG("NO_FIX"), MFNS_MSG("FIX"), MFNS_MSG("DEGRADED")};
     return (code <= TLM_NAV_DEGRADED) ? k_name[code] : "?";
 }
 
 const char *tlm_mode_name(uint8_t code)
 {
-    static const char *const k_name[5] = {"BOOT", "ACQUIRE", "TRACK", "SAFE", "STANDBY"};
+    static const char *const k_name[5] = {MFNS_MSG("BOOT"), MFNS_MSG("ACQUIRE"), MFNS_MSG("TRACK"), MFNS_MSG("SAFE"), MFNS_MSG("STANDBY")};
     return (code <= TLM_MODE_STANDBY) ? k_name[code] : "?";
 }
 
 const char *tlm_camera_name(uint8_t code)
 {
-    static const char *const k_name[3] = {"x", "y", "z"};
+    static const char *const k_name[3] = {MFNS_MSG("x"), MFNS_MSG("y"), MFNS_MSG("z")};
     return (code <= TLM_CAMERA_Z) ? k_name[code] : "?";
 }
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    static const char *const k_name[10] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED", "PROBATION", "FROZEN", "CLOCK_FAULT", "LATE", "OUT_OF_STEP"};
+    static const char *const k_name[10] = {MFNS_MSG("OK"), MFNS_MSG("LOST"), MFNS_MSG("OFF"), MFNS_MSG("SKIPPED"), MFNS_MSG("ENDED"), MFNS_MSG("PROBATION"), MFNS_MSG("FROZEN"), MFNS_MSG("CLOCK_FAULT"), MFNS_MSG("LATE"), MFNS_MSG("OUT_OF_STEP")};
     return (code <= TLM_CAM_OUT_OF_STEP) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
 {
-    static const char *const k_name[3] = {"INFO", "WARNING", "ERROR"};
+    static const char *const k_name[3] = {MFNS_MSG("INFO"), MFNS_MSG("WARNING"), MFNS_MSG("ERROR")};
     return (code <= TLM_SEV_ERROR) ? k_name[code] : "?";
 }
 
 const char *tlm_event_name(uint16_t code)
 {
     switch (code) {
-    case TLM_EVT_BOOT: return "BOOT";
-    case TLM_EVT_TABLE_LOADED: return "TABLE_LOADED";
-    case TLM_EVT_TABLE_REFUSED: return "TABLE_REFUSED";
-    case TLM_EVT_CAMERA_LOST: return "CAMERA_LOST";
-    case TLM_EVT_CAMERA_RECOVERED: return "CAMERA_RECOVERED";
-    case TLM_EVT_MODE_CHANGE: return "MODE_CHANGE";
-    case TLM_EVT_TLM_DROPPED: return "TLM_DROPPED";
-    case TLM_EVT_CAMERA_STALE: return "CAMERA_STALE";
-    case TLM_EVT_CAMERA_OUT_OF_STEP: return "CAMERA_OUT_OF_STEP";
-    case TLM_EVT_FRAME_REJECTED: return "FRAME_REJECTED";
-    case TLM_EVT_CAMERA_ENDED: return "CAMERA_ENDED";
-    case TLM_EVT_TLM_WRITE_ERROR: return "TLM_WRITE_ERROR";
-    case TLM_EVT_CMD_ACCEPTED: return "CMD_ACCEPTED";
-    case TLM_EVT_CMD_REJECTED: return "CMD_REJECTED";
-    case TLM_EVT_CAMERA_FROZEN: return "CAMERA_FROZEN";
-    case TLM_EVT_CAMERA_CLOCK_JUMP: return "CAMERA_CLOCK_JUMP";
-    case TLM_EVT_CAMERA_LATE: return "CAMERA_LATE";
-    case TLM_EVT_CAMERA_SEQ_MISMATCH: return "CAMERA_SEQ_MISMATCH";
-    case TLM_EVT_CAMERA_HEALTHY: return "CAMERA_HEALTHY";
-    case TLM_EVT_BEACON_EXCLUDED: return "BEACON_EXCLUDED";
-    case TLM_EVT_CAMERA_EXCLUDED: return "CAMERA_EXCLUDED";
-    case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
-    case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
-    case TLM_EVT_TC_AUTH: return "TC_AUTH";
-    case TLM_EVT_BEACON_BIASED: return "BEACON_BIASED";
-    case TLM_EVT_CAMERA_BIASED: return "CAMERA_BIASED";
+    case TLM_EVT_BOOT: return MFNS_MSG("BOOT");
+    case TLM_EVT_TABLE_LOADED: return MFNS_MSG("TABLE_LOADED");
+    case TLM_EVT_TABLE_REFUSED: return MFNS_MSG("TABLE_REFUSED");
+    case TLM_EVT_CAMERA_LOST: return MFNS_MSG("CAMERA_LOST");
+    case TLM_EVT_CAMERA_RECOVERED: return MFNS_MSG("CAMERA_RECOVERED");
+    case TLM_EVT_MODE_CHANGE: return MFNS_MSG("MODE_CHANGE");
+    case TLM_EVT_TLM_DROPPED: return MFNS_MSG("TLM_DROPPED");
+    case TLM_EVT_CAMERA_STALE: return MFNS_MSG("CAMERA_STALE");
+    case TLM_EVT_CAMERA_OUT_OF_STEP: return MFNS_MSG("CAMERA_OUT_OF_STEP");
+    case TLM_EVT_FRAME_REJECTED: return MFNS_MSG("FRAME_REJECTED");
+    case TLM_EVT_CAMERA_ENDED: return MFNS_MSG("CAMERA_ENDED");
+    case TLM_EVT_TLM_WRITE_ERROR: return MFNS_MSG("TLM_WRITE_ERROR");
+    case TLM_EVT_CMD_ACCEPTED: return MFNS_MSG("CMD_ACCEPTED");
+    case TLM_EVT_CMD_REJECTED: return MFNS_MSG("CMD_REJECTED");
+    case TLM_EVT_CAMERA_FROZEN: return MFNS_MSG("CAMERA_FROZEN");
+    case TLM_EVT_CAMERA_CLOCK_JUMP: return MFNS_MSG("CAMERA_CLOCK_JUMP");
+    case TLM_EVT_CAMERA_LATE: return MFNS_MSG("CAMERA_LATE");
+    case TLM_EVT_CAMERA_SEQ_MISMATCH: return MFNS_MSG("CAMERA_SEQ_MISMATCH");
+    case TLM_EVT_CAMERA_HEALTHY: return MFNS_MSG("CAMERA_HEALTHY");
+    case TLM_EVT_BEACON_EXCLUDED: return MFNS_MSG("BEACON_EXCLUDED");
+    case TLM_EVT_CAMERA_EXCLUDED: return MFNS_MSG("CAMERA_EXCLUDED");
+    case TLM_EVT_BEACON_READMITTED: return MFNS_MSG("BEACON_READMITTED");
+    case TLM_EVT_CAMERA_READMITTED: return MFNS_MSG("CAMERA_READMITTED");
+    case TLM_EVT_TC_AUTH: return MFNS_MSG("TC_AUTH");
+    case TLM_EVT_BEACON_BIASED: return MFNS_MSG("BEACON_BIASED");
+    case TLM_EVT_CAMERA_BIASED: return MFNS_MSG("CAMERA_BIASED");
     default: return "?";
     }
 }
 
 const char *tlm_time_quality_name(uint8_t code)
 {
-    static const char *const k_name[3] = {"NONE", "SYSTEM", "SYNCED"};
+    static const char *const k_name[3] = {MFNS_MSG("NONE"), MFNS_MSG("SYSTEM"), MFNS_MSG("SYNCED")};
     return (code <= TLM_TIMEQ_SYNCED) ? k_name[code] : "?";
 }
 
