@@ -9,10 +9,10 @@
 #include <string.h>
 #include <time.h>
 
-#include "caltable_file.h"
 #include "math/units.h"
 #include "mfns_version.h"
 #include "nav_loop.h"
+#include "nav_tablestore.h"
 
 #define NAV_APP_VERSION MFNS_VERSION_CODE /* the one version (mk/version.sh) */
 
@@ -68,6 +68,13 @@ static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev
     (void)nav_tlm_event(&app->tlm, 0, t_us, code, sev, 0, a0, a1); /* failures counted in tlm */
 }
 
+void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t)
+{
+    if (app->budget_units != 0u) {
+        t->index.budget_units = app->budget_units; /* the board's, over the table's (docs/budgets.md) */
+    }
+}
+
 static void close_all(nav_app_t *app)
 {
     nav_cams_close(&app->cams);
@@ -106,19 +113,37 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
                    (int32_t)app->tc.auth.epoch, (int32_t)app->tc.auth.n_keys);
     }
 
-    uint32_t err_off = 0;
     mfns_caltable_t *table = &app->tables[app->table_cur];
+    app->state_dir = o->state_dir;
+    app->budget_units = o->budget_units;
+    nav_ts_start_t ts_info;
     const mfns_caltable_status_t ts =
-        mfns_caltable_load_file(o->table_path, app->table_buf, sizeof app->table_buf, table, &err_off);
+        nav_tablestore_load_start(o->state_dir, o->table_path, app->table_buf, sizeof app->table_buf, table, &ts_info);
+    nav_selftest_table(app, &ts_info, ts, ts == MFNS_CALTABLE_OK ? table->crc32 : 0u);
     if (ts != MFNS_CALTABLE_OK) {
-        fprintf(stderr, "mfns-nav: calibration table %s refused: %s (at byte %u)\n", o->table_path,
-                mfns_caltable_strerror(ts), err_off);
+        fprintf(stderr, "mfns-nav: calibration table %s refused: %s (at byte %u)\n", ts_info.path,
+                mfns_caltable_strerror(ts), ts_info.first_err_offset);
         send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)ts, 0);
         close_all(app);
         return 2;
     }
+    if (ts_info.source != NAV_TS_SRC_INITIAL && o->verbose) {
+        fprintf(stderr, "mfns-nav: table from the store: %s (crc %08x)\n", ts_info.path, table->crc32);
+    }
     send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, table->format_version, (int32_t)table->crc32);
-    if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK || nav_cams_open(&app->cams, o, table) != 0) {
+    nav_app_apply_budget(app, table);
+    send_event_subject(app, TLM_EVT_CYCLE_BUDGET, TLM_SEV_INFO, (uint8_t)(app->budget_units != 0u ? 1 : 0), 0,
+                       (int32_t)table->index.budget_units);
+    nav_selftest_uart(app, o);
+    nav_selftest_clock(app);
+    if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK) {
+        close_all(app);
+        return 2;
+    }
+    const int cams_rc = nav_cams_open(&app->cams, o, table);
+    nav_selftest_cameras(app, o);
+    nav_selftest_done(app);
+    if (cams_rc != 0) {
         close_all(app);
         return 2;
     }

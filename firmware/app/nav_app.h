@@ -16,11 +16,15 @@
  * file), txq_drain.h (the transmit queue into the link).
  *
  * Start-up (the only phase that may fail hard): open the telemetry link and
- * the command input, load and validate the calibration table, bind the
- * navigator, open the three cameras, apply --init-pose. A table that fails
- * validation is refused with its error and the program stops after sending
- * a TABLE_REFUSED event: navigating on a wrong table would produce poses
- * marked valid that are not.
+ * the command input, load and validate the calibration table (from the
+ * state dir's store when there is one, falling back to the previous table:
+ * nav_tablestore.h), bind the navigator, open the three cameras, apply
+ * --init-pose; the self-test reports each step as an event (nav_selftest.h).
+ * A table that fails validation (and no previous one that passes) is refused
+ * with its error and the program stops after sending a TABLE_REFUSED event:
+ * navigating on a wrong table would produce poses marked valid that are not.
+ * A camera that does not open is reported and the others run; with none the
+ * program stops.
  *
  * The telemetry link may be absent at start (a FIFO without a reader, an
  * adapter not plugged in): it is retried like a link lost later. Write errors
@@ -42,6 +46,7 @@
 #include "nav_cams.h"
 #include "nav_cycle.h"
 #include "nav_opts.h"
+#include "nav_selftest.h"
 #include "nav_tc_in.h"
 #include "nav_service.h"
 #include "nav_time.h"
@@ -85,6 +90,9 @@ typedef struct nav_app {
     nav_service_t service;          /* the supervisor: readiness, watchdog (nav_service.h) */
     uint64_t prev_start_us;         /* the previous cycle's start (cycle period) */
     uint64_t last_hk_us;            /* flight clock of the last housekeeping */
+    nav_selftest_t selftest;        /* the start-up self-test's tally (nav_selftest.h) */
+    const char *state_dir;          /* the table store's directory (nav_tablestore.h), or NULL */
+    uint32_t budget_units;          /* acquisition budget set by the board (--budget-units), 0: the table's */
 } nav_app_t;
 
 /* Runs the program on app (any contents: it is reset first; nothing is
@@ -97,6 +105,9 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o);
 uint64_t nav_app_now_us(void);
 /* The table the navigator uses now. */
 const mfns_caltable_t *nav_app_table(const nav_app_t *app);
+/* The board's acquisition budget (--budget-units / budget_units) into a
+ * table just loaded (start-up, TABLE_LOAD); none given: the table's stays. */
+void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t);
 /* Telemetry mode now: STANDBY, or the navigator's ACQUIRE/TRACK. */
 uint8_t nav_app_tlm_mode(const nav_app_t *app);
 /* The pose of x, y, z (mm) and 2-1-3 Euler roll, pitch, yaw (deg), as the

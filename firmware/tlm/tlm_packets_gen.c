@@ -104,6 +104,14 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
     case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
     case TLM_EVT_TC_AUTH: return "TC_AUTH";
+    case TLM_EVT_SELFTEST_TABLE: return "SELFTEST_TABLE";
+    case TLM_EVT_SELFTEST_CAMERA: return "SELFTEST_CAMERA";
+    case TLM_EVT_SELFTEST_UART: return "SELFTEST_UART";
+    case TLM_EVT_SELFTEST_CLOCK: return "SELFTEST_CLOCK";
+    case TLM_EVT_SELFTEST_DONE: return "SELFTEST_DONE";
+    case TLM_EVT_TABLE_ROLLBACK: return "TABLE_ROLLBACK";
+    case TLM_EVT_TABLE_STORED: return "TABLE_STORED";
+    case TLM_EVT_CYCLE_BUDGET: return "CYCLE_BUDGET";
     default: return "?";
     }
 }
