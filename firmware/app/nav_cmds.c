@@ -162,7 +162,7 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         const int err = nav_tablestore_commit(app->state_dir, app->table_buf, nt->size_bytes);
         if (err != 0) {
             fprintf(stderr, "mfns-nav: TABLE_LOAD %s runs but was not stored in %s: %s (a restart runs the old one)\n",
-                    path, app->state_dir, err > 0 ? strerror(err) : "no previous table");
+                    path, app->state_dir, strerror(err));
         }
         send_event(app, TLM_EVT_TABLE_STORED, err == 0 ? TLM_SEV_INFO : TLM_SEV_ERROR, (uint8_t)(err == 0 ? 0 : 1), err,
                    (int32_t)nt->crc32);

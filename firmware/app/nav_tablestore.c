@@ -12,7 +12,6 @@
 
 #include "caltable_file.h"
 
-#define SWAP_NAME "table.swap"
 #define WRITE_TRIES 64 /* partial writes of one table before it counts as an I/O error */
 
 /* dir/name into out; false when it does not fit. */
@@ -160,29 +159,4 @@ mfns_caltable_status_t nav_tablestore_load_start(const char *state_dir, const ch
         info->store_errno = nav_tablestore_commit(state_dir, buf, out->size_bytes);
     }
     return st;
-}
-
-int nav_tablestore_rollback(const char *state_dir, uint8_t *buf, size_t buf_size, mfns_caltable_t *out)
-{
-    char act[NAV_TABLESTORE_PATH_MAX], prev[NAV_TABLESTORE_PATH_MAX], swp[NAV_TABLESTORE_PATH_MAX];
-    if (state_dir == NULL || !join(act, sizeof act, state_dir, NAV_TABLESTORE_ACTIVE) ||
-        !join(prev, sizeof prev, state_dir, NAV_TABLESTORE_PREV) || !join(swp, sizeof swp, state_dir, SWAP_NAME)) {
-        return ENAMETOOLONG;
-    }
-    uint32_t off = 0;
-    if (!exists(prev) || load(prev, buf, buf_size, out, &off) != MFNS_CALTABLE_OK) {
-        return -1;
-    }
-    /* active -> swap, prev -> active, swap -> prev: a cut after the first
-     * rename leaves no active table but a valid previous (run at start) */
-    if (exists(act) && rename(act, swp) != 0) {
-        return errno;
-    }
-    if (rename(prev, act) != 0) {
-        return errno;
-    }
-    if (exists(swp) && rename(swp, prev) != 0) {
-        return errno;
-    }
-    return sync_dir(state_dir);
 }

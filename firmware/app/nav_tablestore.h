@@ -68,9 +68,4 @@ mfns_caltable_status_t nav_tablestore_load_start(const char *state_dir, const ch
  * old one as previous). */
 int nav_tablestore_commit(const char *state_dir, const uint8_t *bytes, size_t len);
 
-/* Swaps the active and previous tables when the previous one validates
- * (mfns-nav --table-rollback; buf as above, *out its table). 0 ok, else an
- * errno or -1 (no previous table / it does not validate: nothing changed). */
-int nav_tablestore_rollback(const char *state_dir, uint8_t *buf, size_t buf_size, mfns_caltable_t *out);
-
 #endif /* MFNS_NAV_TABLESTORE_H */
