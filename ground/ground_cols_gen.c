@@ -105,6 +105,8 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_str(r, "time_quality", tlm_time_quality_name(s->time_quality));
         ground_row_num(r, "tc_epoch", s->tc_epoch, 0);
         ground_row_num(r, "tc_arsn_last", s->tc_arsn_last, 0);
+        ground_row_num(r, "frame_period_us", s->frame_period_us, 0);
+        ground_row_num(r, "cycle_margin_us", s->cycle_margin_us, 0);
         break;
     }
     case TLM_TYPE_EVENT: {

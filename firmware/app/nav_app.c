@@ -75,6 +75,46 @@ void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t)
     }
 }
 
+void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[], uint64_t t_us)
+{
+    bool fused = false;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        fused = fused || frames[k] != NULL;
+    }
+    if (!fused) {
+        return;
+    }
+    if (app->last_fused_t_us != 0u && t_us > app->last_fused_t_us) {
+        const uint64_t step = t_us - app->last_fused_t_us;
+        const uint32_t s32 = step > UINT32_MAX ? UINT32_MAX : (uint32_t)step;
+        if (app->frame_period_min_us == 0u || s32 < app->frame_period_min_us) {
+            app->frame_period_min_us = s32;
+        }
+    }
+    app->last_fused_t_us = t_us;
+}
+
+void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us)
+{
+    if (app->tlm.kind == NAV_TLM_NONE || tlm_txq_frames(&app->tlm.q) != 0u) {
+        return; /* no link, or something of this cycle is still queued: not out yet */
+    }
+    uint64_t arrival_max_ns = 0, stamp_min_ns = UINT64_MAX;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const nav_cam_t *c = &app->cams.cam[k];
+        if (c->used && c->frame.arrival_ns != 0u) {
+            arrival_max_ns = c->frame.arrival_ns > arrival_max_ns ? c->frame.arrival_ns : arrival_max_ns;
+            stamp_min_ns = c->frame.timestamp_ns < stamp_min_ns ? c->frame.timestamp_ns : stamp_min_ns;
+        }
+    }
+    if (arrival_max_ns == 0u || arrival_max_ns < stamp_min_ns) {
+        return; /* no arrival time (an unpaced replay), or stamps not on the arrival's clock */
+    }
+    const uint64_t now = nav_app_now_us();
+    const uint64_t lat_us = (now - gathered_us) + (arrival_max_ns - stamp_min_ns) / 1000u;
+    mfns_cycle_stats_add(&app->latency, lat_us > UINT32_MAX ? UINT32_MAX : (uint32_t)lat_us, 0u);
+}
+
 static void close_all(nav_app_t *app)
 {
     nav_cams_close(&app->cams);
@@ -94,6 +134,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     }
     nav_tlm_init(&app->tlm);
     mfns_cycle_stats_reset(&app->stats);
+    mfns_cycle_stats_reset(&app->latency);
     app->solver = o->solver;
     nav_cams_init(&app->cams, o->sync_window_us);
     if (nav_tlm_open(&app->tlm, o) != 0 || nav_tc_in_open(&app->tc, o) != 0) {
@@ -159,7 +200,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
 }
 
 static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles, uint32_t lost_frames,
-                          uint32_t produced)
+                          uint32_t produced, bool verbose)
 {
     fprintf(stderr,
             "mfns-nav: stopped (%s) after %u cycles: %u fix, %u degraded, %u no fix, %u telemetry frames dropped\n",
@@ -173,6 +214,14 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
                 "mfns-nav: authentication (epoch %u): %u passed, refused %u missing, %u unknown key, %u bad MAC, "
                 "%u replayed, %u stale epoch\n",
                 a->epoch, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4]);
+    }
+    if (verbose && app->latency.count > 0u) {
+        fprintf(stderr,
+                "mfns-nav: latency, frame stamp to nav packet out of the queue: median %.2f ms, p99 %.2f ms, "
+                "max %.2f ms (%u cycles)\n",
+                (double)mfns_cycle_stats_percentile(&app->latency, 50.0f) * 1e-3,
+                (double)mfns_cycle_stats_percentile(&app->latency, 99.0f) * 1e-3, (double)app->latency.max_us * 1e-3,
+                app->latency.count);
     }
     if (app->tlm.write_errors > 0 || lost_frames > 0) {
         fprintf(stderr, "mfns-nav: telemetry: %u frames produced, %u sent, %u lost (%u write errors)\n", produced,
@@ -213,7 +262,8 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
     const uint32_t lost = app->tlm.q.dropped + (uint32_t)tlm_txq_frames(&app->tlm.q);
     const uint32_t produced = app->tlm.q.sent + lost;
     if (!o->quiet) {
-        print_summary(app, why, cycles, o->tlm_kind == NAV_TLM_NONE ? app->tlm.q.dropped : lost, produced);
+        print_summary(app, why, cycles, o->tlm_kind == NAV_TLM_NONE ? app->tlm.q.dropped : lost, produced,
+                      o->verbose);
     }
     if (app->tlm.write_errors > 0) {
         fprintf(stderr, "mfns-nav: telemetry incomplete: %u write errors (exit 3)\n", app->tlm.write_errors);

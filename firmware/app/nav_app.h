@@ -93,6 +93,9 @@ typedef struct nav_app {
     nav_selftest_t selftest;        /* the start-up self-test's tally (nav_selftest.h) */
     const char *state_dir;          /* the table store's directory (nav_tablestore.h), or NULL */
     uint32_t budget_units;          /* acquisition budget set by the board (--budget-units), 0: the table's */
+    mfns_cycle_stats_t latency;     /* frame stamp -> nav packet out of the queue, whole run (nav_app_note_latency) */
+    uint64_t last_fused_t_us;       /* frame time of the last cycle that fused a frame (0: none yet) */
+    uint32_t frame_period_min_us;   /* shortest step between fused cycles' frame times this HK interval (0: none) */
 } nav_app_t;
 
 /* Runs the program on app (any contents: it is reset first; nothing is
@@ -108,6 +111,20 @@ const mfns_caltable_t *nav_app_table(const nav_app_t *app);
 /* The board's acquisition budget (--budget-units / budget_units) into a
  * table just loaded (start-up, TABLE_LOAD); none given: the table's stays. */
 void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t);
+/* After a cycle's synchronisation: when it fused a frame, the step from the
+ * previous fused cycle's frame time is a candidate for the frame period (the
+ * shortest in the housekeeping interval: a frame dropped doubles a step,
+ * never halves it). Housekeeping reports the period and the margin, period -
+ * the longest cycle (nav_tlm.h). */
+void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[], uint64_t t_us);
+/* After a cycle's drain: when its nav packet has left the transmit queue
+ * (written to the link) and its frames carry an arrival time, one latency
+ * sample: program clock now - gathered_us (the cycle's start, right after
+ * the last frame was dequeued) + the latest arrival - the oldest fused frame's
+ * stamp (both on the frames' time base: exact for live cameras, whose stamps
+ * and arrivals are CLOCK_MONOTONIC; for a paced replay the arrival is its due
+ * time). Reported by --verbose at the end (docs/budgets.md "Latency"). */
+void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us);
 /* Telemetry mode now: STANDBY, or the navigator's ACQUIRE/TRACK. */
 uint8_t nav_app_tlm_mode(const nav_app_t *app);
 /* The pose of x, y, z (mm) and 2-1-3 Euler roll, pitch, yaw (deg), as the

@@ -200,6 +200,8 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         b[84] = s->time_quality;
         tlm_put_u32(b + 85, s->tc_epoch);
         tlm_put_u32(b + 89, s->tc_arsn_last);
+        tlm_put_u32(b + 93, s->frame_period_us);
+        tlm_put_u32(b + 97, (uint32_t)s->cycle_margin_us);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -294,6 +296,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->time_quality = b[84];
         s->tc_epoch = tlm_get_u32(b + 85);
         s->tc_arsn_last = tlm_get_u32(b + 89);
+        s->frame_period_us = tlm_get_u32(b + 93);
+        s->cycle_margin_us = get_i32(b + 97);
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -26,7 +26,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 93u
+#define TLM_HK_PAYLOAD_LEN 101u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_MAX_PAYLOAD 168u
 
@@ -99,6 +99,8 @@ typedef struct {
     uint8_t time_quality; /* hk_time_quality: what hk_utc is worth [time_quality_t] */
     uint32_t tc_epoch; /* hk_tc_epoch: boot epoch of the telecommand anti-replay counter (high 32 bits a signed command must carry; 0: uplink not authenticated) */
     uint32_t tc_arsn_last; /* hk_tc_arsn_last: low 32 bits of the last accepted anti-replay counter in this epoch (0: none yet); the ground signs with a larger one */
+    uint32_t frame_period_us; /* hk_frame_period_us: the camera frame period: the shortest step between the frame stamps of consecutive fused cycles in the report interval (0: fewer than two fused cycles) [us] */
+    int32_t cycle_margin_us; /* hk_cycle_margin_us: cycle margin, us: hk_frame_period_us - hk_cycle_max_us (negative: a cycle overran the frame period; 0 when no period is known; docs/budgets.md) */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */

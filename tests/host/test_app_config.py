@@ -111,6 +111,12 @@ def test_config_file_with_command_line_overrides_and_self_test(replay, tmp_path)
     assert done["subject"] == "0" and done["arg0"] == "7" and done["arg1"] == "5"
     # the initial table was copied into the store
     assert (state / "table.mfnstbl").read_bytes() == replay["t1"].read_bytes()
+    # the cycle margin (issue 24 item 6): the frame period from the stamps (18.6 Hz), less the longest cycle
+    hk = rows(tmp_path / "c-g" / "housekeeping.csv")
+    last = hk[-1]
+    assert int(last["frame_period_us"]) == pytest.approx(1e6 / 18.6, abs=60)
+    assert int(last["cycle_margin_us"]) == int(last["frame_period_us"]) - int(last["cycle_max_us"])
+    assert hk[0]["frame_period_us"] == "0" and hk[0]["cycle_margin_us"] == "0"  # before any cycle: unknown
 
 
 @pytest.mark.parametrize(
