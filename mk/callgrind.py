@@ -66,16 +66,43 @@ def fly(out: Path, seed: int, frames: int, map_of: Path | None = None) -> dict:
     shutil.rmtree(d, ignore_errors=True)
     d.mkdir(parents=True)
     py = [sys.executable, "-m", "mfns"]
-    run([*py, "sim", "nav", str(d / "frames"), "--quiet", "--scenario", "module", "--frames", str(frames),
-         "--seed", str(seed)])  # fmt: skip
+    run(
+        [
+            *py,
+            "sim",
+            "nav",
+            str(d / "frames"),
+            "--quiet",
+            "--scenario",
+            "module",
+            "--frames",
+            str(frames),
+            "--seed",
+            str(seed),
+        ]
+    )
     beacons = map_of if map_of is not None else d / "frames/beacons.csv"
     run([*py, "table", "build", str(d / "frames/calib.json"), str(beacons), "-o", str(d / "t.mfnstbl")])
     cg = d / "cg"
     cg.mkdir()
-    run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=mfns_nav_cycle",
-         "--dump-after=mfns_nav_cycle", f"--callgrind-out-file={cg}/cg.%p",
-         str(BIN / "mfns-nav"), "--table", str(d / "t.mfnstbl"), "--replay", str(d / "frames"),
-         "--file", str(d / "tlm.bin"), "-q"])  # fmt: skip
+    run(
+        [
+            "valgrind",
+            "--tool=callgrind",
+            "--collect-atstart=no",
+            "--toggle-collect=mfns_nav_cycle",
+            "--dump-after=mfns_nav_cycle",
+            f"--callgrind-out-file={cg}/cg.%p",
+            str(BIN / "mfns-nav"),
+            "--table",
+            str(d / "t.mfnstbl"),
+            "--replay",
+            str(d / "frames"),
+            "--file",
+            str(d / "tlm.bin"),
+            "-q",
+        ]
+    )
     dumps = {}
     for f in cg.iterdir():
         m = re.fullmatch(r"cg\.\d+\.(\d+)", f.name)
@@ -88,7 +115,9 @@ def fly(out: Path, seed: int, frames: int, map_of: Path | None = None) -> dict:
     hk = rows(d / "g" / "housekeeping.csv")
     assert len(nav) == len(per_cycle), (len(nav), len(per_cycle))
     # a cycle that ran acquisition: mode ACQUIRE in its packet, or the one that acquired (ACQUIRE before it)
-    acq = [i for i, r in enumerate(nav) if r["mode"] == "ACQUIRE" or (i == 0 or nav[i - 1]["mode"] == "ACQUIRE")]
+    acq = [
+        i for i, r in enumerate(nav) if r["mode"] == "ACQUIRE" or (i == 0 or nav[i - 1]["mode"] == "ACQUIRE")
+    ]
     trk = [i for i in range(len(nav)) if i not in acq]
     units_max = max((int(h["acq_units_max"]) for h in hk), default=0)
     worst = max(range(len(per_cycle)), key=lambda i: per_cycle[i])
@@ -121,7 +150,9 @@ def main() -> int:
     seeds = [int(s) for s in a.seeds.split(",")]
     runs = [fly(a.out, s, a.frames) for s in seeds]
     if len(seeds) > 1:  # the budget-limited case: the first seed's frames, the second's beacon map
-        runs.append(fly(a.out, seeds[0], a.frames // 2, map_of=a.out / f"seed{seeds[1]}" / "frames/beacons.csv"))
+        runs.append(
+            fly(a.out, seeds[0], a.frames // 2, map_of=a.out / f"seed{seeds[1]}" / "frames/beacons.csv")
+        )
     worst = max(runs, key=lambda r: r["worst_acquisition_instructions"])
     # the work-unit cost from the runs whose acquisition spent most (the budget-limited one)
     n = worst["worst_acquisition_instructions"]
@@ -130,20 +161,33 @@ def main() -> int:
         ms = [n * c / t["hz"] * 1e3 for c in t["cpi"]]
         est[name] = {"cpi": t["cpi"], "ms": ms, "margin_ms_mid": FRAME_PERIOD_MS - ms[1]}
     per_unit = n / worst["acq_units_max"] if worst["acq_units_max"] else None
-    res = {"frame_period_ms": FRAME_PERIOD_MS, "runs": runs, "worst_acquisition_instructions": n,
-           "worst_seed": worst["seed"], "instructions_per_work_unit": per_unit, "targets": est}  # fmt: skip
+    res = {
+        "frame_period_ms": FRAME_PERIOD_MS,
+        "runs": runs,
+        "worst_acquisition_instructions": n,
+        "worst_seed": worst["seed"],
+        "instructions_per_work_unit": per_unit,
+        "targets": est,
+    }
     (a.out / "results.json").write_text(json.dumps(res, indent=1) + "\n")
     for r in runs:
-        print(f"callgrind: seed {r['seed']} ({r['map']} map): {r['cycles']} cycles, {r['acquisition_cycles']} acquiring; worst cycle "
-              f"{r['worst_cycle']} ({r['worst_cycle_mode']}) {r['worst_instructions']:,} instructions; tracking "
-              f"median {r['tracking_median_instructions']:,}, max {r['tracking_max_instructions']:,}; "
-              f"acquisition work max {r['acq_units_max']} units")
-    print(f"callgrind: worst acquisition cycle {n:,} instructions (seed {worst['seed']})"
-          + (f", {per_unit:,.0f} per work unit of its interval's most" if per_unit else ""))  # fmt: skip
+        print(
+            f"callgrind: seed {r['seed']} ({r['map']} map): {r['cycles']} cycles, "
+            f"{r['acquisition_cycles']} acquiring; worst cycle {r['worst_cycle']} ({r['worst_cycle_mode']}) "
+            f"{r['worst_instructions']:,} instructions; tracking "
+            f"median {r['tracking_median_instructions']:,}, max {r['tracking_max_instructions']:,}; "
+            f"acquisition work max {r['acq_units_max']} units"
+        )
+    print(
+        f"callgrind: worst acquisition cycle {n:,} instructions (seed {worst['seed']})"
+        + (f", {per_unit:,.0f} per work unit of its interval's most" if per_unit else "")
+    )
     for name, e in est.items():
         lo, mid, hi = e["ms"]
-        print(f"callgrind: {name}: CPI {e['cpi'][0]}..{e['cpi'][2]} (assumed {e['cpi'][1]}): {lo:.1f}..{hi:.1f} ms "
-              f"({mid:.1f} ms), frame period {FRAME_PERIOD_MS} ms")
+        print(
+            f"callgrind: {name}: CPI {e['cpi'][0]}..{e['cpi'][2]} (assumed {e['cpi'][1]}): "
+            f"{lo:.1f}..{hi:.1f} ms ({mid:.1f} ms), frame period {FRAME_PERIOD_MS} ms"
+        )
     return 0
 
 

@@ -23,8 +23,10 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = REPO / "build" / "host-sim" / "bin"
-LINE = re.compile(r"latency, frame stamp to nav packet out of the queue: median ([\d.]+) ms, p99 ([\d.]+) ms, "
-                  r"max ([\d.]+) ms \((\d+) cycles\)")  # fmt: skip
+LINE = re.compile(
+    r"latency, frame stamp to nav packet out of the queue: median ([\d.]+) ms, p99 ([\d.]+) ms, "
+    r"max ([\d.]+) ms \((\d+) cycles\)"
+)
 
 
 def mfns(*args: str) -> None:
@@ -37,8 +39,26 @@ def fly(out: Path, seed: int, frames: int) -> dict:
     d = out / f"seed{seed}"
     shutil.rmtree(d, ignore_errors=True)
     d.mkdir(parents=True)
-    mfns("sim", "nav", str(d / "frames"), "--quiet", "--scenario", "module", "--frames", str(frames), "--seed", str(seed))
-    mfns("table", "build", str(d / "frames/calib.json"), str(d / "frames/beacons.csv"), "-o", str(d / "t.mfnstbl"))
+    mfns(
+        "sim",
+        "nav",
+        str(d / "frames"),
+        "--quiet",
+        "--scenario",
+        "module",
+        "--frames",
+        str(frames),
+        "--seed",
+        str(seed),
+    )
+    mfns(
+        "table",
+        "build",
+        str(d / "frames/calib.json"),
+        str(d / "frames/beacons.csv"),
+        "-o",
+        str(d / "t.mfnstbl"),
+    )
     master, slave = pty.openpty()
     got = bytearray()
     stop = threading.Event()
@@ -56,18 +76,37 @@ def fly(out: Path, seed: int, frames: int) -> dict:
     th = threading.Thread(target=reader, daemon=True)
     th.start()
     nav = subprocess.run(
-        [str(BIN / "mfns-nav"), "--table", str(d / "t.mfnstbl"), "--replay", str(d / "frames"), "--realtime",
-         "--tty", os.ttyname(slave), "-v"],
-        capture_output=True, text=True, timeout=600, check=False,
-    )  # fmt: skip
+        [
+            str(BIN / "mfns-nav"),
+            "--table",
+            str(d / "t.mfnstbl"),
+            "--replay",
+            str(d / "frames"),
+            "--realtime",
+            "--tty",
+            os.ttyname(slave),
+            "-v",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
     stop.set()
     os.close(slave)
     os.close(master)
     m = LINE.search(nav.stderr)
     if nav.returncode != 0 or m is None:
         sys.exit(f"latency: mfns-nav exited {nav.returncode} without a latency line: {nav.stderr[-1500:]}")
-    return {"seed": seed, "frames": frames, "median_ms": float(m.group(1)), "p99_ms": float(m.group(2)),
-            "max_ms": float(m.group(3)), "cycles": int(m.group(4)), "bytes_read": len(got)}  # fmt: skip
+    return {
+        "seed": seed,
+        "frames": frames,
+        "median_ms": float(m.group(1)),
+        "p99_ms": float(m.group(2)),
+        "max_ms": float(m.group(3)),
+        "cycles": int(m.group(4)),
+        "bytes_read": len(got),
+    }
 
 
 def main() -> int:
@@ -81,8 +120,11 @@ def main() -> int:
     runs = [fly(a.out, int(s), a.frames) for s in a.seeds.split(",")]
     (a.out / "results.json").write_text(json.dumps({"runs": runs}, indent=1) + "\n")
     for r in runs:
-        print(f"latency: seed {r['seed']}: {r['cycles']} cycles paced at 18.6 Hz into a pty: median {r['median_ms']:.2f} "
-              f"ms, p99 {r['p99_ms']:.2f} ms, max {r['max_ms']:.2f} ms (percentiles +-2.5 %, cycle_stats.h)")
+        print(
+            f"latency: seed {r['seed']}: {r['cycles']} cycles paced at 18.6 Hz into a pty: "
+            f"median {r['median_ms']:.2f} ms, p99 {r['p99_ms']:.2f} ms, max {r['max_ms']:.2f} ms "
+            "(percentiles +-2.5 %, cycle_stats.h)"
+        )
     return 0
 
 

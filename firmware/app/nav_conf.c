@@ -7,7 +7,6 @@
 
 #include <errno.h>
 #include <fcntl.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -31,17 +30,15 @@ const char *nav_config_key_name(nav_config_key_t k)
     return (unsigned)k < (unsigned)NAV_CFG_KEY_COUNT ? k_spec[k].name : "?";
 }
 
-static void fail(char *err, size_t err_size, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void fail(char *err, size_t err_size, const char *fmt, ...)
-{
-    if (err == NULL || err_size == 0) {
-        return;
-    }
-    va_list ap;
-    va_start(ap, fmt);
-    (void)vsnprintf(err, err_size, fmt, ap);
-    va_end(ap);
-}
+/* The message of an error into the caller's err (nullable, any size; never
+ * overrun). A macro over snprintf, not a va_list function: every caller has
+ * err and err_size in scope. */
+#define FAIL(...)                                                                                                      \
+    do {                                                                                                               \
+        if (err != NULL && err_size > 0) {                                                                             \
+            (void)snprintf(err, err_size, __VA_ARGS__);                                                                \
+        }                                                                                                              \
+    } while (0)
 
 static bool is_blank(char ch)
 {
@@ -94,7 +91,7 @@ static int check_value(nav_config_t *c, nav_config_key_t k, uint32_t line, char 
     for (size_t i = 0; v[i] != '\0'; i++) {
         const unsigned char ch = (unsigned char)v[i];
         if (ch < 0x20u || ch == 0x7fu) {
-            fail(err, err_size, "line %u: key '%s': a control character in the value", line, s->name);
+            FAIL("line %u: key '%s': a control character in the value", line, s->name);
             return -1;
         }
     }
@@ -103,26 +100,26 @@ static int check_value(nav_config_t *c, nav_config_key_t k, uint32_t line, char 
         return 0;
     case NAV_CFG_T_PATH:
         if (v[0] != '/') {
-            fail(err, err_size, "line %u: key '%s': wants an absolute path, got '%.*s'", line, s->name, SHOW_MAX, v);
+            FAIL("line %u: key '%s': wants an absolute path, got '%.*s'", line, s->name, SHOW_MAX, v);
             return -1;
         }
         return 0;
     case NAV_CFG_T_BOOL:
         if (!parse_bool(v, &c->number[k])) {
-            fail(err, err_size, "line %u: key '%s': wants yes or no, got '%.*s'", line, s->name, SHOW_MAX, v);
+            FAIL("line %u: key '%s': wants yes or no, got '%.*s'", line, s->name, SHOW_MAX, v);
             return -1;
         }
         return 0;
     case NAV_CFG_T_U32:
         if (!parse_u32(v, s->lo, s->hi, &c->number[k])) {
-            fail(err, err_size, "line %u: key '%s': wants a number %u..%u, got '%.*s'", line, s->name, s->lo, s->hi,
+            FAIL("line %u: key '%s': wants a number %u..%u, got '%.*s'", line, s->name, s->lo, s->hi,
                  SHOW_MAX, v);
             return -1;
         }
         return 0;
     case NAV_CFG_T_WORD:
         if (strcmp(v, "v4l2") != 0 && strcmp(v, "libcamera") != 0) {
-            fail(err, err_size, "line %u: key '%s': wants v4l2 or libcamera, got '%.*s'", line, s->name, SHOW_MAX, v);
+            FAIL("line %u: key '%s': wants v4l2 or libcamera, got '%.*s'", line, s->name, SHOW_MAX, v);
             return -1;
         }
         return 0;
@@ -145,7 +142,7 @@ static int parse_line(nav_config_t *c, const char *text, size_t n, uint32_t line
         eq++;
     }
     if (eq == n) {
-        fail(err, err_size, "line %u: not 'key = value' (no '=')", line);
+        FAIL("line %u: not 'key = value' (no '=')", line);
         return -1;
     }
     size_t kend = eq;
@@ -153,7 +150,7 @@ static int parse_line(nav_config_t *c, const char *text, size_t n, uint32_t line
         kend--;
     }
     if (kend == a) {
-        fail(err, err_size, "line %u: no key before '='", line);
+        FAIL("line %u: no key before '='", line);
         return -1;
     }
     int key = -1;
@@ -172,11 +169,11 @@ static int parse_line(nav_config_t *c, const char *text, size_t n, uint32_t line
             shown[i] = ch >= 0x20u && ch < 0x7fu ? (char)ch : '?';
         }
         shown[m] = '\0';
-        fail(err, err_size, "line %u: unknown key '%s' (docs/operations.md lists the keys)", line, shown);
+        FAIL("line %u: unknown key '%s' (docs/operations.md lists the keys)", line, shown);
         return -1;
     }
     if (c->set[key]) {
-        fail(err, err_size, "line %u: key '%s' given twice (first on line %u)", line, k_spec[key].name, c->line[key]);
+        FAIL("line %u: key '%s' given twice (first on line %u)", line, k_spec[key].name, c->line[key]);
         return -1;
     }
     size_t v0 = eq + 1;
@@ -188,11 +185,11 @@ static int parse_line(nav_config_t *c, const char *text, size_t n, uint32_t line
         v1--;
     }
     if (v1 == v0) {
-        fail(err, err_size, "line %u: key '%s': no value", line, k_spec[key].name);
+        FAIL("line %u: key '%s': no value", line, k_spec[key].name);
         return -1;
     }
     if (memchr(text + v0, '\0', v1 - v0) != NULL) {
-        fail(err, err_size, "line %u: key '%s': a NUL byte in the value", line, k_spec[key].name);
+        FAIL("line %u: key '%s': a NUL byte in the value", line, k_spec[key].name);
         return -1;
     }
     /* v1 - v0 <= n <= NAV_CONFIG_LINE_MAX < NAV_CONFIG_VALUE_MAX */
@@ -210,11 +207,11 @@ int nav_config_parse(const char *text, size_t len, nav_config_t *c, char *err, s
 {
     memset(c, 0, sizeof *c);
     if (text == NULL && len > 0) {
-        fail(err, err_size, "no text");
+        FAIL("no text");
         return -1;
     }
     if (len > NAV_CONFIG_MAX_BYTES) {
-        fail(err, err_size, "%zu bytes: more than a configuration (at most %u)", len, NAV_CONFIG_MAX_BYTES);
+        FAIL("%zu bytes: more than a configuration (at most %u)", len, NAV_CONFIG_MAX_BYTES);
         return -1;
     }
     size_t pos = 0;
@@ -223,7 +220,7 @@ int nav_config_parse(const char *text, size_t len, nav_config_t *c, char *err, s
         const char *nl = memchr(text + pos, '\n', len - pos);
         const size_t end = nl != NULL ? (size_t)(nl - text) : len;
         if (end - pos > NAV_CONFIG_LINE_MAX) {
-            fail(err, err_size, "line %u: longer than %u characters", line, NAV_CONFIG_LINE_MAX);
+            FAIL("line %u: longer than %u characters", line, NAV_CONFIG_LINE_MAX);
             return -1;
         }
         if (parse_line(c, text + pos, end - pos, line, err, err_size) != 0) {
@@ -240,13 +237,13 @@ int nav_config_load(const char *path, nav_config_t *c, char *err, size_t err_siz
     memset(c, 0, sizeof *c);
     const int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
     if (fd < 0) {
-        fail(err, err_size, "%s: cannot open: %s", path, strerror(errno));
+        FAIL("%s: cannot open: %s", path, strerror(errno));
         return -1;
     }
     struct stat st;
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         (void)close(fd); /* refused before a byte is read */
-        fail(err, err_size, "%s: not a regular file", path);
+        FAIL("%s: not a regular file", path);
         return -1;
     }
     size_t len = 0;
@@ -257,7 +254,7 @@ int nav_config_load(const char *path, nav_config_t *c, char *err, size_t err_siz
             continue;
         }
         if (n < 0) {
-            fail(err, err_size, "%s: read: %s", path, strerror(errno));
+            FAIL("%s: read: %s", path, strerror(errno));
             rc = -1;
             break;
         }
@@ -266,13 +263,13 @@ int nav_config_load(const char *path, nav_config_t *c, char *err, size_t err_siz
         }
         len += (size_t)n;
         if (len > NAV_CONFIG_MAX_BYTES) {
-            fail(err, err_size, "%s: larger than %u bytes: not a configuration", path, NAV_CONFIG_MAX_BYTES);
+            FAIL("%s: larger than %u bytes: not a configuration", path, NAV_CONFIG_MAX_BYTES);
             rc = -1;
             break;
         }
     }
     if (close(fd) != 0 && rc == 0) {
-        fail(err, err_size, "%s: close: %s", path, strerror(errno));
+        FAIL("%s: close: %s", path, strerror(errno));
         rc = -1;
     }
     if (rc != 0) {
@@ -280,7 +277,7 @@ int nav_config_load(const char *path, nav_config_t *c, char *err, size_t err_siz
     }
     char msg[NAV_CONFIG_ERR_LEN];
     if (nav_config_parse(buf, len, c, msg, sizeof msg) != 0) {
-        fail(err, err_size, "%s: %s", path, msg);
+        FAIL("%s: %s", path, msg);
         return -1;
     }
     return 0;

@@ -25,17 +25,35 @@ def rows(path: Path) -> list[dict]:
 def replay(tmp_path_factory) -> dict:
     res = subprocess.run(
         ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-        cwd=REPO, capture_output=True, text=True, check=False,
-    )  # fmt: skip
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert res.returncode == 0, res.stderr[-2000:]
     d = tmp_path_factory.mktemp("app")
     frames = d / "frames"
     cmds = [
         ["sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "12", "--seed", "6"],
-        ["table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(d / "t1.mfnstbl")],
-        ["table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(d / "t2.mfnstbl"),
-         "--pixel-sigma", "0.3"],
-    ]  # fmt: skip
+        [
+            "table",
+            "build",
+            str(frames / "calib.json"),
+            str(frames / "beacons.csv"),
+            "-o",
+            str(d / "t1.mfnstbl"),
+        ],
+        [
+            "table",
+            "build",
+            str(frames / "calib.json"),
+            str(frames / "beacons.csv"),
+            "-o",
+            str(d / "t2.mfnstbl"),
+            "--pixel-sigma",
+            "0.3",
+        ],
+    ]
     for args in cmds:
         r = subprocess.run([sys.executable, "-m", "mfns", *args], capture_output=True, text=True, check=False)
         assert r.returncode == 0, r.stderr
@@ -47,12 +65,18 @@ def crc_of(table: Path) -> int:
     return int.from_bytes(table.read_bytes()[12:16], "little")
 
 
-def fly(tmp: Path, name: str, args: list[str], check_rc: int | None = 0) -> tuple[subprocess.CompletedProcess, list]:
+def fly(
+    tmp: Path, name: str, args: list[str], check_rc: int | None = 0
+) -> tuple[subprocess.CompletedProcess, list]:
     tlm = tmp / f"{name}.bin"
     nav = subprocess.run(
         [str(BIN / "mfns-nav"), *args, "--file", str(tlm)],
-        capture_output=True, text=True, timeout=120, check=False, cwd=tmp,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        cwd=tmp,
+    )
     if check_rc is not None:
         assert nav.returncode == check_rc, nav.stderr
     out = tmp / f"{name}-g"
@@ -70,8 +94,16 @@ def tc_stream(tmp: Path, cmds: list[str]) -> Path:
     src = tmp / "empty.bin"
     src.write_bytes(b"")
     out = tmp / "tc.bin"
-    args = [str(BIN / "mfns-ground"), "--file", str(src), "--out", str(tmp / "g-enc"), "--no-status",
-            "--tc-file", str(out)]  # fmt: skip
+    args = [
+        str(BIN / "mfns-ground"),
+        "--file",
+        str(src),
+        "--out",
+        str(tmp / "g-enc"),
+        "--no-status",
+        "--tc-file",
+        str(out),
+    ]
     for c in cmds:
         args += ["--cmd", c]
     r = subprocess.run(args, capture_output=True, text=True, check=False, timeout=30)
@@ -97,16 +129,32 @@ def test_config_file_with_command_line_overrides_and_self_test(replay, tmp_path)
     assert nav.stderr == ""
     names = [e["event"] for e in ev]
     start = names[: names.index("SELFTEST_DONE") + 1]
-    assert start == ["BOOT", "SELFTEST_TABLE", "TABLE_LOADED", "CYCLE_BUDGET", "SELFTEST_UART", "SELFTEST_CLOCK",
-                     "SELFTEST_CAMERA", "SELFTEST_CAMERA", "SELFTEST_CAMERA", "SELFTEST_DONE"]  # fmt: skip
+    assert start == [
+        "BOOT",
+        "SELFTEST_TABLE",
+        "TABLE_LOADED",
+        "CYCLE_BUDGET",
+        "SELFTEST_UART",
+        "SELFTEST_CLOCK",
+        "SELFTEST_CAMERA",
+        "SELFTEST_CAMERA",
+        "SELFTEST_CAMERA",
+        "SELFTEST_DONE",
+    ]
     st = {e["event"]: e for e in ev}
-    assert st["SELFTEST_TABLE"]["subject"] == "0" and int(st["SELFTEST_TABLE"]["arg1"], 16) == crc_of(replay["t1"])
+    assert st["SELFTEST_TABLE"]["subject"] == "0" and int(st["SELFTEST_TABLE"]["arg1"], 16) == crc_of(
+        replay["t1"]
+    )
     assert st["CYCLE_BUDGET"]["subject"] == "1" and st["CYCLE_BUDGET"]["arg1"] == "4000"  # the board's budget
     assert st["SELFTEST_UART"]["subject"] == "2"  # a file: no link to check
     clk = int(st["SELFTEST_CLOCK"]["arg0"])
     assert st["SELFTEST_CLOCK"]["subject"] == "0" and clk & 0b101 == 0b101  # UTC set, monotonic advancing
     cams = ev_named(ev, "SELFTEST_CAMERA")
-    assert [(c["subject"], c["arg0"]) for c in cams] == [("0", "3"), ("1", "3"), ("2", "3")]  # replay: not streamed
+    assert [(c["subject"], c["arg0"]) for c in cams] == [
+        ("0", "3"),
+        ("1", "3"),
+        ("2", "3"),
+    ]  # replay: not streamed
     done = st["SELFTEST_DONE"]
     assert done["subject"] == "0" and done["arg0"] == "7" and done["arg1"] == "5"
     # the initial table was copied into the store
@@ -128,11 +176,13 @@ def test_config_file_with_command_line_overrides_and_self_test(replay, tmp_path)
         ("cam_x = a\ncam_x = b\n", "line 2: key 'cam_x' given twice (first on line 1)"),
         ("uart = /dev/ttyAMA0\ntty = /dev/pts/1\n", ":2: key 'tty': excludes 'uart' (line 1)"),
     ],
-)  # fmt: skip
+)
 def test_config_errors_name_the_line_and_key(tmp_path, text, needle):
     conf = tmp_path / "bad.conf"
     conf.write_text(text)
-    res = subprocess.run([str(BIN / "mfns-nav"), "--config", str(conf)], capture_output=True, text=True, check=False)
+    res = subprocess.run(
+        [str(BIN / "mfns-nav"), "--config", str(conf)], capture_output=True, text=True, check=False
+    )
     assert res.returncode == 2 and needle in res.stderr and str(conf) in res.stderr, res.stderr
 
 
@@ -143,7 +193,11 @@ def test_table_load_survives_a_restart_and_a_corrupt_store_rolls_back(replay, tm
     tc = tc_stream(tmp_path, [f"TABLE_LOAD {replay['t2']}"])
     nav, ev = fly(tmp_path, "load", [*base, "--tc-file", str(tc), "--tc-insecure", "--max-cycles", "4"])
     stored = ev_named(ev, "TABLE_STORED")
-    assert len(stored) == 1 and stored[0]["subject"] == "0" and int(stored[0]["arg1"], 16) == crc_of(replay["t2"])
+    assert (
+        len(stored) == 1
+        and stored[0]["subject"] == "0"
+        and int(stored[0]["arg1"], 16) == crc_of(replay["t2"])
+    )
     assert (state / "table.mfnstbl").read_bytes() == replay["t2"].read_bytes()
     assert (state / "table.prev.mfnstbl").read_bytes() == replay["t1"].read_bytes()
     assert not (state / "table.tmp").exists()
@@ -162,7 +216,9 @@ def test_table_load_survives_a_restart_and_a_corrupt_store_rolls_back(replay, tm
     assert "rolled back to the previous one" in nav.stderr
     st = ev_named(ev, "SELFTEST_TABLE")[0]
     rb = ev_named(ev, "TABLE_ROLLBACK")
-    assert st["subject"] == "2" and st["severity"] == "WARNING" and int(st["arg1"], 16) == crc_of(replay["t1"])
+    assert (
+        st["subject"] == "2" and st["severity"] == "WARNING" and int(st["arg1"], 16) == crc_of(replay["t1"])
+    )
     assert len(rb) == 1 and int(rb[0]["arg1"], 16) == crc_of(replay["t1"]) and rb[0]["arg0"] != "0"
     assert (state / "table.bad.mfnstbl").read_bytes() == bytes(data)
     assert (state / "table.mfnstbl").read_bytes() == replay["t1"].read_bytes()
@@ -172,8 +228,12 @@ def test_table_load_survives_a_restart_and_a_corrupt_store_rolls_back(replay, tm
     (state / "table.mfnstbl").write_bytes(bytes(data))
     bad = tmp_path / "bad.mfnstbl"
     bad.write_bytes(bytes(data))
-    nav, ev = fly(tmp_path, "none", ["--table", str(bad), "--replay", str(replay["frames"]), "--state-dir",
-                                     str(state)], check_rc=2)  # fmt: skip
+    nav, ev = fly(
+        tmp_path,
+        "none",
+        ["--table", str(bad), "--replay", str(replay["frames"]), "--state-dir", str(state)],
+        check_rc=2,
+    )
     assert "refused" in nav.stderr and "CRC" in nav.stderr, nav.stderr
     assert ev_named(ev, "SELFTEST_TABLE")[0]["subject"] == "1" and ev_named(ev, "TABLE_REFUSED")
 
@@ -181,15 +241,31 @@ def test_table_load_survives_a_restart_and_a_corrupt_store_rolls_back(replay, tm
 def test_missing_cameras_are_reported_by_identity(replay, tmp_path):
     """No V4L2 device here: each identity is reported missing (SELFTEST_CAMERA 1), and with no
     camera at all the program stops with exit 2 (a board with one camera left runs on it)."""
-    nav, ev = fly(tmp_path, "nocam", ["--table", str(replay["t1"]), "--v4l2", "--cam-x", "bus_info:platform:vivid-000",
-                                      "--cam-y", "card:cam-y", "--cam-z", "/dev/v4l/by-path/none"],
-                  check_rc=2)  # fmt: skip
+    nav, ev = fly(
+        tmp_path,
+        "nocam",
+        [
+            "--table",
+            str(replay["t1"]),
+            "--v4l2",
+            "--cam-x",
+            "bus_info:platform:vivid-000",
+            "--cam-y",
+            "card:cam-y",
+            "--cam-z",
+            "/dev/v4l/by-path/none",
+        ],
+        check_rc=2,
+    )
     assert "no capture node among /dev/video0..63 has bus_info 'platform:vivid-000'" in nav.stderr
     assert "has card 'cam-y'" in nav.stderr and "/dev/v4l/by-path/none" in nav.stderr
     assert "no camera opened" in nav.stderr
     cams = ev_named(ev, "SELFTEST_CAMERA")
     assert [(c["subject"], c["arg0"], c["severity"]) for c in cams] == [
-        ("0", "1", "ERROR"), ("1", "1", "ERROR"), ("2", "1", "ERROR")]  # fmt: skip
+        ("0", "1", "ERROR"),
+        ("1", "1", "ERROR"),
+        ("2", "1", "ERROR"),
+    ]
     assert ev_named(ev, "SELFTEST_DONE")[0]["subject"] == "3"
 
 
@@ -197,10 +273,22 @@ def test_missing_cameras_are_reported_by_identity(replay, tmp_path):
 def test_a_link_that_never_opened_exits_nonzero_with_its_cause(replay, tmp_path, opt):
     """Issue 24 item 7: every telemetry frame lost is a failure, and the message says why."""
     res = subprocess.run(
-        [str(BIN / "mfns-nav"), "--table", str(replay["t1"]), "--replay", str(replay["frames"]),
-         opt, "/nonexistent/tty", "--max-cycles", "3"],
-        capture_output=True, text=True, timeout=60, check=False,
-    )  # fmt: skip
+        [
+            str(BIN / "mfns-nav"),
+            "--table",
+            str(replay["t1"]),
+            "--replay",
+            str(replay["frames"]),
+            opt,
+            "/nonexistent/tty",
+            "--max-cycles",
+            "3",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert res.returncode == 3, res.stderr
     assert "/nonexistent/tty never opened" in res.stderr and "none of" in res.stderr, res.stderr
 
@@ -213,12 +301,37 @@ def test_the_shipped_configuration_is_read(replay, tmp_path):
     assert "--config /etc/mfns/mfns-nav.conf" in unit
     state = tmp_path / "state"
     state.mkdir()
-    nav, ev = fly(tmp_path, "shipped", ["--config", str(conf), "--replay", str(replay["frames"]), "--table",
-                                        str(replay["t1"]), "--state-dir", str(state), "--max-cycles", "2", "-q"])  # fmt: skip
+    nav, ev = fly(
+        tmp_path,
+        "shipped",
+        [
+            "--config",
+            str(conf),
+            "--replay",
+            str(replay["frames"]),
+            "--table",
+            str(replay["t1"]),
+            "--state-dir",
+            str(state),
+            "--max-cycles",
+            "2",
+            "-q",
+        ],
+    )
     assert ev_named(ev, "SELFTEST_DONE")[0]["subject"] == "0"
     install = subprocess.run(
-        ["make", "--no-print-directory", "BOARD=host-sim", "install", f"DESTDIR={tmp_path / 'root'}", "PREFIX=/usr"],
-        cwd=REPO, capture_output=True, text=True, check=False,
-    )  # fmt: skip
+        [
+            "make",
+            "--no-print-directory",
+            "BOARD=host-sim",
+            "install",
+            f"DESTDIR={tmp_path / 'root'}",
+            "PREFIX=/usr",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert install.returncode == 0, install.stderr
     assert (tmp_path / "root/etc/mfns/mfns-nav.conf").read_bytes() == conf.read_bytes()

@@ -92,7 +92,10 @@ static void test_bounds(void **state)
     /* a line of exactly the maximum is read; one more is refused by its length */
     char line[NAV_CONFIG_LINE_MAX + 2];
     memset(line, 'a', sizeof line);
-    memcpy(line, "cam_x = ", 8);
+    static const char key[] = "cam_x = ";
+    for (size_t i = 0; i + 1u < sizeof key; i++) {
+        line[i] = key[i];
+    }
     assert_int_equal(nav_config_parse(line, NAV_CONFIG_LINE_MAX, &g_cfg, err, sizeof err), 0);
     assert_int_equal(strlen(g_cfg.value[NAV_CFG_CAM_X]), NAV_CONFIG_LINE_MAX - 8u);
     assert_int_equal(nav_config_parse(line, NAV_CONFIG_LINE_MAX + 1u, &g_cfg, err, sizeof err), -1);
@@ -228,12 +231,14 @@ static int f_open(void *ctx, const char *path, int flags)
 {
     (void)ctx;
     (void)flags;
-    int n = -1;
-    if (sscanf(path, "/dev/video%d", &n) != 1 || n < 0 || n >= N_NODES) {
+    static const char prefix[] = "/dev/video";
+    char *end = NULL;
+    const long n = strncmp(path, prefix, sizeof prefix - 1u) == 0 ? strtol(path + sizeof prefix - 1u, &end, 10) : -1;
+    if (end == NULL || *end != '\0' || n < 0 || n >= N_NODES) {
         errno = ENOENT;
         return -1;
     }
-    return 100 + n;
+    return 100 + (int)n;
 }
 static int f_close(void *ctx, int fd)
 {
