@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "math/units.h"
 #include "mfns_version.h"
@@ -162,8 +163,10 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         nav_tablestore_load_start(o->state_dir, o->table_path, app->table_buf, sizeof app->table_buf, table, &ts_info);
     nav_selftest_table(app, &ts_info, ts, ts == MFNS_CALTABLE_OK ? table->crc32 : 0u);
     if (ts != MFNS_CALTABLE_OK) {
-        fprintf(stderr, "mfns-nav: calibration table %s refused: %s (at byte %u)\n", ts_info.path,
-                mfns_caltable_strerror(ts), ts_info.first_err_offset);
+        /* a file that cannot be opened: say why (missing, no permission), not only that */
+        const char *why = ts == MFNS_CALTABLE_E_FILE_OPEN && access(ts_info.path, R_OK) != 0 ? strerror(errno) : NULL;
+        fprintf(stderr, "mfns-nav: calibration table %s refused: %s%s%s (at byte %u)\n", ts_info.path,
+                mfns_caltable_strerror(ts), why != NULL ? ": " : "", why != NULL ? why : "", ts_info.first_err_offset);
         send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)ts, 0);
         close_all(app);
         return 2;
@@ -176,6 +179,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     send_event_subject(app, TLM_EVT_CYCLE_BUDGET, TLM_SEV_INFO, (uint8_t)(app->budget_units != 0u ? 1 : 0), 0,
                        (int32_t)table->index.budget_units);
     nav_selftest_uart(app, o);
+    app->tlm_opened_at_start = app->tlm.uart.connected;
     nav_selftest_clock(app);
     if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK) {
         close_all(app);
@@ -270,8 +274,18 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
         return 3;
     }
     if (o->tlm_kind != NAV_TLM_NONE && produced > 0u && app->tlm.q.sent == 0u) {
-        /* a link that never opened: nothing reached the ground, which is a
-         * failure however cleanly the loop ran (issue 24: it exited 0) */
+        /* nothing reached the ground, which is a failure however cleanly the
+         * loop ran (issue 24: it exited 0); the message says which way */
+        const mfns_uart_t *u = &app->tlm.uart;
+        if (app->tlm_opened_at_start || u->stats.reconnects > 0u) {
+            fprintf(stderr,
+                    "mfns-nav: telemetry %s opened but none of %u frames left the queue (%llu bytes written, %u short "
+                    "writes, %u disconnects%s%s) (exit 3)\n",
+                    o->tlm_target, produced, (unsigned long long)u->stats.bytes_written, u->stats.short_writes,
+                    u->stats.disconnects, u->last_errno != 0 ? "; last error: " : "",
+                    u->last_errno != 0 ? strerror(u->last_errno) : "");
+            return 3;
+        }
         fprintf(stderr, "mfns-nav: telemetry %s never opened (%s after %u attempts): none of %u frames sent (exit 3)\n",
                 o->tlm_target, app->tlm.uart.last_errno != 0 ? strerror(app->tlm.uart.last_errno) : "not connected",
                 app->tlm.uart.stats.open_failures, produced);

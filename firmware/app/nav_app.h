@@ -95,7 +95,8 @@ typedef struct nav_app {
     uint32_t budget_units;          /* acquisition budget set by the board (--budget-units), 0: the table's */
     mfns_cycle_stats_t latency;     /* frame stamp -> nav packet out of the queue, whole run (nav_app_note_latency) */
     uint64_t last_fused_t_us;       /* frame time of the last cycle that fused a frame (0: none yet) */
-    uint32_t frame_period_min_us;   /* shortest step between fused cycles' frame times this HK interval (0: none) */
+    uint32_t frame_period_min_us;
+    bool tlm_opened_at_start;       /* the telemetry link was open after start-up (the exit message) */   /* shortest step between fused cycles' frame times this HK interval (0: none) */
 } nav_app_t;
 
 /* Runs the program on app (any contents: it is reset first; nothing is

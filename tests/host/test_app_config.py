@@ -335,3 +335,14 @@ def test_the_shipped_configuration_is_read(replay, tmp_path):
     )
     assert install.returncode == 0, install.stderr
     assert (tmp_path / "root/etc/mfns/mfns-nav.conf").read_bytes() == conf.read_bytes()
+
+
+def test_a_missing_table_says_why(replay, tmp_path):
+    nav, ev = fly(
+        tmp_path, "notable", ["--table", str(tmp_path / "none.mfnstbl"), "--replay", str(replay["frames"])], 2
+    )
+    assert (
+        "none.mfnstbl refused: calibration table file cannot be opened: No such file or directory"
+        in nav.stderr
+    )
+    assert ev_named(ev, "SELFTEST_TABLE")[0]["subject"] == "1" and ev_named(ev, "TABLE_REFUSED")
