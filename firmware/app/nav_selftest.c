@@ -137,10 +137,7 @@ void nav_selftest_cameras(struct nav_app *app, const nav_opts_t *o)
 void nav_selftest_done(struct nav_app *app)
 {
     const nav_selftest_t *s = &app->selftest;
+    /* no stderr line: each failed check has said its own (one line per cause) */
     event(app, TLM_EVT_SELFTEST_DONE, s->failed == 0u ? TLM_SEV_INFO : TLM_SEV_WARNING, s->failed, s->cams_passed,
           s->checks);
-    if (s->failed > 0u) {
-        fprintf(stderr, "mfns-nav: self-test: %u of %u checks failed (events SELFTEST_*; docs/operations.md)\n",
-                s->failed, s->checks);
-    }
 }
