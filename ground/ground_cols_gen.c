@@ -106,6 +106,8 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "tc_epoch", s->tc_epoch, 0);
         ground_row_num(r, "tc_arsn_last", s->tc_arsn_last, 0);
         ground_row_num(r, "n_beacons_biased", s->n_beacons_biased, 0);
+        ground_row_num(r, "frame_period_us", s->frame_period_us, 0);
+        ground_row_num(r, "cycle_margin_us", s->cycle_margin_us, 0);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -116,7 +118,7 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_str(r, "severity", tlm_severity_name(s->severity));
         ground_row_num(r, "subject", s->subject, 0);
         ground_row_num(r, "arg0", s->arg0, 0);
-        if (s->code == TLM_EVT_TABLE_LOADED || s->code == TLM_EVT_TABLE_REFUSED) {
+        if (s->code == TLM_EVT_TABLE_LOADED || s->code == TLM_EVT_TABLE_REFUSED || s->code == TLM_EVT_SELFTEST_TABLE || s->code == TLM_EVT_TABLE_ROLLBACK || s->code == TLM_EVT_TABLE_STORED) {
             ground_row_hex32(r, "arg1", (uint32_t)s->arg1);
         } else {
             ground_row_num(r, "arg1", s->arg1, 0);

@@ -79,7 +79,7 @@ Description: MFNS navigation computer: three cameras to 6-DOF pose telemetry
  systemd with a watchdog (mfns-nav.service), and the ground station
  mfns-ground that decodes the telemetry and sends commands.
 C
-echo /etc/default/mfns-nav > "$root/DEBIAN/conffiles"
+printf '%s\n' /etc/default/mfns-nav /etc/mfns/mfns-nav.conf > "$root/DEBIAN/conffiles"
 deb=$stage/mfns-nav_${version}_${arch}.deb
 dpkg-deb --root-owner-group -Zxz --build "$root" "$deb" >/dev/null
 if command -v lintian >/dev/null 2>&1; then

@@ -37,4 +37,24 @@ extern const mfns_cam_sys_t mfns_cam_sys_linux;
 /* Most DQBUF attempts in one dequeue call (error frames, EAGAIN, EIO). */
 #define MFNS_CAM_V4L2_MAX_DQ_TRIES 64
 
+/* ---- a camera by stable identity (docs/operations.md "Configuration") ----
+ * /dev/videoN numbering follows probe order and may change between boots, so
+ * the board names its cameras by something that does not:
+ *   "/dev/v4l/by-path/..." or "/dev/v4l/by-id/..." (udev's links), or any
+ *       other path: used as given;
+ *   "bus_info:TEXT"  the capture node whose VIDIOC_QUERYCAP bus_info is TEXT;
+ *   "card:TEXT"      the capture node whose card name is TEXT.
+ * A match is searched among /dev/video0 .. /dev/video<MFNS_CAM_V4L2_MAX_NODES-1>
+ * through the seam (sys; NULL: the real syscalls), each opened, asked
+ * VIDIOC_QUERYCAP and closed; only nodes whose device_caps (or capabilities)
+ * include VIDEO_CAPTURE or VIDEO_CAPTURE_MPLANE count (vivid's output, VBI,
+ * radio nodes share the capture node's bus_info). Exactly one node must match.
+ * Returns 0 with the device path in path; -1 (nothing matches, or more than
+ * one does, or the identity does not fit path_size) with the reason in msg.
+ * Misses: a node that cannot be opened (busy, no permission) is skipped, so a
+ * camera held by another program reads as absent; msg says how many failed. */
+#define MFNS_CAM_V4L2_MAX_NODES 64
+int mfns_cam_v4l2_resolve(const char *ident, const mfns_cam_sys_t *sys, char *path, size_t path_size, char *msg,
+                          size_t msg_size);
+
 #endif

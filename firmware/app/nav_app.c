@@ -8,11 +8,12 @@
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
-#include "caltable_file.h"
 #include "math/units.h"
 #include "mfns_version.h"
 #include "nav_loop.h"
+#include "nav_tablestore.h"
 
 #define NAV_APP_VERSION MFNS_VERSION_CODE /* the one version (mk/version.sh) */
 
@@ -68,6 +69,53 @@ static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev
     (void)nav_tlm_event(&app->tlm, 0, t_us, code, sev, 0, a0, a1); /* failures counted in tlm */
 }
 
+void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t)
+{
+    if (app->budget_units != 0u) {
+        t->index.budget_units = app->budget_units; /* the board's, over the table's (docs/budgets.md) */
+    }
+}
+
+void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[], uint64_t t_us)
+{
+    bool fused = false;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        fused = fused || frames[k] != NULL;
+    }
+    if (!fused) {
+        return;
+    }
+    if (app->last_fused_t_us != 0u && t_us > app->last_fused_t_us) {
+        const uint64_t step = t_us - app->last_fused_t_us;
+        const uint32_t s32 = step > UINT32_MAX ? UINT32_MAX : (uint32_t)step;
+        if (app->frame_period_min_us == 0u || s32 < app->frame_period_min_us) {
+            app->frame_period_min_us = s32;
+        }
+    }
+    app->last_fused_t_us = t_us;
+}
+
+void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us)
+{
+    if (app->tlm.kind == NAV_TLM_NONE || tlm_txq_frames(&app->tlm.q) != 0u) {
+        return; /* no link, or something of this cycle is still queued: not out yet */
+    }
+    uint64_t arrival_max_ns = 0, stamp_min_ns = UINT64_MAX;
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const nav_cam_t *c = &app->cams.cam[k];
+        if (c->used && c->frame.arrival_ns != 0u) {
+            arrival_max_ns = c->frame.arrival_ns > arrival_max_ns ? c->frame.arrival_ns : arrival_max_ns;
+            stamp_min_ns = c->frame.timestamp_ns < stamp_min_ns ? c->frame.timestamp_ns : stamp_min_ns;
+        }
+    }
+    if (arrival_max_ns == 0u || arrival_max_ns < stamp_min_ns) {
+        return; /* no arrival time (an unpaced replay), or stamps not on the arrival's clock */
+    }
+    const uint64_t now = nav_app_now_us();
+    const uint64_t lat_us = (now - gathered_us) + (arrival_max_ns - stamp_min_ns) / 1000u;
+    mfns_cycle_stats_add(&app->latency, lat_us > UINT32_MAX ? UINT32_MAX : (uint32_t)lat_us, 0u);
+}
+
 static void close_all(nav_app_t *app)
 {
     nav_fixlog_close(&app->fixlog); /* no-op when not open */
@@ -88,6 +136,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     }
     nav_tlm_init(&app->tlm);
     mfns_cycle_stats_reset(&app->stats);
+    mfns_cycle_stats_reset(&app->latency);
     app->solver = o->solver;
     nav_cams_init(&app->cams, o->sync_window_us);
     if (nav_tlm_open(&app->tlm, o) != 0 || nav_tc_in_open(&app->tc, o) != 0) {
@@ -107,19 +156,40 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
                    (int32_t)app->tc.auth.epoch, (int32_t)app->tc.auth.n_keys);
     }
 
-    uint32_t err_off = 0;
     mfns_caltable_t *table = &app->tables[app->table_cur];
+    app->state_dir = o->state_dir;
+    app->budget_units = o->budget_units;
+    nav_ts_start_t ts_info;
     const mfns_caltable_status_t ts =
-        mfns_caltable_load_file(o->table_path, app->table_buf, sizeof app->table_buf, table, &err_off);
+        nav_tablestore_load_start(o->state_dir, o->table_path, app->table_buf, sizeof app->table_buf, table, &ts_info);
+    nav_selftest_table(app, &ts_info, ts, ts == MFNS_CALTABLE_OK ? table->crc32 : 0u);
     if (ts != MFNS_CALTABLE_OK) {
-        fprintf(stderr, "mfns-nav: calibration table %s refused: %s (at byte %u)\n", o->table_path,
-                mfns_caltable_strerror(ts), err_off);
+        /* a file that cannot be opened: say why (missing, no permission), not only that */
+        const char *why = ts == MFNS_CALTABLE_E_FILE_OPEN && access(ts_info.path, R_OK) != 0 ? strerror(errno) : NULL;
+        fprintf(stderr, "mfns-nav: calibration table %s refused: %s%s%s (at byte %u)\n", ts_info.path,
+                mfns_caltable_strerror(ts), why != NULL ? ": " : "", why != NULL ? why : "", ts_info.first_err_offset);
         send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)ts, 0);
         close_all(app);
         return 2;
     }
+    if (ts_info.source != NAV_TS_SRC_INITIAL && o->verbose) {
+        fprintf(stderr, "mfns-nav: table from the store: %s (crc %08x)\n", ts_info.path, table->crc32);
+    }
     send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, table->format_version, (int32_t)table->crc32);
-    if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK || nav_cams_open(&app->cams, o, table) != 0) {
+    nav_app_apply_budget(app, table);
+    send_event_subject(app, TLM_EVT_CYCLE_BUDGET, TLM_SEV_INFO, (uint8_t)(app->budget_units != 0u ? 1 : 0), 0,
+                       (int32_t)table->index.budget_units);
+    nav_selftest_uart(app, o);
+    app->tlm_opened_at_start = app->tlm.uart.connected;
+    nav_selftest_clock(app);
+    if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK) {
+        close_all(app);
+        return 2;
+    }
+    const int cams_rc = nav_cams_open(&app->cams, o, table);
+    nav_selftest_cameras(app, o);
+    nav_selftest_done(app);
+    if (cams_rc != 0) {
         close_all(app);
         return 2;
     }
@@ -139,7 +209,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
 }
 
 static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles, uint32_t lost_frames,
-                          uint32_t produced)
+                          uint32_t produced, bool verbose)
 {
     fprintf(stderr,
             "mfns-nav: stopped (%s) after %u cycles: %u fix, %u degraded, %u no fix, %u telemetry frames dropped\n",
@@ -158,6 +228,14 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
         fprintf(stderr, "mfns-nav: fix log %s: %u fixes recorded, %u dropped, %u write errors\n", app->fixlog.dir,
                 atomic_load(&app->fixlog.records), atomic_load(&app->fixlog.dropped_records),
                 atomic_load(&app->fixlog.write_errors));
+    }
+    if (verbose && app->latency.count > 0u) {
+        fprintf(stderr,
+                "mfns-nav: latency, frame stamp to nav packet out of the queue: median %.2f ms, p99 %.2f ms, "
+                "max %.2f ms (%u cycles)\n",
+                (double)mfns_cycle_stats_percentile(&app->latency, 50.0f) * 1e-3,
+                (double)mfns_cycle_stats_percentile(&app->latency, 99.0f) * 1e-3, (double)app->latency.max_us * 1e-3,
+                app->latency.count);
     }
     if (app->tlm.write_errors > 0 || lost_frames > 0) {
         fprintf(stderr, "mfns-nav: telemetry: %u frames produced, %u sent, %u lost (%u write errors)\n", produced,
@@ -198,15 +276,26 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o)
     const uint32_t lost = app->tlm.q.dropped + (uint32_t)tlm_txq_frames(&app->tlm.q);
     const uint32_t produced = app->tlm.q.sent + lost;
     if (!o->quiet) {
-        print_summary(app, why, cycles, o->tlm_kind == NAV_TLM_NONE ? app->tlm.q.dropped : lost, produced);
+        print_summary(app, why, cycles, o->tlm_kind == NAV_TLM_NONE ? app->tlm.q.dropped : lost, produced,
+                      o->verbose);
     }
     if (app->tlm.write_errors > 0) {
         fprintf(stderr, "mfns-nav: telemetry incomplete: %u write errors (exit 3)\n", app->tlm.write_errors);
         return 3;
     }
     if (o->tlm_kind != NAV_TLM_NONE && produced > 0u && app->tlm.q.sent == 0u) {
-        /* a link that never opened: nothing reached the ground, which is a
-         * failure however cleanly the loop ran (issue 24: it exited 0) */
+        /* nothing reached the ground, which is a failure however cleanly the
+         * loop ran (issue 24: it exited 0); the message says which way */
+        const mfns_uart_t *u = &app->tlm.uart;
+        if (app->tlm_opened_at_start || u->stats.reconnects > 0u) {
+            fprintf(stderr,
+                    "mfns-nav: telemetry %s opened but none of %u frames left the queue (%llu bytes written, %u short "
+                    "writes, %u disconnects%s%s) (exit 3)\n",
+                    o->tlm_target, produced, (unsigned long long)u->stats.bytes_written, u->stats.short_writes,
+                    u->stats.disconnects, u->last_errno != 0 ? "; last error: " : "",
+                    u->last_errno != 0 ? strerror(u->last_errno) : "");
+            return 3;
+        }
         fprintf(stderr, "mfns-nav: telemetry %s never opened (%s after %u attempts): none of %u frames sent (exit 3)\n",
                 o->tlm_target, app->tlm.uart.last_errno != 0 ? strerror(app->tlm.uart.last_errno) : "not connected",
                 app->tlm.uart.stats.open_failures, produced);

@@ -16,11 +16,15 @@
  * file), txq_drain.h (the transmit queue into the link).
  *
  * Start-up (the only phase that may fail hard): open the telemetry link and
- * the command input, load and validate the calibration table, bind the
- * navigator, open the three cameras, apply --init-pose. A table that fails
- * validation is refused with its error and the program stops after sending
- * a TABLE_REFUSED event: navigating on a wrong table would produce poses
- * marked valid that are not.
+ * the command input, load and validate the calibration table (from the
+ * state dir's store when there is one, falling back to the previous table:
+ * nav_tablestore.h), bind the navigator, open the three cameras, apply
+ * --init-pose; the self-test reports each step as an event (nav_selftest.h).
+ * A table that fails validation (and no previous one that passes) is refused
+ * with its error and the program stops after sending a TABLE_REFUSED event:
+ * navigating on a wrong table would produce poses marked valid that are not.
+ * A camera that does not open is reported and the others run; with none the
+ * program stops.
  *
  * The telemetry link may be absent at start (a FIFO without a reader, an
  * adapter not plugged in): it is retried like a link lost later. Write errors
@@ -43,6 +47,7 @@
 #include "nav_cycle.h"
 #include "nav_fixlog.h"
 #include "nav_opts.h"
+#include "nav_selftest.h"
 #include "nav_tc_in.h"
 #include "nav_service.h"
 #include "nav_time.h"
@@ -92,6 +97,13 @@ typedef struct nav_app {
     tlm_packet_t fix_pkts[NAV_FIXLOG_MAX_ASSOC];
     uint64_t last_fix_down_us;
     bool fix_down_sent;
+    nav_selftest_t selftest;        /* the start-up self-test's tally (nav_selftest.h) */
+    const char *state_dir;          /* the table store's directory (nav_tablestore.h), or NULL */
+    uint32_t budget_units;          /* acquisition budget set by the board (--budget-units), 0: the table's */
+    mfns_cycle_stats_t latency;     /* frame stamp -> nav packet out of the queue, whole run (nav_app_note_latency) */
+    uint64_t last_fused_t_us;       /* frame time of the last cycle that fused a frame (0: none yet) */
+    uint32_t frame_period_min_us;   /* shortest step between fused cycles' frame times this HK interval (0: none) */
+    bool tlm_opened_at_start;       /* the telemetry link was open after start-up (the exit message) */
 } nav_app_t;
 
 /* Runs the program on app (any contents: it is reset first; nothing is
@@ -104,6 +116,23 @@ int nav_app_run(nav_app_t *app, const nav_opts_t *o);
 uint64_t nav_app_now_us(void);
 /* The table the navigator uses now. */
 const mfns_caltable_t *nav_app_table(const nav_app_t *app);
+/* The board's acquisition budget (--budget-units / budget_units) into a
+ * table just loaded (start-up, TABLE_LOAD); none given: the table's stays. */
+void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t);
+/* After a cycle's synchronisation: when it fused a frame, the step from the
+ * previous fused cycle's frame time is a candidate for the frame period (the
+ * shortest in the housekeeping interval: a frame dropped doubles a step,
+ * never halves it). Housekeeping reports the period and the margin, period -
+ * the longest cycle (nav_tlm.h). */
+void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[], uint64_t t_us);
+/* After a cycle's drain: when its nav packet has left the transmit queue
+ * (written to the link) and its frames carry an arrival time, one latency
+ * sample: program clock now - gathered_us (the cycle's start, right after
+ * the last frame was dequeued) + the latest arrival - the oldest fused frame's
+ * stamp (both on the frames' time base: exact for live cameras, whose stamps
+ * and arrivals are CLOCK_MONOTONIC; for a paced replay the arrival is its due
+ * time). Reported by --verbose at the end (docs/budgets.md "Latency"). */
+void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us);
 /* Telemetry mode now: STANDBY, or the navigator's ACQUIRE/TRACK. */
 uint8_t nav_app_tlm_mode(const nav_app_t *app);
 /* The pose of x, y, z (mm) and 2-1-3 Euler roll, pitch, yaw (deg), as the

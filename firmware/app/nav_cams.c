@@ -5,6 +5,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "drivers/camera/camera_v4l2.h"
+
 #define RECOVER_ATTEMPTS 20 /* driver-level recovery tries before it reports the camera gone */
 
 _Static_assert(FH_MAX_CAMERAS == MFNS_NUM_CAMERAS, "the health monitor watches every camera");
@@ -33,7 +35,17 @@ void nav_cams_init(nav_cams_t *cs, uint32_t sync_window_us)
 static mfns_cam_err_t open_camera(nav_cam_t *c, const nav_opts_t *o, int k, bool resume, uint64_t after_us,
                                   char *msg, size_t msg_size)
 {
-    mfns_cam_settings_t s = mfns_cam_default_settings(o->backend, o->cam_path[k]);
+    /* a V4L2 camera named by identity (bus_info:, card:) is looked up at each
+     * (re-)open: a camera plugged in late, or renumbered, is found again */
+    char dev[MFNS_CAM_MSG_LEN]; /* a /dev/videoN or the identity as given (camera.c checks its length) */
+    const char *path = o->cam_path[k];
+    if (o->backend == MFNS_CAM_BACKEND_V4L2) {
+        if (mfns_cam_v4l2_resolve(path, NULL, dev, sizeof dev, msg, msg_size) != 0) {
+            return MFNS_CAM_E_OPEN;
+        }
+        path = dev;
+    }
+    mfns_cam_settings_t s = mfns_cam_default_settings(o->backend, path);
     s.replay_camera = c->letter;
     s.replay_realtime = o->realtime;
     s.replay_resume = resume;
@@ -56,6 +68,7 @@ static mfns_cam_err_t open_camera(nav_cam_t *c, const nav_opts_t *o, int k, bool
 
 int nav_cams_open(nav_cams_t *cs, const nav_opts_t *o, const mfns_caltable_t *table)
 {
+    int opened = 0;
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];
         cam_health_init(&c->health);
@@ -63,10 +76,22 @@ int nav_cams_open(nav_cams_t *cs, const nav_opts_t *o, const mfns_caltable_t *ta
         c->height = table->rig.cam[k].k.height;
         char msg[MFNS_CAM_MSG_LEN];
         const mfns_cam_err_t e = open_camera(c, o, k, false, 0, msg, sizeof msg);
+        c->open_err = e;
         if (e != MFNS_CAM_OK) {
-            fprintf(stderr, "mfns-nav: camera %c: %s: %s\n", c->letter, mfns_cam_strerror(e), msg);
-            return -1;
+            /* a live camera missing at start: reported, the others run, and it
+             * is re-opened like a camera lost later; a replay's is an input error */
+            fprintf(stderr, "mfns-nav: camera %c (%s): %s: %s\n", c->letter, o->cam_path[k], mfns_cam_strerror(e), msg);
+            c->last_err = e;
+            if (o->backend == MFNS_CAM_BACKEND_REPLAY) {
+                return -1;
+            }
+            continue;
         }
+        opened++;
+    }
+    if (opened == 0) {
+        fprintf(stderr, "mfns-nav: no camera opened\n");
+        return -1;
     }
     return 0;
 }

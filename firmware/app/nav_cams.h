@@ -69,6 +69,7 @@ typedef struct {
     bool have_held;
     bool ended_reported;
     mfns_cam_err_t last_err;
+    mfns_cam_err_t open_err;    /* at start-up: MFNS_CAM_OK, or why it did not open (the self-test reports it) */
     uint64_t last_used_us;      /* frame time of its last fused frame */
     uint64_t lost_at_ms;        /* program clock when the driver reported it lost */
     uint32_t last_seq;
@@ -90,8 +91,11 @@ typedef struct nav_cams {
 
 /* Every camera enabled, none open; the sync window in microseconds. */
 void nav_cams_init(nav_cams_t *cs, uint32_t sync_window_us);
-/* Opens and starts the three cameras o names at the table's image sizes.
- * 0, or -1 after one stderr line for the camera that failed. */
+/* Opens and starts the three cameras o names at the table's image sizes
+ * (a V4L2 identity bus_info:/card: looked up, camera_v4l2.h). A live camera
+ * that does not open is reported (one stderr line; open_err keeps why) and
+ * left closed: the loop re-opens it like a lost one, the others run. 0; -1
+ * when no camera opened, or a replay camera failed (an input error). */
 int nav_cams_open(nav_cams_t *cs, const nav_opts_t *o, const mfns_caltable_t *table);
 /* Gathers this cycle's frames (see above); events are stamped with
  * event_t_us. Returns the cameras whose data has not ended. */

@@ -7,6 +7,7 @@
 #include "caltable_file.h"
 #include "math/units.h"
 #include "nav_app.h"
+#include "nav_tablestore.h"
 
 static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
                        int32_t a1)
@@ -133,6 +134,9 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     }
     const bool had_prior = app->nav.have_prior;
     const mfns_pose_t prior = app->nav.prior;
+    if (ts == MFNS_CALTABLE_OK) {
+        nav_app_apply_budget(app, nt); /* the board's budget holds for any table */
+    }
     if (ts == MFNS_CALTABLE_OK && mfns_nav_init(&app->nav, nt, app->solver) != MFNS_NAV_OK) {
         ts = MFNS_CALTABLE_E_SOLVER_SETTINGS;
         if (mfns_nav_init(&app->nav, cur, app->solver) != MFNS_NAV_OK) {
@@ -153,6 +157,16 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         (void)mfns_nav_set_prior(&app->nav, &prior); /* confirmed by the new table's beacons, or dropped */
     }
     send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, nt->format_version, (int32_t)nt->crc32);
+    if (app->state_dir != NULL) {
+        /* persisted (atomically) so a restart runs it; the old one is kept as the previous */
+        const int err = nav_tablestore_commit(app->state_dir, app->table_buf, nt->size_bytes);
+        if (err != 0) {
+            fprintf(stderr, "mfns-nav: TABLE_LOAD %s runs but was not stored in %s: %s (a restart runs the old one)\n",
+                    path, app->state_dir, strerror(err));
+        }
+        send_event(app, TLM_EVT_TABLE_STORED, err == 0 ? TLM_SEV_INFO : TLM_SEV_ERROR, (uint8_t)(err == 0 ? 0 : 1), err,
+                   (int32_t)nt->crc32);
+    }
     *arg1 = (int32_t)nt->crc32;
     return TC_OK;
 }

@@ -21,6 +21,7 @@ void nav_loop_housekeeping(nav_app_t *app, uint32_t cycle, uint32_t n_cycles, ui
     nav_tlm_housekeeping(&app->tlm, app, cycle, n_cycles, t_us);
     app->count.acq_units_max = 0; /* per report interval */
     mfns_cycle_stats_reset(&app->stats);
+    app->frame_period_min_us = 0;
 }
 
 /* Between cycles: the commands that came in. */
@@ -156,6 +157,7 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
      * domain: CLOCK_MONOTONIC live (the cameras' stamps), time since start in a replay */
     const uint64_t clock_t_us = app->clock_monotonic ? start : start - app->t0_us;
     const uint64_t t_us = nav_cams_synchronise(cams, &app->tlm, cycle, clock_t_us, frames);
+    nav_app_note_frame_time(app, frames, t_us); /* the frame period, for the cycle margin */
     const mfns_nav_mode_t before = app->nav.mode;
     navigate(app, cycle, frames);
     send_solution(app, cycle, t_us);
@@ -174,6 +176,7 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
         app->last_hk_us = t_us;
     }
     nav_tlm_drain(&app->tlm, app->cycle_now, now_ms());
+    nav_app_note_latency(app, start); /* frame stamp -> the nav packet out of the queue */
     nav_service_alive(&app->service, nav_app_now_us()); /* the supervisor's watchdog: the loop runs */
     if (o->verbose) {
         print_cycle(app, cycle);

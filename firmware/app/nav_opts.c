@@ -27,15 +27,20 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: mfns-nav --table FILE (--replay DIR | --v4l2 | --libcamera) [options]\n"
+            "       mfns-nav --config FILE [options]\n"
             "\n"
             "The MFNS flight program: camera frames -> beacon centroids -> pose -> telemetry.\n"
             "\n"
-            "  --table FILE        calibration table (mfns table build; docs/caltable.md)\n"
+            "  --config FILE       key = value configuration (the board's " NAV_CONFIG_DEFAULT_PATH ");\n"
+            "                      options given here override its keys (docs/operations.md)\n"
+            "  --table FILE        calibration table (mfns table build; docs/caltable.md); with a\n"
+            "                      state dir, the initial one: the store's table wins (docs/operations.md)\n"
             "  --replay DIR        cameras replay an `mfns sim nav` folder (docs/nav-frames.md)\n"
             "  --realtime          replay at the recorded frame rate (default: as fast as possible)\n"
             "  --v4l2              V4L2 cameras (board defaults %s %s %s)\n"
             "  --libcamera         libcamera cameras (first three, or --cam-x/y/z ids)\n"
-            "  --cam-x/--cam-y/--cam-z PATH   device or camera id per camera\n"
+            "  --cam-x/--cam-y/--cam-z ID     device path (/dev/v4l/by-path/...), bus_info:TEXT or\n"
+            "                      card:TEXT (V4L2 VIDIOC_QUERYCAP), or a libcamera id, per camera\n"
             "  --timeout-ms N      frame wait per camera and cycle (default 200)\n"
             "  --sync-window-ms N  frames fused in one cycle lie within N ms (default %u)\n"
             "  --serial PORT       telemetry on a real UART via libserialport\n"
@@ -48,7 +53,10 @@ static void usage(FILE *f)
             "  --uplink            telecommands on the telemetry link itself (--tty/--serial, read-write)\n"
             "  --tc-key FILE       the board's command keys ('ID HEX' lines, mode 0600/0400, yours):\n"
             "                      every command must be signed (docs/uplink.md); needs --state-dir\n"
-            "  --state-dir DIR     where the boot epoch of the anti-replay counter is kept\n"
+            "  --state-dir DIR     persistent state: the anti-replay boot epoch, and the table store\n"
+            "                      (the last TABLE_LOAD that validated, and the one before)\n"
+            "  --budget-units N    acquisition work units per cycle (default: measured at start-up\n"
+            "                      to fit the frame period; docs/budgets.md)\n"
             "  --tc-insecure       accept commands WITHOUT authentication (tests, bench; a warning)\n"
             "  --max-cycles N      stop after N cycles\n"
             "  --init-pose X,Y,Z,ROLL,PITCH,YAW   start tracking from this pose (mm, deg;\n"
@@ -64,7 +72,7 @@ static void usage(FILE *f)
             "                      on-board log in DIR for the self-survey (docs/self_survey.md)\n"
             "  -h, --help, --version\n"
             "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target),\n"
-            "3 telemetry incomplete (write errors).\n",
+            "3 telemetry incomplete (write errors, or a link that never opened: nothing sent).\n",
             MFNS_BOARD_CAM_X, MFNS_BOARD_CAM_Y, MFNS_BOARD_CAM_Z, MFNS_SYNC_WINDOW_US_DEFAULT / 1000u, MFNS_BOARD_BAUD,
             MFNS_BOARD_NAME);
 }
@@ -104,12 +112,108 @@ static bool parse_pose(const char *s, float v[6])
     return true;
 }
 
+/* --config FILE or --config=FILE anywhere on the line (the last one wins,
+ * as getopt would); NULL when absent. A --config without its FILE is left to
+ * getopt's error. */
+static const char *find_config(int argc, char **argv)
+{
+    static const char eq[] = "--config=";
+    const char *path = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--") == 0) {
+            break;
+        }
+        if (strcmp(argv[i], "--config") == 0 && i + 1 < argc) {
+            path = argv[++i];
+        } else if (strncmp(argv[i], eq, sizeof eq - 1u) == 0) {
+            path = argv[i] + sizeof eq - 1u;
+        }
+    }
+    return path;
+}
+
+/* Where each setting came from, so the line replaces the file's (never
+ * "give one telemetry output" for a --tty over the file's uart). */
+typedef struct {
+    bool tlm, tc, key, insecure;
+    const char *cam[MFNS_NUM_CAMERAS];
+} from_file_t;
+
+/* The file's keys into o (defaults for the command line). 0, or -1 with the message. */
+static int apply_config(nav_opts_t *o, from_file_t *ff, FILE *err)
+{
+    const nav_config_t *c = &o->cfg;
+    const char *p = o->config_path;
+    if (c->set[NAV_CFG_UART] && c->set[NAV_CFG_TTY]) {
+        fprintf(err, "mfns-nav: %s:%u: key 'tty': excludes 'uart' (line %u): give one telemetry output\n", p,
+                c->line[NAV_CFG_TTY], c->line[NAV_CFG_UART]);
+        return -1;
+    }
+    if (c->set[NAV_CFG_TC_KEY] && c->set[NAV_CFG_TC_INSECURE] && c->number[NAV_CFG_TC_INSECURE] != 0u) {
+        fprintf(err, "mfns-nav: %s:%u: key 'tc_insecure': excludes 'tc_key' (line %u)\n", p,
+                c->line[NAV_CFG_TC_INSECURE], c->line[NAV_CFG_TC_KEY]);
+        return -1;
+    }
+    if (c->set[NAV_CFG_CAMERAS]) {
+        const bool v4l2 = strcmp(c->value[NAV_CFG_CAMERAS], "v4l2") == 0;
+        o->backend = v4l2 ? MFNS_CAM_BACKEND_V4L2 : MFNS_CAM_BACKEND_LIBCAMERA;
+        o->cam_path[0] = v4l2 ? MFNS_BOARD_CAM_X : "";
+        o->cam_path[1] = v4l2 ? MFNS_BOARD_CAM_Y : "";
+        o->cam_path[2] = v4l2 ? MFNS_BOARD_CAM_Z : "";
+    }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const nav_config_key_t key = (nav_config_key_t)(NAV_CFG_CAM_X + k);
+        ff->cam[k] = c->set[key] ? c->value[key] : NULL;
+    }
+    if (c->set[NAV_CFG_UART] || c->set[NAV_CFG_TTY]) {
+        o->tlm_kind = c->set[NAV_CFG_UART] ? NAV_TLM_SERIAL : NAV_TLM_PATH;
+        o->tlm_target = c->set[NAV_CFG_UART] ? c->value[NAV_CFG_UART] : c->value[NAV_CFG_TTY];
+        ff->tlm = true;
+    }
+    if (c->set[NAV_CFG_BAUD]) {
+        o->baud = c->number[NAV_CFG_BAUD];
+    }
+    if (c->set[NAV_CFG_UPLINK] && c->number[NAV_CFG_UPLINK] != 0u) {
+        o->tc_kind = NAV_TC_LINK;
+        ff->tc = true;
+    }
+    if (c->set[NAV_CFG_TC_KEY]) {
+        o->tc_key_path = c->value[NAV_CFG_TC_KEY];
+        ff->key = true;
+    }
+    if (c->set[NAV_CFG_TC_INSECURE]) {
+        o->tc_insecure = c->number[NAV_CFG_TC_INSECURE] != 0u;
+        ff->insecure = true;
+    }
+    if (c->set[NAV_CFG_TABLE]) {
+        o->table_path = c->value[NAV_CFG_TABLE];
+    }
+    if (c->set[NAV_CFG_STATE_DIR]) {
+        o->state_dir = c->value[NAV_CFG_STATE_DIR];
+    }
+    if (c->set[NAV_CFG_TIMEOUT_MS]) {
+        if (c->number[NAV_CFG_TIMEOUT_MS] > (uint32_t)MFNS_CAM_MAX_TIMEOUT_MS) {
+            fprintf(err, "mfns-nav: %s:%u: key 'timeout_ms': wants 1..%d\n", p, c->line[NAV_CFG_TIMEOUT_MS],
+                    MFNS_CAM_MAX_TIMEOUT_MS);
+            return -1;
+        }
+        o->frame_timeout_ms = (int)c->number[NAV_CFG_TIMEOUT_MS];
+    }
+    if (c->set[NAV_CFG_MLOCK]) {
+        o->mlock = c->number[NAV_CFG_MLOCK] != 0u;
+    }
+    if (c->set[NAV_CFG_BUDGET_UNITS]) {
+        o->budget_units = c->number[NAV_CFG_BUDGET_UNITS];
+    }
+    return 0;
+}
+
 int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
 {
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
            O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT, O_TC_KEY, O_STATE_DIR,
-           O_TC_INSECURE, O_FIXLOG };
+           O_TC_INSECURE, O_FIXLOG, O_CONFIG, O_BUDGET };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -131,6 +235,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         {"tc-key", required_argument, NULL, O_TC_KEY}, {"state-dir", required_argument, NULL, O_STATE_DIR},
         {"tc-insecure", no_argument, NULL, O_TC_INSECURE},
         {"fixlog", required_argument, NULL, O_FIXLOG},
+        {"config", required_argument, NULL, O_CONFIG}, {"budget-units", required_argument, NULL, O_BUDGET},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -140,6 +245,19 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
     o->baud = MFNS_BOARD_BAUD;
     o->solver = MFNS_POSE_MODE_ML;
     const char *cam_override[MFNS_NUM_CAMERAS] = {NULL, NULL, NULL};
+    from_file_t ff;
+    memset(&ff, 0, sizeof ff);
+    o->config_path = find_config(argc, argv);
+    if (o->config_path != NULL) {
+        char msg[NAV_CONFIG_ERR_LEN + 64];
+        if (nav_config_load(o->config_path, &o->cfg, msg, sizeof msg) != 0) {
+            fprintf(err, "mfns-nav: configuration %s\n", msg);
+            return -1;
+        }
+        if (apply_config(o, &ff, err) != 0) {
+            return -1;
+        }
+    }
     optind = 1;
     opterr = 0;
     for (int guard = 0; guard < argc + 1; guard++) {
@@ -155,6 +273,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         case O_REPLAY:
             o->backend = MFNS_CAM_BACKEND_REPLAY;
             o->cam_path[0] = o->cam_path[1] = o->cam_path[2] = optarg;
+            ff.cam[0] = ff.cam[1] = ff.cam[2] = NULL; /* the file's cameras are not a replay's */
             break;
         case O_REALTIME:
             o->realtime = true;
@@ -192,6 +311,10 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         case O_SERIAL:
         case O_TTY:
         case O_FILE:
+            if (ff.tlm) { /* the line replaces the file's output */
+                o->tlm_kind = NAV_TLM_NONE;
+                ff.tlm = false;
+            }
             if (o->tlm_kind != NAV_TLM_NONE) {
                 fprintf(err, "mfns-nav: give one telemetry output (--serial, --tty or --file)\n");
                 return -1;
@@ -202,6 +325,10 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         case O_TC_TTY:
         case O_TC_FILE:
         case O_UPLINK:
+            if (ff.tc) {
+                o->tc_kind = NAV_TC_NONE;
+                ff.tc = false;
+            }
             if (o->tc_kind != NAV_TC_NONE) {
                 fprintf(err, "mfns-nav: give one telecommand input (--tc-tty, --tc-file or --uplink)\n");
                 return -1;
@@ -211,12 +338,26 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
             break;
         case O_TC_KEY:
             o->tc_key_path = optarg;
+            if (ff.insecure) {
+                o->tc_insecure = false;
+            }
             break;
         case O_STATE_DIR:
             o->state_dir = optarg;
             break;
         case O_TC_INSECURE:
             o->tc_insecure = true;
+            if (ff.key) {
+                o->tc_key_path = NULL;
+            }
+            break;
+        case O_CONFIG:
+            break; /* read before the loop (find_config) */
+        case O_BUDGET:
+            if (!parse_u32(optarg, 100, 1000000, &o->budget_units)) {
+                fprintf(err, "mfns-nav: --budget-units wants 100..1000000, got '%s'\n", optarg);
+                return -1;
+            }
             break;
         case O_BAUD:
             if (!parse_u32(optarg, 1200, 4000000, &o->baud)) {
@@ -267,8 +408,13 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         fprintf(err, "mfns-nav: unexpected argument '%s' (see --help)\n", argv[optind]);
         return -1;
     }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        if (cam_override[k] == NULL && ff.cam[k] != NULL && o->backend != MFNS_CAM_BACKEND_REPLAY) {
+            cam_override[k] = ff.cam[k]; /* the file's camera, unless the line names one */
+        }
+    }
     if (o->table_path == NULL) {
-        fprintf(err, "mfns-nav: --table FILE is required (see --help)\n");
+        fprintf(err, "mfns-nav: --table FILE (or the configuration's 'table') is required (see --help)\n");
         return -1;
     }
     if (o->backend == MFNS_CAM_BACKEND_COUNT_) {

@@ -8,7 +8,14 @@
  * a command input with neither --tc-key (and --state-dir) nor --tc-insecure,
  * --uplink without a link it can read, --cam-x/y/z with --replay, numbers
  * out of range. --help writes the usage and --version the one version
- * (mk/version.sh) on out. The strings in nav_opts_t point into argv.
+ * (mk/version.sh) on out. The strings in nav_opts_t point into argv, or into
+ * o->cfg.
+ *
+ * --config FILE (nav_conf.h; the board's /etc/mfns/mfns-nav.conf) is read
+ * first, wherever it stands on the line, and gives every value the command
+ * line does not: an option given on the line replaces the file's key (a
+ * --tty replaces the file's uart, a --replay its cameras and cam_x/y/z,
+ * --tc-insecure its tc_key). No file is read without --config.
  */
 #ifndef MFNS_NAV_OPTS_H
 #define MFNS_NAV_OPTS_H
@@ -18,6 +25,7 @@
 #include <stdio.h>
 
 #include "drivers/camera/camera.h"
+#include "nav_conf.h"
 #include "pose.h"
 
 _Static_assert(MFNS_NUM_CAMERAS == 3, "the options name three cameras: --cam-x, --cam-y, --cam-z");
@@ -52,6 +60,9 @@ typedef struct {
     bool mlock;                /* --mlock: lock all memory after start-up (nav_service.h) */
     const char *last_exit;     /* --last-exit FILE: how the previous run ended (nav_service.h), or NULL */
     const char *fixlog_dir;    /* --fixlog DIR: the fix record's on-board log (nav_fixlog.h), or NULL */
+    uint32_t budget_units;     /* --budget-units: acquisition work per cycle; 0 = measured at start (nav_selftest.h) */
+    const char *config_path;   /* --config FILE, or NULL */
+    nav_config_t cfg;          /* its contents (strings above may point here) */
 } nav_opts_t;
 
 /* 0 ok, 1 when --help/--version was printed (exit 0), -1 usage error (message on err). */

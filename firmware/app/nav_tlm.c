@@ -324,6 +324,11 @@ void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uin
     h->tc_epoch = app->tc.auth.epoch;           /* not secret: the ground signs with it */
     h->tc_arsn_last = app->tc.auth.count_last;
     h->n_beacons_biased = app->nav.bmon.n_flagged;
+    /* the cycle margin (issue 24 item 6): the frame period less the longest cycle of the interval */
+    h->frame_period_us = app->frame_period_min_us;
+    h->cycle_margin_us = app->frame_period_min_us == 0u
+                             ? 0
+                             : (int32_t)((int64_t)app->frame_period_min_us - (int64_t)app->stats.max_us);
     h->n_tlm_dropped = t->q.dropped;
     h->n_cam_errors = (uint32_t)(app->cams.errors > UINT32_MAX ? UINT32_MAX : app->cams.errors);
     h->table_crc32 = nav_app_table(app)->crc32;

@@ -80,7 +80,15 @@ typedef enum {
     TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
     TLM_EVT_BEACON_BIASED = 30, /* self-survey monitor (docs/self_survey.md): a beacon's mean whitened residual over at least 32 of its fixes is biased beyond chi-square(2) at 1e-4; it is down-weighted (its sigma_mm times 1 + the bias) until the map is refined: subject beacon survey id (255 when above 254); arg0 the bias's chi-square x100; arg1 beacon survey id (sent once) */
     TLM_EVT_CAMERA_BIASED = 31, /* self-survey monitor: the residuals of a camera's beacons shift together (mean over at least 32 fixes beyond chi-square(2) at 1e-4: a mount that moved?): subject camera; arg0 chi-square x100; arg1 0 (sent once) */
-    TLM_EVT_CODE_COUNT = 32
+    TLM_EVT_SELFTEST_TABLE = 34, /* start-up self-test of the calibration table (docs/operations.md): subject 0 pass, 1 fail (nothing validated: the program stops), 2 the stored table failed and the previous one runs; arg0 loader status of the table tried first (0 ok); arg1 CRC-32 of the table now running (0 none) */
+    TLM_EVT_SELFTEST_CAMERA = 35, /* start-up self-test of one camera: subject camera; arg0 0 opened and streamed a frame, 1 missing (no such device, identity not found, or open failed: the others run, it is re-opened like a lost one), 2 opened but no frame in time, 3 opened (a replay: not streamed ahead); arg1 driver error code (0 ok) */
+    TLM_EVT_SELFTEST_UART = 36, /* start-up self-test of the telemetry link: subject 0 open, 1 not open (retried like a link lost later), 2 no link (a file or none); arg0 errno of the last attempt (0 ok); arg1 baud */
+    TLM_EVT_SELFTEST_CLOCK = 37, /* start-up self-test of the clocks: subject 0 pass (monotonic advancing and UTC set), 1 fail; arg0 flags: bit0 UTC set (after 2024-01-01), bit1 UTC synchronised (kernel NTP/PTP status), bit2 CLOCK_MONOTONIC advancing; arg1 UTC, s since 1970 (low 31 bits) */
+    TLM_EVT_SELFTEST_DONE = 38, /* end of the start-up self-test: subject checks failed (0 all passed); arg0 cameras that passed (bit k camera k); arg1 checks run */
+    TLM_EVT_TABLE_ROLLBACK = 39, /* the stored table was refused at start and the previous one runs: subject 0; arg0 loader status of the refused table; arg1 CRC-32 of the table now running */
+    TLM_EVT_TABLE_STORED = 40, /* a table written into the state dir's store (atomically: it survives a restart): subject 0 stored, 1 not stored (it runs, but a restart goes back to the stored one); arg0 errno (0 ok); arg1 CRC-32 of the table */
+    TLM_EVT_CYCLE_BUDGET = 41, /* the acquisition budget at start: subject 0 the table's, 1 the board's (budget_units, --budget-units; docs/budgets.md); arg0 reserved (0); arg1 budget, work units per cycle */
+    TLM_EVT_CODE_COUNT = 42
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

@@ -108,6 +108,14 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_TC_AUTH: return MFNS_MSG("TC_AUTH");
     case TLM_EVT_BEACON_BIASED: return MFNS_MSG("BEACON_BIASED");
     case TLM_EVT_CAMERA_BIASED: return MFNS_MSG("CAMERA_BIASED");
+    case TLM_EVT_SELFTEST_TABLE: return MFNS_MSG("SELFTEST_TABLE");
+    case TLM_EVT_SELFTEST_CAMERA: return MFNS_MSG("SELFTEST_CAMERA");
+    case TLM_EVT_SELFTEST_UART: return MFNS_MSG("SELFTEST_UART");
+    case TLM_EVT_SELFTEST_CLOCK: return MFNS_MSG("SELFTEST_CLOCK");
+    case TLM_EVT_SELFTEST_DONE: return MFNS_MSG("SELFTEST_DONE");
+    case TLM_EVT_TABLE_ROLLBACK: return MFNS_MSG("TABLE_ROLLBACK");
+    case TLM_EVT_TABLE_STORED: return MFNS_MSG("TABLE_STORED");
+    case TLM_EVT_CYCLE_BUDGET: return MFNS_MSG("CYCLE_BUDGET");
     default: return "?";
     }
 }
@@ -197,6 +205,8 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
         tlm_put_u32(b + 85, s->tc_epoch);
         tlm_put_u32(b + 89, s->tc_arsn_last);
         tlm_put_u16(b + 93, s->n_beacons_biased);
+        tlm_put_u32(b + 95, s->frame_period_us);
+        tlm_put_u32(b + 99, (uint32_t)s->cycle_margin_us);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -308,6 +318,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->tc_epoch = tlm_get_u32(b + 85);
         s->tc_arsn_last = tlm_get_u32(b + 89);
         s->n_beacons_biased = tlm_get_u16(b + 93);
+        s->frame_period_us = tlm_get_u32(b + 95);
+        s->cycle_margin_us = get_i32(b + 99);
         break;
     }
     case TLM_TYPE_EVENT: {

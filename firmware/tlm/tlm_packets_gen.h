@@ -28,7 +28,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 95u
+#define TLM_HK_PAYLOAD_LEN 103u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
@@ -103,6 +103,8 @@ typedef struct {
     uint32_t tc_epoch; /* hk_tc_epoch: boot epoch of the telecommand anti-replay counter (high 32 bits a signed command must carry; 0: uplink not authenticated) */
     uint32_t tc_arsn_last; /* hk_tc_arsn_last: low 32 bits of the last accepted anti-replay counter in this epoch (0: none yet); the ground signs with a larger one */
     uint16_t n_beacons_biased; /* hk_n_beacons_biased: beacons the self-survey monitor reported biased and down-weights (BEACON_BIASED) since the table was loaded */
+    uint32_t frame_period_us; /* hk_frame_period_us: the camera frame period: the shortest step between the frame stamps of consecutive fused cycles in the report interval (0: fewer than two fused cycles) [us] */
+    int32_t cycle_margin_us; /* hk_cycle_margin_us: cycle margin, us: hk_frame_period_us - hk_cycle_max_us (negative: a cycle overran the frame period; 0 when no period is known; docs/budgets.md) */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */

@@ -221,4 +221,5 @@ def test_tm_dictionary_has_the_epoch_fields():
     root = ET.parse(TM_XML).getroot()
     hk = root.find(".//x:SequenceContainer[@name='housekeeping']", NS)
     refs = [e.get("parameterRef") for e in hk.find("x:EntryList", NS)]
-    assert refs[-2:] == ["hk_tc_epoch", "hk_tc_arsn_last"]  # appended at the end
+    # appended at the end (then the cycle margin, issue 24)
+    assert refs[-4:-2] == ["hk_tc_epoch", "hk_tc_arsn_last"]

@@ -166,7 +166,8 @@ static void test_ground_run_on_recorded_stream(void **state)
     assert_non_null(strstr(text, "n_degraded,n_cmd_accepted,n_cmd_rejected,cmd_seq_last,cams_enabled,"));
     /* then the packet's UTC (the generator's housekeeping has no time
      * correlation: quality NONE, so correlated at receipt) and the receipt time */
-    assert_non_null(strstr(text, ",utc_s,utc_us,time_quality,tc_epoch,tc_arsn_last,n_beacons_biased,utc,time_source,ground_utc\n"));
+    assert_non_null(strstr(text, ",utc_s,utc_us,time_quality,tc_epoch,tc_arsn_last,n_beacons_biased,frame_period_us,"
+                                 "cycle_margin_us,utc,time_source,ground_utc\n"));
     assert_non_null(strstr(text, ",NONE,"));
     assert_non_null(strstr(text, ",GROUND_RECEIPT,"));
     snprintf(path, sizeof path, "%s/nav.csv", out_dir);
