@@ -132,6 +132,12 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_READMITTED, TLM_SEV_INFO, (uint8_t)(id > 255u ? 255u : id),
                             0, id);
     }
+    if (o->lag_new_camera >= 0 && o->lag_new_camera < MFNS_NUM_CAMERAS) {
+        const int c = o->lag_new_camera;
+        const float lag = o->lag.lag_cycles[c] * 1000.0f, z = o->lag.z[c] * 100.0f;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_LAG, TLM_SEV_WARNING, (uint8_t)c,
+                            fabsf(lag) < 2.0e9f ? (int32_t)lag : INT32_MAX, fabsf(z) < 2.0e9f ? (int32_t)z : INT32_MAX);
+    }
     if (r->readmitted_camera >= 0) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
                             0);
@@ -247,7 +253,7 @@ void nav_tlm_flush_and_close(nav_tlm_t *t, uint32_t cycle)
 
 /* The camera's state: the link's when it is off or ended, else the data
  * health monitor's when it holds the camera out, else the link's. */
-static uint8_t camera_state(const struct nav_cams *cams, int k)
+static uint8_t camera_state(const struct nav_cams *cams, const mfns_nav_output_t *out, int k)
 {
     const nav_cam_t *c = &cams->cam[k];
     switch (c->health.state) {
@@ -267,6 +273,12 @@ static uint8_t camera_state(const struct nav_cams *cams, int k)
     }
     if (c->health.state == CAM_HEALTH_LOST) {
         return TLM_CAM_LOST;
+    }
+    if (out->cam_held[k] == 2U) {
+        return TLM_CAM_LAGGING; /* integrity_lag.h: its frames lag */
+    }
+    if (out->cam_held[k] == 3U) {
+        return TLM_CAM_LAG_VERIFY;
     }
     return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
 }
@@ -288,7 +300,7 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
         }
         c->cycle = cycle;
         c->camera = (uint8_t)k;
-        c->state = camera_state(cams, k);
+        c->state = camera_state(cams, out, k);
         c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
         c->beacons_identified = (uint8_t)out->cam[k].identified;
         c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;

@@ -41,7 +41,9 @@ typedef enum {
     TLM_CAM_CLOCK_FAULT = 7, /* health: stamp stepped against the camera's cadence, went backwards or is after arrival: left out */
     TLM_CAM_LATE = 8, /* health: arrival - capture above 1.5 frame periods: left out */
     TLM_CAM_OUT_OF_STEP = 9, /* health: sequence numbers disagree with the other cameras' for the frames' times: left out */
-    TLM_CAM_STATE_COUNT = 10
+    TLM_CAM_LAGGING = 10, /* integrity: its frames lag their stamps (time-offset monitor: residuals regressed on the beacons' image velocity, |z| above the threshold): left out of the fix until the lag has left the test window and 8 more fixes have passed */
+    TLM_CAM_LAG_VERIFY = 11, /* integrity: back from an outage (no beacon in a fix), left out until its lag test has passed 4 fixes (a camera coming back stale is caught before it is used) */
+    TLM_CAM_STATE_COUNT = 12
 } tlm_cam_state_t;
 
 /* event severity */
@@ -78,7 +80,8 @@ typedef enum {
     TLM_EVT_BEACON_READMITTED = 22, /* subject beacon survey id (255 when above 254); arg0 0; arg1 beacon survey id: its fault test passed again after the hold */
     TLM_EVT_CAMERA_READMITTED = 23, /* subject camera; arg0 0; arg1 0: its fault test passed again after the hold */
     TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
-    TLM_EVT_CODE_COUNT = 26
+    TLM_EVT_CAMERA_LAG = 26, /* subject camera; arg0 estimated lag of its frames, thousandths of a cycle (1000 = one frame period; over the test window); arg1 test statistic z x100 (threshold K x100 is the P_fa quantile): its frames are older than their stamps; left out while the lag persists (sent once per episode) */
+    TLM_EVT_CODE_COUNT = 27
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

@@ -67,8 +67,8 @@ const char *tlm_camera_name(uint8_t code)
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    static const char *const k_name[10] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED", "PROBATION", "FROZEN", "CLOCK_FAULT", "LATE", "OUT_OF_STEP"};
-    return (code <= TLM_CAM_OUT_OF_STEP) ? k_name[code] : "?";
+    static const char *const k_name[12] = {"OK", "LOST", "OFF", "SKIPPED", "ENDED", "PROBATION", "FROZEN", "CLOCK_FAULT", "LATE", "OUT_OF_STEP", "LAGGING", "LAG_VERIFY"};
+    return (code <= TLM_CAM_LAG_VERIFY) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
@@ -104,6 +104,7 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_BEACON_READMITTED: return "BEACON_READMITTED";
     case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
     case TLM_EVT_TC_AUTH: return "TC_AUTH";
+    case TLM_EVT_CAMERA_LAG: return "CAMERA_LAG";
     default: return "?";
     }
 }
