@@ -138,6 +138,17 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_LAG, TLM_SEV_WARNING, (uint8_t)c,
                             fabsf(lag) < 2.0e9f ? (int32_t)lag : INT32_MAX, fabsf(z) < 2.0e9f ? (int32_t)z : INT32_MAX);
     }
+    const mfns_beacon_watch_report_t *bw = &o->beacons;
+    if (bw->missing >= 0 && bw->missing < (int)map->count) {
+        const uint16_t id = map->beacon[bw->missing].id;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_MISSING, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
+                            bw->missing_fixes, id);
+    }
+    if (bw->rejected >= 0 && bw->rejected < (int)map->count) {
+        const uint16_t id = map->beacon[bw->rejected].id;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_REJECTED, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
+                            bw->rejected_count, id);
+    }
     if (r->readmitted_camera >= 0) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
                             0);

@@ -67,6 +67,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "integrity_beacons.h"
 #include "pose.h"
 
 /* The settings (mfns_integrity_settings_t, nav_config.h) come from the
@@ -166,10 +167,12 @@ typedef struct {
     uint8_t lag_verify[MFNS_NUM_CAMERAS];
     mfns_pose_t lag_last, lag_prev; /* the solver's last two fixes (the motion) */
     uint8_t lag_fixes;              /* consecutive solver fixes, capped at 2 */
+    mfns_beacon_watch_t watch;      /* beacons missing or rejected (integrity_beacons.h) */
     /* the time-offset monitor's moving window (integrity_lag.h): per camera
      * and tested cycle, f^T M e and f^T M f; lag_pos the next slot */
     float lag_num[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
     float lag_den[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
+    float lag_vs[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW]; /* the survey part of lag_den */
     uint8_t lag_pos[MFNS_NUM_CAMERAS];
 } mfns_integrity_memory_t;
 

@@ -91,8 +91,9 @@ static void ev_clear(mfns_lag_eval_t *ev)
 
 /* The estimates, z and the verdict from num and den of the tested cameras;
  * tests: the tests per camera sharing P_fa (1, or 2 with z_fix). */
-static void decide(const float num[MFNS_NUM_CAMERAS], const float den[MFNS_NUM_CAMERAS], int tests,
-                   const mfns_integrity_settings_t *set, mfns_lag_eval_t *ev)
+static void decide(const float num[MFNS_NUM_CAMERAS], const float den[MFNS_NUM_CAMERAS],
+                   const float var[MFNS_NUM_CAMERAS], int tests, const mfns_integrity_settings_t *set,
+                   mfns_lag_eval_t *ev)
 {
     int tested = 0;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -103,13 +104,14 @@ static void decide(const float num[MFNS_NUM_CAMERAS], const float den[MFNS_NUM_C
     ev->worst = -1;
     float worst = ev->k;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        if (!ev->tested[c] || !(den[c] > 0.0f)) {
+        if (!ev->tested[c] || !(den[c] > 0.0f) || !(var[c] > 0.0f)) {
             continue;
         }
-        const float sd = 1.0f / sqrtf(den[c]);
+        /* tau = num / den; var(num) = var (den for independent noise) */
+        const float sd = sqrtf(var[c]) / den[c];
         ev->sd_cycles[c] = sd;
         ev->lag_cycles[c] = num[c] / den[c];
-        ev->z[c] = num[c] * sd;
+        ev->z[c] = num[c] / sqrtf(var[c]);
         ev->mdl_cycles[c] = (ev->k + k_md) * sd;
         const float zc = fmaxf(fabsf(ev->z[c]), fabsf(ev->z_fix[c]));
         if (zc > worst) {
@@ -117,6 +119,52 @@ static void decide(const float num[MFNS_NUM_CAMERAS], const float den[MFNS_NUM_C
             ev->worst = (int8_t)c;
         }
     }
+}
+
+static void solve6(const mfns_chol_t *fac, const float b[6], float x[6])
+{
+    float bb[MFNS_SPD_MAX_N] = {0.0f}, xx[MFNS_SPD_MAX_N];
+    for (int i = 0; i < 6; i++) {
+        bb[i] = b[i];
+    }
+    mfns_chol_solve(fac, bb, xx);
+    for (int i = 0; i < 6; i++) {
+        x[i] = xx[i];
+    }
+}
+
+/* The part of var(f_c^T M e) due to the beacons' survey errors (static:
+ * the same in every fix of the window, so it does not average down):
+ * sum_i u_i^T L_i^-1 S_i L_i^-T u_i, u = M f_c = f_c - J v (v = P0 J^T f_c),
+ * S_i the survey term of observation i's covariance (mfns_pose_obs_cov with
+ * no pixel noise). */
+static float survey_var(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, const mfns_pose_t *pose,
+                        const mfns_pose_t *back, int c, const float v[6])
+{
+    static const float zero[3] = {0.0f, 0.0f, 0.0f};
+    float acc = 0.0f;
+    for (int k = 0; k < n; k++) {
+        float e[2], jac[2][6], eb[2];
+        if (!m[k].active || m[k].sigma_mm <= 0.0f || !mfns_pose_wresidual(rig, &m[k], pose, e, jac) ||
+            !mfns_pose_wresidual(rig, &m[k], back, eb, NULL)) {
+            continue;
+        }
+        const bool mine = (int)m[k].cam == c;
+        float u[2];
+        for (int r = 0; r < 2; r++) {
+            float jv = 0.0f;
+            for (int i = 0; i < 6; i++) {
+                jv += jac[r][i] * v[i];
+            }
+            u[r] = (mine ? e[r] - eb[r] : 0.0f) - jv;
+        }
+        float sv[3] = {0.0f, 0.0f, 0.0f};
+        (void)mfns_pose_obs_cov(&rig->cam[m[k].cam], pose, m[k].p_w, zero, m[k].sigma_mm, 0.0f, sv);
+        /* y = L^-T u with L^-1 = [[w0, 0], [w1, w2]] */
+        const float y0 = m[k].w[0] * u[0] + m[k].w[1] * u[1], y1 = m[k].w[2] * u[1];
+        acc += sv[0] * y0 * y0 + 2.0f * sv[1] * y0 * y1 + sv[2] * y1 * y1;
+    }
+    return acc;
 }
 
 mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
@@ -172,8 +220,11 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
         ev->tested[c] = 1U;
         ev->num[c] = num[c];
         ev->den[c] = den[c];
+        float v[6];
+        solve6(&fac, s.jtf[c], v);
+        ev->var_survey[c] = survey_var(rig, m, n, &sol->pose, back, c, v);
     }
-    decide(num, den, 1, set, ev);
+    decide(num, den, den, 1, set, ev);
     return MFNS_INTEGRITY_OK;
 }
 
@@ -183,6 +234,7 @@ static void clear_windows(mfns_integrity_memory_t *mem)
         for (int i = 0; i < MFNS_INTEGRITY_LAG_WINDOW; i++) {
             mem->lag_num[c][i] = 0.0f;
             mem->lag_den[c][i] = 0.0f;
+            mem->lag_vs[c][i] = 0.0f;
         }
     }
 }
@@ -205,25 +257,33 @@ static bool has_inlier(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *
 
 /* The windows' sums into num, den (after this fix's entries). */
 static void window(mfns_integrity_memory_t *mem, const mfns_lag_eval_t *ev, float num[MFNS_NUM_CAMERAS],
-                   float den[MFNS_NUM_CAMERAS])
+                   float den[MFNS_NUM_CAMERAS], float var[MFNS_NUM_CAMERAS])
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         const uint8_t pos = (uint8_t)(mem->lag_pos[c] % MFNS_INTEGRITY_LAG_WINDOW);
         for (int i = 0; i < MFNS_INTEGRITY_LAG_WINDOW && !ev->tested[c]; i++) {
             mem->lag_num[c][i] = 0.0f; /* an outage or no motion: a fresh window */
             mem->lag_den[c][i] = 0.0f;
+            mem->lag_vs[c][i] = 0.0f;
         }
         if (ev->tested[c]) {
             mem->lag_num[c][pos] = ev->num[c];
             mem->lag_den[c][pos] = ev->den[c];
+            mem->lag_vs[c][pos] = fminf(fmaxf(ev->var_survey[c], 0.0f), ev->den[c]);
             mem->lag_pos[c] = (uint8_t)((pos + 1U) % MFNS_INTEGRITY_LAG_WINDOW);
         }
         num[c] = 0.0f;
         den[c] = 0.0f;
+        float sd_s = 0.0f, var_px = 0.0f;
         for (int i = 0; i < MFNS_INTEGRITY_LAG_WINDOW; i++) {
             num[c] += mem->lag_num[c][i];
             den[c] += mem->lag_den[c][i];
+            /* pixel noise independent from fix to fix, survey error the same
+             * in every fix (fully correlated: the sum of the sds) */
+            var_px += mem->lag_den[c][i] - mem->lag_vs[c][i];
+            sd_s += sqrtf(mem->lag_vs[c][i]);
         }
+        var[c] = var_px + sd_s * sd_s;
     }
 }
 
@@ -238,12 +298,14 @@ static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t
         if (c == ev->worst) {
             mem->lag_verify[c] = MFNS_INTEGRITY_LAG_WINDOW; /* the lag must leave the window, then pass */
             fresh = mfns_integrity_hold_lagging(mem, c, 1U, set->hold_cycles) == 1U ? fresh : c;
+        } else if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U) {
+            /* an outage (no image: dead, held out by the frame-health
+             * checks): verify its lag before it is used again */
+            mem->lag_verify[c] = MFNS_INTEGRITY_LAG_VERIFY;
+            (void)mfns_integrity_hold_lagging(mem, c, 2U, set->hold_cycles);
         } else if (!has_inlier(sol, frame, c)) {
-            if (mem->cam_lag[c] == 0U) { /* an outage: verify its lag before it is used again */
-                mem->lag_verify[c] = MFNS_INTEGRITY_LAG_VERIFY;
-                (void)mfns_integrity_hold_lagging(mem, c, 2U, set->hold_cycles);
-            } else {
-                mem->cam_hold[c] = set->hold_cycles;
+            if (mem->cam_lag[c] != 0U) {
+                mem->cam_hold[c] = set->hold_cycles; /* nothing to test it on: it stays out */
             }
         } else if (mem->cam_lag[c] != 0U) {
             /* a pass counts only when the window could have seen a lag of
@@ -301,8 +363,8 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         ev->z_fix[c] = ev->tested[c] ? ev->num[c] / sqrtf(ev->den[c]) : 0.0f; /* the onset: this fix alone */
     }
-    float num[MFNS_NUM_CAMERAS], den[MFNS_NUM_CAMERAS];
-    window(mem, ev, num, den);
-    decide(num, den, 2, set, ev);
+    float num[MFNS_NUM_CAMERAS], den[MFNS_NUM_CAMERAS], var[MFNS_NUM_CAMERAS];
+    window(mem, ev, num, den, var);
+    decide(num, den, var, 2, set, ev);
     return update_holds(mem, sol, frame, set, ev);
 }

@@ -69,6 +69,7 @@ typedef struct {
     float mdl_cycles[MFNS_NUM_CAMERAS]; /* minimum detectable lag (K + K_md) sd (cycles) */
     float num[MFNS_NUM_CAMERAS];        /* this fix's f^T M e (whitened) */
     float den[MFNS_NUM_CAMERAS];        /* this fix's f^T M f: the information on tau_c */
+    float var_survey[MFNS_NUM_CAMERAS]; /* the part of var(num) = den due to the beacons' survey errors */
     float k;                            /* the threshold on |z| */
     int8_t worst;                       /* camera of the largest |z| above k, -1 none */
 } mfns_lag_eval_t;
@@ -91,7 +92,10 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  * in mem; a cycle without a fix restarts it). A lag is persistent, so the
  * test is on the moving sum over the camera's last MFNS_INTEGRITY_LAG_WINDOW
  * tested fixes: tau = sum num / sum den, z = sum num / sqrt(sum den)
- * (N(0, 1) without a lag when the frames' noise is independent); beside it
+ * where the window's var(sum num) counts the pixel noise as independent from
+ * fix to fix and the survey errors' part (var_survey, static) as fully
+ * correlated: sum (den - var_survey) + (sum sqrt(var_survey))^2, so z is
+ * N(0, 1), or narrower, without a lag; beside it
  * this fix's z alone (z_fix: a sudden lag is seen at once, undiluted), the
  * two tests sharing P_fa: K = Q^-1(P_fa / (2 * 2 * N_tested)). ev's tau,
  * sd, z and mdl are the window's. A fix where
@@ -100,8 +104,8 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  *   - the camera of the largest |z| above K: held as LAGGING (1) until the
  *     lag has left the window and MFNS_INTEGRITY_LAG_WINDOW more tested
  *     fixes have passed;
- *   - a camera with no inlier in a fix (an outage: dark, held out by the
- *     frame-health checks, nothing in view): held as VERIFYING (2) until
+ *   - a camera that gave no image (an outage: dead, timed out, held out by
+ *     the frame-health checks; obs dark): held as VERIFYING (2) until
  *     MFNS_INTEGRITY_LAG_VERIFY tested fixes with it have passed (a camera
  *     coming back stale is then caught before it is used: one fix has too
  *     little power, the window has it). Without motion nothing is tested

@@ -107,6 +107,7 @@ typedef struct {
      * for a lag, 3 held out until its lag is verified after an outage. */
     mfns_lag_eval_t lag;
     int8_t lag_new_camera;
+    mfns_beacon_watch_report_t beacons; /* beacons newly found missing or rejected (integrity_beacons.h) */
     uint8_t cam_held[MFNS_NUM_CAMERAS];
 } mfns_nav_output_t;
 

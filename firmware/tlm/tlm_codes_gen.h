@@ -81,7 +81,9 @@ typedef enum {
     TLM_EVT_CAMERA_READMITTED = 23, /* subject camera; arg0 0; arg1 0: its fault test passed again after the hold */
     TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
     TLM_EVT_CAMERA_LAG = 26, /* subject camera; arg0 estimated lag of its frames, thousandths of a cycle (1000 = one frame period; over the test window); arg1 test statistic z x100 (threshold K x100 is the P_fa quantile): its frames are older than their stamps; left out while the lag persists (sent once per episode) */
-    TLM_EVT_CODE_COUNT = 27
+    TLM_EVT_BEACON_MISSING = 27, /* subject beacon survey id (255 when above 254); arg0 consecutive fixes it was predicted in view of a camera with an image but not seen (20: a working LED is missed 20 times in a row with probability below 1e-6); arg1 beacon survey id: a dead LED, a beacon knocked off or moved beyond the association gate, or an occlusion (they look the same; sent once per episode) */
+    TLM_EVT_BEACON_REJECTED = 28, /* subject beacon survey id (255 when above 254); arg0 leaky count of fixes it was gated out as an outlier or held out by FDE (+1) against used (-1), reported at 10; arg1 beacon survey id: a beacon moved or mis-surveyed beyond the outlier gate (sent once per episode) */
+    TLM_EVT_CODE_COUNT = 29
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

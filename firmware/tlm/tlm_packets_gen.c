@@ -105,6 +105,8 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_CAMERA_READMITTED: return "CAMERA_READMITTED";
     case TLM_EVT_TC_AUTH: return "TC_AUTH";
     case TLM_EVT_CAMERA_LAG: return "CAMERA_LAG";
+    case TLM_EVT_BEACON_MISSING: return "BEACON_MISSING";
+    case TLM_EVT_BEACON_REJECTED: return "BEACON_REJECTED";
     default: return "?";
     }
 }
