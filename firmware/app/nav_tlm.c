@@ -133,7 +133,7 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
                             0, id);
     }
     if (o->lag_new_camera >= 0 && o->lag_new_camera < MFNS_NUM_CAMERAS) {
-        const int c = o->lag_new_camera;
+        const unsigned c = (unsigned)(uint8_t)o->lag_new_camera; /* checked non-negative above */
         const float lag = o->lag.lag_cycles[c] * 1000.0f, z = o->lag.z[c] * 100.0f;
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_LAG, TLM_SEV_WARNING, (uint8_t)c,
                             fabsf(lag) < 2.0e9f ? (int32_t)lag : INT32_MAX, fabsf(z) < 2.0e9f ? (int32_t)z : INT32_MAX);

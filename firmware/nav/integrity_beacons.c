@@ -3,8 +3,9 @@
 
 #include <string.h>
 
-_Static_assert(MFNS_BEACON_MISSING_FIXES > 0 && MFNS_BEACON_REJECT_COUNT > 0 && MFNS_BEACON_CLEAR_FIXES > 0,
-               "positive windows");
+_Static_assert(MFNS_BEACON_MISSING_FIXES > 0, "a positive window");
+_Static_assert(MFNS_BEACON_REJECT_COUNT > 0, "a positive count");
+_Static_assert(MFNS_BEACON_CLEAR_FIXES > 0, "a positive window");
 
 #define REPORTED_MISSING 1U
 #define REPORTED_REJECTED 2U
