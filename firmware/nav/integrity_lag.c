@@ -287,6 +287,20 @@ static void window(mfns_integrity_memory_t *mem, const mfns_lag_eval_t *ev, floa
     }
 }
 
+/* Another camera than c gave an image and is not held for its lag: a
+ * reference to verify c against, and a fix to go on with without it. When
+ * every camera went dark at once there is none: they come back unverified
+ * (else a still robot would never fix again). */
+static bool reference_for(const mfns_integrity_memory_t *mem, const mfns_obs_frame_t *frame, int c)
+{
+    for (int o = 0; o < MFNS_NUM_CAMERAS; o++) {
+        if (o != c && frame->dark[o] == 0U && mem->cam_lag[o] == 0U) {
+            return true;
+        }
+    }
+    return false;
+}
+
 /* Holds and releases after this fix's verdict; returns the camera of a new
  * lag episode or -1. */
 static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t *sol,
@@ -298,7 +312,7 @@ static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t
         if (c == ev->worst) {
             mem->lag_verify[c] = MFNS_INTEGRITY_LAG_WINDOW; /* the lag must leave the window, then pass */
             fresh = mfns_integrity_hold_lagging(mem, c, 1U, set->hold_cycles) == 1U ? fresh : c;
-        } else if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U) {
+        } else if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U && reference_for(mem, frame, c)) {
             /* an outage (no image: dead, held out by the frame-health
              * checks): verify its lag before it is used again */
             mem->lag_verify[c] = MFNS_INTEGRITY_LAG_VERIFY;
@@ -345,7 +359,7 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
         mem->lag_fixes = 0U; /* the motion restarts */
         clear_windows(mem);
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-            if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U) { /* an outage */
+            if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U && reference_for(mem, frame, c)) { /* an outage */
                 mem->lag_verify[c] = MFNS_INTEGRITY_LAG_VERIFY;
                 (void)mfns_integrity_hold_lagging(mem, c, 2U, set->hold_cycles);
             }

@@ -105,7 +105,9 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  *     lag has left the window and MFNS_INTEGRITY_LAG_WINDOW more tested
  *     fixes have passed;
  *   - a camera that gave no image (an outage: dead, timed out, held out by
- *     the frame-health checks; obs dark): held as VERIFYING (2) until
+ *     the frame-health checks; obs dark) while another camera gave one
+ *     (every camera dark at once: no reference, none held, so a still robot
+ *     fixes again after a blackout): held as VERIFYING (2) until
  *     MFNS_INTEGRITY_LAG_VERIFY tested fixes with it have passed (a camera
  *     coming back stale is then caught before it is used: one fix has too
  *     little power, the window has it). Without motion nothing is tested

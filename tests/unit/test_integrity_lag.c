@@ -226,6 +226,17 @@ static void test_monitor_holds_and_reports_once(void **state)
     assert_int_equal(mem.lag_fixes, 0);
     assert_int_equal(mem.cam_lag[0], 2);
     assert_int_equal(mem.cam_lag[2], 1);
+    /* every camera dark at once (a blackout): no reference, none held */
+    mfns_integrity_memory_reset(&mem);
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        sc.frame.count[c] = 0;
+        sc.frame.dark[c] = 1U;
+    }
+    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &none, &sc.cfg, &sc.set, &ev), -1);
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        assert_int_equal(mem.cam_lag[c], 0);
+        assert_int_equal(mem.cam_held[c], 0);
+    }
 }
 
 int main(void)
