@@ -154,6 +154,8 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
 #define MFNS_INTEGRITY_MAX_HELD_BEACONS 4
 #define MFNS_INTEGRITY_LAG_WINDOW 8 /* cycles of the lag test's moving sum (integrity_lag.h) */
 #define MFNS_INTEGRITY_LAG_VERIFY 4 /* passing tested fixes before a camera is used again */
+#define MFNS_INTEGRITY_LAG_OUTAGE 2 /* cycles without an image that make an outage (a single dropped
+                                       or refused frame is none; a health hold is >= 10) */
 
 typedef struct {
     int16_t beacon[MFNS_INTEGRITY_MAX_HELD_BEACONS];      /* map index, -1 = free slot */
@@ -167,6 +169,7 @@ typedef struct {
     uint8_t lag_verify[MFNS_NUM_CAMERAS];
     mfns_pose_t lag_last, lag_prev; /* the solver's last two fixes (the motion) */
     uint8_t lag_fixes;              /* consecutive solver fixes, capped at 2 */
+    uint8_t dark_run[MFNS_NUM_CAMERAS]; /* consecutive cycles without an image, capped */
     mfns_beacon_watch_t watch;      /* beacons missing or rejected (integrity_beacons.h) */
     /* the time-offset monitor's moving window (integrity_lag.h): per camera
      * and tested cycle, f^T M e and f^T M f; lag_pos the next slot */

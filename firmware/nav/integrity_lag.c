@@ -293,6 +293,9 @@ static void window(mfns_integrity_memory_t *mem, const mfns_lag_eval_t *ev, floa
  * (else a still robot would never fix again). */
 static bool reference_for(const mfns_integrity_memory_t *mem, const mfns_obs_frame_t *frame, int c)
 {
+    if (mem->dark_run[c] < MFNS_INTEGRITY_LAG_OUTAGE) {
+        return false; /* a single dropped frame is no outage */
+    }
     for (int o = 0; o < MFNS_NUM_CAMERAS; o++) {
         if (o != c && frame->dark[o] == 0U && mem->cam_lag[o] == 0U) {
             return true;
@@ -354,6 +357,10 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
     }
     if (frame == NULL || set == NULL) {
         return -1;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        mem->dark_run[c] = (uint8_t)(frame->dark[c] == 0U ? 0U
+                                     : (mem->dark_run[c] < UINT8_MAX ? mem->dark_run[c] + 1U : UINT8_MAX));
     }
     if (!is_fix(sol)) {
         mem->lag_fixes = 0U; /* the motion restarts */

@@ -104,8 +104,10 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  *   - the camera of the largest |z| above K: held as LAGGING (1) until the
  *     lag has left the window and MFNS_INTEGRITY_LAG_WINDOW more tested
  *     fixes have passed;
- *   - a camera that gave no image (an outage: dead, timed out, held out by
- *     the frame-health checks; obs dark) while another camera gave one
+ *   - a camera that gave no image for MFNS_INTEGRITY_LAG_OUTAGE cycles or
+ *     more (an outage: dead, timed out, held out by the frame-health
+ *     checks; obs dark; a single dropped frame is none) while another
+ *     camera gave one
  *     (every camera dark at once: no reference, none held, so a still robot
  *     fixes again after a blackout): held as VERIFYING (2) until
  *     MFNS_INTEGRITY_LAG_VERIFY tested fixes with it have passed (a camera

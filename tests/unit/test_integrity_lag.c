@@ -216,6 +216,8 @@ static void test_monitor_holds_and_reports_once(void **state)
     const mfns_pose_t t = pt_to_float(&sc.pose[3]);
     assert_true(mfns_pose_refine(&sc.rig, &sc.map, &sc.frame, &a, &t, &sc.cfg, &sc.sol) != MFNS_POSE_NO_FIX);
     (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    assert_int_equal(mem.cam_lag[0], 0); /* one dropped frame is no outage */
+    (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
     assert_int_equal(mem.cam_lag[0], 2);
     assert_int_equal(mem.cam_held[0], 1);
     assert_int_equal(mem.lag_verify[0], MFNS_INTEGRITY_LAG_VERIFY);
