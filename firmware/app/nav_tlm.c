@@ -132,6 +132,23 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_READMITTED, TLM_SEV_INFO, (uint8_t)(id > 255u ? 255u : id),
                             0, id);
     }
+    if (o->lag_new_camera >= 0 && o->lag_new_camera < MFNS_NUM_CAMERAS) {
+        const unsigned c = (unsigned)(uint8_t)o->lag_new_camera; /* checked non-negative above */
+        const float lag = o->lag.lag_cycles[c] * 1000.0f, z = o->lag.z[c] * 100.0f;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_LAG, TLM_SEV_WARNING, (uint8_t)c,
+                            fabsf(lag) < 2.0e9f ? (int32_t)lag : INT32_MAX, fabsf(z) < 2.0e9f ? (int32_t)z : INT32_MAX);
+    }
+    const mfns_beacon_watch_report_t *bw = &o->beacons;
+    if (bw->missing >= 0 && bw->missing < (int)map->count) {
+        const uint16_t id = map->beacon[bw->missing].id;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_MISSING, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
+                            bw->missing_fixes, id);
+    }
+    if (bw->rejected >= 0 && bw->rejected < (int)map->count) {
+        const uint16_t id = map->beacon[bw->rejected].id;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_REJECTED, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
+                            bw->rejected_count, id);
+    }
     if (r->readmitted_camera >= 0) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
                             0);
@@ -247,7 +264,7 @@ void nav_tlm_flush_and_close(nav_tlm_t *t, uint32_t cycle)
 
 /* The camera's state: the link's when it is off or ended, else the data
  * health monitor's when it holds the camera out, else the link's. */
-static uint8_t camera_state(const struct nav_cams *cams, int k)
+static uint8_t camera_state(const struct nav_cams *cams, const mfns_nav_output_t *out, int k)
 {
     const nav_cam_t *c = &cams->cam[k];
     switch (c->health.state) {
@@ -267,6 +284,12 @@ static uint8_t camera_state(const struct nav_cams *cams, int k)
     }
     if (c->health.state == CAM_HEALTH_LOST) {
         return TLM_CAM_LOST;
+    }
+    if (out->cam_held[k] == 2U) {
+        return TLM_CAM_LAGGING; /* integrity_lag.h: its frames lag */
+    }
+    if (out->cam_held[k] == 3U) {
+        return TLM_CAM_LAG_VERIFY;
     }
     return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
 }
@@ -288,7 +311,7 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
         }
         c->cycle = cycle;
         c->camera = (uint8_t)k;
-        c->state = camera_state(cams, k);
+        c->state = camera_state(cams, out, k);
         c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
         c->beacons_identified = (uint8_t)out->cam[k].identified;
         c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;

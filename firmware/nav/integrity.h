@@ -67,6 +67,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "integrity_beacons.h"
 #include "pose.h"
 
 /* The settings (mfns_integrity_settings_t, nav_config.h) come from the
@@ -151,15 +152,39 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
  * Bound per cycle: 2 re-solves, 4 evaluations.
  * ---------------------------------------------------------------------- */
 #define MFNS_INTEGRITY_MAX_HELD_BEACONS 4
+#define MFNS_INTEGRITY_LAG_WINDOW 8 /* cycles of the lag test's moving sum (integrity_lag.h) */
+#define MFNS_INTEGRITY_LAG_VERIFY 4 /* passing tested fixes before a camera is used again */
+#define MFNS_INTEGRITY_LAG_OUTAGE 2 /* cycles without an image that make an outage (a single dropped
+                                       or refused frame is none; a health hold is >= 10) */
 
 typedef struct {
     int16_t beacon[MFNS_INTEGRITY_MAX_HELD_BEACONS];      /* map index, -1 = free slot */
     uint16_t beacon_hold[MFNS_INTEGRITY_MAX_HELD_BEACONS]; /* cycles left */
     uint16_t cam_hold[MFNS_NUM_CAMERAS];                   /* cycles left; held while cam_held */
     uint8_t cam_held[MFNS_NUM_CAMERAS];
+    /* the time-offset monitor (integrity_lag.h): 0 no lag hold, 1 held out
+     * because its frames lag, 2 held out until its lag is verified after an
+     * outage; lag_verify the passing tested fixes still needed */
+    uint8_t cam_lag[MFNS_NUM_CAMERAS];
+    uint8_t lag_verify[MFNS_NUM_CAMERAS];
+    mfns_pose_t lag_last, lag_prev; /* the solver's last two fixes (the motion) */
+    uint8_t lag_fixes;              /* consecutive solver fixes, capped at 2 */
+    uint8_t dark_run[MFNS_NUM_CAMERAS]; /* consecutive cycles without an image, capped */
+    mfns_beacon_watch_t watch;      /* beacons missing or rejected (integrity_beacons.h) */
+    /* the time-offset monitor's moving window (integrity_lag.h): per camera
+     * and tested cycle, f^T M e and f^T M f; lag_pos the next slot */
+    float lag_num[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
+    float lag_den[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
+    float lag_vs[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW]; /* the survey part of lag_den */
+    uint8_t lag_pos[MFNS_NUM_CAMERAS];
 } mfns_integrity_memory_t;
 
 void mfns_integrity_memory_reset(mfns_integrity_memory_t *mem);
+
+/* Hold camera cam out for cycles for the time-offset monitor
+ * (integrity_lag.h): why 1 (its frames lag) or 2 (verifying after an
+ * outage). Returns the previous cam_lag. The monitor releases it. */
+uint8_t mfns_integrity_hold_lagging(mfns_integrity_memory_t *mem, int cam, uint8_t why, uint16_t cycles);
 
 /* What the nav output carries. */
 typedef struct {

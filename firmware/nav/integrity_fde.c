@@ -8,6 +8,7 @@
 
 void mfns_integrity_memory_reset(mfns_integrity_memory_t *mem)
 {
+    memset(mem, 0, sizeof *mem);
     for (int i = 0; i < MFNS_INTEGRITY_MAX_HELD_BEACONS; i++) {
         mem->beacon[i] = -1;
         mem->beacon_hold[i] = 0;
@@ -15,7 +16,26 @@ void mfns_integrity_memory_reset(mfns_integrity_memory_t *mem)
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         mem->cam_hold[c] = 0;
         mem->cam_held[c] = 0;
+        mem->cam_lag[c] = 0;
+        mem->lag_verify[c] = 0;
+        mem->lag_pos[c] = 0;
+        for (int i = 0; i < MFNS_INTEGRITY_LAG_WINDOW; i++) {
+            mem->lag_num[c][i] = 0.0f;
+            mem->lag_den[c][i] = 0.0f;
+        }
     }
+}
+
+uint8_t mfns_integrity_hold_lagging(mfns_integrity_memory_t *mem, int cam, uint8_t why, uint16_t cycles)
+{
+    if (mem == NULL || cam < 0 || cam >= MFNS_NUM_CAMERAS) {
+        return 0U;
+    }
+    const uint8_t before = mem->cam_lag[cam];
+    mem->cam_held[cam] = 1U;
+    mem->cam_lag[cam] = why;
+    mem->cam_hold[cam] = cycles > 0U ? cycles : 1U;
+    return before;
 }
 
 static bool usable(const mfns_pose_solution_t *s)
@@ -145,8 +165,8 @@ static void readmit(mfns_integrity_memory_t *mem, const mfns_rig_t *rig, const m
         }
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        if (mem->cam_held[c] == 0U) {
-            continue;
+        if (mem->cam_held[c] == 0U || mem->cam_lag[c] != 0U) {
+            continue; /* a lag hold is the time-offset monitor's to release */
         }
         if (mem->cam_hold[c] > 0U) {
             mem->cam_hold[c]--;
@@ -156,6 +176,7 @@ static void readmit(mfns_integrity_memory_t *mem, const mfns_rig_t *rig, const m
             if (passes_again(rig, map, frame, cfg, set, full, &probe)) {
                 res->readmitted_camera = (int8_t)c;
                 mem->cam_held[c] = 0U;
+                mem->cam_lag[c] = 0U;
             } else {
                 mem->cam_hold[c] = set->hold_cycles;
             }

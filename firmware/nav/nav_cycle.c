@@ -318,6 +318,22 @@ static void monitor_only(const mfns_nav_t *nav, mfns_nav_output_t *out)
     }
 }
 
+/* The time-offset monitor (integrity_lag.h) on the solver's fix: a camera
+ * whose frames lag is held out for FDE. */
+static void lag_monitor(mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    const mfns_caltable_t *t = nav->table;
+    out->lag_new_camera = (int8_t)mfns_integrity_lag_monitor(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs,
+                                                             &out->sol, &nav->pose_cfg, &nav->integ_set, &out->lag);
+}
+
+static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        out->cam_held[c] = (uint8_t)(nav->integ_mem.cam_held[c] == 0U ? 0U : (nav->integ_mem.cam_lag[c] != 0U ? 1U + nav->integ_mem.cam_lag[c] : 1U));
+    }
+}
+
 mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
                                  mfns_nav_output_t *out)
 {
@@ -325,6 +341,9 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         return MFNS_NAV_E_ARG;
     }
     memset(out, 0, sizeof *out);
+    out->lag_new_camera = -1;
+    out->beacons.missing = -1;
+    out->beacons.rejected = -1;
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
@@ -360,12 +379,17 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     }
     if (st == MFNS_NAV_OK) {
         const mfns_caltable_t *t = nav->table;
+        lag_monitor(nav, out);
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         monitor_only(nav, out);
         (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
                                &out->bmon); /* arguments checked above */
         count_identified(nav, out);
+        held_cameras(nav, out);
+        mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &t->beacons, &nav->obs, &out->sol,
+                                 carries_track(&out->sol, !out->acquired), nav->integ_mem.beacon,
+                                 MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
     }
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;

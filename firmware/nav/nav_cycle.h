@@ -51,6 +51,7 @@
 #include "caltable.h"
 #include "centroid.h"
 #include "integrity.h"
+#include "integrity_lag.h"
 #include "pose.h"
 
 #define MFNS_NAV_MAX_COAST 10 /* cycles (0.54 s at 18.6 Hz) */
@@ -102,6 +103,14 @@ typedef struct {
      * levels, the tests, what is held out; sol is the fix after it. */
     mfns_integrity_result_t integrity;
     mfns_bmon_report_t bmon; /* slow-bias monitor (beacon_monitor.h): beacon_chi2 > 0 when one was reported */
+    /* The time-offset monitor on the solver's fix (integrity_lag.h), before
+     * FDE; lag_new_camera: a camera found lagging that was not held for it
+     * (report once), -1 none; cam_held: 0 in, 1 held out by FDE, 2 held out
+     * for a lag, 3 held out until its lag is verified after an outage. */
+    mfns_lag_eval_t lag;
+    int8_t lag_new_camera;
+    mfns_beacon_watch_report_t beacons; /* beacons newly found missing or rejected (integrity_beacons.h) */
+    uint8_t cam_held[MFNS_NUM_CAMERAS];
 } mfns_nav_output_t;
 
 typedef struct {

@@ -41,7 +41,9 @@ typedef enum {
     TLM_CAM_CLOCK_FAULT = 7, /* health: stamp stepped against the camera's cadence, went backwards or is after arrival: left out */
     TLM_CAM_LATE = 8, /* health: arrival - capture above 1.5 frame periods: left out */
     TLM_CAM_OUT_OF_STEP = 9, /* health: sequence numbers disagree with the other cameras' for the frames' times: left out */
-    TLM_CAM_STATE_COUNT = 10
+    TLM_CAM_LAGGING = 10, /* integrity: its frames lag their stamps (time-offset monitor: residuals regressed on the beacons' image velocity, |z| above the threshold): left out of the fix until the lag has left the test window and 8 more fixes have passed */
+    TLM_CAM_LAG_VERIFY = 11, /* integrity: back from an outage (no beacon in a fix), left out until its lag test has passed 4 fixes (a camera coming back stale is caught before it is used) */
+    TLM_CAM_STATE_COUNT = 12
 } tlm_cam_state_t;
 
 /* event severity */
@@ -78,6 +80,9 @@ typedef enum {
     TLM_EVT_BEACON_READMITTED = 22, /* subject beacon survey id (255 when above 254); arg0 0; arg1 beacon survey id: its fault test passed again after the hold */
     TLM_EVT_CAMERA_READMITTED = 23, /* subject camera; arg0 0; arg1 0: its fault test passed again after the hold */
     TLM_EVT_TC_AUTH = 25, /* uplink security at start: subject 0; arg0 boot epoch of the anti-replay counter (0: commands NOT authenticated, --tc-insecure, a warning); arg1 keys loaded */
+    TLM_EVT_CAMERA_LAG = 26, /* subject camera; arg0 estimated lag of its frames, thousandths of a cycle (1000 = one frame period; over the test window); arg1 test statistic z x100 (threshold K x100 is the P_fa quantile): its frames are older than their stamps; left out while the lag persists (sent once per episode) */
+    TLM_EVT_BEACON_MISSING = 27, /* subject beacon survey id (255 when above 254); arg0 consecutive fixes it was predicted in view of a camera with an image but not seen (20: a working LED is missed 20 times in a row with probability below 1e-6); arg1 beacon survey id: a dead LED, a beacon knocked off or moved beyond the association gate, or an occlusion (they look the same; sent once per episode) */
+    TLM_EVT_BEACON_REJECTED = 28, /* subject beacon survey id (255 when above 254); arg0 leaky count of fixes it was gated out as an outlier or held out by FDE (+1) against used (-1), reported at 10; arg1 beacon survey id: a beacon moved or mis-surveyed beyond the outlier gate (sent once per episode) */
     TLM_EVT_BEACON_BIASED = 30, /* self-survey monitor (docs/self_survey.md): a beacon's mean whitened residual over at least 32 of its fixes is biased beyond chi-square(2) at 1e-4; it is down-weighted (its sigma_mm times 1 + the bias) until the map is refined: subject beacon survey id (255 when above 254); arg0 the bias's chi-square x100; arg1 beacon survey id (sent once) */
     TLM_EVT_CAMERA_BIASED = 31, /* self-survey monitor: the residuals of a camera's beacons shift together (mean over at least 32 fixes beyond chi-square(2) at 1e-4: a mount that moved?): subject camera; arg0 chi-square x100; arg1 0 (sent once) */
     TLM_EVT_SELFTEST_TABLE = 34, /* start-up self-test of the calibration table (docs/operations.md): subject 0 pass, 1 fail (nothing validated: the program stops), 2 the stored table failed and the previous one runs; arg0 loader status of the table tried first (0 ok); arg1 CRC-32 of the table now running (0 none) */

@@ -69,8 +69,8 @@ const char *tlm_camera_name(uint8_t code)
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    static const char *const k_name[10] = {MFNS_MSG("OK"), MFNS_MSG("LOST"), MFNS_MSG("OFF"), MFNS_MSG("SKIPPED"), MFNS_MSG("ENDED"), MFNS_MSG("PROBATION"), MFNS_MSG("FROZEN"), MFNS_MSG("CLOCK_FAULT"), MFNS_MSG("LATE"), MFNS_MSG("OUT_OF_STEP")};
-    return (code <= TLM_CAM_OUT_OF_STEP) ? k_name[code] : "?";
+    static const char *const k_name[12] = {MFNS_MSG("OK"), MFNS_MSG("LOST"), MFNS_MSG("OFF"), MFNS_MSG("SKIPPED"), MFNS_MSG("ENDED"), MFNS_MSG("PROBATION"), MFNS_MSG("FROZEN"), MFNS_MSG("CLOCK_FAULT"), MFNS_MSG("LATE"), MFNS_MSG("OUT_OF_STEP"), MFNS_MSG("LAGGING"), MFNS_MSG("LAG_VERIFY")};
+    return (code <= TLM_CAM_LAG_VERIFY) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
@@ -106,6 +106,9 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_BEACON_READMITTED: return MFNS_MSG("BEACON_READMITTED");
     case TLM_EVT_CAMERA_READMITTED: return MFNS_MSG("CAMERA_READMITTED");
     case TLM_EVT_TC_AUTH: return MFNS_MSG("TC_AUTH");
+    case TLM_EVT_CAMERA_LAG: return MFNS_MSG("CAMERA_LAG");
+    case TLM_EVT_BEACON_MISSING: return MFNS_MSG("BEACON_MISSING");
+    case TLM_EVT_BEACON_REJECTED: return MFNS_MSG("BEACON_REJECTED");
     case TLM_EVT_BEACON_BIASED: return MFNS_MSG("BEACON_BIASED");
     case TLM_EVT_CAMERA_BIASED: return MFNS_MSG("CAMERA_BIASED");
     case TLM_EVT_SELFTEST_TABLE: return MFNS_MSG("SELFTEST_TABLE");

@@ -147,6 +147,7 @@ def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict
             timeout=NAV_TIMEOUT_S,
         )
         res["nav_exit"] = nav.returncode
+        (out / "nav.stderr").write_text(nav.stderr)
     except subprocess.TimeoutExpired:
         res["nav_exit"] = "timeout"
     t1 = time.monotonic()

@@ -153,7 +153,7 @@ static void test_file_then_command_line(void **state)
     assert_int_equal(g_o.backend, MFNS_CAM_BACKEND_V4L2);
     assert_string_equal(g_o.cam_path[0], "bus_info:platform:vivid-000");
     assert_string_equal(g_o.cam_path[1], "card:cam-y");
-    assert_string_equal(g_o.cam_path[2], "/dev/video2"); /* the board's default: not in the file */
+    assert_string_equal(g_o.cam_path[2], MFNS_BOARD_CAM_Z); /* the board's default: not in the file */
     assert_int_equal(g_o.tlm_kind, NAV_TLM_SERIAL);
     assert_string_equal(g_o.tlm_target, "/dev/ttyAMA0");
     assert_int_equal(g_o.baud, 115200);

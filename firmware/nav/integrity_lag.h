@@ -1,0 +1,127 @@
+/* integrity_lag.h -- the per-camera time-offset (lag) monitor: a camera
+ * whose frames are older than their stamps (a driver that stamps on arrival,
+ * a stale buffer re-queued) shows the scene where it was tau cycles ago.
+ * Its error is proportional to motion, so neither the frame-health checks
+ * (frame_health.h: only an exact repeat or a real arrival clock) nor the
+ * solution separation (integrity.h: a one-frame bias is below its
+ * threshold when the other cameras' geometry is weak) see it.
+ *
+ * The test (docs/pose.md "Time-offset monitor"): the measurement model of
+ * camera c gets one more parameter, its lag tau_c (cycles). A lag moves each
+ * of c's observations by -tau_c times its image velocity; linearised at the
+ * fix, with the whitened residual e = L^-1 (predicted - measured), the
+ * whitened Jacobian J (all inliers) and
+ *   f_c = L^-1 (h(x) - h(x_back))   on camera c's inlier rows, 0 elsewhere,
+ * x_back being the fix moved back by one cycle of the track's own motion
+ * (the last two fixes), E[e] = tau_c f_c + J dx. The least-squares estimate
+ * of tau_c with the pose free (a GLRT for one added column) is
+ *   tau_c = f_c^T M e / f_c^T M f_c,  M = I - J P0 J^T, P0 = (J^T J)^-1,
+ *   var(tau_c) = 1 / f_c^T M f_c      (unit whitened noise),
+ * and z_c = tau_c / sd(tau_c) is N(0, 1) without a lag: the camera is
+ * lagging when |z_c| > K, K = Q^-1(P_fa / (2 N_tested)) (two-sided: a frame
+ * stamped early is a fault too; P_fa the table's per-fix budget, spent a
+ * second time here, so a fix's total false-alarm probability is <= 2 P_fa).
+ * Missed detection: a lag tau is found with probability 1 - P_md when
+ * |tau| >= (K + K_md) sd(tau_c) (the minimum detectable lag, reported).
+ *
+ * What it misses (say it in every report):
+ *   - no motion: f_c = 0, nothing to test; a stale frame of a still robot
+ *     shows the scene as it is, so it is harmless (its error is tau times
+ *     the motion per cycle: below 1 sigma of the fix whenever sd(tau_c) > 1
+ *     cycle would be the minimum detectable lag -- the camera is then
+ *     untested and reported as such, never certified);
+ *   - a lag of the same size on every camera (a common clock error): the
+ *     pose absorbs it (M f ~ 0 only in that direction; the other cameras
+ *     see it as a fix moved on by tau cycles of motion, a time-stamp error
+ *     the fix's own stamp carries);
+ *   - a lag smaller than the minimum detectable lag;
+ *   - motion that changed within the cycle (the velocity is the last
+ *     cycle's: an acceleration mis-scales tau but does not bias z under H0);
+ *   - calibration errors correlated with the motion pattern: the
+ *     calibration covariance is not in var(tau_c) (a mount error gives a
+ *     fixed pattern, motion a moving one; over one fix they can correlate).
+ * Work: one pass of two projections per inlier, a 6x6 Cholesky; no heap.
+ */
+#ifndef MFNS_INTEGRITY_LAG_H
+#define MFNS_INTEGRITY_LAG_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "integrity.h"
+#include "pose.h"
+
+/* A camera is tested when at least this many of its beacons are inliers
+ * (one is enough: M removes what the pose absorbs; den says what is left). */
+#define MFNS_LAG_MIN_OBS 1
+/* A held camera's passing test counts towards its release only when the
+ * window's minimum detectable lag is at most this (cycles): the test could
+ * then have caught a frame one period stale (the fault a driver that stamps
+ * on arrival produces) with probability 1 - P_md. */
+#define MFNS_LAG_CERT_CYCLES 1.0f
+
+typedef struct {
+    uint8_t tested[MFNS_NUM_CAMERAS];  /* 1: camera had inliers and a motion to test against */
+    float lag_cycles[MFNS_NUM_CAMERAS]; /* tau_c estimate (cycles), 0 when untested */
+    float sd_cycles[MFNS_NUM_CAMERAS];  /* its 1-sigma (cycles), INFINITY when untested */
+    float z[MFNS_NUM_CAMERAS];          /* tau_c / sd: N(0, 1) without a lag */
+    float z_fix[MFNS_NUM_CAMERAS];      /* the monitor's: this fix's z alone (an onset) */
+    float mdl_cycles[MFNS_NUM_CAMERAS]; /* minimum detectable lag (K + K_md) sd (cycles) */
+    float num[MFNS_NUM_CAMERAS];        /* this fix's f^T M e (whitened) */
+    float den[MFNS_NUM_CAMERAS];        /* this fix's f^T M f: the information on tau_c */
+    float var_survey[MFNS_NUM_CAMERAS]; /* the part of var(num) = den due to the beacons' survey errors */
+    float k;                            /* the threshold on |z| */
+    int8_t worst;                       /* camera of the largest |z| above k, -1 none */
+} mfns_lag_eval_t;
+
+/* The fix moved back by one cycle of motion: the motion from prev to last
+ * (two consecutive fixes, prev the older) undone on now. */
+mfns_pose_t mfns_integrity_lag_back(const mfns_pose_t *now, const mfns_pose_t *last, const mfns_pose_t *prev);
+
+/* Test each camera of the fix sol (OK or DEGRADED, its assoc and inlier
+ * marks) for a lag against back (mfns_integrity_lag_back). MFNS_INTEGRITY_E_ARG
+ * for NULLs, bad settings or a sol that is not a fix; E_GEOM when its
+ * information is singular. */
+mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                           const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,
+                                           const mfns_pose_config_t *cfg, const mfns_integrity_settings_t *set,
+                                           const mfns_pose_t *back, mfns_lag_eval_t *ev);
+
+/* One cycle of the monitor on the solver's fix sol (every camera's
+ * inliers), before FDE. The motion is the solver's own last two fixes (kept
+ * in mem; a cycle without a fix restarts it). A lag is persistent, so the
+ * test is on the moving sum over the camera's last MFNS_INTEGRITY_LAG_WINDOW
+ * tested fixes: tau = sum num / sum den, z = sum num / sqrt(sum den)
+ * where the window's var(sum num) counts the pixel noise as independent from
+ * fix to fix and the survey errors' part (var_survey, static) as fully
+ * correlated: sum (den - var_survey) + (sum sqrt(var_survey))^2, so z is
+ * N(0, 1), or narrower, without a lag; beside it
+ * this fix's z alone (z_fix: a sudden lag is seen at once, undiluted), the
+ * two tests sharing P_fa: K = Q^-1(P_fa / (2 * 2 * N_tested)). ev's tau,
+ * sd, z and mdl are the window's. A fix where
+ * camera c is untested (no inlier, no motion) clears c's window.
+ * Holds (mem->cam_lag, FDE leaves a held camera out of the fix):
+ *   - the camera of the largest |z| above K: held as LAGGING (1) until the
+ *     lag has left the window and MFNS_INTEGRITY_LAG_WINDOW more tested
+ *     fixes have passed;
+ *   - a camera that gave no image for MFNS_INTEGRITY_LAG_OUTAGE cycles or
+ *     more (an outage: dead, timed out, held out by the frame-health
+ *     checks; obs dark; a single dropped frame is none) while another
+ *     camera gave one
+ *     (every camera dark at once: no reference, none held, so a still robot
+ *     fixes again after a blackout): held as VERIFYING (2) until
+ *     MFNS_INTEGRITY_LAG_VERIFY tested fixes with it have passed (a camera
+ *     coming back stale is then caught before it is used: one fix has too
+ *     little power, the window has it). Without motion nothing is tested
+ *     and the camera stays out (availability, never integrity).
+ * A pass counts only with the power to see a one-period lag
+ * (MFNS_LAG_CERT_CYCLES). Two cameras alone cannot tell which one lags (a
+ * lag of one is the opposite lag of the other): the window's power falls,
+ * and a held camera then stays held.
+ * Returns the camera of a new lag episode (report it), else -1. */
+int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                               const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,
+                               const mfns_pose_config_t *cfg, const mfns_integrity_settings_t *set,
+                               mfns_lag_eval_t *ev);
+
+#endif /* MFNS_INTEGRITY_LAG_H */

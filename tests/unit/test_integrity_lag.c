@@ -1,0 +1,254 @@
+/* test_integrity_lag.c -- the per-camera time-offset monitor
+ * (firmware/nav/integrity_lag.h) on its own: a clean moving scene (no
+ * camera flagged, z distributed as N(0, 1)), one camera one and two cycles
+ * stale (flagged, its lag estimated), no motion (nothing tested), and the
+ * monitor's holds (a lagging camera held and reported once, a camera back
+ * from an outage held until verified). */
+#include <math.h>
+#include <string.h>
+
+#include "integrity_lag.h"
+#include "pose_testlib.h"
+#include "testutil.h"
+
+#define STEP_MM 1.0     /* motion per cycle (mm): a slow robot, so a stale frame stays below the solver gate */
+#define TURN_RAD 0.0005 /* turn per cycle (rad) */
+#define SIGMA_PX 0.1
+
+typedef struct {
+    mfns_rig_t rig;
+    mfns_beacon_map_t map;
+    pt_dpose_t pose[4]; /* the truth at cycles 0..3 (constant velocity and turn rate) */
+    mfns_pose_config_t cfg;
+    mfns_integrity_settings_t set;
+    mfns_obs_frame_t frame;
+    mfns_pose_assoc_t assoc;
+    mfns_pose_solution_t sol;
+} scene_t;
+
+static scene_t sc; /* large: static */
+
+static void mat_mul(const double a[3][3], const double b[3][3], double out[3][3])
+{
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            out[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
+        }
+    }
+}
+
+/* Cycle k's truth: C_k = dC^k C_0, position p_0 + k v. */
+static void make_motion(uint64_t seed)
+{
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, seed);
+    sc.rig = pt_paper_rig();
+    const pt_dpose_t p0 = pt_random_pose(&rng, 200);
+    const int per_cam[3] = {5, 5, 5};
+    sc.map = pt_dense_map(&sc.rig, &p0, per_cam, 500, 1500, &rng);
+    const double w[3] = {0.3 * TURN_RAD, TURN_RAD, -0.5 * TURN_RAD};
+    double dc[3][3];
+    pt_rot_exp(w, dc);
+    const double v[3] = {STEP_MM * 0.8, -STEP_MM * 0.6, STEP_MM * 0.1};
+    double c[3][3], pos[3];
+    memcpy(c, p0.C, sizeof c);
+    pt_position_w(&p0, pos);
+    for (int k = 0; k < 4; k++) {
+        sc.pose[k] = pt_pose(c, pos);
+        double next[3][3];
+        mat_mul(dc, c, next);
+        memcpy(c, next, sizeof c);
+        for (int i = 0; i < 3; i++) {
+            pos[i] += v[i];
+        }
+    }
+    sc.cfg = pt_config(SIGMA_PX);
+    mfns_integrity_settings_default(&sc.set);
+}
+
+/* The frame of cycle k, camera stale_cam showing cycle k - lag (no stale
+ * camera: -1), and the fix solved from the truth. */
+static mfns_pose_status_t render(int k, int stale_cam, int lag, mfns_rng_t *rng)
+{
+    (void)pt_make_frame(&sc.rig, &sc.map, &sc.pose[k], SIGMA_PX, rng, &sc.frame, &sc.assoc);
+    if (stale_cam >= 0) {
+        mfns_obs_frame_t old;
+        mfns_pose_assoc_t old_assoc;
+        (void)pt_make_frame(&sc.rig, &sc.map, &sc.pose[k - lag], SIGMA_PX, rng, &old, &old_assoc);
+        sc.frame.count[stale_cam] = old.count[stale_cam];
+        memcpy(sc.frame.obs[stale_cam], old.obs[stale_cam], sizeof old.obs[stale_cam]);
+        memcpy(sc.assoc.beacon[stale_cam], old_assoc.beacon[stale_cam], sizeof old_assoc.beacon[stale_cam]);
+    }
+    const mfns_pose_t t = pt_to_float(&sc.pose[k]);
+    return mfns_pose_refine(&sc.rig, &sc.map, &sc.frame, &sc.assoc, &t, &sc.cfg, &sc.sol);
+}
+
+static mfns_integrity_status_t lag_at(int k, mfns_lag_eval_t *ev)
+{
+    const mfns_pose_t last = pt_to_float(&sc.pose[k - 1]), prev = pt_to_float(&sc.pose[k - 2]);
+    const mfns_pose_t back = mfns_integrity_lag_back(&sc.sol.pose, &last, &prev);
+    return mfns_integrity_lag(&sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &back, ev);
+}
+
+static void test_back_undoes_one_cycle(void **state)
+{
+    (void)state;
+    make_motion(3);
+    const mfns_pose_t now = pt_to_float(&sc.pose[3]), last = pt_to_float(&sc.pose[2]),
+                      prev = pt_to_float(&sc.pose[1]);
+    const mfns_pose_t back = mfns_integrity_lag_back(&now, &last, &prev);
+    const pt_dpose_t b = pt_from_float(&back);
+    assert_true(pt_pos_err(&b, &sc.pose[2]) < 1e-2);
+    assert_true(pt_rot_err(b.C, sc.pose[2].C) < 1e-5);
+}
+
+static void test_clean_no_camera_flagged(void **state)
+{
+    (void)state;
+    double z2 = 0.0;
+    int n = 0;
+    for (uint64_t seed = 1; seed <= 40; seed++) {
+        make_motion(seed);
+        mfns_rng_t rng;
+        mfns_rng_seed(&rng, seed * 7919u);
+        const mfns_pose_status_t st = render(3, -1, 0, &rng);
+        if (st != MFNS_POSE_OK && st != MFNS_POSE_DEGRADED) {
+            continue;
+        }
+        mfns_lag_eval_t ev;
+        assert_int_equal(lag_at(3, &ev), MFNS_INTEGRITY_OK);
+        assert_int_equal(ev.worst, -1);
+        assert_true(ev.k > 4.0f && ev.k < 5.5f);
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            if (ev.tested[c]) {
+                assert_true(fabsf(ev.z[c]) <= ev.k);
+                /* a lag of two periods is detectable in this one fix (the
+                 * window of several fixes brings one period within reach) */
+                assert_true(ev.mdl_cycles[c] < 2.0f);
+                z2 += (double)(ev.z[c] * ev.z[c]);
+                n++;
+            }
+        }
+    }
+    assert_true(n >= 60);
+    /* z is N(0, 1) without a lag: its mean square near 1 (chi-square with n dof / n) */
+    print_message("clean: mean z^2 %.3f over %d camera tests\n", z2 / n, n);
+    assert_true(z2 / n > 0.5 && z2 / n < 1.6);
+}
+
+static void test_stale_camera_flagged_with_its_lag(void **state)
+{
+    (void)state;
+    for (int lag = 1; lag <= 2; lag++) {
+        for (int cam = 0; cam < MFNS_NUM_CAMERAS; cam++) {
+            make_motion(100u + (uint64_t)cam);
+            mfns_rng_t rng;
+            mfns_rng_seed(&rng, 55u + (uint64_t)cam);
+            const mfns_pose_status_t st = render(3, cam, lag, &rng);
+            assert_true(st == MFNS_POSE_OK || st == MFNS_POSE_DEGRADED);
+            mfns_lag_eval_t ev;
+            assert_int_equal(lag_at(3, &ev), MFNS_INTEGRITY_OK);
+            print_message("camera %d %d stale: lag %.3f sd %.3f z %.1f (K %.2f)\n", cam, lag,
+                          (double)ev.lag_cycles[cam], (double)ev.sd_cycles[cam], (double)ev.z[cam], (double)ev.k);
+            assert_int_equal(ev.worst, cam);
+            assert_true(ev.z[cam] > ev.k); /* stale: a positive lag */
+            assert_true(fabs((double)ev.lag_cycles[cam] - lag) < 0.25 * lag + 4.0 * (double)ev.sd_cycles[cam]);
+        }
+    }
+}
+
+static void test_no_motion_nothing_tested(void **state)
+{
+    (void)state;
+    make_motion(7);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 7);
+    assert_true(render(3, 1, 1, &rng) != MFNS_POSE_NO_FIX);
+    mfns_lag_eval_t ev;
+    const mfns_pose_t back = sc.sol.pose; /* a still robot: x_back = x */
+    assert_int_equal(mfns_integrity_lag(&sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &back, &ev),
+                     MFNS_INTEGRITY_OK);
+    assert_int_equal(ev.worst, -1);
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        assert_int_equal(ev.tested[c], 0);
+    }
+    /* bad input: a clear status, never a crash */
+    assert_int_equal(mfns_integrity_lag(NULL, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &back, &ev),
+                     MFNS_INTEGRITY_E_ARG);
+    mfns_pose_solution_t none = sc.sol;
+    none.status = MFNS_POSE_NO_FIX;
+    assert_int_equal(mfns_integrity_lag(&sc.rig, &sc.map, &sc.frame, &none, &sc.cfg, &sc.set, &back, &ev),
+                     MFNS_INTEGRITY_E_ARG);
+}
+
+static void test_monitor_holds_and_reports_once(void **state)
+{
+    (void)state;
+    make_motion(11);
+    mfns_integrity_memory_t mem;
+    mfns_integrity_memory_reset(&mem);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 11);
+    mfns_lag_eval_t ev;
+    /* two clean fixes give the motion; nothing flagged, nothing held */
+    for (int k = 0; k < 2; k++) {
+        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+        assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev),
+                         -1);
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        assert_int_equal(mem.cam_held[c], 0);
+    }
+    /* camera 2 two cycles stale: flagged at once (this fix alone), reported once */
+    assert_true(render(2, 2, 2, &rng) != MFNS_POSE_NO_FIX);
+    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev), 2);
+    assert_int_equal(mem.cam_lag[2], 1);
+    assert_int_equal(mem.cam_held[2], 1);
+    assert_true(render(3, 2, 2, &rng) != MFNS_POSE_NO_FIX);
+    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev),
+                     -1);
+    assert_int_equal(mem.cam_lag[2], 1);
+    /* an outage of camera 0 (no observation in a fix): held until verified */
+    assert_true(render(3, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+    sc.frame.count[0] = 0;
+    sc.frame.dark[0] = 1U;
+    mfns_pose_assoc_t a = sc.assoc;
+    const mfns_pose_t t = pt_to_float(&sc.pose[3]);
+    assert_true(mfns_pose_refine(&sc.rig, &sc.map, &sc.frame, &a, &t, &sc.cfg, &sc.sol) != MFNS_POSE_NO_FIX);
+    (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    assert_int_equal(mem.cam_lag[0], 0); /* one dropped frame is no outage */
+    (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    assert_int_equal(mem.cam_lag[0], 2);
+    assert_int_equal(mem.cam_held[0], 1);
+    assert_int_equal(mem.lag_verify[0], MFNS_INTEGRITY_LAG_VERIFY);
+    /* a cycle without a fix: the motion restarts, the holds stay */
+    mfns_pose_solution_t none = sc.sol;
+    none.status = MFNS_POSE_NO_FIX;
+    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &none, &sc.cfg, &sc.set, &ev), -1);
+    assert_int_equal(mem.lag_fixes, 0);
+    assert_int_equal(mem.cam_lag[0], 2);
+    assert_int_equal(mem.cam_lag[2], 1);
+    /* every camera dark at once (a blackout): no reference, none held */
+    mfns_integrity_memory_reset(&mem);
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        sc.frame.count[c] = 0;
+        sc.frame.dark[c] = 1U;
+    }
+    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &none, &sc.cfg, &sc.set, &ev), -1);
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        assert_int_equal(mem.cam_lag[c], 0);
+        assert_int_equal(mem.cam_held[c], 0);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_back_undoes_one_cycle),
+        cmocka_unit_test(test_clean_no_camera_flagged),
+        cmocka_unit_test(test_stale_camera_flagged_with_its_lag),
+        cmocka_unit_test(test_no_motion_nothing_tested),
+        cmocka_unit_test(test_monitor_holds_and_reports_once),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
