@@ -44,6 +44,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 LIB_NAME = "libmfns_core.so"
 YAMCS_ETC = REPO / "ground" / "yamcs" / "etc"
+OPERATOR_PAGE = REPO / "ground" / "operator" / "index.html"
 
 
 class BuildPyWithCore(build_py):
@@ -77,6 +78,8 @@ class BuildPyWithCore(build_py):
             raise SystemExit(f"mfns: building {LIB_NAME} failed ({e}); needs GNU make and gcc") from e
         etc = Path(self.build_lib) / "mfns" / "data" / "yamcs"
         shutil.copytree(YAMCS_ETC, etc, dirs_exist_ok=True)
+        # the operator's view (mfns.ground_yamcs_view) serves this page
+        shutil.copy2(OPERATOR_PAGE, Path(self.build_lib) / "mfns" / "data" / "operator.html")
 
 
 class NativeDistribution(Distribution):

@@ -8,7 +8,8 @@
 #      `mfns table build` (byte-identical to the tree's TABLE), `mfns table show`, `mfns mc`
 #      (its default flight solver: the wheel's library), `mfns sim calib` + `mfns calib`,
 #      `mfns sim nav` + `mfns report` (+ its refusal of another run's truth), `mfns compare`
-#      (meaning column filled), `mfns plan`, and mfns.ground_yamcs' run folder.
+#      (meaning column filled), `mfns plan`, mfns.ground_yamcs' run folder and the
+#      operator view's page (mfns.ground_yamcs_view).
 # The flight programs (build/host-sim/bin, `make flight`) turn the simulated frames into the
 # nav.csv the report reads: they are the input's maker, not part of the package.
 # Prints the wheel's size and the install time.
@@ -97,6 +98,9 @@ import pathlib, mfns.ground_yamcs as g
 r = g.prepare(pathlib.Path('yamcs-run'))
 assert (r / 'etc' / 'yamcs.mfns.yaml').is_file() and (r / 'mdb' / 'mfns_tm.xml').is_file()
 assert 'ground' not in str(g.ETC), g.ETC"
+check "mfns.ground_yamcs_view: the operator's page without the repository" "$v/python" -c "
+import mfns.ground_yamcs_view as v
+assert v.PAGE.is_file() and 'ground' not in str(v.PAGE), v.PAGE"
 check "the installed package needs no dev extras" sh -c "! '$v/python' -c 'import pytest' 2>/dev/null"
 
 size=$(stat -c %s "$whl" 2>/dev/null || echo 0)

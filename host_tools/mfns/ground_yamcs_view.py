@@ -29,7 +29,11 @@ from pathlib import Path
 
 from mfns import ground_yamcs as gy
 
-PAGE = Path(__file__).resolve().parents[2] / "ground" / "operator" / "index.html"
+# The page: the repository's ground/operator/index.html, or the copy an installed
+# wheel carries (host_tools/setup.py puts it in mfns/data).
+_TREE_PAGE = Path(__file__).resolve().parents[2] / "ground" / "operator" / "index.html"
+_WHEEL_PAGE = Path(__file__).resolve().parent / "data" / "operator.html"
+PAGE = _TREE_PAGE if _TREE_PAGE.is_file() else _WHEEL_PAGE
 NAV = [
     "cycle",
     "status",
@@ -206,8 +210,8 @@ def handler(state: State, page: Path):
     class H(BaseHTTPRequestHandler):
         def do_GET(self):  # noqa: N802 (http.server's name)
             if self.path in ("/", "/index.html"):
-                if not page.is_file():  # an installed wheel: the page lives in the repository
-                    self.send_error(404, f"{page} not found: run make ground-view from the repository")
+                if not page.is_file():  # neither the tree's page nor the wheel's copy
+                    self.send_error(404, f"{page} not found: reinstall mfns (pip install ./host_tools)")
                     return
                 body, ctype = page.read_bytes(), "text/html; charset=utf-8"
             elif self.path.startswith("/state.json"):
