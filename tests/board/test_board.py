@@ -219,6 +219,38 @@ def test_table_load_survives_reboot(board):
     )
 
 
+def test_missing_camera_runs_on_the_others(board):
+    """A camera the configuration names but the board lacks (issue 24 item 3): the
+    self-test reports it missing and the program runs on the other two."""
+    conf = "/etc/mfns/mfns-nav.conf"
+
+    def restart_with(cam_z: str) -> float:
+        return board.shell(f"sed -i 's/^cam_z = .*/cam_z = {cam_z}/' {conf} && kill -KILL $(pidof mfns-nav)")
+
+    t0 = restart_with("bus_info:platform:vivid-009")
+    # the first start that read the edited file (a start just before the shell ran
+    # it still found camera z: wait for the one that reports it missing)
+    cam = board.wait_event(
+        "SELFTEST_CAMERA",
+        RESTART_S,
+        since=t0,
+        where=lambda p: int(p.fields["subject"]) == 2 and int(p.fields["arg0"]) == 1,
+    )
+    done = board.wait_event("SELFTEST_DONE", 30, since=cam.t)
+    assert int(done.fields["arg0"]) & 0b111 == 0b011, "cameras x and y passed, z did not"
+    board.wait_packet(lambda p: p.kind == "nav", 30, since=done.t, what="nav packet with camera z missing")
+    board.wait_packet(
+        lambda p: p.kind == "camera" and str(p.fields["camera"]) in ("0", "1", "x", "y"),
+        30,
+        since=done.t,
+        what="camera packet of x or y with camera z missing",
+    )
+    t1 = restart_with("bus_info:platform:vivid-002")
+    board.wait_event(
+        "SELFTEST_DONE", RESTART_S, since=t1, where=lambda p: int(p.fields["arg0"]) & 0b111 == 0b111
+    )  # camera z is back
+
+
 def test_ground_csv_has_utc(board):
     """mfns-ground's own nav.csv: every row has a UTC time (written at its exit)."""
     board.ground.stdin.close()
