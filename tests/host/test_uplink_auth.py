@@ -221,5 +221,6 @@ def test_tm_dictionary_has_the_epoch_fields():
     root = ET.parse(TM_XML).getroot()
     hk = root.find(".//x:SequenceContainer[@name='housekeeping']", NS)
     refs = [e.get("parameterRef") for e in hk.find("x:EntryList", NS)]
-    # appended at the end (then the cycle margin, issue 24)
-    assert refs[-4:-2] == ["hk_tc_epoch", "hk_tc_arsn_last"]
+    # appended after the time correlation, together (later fields follow them)
+    i = refs.index("hk_tc_epoch")
+    assert refs[i + 1] == "hk_tc_arsn_last" and i > refs.index("hk_time_quality")
