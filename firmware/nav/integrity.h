@@ -170,6 +170,7 @@ typedef struct {
     mfns_pose_t lag_last, lag_prev; /* the solver's last two fixes (the motion) */
     uint8_t lag_fixes;              /* consecutive solver fixes, capped at 2 */
     uint8_t dark_run[MFNS_NUM_CAMERAS]; /* consecutive cycles without an image, capped */
+    uint8_t lag_tested_motion;      /* this cycle's fix was tested against a known motion */
     mfns_beacon_watch_t watch;      /* beacons missing or rejected (integrity_beacons.h) */
     /* the time-offset monitor's moving window (integrity_lag.h): per camera
      * and tested cycle, f^T M e and f^T M f; lag_pos the next slot */

@@ -364,6 +364,7 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
     }
     if (!is_fix(sol)) {
         mem->lag_fixes = 0U; /* the motion restarts */
+        mem->lag_tested_motion = 0U;
         clear_windows(mem);
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U && reference_for(mem, frame, c)) { /* an outage */
@@ -374,6 +375,7 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
         return -1;
     }
     const bool motion = mem->lag_fixes >= 2U;
+    mem->lag_tested_motion = (uint8_t)(motion ? 1U : 0U);
     const mfns_pose_t back = motion ? mfns_integrity_lag_back(&sol->pose, &mem->lag_last, &mem->lag_prev) : sol->pose;
     mem->lag_prev = mem->lag_last;
     mem->lag_last = sol->pose;
@@ -388,4 +390,21 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
     window(mem, ev, num, den, var);
     decide(num, den, var, 2, set, ev);
     return update_holds(mem, sol, frame, set, ev);
+}
+
+bool mfns_integrity_lag_motion_known(const mfns_integrity_memory_t *mem)
+{
+    return mem != NULL && mem->lag_tested_motion != 0U;
+}
+
+int mfns_integrity_lag_cameras(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame)
+{
+    if (sol == NULL || frame == NULL) {
+        return 0;
+    }
+    int n = 0;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        n += has_inlier(sol, frame, c) ? 1 : 0;
+    }
+    return n;
 }

@@ -124,4 +124,17 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
                                const mfns_pose_config_t *cfg, const mfns_integrity_settings_t *set,
                                mfns_lag_eval_t *ev);
 
+/* True when the monitor has the motion of two consecutive solver fixes to
+ * test the next fix's cameras against (a fix without it is not usable:
+ * MFNS_POSE_R_LAG_UNTESTED, nav_cycle.c). */
+bool mfns_integrity_lag_motion_known(const mfns_integrity_memory_t *mem);
+
+/* The number of cameras with an inlier in the fix sol (0 for NULLs). A fix
+ * on one camera is never testable for a lag, motion or not: its lag is a
+ * pose change (f_c in the span of J, M f_c = 0), the case of a lag common to
+ * every camera above, a stamp error the fix's stamp carries. So only a fix
+ * on two or more cameras is held for want of a motion (nav_cycle.c): that
+ * is the fix the monitor would have tested. */
+int mfns_integrity_lag_cameras(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame);
+
 #endif /* MFNS_INTEGRITY_LAG_H */

@@ -300,7 +300,7 @@ static bool carries_track(const mfns_pose_solution_t *s, bool tracked)
 {
     return has_fix(s) || (s->status == MFNS_POSE_NO_FIX &&
                           ((s->reason == MFNS_POSE_R_MINIMAL && tracked) || s->reason == MFNS_POSE_R_UNMONITORED ||
-                           s->reason == MFNS_POSE_R_PL_EXCEEDS_AL));
+                           s->reason == MFNS_POSE_R_PL_EXCEEDS_AL || s->reason == MFNS_POSE_R_LAG_UNTESTED));
 }
 
 /* A table in monitor-only mode (a bench, never flight; nav_config.h): a pose
@@ -313,7 +313,7 @@ static void monitor_only(const mfns_nav_t *nav, mfns_nav_output_t *out)
     mfns_pose_solution_t *s = &out->sol;
     if (nav->integ_set.monitor_only != 0U && s->status == MFNS_POSE_NO_FIX &&
         (s->reason == MFNS_POSE_R_MINIMAL || s->reason == MFNS_POSE_R_UNMONITORED ||
-         s->reason == MFNS_POSE_R_PL_EXCEEDS_AL)) {
+         s->reason == MFNS_POSE_R_PL_EXCEEDS_AL || s->reason == MFNS_POSE_R_LAG_UNTESTED)) {
         s->status = MFNS_POSE_DEGRADED;
     }
 }
@@ -325,6 +325,20 @@ static void lag_monitor(mfns_nav_t *nav, mfns_nav_output_t *out)
     const mfns_caltable_t *t = nav->table;
     out->lag_new_camera = (int8_t)mfns_integrity_lag_monitor(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs,
                                                              &out->sol, &nav->pose_cfg, &nav->integ_set, &out->lag);
+}
+
+/* A fix whose cameras could not be tested for a lag (no motion known yet:
+ * the first two fixes after a gap) is not usable; it carries the track.
+ * Only a fix on two or more cameras: on one, a lag is a stamp error the
+ * monitor never sees, motion or not (integrity_lag.h), so holding it would
+ * cost fixes and catch nothing. */
+static void lag_untested(const mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    if (has_fix(&out->sol) && !mfns_integrity_lag_motion_known(&nav->integ_mem) &&
+        mfns_integrity_lag_cameras(&out->sol, &nav->obs) >= 2) {
+        out->sol.status = MFNS_POSE_NO_FIX;
+        out->sol.reason = MFNS_POSE_R_LAG_UNTESTED;
+    }
 }
 
 static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
@@ -382,6 +396,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         lag_monitor(nav, out);
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
+        lag_untested(nav, out);
         monitor_only(nav, out);
         (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
                                &out->bmon); /* arguments checked above */

@@ -75,6 +75,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return MFNS_MSG("a faulty beacon or camera is excluded; the rest certify the fix");
     case MFNS_POSE_R_CAMERA_UNMONITORED:
         return MFNS_MSG("beacon faults bounded; a single-camera fault cannot be bounded within the alert limits");
+    case MFNS_POSE_R_LAG_UNTESTED:
+        return MFNS_MSG("no motion known yet to test the cameras' frames for a lag (first fixes after a gap)");
     }
     return MFNS_MSG("unknown pose reason");
 }

@@ -71,6 +71,8 @@ WHY = {
     "EXCLUDED": "a usable pose with a faulty beacon or camera left out",
     "CAMERA_UNMONITORED": "a usable pose whose beacon faults are bounded but not a camera fault "
     "(require_camera_monitor 0)",
+    "LAG_UNTESTED": "refused: no motion known yet to test the cameras' frames for a lag "
+    "(the first fixes after a gap)",
 }
 
 
