@@ -270,5 +270,7 @@ def test_module_reacquires_after_a_blackout(bins, tmp_path):
     assert cyc and cyc[0] < first, log  # acquired before the blackout
     assert not [k for k in cyc if first <= k < last], "a fix was reported while every camera was dark"
     after = [k for k in cyc if k >= last]
-    assert after and after[0] <= last + 1, (after[:3], log)  # re-acquired within 2 frames
+    # re-acquired within 2 frames, then the first two multi-camera fixes after the gap are
+    # held NO_FIX LAG_UNTESTED (no motion known yet to test a stale camera: docs/pose.md)
+    assert after and after[0] <= last + 3, (after[:3], log)
     assert np.max(np.abs(dp)) < 3.0 and np.max(np.abs(da)) < 0.2  # no wrong fix, before or after

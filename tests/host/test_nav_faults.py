@@ -161,7 +161,9 @@ def test_camera_frames_missing_goes_lost_and_recovers(bins, base, tmp_path):
     rec = [c for name, c, s in ev if name == "CAMERA_RECOVERED" and s == "1"]
     assert lost == [14] and rec == [17], ev  # 10 cycles without a frame (5..14), back at 17
     states = {int(r["cycle"]): r["state"] for r in tables["camera"] if r["camera"] == "y"}
-    assert all(states[c] == "LOST" for c in range(14, 17)) and states[17] == "OK", states
+    # back at 17: its frames flow again, and integrity holds it out (LAG_VERIFY) until its
+    # time-offset test has passed, or fuses it (OK) at once when no other camera worked
+    assert all(states[c] == "LOST" for c in range(14, 17)) and states[17] in ("OK", "LAG_VERIFY"), states
     assert all(states[c] == "SKIPPED" for c in range(5, 14)), states
     hk = tables["housekeeping"][-1]
     assert int(hk["n_cam_errors"]) >= 12
