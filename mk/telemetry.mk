@@ -22,7 +22,7 @@ tlm-docs: contracts
 $(TLM_FUZZ_BIN): $(TLM_FUZZ_SRCS) $(wildcard firmware/tlm/*.h)
 	@mkdir -p $(@D)
 	$(TLM_FUZZ_CC) -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-	  -Ifirmware/tlm $(TLM_FUZZ_SRCS) -o $@
+	  -Ifirmware/tlm -Imath $(TLM_FUZZ_SRCS) -o $@
 
 # Runs the fuzzer for SECS seconds from corpus DIR and prints
 # "NAME: 1 passed, 0 failed (N executions in SECS s)" (libFuzzer exits
@@ -62,6 +62,6 @@ BENCH_TARGETS += bench-tlm
 .PHONY: bench-tlm
 build/bench/bench_tlm: tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) $(wildcard firmware/tlm/*.h)
 	@mkdir -p $(@D)
-	gcc $(CSTD) $(WARN) -O2 -Ifirmware/tlm tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) -o $@
+	gcc $(CSTD) $(WARN) -O2 -Ifirmware/tlm -Imath tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) -o $@
 bench-tlm: build/bench/bench_tlm
 	@build/bench/bench_tlm

@@ -20,7 +20,7 @@ TEST_SUITES  += fuzz-tc-brief
 
 $(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cmd_dispatch.h
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(FUZZ_FLAGS) -Ifirmware/tlm -Ifirmware/app $(TC_FUZZ_SRCS) -o $@
+	$(FUZZ_CC) $(FUZZ_FLAGS) -Ifirmware/tlm -Imath -Ifirmware/app $(TC_FUZZ_SRCS) -o $@
 
 # $(1) name, $(2) corpus dir, $(3) seconds, $(4) seed
 define tc_run_fuzz
