@@ -285,10 +285,12 @@ static uint8_t camera_state(const struct nav_cams *cams, const mfns_nav_output_t
     if (c->health.state == CAM_HEALTH_LOST) {
         return TLM_CAM_LOST;
     }
-    if (out->cam_held[k] == 2U) {
-        return TLM_CAM_LAGGING; /* integrity_lag.h: its frames lag */
+    /* integrity's holds (integrity_lag.h) describe frames the camera gave:
+     * without one this cycle it is SKIPPED, what the operator must see first */
+    if (c->have && out->cam_held[k] == 2U) {
+        return TLM_CAM_LAGGING; /* its frames lag */
     }
-    if (out->cam_held[k] == 3U) {
+    if (c->have && out->cam_held[k] == 3U) {
         return TLM_CAM_LAG_VERIFY;
     }
     return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;

@@ -128,8 +128,11 @@ def test_clock_step_ahead_is_left_out_then_realigned(bins, base, tmp_path):
     y = [r for r in tables["camera"] if r["camera"] == "y"]
     states = {int(r["cycle"]): (r["state"], int(r["frame_seq"])) for r in y}
     assert states[15][0] == "CLOCK_FAULT" and all(states[c][0] == "PROBATION" for c in range(16, 25)), states
-    # back with its stamps corrected: its frame k fused in cycle k
-    assert all(states[c] == ("OK", c) for c in range(25, FRAMES)), states
+    # back with its stamps corrected: its frame k in cycle k; integrity first holds it
+    # (LAG_VERIFY) until its time-offset test has passed 4 fixes, then fuses it
+    assert all(states[c][1] == c and states[c][0] in ("OK", "LAG_VERIFY") for c in range(25, FRAMES)), states
+    # (in this short run its lag is never verified: it stays held to the end, availability
+    # lost, never integrity; issue 23's open item)
     # no nav packet stamped 5 s ahead, and every fix at its frames' capture time
     assert max(float(r["t_s"]) for r in tables["nav"]) < base["times"][-1] + 0.01
     usable_stamped_at_their_frames(tables, base["times"])
