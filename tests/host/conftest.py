@@ -58,32 +58,11 @@ def calib_small_dataset(tmp_path_factory) -> Path:
 # --------------------------------------------------------------------------- telemetry
 def cobs_frames(data: bytes) -> list[bytes]:
     """The CCSDS packets of a recorded telemetry stream, unframed independently of the C
-    decoder: split at 0x00, COBS-decode, check and strip the CRC-16/CCITT-FALSE
-    (binascii.crc_hqx with init 0xFFFF). Frames that fail are left out."""
-    import binascii
+    decoder: the package's own Python deframer (mfns.map.fixlog.unframe: split at 0x00,
+    COBS-decode, check and strip the CRC-16/CCITT-FALSE). Frames that fail are left out."""
+    from mfns.map.fixlog import unframe
 
-    out = []
-    for frame in data.split(b"\0"):
-        if not frame:
-            continue
-        raw, i = bytearray(), 0
-        ok = True
-        while i < len(frame):
-            code = frame[i]
-            if code == 0 or i + code > len(frame):
-                ok = False
-                break
-            raw += frame[i + 1 : i + code]
-            i += code
-            if code < 0xFF and i < len(frame):
-                raw.append(0)
-        if (
-            ok
-            and len(raw) > 2
-            and binascii.crc_hqx(bytes(raw[:-2]), 0xFFFF) == int.from_bytes(raw[-2:], "big")
-        ):
-            out.append(bytes(raw[:-2]))
-    return out
+    return unframe(data)
 
 
 @pytest.fixture(scope="session")
