@@ -33,6 +33,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from sim_case import module_case
+
 REPO = Path(__file__).resolve().parents[1]
 BIN = REPO / "build" / "host-sim" / "bin"
 FRAME_PERIOD_MS = 53.8  # 18.6 Hz (README)
@@ -65,24 +67,7 @@ def fly(out: Path, seed: int, frames: int, map_of: Path | None = None) -> dict:
     d = out / (f"seed{seed}" if map_of is None else f"seed{seed}-wrong-map")
     shutil.rmtree(d, ignore_errors=True)
     d.mkdir(parents=True)
-    py = [sys.executable, "-m", "mfns"]
-    run(
-        [
-            *py,
-            "sim",
-            "nav",
-            str(d / "frames"),
-            "--quiet",
-            "--scenario",
-            "module",
-            "--frames",
-            str(frames),
-            "--seed",
-            str(seed),
-        ]
-    )
-    beacons = map_of if map_of is not None else d / "frames/beacons.csv"
-    run([*py, "table", "build", str(d / "frames/calib.json"), str(beacons), "-o", str(d / "t.mfnstbl")])
+    table = module_case(d, seed, frames, map_of)
     cg = d / "cg"
     cg.mkdir()
     run(
@@ -95,7 +80,7 @@ def fly(out: Path, seed: int, frames: int, map_of: Path | None = None) -> dict:
             f"--callgrind-out-file={cg}/cg.%p",
             str(BIN / "mfns-nav"),
             "--table",
-            str(d / "t.mfnstbl"),
+            str(table),
             "--replay",
             str(d / "frames"),
             "--file",

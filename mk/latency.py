@@ -21,6 +21,8 @@ import sys
 import threading
 from pathlib import Path
 
+from sim_case import module_case
+
 REPO = Path(__file__).resolve().parents[1]
 BIN = REPO / "build" / "host-sim" / "bin"
 LINE = re.compile(
@@ -29,36 +31,11 @@ LINE = re.compile(
 )
 
 
-def mfns(*args: str) -> None:
-    r = subprocess.run([sys.executable, "-m", "mfns", *args], capture_output=True, text=True, check=False)
-    if r.returncode != 0:
-        sys.exit(f"latency: mfns {args[0]} failed: {r.stderr[-1500:]}")
-
-
 def fly(out: Path, seed: int, frames: int) -> dict:
     d = out / f"seed{seed}"
     shutil.rmtree(d, ignore_errors=True)
     d.mkdir(parents=True)
-    mfns(
-        "sim",
-        "nav",
-        str(d / "frames"),
-        "--quiet",
-        "--scenario",
-        "module",
-        "--frames",
-        str(frames),
-        "--seed",
-        str(seed),
-    )
-    mfns(
-        "table",
-        "build",
-        str(d / "frames/calib.json"),
-        str(d / "frames/beacons.csv"),
-        "-o",
-        str(d / "t.mfnstbl"),
-    )
+    table = module_case(d, seed, frames)
     master, slave = pty.openpty()
     got = bytearray()
     stop = threading.Event()
@@ -79,7 +56,7 @@ def fly(out: Path, seed: int, frames: int) -> dict:
         [
             str(BIN / "mfns-nav"),
             "--table",
-            str(d / "t.mfnstbl"),
+            str(table),
             "--replay",
             str(d / "frames"),
             "--realtime",
