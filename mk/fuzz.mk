@@ -37,22 +37,13 @@ build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(wildcard drivers/camera/re
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_FLAGS) $(INCLUDES) $< $(fuzz_srcs_$*) -lm -o $@
 
-# $(1) name, $(2) corpus dir, $(3) seconds, $(4) seed: prints
-# "fuzz-NAME: 1 passed, 0 failed (N executions in S s, cov: C)".
+# $(1) name, $(2) corpus dir, $(3) seconds, $(4) seed (mk/fuzz_run.sh prints the verdict);
+# the caltable fuzzer also starts from the default table, at even and odd alignment.
 define reader_run_fuzz
 	@mkdir -p $(2)
-	@cp -n tests/fuzz/corpus/$(1)/* $(2)/ 2>/dev/null || true
 	@if [ "$(1)" = caltable ] && [ -f $(GEN)/default.mfnstbl ]; then cp $(GEN)/default.mfnstbl $(2)/default-even; \
 	  { printf '\001'; cat $(GEN)/default.mfnstbl; } > $(2)/default-odd; fi
-	@log=build/fuzz/$(1).log; \
-	if build/fuzz/fuzz_$(1) -max_total_time=$(3) -seed=$(4) -max_len=$(fuzz_maxlen_$(1)) -print_final_stats=1 \
-	     -rss_limit_mb=1024 -artifact_prefix=build/fuzz/$(1)- $(2) >$$log 2>&1; then \
-	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
-	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
-	  echo "fuzz-$(1): 1 passed, 0 failed ($${execs:-?} executions in $(3) s, $${cov:-cov: ?})"; \
-	else \
-	  tail -n 40 $$log; echo "fuzz-$(1): 0 passed, 1 failed"; exit 1; \
-	fi
+	@mk/fuzz_run.sh fuzz-$(1) build/fuzz/fuzz_$(1) $(2) $(3) $(4) $(fuzz_maxlen_$(1)) tests/fuzz/corpus/$(1)
 endef
 
 $(foreach f,$(READER_FUZZERS),$(eval fuzz-$(f): build/fuzz/fuzz_$(f) $(if $(filter caltable,$(f)),$(GEN)/default.mfnstbl) ; \

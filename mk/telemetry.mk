@@ -24,29 +24,13 @@ $(TLM_FUZZ_BIN): $(TLM_FUZZ_SRCS) $(wildcard firmware/tlm/*.h)
 	$(TLM_FUZZ_CC) -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
 	  -Ifirmware/tlm -Imath $(TLM_FUZZ_SRCS) -o $@
 
-# Runs the fuzzer for SECS seconds from corpus DIR and prints
-# "NAME: 1 passed, 0 failed (N executions in SECS s)" (libFuzzer exits
-# non-zero, and the recipe fails, on any crash or sanitizer report).
-define tlm_run_fuzz
-	@mkdir -p $(2)
-	@log=build/fuzz/$(1).log; \
-	if $(TLM_FUZZ_BIN) -max_total_time=$(3) -seed=$(4) -print_final_stats=1 \
-	     -artifact_prefix=build/fuzz/ $(2) >$$log 2>&1; then \
-	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
-	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
-	  echo "$(1): 1 passed, 0 failed ($${execs:-?} executions in $(3) s, $${cov:-cov: ?})"; \
-	else \
-	  tail -n 40 $$log; echo "$(1): 0 passed, 1 failed"; exit 1; \
-	fi
-endef
-
 fuzz-tlm-decoder: $(TLM_FUZZ_BIN)
-	$(call tlm_run_fuzz,fuzz-tlm-decoder,build/fuzz/corpus-tlm,$(TLM_FUZZ_SECONDS),0)
+	@mk/fuzz_run.sh fuzz-tlm-decoder $(TLM_FUZZ_BIN) build/fuzz/corpus-tlm $(TLM_FUZZ_SECONDS) 0 4096
 
 # A fresh corpus each time so the brief run does the same work on every machine.
 fuzz-brief: $(TLM_FUZZ_BIN)
 	@rm -rf build/fuzz/corpus-brief
-	$(call tlm_run_fuzz,fuzz-brief,build/fuzz/corpus-brief,10,1)
+	@mk/fuzz_run.sh fuzz-brief $(TLM_FUZZ_BIN) build/fuzz/corpus-brief 10 1 4096
 
 # mfns-tlm-gen (ground/tools/mfns_tlm_gen.c): built with `make flight` on Linux boards.
 ifeq ($(BOARD_KIND),linux)

@@ -22,27 +22,12 @@ $(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cm
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_FLAGS) -Ifirmware/tlm -Imath -Ifirmware/app $(TC_FUZZ_SRCS) -o $@
 
-# $(1) name, $(2) corpus dir, $(3) seconds, $(4) seed
-define tc_run_fuzz
-	@mkdir -p $(2)
-	@cp -n tests/fuzz/corpus/tc_decoder/* $(2)/ 2>/dev/null || true
-	@log=build/fuzz/$(1).log; \
-	if $(TC_FUZZ_BIN) -max_total_time=$(3) -seed=$(4) -max_len=4096 -print_final_stats=1 \
-	     -artifact_prefix=build/fuzz/tc- $(2) >$$log 2>&1; then \
-	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
-	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
-	  echo "$(1): 1 passed, 0 failed ($${execs:-?} executions in $(3) s, $${cov:-cov: ?})"; \
-	else \
-	  tail -n 40 $$log; echo "$(1): 0 passed, 1 failed"; exit 1; \
-	fi
-endef
-
 fuzz-tc-decoder: $(TC_FUZZ_BIN)
-	$(call tc_run_fuzz,fuzz-tc-decoder,build/fuzz/corpus-tc,$(FUZZ_SECONDS),0)
+	@mk/fuzz_run.sh fuzz-tc-decoder $(TC_FUZZ_BIN) build/fuzz/corpus-tc $(FUZZ_SECONDS) 0 4096 tests/fuzz/corpus/tc_decoder
 
 fuzz-tc-brief: $(TC_FUZZ_BIN)
 	@rm -rf build/fuzz/brief-tc
-	$(call tc_run_fuzz,fuzz-tc-brief,build/fuzz/brief-tc,$(FUZZ_BRIEF_SECONDS),1)
+	@mk/fuzz_run.sh fuzz-tc-brief $(TC_FUZZ_BIN) build/fuzz/brief-tc $(FUZZ_BRIEF_SECONDS) 1 4096 tests/fuzz/corpus/tc_decoder
 
 # Authenticated commands (docs/uplink.md 1a): the security header + MAC check + dispatch
 # fuzzer, and mfns-ground's command inputs (grammar, UDP/Unix datagram intake, signing).
@@ -64,25 +49,10 @@ build/fuzz/fuzz_$(1): $$(fuzz_srcs_$(1)) $$(wildcard firmware/tlm/*.h firmware/a
 endef
 $(foreach f,$(TC_AUTH_FUZZERS),$(eval $(call auth_fuzz_bin,$(f))))
 
-# $(1) name, $(2) seconds, $(3) seed
-define auth_run_fuzz
-	@mkdir -p build/fuzz/corpus-$(1)
-	@cp -n tests/fuzz/corpus/$(1)/* build/fuzz/corpus-$(1)/ 2>/dev/null || true
-	@log=build/fuzz/$(1).log; \
-	if build/fuzz/fuzz_$(1) -max_total_time=$(2) -seed=$(3) -max_len=512 -print_final_stats=1 \
-	     -artifact_prefix=build/fuzz/$(1)- build/fuzz/corpus-$(1) >$$log 2>&1; then \
-	  execs=$$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+)/\1/p' $$log | tail -n 1); \
-	  cov=$$(grep -oE 'cov: [0-9]+' $$log | tail -n 1); \
-	  echo "fuzz-$(1): 1 passed, 0 failed ($${execs:-?} executions in $(2) s, $${cov:-cov: ?})"; \
-	else \
-	  tail -n 40 $$log; echo "fuzz-$(1): 0 passed, 1 failed"; exit 1; \
-	fi
-endef
-
 fuzz-tc-auth: build/fuzz/fuzz_tc_auth
-	$(call auth_run_fuzz,tc_auth,$(FUZZ_SECONDS),0)
+	@mk/fuzz_run.sh fuzz-tc_auth build/fuzz/fuzz_tc_auth build/fuzz/corpus-tc_auth $(FUZZ_SECONDS) 0 512 tests/fuzz/corpus/tc_auth
 fuzz-uplink-grammar: build/fuzz/fuzz_uplink_grammar
-	$(call auth_run_fuzz,uplink_grammar,$(FUZZ_SECONDS),0)
+	@mk/fuzz_run.sh fuzz-uplink_grammar build/fuzz/fuzz_uplink_grammar build/fuzz/corpus-uplink_grammar $(FUZZ_SECONDS) 0 512 tests/fuzz/corpus/uplink_grammar
 
 # Yamcs' runtime in the venv (ground/requirements.txt): for `make test` and ground-yamcs only.
 .PHONY: ground-venv
