@@ -17,6 +17,7 @@
 
 #define LOOPBACK_NET 0x7F000000u  /* 127.0.0.0/8 */
 #define LOOPBACK_MASK 0xFF000000u
+#define TC_CFS_CHECKSUM_BYTE 7u /* cFS command secondary header: function code (6), checksum (7) */
 
 int udp_parse_endpoint(const char *s, bool allow_remote, uint32_t *addr_be, uint16_t *port, char *err,
                        size_t err_size)
@@ -123,6 +124,28 @@ int udp_tc_open(udp_tc_in_t *t, const char *endpoint, bool allow_remote, char *e
     return t->fd < 0 ? -1 : 0;
 }
 
+/* Yamcs' CfsCommandPostprocessor (ground/yamcs/etc) numbers each command and puts the
+ * cFS checksum in byte 7, where our packet has its reserved byte (the cFS function code is
+ * byte 6: our opcode): 0xFF xor every byte of the packet, the checksum byte taken as 0. A
+ * plain packet (byte 6, the opcode, not 0; a secured one has its SPI's high byte, 0, there)
+ * whose byte 7 is not 0 must carry a right checksum: it is checked, then cleared (the
+ * flight's frame has its own CRC-16 and wants the reserved byte 0). false: it is wrong. */
+static bool cfs_checksum_clear(uint8_t *pkt, size_t n)
+{
+    if (n <= TC_CFS_CHECKSUM_BYTE || pkt[TC_CFS_CHECKSUM_BYTE - 1u] == 0u || pkt[TC_CFS_CHECKSUM_BYTE] == 0u) {
+        return true; /* too short (the decoder says why), secured, or no checksum */
+    }
+    uint8_t x = 0xFFu;
+    for (size_t i = 0; i < n; i++) {
+        x ^= pkt[i];
+    }
+    if (x != 0u) {
+        return false;
+    }
+    pkt[TC_CFS_CHECKSUM_BYTE] = 0u;
+    return true;
+}
+
 int udp_tc_poll(udp_tc_in_t *t, tc_cmd_t *cmd, tc_status_t *status)
 {
     if (t == NULL || t->fd < 0) {
@@ -134,6 +157,11 @@ int udp_tc_poll(udp_tc_in_t *t, tc_cmd_t *cmd, tc_status_t *status)
         return 0; /* EAGAIN: nothing waiting (other errors: retried next poll) */
     }
     t->received++;
+    if (!cfs_checksum_clear(buf, (size_t)n)) {
+        t->refused++;
+        *status = TC_E_CRC;
+        return -1;
+    }
     *status = tc_packet_decode(buf, (size_t)n, cmd);
     if (*status != TC_OK) {
         t->refused++;

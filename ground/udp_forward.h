@@ -6,7 +6,9 @@
  *                  HOST:PORT;
  *   udp_tc_in_t    CCSDS TC packets received as datagrams on HOST:PORT (the
  *                  ground system's TC link), validated with tc_packet_decode
- *                  before they are sent up.
+ *                  before they are sent up. A cFS checksum in byte 7 (Yamcs'
+ *                  CfsCommandPostprocessor; the reserved byte of our layout)
+ *                  is checked and cleared first: a wrong one is refused (CRC).
  * Both are loopback-only unless allow_remote: the ground system runs on the
  * same machine, and a command socket open to a network is a hazard.
  * Non-blocking; a datagram nobody receives is counted, never waited on.

@@ -15,6 +15,7 @@
 #include "txq_drain.h"
 
 #define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
+#define TCP_CLOSE_MS 3000u /* what the TCP receiver still takes at exit, at most (bounded) */
 
 /* ---- grammar ---- */
 
@@ -203,12 +204,40 @@ static void log_cmd(uplink_t *up, uint16_t seq, const tc_cmd_t *c, const char *s
     }
 }
 
-/* Give c the next sequence count and queue its frame. */
-static void send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const char *text)
+/* The flight's sequence guard (firmware/app/nav_cmd_dispatch.c): a count is newer than the
+ * last one when it is 1..half the count space ahead of it (modulo 2^14). */
+#define UPLINK_SEQ_WINDOW (TLM_CCSDS_SEQ_MASK / 2u)
+
+/* The count a command goes up with. A command of the ground system's TC link (Yamcs, which
+ * numbers its commands and verifies each one on the flight's answer carrying that number,
+ * ground/mdb/mfns_tc.xml) keeps its own count when that is newer than the last count sent, so
+ * the flight's answer names the command Yamcs knows; every other source, and a Yamcs count
+ * that is not newer (Yamcs restarted while the board ran on, or other sources went ahead),
+ * gets the next count of the ground's one counter: the flight would refuse an older count. */
+static uint16_t pick_seq(uplink_t *up, const tc_cmd_t *c, bool keep_senders)
+{
+    if (!keep_senders || !c->have_seq) {
+        return up->next_seq;
+    }
+    const uint16_t last = (uint16_t)((up->next_seq - 1u) & TLM_CCSDS_SEQ_MASK);
+    const uint32_t ahead = (uint32_t)(c->seq - last) & TLM_CCSDS_SEQ_MASK;
+    if (ahead >= 1u && ahead <= UPLINK_SEQ_WINDOW) {
+        return c->seq;
+    }
+    fprintf(stderr,
+            "mfns-ground: the ground system's command %s has sequence count %u, not after the uplink's "
+            "last (%u): sent as %u; the ground system cannot match the flight's answer to it (its "
+            "verifiers time out)\n",
+            tc_opcode_name(c->opcode), c->seq, last, up->next_seq);
+    return up->next_seq;
+}
+
+/* Give c its sequence count (pick_seq) and queue its frame. */
+static void send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const char *text, bool keep_senders)
 {
     uint8_t wire[TC_MAX_WIRE];
     size_t n = 0;
-    const uint16_t seq = up->next_seq;
+    const uint16_t seq = pick_seq(up, c, keep_senders);
     const tc_status_t st = uplink_auth_frame(&up->auth, c, seq, wire, sizeof wire, &n);
     if (st != TC_OK || tlm_txq_push(&up->q, wire, n) != TLM_OK) {
         up->n_errors++;
@@ -235,7 +264,7 @@ static void handle_line(uplink_t *up, const char *line, const char *source, uint
     if (kind == UPLINK_LINE_WAIT) {
         up->wait_until_ms = now_ms + (uint64_t)llround(w * 1000.0);
     } else if (kind == UPLINK_LINE_CMD) {
-        send_cmd(up, &c, source, line);
+        send_cmd(up, &c, source, line, false);
     }
 }
 
@@ -291,7 +320,7 @@ static mfns_uart_t *out_link(uplink_t *up, mfns_uart_t *src)
 }
 
 /* One Unix/UDP intake: at most 16 datagrams per poll. */
-static void poll_intake(uplink_t *up, udp_tc_in_t *in, const char *source)
+static void poll_intake(uplink_t *up, udp_tc_in_t *in, const char *source, bool keep_senders)
 {
     for (int i = 0; i < 16; i++) {
         tc_cmd_t c;
@@ -305,7 +334,7 @@ static void poll_intake(uplink_t *up, udp_tc_in_t *in, const char *source)
             fprintf(stderr, "mfns-ground: %s command refused: %s (not sent)\n", source, tc_strerror(st));
             continue;
         }
-        send_cmd(up, &c, source, tc_opcode_name(c.opcode));
+        send_cmd(up, &c, source, tc_opcode_name(c.opcode), keep_senders);
     }
 }
 
@@ -313,6 +342,7 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
 {
     uplink_t *up = ctx;
     mfns_uart_t *u = out_link(up, src);
+    tcp_forward_poll(&up->tcp); /* a client connecting, a queue draining */
     if (!uplink_auth_ready(&up->auth)) { /* signing: the board's epoch not known yet; commands wait */
         if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
             (void)txq_drain(&up->q, u, now_ms);
@@ -323,8 +353,8 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
         handle_line(up, up->o.cli[up->next_cli], "cli", now_ms);
     }
     read_cmd_file(up, now_ms);
-    poll_intake(up, &up->tcin, "udp");
-    poll_intake(up, &up->sockin, "socket");
+    poll_intake(up, &up->tcin, "udp", true); /* Yamcs: its own counts (pick_seq) */
+    poll_intake(up, &up->sockin, "socket", false);
     if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
         (void)txq_drain(&up->q, u, now_ms); /* a link not there yet: frames wait */
     }
@@ -337,6 +367,7 @@ static void hook_packet(void *ctx, const tlm_packet_t *p)
         uplink_auth_housekeeping(&up->auth, &p->u.hk);
     }
     (void)udp_forward_packet(&up->fwd, p);
+    (void)tcp_forward_packet(&up->tcp, p);
 }
 
 static void hook_finish(void *ctx, mfns_uart_t *src)
@@ -367,6 +398,8 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
     up->next_seq = o->seq_start;
     up->cmd_fd = -1;
     up->fwd.fd = -1;
+    up->tcp.lfd = -1;
+    up->tcp.cfd = -1;
     up->tcin.fd = -1;
     up->sockin.fd = -1;
     up->tc.fd = -1;
@@ -413,6 +446,11 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
         (void)uplink_close(up);
         return -1;
     }
+    if (o->tcp_forward != NULL && tcp_forward_open(&up->tcp, o->tcp_forward, o->udp_allow_remote, err, sizeof err)) {
+        fprintf(stderr, "mfns-ground: --tcp-forward: %s\n", err);
+        (void)uplink_close(up);
+        return -1;
+    }
     if (o->udp_tc != NULL && udp_tc_open(&up->tcin, o->udp_tc, o->udp_allow_remote, err, sizeof err) != 0) {
         fprintf(stderr, "mfns-ground: --udp-tc: %s\n", err);
         (void)uplink_close(up);
@@ -437,9 +475,11 @@ int uplink_close(uplink_t *up)
         up->n_errors++;
     }
     up->log = NULL;
+    const bool tcp_on = up->tcp.lfd >= 0;
+    const uint32_t tcp_left = tcp_forward_close(&up->tcp, TCP_CLOSE_MS); /* what the receiver still takes */
     /* the counters; under -q only when something failed */
-    if ((!up->o.quiet && (up->n_sent > 0u || up->fwd.fd >= 0 || up->tcin.fd >= 0 || up->sockin.fd >= 0)) || up->n_errors > 0u ||
-        up->fwd.errors > 0u) {
+    if ((!up->o.quiet && (up->n_sent > 0u || up->fwd.fd >= 0 || tcp_on || up->tcin.fd >= 0 || up->sockin.fd >= 0)) ||
+        up->n_errors > 0u || up->fwd.errors > 0u || up->tcp.dropped > 0u || tcp_left > 0u) {
         fprintf(stderr, "mfns-ground: uplink: %u commands sent, %u errors", up->n_sent, up->n_errors);
         if (up->fwd.fd >= 0) {
             /* UDP confirms nothing: what the receiver dropped is only seen there
@@ -448,6 +488,10 @@ int uplink_close(uplink_t *up)
                     "; UDP forward: %u packets sent, %u refused by the socket (UDP confirms no delivery: "
                     "count at the receiver)",
                     up->fwd.sent, up->fwd.errors);
+        }
+        if (tcp_on) {
+            fprintf(stderr, "; TCP forward: %u packets sent, %u dropped, %u never taken (%u clients)", up->tcp.sent,
+                    up->tcp.dropped, tcp_left, up->tcp.clients);
         }
         if (up->tcin.fd >= 0) {
             fprintf(stderr, "; UDP commands: %u received, %u refused", up->tcin.received, up->tcin.refused);

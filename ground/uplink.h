@@ -3,12 +3,15 @@
  * a ground system over UDP (--udp-tc, udp_forward.h), encoded with the
  * portable codec (firmware/tlm/tc_packets.h) and sent up a tty/FIFO
  * (--tc-tty), into a file (--tc-file) or on the telemetry link itself
- * (--uplink), while ground_run keeps receiving. Also owns the UDP forwarder
- * of decoded telemetry (--udp-forward).
+ * (--uplink), while ground_run keeps receiving. Also owns the forwarders
+ * of decoded telemetry (--udp-forward, --tcp-forward: tcp_forward.h).
  *
  * The ground station is the one sender on the uplink, so it owns the
- * sequence count: every command, whatever its source, gets the next count
- * (starting at --tc-seq-start, default 0); with --tc-key it also signs every
+ * sequence count: every command gets the next count (starting at
+ * --tc-seq-start, default 0), except one from the ground system's UDP TC
+ * link (Yamcs numbers its commands and matches the flight's answer on that
+ * number), which keeps its count when that is newer than the last one sent;
+ * the counter then continues after it. With --tc-key it also signs every
  * one (uplink_auth.h). Every command sent is logged in
  * OUT/commands.csv (utc, seq, opcode, source, text).
  *
@@ -33,6 +36,7 @@
 #include "ground.h"
 #include "tc_packets.h"
 #include "tlm_txq.h"
+#include "tcp_forward.h"
 #include "udp_forward.h"
 #include "uplink_auth.h"
 
@@ -49,6 +53,7 @@ typedef struct {
     const char *cmd_file;              /* --cmd-file PATH or "-" */
     uint16_t seq_start;
     const char *udp_forward;           /* HOST:PORT or NULL */
+    const char *tcp_forward;           /* --tcp-forward HOST:PORT (listen) or NULL */
     const char *udp_tc;                /* HOST:PORT or NULL */
     const char *tc_socket;             /* --tc-socket PATH: Unix datagram socket, mode 0600, or NULL */
     const char *tc_key;                /* --tc-key FILE: sign every command (uplink_auth.h) */
@@ -85,6 +90,7 @@ typedef struct {
     FILE *log;
     bool log_failed;
     udp_forward_t fwd;
+    tcp_forward_t tcp;       /* --tcp-forward: 2 MB queue, so uplink_t is static (main.c) */
     udp_tc_in_t tcin;
     udp_tc_in_t sockin;      /* --tc-socket */
     uplink_auth_t auth;

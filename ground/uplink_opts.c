@@ -29,6 +29,8 @@ void uplink_usage(FILE *f)
             "           CAMERA_DISABLE x|y|z | TABLE_LOAD PATH | WAIT SECONDS ; '#' comments\n"
             "ground system (UDP, loopback only unless --udp-allow-remote):\n"
             "  --udp-forward HOST:PORT  every decoded packet (CCSDS bytes) as a datagram\n"
+            "  --tcp-forward HOST:PORT  listen there; every decoded packet (CCSDS bytes) to the client\n"
+            "                           as a stream, lossless (e.g. Yamcs' TcpTmDataLink, link tm_tcp)\n"
             "  --udp-tc HOST:PORT       receive CCSDS TC packets (e.g. Yamcs' TC link) and send them up\n"
             "  --udp-allow-remote       allow a non-loopback HOST\n");
 }
@@ -57,7 +59,7 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
         const bool has_val = i + 1 < argc;
         const char *needs[] = {"--cmd",          "--cmd-file", "--tc-tty", "--tc-file",
                                "--tc-seq-start", "--udp-forward", "--udp-tc", "--tc-key", "--tc-epoch",
-                               "--tc-socket", "--tc-count-start"};
+                               "--tc-socket", "--tc-count-start", "--tcp-forward"};
         bool mine_val = false;
         for (size_t k = 0; k < sizeof needs / sizeof needs[0]; k++) {
             mine_val = mine_val || strcmp(a, needs[k]) == 0;
@@ -106,6 +108,8 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
             o->seq_start = (uint16_t)s;
         } else if (strcmp(a, "--udp-forward") == 0) {
             o->udp_forward = v;
+        } else if (strcmp(a, "--tcp-forward") == 0) {
+            o->tcp_forward = v;
         } else if (strcmp(a, "--tc-key") == 0) {
             o->tc_key = v;
         } else if (strcmp(a, "--tc-socket") == 0) {
@@ -152,6 +156,11 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
         fprintf(err, "mfns-ground: --udp-forward %s\n", msg);
         return -1;
     }
+    if (o->tcp_forward != NULL && udp_parse_endpoint(o->tcp_forward, o->udp_allow_remote, &addr, &port, msg,
+                                                     sizeof msg) != 0) {
+        fprintf(err, "mfns-ground: --tcp-forward %s\n", msg);
+        return -1;
+    }
     if (o->udp_tc != NULL && udp_parse_endpoint(o->udp_tc, o->udp_allow_remote, &addr, &port, msg, sizeof msg) != 0) {
         fprintf(err, "mfns-ground: --udp-tc %s\n", msg);
         return -1;
@@ -161,6 +170,6 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
 
 bool uplink_wanted(const uplink_opts_t *o)
 {
-    return o->out != UPLINK_OUT_NONE || o->udp_forward != NULL;
+    return o->out != UPLINK_OUT_NONE || o->udp_forward != NULL || o->tcp_forward != NULL;
 }
 

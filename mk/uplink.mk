@@ -37,7 +37,7 @@ fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(sort $(wildcard firmware/tlm/*.
                      firmware/app/tc_auth.c
 fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(sort $(wildcard firmware/tlm/*.c)) \
                      firmware/app/tc_auth.c firmware/app/txq_drain.c ground/uplink.c ground/uplink_auth.c \
-                     ground/udp_forward.c $(sort $(wildcard drivers/uart/*.c))
+                     ground/udp_forward.c ground/tcp_forward.c $(sort $(wildcard drivers/uart/*.c))
 FUZZ_TARGETS += $(addprefix fuzz-,$(subst _,-,$(TC_AUTH_FUZZERS)))
 .PHONY: fuzz-tc-auth fuzz-uplink-grammar
 

@@ -40,6 +40,7 @@ ADDRESS = "127.0.0.1:8090"
 HTTP = f"http://{ADDRESS}"
 INSTANCE = "mfns"
 TM_PORT = 10015  # Yamcs listens: mfns-ground --udp-forward 127.0.0.1:10015
+TM_TCP_PORT = 10016  # Yamcs connects: mfns-ground --tcp-forward 127.0.0.1:10016 (lossless)
 TC_PORT = 10025  # Yamcs sends: mfns-ground --udp-tc 127.0.0.1:10025
 
 
@@ -148,12 +149,27 @@ def wait_ready(proc: subprocess.Popen, timeout: float = 90.0) -> float:
         try:
             procs = {p.name: p.state for p in c.list_processors(INSTANCE)}
             if procs.get("realtime") == "RUNNING":
-                if {lk.name for lk in c.list_links(INSTANCE)} >= {"tm_udp", "tc_udp"}:
+                if {lk.name for lk in c.list_links(INSTANCE)} >= {"tm_udp", "tm_tcp", "tc_udp"}:
                     return time.monotonic() - t0
         except (YamcsError, RequestException, ConnectionError, OSError, ValueError):
             pass
         time.sleep(0.2)
     raise TimeoutError("Yamcs did not come up")
+
+
+def connect_tcp_link(timeout: float = 15.0) -> float:
+    """Seconds until Yamcs' TCP TM link (tm_tcp) is connected to mfns-ground --tcp-forward,
+    which must be listening: the link retries only every 10 s, a disable/enable retries now."""
+    c = client()
+    t0 = time.monotonic()
+    link = c.get_link(INSTANCE, "tm_tcp")
+    link.disable_link()
+    link.enable_link()
+    while time.monotonic() - t0 < timeout:
+        if any(lk.name == "tm_tcp" and lk.status == "OK" for lk in c.list_links(INSTANCE)):
+            return time.monotonic() - t0
+        time.sleep(0.1)
+    raise TimeoutError("Yamcs' tm_tcp link did not connect to mfns-ground --tcp-forward")
 
 
 def stop(proc: subprocess.Popen) -> None:
@@ -179,7 +195,10 @@ def serve(rundir: Path) -> int:
         dt = wait_ready(proc)
         ns = f"/proc/{os.getpid()}/ns/net"
         print(f"Yamcs up in {dt:.1f} s: {HTTP} (instance {INSTANCE}), log {rundir / 'yamcs.log'}")
-        print(f"  TM: mfns-ground ... --udp-forward 127.0.0.1:{TM_PORT}   TC: --udp-tc 127.0.0.1:{TC_PORT}")
+        print(
+            f"  TM: mfns-ground ... --tcp-forward 127.0.0.1:{TM_TCP_PORT} (lossless) or --udp-forward "
+            f"127.0.0.1:{TM_PORT}   TC: --udp-tc 127.0.0.1:{TC_PORT}"
+        )
         if in_private_netns():
             print(f"  private network namespace: join it with  nsenter --net={ns} <command>")
         proc.wait()

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import threading
 import time
@@ -77,7 +76,8 @@ PARAMS = (
     + [f"/MFNS_GROUND/{n}" for n in GROUND]
 )
 N_COMMANDS = 8  # the last commands shown
-REJECTED = re.compile(r"command opcode (\d+) .*rejected: (\w+)")  # flight_event's message (mfns_ground.xml)
+FAILED_RETURN = "Verifier_Failed_Return"  # command history: what the Failed verifier returned
+USABLE = ("FIX", "DEGRADED")  # a pose the flight's integrity checks passed (docs/pose.md)
 
 
 def iso(t) -> str | None:
@@ -103,6 +103,7 @@ class State:
         self.hk: dict = {}
         self.ground: dict = {}
         self.cams: dict[str, dict] = {}
+        self.last_fix: dict = {}  # the navigation packet of the latest FIX or DEGRADED cycle
         self.n_deliveries = 0
         self.sub = self.proc.create_parameter_subscription(
             PARAMS, on_data=self._on_data, abort_on_invalid=False
@@ -129,6 +130,9 @@ class State:
                     self.hk["time"] = iso(p.generation_time)
                 elif space in ("MFNS_GROUND", "MFNS_TC"):
                     self.ground[short] = {"value": plain(p.eng_value), "alarm": p.monitoring_result}
+            status = vals.get("/MFNS/nav_status")
+            if status is not None and str(status.eng_value) in USABLE:  # a navigation packet with a pose
+                self.last_fix = dict(self.nav)
 
     def alarms(self) -> list[dict]:
         out = []
@@ -145,35 +149,17 @@ class State:
             )
         return out
 
-    def rejections(self) -> list[tuple[datetime, int, str]]:
-        """(time, opcode, reason) of the recent CMD_REJECTED Yamcs events (mfns_ground.xml's
-        flight_event names the reason; the command history's Failed stage does not carry it)."""
-        out = []
-        for e in self.archive.list_events(
-            source="MFNS", text_filter="rejected", descending=True, page_size=50
-        ):
-            m = REJECTED.match(e.message or "")
-            if e.event_type == "CMD_REJECTED" and m:
-                out.append((e.generation_time, int(m.group(1)), m.group(2)))
-            if len(out) == 50:
-                break
-        return out
-
     def commands(self) -> list[dict]:
         out = []
-        rejections = None
         for c in self.archive.list_command_history(descending=True, page_size=N_COMMANDS):
             acks = {
                 name: {"status": a.status, "time": iso(a.time), "message": a.message}
                 for name, a in c.acknowledgments.items()
             }
-            reason = None
-            sent = c.acknowledgments.get("Acknowledge_Sent")
-            if c.is_complete() and not c.is_success() and c.binary and len(c.binary) > 6 and sent is not None:
-                rejections = self.rejections() if rejections is None else rejections
-                opcode = c.binary[6]  # after the primary header (mfns_tc.xml MFNS_TC_header)
-                after = [r for r in rejections if r[1] == opcode and r[0] >= sent.time]
-                reason = min(after)[2] if after else None
+            # the flight's reason, by name: the Failed verifier returns it (mfns_tc.xml
+            # ReturnParmRef, mfns_ground.xml event_cmd_rejected) into the command's own history
+            reason = c.attributes.get(FAILED_RETURN)
+            timed_out = any(a["status"] == "TIMEOUT" for a in acks.values())
             out.append(
                 {
                     "name": c.name.rpartition("/")[2],
@@ -181,7 +167,8 @@ class State:
                     "acks": acks,
                     "complete": c.is_complete(),
                     "success": c.is_success(),
-                    "reason": reason,
+                    "timed_out": timed_out and not c.is_complete(),
+                    "reason": None if reason is None else str(reason),
                 }
             )
             if len(out) == N_COMMANDS:
@@ -192,6 +179,7 @@ class State:
         with self.lock:
             snap = {
                 "nav": dict(self.nav),
+                "last_fix": dict(self.last_fix),
                 "hk": dict(self.hk),
                 "cams": {k: dict(v) for k, v in self.cams.items()},
                 "ground": dict(self.ground),

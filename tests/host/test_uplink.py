@@ -99,6 +99,18 @@ def tc_packet(opcode: int, seq: int, args: bytes = b"") -> bytes:
     )
 
 
+def cfs_checksum(pkt: bytes) -> bytes:
+    """pkt with the cFS checksum in byte 7, as Yamcs' CfsCommandPostprocessor writes it: 0xFF
+    xor every byte, byte 7 taken as 0."""
+    b = bytearray(pkt)
+    b[7] = 0
+    x = 0xFF
+    for v in b:
+        x ^= v
+    b[7] = x
+    return bytes(b)
+
+
 def make_key(path: Path, key_id: int = 1) -> bytes:
     """A fresh board key in a key file of mode 0600 (never one from the repository)."""
     key = os.urandom(32)
@@ -387,6 +399,67 @@ def test_every_rejection_and_action_from_a_command_stream(bins, run, tmp_path, k
     assert "commands: 0 accepted, 0 rejected" in nav.stderr
 
 
+def test_tcp_forward_is_lossless_for_a_slow_receiver(bins, run, tmp_path):
+    """--tcp-forward: a receiver that connects late and then reads nothing for a while still
+    gets every packet, in order, byte-identical (but for the UTC time, as --udp-forward), and
+    the exit line says so; a second run with nobody connecting says what was never taken."""
+    tlm = tmp_path / "tlm.bin"
+    nav = subprocess.run(
+        [
+            str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+            "--tlm-file", str(tlm), "--max-cycles", "40",
+        ],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert nav.returncode == 0, nav.stderr
+    packets = [cobs_decode(fr)[:-2] for fr in tlm.read_bytes().split(b"\x00") if fr]
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    g = subprocess.Popen(
+        [
+            str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp_path / "g"), "--no-status",
+            "--tcp-forward", f"127.0.0.1:{port}",
+        ],
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    time.sleep(0.8)  # the whole file is decoded by now: the packets wait for a receiver
+    rx = None
+    for _ in range(100):
+        try:
+            rx = socket.create_connection(("127.0.0.1", port), timeout=5.0)
+            break
+        except OSError:
+            time.sleep(0.02)
+    assert rx is not None
+    time.sleep(1.0)  # a receiver busy elsewhere
+    data = b""
+    while True:
+        chunk = rx.recv(65536)
+        if not chunk:
+            break
+        data += chunk
+    rx.close()
+    _, err = g.communicate(timeout=30)
+    assert g.returncode == 0, err
+    got = []
+    while data:
+        n = 7 + int.from_bytes(data[4:6], "big")
+        got.append(data[:n])
+        data = data[n:]
+    assert [d[:6] + d[12:] for d in got] == [p[:6] + p[12:] for p in packets]
+    assert f"TCP forward: {len(packets)} packets sent, 0 dropped, 0 never taken (1 clients)" in err, err
+    g2 = subprocess.run(
+        [
+            str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp_path / "g2"), "--no-status",
+            "--tcp-forward", f"127.0.0.1:{port}",
+        ],
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert f"TCP forward: 0 packets sent, 0 dropped, {len(packets)} never taken (0 clients)" in g2.stderr
+
+
 def test_udp_forward_and_udp_commands(bins, run, tmp_path, key):
     # a short recorded stream
     tlm = tmp_path / "tlm.bin"
@@ -452,20 +525,32 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path, key):
     )  # fmt: skip
     time.sleep(0.5)
     tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    tx.sendto(tc_packet(OP["SET_MODE"], 1234, bytes([4])), ("127.0.0.1", tc_port))  # ground system's seq 1234
-    tx.sendto(tc_packet(OP["SET_MODE"], 1, bytes([3])), ("127.0.0.1", tc_port))  # SAFE: refused on the ground
+    # Yamcs' CfsCommandPostprocessor: its own count and the cFS checksum in byte 7
+    tx.sendto(cfs_checksum(tc_packet(OP["SET_MODE"], 1234, bytes([4]))), ("127.0.0.1", tc_port))
+    tx.sendto(
+        tc_packet(OP["SET_MODE"], 1235, bytes([3])), ("127.0.0.1", tc_port)
+    )  # SAFE: refused on the ground
     tx.sendto(b"\x01\x02\x03", ("127.0.0.1", tc_port))
+    bad = bytearray(cfs_checksum(tc_packet(OP["NOOP"], 1236)))
+    bad[7] ^= 0x01
+    tx.sendto(bytes(bad), ("127.0.0.1", tc_port))  # a wrong checksum: refused
+    tx.sendto(cfs_checksum(tc_packet(OP["NOOP"], 7)), ("127.0.0.1", tc_port))  # behind 1234: renumbered
     tx.close()
     _, err = ground.communicate(timeout=30)
     assert ground.returncode == 3, err  # nothing decoded on the FIFO (no flight program)
-    assert "UDP commands: 3 received, 2 refused" in err, err
+    assert "UDP commands: 5 received, 3 refused" in err, err
+    assert "sequence count 7, not after the uplink's last (1234): sent as 1235" in err, err
     frames = [fr for fr in up.read_bytes().split(b"\x00") if fr]
-    assert len(frames) == 1
+    assert len(frames) == 2
+    second = cobs_decode(frames[1])[:-2]
+    assert int.from_bytes(second[2:4], "big") & 0x3FFF == 1235 and second[16] == OP["NOOP"]
     pkt = cobs_decode(frames[0])
     assert binascii.crc_hqx(pkt[:-2], 0xFFFF) == int.from_bytes(pkt[-2:], "big")
-    # the ground's count, not 1234, and signed: the security header after the primary header,
-    # the MAC (HMAC-SHA-256, first 16 bytes) over everything before it, checked here with hashlib
-    plain = tc_packet(OP["SET_MODE"], 40, bytes([4]))
+    # the ground system's count 1234 kept (newer than the ground's last, 39: the flight's answer
+    # names the command the ground system knows), the checksum byte cleared, and signed: the
+    # security header after the primary header, the MAC (HMAC-SHA-256, first 16 bytes) over
+    # everything before it, checked here with hashlib
+    plain = tc_packet(OP["SET_MODE"], 1234, bytes([4]))
     spkt = pkt[:-2]
     assert len(spkt) == len(plain) + 26
     assert spkt[:4] == plain[:4] and int.from_bytes(spkt[4:6], "big") == len(spkt) - 7

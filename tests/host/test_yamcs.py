@@ -156,9 +156,14 @@ def test_every_packet_archived_and_equal_to_ground_csv(chain):
     nav = rows(out / "ground" / "nav.csv")
     assert len(nav) == FRAMES
     stats = json.loads((out / "ground" / "stats.json").read_text())
-    injected = 2  # the two housekeeping packets of the CPU alarm (test_alarms)
-    assert res["links"]["tm_udp"]["in"] == stats["frames_ok"] + injected
+    injected = 2  # the two housekeeping packets of the CPU alarm (test_alarms), on the UDP link
+    # every packet mfns-ground decoded went over TCP (flow control: none lost to a busy
+    # machine) and is in the archive
+    assert res["links"]["tm_tcp"]["in"] == stats["frames_ok"], (res["links"], stats)
+    assert res["links"]["tm_udp"]["in"] == injected
     assert res["packets_archived"] == stats["frames_ok"] + injected
+    log = (out / "ground.log").read_text()
+    assert f"TCP forward: {stats['frames_ok']} packets sent, 0 dropped, 0 never taken (1 clients)" in log, log
     p = res["params"]
     cycles = p["nav_cycle"]
     assert [c for _, c in cycles] == list(range(FRAMES))  # one nav packet per cycle, in order
@@ -181,8 +186,10 @@ def test_every_packet_archived_and_equal_to_ground_csv(chain):
         assert abs(utc(t) - utc(row["utc"])) < 1.5e-3  # the packet's real time
         assert abs(utc(t) - time.time()) < 3600
     print(
-        f"\nYamcs up in {res['startup_s']:.1f} s; {stats['frames_ok']} packets from mfns-ground + {injected} "
-        f"injected = {res['links']['tm_udp']['in']} in, {res['packets_archived']} archived; chain "
+        f"\nYamcs up in {res['startup_s']:.1f} s; {stats['frames_ok']} packets from mfns-ground (TCP, "
+        f"{res['links']['tm_tcp']['in']} in) + {injected} injected (UDP, "
+        f"{res['links']['tm_udp']['in']} in) = "
+        f"{res['packets_archived']} archived; chain "
         f"{res['chain_s']:.1f} s, whole run {res['total_s']:.1f} s"
     )
 
@@ -191,10 +198,10 @@ def test_commands_in_engineering_units_are_verified(chain):
     res, out = chain["res"], chain["out"]
     sent = res["sent"]
     names = [s["name"] for s in sent]
-    assert names == ["NOOP", "SET_POSE_HINT", "TABLE_LOAD", "SET_MODE", "SET_MODE", "TABLE_LOAD"]
+    assert names == ["NOOP", "NOOP", "SET_POSE_HINT", "TABLE_LOAD", "SET_MODE", "SET_MODE", "TABLE_LOAD"]
     hist = {c["id"]: c for c in res["cmdhist"]}
     # SET_POSE_HINT in mm and deg: on the wire, the counts mfns-ground's grammar makes (um, udeg)
-    hint = sent[1]
+    hint = sent[2]
     wire = bytes.fromhex(hist[hint["id"]]["binary"])[8:32]
     counts = [int.from_bytes(wire[i : i + 4], "big", signed=True) for i in range(0, 24, 4)]
     a = hint["args"]
@@ -206,19 +213,40 @@ def test_commands_in_engineering_units_are_verified(chain):
         round(a["pitch_deg"] * 1e6),
         round(a["yaw_deg"] * 1e6),
     ]
-    assert bytes.fromhex(hist[sent[3]["id"]]["binary"])[8] == 4  # SET_MODE STANDBY: tlm_mode_t 4
+    assert bytes.fromhex(hist[sent[4]["id"]]["binary"])[8] == 4  # SET_MODE STANDBY: tlm_mode_t 4
+    # Yamcs numbers its commands (ccsds-seqcount in the history, the count in its binary) and
+    # mfns-ground sends each one up with that count (commands.csv)
+    seqs = [hist[s["id"]]["attrs"]["ccsds-seqcount"] for s in sent]
+    assert len(set(seqs)) == len(seqs)
+    for s, q in zip(sent, seqs, strict=True):
+        assert int.from_bytes(bytes.fromhex(hist[s["id"]]["binary"])[2:4], "big") & 0x3FFF == q
+    uplinked = [(int(r["seq"]), r["opcode"], r["source"]) for r in rows(out / "ground" / "commands.csv")]
+    assert uplinked == [(q, n, "udp") for q, n in zip(seqs, names, strict=True)]
     answers = [e for e in rows(out / "ground" / "events.csv") if e["event"].startswith("CMD_")]
-    assert [(e["event"], e["subject"], e["arg1"]) for e in answers][:5] == [
-        ("CMD_ACCEPTED", "1", "0"),
-        ("CMD_ACCEPTED", "4", "0"),
-        ("CMD_REJECTED", "7", "13"),
-        ("CMD_ACCEPTED", "3", "4"),
-        ("CMD_ACCEPTED", "3", "1"),
+    # the flight answers each command once, naming its sequence count (arg0)
+    assert [(e["event"], e["subject"], int(e["arg0"]), e["arg1"]) for e in answers[:6]] == [
+        ("CMD_ACCEPTED", "1", seqs[0], "0"),
+        ("CMD_ACCEPTED", "1", seqs[1], "0"),
+        ("CMD_ACCEPTED", "4", seqs[2], "0"),
+        ("CMD_REJECTED", "7", seqs[3], "13"),
+        ("CMD_ACCEPTED", "3", seqs[4], "4"),
+        ("CMD_ACCEPTED", "3", seqs[5], "1"),
     ]
-    assert answers[5]["event"] == "CMD_ACCEPTED" and answers[5]["subject"] == "7"
+    assert (answers[6]["event"], answers[6]["subject"], int(answers[6]["arg0"])) == (
+        "CMD_ACCEPTED",
+        "7",
+        seqs[6],
+    )
+    assert len(answers) == len(sent)  # the lost command (below) never reached the flight
+    # the second NOOP was sent after the first one's answer had verified the first: when it was
+    # released, the latest command answer Yamcs held was one of its opcode, but not its own
+    by_seq = {int(e["arg0"]): e for e in answers}
+    t2 = utc(hist[sent[1]["id"]]["acks"]["Acknowledge_Sent"]["time"])
+    before = [e for e in answers if utc(e["ground_utc"]) < t2]
+    assert before and before[-1] is by_seq[seqs[0]] and before[-1]["subject"] == "1"
     lines = []
-    for s, ans in zip(sent, answers, strict=True):
-        c = hist[s["id"]]
+    for s, q in zip(sent, seqs, strict=True):
+        c, ans = hist[s["id"]], by_seq[q]
         acks = c["acks"]
         t_sent = utc(acks["Acknowledge_Sent"]["time"])
         assert acks["Acknowledge_Sent"]["status"] == "OK"
@@ -226,25 +254,47 @@ def test_commands_in_engineering_units_are_verified(chain):
             assert c["success"] and c["complete"], c
             for stage in ("Verifier_Accepted", "Verifier_Complete"):
                 assert acks[stage]["status"] == "OK", (s["name"], acks)
-                # verified after the flight answered, within the window (10 s), on this answer
-                assert utc(ans["ground_utc"]) - 0.05 <= utc(acks[stage]["time"]) < t_sent + 10.0, (s, acks)
+                # verified by its own answer: not before that answer reached the ground, within the window
+                assert utc(ans["ground_utc"]) - 0.005 <= utc(acks[stage]["time"]) < t_sent + 10.0, (s, acks)
             assert acks["Verifier_Failed"]["status"] == "CANCELLED"
         else:
             assert c["complete"] and not c["success"], c
             assert acks["Verifier_Failed"]["status"] == "OK"
-            assert utc(ans["ground_utc"]) - 0.05 <= utc(acks["Verifier_Failed"]["time"]) < t_sent + 10.0
+            assert utc(ans["ground_utc"]) - 0.005 <= utc(acks["Verifier_Failed"]["time"]) < t_sent + 10.0
             assert acks["Verifier_Accepted"]["status"] == "CANCELLED"
-            # the reason (tc_status_t 13) in the Yamcs event of the answer
+            # the flight's reason (tc_status_t 13) by its dictionary name, in the command history
+            assert c["attrs"]["Verifier_Failed_Return"] == "TABLE"
+            assert c["error"] == "Verifier Failed return: TABLE"
             rej = [e for e in res["events"] if e["type"] == "CMD_REJECTED"]
             assert len(rej) == 1 and rej[0]["message"].startswith(
-                "command opcode 7 (sequence count 2) rejected: TABLE"
+                f"command opcode 7 (sequence count {q}) rejected: TABLE"
             )
+            lines.append(f'{s["name"]} rejected, command history: CommandComplete NOK "{c["error"]}"')
         done = acks["Verifier_Complete" if ans["event"] == "CMD_ACCEPTED" else "Verifier_Failed"]
+        stage = "Complete" if ans["event"] == "CMD_ACCEPTED" else "Failed"
+        acc = acks["Verifier_Accepted"]
         lines.append(
-            f"{s['name']}: sent {acks['Acknowledge_Sent']['time'][11:23]}, flight answer at the ground "
-            f"{ans['ground_utc'][11:23]}, verified {done['time'][11:23]} "
-            f"({(utc(done['time']) - t_sent) * 1e3:.0f} ms after sending)"
+            f"{s['name']} (count {q}): sent {acks['Acknowledge_Sent']['time'][11:23]}, flight answer at the "
+            f"ground {ans['ground_utc'][11:23]}, Accepted {acc['time'][11:23]} ({acc['status']}), {stage} "
+            f"{done['time'][11:23]} ({(utc(done['time']) - t_sent) * 1e3:.0f} ms after sending)"
         )
+    # the second NOOP: its own answer arrived after it was released, and verified it
+    second = hist[sent[1]["id"]]["acks"]
+    assert utc(by_seq[seqs[1]]["ground_utc"]) > utc(second["Acknowledge_Sent"]["time"])
+    # a command whose answer is lost: every verifier times out after its window, although
+    # answers of its opcode (the two NOOPs) are in Yamcs
+    lost = hist[res["lost"]["id"]]
+    la = lost["acks"]
+    assert lost["attrs"]["ccsds-seqcount"] not in seqs
+    for stage in ("Verifier_Accepted", "Verifier_Complete", "Verifier_Failed"):
+        assert la[stage]["status"] == "TIMEOUT", la
+        assert 9.9 <= utc(la[stage]["time"]) - utc(la["Acknowledge_Released"]["time"]) < 12.0, la
+    assert not lost["success"]
+    lines.append(
+        f"NOOP with its answer lost (count {lost['attrs']['ccsds-seqcount']}): released "
+        f"{la['Acknowledge_Released']['time'][11:23]}, Accepted/Complete/Failed TIMEOUT at "
+        f"{la['Verifier_Complete']['time'][11:23]}"
+    )
     print("\n" + "\n".join(lines))
 
 
@@ -283,37 +333,67 @@ def test_each_alarm_triggers(chain):
     )
 
 
+POSE_DIGITS = {"x_mm": 3, "y_mm": 3, "z_mm": 3, "roll_deg": 4, "pitch_deg": 4, "yaw_deg": 4}
+SIGMA_DIGITS = {f"sigma_{k}": d for k, d in POSE_DIGITS.items()}
+USABLE = ("FIX", "DEGRADED")
+
+
+def check_digits(text: dict, prefix: str, row: dict, digits: dict) -> None:
+    """Each shown value equals nav.csv's to the digits shown (half a unit of the last digit,
+    + a rounding margin: 0.0006 mm, 0.00006 deg), so a pose 0.001 mm off fails."""
+    for k, d in digits.items():
+        shown = text[f"{prefix}-{k}"]
+        assert len(shown.partition(".")[2]) == d, (k, shown)
+        assert abs(float(shown) - float(row[k])) <= 0.6 * 10.0**-d, (row["cycle"], k, shown, row[k])
+
+
+def check_fix(text: dict, nav: list[dict]) -> int:
+    """The view's last fix: the latest FIX/DEGRADED cycle of nav.csv up to the cycle shown, its
+    pose to the digits shown."""
+    shown_cycle = int(text["nav-cycle"])
+    cyc = int(text["fix-cycle"])
+    row = nav[cyc]
+    assert int(row["cycle"]) == cyc and row["status"] in USABLE and text["fix-status"] == row["status"]
+    assert all(r["status"] not in USABLE for r in nav[cyc + 1 : shown_cycle + 1]), (cyc, shown_cycle)
+    check_digits(text, "fix", row, POSE_DIGITS)
+    return cyc
+
+
 def check_view(text: dict, nav: list[dict], cams: list[dict]) -> int:
+    """The values shown against nav.csv's row of the cycle shown; the pose is checked to its
+    digits on a FIX/DEGRADED cycle (a NO_FIX cycle's pose is no solution, check_fix covers the
+    last one that was)."""
     cyc = int(text["nav-cycle"])
     row = nav[cyc]
     assert int(row["cycle"]) == cyc
-    for k, d in (
-        ("x_mm", 3),
-        ("y_mm", 3),
-        ("z_mm", 3),
-        ("roll_deg", 4),
-        ("pitch_deg", 4),
-        ("yaw_deg", 4),
-        ("sigma_x_mm", 3),
-        ("sigma_y_mm", 3),
-        ("sigma_z_mm", 3),
-        ("sigma_roll_deg", 4),
-        ("sigma_pitch_deg", 4),
-        ("sigma_yaw_deg", 4),
-    ):
-        assert abs(float(text[f"nav-{k}"]) - float(row[k])) <= 0.6 * 10.0**-d + 1e-9, (
-            cyc,
-            k,
-            text[f"nav-{k}"],
-            row[k],
-        )
     assert text["nav-status"] == row["status"] and text["nav-mode"] == row["mode"]
+    check_digits(text, "nav", row, SIGMA_DIGITS)
+    if row["status"] in USABLE:
+        check_digits(text, "nav", row, POSE_DIGITS)
     mask = int(row["cams_used"])
     used = "+".join(n for k, n in enumerate("xyz") if mask >> k & 1) or "none"
     assert text["fix-source"] == f"cameras {used}, {row['beacons_used']} beacons"
     for k in "xyz":  # a state this camera reported (the view keeps each camera's latest packet)
         assert text[f"cam-{k}-state"] in {c["state"] for c in cams if c["camera"] == k}
     return cyc
+
+
+def test_pose_check_fails_on_a_wrong_pose(chain):
+    """check_fix/check_view can fail: the view's text with one coordinate 0.011 mm (or
+    0.0011 deg) off, or the last fix moved to a NO_FIX cycle, is refused."""
+    nav = rows(chain["out"] / "ground" / "nav.csv")
+    text = chain["res"]["view_after"]["text"]
+    check_fix(text, nav)
+    for k, d in POSE_DIGITS.items():
+        bad = dict(text)
+        bad[f"fix-{k}"] = f"{float(text[f'fix-{k}']) + 1.1 * 10.0 ** (1 - d):.{d}f}"
+        with pytest.raises(AssertionError):
+            check_fix(bad, nav)
+    nofix = [int(r["cycle"]) for r in nav if r["status"] not in USABLE]
+    bad = dict(text)
+    bad["fix-cycle"] = str(nofix[-1])
+    with pytest.raises(AssertionError):
+        check_fix(bad, nav)
 
 
 def test_operator_view_in_a_real_browser(chain):
@@ -326,6 +406,8 @@ def test_operator_view_in_a_real_browser(chain):
         assert v["rc"] == 0, v["stderr"]
     c1 = check_view(during["text"], nav, cams)
     c2 = check_view(after["text"], nav, cams)
+    f1, f2 = check_fix(during["text"], nav), check_fix(after["text"], nav)
+    on_fix = [c for c in (c1, c2) if nav[c]["status"] in USABLE]
     assert (
         during["t"] < res["nav_end"] and c2 == FRAMES - 1
     )  # one started while the replay ran, one at its end
@@ -345,11 +427,14 @@ def test_operator_view_in_a_real_browser(chain):
         ("TABLE_LOAD", "FAILED"),
         ("SET_POSE_HINT", "SUCCESS"),
         ("NOOP", "SUCCESS"),
+        ("NOOP", "SUCCESS"),
     ]
-    assert "rejected by the flight: TABLE" in t["commands"]
+    assert "rejected by the flight: TABLE" in t["commands"]  # the command history's reason
     for v in (during, after):
         assert v["shot"] and Path(v["shot"]).stat().st_size > 10_000
     print(
-        f"\noperator view: cycle {c1} (Chromium started during the replay), {c2} at its end, = nav.csv; "
+        f"\noperator view: cycle {c1} {nav[c1]['status']} (Chromium started during the replay), {c2} "
+        f"{nav[c2]['status']} at its end, = nav.csv (pose checked on the FIX/DEGRADED ones: {on_fix}); last "
+        f"fix shown: cycle {f1}, {f2}, = nav.csv; "
         f"screenshots {during['shot']}, {after['shot']}"
     )

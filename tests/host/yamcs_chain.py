@@ -127,6 +127,20 @@ def browse(out: Path, name: str, shot: Path | None) -> dict:
     return res
 
 
+def archive_settled(client, arch, timeout_s: float) -> tuple[int, float]:
+    """The archive's packet count once it equals what the TM links received and stays so for
+    one more poll (Yamcs archives asynchronously), waiting at most timeout_s: (count, seconds)."""
+    t0 = time.monotonic()
+    last = -1
+    while True:
+        n_in = sum(lk.in_count for lk in client.list_links(gy.INSTANCE) if lk.name.startswith("tm_"))
+        n = sum(1 for _ in arch.list_packets(page_size=1000))
+        if (n == n_in and n == last) or time.monotonic() - t0 > timeout_s:
+            return n, time.monotonic() - t0
+        last = n
+        time.sleep(0.3)
+
+
 def cpu_packet(arch) -> bytes:
     """The last housekeeping packet of this run, its CPU load field set to
     CPU_LOAD_INJECTED_PCT and its time to now: the flight cannot be made busy on demand, the
@@ -162,6 +176,7 @@ def main() -> int:
         vt = threading.Thread(target=view.serve, args=(VIEW_PORT, ready, stop_view), daemon=True)
         vt.start()
         ready.wait(30)
+        conn = proc.create_command_connection()
         t_chain = time.monotonic()
         tlm, tc = out / "tlm.fifo", out / "tc.fifo"
         for f in (tlm, tc):
@@ -179,6 +194,30 @@ def main() -> int:
             f.write(f"1 {os.urandom(32).hex()}\n")
         shutil.rmtree(state, ignore_errors=True)
         state.mkdir()
+        ground = subprocess.Popen(
+            [
+                str(bins / "mfns-ground"),
+                "--tty",
+                str(tlm),
+                "--out",
+                str(out / "ground"),
+                "--no-status",
+                "--max-seconds",
+                "60",
+                "--tc-tty",
+                str(tc),
+                "--tcp-forward",  # lossless: Yamcs' tm_tcp link connects to it
+                f"127.0.0.1:{gy.TM_TCP_PORT}",
+                "--udp-tc",
+                f"127.0.0.1:{gy.TC_PORT}",
+                "--tc-key",
+                str(key),
+            ],
+            stderr=g_log,
+        )
+        # the ground station listens first and Yamcs' TCP link connects to it, then the flight
+        # program starts: every packet it sends has its way to the archive
+        res["tcp_connect_s"] = gy.connect_tcp_link()
         nav = subprocess.Popen(
             [
                 str(bins / "mfns-nav"),
@@ -198,32 +237,14 @@ def main() -> int:
             ],
             stderr=nav_log,
         )
-        ground = subprocess.Popen(
-            [
-                str(bins / "mfns-ground"),
-                "--tty",
-                str(tlm),
-                "--out",
-                str(out / "ground"),
-                "--no-status",
-                "--max-seconds",
-                "60",
-                "--tc-tty",
-                str(tc),
-                "--udp-forward",
-                f"127.0.0.1:{gy.TM_PORT}",
-                "--udp-tc",
-                f"127.0.0.1:{gy.TC_PORT}",
-                "--tc-key",
-                str(key),
-            ],
-            stderr=g_log,
-        )
         t_nav = time.monotonic()
         truth = (frames / "truth.csv").read_text().splitlines()
         hint = dict(zip(truth[0].split(","), (float(x) for x in truth[21].split(",")), strict=True))
         plan = [
-            (1.0, "NOOP", {}),
+            (0.8, "NOOP", {}),
+            # a second NOOP released the moment the first one's answer is Yamcs' latest event:
+            # only its own answer (its sequence count) may verify it
+            (0.9, "NOOP_AFTER_ANSWER", {}),
             (
                 1.4,
                 "SET_POSE_HINT",
@@ -232,7 +253,7 @@ def main() -> int:
             (1.8, "TABLE_LOAD", {"path": "/nonexistent/table.mfnstbl"}),  # the flight refuses it
             (2.2, "SET_MODE", {"mode": "STANDBY"}),
             (4.0, "SET_MODE", {"mode": "ACQUIRE"}),  # 18 cycles in STANDBY at 10 Hz: a no-fix run
-            (1.0, "VIEW", {}),  # the operator view while the robot flies (Chromium in the background)
+            (4.6, "VIEW", {}),  # the operator view while the robot flies (Chromium in the background)
             (6.0, "TABLE_LOAD", {"path": str(table2)}),  # another table: its CRC changes
         ]
         sent = []
@@ -247,9 +268,20 @@ def main() -> int:
                 browser = threading.Thread(target=during)
                 browser.start()
                 continue
+            extra = {}
+            if cmd == "NOOP_AFTER_ANSWER":  # right after the first NOOP was verified by its answer
+                cmd = "NOOP"
             t_issue = time.time()  # before the call: Yamcs may release the command before it answers
-            ic = proc.issue_command(f"/MFNS_TC/{cmd}", args=args)
-            sent.append({"name": cmd, "args": args, "id": ic.id, "binary": ic.binary.hex(), "t": t_issue})
+            ic = conn.issue(f"/MFNS_TC/{cmd}", args=args)
+            sent.append({"name": cmd, "args": args, "id": ic.id, "t": t_issue, **extra})
+            # one command at a time, as an operator sends them: the next is released after this
+            # one's verification ended (Yamcs 5.12.8 drops the rest of a packet's processing when
+            # a finished verifier unsubscribes while that packet is processed, docs/operators.md)
+            try:
+                ic.await_complete(timeout=12.0)
+            except TimeoutError:
+                sent[-1]["not_complete"] = True
+            time.sleep(0.3)
         res["sent"] = sent
         nav.wait(timeout=120)
         res["nav_end"] = time.time()
@@ -269,12 +301,25 @@ def main() -> int:
                 time.sleep(0.3)
         time.sleep(1.0)
         res["view_after"] = browse(out, "after", shots / "operator-view.png")
+        # a command whose answer is lost: the ground station is gone, the flight never sees it,
+        # while the answers of the two NOOPs before are in Yamcs: its verifiers must time out
+        lost = proc.issue_command("/MFNS_TC/NOOP")
+        res["lost"] = {"name": "NOOP", "id": lost.id, "t": time.time()}
         res["links"] = {
             lk.name: {"in": lk.in_count, "out": lk.out_count, "status": lk.status}
             for lk in client.list_links(gy.INSTANCE)
         }
-        res["packets_archived"] = sum(1 for _ in arch.list_packets(page_size=1000))
+        res["packets_archived"], res["archive_settle_s"] = archive_settled(client, arch, 20.0)
         res["params"] = {n: archive_values(arch, n) for n in NAV_PARAMS + EVENT_PARAMS}
+        t_lost = time.monotonic()
+        while time.monotonic() - t_lost < 20.0:  # its verifiers' window is 10 s
+            acks = {c.id: c.acknowledgments for c in arch.list_command_history()}.get(lost.id, {})
+            if all(
+                n in acks and acks[n].status != "PENDING"
+                for n in ("Verifier_Accepted", "Verifier_Complete", "Verifier_Failed")
+            ):
+                break
+            time.sleep(0.5)
         res["cmdhist"] = []
         for c in arch.list_command_history():
             res["cmdhist"].append(
@@ -346,6 +391,8 @@ def main() -> int:
         res["error"] = f"{type(e).__name__}: {e}\n{traceback.format_exc()[-2000:]}"
     finally:
         stop_view.set()
+        if "conn" in locals():
+            conn.cancel()
         if "vt" in locals():
             vt.join(timeout=5)  # its subscription closed before the server goes
         for p in (nav, ground):
