@@ -11,7 +11,7 @@ beacons and over those the flight saw, per coordinate and per beacon in 3-D, aga
 true positions and against the true positions in the survey's datum.
 
 `monitor`: the in-flight monitor (firmware/nav/beacon_monitor.h) end to end. The module
-scenario's LEDs with their survey error, one beacon moved along its wall (5, 2 and 1 mm) or
+scenario's LEDs with their survey error, one beacon moved along its wall (5, 3, 2 and 1 mm) or
 camera y's mount turned (0.1 and 0.3 deg about its x axis) in the rendering only; frames at
 18.6 Hz flown by mfns-nav on the table of the surveyed, unmoved map; the events mfns-ground
 decodes (BEACON_BIASED, CAMERA_BIASED and integrity's beacon reports) with the cycle and
@@ -193,7 +193,7 @@ def monitor(a) -> int:
         log=out / "table.log",
     )
     cases = [("clean", None, None)]
-    cases += [(f"beacon {int(ids[b])} moved {d:g} mm along its wall", d, None) for d in (5.0, 2.0, 1.0)]
+    cases += [(f"beacon {int(ids[b])} moved {d:g} mm along its wall", d, None) for d in (5.0, 3.0, 2.0, 1.0)]
     cases += [(f"camera y turned {t:g} deg", None, t) for t in (0.1, 0.3)]
     rows = []
     for k, (name, move_mm, turn_deg) in enumerate(cases):
