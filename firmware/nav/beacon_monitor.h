@@ -62,7 +62,6 @@
  * biased beyond the gates still drives its mean over the level, while one
  * wild association moves a mean by at most CLIP * ALPHA = 0.27. */
 #define MFNS_BMON_CLIP 8.58f
-_Static_assert(MFNS_BMON_CLIP * MFNS_BMON_CLIP > 4.0f * MFNS_BMON_CHI2_2 - 0.1f, "clip at twice the radius");
 
 typedef struct {
     float m[MFNS_MAX_BEACONS][2];   /* EWMA of the whitened residual (u, v) */

@@ -128,6 +128,13 @@ def map_figures(run: Path) -> dict:
     return out
 
 
+def _ids(ids: list[int]) -> str:
+    """A list of beacon ids for a sentence: none, the ids, or how many when many."""
+    if not ids:
+        return "none"
+    return ", ".join(map(str, ids)) if len(ids) <= 8 else f"{len(ids)} beacons"
+
+
 def _row(name: str, s: dict) -> str:
     ax = {a["axis"]: a for a in s["axes"]}
     pos = " | ".join(f"{np.hypot(ax[a]['mean'], ax[a]['sigma']):.3f}" for a in ("x", "y", "z"))
@@ -247,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{pair(fig['survey_all_truth'])}; refined {pair(fig['refined_all_truth'])} against the true "
         f"positions, {pair(fig['refined_all_datum'])} in the survey's datum (the survey's own datum error: "
         f"{pair(fig['datum_error'])}); beacons the flight saw in fewer than {MIN_SEEN_FIXES} fixes: "
-        f"{fig['unseen'] or 'none'}; refined sigma median {fig['sigma_median']:.3f} mm; beacons flagged "
+        f"{_ids(fig['unseen'])}; refined sigma median {fig['sigma_median']:.3f} mm; beacons flagged "
         f"as moved: {rep['moved_beacons'] or 'none'}.",
         "",
         "| map | fixes | x mm | y mm | z mm | roll deg | pitch deg | yaw deg | mean NEES (6) |",
