@@ -193,7 +193,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         close_all(app);
         return 2;
     }
-    if (o->fixlog_dir != NULL && nav_fixlog_open(&app->fixlog, o->fixlog_dir, 0u, 0u) != 0) {
+    if (o->fixlog_dir != NULL && nav_fixlog_open(&app->fixlog, o->fixlog_dir, o->fixlog_file_kb * 1024u, o->fixlog_files) != 0) {
         close_all(app);
         return 2;
     }

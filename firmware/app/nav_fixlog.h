@@ -15,8 +15,10 @@
  * loop; single consumer, a writer thread that does every file operation). A
  * record that does not fit whole is dropped and counted (dropped_records),
  * never waited for. Rotation: files fixlog_NNNNNN.tlm in DIR, a new one when
- * the current exceeds NAV_FIXLOG_FILE_BYTES (always at a record boundary), the
- * oldest deleted so that at most NAV_FIXLOG_FILES remain. Write errors are
+ * the current holds NAV_FIXLOG_FILE_BYTES or more (always at a record boundary:
+ * the writer appends its whole batch of records first, so a file can pass the
+ * limit by up to NAV_FIXLOG_RING_BYTES), the oldest deleted so that at most
+ * NAV_FIXLOG_FILES remain: on disk at most FILES x (FILE_BYTES + RING_BYTES). Write errors are
  * counted (write_errors) and the record given up; the loop never sees them.
  *
  * What it misses: records dropped while the ring is full (a stalled disk) are

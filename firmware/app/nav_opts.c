@@ -70,6 +70,8 @@ static void usage(FILE *f)
             "                      (carried by the BOOT event; docs/operations.md)\n"
             "  --fixlog DIR        record every usable fix (associations, pose) to a rotating\n"
             "                      on-board log in DIR for the self-survey (docs/self_survey.md)\n"
+            "  --fixlog-rotate KB,FILES  rotate the fix log at KB kB per file, keep FILES files\n"
+            "                      (default 8192,16; small values are for tests)\n"
             "  -h, --help, --version\n"
             "Exit status: 0 ok, 2 bad usage or input (table, cameras, telemetry target),\n"
             "3 telemetry incomplete (write errors, or a link that never opened: nothing sent).\n",
@@ -213,7 +215,8 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
     enum { O_TABLE = 256, O_REPLAY, O_REALTIME, O_V4L2, O_LIBCAMERA, O_CAMX, O_CAMY, O_CAMZ, O_TIMEOUT,
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
            O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT, O_TC_KEY, O_STATE_DIR,
-           O_TC_INSECURE, O_FIXLOG, O_CONFIG, O_BUDGET };
+           O_TC_INSECURE, O_FIXLOG, O_CONFIG, O_BUDGET,
+           O_FIXLOG_ROTATE };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -235,6 +238,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         {"tc-key", required_argument, NULL, O_TC_KEY}, {"state-dir", required_argument, NULL, O_STATE_DIR},
         {"tc-insecure", no_argument, NULL, O_TC_INSECURE},
         {"fixlog", required_argument, NULL, O_FIXLOG},
+        {"fixlog-rotate", required_argument, NULL, O_FIXLOG_ROTATE},
         {"config", required_argument, NULL, O_CONFIG}, {"budget-units", required_argument, NULL, O_BUDGET},
         {NULL, 0, NULL, 0},
     };
@@ -374,6 +378,23 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         case O_MLOCK: o->mlock = true; break;
         case O_LAST_EXIT: o->last_exit = optarg; break;
         case O_FIXLOG: o->fixlog_dir = optarg; break;
+        case O_FIXLOG_ROTATE: {
+            char kb[16] = {0};
+            const char *comma = strchr(optarg, ',');
+            const size_t n = comma != NULL ? (size_t)(comma - optarg) : 0u;
+            if (comma == NULL || n == 0u || n >= sizeof kb) {
+                fprintf(err, "mfns-nav: --fixlog-rotate wants KB,FILES, got '%s'\n", optarg);
+                return -1;
+            }
+            memcpy(kb, optarg, n);
+            if (!parse_u32(kb, 1, 1024u * 1024u, &o->fixlog_file_kb) ||
+                !parse_u32(comma + 1, 1, 1000000, &o->fixlog_files)) {
+                fprintf(err, "mfns-nav: --fixlog-rotate wants KB,FILES (1..1048576, 1..1000000), got '%s'\n",
+                        optarg);
+                return -1;
+            }
+            break;
+        }
         case O_INIT:
             if (!parse_pose(optarg, o->init_pose)) {
                 fprintf(err, "mfns-nav: --init-pose wants six numbers X,Y,Z,ROLL,PITCH,YAW, got '%s'\n", optarg);

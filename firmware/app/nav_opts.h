@@ -60,6 +60,8 @@ typedef struct {
     bool mlock;                /* --mlock: lock all memory after start-up (nav_service.h) */
     const char *last_exit;     /* --last-exit FILE: how the previous run ended (nav_service.h), or NULL */
     const char *fixlog_dir;    /* --fixlog DIR: the fix record's on-board log (nav_fixlog.h), or NULL */
+    uint32_t fixlog_file_kb;   /* --fixlog-rotate KB,FILES: rotation (0, 0: nav_fixlog.h's defaults) */
+    uint32_t fixlog_files;
     uint32_t budget_units;     /* --budget-units: acquisition work per cycle; 0 = measured at start (nav_selftest.h) */
     const char *config_path;   /* --config FILE, or NULL */
     nav_config_t cfg;          /* its contents (strings above may point here) */

@@ -40,11 +40,83 @@ static void ewma(float m[2], const float z[2], bool first)
     m[1] += a * (z[1] - m[1]);
 }
 
-bool mfns_bmon_update(mfns_bmon_t *mon, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                      const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, float sigma_px,
-                      mfns_bmon_report_t *rep)
+/* A beacon's residual into its mean; reports the worst beacon over the level. */
+static void beacon_update(mfns_bmon_t *mon, int16_t b, const float z[2], mfns_bmon_report_t *rep)
 {
-    if (mon == NULL || rig == NULL || map == NULL || frame == NULL || sol == NULL || rep == NULL) {
+    ewma(mon->m[b], z, mon->n[b] == 0u);
+    if (mon->n[b] < UINT16_MAX) {
+        mon->n[b]++;
+    }
+    const float chi = mon->m[b][0] * mon->m[b][0] + mon->m[b][1] * mon->m[b][1];
+    if (mon->flagged[b] == 0U && mon->n[b] >= MFNS_BMON_MIN_FIXES && chi > MFNS_BMON_CHI2_2 && chi > rep->beacon_chi2) {
+        rep->new_beacon = b;
+        rep->beacon_chi2 = chi;
+    }
+}
+
+/* An outlier's residual enters its beacon's mean clipped to MFNS_BMON_CLIP:
+ * one wild association moves the mean by at most CLIP * ALPHA. */
+static void clip(float z[2])
+{
+    const float n2 = z[0] * z[0] + z[1] * z[1];
+    if (n2 > MFNS_BMON_CLIP * MFNS_BMON_CLIP) {
+        const float s = MFNS_BMON_CLIP / sqrtf(n2);
+        z[0] *= s;
+        z[1] *= s;
+    }
+}
+
+static bool is_inlier_somewhere(const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, int16_t b)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        for (uint16_t i = 0; i < frame->count[k] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+            if (sol->assoc.beacon[k][i] == b && sol->inlier[k][i] != 0U) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+/* A beacon integrity holds out (its associations removed from the fix): the
+ * unassociated blob nearest its projection at the fix's pose within gate_px,
+ * per camera, into its mean (clipped). */
+static void held_update(mfns_bmon_t *mon, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                        const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, float sigma_px, float gate_px,
+                        int16_t b, mfns_bmon_report_t *rep)
+{
+    if (b < 0 || (uint16_t)b >= map->count || is_inlier_somewhere(frame, sol, b)) {
+        return;
+    }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        float uv[2];
+        if (mfns_cam_project(&rig->cam[k], &sol->pose, map->beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK) {
+            continue;
+        }
+        int best = -1;
+        float best_d2 = gate_px * gate_px;
+        for (uint16_t i = 0; i < frame->count[k] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+            const float du = frame->obs[k][i].u - uv[0], dv = frame->obs[k][i].v - uv[1];
+            const float d2 = du * du + dv * dv;
+            if (sol->assoc.beacon[k][i] == MFNS_POSE_NO_BEACON && d2 < best_d2) {
+                best = (int)i;
+                best_d2 = d2;
+            }
+        }
+        float z[2];
+        if (best >= 0 && whitened(&rig->cam[k], &sol->pose, &map->beacon[b], &frame->obs[k][best], sigma_px, z)) {
+            clip(z);
+            beacon_update(mon, b, z, rep);
+        }
+    }
+}
+
+bool mfns_bmon_update(mfns_bmon_t *mon, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                      const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, float sigma_px, float gate_px,
+                      const int16_t *held, int n_held, mfns_bmon_report_t *rep)
+{
+    if (mon == NULL || rig == NULL || map == NULL || frame == NULL || sol == NULL || rep == NULL ||
+        (held == NULL && n_held > 0)) {
         return false;
     }
     rep->new_beacon = -1;
@@ -60,23 +132,19 @@ bool mfns_bmon_update(mfns_bmon_t *mon, const mfns_rig_t *rig, const mfns_beacon
         for (uint16_t i = 0; i < frame->count[k] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
             const int16_t b = sol->assoc.beacon[k][i];
             float z[2];
-            if (b < 0 || (uint16_t)b >= map->count || sol->inlier[k][i] == 0U ||
+            if (b < 0 || (uint16_t)b >= map->count ||
                 !whitened(&rig->cam[k], &sol->pose, &map->beacon[b], &frame->obs[k][i], sigma_px, z)) {
                 continue;
             }
-            ewma(mon->m[b], z, mon->n[b] == 0u);
-            if (mon->n[b] < UINT16_MAX) {
-                mon->n[b]++;
+            if (sol->inlier[k][i] == 0U) { /* gated by the solver: the beacon's, not the camera's */
+                clip(z);
+                beacon_update(mon, b, z, rep);
+                continue;
             }
+            beacon_update(mon, b, z, rep);
             sum[0] += z[0];
             sum[1] += z[1];
             n++;
-            const float chi = mon->m[b][0] * mon->m[b][0] + mon->m[b][1] * mon->m[b][1];
-            if (mon->flagged[b] == 0U && mon->n[b] >= MFNS_BMON_MIN_FIXES && chi > MFNS_BMON_CHI2_2 &&
-                chi > rep->beacon_chi2) {
-                rep->new_beacon = b;
-                rep->beacon_chi2 = chi;
-            }
         }
         if (n == 0u) {
             continue;
@@ -94,6 +162,9 @@ bool mfns_bmon_update(mfns_bmon_t *mon, const mfns_rig_t *rig, const mfns_beacon
             rep->new_camera = (int8_t)k;
             rep->camera_chi2 = chi;
         }
+    }
+    for (int h = 0; h < n_held && gate_px > 0.0f; h++) {
+        held_update(mon, rig, map, frame, sol, sigma_px, gate_px, held[h], rep);
     }
     if (rep->new_beacon >= 0) {
         const int16_t b = rep->new_beacon;

@@ -3,12 +3,17 @@
  * one camera (its mount shifted), below what a single fix's fault test can
  * see, found from the residuals of many fixes.
  *
- * For every usable fix, each inlier association's residual (projected beacon
- * minus measured centroid, at the fix's pose) is whitened by the covariance
+ * For every usable fix, each association's residual (projected beacon minus
+ * measured centroid, at the fix's pose) is whitened by the covariance
  * the solver weighs it with (mfns_pose_obs_cov: centroid, pixel floor and the
  * beacon's survey sigma). Per beacon an exponentially weighted mean m_b of
- * its whitened residuals (weight MFNS_BMON_ALPHA per fix, about
- * 1/MFNS_BMON_ALPHA fixes of memory); per camera the same of the mean
+ * its whitened residuals, inliers and outliers alike: a blob the solver gated
+ * out, and for a beacon integrity holds out of the fix (its association
+ * removed) the free blob nearest its projection within the tracking gate, each
+ * clipped to MFNS_BMON_CLIP. A beacon moved beyond the gates is thus measured
+ * at the fix it no longer spoils, and one a fix keeps using is measured too:
+ * the monitor sees a moved beacon whether or not integrity does. Weight
+ * MFNS_BMON_ALPHA per fix, about 1/MFNS_BMON_ALPHA fixes of memory. Per camera the same of the mean
  * whitened residual of its beacons in each fix, c_k, with the mean number of
  * beacons n_k behind it.
  *
@@ -31,7 +36,10 @@
  * camera alone in view: its shift is a pose change); anything faster than
  * MFNS_BMON_MIN_FIXES fixes (the integrity tests' job: gated outliers and
  * missing LEDs are theirs, integrity.h); a beacon whose survey error is large
- * but within its stated sigma (that is what the refinement is for).
+ * but within its stated sigma (that is what the refinement is for); a held
+ * beacon moved beyond the tracking gate, or whose LED is dark (no blob near
+ * its projection: integrity's MISSING). A spurious blob near a held beacon's
+ * projection enters its mean (clipped: it takes a persistent one to report).
  *
  * Portable core: caller-owned state, no statics, no allocation, loops
  * bounded by MFNS_MAX_BEACONS and the observation table.
@@ -49,6 +57,11 @@
 #define MFNS_BMON_ALPHA (1.0f / 32.0f) /* EWMA weight per fix: ~32 fixes of memory */
 #define MFNS_BMON_MIN_FIXES 32u        /* fixes of a beacon (camera) before it can be reported */
 #define MFNS_BMON_CHI2_2 18.42f        /* chi-square, 2 dof, P_fa 1e-4 */
+/* An outlier's whitened residual is clipped to this norm before it enters its
+ * beacon's mean: twice the reporting radius sqrt(18.42) = 4.29, so a beacon
+ * biased beyond the gates still drives its mean over the level, while one
+ * wild association moves a mean by at most CLIP * ALPHA = 0.27. */
+#define MFNS_BMON_CLIP 8.58f
 
 typedef struct {
     float m[MFNS_MAX_BEACONS][2];   /* EWMA of the whitened residual (u, v) */
@@ -74,9 +87,11 @@ void mfns_bmon_reset(mfns_bmon_t *mon);
 
 /* One fix (sol usable: OK or DEGRADED; otherwise nothing is updated). The
  * residuals are recomputed at sol's pose from frame's observations and map.
- * sigma_px: the table's pixel floor. Returns false on a NULL argument. */
+ * sigma_px: the table's pixel floor. gate_px: the tracking gate; held, n_held:
+ * the map indices integrity holds out of this fix (NULL, 0 for none; entries
+ * < 0 are skipped). Returns false on a NULL argument. */
 bool mfns_bmon_update(mfns_bmon_t *mon, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                      const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, float sigma_px,
-                      mfns_bmon_report_t *rep);
+                      const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, float sigma_px, float gate_px,
+                      const int16_t *held, int n_held, mfns_bmon_report_t *rep);
 
 #endif /* MFNS_BEACON_MONITOR_H */

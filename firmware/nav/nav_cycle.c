@@ -399,6 +399,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         lag_untested(nav, out);
         monitor_only(nav, out);
         (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
+                               nav->pose_cfg.s.track_gate_px, nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS,
                                &out->bmon); /* arguments checked above */
         count_identified(nav, out);
         held_cameras(nav, out);

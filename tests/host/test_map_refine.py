@@ -113,3 +113,46 @@ def test_refuses_a_log_of_another_map():
         refine.build_problem(fixes, cams, ids[:30], p[:30], s[:30])
     with pytest.raises(MfnsError, match="no fixes"):
         refine.build_problem([], cams, ids, p, s)
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_per_beacon_target_in_the_survey_datum(seed):
+    """Issue 29's target (per-beacon position error RMS <= 0.1 mm), read per beacon in 3-D,
+    the stricter reading: met in the survey's datum (the truth moved rigidly onto the survey,
+    the frame the refinement keeps) for every beacon the fixes saw in >= MIN_SEEN_FIXES; against
+    the true positions what is left beyond that is the survey's own datum error (a rotation and
+    shift common to all beacons, 3-D RMS ~ 0.4 sqrt(6/60) = 0.13 mm expected), which no
+    self-survey can see; a beacon never seen keeps its survey place and sigma."""
+    from mfns.map.refine_demo import MIN_SEEN_FIXES, rigid_to
+
+    fixes, cams, ids, p, s, truth = scene(seed=seed)
+    res = run(fixes, cams, ids, p, s)
+    seen = np.zeros(len(ids), int)
+    for f in fixes:
+        np.add.at(seen, f.beacon_id, 1)
+    ok = seen >= MIN_SEEN_FIXES
+    assert ok.sum() >= 50
+
+    def rms3(d):
+        return float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
+
+    in_datum = rigid_to(truth, p)
+    assert rms3((res.p - in_datum)[ok]) < 0.1
+    datum = rms3(in_datum - truth)
+    assert rms3((res.p - truth)[ok]) < np.hypot(datum, 0.1)
+    unseen = seen == 0
+    if unseen.any():
+        np.testing.assert_allclose(res.p[unseen], p[unseen], atol=0.05)
+        assert np.all(res.sigma[unseen] >= SURVEY_SIGMA)
+
+
+def test_rigid_to_removes_a_rigid_motion_only():
+    rng = np.random.default_rng(4)
+    a = rng.uniform(-1000.0, 1000.0, (30, 3))
+    r = rot_exp(np.deg2rad([0.3, -0.2, 0.5]))
+    b = a @ r.T + [1.0, -2.0, 0.5]
+    from mfns.map.refine_demo import rigid_to
+
+    np.testing.assert_allclose(rigid_to(a, b), b, atol=1e-9)
+    c = b * 1.001  # a scale is not removed
+    assert np.abs(rigid_to(a, c) - c).max() > 0.1

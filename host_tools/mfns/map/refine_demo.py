@@ -21,10 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import load_beacons
+from . import fixlog
 
 SURVEY_RATE_HZ = 2.0  # frames of the survey flight: one every 0.5 s is plenty for a map
 FRESH_FRAMES = 120  # the demo's module run: 6.5 s at 18.6 Hz
 SEED, FRESH_SEED = 2, 7
+MIN_SEEN_FIXES = 10  # a beacon "seen" by the survey flight: used in at least this many fixes
 
 
 def _run(cmd: list[str], log: Path | None = None) -> None:
@@ -85,6 +87,54 @@ def _fly(
     return json.loads((out / "report" / "summary.json").read_text())
 
 
+def rigid_to(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """src moved by the rotation and translation that best fit it to dst (least squares)."""
+    ms, md = src.mean(0), dst.mean(0)
+    u, _, vt = np.linalg.svd((dst - md).T @ (src - ms))
+    r = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    return (src - ms) @ r.T + md
+
+
+def map_figures(run: Path) -> dict:
+    """A refine_demo run's map against truth: RMS per coordinate and per beacon (3-D), over
+    all beacons and over those used in >= MIN_SEEN_FIXES survey fixes, against the true
+    positions (`truth`) and against the truth in the survey's datum (`datum`: the truth
+    moved rigidly onto the survey, the frame the refinement keeps: docs/self_survey.md)."""
+    ids, p_s, _ = load_beacons(run / "survey-frames" / "beacons.csv")
+    _, p_t, _ = load_beacons(run / "survey-frames" / "beacons_rendered.csv")
+    _, p_r, sig_r = load_beacons(run / "refined" / "beacons.csv")
+    fixes, _ = fixlog.read(run / "fixlog")
+    seen = {int(i): 0 for i in ids}
+    for f in fixes:
+        for b in f.beacon_id[f.used]:
+            seen[int(b)] += 1
+    n = np.array([seen[int(i)] for i in ids])
+    p_td = rigid_to(p_t, p_s)
+
+    def rms(d):
+        return float(np.sqrt(np.mean(d**2))) if d.size else float("nan")
+
+    def rms3(d):
+        return float(np.sqrt(np.mean(np.sum(d**2, axis=1)))) if d.size else float("nan")
+
+    out = {"beacons": int(len(ids)), "fixes": len(fixes), "unseen": [int(i) for i in ids[n < MIN_SEEN_FIXES]]}
+    for sel_name, sel in (("all", np.ones(len(ids), bool)), ("seen", n >= MIN_SEEN_FIXES)):
+        for ref_name, ref in (("truth", p_t), ("datum", p_td)):
+            out[f"refined_{sel_name}_{ref_name}"] = (rms((p_r - ref)[sel]), rms3((p_r - ref)[sel]))
+            out[f"survey_{sel_name}_{ref_name}"] = (rms((p_s - ref)[sel]), rms3((p_s - ref)[sel]))
+    out["datum_error"] = (rms(p_td - p_t), rms3(p_td - p_t))  # the survey's own datum, against truth
+    out["sigma_median"] = float(np.median(sig_r))
+    out["fixes_per_beacon_median"] = float(np.median(n))
+    return out
+
+
+def _ids(ids: list[int]) -> str:
+    """A list of beacon ids for a sentence: none, the ids, or how many when many."""
+    if not ids:
+        return "none"
+    return ", ".join(map(str, ids)) if len(ids) <= 8 else f"{len(ids)} beacons"
+
+
 def _row(name: str, s: dict) -> str:
     ax = {a["axis"]: a for a in s["axes"]}
     pos = " | ".join(f"{np.hypot(ax[a]['mean'], ax[a]['sigma']):.3f}" for a in ("x", "y", "z"))
@@ -98,13 +148,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("out")
     ap.add_argument("--report", help="markdown report to append the section to")
     ap.add_argument("--minutes", type=float, default=3.0, help="survey flight (default 3 min)")
+    ap.add_argument(
+        "--rate-hz",
+        type=float,
+        default=SURVEY_RATE_HZ,
+        help=f"survey frame rate (default {SURVEY_RATE_HZ:g})",
+    )
+    ap.add_argument("--seed", type=int, default=SEED, help=f"map and survey error (default {SEED})")
+    ap.add_argument("--fresh-seed", type=int, help="path and noise of the fresh frames (default: seed + 5)")
     ap.add_argument("--bin", default="build/host-sim/bin")
     a = ap.parse_args(argv)
     py, bins, out = sys.executable, Path(a.bin), Path(a.out)
+    seed = a.seed
+    fresh_seed = a.fresh_seed if a.fresh_seed is not None else seed + FRESH_SEED - SEED
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir(parents=True)
     t0 = time.monotonic()
-    n_survey = int(round(a.minutes * 60 * SURVEY_RATE_HZ))
+    n_survey = int(round(a.minutes * 60 * a.rate_hz))
     survey, fresh = out / "survey-frames", out / "fresh-frames"
     _run(
         [
@@ -119,9 +179,9 @@ def main(argv: list[str] | None = None) -> int:
             "--frames",
             str(n_survey),
             "--rate-hz",
-            str(SURVEY_RATE_HZ),
+            str(a.rate_hz),
             "--seed",
-            str(SEED),
+            str(seed),
             "--survey-error",
             "--quiet",
         ],
@@ -148,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
         ],
         out / "refine.log",
     )
-    # fresh frames: the same LEDs (map and survey error of seed 2), another path and noise
+    # fresh frames: the same LEDs (map and survey error of the survey's seed), another path and noise
     _run(
         [
             py,
@@ -162,12 +222,12 @@ def main(argv: list[str] | None = None) -> int:
             "--frames",
             str(FRESH_FRAMES),
             "--seed",
-            str(FRESH_SEED),
+            str(fresh_seed),
             "--beacon-map",
             str(surveyed),
             "--survey-error",
             "--survey-seed",
-            str(SEED),
+            str(seed),
             "--quiet",
         ],
         out / "sim-fresh.log",
@@ -176,29 +236,26 @@ def main(argv: list[str] | None = None) -> int:
     after = _fly(py, bins, fresh, calib, out / "refined" / "beacons.csv", out / "refined-map")
     for c in ("cam_x", "cam_y", "cam_z"):
         shutil.rmtree(fresh / c)
-    ids, p_s, _ = load_beacons(surveyed)
-    _, p_true, _ = load_beacons(survey / "beacons_rendered.csv")
-    _, p_r, sig_r = load_beacons(out / "refined" / "beacons.csv")
     rep = json.loads((out / "refined" / "refine.json").read_text())
+    fig = map_figures(out)
 
-    def rms(d):
-        return float(np.sqrt(np.mean(d**2)))
-
-    def rms3(d):
-        return float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
+    def pair(v):
+        return f"{v[0]:.3f} / {v[1]:.3f} mm"
 
     lines = [
         "## Self-survey: the map refined from flight data (docs/self_survey.md)",
         "",
         f"Module scenario, survey error rendered (sigma 0.4 mm): {a.minutes:g} minutes of flight at "
-        f"{SURVEY_RATE_HZ:g} Hz with the fix log on ({rep['fixes']} usable fixes, {rep['associations']} "
-        f"associations), `mfns map refine`, then fresh frames (seed {FRESH_SEED}, {FRESH_FRAMES} frames, "
+        f"{a.rate_hz:g} Hz with the fix log on ({rep['fixes']} usable fixes, {rep['associations']} "
+        f"associations), `mfns map refine`, then fresh frames (seed {fresh_seed}, {FRESH_FRAMES} frames, "
         "the same LEDs) flown with each map. Errors are RMS against truth (mean and 1-sigma together).",
         "",
-        f"Beacon position error RMS per coordinate: surveyed {rms(p_s - p_true):.3f} mm, refined "
-        f"{rms(p_r - p_true):.3f} mm (per beacon, 3-D: {rms3(p_r - p_true):.3f} mm); "
-        f"refined sigma median {np.median(sig_r):.3f} mm; beacons flagged as moved: "
-        f"{rep['moved_beacons'] or 'none'}.",
+        "Beacon position error RMS, per coordinate / per beacon (3-D): surveyed "
+        f"{pair(fig['survey_all_truth'])}; refined {pair(fig['refined_all_truth'])} against the true "
+        f"positions, {pair(fig['refined_all_datum'])} in the survey's datum (the survey's own datum error: "
+        f"{pair(fig['datum_error'])}); beacons the flight saw in fewer than {MIN_SEEN_FIXES} fixes: "
+        f"{_ids(fig['unseen'])}; refined sigma median {fig['sigma_median']:.3f} mm; beacons flagged "
+        f"as moved: {rep['moved_beacons'] or 'none'}.",
         "",
         "| map | fixes | x mm | y mm | z mm | roll deg | pitch deg | yaw deg | mean NEES (6) |",
         "|---|---|---|---|---|---|---|---|---|",
