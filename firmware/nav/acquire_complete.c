@@ -105,9 +105,9 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
             return; /* no pose near this one is physical: no fourth beacon to try */
         }
     }
-    int l = -1; /* the remaining blob */
+    int l = -1; /* the remaining blob (of five, the one the hypothesis does not leave out) */
     for (int b = 0; b < q->nb && l < 0; b++) {
-        l = (b != tri[0] && b != tri[1] && b != tri[2]) ? b : -1;
+        l = (b != tri[0] && b != tri[1] && b != tri[2] && b != q->skip) ? b : -1;
     }
     if (l < 0) {
         return;
@@ -186,6 +186,11 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
             cd.sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &cd.sol) || !mfns_acq_physical(q, &cd.sol)) {
             continue;
         }
+        if (q->skip >= 0) {
+            /* the blob left out may be a beacon after all: a pose explaining
+             * all five is then one identification with the bands' */
+            mfns_acq_extend(q, &cd);
+        }
         cd.inliers = (uint8_t)cd.sol.beacons_used;
         const int miss = mfns_acq_count_missing(q, &cd.sol);
         cd.missing = (uint8_t)(miss > 255 ? 255 : miss);
@@ -206,6 +211,52 @@ static int completion_anchor(const mfns_acq_t *q)
     return an;
 }
 
+/* The anchor of the hypothesis that leaves blob skip out: of the other four
+ * blobs, the triple with the most pairs in one image (their look-ups prune
+ * hardest: no parallax pad), the first such. */
+static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
+{
+    int rest[MFNS_ACQ_MIN_BLOBS], n = 0;
+    for (int b = 0; b < q->nb && n < (int)MFNS_ACQ_MIN_BLOBS; b++) {
+        if (b != skip) {
+            rest[n++] = b;
+        }
+    }
+    int best = -1, best_same = -1;
+    for (int out = 0; out < n; out++) { /* the triple without rest[out] */
+        int t[3], m = 0;
+        for (int k = 0; k < n; k++) {
+            if (k != out) {
+                t[m++] = rest[k];
+            }
+        }
+        const int same = (q->blobs[t[0]].cam == q->blobs[t[1]].cam) + (q->blobs[t[0]].cam == q->blobs[t[2]].cam) +
+                         (q->blobs[t[1]].cam == q->blobs[t[2]].cam);
+        if (same > best_same) {
+            best_same = same;
+            best = out;
+        }
+    }
+    int m = 0;
+    int16_t t[3] = {-1, -1, -1};
+    for (int k = 0; k < n; k++) {
+        if (k != best) {
+            t[m++] = (int16_t)rest[k];
+        }
+    }
+    an->i = t[0];
+    an->j = t[1];
+    an->k = t[2];
+    an->v[0] = -1;
+    an->v[1] = -1;
+    an->cross = q->blobs[t[2]].cam != q->blobs[t[0]].cam;
+}
+
+bool mfns_acq_leave_one_out(const mfns_acq_t *q)
+{
+    return q->nb == MFNS_ACQ_LOO_BLOBS && q->idx->max_unexplained >= 1u;
+}
+
 /* After the bands of a 4-blob frame without a certified pose (the sound
  * check covers one blob beyond the anchor's three), the completion runs,
  * whether or not the bands found an explanation of every blob: it finds
@@ -214,7 +265,31 @@ static int completion_anchor(const mfns_acq_t *q)
  * searched without a budget had no full explanation after the bands). */
 bool mfns_acq_completion_applies(const mfns_acq_t *q)
 {
-    return !q->analysis && q->certified < 0 && completion_anchor(q) >= 0 && q->nb == MFNS_ACQ_MIN_BLOBS;
+    if (q->analysis || q->certified >= 0) {
+        return false;
+    }
+    return (completion_anchor(q) >= 0 && q->nb == MFNS_ACQ_MIN_BLOBS) || mfns_acq_leave_one_out(q);
+}
+
+/* The exhaustive enumeration of the completion, from the cursor: one anchor
+ * of a 4-blob frame, or, of a 5-blob frame, one per hypothesis of a blob
+ * left out (the cursor's skip, then the next). */
+static void exhaust_all(mfns_acq_t *q)
+{
+    if (!mfns_acq_leave_one_out(q)) {
+        mfns_acq_exhaust(q, &q->anchor[completion_anchor(q)]);
+        return;
+    }
+    while ((int)q->cur.skip < q->nb && !mfns_acq_stop(q)) {
+        mfns_acq_anchor_t an;
+        loo_anchor(q, q->cur.skip, &an);
+        q->skip = q->cur.skip;
+        mfns_acq_exhaust(q, &an);
+        if (!mfns_acq_stop(q)) {
+            q->cur.skip++; /* this hypothesis is done; the loops start afresh */
+        }
+    }
+    q->skip = -1;
 }
 
 /* The completion, from the cursor: exhaust one anchor, collecting every
@@ -222,12 +297,11 @@ bool mfns_acq_completion_applies(const mfns_acq_t *q)
  * explains every blob is unique if no other candidate does. */
 void mfns_acq_run_completion(mfns_acq_t *q)
 {
-    const int an = completion_anchor(q);
     q->analysis = true; /* collect, never stop on the first */
     q->exhaustive = true;
     q->to_complete = false;
     q->paused = false;
-    mfns_acq_exhaust(q, &q->anchor[an]);
+    exhaust_all(q);
     q->exhaustive = false;
     q->analysis = false;
     if (q->progress.budget_out) {
@@ -236,14 +310,8 @@ void mfns_acq_run_completion(mfns_acq_t *q)
     /* unique: no other pose explains every blob within the allowances (a
      * rival with more missing beacons could be the truth with a beacon
      * hidden, so it is not ruled out by being less likely) */
-    int keep = -1, full = 0;
-    for (int i = 0; i < q->ncand; i++) {
-        const mfns_acq_cand_t *c = &q->cand[i];
-        if ((int)c->inliers == q->nb && c->missing <= q->idx->max_missing) {
-            full++;
-            keep = i;
-        }
-    }
+    int keep;
+    const int full = mfns_acq_identifications(q, &keep);
     q->progress.rivals = (uint8_t)(full > 0 ? full - 1 : 0);
     if (full == 1) {
         q->certified = keep;
