@@ -213,7 +213,8 @@ static int completion_anchor(const mfns_acq_t *q)
 
 /* The anchor of the hypothesis that leaves blob skip out: of the other four
  * blobs, the triple with the most pairs in one image (their look-ups prune
- * hardest: no parallax pad), the first such. */
+ * hardest: no parallax pad), the first such; three of one image on a line
+ * last. */
 static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
 {
     int rest[MFNS_ACQ_MIN_BLOBS], n = 0;
@@ -222,7 +223,7 @@ static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
             rest[n++] = b;
         }
     }
-    int best = -1, best_same = -1;
+    int best = 0, best_same = -2; /* every triple scores at least -1: one is chosen */
     for (int out = 0; out < n; out++) { /* the triple without rest[out] */
         int t[3], m = 0;
         for (int k = 0; k < n; k++) {
@@ -230,8 +231,11 @@ static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
                 t[m++] = rest[k];
             }
         }
-        const int same = (q->blobs[t[0]].cam == q->blobs[t[1]].cam) + (q->blobs[t[0]].cam == q->blobs[t[2]].cam) +
-                         (q->blobs[t[1]].cam == q->blobs[t[2]].cam);
+        int same = (q->blobs[t[0]].cam == q->blobs[t[1]].cam) + (q->blobs[t[0]].cam == q->blobs[t[2]].cam) +
+                   (q->blobs[t[1]].cam == q->blobs[t[2]].cam);
+        if (same == 3 && mfns_acq_flat_triangle(q, t[0], t[1], t[2])) {
+            same = -1; /* on one line in one image: its gP3P may miss the truth */
+        }
         if (same > best_same) {
             best_same = same;
             best = out;
@@ -240,7 +244,7 @@ static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
     int m = 0;
     int16_t t[3] = {-1, -1, -1};
     for (int k = 0; k < n; k++) {
-        if (k != best) {
+        if (k != best && m < 3) {
             t[m++] = (int16_t)rest[k];
         }
     }
@@ -304,6 +308,11 @@ void mfns_acq_run_completion(mfns_acq_t *q)
     exhaust_all(q);
     q->exhaustive = false;
     q->analysis = false;
+    if (q->certified >= 0) { /* five blobs: one explained all five within the certificate */
+        q->progress.completed = true;
+        q->cur.phase = MFNS_ACQ_PHASE_DONE;
+        return;
+    }
     if (q->progress.budget_out) {
         return; /* the cursor holds the place */
     }

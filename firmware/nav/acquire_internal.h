@@ -72,6 +72,9 @@ float mfns_acq_parallax_pad(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b);
 /* The frame's blobs as body-frame rays and the per-camera minimal gates;
  * false on a non-finite observation. */
 bool mfns_acq_setup(mfns_acq_t *q);
+/* Three blobs of one image nearly on one line (their gP3P cannot fix the
+ * rotation about it: never an anchor's triple). */
+bool mfns_acq_flat_triangle(const mfns_acq_t *q, int i, int j, int k);
 /* The anchors of the frame (acquire.h, step 1). */
 void mfns_acq_make_anchors(mfns_acq_t *q);
 

@@ -242,19 +242,29 @@ void mfns_acq_add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd)
     }
     q->progress.best_inliers = q->cand[q->best].inliers;
     q->progress.best_missing = q->cand[q->best].missing;
+    const bool reaches = mfns_acq_acceptable(q, cd) && cd->inliers >= q->idx->cert_inliers[cd->missing];
     if (q->exhaustive) { /* only the completion enumerates exhaustively */
-        /* two identifications that explain every blob: the completion's
-         * answer is AMBIGUOUS whatever else it finds, so it ends here */
+        if (reaches) {
+            /* (five blobs) a pose explaining all five within the certificate:
+             * certified as the bands certify it (the map analysis found no
+             * wrong one that reaches it), whatever explains fewer */
+            q->certified = slot;
+            return;
+        }
+        /* two identifications that explain every blob (of five: at least
+         * four): the completion's answer is AMBIGUOUS whatever else it finds,
+         * so it ends here */
         int keep;
         q->settled = mfns_acq_identifications(q, &keep) >= 2;
     }
     if (!q->analysis && mfns_acq_acceptable(q, cd)) {
-        if (cd->inliers >= q->idx->cert_inliers[cd->missing]) {
+        if (reaches) {
             q->certified = slot;
-        } else if (q->nb == MFNS_ACQ_MIN_BLOBS || mfns_acq_leave_one_out(q)) {
-            /* every blob explained (of five: at least four), yet too few for
-             * the certificate: only the completion can certify it, so the
-             * bands stop here */
+        } else if ((int)cd->inliers == q->nb && (q->nb == MFNS_ACQ_MIN_BLOBS || mfns_acq_leave_one_out(q))) {
+            /* every blob explained, yet too few for the certificate: only
+             * the completion can certify it, so the bands stop here (a
+             * candidate leaving one of five blobs out does not stop them: a
+             * pose explaining all five would be certified at once) */
             q->to_complete = true;
         }
     }
