@@ -81,7 +81,8 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
     q->progress.units += 1u + (uint32_t)q->map->count / 64u; /* the covariance of the three */
     uint32_t n_res = 0u;
     const int tri[3] = {an->i, an->j, an->k};
-    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    /* the anchor's three and one fourth beacon, then the extension's scratch */
+    mfns_pose_meas_t m[MFNS_ACQ_MIN_BLOBS + MFNS_POSE_MAX_MEAS];
     float h[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N] = {{0.0f}};
     for (int t = 0; t < 3; t++) {
         fill_meas(q, tri[t], abc[t], &m[t]);
@@ -189,7 +190,7 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
         if (q->skip >= 0) {
             /* the blob left out may be a beacon after all: a pose explaining
              * all five is then one identification with the bands' */
-            mfns_acq_extend(q, &cd);
+            mfns_acq_extend(q, &cd, &m[MFNS_ACQ_MIN_BLOBS]);
         }
         cd.inliers = (uint8_t)cd.sol.beacons_used;
         const int miss = mfns_acq_count_missing(q, &cd.sol);
@@ -225,9 +226,9 @@ static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
     }
     int best = 0, best_same = -2; /* every triple scores at least -1: one is chosen */
     for (int out = 0; out < n; out++) { /* the triple without rest[out] */
-        int t[3], m = 0;
+        int t[3] = {0, 0, 0}, m = 0;
         for (int k = 0; k < n; k++) {
-            if (k != out) {
+            if (k != out && m < 3) {
                 t[m++] = rest[k];
             }
         }

@@ -92,8 +92,8 @@ void mfns_acq_add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd);
 bool mfns_acq_quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3]);
 /* From a candidate's refined pose, associate again (the tracking gate, then
  * the minimal gate) and keep a consistent, physical re-solve that explains
- * more blobs. */
-void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd);
+ * more blobs. m: the caller's scratch (overwritten). */
+void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd, mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS]);
 /* The distinct identifications among the candidates within the allowances
  * (mfns_acq_acceptable): one whose inlier correspondences are all part of
  * another's is that one. *keep: one of them with the most inliers (-1 none). */

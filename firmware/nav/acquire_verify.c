@@ -337,9 +337,8 @@ bool mfns_acq_quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq
 /* Associate again from the refined pose, with the tracking gate and then a
  * wider one, keeping a re-solve that explains more blobs and stays
  * consistent and physical. */
-void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd)
+void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd, mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS])
 {
-    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
     for (int round = 0; round < 2; round++) {
         const float gate = q->cfg->s.track_gate_px * (round == 0 ? 1.0f : MFNS_ACQ_MINIMAL_GATE_FACTOR);
         mfns_pose_assoc_t again;
@@ -374,8 +373,9 @@ bool mfns_acq_full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_
     if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd->sol) == MFNS_POSE_NO_FIX) {
         return false;
     }
-    /* The minimal pose predicts the other beacons only roughly. */
-    mfns_acq_extend(q, cd);
+    /* The minimal pose predicts the other beacons only roughly (m is free
+     * again: the extension's scratch, one array on the stack, not two). */
+    mfns_acq_extend(q, cd, m);
     if (cd->sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &cd->sol) || !mfns_acq_physical(q, &cd->sol)) {
         return false;
     }

@@ -37,7 +37,6 @@ from mfns.simulate import nav  # noqa: E402
 from mfns.table import mapindex  # noqa: E402
 from mfns.table.builder import load_beacon_csv  # noqa: E402
 
-
 UNBOUNDED_UNITS = 10**8
 
 
@@ -107,13 +106,19 @@ def where_it_fails(fl, rig, bmap, idx, cams, truth, poses, cfg, nrm, rng) -> Non
         refl = any(np.any(np.asarray(i) < 0) for i in ids)
         sol, pr = fl.acquire(rig, bmap, idx, fl.frame(obs), cfg)
         key = (min(nb, 7), refl)
-        out = "right" if sol.ok and pose_sim.identification_right(sol, ids) else ("WRONG" if sol.ok else sol.reason)
+        out = (
+            "right"
+            if sol.ok and pose_sim.identification_right(sol, ids)
+            else ("WRONG" if sol.ok else sol.reason)
+        )
         if not sol.ok and sol.reason == "NOT_IDENTIFIED" and pr.budget_out:
             out = "NOT_IDENTIFIED (budget)"
             # the same frame without the cycle's budget: is it the budget only?
             sol2, pr2 = fl.acquire(rig, bmap, idx, fl.frame(obs), cfg, UNBOUNDED_UNITS)
             ok2 = sol2.ok and pose_sim.identification_right(sol2, ids)
-            freed.setdefault(min(nb, 7), []).append((ok2, sol2.reason if not sol2.ok else "", pr2.units_total))
+            freed.setdefault(min(nb, 7), []).append(
+                (ok2, sol2.reason if not sol2.ok else "", pr2.units_total)
+            )
         rows.setdefault(key, {}).setdefault(out, 0)
         rows[key][out] += 1
     n = len(poses)
@@ -134,7 +139,8 @@ def where_it_fails(fl, rig, bmap, idx, cams, truth, poses, cfg, nrm, rng) -> Non
             if not ok:
                 others[why or "WRONG"] = others.get(why or "WRONG", 0) + 1
         print(
-            f"   {nb} beacons, stopped by the budget, again without it: {sum(ok for ok, _, _ in f)} of {len(f)} "
+            f"   {nb} beacons, stopped by the budget, again without it: "
+            f"{sum(ok for ok, _, _ in f)} of {len(f)} "
             f"right (work median {np.median(units):.0f}, max {units.max():.0f} units = "
             f"{units.max() / idx.budget_units:.1f} cycles' budget), not: {others}"
         )

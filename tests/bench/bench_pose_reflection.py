@@ -111,7 +111,10 @@ def run(name: str, n: int, seed: int, cycles: int) -> bool:
                     break
             tally(cyc, sol, ids)
     u = np.array(free_units)
-    print(f"== {name}: {len(pos)} beacons, {n} views of four beacons + one reflection (budget {idx.budget_units})")
+    print(
+        f"== {name}: {len(pos)} beacons, {n} views of four beacons + one reflection "
+        f"(budget {idx.budget_units})"
+    )
     rows = [("one call", one), ("one call, no budget", free)]
     if cycles > 0:
         rows.append((f"within {cycles} cycles, still", cyc))
