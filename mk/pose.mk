@@ -1,7 +1,8 @@
 # Pose solver (issue 5): benchmarks.
 #   make bench-pose      C timings (refinement warm start, cold start) and the
 #                        Python comparison with PoseLib and pycolmap, the
-#                        acquisition sweeps (still, and a moving robot)
+#                        acquisition sweeps (still, a moving robot, four
+#                        beacons plus a reflection)
 BENCH_TARGETS += bench-pose
 
 POSE_BENCH := $(BUILD)/bench/bench_pose
@@ -17,3 +18,4 @@ bench-pose: $(POSE_BENCH) lib venv
 	$(PY) tests/bench/bench_pose_baselines.py
 	$(PY) tests/bench/bench_ident.py
 	$(PY) tests/bench/bench_pose_moving.py
+	$(PY) tests/bench/bench_pose_reflection.py

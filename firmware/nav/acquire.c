@@ -109,6 +109,7 @@ static void clear_search(mfns_acq_t *q)
     q->ncand = 0;
     q->best = -1;
     q->certified = -1;
+    q->skip = -1;
     q->exhaustive = false;
     q->to_complete = false;
     q->settled = false;
@@ -169,7 +170,12 @@ static mfns_pose_status_t result(const mfns_acq_t *acq, mfns_pose_solution_t *ou
         *out = acq->cand[acq->certified].sol;
     } else {
         mfns_pose_reason_t reason = acq->progress.rivals > 0 ? MFNS_POSE_R_AMBIGUOUS : MFNS_POSE_R_NOT_IDENTIFIED;
-        for (int i = 0; i < acq->ncand && acq->best >= 0; i++) {
+        if (acq->progress.rivals > 0 && mfns_acq_leave_one_out(acq)) {
+            /* two identifications of at least four of the five blobs: which
+             * blob is the reflection cannot be told from this frame */
+            reason = MFNS_POSE_R_SPURIOUS_AMBIGUOUS;
+        }
+        for (int i = 0; i < acq->ncand && acq->best >= 0 && acq->progress.rivals == 0; i++) {
             if (i != acq->best && acq->cand[i].inliers == acq->cand[acq->best].inliers &&
                 acq->cand[i].missing == acq->cand[acq->best].missing) {
                 reason = MFNS_POSE_R_AMBIGUOUS;

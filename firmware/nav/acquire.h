@@ -42,7 +42,14 @@
  *      found there (a minimal pose is dropped only when its body origin is
  *      outside the workspace by more than 6 sigma of its own propagated
  *      covariance). Exactly one such pose within the allowances: the fix;
- *      a second one ends the completion as AMBIGUOUS. Nothing else is reported
+ *      a second one ends the completion as AMBIGUOUS. A frame of five blobs
+ *      (four beacons and a reflection, issue 27) not certified by the bands
+ *      is completed over its five hypotheses of a blob left out: for each,
+ *      one triple of the other four is enumerated exhaustively and the
+ *      fourth checked soundly, so every pose explaining at least four of
+ *      the five blobs is found. Exactly one such identification (one that
+ *      is part of another counts as that one): the fix, its spurious blob
+ *      without a beacon; two: SPURIOUS_AMBIGUOUS, no fix. Nothing else is reported
  *      as a fix: an unfinished search, or one that ends with only
  *      uncertified candidates, is NO_FIX (NOT_IDENTIFIED, or AMBIGUOUS when
  *      two different correspondences tie).
@@ -73,6 +80,10 @@
 
 /* Blobs a fix needs: three make a hypothesis, a fourth checks it. */
 #define MFNS_ACQ_MIN_BLOBS 4
+/* A frame of one blob more is completed over the hypotheses of one blob left
+ * out (four beacons and a reflection), when the index allows a blob left
+ * unexplained. */
+#define MFNS_ACQ_LOO_BLOBS (MFNS_ACQ_MIN_BLOBS + 1)
 #define MFNS_ACQ_MAX_ANCHORS 6
 #define MFNS_ACQ_MAX_CAND 8
 #define MFNS_ACQ_VERIFY_UNITS 8u
@@ -139,6 +150,7 @@ typedef struct {
     uint8_t anchor;     /* the anchor being enumerated */
     uint8_t resume;     /* the loops start at (a, r1, r2) once */
     int16_t a, r1, r2;  /* beacon a, then ranks or beacons of b and c */
+    uint8_t skip;       /* five-blob completion: the blob left out by the hypothesis being enumerated */
 } mfns_acq_cursor_t;
 
 /* Caller storage of one acquisition (about 11 KB): place it with the
@@ -172,6 +184,7 @@ typedef struct {
     int ncand;
     int best;
     int certified; /* index into cand of the certified pose, -1 none */
+    int skip;      /* the blob the completion leaves out (five-blob frame), -1 none */
 } mfns_acq_t;
 
 /* Acquire from frame with no prior, spending at most budget_units work

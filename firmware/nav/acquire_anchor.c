@@ -15,6 +15,19 @@
 /* Anchors of a pair alone in its image (a blob of another camera each). */
 #define MAX_CROSS_PER_PAIR 2
 
+/* A third blob in the pair's image whose triangle with it is this flat
+ * (height over the longest side, in the image) is not taken as the anchor's
+ * third: the images of three beacons on one line (a planned layout on a grid
+ * has many: issue 27, three beacons at x = 2000, z = 300 mm) give a gP3P whose
+ * rotation about that line is unobservable, so no hypothesis of that anchor
+ * verifies the truth. Measured on the planned module layout: views of 7 blobs
+ * whose every anchor was such a triple (three blobs per camera, so no
+ * cross-camera third) were never identified, at any budget. The next nearest
+ * blob of the image that is not on the line is taken, else the pair gets
+ * thirds from the other cameras. An order: a flat triangle of two cameras'
+ * blobs is still reached by the cross thirds. */
+#define FLAT_TRIANGLE_RATIO 0.05f
+
 float mfns_acq_ray_angle(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b)
 {
     const float cs = mfns_v3_dot(a->d, b->d);
@@ -79,6 +92,41 @@ static int nearest_in_cam(const mfns_acq_t *q, int cam, int i, const int *excl, 
     return best;
 }
 
+/* Are the three blobs (rays from one camera centre) nearly on one line in
+ * the image? |d_i . (d_j x d_k)| is twice the triangle's area on the unit
+ * sphere (to first order), the largest pair angle its longest side. */
+bool mfns_acq_flat_triangle(const mfns_acq_t *q, int i, int j, int k)
+{
+    const mfns_v3_t di = q->blobs[i].d, dj = q->blobs[j].d, dk = q->blobs[k].d;
+    const float area2 = fabsf(mfns_v3_dot(di, mfns_v3_cross(dj, dk)));
+    float l = mfns_acq_ray_angle(&q->blobs[i], &q->blobs[j]);
+    const float l2 = mfns_acq_ray_angle(&q->blobs[i], &q->blobs[k]);
+    const float l3 = mfns_acq_ray_angle(&q->blobs[j], &q->blobs[k]);
+    l = l2 > l ? l2 : l;
+    l = l3 > l ? l3 : l;
+    return !(area2 > FLAT_TRIANGLE_RATIO * l * l);
+}
+
+/* The pair's third in its own image: the nearest blob to i (but j) whose
+ * triangle with the pair is not flat; -1 none. */
+static int third_in_cam(const mfns_acq_t *q, int cam, int i, int j)
+{
+    int ex[MFNS_MAX_OBS_PER_CAMERA];
+    int ne = 0;
+    ex[ne++] = j;
+    for (int m = 0; m < q->frame->count[cam] && ne < MFNS_MAX_OBS_PER_CAMERA; m++) {
+        const int k = nearest_in_cam(q, cam, i, ex, ne);
+        if (k < 0) {
+            return -1;
+        }
+        if (!mfns_acq_flat_triangle(q, i, j, k)) {
+            return k;
+        }
+        ex[ne++] = k;
+    }
+    return -1;
+}
+
 /* Anchors: each blob with its nearest neighbour in the same image, nearest
  * pairs first (insertion into a short sorted list). */
 void mfns_acq_make_anchors(mfns_acq_t *q)
@@ -127,8 +175,7 @@ void mfns_acq_make_anchors(mfns_acq_t *q)
     for (int pass = 0; pass < 2; pass++) {
         for (int a = 0; a < np && q->na < MFNS_ACQ_MAX_ANCHORS; a++) {
             const int cam = q->blobs[pi[a]].cam;
-            const int ex[2] = {pj[a], -1};
-            const int k = nearest_in_cam(q, cam, pi[a], ex, 1);
+            const int k = third_in_cam(q, cam, pi[a], pj[a]);
             if ((pass == 0) != (k >= 0)) {
                 continue;
             }

@@ -81,7 +81,8 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
     q->progress.units += 1u + (uint32_t)q->map->count / 64u; /* the covariance of the three */
     uint32_t n_res = 0u;
     const int tri[3] = {an->i, an->j, an->k};
-    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    /* the anchor's three and one fourth beacon, then the extension's scratch */
+    mfns_pose_meas_t m[MFNS_ACQ_MIN_BLOBS + MFNS_POSE_MAX_MEAS];
     float h[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N] = {{0.0f}};
     for (int t = 0; t < 3; t++) {
         fill_meas(q, tri[t], abc[t], &m[t]);
@@ -105,9 +106,9 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
             return; /* no pose near this one is physical: no fourth beacon to try */
         }
     }
-    int l = -1; /* the remaining blob */
+    int l = -1; /* the remaining blob (of five, the one the hypothesis does not leave out) */
     for (int b = 0; b < q->nb && l < 0; b++) {
-        l = (b != tri[0] && b != tri[1] && b != tri[2]) ? b : -1;
+        l = (b != tri[0] && b != tri[1] && b != tri[2] && b != q->skip) ? b : -1;
     }
     if (l < 0) {
         return;
@@ -186,6 +187,11 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
             cd.sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &cd.sol) || !mfns_acq_physical(q, &cd.sol)) {
             continue;
         }
+        if (q->skip >= 0) {
+            /* the blob left out may be a beacon after all: a pose explaining
+             * all five is then one identification with the bands' */
+            mfns_acq_extend(q, &cd, &m[MFNS_ACQ_MIN_BLOBS]);
+        }
         cd.inliers = (uint8_t)cd.sol.beacons_used;
         const int miss = mfns_acq_count_missing(q, &cd.sol);
         cd.missing = (uint8_t)(miss > 255 ? 255 : miss);
@@ -206,6 +212,56 @@ static int completion_anchor(const mfns_acq_t *q)
     return an;
 }
 
+/* The anchor of the hypothesis that leaves blob skip out: of the other four
+ * blobs, the triple with the most pairs in one image (their look-ups prune
+ * hardest: no parallax pad), the first such; three of one image on a line
+ * last. */
+static void loo_anchor(const mfns_acq_t *q, int skip, mfns_acq_anchor_t *an)
+{
+    int rest[MFNS_ACQ_MIN_BLOBS], n = 0;
+    for (int b = 0; b < q->nb && n < (int)MFNS_ACQ_MIN_BLOBS; b++) {
+        if (b != skip) {
+            rest[n++] = b;
+        }
+    }
+    int best = 0, best_same = -2; /* every triple scores at least -1: one is chosen */
+    for (int out = 0; out < n; out++) { /* the triple without rest[out] */
+        int t[3] = {0, 0, 0}, m = 0;
+        for (int k = 0; k < n; k++) {
+            if (k != out && m < 3) {
+                t[m++] = rest[k];
+            }
+        }
+        int same = (q->blobs[t[0]].cam == q->blobs[t[1]].cam) + (q->blobs[t[0]].cam == q->blobs[t[2]].cam) +
+                   (q->blobs[t[1]].cam == q->blobs[t[2]].cam);
+        if (same == 3 && mfns_acq_flat_triangle(q, t[0], t[1], t[2])) {
+            same = -1; /* on one line in one image: its gP3P may miss the truth */
+        }
+        if (same > best_same) {
+            best_same = same;
+            best = out;
+        }
+    }
+    int m = 0;
+    int16_t t[3] = {-1, -1, -1};
+    for (int k = 0; k < n; k++) {
+        if (k != best && m < 3) {
+            t[m++] = (int16_t)rest[k];
+        }
+    }
+    an->i = t[0];
+    an->j = t[1];
+    an->k = t[2];
+    an->v[0] = -1;
+    an->v[1] = -1;
+    an->cross = q->blobs[t[2]].cam != q->blobs[t[0]].cam;
+}
+
+bool mfns_acq_leave_one_out(const mfns_acq_t *q)
+{
+    return q->nb == MFNS_ACQ_LOO_BLOBS && q->idx->max_unexplained >= 1u;
+}
+
 /* After the bands of a 4-blob frame without a certified pose (the sound
  * check covers one blob beyond the anchor's three), the completion runs,
  * whether or not the bands found an explanation of every blob: it finds
@@ -214,7 +270,31 @@ static int completion_anchor(const mfns_acq_t *q)
  * searched without a budget had no full explanation after the bands). */
 bool mfns_acq_completion_applies(const mfns_acq_t *q)
 {
-    return !q->analysis && q->certified < 0 && completion_anchor(q) >= 0 && q->nb == MFNS_ACQ_MIN_BLOBS;
+    if (q->analysis || q->certified >= 0) {
+        return false;
+    }
+    return (completion_anchor(q) >= 0 && q->nb == MFNS_ACQ_MIN_BLOBS) || mfns_acq_leave_one_out(q);
+}
+
+/* The exhaustive enumeration of the completion, from the cursor: one anchor
+ * of a 4-blob frame, or, of a 5-blob frame, one per hypothesis of a blob
+ * left out (the cursor's skip, then the next). */
+static void exhaust_all(mfns_acq_t *q)
+{
+    if (!mfns_acq_leave_one_out(q)) {
+        mfns_acq_exhaust(q, &q->anchor[completion_anchor(q)]);
+        return;
+    }
+    while ((int)q->cur.skip < q->nb && !mfns_acq_stop(q)) {
+        mfns_acq_anchor_t an;
+        loo_anchor(q, q->cur.skip, &an);
+        q->skip = q->cur.skip;
+        mfns_acq_exhaust(q, &an);
+        if (!mfns_acq_stop(q)) {
+            q->cur.skip++; /* this hypothesis is done; the loops start afresh */
+        }
+    }
+    q->skip = -1;
 }
 
 /* The completion, from the cursor: exhaust one anchor, collecting every
@@ -222,28 +302,26 @@ bool mfns_acq_completion_applies(const mfns_acq_t *q)
  * explains every blob is unique if no other candidate does. */
 void mfns_acq_run_completion(mfns_acq_t *q)
 {
-    const int an = completion_anchor(q);
     q->analysis = true; /* collect, never stop on the first */
     q->exhaustive = true;
     q->to_complete = false;
     q->paused = false;
-    mfns_acq_exhaust(q, &q->anchor[an]);
+    exhaust_all(q);
     q->exhaustive = false;
     q->analysis = false;
+    if (q->certified >= 0) { /* five blobs: one explained all five within the certificate */
+        q->progress.completed = true;
+        q->cur.phase = MFNS_ACQ_PHASE_DONE;
+        return;
+    }
     if (q->progress.budget_out) {
         return; /* the cursor holds the place */
     }
     /* unique: no other pose explains every blob within the allowances (a
      * rival with more missing beacons could be the truth with a beacon
      * hidden, so it is not ruled out by being less likely) */
-    int keep = -1, full = 0;
-    for (int i = 0; i < q->ncand; i++) {
-        const mfns_acq_cand_t *c = &q->cand[i];
-        if ((int)c->inliers == q->nb && c->missing <= q->idx->max_missing) {
-            full++;
-            keep = i;
-        }
-    }
+    int keep;
+    const int full = mfns_acq_identifications(q, &keep);
     q->progress.rivals = (uint8_t)(full > 0 ? full - 1 : 0);
     if (full == 1) {
         q->certified = keep;

@@ -72,6 +72,9 @@ float mfns_acq_parallax_pad(const mfns_acq_blob_t *a, const mfns_acq_blob_t *b);
 /* The frame's blobs as body-frame rays and the per-camera minimal gates;
  * false on a non-finite observation. */
 bool mfns_acq_setup(mfns_acq_t *q);
+/* Three blobs of one image nearly on one line (their gP3P cannot fix the
+ * rotation about it: never an anchor's triple). */
+bool mfns_acq_flat_triangle(const mfns_acq_t *q, int i, int j, int k);
 /* The anchors of the frame (acquire.h, step 1). */
 void mfns_acq_make_anchors(mfns_acq_t *q);
 
@@ -87,6 +90,14 @@ bool mfns_acq_physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol);
 void mfns_acq_add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd);
 /* The cheap check of a minimal pose on the anchor's verification blobs. */
 bool mfns_acq_quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3]);
+/* From a candidate's refined pose, associate again (the tracking gate, then
+ * the minimal gate) and keep a consistent, physical re-solve that explains
+ * more blobs. m: the caller's scratch (overwritten). */
+void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd, mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS]);
+/* The distinct identifications among the candidates within the allowances
+ * (mfns_acq_acceptable): one whose inlier correspondences are all part of
+ * another's is that one. *keep: one of them with the most inliers (-1 none). */
+int mfns_acq_identifications(const mfns_acq_t *q, int *keep);
 /* Associate, refine, associate again and score: the candidate or false. */
 bool mfns_acq_full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t *cd);
 
@@ -108,6 +119,9 @@ void mfns_acq_exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an);
 /* The completion's sound check of one minimal pose (every fourth beacon
  * within the propagated gate). */
 void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq_anchor_t *an, const int abc[3]);
+/* A frame the completion covers over the hypotheses of one blob left out
+ * (MFNS_ACQ_LOO_BLOBS blobs, one may stay unexplained). */
+bool mfns_acq_leave_one_out(const mfns_acq_t *q);
 /* Does the completion follow the bands for this frame? */
 bool mfns_acq_completion_applies(const mfns_acq_t *q);
 /* Run the completion from the cursor. */

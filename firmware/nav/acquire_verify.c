@@ -161,6 +161,46 @@ static bool same_assoc(const mfns_acq_t *q, const mfns_pose_solution_t *a, const
     return true;
 }
 
+/* Every inlier correspondence of a is one of b's. */
+static bool assoc_within(const mfns_acq_t *q, const mfns_pose_solution_t *a, const mfns_pose_solution_t *b)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < q->frame->count[c]; i++) {
+            if (a->inlier[c][i] && (!b->inlier[c][i] || a->assoc.beacon[c][i] != b->assoc.beacon[c][i])) {
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+/* A candidate explaining four of five blobs and one explaining all five with
+ * the same four beacons on the same blobs are one identification (the fifth
+ * blob is a beacon, not a reflection): counting them as two would refuse a
+ * right fix; any other difference is a second identification. */
+int mfns_acq_identifications(const mfns_acq_t *q, int *keep)
+{
+    int n = 0;
+    *keep = -1;
+    for (int i = 0; i < q->ncand; i++) {
+        if (!mfns_acq_acceptable(q, &q->cand[i])) {
+            continue;
+        }
+        bool part = false;
+        for (int j = 0; j < q->ncand && !part; j++) {
+            part = j != i && mfns_acq_acceptable(q, &q->cand[j]) && q->cand[j].inliers > q->cand[i].inliers &&
+                   assoc_within(q, &q->cand[i].sol, &q->cand[j].sol);
+        }
+        if (!part) {
+            n++;
+            if (*keep < 0 || q->cand[i].inliers > q->cand[*keep].inliers) {
+                *keep = i;
+            }
+        }
+    }
+    return n;
+}
+
 bool mfns_acq_acceptable(const mfns_acq_t *q, const mfns_acq_cand_t *cd)
 {
     return cd->missing <= q->idx->max_missing && q->nb - (int)cd->inliers <= (int)q->idx->max_unexplained;
@@ -202,21 +242,29 @@ void mfns_acq_add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd)
     }
     q->progress.best_inliers = q->cand[q->best].inliers;
     q->progress.best_missing = q->cand[q->best].missing;
+    const bool reaches = mfns_acq_acceptable(q, cd) && cd->inliers >= q->idx->cert_inliers[cd->missing];
     if (q->exhaustive) { /* only the completion enumerates exhaustively */
-        /* two identifications that explain every blob: the completion's
-         * answer is AMBIGUOUS whatever else it finds, so it ends here */
-        int full = 0;
-        for (int i = 0; i < q->ncand; i++) {
-            full += ((int)q->cand[i].inliers == q->nb && q->cand[i].missing <= q->idx->max_missing) ? 1 : 0;
+        if (reaches) {
+            /* (five blobs) a pose explaining all five within the certificate:
+             * certified as the bands certify it (the map analysis found no
+             * wrong one that reaches it), whatever explains fewer */
+            q->certified = slot;
+            return;
         }
-        q->settled = full >= 2;
+        /* two identifications that explain every blob (of five: at least
+         * four): the completion's answer is AMBIGUOUS whatever else it finds,
+         * so it ends here */
+        int keep;
+        q->settled = mfns_acq_identifications(q, &keep) >= 2;
     }
     if (!q->analysis && mfns_acq_acceptable(q, cd)) {
-        if (cd->inliers >= q->idx->cert_inliers[cd->missing]) {
+        if (reaches) {
             q->certified = slot;
-        } else if ((int)cd->inliers == q->nb && q->nb == MFNS_ACQ_MIN_BLOBS) {
-            /* every blob explained, yet too few for the certificate: only the
-             * completion can certify it, so the bands stop here */
+        } else if ((int)cd->inliers == q->nb && (q->nb == MFNS_ACQ_MIN_BLOBS || mfns_acq_leave_one_out(q))) {
+            /* every blob explained, yet too few for the certificate: only
+             * the completion can certify it, so the bands stop here (a
+             * candidate leaving one of five blobs out does not stop them: a
+             * pose explaining all five would be certified at once) */
             q->to_complete = true;
         }
     }
@@ -286,25 +334,11 @@ bool mfns_acq_quick_check(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_acq
     return tried == 0 || hit > 0;
 }
 
-/* Associate in pixels, refine, associate again; the candidate or false. */
-bool mfns_acq_full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t *cd)
+/* Associate again from the refined pose, with the tracking gate and then a
+ * wider one, keeping a re-solve that explains more blobs and stays
+ * consistent and physical. */
+void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd, mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS])
 {
-    /* an association projects every beacon into every camera: ~0.1 us per beacon */
-    q->progress.units += MFNS_ACQ_VERIFY_UNITS + (uint32_t)q->map->count / 8u;
-    q->progress.verified++;
-    memset(cd, 0, sizeof *cd);
-    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MFNS_ACQ_MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
-                            &cd->sol.assoc) < (int)MFNS_ACQ_MIN_BLOBS) {
-        return false;
-    }
-    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
-    const int n = mfns_pose_gather(q->map, q->frame, &cd->sol.assoc, m);
-    if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd->sol) == MFNS_POSE_NO_FIX) {
-        return false;
-    }
-    /* The minimal pose predicts the other beacons only roughly: associate
-     * again from the refined pose, with the tracking gate and then a wider
-     * one, keeping a re-solve that explains more blobs and stays consistent. */
     for (int round = 0; round < 2; round++) {
         const float gate = q->cfg->s.track_gate_px * (round == 0 ? 1.0f : MFNS_ACQ_MINIMAL_GATE_FACTOR);
         mfns_pose_assoc_t again;
@@ -321,6 +355,27 @@ bool mfns_acq_full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_
             cd->sol = s2;
         }
     }
+}
+
+/* Associate in pixels, refine, associate again; the candidate or false. */
+bool mfns_acq_full_verify(mfns_acq_t *q, const mfns_pose_t *pose, mfns_acq_cand_t *cd)
+{
+    /* an association projects every beacon into every camera: ~0.1 us per beacon */
+    q->progress.units += MFNS_ACQ_VERIFY_UNITS + (uint32_t)q->map->count / 8u;
+    q->progress.verified++;
+    memset(cd, 0, sizeof *cd);
+    if (mfns_pose_associate(q->rig, q->map, q->frame, pose, MFNS_ACQ_MINIMAL_GATE_FACTOR * q->cfg->s.track_gate_px,
+                            &cd->sol.assoc) < (int)MFNS_ACQ_MIN_BLOBS) {
+        return false;
+    }
+    mfns_pose_meas_t m[MFNS_POSE_MAX_MEAS];
+    const int n = mfns_pose_gather(q->map, q->frame, &cd->sol.assoc, m);
+    if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, &cd->sol) == MFNS_POSE_NO_FIX) {
+        return false;
+    }
+    /* The minimal pose predicts the other beacons only roughly (m is free
+     * again: the extension's scratch, one array on the stack, not two). */
+    mfns_acq_extend(q, cd, m);
     if (cd->sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &cd->sol) || !mfns_acq_physical(q, &cd->sol)) {
         return false;
     }

@@ -77,6 +77,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return MFNS_MSG("beacon faults bounded; a single-camera fault cannot be bounded within the alert limits");
     case MFNS_POSE_R_LAG_UNTESTED:
         return MFNS_MSG("no motion known yet to test the cameras' frames for a lag (first fixes after a gap)");
+    case MFNS_POSE_R_SPURIOUS_AMBIGUOUS:
+        return MFNS_MSG("five blobs: several identifications explain four of them; the spurious blob cannot be told");
     }
     return MFNS_MSG("unknown pose reason");
 }

@@ -73,6 +73,8 @@ WHY = {
     "(require_camera_monitor 0)",
     "LAG_UNTESTED": "refused: no motion known yet to test the cameras' frames for a lag "
     "(the first fixes after a gap)",
+    "SPURIOUS_AMBIGUOUS": "five blobs, and more than one identification explains four of them: "
+    "which blob is the reflection cannot be told (docs/pose.md Acquisition)",
 }
 
 

@@ -348,8 +348,9 @@ def load_tc(path: str | None = None) -> TcDictionary:
 def reason_names() -> tuple[str, ...]:
     """Reason code -> name (firmware/nav/pose.h mfns_pose_reason_t), as a tuple indexed by code."""
     r = load().labels("nav_reason_t")
-    assert sorted(r) == list(range(len(r))), "reason codes must be 0..N-1"
-    return tuple(r[k] for k in range(len(r)))
+    assert sorted(r)[0] == 0, "reason codes start at 0"
+    # a code a parallel branch holds (each appends only in its own range) is named, never shifted
+    return tuple(r.get(k, f"RESERVED_{k}") for k in range(max(r) + 1))
 
 
 def usable_status_names() -> tuple[str, ...]:

@@ -37,6 +37,8 @@ from mfns.simulate import nav  # noqa: E402
 from mfns.table import mapindex  # noqa: E402
 from mfns.table.builder import load_beacon_csv  # noqa: E402
 
+UNBOUNDED_UNITS = 10**8
+
 
 def module_poses(fl, rig, bmap, idx, rng, n):
     """n poses of the module workspace with >= 4 beacons in view (the C core's visibility)."""
@@ -53,7 +55,7 @@ def module_poses(fl, rig, bmap, idx, rng, n):
     return out
 
 
-def run(csv: str, n: int, seed: int, box: bool) -> bool:
+def run(csv: str, n: int, seed: int, box: bool, breakdown: bool = False) -> bool:
     fl = Flight()
     cams = pose_sim.paper_rig()
     rig = fl.rig(cams)
@@ -88,7 +90,60 @@ def run(csv: str, n: int, seed: int, box: bool) -> bool:
         f"p99 {np.percentile(ms, 99):.2f} ({time.perf_counter() - t0:.0f} s)",
         flush=True,
     )
+    if breakdown:
+        where_it_fails(fl, rig, bmap, idx, cams, truth, poses, cfg, nrm, rng)
     return res.wrong == 0
+
+
+def where_it_fails(fl, rig, bmap, idx, cams, truth, poses, cfg, nrm, rng) -> None:
+    """The one-call outcomes again (new frames of the same poses), by beacons in the frame
+    and whether it carries a reflection: which views the remaining no-fixes are."""
+    rows: dict = {}
+    freed: dict = {}
+    for C, r in poses:
+        obs, ids = pose_sim.acquisition_frame(cams, truth, C, r, SIGMA_PX, rng, nrm, SPURIOUS_RATE)
+        nb = int(sum(int(np.sum(np.asarray(i) >= 0)) for i in ids))
+        refl = any(np.any(np.asarray(i) < 0) for i in ids)
+        sol, pr = fl.acquire(rig, bmap, idx, fl.frame(obs), cfg)
+        key = (min(nb, 7), refl)
+        out = (
+            "right"
+            if sol.ok and pose_sim.identification_right(sol, ids)
+            else ("WRONG" if sol.ok else sol.reason)
+        )
+        if not sol.ok and sol.reason == "NOT_IDENTIFIED" and pr.budget_out:
+            out = "NOT_IDENTIFIED (budget)"
+            # the same frame without the cycle's budget: is it the budget only?
+            sol2, pr2 = fl.acquire(rig, bmap, idx, fl.frame(obs), cfg, UNBOUNDED_UNITS)
+            ok2 = sol2.ok and pose_sim.identification_right(sol2, ids)
+            freed.setdefault(min(nb, 7), []).append(
+                (ok2, sol2.reason if not sol2.ok else "", pr2.units_total)
+            )
+        rows.setdefault(key, {}).setdefault(out, 0)
+        rows[key][out] += 1
+    n = len(poses)
+    print("   by beacons in the frame (7: 7 or more), + r: with a reflection; share of all poses:")
+    for key in sorted(rows):
+        c = rows[key]
+        tot = sum(c.values())
+        fails = {k: v for k, v in c.items() if k != "right"}
+        print(
+            f"     {key[0]}{' + r' if key[1] else '    '}: {tot:5d} ({100.0 * tot / n:5.2f} %), right "
+            f"{c.get('right', 0)}, not: {fails} ({100.0 * sum(fails.values()) / n:.2f} % of all)"
+        )
+    for nb in sorted(freed):
+        f = freed[nb]
+        units = np.array([u for ok, _, u in f if ok]) if any(ok for ok, _, _ in f) else np.zeros(1)
+        others: dict = {}
+        for ok, why, _ in f:
+            if not ok:
+                others[why or "WRONG"] = others.get(why or "WRONG", 0) + 1
+        print(
+            f"   {nb} beacons, stopped by the budget, again without it: "
+            f"{sum(ok for ok, _, _ in f)} of {len(f)} "
+            f"right (work median {np.median(units):.0f}, max {units.max():.0f} units = "
+            f"{units.max() / idx.budget_units:.1f} cycles' budget), not: {others}"
+        )
 
 
 def main() -> int:
@@ -97,10 +152,11 @@ def main() -> int:
     ap.add_argument("--poses", type=int, default=5000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--box", action="store_true", help="uniform attitude in the map's default box")
+    ap.add_argument("--breakdown", action="store_true", help="the no-fixes by beacons in view and reflection")
     a = ap.parse_args()
     ok = True
     for csv in a.layouts:
-        ok &= run(csv, a.poses, a.seed, a.box)
+        ok &= run(csv, a.poses, a.seed, a.box, a.breakdown)
     return 0 if ok else 1
 
 

@@ -83,6 +83,13 @@ def register(subparsers) -> None:
         default=0,
         help="optimise for 4 + MARGIN beacons in view: a reserve for poses between the samples (default 0)",
     )
+    o.add_argument(
+        "--cert-in-view",
+        type=int,
+        default=None,
+        help="beacons in view that count as certifiable in one call (default 5 + MARGIN); "
+        "measured one-call rates by beacons in view: docs/planning.md",
+    )
     o.add_argument("--restarts", type=int, default=3, help="independent runs, the best kept (default 3)")
     o.add_argument(
         "--baseline",

@@ -25,7 +25,7 @@ certificate (firmware/nav/acquire.h: at least MFNS_BIDX_MIN_CERT = 5 inliers); t
 acquisition certifies it only by an exhaustive completion of ~N^3/5 gP3P solves, tens of
 cycles' budget, and 5.7 % of the module's four-blob views stay ambiguous
 (docs/pose.md). So the objective counts, right after the poses with a fix, the poses
-with at least CERT_MIN_IN_VIEW (+ margin) beacons in view, and the annealing energy
+with at least CERT_MIN_IN_VIEW (+ margin; or --cert-in-view) beacons in view, and the annealing energy
 charges for each pose below it. The identification margin of the acquisition's map
 analysis (ident.py: the C core through the binding, ~50 ms a pose) is too slow for the
 inner loop: run.py computes it for each restart's layout on a sample of poses and
@@ -236,16 +236,19 @@ def optimize(
     progress: bool = False,
     margin: int = 0,
     certify: bool = True,
+    cert_in_view: int | None = None,
 ) -> Result:
     """margin: the objective counts a pose as fixed only with FIX_MIN_IN_VIEW + margin
     beacons in view, and certifiable with CERT_MIN_IN_VIEW + margin -- a reserve against
-    poses between the samples. certify False: no certifiable term (the objective before
-    issue 27: every pose with a fix counts as certifiable)."""
+    poses between the samples. cert_in_view: the beacons in view that count as
+    certifiable in one call instead (default CERT_MIN_IN_VIEW + margin). certify False:
+    no certifiable term (the objective before issue 27: every pose with a fix counts as
+    certifiable)."""
     from tqdm import tqdm
 
     from ..errors import MfnsError
 
-    st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=(CERT_MIN_IN_VIEW if certify else 0) + margin)
+    st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=_cert_target(certify, margin, cert_in_view))
     t0 = time.perf_counter()
     spacing = _Spacing(prob.cand, min_spacing_mm, near_mm)
     for _ in tqdm(range(n_beacons), desc="plan: greedy", unit="beacon", disable=not progress):
@@ -309,9 +312,18 @@ def optimize(
     return Result(best, best_obj, greedy_obj, t1 - t0, time.perf_counter() - t1, tried, kept)
 
 
-def evaluate(prob: Problem, chosen: list[int], margin: int = 0, certify: bool = True) -> tuple:
+def _cert_target(certify: bool, margin: int, cert_in_view: int | None) -> int:
+    """Beacons in view a pose needs to count as certifiable in one call (0: every pose)."""
+    if not certify:
+        return margin
+    return CERT_MIN_IN_VIEW + margin if cert_in_view is None else int(cert_in_view)
+
+
+def evaluate(
+    prob: Problem, chosen: list[int], margin: int = 0, certify: bool = True, cert_in_view: int | None = None
+) -> tuple:
     """The objective of a given layout (candidate indices)."""
-    st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=(CERT_MIN_IN_VIEW if certify else 0) + margin)
+    st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=_cert_target(certify, margin, cert_in_view))
     for c in chosen:
         st.move(None, c)
     return st.objective()

@@ -191,6 +191,8 @@ def run_optimize(args) -> int:
     require_map_size(args.count)
     if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
         raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
+    if getattr(args, "cert_in_view", None) is not None and args.cert_in_view < 0:
+        raise MfnsError("--cert-in-view must be >= 0")
     # bounded like the samples: beyond these a run is hours (a typo, not a plan)
     if args.iterations > MAX_ITERATIONS or args.restarts > MAX_RESTARTS:
         raise MfnsError(f"--iterations at most {MAX_ITERATIONS}, --restarts at most {MAX_RESTARTS}")
@@ -223,6 +225,7 @@ def run_optimize(args) -> int:
             progress=progress,
             margin=args.margin,
             certify=certify,
+            cert_in_view=getattr(args, "cert_in_view", None),
         )
         search_s.append(round(one.greedy_s + one.search_s, 2))
         # the identification margin (C map analysis) decides between layouts of equal
@@ -252,6 +255,7 @@ def run_optimize(args) -> int:
         "iterations": args.iterations,
         "restarts": args.restarts,
         "margin": args.margin,
+        "cert_in_view": getattr(args, "cert_in_view", None),
         "moves_tried": res.moves_tried,
         "moves_kept": res.moves_kept,
         "seed": args.seed,
