@@ -177,6 +177,7 @@ typedef struct {
     float lag_num[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
     float lag_den[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
     float lag_vs[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW]; /* the survey part of lag_den */
+    float lag_vc[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW]; /* the calibration part, beyond lag_den */
     uint8_t lag_pos[MFNS_NUM_CAMERAS];
 } mfns_integrity_memory_t;
 

@@ -16,7 +16,10 @@
  * (the last two fixes), E[e] = tau_c f_c + J dx. The least-squares estimate
  * of tau_c with the pose free (a GLRT for one added column) is
  *   tau_c = f_c^T M e / f_c^T M f_c,  M = I - J P0 J^T, P0 = (J^T J)^-1,
- *   var(tau_c) = 1 / f_c^T M f_c      (unit whitened noise),
+ *   var(tau_c) = (f_c^T M f_c + var_calib) / (f_c^T M f_c)^2
+ *   (unit whitened noise, which carries the survey error; var_calib the
+ *   table's calibration covariance seen through the test, static_var in
+ *   integrity_lag.c),
  * and z_c = tau_c / sd(tau_c) is N(0, 1) without a lag: the camera is
  * lagging when |z_c| > K, K = Q^-1(P_fa / (2 N_tested)) (two-sided: a frame
  * stamped early is a fault too; P_fa the table's per-fix budget, spent a
@@ -37,9 +40,12 @@
  *   - a lag smaller than the minimum detectable lag;
  *   - motion that changed within the cycle (the velocity is the last
  *     cycle's: an acceleration mis-scales tau but does not bias z under H0);
- *   - calibration errors correlated with the motion pattern: the
- *     calibration covariance is not in var(tau_c) (a mount error gives a
- *     fixed pattern, motion a moving one; over one fix they can correlate).
+ *   - a calibration error beyond the table's calibration covariance: the
+ *     covariance Sigma_c is in var(tau_c) as a static error (g^T Sigma_c g,
+ *     g = J_c^T L^-T M f_c: what a calibration error of that size can put
+ *     into f^T M e), so a calibration inside its stated uncertainty is not
+ *     read as a lag, but one outside it can be (and the test loses power
+ *     in proportion to Sigma_c: the minimum detectable lag says how much).
  * Work: one pass of two projections per inlier, a 6x6 Cholesky; no heap.
  */
 #ifndef MFNS_INTEGRITY_LAG_H
@@ -70,6 +76,7 @@ typedef struct {
     float num[MFNS_NUM_CAMERAS];        /* this fix's f^T M e (whitened) */
     float den[MFNS_NUM_CAMERAS];        /* this fix's f^T M f: the information on tau_c */
     float var_survey[MFNS_NUM_CAMERAS]; /* the part of var(num) = den due to the beacons' survey errors */
+    float var_calib[MFNS_NUM_CAMERAS];  /* var(num) due to the table's calibration covariance (beyond den) */
     float k;                            /* the threshold on |z| */
     int8_t worst;                       /* camera of the largest |z| above k, -1 none */
 } mfns_lag_eval_t;
@@ -93,10 +100,12 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  * test is on the moving sum over the camera's last MFNS_INTEGRITY_LAG_WINDOW
  * tested fixes: tau = sum num / sum den, z = sum num / sqrt(sum den)
  * where the window's var(sum num) counts the pixel noise as independent from
- * fix to fix and the survey errors' part (var_survey, static) as fully
- * correlated: sum (den - var_survey) + (sum sqrt(var_survey))^2, so z is
+ * fix to fix and the survey errors' and calibration's parts (var_survey,
+ * var_calib: static) as fully correlated: sum (den - var_survey) +
+ * (sum sqrt(var_survey))^2 + (sum sqrt(var_calib))^2, so z is
  * N(0, 1), or narrower, without a lag; beside it
- * this fix's z alone (z_fix: a sudden lag is seen at once, undiluted), the
+ * this fix's z alone (z_fix = num / sqrt(den + var_calib): a sudden lag is
+ * seen at once, undiluted), the
  * two tests sharing P_fa: K = Q^-1(P_fa / (2 * 2 * N_tested)). ev's tau,
  * sd, z and mdl are the window's. A fix where
  * camera c is untested (no inlier, no motion) clears c's window.
