@@ -358,6 +358,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     out->lag_new_camera = -1;
     out->beacons.missing = -1;
     out->beacons.rejected = -1;
+    out->cameras.inconsistent = -1;
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
@@ -405,6 +406,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &t->beacons, &nav->obs, &out->sol,
                                  carries_track(&out->sol, !out->acquired), nav->integ_mem.beacon,
                                  MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
+        mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &t->beacons, &nav->obs, &out->sol,
+                                 carries_track(&out->sol, !out->acquired), &out->cameras);
     }
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;
