@@ -248,6 +248,9 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
         ev->tested[c] = 1U;
         ev->num[c] = num[c];
         ev->den[c] = den[c];
+        /* the pose's shift under a lag of one cycle, in its sigmas:
+         * |P0 J^T f|_I0 = sqrt(f^T J P0 J^T f) = sqrt(f^T f - f^T M f) */
+        ev->shift_sigma[c] = sqrtf(fmaxf(s.ftf[c] - den[c], 0.0f));
         float v[6];
         solve6(&fac, s.jtf[c], v);
         static_var(rig, m, n, &sol->pose, back, cfg->calib_cov, c, v, &ev->var_survey[c], &ev->var_calib[c]);
@@ -361,9 +364,12 @@ static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t
             }
         } else if (mem->cam_lag[c] != 0U) {
             /* a pass counts only when the window could have seen a lag of
-             * one period (its minimum detectable lag <= 1 cycle) */
-            if (ev->tested[c] && fabsf(ev->z[c]) <= ev->k && fabsf(ev->z_fix[c]) <= ev->k &&
-                ev->mdl_cycles[c] <= MFNS_LAG_CERT_CYCLES && mem->lag_verify[c] > 0U) {
+             * one period (its minimum detectable lag <= 1 cycle), or when
+             * the lag it could miss moves the fix by less than a sigma */
+            const bool power = ev->mdl_cycles[c] <= MFNS_LAG_CERT_CYCLES ||
+                               ev->mdl_cycles[c] * ev->shift_sigma[c] <= MFNS_LAG_HARMLESS_SIGMA;
+            if (ev->tested[c] && fabsf(ev->z[c]) <= ev->k && fabsf(ev->z_fix[c]) <= ev->k && power &&
+                mem->lag_verify[c] > 0U) {
                 mem->lag_verify[c]--;
             }
             if (mem->lag_verify[c] == 0U) {

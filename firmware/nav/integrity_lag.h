@@ -65,6 +65,14 @@
  * then have caught a frame one period stale (the fault a driver that stamps
  * on arrival produces) with probability 1 - P_md. */
 #define MFNS_LAG_CERT_CYCLES 1.0f
+/* ... or when the largest lag the window can miss moves this fix by at most
+ * this many of its own sigmas (Mahalanobis, with the pose free: a lag tau
+ * of camera c shifts the fix by tau P0 J^T f_c, whose Mahalanobis length is
+ * tau sqrt(f_c^T f_c - f_c^T M f_c) = tau * shift_sigma): a lag the test
+ * cannot see is then one the fix does not feel. Without it a camera whose
+ * lag is mostly absorbed by the pose (few beacons, or beacons that move
+ * with the pose) could never be released while the robot moves. */
+#define MFNS_LAG_HARMLESS_SIGMA 1.0f
 
 typedef struct {
     uint8_t tested[MFNS_NUM_CAMERAS];  /* 1: camera had inliers and a motion to test against */
@@ -77,6 +85,7 @@ typedef struct {
     float den[MFNS_NUM_CAMERAS];        /* this fix's f^T M f: the information on tau_c */
     float var_survey[MFNS_NUM_CAMERAS]; /* the part of var(num) = den due to the beacons' survey errors */
     float var_calib[MFNS_NUM_CAMERAS];  /* var(num) due to the table's calibration covariance (beyond den) */
+    float shift_sigma[MFNS_NUM_CAMERAS]; /* this fix's shift per cycle of c's lag, in its sigmas */
     float k;                            /* the threshold on |z| */
     int8_t worst;                       /* camera of the largest |z| above k, -1 none */
 } mfns_lag_eval_t;
@@ -124,9 +133,14 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  *     little power, the window has it). Without motion nothing is tested
  *     and the camera stays out (availability, never integrity).
  * A pass counts only with the power to see a one-period lag
- * (MFNS_LAG_CERT_CYCLES). Two cameras alone cannot tell which one lags (a
- * lag of one is the opposite lag of the other): the window's power falls,
- * and a held camera then stays held.
+ * (MFNS_LAG_CERT_CYCLES), or when the lag it could miss is harmless to the
+ * fix (mdl * shift_sigma <= MFNS_LAG_HARMLESS_SIGMA). So with motion and the
+ * camera's beacons in the fix, a camera is released after
+ * MFNS_INTEGRITY_LAG_VERIFY such fixes; it stays held (LAG_VERIFY, never
+ * certified) while the robot is still (nothing tested), while it has no
+ * inlier, and while its lag is both unseen and harmful -- two cameras alone
+ * cannot tell which one lags (a lag of one is the opposite lag of the
+ * other): the window's power falls, and a held camera then stays held.
  * Returns the camera of a new lag episode (report it), else -1. */
 int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,

@@ -20,7 +20,7 @@
 typedef struct {
     mfns_rig_t rig;
     mfns_beacon_map_t map;
-    pt_dpose_t pose[4]; /* the truth at cycles 0..3 (constant velocity and turn rate) */
+    pt_dpose_t pose[12]; /* the truth at cycles 0..11 (constant velocity and turn rate) */
     mfns_pose_config_t cfg;
     mfns_integrity_settings_t set;
     mfns_obs_frame_t frame;
@@ -55,7 +55,7 @@ static void make_motion(uint64_t seed)
     double c[3][3], pos[3];
     memcpy(c, p0.C, sizeof c);
     pt_position_w(&p0, pos);
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < 12; k++) {
         sc.pose[k] = pt_pose(c, pos);
         double next[3][3];
         mat_mul(dc, c, next);
@@ -374,6 +374,47 @@ static void test_stale_camera_caught_with_a_calibration_covariance(void **state)
     }
 }
 
+/* A camera held for verification (back from an outage) is released after
+ * MFNS_INTEGRITY_LAG_VERIFY passing fixes while the robot moves; while it is
+ * still nothing is tested and it stays held (LAG_VERIFY: availability, never
+ * integrity). */
+static void test_verify_finishes_with_motion_only(void **state)
+{
+    (void)state;
+    for (int moving = 0; moving <= 1; moving++) {
+        make_motion(17);
+        mfns_integrity_memory_t mem;
+        mfns_integrity_memory_reset(&mem);
+        mfns_rng_t rng;
+        mfns_rng_seed(&rng, 17);
+        mfns_lag_eval_t ev;
+        for (int k = 0; k < 2; k++) {
+            assert_true(render(moving ? k : 0, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+            (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+        }
+        (void)mfns_integrity_hold_lagging(&mem, 0, 2U, sc.set.hold_cycles);
+        mem.lag_verify[0] = MFNS_INTEGRITY_LAG_VERIFY;
+        int released = -1;
+        for (int k = 2; k < 12 && released < 0; k++) {
+            assert_true(render(moving ? k : 0, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+            (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+            released = mem.cam_lag[0] == 0U ? k - 1 : -1;
+        }
+        print_message("%s: camera 0 released after %d fixes (mdl %.2f cycles, shift %.2f sigma per cycle)\n",
+                      moving ? "moving" : "still", released, (double)ev.mdl_cycles[0],
+                      (double)ev.shift_sigma[0]);
+        if (moving) {
+            assert_int_equal(released, MFNS_INTEGRITY_LAG_VERIFY);
+        } else {
+            assert_int_equal(released, -1);
+            /* the "motion" is the fixes' noise: a lag the test misses would move
+             * the fix by mdl * shift sigmas, more than one: never released */
+            assert_int_equal(mem.cam_lag[0], 2);
+            assert_true(ev.mdl_cycles[0] * ev.shift_sigma[0] > MFNS_LAG_HARMLESS_SIGMA);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -382,6 +423,7 @@ int main(void)
         cmocka_unit_test(test_stale_camera_flagged_with_its_lag),
         cmocka_unit_test(test_no_motion_nothing_tested),
         cmocka_unit_test(test_monitor_holds_and_reports_once),
+        cmocka_unit_test(test_verify_finishes_with_motion_only),
         cmocka_unit_test(test_biased_calibration_inside_its_covariance_is_no_lag),
         cmocka_unit_test(test_stale_camera_caught_with_a_calibration_covariance),
     };
