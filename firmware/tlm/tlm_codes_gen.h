@@ -42,7 +42,7 @@ typedef enum {
     TLM_CAM_LATE = 8, /* health: arrival - capture above 1.5 frame periods: left out */
     TLM_CAM_OUT_OF_STEP = 9, /* health: sequence numbers disagree with the other cameras' for the frames' times: left out */
     TLM_CAM_LAGGING = 10, /* integrity: its frames lag their stamps (time-offset monitor: residuals regressed on the beacons' image velocity, |z| above the threshold): left out of the fix until the lag has left the test window and 8 more fixes have passed */
-    TLM_CAM_LAG_VERIFY = 11, /* integrity: back from an outage (no beacon in a fix), left out until its lag test has passed 4 fixes (a camera coming back stale is caught before it is used) */
+    TLM_CAM_LAG_VERIFY = 11, /* integrity: back from an outage (no beacon in a fix), left out until its lag test has passed 4 fixes (a camera coming back stale is caught before it is used): 4 fixes while the robot moves and the camera has beacons in the fix; while the robot is still its lag cannot be tested and it stays out (availability, never integrity) */
     TLM_CAM_INCONSISTENT = 12, /* integrity: its spots disagree with the fix two or more other cameras give (beacons predicted in its image, none of its spots used, since CAMERA_INCONSISTENT was sent): contributes nothing; the episode ends after 10 fixes in which it has an inlier */
     TLM_CAM_DISAGREES = 13, /* integrity: its spots disagree with the fix one other camera gives alone (since CAMERAS_DISAGREE was sent): one of the two is wrong, nothing says which; contributes nothing; the episode ends after 10 fixes in which it has an inlier */
     TLM_CAM_STATE_COUNT = 14
