@@ -253,6 +253,9 @@ def held_at_end(cam_rows: list[dict], truth: score.Truth) -> list[dict]:
                 "camera": cam,
                 "state": rows[-1]["state"],
                 "since_cycle": int(rows[k]["cycle"]),
+                "cycles": len(rows) - k,
+                # a held camera's identified beacons are not in the packet (FDE leaves it out): spots
+                "with_spots": sum(1 for r in rows[k:] if int(r.get("blobs") or 0) > 0),
                 "mm_per_cycle": float(np.mean([m for m, _ in steps])),
                 "deg_per_cycle": float(np.mean([d for _, d in steps])),
             }
@@ -568,10 +571,14 @@ def main() -> int:
     held = [(r["run"], h) for r in results for h in r.get("held_at_end", [])]
     if held:
         print()
-        print("cameras the time-offset monitor still holds at the end of a run (mean true motion meanwhile):")
+        print(
+            "cameras the time-offset monitor still holds at the end of a run (cycles in which the camera "
+            "had spots, true motion meanwhile: a camera without beacons in the fix has nothing to verify):"
+        )
         for run_name, h in held:
             print(
-                f"- {run_name}: camera {h['camera']} {h['state']} from cycle {h['since_cycle']} "
+                f"- {run_name}: camera {h['camera']} {h['state']} from cycle {h['since_cycle']}, "
+                f"spots in {h.get('with_spots', '?')} of its {h.get('cycles', '?')} cycles "
                 f"({h['mm_per_cycle']:.2f} mm, {h['deg_per_cycle']:.3f} deg per cycle)"
             )
     total = sum(r["misleading"] for r in results)
