@@ -86,7 +86,7 @@ static void evidence_against(mfns_camera_watch_t *w, const mfns_pose_solution_t 
 
 void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                               const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, bool pose_known,
-                              mfns_camera_watch_report_t *rep)
+                              const uint8_t solver_inlier[MFNS_NUM_CAMERAS], mfns_camera_watch_report_t *rep)
 {
     if (rep == NULL) {
         return;
@@ -99,7 +99,7 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
         return;
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        const bool inlier = has_inlier(sol, frame, c);
+        const bool inlier = has_inlier(sol, frame, c) || (solver_inlier != NULL && solver_inlier[c] != 0U);
         if (pose_known && inlier) {
             w->evidence[c] = 0;
             w->fixes[c] = 0;

@@ -90,9 +90,12 @@ void mfns_camera_watch_reset(mfns_camera_watch_t *w);
  * marks); pose_known: sol's pose predicts well enough (a fix, or a pose
  * that carries the track), else nothing is counted; rep->state still says
  * which cameras are in a reported episode. At most one new report per cycle
- * (the lowest camera first). */
+ * (the lowest camera first). solver_inlier (NULL: none): per camera, 1 when
+ * it had an inlier in the solver's fix before FDE -- a camera FDE or the
+ * time-offset monitor holds out is missing from sol for their reasons, not
+ * because its spots disagree (they report it), so it counts as consistent. */
 void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                               const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, bool pose_known,
-                              mfns_camera_watch_report_t *rep);
+                              const uint8_t solver_inlier[MFNS_NUM_CAMERAS], mfns_camera_watch_report_t *rep);
 
 #endif /* MFNS_INTEGRITY_CAMERAS_H */

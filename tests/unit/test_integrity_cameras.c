@@ -60,7 +60,7 @@ static void test_clean_reports_nothing(void **state)
         make_scene(seed, per_cam);
         mfns_camera_watch_report_t rep;
         for (int k = 0; k < 3 * MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
-            mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+            mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
             assert_int_equal(rep.inconsistent, -1);
             for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
                 assert_int_equal(rep.state[c], 0);
@@ -94,9 +94,9 @@ static void test_unused_camera_reported_once_on_its_evidence(void **state)
     int reports = 0, at = -1;
     for (int k = 1; k <= 3 * MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
         /* every other cycle without a known pose: counts nothing */
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, false, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, false, NULL, &rep);
         assert_int_equal(rep.inconsistent, -1);
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
         if (rep.inconsistent >= 0) {
             assert_int_equal(rep.inconsistent, 1);
             assert_int_equal(rep.fixes, expect);
@@ -112,13 +112,13 @@ static void test_unused_camera_reported_once_on_its_evidence(void **state)
     assert_int_equal(at, expect);
     /* an inlier again: the state clears at once, the episode after 10 fixes */
     for (int k = 0; k < MFNS_CAMERA_CONSISTENT_FIXES; k++) {
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &clean, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &clean, true, NULL, &rep);
         assert_int_equal(rep.inconsistent, -1);
         assert_int_equal(rep.state[1], 0);
     }
     at = -1;
     for (int k = 1; k <= expect; k++) {
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
         at = rep.inconsistent == 1 && at < 0 ? k : at;
     }
     assert_int_equal(at, expect); /* a new episode, reported again */
@@ -134,7 +134,7 @@ static void test_nothing_to_tell_counts_nothing(void **state)
     /* camera 2 dark (no image), then without spots: no evidence */
     sc.frame.dark[2] = 1U;
     for (int k = 0; k < 2 * MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
         assert_int_equal(rep.inconsistent, -1);
     }
     assert_int_equal(sc.w.evidence[2], 0);
@@ -144,7 +144,7 @@ static void test_nothing_to_tell_counts_nothing(void **state)
     sc.frame.count[2] = 0;
     int at = -1;
     for (int k = 1; k <= MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
         at = rep.inconsistent == 2 && at < 0 ? k : at;
     }
     assert_true(at > 0);
@@ -160,14 +160,14 @@ static void test_nothing_to_tell_counts_nothing(void **state)
     unassociate(2);
     assert_true(sc.frame.count[2] > 0);
     for (int k = 0; k < 2 * MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
         assert_int_equal(rep.inconsistent, -1);
     }
     assert_int_equal(sc.w.evidence[2], 0);
     /* bad input: a clear no-report, never a crash */
-    mfns_camera_watch_update(NULL, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+    mfns_camera_watch_update(NULL, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
     assert_int_equal(rep.inconsistent, -1);
-    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL);
+    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, NULL);
 }
 
 /* Two cameras unused, the fix from the third alone: each disagrees with it,
@@ -183,7 +183,7 @@ static void test_pair_disagreement_names_both(void **state)
     mfns_camera_watch_report_t rep;
     int seen[MFNS_NUM_CAMERAS] = {0, 0, 0};
     for (int k = 0; k < 3 * MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
-        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, &rep);
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
         assert_int_equal(rep.inconsistent, -1);
         if (rep.disagrees >= 0) {
             assert_int_equal(rep.disagrees_with, 0);
@@ -199,6 +199,26 @@ static void test_pair_disagreement_names_both(void **state)
     assert_int_equal(rep.state[0], 0);
 }
 
+/* A camera held out by FDE or the time-offset monitor is missing from the
+ * output fix for their reasons: with an inlier in the solver's fix it counts
+ * as consistent (never INCONSISTENT for being held). */
+static void test_held_camera_is_not_inconsistent(void **state)
+{
+    (void)state;
+    const int per_cam[3] = {5, 5, 5};
+    make_scene(41, per_cam);
+    unassociate(1); /* the output fix without camera 1 */
+    const uint8_t solver_inlier[MFNS_NUM_CAMERAS] = {1U, 1U, 1U};
+    mfns_camera_watch_report_t rep;
+    for (int k = 0; k < 3 * MFNS_CAMERA_INCONSISTENT_EVIDENCE; k++) {
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, solver_inlier, &rep);
+        assert_int_equal(rep.inconsistent, -1);
+        assert_int_equal(rep.disagrees, -1);
+        assert_int_equal(rep.state[1], 0);
+    }
+    assert_int_equal(sc.w.evidence[1], 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -206,6 +226,7 @@ int main(void)
         cmocka_unit_test(test_unused_camera_reported_once_on_its_evidence),
         cmocka_unit_test(test_nothing_to_tell_counts_nothing),
         cmocka_unit_test(test_pair_disagreement_names_both),
+        cmocka_unit_test(test_held_camera_is_not_inconsistent),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
