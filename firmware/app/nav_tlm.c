@@ -149,6 +149,15 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_REJECTED, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
                             bw->rejected_count, id);
     }
+    const mfns_camera_watch_report_t *cw = &o->cameras;
+    if (cw->inconsistent >= 0 && cw->inconsistent < MFNS_NUM_CAMERAS) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_INCONSISTENT, TLM_SEV_WARNING, (uint8_t)cw->inconsistent,
+                            cw->evidence, cw->fixes);
+    }
+    if (cw->disagrees >= 0 && cw->disagrees < MFNS_NUM_CAMERAS) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERAS_DISAGREE, TLM_SEV_WARNING, (uint8_t)cw->disagrees,
+                            cw->pair_evidence, cw->disagrees_with);
+    }
     if (r->readmitted_camera >= 0) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
                             0);
@@ -292,6 +301,12 @@ static uint8_t camera_state(const struct nav_cams *cams, const mfns_nav_output_t
     }
     if (c->have && out->cam_held[k] == 3U) {
         return TLM_CAM_LAG_VERIFY;
+    }
+    if (c->have && out->cameras.state[k] == 1U) {
+        return TLM_CAM_INCONSISTENT; /* no spot where the other cameras' fix puts a beacon */
+    }
+    if (c->have && out->cameras.state[k] == 2U) {
+        return TLM_CAM_DISAGREES; /* no spot where the one other camera's fix puts a beacon */
     }
     return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
 }

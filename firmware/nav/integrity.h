@@ -68,6 +68,7 @@
 #include <stdint.h>
 
 #include "integrity_beacons.h"
+#include "integrity_cameras.h"
 #include "pose.h"
 
 /* The settings (mfns_integrity_settings_t, nav_config.h) come from the
@@ -172,11 +173,13 @@ typedef struct {
     uint8_t dark_run[MFNS_NUM_CAMERAS]; /* consecutive cycles without an image, capped */
     uint8_t lag_tested_motion;      /* this cycle's fix was tested against a known motion */
     mfns_beacon_watch_t watch;      /* beacons missing or rejected (integrity_beacons.h) */
+    mfns_camera_watch_t camwatch;   /* cameras inconsistent with the fix (integrity_cameras.h) */
     /* the time-offset monitor's moving window (integrity_lag.h): per camera
      * and tested cycle, f^T M e and f^T M f; lag_pos the next slot */
     float lag_num[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
     float lag_den[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW];
     float lag_vs[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW]; /* the survey part of lag_den */
+    float lag_vc[MFNS_NUM_CAMERAS][MFNS_INTEGRITY_LAG_WINDOW]; /* the calibration part, beyond lag_den */
     uint8_t lag_pos[MFNS_NUM_CAMERAS];
 } mfns_integrity_memory_t;
 

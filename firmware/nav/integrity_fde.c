@@ -9,6 +9,7 @@
 void mfns_integrity_memory_reset(mfns_integrity_memory_t *mem)
 {
     memset(mem, 0, sizeof *mem);
+    mfns_camera_watch_reset(&mem->camwatch);
     for (int i = 0; i < MFNS_INTEGRITY_MAX_HELD_BEACONS; i++) {
         mem->beacon[i] = -1;
         mem->beacon_hold[i] = 0;

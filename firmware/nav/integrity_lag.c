@@ -133,19 +133,29 @@ static void solve6(const mfns_chol_t *fac, const float b[6], float x[6])
     }
 }
 
-/* The part of var(f_c^T M e) due to the beacons' survey errors (static:
- * the same in every fix of the window, so it does not average down):
- * sum_i u_i^T L_i^-1 S_i L_i^-T u_i, u = M f_c = f_c - J v (v = P0 J^T f_c),
- * S_i the survey term of observation i's covariance (mfns_pose_obs_cov with
- * no pixel noise). */
-static float survey_var(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, const mfns_pose_t *pose,
-                        const mfns_pose_t *back, int c, const float v[6])
+/* The parts of var(f_c^T M e) that are static (the same in every fix of the
+ * window, so they do not average down), with u = M f_c = f_c - J v (v = P0
+ * J^T f_c) and y_i = L_i^-T u_i:
+ *   - the beacons' survey errors: sum_i y_i^T S_i y_i, S_i the survey term of
+ *     observation i's covariance (mfns_pose_obs_cov with no pixel noise);
+ *     it is inside den (the weights carry it);
+ *   - the calibration's (the table's Sigma_c, pose.h calib_cov): the error
+ *     dc moves observation i by J_c,i dc, so f^T M e gets g^T dc with
+ *     g = sum_i J_c,i^T y_i, variance g^T Sigma_c g; it is not in the
+ *     weights, so it adds to den (0 without a table covariance).
+ * A biased calibration (a mount error, a focal length) then widens the test
+ * by what the calibration says it may be, instead of reading as a lag. */
+static void static_var(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, const mfns_pose_t *pose,
+                       const mfns_pose_t *back, const mfns_calib_cov_t *calib, int c, const float v[6],
+                       float *var_survey, float *var_calib)
 {
     static const float zero[3] = {0.0f, 0.0f, 0.0f};
+    const bool with_calib = calib != NULL && calib->present != 0U;
+    float g[MFNS_CALIB_PARAMS] = {0.0f};
     float acc = 0.0f;
     for (int k = 0; k < n; k++) {
         float e[2], jac[2][6], eb[2];
-        if (!m[k].active || m[k].sigma_mm <= 0.0f || !mfns_pose_wresidual(rig, &m[k], pose, e, jac) ||
+        if (!m[k].active || !mfns_pose_wresidual(rig, &m[k], pose, e, jac) ||
             !mfns_pose_wresidual(rig, &m[k], back, eb, NULL)) {
             continue;
         }
@@ -158,13 +168,31 @@ static float survey_var(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
             }
             u[r] = (mine ? e[r] - eb[r] : 0.0f) - jv;
         }
-        float sv[3] = {0.0f, 0.0f, 0.0f};
-        (void)mfns_pose_obs_cov(&rig->cam[m[k].cam], pose, m[k].p_w, zero, m[k].sigma_mm, 0.0f, sv);
         /* y = L^-T u with L^-1 = [[w0, 0], [w1, w2]] */
         const float y0 = m[k].w[0] * u[0] + m[k].w[1] * u[1], y1 = m[k].w[2] * u[1];
-        acc += sv[0] * y0 * y0 + 2.0f * sv[1] * y0 * y1 + sv[2] * y1 * y1;
+        if (m[k].sigma_mm > 0.0f) {
+            float sv[3] = {0.0f, 0.0f, 0.0f};
+            (void)mfns_pose_obs_cov(&rig->cam[m[k].cam], pose, m[k].p_w, zero, m[k].sigma_mm, 0.0f, sv);
+            acc += sv[0] * y0 * y0 + 2.0f * sv[1] * y0 * y1 + sv[2] * y1 * y1;
+        }
+        float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA];
+        if (with_calib && mfns_pose_calib_jacobian(&rig->cam[m[k].cam], pose, m[k].p_w, jc)) {
+            const int c0 = (int)m[k].cam * MFNS_CALIB_PARAMS_PER_CAMERA;
+            for (int j = 0; j < MFNS_CALIB_PARAMS_PER_CAMERA; j++) {
+                g[c0 + j] += jc[0][j] * y0 + jc[1][j] * y1;
+            }
+        }
     }
-    return acc;
+    float gsg = 0.0f;
+    for (int i = 0; with_calib && i < MFNS_CALIB_PARAMS; i++) {
+        float row = 0.0f;
+        for (int j = 0; j < MFNS_CALIB_PARAMS; j++) {
+            row += calib->cov[i][j] * g[j];
+        }
+        gsg += g[i] * row;
+    }
+    *var_survey = acc;
+    *var_calib = fmaxf(gsg, 0.0f); /* a PSD Sigma_c; rounding never makes it negative */
 }
 
 mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
@@ -203,7 +231,7 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
     if (mfns_chol_factor(a, 6, cfg->s.min_rcond, &fac) != MFNS_SPD_OK) {
         return MFNS_INTEGRITY_E_GEOM;
     }
-    float num[MFNS_NUM_CAMERAS] = {0.0f}, den[MFNS_NUM_CAMERAS] = {0.0f};
+    float num[MFNS_NUM_CAMERAS] = {0.0f}, den[MFNS_NUM_CAMERAS] = {0.0f}, var[MFNS_NUM_CAMERAS] = {0.0f};
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         if (s.obs[c] < MFNS_LAG_MIN_OBS) {
             continue;
@@ -220,11 +248,15 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
         ev->tested[c] = 1U;
         ev->num[c] = num[c];
         ev->den[c] = den[c];
+        /* the pose's shift under a lag of one cycle, in its sigmas:
+         * |P0 J^T f|_I0 = sqrt(f^T J P0 J^T f) = sqrt(f^T f - f^T M f) */
+        ev->shift_sigma[c] = sqrtf(fmaxf(s.ftf[c] - den[c], 0.0f));
         float v[6];
         solve6(&fac, s.jtf[c], v);
-        ev->var_survey[c] = survey_var(rig, m, n, &sol->pose, back, c, v);
+        static_var(rig, m, n, &sol->pose, back, cfg->calib_cov, c, v, &ev->var_survey[c], &ev->var_calib[c]);
+        var[c] = den[c] + ev->var_calib[c];
     }
-    decide(num, den, den, 1, set, ev);
+    decide(num, den, var, 1, set, ev);
     return MFNS_INTEGRITY_OK;
 }
 
@@ -235,6 +267,7 @@ static void clear_windows(mfns_integrity_memory_t *mem)
             mem->lag_num[c][i] = 0.0f;
             mem->lag_den[c][i] = 0.0f;
             mem->lag_vs[c][i] = 0.0f;
+            mem->lag_vc[c][i] = 0.0f;
         }
     }
 }
@@ -265,25 +298,30 @@ static void window(mfns_integrity_memory_t *mem, const mfns_lag_eval_t *ev, floa
             mem->lag_num[c][i] = 0.0f; /* an outage or no motion: a fresh window */
             mem->lag_den[c][i] = 0.0f;
             mem->lag_vs[c][i] = 0.0f;
+            mem->lag_vc[c][i] = 0.0f;
         }
         if (ev->tested[c]) {
             mem->lag_num[c][pos] = ev->num[c];
             mem->lag_den[c][pos] = ev->den[c];
             mem->lag_vs[c][pos] = fminf(fmaxf(ev->var_survey[c], 0.0f), ev->den[c]);
+            mem->lag_vc[c][pos] = ev->var_calib[c];
             mem->lag_pos[c] = (uint8_t)((pos + 1U) % MFNS_INTEGRITY_LAG_WINDOW);
         }
         num[c] = 0.0f;
         den[c] = 0.0f;
-        float sd_s = 0.0f, var_px = 0.0f;
+        float sd_s = 0.0f, sd_c = 0.0f, var_px = 0.0f;
         for (int i = 0; i < MFNS_INTEGRITY_LAG_WINDOW; i++) {
             num[c] += mem->lag_num[c][i];
             den[c] += mem->lag_den[c][i];
-            /* pixel noise independent from fix to fix, survey error the same
-             * in every fix (fully correlated: the sum of the sds) */
+            /* pixel noise independent from fix to fix; survey and calibration
+             * errors the same in every fix (fully correlated: the sum of the
+             * sds, an upper bound whatever the fixes' geometry), independent
+             * of each other */
             var_px += mem->lag_den[c][i] - mem->lag_vs[c][i];
             sd_s += sqrtf(mem->lag_vs[c][i]);
+            sd_c += sqrtf(mem->lag_vc[c][i]);
         }
-        var[c] = var_px + sd_s * sd_s;
+        var[c] = var_px + sd_s * sd_s + sd_c * sd_c;
     }
 }
 
@@ -326,9 +364,12 @@ static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t
             }
         } else if (mem->cam_lag[c] != 0U) {
             /* a pass counts only when the window could have seen a lag of
-             * one period (its minimum detectable lag <= 1 cycle) */
-            if (ev->tested[c] && fabsf(ev->z[c]) <= ev->k && fabsf(ev->z_fix[c]) <= ev->k &&
-                ev->mdl_cycles[c] <= MFNS_LAG_CERT_CYCLES && mem->lag_verify[c] > 0U) {
+             * one period (its minimum detectable lag <= 1 cycle), or when
+             * the lag it could miss moves the fix by less than a sigma */
+            const bool power = ev->mdl_cycles[c] <= MFNS_LAG_CERT_CYCLES ||
+                               ev->mdl_cycles[c] * ev->shift_sigma[c] <= MFNS_LAG_HARMLESS_SIGMA;
+            if (ev->tested[c] && fabsf(ev->z[c]) <= ev->k && fabsf(ev->z_fix[c]) <= ev->k && power &&
+                mem->lag_verify[c] > 0U) {
                 mem->lag_verify[c]--;
             }
             if (mem->lag_verify[c] == 0U) {
@@ -384,7 +425,8 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
         ev_clear(ev);
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        ev->z_fix[c] = ev->tested[c] ? ev->num[c] / sqrtf(ev->den[c]) : 0.0f; /* the onset: this fix alone */
+        /* the onset: this fix alone, its variance den plus the calibration's */
+        ev->z_fix[c] = ev->tested[c] ? ev->num[c] / sqrtf(ev->den[c] + ev->var_calib[c]) : 0.0f;
     }
     float num[MFNS_NUM_CAMERAS], den[MFNS_NUM_CAMERAS], var[MFNS_NUM_CAMERAS];
     window(mem, ev, num, den, var);

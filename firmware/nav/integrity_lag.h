@@ -16,7 +16,10 @@
  * (the last two fixes), E[e] = tau_c f_c + J dx. The least-squares estimate
  * of tau_c with the pose free (a GLRT for one added column) is
  *   tau_c = f_c^T M e / f_c^T M f_c,  M = I - J P0 J^T, P0 = (J^T J)^-1,
- *   var(tau_c) = 1 / f_c^T M f_c      (unit whitened noise),
+ *   var(tau_c) = (f_c^T M f_c + var_calib) / (f_c^T M f_c)^2
+ *   (unit whitened noise, which carries the survey error; var_calib the
+ *   table's calibration covariance seen through the test, static_var in
+ *   integrity_lag.c),
  * and z_c = tau_c / sd(tau_c) is N(0, 1) without a lag: the camera is
  * lagging when |z_c| > K, K = Q^-1(P_fa / (2 N_tested)) (two-sided: a frame
  * stamped early is a fault too; P_fa the table's per-fix budget, spent a
@@ -37,9 +40,12 @@
  *   - a lag smaller than the minimum detectable lag;
  *   - motion that changed within the cycle (the velocity is the last
  *     cycle's: an acceleration mis-scales tau but does not bias z under H0);
- *   - calibration errors correlated with the motion pattern: the
- *     calibration covariance is not in var(tau_c) (a mount error gives a
- *     fixed pattern, motion a moving one; over one fix they can correlate).
+ *   - a calibration error beyond the table's calibration covariance: the
+ *     covariance Sigma_c is in var(tau_c) as a static error (g^T Sigma_c g,
+ *     g = J_c^T L^-T M f_c: what a calibration error of that size can put
+ *     into f^T M e), so a calibration inside its stated uncertainty is not
+ *     read as a lag, but one outside it can be (and the test loses power
+ *     in proportion to Sigma_c: the minimum detectable lag says how much).
  * Work: one pass of two projections per inlier, a 6x6 Cholesky; no heap.
  */
 #ifndef MFNS_INTEGRITY_LAG_H
@@ -59,6 +65,14 @@
  * then have caught a frame one period stale (the fault a driver that stamps
  * on arrival produces) with probability 1 - P_md. */
 #define MFNS_LAG_CERT_CYCLES 1.0f
+/* ... or when the largest lag the window can miss moves this fix by at most
+ * this many of its own sigmas (Mahalanobis, with the pose free: a lag tau
+ * of camera c shifts the fix by tau P0 J^T f_c, whose Mahalanobis length is
+ * tau sqrt(f_c^T f_c - f_c^T M f_c) = tau * shift_sigma): a lag the test
+ * cannot see is then one the fix does not feel. Without it a camera whose
+ * lag is mostly absorbed by the pose (few beacons, or beacons that move
+ * with the pose) could never be released while the robot moves. */
+#define MFNS_LAG_HARMLESS_SIGMA 1.0f
 
 typedef struct {
     uint8_t tested[MFNS_NUM_CAMERAS];  /* 1: camera had inliers and a motion to test against */
@@ -70,6 +84,8 @@ typedef struct {
     float num[MFNS_NUM_CAMERAS];        /* this fix's f^T M e (whitened) */
     float den[MFNS_NUM_CAMERAS];        /* this fix's f^T M f: the information on tau_c */
     float var_survey[MFNS_NUM_CAMERAS]; /* the part of var(num) = den due to the beacons' survey errors */
+    float var_calib[MFNS_NUM_CAMERAS];  /* var(num) due to the table's calibration covariance (beyond den) */
+    float shift_sigma[MFNS_NUM_CAMERAS]; /* this fix's shift per cycle of c's lag, in its sigmas */
     float k;                            /* the threshold on |z| */
     int8_t worst;                       /* camera of the largest |z| above k, -1 none */
 } mfns_lag_eval_t;
@@ -93,10 +109,12 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  * test is on the moving sum over the camera's last MFNS_INTEGRITY_LAG_WINDOW
  * tested fixes: tau = sum num / sum den, z = sum num / sqrt(sum den)
  * where the window's var(sum num) counts the pixel noise as independent from
- * fix to fix and the survey errors' part (var_survey, static) as fully
- * correlated: sum (den - var_survey) + (sum sqrt(var_survey))^2, so z is
+ * fix to fix and the survey errors' and calibration's parts (var_survey,
+ * var_calib: static) as fully correlated: sum (den - var_survey) +
+ * (sum sqrt(var_survey))^2 + (sum sqrt(var_calib))^2, so z is
  * N(0, 1), or narrower, without a lag; beside it
- * this fix's z alone (z_fix: a sudden lag is seen at once, undiluted), the
+ * this fix's z alone (z_fix = num / sqrt(den + var_calib): a sudden lag is
+ * seen at once, undiluted), the
  * two tests sharing P_fa: K = Q^-1(P_fa / (2 * 2 * N_tested)). ev's tau,
  * sd, z and mdl are the window's. A fix where
  * camera c is untested (no inlier, no motion) clears c's window.
@@ -115,9 +133,14 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  *     little power, the window has it). Without motion nothing is tested
  *     and the camera stays out (availability, never integrity).
  * A pass counts only with the power to see a one-period lag
- * (MFNS_LAG_CERT_CYCLES). Two cameras alone cannot tell which one lags (a
- * lag of one is the opposite lag of the other): the window's power falls,
- * and a held camera then stays held.
+ * (MFNS_LAG_CERT_CYCLES), or when the lag it could miss is harmless to the
+ * fix (mdl * shift_sigma <= MFNS_LAG_HARMLESS_SIGMA). So with motion and the
+ * camera's beacons in the fix, a camera is released after
+ * MFNS_INTEGRITY_LAG_VERIFY such fixes; it stays held (LAG_VERIFY, never
+ * certified) while the robot is still (nothing tested), while it has no
+ * inlier, and while its lag is both unseen and harmful -- two cameras alone
+ * cannot tell which one lags (a lag of one is the opposite lag of the
+ * other): the window's power falls, and a held camera then stays held.
  * Returns the camera of a new lag episode (report it), else -1. */
 int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,

@@ -341,6 +341,16 @@ static void lag_untested(const mfns_nav_t *nav, mfns_nav_output_t *out)
     }
 }
 
+static bool camera_has_inlier(const mfns_pose_solution_t *s, const mfns_obs_frame_t *obs, int c)
+{
+    for (uint16_t i = 0; i < obs->count[c] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+        if (s->assoc.beacon[c][i] != MFNS_POSE_NO_BEACON && s->inlier[c][i] != 0U) {
+            return true;
+        }
+    }
+    return false;
+}
+
 static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -358,6 +368,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     out->lag_new_camera = -1;
     out->beacons.missing = -1;
     out->beacons.rejected = -1;
+    out->cameras.inconsistent = -1;
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
@@ -394,6 +405,10 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     if (st == MFNS_NAV_OK) {
         const mfns_caltable_t *t = nav->table;
         lag_monitor(nav, out);
+        uint8_t solver_inlier[MFNS_NUM_CAMERAS]; /* before FDE holds cameras out (integrity_cameras.h) */
+        for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+            solver_inlier[c] = (uint8_t)(has_fix(&out->sol) && camera_has_inlier(&out->sol, &nav->obs, c) ? 1U : 0U);
+        }
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         lag_untested(nav, out);
@@ -406,6 +421,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &t->beacons, &nav->obs, &out->sol,
                                  carries_track(&out->sol, !out->acquired), nav->integ_mem.beacon,
                                  MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
+        mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &t->beacons, &nav->obs, &out->sol,
+                                 carries_track(&out->sol, !out->acquired), solver_inlier, &out->cameras);
     }
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;

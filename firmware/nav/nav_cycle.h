@@ -110,6 +110,7 @@ typedef struct {
     mfns_lag_eval_t lag;
     int8_t lag_new_camera;
     mfns_beacon_watch_report_t beacons; /* beacons newly found missing or rejected (integrity_beacons.h) */
+    mfns_camera_watch_report_t cameras; /* cameras inconsistent with the fix (integrity_cameras.h) */
     uint8_t cam_held[MFNS_NUM_CAMERAS];
 } mfns_nav_output_t;
 

@@ -17,8 +17,8 @@
  * error theta turns camera coordinates p_k = C_k_b^T d (d = p_b - r_bk_b)
  * into C_k_b^T exp(-[theta]x) d = p_k + C_k_b^T [d]x theta, an offset error r
  * moves them by -C_k_b^T r. False when the beacon is behind the camera. */
-static bool calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
-                           float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA])
+bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
+                              float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA])
 {
     const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3(pose->C_w_b, p_w), pose->r_bw_b);
     const mfns_v3_t d = mfns_v3_sub(p_b, cam->r_bk_b);
@@ -86,7 +86,7 @@ void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int
             }
         }
         float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA];
-        if (b == NULL || !calib_jacobian(&rig->cam[m[k].cam], pose, m[k].p_w, jc)) {
+        if (b == NULL || !mfns_pose_calib_jacobian(&rig->cam[m[k].cam], pose, m[k].p_w, jc)) {
             continue;
         }
         const int c0 = (int)m[k].cam * MFNS_CALIB_PARAMS_PER_CAMERA;

@@ -68,6 +68,12 @@ bool mfns_pose_residual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const 
 bool mfns_pose_wresidual(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mfns_pose_t *pose,
                          float e[2], float jac[2][6]);
 
+/* d(u, v) / d(calibration parameters of cam) (nav_config.h order, the
+ * error conventions of mfns_calib_cov_t) of the beacon at p_w seen from
+ * pose; false when it is behind the camera. */
+bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
+                              float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA]);
+
 /* J^T R^-1 J over the active observations and, when b is not NULL, B =
  * J^T R^-1 J_c (J_c = d pixel / d calibration parameters, nav_config.h
  * order; a camera's observation fills only its camera's columns). */

@@ -42,8 +42,10 @@ typedef enum {
     TLM_CAM_LATE = 8, /* health: arrival - capture above 1.5 frame periods: left out */
     TLM_CAM_OUT_OF_STEP = 9, /* health: sequence numbers disagree with the other cameras' for the frames' times: left out */
     TLM_CAM_LAGGING = 10, /* integrity: its frames lag their stamps (time-offset monitor: residuals regressed on the beacons' image velocity, |z| above the threshold): left out of the fix until the lag has left the test window and 8 more fixes have passed */
-    TLM_CAM_LAG_VERIFY = 11, /* integrity: back from an outage (no beacon in a fix), left out until its lag test has passed 4 fixes (a camera coming back stale is caught before it is used) */
-    TLM_CAM_STATE_COUNT = 12
+    TLM_CAM_LAG_VERIFY = 11, /* integrity: back from an outage (no beacon in a fix), left out until its lag test has passed 4 fixes (a camera coming back stale is caught before it is used): 4 fixes while the robot moves and the camera has beacons in the fix; while the robot is still its lag cannot be tested and it stays out (availability, never integrity) */
+    TLM_CAM_INCONSISTENT = 12, /* integrity: its spots disagree with the fix two or more other cameras give (beacons predicted in its image, none of its spots used, since CAMERA_INCONSISTENT was sent): contributes nothing; the episode ends after 10 fixes in which it has an inlier */
+    TLM_CAM_DISAGREES = 13, /* integrity: its spots disagree with the fix one other camera gives alone (since CAMERAS_DISAGREE was sent): one of the two is wrong, nothing says which; contributes nothing; the episode ends after 10 fixes in which it has an inlier */
+    TLM_CAM_STATE_COUNT = 14
 } tlm_cam_state_t;
 
 /* event severity */
@@ -93,7 +95,9 @@ typedef enum {
     TLM_EVT_TABLE_ROLLBACK = 39, /* the stored table was refused at start and the previous one runs: subject 0; arg0 loader status of the refused table; arg1 CRC-32 of the table now running */
     TLM_EVT_TABLE_STORED = 40, /* a table written into the state dir's store (atomically: it survives a restart): subject 0 stored, 1 not stored (it runs, but a restart goes back to the stored one); arg0 errno (0 ok); arg1 CRC-32 of the table */
     TLM_EVT_CYCLE_BUDGET = 41, /* the acquisition budget at start: subject 0 the table's, 1 the board's (budget_units, --budget-units; docs/budgets.md); arg0 reserved (0); arg1 budget, work units per cycle */
-    TLM_EVT_CODE_COUNT = 42
+    TLM_EVT_CAMERA_INCONSISTENT = 42, /* subject camera; arg0 beacons the fixes of two or more other cameras predicted in its image since it last had an inlier, none found (20: a working camera misses them all with probability below 1e-6); arg1 those fixes: it gives images, but no spot where the other cameras' fix puts a beacon (frames stale by two periods and more, a mount that moved, a wrong camera); it contributes nothing to the fix (sent once per episode) */
+    TLM_EVT_CAMERAS_DISAGREE = 43, /* subject camera; arg0 beacons the fixes of ONE other camera predicted in its image since it last had an inlier, none found (20: below 1e-6 for two working cameras); arg1 that other camera (0 x, 1 y, 2 z): the two cameras' images disagree and one of them is wrong (stale, moved), nothing says which; the fix is that other camera's alone (sent once per episode) */
+    TLM_EVT_CODE_COUNT = 44
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

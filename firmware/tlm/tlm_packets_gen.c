@@ -69,8 +69,8 @@ const char *tlm_camera_name(uint8_t code)
 
 const char *tlm_cam_state_name(uint8_t code)
 {
-    static const char *const k_name[12] = {MFNS_MSG("OK"), MFNS_MSG("LOST"), MFNS_MSG("OFF"), MFNS_MSG("SKIPPED"), MFNS_MSG("ENDED"), MFNS_MSG("PROBATION"), MFNS_MSG("FROZEN"), MFNS_MSG("CLOCK_FAULT"), MFNS_MSG("LATE"), MFNS_MSG("OUT_OF_STEP"), MFNS_MSG("LAGGING"), MFNS_MSG("LAG_VERIFY")};
-    return (code <= TLM_CAM_LAG_VERIFY) ? k_name[code] : "?";
+    static const char *const k_name[14] = {MFNS_MSG("OK"), MFNS_MSG("LOST"), MFNS_MSG("OFF"), MFNS_MSG("SKIPPED"), MFNS_MSG("ENDED"), MFNS_MSG("PROBATION"), MFNS_MSG("FROZEN"), MFNS_MSG("CLOCK_FAULT"), MFNS_MSG("LATE"), MFNS_MSG("OUT_OF_STEP"), MFNS_MSG("LAGGING"), MFNS_MSG("LAG_VERIFY"), MFNS_MSG("INCONSISTENT"), MFNS_MSG("DISAGREES")};
+    return (code <= TLM_CAM_DISAGREES) ? k_name[code] : "?";
 }
 
 const char *tlm_severity_name(uint8_t code)
@@ -119,6 +119,8 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_TABLE_ROLLBACK: return MFNS_MSG("TABLE_ROLLBACK");
     case TLM_EVT_TABLE_STORED: return MFNS_MSG("TABLE_STORED");
     case TLM_EVT_CYCLE_BUDGET: return MFNS_MSG("CYCLE_BUDGET");
+    case TLM_EVT_CAMERA_INCONSISTENT: return MFNS_MSG("CAMERA_INCONSISTENT");
+    case TLM_EVT_CAMERAS_DISAGREE: return MFNS_MSG("CAMERAS_DISAGREE");
     default: return "?";
     }
 }

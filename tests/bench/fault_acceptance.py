@@ -43,9 +43,11 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from faults import inject, score  # noqa: E402
+from faults import inject, mdb, score  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 # The programs flown and the Python that simulates and builds tables: this tree's, or another
@@ -89,8 +91,9 @@ def simulate(out: Path, frames: int, seed: int = 2) -> None:
 class Tables:
     """Calibration tables built on first use (once, whichever run asks first)."""
 
-    def __init__(self, frames: Path, work: Path):
+    def __init__(self, frames: Path, work: Path, calib: Path | None = None):
         self.frames, self.work = frames, work
+        self.calib = calib or frames / "calib.json"  # the rig the tables carry
         self.lock = threading.Lock()
         self.made: dict[str, tuple[threading.Lock, list]] = {}
         self.seconds = 0.0
@@ -103,7 +106,7 @@ class Tables:
                 t0 = time.monotonic()
                 out = self.work / "tables" / f"{name}.mfnstbl"
                 out.parent.mkdir(exist_ok=True)
-                args = ["-m", "mfns", "table", "build", self.frames / "calib.json"]
+                args = ["-m", "mfns", "table", "build", self.calib]
                 args += [beacons() if beacons else self.frames / "beacons.csv", "-o", out, "-q"]
                 if settings is not None:
                     args += ["--settings", settings]
@@ -121,6 +124,7 @@ class Fault:
     tables: tuple[Callable[[], Path], Callable[[], Path]] | None = None  # nominal, survey
     onset_frame: int | None = None
     subjects: list[tuple[str, int, str]] = field(default_factory=list)  # (kind, id, label)
+    move_mm: tuple[float, float, float] | None = None  # a moved beacon's move (its MDB is computed)
 
 
 def slug(tag: str) -> str:
@@ -168,9 +172,95 @@ def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict
         res["onset_cycle"] = onset
         for kind, ident, label in fault.subjects:
             reports[label] = score.first_report(events, kind, ident, onset, ctx["described"])
+            if kind == "camera" and reports[label] is None:
+                # a camera that images no beacon after the onset (the simulator's spots): its
+                # fault cannot show in any fix, and cannot harm one
+                res.setdefault("beacon_spots", {})[label] = camera_spots(frames, label, fault.onset_frame)
     res["reports"] = reports
+    res["held_at_end"] = held_at_end(cam_rows, ctx["truth"])
+    if fault.move_mm is not None and fault.subjects:  # its MDB after the campaign (add_mdb)
+        res["move"] = {"mm": list(fault.move_mm), "beacon": fault.subjects[0][1], "frames": str(frames)}
+    res["held_at_end"] = held_at_end(cam_rows, ctx["truth"])
+    if fault.move_mm is not None and fault.subjects:
+        # the smallest move of this beacon, in this direction, the fault test detects (1 - P_md)
+        # in the run's usable fixes (tests/bench/faults/mdb.py)
+        try:
+            res["mdb"] = mdb.run_mdb(frames, nav_rows, fault.subjects[0][1], np.array(fault.move_mm))
+        except (OSError, ValueError, KeyError, np.linalg.LinAlgError) as e:
+            res["mdb"] = {"min_mm": None, "error": str(e)[:200]}
+        res["move_mm"] = float(np.linalg.norm(fault.move_mm))
     res["seconds"] = {"nav": t1 - t0, "ground": t2 - t1, "score": time.monotonic() - t2}
     return res
+
+
+def camera_spots(frames: Path, camera: str, first_frame: int) -> int:
+    """Beacon spots the simulator rendered in camera's images from first_frame on."""
+    rows = score.read_csv(frames / "spots.csv")
+    return sum(
+        1
+        for r in rows
+        if r["camera"] == camera and int(r["frame"]) >= first_frame and int(r["beacon_id"]) >= 0
+    )
+
+
+def add_mdb(results: list[dict], work: Path) -> None:
+    """The minimum detectable displacement of each moved beacon along its move, in its run's
+    usable fixes (tests/bench/faults/mdb.py), the pixel noise the clean run's usable fixes met
+    (a moved beacon inflates its own run's residuals)."""
+    clean = score.read_csv(work / "runs" / slug("clean") / "ground/nav.csv")
+    rms = [float(r["residual_rms_px"]) for r in clean if r["status"] in score.USABLE]
+    rms = [x for x in rms if x > 0]
+    sigma = float(np.median(rms)) if rms else None
+    for r in results:
+        mv = r.get("move")
+        if not mv:
+            continue
+        nav_rows = score.read_csv(work / "runs" / slug(r["run"]) / "ground/nav.csv")
+        try:
+            r["mdb"] = mdb.run_mdb(
+                Path(mv["frames"]), nav_rows, mv["beacon"], np.array(mv["mm"]), sigma_px=sigma
+            )
+        except (OSError, ValueError, KeyError, np.linalg.LinAlgError) as e:
+            r["mdb"] = {"min_mm": None, "error": str(e)[:200]}
+        r["move_mm"] = float(np.linalg.norm(mv["mm"]))
+
+
+HELD_STATES = ("LAG_VERIFY", "LAGGING")
+
+
+def held_at_end(cam_rows: list[dict], truth: score.Truth) -> list[dict]:
+    """Cameras the time-offset monitor still holds at a run's last cycle: since when, and the
+    robot's true motion per cycle meanwhile (mm, deg: none means the lag could not be tested)."""
+    out = []
+    last = max((int(r["cycle"]) for r in cam_rows), default=-1)
+    for cam in score.CAMERAS:
+        rows = sorted((r for r in cam_rows if r["camera"] == cam), key=lambda r: int(r["cycle"]))
+        if not rows or int(rows[-1]["cycle"]) != last or rows[-1]["state"] not in HELD_STATES:
+            continue
+        k = len(rows) - 1
+        while k > 0 and rows[k - 1]["state"] in HELD_STATES:
+            k -= 1
+        poses = [truth.at(float(r["t_s"])) for r in rows[k:]]
+        steps = [
+            (
+                float(np.linalg.norm(b[0] - a[0])),
+                float(np.degrees(np.linalg.norm(score.rot_log(a[1].T @ b[1])))),
+            )
+            for a, b in zip(poses, poses[1:], strict=False)
+        ] or [(0.0, 0.0)]
+        out.append(
+            {
+                "camera": cam,
+                "state": rows[-1]["state"],
+                "since_cycle": int(rows[k]["cycle"]),
+                "cycles": len(rows) - k,
+                # a held camera's identified beacons are not in the packet (FDE leaves it out): spots
+                "with_spots": sum(1 for r in rows[k:] if int(r.get("blobs") or 0) > 0),
+                "mm_per_cycle": float(np.mean([m for m, _ in steps])),
+                "deg_per_cycle": float(np.mean([d for _, d in steps])),
+            }
+        )
+    return out
 
 
 def failed_run(tag: str, fault: str, why: str) -> dict:
@@ -191,6 +281,21 @@ def report_cell(r: dict) -> str:
     cells = []
     for label, rep in r["reports"].items():
         text = "not reported" if rep is None else f"{rep['delay']} ({rep['event']})"
+        if rep is None and (r.get("beacon_spots") or {}).get(label) == 0:
+            text = "nothing to detect (no beacon in its images after the onset)"
+        m = (r.get("mdb") or {}).get("min_mm")
+        if rep is None and "mdb" in r:
+            where = (
+                ""
+                if r["mdb"].get("over") == "usable fixes"
+                else " in the frames that see it; no usable fix has it"
+            )
+            if m is None:
+                text = "not reported (MDB -: no fix could test it)"
+            elif r["move_mm"] < m:
+                text = f"below MDB ({m:.1f} mm{where})"
+            else:
+                text = f"not reported (MDB {m:.1f} mm{where})"
         cells.append(text if len(r["reports"]) == 1 else f"{label}: {text}")
     return "; ".join(cells)
 
@@ -320,7 +425,16 @@ def campaign(base: Path, work: Path, n_frames: int, tables: Tables) -> list[Faul
                     lambda: inject.moved_beacon_map(survey_map, work / f"{key}_survey.csv", b, mv),
                 )
 
-            faults.append(Fault(f"beacon {b} moved {d:g} mm {where}", None, (t_nom, t_sur), seen, beacon))
+            faults.append(
+                Fault(
+                    f"beacon {b} moved {d:g} mm {where}",
+                    None,
+                    (t_nom, t_sur),
+                    seen,
+                    beacon,
+                    tuple(float(x) for x in mv),
+                )
+            )
     faults.append(
         Fault(
             f"beacon {b} LED dead", lambda f: {"spots_erased": inject.dead_led(f, b, 11)}, None, seen, beacon
@@ -363,15 +477,22 @@ def main() -> int:
         "tables) and its TM dictionary (default: this one)",
     )
     ap.add_argument("--keep-frames", action="store_true", help="keep the simulated frames at the end")
+    ap.add_argument(
+        "--calib",
+        type=Path,
+        default=None,
+        help="build the tables from this calibration (e.g. `mfns calib`'s, with its covariance) "
+        "instead of the simulator's true rig",
+    )
     args = ap.parse_args()
     global PY, BIN
-    mdb = None
+    dictionary = None
     if args.tree is not None:
         tree = args.tree.resolve()
         BIN = tree / "build/host-sim/bin"
         if (tree / ".venv/bin/python").exists():
             PY = str(tree / ".venv/bin/python")
-        mdb = tree / "host_tools/mfns/data/mfns_tm.xml"
+        dictionary = tree / "host_tools/mfns/data/mfns_tm.xml"
     t_start = time.monotonic()
     work = args.work.resolve()
     shutil.rmtree(work, ignore_errors=True)
@@ -383,8 +504,8 @@ def main() -> int:
     frames_rows = inject.frame_rows(base)
     scen = json.loads((base / "scenario.json").read_text())
     truth = score.Truth.load(base / "truth.csv")
-    tables = Tables(base, work)
-    described = score.dictionary_subjects(mdb)
+    tables = Tables(base, work, args.calib.resolve() if args.calib else None)
+    described = score.dictionary_subjects(dictionary)
     faults = campaign(base, work, args.frames, tables)
 
     def wanted(tag: str) -> bool:
@@ -433,6 +554,7 @@ def main() -> int:
 
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         results = [r for rs in pool.map(one, jobs) for r in rs]
+    add_mdb(results, work)
     if not args.keep_frames:
         for d in base.glob("cam_*"):
             shutil.rmtree(d)
@@ -446,6 +568,19 @@ def main() -> int:
     print("|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         print(table_row(r))
+    held = [(r["run"], h) for r in results for h in r.get("held_at_end", [])]
+    if held:
+        print()
+        print(
+            "cameras the time-offset monitor still holds at the end of a run (cycles in which the camera "
+            "had spots, true motion meanwhile: a camera without beacons in the fix has nothing to verify):"
+        )
+        for run_name, h in held:
+            print(
+                f"- {run_name}: camera {h['camera']} {h['state']} from cycle {h['since_cycle']}, "
+                f"spots in {h.get('with_spots', '?')} of its {h.get('cycles', '?')} cycles "
+                f"({h['mm_per_cycle']:.2f} mm, {h['deg_per_cycle']:.3f} deg per cycle)"
+            )
     total = sum(r["misleading"] for r in results)
     failed = [r["run"] for r in results if r.get("error")]
     secs = {

@@ -13,7 +13,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "bench"))
 
-from faults import inject, score  # noqa: E402
+from faults import inject, mdb, score  # noqa: E402
 
 W, H = 40, 32
 PERIOD = 0.05
@@ -290,6 +290,68 @@ def test_first_report_by_name_and_subject() -> None:
         {"cycle": "4", "camera": "x", "frame_seq": "30"},
     ]
     assert score.onset_cycle(cams, 30) == 4 and score.onset_cycle(cams, 99) == 99
+
+
+def test_first_report_of_a_pair_of_cameras() -> None:
+    """CAMERAS_DISAGREE names two cameras (subject and arg1): either is reported by it."""
+    ev = [{"cycle": "9", "seq": "0", "event": "CAMERAS_DISAGREE", "subject": "0", "arg0": "20", "arg1": "1"}]
+    for cam in (0, 1):
+        assert score.first_report(ev, "camera", cam, 3) == {
+            "cycle": 9,
+            "delay": 6,
+            "event": "CAMERAS_DISAGREE",
+        }
+    assert score.first_report(ev, "camera", 2, 3) is None
+    assert score.dictionary_subjects().get("CAMERAS_DISAGREE") == "camera"
+    assert score.dictionary_subjects().get("CAMERA_INCONSISTENT") == "camera"
+
+
+def _mdb_scene():
+    """Two cameras looking along +x and -y from the origin, six beacons in each view."""
+
+    def cam(name: str, c_k_b: list[list[float]]):
+        return mdb.Camera.from_entry(
+            {
+                "name": name,
+                "image_size": [1280, 1024],
+                "fx": 1600.0,
+                "fy": 1600.0,
+                "cx": 640.0,
+                "cy": 512.0,
+                "dist": [0, 0, 0, 0, 0],
+                "C_k_b": c_k_b,
+                "r_bk_b": [0.0, 0.0, 0.0],
+            }
+        )
+
+    # camera z axis (optical) along body +x, and along body -y
+    cams = {
+        "x": cam("x", [[0, 0, 1], [1, 0, 0], [0, 1, 0]]),
+        "y": cam("y", [[1, 0, 0], [0, 0, -1], [0, 1, 0]]),
+    }
+    pts = {}
+    spots = []
+    for i, (dy, dz) in enumerate([(-300, -200), (250, -150), (0, 300), (-200, 200), (300, 250), (100, -300)]):
+        pts[i] = (np.array([2000.0, dy, dz]), 1e-4)
+        spots.append(("x", i))
+        pts[10 + i] = (np.array([dy, -2000.0, dz]), 1e-4)
+        spots.append(("y", 10 + i))
+    return cams, pts, spots
+
+
+def test_mdb_scales_with_the_noise_and_needs_the_beacon() -> None:
+    cams, pts, spots = _mdb_scene()
+    eye, zero = np.eye(3), np.zeros(3)
+    u = np.array([0.0, 1.0, 0.0])
+    a = mdb.fix_mdb(cams, pts, spots, eye, zero, 2, u, 0.02)
+    b = mdb.fix_mdb(cams, pts, spots, eye, zero, 2, u, 0.04)
+    assert a is not None and 0.0 < a < 1e3
+    assert b == pytest.approx(2 * a, rel=0.02)  # an exact map: the MDB is linear in the pixel noise
+    assert mdb.fix_mdb(cams, pts, spots, eye, zero, 99, u, 0.02) is None  # not in the fix
+    # a move along the line of sight changes no pixel: not detectable
+    los = pts[2][0] / np.linalg.norm(pts[2][0])
+    along = mdb.fix_mdb(cams, pts, spots, eye, zero, 2, los, 0.02)
+    assert along is None or along > 50 * a
 
 
 def test_scorer_reads_csv_files(tmp_path: Path) -> None:

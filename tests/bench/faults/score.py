@@ -51,6 +51,8 @@ STAMP_TOL_S = 1e-4  # telemetry time is 2^-16 s (15 us) and truncated: well insi
 # Events that are no report of a fault: start-up, mode, link, commands, and a camera coming
 # back or ending its replay; and any event whose name says something came back (ORDINARY_ENDS).
 ORDINARY_ENDS = ("_RECOVERED", "_HEALTHY", "_READMITTED", "_ENDED")
+# Events about a pair of cameras: the subject and the camera in arg1 (one of them is faulty).
+PAIR_EVENTS = frozenset({"CAMERAS_DISAGREE"})
 ORDINARY = frozenset(
     {
         "BOOT",
@@ -379,5 +381,9 @@ def first_report(
         if kind == "beacon" and subj == str(SUBJECT_SATURATED):  # the id does not fit: arg1 has it
             subj = r.get("arg1", "").strip()
         if subj.lstrip("-").isdigit() and int(subj) == subject:
+            return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
+        # two cameras that disagree (integrity_cameras.h): the event names both, the other in arg1
+        other = r.get("arg1", "").strip()
+        if name in PAIR_EVENTS and kind == "camera" and other.isdigit() and int(other) == subject:
             return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
     return None
