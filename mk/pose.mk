@@ -2,7 +2,7 @@
 #   make bench-pose      C timings (refinement warm start, cold start) and the
 #                        Python comparison with PoseLib and pycolmap, the
 #                        acquisition sweeps (still, a moving robot, four
-#                        beacons plus a reflection)
+#                        beacons plus a reflection, one beacon moved)
 BENCH_TARGETS += bench-pose
 
 POSE_BENCH := $(BUILD)/bench/bench_pose
@@ -19,3 +19,4 @@ bench-pose: $(POSE_BENCH) lib venv
 	$(PY) tests/bench/bench_ident.py
 	$(PY) tests/bench/bench_pose_moving.py
 	$(PY) tests/bench/bench_pose_reflection.py
+	$(PY) tests/bench/bench_moved_beacon.py

@@ -30,15 +30,20 @@ static bool has_inlier(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *
     return false;
 }
 
-/* The beacons pose predicts inside camera c's image, in front of it. */
+/* The beacons pose predicts inside camera c's image, at least margin_px
+ * from its edges, in front of it. */
 static uint16_t predicted_in_view(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_pose_t *pose,
-                                  int c)
+                                  int c, float margin_px)
 {
+    const mfns_intrinsics_t *k = &rig->cam[c].k;
     uint16_t n = 0;
     for (int b = 0; b < (int)map->count && b < MFNS_MAX_BEACONS; b++) {
         float uv[2];
         if (mfns_cam_project(&rig->cam[c], pose, map->beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
-            mfns_cam_in_image(&rig->cam[c].k, uv[0], uv[1])) {
+            mfns_cam_in_image(k, uv[0], uv[1]) &&
+            (margin_px <= 0.0f || (uv[0] >= margin_px && uv[1] >= margin_px &&
+                                   uv[0] <= (float)k->width - 1.0f - margin_px &&
+                                   uv[1] <= (float)k->height - 1.0f - margin_px))) {
             n++;
         }
     }
@@ -107,6 +112,7 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
             w->pair_fixes[c] = 0;
             w->pair_with[c] = -1;
             w->consistent[c] = (uint8_t)(w->consistent[c] < UINT8_MAX ? w->consistent[c] + 1U : UINT8_MAX);
+            w->miss_run[c] = 0U;
             if (w->consistent[c] >= MFNS_CAMERA_CONSISTENT_FIXES) {
                 w->reported[c] = 0U; /* the episode is over: a new one is reported again */
             }
@@ -114,9 +120,10 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
             /* an image, none of its spots used (or none found in the
              * windows around the predicted beacons): as many chances to have
              * found one as beacons predicted in its image (none: no evidence) */
-            const uint16_t n = predicted_in_view(rig, map, &sol->pose, c);
+            const uint16_t n = predicted_in_view(rig, map, &sol->pose, c, 0.0f);
             if (n > 0U) {
                 evidence_against(w, sol, frame, c, n);
+                w->miss_run[c] = (uint8_t)(w->miss_run[c] < UINT8_MAX ? w->miss_run[c] + 1U : UINT8_MAX);
             }
         } /* no image, or no pose to predict from: nothing to tell */
         if (rep->inconsistent < 0 && (w->reported[c] & REPORTED_INCONSISTENT) == 0U &&
@@ -140,4 +147,30 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
             rep->state[c] = 2U;
         }
     }
+}
+
+int mfns_camera_watch_contradicting(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                    const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,
+                                    float margin_px)
+{
+    if (rig == NULL || map == NULL || frame == NULL || sol == NULL ||
+        (sol->status != MFNS_POSE_OK && sol->status != MFNS_POSE_DEGRADED)) {
+        return -1;
+    }
+    int with = -1, cams = 0;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (has_inlier(sol, frame, c)) {
+            cams++;
+            with = c;
+        }
+    }
+    if (cams != 1) {
+        return -1;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (c != with && frame->dark[c] == 0U && predicted_in_view(rig, map, &sol->pose, c, margin_px) > 0U) {
+            return c;
+        }
+    }
+    return -1;
 }

@@ -69,6 +69,9 @@ typedef struct {
     uint16_t pair_fixes[MFNS_NUM_CAMERAS];
     int8_t pair_with[MFNS_NUM_CAMERAS];   /* the camera of those fixes, -1 none */
     uint8_t consistent[MFNS_NUM_CAMERAS]; /* consecutive counted fixes with an inlier (capped) */
+    uint8_t miss_run[MFNS_NUM_CAMERAS];   /* consecutive counted cycles with an image and beacons
+                                             predicted in it, none an inlier (capped): the gap the
+                                             time-offset monitor verifies a camera after */
     uint8_t reported[MFNS_NUM_CAMERAS];   /* bit 0 INCONSISTENT, bit 1 DISAGREES sent (this episode) */
 } mfns_camera_watch_t;
 
@@ -97,5 +100,29 @@ void mfns_camera_watch_reset(mfns_camera_watch_t *w);
 void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                               const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol, bool pose_known,
                               const uint8_t solver_inlier[MFNS_NUM_CAMERAS], mfns_camera_watch_report_t *rep);
+
+/* The camera that contradicts a fix made from one camera's observations
+ * alone, or -1 (docs/pose.md "One-camera fixes"). With two cameras seeing
+ * beacons and one of them stale (its frames older than their stamps), the
+ * fix the stale one carries alone is wrong by its lag times the motion, and
+ * the healthy camera's spots fall outside the association gate: geometry
+ * cannot say which one is wrong, and the camera-fault protection level of a
+ * one-camera fix is unbounded (integrity.h), so the fix is not usable
+ * (MFNS_POSE_R_CAMERAS_CONTRADICT) when another camera gave an image
+ * (frame->dark 0: not refused by the frame-health checks, not timed out)
+ * in which sol's pose predicts a beacon at least margin_px inside the
+ * image and none of its observations is an inlier of sol. The margin keeps
+ * a beacon on the image's edge, whose blob may be cut off, from counting.
+ * Returns -1 when sol is not a fix (status OK or DEGRADED), when its
+ * inliers span no camera or two or more, or for NULLs.
+ * What it misses: a second camera that sees no beacon the fix predicts in
+ * its image (nothing to contradict: its faults are harmless to the fix); a
+ * stale camera whose spots still fall in the gate (inliers: a two-camera
+ * fix, the time-offset monitor's); a camera without an image. Availability
+ * cost: a one-camera fix while another camera's predicted beacon is occluded
+ * or faces away (the map has no normals) is refused too. */
+int mfns_camera_watch_contradicting(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
+                                    const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,
+                                    float margin_px);
 
 #endif /* MFNS_INTEGRITY_CAMERAS_H */

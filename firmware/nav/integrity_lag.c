@@ -342,6 +342,27 @@ static bool reference_for(const mfns_integrity_memory_t *mem, const mfns_obs_fra
     return false;
 }
 
+/* Camera c comes back after a gap in which it gave images but none of its
+ * spots was an inlier while the fix predicted beacons in them (the camera
+ * watch's miss run, integrity_cameras.h: stale frames two periods and more
+ * old fall outside the association gate, then a single spot falls inside
+ * it), and another camera that is not held for its lag has an inlier in sol
+ * to verify it against. Like an outage without images, its lag is verified
+ * before it is used again. */
+static bool back_after_gap(const mfns_integrity_memory_t *mem, const mfns_pose_solution_t *sol,
+                           const mfns_obs_frame_t *frame, int c)
+{
+    if (mem->camwatch.miss_run[c] < MFNS_INTEGRITY_LAG_OUTAGE || !has_inlier(sol, frame, c)) {
+        return false;
+    }
+    for (int o = 0; o < MFNS_NUM_CAMERAS; o++) {
+        if (o != c && mem->cam_lag[o] == 0U && has_inlier(sol, frame, o)) {
+            return true;
+        }
+    }
+    return false;
+}
+
 /* Holds and releases after this fix's verdict; returns the camera of a new
  * lag episode or -1. */
 static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t *sol,
@@ -353,9 +374,11 @@ static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t
         if (c == ev->worst) {
             mem->lag_verify[c] = MFNS_INTEGRITY_LAG_WINDOW; /* the lag must leave the window, then pass */
             fresh = mfns_integrity_hold_lagging(mem, c, 1U, set->hold_cycles) == 1U ? fresh : c;
-        } else if (frame->dark[c] != 0U && mem->cam_lag[c] == 0U && reference_for(mem, frame, c)) {
+        } else if (mem->cam_lag[c] == 0U && ((frame->dark[c] != 0U && reference_for(mem, frame, c)) ||
+                                             back_after_gap(mem, sol, frame, c))) {
             /* an outage (no image: dead, held out by the frame-health
-             * checks): verify its lag before it is used again */
+             * checks), or a gap without inliers in its images: verify its
+             * lag before it is used again */
             mem->lag_verify[c] = MFNS_INTEGRITY_LAG_VERIFY;
             (void)mfns_integrity_hold_lagging(mem, c, 2U, set->hold_cycles);
         } else if (!has_inlier(sol, frame, c)) {

@@ -131,7 +131,14 @@ mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_bea
  *     MFNS_INTEGRITY_LAG_VERIFY tested fixes with it have passed (a camera
  *     coming back stale is then caught before it is used: one fix has too
  *     little power, the window has it). Without motion nothing is tested
- *     and the camera stays out (availability, never integrity).
+ *     and the camera stays out (availability, never integrity);
+ *   - a camera that comes back after a gap of MFNS_INTEGRITY_LAG_OUTAGE
+ *     cycles or more in which it gave images but none of its spots was an
+ *     inlier while the fix predicted beacons in them (the camera watch's
+ *     miss run, integrity_cameras.h: frames two periods stale fall outside
+ *     the association gate until one spot falls inside it), while another
+ *     camera not held for its lag has an inlier to verify it against: held
+ *     as VERIFYING (2) like an outage.
  * A pass counts only with the power to see a one-period lag
  * (MFNS_LAG_CERT_CYCLES), or when the lag it could miss is harmless to the
  * fix (mdl * shift_sigma <= MFNS_LAG_HARMLESS_SIGMA). So with motion and the

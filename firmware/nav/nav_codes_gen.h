@@ -27,6 +27,7 @@ typedef enum {
     MFNS_POSE_R_CAMERA_UNMONITORED = 18, /* DEGRADED: every single-beacon fault is bounded within the alert limits, a single-camera fault is not (no redundancy against a camera): the protection levels cover beacon faults only; camera faults are left to the camera health checks */
     MFNS_POSE_R_LAG_UNTESTED = 19, /* NO_FIX: no motion known yet (the first two fixes after a gap) to test the cameras' frames for a lag (time-offset monitor): a stale frame could not have been caught; the pose carries the track */
     MFNS_POSE_R_SPURIOUS_AMBIGUOUS = 22, /* NO_FIX: five blobs, and more than one identification explains four or five of them: which blob is spurious (a reflection) cannot be told */
+    MFNS_POSE_R_CAMERAS_CONTRADICT = 23, /* NO_FIX: the fix comes from one camera, and another camera that gave an image has none of its spots on the beacons the fix predicts in it: one of the two is wrong (stale, moved), nothing says which; the pose carries the track */
 } mfns_pose_reason_t;
 
 #endif /* MFNS_NAV_CODES_GEN_H */

@@ -300,7 +300,8 @@ static bool carries_track(const mfns_pose_solution_t *s, bool tracked)
 {
     return has_fix(s) || (s->status == MFNS_POSE_NO_FIX &&
                           ((s->reason == MFNS_POSE_R_MINIMAL && tracked) || s->reason == MFNS_POSE_R_UNMONITORED ||
-                           s->reason == MFNS_POSE_R_PL_EXCEEDS_AL || s->reason == MFNS_POSE_R_LAG_UNTESTED));
+                           s->reason == MFNS_POSE_R_PL_EXCEEDS_AL || s->reason == MFNS_POSE_R_LAG_UNTESTED ||
+                           s->reason == MFNS_POSE_R_CAMERAS_CONTRADICT));
 }
 
 /* A table in monitor-only mode (a bench, never flight; nav_config.h): a pose
@@ -338,6 +339,22 @@ static void lag_untested(const mfns_nav_t *nav, mfns_nav_output_t *out)
         mfns_integrity_lag_cameras(&out->sol, &nav->obs) >= 2) {
         out->sol.status = MFNS_POSE_NO_FIX;
         out->sol.reason = MFNS_POSE_R_LAG_UNTESTED;
+    }
+}
+
+/* A fix from one camera that another camera's image contradicts
+ * (integrity_cameras.h mfns_camera_watch_contradicting) is not usable: one
+ * of the two cameras is wrong and nothing says which. The pose carries the
+ * track (the camera watch goes on counting the disagreement and reports it).
+ * A beacon counts when its tracking window would lie inside the image. */
+static void one_camera_contradicted(const mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    const mfns_caltable_t *t = nav->table;
+    if (has_fix(&out->sol) &&
+        mfns_camera_watch_contradicting(&t->rig, &t->beacons, &nav->obs, &out->sol,
+                                        (float)t->centroid.roi_half_size_px) >= 0) {
+        out->sol.status = MFNS_POSE_NO_FIX;
+        out->sol.reason = MFNS_POSE_R_CAMERAS_CONTRADICT;
     }
 }
 
@@ -412,6 +429,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         lag_untested(nav, out);
+        one_camera_contradicted(nav, out);
         monitor_only(nav, out);
         (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
                                nav->pose_cfg.s.track_gate_px, nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS,

@@ -79,6 +79,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return MFNS_MSG("no motion known yet to test the cameras' frames for a lag (first fixes after a gap)");
     case MFNS_POSE_R_SPURIOUS_AMBIGUOUS:
         return MFNS_MSG("five blobs: several identifications explain four of them; the spurious blob cannot be told");
+    case MFNS_POSE_R_CAMERAS_CONTRADICT:
+        return MFNS_MSG("a one-camera fix that another camera's image contradicts: one of the two is wrong");
     }
     return MFNS_MSG("unknown pose reason");
 }

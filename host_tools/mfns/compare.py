@@ -75,6 +75,8 @@ WHY = {
     "(the first fixes after a gap)",
     "SPURIOUS_AMBIGUOUS": "five blobs, and more than one identification explains four of them: "
     "which blob is the reflection cannot be told (docs/pose.md Acquisition)",
+    "CAMERAS_CONTRADICT": "refused: the fix comes from one camera and another camera's image, "
+    "with beacons predicted in it, has none of them: one of the two is wrong (docs/pose.md Integrity)",
 }
 
 

@@ -180,7 +180,6 @@ def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict
     res["held_at_end"] = held_at_end(cam_rows, ctx["truth"])
     if fault.move_mm is not None and fault.subjects:  # its MDB after the campaign (add_mdb)
         res["move"] = {"mm": list(fault.move_mm), "beacon": fault.subjects[0][1], "frames": str(frames)}
-    res["held_at_end"] = held_at_end(cam_rows, ctx["truth"])
     if fault.move_mm is not None and fault.subjects:
         # the smallest move of this beacon, in this direction, the fault test detects (1 - P_md)
         # in the run's usable fixes (tests/bench/faults/mdb.py)

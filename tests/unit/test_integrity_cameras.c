@@ -8,7 +8,9 @@
  * pair disagreement (DISAGREES, naming the third), never INCONSISTENT;
  * cycles without a known pose, a dark camera or one with nothing predicted
  * in view count nothing;
- * ten fixes with an inlier end the episode. */
+ * ten fixes with an inlier end the episode; the miss run the time-offset
+ * monitor verifies a returning camera after; a fix from one camera that
+ * another camera's image contradicts. */
 #include <math.h>
 #include <string.h>
 
@@ -219,6 +221,78 @@ static void test_held_camera_is_not_inconsistent(void **state)
     assert_int_equal(sc.w.evidence[1], 0);
 }
 
+/* The miss run: consecutive counted cycles with an image and predicted
+ * beacons but no inlier; an inlier (in the output or the solver's fix) ends
+ * it, cycles without a pose or image leave it alone. */
+static void test_miss_run_counts_the_gap(void **state)
+{
+    (void)state;
+    const int per_cam[3] = {5, 5, 5};
+    make_scene(51, per_cam);
+    const mfns_pose_solution_t clean = sc.sol;
+    unassociate(2);
+    mfns_camera_watch_report_t rep;
+    for (int k = 1; k <= 5; k++) {
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
+        assert_int_equal(sc.w.miss_run[2], k);
+        assert_int_equal(sc.w.miss_run[0], 0);
+    }
+    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, false, NULL, &rep);
+    assert_int_equal(sc.w.miss_run[2], 5); /* no pose: nothing to tell */
+    sc.frame.dark[2] = 1U;
+    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
+    assert_int_equal(sc.w.miss_run[2], 5); /* no image: the outage is the lag monitor's dark run */
+    sc.frame.dark[2] = 0U;
+    const uint8_t solver_inlier[MFNS_NUM_CAMERAS] = {1U, 1U, 1U};
+    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, solver_inlier, &rep);
+    assert_int_equal(sc.w.miss_run[2], 0); /* an inlier in the solver's fix ends it */
+    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
+    assert_int_equal(sc.w.miss_run[2], 1);
+    mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &clean, true, NULL, &rep);
+    assert_int_equal(sc.w.miss_run[2], 0);
+    for (int k = 0; k < 300; k++) { /* capped, never wraps */
+        mfns_camera_watch_update(&sc.w, &sc.rig, &sc.map, &sc.frame, &sc.sol, true, NULL, &rep);
+    }
+    assert_int_equal(sc.w.miss_run[2], UINT8_MAX);
+}
+
+/* A fix from one camera is contradicted by another camera that gave an
+ * image in which the fix predicts a beacon and has no inlier; not by a dark
+ * camera, one with nothing predicted (or only within the margin of its
+ * edge), nor when two cameras have inliers. */
+static void test_one_camera_fix_contradicted(void **state)
+{
+    (void)state;
+    const int per_cam[3] = {5, 5, 5};
+    make_scene(61, per_cam);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    unassociate(1);
+    /* two cameras with inliers: the watch's INCONSISTENT case, not this one */
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    unassociate(2);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), 1);
+    sc.frame.dark[1] = 1U;
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), 2);
+    sc.frame.dark[2] = 1U;
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    sc.frame.dark[1] = 0U;
+    sc.frame.dark[2] = 0U;
+    /* a margin wider than half the image leaves no beacon inside it */
+    const float half = 0.5f * (float)(sc.rig.cam[1].k.width > sc.rig.cam[1].k.height ? sc.rig.cam[1].k.width
+                                                                                       : sc.rig.cam[1].k.height);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, half), -1);
+    /* nothing predicted in the other cameras: nothing contradicts */
+    const int only_x[3] = {6, 0, 0};
+    make_scene(62, only_x);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    /* not a fix, NULLs */
+    mfns_pose_solution_t nofix = sc.sol;
+    nofix.status = MFNS_POSE_NO_FIX;
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &nofix, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(NULL, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, NULL, 0.0f), -1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -227,6 +301,8 @@ int main(void)
         cmocka_unit_test(test_nothing_to_tell_counts_nothing),
         cmocka_unit_test(test_pair_disagreement_names_both),
         cmocka_unit_test(test_held_camera_is_not_inconsistent),
+        cmocka_unit_test(test_miss_run_counts_the_gap),
+        cmocka_unit_test(test_one_camera_fix_contradicted),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -3,7 +3,7 @@
  * camera flagged, z distributed as N(0, 1)), one camera one and two cycles
  * stale (flagged, its lag estimated), no motion (nothing tested), and the
  * monitor's holds (a lagging camera held and reported once, a camera back
- * from an outage held until verified), and a biased calibration inside the
+ * from an outage or a gap without inliers held until verified), and a biased calibration inside the
  * table's calibration covariance (not taken for a lag; a stale camera still
  * caught). */
 #include <math.h>
@@ -415,6 +415,66 @@ static void test_verify_finishes_with_motion_only(void **state)
     }
 }
 
+/* A camera back after a gap in which it gave images but had no inlier
+ * where the fix predicted beacons (the camera watch's miss run) is held for
+ * verification like one back from an outage -- only with another camera to
+ * verify it against, and never for a gap of a single cycle. */
+static void test_back_after_gap_held_until_verified(void **state)
+{
+    (void)state;
+    make_motion(23);
+    mfns_integrity_memory_t mem;
+    mfns_integrity_memory_reset(&mem);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 23);
+    mfns_lag_eval_t ev;
+    for (int k = 0; k < 2; k++) {
+        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+        (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    }
+    /* a one-cycle gap: no hold */
+    mem.camwatch.miss_run[1] = MFNS_INTEGRITY_LAG_OUTAGE - 1;
+    assert_true(render(2, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+    (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    assert_int_equal(mem.cam_lag[1], 0);
+    assert_int_equal(mem.cam_held[1], 0);
+    /* a gap of MFNS_INTEGRITY_LAG_OUTAGE cycles: held, to be verified */
+    mem.camwatch.miss_run[1] = MFNS_INTEGRITY_LAG_OUTAGE;
+    assert_true(render(3, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev),
+                     -1); /* a verification, not a lag episode: nothing to report */
+    assert_int_equal(mem.cam_lag[1], 2);
+    assert_int_equal(mem.cam_held[1], 1);
+    assert_int_equal(mem.lag_verify[1], MFNS_INTEGRITY_LAG_VERIFY);
+    /* clean and moving: released after MFNS_INTEGRITY_LAG_VERIFY passing fixes */
+    mem.camwatch.miss_run[1] = 0U; /* the watch ends the run on the solver's inlier */
+    int released = -1;
+    for (int k = 4; k < 12 && released < 0; k++) {
+        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+        (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+        released = mem.cam_lag[1] == 0U ? k - 3 : -1;
+    }
+    assert_int_equal(released, MFNS_INTEGRITY_LAG_VERIFY);
+    /* no other camera with an inlier to verify it against: not held (a
+     * one-camera fix is never testable for a lag) */
+    mfns_integrity_memory_reset(&mem);
+    for (int k = 0; k < 2; k++) {
+        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+        (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    }
+    assert_true(render(2, -1, 0, &rng) != MFNS_POSE_NO_FIX);
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (c != 1) {
+            for (int i = 0; i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+                sc.sol.inlier[c][i] = 0U;
+            }
+        }
+    }
+    mem.camwatch.miss_run[1] = 10U;
+    (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    assert_int_equal(mem.cam_lag[1], 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -424,6 +484,7 @@ int main(void)
         cmocka_unit_test(test_no_motion_nothing_tested),
         cmocka_unit_test(test_monitor_holds_and_reports_once),
         cmocka_unit_test(test_verify_finishes_with_motion_only),
+        cmocka_unit_test(test_back_after_gap_held_until_verified),
         cmocka_unit_test(test_biased_calibration_inside_its_covariance_is_no_lag),
         cmocka_unit_test(test_stale_camera_caught_with_a_calibration_covariance),
     };
