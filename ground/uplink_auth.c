@@ -1,5 +1,6 @@
 /* uplink_auth.c -- see uplink_auth.h. */
 #include "uplink_auth.h"
+#include "tc_sign.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -39,7 +40,7 @@ tc_status_t uplink_auth_frame(uplink_auth_t *a, const tc_cmd_t *cmd, uint16_t se
         return TC_E_STATE; /* not yet (or a count space used up: the board must reboot) */
     }
     const uint64_t arsn = (uint64_t)a->epoch << 32 | a->next_count;
-    const tc_status_t st = tc_auth_sign_frame(&a->key, cmd, seq, arsn, out, cap, out_len);
+    const tc_status_t st = tc_sign_frame(&a->key, cmd, seq, arsn, out, cap, out_len);
     if (st == TC_OK) {
         a->next_count++;
     }

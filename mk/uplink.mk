@@ -34,9 +34,9 @@ fuzz-tc-brief: $(TC_FUZZ_BIN)
 #   make fuzz-tc-auth fuzz-uplink-grammar   FUZZ_SECONDS (60) s each, corpora in build/fuzz/
 TC_AUTH_FUZZERS := tc_auth uplink_grammar
 fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd_dispatch.c \
-                     firmware/app/tc_auth.c
+                     firmware/app/tc_auth.c ground/tc_sign.c
 fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(sort $(wildcard firmware/tlm/*.c)) \
-                     firmware/app/tc_auth.c firmware/app/txq_drain.c ground/uplink.c ground/uplink_auth.c \
+                     firmware/app/tc_auth.c firmware/app/txq_drain.c ground/uplink.c ground/uplink_auth.c ground/tc_sign.c \
                      ground/udp_forward.c ground/tcp_forward.c $(sort $(wildcard drivers/uart/*.c))
 FUZZ_TARGETS += $(addprefix fuzz-,$(subst _,-,$(TC_AUTH_FUZZERS)))
 .PHONY: fuzz-tc-auth fuzz-uplink-grammar

@@ -82,9 +82,6 @@ void tc_auth_clear(tc_auth_t *a);
 /* Zeroes n bytes at p in a way the compiler keeps (key material on the stack). */
 void tc_auth_wipe(void *p, size_t n);
 
-/* Ground side: the wire frame of cmd signed with key (id = SPI) and arsn.
- * TC_OK, or the codec's status (TC_E_NULL also when the MAC failed). */
-tc_status_t tc_auth_sign_frame(const tc_auth_key_t *key, const tc_cmd_t *cmd, uint16_t seq, uint64_t arsn,
-                               uint8_t *out, size_t cap, size_t *out_len);
+/* The ground's half, signing a command, is ground/tc_sign.h: it never flies. */
 
 #endif /* MFNS_APP_TC_AUTH_H */

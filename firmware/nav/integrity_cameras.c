@@ -151,7 +151,7 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
 
 int mfns_camera_watch_contradicting(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                     const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,
-                                    float margin_px)
+                                    float margin_px, const uint8_t verifying[MFNS_NUM_CAMERAS])
 {
     if (rig == NULL || map == NULL || frame == NULL || sol == NULL ||
         (sol->status != MFNS_POSE_OK && sol->status != MFNS_POSE_DEGRADED)) {
@@ -168,7 +168,8 @@ int mfns_camera_watch_contradicting(const mfns_rig_t *rig, const mfns_beacon_map
         return -1;
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        if (c != with && frame->dark[c] == 0U && predicted_in_view(rig, map, &sol->pose, c, margin_px) > 0U) {
+        if (c != with && frame->dark[c] == 0U && (verifying == NULL || verifying[c] == 0U) &&
+            predicted_in_view(rig, map, &sol->pose, c, margin_px) > 0U) {
             return c;
         }
     }

@@ -113,6 +113,14 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
  * in which sol's pose predicts a beacon at least margin_px inside the
  * image and none of its observations is an inlier of sol. The margin keeps
  * a beacon on the image's edge, whose blob may be cut off, from counting.
+ * verifying (NULL: none): per camera, 1 when it is held out only until its
+ * lag is verified after an outage or a gap (integrity_lag.h LAG_VERIFY)
+ * and has inliers in the solver's fix before the holds: its spots agree
+ * with the fix within the solver's outlier gate, it is out for want of a
+ * verification, so it does not contradict (under a single fault the camera
+ * that was out is the suspect, not the one that carries the fix). A camera
+ * held as LAGGING, or one excluded by FDE, still contradicts: with two
+ * cameras neither test can tell which one is wrong.
  * Returns -1 when sol is not a fix (status OK or DEGRADED), when its
  * inliers span no camera or two or more, or for NULLs.
  * What it misses: a second camera that sees no beacon the fix predicts in
@@ -123,6 +131,6 @@ void mfns_camera_watch_update(mfns_camera_watch_t *w, const mfns_rig_t *rig, con
  * or faces away (the map has no normals) is refused too. */
 int mfns_camera_watch_contradicting(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                     const mfns_obs_frame_t *frame, const mfns_pose_solution_t *sol,
-                                    float margin_px);
+                                    float margin_px, const uint8_t verifying[MFNS_NUM_CAMERAS]);
 
 #endif /* MFNS_INTEGRITY_CAMERAS_H */

@@ -346,13 +346,20 @@ static void lag_untested(const mfns_nav_t *nav, mfns_nav_output_t *out)
  * (integrity_cameras.h mfns_camera_watch_contradicting) is not usable: one
  * of the two cameras is wrong and nothing says which. The pose carries the
  * track (the camera watch goes on counting the disagreement and reports it).
- * A beacon counts when its tracking window would lie inside the image. */
-static void one_camera_contradicted(const mfns_nav_t *nav, mfns_nav_output_t *out)
+ * A beacon counts when its tracking window would lie inside the image. A
+ * camera held only to verify its lag (integrity_lag.h, cam_lag 2) whose
+ * spots are in the solver's fix does not contradict. */
+static void one_camera_contradicted(const mfns_nav_t *nav, const uint8_t solver_inlier[MFNS_NUM_CAMERAS],
+                                    mfns_nav_output_t *out)
 {
     const mfns_caltable_t *t = nav->table;
+    uint8_t verifying[MFNS_NUM_CAMERAS]; /* held only to verify its lag, its spots in the solver's fix */
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        verifying[c] = (uint8_t)(solver_inlier[c] != 0U && nav->integ_mem.cam_lag[c] == 2U ? 1U : 0U);
+    }
     if (has_fix(&out->sol) &&
         mfns_camera_watch_contradicting(&t->rig, &t->beacons, &nav->obs, &out->sol,
-                                        (float)t->centroid.roi_half_size_px) >= 0) {
+                                        (float)t->centroid.roi_half_size_px, verifying) >= 0) {
         out->sol.status = MFNS_POSE_NO_FIX;
         out->sol.reason = MFNS_POSE_R_CAMERAS_CONTRADICT;
     }
@@ -429,7 +436,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         lag_untested(nav, out);
-        one_camera_contradicted(nav, out);
+        one_camera_contradicted(nav, solver_inlier, out);
         monitor_only(nav, out);
         (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
                                nav->pose_cfg.s.track_gate_px, nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS,

@@ -26,6 +26,7 @@
 #include "nav_cmd_dispatch.h"
 #include "tc_auth.h"
 #include "tc_packets.h"
+#include "tc_sign.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

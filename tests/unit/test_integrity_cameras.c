@@ -265,32 +265,37 @@ static void test_one_camera_fix_contradicted(void **state)
     (void)state;
     const int per_cam[3] = {5, 5, 5};
     make_scene(61, per_cam);
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), -1);
     unassociate(1);
     /* two cameras with inliers: the watch's INCONSISTENT case, not this one */
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), -1);
     unassociate(2);
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), 1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), 1);
     sc.frame.dark[1] = 1U;
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), 2);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), 2);
     sc.frame.dark[2] = 1U;
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), -1);
     sc.frame.dark[1] = 0U;
     sc.frame.dark[2] = 0U;
+    /* a camera held only to verify its lag, its spots in the solver's fix: not a contradiction */
+    const uint8_t verifying1[MFNS_NUM_CAMERAS] = {0U, 1U, 0U};
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, verifying1), 2);
+    const uint8_t verifying12[MFNS_NUM_CAMERAS] = {0U, 1U, 1U};
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, verifying12), -1);
     /* a margin wider than half the image leaves no beacon inside it */
     const float half = 0.5f * (float)(sc.rig.cam[1].k.width > sc.rig.cam[1].k.height ? sc.rig.cam[1].k.width
                                                                                        : sc.rig.cam[1].k.height);
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, half), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, half, NULL), -1);
     /* nothing predicted in the other cameras: nothing contradicts */
     const int only_x[3] = {6, 0, 0};
     make_scene(62, only_x);
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), -1);
     /* not a fix, NULLs */
     mfns_pose_solution_t nofix = sc.sol;
     nofix.status = MFNS_POSE_NO_FIX;
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &nofix, 0.0f), -1);
-    assert_int_equal(mfns_camera_watch_contradicting(NULL, &sc.map, &sc.frame, &sc.sol, 0.0f), -1);
-    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, NULL, 0.0f), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, &nofix, 0.0f, NULL), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(NULL, &sc.map, &sc.frame, &sc.sol, 0.0f, NULL), -1);
+    assert_int_equal(mfns_camera_watch_contradicting(&sc.rig, &sc.map, &sc.frame, NULL, 0.0f, NULL), -1);
 }
 
 int main(void)
