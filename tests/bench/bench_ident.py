@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -78,7 +79,26 @@ def scenario(name: str, fl, cams):
     return pos, nrm, mapindex.default_workspace(pos), np.full(len(pos), SURVEY_SIGMA_MM)
 
 
-def run(name: str, n: int, seed: int, cycles: int, cycle_poses: int) -> bool:
+@dataclass
+class Setup:
+    """One map of the acquisition benches: the flight binding, the paper's rig, the map,
+    its index and certificate (the map analysis) and the solver configuration."""
+
+    fl: Flight
+    cams: list
+    rig: object
+    pos: np.ndarray
+    nrm: np.ndarray | None
+    ws: tuple
+    bmap: object
+    idx: object
+    report: object
+    cfg: object
+    index_s: float
+
+
+def setup(name: str) -> Setup:
+    """The map `name` (scenario) with its index built as `mfns table build` builds it."""
     fl = Flight()
     cams = pose_sim.paper_rig()
     rig = fl.rig(cams)
@@ -87,11 +107,28 @@ def run(name: str, n: int, seed: int, cycles: int, cycle_poses: int) -> bool:
     t0 = time.perf_counter()
     emission = None if nrm is None else (nrm, np.full(len(pos), 90.0))
     idx, report = mapindex.build(fl, rig, bmap, emission, ws, SIGMA_PX)
-    t_index = time.perf_counter() - t0
+    cfg = fl.config(sigma_px=SIGMA_PX)
+    return Setup(fl, cams, rig, pos, nrm, ws, bmap, idx, report, cfg, time.perf_counter() - t0)
+
+
+def run(name: str, n: int, seed: int, cycles: int, cycle_poses: int) -> bool:
+    m = setup(name)
+    fl, cams, rig, pos, nrm, ws, bmap, idx, report = (
+        m.fl,
+        m.cams,
+        m.rig,
+        m.pos,
+        m.nrm,
+        m.ws,
+        m.bmap,
+        m.idx,
+        m.report,
+    )
+    t_index = m.index_s
     rng = np.random.default_rng([seed, len(pos)])
     poses = visible_poses(fl, rig, bmap, idx, rng, ws[0], ws[1], n)
     truth = pos if name == "paper" else pos + rng.normal(0.0, SURVEY_SIGMA_MM, pos.shape)
-    cfg = fl.config(sigma_px=SIGMA_PX)
+    cfg = m.cfg
     spur = 0.0 if name == "paper" else SPURIOUS_RATE
     t0 = time.perf_counter()
     res = pose_sim.identification_sweep(fl, rig, bmap, idx, cams, truth, poses, SIGMA_PX, rng, cfg, nrm, spur)

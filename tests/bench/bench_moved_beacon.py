@@ -24,26 +24,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, scenario, visible_poses  # noqa: E402
+from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, setup, visible_poses  # noqa: E402
 
 from mfns import pose_sim  # noqa: E402
-from mfns.flight import Flight  # noqa: E402
-from mfns.table import mapindex  # noqa: E402
 
 MOVES_MM = (0.0, 5.0, 20.0, 50.0)
 
 
 def run(name: str, n: int, seed: int) -> bool:
-    fl = Flight()
-    cams = pose_sim.paper_rig()
-    rig = fl.rig(cams)
-    pos, nrm, ws, sig = scenario(name, fl, cams)
-    bmap = fl.beacon_map(pos, sig)
-    emission = None if nrm is None else (nrm, np.full(len(pos), 90.0))
-    idx, _ = mapindex.build(fl, rig, bmap, emission, ws, SIGMA_PX)
+    m = setup(name)
+    fl, cams, rig, pos, nrm, ws, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.ws, m.bmap, m.idx
     rng = np.random.default_rng([seed, len(pos), 23])
     poses = visible_poses(fl, rig, bmap, idx, rng, ws[0], ws[1], n)
-    cfg = fl.config(sigma_px=SIGMA_PX)
+    cfg = m.cfg
     print(f"== {name}: {len(pos)} beacons, {n} views, one visible beacon moved (budget {idx.budget_units})")
     wrong_total = 0
     for d in MOVES_MM:

@@ -34,14 +34,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_ident import SIGMA_PX, SPURIOUS_RATE, SURVEY_SIGMA_MM, scenario  # noqa: E402
+from bench_ident import SIGMA_PX, SPURIOUS_RATE, SURVEY_SIGMA_MM, setup  # noqa: E402
 
 from mfns import pose_sim  # noqa: E402
 from mfns.camera import pose_from_position  # noqa: E402
-from mfns.flight import ACQ_SOURCES, Flight  # noqa: E402
+from mfns.flight import ACQ_SOURCES  # noqa: E402
 from mfns.rotations import euler213_deg_to_matrix  # noqa: E402
 from mfns.simulate import nav  # noqa: E402
-from mfns.table import mapindex  # noqa: E402
 
 WITHIN = (1, 5, 20, 40)
 RATES_HZ = (18.6, 2.0)
@@ -113,14 +112,9 @@ def run_row(fl, rig, bmap, idx, cams, truth, nrm, cfg, seed, starts, rate_hz, sp
 
 
 def run_map(name: str, starts: int, seed: int, rates, speeds, max_cycles: int) -> bool:
-    fl = Flight()
-    cams = pose_sim.paper_rig()
-    rig = fl.rig(cams)
-    pos, nrm, ws, sig = scenario(name, fl, cams)
-    bmap = fl.beacon_map(pos, sig)
-    emission = (nrm, np.full(len(pos), 90.0))
-    idx, _ = mapindex.build(fl, rig, bmap, emission, ws, SIGMA_PX)
-    cfg = fl.config(sigma_px=SIGMA_PX)
+    m = setup(name)
+    fl, cams, rig, pos, nrm, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.bmap, m.idx
+    cfg = m.cfg
     rng = np.random.default_rng([seed, len(pos), 27])
     truth = pos + rng.normal(0.0, SURVEY_SIGMA_MM, pos.shape)
     ok = True

@@ -31,10 +31,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, scenario  # noqa: E402
+from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, setup  # noqa: E402
 
 from mfns import pose_sim  # noqa: E402
-from mfns.flight import Flight  # noqa: E402
 from mfns.table import mapindex  # noqa: E402
 
 UNBOUNDED = 10**9
@@ -82,16 +81,11 @@ def pct(counts: dict, key: str, n: int) -> str:
 
 
 def run(name: str, n: int, seed: int, cycles: int) -> bool:
-    fl = Flight()
-    cams = pose_sim.paper_rig()
-    rig = fl.rig(cams)
-    pos, nrm, ws, sig = scenario(name, fl, cams)
-    bmap = fl.beacon_map(pos, sig)
-    emission = None if nrm is None else (nrm, np.full(len(pos), 90.0))
-    idx, _ = mapindex.build(fl, rig, bmap, emission, ws, SIGMA_PX)
+    m = setup(name)
+    fl, cams, rig, pos, nrm, ws, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.ws, m.bmap, m.idx
     rng = np.random.default_rng([seed, len(pos), 27])
     truth = pos if name == "paper" else pos + rng.normal(0.0, SURVEY_SIGMA_MM, pos.shape)
-    cfg = fl.config(sigma_px=SIGMA_PX)
+    cfg = m.cfg
     poses = four_beacon_poses(fl, rig, bmap, idx, cams, truth, nrm, rng, ws[0], ws[1], n)
     one, free, cyc = {}, {}, {}
     free_units = []

@@ -92,6 +92,14 @@ static mfns_integrity_status_t lag_at(int k, mfns_lag_eval_t *ev)
     return mfns_integrity_lag(&sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &back, ev);
 }
 
+/* Render cycle k (render's stale camera) and run the monitor on its fix. */
+static int monitor_at(mfns_integrity_memory_t *mem, int k, int stale_cam, int lag, mfns_rng_t *rng,
+                      mfns_lag_eval_t *ev)
+{
+    assert_true(render(k, stale_cam, lag, rng) != MFNS_POSE_NO_FIX);
+    return mfns_integrity_lag_monitor(mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, ev);
+}
+
 static void test_back_undoes_one_cycle(void **state)
 {
     (void)state;
@@ -194,9 +202,7 @@ static void test_monitor_holds_and_reports_once(void **state)
     mfns_lag_eval_t ev;
     /* two clean fixes give the motion; nothing flagged, nothing held */
     for (int k = 0; k < 2; k++) {
-        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
-        assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev),
-                         -1);
+        assert_int_equal(monitor_at(&mem, k, -1, 0, &rng, &ev), -1);
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         assert_int_equal(mem.cam_held[c], 0);
@@ -429,20 +435,16 @@ static void test_back_after_gap_held_until_verified(void **state)
     mfns_rng_seed(&rng, 23);
     mfns_lag_eval_t ev;
     for (int k = 0; k < 2; k++) {
-        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
-        (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+        (void)monitor_at(&mem, k, -1, 0, &rng, &ev);
     }
     /* a one-cycle gap: no hold */
     mem.camwatch.miss_run[1] = MFNS_INTEGRITY_LAG_OUTAGE - 1;
-    assert_true(render(2, -1, 0, &rng) != MFNS_POSE_NO_FIX);
-    (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+    (void)monitor_at(&mem, 2, -1, 0, &rng, &ev);
     assert_int_equal(mem.cam_lag[1], 0);
     assert_int_equal(mem.cam_held[1], 0);
     /* a gap of MFNS_INTEGRITY_LAG_OUTAGE cycles: held, to be verified */
     mem.camwatch.miss_run[1] = MFNS_INTEGRITY_LAG_OUTAGE;
-    assert_true(render(3, -1, 0, &rng) != MFNS_POSE_NO_FIX);
-    assert_int_equal(mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev),
-                     -1); /* a verification, not a lag episode: nothing to report */
+    assert_int_equal(monitor_at(&mem, 3, -1, 0, &rng, &ev), -1); /* a verification, not a lag episode */
     assert_int_equal(mem.cam_lag[1], 2);
     assert_int_equal(mem.cam_held[1], 1);
     assert_int_equal(mem.lag_verify[1], MFNS_INTEGRITY_LAG_VERIFY);
@@ -450,8 +452,7 @@ static void test_back_after_gap_held_until_verified(void **state)
     mem.camwatch.miss_run[1] = 0U; /* the watch ends the run on the solver's inlier */
     int released = -1;
     for (int k = 4; k < 12 && released < 0; k++) {
-        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
-        (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+        (void)monitor_at(&mem, k, -1, 0, &rng, &ev);
         released = mem.cam_lag[1] == 0U ? k - 3 : -1;
     }
     assert_int_equal(released, MFNS_INTEGRITY_LAG_VERIFY);
@@ -459,8 +460,7 @@ static void test_back_after_gap_held_until_verified(void **state)
      * one-camera fix is never testable for a lag) */
     mfns_integrity_memory_reset(&mem);
     for (int k = 0; k < 2; k++) {
-        assert_true(render(k, -1, 0, &rng) != MFNS_POSE_NO_FIX);
-        (void)mfns_integrity_lag_monitor(&mem, &sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &ev);
+        (void)monitor_at(&mem, k, -1, 0, &rng, &ev);
     }
     assert_true(render(2, -1, 0, &rng) != MFNS_POSE_NO_FIX);
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
