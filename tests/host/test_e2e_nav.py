@@ -9,13 +9,13 @@ on the link, and the program exits cleanly at the end of the data.
 
 from __future__ import annotations
 
-import csv
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from flight_replay import fly_replay  # tests/host
 
 REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"
@@ -62,38 +62,12 @@ def fly(
         *table_args,
     )
     assert res.returncode == 0, res.stderr
-    tlm = tmp / "tlm.bin"
-    nav = subprocess.run(
-        [
-            str(bins / "mfns-nav"),
-            "--table",
-            str(table),
-            "--replay",
-            str(frames),
-            "--tlm-file",
-            str(tlm),
-            *nav_args,
-        ],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert nav.returncode == 0, nav.stderr
-    assert "stopped (data ended)" in nav.stderr
-    ground = subprocess.run(
-        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp / "ground"), "--no-status"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert ground.returncode == 0, ground.stderr
-    assert "crc_errors=0" in ground.stderr
-    with open(tmp / "ground" / "nav.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
+    run = fly_replay(bins, table, frames, tmp, *nav_args)
+    assert "stopped (data ended)" in run.nav_stderr
+    assert "crc_errors=0" in run.ground_stderr
+    rows = run.rows()
     truth = np.genfromtxt(frames / "truth.csv", delimiter=",", names=True)
-    return rows, np.atleast_1d(truth), nav.stderr
+    return rows, np.atleast_1d(truth), run.nav_stderr
 
 
 def errors(rows: list[dict], truth: np.ndarray) -> tuple[list[int], np.ndarray, np.ndarray]:

@@ -9,7 +9,6 @@ excepted), cut at record boundaries, the newest fixes whole, and a restart conti
 
 from __future__ import annotations
 
-import csv
 import json
 import re
 import subprocess
@@ -18,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from flight_replay import fly_replay  # tests/host
 
 from mfns.camera import load_beacons, pose_from_position, rig_from_doc
 from mfns.map import fixlog
@@ -59,36 +59,8 @@ def _fly(bins: Path, frames, out: Path, *extra: str) -> tuple[str, list[dict]]:
     """mfns-nav on the frames with extra options, mfns-ground on its telemetry -> (mfns-nav's
     stderr, nav.csv rows)."""
     fr, table, init = frames
-    out.mkdir(parents=True, exist_ok=True)
-    tlm = out / "tlm.bin"
-    nav = subprocess.run(
-        [
-            str(bins / "mfns-nav"),
-            "--table",
-            str(table),
-            "--replay",
-            str(fr),
-            "--tlm-file",
-            str(tlm),
-            *init,
-            *extra,
-        ],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert nav.returncode == 0, nav.stderr
-    ground = subprocess.run(
-        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(out / "ground"), "--no-status"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert ground.returncode == 0, ground.stderr
-    with open(out / "ground" / "nav.csv", newline="") as f:
-        return nav.stderr, list(csv.DictReader(f))
+    run = fly_replay(bins, table, fr, out, *init, *extra)
+    return run.nav_stderr, run.rows()
 
 
 def _summary(stderr: str) -> tuple[int, int, int]:

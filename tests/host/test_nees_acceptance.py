@@ -44,6 +44,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from flight_replay import fly_replay  # tests/host
 
 from mfns import nees as N
 
@@ -80,24 +81,7 @@ def build_table(out: Path, calib: Path, beacons: Path) -> Path:
 
 def fly(out: Path, frames: Path, table: Path) -> dict:
     """mfns-nav on the frames with the table -> mfns-ground -> mfns report (summary.json)."""
-    out.mkdir(parents=True, exist_ok=True)
-    tlm = out / "telemetry.bin"
-    nav = subprocess.run(
-        [str(BIN / "mfns-nav"), "--table", str(table), "--replay", str(frames), "--tlm-file", str(tlm)],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert nav.returncode == 0, nav.stderr
-    ground = subprocess.run(
-        [str(BIN / "mfns-ground"), "--file", str(tlm), "--out", str(out / "ground"), "--no-status"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert ground.returncode == 0, ground.stderr
+    fly_replay(BIN, table, frames, out, tlm_name="telemetry.bin")
     rep = mfns(
         "report", str(out / "ground"), "--truth", str(frames / "truth.csv"), "--out", str(out / "report")
     )

@@ -8,12 +8,12 @@ notwithstanding; the same frames without the move raise no monitor event.
 
 from __future__ import annotations
 
-import csv
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from flight_replay import fly_replay  # tests/host
 
 from mfns.camera import load_beacons
 from mfns.map.refine_bench import along_wall, most_seen_beacon
@@ -71,34 +71,7 @@ def _fly(bins: Path, tmp: Path, table: Path, beacon_map: Path) -> list[dict]:
         str(SEED),
         "--quiet",
     )
-    tlm = tmp / "tlm.bin"
-    nav = subprocess.run(
-        [
-            str(bins / "mfns-nav"),
-            "--table",
-            str(table),
-            "--replay",
-            str(frames),
-            "--tlm-file",
-            str(tlm),
-            "--quiet",
-        ],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert nav.returncode == 0, nav.stderr
-    ground = subprocess.run(
-        [str(bins / "mfns-ground"), "--file", str(tlm), "--out", str(tmp / "g"), "--no-status"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert ground.returncode == 0, ground.stderr
-    with open(tmp / "g" / "events.csv", newline="") as f:
-        return list(csv.DictReader(f))
+    return fly_replay(bins, table, frames, tmp, "--quiet", ground_name="g").rows("events.csv")
 
 
 def test_moved_beacon_reported_by_the_monitor_and_clean_quiet(bins, surveyed, tmp_path):
