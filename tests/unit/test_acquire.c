@@ -36,19 +36,6 @@ static void build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, uin
     assert_int_equal(mfns_bidx_build(rig, map, NULL, mfns_v3(-r, -r, -r), mfns_v3(r, r, r), &par, idx), MFNS_BIDX_OK);
 }
 
-/* True when every inlier of the solution carries the true beacon. */
-static bool assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *truth)
-{
-    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        for (int i = 0; i < frame->count[c]; i++) {
-            if (sol->inlier[c][i] && sol->assoc.beacon[c][i] != truth->beacon[c][i]) {
-                return false;
-            }
-        }
-    }
-    return true;
-}
-
 static void test_index_intervals_and_neighbours(void **state)
 {
     (void)state;
@@ -162,7 +149,7 @@ static void test_acquire_random_poses(void **state)
         }
         /* a fix is never a wrong identification */
         assert_true(g_acq.progress.certified);
-        assert_true(assoc_right(&sol, &frame, &tassoc));
+        assert_true(pt_assoc_right(&sol, &frame, &tassoc));
         assert_int_equal(sol.beacons_used, n);
         const pt_dpose_t est = pt_from_float(&sol.pose);
         assert_true(pt_pos_err(&est, &truth) < 5.0);
@@ -196,7 +183,7 @@ static void test_spurious_blobs_rejected(void **state)
         if (st == MFNS_POSE_NO_FIX) {
             continue;
         }
-        assert_true(assoc_right(&sol, &frame, &tassoc));
+        assert_true(pt_assoc_right(&sol, &frame, &tassoc));
         assert_int_equal(sol.beacons_used, n);
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             for (int i = 0; i < frame.count[c]; i++) {
@@ -246,7 +233,7 @@ static void test_recorded_near_ambiguous_frame(void **state)
     print_message("recorded frame: status %d reason %d, %u beacons, %u units\n", (int)st, (int)sol.reason,
                   sol.beacons_used, g_acq.progress.units);
     if (st != MFNS_POSE_NO_FIX) {
-        assert_true(assoc_right(&sol, &frame, &truth));
+        assert_true(pt_assoc_right(&sol, &frame, &truth));
         assert_int_equal(sol.beacons_used, 4);
         /* truth: r_bw_b = (-25.5, -126.3, 118.3) mm */
         assert_true(fabs(sol.pose.r_bw_b.x + 25.52) < 10.0 && fabs(sol.pose.r_bw_b.y + 126.30) < 10.0 &&
@@ -297,7 +284,7 @@ static void test_three_blobs_never_certified(void **state)
         const mfns_pose_t prev_f = pt_to_float(&prev);
         assert_int_equal(mfns_pose_track(&rig, &map, &frame, &prev_f, &cfg, &sol), MFNS_POSE_NO_FIX);
         assert_int_equal(sol.reason, MFNS_POSE_R_MINIMAL);
-        assert_true(assoc_right(&sol, &frame, &tassoc));
+        assert_true(pt_assoc_right(&sol, &frame, &tassoc));
     }
     assert_true(tried >= 3);
 }
@@ -326,7 +313,7 @@ static void test_tracking(void **state)
         const mfns_pose_t prev_f = pt_to_float(&prev);
         mfns_pose_solution_t sol;
         assert_true(mfns_pose_track(&rig, &map, &frame, &prev_f, &cfg, &sol) != MFNS_POSE_NO_FIX);
-        assert_true(assoc_right(&sol, &frame, &tassoc));
+        assert_true(pt_assoc_right(&sol, &frame, &tassoc));
         assert_int_equal(sol.hypotheses, 0);
         const pt_dpose_t est = pt_from_float(&sol.pose);
         assert_true(pt_pos_err(&est, &truth) < 5.0);
@@ -400,7 +387,7 @@ static void test_fix_is_physical(void **state)
         if (mfns_acquire(&g_acq, &rig, &map, &g_idx, &frame, &cfg, 200000u, &sol) == MFNS_POSE_NO_FIX) {
             continue;
         }
-        assert_true(assoc_right(&sol, &frame, &tassoc));
+        assert_true(pt_assoc_right(&sol, &frame, &tassoc));
         tried++;
         /* the workspace 400 mm beside the body on every axis */
         g_idx2 = g_idx;
@@ -424,7 +411,7 @@ static void test_fix_is_physical(void **state)
         g_idx2.geom[b].emit.axis_w = away;
         g_idx2.geom[b].emit.cos_half_angle = cosf(60.0f * (float)DEG);
         if (mfns_acquire(&g_acq, &rig, &map, &g_idx2, &frame, &cfg, 200000u, &sol) != MFNS_POSE_NO_FIX) {
-            assert_true(assoc_right(&sol, &frame, &tassoc));
+            assert_true(pt_assoc_right(&sol, &frame, &tassoc));
             assert_int_equal(sol.inlier[bc][0], 0);
         }
     }
@@ -466,7 +453,7 @@ static void test_reflection_beside_lone_blob(void **state)
         mfns_pose_solution_t sol;
         const mfns_pose_status_t st = mfns_acquire(&g_acq, &rig, &map, &g_idx, &frame, &cfg, g_idx.budget_units, &sol);
         if (st != MFNS_POSE_NO_FIX) {
-            assert_true(assoc_right(&sol, &frame, &tassoc));
+            assert_true(pt_assoc_right(&sol, &frame, &tassoc));
             assert_int_equal(sol.inlier[cam][i], 0);
             right++;
         }
@@ -514,7 +501,7 @@ static void test_reflection_among_verification_blobs(void **state)
         mfns_pose_solution_t sol;
         const mfns_pose_status_t st = mfns_acquire(&g_acq, &rig, &map, &g_idx, &frame, &cfg, g_idx.budget_units, &sol);
         if (st != MFNS_POSE_NO_FIX) {
-            assert_true(assoc_right(&sol, &frame, &tassoc));
+            assert_true(pt_assoc_right(&sol, &frame, &tassoc));
             assert_int_equal(sol.inlier[2][5], 0);
             right++;
         }
@@ -572,7 +559,7 @@ static void test_resume_equals_one_call(void **state)
         if (a != MFNS_POSE_NO_FIX) {
             fixes++;
             assert_memory_equal(&one.assoc, &many.assoc, sizeof one.assoc);
-            assert_true(assoc_right(&many, &frame, &tassoc));
+            assert_true(pt_assoc_right(&many, &frame, &tassoc));
         }
     }
     print_message("resumed searches: %d of 40 split over calls, %d completions, %d fixes\n", split, completed, fixes);
@@ -640,7 +627,7 @@ static void test_cycle_carries_a_search(void **state)
     assert_true(fixed);
     assert_true(cycles >= 3);
     assert_int_equal(rep.source, MFNS_ACQ_SRC_CARRIED);
-    assert_true(assoc_right(&out, &frame, &tassoc));
+    assert_true(pt_assoc_right(&out, &frame, &tassoc));
     assert_true(out.beacons_used >= MFNS_ACQ_MIN_BLOBS);
     const pt_dpose_t est = pt_from_float(&out.pose);
     assert_true(pt_pos_err(&est, &truth) < 5.0);

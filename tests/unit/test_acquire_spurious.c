@@ -29,18 +29,6 @@ static void build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, mfn
     assert_int_equal(mfns_bidx_build(rig, map, NULL, mfns_v3(-r, -r, -r), mfns_v3(r, r, r), &par, idx), MFNS_BIDX_OK);
 }
 
-static bool assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *truth)
-{
-    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        for (int i = 0; i < frame->count[c]; i++) {
-            if (sol->inlier[c][i] && sol->assoc.beacon[c][i] != truth->beacon[c][i]) {
-                return false;
-            }
-        }
-    }
-    return true;
-}
-
 /* A random pose of the paper's workspace with exactly four beacons in view,
  * its frame, and a reflection at a random place of a random camera. */
 static void four_plus_reflection(const mfns_rig_t *rig, const mfns_beacon_map_t *map, mfns_rng_t *rng,
@@ -92,7 +80,7 @@ static void test_four_beacons_and_a_reflection(void **state)
         }
         /* a fix is the right identification, the reflection without a beacon */
         assert_true(g_acq.progress.certified);
-        assert_true(assoc_right(&sol, &frame, &tassoc));
+        assert_true(pt_assoc_right(&sol, &frame, &tassoc));
         assert_int_equal(sol.beacons_used, 4);
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             for (int i = 0; i < frame.count[c]; i++) {
@@ -151,7 +139,7 @@ static void test_five_blob_completion_resumes(void **state)
         if (a != MFNS_POSE_NO_FIX) {
             fixes++;
             assert_memory_equal(&one.assoc, &many.assoc, sizeof one.assoc);
-            assert_true(assoc_right(&many, &frame, &tassoc));
+            assert_true(pt_assoc_right(&many, &frame, &tassoc));
         }
     }
     assert_true(fixes >= 5);

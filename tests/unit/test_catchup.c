@@ -102,18 +102,6 @@ static pt_dpose_t moved(const pt_dpose_t *p0, const double w[3], const double v[
     return pt_pose(c, pos);
 }
 
-static bool assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *truth)
-{
-    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        for (int i = 0; i < frame->count[c]; i++) {
-            if (sol->inlier[c][i] && sol->assoc.beacon[c][i] != truth->beacon[c][i]) {
-                return false;
-            }
-        }
-    }
-    return true;
-}
-
 /* A path from a 4-blob pose whose one-call search completes with need units,
  * moving by a constant twist, with at least 4 beacons in view all along.
  * jump_at >= 0: from that frame on the body is turned by jump_rad more about
@@ -191,7 +179,7 @@ static void test_catchup_after_motion(void **state)
         assert_true(fixed);
         k--; /* the fix's frame */
         /* only a pose verified on the current frame: right, and near the truth there */
-        assert_true(assoc_right(&out, &g_frames[k], &g_truth[k]));
+        assert_true(pt_assoc_right(&out, &g_frames[k], &g_truth[k]));
         assert_true(out.beacons_used >= MFNS_ACQ_MIN_BLOBS);
         const pt_dpose_t est = pt_from_float(&out.pose);
         assert_true(pt_pos_err(&est, &g_path[k]) < 5.0);
@@ -204,7 +192,7 @@ static void test_catchup_after_motion(void **state)
         mfns_pose_solution_t one;
         (void)mfns_pose_track(&rig, &map, &g_frames[k], &first, &cfg, &one);
         const bool one_ok = (one.status == MFNS_POSE_OK || one.status == MFNS_POSE_DEGRADED) &&
-                            one.beacons_used >= MFNS_ACQ_MIN_BLOBS && assoc_right(&one, &g_frames[k], &g_truth[k]);
+                            one.beacons_used >= MFNS_ACQ_MIN_BLOBS && pt_assoc_right(&one, &g_frames[k], &g_truth[k]);
         print_message("catch-up: fix after %d cycles of %u units (one call %u); one step from frame 0: %s\n", k + 1,
                       budget, need, one_ok ? "verifies" : "fails");
         beyond_gate += one_ok ? 0 : 1;
@@ -238,7 +226,7 @@ static void test_catchup_refuses_a_jump(void **state)
                 mfns_acq_cycle_run(&g_cyc, &rig, &map, &g_idx, &g_frames[k], &cfg, need / 8u, &out, &rep);
             refused = refused || rep.bridge_refused;
             if (st != MFNS_POSE_NO_FIX) {
-                assert_true(assoc_right(&out, &g_frames[k], &g_truth[k]));
+                assert_true(pt_assoc_right(&out, &g_frames[k], &g_truth[k]));
                 assert_true(k >= 2); /* never the first frames' pose carried over the jump */
                 break;
             }

@@ -459,3 +459,15 @@ mfns_pose_config_t pt_config(double sigma)
     cfg.sigma_px = (float)sigma;
     return cfg;
 }
+
+bool pt_assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *truth)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int i = 0; i < frame->count[c] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
+            if (sol->inlier[c][i] && sol->assoc.beacon[c][i] != truth->beacon[c][i]) {
+                return false;
+            }
+        }
+    }
+    return true;
+}

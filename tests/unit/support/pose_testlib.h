@@ -63,4 +63,7 @@ mfns_pose_config_t pt_config(double sigma);
 
 int pt_random_visible_pose(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double pos_range, int min_visible,
                            int max_tries, mfns_rng_t *rng, pt_dpose_t *pose);
+
+/* True when every inlier of sol carries the beacon truth gives its observation. */
+bool pt_assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *truth);
 #endif
