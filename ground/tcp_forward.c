@@ -24,23 +24,13 @@ int tcp_forward_open(tcp_forward_t *f, const char *endpoint, bool allow_remote, 
     f->cfd = -1;
     f->head = f->len = f->partial = 0;
     f->queued = f->sent = f->dropped = f->clients = 0;
-    uint32_t addr = 0;
-    uint16_t port = 0;
-    if (udp_parse_endpoint(endpoint, allow_remote, &addr, &port, err, err_size) != 0) {
-        return -1;
-    }
-    const int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    struct sockaddr_in sa;
+    const int fd = inet_endpoint_socket(endpoint, allow_remote, SOCK_STREAM, &sa, err, err_size);
     if (fd < 0) {
-        (void)snprintf(err, err_size, "socket: %s", strerror(errno));
         return -1;
     }
     const int one = 1; /* a restart re-binds at once (the last run's connection in TIME_WAIT) */
     (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    struct sockaddr_in sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sin_family = AF_INET;
-    sa.sin_port = htons(port);
-    sa.sin_addr.s_addr = addr;
     if (bind(fd, (const struct sockaddr *)&sa, sizeof sa) != 0 || listen(fd, 1) != 0) {
         (void)snprintf(err, err_size, "listen on %s: %s", endpoint, strerror(errno));
         (void)close(fd);

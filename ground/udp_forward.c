@@ -54,23 +54,33 @@ int udp_parse_endpoint(const char *s, bool allow_remote, uint32_t *addr_be, uint
     return 0;
 }
 
-static int udp_socket(const char *endpoint, bool allow_remote, bool bind_it, char *err, size_t err_size)
+int inet_endpoint_socket(const char *endpoint, bool allow_remote, int type, struct sockaddr_in *sa, char *err,
+                         size_t err_size)
 {
     uint32_t addr = 0;
     uint16_t port = 0;
     if (udp_parse_endpoint(endpoint, allow_remote, &addr, &port, err, err_size) != 0) {
         return -1;
     }
-    const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    const int fd = socket(AF_INET, type | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
     if (fd < 0) {
         (void)snprintf(err, err_size, "socket: %s", strerror(errno));
         return -1;
     }
+    memset(sa, 0, sizeof *sa);
+    sa->sin_family = AF_INET;
+    sa->sin_port = htons(port);
+    sa->sin_addr.s_addr = addr;
+    return fd;
+}
+
+static int udp_socket(const char *endpoint, bool allow_remote, bool bind_it, char *err, size_t err_size)
+{
     struct sockaddr_in sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sin_family = AF_INET;
-    sa.sin_port = htons(port);
-    sa.sin_addr.s_addr = addr;
+    const int fd = inet_endpoint_socket(endpoint, allow_remote, SOCK_DGRAM, &sa, err, err_size);
+    if (fd < 0) {
+        return -1;
+    }
     const int rc = bind_it ? bind(fd, (const struct sockaddr *)&sa, sizeof sa)
                            : connect(fd, (const struct sockaddr *)&sa, sizeof sa);
     if (rc != 0) {

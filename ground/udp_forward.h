@@ -39,6 +39,15 @@ typedef struct {
 int udp_parse_endpoint(const char *s, bool allow_remote, uint32_t *addr_be, uint16_t *port, char *err,
                        size_t err_size);
 
+/* A non-blocking, close-on-exec IPv4 socket of type (SOCK_DGRAM or
+ * SOCK_STREAM) for endpoint (udp_parse_endpoint's rules), its address in *sa
+ * for the caller's bind or connect: the fd, or -1 with a message in err. One
+ * set-up for the UDP forwarder, the UDP telecommand input and the TCP
+ * forwarder. */
+struct sockaddr_in;
+int inet_endpoint_socket(const char *endpoint, bool allow_remote, int type, struct sockaddr_in *sa, char *err,
+                         size_t err_size);
+
 int udp_forward_open(udp_forward_t *f, const char *endpoint, bool allow_remote, char *err, size_t err_size);
 /* Sends one packet; 0 sent, -1 not (counted). */
 int udp_forward_packet(udp_forward_t *f, const tlm_packet_t *p);
