@@ -29,11 +29,7 @@ static mfns_acq_cycle_t g_cyc;
  * +-POS_RANGE_MM of the origin), certificate cert. */
 static void build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, uint8_t cert, mfns_beacon_index_t *idx)
 {
-    mfns_bidx_params_t par;
-    mfns_bidx_params_default(&par);
-    par.cert_inliers = cert;
-    const float r = (float)POS_RANGE_MM;
-    assert_int_equal(mfns_bidx_build(rig, map, NULL, mfns_v3(-r, -r, -r), mfns_v3(r, r, r), &par, idx), MFNS_BIDX_OK);
+    pt_build_index(rig, map, POS_RANGE_MM, cert, idx);
 }
 
 static void test_index_intervals_and_neighbours(void **state)
@@ -742,22 +738,8 @@ static void test_certify(void **state)
     /* a self-similar map: a cluster seen by camera Z and its copy 1500 mm along x
      * (out of view from the first) */
     const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-    const double zero[3] = {0, 0, 0};
-    const pt_dpose_t at0 = pt_pose(eye, zero);
     const int per_cam[3] = {0, 0, 6};
-    mfns_beacon_map_t twin = pt_dense_map(&rig, &at0, per_cam, 900, 1400, &rng);
-    const uint16_t n = twin.count;
-    for (uint16_t i = 0; i < n; i++) {
-        twin.beacon[n + i] = twin.beacon[i];
-        twin.beacon[n + i].id = (uint16_t)(n + i);
-        twin.beacon[n + i].p_w.x += 1500.0f;
-        twin.beacon[i].sigma_mm = twin.beacon[n + i].sigma_mm = 0.4f;
-    }
-    twin.count = (uint16_t)(2 * n);
-    mfns_bidx_params_t par;
-    mfns_bidx_params_default(&par);
-    assert_int_equal(mfns_bidx_build(&rig, &twin, NULL, mfns_v3(-50, -50, -50), mfns_v3(1550, 50, 50), &par, &g_idx2),
-                     MFNS_BIDX_OK);
+    const mfns_beacon_map_t twin = pt_twin_map(&rig, per_cam, &rng, &g_idx2);
     /* the body at the origin sees the first cluster, at +1500 mm x the second */
     for (int i = 0; i < 4; i++) {
         const double at[3] = {i % 2 == 0 ? 0.0 : 1500.0, 0.0, 0.0};

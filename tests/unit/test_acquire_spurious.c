@@ -23,10 +23,7 @@ static mfns_acq_t g_acq, g_acq2;
 
 static void build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, mfns_beacon_index_t *idx)
 {
-    mfns_bidx_params_t par;
-    mfns_bidx_params_default(&par);
-    const float r = (float)POS_RANGE_MM;
-    assert_int_equal(mfns_bidx_build(rig, map, NULL, mfns_v3(-r, -r, -r), mfns_v3(r, r, r), &par, idx), MFNS_BIDX_OK);
+    pt_build_index(rig, map, POS_RANGE_MM, MFNS_BIDX_MIN_CERT, idx);
 }
 
 /* A random pose of the paper's workspace with exactly four beacons in view,
@@ -159,22 +156,9 @@ static void test_twin_cluster_gives_no_fix(void **state)
     mfns_rng_seed(&rng, 2703);
     const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
     const double zero[3] = {0, 0, 0};
-    const pt_dpose_t at0 = pt_pose(eye, zero);
     const int per_cam[3] = {0, 0, 4};
-    mfns_beacon_map_t twin = pt_dense_map(&rig, &at0, per_cam, 900, 1400, &rng);
-    const uint16_t n = twin.count;
-    assert_int_equal(n, 4);
-    for (uint16_t i = 0; i < n; i++) {
-        twin.beacon[n + i] = twin.beacon[i];
-        twin.beacon[n + i].id = (uint16_t)(n + i);
-        twin.beacon[n + i].p_w.x += 1500.0f;
-        twin.beacon[i].sigma_mm = twin.beacon[n + i].sigma_mm = 0.4f;
-    }
-    twin.count = (uint16_t)(2 * n);
-    mfns_bidx_params_t par;
-    mfns_bidx_params_default(&par);
-    assert_int_equal(mfns_bidx_build(&rig, &twin, NULL, mfns_v3(-50, -50, -50), mfns_v3(1550, 50, 50), &par, &g_idx),
-                     MFNS_BIDX_OK);
+    const mfns_beacon_map_t twin = pt_twin_map(&rig, per_cam, &rng, &g_idx);
+    assert_int_equal(twin.count, 8);
     int refused = 0;
     for (int t = 0; t < 6; t++) {
         const double at[3] = {t % 2 == 0 ? 0.0 : 1500.0, 0.0, 0.0};

@@ -471,3 +471,35 @@ bool pt_assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *fra
     }
     return true;
 }
+
+mfns_beacon_map_t pt_twin_map(const mfns_rig_t *rig, const int per_cam[3], mfns_rng_t *rng, mfns_beacon_index_t *idx)
+{
+    const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const double zero[3] = {0, 0, 0};
+    const pt_dpose_t at0 = pt_pose(eye, zero);
+    mfns_beacon_map_t twin = pt_dense_map(rig, &at0, per_cam, 900, 1400, rng);
+    const uint16_t n = twin.count;
+    assert_true(2 * n <= MFNS_MAX_BEACONS);
+    for (uint16_t i = 0; i < n; i++) {
+        twin.beacon[n + i] = twin.beacon[i];
+        twin.beacon[n + i].id = (uint16_t)(n + i);
+        twin.beacon[n + i].p_w.x += 1500.0f;
+        twin.beacon[i].sigma_mm = twin.beacon[n + i].sigma_mm = 0.4f;
+    }
+    twin.count = (uint16_t)(2 * n);
+    mfns_bidx_params_t par;
+    mfns_bidx_params_default(&par);
+    assert_int_equal(mfns_bidx_build(rig, &twin, NULL, mfns_v3(-50, -50, -50), mfns_v3(1550, 50, 50), &par, idx),
+                     MFNS_BIDX_OK);
+    return twin;
+}
+
+void pt_build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double range_mm, uint8_t cert,
+                    mfns_beacon_index_t *idx)
+{
+    mfns_bidx_params_t par;
+    mfns_bidx_params_default(&par);
+    par.cert_inliers = cert;
+    const float r = (float)range_mm;
+    assert_int_equal(mfns_bidx_build(rig, map, NULL, mfns_v3(-r, -r, -r), mfns_v3(r, r, r), &par, idx), MFNS_BIDX_OK);
+}

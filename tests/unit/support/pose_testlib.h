@@ -6,6 +6,7 @@
 #ifndef MFNS_POSE_TESTLIB_H
 #define MFNS_POSE_TESTLIB_H
 
+#include "beacon_index.h"
 #include "pose.h"
 #include "testutil.h"
 
@@ -63,6 +64,18 @@ mfns_pose_config_t pt_config(double sigma);
 
 int pt_random_visible_pose(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double pos_range, int min_visible,
                            int max_tries, mfns_rng_t *rng, pt_dpose_t *pose);
+
+/* In *idx the index of map over body positions within +-range_mm of the
+ * origin per axis, default parameters but the certificate cert (asserts it
+ * builds). */
+void pt_build_index(const mfns_rig_t *rig, const mfns_beacon_map_t *map, double range_mm, uint8_t cert,
+                    mfns_beacon_index_t *idx);
+
+/* A self-similar map: pt_dense_map's cluster of per_cam beacons at the
+ * identity pose (900-1400 mm deep) and its copy 1500 mm along x, out of view
+ * of the first, every beacon at 0.4 mm survey sigma; and in *idx its index
+ * over both places (default parameters; asserts it builds). */
+mfns_beacon_map_t pt_twin_map(const mfns_rig_t *rig, const int per_cam[3], mfns_rng_t *rng, mfns_beacon_index_t *idx);
 
 /* True when every inlier of sol carries the beacon truth gives its observation. */
 bool pt_assoc_right(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, const mfns_pose_assoc_t *truth);
