@@ -53,9 +53,7 @@ CHI2_3 = float(chi2.isf(P_FALSE_ALARM, 3))  # 21.1
 HUBER_SIGMA = 3.0
 # The variance of a unit normal truncated to |r| <= HUBER_SIGMA (0.973): the unit weight
 # is estimated from the quadratic part only (refine, sigma0).
-HUBER_TRUNC_VAR = float(
-    1.0 - 2.0 * HUBER_SIGMA * norm.pdf(HUBER_SIGMA) / (2.0 * norm.cdf(HUBER_SIGMA) - 1.0)
-)
+HUBER_TRUNC_VAR = float(1.0 - 2.0 * HUBER_SIGMA * norm.pdf(HUBER_SIGMA) / (2.0 * norm.cdf(HUBER_SIGMA) - 1.0))
 # Mount priors when the calibration gives none: the paper's requirement on the rig
 # (docs/system.md section 4: 1 mm and 0.17 deg), far wider than a calibration's 1 sigma.
 MOUNT_SIGMA_DEG = 0.17
