@@ -270,7 +270,15 @@ pytest: venv lib $(GEN_FILES)
 # compiles with -fstack-usage -fcallgraph-info=su). docs/budgets.md.
 STACK_ALSO := mfns_centroid_detect mfns_acq_cycle_run mfns_pose_track
 ifeq ($(BOARD_KIND),baremetal)
-size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
+# The flight figure is an LTO link (BOARD_LTO): the core compiled a second
+# time, to GCC's intermediate code, under $(BUILD)/lto; the objects above stay
+# for the per-module table and the per-object stack analysis.
+LTO_OBJS := $(patsubst $(BUILD)/obj/%,$(BUILD)/lto/%,$(CORE_OBJS))
+$(BUILD)/lto/%.o: %.c boards/$(BOARD)/board.mk
+	@mkdir -p $(@D)
+	$(call say,CC,$< (lto))$(CC) $(filter-out -fstack-usage -fcallgraph-info=su,$(CFLAGS_ALL)) $(BOARD_LTO) -c $< -o $@
+
+size: $(CORE_OBJS) $(LTO_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	@mk/size.sh "$(SIZE)" "$(NM)" "$(BUILD)" $(CORE_OBJS)
 	$(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) -Wl,--no-gc-sections \
 	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
@@ -278,11 +286,16 @@ size: $(CORE_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
 	@roots=$$(mk/flight_roots.sh "$(NM)" firmware/app $(CORE_OBJS)) && \
 	  $(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) $$roots $(BUILD)/obj/boards/cortex-m7-core/entry.o $(CORE_OBJS) \
+	  -lm -Wl,-Map=$(BUILD)/flight-nolto.map -o $(BUILD)/flight-nolto.elf && \
+	  python3 mk/map_text.py --label "flight without LTO" $(BUILD)/flight-nolto.map && \
+	  rm -f $(BUILD)/flight.elf.ltrans* && \
+	  $(CC) $(BOARD_CFLAGS) $(BOARD_LTO) $(BOARD_LDFLAGS) $$roots $(BUILD)/obj/boards/cortex-m7-core/entry.o $(LTO_OBJS) \
 	  -lm -Wl,-Map=$(BUILD)/flight.map -o $(BUILD)/flight.elf && \
-	  echo "flight: $$(echo $$roots | wc -w) core functions called by firmware/app, section GC from them" && \
+	  echo "flight: $$(echo $$roots | wc -w) core functions called by firmware/app, section GC from them, LTO" && \
 	  $(SIZE) $(BUILD)/flight.elf | sed 's/^/flight: /'
-	@python3 mk/map_text.py $(BUILD)/flight.map $(BUILD)/obj
+	@python3 mk/map_text.py $(BUILD)/flight.map
 	@python3 mk/stack.py --min 64 $(addprefix --also ,$(STACK_ALSO)) $(CORE_OBJS:.o=.ci)
+	@python3 mk/stack.py --label "stack, LTO flight image" --min 64 $(BUILD)/flight.elf.ltrans0.ltrans.ci
 else
 size:
 	@$(MAKE) --no-print-directory BOARD=cortex-m7-core size

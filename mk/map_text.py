@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
-"""map_text.py MAP OBJDIR: text + rodata of a GNU ld map, split into the
-core's own objects (under OBJDIR) and the libraries (libm, libgcc, libc).
-Prints one `flight:` line and the 64 KB goal of issue 22 against the core's own."""
+"""map_text.py [--label LABEL] MAP: text + rodata of a GNU ld map, split into
+the core's own code (every input that is not an archive member: the core's
+objects, or with LTO the link-time partition GCC wrote them into) and the
+libraries' (members of libm.a, libgcc.a, libc_nano.a). Prints one LABEL line
+(default `flight`) and the 64 KB goal of issue 22 against the core's own."""
 
 from __future__ import annotations
 
@@ -12,7 +14,14 @@ GOAL = 65536
 
 
 def main() -> int:
-    path, objdir = sys.argv[1], sys.argv[2]
+    args = sys.argv[1:]
+    label = "flight"
+    if len(args) == 3 and args[0] == "--label":
+        label, args = args[1], args[2:]
+    if len(args) != 1:
+        print("usage: map_text.py [--label LABEL] MAP", file=sys.stderr)
+        return 2
+    path = args[0]
     text = open(path, encoding="utf-8").read().split("Linker script and memory map", 1)[-1]
     lines = text.splitlines()
     own = lib = 0
@@ -27,13 +36,13 @@ def main() -> int:
             size, src = int(n.group(2), 16), n.group(3)
         else:
             continue
-        if src.startswith(objdir):
-            own += size
-        else:
+        if re.search(r"\.a\([^)]*\)$", src):  # an archive member: libm, libgcc, libc
             lib += size
+        else:
+            own += size
     verdict = "met" if own <= GOAL else f"NOT met ({own - GOAL} B over)"
     print(
-        f"flight: {own} B of the core's own code and constants + {lib} B of libm/libgcc/libc; "
+        f"{label}: {own} B of the core's own code and constants + {lib} B of libm/libgcc/libc; "
         f"goal {GOAL} B for the core's own: {verdict}"
     )
     return 0

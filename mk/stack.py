@@ -65,6 +65,15 @@ class Graph:
             if m:
                 self.calls.setdefault(m.group(1), []).append(m.group(2))
 
+    def folded(self, fn: str) -> str | None:
+        """In the graph of an LTO link: a call to a copy of a file-local function
+        (NAME.lto_priv.N, one per file that defined it, e.g. a static inline of a
+        header) whose node is missing because the copies were merged into one; the
+        deepest remaining copy, or None."""
+        m = re.match(r"(.*\.lto_priv\.)\d+$", fn)
+        copies = [t for t in self.frame if m and t.startswith(m.group(1))]
+        return max(copies, key=lambda t: self.frame[t]) if copies else None
+
     def roots(self) -> list[str]:
         called = {t for src, ts in self.calls.items() for t in ts}
         return sorted(f for f in self.public if f not in called)
@@ -85,6 +94,8 @@ class Depth:
             return 0, frozenset({"recursion"}), frozenset(), ()
         if fn == INDIRECT:
             return 0, frozenset({"indirect"}), frozenset(), ()
+        if fn not in self.g.frame and self.g.folded(fn):
+            return self.of(self.g.folded(fn) or fn, path)
         if fn not in self.g.frame:  # outside the core
             return 0, frozenset(), frozenset({fn}), ()
         flags: set[str] = set()
@@ -112,26 +123,27 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--max", type=int, default=0, help="fail when an entry needs more bytes")
     ap.add_argument("--also", action="append", default=[], help="a function the core calls, reported too")
     ap.add_argument("--min", type=int, default=0, help="list only entries needing at least this many bytes")
+    ap.add_argument("--label", default="stack", help="prefix of the printed lines (default: stack)")
     a = ap.parse_args(argv)
     g = Graph()
     for p in a.ci:
         if not p.exists():
-            print(f"stack: {p} missing (build with -fstack-usage -fcallgraph-info=su)", file=sys.stderr)
+            print(f"{a.label}: {p} missing (build with -fstack-usage -fcallgraph-info=su)", file=sys.stderr)
             return 2
         g.read(p)
     entries = a.entry or g.roots()
     unknown = [e for e in entries if e not in g.frame]
     if unknown:
-        print(f"stack: not in the core: {', '.join(unknown)}", file=sys.stderr)
+        print(f"{a.label}: not in the core: {', '.join(unknown)}", file=sys.stderr)
         return 2
     d = Depth(g)
     for name in a.also:
         if name not in g.frame:
-            print(f"stack: {name} not in the core (renamed?)")
+            print(f"{a.label}: {name} not in the core (renamed?)")
             continue
         n, flags, ext, _ = d.of(name)
         notes = sorted(flags) + ([f"ext={','.join(sorted(ext))}"] if ext else [])
-        print(f"stack: {name} {n} [called by the core" + "".join(" " + x for x in notes) + "]")
+        print(f"{a.label}: {name} {n} [called by the core" + "".join(" " + x for x in notes) + "]")
     worst, worst_fn, worst_chain, rc = 0, "", (), 0
     small, small_max = 0, 0
     for e in sorted(entries, key=lambda x: d.of(x)[0]):
@@ -144,13 +156,13 @@ def main(argv: list[str]) -> int:
             small, small_max = small + 1, max(small_max, n)
             continue
         notes = sorted(flags) + ([f"ext={','.join(sorted(ext))}"] if ext else [])
-        print(f"stack: {e} {n}" + (f" [{' '.join(notes)}]" if notes else ""))
+        print(f"{a.label}: {e} {n}" + (f" [{' '.join(notes)}]" if notes else ""))
     if small:
-        print(f"stack: ({small} more entry points below {a.min} bytes, the deepest {small_max})")
-    print(f"stack: worst {worst_fn} {worst} bytes over {len(entries)} entry points")
-    print(f"stack: its deepest chain: {' > '.join(worst_chain)}")
+        print(f"{a.label}: ({small} more entry points below {a.min} bytes, the deepest {small_max})")
+    print(f"{a.label}: worst {worst_fn} {worst} bytes over {len(entries)} entry points")
+    print(f"{a.label}: its deepest chain: {' > '.join(worst_chain)}")
     if rc:
-        print(f"stack: an entry point needs more than {a.max} bytes")
+        print(f"{a.label}: an entry point needs more than {a.max} bytes")
     return rc
 
 

@@ -20,3 +20,9 @@ BOARD_CFLAGS    := -mcpu=cortex-m7 -mthumb -mfpu=fpv5-d16 -mfloat-abi=hard -Os \
 BOARD_LDFLAGS   := --specs=nano.specs -nostartfiles -T boards/cortex-m7-core/link.ld \
                    -Wl,--gc-sections
 BOARD_DEFINES   := -DMFNS_BOARD_NAME=\"cortex-m7-core\" -DMFNS_CORE_MESSAGES=0
+# The flight image of `make size` is linked with link-time optimisation (the
+# core compiled once more to GCC's intermediate code, mk: $(BUILD)/lto), one
+# partition so the whole image is optimised as one unit: inlining and constant
+# propagation across files, ~2.5 KB less. The stack of that image comes from
+# the call graph GCC writes at the link (flight.elf.ltrans0.ltrans.ci).
+BOARD_LTO       := -flto -flto-partition=one
