@@ -297,14 +297,6 @@ def valid_expr(f, var: str) -> str | None:
 
 
 # Wire type -> one field's statement; {v} the C lvalue, {o} the byte offset expression.
-PACK = {
-    "u8": "b[{o}] = {v};",
-    "u16": "tlm_put_u16(b + {o}, {v});",
-    "i16": "tlm_put_u16(b + {o}, (uint16_t){v});",
-    "u32": "tlm_put_u32(b + {o}, {v});",
-    "i32": "tlm_put_u32(b + {o}, (uint32_t){v});",
-    "f32": "tlm_put_f32(b + {o}, {v});",
-}
 UNPACK = {
     "u8": "{v} = b[{o}];",
     "u16": "{v} = tlm_get_u16(b + {o});",
@@ -332,6 +324,94 @@ def layout_lines(p, tmpl: dict) -> list[str]:
     return out
 
 
+WIDTH = {"u8": 1, "u16": 2, "i16": 2, "u32": 4, "i32": 4, "f32": 4}
+
+
+def pack_table(pk) -> list[str]:
+    """tlm_payload_pack as a table of runs (one per struct member: a scalar, or an
+    array whose elements lie back to back in the payload) and one loop: the same
+    bytes as a statement per field (big-endian, the bit pattern of each value; an
+    i16/i32 is written as its two's complement, a float as its binary32 pattern),
+    in a fifth of the code (docs/budgets.md)."""
+    table: list[str] = []
+    asserts: list[str] = []
+    first = [0]
+    for p in pk:
+        _suf, _sname, um = C_PACKETS[p.name]
+        for m, _ct, n, fs in members(p):
+            w = WIDTH[fs[0].wire_type]
+            if n is not None and n > 1 and all(f.offset == fs[0].offset + w * i for i, f in enumerate(fs)):
+                groups = [(m, n, fs[0].offset)]
+            else:
+                groups = [(f.c_field, 1, f.offset) for f in fs]
+            for member, count, off in groups:
+                if not (count < 32 and off < 256):
+                    raise ValueError(f"{p.name}.{member}: a run holds < 32 fields below payload offset 256")
+                elem = f"{member}[0]" if count > 1 else member
+                src = f"offsetof(tlm_packet_t, u.{um}.{elem})"
+                table.append(f"    {{{src}, {off}u, {count * 8 + w}u}}, /* {um}.{member} */")
+                asserts.append(
+                    f"_Static_assert(sizeof(((const tlm_packet_t *)0)->u.{um}.{elem}) == {w}u, "
+                    f'"{um}.{member}: C type and wire width differ");'
+                )
+        first.append(len(table))
+    return (
+        [
+            "/* tlm_payload_pack's layout: runs of fields of one width (1, 2 or 4 bytes)",
+            " * from the struct (src: offset in tlm_packet_t) to the payload (dst), big-endian;",
+            " * wn = count * 8 + width. Packet type t has runs k_run_first[t] .. k_run_first[t + 1] - 1. */",
+            "typedef struct {",
+            "    uint16_t src;",
+            "    uint8_t dst;",
+            "    uint8_t wn;",
+            "} tlm_run_t;",
+            "",
+        ]
+        + asserts
+        + [
+            '_Static_assert(sizeof(tlm_packet_t) <= UINT16_MAX, "struct offsets of tlm_run_t are 16-bit");',
+            "",
+            f"static const tlm_run_t k_runs[{len(table)}] = {{",
+        ]
+        + table
+        + [
+            "};",
+            "static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {"
+            + ", ".join(f"{x}u" for x in first)
+            + "};",
+            "",
+            "void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)",
+            "{",
+            "    if ((unsigned)p->type >= TLM_NUM_TYPES) {",
+            "        return;",
+            "    }",
+            "    for (unsigned r = k_run_first[p->type]; r < k_run_first[p->type + 1]; r++) {",
+            "        const unsigned w = k_runs[r].wn & 7u, end = (k_runs[r].wn >> 3) * w;",
+            "        const uint8_t *s = (const uint8_t *)p + k_runs[r].src;",
+            "        uint8_t *d = b + k_runs[r].dst;",
+            "        for (unsigned i = 0; i < end; i += w) {",
+            "            uint32_t v;",
+            "            if (w == 4u) {",
+            "                memcpy(&v, s + i, 4u);",
+            "            } else if (w == 2u) {",
+            "                uint16_t h;",
+            "                memcpy(&h, s + i, 2u);",
+            "                v = h;",
+            "            } else {",
+            "                v = s[i];",
+            "            }",
+            "            for (unsigned k = w; k-- > 0u;) {",
+            "                d[i + k] = (uint8_t)v;",
+            "                v >>= 8;",
+            "            }",
+            "        }",
+            "    }",
+            "}",
+            "",
+        ]
+    )
+
+
 def tlm_packets_c(d) -> str:
     L = [
         banner(TM_SRC).rstrip(),
@@ -339,6 +419,7 @@ def tlm_packets_c(d) -> str:
         '#include "tlm_packets.h"',
         "",
         "#include <math.h>",
+        "#include <stddef.h>",
         "#include <string.h>",
         "",
         '#include "core_text.h"',
@@ -418,10 +499,8 @@ def tlm_packets_c(d) -> str:
                 L.append(f"    case {prefix}{lab.upper()}: return MFNS_MSG({cstr(lab)});")
             L += ['    default: return "?";', "    }"]
         L += ["}", ""]
-    for fn, const, tmpl in (
-        ("tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)", "const ", PACK),
-        ("tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "", UNPACK),
-    ):
+    L += pack_table(pk)
+    for fn, const, tmpl in (("tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "", UNPACK),):
         L += [f"void {fn}", "{", "    switch (p->type) {"]
         for p in pk:
             suf, sname, um = C_PACKETS[p.name]

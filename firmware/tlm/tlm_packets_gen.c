@@ -3,6 +3,7 @@
 #include "tlm_packets.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "core_text.h"
@@ -131,116 +132,186 @@ const char *tlm_time_quality_name(uint8_t code)
     return (code <= TLM_TIMEQ_SYNCED) ? k_name[code] : "?";
 }
 
+/* tlm_payload_pack's layout: runs of fields of one width (1, 2 or 4 bytes)
+ * from the struct (src: offset in tlm_packet_t) to the payload (dst), big-endian;
+ * wn = count * 8 + width. Packet type t has runs k_run_first[t] .. k_run_first[t + 1] - 1. */
+typedef struct {
+    uint16_t src;
+    uint8_t dst;
+    uint8_t wn;
+} tlm_run_t;
+
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.cycle) == 4u, "nav.cycle: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.status) == 1u, "nav.status: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.reason) == 1u, "nav.reason: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.mode) == 1u, "nav.mode: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.beacons_used) == 1u, "nav.beacons_used: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.cams_used) == 1u, "nav.cams_used: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.iterations) == 1u, "nav.iterations: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.residual_rms_mpx) == 2u, "nav.residual_rms_mpx: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.pos_um[0]) == 4u, "nav.pos_um: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.att_udeg[0]) == 4u, "nav.att_udeg: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.sigma_pos_um[0]) == 4u, "nav.sigma_pos_um: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.sigma_att_udeg[0]) == 4u, "nav.sigma_att_udeg: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.q_q30[0]) == 4u, "nav.q_q30: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.cov[0]) == 4u, "nav.cov: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.pl_pos_um) == 4u, "nav.pl_pos_um: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.nav.pl_att_udeg) == 4u, "nav.pl_att_udeg: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.cycle) == 4u, "camera.cycle: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.camera) == 1u, "camera.camera: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.state) == 1u, "camera.state: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.blobs) == 1u, "camera.blobs: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.beacons_identified) == 1u, "camera.beacons_identified: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.exposure_us) == 4u, "camera.exposure_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.gain_cdb) == 2u, "camera.gain_cdb: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.frame_seq) == 4u, "camera.frame_seq: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.camera.frames_dropped) == 4u, "camera.frames_dropped: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle) == 4u, "hk.cycle: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.mode) == 1u, "hk.mode: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cpu_load_permille) == 2u, "hk.cpu_load_permille: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_p50_us) == 4u, "hk.cycle_p50_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_p95_us) == 4u, "hk.cycle_p95_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_p99_us) == 4u, "hk.cycle_p99_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_max_us) == 4u, "hk.cycle_max_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_cycles) == 4u, "hk.n_cycles: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_fix) == 4u, "hk.n_fix: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_no_fix) == 4u, "hk.n_no_fix: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_tlm_dropped) == 4u, "hk.n_tlm_dropped: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_cam_errors) == 4u, "hk.n_cam_errors: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.table_crc32) == 4u, "hk.table_crc32: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_acquire) == 4u, "hk.n_acquire: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.acq_units_max) == 4u, "hk.acq_units_max: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.acq_units_last) == 4u, "hk.acq_units_last: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.acq_band_last) == 1u, "hk.acq_band_last: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.acq_best_last) == 1u, "hk.acq_best_last: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_degraded) == 4u, "hk.n_degraded: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_cmd_accepted) == 4u, "hk.n_cmd_accepted: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_cmd_rejected) == 4u, "hk.n_cmd_rejected: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cmd_seq_last) == 2u, "hk.cmd_seq_last: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cams_enabled) == 1u, "hk.cams_enabled: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.utc_s) == 4u, "hk.utc_s: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.utc_us) == 4u, "hk.utc_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.time_quality) == 1u, "hk.time_quality: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_epoch) == 4u, "hk.tc_epoch: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_arsn_last) == 4u, "hk.tc_arsn_last: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_beacons_biased) == 2u, "hk.n_beacons_biased: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.frame_period_us) == 4u, "hk.frame_period_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_margin_us) == 4u, "hk.cycle_margin_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.cycle) == 4u, "event.cycle: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.code) == 2u, "event.code: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.severity) == 1u, "event.severity: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.subject) == 1u, "event.subject: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.arg0) == 4u, "event.arg0: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.arg1) == 4u, "event.arg1: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.cycle) == 4u, "fixobs.cycle: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.index) == 1u, "fixobs.index: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.count) == 1u, "fixobs.count: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.camera) == 1u, "fixobs.camera: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.beacon_id) == 2u, "fixobs.beacon_id: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.used) == 1u, "fixobs.used: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.uv_px[0]) == 4u, "fixobs.uv_px: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.cov_px2[0]) == 4u, "fixobs.cov_px2: C type and wire width differ");
+_Static_assert(sizeof(tlm_packet_t) <= UINT16_MAX, "struct offsets of tlm_run_t are 16-bit");
+
+static const tlm_run_t k_runs[70] = {
+    {offsetof(tlm_packet_t, u.nav.cycle), 0u, 12u}, /* nav.cycle */
+    {offsetof(tlm_packet_t, u.nav.status), 4u, 9u}, /* nav.status */
+    {offsetof(tlm_packet_t, u.nav.reason), 5u, 9u}, /* nav.reason */
+    {offsetof(tlm_packet_t, u.nav.mode), 6u, 9u}, /* nav.mode */
+    {offsetof(tlm_packet_t, u.nav.beacons_used), 7u, 9u}, /* nav.beacons_used */
+    {offsetof(tlm_packet_t, u.nav.cams_used), 8u, 9u}, /* nav.cams_used */
+    {offsetof(tlm_packet_t, u.nav.iterations), 9u, 9u}, /* nav.iterations */
+    {offsetof(tlm_packet_t, u.nav.residual_rms_mpx), 10u, 10u}, /* nav.residual_rms_mpx */
+    {offsetof(tlm_packet_t, u.nav.pos_um[0]), 12u, 28u}, /* nav.pos_um */
+    {offsetof(tlm_packet_t, u.nav.att_udeg[0]), 24u, 28u}, /* nav.att_udeg */
+    {offsetof(tlm_packet_t, u.nav.sigma_pos_um[0]), 36u, 28u}, /* nav.sigma_pos_um */
+    {offsetof(tlm_packet_t, u.nav.sigma_att_udeg[0]), 48u, 28u}, /* nav.sigma_att_udeg */
+    {offsetof(tlm_packet_t, u.nav.q_q30[0]), 60u, 36u}, /* nav.q_q30 */
+    {offsetof(tlm_packet_t, u.nav.cov[0]), 76u, 172u}, /* nav.cov */
+    {offsetof(tlm_packet_t, u.nav.pl_pos_um), 160u, 12u}, /* nav.pl_pos_um */
+    {offsetof(tlm_packet_t, u.nav.pl_att_udeg), 164u, 12u}, /* nav.pl_att_udeg */
+    {offsetof(tlm_packet_t, u.camera.cycle), 0u, 12u}, /* camera.cycle */
+    {offsetof(tlm_packet_t, u.camera.camera), 4u, 9u}, /* camera.camera */
+    {offsetof(tlm_packet_t, u.camera.state), 5u, 9u}, /* camera.state */
+    {offsetof(tlm_packet_t, u.camera.blobs), 6u, 9u}, /* camera.blobs */
+    {offsetof(tlm_packet_t, u.camera.beacons_identified), 7u, 9u}, /* camera.beacons_identified */
+    {offsetof(tlm_packet_t, u.camera.exposure_us), 8u, 12u}, /* camera.exposure_us */
+    {offsetof(tlm_packet_t, u.camera.gain_cdb), 12u, 10u}, /* camera.gain_cdb */
+    {offsetof(tlm_packet_t, u.camera.frame_seq), 14u, 12u}, /* camera.frame_seq */
+    {offsetof(tlm_packet_t, u.camera.frames_dropped), 18u, 12u}, /* camera.frames_dropped */
+    {offsetof(tlm_packet_t, u.hk.cycle), 0u, 12u}, /* hk.cycle */
+    {offsetof(tlm_packet_t, u.hk.mode), 4u, 9u}, /* hk.mode */
+    {offsetof(tlm_packet_t, u.hk.cpu_load_permille), 5u, 10u}, /* hk.cpu_load_permille */
+    {offsetof(tlm_packet_t, u.hk.cycle_p50_us), 7u, 12u}, /* hk.cycle_p50_us */
+    {offsetof(tlm_packet_t, u.hk.cycle_p95_us), 11u, 12u}, /* hk.cycle_p95_us */
+    {offsetof(tlm_packet_t, u.hk.cycle_p99_us), 15u, 12u}, /* hk.cycle_p99_us */
+    {offsetof(tlm_packet_t, u.hk.cycle_max_us), 19u, 12u}, /* hk.cycle_max_us */
+    {offsetof(tlm_packet_t, u.hk.n_cycles), 23u, 12u}, /* hk.n_cycles */
+    {offsetof(tlm_packet_t, u.hk.n_fix), 27u, 12u}, /* hk.n_fix */
+    {offsetof(tlm_packet_t, u.hk.n_no_fix), 31u, 12u}, /* hk.n_no_fix */
+    {offsetof(tlm_packet_t, u.hk.n_tlm_dropped), 35u, 12u}, /* hk.n_tlm_dropped */
+    {offsetof(tlm_packet_t, u.hk.n_cam_errors), 39u, 12u}, /* hk.n_cam_errors */
+    {offsetof(tlm_packet_t, u.hk.table_crc32), 43u, 12u}, /* hk.table_crc32 */
+    {offsetof(tlm_packet_t, u.hk.n_acquire), 47u, 12u}, /* hk.n_acquire */
+    {offsetof(tlm_packet_t, u.hk.acq_units_max), 51u, 12u}, /* hk.acq_units_max */
+    {offsetof(tlm_packet_t, u.hk.acq_units_last), 55u, 12u}, /* hk.acq_units_last */
+    {offsetof(tlm_packet_t, u.hk.acq_band_last), 59u, 9u}, /* hk.acq_band_last */
+    {offsetof(tlm_packet_t, u.hk.acq_best_last), 60u, 9u}, /* hk.acq_best_last */
+    {offsetof(tlm_packet_t, u.hk.n_degraded), 61u, 12u}, /* hk.n_degraded */
+    {offsetof(tlm_packet_t, u.hk.n_cmd_accepted), 65u, 12u}, /* hk.n_cmd_accepted */
+    {offsetof(tlm_packet_t, u.hk.n_cmd_rejected), 69u, 12u}, /* hk.n_cmd_rejected */
+    {offsetof(tlm_packet_t, u.hk.cmd_seq_last), 73u, 10u}, /* hk.cmd_seq_last */
+    {offsetof(tlm_packet_t, u.hk.cams_enabled), 75u, 9u}, /* hk.cams_enabled */
+    {offsetof(tlm_packet_t, u.hk.utc_s), 76u, 12u}, /* hk.utc_s */
+    {offsetof(tlm_packet_t, u.hk.utc_us), 80u, 12u}, /* hk.utc_us */
+    {offsetof(tlm_packet_t, u.hk.time_quality), 84u, 9u}, /* hk.time_quality */
+    {offsetof(tlm_packet_t, u.hk.tc_epoch), 85u, 12u}, /* hk.tc_epoch */
+    {offsetof(tlm_packet_t, u.hk.tc_arsn_last), 89u, 12u}, /* hk.tc_arsn_last */
+    {offsetof(tlm_packet_t, u.hk.n_beacons_biased), 93u, 10u}, /* hk.n_beacons_biased */
+    {offsetof(tlm_packet_t, u.hk.frame_period_us), 95u, 12u}, /* hk.frame_period_us */
+    {offsetof(tlm_packet_t, u.hk.cycle_margin_us), 99u, 12u}, /* hk.cycle_margin_us */
+    {offsetof(tlm_packet_t, u.event.cycle), 0u, 12u}, /* event.cycle */
+    {offsetof(tlm_packet_t, u.event.code), 4u, 10u}, /* event.code */
+    {offsetof(tlm_packet_t, u.event.severity), 6u, 9u}, /* event.severity */
+    {offsetof(tlm_packet_t, u.event.subject), 7u, 9u}, /* event.subject */
+    {offsetof(tlm_packet_t, u.event.arg0), 8u, 12u}, /* event.arg0 */
+    {offsetof(tlm_packet_t, u.event.arg1), 12u, 12u}, /* event.arg1 */
+    {offsetof(tlm_packet_t, u.fixobs.cycle), 0u, 12u}, /* fixobs.cycle */
+    {offsetof(tlm_packet_t, u.fixobs.index), 4u, 9u}, /* fixobs.index */
+    {offsetof(tlm_packet_t, u.fixobs.count), 5u, 9u}, /* fixobs.count */
+    {offsetof(tlm_packet_t, u.fixobs.camera), 6u, 9u}, /* fixobs.camera */
+    {offsetof(tlm_packet_t, u.fixobs.beacon_id), 7u, 10u}, /* fixobs.beacon_id */
+    {offsetof(tlm_packet_t, u.fixobs.used), 9u, 9u}, /* fixobs.used */
+    {offsetof(tlm_packet_t, u.fixobs.uv_px[0]), 10u, 20u}, /* fixobs.uv_px */
+    {offsetof(tlm_packet_t, u.fixobs.cov_px2[0]), 18u, 28u}, /* fixobs.cov_px2 */
+};
+static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 56u, 62u, 70u};
+
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
 {
-    switch (p->type) {
-    case TLM_TYPE_NAV: {
-        const tlm_nav_t *s = &p->u.nav;
-        tlm_put_u32(b + 0, s->cycle);
-        b[4] = s->status;
-        b[5] = s->reason;
-        b[6] = s->mode;
-        b[7] = s->beacons_used;
-        b[8] = s->cams_used;
-        b[9] = s->iterations;
-        tlm_put_u16(b + 10, s->residual_rms_mpx);
-        for (unsigned i = 0; i < 3u; i++) {
-            tlm_put_u32(b + 12u + 4u * i, (uint32_t)s->pos_um[i]);
-        }
-        for (unsigned i = 0; i < 3u; i++) {
-            tlm_put_u32(b + 24u + 4u * i, (uint32_t)s->att_udeg[i]);
-        }
-        for (unsigned i = 0; i < 3u; i++) {
-            tlm_put_u32(b + 36u + 4u * i, s->sigma_pos_um[i]);
-        }
-        for (unsigned i = 0; i < 3u; i++) {
-            tlm_put_u32(b + 48u + 4u * i, s->sigma_att_udeg[i]);
-        }
-        for (unsigned i = 0; i < 4u; i++) {
-            tlm_put_u32(b + 60u + 4u * i, (uint32_t)s->q_q30[i]);
-        }
-        for (unsigned i = 0; i < 21u; i++) {
-            tlm_put_f32(b + 76u + 4u * i, s->cov[i]);
-        }
-        tlm_put_u32(b + 160, s->pl_pos_um);
-        tlm_put_u32(b + 164, s->pl_att_udeg);
-        break;
+    if ((unsigned)p->type >= TLM_NUM_TYPES) {
+        return;
     }
-    case TLM_TYPE_CAMERA: {
-        const tlm_camera_t *s = &p->u.camera;
-        tlm_put_u32(b + 0, s->cycle);
-        b[4] = s->camera;
-        b[5] = s->state;
-        b[6] = s->blobs;
-        b[7] = s->beacons_identified;
-        tlm_put_u32(b + 8, s->exposure_us);
-        tlm_put_u16(b + 12, (uint16_t)s->gain_cdb);
-        tlm_put_u32(b + 14, s->frame_seq);
-        tlm_put_u32(b + 18, s->frames_dropped);
-        break;
-    }
-    case TLM_TYPE_HK: {
-        const tlm_hk_t *s = &p->u.hk;
-        tlm_put_u32(b + 0, s->cycle);
-        b[4] = s->mode;
-        tlm_put_u16(b + 5, s->cpu_load_permille);
-        tlm_put_u32(b + 7, s->cycle_p50_us);
-        tlm_put_u32(b + 11, s->cycle_p95_us);
-        tlm_put_u32(b + 15, s->cycle_p99_us);
-        tlm_put_u32(b + 19, s->cycle_max_us);
-        tlm_put_u32(b + 23, s->n_cycles);
-        tlm_put_u32(b + 27, s->n_fix);
-        tlm_put_u32(b + 31, s->n_no_fix);
-        tlm_put_u32(b + 35, s->n_tlm_dropped);
-        tlm_put_u32(b + 39, s->n_cam_errors);
-        tlm_put_u32(b + 43, s->table_crc32);
-        tlm_put_u32(b + 47, s->n_acquire);
-        tlm_put_u32(b + 51, s->acq_units_max);
-        tlm_put_u32(b + 55, s->acq_units_last);
-        b[59] = s->acq_band_last;
-        b[60] = s->acq_best_last;
-        tlm_put_u32(b + 61, s->n_degraded);
-        tlm_put_u32(b + 65, s->n_cmd_accepted);
-        tlm_put_u32(b + 69, s->n_cmd_rejected);
-        tlm_put_u16(b + 73, s->cmd_seq_last);
-        b[75] = s->cams_enabled;
-        tlm_put_u32(b + 76, s->utc_s);
-        tlm_put_u32(b + 80, s->utc_us);
-        b[84] = s->time_quality;
-        tlm_put_u32(b + 85, s->tc_epoch);
-        tlm_put_u32(b + 89, s->tc_arsn_last);
-        tlm_put_u16(b + 93, s->n_beacons_biased);
-        tlm_put_u32(b + 95, s->frame_period_us);
-        tlm_put_u32(b + 99, (uint32_t)s->cycle_margin_us);
-        break;
-    }
-    case TLM_TYPE_EVENT: {
-        const tlm_event_t *s = &p->u.event;
-        tlm_put_u32(b + 0, s->cycle);
-        tlm_put_u16(b + 4, s->code);
-        b[6] = s->severity;
-        b[7] = s->subject;
-        tlm_put_u32(b + 8, (uint32_t)s->arg0);
-        tlm_put_u32(b + 12, (uint32_t)s->arg1);
-        break;
-    }
-    case TLM_TYPE_FIXOBS: {
-        const tlm_fixobs_t *s = &p->u.fixobs;
-        tlm_put_u32(b + 0, s->cycle);
-        b[4] = s->index;
-        b[5] = s->count;
-        b[6] = s->camera;
-        tlm_put_u16(b + 7, s->beacon_id);
-        b[9] = s->used;
-        for (unsigned i = 0; i < 2u; i++) {
-            tlm_put_f32(b + 10u + 4u * i, s->uv_px[i]);
+    for (unsigned r = k_run_first[p->type]; r < k_run_first[p->type + 1]; r++) {
+        const unsigned w = k_runs[r].wn & 7u, end = (k_runs[r].wn >> 3) * w;
+        const uint8_t *s = (const uint8_t *)p + k_runs[r].src;
+        uint8_t *d = b + k_runs[r].dst;
+        for (unsigned i = 0; i < end; i += w) {
+            uint32_t v;
+            if (w == 4u) {
+                memcpy(&v, s + i, 4u);
+            } else if (w == 2u) {
+                uint16_t h;
+                memcpy(&h, s + i, 2u);
+                v = h;
+            } else {
+                v = s[i];
+            }
+            for (unsigned k = w; k-- > 0u;) {
+                d[i + k] = (uint8_t)v;
+                v >>= 8;
+            }
         }
-        for (unsigned i = 0; i < 3u; i++) {
-            tlm_put_f32(b + 18u + 4u * i, s->cov_px2[i]);
-        }
-        break;
-    }
-    default: break;
     }
 }
 
