@@ -275,11 +275,15 @@ def gen_c(L: Layout) -> str:
             f'{r.c_size}, "record {r.key} has no padding");'
         )
     o.append("")
+    # without messages (core_text.h) every text is "": no table of them
+    # (mfns_caltable_strerror returns "" itself)
+    o.append("#if MFNS_CORE_MESSAGES")
     o.append("const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT] = {")
     for s in L.status:
         msg = s["message"].replace("\\", "\\\\").replace('"', '\\"')
         o.append(f'    [MFNS_CALTABLE_{s["name"]}] = MFNS_MSG("{msg}"),')
     o.append("};")
+    o.append("#endif")
     o.append("")
     o.append("const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT] = {")
     for f in L.checked():

@@ -35,9 +35,14 @@ uint32_t mfns_crc32(uint32_t crc, const uint8_t *p, size_t n)
 
 const char *mfns_caltable_strerror(mfns_caltable_status_t s)
 {
-    /* the generated table has one message per value 0 .. STATUS_COUNT - 1 */
+    /* the generated table has one message per value 0 .. STATUS_COUNT - 1;
+     * without messages (core_text.h) each is "", and there is no table */
     if ((unsigned)s < (unsigned)MFNS_CALTABLE_STATUS_COUNT) {
+#if MFNS_CORE_MESSAGES
         return mfns_caltable_status_text[s];
+#else
+        return "";
+#endif
     }
     return MFNS_MSG("calibration table: unknown status");
 }

@@ -27,6 +27,7 @@ _Static_assert(MFNS_CALTABLE_OFF_INTEGRITY_MONITOR_ONLY + 1u == MFNS_CALTABLE_IN
 _Static_assert(MFNS_CALTABLE_OFF_INDEX_CERT_INLIERS + 4u == MFNS_CALTABLE_INDEX_HEADER_SIZE, "record index has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_INDEX_GEOM_RANGE_MAX_MM + 4u == MFNS_CALTABLE_INDEX_GEOM_SIZE, "record index_geom has no padding");
 
+#if MFNS_CORE_MESSAGES
 const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT] = {
     [MFNS_CALTABLE_OK] = MFNS_MSG("calibration table ok"),
     [MFNS_CALTABLE_E_ARG] = MFNS_MSG("calibration table: NULL argument"),
@@ -73,6 +74,7 @@ const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT] = {
     [MFNS_CALTABLE_E_FILE_NOT_REGULAR] = MFNS_MSG("calibration table path is not a regular file (a FIFO, device or directory is refused: it could block the cycle)"),
     [MFNS_CALTABLE_E_INTEGRITY_SETTINGS] = MFNS_MSG("calibration table integrity settings out of range (alert limits, probabilities, hold)"),
 };
+#endif
 
 const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT] = {
     [MFNS_CALTABLE_F_GLOBALS_CAMERA_COUNT] = {MFNS_CALTABLE_OFF_GLOBALS_CAMERA_COUNT, MFNS_CALTABLE_E_CAMERA_COUNT, 0u, 3.0f, 3.0f}, /* [MFNS_NUM_CAMERAS, MFNS_NUM_CAMERAS] */
