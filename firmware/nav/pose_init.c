@@ -28,17 +28,22 @@ typedef struct {
 } dv3_t;
 
 static dv3_t dv(mfns_v3_t a) { return (dv3_t){(double)a.x, (double)a.y, (double)a.z}; }
-static dv3_t dsub(dv3_t a, dv3_t b) { return (dv3_t){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static dv3_t dsub(const dv3_t *a, const dv3_t *b) { return (dv3_t){a->x - b->x, a->y - b->y, a->z - b->z}; }
 static dv3_t dadd(dv3_t a, dv3_t b) { return (dv3_t){a.x + b.x, a.y + b.y, a.z + b.z}; }
 static dv3_t dscale(dv3_t a, double s) { return (dv3_t){a.x * s, a.y * s, a.z * s}; }
-static double ddot(dv3_t a, dv3_t b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+/* a . b, by address: 32 calls, and a call by value (or an inlined copy)
+ * loads both vectors first; -208 B on the Cortex-M7 (docs/budgets.md) */
+static double ddot(const dv3_t *a, const dv3_t *b)
+{
+    return a->x * b->x + a->y * b->y + a->z * b->z;
+}
 static dv3_t dcross(dv3_t a, dv3_t b)
 {
     return (dv3_t){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 static bool dnormalize(dv3_t a, dv3_t *out)
 {
-    const double n = sqrt(ddot(a, a));
+    const double n = sqrt(ddot(&a, &a));
     if (!(n > 1e-300)) {
         return false;
     }
@@ -295,22 +300,23 @@ typedef struct {
 /* The three distance equations at depths l, and their Jacobian. */
 static void dist_eqs(const gp3p_t *g, const double l[3], double f[3], double jac[3][3])
 {
-    const dv3_t v12 = dadd(g->e12, dsub(dscale(g->d[0], l[0]), dscale(g->d[1], l[1])));
-    const dv3_t v13 = dadd(g->e13, dsub(dscale(g->d[0], l[0]), dscale(g->d[2], l[2])));
-    const dv3_t v23 = dadd(g->e23, dsub(dscale(g->d[1], l[1]), dscale(g->d[2], l[2])));
-    f[0] = ddot(v12, v12) - g->dd12;
-    f[1] = ddot(v13, v13) - g->dd13;
-    f[2] = ddot(v23, v23) - g->dd23;
+    const dv3_t s0 = dscale(g->d[0], l[0]), s1 = dscale(g->d[1], l[1]), s2 = dscale(g->d[2], l[2]);
+    const dv3_t v12 = dadd(g->e12, dsub(&s0, &s1));
+    const dv3_t v13 = dadd(g->e13, dsub(&s0, &s2));
+    const dv3_t v23 = dadd(g->e23, dsub(&s1, &s2));
+    f[0] = ddot(&v12, &v12) - g->dd12;
+    f[1] = ddot(&v13, &v13) - g->dd13;
+    f[2] = ddot(&v23, &v23) - g->dd23;
     if (jac != NULL) {
-        jac[0][0] = 2.0 * ddot(v12, g->d[0]);
-        jac[0][1] = -2.0 * ddot(v12, g->d[1]);
+        jac[0][0] = 2.0 * ddot(&v12, &g->d[0]);
+        jac[0][1] = -2.0 * ddot(&v12, &g->d[1]);
         jac[0][2] = 0.0;
-        jac[1][0] = 2.0 * ddot(v13, g->d[0]);
+        jac[1][0] = 2.0 * ddot(&v13, &g->d[0]);
         jac[1][1] = 0.0;
-        jac[1][2] = -2.0 * ddot(v13, g->d[2]);
+        jac[1][2] = -2.0 * ddot(&v13, &g->d[2]);
         jac[2][0] = 0.0;
-        jac[2][1] = 2.0 * ddot(v23, g->d[1]);
-        jac[2][2] = -2.0 * ddot(v23, g->d[2]);
+        jac[2][1] = 2.0 * ddot(&v23, &g->d[1]);
+        jac[2][2] = -2.0 * ddot(&v23, &g->d[2]);
     }
 }
 
@@ -368,17 +374,17 @@ static void polish(const gp3p_t *g, double l[3])
  * conditioned, otherwise by trying the quadratics' roots. */
 static void back_substitute(const gp3p_t *g, const poly_t *pa, const poly_t *pb, double l3, double l[3])
 {
-    const double k12 = ddot(g->d[0], g->d[1]), k13 = ddot(g->d[0], g->d[2]);
+    const double k12 = ddot(&g->d[0], &g->d[1]), k13 = ddot(&g->d[0], &g->d[2]);
     const double a = peval(pa, l3), b = peval(pb, l3);
     l[2] = l3;
     double best = INFINITY;
     if (fabs(a) > 1e-6) {
         const double l2 = -b / a;
         /* lambda1 from the difference of eq12 and eq13 (both monic in lambda1) */
-        const double pr = (2.0 * ddot(g->d[0], g->e12) - 2.0 * k12 * l2) -
-                         (2.0 * ddot(g->d[0], g->e13) - 2.0 * k13 * l3);
-        const double qs = (l2 * l2 - 2.0 * ddot(g->d[1], g->e12) * l2 + ddot(g->e12, g->e12) - g->dd12) -
-                         (l3 * l3 - 2.0 * ddot(g->d[2], g->e13) * l3 + ddot(g->e13, g->e13) - g->dd13);
+        const double pr = (2.0 * ddot(&g->d[0], &g->e12) - 2.0 * k12 * l2) -
+                         (2.0 * ddot(&g->d[0], &g->e13) - 2.0 * k13 * l3);
+        const double qs = (l2 * l2 - 2.0 * ddot(&g->d[1], &g->e12) * l2 + ddot(&g->e12, &g->e12) - g->dd12) -
+                         (l3 * l3 - 2.0 * ddot(&g->d[2], &g->e13) * l3 + ddot(&g->e13, &g->e13) - g->dd13);
         if (fabs(pr) > 1e-6) {
             l[0] = -qs / pr;
             l[1] = l2;
@@ -391,16 +397,16 @@ static void back_substitute(const gp3p_t *g, const poly_t *pa, const poly_t *pb,
         return;
     }
     /* fallback: eq23 gives lambda2, eq12 lambda1, keep the pair that fits eq13 */
-    const double k23 = ddot(g->d[1], g->d[2]);
+    const double k23 = ddot(&g->d[1], &g->d[2]);
     double r2[2];
-    const int n2 = quad_roots(2.0 * ddot(g->d[1], g->e23) - 2.0 * k23 * l3,
-                              l3 * l3 - 2.0 * ddot(g->d[2], g->e23) * l3 + ddot(g->e23, g->e23) - g->dd23,
+    const int n2 = quad_roots(2.0 * ddot(&g->d[1], &g->e23) - 2.0 * k23 * l3,
+                              l3 * l3 - 2.0 * ddot(&g->d[2], &g->e23) * l3 + ddot(&g->e23, &g->e23) - g->dd23,
                               r2);
     for (int i = 0; i < n2; i++) {
         double r1[2];
-        const int n1 = quad_roots(2.0 * ddot(g->d[0], g->e12) - 2.0 * k12 * r2[i],
-                                  r2[i] * r2[i] - 2.0 * ddot(g->d[1], g->e12) * r2[i] +
-                                      ddot(g->e12, g->e12) - g->dd12,
+        const int n1 = quad_roots(2.0 * ddot(&g->d[0], &g->e12) - 2.0 * k12 * r2[i],
+                                  r2[i] * r2[i] - 2.0 * ddot(&g->d[1], &g->e12) * r2[i] +
+                                      ddot(&g->e12, &g->e12) - g->dd12,
                                   r1);
         for (int j = 0; j < n1; j++) {
             const double t[3] = {r1[j], r2[i], l3};
@@ -419,10 +425,10 @@ static void back_substitute(const gp3p_t *g, const poly_t *pa, const poly_t *pb,
 static bool triad(const dv3_t p[3], const dv3_t x[3], mfns_pose_t *pose)
 {
     dv3_t e1, e3, f1, f3;
-    if (!dnormalize(dsub(x[1], x[0]), &e1) ||
-        !dnormalize(dcross(e1, dsub(x[2], x[0])), &e3) ||
-        !dnormalize(dsub(p[1], p[0]), &f1) ||
-        !dnormalize(dcross(f1, dsub(p[2], p[0])), &f3)) {
+    if (!dnormalize(dsub(&x[1], &x[0]), &e1) ||
+        !dnormalize(dcross(e1, dsub(&x[2], &x[0])), &e3) ||
+        !dnormalize(dsub(&p[1], &p[0]), &f1) ||
+        !dnormalize(dcross(f1, dsub(&p[2], &p[0])), &f3)) {
         return false;
     }
     const dv3_t e2 = dcross(e3, e1), f2 = dcross(f3, f1);
@@ -440,7 +446,7 @@ static bool triad(const dv3_t p[3], const dv3_t x[3], mfns_pose_t *pose)
     const dv3_t rx = {rm[0][0] * xm.x + rm[0][1] * xm.y + rm[0][2] * xm.z,
                       rm[1][0] * xm.x + rm[1][1] * xm.y + rm[1][2] * xm.z,
                       rm[2][0] * xm.x + rm[2][1] * xm.y + rm[2][2] * xm.z};
-    const dv3_t t = dsub(pm, rx);
+    const dv3_t t = dsub(&pm, &rx);
     pose->r_bw_b = mfns_v3((float)t.x, (float)t.y, (float)t.z);
     return true;
 }
@@ -461,27 +467,27 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
         cd[i] = dv(c[i]);
         xd[i] = dv(x_w[i]);
     }
-    g.e12 = dscale(dsub(cd[0], cd[1]), s);
-    g.e13 = dscale(dsub(cd[0], cd[2]), s);
-    g.e23 = dscale(dsub(cd[1], cd[2]), s);
-    const dv3_t x12 = dscale(dsub(xd[0], xd[1]), s);
-    const dv3_t x13 = dscale(dsub(xd[0], xd[2]), s);
-    const dv3_t x23 = dscale(dsub(xd[1], xd[2]), s);
-    g.dd12 = ddot(x12, x12);
-    g.dd13 = ddot(x13, x13);
-    g.dd23 = ddot(x23, x23);
+    g.e12 = dscale(dsub(&cd[0], &cd[1]), s);
+    g.e13 = dscale(dsub(&cd[0], &cd[2]), s);
+    g.e23 = dscale(dsub(&cd[1], &cd[2]), s);
+    const dv3_t x12 = dscale(dsub(&xd[0], &xd[1]), s);
+    const dv3_t x13 = dscale(dsub(&xd[0], &xd[2]), s);
+    const dv3_t x23 = dscale(dsub(&xd[1], &xd[2]), s);
+    g.dd12 = ddot(&x12, &x12);
+    g.dd13 = ddot(&x13, &x13);
+    g.dd23 = ddot(&x23, &x23);
     if (!(g.dd12 > 1e-12 && g.dd13 > 1e-12 && g.dd23 > 1e-12)) {
         return 0;
     }
-    const double k12 = ddot(g.d[0], g.d[1]), k13 = ddot(g.d[0], g.d[2]), k23 = ddot(g.d[1], g.d[2]);
+    const double k12 = ddot(&g.d[0], &g.d[1]), k13 = ddot(&g.d[0], &g.d[2]), k23 = ddot(&g.d[1], &g.d[2]);
     /* eq12: l1^2 + P(l2) l1 + Q(l2); eq13: l1^2 + R(l3) l1 + S(l3); eq23: l2^2 + M(l3) l2 + N(l3) */
-    const double p0 = 2.0 * ddot(g.d[0], g.e12), p1 = -2.0 * k12;
-    const double q0 = ddot(g.e12, g.e12) - g.dd12, q1 = -2.0 * ddot(g.d[1], g.e12);
+    const double p0 = 2.0 * ddot(&g.d[0], &g.e12), p1 = -2.0 * k12;
+    const double q0 = ddot(&g.e12, &g.e12) - g.dd12, q1 = -2.0 * ddot(&g.d[1], &g.e12);
     /* R = r0 + r1 l3, S = s0 + s1 l3 + l3^2, M = m0 + m1 l3, N = n0 + n1 l3 + l3^2 */
-    const double r[2] = {2.0 * ddot(g.d[0], g.e13), -2.0 * k13};
-    const double sq[3] = {ddot(g.e13, g.e13) - g.dd13, -2.0 * ddot(g.d[2], g.e13), 1.0};
-    const double m[2] = {2.0 * ddot(g.d[1], g.e23), -2.0 * k23};
-    const double nq[3] = {ddot(g.e23, g.e23) - g.dd23, -2.0 * ddot(g.d[2], g.e23), 1.0};
+    const double r[2] = {2.0 * ddot(&g.d[0], &g.e13), -2.0 * k13};
+    const double sq[3] = {ddot(&g.e13, &g.e13) - g.dd13, -2.0 * ddot(&g.d[2], &g.e13), 1.0};
+    const double m[2] = {2.0 * ddot(&g.d[1], &g.e23), -2.0 * k23};
+    const double nq[3] = {ddot(&g.e23, &g.e23) - g.dd23, -2.0 * ddot(&g.d[2], &g.e23), 1.0};
     /* Bivariate polynomials in (l2, l3), as coefficients of powers of l2,
      * each a polynomial in l3 (fixed degrees, written out: this runs once
      * per identification hypothesis). Eq12 minus eq13 is linear in l1:
