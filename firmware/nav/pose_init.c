@@ -29,8 +29,14 @@ typedef struct {
 
 static dv3_t dv(mfns_v3_t a) { return (dv3_t){(double)a.x, (double)a.y, (double)a.z}; }
 static dv3_t dsub(const dv3_t *a, const dv3_t *b) { return (dv3_t){a->x - b->x, a->y - b->y, a->z - b->z}; }
-static dv3_t dadd(dv3_t a, dv3_t b) { return (dv3_t){a.x + b.x, a.y + b.y, a.z + b.z}; }
-static dv3_t dscale(dv3_t a, double s) { return (dv3_t){a.x * s, a.y * s, a.z * s}; }
+static dv3_t dadd(const dv3_t *a, const dv3_t *b) { return (dv3_t){a->x + b->x, a->y + b->y, a->z + b->z}; }
+static dv3_t dscale(const dv3_t *a, double s) { return (dv3_t){a->x * s, a->y * s, a->z * s}; }
+/* (a - b) s */
+static dv3_t dsub_scaled(const dv3_t *a, const dv3_t *b, double s)
+{
+    const dv3_t d = dsub(a, b);
+    return dscale(&d, s);
+}
 /* a . b, by address: 32 calls, and a call by value (or an inlined copy)
  * loads both vectors first; -208 B on the Cortex-M7 (docs/budgets.md) */
 static double ddot(const dv3_t *a, const dv3_t *b)
@@ -47,7 +53,7 @@ static bool dnormalize(dv3_t a, dv3_t *out)
     if (!(n > 1e-300)) {
         return false;
     }
-    *out = dscale(a, 1.0 / n);
+    *out = dscale(&a, 1.0 / n);
     return true;
 }
 
@@ -300,10 +306,9 @@ typedef struct {
 /* The three distance equations at depths l, and their Jacobian. */
 static void dist_eqs(const gp3p_t *g, const double l[3], double f[3], double jac[3][3])
 {
-    const dv3_t s0 = dscale(g->d[0], l[0]), s1 = dscale(g->d[1], l[1]), s2 = dscale(g->d[2], l[2]);
-    const dv3_t v12 = dadd(g->e12, dsub(&s0, &s1));
-    const dv3_t v13 = dadd(g->e13, dsub(&s0, &s2));
-    const dv3_t v23 = dadd(g->e23, dsub(&s1, &s2));
+    const dv3_t s0 = dscale(&g->d[0], l[0]), s1 = dscale(&g->d[1], l[1]), s2 = dscale(&g->d[2], l[2]);
+    const dv3_t t12 = dsub(&s0, &s1), t13 = dsub(&s0, &s2), t23 = dsub(&s1, &s2);
+    const dv3_t v12 = dadd(&g->e12, &t12), v13 = dadd(&g->e13, &t13), v23 = dadd(&g->e23, &t23);
     f[0] = ddot(&v12, &v12) - g->dd12;
     f[1] = ddot(&v13, &v13) - g->dd13;
     f[2] = ddot(&v23, &v23) - g->dd23;
@@ -441,8 +446,9 @@ static bool triad(const dv3_t p[3], const dv3_t x[3], mfns_pose_t *pose)
             pose->C_w_b.m[r][c] = (float)rm[r][c];
         }
     }
-    const dv3_t pm = dscale(dadd(dadd(p[0], p[1]), p[2]), 1.0 / 3.0);
-    const dv3_t xm = dscale(dadd(dadd(x[0], x[1]), x[2]), 1.0 / 3.0);
+    const dv3_t p01 = dadd(&p[0], &p[1]), x01 = dadd(&x[0], &x[1]);
+    const dv3_t ps = dadd(&p01, &p[2]), xs = dadd(&x01, &x[2]);
+    const dv3_t pm = dscale(&ps, 1.0 / 3.0), xm = dscale(&xs, 1.0 / 3.0);
     const dv3_t rx = {rm[0][0] * xm.x + rm[0][1] * xm.y + rm[0][2] * xm.z,
                       rm[1][0] * xm.x + rm[1][1] * xm.y + rm[1][2] * xm.z,
                       rm[2][0] * xm.x + rm[2][1] * xm.y + rm[2][2] * xm.z};
@@ -467,12 +473,12 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
         cd[i] = dv(c[i]);
         xd[i] = dv(x_w[i]);
     }
-    g.e12 = dscale(dsub(&cd[0], &cd[1]), s);
-    g.e13 = dscale(dsub(&cd[0], &cd[2]), s);
-    g.e23 = dscale(dsub(&cd[1], &cd[2]), s);
-    const dv3_t x12 = dscale(dsub(&xd[0], &xd[1]), s);
-    const dv3_t x13 = dscale(dsub(&xd[0], &xd[2]), s);
-    const dv3_t x23 = dscale(dsub(&xd[1], &xd[2]), s);
+    g.e12 = dsub_scaled(&cd[0], &cd[1], s);
+    g.e13 = dsub_scaled(&cd[0], &cd[2], s);
+    g.e23 = dsub_scaled(&cd[1], &cd[2], s);
+    const dv3_t x12 = dsub_scaled(&xd[0], &xd[1], s);
+    const dv3_t x13 = dsub_scaled(&xd[0], &xd[2], s);
+    const dv3_t x23 = dsub_scaled(&xd[1], &xd[2], s);
     g.dd12 = ddot(&x12, &x12);
     g.dd13 = ddot(&x13, &x13);
     g.dd23 = ddot(&x23, &x23);
@@ -563,7 +569,8 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
         }
         dv3_t pb3[3];
         for (int i = 0; i < 3; i++) {
-            pb3[i] = dadd(cd[i], dscale(g.d[i], l[i] / s));
+            const dv3_t along = dscale(&g.d[i], l[i] / s);
+            pb3[i] = dadd(&cd[i], &along);
         }
         mfns_pose_t pose;
         if (!triad(pb3, xd, &pose)) {
