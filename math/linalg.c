@@ -1,5 +1,6 @@
 /* linalg.c -- see linalg.h. */
 #include "linalg.h"
+#include "core_inline.h"
 
 #include <math.h>
 
@@ -21,6 +22,7 @@ mfns_v3_t mfns_v3_cross(mfns_v3_t a, mfns_v3_t b)
 
 float mfns_v3_norm(mfns_v3_t a) { return sqrtf(mfns_v3_dot(a, a)); }
 
+MFNS_OUT_OF_LINE
 bool mfns_v3_normalize(mfns_v3_t a, mfns_v3_t *out)
 {
     const float n = mfns_v3_norm(a);
@@ -103,6 +105,7 @@ float mfns_m3_det(mfns_m3_t a)
            a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
 }
 
+MFNS_OUT_OF_LINE
 mfns_m3_t mfns_m3_skew(mfns_v3_t a)
 {
     mfns_m3_t r = {{{0.0f, -a.z, a.y}, {a.z, 0.0f, -a.x}, {-a.y, a.x, 0.0f}}};

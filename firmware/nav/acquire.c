@@ -2,6 +2,7 @@
  * The jobs of the search are in acquire_anchor.c, acquire_enum.c,
  * acquire_verify.c and acquire_complete.c (acquire_internal.h). */
 #include "acquire.h"
+#include "core_inline.h"
 
 #include <string.h>
 
@@ -194,6 +195,7 @@ mfns_pose_status_t mfns_acquire(mfns_acq_t *acq, const mfns_rig_t *rig, const mf
     return mfns_acq_start(acq, rig, map, idx, frame, cfg, budget_units, false, out);
 }
 
+MFNS_OUT_OF_LINE
 mfns_pose_status_t mfns_acq_start(mfns_acq_t *acq, const mfns_rig_t *rig, const mfns_beacon_map_t *map,
                                   const mfns_beacon_index_t *idx, const mfns_obs_frame_t *frame,
                                   const mfns_pose_config_t *cfg, uint32_t budget_units, bool pause_before_completion,

@@ -1,5 +1,6 @@
 /* acquire_cycle.c -- see acquire_cycle.h. */
 #include "acquire_cycle.h"
+#include "core_inline.h"
 
 #include <string.h>
 
@@ -20,6 +21,7 @@ void mfns_acq_cycle_reset(mfns_acq_cycle_t *ac)
     mfns_blob_ring_reset(&ac->ring);
 }
 
+MFNS_OUT_OF_LINE
 void mfns_acq_cycle_skip(mfns_acq_cycle_t *ac)
 {
     if (ac != NULL) {

@@ -3,6 +3,7 @@
  * the messages, the header checks and the validate-then-commit of the body;
  * caltable_records.c and caltable_sections.c parse the body's parts. */
 #include "caltable.h"
+#include "core_inline.h"
 #include "core_text.h"
 
 #include <math.h>
@@ -47,6 +48,7 @@ const char *mfns_caltable_strerror(mfns_caltable_status_t s)
     return MFNS_MSG("calibration table: unknown status");
 }
 
+MFNS_OUT_OF_LINE
 bool mfns_ct_fail(mfns_ct_parser_t *p, mfns_caltable_status_t st, uint32_t off)
 {
     if (p->st == MFNS_CALTABLE_OK) {

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "core_inline.h"
 #include "pose_internal.h"
 #include "spd.h"
 #include "units.h"
@@ -68,6 +69,7 @@ bool mfns_pose_obs_cov(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v
     return mfns_pose_whitener(r_px2, w);
 }
 
+MFNS_OUT_OF_LINE
 void mfns_pose_meas_set(const mfns_beacon_map_t *map, const mfns_obs_frame_t *frame, int c, int i, int b,
                         mfns_pose_meas_t *m)
 {
