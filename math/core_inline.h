@@ -4,7 +4,7 @@
  * With link-time optimisation (the flight image of `make size`, docs/
  * budgets.md) GCC inlines some helpers at every call site where a call is
  * shorter: the table loader's failure report at its 35 sites, the skew matrix,
- * the acquisition's skip and start. A board built for size defines
+ * the acquisition's skip and start, ... (each one measured: docs/budgets.md). A board built for size defines
  * MFNS_CORE_OUT_OF_LINE=1 (boards/cortex-m7-core) and these functions are then
  * noinline; everywhere else the macro is empty and the code compiles exactly
  * as before. Inlining never changes what the code computes (C11 mode: no

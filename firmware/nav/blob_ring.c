@@ -1,5 +1,6 @@
 /* blob_ring.c -- see blob_ring.h. */
 #include "blob_ring.h"
+#include "core_inline.h"
 
 #include <string.h>
 
@@ -15,6 +16,7 @@ void mfns_blob_ring_reset(mfns_blob_ring_t *r)
     r->next = 0u;
 }
 
+MFNS_OUT_OF_LINE
 static uint32_t take(mfns_blob_ring_t *r, const mfns_obs_frame_t *frame)
 {
     const uint32_t s = r->next;

@@ -1,5 +1,6 @@
 /* frame_health.c -- see frame_health.h. */
 #include "frame_health.h"
+#include "core_inline.h"
 
 #include <string.h>
 
@@ -37,6 +38,7 @@ static int64_t abs64(int64_t v)
 }
 
 /* |x| in microseconds compared as float: stamps differ by far less than 2^63. */
+MFNS_OUT_OF_LINE
 static float absf_i64(int64_t v)
 {
     return (float)abs64(v);

@@ -1,5 +1,6 @@
 /* integrity_cameras.c -- cameras inconsistent with the fix (integrity_cameras.h). */
 #include "integrity_cameras.h"
+#include "core_inline.h"
 
 #include <string.h>
 
@@ -50,6 +51,7 @@ static uint16_t predicted_in_view(const mfns_rig_t *rig, const mfns_beacon_map_t
     return n;
 }
 
+MFNS_OUT_OF_LINE
 static uint16_t add_sat(uint16_t a, uint16_t b)
 {
     return (uint16_t)((uint32_t)a + b < UINT16_MAX ? a + b : UINT16_MAX);
