@@ -151,7 +151,9 @@ def test_generator_follows_the_dictionary(tmp_path):
         )[1]
     )
     assert f"#define TLM_HK_PAYLOAD_LEN {hk_len + 2}u" in out["tlm_packets_gen.h"]  # 2 bytes more
-    assert "tlm_put_u16(b + 76, s->test_field);" in out["tlm_packets_gen.c"]
+    # the encoder packs from one generated table of runs (struct offset, payload offset,
+    # count * 8 + width): the new u16 at payload offset 76
+    assert "{offsetof(tlm_packet_t, u.hk.test_field), 76u, 10u}" in out["tlm_packets_gen.c"]
     assert "s->test_field = tlm_get_u16(b + 76);" in out["tlm_packets_gen.c"]
     assert 'ground_row_num(r, "test_field", s->test_field, 0);' in out["ground_cols_gen.c"]
 
