@@ -64,16 +64,16 @@ mfns_proj_status_t mfns_cam_project_c(const mfns_intrinsics_t *k, mfns_v3_t p_c,
 
 mfns_v3_t mfns_cam_world_to_camera(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w)
 {
-    const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3(pose->C_w_b, p_w), pose->r_bw_b);
-    return mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(p_b, cam->r_bk_b));
+    const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3_at(&pose->C_w_b, p_w), pose->r_bw_b);
+    return mfns_m3_tmul_v3_at(&cam->C_k_b, mfns_v3_sub(p_b, cam->r_bk_b));
 }
 
 mfns_proj_status_t mfns_cam_project(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
                                     float uv[2], float jac[2][6])
 {
-    const mfns_v3_t q = mfns_m3_mul_v3(pose->C_w_b, p_w); /* rotated world point, body frame */
+    const mfns_v3_t q = mfns_m3_mul_v3_at(&pose->C_w_b, p_w); /* rotated world point, body frame */
     const mfns_v3_t p_b = mfns_v3_add(q, pose->r_bw_b);
-    const mfns_v3_t p_c = mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(p_b, cam->r_bk_b));
+    const mfns_v3_t p_c = mfns_m3_tmul_v3_at(&cam->C_k_b, mfns_v3_sub(p_b, cam->r_bk_b));
     float jc[2][3];
     const mfns_proj_status_t st = mfns_cam_project_c(&cam->k, p_c, uv, jac != NULL ? jc : NULL);
     if (st != MFNS_PROJ_OK || jac == NULL) {
@@ -106,21 +106,22 @@ bool mfns_cam_in_image(const mfns_intrinsics_t *k, float u, float v)
 
 mfns_v3_t mfns_pose_position_w(const mfns_pose_t *pose)
 {
-    return mfns_v3_scale(mfns_m3_tmul_v3(pose->C_w_b, pose->r_bw_b), -1.0f);
+    return mfns_v3_scale(mfns_m3_tmul_v3_at(&pose->C_w_b, pose->r_bw_b), -1.0f);
 }
 
 mfns_pose_t mfns_pose_from_position(mfns_m3_t C_w_b, mfns_v3_t r_wb_w)
 {
     mfns_pose_t p;
     p.C_w_b = C_w_b;
-    p.r_bw_b = mfns_v3_scale(mfns_m3_mul_v3(C_w_b, r_wb_w), -1.0f);
+    p.r_bw_b = mfns_v3_scale(mfns_m3_mul_v3_at(&C_w_b, r_wb_w), -1.0f);
     return p;
 }
 
 mfns_pose_t mfns_pose_apply(const mfns_pose_t *pose, const float d[6])
 {
     mfns_pose_t p;
-    p.C_w_b = mfns_m3_mul(mfns_rot_exp(mfns_v3(d[0], d[1], d[2])), pose->C_w_b);
+    const mfns_m3_t dc = mfns_rot_exp(mfns_v3(d[0], d[1], d[2]));
+    mfns_m3_mul_at(&dc, &pose->C_w_b, &p.C_w_b);
     p.r_bw_b = mfns_v3_add(pose->r_bw_b, mfns_v3(d[3], d[4], d[5]));
     return p;
 }

@@ -40,25 +40,39 @@ mfns_m3_t mfns_m3_identity(void)
     return r;
 }
 
+void mfns_m3_mul_at(const mfns_m3_t *a, const mfns_m3_t *b, mfns_m3_t *out)
+{
+    mfns_m3_t r; /* out may be a or b */
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            r.m[i][j] = a->m[i][0] * b->m[0][j] + a->m[i][1] * b->m[1][j] + a->m[i][2] * b->m[2][j];
+        }
+    }
+    *out = r;
+}
+
 mfns_m3_t mfns_m3_mul(mfns_m3_t a, mfns_m3_t b)
 {
     mfns_m3_t r;
+    mfns_m3_mul_at(&a, &b, &r);
+    return r;
+}
+
+void mfns_m3_transpose_at(const mfns_m3_t *a, mfns_m3_t *out)
+{
+    mfns_m3_t r; /* out may be a */
     for (int i = 0; i < 3; i++) {
         for (int j = 0; j < 3; j++) {
-            r.m[i][j] = a.m[i][0] * b.m[0][j] + a.m[i][1] * b.m[1][j] + a.m[i][2] * b.m[2][j];
+            r.m[i][j] = a->m[j][i];
         }
     }
-    return r;
+    *out = r;
 }
 
 mfns_m3_t mfns_m3_transpose(mfns_m3_t a)
 {
     mfns_m3_t r;
-    for (int i = 0; i < 3; i++) {
-        for (int j = 0; j < 3; j++) {
-            r.m[i][j] = a.m[j][i];
-        }
-    }
+    mfns_m3_transpose_at(&a, &r);
     return r;
 }
 
@@ -84,18 +98,28 @@ mfns_m3_t mfns_m3_scale(mfns_m3_t a, float s)
     return r;
 }
 
+mfns_v3_t mfns_m3_mul_v3_at(const mfns_m3_t *a, mfns_v3_t v)
+{
+    return mfns_v3(a->m[0][0] * v.x + a->m[0][1] * v.y + a->m[0][2] * v.z,
+                   a->m[1][0] * v.x + a->m[1][1] * v.y + a->m[1][2] * v.z,
+                   a->m[2][0] * v.x + a->m[2][1] * v.y + a->m[2][2] * v.z);
+}
+
 mfns_v3_t mfns_m3_mul_v3(mfns_m3_t a, mfns_v3_t v)
 {
-    return mfns_v3(a.m[0][0] * v.x + a.m[0][1] * v.y + a.m[0][2] * v.z,
-                   a.m[1][0] * v.x + a.m[1][1] * v.y + a.m[1][2] * v.z,
-                   a.m[2][0] * v.x + a.m[2][1] * v.y + a.m[2][2] * v.z);
+    return mfns_m3_mul_v3_at(&a, v);
+}
+
+mfns_v3_t mfns_m3_tmul_v3_at(const mfns_m3_t *a, mfns_v3_t v)
+{
+    return mfns_v3(a->m[0][0] * v.x + a->m[1][0] * v.y + a->m[2][0] * v.z,
+                   a->m[0][1] * v.x + a->m[1][1] * v.y + a->m[2][1] * v.z,
+                   a->m[0][2] * v.x + a->m[1][2] * v.y + a->m[2][2] * v.z);
 }
 
 mfns_v3_t mfns_m3_tmul_v3(mfns_m3_t a, mfns_v3_t v)
 {
-    return mfns_v3(a.m[0][0] * v.x + a.m[1][0] * v.y + a.m[2][0] * v.z,
-                   a.m[0][1] * v.x + a.m[1][1] * v.y + a.m[2][1] * v.z,
-                   a.m[0][2] * v.x + a.m[1][2] * v.y + a.m[2][2] * v.z);
+    return mfns_m3_tmul_v3_at(&a, v);
 }
 
 float mfns_m3_det(mfns_m3_t a)
@@ -114,7 +138,9 @@ mfns_m3_t mfns_m3_skew(mfns_v3_t a)
 
 float mfns_m3_orthonormality_error(mfns_m3_t a)
 {
-    const mfns_m3_t ata = mfns_m3_mul(mfns_m3_transpose(a), a);
+    mfns_m3_t ata;
+    mfns_m3_transpose_at(&a, &ata);
+    mfns_m3_mul_at(&ata, &a, &ata);
     float worst = 0.0f;
     for (int i = 0; i < 3; i++) {
         for (int j = 0; j < 3; j++) {
@@ -140,12 +166,14 @@ bool mfns_m3_reorthonormalize(mfns_m3_t a, int max_iter, float tol, mfns_m3_t *o
         if (mfns_m3_orthonormality_error(r) <= tol) {
             break;
         }
-        const mfns_m3_t rtr = mfns_m3_mul(mfns_m3_transpose(r), r);
+        mfns_m3_t rtr;
+        mfns_m3_transpose_at(&r, &rtr);
+        mfns_m3_mul_at(&rtr, &r, &rtr);
         mfns_m3_t k = mfns_m3_scale(rtr, -0.5f);
         for (int i = 0; i < 3; i++) {
             k.m[i][i] += 1.5f;
         }
-        r = mfns_m3_mul(r, k);
+        mfns_m3_mul_at(&r, &k, &r);
     }
     *out = r;
     return mfns_m3_is_rotation(r, tol);

@@ -51,4 +51,13 @@ bool mfns_m3_is_rotation(mfns_m3_t a, float tol);
  * result is not a proper rotation; *out is then the last iterate. */
 bool mfns_m3_reorthonormalize(mfns_m3_t a, int max_iter, float tol, mfns_m3_t *out);
 
+/* The same products by address: the flight core's calls, where a matrix by
+ * value is 36 bytes copied at every call on a 32-bit target (docs/budgets.md).
+ * Each computes exactly what its by-value twin above computes (the by-value
+ * functions call these); *out may be the same matrix as *a or *b. */
+void mfns_m3_mul_at(const mfns_m3_t *a, const mfns_m3_t *b, mfns_m3_t *out);
+void mfns_m3_transpose_at(const mfns_m3_t *a, mfns_m3_t *out);
+mfns_v3_t mfns_m3_mul_v3_at(const mfns_m3_t *a, mfns_v3_t v);
+mfns_v3_t mfns_m3_tmul_v3_at(const mfns_m3_t *a, mfns_v3_t v);
+
 #endif /* MFNS_LINALG_H */

@@ -74,7 +74,8 @@ mfns_m3_t mfns_rot_exp(mfns_v3_t w)
         b = (1.0f - cosf(th)) / th2;
     }
     const mfns_m3_t k = mfns_m3_skew(w);
-    const mfns_m3_t k2 = mfns_m3_mul(k, k);
+    mfns_m3_t k2;
+    mfns_m3_mul_at(&k, &k, &k2);
     mfns_m3_t r = mfns_m3_identity();
     for (int i = 0; i < 3; i++) {
         for (int j = 0; j < 3; j++) {
@@ -133,7 +134,10 @@ mfns_v3_t mfns_rot_log(mfns_m3_t r)
 
 float mfns_rot_angle_between(mfns_m3_t ra, mfns_m3_t rb)
 {
-    return mfns_v3_norm(mfns_rot_log(mfns_m3_mul(mfns_m3_transpose(ra), rb)));
+    mfns_m3_t d;
+    mfns_m3_transpose_at(&ra, &d);
+    mfns_m3_mul_at(&d, &rb, &d);
+    return mfns_v3_norm(mfns_rot_log(d));
 }
 
 void mfns_m3_to_quat(mfns_m3_t r, float q_wxyz[4])

@@ -49,9 +49,12 @@ static mfns_pose_t cv_predict(const mfns_acq_catchup_t *cu)
     if (!cu->have_prev) {
         return cu->pose;
     }
-    const mfns_m3_t dc = mfns_m3_mul(cu->pose.C_w_b, mfns_m3_transpose(cu->prev.C_w_b));
+    mfns_m3_t c;
+    mfns_m3_transpose_at(&cu->prev.C_w_b, &c);
+    mfns_m3_mul_at(&cu->pose.C_w_b, &c, &c); /* dc */
+    mfns_m3_mul_at(&c, &cu->pose.C_w_b, &c);
     mfns_m3_t fixed;
-    if (!mfns_m3_reorthonormalize(mfns_m3_mul(dc, cu->pose.C_w_b), 4, 1e-6f, &fixed)) {
+    if (!mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
         return cu->pose;
     }
     const mfns_v3_t p1 = mfns_pose_position_w(&cu->pose), p0 = mfns_pose_position_w(&cu->prev);

@@ -152,7 +152,7 @@ int mfns_acq_count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
     mfns_v3_t ck[MFNS_NUM_CAMERAS];
     bool looks[MFNS_NUM_CAMERAS];
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        ck[c] = mfns_v3_add(mfns_pose_position_w(&sol->pose), mfns_m3_tmul_v3(sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        ck[c] = mfns_v3_add(mfns_pose_position_w(&sol->pose), mfns_m3_tmul_v3_at(&sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
         looks[c] = q->frame->count[c] < MFNS_MAX_OBS_PER_CAMERA && q->frame->dark[c] == 0U;
     }
     int missing = 0;
@@ -198,7 +198,7 @@ bool mfns_acq_physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
         }
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3(sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3_at(&sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
         for (int i = 0; i < q->frame->count[c]; i++) {
             const int16_t b = sol->assoc.beacon[c][i];
             if (b >= 0 && b < q->map->count && sol->inlier[c][i] &&
@@ -340,8 +340,10 @@ static bool beacon_hits(mfns_acq_t *q, const mfns_pose_t *pose, int v, int ancho
 {
     const mfns_acq_blob_t *bv = &q->blobs[v];
     const mfns_camera_t *cam = &q->rig->cam[bv->cam];
-    const mfns_m3_t m = mfns_m3_mul(mfns_m3_transpose(cam->C_k_b), pose->C_w_b);
-    const mfns_v3_t t = mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(pose->r_bw_b, cam->r_bk_b));
+    mfns_m3_t m;
+    mfns_m3_transpose_at(&cam->C_k_b, &m);
+    mfns_m3_mul_at(&m, &pose->C_w_b, &m);
+    const mfns_v3_t t = mfns_m3_tmul_v3_at(&cam->C_k_b, mfns_v3_sub(pose->r_bw_b, cam->r_bk_b));
     const mfns_obs_t *o = &q->frame->obs[bv->cam][bv->idx];
     const bool local = bv->cam == anchor_cam && !q->exhaustive;
     /* another camera looks ~90 deg away: the minimal pose's rotation error
@@ -358,7 +360,7 @@ static bool beacon_hits(mfns_acq_t *q, const mfns_pose_t *pose, int v, int ancho
             if (b == abc[0] || b == abc[1] || b == abc[2]) {
                 continue;
             }
-            const mfns_v3_t p = mfns_v3_add(mfns_m3_mul_v3(m, q->map->beacon[b].p_w), t);
+            const mfns_v3_t p = mfns_v3_add(mfns_m3_mul_v3_at(&m, q->map->beacon[b].p_w), t);
             if (p.z < MFNS_CAM_MIN_DEPTH_MM) {
                 continue;
             }

@@ -60,8 +60,11 @@ float mfns_integrity_q_inv(float p)
  * phi_w = -C^T dtheta. */
 static void output_map(const mfns_pose_t *pose, float g[6][6])
 {
-    const mfns_m3_t ct = mfns_m3_transpose(pose->C_w_b);
-    const mfns_m3_t a = mfns_m3_scale(mfns_m3_mul(ct, mfns_m3_skew(pose->r_bw_b)), -1.0f);
+    mfns_m3_t ct, a;
+    mfns_m3_transpose_at(&pose->C_w_b, &ct);
+    a = mfns_m3_skew(pose->r_bw_b);
+    mfns_m3_mul_at(&ct, &a, &a);
+    a = mfns_m3_scale(a, -1.0f);
     for (int r = 0; r < 3; r++) {
         for (int c = 0; c < 3; c++) {
             g[r][c] = a.m[r][c];

@@ -13,8 +13,11 @@ _Static_assert(MFNS_LAG_MIN_OBS >= 1, "a camera is tested on at least one beacon
 mfns_pose_t mfns_integrity_lag_back(const mfns_pose_t *now, const mfns_pose_t *last, const mfns_pose_t *prev)
 {
     /* world->body increment of the last cycle dC = C_last C_prev^T; undone: C_now' = dC^T C_now */
-    const mfns_m3_t dc = mfns_m3_mul(last->C_w_b, mfns_m3_transpose(prev->C_w_b));
-    mfns_m3_t c = mfns_m3_mul(mfns_m3_transpose(dc), now->C_w_b);
+    mfns_m3_t c;
+    mfns_m3_transpose_at(&prev->C_w_b, &c);
+    mfns_m3_mul_at(&last->C_w_b, &c, &c); /* dc */
+    mfns_m3_transpose_at(&c, &c);
+    mfns_m3_mul_at(&c, &now->C_w_b, &c);
     mfns_m3_t fixed;
     if (mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
         c = fixed;

@@ -275,8 +275,10 @@ static mfns_pose_t predict(const mfns_nav_t *nav)
     if (!nav->have_prev) {
         return nav->prior;
     }
-    const mfns_m3_t dc = mfns_m3_mul(nav->prior.C_w_b, mfns_m3_transpose(nav->prev.C_w_b));
-    mfns_m3_t c = mfns_m3_mul(dc, nav->prior.C_w_b);
+    mfns_m3_t c;
+    mfns_m3_transpose_at(&nav->prev.C_w_b, &c);
+    mfns_m3_mul_at(&nav->prior.C_w_b, &c, &c); /* dc */
+    mfns_m3_mul_at(&c, &nav->prior.C_w_b, &c);
     mfns_m3_t fixed;
     if (mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
         c = fixed;

@@ -249,7 +249,9 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     out->euler_deg.roll = e.roll * MFNS_DEG_PER_RAD_F;
     out->euler_deg.pitch = e.pitch * MFNS_DEG_PER_RAD_F;
     out->euler_deg.yaw = e.yaw * MFNS_DEG_PER_RAD_F;
-    mfns_m3_to_quat(mfns_m3_transpose(pose.C_w_b), out->q_b_w);
+    mfns_m3_t c_b_w;
+    mfns_m3_transpose_at(&pose.C_w_b, &c_b_w);
+    mfns_m3_to_quat(c_b_w, out->q_b_w);
     if (r != MFNS_POSE_R_NONE) {
         out->reason = r;
         return out->status;

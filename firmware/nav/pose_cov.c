@@ -20,9 +20,9 @@
 bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
                               float jc[2][MFNS_CALIB_PARAMS_PER_CAMERA])
 {
-    const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3(pose->C_w_b, p_w), pose->r_bw_b);
+    const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3_at(&pose->C_w_b, p_w), pose->r_bw_b);
     const mfns_v3_t d = mfns_v3_sub(p_b, cam->r_bk_b);
-    const mfns_v3_t p_k = mfns_m3_tmul_v3(cam->C_k_b, d);
+    const mfns_v3_t p_k = mfns_m3_tmul_v3_at(&cam->C_k_b, d);
     float uv[2], jk[2][3];
     if (mfns_cam_project_c(&cam->k, p_k, uv, jk) != MFNS_PROJ_OK) {
         return false;
@@ -191,8 +191,11 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
      * Position: r_wb_w = -C^T r, so d r_wb_w = -C^T skew(r) dtheta - C^T dt.
      * Euler: central differences of the angles of exp(h e_i) C (h = 1e-3 rad:
      * truncation ~1e-7, rounding ~6e-5 relative, ample for a 1-sigma). */
-    const mfns_m3_t ct = mfns_m3_transpose(out->pose.C_w_b);
-    const mfns_m3_t a_rot = mfns_m3_scale(mfns_m3_mul(ct, mfns_m3_skew(out->pose.r_bw_b)), -1.0f);
+    mfns_m3_t ct, a_rot;
+    mfns_m3_transpose_at(&out->pose.C_w_b, &ct);
+    a_rot = mfns_m3_skew(out->pose.r_bw_b);
+    mfns_m3_mul_at(&ct, &a_rot, &a_rot);
+    a_rot = mfns_m3_scale(a_rot, -1.0f);
     float jo[6][6];
     for (int r = 0; r < 3; r++) {
         for (int c = 0; c < 3; c++) {
@@ -205,9 +208,12 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         float dv[3] = {0.0f, 0.0f, 0.0f};
         dv[c] = hstep;
         mfns_euler_t ep, em;
-        (void)mfns_m3_to_euler213(mfns_m3_mul(mfns_rot_exp(mfns_v3(dv[0], dv[1], dv[2])), out->pose.C_w_b), &ep);
-        (void)mfns_m3_to_euler213(mfns_m3_mul(mfns_rot_exp(mfns_v3(-dv[0], -dv[1], -dv[2])), out->pose.C_w_b),
-                                  &em);
+        mfns_m3_t cp = mfns_rot_exp(mfns_v3(dv[0], dv[1], dv[2]));
+        mfns_m3_mul_at(&cp, &out->pose.C_w_b, &cp);
+        (void)mfns_m3_to_euler213(cp, &ep);
+        cp = mfns_rot_exp(mfns_v3(-dv[0], -dv[1], -dv[2]));
+        mfns_m3_mul_at(&cp, &out->pose.C_w_b, &cp);
+        (void)mfns_m3_to_euler213(cp, &em);
         const float de[3] = {ep.roll - em.roll, ep.pitch - em.pitch, ep.yaw - em.yaw};
         for (int r = 0; r < 3; r++) {
             float v = de[r];

@@ -292,7 +292,7 @@ static int real_roots(const poly_t *f, double lo, double hi, double roots[PD - 1
 void mfns_pose_ray(const mfns_camera_t *cam, float x, float y, mfns_v3_t *origin, mfns_v3_t *dir)
 {
     *origin = cam->r_bk_b;
-    if (!mfns_v3_normalize(mfns_m3_mul_v3(cam->C_k_b, mfns_v3(x, y, 1.0f)), dir)) {
+    if (!mfns_v3_normalize(mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(x, y, 1.0f)), dir)) {
         *dir = mfns_v3(0.0f, 0.0f, 1.0f);
     }
 }

@@ -16,9 +16,9 @@ static bool algebraic(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mf
                       float r[2], float jac[2][6])
 {
     const mfns_camera_t *cam = &rig->cam[m->cam];
-    const mfns_v3_t q = mfns_m3_mul_v3(pose->C_w_b, m->p_w);
+    const mfns_v3_t q = mfns_m3_mul_v3_at(&pose->C_w_b, m->p_w);
     const mfns_v3_t p_b = mfns_v3_add(q, pose->r_bw_b);
-    const mfns_v3_t p_c = mfns_m3_tmul_v3(cam->C_k_b, mfns_v3_sub(p_b, cam->r_bk_b));
+    const mfns_v3_t p_c = mfns_m3_tmul_v3_at(&cam->C_k_b, mfns_v3_sub(p_b, cam->r_bk_b));
     r[0] = m->x * p_c.z - p_c.x;
     r[1] = m->y * p_c.z - p_c.y;
     if (jac != NULL) {

@@ -93,6 +93,39 @@ static void test_reorthonormalize_restores_rotation(void **state)
     assert_false(mfns_m3_reorthonormalize(zero, 8, 1e-5f, &fixed));
 }
 
+/* The by-address products compute exactly what the by-value ones do, also
+ * when the output is one of the inputs. */
+static void test_by_address_same_as_by_value(void **state)
+{
+    (void)state;
+    const mfns_m3_t a = {{{0.3f, -1.7f, 2.1f}, {4.4f, 0.05f, -6.2f}, {7.3f, 8.9f, 1e-3f}}};
+    const mfns_m3_t b = {{{-2.2f, 0.7f, 1.9f}, {1.1f, 3.3f, -0.4f}, {0.6f, -1.5f, 4.8f}}};
+    const mfns_v3_t v = mfns_v3(0.25f, -3.5f, 1.75f);
+    const mfns_m3_t ab = mfns_m3_mul(a, b), at = mfns_m3_transpose(a);
+    mfns_m3_t r;
+    mfns_m3_mul_at(&a, &b, &r);
+    assert_memory_equal(&r, &ab, sizeof r);
+    r = a;
+    mfns_m3_mul_at(&r, &b, &r);
+    assert_memory_equal(&r, &ab, sizeof r);
+    r = b;
+    mfns_m3_mul_at(&a, &r, &r);
+    assert_memory_equal(&r, &ab, sizeof r);
+    const mfns_m3_t aa = mfns_m3_mul(a, a);
+    r = a;
+    mfns_m3_mul_at(&r, &r, &r);
+    assert_memory_equal(&r, &aa, sizeof r);
+    mfns_m3_transpose_at(&a, &r);
+    assert_memory_equal(&r, &at, sizeof r);
+    r = a;
+    mfns_m3_transpose_at(&r, &r);
+    assert_memory_equal(&r, &at, sizeof r);
+    const mfns_v3_t w1 = mfns_m3_mul_v3(a, v), w2 = mfns_m3_mul_v3_at(&a, v);
+    assert_memory_equal(&w1, &w2, sizeof w1);
+    const mfns_v3_t t1 = mfns_m3_tmul_v3(a, v), t2 = mfns_m3_tmul_v3_at(&a, v);
+    assert_memory_equal(&t1, &t2, sizeof t1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -101,6 +134,7 @@ int main(void)
         cmocka_unit_test(test_normalize_rejects_zero),
         cmocka_unit_test(test_orthonormality_check),
         cmocka_unit_test(test_reorthonormalize_restores_rotation),
+        cmocka_unit_test(test_by_address_same_as_by_value),
     };
     return cmocka_run_group_tests_name("linalg", tests, NULL, NULL);
 }
