@@ -109,12 +109,17 @@ mfns_v3_t mfns_pose_position_w(const mfns_pose_t *pose)
     return mfns_v3_scale(mfns_m3_tmul_v3_at(&pose->C_w_b, pose->r_bw_b), -1.0f);
 }
 
-mfns_pose_t mfns_pose_from_position(mfns_m3_t C_w_b, mfns_v3_t r_wb_w)
+mfns_pose_t mfns_pose_from_position_at(const mfns_m3_t *C_w_b, mfns_v3_t r_wb_w)
 {
     mfns_pose_t p;
-    p.C_w_b = C_w_b;
-    p.r_bw_b = mfns_v3_scale(mfns_m3_mul_v3_at(&C_w_b, r_wb_w), -1.0f);
+    p.r_bw_b = mfns_v3_scale(mfns_m3_mul_v3_at(C_w_b, r_wb_w), -1.0f);
+    p.C_w_b = *C_w_b;
     return p;
+}
+
+mfns_pose_t mfns_pose_from_position(mfns_m3_t C_w_b, mfns_v3_t r_wb_w)
+{
+    return mfns_pose_from_position_at(&C_w_b, r_wb_w);
 }
 
 mfns_pose_t mfns_pose_apply(const mfns_pose_t *pose, const float d[6])

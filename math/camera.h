@@ -79,6 +79,8 @@ bool mfns_cam_in_image(const mfns_intrinsics_t *k, float u, float v);
 mfns_v3_t mfns_pose_position_w(const mfns_pose_t *pose);
 /* Pose from the body position in the world and C_w_b. */
 mfns_pose_t mfns_pose_from_position(mfns_m3_t C_w_b, mfns_v3_t r_wb_w);
+/* The same with C_w_b by address (no 36-byte copy; linalg.h's *_at). */
+mfns_pose_t mfns_pose_from_position_at(const mfns_m3_t *C_w_b, mfns_v3_t r_wb_w);
 /* Apply an increment d (see top of file). */
 mfns_pose_t mfns_pose_apply(const mfns_pose_t *pose, const float d[6]);
 

@@ -87,14 +87,19 @@ mfns_m3_t mfns_m3_add(mfns_m3_t a, mfns_m3_t b)
     return r;
 }
 
+void mfns_m3_scale_at(const mfns_m3_t *a, float s, mfns_m3_t *out)
+{
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            out->m[i][j] = a->m[i][j] * s; /* element by element: out may be a */
+        }
+    }
+}
+
 mfns_m3_t mfns_m3_scale(mfns_m3_t a, float s)
 {
     mfns_m3_t r;
-    for (int i = 0; i < 3; i++) {
-        for (int j = 0; j < 3; j++) {
-            r.m[i][j] = a.m[i][j] * s;
-        }
-    }
+    mfns_m3_scale_at(&a, s, &r);
     return r;
 }
 
@@ -122,11 +127,16 @@ mfns_v3_t mfns_m3_tmul_v3(mfns_m3_t a, mfns_v3_t v)
     return mfns_m3_tmul_v3_at(&a, v);
 }
 
+static float det_at(const mfns_m3_t *a)
+{
+    return a->m[0][0] * (a->m[1][1] * a->m[2][2] - a->m[1][2] * a->m[2][1]) -
+           a->m[0][1] * (a->m[1][0] * a->m[2][2] - a->m[1][2] * a->m[2][0]) +
+           a->m[0][2] * (a->m[1][0] * a->m[2][1] - a->m[1][1] * a->m[2][0]);
+}
+
 float mfns_m3_det(mfns_m3_t a)
 {
-    return a.m[0][0] * (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) -
-           a.m[0][1] * (a.m[1][0] * a.m[2][2] - a.m[1][2] * a.m[2][0]) +
-           a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
+    return det_at(&a);
 }
 
 MFNS_OUT_OF_LINE
@@ -136,11 +146,11 @@ mfns_m3_t mfns_m3_skew(mfns_v3_t a)
     return r;
 }
 
-float mfns_m3_orthonormality_error(mfns_m3_t a)
+static float orthonormality_error_at(const mfns_m3_t *a)
 {
     mfns_m3_t ata;
-    mfns_m3_transpose_at(&a, &ata);
-    mfns_m3_mul_at(&ata, &a, &ata);
+    mfns_m3_transpose_at(a, &ata);
+    mfns_m3_mul_at(&ata, a, &ata);
     float worst = 0.0f;
     for (int i = 0; i < 3; i++) {
         for (int j = 0; j < 3; j++) {
@@ -154,27 +164,43 @@ float mfns_m3_orthonormality_error(mfns_m3_t a)
     return worst;
 }
 
-bool mfns_m3_is_rotation(mfns_m3_t a, float tol)
+float mfns_m3_orthonormality_error(mfns_m3_t a)
 {
-    return mfns_m3_orthonormality_error(a) <= tol && mfns_m3_det(a) > 0.0f;
+    return orthonormality_error_at(&a);
 }
 
-bool mfns_m3_reorthonormalize(mfns_m3_t a, int max_iter, float tol, mfns_m3_t *out)
+bool mfns_m3_is_rotation_at(const mfns_m3_t *a, float tol)
 {
-    mfns_m3_t r = a;
+    return orthonormality_error_at(a) <= tol && det_at(a) > 0.0f;
+}
+
+bool mfns_m3_is_rotation(mfns_m3_t a, float tol)
+{
+    return mfns_m3_is_rotation_at(&a, tol);
+}
+
+bool mfns_m3_reorthonormalize_at(const mfns_m3_t *a, int max_iter, float tol, mfns_m3_t *out)
+{
+    mfns_m3_t r = *a; /* out may be a */
     for (int it = 0; it < max_iter; it++) {
-        if (mfns_m3_orthonormality_error(r) <= tol) {
+        if (orthonormality_error_at(&r) <= tol) {
             break;
         }
         mfns_m3_t rtr;
         mfns_m3_transpose_at(&r, &rtr);
         mfns_m3_mul_at(&rtr, &r, &rtr);
-        mfns_m3_t k = mfns_m3_scale(rtr, -0.5f);
+        mfns_m3_t k;
+        mfns_m3_scale_at(&rtr, -0.5f, &k);
         for (int i = 0; i < 3; i++) {
             k.m[i][i] += 1.5f;
         }
         mfns_m3_mul_at(&r, &k, &r);
     }
     *out = r;
-    return mfns_m3_is_rotation(r, tol);
+    return mfns_m3_is_rotation_at(&r, tol);
+}
+
+bool mfns_m3_reorthonormalize(mfns_m3_t a, int max_iter, float tol, mfns_m3_t *out)
+{
+    return mfns_m3_reorthonormalize_at(&a, max_iter, tol, out);
 }

@@ -57,7 +57,10 @@ bool mfns_m3_reorthonormalize(mfns_m3_t a, int max_iter, float tol, mfns_m3_t *o
  * functions call these); *out may be the same matrix as *a or *b. */
 void mfns_m3_mul_at(const mfns_m3_t *a, const mfns_m3_t *b, mfns_m3_t *out);
 void mfns_m3_transpose_at(const mfns_m3_t *a, mfns_m3_t *out);
+void mfns_m3_scale_at(const mfns_m3_t *a, float s, mfns_m3_t *out);
 mfns_v3_t mfns_m3_mul_v3_at(const mfns_m3_t *a, mfns_v3_t v);
 mfns_v3_t mfns_m3_tmul_v3_at(const mfns_m3_t *a, mfns_v3_t v);
+bool mfns_m3_is_rotation_at(const mfns_m3_t *a, float tol);
+bool mfns_m3_reorthonormalize_at(const mfns_m3_t *a, int max_iter, float tol, mfns_m3_t *out);
 
 #endif /* MFNS_LINALG_H */

@@ -38,21 +38,26 @@ mfns_m3_t mfns_euler213_to_m3(mfns_euler_t e)
     return c;
 }
 
-bool mfns_m3_to_euler213(mfns_m3_t c, mfns_euler_t *e)
+bool mfns_m3_to_euler213_at(const mfns_m3_t *c, mfns_euler_t *e)
 {
     /* r32 = -sin(roll); r31 = cos(roll) sin(pitch), r33 = cos(roll) cos(pitch);
      * r12 = sin(yaw) cos(roll), r22 = cos(yaw) cos(roll). */
-    const float cos_roll = sqrtf(c.m[2][0] * c.m[2][0] + c.m[2][2] * c.m[2][2]);
-    e->roll = atan2f(-c.m[2][1], cos_roll);
+    const float cos_roll = sqrtf(c->m[2][0] * c->m[2][0] + c->m[2][2] * c->m[2][2]);
+    e->roll = atan2f(-c->m[2][1], cos_roll);
     if (cos_roll < MFNS_EULER_SINGULAR_COS) {
         /* roll = +-90: r11 = cos(yaw -+ pitch), r21 = -sin(yaw -+ pitch). */
         e->pitch = 0.0f;
-        e->yaw = atan2f(-c.m[1][0], c.m[0][0]);
+        e->yaw = atan2f(-c->m[1][0], c->m[0][0]);
         return false;
     }
-    e->pitch = atan2f(c.m[2][0], c.m[2][2]);
-    e->yaw = atan2f(c.m[0][1], c.m[1][1]);
+    e->pitch = atan2f(c->m[2][0], c->m[2][2]);
+    e->yaw = atan2f(c->m[0][1], c->m[1][1]);
     return true;
+}
+
+bool mfns_m3_to_euler213(mfns_m3_t c, mfns_euler_t *e)
+{
+    return mfns_m3_to_euler213_at(&c, e);
 }
 
 mfns_m3_t mfns_rot_small_angle(mfns_v3_t a)
@@ -132,12 +137,17 @@ mfns_v3_t mfns_rot_log(mfns_m3_t r)
     return mfns_v3_scale(n, th);
 }
 
-float mfns_rot_angle_between(mfns_m3_t ra, mfns_m3_t rb)
+float mfns_rot_angle_between_at(const mfns_m3_t *ra, const mfns_m3_t *rb)
 {
     mfns_m3_t d;
-    mfns_m3_transpose_at(&ra, &d);
-    mfns_m3_mul_at(&d, &rb, &d);
+    mfns_m3_transpose_at(ra, &d);
+    mfns_m3_mul_at(&d, rb, &d);
     return mfns_v3_norm(mfns_rot_log(d));
+}
+
+float mfns_rot_angle_between(mfns_m3_t ra, mfns_m3_t rb)
+{
+    return mfns_rot_angle_between_at(&ra, &rb);
 }
 
 void mfns_m3_to_quat(mfns_m3_t r, float q_wxyz[4])

@@ -34,6 +34,8 @@ mfns_m3_t mfns_euler213_to_m3(mfns_euler_t e);
  * determine pitch and yaw to about 1e-7 / cos(roll) rad each. */
 #define MFNS_EULER_SINGULAR_COS 1e-5f
 bool mfns_m3_to_euler213(mfns_m3_t c, mfns_euler_t *e);
+/* The same by address (no 36-byte copy per call; linalg.h's *_at). */
+bool mfns_m3_to_euler213_at(const mfns_m3_t *c, mfns_euler_t *e);
 
 /* Small-angle frame rotation (Eq. A2): C ~ I - skew(a), i.e.
  * [[1, g, -b], [-g, 1, a], [b, -a, 1]] for a = (alpha, beta, gamma).
@@ -61,5 +63,6 @@ void mfns_m3_to_quat(mfns_m3_t r, float q_wxyz[4]);
 
 /* Angle of the rotation R_a^T R_b in rad, in [0, pi]: the attitude error. */
 float mfns_rot_angle_between(mfns_m3_t ra, mfns_m3_t rb);
+float mfns_rot_angle_between_at(const mfns_m3_t *ra, const mfns_m3_t *rb);
 
 #endif /* MFNS_ROTATION_H */

@@ -53,12 +53,11 @@ static mfns_pose_t cv_predict(const mfns_acq_catchup_t *cu)
     mfns_m3_transpose_at(&cu->prev.C_w_b, &c);
     mfns_m3_mul_at(&cu->pose.C_w_b, &c, &c); /* dc */
     mfns_m3_mul_at(&c, &cu->pose.C_w_b, &c);
-    mfns_m3_t fixed;
-    if (!mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
+    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
         return cu->pose;
     }
     const mfns_v3_t p1 = mfns_pose_position_w(&cu->pose), p0 = mfns_pose_position_w(&cu->prev);
-    return mfns_pose_from_position(fixed, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
+    return mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
 }
 
 typedef enum {

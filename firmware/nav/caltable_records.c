@@ -157,7 +157,7 @@ static bool camera_values(mfns_ct_parser_t *p, uint32_t o, mfns_camera_t *cam)
             return false;
         }
     }
-    if (!mfns_m3_is_rotation(cam->C_k_b, MFNS_CALTABLE_ROT_TOL)) {
+    if (!mfns_m3_is_rotation_at(&cam->C_k_b, MFNS_CALTABLE_ROT_TOL)) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_ROTATION, o + C_OFF(C_K_B));
     }
     for (uint32_t i = 0; i < 3u; i++) {

@@ -64,7 +64,7 @@ static void output_map(const mfns_pose_t *pose, float g[6][6])
     mfns_m3_transpose_at(&pose->C_w_b, &ct);
     a = mfns_m3_skew(pose->r_bw_b);
     mfns_m3_mul_at(&ct, &a, &a);
-    a = mfns_m3_scale(a, -1.0f);
+    mfns_m3_scale_at(&a, -1.0f, &a);
     for (int r = 0; r < 3; r++) {
         for (int c = 0; c < 3; c++) {
             g[r][c] = a.m[r][c];

@@ -18,14 +18,11 @@ mfns_pose_t mfns_integrity_lag_back(const mfns_pose_t *now, const mfns_pose_t *l
     mfns_m3_mul_at(&last->C_w_b, &c, &c); /* dc */
     mfns_m3_transpose_at(&c, &c);
     mfns_m3_mul_at(&c, &now->C_w_b, &c);
-    mfns_m3_t fixed;
-    if (mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
-        c = fixed;
-    } else {
+    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
         c = now->C_w_b; /* never a non-rotation: the rotation part of the motion is then not undone */
     }
     const mfns_v3_t step = mfns_v3_sub(mfns_pose_position_w(last), mfns_pose_position_w(prev));
-    return mfns_pose_from_position(c, mfns_v3_sub(mfns_pose_position_w(now), step));
+    return mfns_pose_from_position_at(&c, mfns_v3_sub(mfns_pose_position_w(now), step));
 }
 
 /* Per camera: the sums of one pass over the inliers. */

@@ -66,7 +66,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
 
 mfns_nav_status_t mfns_nav_set_prior(mfns_nav_t *nav, const mfns_pose_t *pose)
 {
-    if (nav == NULL || pose == NULL || nav->magic != NAV_MAGIC || !mfns_m3_is_rotation(pose->C_w_b, 1e-4f) ||
+    if (nav == NULL || pose == NULL || nav->magic != NAV_MAGIC || !mfns_m3_is_rotation_at(&pose->C_w_b, 1e-4f) ||
         !(mfns_v3_norm(pose->r_bw_b) < 1e7f)) { /* also false for NaN */
         return MFNS_NAV_E_ARG;
     }
@@ -233,7 +233,7 @@ static bool minimal_agrees(const mfns_nav_t *nav, const mfns_pose_solution_t *s)
     float step_mm = 0.0f, step_rad = 0.0f;
     if (nav->have_prev) {
         step_mm = mfns_v3_norm(mfns_v3_sub(mfns_pose_position_w(&nav->prior), mfns_pose_position_w(&nav->prev)));
-        step_rad = mfns_rot_angle_between(nav->prior.C_w_b, nav->prev.C_w_b);
+        step_rad = mfns_rot_angle_between_at(&nav->prior.C_w_b, &nav->prev.C_w_b);
     }
     const float pp = fmaxf(step_mm, MINIMAL_PRED_FLOOR_MM), pr = fmaxf(step_rad, MINIMAL_PRED_FLOOR_RAD);
     const mfns_v3_t dp = mfns_v3_sub(s->r_wb_w, mfns_pose_position_w(&nav->predicted));
@@ -247,7 +247,7 @@ static bool minimal_agrees(const mfns_nav_t *nav, const mfns_pose_solution_t *s)
     for (int i = 0; i < 3; i++) {
         sr = fmaxf(sr, s->sigma_euler_deg[i] * MFNS_RAD_PER_DEG_F);
     }
-    const float da = mfns_rot_angle_between(s->pose.C_w_b, nav->predicted.C_w_b);
+    const float da = mfns_rot_angle_between_at(&s->pose.C_w_b, &nav->predicted.C_w_b);
     const float chi_r = da * da / (sr * sr + pr * pr);
     return chi_p <= MINIMAL_CHI2_3 && chi_r <= MINIMAL_CHI2_3;
 }
@@ -279,14 +279,11 @@ static mfns_pose_t predict(const mfns_nav_t *nav)
     mfns_m3_transpose_at(&nav->prev.C_w_b, &c);
     mfns_m3_mul_at(&nav->prior.C_w_b, &c, &c); /* dc */
     mfns_m3_mul_at(&c, &nav->prior.C_w_b, &c);
-    mfns_m3_t fixed;
-    if (mfns_m3_reorthonormalize(c, 4, 1e-6f, &fixed)) {
-        c = fixed;
-    } else {
+    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
         return nav->prior; /* never predict with a non-rotation */
     }
     const mfns_v3_t p1 = mfns_pose_position_w(&nav->prior), p0 = mfns_pose_position_w(&nav->prev);
-    return mfns_pose_from_position(c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
+    return mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
 }
 
 static bool has_fix(const mfns_pose_solution_t *s)

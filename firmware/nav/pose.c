@@ -245,7 +245,7 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     out->residual_rms_sigma = used > 0 ? sqrtf(sw / (float)(2 * used)) : 0.0f;
     out->r_wb_w = mfns_pose_position_w(&pose);
     mfns_euler_t e;
-    (void)mfns_m3_to_euler213(pose.C_w_b, &e);
+    (void)mfns_m3_to_euler213_at(&pose.C_w_b, &e);
     out->euler_deg.roll = e.roll * MFNS_DEG_PER_RAD_F;
     out->euler_deg.pitch = e.pitch * MFNS_DEG_PER_RAD_F;
     out->euler_deg.yaw = e.yaw * MFNS_DEG_PER_RAD_F;
@@ -297,7 +297,7 @@ static bool valid_pose(const mfns_pose_t *p)
         }
     }
     return isfinite(p->r_bw_b.x) && isfinite(p->r_bw_b.y) && isfinite(p->r_bw_b.z) &&
-           mfns_m3_is_rotation(p->C_w_b, 1e-3f);
+           mfns_m3_is_rotation_at(&p->C_w_b, 1e-3f);
 }
 
 mfns_pose_status_t mfns_pose_refine(const mfns_rig_t *rig, const mfns_beacon_map_t *map,

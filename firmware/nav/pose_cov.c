@@ -195,7 +195,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
     mfns_m3_transpose_at(&out->pose.C_w_b, &ct);
     a_rot = mfns_m3_skew(out->pose.r_bw_b);
     mfns_m3_mul_at(&ct, &a_rot, &a_rot);
-    a_rot = mfns_m3_scale(a_rot, -1.0f);
+    mfns_m3_scale_at(&a_rot, -1.0f, &a_rot);
     float jo[6][6];
     for (int r = 0; r < 3; r++) {
         for (int c = 0; c < 3; c++) {
@@ -210,10 +210,10 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         mfns_euler_t ep, em;
         mfns_m3_t cp = mfns_rot_exp(mfns_v3(dv[0], dv[1], dv[2]));
         mfns_m3_mul_at(&cp, &out->pose.C_w_b, &cp);
-        (void)mfns_m3_to_euler213(cp, &ep);
+        (void)mfns_m3_to_euler213_at(&cp, &ep);
         cp = mfns_rot_exp(mfns_v3(-dv[0], -dv[1], -dv[2]));
         mfns_m3_mul_at(&cp, &out->pose.C_w_b, &cp);
-        (void)mfns_m3_to_euler213(cp, &em);
+        (void)mfns_m3_to_euler213_at(&cp, &em);
         const float de[3] = {ep.roll - em.roll, ep.pitch - em.pitch, ep.yaw - em.yaw};
         for (int r = 0; r < 3; r++) {
             float v = de[r];

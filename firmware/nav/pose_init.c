@@ -579,7 +579,7 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
         bool dup = false;
         for (int q = 0; q < nsol && !dup; q++) {
             dup = mfns_v3_norm(mfns_v3_sub(out[q].r_bw_b, pose.r_bw_b)) < 1e-3f * max_range_mm &&
-                  mfns_rot_angle_between(out[q].C_w_b, pose.C_w_b) < 1e-3f;
+                  mfns_rot_angle_between_at(&out[q].C_w_b, &pose.C_w_b) < 1e-3f;
         }
         if (!dup) {
             out[nsol++] = pose;

@@ -1,6 +1,7 @@
 /* Unit tests of math/linalg: products, transposes, skew, orthonormality. */
 #include "testutil.h"
 
+#include "camera.h"
 #include "linalg.h"
 #include "rotation.h"
 
@@ -124,6 +125,29 @@ static void test_by_address_same_as_by_value(void **state)
     assert_memory_equal(&w1, &w2, sizeof w1);
     const mfns_v3_t t1 = mfns_m3_tmul_v3(a, v), t2 = mfns_m3_tmul_v3_at(&a, v);
     assert_memory_equal(&t1, &t2, sizeof t1);
+    const mfns_m3_t as = mfns_m3_scale(a, -0.5f);
+    r = a;
+    mfns_m3_scale_at(&r, -0.5f, &r);
+    assert_memory_equal(&r, &as, sizeof r);
+    /* a rotation slightly off orthonormal */
+    mfns_m3_t c = mfns_rot_exp(mfns_v3(0.4f, -1.1f, 0.7f));
+    c.m[0][1] += 2e-4f;
+    c.m[2][0] -= 1e-4f;
+    mfns_m3_t f1, f2;
+    const bool ok1 = mfns_m3_reorthonormalize(c, 4, 1e-6f, &f1);
+    f2 = c;
+    const bool ok2 = mfns_m3_reorthonormalize_at(&f2, 4, 1e-6f, &f2);
+    assert_true(ok1 == ok2);
+    assert_memory_equal(&f1, &f2, sizeof f1);
+    assert_true(mfns_m3_is_rotation(f1, 1e-5f) == mfns_m3_is_rotation_at(&f1, 1e-5f));
+    assert_true(mfns_m3_is_rotation(a, 1e-5f) == mfns_m3_is_rotation_at(&a, 1e-5f));
+    mfns_euler_t e1, e2;
+    assert_true(mfns_m3_to_euler213(c, &e1) == mfns_m3_to_euler213_at(&c, &e2));
+    assert_memory_equal(&e1, &e2, sizeof e1);
+    const float g1 = mfns_rot_angle_between(c, f1), g2 = mfns_rot_angle_between_at(&c, &f1);
+    assert_memory_equal(&g1, &g2, sizeof g1);
+    const mfns_pose_t p1 = mfns_pose_from_position(f1, v), p2 = mfns_pose_from_position_at(&f1, v);
+    assert_memory_equal(&p1, &p2, sizeof p1);
 }
 
 int main(void)
