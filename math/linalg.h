@@ -1,6 +1,9 @@
 /* linalg.h -- 3-vectors and 3x3 matrices in float, the working type of the
  * flight target. Small structs passed and returned by value: no aliasing
- * questions, no heap, and gcc keeps them in registers.
+ * questions, no heap, and gcc keeps the vectors in registers. A matrix (36
+ * bytes) is copied through the stack at every by-value call on a 32-bit
+ * target, so the products also come by address (the *_at functions at the
+ * end), which the flight core uses.
  *
  * Matrices are row-major: m[row][col]. All functions are pure and total
  * (defined for every finite input); none allocates or calls the OS.
