@@ -1,7 +1,8 @@
 # Self-survey (issue 29, docs/self_survey.md section 4): the slow checks, not in `make test`
 # (the fast ones are tests/host/test_map_refine.py and test_fixlog_flight.py).
 #   make bench-survey          the map target on seeds 2, 3, 5: 24 min of survey flight at 1 Hz
-#                              each (about 10 min per seed on 2 cores), figures in
+#                              each (about 2 min per seed on 2 cores: 5 min 22 s for the three,
+#                              3 Dec 2026), figures in
 #                              build/bench/survey/survey.md
 #   make bench-survey-monitor  the in-flight monitor end to end: a beacon moved 5, 3, 2, 1 mm along
 #                              its wall, camera y turned 0.1 and 0.3 deg (build/bench/monitor/)
