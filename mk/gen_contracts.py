@@ -296,7 +296,7 @@ def valid_expr(f, var: str) -> str | None:
     return None
 
 
-# Wire type -> one field's statement; {v} the C lvalue, {o} the byte offset expression.
+# Wire type -> one field's decoding statement; {v} the C lvalue, {o} the byte offset expression.
 UNPACK = {
     "u8": "{v} = b[{o}];",
     "u16": "{v} = tlm_get_u16(b + {o});",
@@ -400,9 +400,12 @@ def pack_table(pk) -> list[str]:
             "            } else {",
             "                v = s[i];",
             "            }",
-            "            for (unsigned k = w; k-- > 0u;) {",
-            "                d[i + k] = (uint8_t)v;",
-            "                v >>= 8;",
+            "            if (w == 4u) {",
+            "                tlm_put_u32(d + i, v);",
+            "            } else if (w == 2u) {",
+            "                tlm_put_u16(d + i, (uint16_t)v);",
+            "            } else {",
+            "                d[i] = (uint8_t)v;",
             "            }",
             "        }",
             "    }",
@@ -500,14 +503,13 @@ def tlm_packets_c(d) -> str:
             L += ['    default: return "?";', "    }"]
         L += ["}", ""]
     L += pack_table(pk)
-    for fn, const, tmpl in (("tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "", UNPACK),):
-        L += [f"void {fn}", "{", "    switch (p->type) {"]
-        for p in pk:
-            suf, sname, um = C_PACKETS[p.name]
-            L += [f"    case TLM_TYPE_{suf}: {{", f"        {const}{sname} *s = &p->u.{um};"]
-            L += layout_lines(p, tmpl)
-            L += ["        break;", "    }"]
-        L += ["    default: break;", "    }", "}", ""]
+    L += ["void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)", "{", "    switch (p->type) {"]
+    for p in pk:
+        suf, sname, um = C_PACKETS[p.name]
+        L += [f"    case TLM_TYPE_{suf}: {{", f"        {sname} *s = &p->u.{um};"]
+        L += layout_lines(p, UNPACK)
+        L += ["        break;", "    }"]
+    L += ["    default: break;", "    }", "}", ""]
     # valid
     valid: dict[str, list[str]] = {}
     for p in pk:

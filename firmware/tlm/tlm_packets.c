@@ -35,13 +35,7 @@ void tlm_encoder_init(tlm_encoder_t *enc)
     }
 }
 
-void tlm_put_f32(uint8_t *p, float v)
-{
-    uint32_t u;
-    memcpy(&u, &v, sizeof u); /* the bit pattern: binary32 on every target we build for */
-    tlm_put_u32(p, u);
-}
-
+/* the bit pattern: binary32 on every target we build for */
 float tlm_get_f32(const uint8_t *p)
 {
     const uint32_t u = tlm_get_u32(p);

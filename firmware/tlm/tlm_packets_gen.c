@@ -307,9 +307,12 @@ void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
             } else {
                 v = s[i];
             }
-            for (unsigned k = w; k-- > 0u;) {
-                d[i + k] = (uint8_t)v;
-                v >>= 8;
+            if (w == 4u) {
+                tlm_put_u32(d + i, v);
+            } else if (w == 2u) {
+                tlm_put_u16(d + i, (uint16_t)v);
+            } else {
+                d[i] = (uint8_t)v;
             }
         }
     }
