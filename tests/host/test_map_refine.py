@@ -20,9 +20,10 @@ PIXEL_SIGMA = 0.02  # px, the order of the module's centroids
 SURVEY_SIGMA = 0.4  # mm, beacons.csv
 
 
-def scene(seed=2, n_fix=200, moved=None, cam_rot_deg=None):
+def scene(seed=2, n_fix=200, moved=None, cam_rot_deg=None, noise_scale=1.0):
     """(fixes, cams, ids, survey map, sigma, true map). moved: (beacon index, mm vector);
-    cam_rot_deg: (camera, rotation vector deg) applied to the true rig only."""
+    cam_rot_deg: (camera, rotation vector deg) applied to the true rig only; noise_scale:
+    the centroid noise drawn, in units of the PIXEL_SIGMA the fixes state."""
     rng = np.random.default_rng([seed, 1])
     p_survey, _ = module_beacons(60, rng)
     t = np.arange(n_fix) * 1.5  # one fix every 1.5 s: 5 minutes
@@ -46,7 +47,7 @@ def scene(seed=2, n_fix=200, moved=None, cam_rot_deg=None):
             for b in np.nonzero(vis)[0]:
                 cam_i.append(k)
                 bid.append(b)
-                uv.append(u[b] + noise.normal(0.0, PIXEL_SIGMA, 2))
+                uv.append(u[b] + noise.normal(0.0, noise_scale * PIXEL_SIGMA, 2))
         if len(bid) < 5:
             continue
         # the flight's fix: truth off by about its own sigma (0.3 mm, 0.01 deg)
@@ -102,6 +103,34 @@ def test_gross_outliers_do_not_inflate_the_map_sigma():
     assert 0.7 < dirty.sigma0 < 1.3, dirty.sigma0
     assert abs(np.median(dirty.sigma) / np.median(clean.sigma) - 1.0) < 0.1
     assert np.sqrt(np.mean((dirty.p - truth) ** 2)) < 0.15
+
+
+def test_a_wrong_noise_model_sets_the_unit_weight():
+    """Centroids 3 times noisier than the fixes state: the unit weight must say so (about
+    3, not the 1.6 a clip fixed at 3 model sigma gives) and the written sigma must grow
+    with it, gross outliers still left out."""
+    fixes, cams, ids, p, s, truth = scene()
+    clean = run(fixes, cams, ids, p, s)
+    fixes, cams, ids, p, s, truth = scene(noise_scale=3.0)
+    rng = np.random.default_rng(5)
+    for f in rng.choice(len(fixes), 12, replace=False):
+        fixes[f].uv[0] = fixes[f].uv[0] + rng.uniform(20.0, 60.0, 2)
+    noisy = run(fixes, cams, ids, p, s)
+    assert 2.6 < noisy.sigma0 < 3.4, noisy.sigma0
+    assert np.median(noisy.sigma) > 2.0 * np.median(clean.sigma)
+    z = np.abs(noisy.p - truth) / noisy.sigma[:, None]
+    assert np.mean(z**2) < 1.5  # honest again
+
+
+def test_unit_weight_is_the_clipped_fixed_point():
+    """unit_weight on drawn residuals: the scale of the bulk, whatever it is, with a
+    few percent of gross outliers left out; 0 for no residual spread."""
+    rng = np.random.default_rng(3)
+    for k in (0.5, 1.0, 3.0):
+        r = rng.normal(0.0, k, 20000)
+        r[:300] = rng.uniform(1e3, 3e3, 300) * rng.choice([-1, 1], 300)
+        assert abs(refine.unit_weight(r, 0) / k - 1.0) < 0.03, k
+    assert refine.unit_weight(np.zeros(10), 0) == 0.0
 
 
 def test_moved_beacon_is_flagged_alone():

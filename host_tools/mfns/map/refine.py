@@ -52,7 +52,7 @@ CHI2_3 = float(chi2.isf(P_FALSE_ALARM, 3))  # 21.1
 # Huber threshold on whitened residuals: quadratic within 3 sigma, linear beyond.
 HUBER_SIGMA = 3.0
 # The variance of a unit normal truncated to |r| <= HUBER_SIGMA (0.973): the unit weight
-# is estimated from the quadratic part only (refine, sigma0).
+# is estimated from the residuals within it only (unit_weight).
 HUBER_TRUNC_VAR = float(1.0 - 2.0 * HUBER_SIGMA * norm.pdf(HUBER_SIGMA) / (2.0 * norm.cdf(HUBER_SIGMA) - 1.0))
 # Mount priors when the calibration gives none: the paper's requirement on the rig
 # (docs/system.md section 4: 1 mm and 0.17 deg), far wider than a calibration's 1 sigma.
@@ -362,6 +362,43 @@ def _sigma_scale(
     return hi
 
 
+# unit_weight: the clipping's bound of iterations (it converges in a few: the clip moves
+# only with the scale) and its relative tolerance.
+UNIT_WEIGHT_MAX_ITER = 50
+UNIT_WEIGHT_RTOL = 1e-9
+
+
+def unit_weight(r: np.ndarray, n_par: int) -> float:
+    """The a posteriori unit weight of whitened residuals r (n_par parameters fitted):
+    the RMS of the residuals within HUBER_SIGMA of its own scale, the truncation's variance
+    divided out, found as the fixed point s = rms(r[|r| <= HUBER_SIGMA s]) / sqrt(0.973)
+    from the median absolute residual.
+
+    Why clipped: gross outliers (a blob re-associated with a far beacon, thousands of
+    sigma) would set a plain RMS: measured on seed 2's 24-minute survey flight, 13 of
+    7,734 residuals made it 1.81 where the 7,721 others give 0.92, every beacon's
+    covariance was inflated 3.3 times and the refined map flew NEES 1.83.
+    Why the clip follows the scale: a clip fixed at HUBER_SIGMA (in the noise model's
+    sigma) would cut a noise model wrong by a factor k into its own centre and return
+    about 1.6 for k = 3, leaving the map's sigma overconfident; at the fixed point the
+    clip is 3 of the data's own sigma whatever k is.
+    Misses: outliers within 3 sigma (they count as noise: a slightly larger unit weight,
+    the safe side) and a share of gross outliers above about half the residuals (the
+    median start is theirs)."""
+    a = np.abs(np.asarray(r, dtype=float))
+    s = float(np.median(a)) / float(norm.ppf(0.75))
+    if not s > 0.0:
+        return 0.0
+    for _ in range(UNIT_WEIGHT_MAX_ITER):
+        keep = a <= HUBER_SIGMA * s
+        dof = max(1, int(np.count_nonzero(keep)) - n_par)
+        s_new = float(np.sqrt(np.sum(a[keep] ** 2) / dof / HUBER_TRUNC_VAR))
+        if abs(s_new - s) <= UNIT_WEIGHT_RTOL * s:
+            return s_new
+        s = s_new
+    return s
+
+
 def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
     x, info = _irls(pb, np.zeros(pb.n_par), max_iter)
     if polish_nfev > 0:
@@ -385,16 +422,7 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
     res, J = _model(pb, x, True)
     w = _huber_weights(res)
     n_obs_res = 2 * len(pb.fix)
-    # The a posteriori unit weight from the residuals the Huber loss keeps quadratic
-    # (|r| <= HUBER_SIGMA), the truncation's variance divided out. The linear tail holds
-    # the gross outliers (a blob re-associated with a far beacon: thousands of sigma),
-    # whose Huber-weighted squares would set it instead: measured on seed 2's 24-minute
-    # survey flight, 13 of 7,734 residuals made it 1.81 where the 7,721 others give 0.92,
-    # every beacon's covariance was inflated 3.3 times and the refined map flew NEES 1.83.
-    obs = res[:n_obs_res]
-    quad = np.abs(obs) <= HUBER_SIGMA
-    dof = max(1, int(np.count_nonzero(quad)) - 6 * pb.n_fix)
-    sigma0 = float(np.sqrt(np.sum(obs[quad] ** 2) / dof / HUBER_TRUNC_VAR))
+    sigma0 = unit_weight(res[:n_obs_res], 6 * pb.n_fix)
     cov = _marginal_cov(J, w, pb) * max(1.0, sigma0**2)  # never claim better than the data show
     f6, b3, m6 = pb.split(x)
     nb = pb.n_beacon
