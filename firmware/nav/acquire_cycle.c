@@ -77,6 +77,14 @@ static void catchup_start(mfns_acq_catchup_t *cu, const mfns_pose_solution_t *ca
     cu->pose = carried->pose;
 }
 
+/* The catch-up moves on to the next frame's pose; the one it leaves is the
+ * motion's start. */
+static void catchup_moves_to(mfns_acq_catchup_t *cu, const mfns_pose_t *next)
+{
+    cu->prev = cu->pose;
+    cu->pose = *next;
+}
+
 /* Step the catch-up through the ring toward its newest frame, one tracking
  * step per frame, while the budget lasts (*used grows by each step's units).
  * Bounded by the ring's length per call. */
@@ -104,35 +112,29 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         cu->seq = next;
         cu->steps++;
         (*steps)++;
-        if (verified(&s)) {
-            cu->prev = cu->pose;
+        /* A verified frame carries the identification on; so does a
+         * three-beacon pose inside the gate, as it carries the navigator's
+         * track, but it verifies nothing. Only a pose verified on the current
+         * frame is the fix; the current frame unverified, the catch-up waits
+         * for the next one (never a fix from an unverified frame). */
+        const bool ok = verified(&s);
+        if (ok || (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL)) {
             cu->have_prev = cu->coast == 0u; /* a motion only between two verified frames */
-            cu->pose = s.pose;
             cu->coast = 0u;
-            if (next == now) {
+            catchup_moves_to(cu, &s.pose);
+            if (ok && next == now) {
                 *out = s;
                 return CU_DONE;
             }
             continue;
         }
-        /* not verified. A three-beacon pose inside the gate carries the
-         * identification on, as it carries the navigator's track, but verifies
-         * nothing; any other frame is coasted over, at most
-         * MFNS_ACQ_CATCHUP_MAX_COAST in a row. The current frame unverified: the
-         * catch-up waits for the next one (never a fix from an unverified frame). */
-        if (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL) {
-            cu->prev = cu->pose;
-            cu->have_prev = cu->coast == 0u;
-            cu->pose = s.pose;
-            cu->coast = 0u;
-            continue;
-        }
+        /* any other frame is coasted over, at most MFNS_ACQ_CATCHUP_MAX_COAST
+         * in a row */
         cu->coast++;
         if (cu->coast > MFNS_ACQ_CATCHUP_MAX_COAST) {
             return CU_REFUSED;
         }
-        cu->prev = cu->pose; /* the coast keeps the motion (have_prev stays) */
-        cu->pose = pred;
+        catchup_moves_to(cu, &pred); /* the coast keeps the motion (have_prev stays) */
     }
     return CU_GOING;
 }
