@@ -41,23 +41,20 @@ static bool verified(const mfns_pose_solution_t *s)
     return usable(s) && s->reason != MFNS_POSE_R_MINIMAL && s->beacons_used >= MFNS_ACQ_MIN_BLOBS;
 }
 
-/* Constant-velocity prediction of the next frame's pose: the motion from prev
- * to pose once more (the navigator's model, nav_cycle.c); pose itself
- * without a motion or when the product is no rotation. */
-static mfns_pose_t cv_predict(const mfns_acq_catchup_t *cu)
+void mfns_acq_predict_cv(const mfns_pose_t *pose, const mfns_pose_t *prev, bool have_prev, mfns_pose_t *pred)
 {
-    if (!cu->have_prev) {
-        return cu->pose;
+    if (have_prev) {
+        mfns_m3_t c;
+        mfns_m3_transpose_at(&prev->C_w_b, &c);
+        mfns_m3_mul_at(&pose->C_w_b, &c, &c); /* dc */
+        mfns_m3_mul_at(&c, &pose->C_w_b, &c);
+        if (mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) { /* never predict with a non-rotation */
+            const mfns_v3_t p1 = mfns_pose_position_w(pose), p0 = mfns_pose_position_w(prev);
+            *pred = mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
+            return;
+        }
     }
-    mfns_m3_t c;
-    mfns_m3_transpose_at(&cu->prev.C_w_b, &c);
-    mfns_m3_mul_at(&cu->pose.C_w_b, &c, &c); /* dc */
-    mfns_m3_mul_at(&c, &cu->pose.C_w_b, &c);
-    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
-        return cu->pose;
-    }
-    const mfns_v3_t p1 = mfns_pose_position_w(&cu->pose), p0 = mfns_pose_position_w(&cu->prev);
-    return mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
+    *pred = *pose;
 }
 
 typedef enum {
@@ -101,7 +98,8 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         *used += MFNS_ACQ_CATCHUP_STEP_UNITS;
         const uint32_t next = cu->seq + 1u;
         const mfns_obs_frame_t *f = mfns_blob_ring_get(&ac->ring, next);
-        const mfns_pose_t pred = cv_predict(cu);
+        mfns_pose_t pred;
+        mfns_acq_predict_cv(&cu->pose, &cu->prev, cu->have_prev, &pred);
         mfns_pose_solution_t s;
         mfns_pose_solution_clear(&s, MFNS_POSE_R_TOO_FEW);
         if (f != NULL) {

@@ -267,25 +267,6 @@ static void acquire(mfns_nav_t *nav, mfns_nav_output_t *out)
     out->acquired = true;
 }
 
-/* Constant-velocity prediction: apply the last cycle's motion once more.
- * dC = C_k C_{k-1}^T (world -> body increment), position extrapolated in the
- * world frame. */
-static mfns_pose_t predict(const mfns_nav_t *nav)
-{
-    if (!nav->have_prev) {
-        return nav->prior;
-    }
-    mfns_m3_t c;
-    mfns_m3_transpose_at(&nav->prev.C_w_b, &c);
-    mfns_m3_mul_at(&nav->prior.C_w_b, &c, &c); /* dc */
-    mfns_m3_mul_at(&c, &nav->prior.C_w_b, &c);
-    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
-        return nav->prior; /* never predict with a non-rotation */
-    }
-    const mfns_v3_t p1 = mfns_pose_position_w(&nav->prior), p0 = mfns_pose_position_w(&nav->prev);
-    return mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
-}
-
 static bool has_fix(const mfns_pose_solution_t *s)
 {
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
@@ -395,7 +376,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
-        nav->predicted = predict(nav);
+        /* the last cycle's motion once more (the catch-up's model too) */
+        mfns_acq_predict_cv(&nav->prior, &nav->prev, nav->have_prev, &nav->predicted);
     }
     out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
     /* The one place of the policy: track from the prediction, else (or when
