@@ -345,16 +345,6 @@ static void one_camera_contradicted(const mfns_nav_t *nav, const uint8_t solver_
     }
 }
 
-static bool camera_has_inlier(const mfns_pose_solution_t *s, const mfns_obs_frame_t *obs, int c)
-{
-    for (uint16_t i = 0; i < obs->count[c] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
-        if (s->assoc.beacon[c][i] != MFNS_POSE_NO_BEACON && s->inlier[c][i] != 0U) {
-            return true;
-        }
-    }
-    return false;
-}
-
 static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -412,7 +402,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         lag_monitor(nav, out);
         uint8_t solver_inlier[MFNS_NUM_CAMERAS]; /* before FDE holds cameras out (integrity_cameras.h) */
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-            solver_inlier[c] = (uint8_t)(has_fix(&out->sol) && camera_has_inlier(&out->sol, &nav->obs, c) ? 1U : 0U);
+            solver_inlier[c] =
+                (uint8_t)(has_fix(&out->sol) && mfns_camera_has_inlier(&out->sol, &nav->obs, c) ? 1U : 0U);
         }
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
