@@ -198,25 +198,24 @@ mfns_pose_status_t mfns_acq_cycle_run(mfns_acq_cycle_t *ac, const mfns_rig_t *ri
                                                      MFNS_ACQ_SHARE_ONE_Q8)
                                         : left;
     mfns_acq_t *fresh = &ac->search[ac->fresh];
-    mfns_pose_solution_t fs;
     /* while a search is carried, this frame's own 4-blob completion waits:
-     * the carried one is further on (a still robot shows the same view) */
-    (void)mfns_acq_start(fresh, rig, map, idx, frame, cfg, share, ac->carrying, &fs); /* the status is in fs */
+     * the carried one is further on (a still robot shows the same view).
+     * Into out: the fix, or NO_FIX with the fresh search's reason unless a
+     * carried one bridges */
+    (void)mfns_acq_start(fresh, rig, map, idx, frame, cfg, share, ac->carrying, out); /* the status is in out */
     rep->progress = fresh->progress;
     used += fresh->progress.units;
-    if (usable(&fs)) {
+    if (usable(out)) {
         if (ac->carrying) {
             mfns_acq_reset(&ac->search[1u - ac->fresh]); /* no longer needed */
             ac->carrying = false;
         }
         ac->cu.active = false;
-        *out = fs;
         rep->source = MFNS_ACQ_SRC_FRESH;
         rep->catchup_pending = false;
         rep->progress.units = used;
         return out->status;
     }
-    *out = fs; /* NO_FIX with the fresh search's reason, unless a carried one bridges */
     /* 2. an unfinished fresh search is carried when none is */
     if (!ac->carrying && mfns_acq_pending(fresh)) {
         ac->fresh = (uint8_t)(1u - ac->fresh);
