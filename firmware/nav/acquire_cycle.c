@@ -57,6 +57,14 @@ void mfns_acq_predict_cv(const mfns_pose_t *pose, const mfns_pose_t *prev, bool 
     *pred = *pose;
 }
 
+/* out of line on a size build: four calls, each two 48-byte copies inline */
+MFNS_OUT_OF_LINE
+void mfns_acq_cv_advance(mfns_pose_t *pose, mfns_pose_t *prev, const mfns_pose_t *next)
+{
+    *prev = *pose;
+    *pose = *next;
+}
+
 typedef enum {
     CU_GOING = 0, /* goes on next cycle (the budget stopped it, or the current frame did not verify) */
     CU_DONE,      /* verified on the current frame: out is the fix */
@@ -72,14 +80,6 @@ static void catchup_start(mfns_acq_catchup_t *cu, const mfns_pose_solution_t *ca
     cu->seq = seq;
     cu->from_seq = seq;
     cu->pose = carried->pose;
-}
-
-/* The catch-up moves on to the next frame's pose; the one it leaves is the
- * motion's start. */
-static void catchup_moves_to(mfns_acq_catchup_t *cu, const mfns_pose_t *next)
-{
-    cu->prev = cu->pose;
-    cu->pose = *next;
 }
 
 /* Step the catch-up through the ring toward its newest frame, one tracking
@@ -119,7 +119,7 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         if (ok || (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL)) {
             cu->have_prev = cu->coast == 0u; /* a motion only between two verified frames */
             cu->coast = 0u;
-            catchup_moves_to(cu, &s.pose);
+            mfns_acq_cv_advance(&cu->pose, &cu->prev, &s.pose);
             if (ok && next == now) {
                 *out = s;
                 return CU_DONE;
@@ -132,7 +132,7 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         if (cu->coast > MFNS_ACQ_CATCHUP_MAX_COAST) {
             return CU_REFUSED;
         }
-        catchup_moves_to(cu, &pred); /* the coast keeps the motion (have_prev stays) */
+        mfns_acq_cv_advance(&cu->pose, &cu->prev, &pred); /* the coast keeps the motion (have_prev stays) */
     }
     return CU_GOING;
 }

@@ -138,6 +138,11 @@ void mfns_acq_cycle_skip(mfns_acq_cycle_t *ac);
  * product is no rotation. pred must not be pose or prev. */
 void mfns_acq_predict_cv(const mfns_pose_t *pose, const mfns_pose_t *prev, bool have_prev, mfns_pose_t *pred);
 
+/* The constant-velocity model moves on by a frame (mfns_acq_predict_cv's
+ * pose and prev): *prev takes *pose, and *pose takes *next (a fix, or the
+ * prediction coasted to). next must not be prev. */
+void mfns_acq_cv_advance(mfns_pose_t *pose, mfns_pose_t *prev, const mfns_pose_t *next);
+
 /* One cycle of acquisition on frame (see top of file). out is OK/DEGRADED
  * only for a certified identification verified on frame (fresh, or carried
  * and caught up to it); otherwise NO_FIX

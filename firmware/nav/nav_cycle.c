@@ -428,9 +428,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     }
     if (carries_track(&out->sol, !out->acquired)) {
         /* velocity only between two real fixes: never from a hint or a coast */
-        nav->prev = nav->prior;
         nav->have_prev = nav->have_prior && nav->prior_is_fix;
-        nav->prior = out->sol.pose;
+        mfns_acq_cv_advance(&nav->prior, &nav->prev, &out->sol.pose);
         nav->prior_is_fix = true;
         nav->have_prior = true;
         nav->coast = 0;
@@ -441,8 +440,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     } else if (track && nav->coast < MFNS_NAV_MAX_COAST) {
         /* Coast: move the prior on by the predicted motion, keep the motion. */
         nav->coast++;
-        nav->prev = nav->prior;
-        nav->prior = nav->predicted;
+        mfns_acq_cv_advance(&nav->prior, &nav->prev, &nav->predicted);
         nav->prior_is_fix = false; /* have_prev stays: the coast keeps the motion */
         out->coasting = nav->coast;
     } else {
