@@ -41,23 +41,28 @@ static bool verified(const mfns_pose_solution_t *s)
     return usable(s) && s->reason != MFNS_POSE_R_MINIMAL && s->beacons_used >= MFNS_ACQ_MIN_BLOBS;
 }
 
-/* Constant-velocity prediction of the next frame's pose: the motion from prev
- * to pose once more (the navigator's model, nav_cycle.c); pose itself
- * without a motion or when the product is no rotation. */
-static mfns_pose_t cv_predict(const mfns_acq_catchup_t *cu)
+void mfns_acq_predict_cv(const mfns_pose_t *pose, const mfns_pose_t *prev, bool have_prev, mfns_pose_t *pred)
 {
-    if (!cu->have_prev) {
-        return cu->pose;
+    if (have_prev) {
+        mfns_m3_t c;
+        mfns_m3_transpose_at(&prev->C_w_b, &c);
+        mfns_m3_mul_at(&pose->C_w_b, &c, &c); /* dc */
+        mfns_m3_mul_at(&c, &pose->C_w_b, &c);
+        if (mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) { /* never predict with a non-rotation */
+            const mfns_v3_t p1 = mfns_pose_position_w(pose), p0 = mfns_pose_position_w(prev);
+            *pred = mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
+            return;
+        }
     }
-    mfns_m3_t c;
-    mfns_m3_transpose_at(&cu->prev.C_w_b, &c);
-    mfns_m3_mul_at(&cu->pose.C_w_b, &c, &c); /* dc */
-    mfns_m3_mul_at(&c, &cu->pose.C_w_b, &c);
-    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
-        return cu->pose;
-    }
-    const mfns_v3_t p1 = mfns_pose_position_w(&cu->pose), p0 = mfns_pose_position_w(&cu->prev);
-    return mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
+    *pred = *pose;
+}
+
+/* out of line on a size build: four calls, each two 48-byte copies inline */
+MFNS_OUT_OF_LINE
+void mfns_acq_cv_advance(mfns_pose_t *pose, mfns_pose_t *prev, const mfns_pose_t *next)
+{
+    *prev = *pose;
+    *pose = *next;
 }
 
 typedef enum {
@@ -93,7 +98,8 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         *used += MFNS_ACQ_CATCHUP_STEP_UNITS;
         const uint32_t next = cu->seq + 1u;
         const mfns_obs_frame_t *f = mfns_blob_ring_get(&ac->ring, next);
-        const mfns_pose_t pred = cv_predict(cu);
+        mfns_pose_t pred;
+        mfns_acq_predict_cv(&cu->pose, &cu->prev, cu->have_prev, &pred);
         mfns_pose_solution_t s;
         mfns_pose_solution_clear(&s, MFNS_POSE_R_TOO_FEW);
         if (f != NULL) {
@@ -104,35 +110,29 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         cu->seq = next;
         cu->steps++;
         (*steps)++;
-        if (verified(&s)) {
-            cu->prev = cu->pose;
+        /* A verified frame carries the identification on; so does a
+         * three-beacon pose inside the gate, as it carries the navigator's
+         * track, but it verifies nothing. Only a pose verified on the current
+         * frame is the fix; the current frame unverified, the catch-up waits
+         * for the next one (never a fix from an unverified frame). */
+        const bool ok = verified(&s);
+        if (ok || (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL)) {
             cu->have_prev = cu->coast == 0u; /* a motion only between two verified frames */
-            cu->pose = s.pose;
             cu->coast = 0u;
-            if (next == now) {
+            mfns_acq_cv_advance(&cu->pose, &cu->prev, &s.pose);
+            if (ok && next == now) {
                 *out = s;
                 return CU_DONE;
             }
             continue;
         }
-        /* not verified. A three-beacon pose inside the gate carries the
-         * identification on, as it carries the navigator's track, but verifies
-         * nothing; any other frame is coasted over, at most
-         * MFNS_ACQ_CATCHUP_MAX_COAST in a row. The current frame unverified: the
-         * catch-up waits for the next one (never a fix from an unverified frame). */
-        if (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL) {
-            cu->prev = cu->pose;
-            cu->have_prev = cu->coast == 0u;
-            cu->pose = s.pose;
-            cu->coast = 0u;
-            continue;
-        }
+        /* any other frame is coasted over, at most MFNS_ACQ_CATCHUP_MAX_COAST
+         * in a row */
         cu->coast++;
         if (cu->coast > MFNS_ACQ_CATCHUP_MAX_COAST) {
             return CU_REFUSED;
         }
-        cu->prev = cu->pose; /* the coast keeps the motion (have_prev stays) */
-        cu->pose = pred;
+        mfns_acq_cv_advance(&cu->pose, &cu->prev, &pred); /* the coast keeps the motion (have_prev stays) */
     }
     return CU_GOING;
 }
@@ -198,25 +198,24 @@ mfns_pose_status_t mfns_acq_cycle_run(mfns_acq_cycle_t *ac, const mfns_rig_t *ri
                                                      MFNS_ACQ_SHARE_ONE_Q8)
                                         : left;
     mfns_acq_t *fresh = &ac->search[ac->fresh];
-    mfns_pose_solution_t fs;
     /* while a search is carried, this frame's own 4-blob completion waits:
-     * the carried one is further on (a still robot shows the same view) */
-    (void)mfns_acq_start(fresh, rig, map, idx, frame, cfg, share, ac->carrying, &fs); /* the status is in fs */
+     * the carried one is further on (a still robot shows the same view).
+     * Into out: the fix, or NO_FIX with the fresh search's reason unless a
+     * carried one bridges */
+    (void)mfns_acq_start(fresh, rig, map, idx, frame, cfg, share, ac->carrying, out); /* the status is in out */
     rep->progress = fresh->progress;
     used += fresh->progress.units;
-    if (usable(&fs)) {
+    if (usable(out)) {
         if (ac->carrying) {
             mfns_acq_reset(&ac->search[1u - ac->fresh]); /* no longer needed */
             ac->carrying = false;
         }
         ac->cu.active = false;
-        *out = fs;
         rep->source = MFNS_ACQ_SRC_FRESH;
         rep->catchup_pending = false;
         rep->progress.units = used;
         return out->status;
     }
-    *out = fs; /* NO_FIX with the fresh search's reason, unless a carried one bridges */
     /* 2. an unfinished fresh search is carried when none is */
     if (!ac->carrying && mfns_acq_pending(fresh)) {
         ac->fresh = (uint8_t)(1u - ac->fresh);

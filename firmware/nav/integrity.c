@@ -91,6 +91,18 @@ static void project_diag(const float g[6][6], const float m[6][6], float d[6])
     }
 }
 
+/* y = G x */
+static void map_vec(const float g[6][6], const float x[6], float y[6])
+{
+    for (int r = 0; r < 6; r++) {
+        float v = 0.0f;
+        for (int i = 0; i < 6; i++) {
+            v += g[r][i] * x[i];
+        }
+        y[r] = v;
+    }
+}
+
 /* The calibration term D Sigma_c D^T added to out (6x6), over the cameras
  * whose columns of D are not zero. */
 static void add_calib(const float d[6][MFNS_CALIB_PARAMS], const mfns_calib_cov_t *calib, float out[6][6])
@@ -260,6 +272,12 @@ static void ev_clear(mfns_integrity_eval_t *ev)
     ev->unmonitored.id = -1;
 }
 
+/* The largest of the three axes of a protection level (position or attitude). */
+static float max3(const float v[3])
+{
+    return fmaxf(v[0], fmaxf(v[1], v[2]));
+}
+
 /* The per-axis bound of one hypothesis into pl; its normalised separation
  * returned. var_ss, var_k: the projected diagonals. */
 static float test_axes(const float s[6], const float var_ss[6], const float var_k[6], const float off[6], float k_fa,
@@ -330,12 +348,9 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
      * its size on each axis is added to every bound. */
     float pl[6], var0[6], off[6];
     project_diag(w.g, p0f, var0);
+    map_vec(w.g, w.dx0, off);
     for (int j = 0; j < 6; j++) {
-        float v = 0.0f;
-        for (int i = 0; i < 6; i++) {
-            v += w.g[j][i] * w.dx0[i];
-        }
-        off[j] = fabsf(v);
+        off[j] = fabsf(off[j]);
         pl[j] = k_ff * sqrtf(fmaxf(var0[j], 0.0f)) + off[j];
     }
     float pl_b[6]; /* fault-free and beacon hypotheses only */
@@ -377,13 +392,7 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
         for (int i = 0; i < 6; i++) {
             ddx[i] = dxk[i] - w.dx0[i];
         }
-        for (int r = 0; r < 6; r++) {
-            float v = 0.0f;
-            for (int i = 0; i < 6; i++) {
-                v += w.g[r][i] * ddx[i];
-            }
-            s[r] = v;
-        }
+        map_vec(w.g, ddx, s);
         float var_ss[6], var_k[6];
         project_diag(w.g, pss, var_ss);
         project_diag(w.g, pkf, var_k);
@@ -401,10 +410,10 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
     for (int j = 0; j < 6; j++) {
         pl[j] = fmaxf(pl[j], pl_b[j]);
     }
-    ev->pl_pos_mm = fmaxf(pl[0], fmaxf(pl[1], pl[2]));
-    ev->pl_att_deg = fmaxf(pl[3], fmaxf(pl[4], pl[5])) * MFNS_DEG_PER_RAD_F;
-    ev->pl_beacon_pos_mm = fmaxf(pl_b[0], fmaxf(pl_b[1], pl_b[2]));
-    ev->pl_beacon_att_deg = fmaxf(pl_b[3], fmaxf(pl_b[4], pl_b[5])) * MFNS_DEG_PER_RAD_F;
+    ev->pl_pos_mm = max3(&pl[0]);
+    ev->pl_att_deg = max3(&pl[3]) * MFNS_DEG_PER_RAD_F;
+    ev->pl_beacon_pos_mm = max3(&pl_b[0]);
+    ev->pl_beacon_att_deg = max3(&pl_b[3]) * MFNS_DEG_PER_RAD_F;
     if (ev->unmonitorable_cameras > 0U) {
         ev->pl_pos_mm = INFINITY; /* no bound on a camera fault */
         ev->pl_att_deg = INFINITY;

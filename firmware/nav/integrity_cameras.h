@@ -89,6 +89,11 @@ typedef struct {
 
 void mfns_camera_watch_reset(mfns_camera_watch_t *w);
 
+/* Camera c has an observation in frame associated with a beacon and used as
+ * an inlier of sol (one test for the camera watch, the time-offset monitor
+ * and the navigation cycle). */
+bool mfns_camera_has_inlier(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, int c);
+
 /* One cycle. sol: the fix as output (after FDE: its assoc and inlier
  * marks); pose_known: sol's pose predicts well enough (a fix, or a pose
  * that carries the track), else nothing is counted; rep->state still says

@@ -277,17 +277,6 @@ static bool is_fix(const mfns_pose_solution_t *sol)
     return sol != NULL && (sol->status == MFNS_POSE_OK || sol->status == MFNS_POSE_DEGRADED);
 }
 
-/* Camera c has an inlier in sol. */
-static bool has_inlier(const mfns_pose_solution_t *sol, const mfns_obs_frame_t *frame, int c)
-{
-    for (int i = 0; i < frame->count[c] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
-        if (sol->inlier[c][i] != 0U && sol->assoc.beacon[c][i] != MFNS_POSE_NO_BEACON) {
-            return true;
-        }
-    }
-    return false;
-}
-
 /* The windows' sums into num, den (after this fix's entries). */
 static void window(mfns_integrity_memory_t *mem, const mfns_lag_eval_t *ev, float num[MFNS_NUM_CAMERAS],
                    float den[MFNS_NUM_CAMERAS], float var[MFNS_NUM_CAMERAS])
@@ -352,11 +341,11 @@ static bool reference_for(const mfns_integrity_memory_t *mem, const mfns_obs_fra
 static bool back_after_gap(const mfns_integrity_memory_t *mem, const mfns_pose_solution_t *sol,
                            const mfns_obs_frame_t *frame, int c)
 {
-    if (mem->camwatch.miss_run[c] < MFNS_INTEGRITY_LAG_OUTAGE || !has_inlier(sol, frame, c)) {
+    if (mem->camwatch.miss_run[c] < MFNS_INTEGRITY_LAG_OUTAGE || !mfns_camera_has_inlier(sol, frame, c)) {
         return false;
     }
     for (int o = 0; o < MFNS_NUM_CAMERAS; o++) {
-        if (o != c && mem->cam_lag[o] == 0U && has_inlier(sol, frame, o)) {
+        if (o != c && mem->cam_lag[o] == 0U && mfns_camera_has_inlier(sol, frame, o)) {
             return true;
         }
     }
@@ -381,7 +370,7 @@ static int update_holds(mfns_integrity_memory_t *mem, const mfns_pose_solution_t
              * lag before it is used again */
             mem->lag_verify[c] = MFNS_INTEGRITY_LAG_VERIFY;
             (void)mfns_integrity_hold_lagging(mem, c, 2U, set->hold_cycles);
-        } else if (!has_inlier(sol, frame, c)) {
+        } else if (!mfns_camera_has_inlier(sol, frame, c)) {
             if (mem->cam_lag[c] != 0U) {
                 mem->cam_hold[c] = set->hold_cycles; /* nothing to test it on: it stays out */
             }
@@ -469,7 +458,7 @@ int mfns_integrity_lag_cameras(const mfns_pose_solution_t *sol, const mfns_obs_f
     }
     int n = 0;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        n += has_inlier(sol, frame, c) ? 1 : 0;
+        n += mfns_camera_has_inlier(sol, frame, c) ? 1 : 0;
     }
     return n;
 }

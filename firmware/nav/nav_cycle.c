@@ -267,25 +267,6 @@ static void acquire(mfns_nav_t *nav, mfns_nav_output_t *out)
     out->acquired = true;
 }
 
-/* Constant-velocity prediction: apply the last cycle's motion once more.
- * dC = C_k C_{k-1}^T (world -> body increment), position extrapolated in the
- * world frame. */
-static mfns_pose_t predict(const mfns_nav_t *nav)
-{
-    if (!nav->have_prev) {
-        return nav->prior;
-    }
-    mfns_m3_t c;
-    mfns_m3_transpose_at(&nav->prev.C_w_b, &c);
-    mfns_m3_mul_at(&nav->prior.C_w_b, &c, &c); /* dc */
-    mfns_m3_mul_at(&c, &nav->prior.C_w_b, &c);
-    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
-        return nav->prior; /* never predict with a non-rotation */
-    }
-    const mfns_v3_t p1 = mfns_pose_position_w(&nav->prior), p0 = mfns_pose_position_w(&nav->prev);
-    return mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
-}
-
 static bool has_fix(const mfns_pose_solution_t *s)
 {
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
@@ -364,16 +345,6 @@ static void one_camera_contradicted(const mfns_nav_t *nav, const uint8_t solver_
     }
 }
 
-static bool camera_has_inlier(const mfns_pose_solution_t *s, const mfns_obs_frame_t *obs, int c)
-{
-    for (uint16_t i = 0; i < obs->count[c] && i < MFNS_MAX_OBS_PER_CAMERA; i++) {
-        if (s->assoc.beacon[c][i] != MFNS_POSE_NO_BEACON && s->inlier[c][i] != 0U) {
-            return true;
-        }
-    }
-    return false;
-}
-
 static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -395,7 +366,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
-        nav->predicted = predict(nav);
+        /* the last cycle's motion once more (the catch-up's model too) */
+        mfns_acq_predict_cv(&nav->prior, &nav->prev, nav->have_prev, &nav->predicted);
     }
     out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
     /* The one place of the policy: track from the prediction, else (or when
@@ -430,7 +402,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         lag_monitor(nav, out);
         uint8_t solver_inlier[MFNS_NUM_CAMERAS]; /* before FDE holds cameras out (integrity_cameras.h) */
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-            solver_inlier[c] = (uint8_t)(has_fix(&out->sol) && camera_has_inlier(&out->sol, &nav->obs, c) ? 1U : 0U);
+            solver_inlier[c] =
+                (uint8_t)(has_fix(&out->sol) && mfns_camera_has_inlier(&out->sol, &nav->obs, c) ? 1U : 0U);
         }
         (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
@@ -455,9 +428,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     }
     if (carries_track(&out->sol, !out->acquired)) {
         /* velocity only between two real fixes: never from a hint or a coast */
-        nav->prev = nav->prior;
         nav->have_prev = nav->have_prior && nav->prior_is_fix;
-        nav->prior = out->sol.pose;
+        mfns_acq_cv_advance(&nav->prior, &nav->prev, &out->sol.pose);
         nav->prior_is_fix = true;
         nav->have_prior = true;
         nav->coast = 0;
@@ -468,8 +440,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     } else if (track && nav->coast < MFNS_NAV_MAX_COAST) {
         /* Coast: move the prior on by the predicted motion, keep the motion. */
         nav->coast++;
-        nav->prev = nav->prior;
-        nav->prior = nav->predicted;
+        mfns_acq_cv_advance(&nav->prior, &nav->prev, &nav->predicted);
         nav->prior_is_fix = false; /* have_prev stays: the coast keeps the motion */
         out->coasting = nav->coast;
     } else {
