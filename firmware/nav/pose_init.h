@@ -30,7 +30,8 @@
 
 #define MFNS_GP3P_MAX_SOLUTIONS 8
 
-/* Returns the number of poses written to out (0..8). */
+/* Returns the number of poses written to out (0..8): out[0..n). The slot
+ * after them may have been written too (a duplicate is solved in place). */
 int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3], float min_range_mm,
               float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS]);
 
