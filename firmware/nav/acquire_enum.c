@@ -40,9 +40,7 @@ static bool band_plausible(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
     }
     const int tri[3] = {an->i, an->j, an->k};
     for (int t = 0; t < 3; t++) {
-        const int c = q->blobs[tri[t]].cam;
-        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3_at(&pose->C_w_b, q->rig->cam[c].r_bk_b));
-        if (!mfns_bidx_emits_toward(&q->idx->geom[abc[t]], q->map->beacon[abc[t]].p_w, ck)) {
+        if (!mfns_acq_faces(q, abc[t], mfns_acq_cam_centre_w(q, pose, q->blobs[tri[t]].cam))) {
             return false;
         }
     }
