@@ -63,12 +63,12 @@ static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b,
     q->progress.units++;
     q->progress.hypotheses++;
     const mfns_acq_blob_t *t[3] = {&q->blobs[an->i], &q->blobs[an->j], &q->blobs[an->k]};
-    const mfns_v3_t rc[3] = {t[0]->c, t[1]->c, t[2]->c};
-    const mfns_v3_t rd[3] = {t[0]->d, t[1]->d, t[2]->d};
-    const mfns_v3_t xw[3] = {q->map->beacon[a].p_w, q->map->beacon[b].p_w, q->map->beacon[c].p_w};
+    const mfns_v3_t *const rc[3] = {&t[0]->c, &t[1]->c, &t[2]->c};
+    const mfns_v3_t *const rd[3] = {&t[0]->d, &t[1]->d, &t[2]->d};
+    const mfns_v3_t *const xw[3] = {&q->map->beacon[a].p_w, &q->map->beacon[b].p_w, &q->map->beacon[c].p_w};
     const mfns_beacon_geom_t *gc = &q->idx->geom[c];
     mfns_pose_t sols[MFNS_GP3P_MAX_SOLUTIONS];
-    const int ns = mfns_gp3p(rc, rd, xw, gc->range_min_mm, gc->range_max_mm, sols);
+    const int ns = mfns_gp3p_at(rc, rd, xw, gc->range_min_mm, gc->range_max_mm, sols);
     const int abc[3] = {a, b, c};
     for (int s = 0; s < ns && !mfns_acq_stop(q); s++) {
         if (q->exhaustive) {

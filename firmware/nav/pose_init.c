@@ -477,6 +477,14 @@ static bool triad(const dv3_t p[3], const dv3_t x[3], mfns_pose_t *pose)
 int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3], float min_range_mm,
               float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS])
 {
+    const mfns_v3_t *const pc[3] = {&c[0], &c[1], &c[2]}, *const pd[3] = {&d[0], &d[1], &d[2]};
+    const mfns_v3_t *const px[3] = {&x_w[0], &x_w[1], &x_w[2]};
+    return mfns_gp3p_at(pc, pd, px, min_range_mm, max_range_mm, out);
+}
+
+int mfns_gp3p_at(const mfns_v3_t *const c[3], const mfns_v3_t *const d[3], const mfns_v3_t *const x_w[3],
+                 float min_range_mm, float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS])
+{
     if (!(max_range_mm > 0.0f) || !(min_range_mm >= 0.0f) || !(min_range_mm < max_range_mm)) {
         return 0;
     }
@@ -484,12 +492,12 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
     gp3p_t g;
     dv3_t cd[3], xd[3];
     for (int i = 0; i < 3; i++) {
-        g.d[i] = dv(d[i]);
+        g.d[i] = dv(*d[i]);
         if (!dnormalize(&g.d[i], &g.d[i])) {
             return 0;
         }
-        cd[i] = dv(c[i]);
-        xd[i] = dv(x_w[i]);
+        cd[i] = dv(*c[i]);
+        xd[i] = dv(*x_w[i]);
     }
     for (int k = 0; k < 3; k++) {
         const int i = PAIR[k][0], j = PAIR[k][1];
