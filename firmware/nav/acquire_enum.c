@@ -110,9 +110,9 @@ static resume_t resume_point(mfns_acq_t *q)
  * (angles i-j, i-k, j-k), within SHAPE_TOL (see there)? */
 static bool shape_matches(const mfns_acq_t *q, const float t[3], int a, int b, int c)
 {
-    const mfns_v3_t pa = q->map->beacon[a].p_w, pb = q->map->beacon[b].p_w, pc = q->map->beacon[c].p_w;
-    const float d[3] = {mfns_v3_norm(mfns_v3_sub(pa, pb)), mfns_v3_norm(mfns_v3_sub(pa, pc)),
-                        mfns_v3_norm(mfns_v3_sub(pb, pc))};
+    const mfns_beacon_t *bm = q->map->beacon;
+    const float d[3] = {mfns_v3_norm(mfns_v3_sub(bm[a].p_w, bm[b].p_w)), mfns_v3_norm(mfns_v3_sub(bm[a].p_w, bm[c].p_w)),
+                        mfns_v3_norm(mfns_v3_sub(bm[b].p_w, bm[c].p_w))};
     const float sd = d[0] + d[1] + d[2], st = t[0] + t[1] + t[2];
     if (!(sd > 0.0f) || !(st > 0.0f)) {
         return false;
@@ -134,14 +134,41 @@ static bool band_tries(const mfns_acq_t *q, mfns_acq_band_mode_t mode, const flo
     return rb >= mode.shape_done || rc >= mode.shape_done || !shape_matches(q, tri, a, b, c);
 }
 
+/* The measured angles of the anchor's pairs (i-j, i-k, j-k) and their
+ * parallax pads. */
+static void anchor_angles(const mfns_acq_t *q, const mfns_acq_anchor_t *an, float t[3], float pad[3])
+{
+    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
+    t[0] = mfns_acq_ray_angle(bi, bj);
+    t[1] = mfns_acq_ray_angle(bi, bk);
+    t[2] = mfns_acq_ray_angle(bj, bk);
+    pad[0] = mfns_acq_parallax_pad(bi, bj);
+    pad[1] = mfns_acq_parallax_pad(bi, bk);
+    pad[2] = mfns_acq_parallax_pad(bj, bk);
+}
+
+/* Every beacon c from c0 on that admits its angles to a and b (another
+ * camera's third blob, or the exhaustive enumeration): hypotheses (a, b, c)
+ * with the cursor's ranks (r1, c). */
+static void any_third(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b, int r1, int c0, const float t[3],
+                      const float pad[3])
+{
+    const mfns_beacon_index_t *ix = q->idx;
+    for (int c = c0; c < ix->count && !mfns_acq_stop(q); c++) {
+        if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, t[1], pad[1]) &&
+            mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, t[2], pad[2])) {
+            hypothesis(q, an, a, b, c, r1, c);
+        }
+    }
+}
+
 /* Band [w0, w1) of one anchor: hypotheses whose ranks (rb, rc) reach it. */
 void mfns_acq_band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1, mfns_acq_band_mode_t mode)
 {
     const mfns_beacon_index_t *ix = q->idx;
-    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
-    const float tij = mfns_acq_ray_angle(bi, bj), tik = mfns_acq_ray_angle(bi, bk), tjk = mfns_acq_ray_angle(bj, bk);
-    const float pik = mfns_acq_parallax_pad(bi, bk), pjk = mfns_acq_parallax_pad(bj, bk);
-    const float tri[3] = {tij, tik, tjk};
+    float tri[3], pad[3];
+    anchor_angles(q, an, tri, pad);
+    const float tij = tri[0], tik = tri[1], tjk = tri[2];
     resume_t rs = resume_point(q);
     for (int a = rs.a; a < ix->count && !mfns_acq_stop(q); a++) {
         const int na = ix->nbr_count[a];
@@ -153,14 +180,8 @@ void mfns_acq_band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1, m
                 continue;
             }
             if (an->cross) {
-                if (rb < w0) {
-                    continue;
-                }
-                for (int c = on_b ? rs.r2 : 0; c < ix->count && !mfns_acq_stop(q); c++) {
-                    if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
-                        mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
-                        hypothesis(q, an, a, b, c, rb, c);
-                    }
+                if (rb >= w0) {
+                    any_third(q, an, a, b, rb, on_b ? rs.r2 : 0, tri, pad);
                 }
                 continue;
             }
@@ -187,22 +208,15 @@ void mfns_acq_band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1, m
 void mfns_acq_exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an)
 {
     const mfns_beacon_index_t *ix = q->idx;
-    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
-    const float tij = mfns_acq_ray_angle(bi, bj), tik = mfns_acq_ray_angle(bi, bk), tjk = mfns_acq_ray_angle(bj, bk);
-    const float pij = mfns_acq_parallax_pad(bi, bj), pik = mfns_acq_parallax_pad(bi, bk), pjk = mfns_acq_parallax_pad(bj, bk);
+    float t[3], pad[3];
+    anchor_angles(q, an, t, pad);
     resume_t rs = resume_point(q);
     for (int a = rs.a; a < ix->count && !mfns_acq_stop(q); a++) {
         const bool on_a = rs.on && a == rs.a;
         for (int b = on_a ? rs.r1 : 0; b < ix->count && !mfns_acq_stop(q); b++) {
             const bool on_b = on_a && b == rs.r1;
-            if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, pij)) {
-                continue;
-            }
-            for (int c = on_b ? rs.r2 : 0; c < ix->count && !mfns_acq_stop(q); c++) {
-                if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
-                    mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
-                    hypothesis(q, an, a, b, c, b, c);
-                }
+            if (mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, t[0], pad[0])) {
+                any_third(q, an, a, b, b, on_b ? rs.r2 : 0, t, pad);
             }
         }
     }
