@@ -97,11 +97,11 @@ static int nearest_in_cam(const mfns_acq_t *q, int cam, int i, const int *excl, 
  * sphere (to first order), the largest pair angle its longest side. */
 bool mfns_acq_flat_triangle(const mfns_acq_t *q, int i, int j, int k)
 {
-    const mfns_v3_t di = q->blobs[i].d, dj = q->blobs[j].d, dk = q->blobs[k].d;
-    const float area2 = fabsf(mfns_v3_dot(di, mfns_v3_cross(dj, dk)));
-    float l = mfns_acq_ray_angle(&q->blobs[i], &q->blobs[j]);
-    const float l2 = mfns_acq_ray_angle(&q->blobs[i], &q->blobs[k]);
-    const float l3 = mfns_acq_ray_angle(&q->blobs[j], &q->blobs[k]);
+    const mfns_acq_blob_t *bi = &q->blobs[i], *bj = &q->blobs[j], *bk = &q->blobs[k];
+    const float area2 = fabsf(mfns_v3_dot(bi->d, mfns_v3_cross(bj->d, bk->d)));
+    float l = mfns_acq_ray_angle(bi, bj);
+    const float l2 = mfns_acq_ray_angle(bi, bk);
+    const float l3 = mfns_acq_ray_angle(bj, bk);
     l = l2 > l ? l2 : l;
     l = l3 > l ? l3 : l;
     return !(area2 > FLAT_TRIANGLE_RATIO * l * l);
@@ -132,21 +132,23 @@ static int third_in_cam(const mfns_acq_t *q, int cam, int i, int j)
 void mfns_acq_make_anchors(mfns_acq_t *q)
 {
     /* the pairs: each blob with its nearest in the same image, nearest first */
-    int16_t pi[MFNS_ACQ_MAX_ANCHORS], pj[MFNS_ACQ_MAX_ANCHORS];
-    float ang[MFNS_ACQ_MAX_ANCHORS];
+    struct {
+        int16_t i, j; /* the blobs */
+        float ang;    /* their angle (rad) */
+    } pair[MFNS_ACQ_MAX_ANCHORS];
     int np = 0;
     for (int i = 0; i < q->nb; i++) {
         const int j = nearest_in_cam(q, q->blobs[i].cam, i, NULL, 0);
         bool dup = j < 0;
         for (int a = 0; a < np && !dup; a++) {
-            dup = pi[a] == j && pj[a] == i;
+            dup = pair[a].i == j && pair[a].j == i;
         }
         if (dup) {
             continue;
         }
         const float t = mfns_acq_ray_angle(&q->blobs[i], &q->blobs[j]);
         int pos = np;
-        while (pos > 0 && ang[pos - 1] > t) {
+        while (pos > 0 && pair[pos - 1].ang > t) {
             pos--;
         }
         if (pos >= MFNS_ACQ_MAX_ANCHORS) {
@@ -154,13 +156,11 @@ void mfns_acq_make_anchors(mfns_acq_t *q)
         }
         const int last = np < MFNS_ACQ_MAX_ANCHORS ? np : MFNS_ACQ_MAX_ANCHORS - 1;
         for (int m = last; m > pos; m--) {
-            pi[m] = pi[m - 1];
-            pj[m] = pj[m - 1];
-            ang[m] = ang[m - 1];
+            pair[m] = pair[m - 1];
         }
-        pi[pos] = (int16_t)i;
-        pj[pos] = (int16_t)j;
-        ang[pos] = t;
+        pair[pos].i = (int16_t)i;
+        pair[pos].j = (int16_t)j;
+        pair[pos].ang = t;
         np = np < MFNS_ACQ_MAX_ANCHORS ? np + 1 : np;
     }
     /* each pair with its third blob: the next nearest in its image (first,
@@ -174,8 +174,8 @@ void mfns_acq_make_anchors(mfns_acq_t *q)
     q->na = 0;
     for (int pass = 0; pass < 2; pass++) {
         for (int a = 0; a < np && q->na < MFNS_ACQ_MAX_ANCHORS; a++) {
-            const int cam = q->blobs[pi[a]].cam;
-            const int k = third_in_cam(q, cam, pi[a], pj[a]);
+            const int cam = q->blobs[pair[a].i].cam;
+            const int k = third_in_cam(q, cam, pair[a].i, pair[a].j);
             if ((pass == 0) != (k >= 0)) {
                 continue;
             }
@@ -202,8 +202,8 @@ void mfns_acq_make_anchors(mfns_acq_t *q)
             for (int t = 0; t < nt && q->na < MFNS_ACQ_MAX_ANCHORS; t++) {
                 const int kk = third[t];
                 mfns_acq_anchor_t *an = &q->anchor[q->na++];
-                an->i = pi[a];
-                an->j = pj[a];
+                an->i = pair[a].i;
+                an->j = pair[a].j;
                 an->k = (int16_t)kk;
                 an->cross = k < 0;
                 int ex2[3] = {an->j, kk, -1};

@@ -183,8 +183,7 @@ void mfns_acq_sound_verify(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
             cd.sol.assoc.beacon[m[t].cam][m[t].idx] = m[t].beacon;
             m[t].active = 1;
         }
-        if (mfns_pose_refine_meas(q->rig, m, 4, pose, q->cfg, &cd.sol) == MFNS_POSE_NO_FIX ||
-            cd.sol.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &cd.sol) || !mfns_acq_physical(q, &cd.sol)) {
+        if (!mfns_acq_solve_checked(q, m, 4, pose, MFNS_ACQ_MIN_BLOBS, &cd.sol)) {
             continue;
         }
         if (q->skip >= 0) {

@@ -40,9 +40,7 @@ static bool band_plausible(mfns_acq_t *q, const mfns_pose_t *pose, const mfns_ac
     }
     const int tri[3] = {an->i, an->j, an->k};
     for (int t = 0; t < 3; t++) {
-        const int c = q->blobs[tri[t]].cam;
-        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3_at(&pose->C_w_b, q->rig->cam[c].r_bk_b));
-        if (!mfns_bidx_emits_toward(&q->idx->geom[abc[t]], q->map->beacon[abc[t]].p_w, ck)) {
+        if (!mfns_acq_faces(q, abc[t], mfns_acq_cam_centre_w(q, pose, q->blobs[tri[t]].cam))) {
             return false;
         }
     }
@@ -65,12 +63,12 @@ static void hypothesis(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b,
     q->progress.units++;
     q->progress.hypotheses++;
     const mfns_acq_blob_t *t[3] = {&q->blobs[an->i], &q->blobs[an->j], &q->blobs[an->k]};
-    const mfns_v3_t rc[3] = {t[0]->c, t[1]->c, t[2]->c};
-    const mfns_v3_t rd[3] = {t[0]->d, t[1]->d, t[2]->d};
-    const mfns_v3_t xw[3] = {q->map->beacon[a].p_w, q->map->beacon[b].p_w, q->map->beacon[c].p_w};
+    const mfns_v3_t *const rc[3] = {&t[0]->c, &t[1]->c, &t[2]->c};
+    const mfns_v3_t *const rd[3] = {&t[0]->d, &t[1]->d, &t[2]->d};
+    const mfns_v3_t *const xw[3] = {&q->map->beacon[a].p_w, &q->map->beacon[b].p_w, &q->map->beacon[c].p_w};
     const mfns_beacon_geom_t *gc = &q->idx->geom[c];
     mfns_pose_t sols[MFNS_GP3P_MAX_SOLUTIONS];
-    const int ns = mfns_gp3p(rc, rd, xw, gc->range_min_mm, gc->range_max_mm, sols);
+    const int ns = mfns_gp3p_at(rc, rd, xw, gc->range_min_mm, gc->range_max_mm, sols);
     const int abc[3] = {a, b, c};
     for (int s = 0; s < ns && !mfns_acq_stop(q); s++) {
         if (q->exhaustive) {
@@ -112,9 +110,9 @@ static resume_t resume_point(mfns_acq_t *q)
  * (angles i-j, i-k, j-k), within SHAPE_TOL (see there)? */
 static bool shape_matches(const mfns_acq_t *q, const float t[3], int a, int b, int c)
 {
-    const mfns_v3_t pa = q->map->beacon[a].p_w, pb = q->map->beacon[b].p_w, pc = q->map->beacon[c].p_w;
-    const float d[3] = {mfns_v3_norm(mfns_v3_sub(pa, pb)), mfns_v3_norm(mfns_v3_sub(pa, pc)),
-                        mfns_v3_norm(mfns_v3_sub(pb, pc))};
+    const mfns_beacon_t *bm = q->map->beacon;
+    const float d[3] = {mfns_v3_norm(mfns_v3_sub(bm[a].p_w, bm[b].p_w)), mfns_v3_norm(mfns_v3_sub(bm[a].p_w, bm[c].p_w)),
+                        mfns_v3_norm(mfns_v3_sub(bm[b].p_w, bm[c].p_w))};
     const float sd = d[0] + d[1] + d[2], st = t[0] + t[1] + t[2];
     if (!(sd > 0.0f) || !(st > 0.0f)) {
         return false;
@@ -136,14 +134,41 @@ static bool band_tries(const mfns_acq_t *q, mfns_acq_band_mode_t mode, const flo
     return rb >= mode.shape_done || rc >= mode.shape_done || !shape_matches(q, tri, a, b, c);
 }
 
+/* The measured angles of the anchor's pairs (i-j, i-k, j-k) and their
+ * parallax pads. */
+static void anchor_angles(const mfns_acq_t *q, const mfns_acq_anchor_t *an, float t[3], float pad[3])
+{
+    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
+    t[0] = mfns_acq_ray_angle(bi, bj);
+    t[1] = mfns_acq_ray_angle(bi, bk);
+    t[2] = mfns_acq_ray_angle(bj, bk);
+    pad[0] = mfns_acq_parallax_pad(bi, bj);
+    pad[1] = mfns_acq_parallax_pad(bi, bk);
+    pad[2] = mfns_acq_parallax_pad(bj, bk);
+}
+
+/* Every beacon c from c0 on that admits its angles to a and b (another
+ * camera's third blob, or the exhaustive enumeration): hypotheses (a, b, c)
+ * with the cursor's ranks (r1, c). */
+static void any_third(mfns_acq_t *q, const mfns_acq_anchor_t *an, int a, int b, int r1, int c0, const float t[3],
+                      const float pad[3])
+{
+    const mfns_beacon_index_t *ix = q->idx;
+    for (int c = c0; c < ix->count && !mfns_acq_stop(q); c++) {
+        if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, t[1], pad[1]) &&
+            mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, t[2], pad[2])) {
+            hypothesis(q, an, a, b, c, r1, c);
+        }
+    }
+}
+
 /* Band [w0, w1) of one anchor: hypotheses whose ranks (rb, rc) reach it. */
 void mfns_acq_band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1, mfns_acq_band_mode_t mode)
 {
     const mfns_beacon_index_t *ix = q->idx;
-    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
-    const float tij = mfns_acq_ray_angle(bi, bj), tik = mfns_acq_ray_angle(bi, bk), tjk = mfns_acq_ray_angle(bj, bk);
-    const float pik = mfns_acq_parallax_pad(bi, bk), pjk = mfns_acq_parallax_pad(bj, bk);
-    const float tri[3] = {tij, tik, tjk};
+    float tri[3], pad[3];
+    anchor_angles(q, an, tri, pad);
+    const float tij = tri[0], tik = tri[1], tjk = tri[2];
     resume_t rs = resume_point(q);
     for (int a = rs.a; a < ix->count && !mfns_acq_stop(q); a++) {
         const int na = ix->nbr_count[a];
@@ -155,14 +180,8 @@ void mfns_acq_band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1, m
                 continue;
             }
             if (an->cross) {
-                if (rb < w0) {
-                    continue;
-                }
-                for (int c = on_b ? rs.r2 : 0; c < ix->count && !mfns_acq_stop(q); c++) {
-                    if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
-                        mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
-                        hypothesis(q, an, a, b, c, rb, c);
-                    }
+                if (rb >= w0) {
+                    any_third(q, an, a, b, rb, on_b ? rs.r2 : 0, tri, pad);
                 }
                 continue;
             }
@@ -189,22 +208,15 @@ void mfns_acq_band(mfns_acq_t *q, const mfns_acq_anchor_t *an, int w0, int w1, m
 void mfns_acq_exhaust(mfns_acq_t *q, const mfns_acq_anchor_t *an)
 {
     const mfns_beacon_index_t *ix = q->idx;
-    const mfns_acq_blob_t *bi = &q->blobs[an->i], *bj = &q->blobs[an->j], *bk = &q->blobs[an->k];
-    const float tij = mfns_acq_ray_angle(bi, bj), tik = mfns_acq_ray_angle(bi, bk), tjk = mfns_acq_ray_angle(bj, bk);
-    const float pij = mfns_acq_parallax_pad(bi, bj), pik = mfns_acq_parallax_pad(bi, bk), pjk = mfns_acq_parallax_pad(bj, bk);
+    float t[3], pad[3];
+    anchor_angles(q, an, t, pad);
     resume_t rs = resume_point(q);
     for (int a = rs.a; a < ix->count && !mfns_acq_stop(q); a++) {
         const bool on_a = rs.on && a == rs.a;
         for (int b = on_a ? rs.r1 : 0; b < ix->count && !mfns_acq_stop(q); b++) {
             const bool on_b = on_a && b == rs.r1;
-            if (!mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, tij, pij)) {
-                continue;
-            }
-            for (int c = on_b ? rs.r2 : 0; c < ix->count && !mfns_acq_stop(q); c++) {
-                if (c != a && c != b && mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)c, tik, pik) &&
-                    mfns_bidx_pair_admits(ix, (uint32_t)b, (uint32_t)c, tjk, pjk)) {
-                    hypothesis(q, an, a, b, c, b, c);
-                }
+            if (mfns_bidx_pair_admits(ix, (uint32_t)a, (uint32_t)b, t[0], pad[0])) {
+                any_third(q, an, a, b, b, on_b ? rs.r2 : 0, t, pad);
             }
         }
     }

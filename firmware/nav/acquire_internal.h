@@ -79,12 +79,21 @@ bool mfns_acq_flat_triangle(const mfns_acq_t *q, int i, int j, int k);
 void mfns_acq_make_anchors(mfns_acq_t *q);
 
 /* acquire_verify.c */
+/* The centre of camera c in the world at pose (body origin + C_w_b^T r_bk_b). */
+mfns_v3_t mfns_acq_cam_centre_w(const mfns_acq_t *q, const mfns_pose_t *pose, int c);
+/* Does beacon b's LED face the point p_w (its emission cone, mfns_bidx_emits_toward)? */
+bool mfns_acq_faces(const mfns_acq_t *q, int b, mfns_v3_t p_w);
 /* The inliers' residuals are plausible under the noise (chi-square). */
 bool mfns_acq_chi2_consistent(const mfns_acq_t *q, const mfns_pose_solution_t *sol);
 /* Beacons predicted in an image, facing the camera, that no inlier explains. */
 int mfns_acq_count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol);
 /* The pose is one the rig can physically have (workspace, LEDs facing). */
 bool mfns_acq_physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol);
+/* Refine from pose on the n measurements m (n < 0: none) into sol: true
+ * when the solve uses at least min_used beacons and is consistent and
+ * physical (the test of every re-solve of a candidate). */
+bool mfns_acq_solve_checked(mfns_acq_t *q, mfns_pose_meas_t *m, int n, const mfns_pose_t *pose, uint32_t min_used,
+                            mfns_pose_solution_t *sol);
 /* Keep a candidate (unless its correspondence is already kept) and update
  * the best, the certified one and the completion's flags. */
 void mfns_acq_add_candidate(mfns_acq_t *q, const mfns_acq_cand_t *cd);

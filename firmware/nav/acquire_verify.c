@@ -125,12 +125,28 @@ static bool without_worst(mfns_acq_t *q, mfns_acq_cand_t *cd, mfns_pose_meas_t m
         }
     }
     const int n = mfns_pose_gather(q->map, q->frame, &s2.assoc, m);
-    if (n < 0 || mfns_pose_refine_meas(q->rig, m, n, &cd->sol.pose, q->cfg, &s2) == MFNS_POSE_NO_FIX ||
-        s2.beacons_used < MFNS_ACQ_MIN_BLOBS || !mfns_acq_chi2_consistent(q, &s2) || !mfns_acq_physical(q, &s2)) {
+    if (!mfns_acq_solve_checked(q, m, n, &cd->sol.pose, MFNS_ACQ_MIN_BLOBS, &s2)) {
         return false;
     }
     cd->sol = s2;
     return true;
+}
+
+bool mfns_acq_solve_checked(mfns_acq_t *q, mfns_pose_meas_t *m, int n, const mfns_pose_t *pose, uint32_t min_used,
+                            mfns_pose_solution_t *sol)
+{
+    return n >= 0 && mfns_pose_refine_meas(q->rig, m, n, pose, q->cfg, sol) != MFNS_POSE_NO_FIX &&
+           sol->beacons_used >= min_used && mfns_acq_chi2_consistent(q, sol) && mfns_acq_physical(q, sol);
+}
+
+mfns_v3_t mfns_acq_cam_centre_w(const mfns_acq_t *q, const mfns_pose_t *pose, int c)
+{
+    return mfns_v3_add(mfns_pose_position_w(pose), mfns_m3_tmul_v3_at(&pose->C_w_b, q->rig->cam[c].r_bk_b));
+}
+
+bool mfns_acq_faces(const mfns_acq_t *q, int b, mfns_v3_t p_w)
+{
+    return mfns_bidx_emits_toward(&q->idx->geom[b], q->map->beacon[b].p_w, p_w);
 }
 
 /* Beacons predicted inside an image (away from its border), in front of the
@@ -152,7 +168,7 @@ int mfns_acq_count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
     mfns_v3_t ck[MFNS_NUM_CAMERAS];
     bool looks[MFNS_NUM_CAMERAS];
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        ck[c] = mfns_v3_add(mfns_pose_position_w(&sol->pose), mfns_m3_tmul_v3_at(&sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        ck[c] = mfns_acq_cam_centre_w(q, &sol->pose, c);
         looks[c] = q->frame->count[c] < MFNS_MAX_OBS_PER_CAMERA && q->frame->dark[c] == 0U;
     }
     int missing = 0;
@@ -165,8 +181,7 @@ int mfns_acq_count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
                 continue;
             }
             if (uv[0] < m - 0.5f || uv[1] < m - 0.5f || uv[0] > (float)cam->k.width - 0.5f - m ||
-                uv[1] > (float)cam->k.height - 0.5f - m ||
-                !mfns_bidx_emits_toward(&q->idx->geom[b], map->beacon[b].p_w, ck[c])) {
+                uv[1] > (float)cam->k.height - 0.5f - m || !mfns_acq_faces(q, b, ck[c])) {
                 continue;
             }
             missing++;
@@ -198,11 +213,10 @@ bool mfns_acq_physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
         }
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        const mfns_v3_t ck = mfns_v3_add(p, mfns_m3_tmul_v3_at(&sol->pose.C_w_b, q->rig->cam[c].r_bk_b));
+        const mfns_v3_t ck = mfns_acq_cam_centre_w(q, &sol->pose, c);
         for (int i = 0; i < q->frame->count[c]; i++) {
             const int16_t b = sol->assoc.beacon[c][i];
-            if (b >= 0 && b < q->map->count && sol->inlier[c][i] &&
-                !mfns_bidx_emits_toward(&q->idx->geom[b], q->map->beacon[b].p_w, ck)) {
+            if (b >= 0 && b < q->map->count && sol->inlier[c][i] && !mfns_acq_faces(q, b, ck)) {
                 return false;
             }
         }
@@ -415,8 +429,7 @@ void mfns_acq_extend(mfns_acq_t *q, mfns_acq_cand_t *cd, mfns_pose_meas_t m[MFNS
         memset(&s2, 0, sizeof s2);
         s2.assoc = again;
         const int n2 = mfns_pose_gather(q->map, q->frame, &again, m);
-        if (n2 >= 0 && mfns_pose_refine_meas(q->rig, m, n2, &cd->sol.pose, q->cfg, &s2) != MFNS_POSE_NO_FIX &&
-            s2.beacons_used > cd->sol.beacons_used && mfns_acq_chi2_consistent(q, &s2) && mfns_acq_physical(q, &s2)) {
+        if (mfns_acq_solve_checked(q, m, n2, &cd->sol.pose, cd->sol.beacons_used + 1u, &s2)) {
             cd->sol = s2;
         }
     }

@@ -12,6 +12,7 @@
 #include <math.h>
 #include <stddef.h>
 
+#include "core_inline.h"
 #include "rotation.h"
 
 #define PD 9          /* coefficients of a polynomial of degree <= 8 */
@@ -31,13 +32,15 @@ static dv3_t dv(mfns_v3_t a) { return (dv3_t){(double)a.x, (double)a.y, (double)
 static dv3_t dsub(const dv3_t *a, const dv3_t *b) { return (dv3_t){a->x - b->x, a->y - b->y, a->z - b->z}; }
 static dv3_t dadd(const dv3_t *a, const dv3_t *b) { return (dv3_t){a->x + b->x, a->y + b->y, a->z + b->z}; }
 static dv3_t dscale(const dv3_t *a, double s) { return (dv3_t){a->x * s, a->y * s, a->z * s}; }
-/* (a - b) s */
+/* (a - b) s; out of line on a build for size (LTO would copy it into both
+ * sites of the pair loop of mfns_gp3p: 64 B, docs/budgets.md) */
+MFNS_OUT_OF_LINE
 static dv3_t dsub_scaled(const dv3_t *a, const dv3_t *b, double s)
 {
     const dv3_t d = dsub(a, b);
     return dscale(&d, s);
 }
-/* a . b, by address: 32 calls, and a call by value (or an inlined copy)
+/* a . b, by address: a call by value (or an inlined copy)
  * loads both vectors first; -208 B on the Cortex-M7 (docs/budgets.md) */
 static double ddot(const dv3_t *a, const dv3_t *b)
 {
@@ -47,13 +50,14 @@ static dv3_t dcross(dv3_t a, dv3_t b)
 {
     return (dv3_t){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-static bool dnormalize(dv3_t a, dv3_t *out)
+/* a / |a| into out (which may be a) */
+static bool dnormalize(const dv3_t *a, dv3_t *out)
 {
-    const double n = sqrt(ddot(&a, &a));
+    const double n = sqrt(ddot(a, a));
     if (!(n > 1e-300)) {
         return false;
     }
-    *out = dscale(&a, 1.0 / n);
+    *out = dscale(a, 1.0 / n);
     return true;
 }
 
@@ -297,31 +301,46 @@ void mfns_pose_ray(const mfns_camera_t *cam, float x, float y, mfns_v3_t *origin
     }
 }
 
+/* The rays of the three distance equations, in order: 12, 13, 23. */
+static const int PAIR[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+
+/* The distance equation of rays i < j, |e + l_i d_i - l_j d_j|^2 = dd with
+ * e = c_i - c_j, and its products (computed once per solve: the elimination
+ * and the back-substitution both need them). */
 typedef struct {
-    dv3_t e12, e13, e23; /* c_i - c_j, scaled */
+    dv3_t e;   /* c_i - c_j, scaled */
+    double dd; /* squared beacon distance, scaled */
+    double k;  /* d_i . d_j */
+    double die, dje, ee; /* d_i . e, d_j . e, e . e */
+} pair_eq_t;
+
+typedef struct {
     dv3_t d[3];
-    double dd12, dd13, dd23;  /* squared beacon distances, scaled */
+    pair_eq_t eq[3]; /* PAIR order */
 } gp3p_t;
+
+/* The equation as a monic quadratic in l_i at l_j:
+ * l_i^2 + b l_i + c with b = 2 d_i.e - 2 k l_j, c = l_j^2 - 2 d_j.e l_j + e.e - dd. */
+static void monic_at(const pair_eq_t *q, double lj, double *b, double *c)
+{
+    *b = 2.0 * q->die - 2.0 * q->k * lj;
+    *c = lj * lj - 2.0 * q->dje * lj + q->ee - q->dd;
+}
 
 /* The three distance equations at depths l, and their Jacobian. */
 static void dist_eqs(const gp3p_t *g, const double l[3], double f[3], double jac[3][3])
 {
-    const dv3_t s0 = dscale(&g->d[0], l[0]), s1 = dscale(&g->d[1], l[1]), s2 = dscale(&g->d[2], l[2]);
-    const dv3_t t12 = dsub(&s0, &s1), t13 = dsub(&s0, &s2), t23 = dsub(&s1, &s2);
-    const dv3_t v12 = dadd(&g->e12, &t12), v13 = dadd(&g->e13, &t13), v23 = dadd(&g->e23, &t23);
-    f[0] = ddot(&v12, &v12) - g->dd12;
-    f[1] = ddot(&v13, &v13) - g->dd13;
-    f[2] = ddot(&v23, &v23) - g->dd23;
-    if (jac != NULL) {
-        jac[0][0] = 2.0 * ddot(&v12, &g->d[0]);
-        jac[0][1] = -2.0 * ddot(&v12, &g->d[1]);
-        jac[0][2] = 0.0;
-        jac[1][0] = 2.0 * ddot(&v13, &g->d[0]);
-        jac[1][1] = 0.0;
-        jac[1][2] = -2.0 * ddot(&v13, &g->d[2]);
-        jac[2][0] = 0.0;
-        jac[2][1] = 2.0 * ddot(&v23, &g->d[1]);
-        jac[2][2] = -2.0 * ddot(&v23, &g->d[2]);
+    for (int k = 0; k < 3; k++) {
+        const int i = PAIR[k][0], j = PAIR[k][1];
+        const dv3_t si = dscale(&g->d[i], l[i]), sj = dscale(&g->d[j], l[j]);
+        const dv3_t t = dsub(&si, &sj);
+        const dv3_t v = dadd(&g->eq[k].e, &t);
+        f[k] = ddot(&v, &v) - g->eq[k].dd;
+        if (jac != NULL) {
+            jac[k][i] = 2.0 * ddot(&v, &g->d[i]);
+            jac[k][j] = -2.0 * ddot(&v, &g->d[j]);
+            jac[k][3 - i - j] = 0.0; /* the third ray's depth is not in it */
+        }
     }
 }
 
@@ -341,6 +360,13 @@ static int quad_roots(double b, double c, double r[2])
 
 static double fnorm(const double f[3]) { return fmax(fabs(f[0]), fmax(fabs(f[1]), fabs(f[2]))); }
 
+/* det m, expanded along the first row (the Jacobian's and Cramer's rule's) */
+static double det3(const double m[3][3])
+{
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
 static void polish(const gp3p_t *g, double l[3])
 {
     for (int it = 0; it < POLISH; it++) {
@@ -349,9 +375,7 @@ static void polish(const gp3p_t *g, double l[3])
         if (fnorm(f) < 1e-15) {
             return;
         }
-        const double det = j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1]) -
-                          j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0]) +
-                          j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0]);
+        const double det = det3(j);
         if (!(fabs(det) > 1e-12)) {
             return;
         }
@@ -364,10 +388,7 @@ static void polish(const gp3p_t *g, double l[3])
                     m[r][c] = (c == k) ? -f[r] : j[r][c];
                 }
             }
-            dl[k] = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])) /
-                    det;
+            dl[k] = det3(m) / det;
         }
         l[0] += dl[0];
         l[1] += dl[1];
@@ -379,17 +400,16 @@ static void polish(const gp3p_t *g, double l[3])
  * conditioned, otherwise by trying the quadratics' roots. */
 static void back_substitute(const gp3p_t *g, const poly_t *pa, const poly_t *pb, double l3, double l[3])
 {
-    const double k12 = ddot(&g->d[0], &g->d[1]), k13 = ddot(&g->d[0], &g->d[2]);
     const double a = peval(pa, l3), b = peval(pb, l3);
     l[2] = l3;
     double best = INFINITY;
     if (fabs(a) > 1e-6) {
         const double l2 = -b / a;
         /* lambda1 from the difference of eq12 and eq13 (both monic in lambda1) */
-        const double pr = (2.0 * ddot(&g->d[0], &g->e12) - 2.0 * k12 * l2) -
-                         (2.0 * ddot(&g->d[0], &g->e13) - 2.0 * k13 * l3);
-        const double qs = (l2 * l2 - 2.0 * ddot(&g->d[1], &g->e12) * l2 + ddot(&g->e12, &g->e12) - g->dd12) -
-                         (l3 * l3 - 2.0 * ddot(&g->d[2], &g->e13) * l3 + ddot(&g->e13, &g->e13) - g->dd13);
+        double b12, c12, b13, c13;
+        monic_at(&g->eq[0], l2, &b12, &c12);
+        monic_at(&g->eq[1], l3, &b13, &c13);
+        const double pr = b12 - b13, qs = c12 - c13;
         if (fabs(pr) > 1e-6) {
             l[0] = -qs / pr;
             l[1] = l2;
@@ -402,17 +422,13 @@ static void back_substitute(const gp3p_t *g, const poly_t *pa, const poly_t *pb,
         return;
     }
     /* fallback: eq23 gives lambda2, eq12 lambda1, keep the pair that fits eq13 */
-    const double k23 = ddot(&g->d[1], &g->d[2]);
-    double r2[2];
-    const int n2 = quad_roots(2.0 * ddot(&g->d[1], &g->e23) - 2.0 * k23 * l3,
-                              l3 * l3 - 2.0 * ddot(&g->d[2], &g->e23) * l3 + ddot(&g->e23, &g->e23) - g->dd23,
-                              r2);
+    double r2[2], b23, c23;
+    monic_at(&g->eq[2], l3, &b23, &c23);
+    const int n2 = quad_roots(b23, c23, r2);
     for (int i = 0; i < n2; i++) {
-        double r1[2];
-        const int n1 = quad_roots(2.0 * ddot(&g->d[0], &g->e12) - 2.0 * k12 * r2[i],
-                                  r2[i] * r2[i] - 2.0 * ddot(&g->d[1], &g->e12) * r2[i] +
-                                      ddot(&g->e12, &g->e12) - g->dd12,
-                                  r1);
+        double r1[2], b12, c12;
+        monic_at(&g->eq[0], r2[i], &b12, &c12);
+        const int n1 = quad_roots(b12, c12, r1);
         for (int j = 0; j < n1; j++) {
             const double t[3] = {r1[j], r2[i], l3};
             double f[3];
@@ -429,11 +445,12 @@ static void back_substitute(const gp3p_t *g, const poly_t *pa, const poly_t *pb,
 /* Rotation taking the triad of three world points onto that of the body points. */
 static bool triad(const dv3_t p[3], const dv3_t x[3], mfns_pose_t *pose)
 {
-    dv3_t e1, e3, f1, f3;
-    if (!dnormalize(dsub(&x[1], &x[0]), &e1) ||
-        !dnormalize(dcross(e1, dsub(&x[2], &x[0])), &e3) ||
-        !dnormalize(dsub(&p[1], &p[0]), &f1) ||
-        !dnormalize(dcross(f1, dsub(&p[2], &p[0])), &f3)) {
+    dv3_t e1 = dsub(&x[1], &x[0]), f1 = dsub(&p[1], &p[0]);
+    if (!dnormalize(&e1, &e1) || !dnormalize(&f1, &f1)) {
+        return false;
+    }
+    dv3_t e3 = dcross(e1, dsub(&x[2], &x[0])), f3 = dcross(f1, dsub(&p[2], &p[0]));
+    if (!dnormalize(&e3, &e3) || !dnormalize(&f3, &f3)) {
         return false;
     }
     const dv3_t e2 = dcross(e3, e1), f2 = dcross(f3, f1);
@@ -460,6 +477,14 @@ static bool triad(const dv3_t p[3], const dv3_t x[3], mfns_pose_t *pose)
 int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3], float min_range_mm,
               float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS])
 {
+    const mfns_v3_t *const pc[3] = {&c[0], &c[1], &c[2]}, *const pd[3] = {&d[0], &d[1], &d[2]};
+    const mfns_v3_t *const px[3] = {&x_w[0], &x_w[1], &x_w[2]};
+    return mfns_gp3p_at(pc, pd, px, min_range_mm, max_range_mm, out);
+}
+
+int mfns_gp3p_at(const mfns_v3_t *const c[3], const mfns_v3_t *const d[3], const mfns_v3_t *const x_w[3],
+                 float min_range_mm, float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS])
+{
     if (!(max_range_mm > 0.0f) || !(min_range_mm >= 0.0f) || !(min_range_mm < max_range_mm)) {
         return 0;
     }
@@ -467,33 +492,36 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
     gp3p_t g;
     dv3_t cd[3], xd[3];
     for (int i = 0; i < 3; i++) {
-        if (!dnormalize(dv(d[i]), &g.d[i])) {
+        g.d[i] = dv(*d[i]);
+        if (!dnormalize(&g.d[i], &g.d[i])) {
             return 0;
         }
-        cd[i] = dv(c[i]);
-        xd[i] = dv(x_w[i]);
+        cd[i] = dv(*c[i]);
+        xd[i] = dv(*x_w[i]);
     }
-    g.e12 = dsub_scaled(&cd[0], &cd[1], s);
-    g.e13 = dsub_scaled(&cd[0], &cd[2], s);
-    g.e23 = dsub_scaled(&cd[1], &cd[2], s);
-    const dv3_t x12 = dsub_scaled(&xd[0], &xd[1], s);
-    const dv3_t x13 = dsub_scaled(&xd[0], &xd[2], s);
-    const dv3_t x23 = dsub_scaled(&xd[1], &xd[2], s);
-    g.dd12 = ddot(&x12, &x12);
-    g.dd13 = ddot(&x13, &x13);
-    g.dd23 = ddot(&x23, &x23);
-    if (!(g.dd12 > 1e-12 && g.dd13 > 1e-12 && g.dd23 > 1e-12)) {
-        return 0;
+    for (int k = 0; k < 3; k++) {
+        const int i = PAIR[k][0], j = PAIR[k][1];
+        pair_eq_t *q = &g.eq[k];
+        q->e = dsub_scaled(&cd[i], &cd[j], s);
+        const dv3_t x = dsub_scaled(&xd[i], &xd[j], s);
+        q->dd = ddot(&x, &x);
+        if (!(q->dd > 1e-12)) {
+            return 0;
+        }
+        q->k = ddot(&g.d[i], &g.d[j]);
+        q->die = ddot(&g.d[i], &q->e);
+        q->dje = ddot(&g.d[j], &q->e);
+        q->ee = ddot(&q->e, &q->e);
     }
-    const double k12 = ddot(&g.d[0], &g.d[1]), k13 = ddot(&g.d[0], &g.d[2]), k23 = ddot(&g.d[1], &g.d[2]);
+    const pair_eq_t *q12 = &g.eq[0], *q13 = &g.eq[1], *q23 = &g.eq[2];
     /* eq12: l1^2 + P(l2) l1 + Q(l2); eq13: l1^2 + R(l3) l1 + S(l3); eq23: l2^2 + M(l3) l2 + N(l3) */
-    const double p0 = 2.0 * ddot(&g.d[0], &g.e12), p1 = -2.0 * k12;
-    const double q0 = ddot(&g.e12, &g.e12) - g.dd12, q1 = -2.0 * ddot(&g.d[1], &g.e12);
+    const double p0 = 2.0 * q12->die, p1 = -2.0 * q12->k;
+    const double q0 = q12->ee - q12->dd, q1 = -2.0 * q12->dje;
     /* R = r0 + r1 l3, S = s0 + s1 l3 + l3^2, M = m0 + m1 l3, N = n0 + n1 l3 + l3^2 */
-    const double r[2] = {2.0 * ddot(&g.d[0], &g.e13), -2.0 * k13};
-    const double sq[3] = {ddot(&g.e13, &g.e13) - g.dd13, -2.0 * ddot(&g.d[2], &g.e13), 1.0};
-    const double m[2] = {2.0 * ddot(&g.d[1], &g.e23), -2.0 * k23};
-    const double nq[3] = {ddot(&g.e23, &g.e23) - g.dd23, -2.0 * ddot(&g.d[2], &g.e23), 1.0};
+    const double r[2] = {2.0 * q13->die, -2.0 * q13->k};
+    const double sq[3] = {q13->ee - q13->dd, -2.0 * q13->dje, 1.0};
+    const double m[2] = {2.0 * q23->die, -2.0 * q23->k};
+    const double nq[3] = {q23->ee - q23->dd, -2.0 * q23->dje, 1.0};
     /* Bivariate polynomials in (l2, l3), as coefficients of powers of l2,
      * each a polynomial in l3 (fixed degrees, written out: this runs once
      * per identification hypothesis). Eq12 minus eq13 is linear in l1:
@@ -547,7 +575,7 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
     const double lo = (double)min_range_mm * s, hi = 1.0;
     double roots[PD - 1];
     const int nroots = real_roots(&f, lo, hi, roots);
-    const double tol = 1e-4 * fmax(g.dd12, fmax(g.dd13, g.dd23));
+    const double tol = 1e-4 * fmax(q12->dd, fmax(q13->dd, q23->dd));
     int nsol = 0;
     for (int k = 0; k < nroots && nsol < MFNS_GP3P_MAX_SOLUTIONS; k++) {
         double l[3];
@@ -572,17 +600,18 @@ int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3]
             const dv3_t along = dscale(&g.d[i], l[i] / s);
             pb3[i] = dadd(&cd[i], &along);
         }
-        mfns_pose_t pose;
-        if (!triad(pb3, xd, &pose)) {
+        /* solved in the next free slot, which a duplicate leaves free */
+        mfns_pose_t *pose = &out[nsol];
+        if (!triad(pb3, xd, pose)) {
             continue;
         }
         bool dup = false;
         for (int q = 0; q < nsol && !dup; q++) {
-            dup = mfns_v3_norm(mfns_v3_sub(out[q].r_bw_b, pose.r_bw_b)) < 1e-3f * max_range_mm &&
-                  mfns_rot_angle_between_at(&out[q].C_w_b, &pose.C_w_b) < 1e-3f;
+            dup = mfns_v3_norm(mfns_v3_sub(out[q].r_bw_b, pose->r_bw_b)) < 1e-3f * max_range_mm &&
+                  mfns_rot_angle_between_at(&out[q].C_w_b, &pose->C_w_b) < 1e-3f;
         }
         if (!dup) {
-            out[nsol++] = pose;
+            nsol++;
         }
     }
     return nsol;

@@ -30,9 +30,15 @@
 
 #define MFNS_GP3P_MAX_SOLUTIONS 8
 
-/* Returns the number of poses written to out (0..8). */
+/* Returns the number of poses written to out (0..8): out[0..n). The slot
+ * after them may have been written too (a duplicate is solved in place). */
 int mfns_gp3p(const mfns_v3_t c[3], const mfns_v3_t d[3], const mfns_v3_t x_w[3], float min_range_mm,
               float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS]);
+/* The same with each ray origin, direction and beacon by address: the
+ * acquisition passes its blobs' rays and the map's beacons where they are,
+ * without gathering nine vectors into arrays first (docs/budgets.md). */
+int mfns_gp3p_at(const mfns_v3_t *const c[3], const mfns_v3_t *const d[3], const mfns_v3_t *const x_w[3],
+                 float min_range_mm, float max_range_mm, mfns_pose_t out[MFNS_GP3P_MAX_SOLUTIONS]);
 
 /* The body-frame ray of an undistorted normalized observation (x, y) in camera k. */
 void mfns_pose_ray(const mfns_camera_t *cam, float x, float y, mfns_v3_t *origin, mfns_v3_t *dir);
