@@ -136,17 +136,9 @@ static uint16_t unite(mfns_centroid_labels_t *ls, uint16_t a, uint16_t b)
         A->moments_capped = true;
     } else {
         A->moment_area += B->moment_area;
-        A->s_i += B->s_i;
-        A->s_ix += B->s_ix;
-        A->s_iy += B->s_iy;
-        A->s_ixx += B->s_ixx;
-        A->s_iyy += B->s_iyy;
-        A->s_ixy += B->s_ixy;
-        A->s_x += B->s_x;
-        A->s_y += B->s_y;
-        A->s_xx += B->s_xx;
-        A->s_yy += B->s_yy;
-        A->s_xy += B->s_xy;
+        for (size_t k = 0; k < sizeof A->sums / sizeof A->sums[0]; k++) {
+            A->sums[k] += B->sums[k];
+        }
     }
     A->peak = A->peak > B->peak ? A->peak : B->peak;
     A->x_min = A->x_min < B->x_min ? A->x_min : B->x_min;
