@@ -185,8 +185,13 @@ typedef struct {
      *   s_xx, s_yy, s_xy <= N x^2      < 2^40   -> uint64_t
      * The background-subtracted Q8 sums formed from them (256 s_ix - b_q8 s_x
      * with b_q8 < 2^24) stay below 2^53, within int64_t. */
-    uint64_t s_i, s_ix, s_iy, s_ixx, s_iyy, s_ixy;
-    uint64_t s_x, s_y, s_xx, s_yy, s_xy;
+    union {
+        struct {
+            uint64_t s_i, s_ix, s_iy, s_ixx, s_iyy, s_ixy;
+            uint64_t s_x, s_y, s_xx, s_yy, s_xy;
+        };
+        uint64_t sums[11]; /* the same eleven sums as one array: merging two blobs adds them in a loop */
+    };
     uint32_t area; /* all pixels, saturating; may exceed the moment cap */
     uint32_t moment_area;
     uint16_t peak;

@@ -35,18 +35,22 @@ void mfns_centroid_finish_blob(const mfns_centroid_acc_t *a, int64_t l_q8, int64
         o->flux_dn = (float)(MFNS_CENTROID_DN_Q8_ONE * (int64_t)a->s_i - b_q8 * n) / (float)MFNS_CENTROID_DN_Q8_ONE;
         /* Shape: second moments about the bounding-box corner (exact in
          * integers), then double: the raw sums reach 2^56 and the background
-         * subtraction cancels, which float's 24 bits would not survive. */
+         * subtraction cancels, which float's 24 bits would not survive. With
+         * dx = s_x - ax n, sum (x - ax)^2 = s_xx - 2 ax s_x + ax^2 n is
+         * s_xx - ax (s_x + dx) (and so on, fewer 64-bit products); every term
+         * stays below 2^58, so the integers are exactly those of the plain form. */
         const int64_t ax = a->x_min, ay = a->y_min;
-        const int64_t s_i = (int64_t)a->s_i;
-        const double cixx = (double)((int64_t)a->s_ixx - 2 * ax * (int64_t)a->s_ix + ax * ax * s_i);
-        const double ciyy = (double)((int64_t)a->s_iyy - 2 * ay * (int64_t)a->s_iy + ay * ay * s_i);
-        const double cixy =
-            (double)((int64_t)a->s_ixy - ax * (int64_t)a->s_iy - ay * (int64_t)a->s_ix + ax * ay * s_i);
-        const double cix = (double)((int64_t)a->s_ix - ax * s_i), ciy = (double)((int64_t)a->s_iy - ay * s_i);
-        const double cxx = (double)((int64_t)a->s_xx - 2 * ax * (int64_t)a->s_x + ax * ax * n);
-        const double cyy = (double)((int64_t)a->s_yy - 2 * ay * (int64_t)a->s_y + ay * ay * n);
-        const double cxy = (double)((int64_t)a->s_xy - ax * (int64_t)a->s_y - ay * (int64_t)a->s_x + ax * ay * n);
-        const double cx = (double)((int64_t)a->s_x - ax * n), cy = (double)((int64_t)a->s_y - ay * n);
+        const int64_t s_i = (int64_t)a->s_i, s_ix = (int64_t)a->s_ix, s_iy = (int64_t)a->s_iy;
+        const int64_t s_x = (int64_t)a->s_x, s_y = (int64_t)a->s_y;
+        const int64_t dix = s_ix - ax * s_i, diy = s_iy - ay * s_i, dx = s_x - ax * n, dy = s_y - ay * n;
+        const double cixx = (double)((int64_t)a->s_ixx - ax * (s_ix + dix));
+        const double ciyy = (double)((int64_t)a->s_iyy - ay * (s_iy + diy));
+        const double cixy = (double)((int64_t)a->s_ixy - ax * s_iy - ay * dix);
+        const double cix = (double)dix, ciy = (double)diy;
+        const double cxx = (double)((int64_t)a->s_xx - ax * (s_x + dx));
+        const double cyy = (double)((int64_t)a->s_yy - ay * (s_y + dy));
+        const double cxy = (double)((int64_t)a->s_xy - ax * s_y - ay * dx);
+        const double cx = (double)dx, cy = (double)dy;
         const double B = (double)l_q8 / (double)MFNS_CENTROID_DN_Q8_ONE, W = (double)w / (double)MFNS_CENTROID_DN_Q8_ONE;
         const double mu_x = (cix - B * cx) / W, mu_y = (ciy - B * cy) / W;
         /* + 1/12: each pixel is a unit square, not a point */

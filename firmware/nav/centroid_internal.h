@@ -16,6 +16,7 @@
 #define MFNS_CENTROID_INTERNAL_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -43,6 +44,10 @@ _Static_assert(MFNS_CENTROID_MOMENT_AREA_CAP <= UINT16_MAX, "moment area cap abo
 _Static_assert((uint64_t)MFNS_CENTROID_MOMENT_AREA_CAP * UINT16_MAX * MFNS_CENTROID_MAX_DIM * MFNS_CENTROID_MAX_DIM <
                    (1ull << 56),
                "second-moment sums would exceed 2^56");
+/* the accumulator's named sums and its sums[] array are the same storage */
+_Static_assert(offsetof(mfns_centroid_acc_t, s_xy) == offsetof(mfns_centroid_acc_t, sums) + 10u * sizeof(uint64_t) &&
+                   sizeof(((mfns_centroid_acc_t *)0)->sums) == 11u * sizeof(uint64_t),
+               "acc.sums must alias s_i .. s_xy exactly");
 /* labels are uint16_t and MFNS_CENTROID_LABEL_DROPPED is never a real one */
 _Static_assert(MFNS_CENTROID_MAX_LABELS < MFNS_CENTROID_LABEL_DROPPED, "labels must fit below LABEL_DROPPED");
 /* "at most one run per two pixels" */

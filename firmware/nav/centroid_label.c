@@ -26,32 +26,36 @@ static inline uint64_t load64(const uint8_t *p)
     return w;
 }
 
-#define GE_LOW(w, L, H, c) (((((w) & (L)) + (c)) | (w)) & (H))
-#define GE_HIGH(w, L, H, c) (((((w) & (L)) + (c)) & (w)) & (H))
+/* The word test: the top bit of each lane whose pixel is >= T. c holds
+ * 2^(B-1) - (T mod 2^(B-1)) in every lane; low: T < 2^(B-1) (the first form). */
+static inline uint64_t word_ge(uint64_t w, uint64_t c, bool wide, bool low)
+{
+    const uint64_t h = wide ? H16 : H8, l = wide ? L16 : L8;
+    const uint64_t s = (w & l) + c;
+    return (low ? (s | w) : (s & w)) & h;
+}
 
-/* First x in [x, end) with pixel >= T (or end), for the background-dominated
- * bulk of a frame. Two stages: the lane-wise maximum over a block of 256 bytes
- * (a plain loop that compilers turn into vector max instructions: SSE2 pmaxub
- * on x86-64, NEON umax on aarch64, a scalar loop on a Cortex-M) tested with the
- * word test, then, inside a block that holds a candidate, the exact 8-byte word
- * test, which stops within a word of the first pixel >= T. */
+/* Blocks of 256 bytes for the first stage of the scan (find_candidate). */
 #define BLOCK_BYTES 256u
 
-/* Lane-wise maximum over a block, 16 bytes wide: the inner loop is one vector
- * max per 16 bytes (compilers vectorize it at -O2), and the result is tested
- * with the word test above instead of a horizontal reduction (which cost as
- * much as the block's loads). */
-static void block_max16_u8(const uint8_t *p, uint8_t m[16])
+/* Whether a block may hold a pixel >= T: its lane-wise maximum, 16 bytes
+ * wide (the inner loop is one vector max per 16 bytes: compilers vectorize it
+ * at -O2), tested with the word test instead of a horizontal reduction (which
+ * cost as much as the block's loads). One function per width: the maximum
+ * stays in a vector register only where no other path writes it. */
+static bool block_may_hold_u8(const uint8_t *p, uint64_t c, bool low)
 {
+    uint8_t m[16];
     memcpy(m, p, 16u);
     for (uint32_t i = 16u; i < BLOCK_BYTES; i += 16u) {
         for (uint32_t j = 0; j < 16u; j++) {
             m[j] = p[i + j] > m[j] ? p[i + j] : m[j];
         }
     }
+    return (word_ge(load64(m), c, false, low) | word_ge(load64(m + 8), c, false, low)) != 0u;
 }
 
-static void block_max16_u16(const uint8_t *p, uint8_t m8[16])
+static bool block_may_hold_u16(const uint8_t *p, uint64_t c, bool low)
 {
     uint16_t m[8];
     memcpy(m, p, 16u);
@@ -62,38 +66,41 @@ static void block_max16_u16(const uint8_t *p, uint8_t m8[16])
             m[j] = v[j] > m[j] ? v[j] : m[j];
         }
     }
-    memcpy(m8, m, 16u);
+    uint64_t w[2];
+    memcpy(w, m, 16u);
+    return (word_ge(w[0], c, true, low) | word_ge(w[1], c, true, low)) != 0u;
 }
 
-#define DEFINE_FIND(name, GE, L, H, bpp, BLOCK_MAX16)                                                   \
-    static uint32_t name(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c)                     \
-    {                                                                                                   \
-        const uint32_t per_word = 8u / (bpp), per_block = BLOCK_BYTES / (bpp);                          \
-        while (x + per_block <= end) {                                                                  \
-            uint8_t m[16];                                                                              \
-            BLOCK_MAX16(row + (size_t)x * (bpp), m);                                                    \
-            const uint64_t w0 = load64(m), w1 = load64(m + 8);                                          \
-            if ((GE(w0, L, H, c) | GE(w1, L, H, c)) != 0u) {                                            \
-                break;                                                                                  \
-            }                                                                                           \
-            x += per_block;                                                                             \
-        }                                                                                               \
-        while (x + per_word <= end) {                                                                   \
-            const uint64_t w = load64(row + (size_t)x * (bpp));                                         \
-            if (GE(w, L, H, c) != 0u) {                                                                 \
-                break;                                                                                  \
-            }                                                                                           \
-            x += per_word;                                                                              \
-        }                                                                                               \
-        return x;                                                                                       \
+/* First x in [x, end) with pixel >= T (or end), for the background-dominated
+ * bulk of a frame. Two stages: the lane-wise maximum over a block (a plain
+ * loop that compilers turn into vector max instructions: SSE2 pmaxub on
+ * x86-64, NEON umax on aarch64, a scalar loop on a Cortex-M) tested with the
+ * word test, then, inside a block that holds a candidate, the exact 8-byte word
+ * test, which stops within a word of the first pixel >= T.
+ * One function for the four scans (two widths, two forms of the word test):
+ * mfns_centroid_label_region passes wide and low as constants, so a build for speed (-O2, the
+ * host) inlines four specialised copies with a tight block loop (the form
+ * chosen at run time inside the loop made the bench's scan ~30 % slower,
+ * measured), and a build for size (-Os, the Cortex-M7 board) keeps one copy. */
+static inline uint32_t find_candidate(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c, bool wide, bool low)
+{
+    const uint32_t shift = wide ? 1u : 0u; /* log2 of the bytes per pixel */
+    const uint32_t per_word = 8u >> shift, per_block = BLOCK_BYTES >> shift;
+    while (x + per_block <= end) {
+        const uint8_t *p = row + ((size_t)x << shift);
+        if (wide ? block_may_hold_u16(p, c, low) : block_may_hold_u8(p, c, low)) {
+            break;
+        }
+        x += per_block;
     }
-
-DEFINE_FIND(find_u8_low, GE_LOW, L8, H8, 1u, block_max16_u8)
-DEFINE_FIND(find_u8_high, GE_HIGH, L8, H8, 1u, block_max16_u8)
-DEFINE_FIND(find_u16_low, GE_LOW, L16, H16, 2u, block_max16_u16)
-DEFINE_FIND(find_u16_high, GE_HIGH, L16, H16, 2u, block_max16_u16)
-
-typedef uint32_t (*find_fn_t)(const uint8_t *row, uint32_t x, uint32_t end, uint64_t c);
+    while (x + per_word <= end) {
+        if (word_ge(load64(row + ((size_t)x << shift)), c, wide, low) != 0u) {
+            break;
+        }
+        x += per_word;
+    }
+    return x;
+}
 
 /* ------------------------------------------------------------------------ */
 /* Labels: union-find over provisional labels, accumulators at the roots
@@ -129,17 +136,9 @@ static uint16_t unite(mfns_centroid_labels_t *ls, uint16_t a, uint16_t b)
         A->moments_capped = true;
     } else {
         A->moment_area += B->moment_area;
-        A->s_i += B->s_i;
-        A->s_ix += B->s_ix;
-        A->s_iy += B->s_iy;
-        A->s_ixx += B->s_ixx;
-        A->s_iyy += B->s_iyy;
-        A->s_ixy += B->s_ixy;
-        A->s_x += B->s_x;
-        A->s_y += B->s_y;
-        A->s_xx += B->s_xx;
-        A->s_yy += B->s_yy;
-        A->s_xy += B->s_xy;
+        for (size_t k = 0; k < sizeof A->sums / sizeof A->sums[0]; k++) {
+            A->sums[k] += B->sums[k];
+        }
     }
     A->peak = A->peak > B->peak ? A->peak : B->peak;
     A->x_min = A->x_min < B->x_min ? A->x_min : B->x_min;
@@ -240,14 +239,18 @@ void mfns_centroid_label_region(mfns_centroid_labels_t *ls, const mfns_frame_t *
     const bool low = T < top;
     const uint64_t lanes = wide ? 0x0001000100010001ull : 0x0101010101010101ull;
     const uint64_t c = (uint64_t)(top - (T & (top - 1u))) * lanes;
-    const find_fn_t find = wide ? (low ? find_u16_low : find_u16_high) : (low ? find_u8_low : find_u8_high);
     mfns_centroid_run_t *prev = ls->w->runs[0], *cur = ls->w->runs[1];
     uint32_t np = 0;
     for (uint32_t y = rg->y0; y < rg->y1; y++) {
         const uint8_t *row = mfns_centroid_row(f, y);
         uint32_t nc = 0, j = 0, x = rg->x0;
         while (x < rg->x1) {
-            x = find(row, x, rg->x1, c);
+            /* constants at each call: find_candidate's comment says why */
+            if (wide) {
+                x = low ? find_candidate(row, x, rg->x1, c, true, true) : find_candidate(row, x, rg->x1, c, true, false);
+            } else {
+                x = low ? find_candidate(row, x, rg->x1, c, false, true) : find_candidate(row, x, rg->x1, c, false, false);
+            }
             /* the word test found a candidate within the next word(s), or the tail */
             while (x < rg->x1 && mfns_centroid_pixel(row, x, wide) < T) {
                 x++;

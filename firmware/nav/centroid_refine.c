@@ -84,6 +84,15 @@ static bool blob_shape(const mfns_frame_t *f, const mfns_centroid_acc_t *a, uint
     return isfinite(*R) && isfinite(*s);
 }
 
+/* One axis of the refinement window, [*lo, *hi]: the blob's extent [b0, b1]
+ * grown by 2 px, cut to the region's [r0, r1) and to centre +- half. */
+static void window_axis(uint32_t r0, uint32_t r1, uint16_t b0, uint16_t b1, float centre, float half, int32_t *lo,
+                        int32_t *hi)
+{
+    *lo = (int32_t)fmaxf(fmaxf((float)r0, (float)b0 - 2.0f), floorf(centre - half));
+    *hi = (int32_t)fminf(fminf((float)r1 - 1.0f, (float)b1 + 2.0f), ceilf(centre + half));
+}
+
 /* One Newton step (du, dv) of the estimating equation above from (u0, v0) for
  * the blurred disk (R, s) of flux `flux` DN; var(r) is taken as f(r) + c (shot
  * noise, with c DN of background noise expressed as signal). The window: the
@@ -117,10 +126,9 @@ static bool refine_step(const mfns_frame_t *f, const mfns_centroid_region_t *rg,
         tab[k] = tab[k] / (flux * fr_out + c); /* a(r) = k(r) / var(r) */
     }
     const float half = r_hi;
-    const int32_t x0 = (int32_t)fmaxf(fmaxf((float)rg->x0, (float)a->x_min - 2.0f), floorf(u0 - half));
-    const int32_t x1 = (int32_t)fminf(fminf((float)rg->x1 - 1.0f, (float)a->x_max + 2.0f), ceilf(u0 + half));
-    const int32_t y0 = (int32_t)fmaxf(fmaxf((float)rg->y0, (float)a->y_min - 2.0f), floorf(v0 - half));
-    const int32_t y1 = (int32_t)fminf(fminf((float)rg->y1 - 1.0f, (float)a->y_max + 2.0f), ceilf(v0 + half));
+    int32_t x0, x1, y0, y1;
+    window_axis(rg->x0, rg->x1, a->x_min, a->x_max, u0, half, &x0, &x1);
+    window_axis(rg->y0, rg->y1, a->y_min, a->y_max, v0, half, &y0, &y1);
     if (x1 < x0 || y1 < y0 || x1 - x0 >= MFNS_CENTROID_REFINE_MAX_SIDE || y1 - y0 >= MFNS_CENTROID_REFINE_MAX_SIDE) {
         return false;
     }
