@@ -68,11 +68,52 @@ bool mfns_ct_f32_at(mfns_ct_parser_t *p, uint32_t o, float *out)
     return true;
 }
 
-bool mfns_ct_check(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t id, float v)
+/* Field id's generated range on value v of the record at base: false with
+ * the field's status at its offset when v is outside. */
+static bool check_range(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t id, float v)
 {
     const mfns_caltable_field_t *f = &mfns_caltable_fields[id];
     if (!mfns_caltable_in_range(f, v)) {
         return mfns_ct_fail(p, (mfns_caltable_status_t)f->status, base + f->offset);
+    }
+    return true;
+}
+
+/* Field f of the record at base, read as its stored type, as a float
+ * (exact for every integer of a table: the ranges are below 2^24). */
+static bool field_value(mfns_ct_parser_t *p, uint32_t base, const mfns_caltable_field_t *f, float *v)
+{
+    const uint32_t at = base + f->offset;
+    switch (f->type) {
+    case MFNS_CALTABLE_T_U8:
+        *v = (float)p->b[at];
+        return true;
+    case MFNS_CALTABLE_T_U16:
+        *v = (float)mfns_ct_u16(p->b, at);
+        return true;
+    case MFNS_CALTABLE_T_U32:
+        *v = (float)mfns_ct_u32(p->b, at);
+        return true;
+    case MFNS_CALTABLE_T_I32:
+        *v = (float)mfns_ct_i32(p->b, at);
+        return true;
+    default: /* MFNS_CALTABLE_T_F32 */
+        return mfns_ct_f32_at(p, at, v);
+    }
+}
+
+bool mfns_ct_fields(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t first,
+                    mfns_caltable_field_id_t last, float *v)
+{
+    for (uint32_t id = first; id <= last; id++) {
+        float x;
+        if (!field_value(p, base, &mfns_caltable_fields[id], &x) ||
+            !check_range(p, base, (mfns_caltable_field_id_t)id, x)) {
+            return false;
+        }
+        if (v != NULL) {
+            v[id - first] = x;
+        }
     }
     return true;
 }
