@@ -58,13 +58,18 @@ bool mfns_ct_fail(mfns_ct_parser_t *p, mfns_caltable_status_t st, uint32_t off)
     return false;
 }
 
-bool mfns_ct_f32_at(mfns_ct_parser_t *p, uint32_t o, float *out)
+bool mfns_ct_f32s(mfns_ct_parser_t *p, uint32_t o, uint32_t n, float *v)
 {
-    const float f = mfns_ct_f32(p->b, o);
-    if (!isfinite(f)) {
-        return mfns_ct_fail(p, MFNS_CALTABLE_E_NOT_FINITE, o);
+    for (uint32_t i = 0; i < n; i++) {
+        const uint32_t at = o + 4u * i;
+        const float f = mfns_ct_f32(p->b, at);
+        if (!isfinite(f)) {
+            return mfns_ct_fail(p, MFNS_CALTABLE_E_NOT_FINITE, at);
+        }
+        if (v != NULL) {
+            v[i] = f;
+        }
     }
-    *out = f;
     return true;
 }
 
@@ -98,7 +103,7 @@ static bool field_value(mfns_ct_parser_t *p, uint32_t base, const mfns_caltable_
         *v = (float)mfns_ct_i32(p->b, at);
         return true;
     default: /* MFNS_CALTABLE_T_F32 */
-        return mfns_ct_f32_at(p, at, v);
+        return mfns_ct_f32s(p, at, 1u, v);
     }
 }
 

@@ -65,8 +65,9 @@ typedef struct {
  * returns false so that a check can `return mfns_ct_fail(...)`. */
 bool mfns_ct_fail(mfns_ct_parser_t *p, mfns_caltable_status_t st, uint32_t off);
 
-/* A finite float at offset o into *out (else E_NOT_FINITE). */
-bool mfns_ct_f32_at(mfns_ct_parser_t *p, uint32_t o, float *out);
+/* n finite floats at offset o into v[0 .. n - 1] (v NULL: checked only); else
+ * E_NOT_FINITE at the first that is not. */
+bool mfns_ct_f32s(mfns_ct_parser_t *p, uint32_t o, uint32_t n, float *v);
 
 /* Fields first .. last of the record at base (the ids follow the record's
  * order), in that order: each read as its stored type (an f32 must be finite,

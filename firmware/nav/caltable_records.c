@@ -15,9 +15,12 @@
 #define B_OFF(f) MFNS_CALTABLE_OFF_BEACON_##f
 #define B_ID(f) MFNS_CALTABLE_F_BEACON_##f
 
-/* Runs of ranges checked by one mfns_ct_fields: no field without a range between. */
+/* The runs read or checked in one call: exactly these fields (a range added
+ * to a field between two of them would join the run and must be looked at). */
 _Static_assert(G_ID(PIXEL_SIGMA_PX) == G_ID(CAMERA_COUNT) + 2, "globals: the two counts, the pixel sigma");
 _Static_assert(G_ID(SOLVER_MIN_RCOND) == G_ID(SOLVER_MAX_ITERATIONS) + 8, "globals: the solver's 9 fields");
+_Static_assert(G_OFF(CENTROID_MAX_ELONGATION) == G_OFF(CENTROID_THRESHOLD_K_SIGMA) + 4u, "globals: centroid floats");
+_Static_assert(B_OFF(SIGMA_MM) == B_OFF(P_W) + 12u, "beacon: p_w then sigma_mm, 4 floats");
 _Static_assert(C_ID(FY) == C_ID(FX) + 1 && C_ID(GRID_STEP_V_Q8) == C_ID(GRID_STEP_U_Q8) + 1, "camera: pairs");
 
 static bool in_range(mfns_caltable_field_id_t id, float v) { return mfns_caltable_in_range(&mfns_caltable_fields[id], v); }
@@ -40,10 +43,12 @@ bool mfns_ct_parse_globals(mfns_ct_parser_t *p, uint16_t *nbeacon, float *sigma,
     c->roi_half_size_px = mfns_ct_u16(b, G_OFF(CENTROID_ROI_HALF_SIZE_PX));
     c->saturation_dn = mfns_ct_u16(b, G_OFF(CENTROID_SATURATION_DN));
     c->gain_dn_per_e_q12 = mfns_ct_u16(b, G_OFF(CENTROID_GAIN_DN_PER_E_Q12)); /* any value: 0 = no shot-noise term */
-    if (!mfns_ct_f32_at(p, G_OFF(CENTROID_THRESHOLD_K_SIGMA), &c->threshold_k_sigma) ||
-        !mfns_ct_f32_at(p, G_OFF(CENTROID_MAX_ELONGATION), &c->max_elongation)) {
+    float kv[2]; /* threshold_k_sigma, max_elongation: both finite before any range */
+    if (!mfns_ct_f32s(p, G_OFF(CENTROID_THRESHOLD_K_SIGMA), 2u, kv)) {
         return false;
     }
+    c->threshold_k_sigma = kv[0];
+    c->max_elongation = kv[1];
     if (!mfns_ct_field(p, g, G_ID(CENTROID_THRESHOLD_K_SIGMA))) {
         return false;
     }
@@ -119,10 +124,8 @@ static bool camera_values(mfns_ct_parser_t *p, uint32_t o, mfns_camera_t *cam)
     mfns_intrinsics_t *k = &cam->k;
     /* every float of the record first, so NaN has one status wherever it is */
     float v[CAM_FLOATS];
-    for (uint32_t i = 0; i < CAM_FLOATS; i++) {
-        if (!mfns_ct_f32_at(p, o + C_OFF(FX) + 4u * i, &v[i])) {
-            return false;
-        }
+    if (!mfns_ct_f32s(p, o + C_OFF(FX), CAM_FLOATS, v)) {
+        return false;
     }
     k->fx = v[CV(FX)];
     k->fy = v[CV(FY)];
@@ -244,10 +247,12 @@ bool mfns_ct_parse_beacons(mfns_ct_parser_t *p, uint32_t pos, uint16_t n, mfns_b
         if (!mfns_ct_field(p, o, B_ID(RESERVED))) {
             return false;
         }
-        if (!mfns_ct_f32_at(p, o + B_OFF(P_W), &bc.p_w.x) || !mfns_ct_f32_at(p, o + B_OFF(P_W) + 4u, &bc.p_w.y) ||
-            !mfns_ct_f32_at(p, o + B_OFF(P_W) + 8u, &bc.p_w.z) || !mfns_ct_f32_at(p, o + B_OFF(SIGMA_MM), &bc.sigma_mm)) {
+        float v[4]; /* p_w, sigma_mm */
+        if (!mfns_ct_f32s(p, o + B_OFF(P_W), 4u, v)) {
             return false;
         }
+        bc.p_w = mfns_v3(v[0], v[1], v[2]);
+        bc.sigma_mm = v[3];
         if (!in_range(B_ID(P_W), bc.p_w.x) || !in_range(B_ID(P_W), bc.p_w.y) || !in_range(B_ID(P_W), bc.p_w.z)) {
             return mfns_ct_fail(p, MFNS_CALTABLE_E_BEACON_VALUE, o + B_OFF(P_W));
         }

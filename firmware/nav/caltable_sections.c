@@ -109,13 +109,7 @@ bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_
     if ((p->size - body) / 4u < CALIB_TRI) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
     }
-    for (uint32_t e = 0; e < CALIB_TRI; e++) {
-        float f;
-        if (!mfns_ct_f32_at(p, body + 4u * e, &f)) {
-            return false;
-        }
-    }
-    if (!check_psd(p, body)) {
+    if (!mfns_ct_f32s(p, body, CALIB_TRI, NULL) || !check_psd(p, body)) {
         return false;
     }
     if (dst != NULL) {
@@ -160,10 +154,8 @@ static bool index_header(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, fl
     if (!mfns_ct_field(p, pos, X_ID(BUDGET_UNITS))) {
         return false;
     }
-    for (uint32_t i = 0; i < 6u; i++) {
-        if (!mfns_ct_f32_at(p, pos + X_OFF(WS_MIN_W) + 4u * i, &ws[i])) {
-            return false;
-        }
+    if (!mfns_ct_f32s(p, pos + X_OFF(WS_MIN_W), 6u, ws)) {
+        return false;
     }
     for (uint32_t i = 0; i < 3u; i++) {
         if (!(ws[i] < ws[3 + i]) || !mfns_caltable_in_range(&mfns_caltable_fields[X_ID(WS_MIN_W)], ws[i]) ||
@@ -224,10 +216,8 @@ bool mfns_ct_parse_index(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, mf
     uint32_t o = pos + MFNS_CALTABLE_INDEX_HEADER_SIZE;
     for (uint32_t i = 0; i < n; i++, o += MFNS_CALTABLE_INDEX_GEOM_SIZE) {
         float g[6];
-        for (uint32_t j = 0; j < 6u; j++) {
-            if (!mfns_ct_f32_at(p, o + 4u * j, &g[j])) {
-                return false;
-            }
+        if (!mfns_ct_f32s(p, o, 6u, g)) {
+            return false;
         }
         const float an = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
         if (!(an == 0.0f || fabsf(an - 1.0f) <= 1e-3f)) {
