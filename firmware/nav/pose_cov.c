@@ -157,6 +157,19 @@ static void add_calibration_term(const float b[6][MFNS_CALIB_PARAMS], const mfns
     }
 }
 
+/* x^T c y, the products summed row by row (the output covariance of two
+ * output Jacobian rows x and y). */
+static float quad_form(const float x[6], const float c[6][6], const float y[6])
+{
+    float v = 0.0f;
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            v += x[i] * c[i][j] * y[j];
+        }
+    }
+    return v;
+}
+
 mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
                                         const mfns_calib_cov_t *calib, float min_rcond,
                                         mfns_pose_solution_t *out)
@@ -239,13 +252,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
     }
     for (int p = 0; p < 6; p++) {
         for (int q = 0; q < 6; q++) {
-            float v = 0.0f;
-            for (int i = 0; i < 6; i++) {
-                for (int j = 0; j < 6; j++) {
-                    v += jr[p][i] * out->cov[i][j] * jr[q][j];
-                }
-            }
-            out->cov_ros[p][q] = v;
+            out->cov_ros[p][q] = quad_form(jr[p], out->cov, jr[q]);
         }
     }
     for (int p = 0; p < 6; p++) { /* exactly symmetric */
@@ -256,12 +263,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         }
     }
     for (int r = 0; r < 6; r++) {
-        float var = 0.0f;
-        for (int i = 0; i < 6; i++) {
-            for (int j = 0; j < 6; j++) {
-                var += jo[r][i] * out->cov[i][j] * jo[r][j];
-            }
-        }
+        const float var = quad_form(jo[r], out->cov, jo[r]);
         const float sd = sqrtf(fmaxf(var, 0.0f));
         if (r < 3) {
             out->sigma_pos_mm[r] = sd;
