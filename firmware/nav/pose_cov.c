@@ -170,14 +170,14 @@ static float quad_form(const float x[6], const float c[6][6], const float y[6])
     return v;
 }
 
+_Static_assert(MFNS_SPD_MAX_N == 6, "the pose's 6x6 matrices are the factorisation's");
+
 mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
                                         const mfns_calib_cov_t *calib, float min_rcond,
                                         mfns_pose_solution_t *out)
 {
-    float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
     for (int i = 0; i < 6; i++) {
         for (int j = 0; j < 6; j++) {
-            a[i][j] = h[i][j];
             out->cov[i][j] = 0.0f;
             out->cov_ros[i][j] = 0.0f;
         }
@@ -186,17 +186,11 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         out->sigma_pos_mm[i] = 0.0f;
         out->sigma_euler_deg[i] = 0.0f;
     }
-    mfns_chol_t f;
-    if (mfns_chol_factor(a, 6, min_rcond, &f) != MFNS_SPD_OK) {
+    mfns_chol_t f; /* h and the covariance are the factor's size: no copies */
+    if (mfns_chol_factor(h, 6, min_rcond, &f) != MFNS_SPD_OK) {
         return MFNS_POSE_R_SINGULAR;
     }
-    float inv[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
-    mfns_chol_inverse(&f, inv);
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            out->cov[i][j] = inv[i][j]; /* whitened: R is in h */
-        }
-    }
+    mfns_chol_inverse(&f, out->cov); /* whitened: R is in h */
     if (b != NULL && calib != NULL && calib->present != 0U) {
         add_calibration_term(b, calib, out->cov);
     }
