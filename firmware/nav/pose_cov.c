@@ -47,19 +47,17 @@ bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose,
         jc[0][MFNS_CALIB_K1 + i] = k->fx * dx[i] + k->skew * dy[i];
         jc[1][MFNS_CALIB_K1 + i] = k->fy * dy[i];
     }
-    /* M = d(u, v) / d p_b = jk C_k_b^T */
-    float mm[2][3];
-    for (int a = 0; a < 2; a++) {
-        for (int j = 0; j < 3; j++) {
-            mm[a][j] = jk[a][0] * cam->C_k_b.m[j][0] + jk[a][1] * cam->C_k_b.m[j][1] + jk[a][2] * cam->C_k_b.m[j][2];
-        }
-    }
     const mfns_m3_t sd = mfns_m3_skew(d);
     for (int a = 0; a < 2; a++) {
-        for (int j = 0; j < 3; j++) {
-            jc[a][MFNS_CALIB_THETA_X + j] = mm[a][0] * sd.m[0][j] + mm[a][1] * sd.m[1][j] + mm[a][2] * sd.m[2][j];
-            jc[a][MFNS_CALIB_R_X + j] = -mm[a][j];
-        }
+        /* row a of M = d(u, v) / d p_b = jk C_k_b^T, i.e. C_k_b jk_a; then M [d]x */
+        const mfns_v3_t mm = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(jk[a][0], jk[a][1], jk[a][2]));
+        const mfns_v3_t th = mfns_m3_tmul_v3_at(&sd, mm);
+        jc[a][MFNS_CALIB_THETA_X] = th.x;
+        jc[a][MFNS_CALIB_THETA_Y] = th.y;
+        jc[a][MFNS_CALIB_THETA_Z] = th.z;
+        jc[a][MFNS_CALIB_R_X] = -mm.x;
+        jc[a][MFNS_CALIB_R_Y] = -mm.y;
+        jc[a][MFNS_CALIB_R_Z] = -mm.z;
     }
     return true;
 }
