@@ -6,6 +6,7 @@
  * covariance. */
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "pose_internal.h"
 #include "spd.h"
@@ -65,13 +66,9 @@ bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose,
 void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
                            const mfns_pose_t *pose, float h[6][6], float b[6][MFNS_CALIB_PARAMS])
 {
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            h[i][j] = 0.0f;
-        }
-        for (int j = 0; b != NULL && j < MFNS_CALIB_PARAMS; j++) {
-            b[i][j] = 0.0f;
-        }
+    memset(h, 0, sizeof(float[6][6])); /* all-zero bytes are 0.0f */
+    if (b != NULL) {
+        memset(b, 0, sizeof(float[6][MFNS_CALIB_PARAMS]));
     }
     for (int k = 0; k < n; k++) {
         float r[2], jac[2][6];
@@ -96,11 +93,7 @@ void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int
             }
         }
     }
-    for (int i = 0; i < 6; i++) {
-        for (int j = i + 1; j < 6; j++) {
-            h[i][j] = h[j][i];
-        }
-    }
+    mfns_pose_mirror_lower(h);
 }
 
 /* cov += A Sigma_c A^T with A = cov B (6 x 45), over the cameras B touches
