@@ -80,21 +80,17 @@ mfns_proj_status_t mfns_cam_project(const mfns_camera_t *cam, const mfns_pose_t 
         return st;
     }
     /* d p_c / d p_b = C_k_b^T; d p_b / d dtheta = -skew(q); d p_b / d dt = I. */
-    float jb[2][3]; /* d(u,v)/d p_b = jc C_k_b^T */
     for (int r = 0; r < 2; r++) {
-        for (int c = 0; c < 3; c++) {
-            jb[r][c] = jc[r][0] * cam->C_k_b.m[c][0] + jc[r][1] * cam->C_k_b.m[c][1] +
-                       jc[r][2] * cam->C_k_b.m[c][2];
-        }
+        /* row r of d(u,v)/d p_b = jc C_k_b^T, i.e. C_k_b jc_r */
+        const mfns_v3_t row = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(jc[r][0], jc[r][1], jc[r][2]));
         /* jb * (-skew(q)) = (q x jb_row)^T as a row: -jb . (e_i x q) = (q x jb)_i */
-        const mfns_v3_t row = mfns_v3(jb[r][0], jb[r][1], jb[r][2]);
         const mfns_v3_t rot = mfns_v3_cross(q, row);
         jac[r][0] = rot.x;
         jac[r][1] = rot.y;
         jac[r][2] = rot.z;
-        jac[r][3] = jb[r][0];
-        jac[r][4] = jb[r][1];
-        jac[r][5] = jb[r][2];
+        jac[r][3] = row.x;
+        jac[r][4] = row.y;
+        jac[r][5] = row.z;
     }
     return MFNS_PROJ_OK;
 }

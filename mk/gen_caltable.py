@@ -115,6 +115,11 @@ class Field:
             self.range = (False, 0.0, 0.0, False)
         if self.range is not None and self.status is None:
             raise LayoutError(f"{rec.key}.{self.name}: a range needs a status")
+        if self.range is not None and (offset > 255 or self.kind == "char"):
+            # the descriptor holds the offset in a u8 and the loader reads numbers
+            raise LayoutError(
+                f"{rec.key}.{self.name}: a checked field is a number within its record's first 256 bytes"
+            )
         if self.range is not None and self.kind in INT_TYPES:
             for b in self.range[1:3]:
                 if math.isfinite(b) and (abs(b) >= FLOAT_EXACT or b != int(b)):
@@ -235,8 +240,18 @@ extern const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT];
  * Integer fields compare in float, exact for their bounds (all below 2^24). */
 #define MFNS_CALTABLE_LO_OPEN 1u
 #define MFNS_CALTABLE_HI_OPEN 2u
+/* How a field is stored (one value of it: a field of n values has its first
+ * value's offset), so that the loader can read a checked field by its id. */
+typedef enum {
+    MFNS_CALTABLE_T_U8,
+    MFNS_CALTABLE_T_U16,
+    MFNS_CALTABLE_T_U32,
+    MFNS_CALTABLE_T_I32,
+    MFNS_CALTABLE_T_F32
+} mfns_caltable_type_t;
 typedef struct {
-    uint16_t offset; /* bytes from the start of its record */
+    uint8_t offset;  /* bytes from the start of its record (under 256 for a checked field) */
+    uint8_t type;    /* mfns_caltable_type_t */
     uint8_t status;  /* mfns_caltable_status_t returned when outside */
     uint8_t flags;   /* MFNS_CALTABLE_LO_OPEN | MFNS_CALTABLE_HI_OPEN */
     float lo, hi;
@@ -267,7 +282,7 @@ def gen_c(L: Layout) -> str:
     o.append("/* The definition's constants are the build's (its doc tables print them). */")
     for k, v in L.consts.items():
         o.append(f'_Static_assert({k} == {v}, "{SRC} [constants] {k} differs from its header");')
-    o.append("/* Offsets are in u16 and every record's fields fill its size exactly. */")
+    o.append("/* Every record's fields fill its size exactly. */")
     for r in L.records.values():
         last = r.fields[-1]
         o.append(
@@ -295,7 +310,8 @@ def gen_c(L: Layout) -> str:
         )
         o.append(
             f"    [MFNS_CALTABLE_F_{c_ident(f.rec.key)}_{f.ident}] = "
-            f"{{MFNS_CALTABLE_OFF_{c_ident(f.rec.key)}_{f.ident}, MFNS_CALTABLE_{f.status}, {flags or '0u'}, "
+            f"{{MFNS_CALTABLE_OFF_{c_ident(f.rec.key)}_{f.ident}, MFNS_CALTABLE_T_{f.kind.upper()}, "
+            f"MFNS_CALTABLE_{f.status}, {flags or '0u'}, "
             f"{c_float(lo)}, {c_float(hi)}}}, /* {'reserved: 0' if f.reserved else f.range_text} */"
         )
     o.append("};")

@@ -58,21 +58,67 @@ bool mfns_ct_fail(mfns_ct_parser_t *p, mfns_caltable_status_t st, uint32_t off)
     return false;
 }
 
-bool mfns_ct_f32_at(mfns_ct_parser_t *p, uint32_t o, float *out)
+bool mfns_ct_f32s(mfns_ct_parser_t *p, uint32_t o, uint32_t n, float *v)
 {
-    const float f = mfns_ct_f32(p->b, o);
-    if (!isfinite(f)) {
-        return mfns_ct_fail(p, MFNS_CALTABLE_E_NOT_FINITE, o);
+    for (uint32_t i = 0; i < n; i++) {
+        const uint32_t at = o + 4u * i;
+        const float f = mfns_ct_f32(p->b, at);
+        if (!isfinite(f)) {
+            return mfns_ct_fail(p, MFNS_CALTABLE_E_NOT_FINITE, at);
+        }
+        if (v != NULL) {
+            v[i] = f;
+        }
     }
-    *out = f;
     return true;
 }
 
-bool mfns_ct_check(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t id, float v)
+/* Field id's generated range on value v of the record at base: false with
+ * the field's status at its offset when v is outside. */
+static bool check_range(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t id, float v)
 {
     const mfns_caltable_field_t *f = &mfns_caltable_fields[id];
     if (!mfns_caltable_in_range(f, v)) {
         return mfns_ct_fail(p, (mfns_caltable_status_t)f->status, base + f->offset);
+    }
+    return true;
+}
+
+/* Field f of the record at base, read as its stored type, as a float
+ * (exact for every integer of a table: the ranges are below 2^24). */
+static bool field_value(mfns_ct_parser_t *p, uint32_t base, const mfns_caltable_field_t *f, float *v)
+{
+    const uint32_t at = base + f->offset;
+    switch (f->type) {
+    case MFNS_CALTABLE_T_U8:
+        *v = (float)p->b[at];
+        return true;
+    case MFNS_CALTABLE_T_U16:
+        *v = (float)mfns_ct_u16(p->b, at);
+        return true;
+    case MFNS_CALTABLE_T_U32:
+        *v = (float)mfns_ct_u32(p->b, at);
+        return true;
+    case MFNS_CALTABLE_T_I32:
+        *v = (float)mfns_ct_i32(p->b, at);
+        return true;
+    default: /* MFNS_CALTABLE_T_F32 */
+        return mfns_ct_f32s(p, at, 1u, v);
+    }
+}
+
+bool mfns_ct_fields(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t first,
+                    mfns_caltable_field_id_t last, float *v)
+{
+    for (uint32_t id = first; id <= last; id++) {
+        float x;
+        if (!field_value(p, base, &mfns_caltable_fields[id], &x) ||
+            !check_range(p, base, (mfns_caltable_field_id_t)id, x)) {
+            return false;
+        }
+        if (v != NULL) {
+            v[id - first] = x;
+        }
     }
     return true;
 }

@@ -65,12 +65,25 @@ typedef struct {
  * returns false so that a check can `return mfns_ct_fail(...)`. */
 bool mfns_ct_fail(mfns_ct_parser_t *p, mfns_caltable_status_t st, uint32_t off);
 
-/* A finite float at offset o into *out (else E_NOT_FINITE). */
-bool mfns_ct_f32_at(mfns_ct_parser_t *p, uint32_t o, float *out);
+/* n finite floats at offset o into v[0 .. n - 1] (v NULL: checked only); else
+ * E_NOT_FINITE at the first that is not. */
+bool mfns_ct_f32s(mfns_ct_parser_t *p, uint32_t o, uint32_t n, float *v);
 
-/* Field id's generated range (caltable_layout_gen.c) on value v of the record
- * at base: false with the field's status at its offset when v is outside. */
-bool mfns_ct_check(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t id, float v);
+/* Fields first .. last of the record at base (the ids follow the record's
+ * order), in that order: each read as its stored type (an f32 must be finite,
+ * else E_NOT_FINITE) and checked against its generated range
+ * (caltable_layout_gen.c: outside it, the field's status at its offset);
+ * false at the first failure. Their values, as float, into
+ * v[0 .. last - first] when v is not NULL. One call instead of a read and a
+ * check per field: the loader has some thirty of them. */
+bool mfns_ct_fields(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t first,
+                    mfns_caltable_field_id_t last, float *v);
+
+/* Field id of the record at base, read and checked as by mfns_ct_fields. */
+static inline bool mfns_ct_field(mfns_ct_parser_t *p, uint32_t base, mfns_caltable_field_id_t id)
+{
+    return mfns_ct_fields(p, base, id, id, NULL);
+}
 
 /* Offset of field id in the record at base. */
 static inline uint32_t mfns_ct_at(uint32_t base, mfns_caltable_field_id_t id)

@@ -184,8 +184,18 @@ extern const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT];
  * Integer fields compare in float, exact for their bounds (all below 2^24). */
 #define MFNS_CALTABLE_LO_OPEN 1u
 #define MFNS_CALTABLE_HI_OPEN 2u
+/* How a field is stored (one value of it: a field of n values has its first
+ * value's offset), so that the loader can read a checked field by its id. */
+typedef enum {
+    MFNS_CALTABLE_T_U8,
+    MFNS_CALTABLE_T_U16,
+    MFNS_CALTABLE_T_U32,
+    MFNS_CALTABLE_T_I32,
+    MFNS_CALTABLE_T_F32
+} mfns_caltable_type_t;
 typedef struct {
-    uint16_t offset; /* bytes from the start of its record */
+    uint8_t offset;  /* bytes from the start of its record (under 256 for a checked field) */
+    uint8_t type;    /* mfns_caltable_type_t */
     uint8_t status;  /* mfns_caltable_status_t returned when outside */
     uint8_t flags;   /* MFNS_CALTABLE_LO_OPEN | MFNS_CALTABLE_HI_OPEN */
     float lo, hi;

@@ -15,10 +15,13 @@
 #define B_OFF(f) MFNS_CALTABLE_OFF_BEACON_##f
 #define B_ID(f) MFNS_CALTABLE_F_BEACON_##f
 
-/* The solver's floats: one generated range each, in the order of the record. */
-#define SOLVER_FLOATS 7u
-_Static_assert(G_ID(SOLVER_MIN_RCOND) == G_ID(SOLVER_STEP_TOL) + SOLVER_FLOATS - 1u, "solver ranges in record order");
-_Static_assert(G_OFF(SOLVER_MIN_RCOND) == G_OFF(SOLVER_STEP_TOL) + 4u * (SOLVER_FLOATS - 1u), "solver floats");
+/* The runs read or checked in one call: exactly these fields (a range added
+ * to a field between two of them would join the run and must be looked at). */
+_Static_assert(G_ID(PIXEL_SIGMA_PX) == G_ID(CAMERA_COUNT) + 2, "globals: the two counts, the pixel sigma");
+_Static_assert(G_ID(SOLVER_MIN_RCOND) == G_ID(SOLVER_MAX_ITERATIONS) + 8, "globals: the solver's 9 fields");
+_Static_assert(G_OFF(CENTROID_MAX_ELONGATION) == G_OFF(CENTROID_THRESHOLD_K_SIGMA) + 4u, "globals: centroid floats");
+_Static_assert(B_OFF(SIGMA_MM) == B_OFF(P_W) + 12u, "beacon: p_w then sigma_mm, 4 floats");
+_Static_assert(C_ID(FY) == C_ID(FX) + 1 && C_ID(GRID_STEP_V_Q8) == C_ID(GRID_STEP_U_Q8) + 1, "camera: pairs");
 
 static bool in_range(mfns_caltable_field_id_t id, float v) { return mfns_caltable_in_range(&mfns_caltable_fields[id], v); }
 
@@ -27,14 +30,12 @@ bool mfns_ct_parse_globals(mfns_ct_parser_t *p, uint16_t *nbeacon, float *sigma,
 {
     const uint8_t *b = p->b;
     const uint32_t g = MFNS_CALTABLE_HEADER_SIZE; /* the globals follow the header */
+    float v[G_ID(PIXEL_SIGMA_PX) - G_ID(CAMERA_COUNT) + 1]; /* camera count, beacon count, pixel sigma */
+    if (!mfns_ct_fields(p, g, G_ID(CAMERA_COUNT), G_ID(PIXEL_SIGMA_PX), v)) {
+        return false;
+    }
     *nbeacon = mfns_ct_u16(b, G_OFF(BEACON_COUNT));
-    if (!mfns_ct_check(p, g, G_ID(CAMERA_COUNT), (float)mfns_ct_u16(b, G_OFF(CAMERA_COUNT))) ||
-        !mfns_ct_check(p, g, G_ID(BEACON_COUNT), (float)*nbeacon)) {
-        return false;
-    }
-    if (!mfns_ct_f32_at(p, G_OFF(PIXEL_SIGMA_PX), sigma) || !mfns_ct_check(p, g, G_ID(PIXEL_SIGMA_PX), *sigma)) {
-        return false;
-    }
+    *sigma = v[2];
 
     c->threshold_dn = mfns_ct_u16(b, G_OFF(CENTROID_THRESHOLD_DN));
     c->min_area_px = mfns_ct_u16(b, G_OFF(CENTROID_MIN_AREA_PX));
@@ -42,41 +43,43 @@ bool mfns_ct_parse_globals(mfns_ct_parser_t *p, uint16_t *nbeacon, float *sigma,
     c->roi_half_size_px = mfns_ct_u16(b, G_OFF(CENTROID_ROI_HALF_SIZE_PX));
     c->saturation_dn = mfns_ct_u16(b, G_OFF(CENTROID_SATURATION_DN));
     c->gain_dn_per_e_q12 = mfns_ct_u16(b, G_OFF(CENTROID_GAIN_DN_PER_E_Q12)); /* any value: 0 = no shot-noise term */
-    if (!mfns_ct_f32_at(p, G_OFF(CENTROID_THRESHOLD_K_SIGMA), &c->threshold_k_sigma) ||
-        !mfns_ct_f32_at(p, G_OFF(CENTROID_MAX_ELONGATION), &c->max_elongation)) {
+    float kv[2]; /* threshold_k_sigma, max_elongation: both finite before any range */
+    if (!mfns_ct_f32s(p, G_OFF(CENTROID_THRESHOLD_K_SIGMA), 2u, kv)) {
         return false;
     }
-    if (!mfns_ct_check(p, g, G_ID(CENTROID_THRESHOLD_K_SIGMA), c->threshold_k_sigma)) {
+    c->threshold_k_sigma = kv[0];
+    c->max_elongation = kv[1];
+    if (!mfns_ct_field(p, g, G_ID(CENTROID_THRESHOLD_K_SIGMA))) {
         return false;
     }
     if (c->threshold_dn == 0 && !(c->threshold_k_sigma > 0.0f)) {
         /* no threshold rule at all */
         return mfns_ct_fail(p, MFNS_CALTABLE_E_CENTROID_SETTINGS, G_OFF(CENTROID_THRESHOLD_K_SIGMA));
     }
-    if (!mfns_ct_check(p, g, G_ID(CENTROID_MIN_AREA_PX), (float)c->min_area_px)) {
+    if (!mfns_ct_field(p, g, G_ID(CENTROID_MIN_AREA_PX))) {
         return false;
     }
     if (c->max_area_px < c->min_area_px) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_CENTROID_SETTINGS, G_OFF(CENTROID_MAX_AREA_PX));
     }
-    if (!mfns_ct_check(p, g, G_ID(CENTROID_ROI_HALF_SIZE_PX), (float)c->roi_half_size_px) ||
-        !mfns_ct_check(p, g, G_ID(CENTROID_MAX_ELONGATION), c->max_elongation)) {
+    if (!mfns_ct_field(p, g, G_ID(CENTROID_ROI_HALF_SIZE_PX)) ||
+        !mfns_ct_field(p, g, G_ID(CENTROID_MAX_ELONGATION))) {
         return false;
     }
 
+    /* max_iterations, the reserved u16 (version 1's max_hypotheses), then the floats */
+    float sv[G_ID(SOLVER_MIN_RCOND) - G_ID(SOLVER_MAX_ITERATIONS) + 1];
+    if (!mfns_ct_fields(p, g, G_ID(SOLVER_MAX_ITERATIONS), G_ID(SOLVER_MIN_RCOND), sv)) {
+        return false;
+    }
     s->max_iterations = mfns_ct_u16(b, G_OFF(SOLVER_MAX_ITERATIONS));
-    if (!mfns_ct_check(p, g, G_ID(SOLVER_MAX_ITERATIONS), (float)s->max_iterations) ||
-        !mfns_ct_check(p, g, G_ID(SOLVER_RESERVED), (float)mfns_ct_u16(b, G_OFF(SOLVER_RESERVED)))) {
-        return false; /* the reserved u16 was version 1's max_hypotheses */
-    }
-    float *const f[SOLVER_FLOATS] = {&s->step_tol,           &s->grad_tol,      &s->huber_k,  &s->outlier_gate_sigma,
-                                     &s->max_residual_rms_sigma, &s->track_gate_px, &s->min_rcond};
-    for (uint32_t i = 0; i < SOLVER_FLOATS; i++) {
-        const mfns_caltable_field_id_t id = (mfns_caltable_field_id_t)(G_ID(SOLVER_STEP_TOL) + i);
-        if (!mfns_ct_f32_at(p, G_OFF(SOLVER_STEP_TOL) + 4u * i, f[i]) || !mfns_ct_check(p, g, id, *f[i])) {
-            return false;
-        }
-    }
+    s->step_tol = sv[2];
+    s->grad_tol = sv[3];
+    s->huber_k = sv[4];
+    s->outlier_gate_sigma = sv[5];
+    s->max_residual_rms_sigma = sv[6];
+    s->track_gate_px = sv[7];
+    s->min_rcond = sv[8];
     return true;
 }
 
@@ -121,10 +124,8 @@ static bool camera_values(mfns_ct_parser_t *p, uint32_t o, mfns_camera_t *cam)
     mfns_intrinsics_t *k = &cam->k;
     /* every float of the record first, so NaN has one status wherever it is */
     float v[CAM_FLOATS];
-    for (uint32_t i = 0; i < CAM_FLOATS; i++) {
-        if (!mfns_ct_f32_at(p, o + C_OFF(FX) + 4u * i, &v[i])) {
-            return false;
-        }
+    if (!mfns_ct_f32s(p, o + C_OFF(FX), CAM_FLOATS, v)) {
+        return false;
     }
     k->fx = v[CV(FX)];
     k->fy = v[CV(FY)];
@@ -140,7 +141,7 @@ static bool camera_values(mfns_ct_parser_t *p, uint32_t o, mfns_camera_t *cam)
         }
     }
     cam->r_bk_b = mfns_v3(v[CV(R_BK_B)], v[CV(R_BK_B) + 1u], v[CV(R_BK_B) + 2u]);
-    if (!mfns_ct_check(p, o, C_ID(FX), k->fx) || !mfns_ct_check(p, o, C_ID(FY), k->fy)) {
+    if (!mfns_ct_fields(p, o, C_ID(FX), C_ID(FY), NULL)) {
         return false;
     }
     if (!(k->cx >= -0.5f && k->cx <= (float)k->width - 0.5f)) {
@@ -153,7 +154,7 @@ static bool camera_values(mfns_ct_parser_t *p, uint32_t o, mfns_camera_t *cam)
         return mfns_ct_fail(p, MFNS_CALTABLE_E_LENS, o + C_OFF(SKEW));
     }
     for (uint32_t i = 0; i < 5u; i++) {
-        if (!mfns_ct_check(p, o + 4u * i, C_ID(DIST), k->dist[i])) {
+        if (!mfns_ct_field(p, o + 4u * i, C_ID(DIST))) {
             return false;
         }
     }
@@ -161,7 +162,7 @@ static bool camera_values(mfns_ct_parser_t *p, uint32_t o, mfns_camera_t *cam)
         return mfns_ct_fail(p, MFNS_CALTABLE_E_ROTATION, o + C_OFF(C_K_B));
     }
     for (uint32_t i = 0; i < 3u; i++) {
-        if (!mfns_ct_check(p, o + 4u * i, C_ID(R_BK_B), v[CV(R_BK_B) + i])) {
+        if (!mfns_ct_field(p, o + 4u * i, C_ID(R_BK_B))) {
             return false;
         }
     }
@@ -182,7 +183,7 @@ bool mfns_ct_parse_camera(mfns_ct_parser_t *p, uint32_t *pos, uint16_t index, mf
     mfns_intrinsics_t *k = &cam->k;
     k->width = mfns_ct_u16(b, o + C_OFF(WIDTH));
     k->height = mfns_ct_u16(b, o + C_OFF(HEIGHT));
-    if (!mfns_ct_check(p, o, C_ID(RESERVED), (float)mfns_ct_u16(b, o + C_OFF(RESERVED)))) {
+    if (!mfns_ct_field(p, o, C_ID(RESERVED))) {
         return false;
     }
     if (!in_range(C_ID(WIDTH), (float)k->width) || !in_range(C_ID(HEIGHT), (float)k->height)) {
@@ -206,8 +207,7 @@ bool mfns_ct_parse_camera(mfns_ct_parser_t *p, uint32_t *pos, uint16_t index, mf
     if ((p->size - nodes_off) / MFNS_CALTABLE_NODE_SIZE < nodes) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o + C_OFF(GRID_NX));
     }
-    if (!mfns_ct_check(p, o, C_ID(GRID_STEP_U_Q8), (float)g->step_u_q8) ||
-        !mfns_ct_check(p, o, C_ID(GRID_STEP_V_Q8), (float)g->step_v_q8)) {
+    if (!mfns_ct_fields(p, o, C_ID(GRID_STEP_U_Q8), C_ID(GRID_STEP_V_Q8), NULL)) {
         return false;
     }
     /* the nodes must span [-0.5, W-0.5] x [-0.5, H-0.5] (q8: -128 .. 256 W - 128) */
@@ -244,17 +244,19 @@ bool mfns_ct_parse_beacons(mfns_ct_parser_t *p, uint32_t pos, uint16_t n, mfns_b
         const uint32_t o = pos + i * MFNS_CALTABLE_BEACON_SIZE;
         mfns_beacon_t bc;
         bc.id = mfns_ct_u16(b, o + B_OFF(ID));
-        if (!mfns_ct_check(p, o, B_ID(RESERVED), (float)mfns_ct_u16(b, o + B_OFF(RESERVED)))) {
+        if (!mfns_ct_field(p, o, B_ID(RESERVED))) {
             return false;
         }
-        if (!mfns_ct_f32_at(p, o + B_OFF(P_W), &bc.p_w.x) || !mfns_ct_f32_at(p, o + B_OFF(P_W) + 4u, &bc.p_w.y) ||
-            !mfns_ct_f32_at(p, o + B_OFF(P_W) + 8u, &bc.p_w.z) || !mfns_ct_f32_at(p, o + B_OFF(SIGMA_MM), &bc.sigma_mm)) {
+        float v[4]; /* p_w, sigma_mm */
+        if (!mfns_ct_f32s(p, o + B_OFF(P_W), 4u, v)) {
             return false;
         }
+        bc.p_w = mfns_v3(v[0], v[1], v[2]);
+        bc.sigma_mm = v[3];
         if (!in_range(B_ID(P_W), bc.p_w.x) || !in_range(B_ID(P_W), bc.p_w.y) || !in_range(B_ID(P_W), bc.p_w.z)) {
             return mfns_ct_fail(p, MFNS_CALTABLE_E_BEACON_VALUE, o + B_OFF(P_W));
         }
-        if (!mfns_ct_check(p, o, B_ID(SIGMA_MM), bc.sigma_mm)) {
+        if (!mfns_ct_field(p, o, B_ID(SIGMA_MM))) {
             return false;
         }
         for (uint32_t j = 0; j < i; j++) {

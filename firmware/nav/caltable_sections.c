@@ -95,8 +95,7 @@ bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_
     if (n != 0u && n != MFNS_CALIB_PARAMS) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_CALIB_COV_COUNT, o + MFNS_CALTABLE_OFF_CALIB_COV_COUNT);
     }
-    if (!mfns_ct_check(p, o, MFNS_CALTABLE_F_CALIB_COV_RESERVED,
-                       (float)mfns_ct_u16(b, o + MFNS_CALTABLE_OFF_CALIB_COV_RESERVED))) {
+    if (!mfns_ct_field(p, o, MFNS_CALTABLE_F_CALIB_COV_RESERVED)) {
         return false;
     }
     const uint32_t body = o + MFNS_CALTABLE_COV_HEADER_SIZE;
@@ -110,13 +109,7 @@ bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_
     if ((p->size - body) / 4u < CALIB_TRI) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
     }
-    for (uint32_t e = 0; e < CALIB_TRI; e++) {
-        float f;
-        if (!mfns_ct_f32_at(p, body + 4u * e, &f)) {
-            return false;
-        }
-    }
-    if (!check_psd(p, body)) {
+    if (!mfns_ct_f32s(p, body, CALIB_TRI, NULL) || !check_psd(p, body)) {
         return false;
     }
     if (dst != NULL) {
@@ -142,10 +135,8 @@ static bool index_header(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, fl
     if (mfns_ct_u16(b, pos + X_OFF(BEACONS)) != nbeacon) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_INDEX_COUNT, pos + X_OFF(BEACONS));
     }
-    if (!mfns_ct_check(p, pos, X_ID(K_NBR), (float)b[pos + X_OFF(K_NBR)]) ||
-        !mfns_ct_check(p, pos, X_ID(MAX_MISSING), (float)miss) ||
-        !mfns_ct_check(p, pos, X_ID(MAX_UNEXPLAINED), (float)b[pos + X_OFF(MAX_UNEXPLAINED)]) ||
-        !mfns_ct_check(p, pos, X_ID(RESERVED), (float)b[pos + X_OFF(RESERVED)])) {
+    /* k_nbr, max_missing, max_unexplained, reserved */
+    if (!mfns_ct_fields(p, pos, X_ID(K_NBR), X_ID(RESERVED), NULL)) {
         return false;
     }
     /* the certificate: 4..16 inliers per allowed missing count, not fewer for
@@ -160,13 +151,11 @@ static bool index_header(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, fl
             return mfns_ct_fail(p, MFNS_CALTABLE_E_INDEX_POLICY, cert + m);
         }
     }
-    if (!mfns_ct_check(p, pos, X_ID(BUDGET_UNITS), (float)mfns_ct_u32(b, pos + X_OFF(BUDGET_UNITS)))) {
+    if (!mfns_ct_field(p, pos, X_ID(BUDGET_UNITS))) {
         return false;
     }
-    for (uint32_t i = 0; i < 6u; i++) {
-        if (!mfns_ct_f32_at(p, pos + X_OFF(WS_MIN_W) + 4u * i, &ws[i])) {
-            return false;
-        }
+    if (!mfns_ct_f32s(p, pos + X_OFF(WS_MIN_W), 6u, ws)) {
+        return false;
     }
     for (uint32_t i = 0; i < 3u; i++) {
         if (!(ws[i] < ws[3 + i]) || !mfns_caltable_in_range(&mfns_caltable_fields[X_ID(WS_MIN_W)], ws[i]) ||
@@ -190,25 +179,18 @@ bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_
     if (p->size - o < MFNS_CALTABLE_INTEGRITY_SIZE) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
     }
-    mfns_integrity_settings_t s;
-    if (!mfns_ct_f32_at(p, o + I_OFF(ALERT_LIMIT_POS_MM), &s.alert_limit_pos_mm) ||
-        !mfns_ct_check(p, o, I_ID(ALERT_LIMIT_POS_MM), s.alert_limit_pos_mm) ||
-        !mfns_ct_f32_at(p, o + I_OFF(ALERT_LIMIT_ATT_DEG), &s.alert_limit_att_deg) ||
-        !mfns_ct_check(p, o, I_ID(ALERT_LIMIT_ATT_DEG), s.alert_limit_att_deg) ||
-        !mfns_ct_f32_at(p, o + I_OFF(P_FA), &s.p_fa) || !mfns_ct_check(p, o, I_ID(P_FA), s.p_fa) ||
-        !mfns_ct_f32_at(p, o + I_OFF(P_MD), &s.p_md) || !mfns_ct_check(p, o, I_ID(P_MD), s.p_md)) {
-        return false;
-    }
-    s.hold_cycles = mfns_ct_u16(b, o + I_OFF(HOLD_CYCLES));
-    s.require_camera_monitor = b[o + I_OFF(REQUIRE_CAMERA_MONITOR)];
-    s.monitor_only = b[o + I_OFF(MONITOR_ONLY)];
-    if (!mfns_ct_check(p, o, I_ID(HOLD_CYCLES), (float)s.hold_cycles) ||
-        !mfns_ct_check(p, o, I_ID(REQUIRE_CAMERA_MONITOR), (float)s.require_camera_monitor) ||
-        !mfns_ct_check(p, o, I_ID(MONITOR_ONLY), (float)s.monitor_only)) {
+    float v[I_ID(MONITOR_ONLY) - I_ID(ALERT_LIMIT_POS_MM) + 1]; /* the record's fields in order */
+    if (!mfns_ct_fields(p, o, I_ID(ALERT_LIMIT_POS_MM), I_ID(MONITOR_ONLY), v)) {
         return false;
     }
     if (dst != NULL) {
-        *dst = s;
+        dst->alert_limit_pos_mm = v[0];
+        dst->alert_limit_att_deg = v[1];
+        dst->p_fa = v[2];
+        dst->p_md = v[3];
+        dst->hold_cycles = mfns_ct_u16(b, o + I_OFF(HOLD_CYCLES));
+        dst->require_camera_monitor = b[o + I_OFF(REQUIRE_CAMERA_MONITOR)];
+        dst->monitor_only = b[o + I_OFF(MONITOR_ONLY)];
     }
     *pos = o + MFNS_CALTABLE_INTEGRITY_SIZE;
     return true;
@@ -234,16 +216,14 @@ bool mfns_ct_parse_index(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, mf
     uint32_t o = pos + MFNS_CALTABLE_INDEX_HEADER_SIZE;
     for (uint32_t i = 0; i < n; i++, o += MFNS_CALTABLE_INDEX_GEOM_SIZE) {
         float g[6];
-        for (uint32_t j = 0; j < 6u; j++) {
-            if (!mfns_ct_f32_at(p, o + 4u * j, &g[j])) {
-                return false;
-            }
+        if (!mfns_ct_f32s(p, o, 6u, g)) {
+            return false;
         }
         const float an = sqrtf(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
         if (!(an == 0.0f || fabsf(an - 1.0f) <= 1e-3f)) {
             return mfns_ct_fail(p, MFNS_CALTABLE_E_INDEX_GEOMETRY, o + XG_OFF(AXIS_W));
         }
-        if (!mfns_ct_check(p, o, MFNS_CALTABLE_F_INDEX_GEOM_COS_HALF_ANGLE, g[3])) {
+        if (!mfns_ct_field(p, o, MFNS_CALTABLE_F_INDEX_GEOM_COS_HALF_ANGLE)) {
             return false;
         }
         if (!(mfns_caltable_in_range(&mfns_caltable_fields[MFNS_CALTABLE_F_INDEX_GEOM_RANGE_MIN_MM], g[4]) &&

@@ -6,6 +6,7 @@
  * covariance. */
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "pose_internal.h"
 #include "spd.h"
@@ -47,19 +48,17 @@ bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose,
         jc[0][MFNS_CALIB_K1 + i] = k->fx * dx[i] + k->skew * dy[i];
         jc[1][MFNS_CALIB_K1 + i] = k->fy * dy[i];
     }
-    /* M = d(u, v) / d p_b = jk C_k_b^T */
-    float mm[2][3];
-    for (int a = 0; a < 2; a++) {
-        for (int j = 0; j < 3; j++) {
-            mm[a][j] = jk[a][0] * cam->C_k_b.m[j][0] + jk[a][1] * cam->C_k_b.m[j][1] + jk[a][2] * cam->C_k_b.m[j][2];
-        }
-    }
     const mfns_m3_t sd = mfns_m3_skew(d);
     for (int a = 0; a < 2; a++) {
-        for (int j = 0; j < 3; j++) {
-            jc[a][MFNS_CALIB_THETA_X + j] = mm[a][0] * sd.m[0][j] + mm[a][1] * sd.m[1][j] + mm[a][2] * sd.m[2][j];
-            jc[a][MFNS_CALIB_R_X + j] = -mm[a][j];
-        }
+        /* row a of M = d(u, v) / d p_b = jk C_k_b^T, i.e. C_k_b jk_a; then M [d]x */
+        const mfns_v3_t mm = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(jk[a][0], jk[a][1], jk[a][2]));
+        const mfns_v3_t th = mfns_m3_tmul_v3_at(&sd, mm);
+        jc[a][MFNS_CALIB_THETA_X] = th.x;
+        jc[a][MFNS_CALIB_THETA_Y] = th.y;
+        jc[a][MFNS_CALIB_THETA_Z] = th.z;
+        jc[a][MFNS_CALIB_R_X] = -mm.x;
+        jc[a][MFNS_CALIB_R_Y] = -mm.y;
+        jc[a][MFNS_CALIB_R_Z] = -mm.z;
     }
     return true;
 }
@@ -67,13 +66,9 @@ bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose,
 void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
                            const mfns_pose_t *pose, float h[6][6], float b[6][MFNS_CALIB_PARAMS])
 {
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            h[i][j] = 0.0f;
-        }
-        for (int j = 0; b != NULL && j < MFNS_CALIB_PARAMS; j++) {
-            b[i][j] = 0.0f;
-        }
+    memset(h, 0, sizeof(float[6][6])); /* all-zero bytes are 0.0f */
+    if (b != NULL) {
+        memset(b, 0, sizeof(float[6][MFNS_CALIB_PARAMS]));
     }
     for (int k = 0; k < n; k++) {
         float r[2], jac[2][6];
@@ -98,11 +93,7 @@ void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int
             }
         }
     }
-    for (int i = 0; i < 6; i++) {
-        for (int j = i + 1; j < 6; j++) {
-            h[i][j] = h[j][i];
-        }
-    }
+    mfns_pose_mirror_lower(h);
 }
 
 /* cov += A Sigma_c A^T with A = cov B (6 x 45), over the cameras B touches
@@ -157,14 +148,27 @@ static void add_calibration_term(const float b[6][MFNS_CALIB_PARAMS], const mfns
     }
 }
 
+/* x^T c y, the products summed row by row (the output covariance of two
+ * output Jacobian rows x and y). */
+static float quad_form(const float x[6], const float c[6][6], const float y[6])
+{
+    float v = 0.0f;
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            v += x[i] * c[i][j] * y[j];
+        }
+    }
+    return v;
+}
+
+_Static_assert(MFNS_SPD_MAX_N == 6, "the pose's 6x6 matrices are the factorisation's");
+
 mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
                                         const mfns_calib_cov_t *calib, float min_rcond,
                                         mfns_pose_solution_t *out)
 {
-    float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
     for (int i = 0; i < 6; i++) {
         for (int j = 0; j < 6; j++) {
-            a[i][j] = h[i][j];
             out->cov[i][j] = 0.0f;
             out->cov_ros[i][j] = 0.0f;
         }
@@ -173,17 +177,11 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         out->sigma_pos_mm[i] = 0.0f;
         out->sigma_euler_deg[i] = 0.0f;
     }
-    mfns_chol_t f;
-    if (mfns_chol_factor(a, 6, min_rcond, &f) != MFNS_SPD_OK) {
+    mfns_chol_t f; /* h and the covariance are the factor's size: no copies */
+    if (mfns_chol_factor(h, 6, min_rcond, &f) != MFNS_SPD_OK) {
         return MFNS_POSE_R_SINGULAR;
     }
-    float inv[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
-    mfns_chol_inverse(&f, inv);
-    for (int i = 0; i < 6; i++) {
-        for (int j = 0; j < 6; j++) {
-            out->cov[i][j] = inv[i][j]; /* whitened: R is in h */
-        }
-    }
+    mfns_chol_inverse(&f, out->cov); /* whitened: R is in h */
     if (b != NULL && calib != NULL && calib->present != 0U) {
         add_calibration_term(b, calib, out->cov);
     }
@@ -239,13 +237,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
     }
     for (int p = 0; p < 6; p++) {
         for (int q = 0; q < 6; q++) {
-            float v = 0.0f;
-            for (int i = 0; i < 6; i++) {
-                for (int j = 0; j < 6; j++) {
-                    v += jr[p][i] * out->cov[i][j] * jr[q][j];
-                }
-            }
-            out->cov_ros[p][q] = v;
+            out->cov_ros[p][q] = quad_form(jr[p], out->cov, jr[q]);
         }
     }
     for (int p = 0; p < 6; p++) { /* exactly symmetric */
@@ -256,12 +248,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
         }
     }
     for (int r = 0; r < 6; r++) {
-        float var = 0.0f;
-        for (int i = 0; i < 6; i++) {
-            for (int j = 0; j < 6; j++) {
-                var += jo[r][i] * out->cov[i][j] * jo[r][j];
-            }
-        }
+        const float var = quad_form(jo[r], out->cov, jo[r]);
         const float sd = sqrtf(fmaxf(var, 0.0f));
         if (r < 3) {
             out->sigma_pos_mm[r] = sd;

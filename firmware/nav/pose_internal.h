@@ -44,6 +44,10 @@ mfns_pose_reason_t mfns_pose_lm(const mfns_rig_t *rig, const mfns_pose_meas_t *m
                                 const mfns_pose_config_t *cfg, int max_iter, mfns_pose_t *pose,
                                 int *iterations);
 
+/* h's upper triangle from its lower one: the normal equations are
+ * accumulated for j <= i only (linearize, mfns_pose_info_matrix). */
+void mfns_pose_mirror_lower(float h[6][6]);
+
 /* One Newton step of both iterations: solves a d = -g by Cholesky (a is the
  * 6x6 normal matrix, damped or not, rotation first, translation in mm), and
  * gives the step's norms: *step_rot_rad, *step_tr_m (mm scaled to m, so one

@@ -25,10 +25,8 @@ static bool algebraic(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mf
         /* d r / d p_c = [[-1, 0, x], [0, -1, y]]; d p_c / d p_b = C_k_b^T */
         const float dc[2][3] = {{-1.0f, 0.0f, m->x}, {0.0f, -1.0f, m->y}};
         for (int row = 0; row < 2; row++) {
-            mfns_v3_t jb;
-            jb.x = dc[row][0] * cam->C_k_b.m[0][0] + dc[row][1] * cam->C_k_b.m[0][1] + dc[row][2] * cam->C_k_b.m[0][2];
-            jb.y = dc[row][0] * cam->C_k_b.m[1][0] + dc[row][1] * cam->C_k_b.m[1][1] + dc[row][2] * cam->C_k_b.m[1][2];
-            jb.z = dc[row][0] * cam->C_k_b.m[2][0] + dc[row][1] * cam->C_k_b.m[2][1] + dc[row][2] * cam->C_k_b.m[2][2];
+            /* row of d r / d p_b = dc C_k_b^T, i.e. C_k_b dc_row */
+            const mfns_v3_t jb = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(dc[row][0], dc[row][1], dc[row][2]));
             const mfns_v3_t rot = mfns_v3_cross(q, jb);
             jac[row][0] = rot.x;
             jac[row][1] = rot.y;

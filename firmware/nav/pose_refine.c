@@ -6,6 +6,7 @@
  * below the measurement noise, so double buys nothing here. */
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "core_inline.h"
 #include "pose_internal.h"
@@ -138,12 +139,8 @@ static float linearize(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, 
                        float huber_k, float h[6][6], float g[6])
 {
     if (h != NULL) {
-        for (int i = 0; i < 6; i++) {
-            g[i] = 0.0f;
-            for (int j = 0; j < 6; j++) {
-                h[i][j] = 0.0f;
-            }
-        }
+        memset(h, 0, sizeof(float[6][6])); /* all-zero bytes are 0.0f */
+        memset(g, 0, sizeof(float[6]));
     }
     float cost = 0.0f;
     for (int k = 0; k < n; k++) {
@@ -173,13 +170,18 @@ static float linearize(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n, 
         }
     }
     if (h != NULL) {
-        for (int i = 0; i < 6; i++) {
-            for (int j = i + 1; j < 6; j++) {
-                h[i][j] = h[j][i];
-            }
-        }
+        mfns_pose_mirror_lower(h);
     }
     return cost;
+}
+
+void mfns_pose_mirror_lower(float h[6][6])
+{
+    for (int i = 0; i < 6; i++) {
+        for (int j = i + 1; j < 6; j++) {
+            h[i][j] = h[j][i];
+        }
+    }
 }
 
 bool mfns_pose_newton_step(float a[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N], const float g[6], float min_rcond,

@@ -5,6 +5,7 @@
 
 #include <string.h>
 
+#include "core_inline.h"
 #include "crc16.h"
 #include "tlm_err.h"
 #include "tlm_packets.h"
@@ -66,6 +67,18 @@ tc_status_t tc_packet_encode(const tc_cmd_t *cmd, uint16_t seq, uint8_t *out, si
     return TC_OK;
 }
 
+/* The primary header at in (every bit pattern unpacks) into *h, its sequence
+ * count into out; true when it is a telecommand's (version 0, type TC,
+ * secondary header, unsegmented). */
+MFNS_OUT_OF_LINE
+static bool tc_primary_header(const uint8_t *in, tlm_ccsds_hdr_t *h, tc_cmd_t *out)
+{
+    (void)tlm_ccsds_unpack(in, h);
+    out->seq = h->seq;
+    out->have_seq = true;
+    return h->version == 0u && h->type == 1u && h->sec_hdr == 1u && h->seq_flags == TC_SEQ_FLAGS;
+}
+
 tc_status_t tc_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out)
 {
     if (out == NULL) {
@@ -79,10 +92,7 @@ tc_status_t tc_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out)
         return TC_E_RUNT;
     }
     tlm_ccsds_hdr_t h;
-    (void)tlm_ccsds_unpack(in, &h); /* every bit pattern unpacks */
-    out->seq = h.seq;
-    out->have_seq = true;
-    if (h.version != 0u || h.type != 1u || h.sec_hdr != 1u || h.seq_flags != TC_SEQ_FLAGS) {
+    if (!tc_primary_header(in, &h, out)) {
         return TC_E_HEADER;
     }
     if ((size_t)h.data_len + TLM_CCSDS_PRI_LEN + 1u != len) {
@@ -191,11 +201,8 @@ tc_status_t tc_any_packet_decode(const uint8_t *in, size_t len, tc_cmd_t *out)
         return TC_E_NULL;
     }
     memset(out, 0, sizeof *out);
-    tlm_ccsds_hdr_t h;
-    (void)tlm_ccsds_unpack(in, &h); /* the primary header first: a TM frame is HEADER, as when plain */
-    out->seq = h.seq;
-    out->have_seq = true;
-    if (h.version != 0u || h.type != 1u || h.sec_hdr != 1u || h.seq_flags != TC_SEQ_FLAGS) {
+    tlm_ccsds_hdr_t h; /* the primary header first: a TM frame is HEADER, as when plain */
+    if (!tc_primary_header(in, &h, out)) {
         return TC_E_HEADER;
     }
     if (len < TC_HDR_LEN + TC_SEC_OVERHEAD) {

@@ -19,34 +19,30 @@ static int drop_oldest(tlm_txq_t *q)
     if (q->frames == 0u) {
         return 0;
     }
+    uint32_t len; /* bytes dropped: the head frame's, or the second frame's */
     if (!q->head_started) {
-        const uint32_t len = q->frame_len[SLOT(q->head_frame)];
-        q->head = POS(q->head + len);
-        q->used -= len;
-        q->head_frame++;
-        q->frames--;
-        q->dropped++;
-        q->dropped_bytes += len;
-        return 1;
+        len = q->frame_len[SLOT(q->head_frame)];
+    } else {
+        if (q->frames < 2u) {
+            return 0;
+        }
+        /* Remove the second frame: slide the head frame's unsent rest (rem
+         * bytes) forward over it so it ends where the second frame ended,
+         * and give the rest the second frame's slot. Bounded by
+         * TLM_MAX_WIRE byte moves. */
+        const uint32_t rem = q->frame_len[SLOT(q->head_frame)];
+        len = q->frame_len[SLOT(q->head_frame + 1u)];
+        for (uint32_t k = rem; k > 0u; k--) {
+            q->data[POS(q->head + len + k - 1u)] = q->data[POS(q->head + k - 1u)];
+        }
+        q->frame_len[SLOT(q->head_frame + 1u)] = (uint16_t)rem;
     }
-    if (q->frames < 2u) {
-        return 0;
-    }
-    /* Remove the second frame: slide the head frame's unsent rest (rem bytes)
-     * forward over it so it ends where the second frame ended. Bounded by
-     * TLM_MAX_WIRE byte moves. */
-    const uint32_t rem = q->frame_len[SLOT(q->head_frame)];
-    const uint32_t len2 = q->frame_len[SLOT(q->head_frame + 1u)];
-    for (uint32_t k = rem; k > 0u; k--) {
-        q->data[POS(q->head + len2 + k - 1u)] = q->data[POS(q->head + k - 1u)];
-    }
-    q->head = POS(q->head + len2);
-    q->used -= len2;
+    q->head = POS(q->head + len);
+    q->used -= len;
     q->head_frame++;
-    q->frame_len[SLOT(q->head_frame)] = (uint16_t)rem;
     q->frames--;
     q->dropped++;
-    q->dropped_bytes += len2;
+    q->dropped_bytes += len;
     return 1;
 }
 
