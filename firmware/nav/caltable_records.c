@@ -35,7 +35,7 @@ bool mfns_ct_parse_globals(mfns_ct_parser_t *p, uint16_t *nbeacon, float *sigma,
         return false;
     }
     *nbeacon = mfns_ct_u16(b, G_OFF(BEACON_COUNT));
-    *sigma = v[2];
+    *sigma = v[G_ID(PIXEL_SIGMA_PX) - G_ID(CAMERA_COUNT)];
 
     c->threshold_dn = mfns_ct_u16(b, G_OFF(CENTROID_THRESHOLD_DN));
     c->min_area_px = mfns_ct_u16(b, G_OFF(CENTROID_MIN_AREA_PX));
@@ -72,14 +72,16 @@ bool mfns_ct_parse_globals(mfns_ct_parser_t *p, uint16_t *nbeacon, float *sigma,
     if (!mfns_ct_fields(p, g, G_ID(SOLVER_MAX_ITERATIONS), G_ID(SOLVER_MIN_RCOND), sv)) {
         return false;
     }
+#define SV(f) sv[G_ID(SOLVER_##f) - G_ID(SOLVER_MAX_ITERATIONS)]
     s->max_iterations = mfns_ct_u16(b, G_OFF(SOLVER_MAX_ITERATIONS));
-    s->step_tol = sv[2];
-    s->grad_tol = sv[3];
-    s->huber_k = sv[4];
-    s->outlier_gate_sigma = sv[5];
-    s->max_residual_rms_sigma = sv[6];
-    s->track_gate_px = sv[7];
-    s->min_rcond = sv[8];
+    s->step_tol = SV(STEP_TOL);
+    s->grad_tol = SV(GRAD_TOL);
+    s->huber_k = SV(HUBER_K);
+    s->outlier_gate_sigma = SV(OUTLIER_GATE_SIGMA);
+    s->max_residual_rms_sigma = SV(MAX_RESIDUAL_RMS_SIGMA);
+    s->track_gate_px = SV(TRACK_GATE_PX);
+    s->min_rcond = SV(MIN_RCOND);
+#undef SV
     return true;
 }
 
