@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "acquire_internal.h"
+#include "motion.h"
 
 void mfns_acq_cycle_reset(mfns_acq_cycle_t *ac)
 {
@@ -41,30 +42,6 @@ static bool verified(const mfns_pose_solution_t *s)
     return usable(s) && s->reason != MFNS_POSE_R_MINIMAL && s->beacons_used >= MFNS_ACQ_MIN_BLOBS;
 }
 
-void mfns_acq_predict_cv(const mfns_pose_t *pose, const mfns_pose_t *prev, bool have_prev, mfns_pose_t *pred)
-{
-    if (have_prev) {
-        mfns_m3_t c;
-        mfns_m3_transpose_at(&prev->C_w_b, &c);
-        mfns_m3_mul_at(&pose->C_w_b, &c, &c); /* dc */
-        mfns_m3_mul_at(&c, &pose->C_w_b, &c);
-        if (mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) { /* never predict with a non-rotation */
-            const mfns_v3_t p1 = mfns_pose_position_w(pose), p0 = mfns_pose_position_w(prev);
-            *pred = mfns_pose_from_position_at(&c, mfns_v3_add(p1, mfns_v3_sub(p1, p0)));
-            return;
-        }
-    }
-    *pred = *pose;
-}
-
-/* out of line on a size build: four calls, each two 48-byte copies inline */
-MFNS_OUT_OF_LINE
-void mfns_acq_cv_advance(mfns_pose_t *pose, mfns_pose_t *prev, const mfns_pose_t *next)
-{
-    *prev = *pose;
-    *pose = *next;
-}
-
 typedef enum {
     CU_GOING = 0, /* goes on next cycle (the budget stopped it, or the current frame did not verify) */
     CU_DONE,      /* verified on the current frame: out is the fix */
@@ -99,7 +76,7 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         const uint32_t next = cu->seq + 1u;
         const mfns_obs_frame_t *f = mfns_blob_ring_get(&ac->ring, next);
         mfns_pose_t pred;
-        mfns_acq_predict_cv(&cu->pose, &cu->prev, cu->have_prev, &pred);
+        mfns_motion_predict_cv(&cu->pose, &cu->prev, cu->have_prev, &pred);
         mfns_pose_solution_t s;
         mfns_pose_solution_clear(&s, MFNS_POSE_R_TOO_FEW);
         if (f != NULL) {
@@ -119,7 +96,7 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         if (ok || (s.status == MFNS_POSE_NO_FIX && s.reason == MFNS_POSE_R_MINIMAL)) {
             cu->have_prev = cu->coast == 0u; /* a motion only between two verified frames */
             cu->coast = 0u;
-            mfns_acq_cv_advance(&cu->pose, &cu->prev, &s.pose);
+            mfns_motion_advance(&cu->pose, &cu->prev, &s.pose);
             if (ok && next == now) {
                 *out = s;
                 return CU_DONE;
@@ -132,7 +109,7 @@ static cu_state_t catchup_run(mfns_acq_cycle_t *ac, const mfns_rig_t *rig, const
         if (cu->coast > MFNS_ACQ_CATCHUP_MAX_COAST) {
             return CU_REFUSED;
         }
-        mfns_acq_cv_advance(&cu->pose, &cu->prev, &pred); /* the coast keeps the motion (have_prev stays) */
+        mfns_motion_advance(&cu->pose, &cu->prev, &pred); /* the coast keeps the motion (have_prev stays) */
     }
     return CU_GOING;
 }

@@ -131,18 +131,6 @@ void mfns_acq_cycle_reset(mfns_acq_cycle_t *ac);
  * carried frame is one cycle older. */
 void mfns_acq_cycle_skip(mfns_acq_cycle_t *ac);
 
-/* Constant-velocity prediction of the next frame's pose, the navigator's
- * model (nav_cycle.c) and the catch-up's: the motion from prev to pose
- * (C_w_b: dC = C_pose C_prev^T; position in the world frame) applied once
- * more, into *pred; pose itself when there is no motion (!have_prev) or the
- * product is no rotation. pred must not be pose or prev. */
-void mfns_acq_predict_cv(const mfns_pose_t *pose, const mfns_pose_t *prev, bool have_prev, mfns_pose_t *pred);
-
-/* The constant-velocity model moves on by a frame (mfns_acq_predict_cv's
- * pose and prev): *prev takes *pose, and *pose takes *next (a fix, or the
- * prediction coasted to). next must not be prev. */
-void mfns_acq_cv_advance(mfns_pose_t *pose, mfns_pose_t *prev, const mfns_pose_t *next);
-
 /* One cycle of acquisition on frame (see top of file). out is OK/DEGRADED
  * only for a certified identification verified on frame (fresh, or carried
  * and caught up to it); otherwise NO_FIX

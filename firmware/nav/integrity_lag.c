@@ -4,26 +4,12 @@
 #include <math.h>
 #include <string.h>
 
+#include "motion.h"
 #include "pose_internal.h"
 #include "spd.h"
 
 _Static_assert(MFNS_SPD_MAX_N >= 6, "6x6 information");
 _Static_assert(MFNS_LAG_MIN_OBS >= 1, "a camera is tested on at least one beacon");
-
-mfns_pose_t mfns_integrity_lag_back(const mfns_pose_t *now, const mfns_pose_t *last, const mfns_pose_t *prev)
-{
-    /* world->body increment of the last cycle dC = C_last C_prev^T; undone: C_now' = dC^T C_now */
-    mfns_m3_t c;
-    mfns_m3_transpose_at(&prev->C_w_b, &c);
-    mfns_m3_mul_at(&last->C_w_b, &c, &c); /* dc */
-    mfns_m3_transpose_at(&c, &c);
-    mfns_m3_mul_at(&c, &now->C_w_b, &c);
-    if (!mfns_m3_reorthonormalize_at(&c, 4, 1e-6f, &c)) {
-        c = now->C_w_b; /* never a non-rotation: the rotation part of the motion is then not undone */
-    }
-    const mfns_v3_t step = mfns_v3_sub(mfns_pose_position_w(last), mfns_pose_position_w(prev));
-    return mfns_pose_from_position_at(&c, mfns_v3_sub(mfns_pose_position_w(now), step));
-}
 
 /* Per camera: the sums of one pass over the inliers. */
 typedef struct {
@@ -429,7 +415,7 @@ int mfns_integrity_lag_monitor(mfns_integrity_memory_t *mem, const mfns_rig_t *r
     }
     const bool motion = mem->lag_fixes >= 2U;
     mem->lag_tested_motion = (uint8_t)(motion ? 1U : 0U);
-    const mfns_pose_t back = motion ? mfns_integrity_lag_back(&sol->pose, &mem->lag_last, &mem->lag_prev) : sol->pose;
+    const mfns_pose_t back = motion ? mfns_motion_step_back(&sol->pose, &mem->lag_last, &mem->lag_prev) : sol->pose;
     mem->lag_prev = mem->lag_last;
     mem->lag_last = sol->pose;
     mem->lag_fixes = (uint8_t)(mem->lag_fixes < 2U ? mem->lag_fixes + 1U : 2U);

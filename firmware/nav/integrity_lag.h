@@ -90,12 +90,9 @@ typedef struct {
     int8_t worst;                       /* camera of the largest |z| above k, -1 none */
 } mfns_lag_eval_t;
 
-/* The fix moved back by one cycle of motion: the motion from prev to last
- * (two consecutive fixes, prev the older) undone on now. */
-mfns_pose_t mfns_integrity_lag_back(const mfns_pose_t *now, const mfns_pose_t *last, const mfns_pose_t *prev);
-
 /* Test each camera of the fix sol (OK or DEGRADED, its assoc and inlier
- * marks) for a lag against back (mfns_integrity_lag_back). MFNS_INTEGRITY_E_ARG
+ * marks) for a lag against back (mfns_motion_step_back, motion.h: the motion from the
+ * last two fixes undone on the fix). MFNS_INTEGRITY_E_ARG
  * for NULLs, bad settings or a sol that is not a fix; E_GEOM when its
  * information is singular. */
 mfns_integrity_status_t mfns_integrity_lag(const mfns_rig_t *rig, const mfns_beacon_map_t *map,

@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "motion.h"
 #include "undistort.h"
 #include "units.h"
 
@@ -367,7 +368,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
         /* the last cycle's motion once more (the catch-up's model too) */
-        mfns_acq_predict_cv(&nav->prior, &nav->prev, nav->have_prev, &nav->predicted);
+        mfns_motion_predict_cv(&nav->prior, &nav->prev, nav->have_prev, &nav->predicted);
     }
     out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
     /* The one place of the policy: track from the prediction, else (or when
@@ -429,7 +430,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     if (carries_track(&out->sol, !out->acquired)) {
         /* velocity only between two real fixes: never from a hint or a coast */
         nav->have_prev = nav->have_prior && nav->prior_is_fix;
-        mfns_acq_cv_advance(&nav->prior, &nav->prev, &out->sol.pose);
+        mfns_motion_advance(&nav->prior, &nav->prev, &out->sol.pose);
         nav->prior_is_fix = true;
         nav->have_prior = true;
         nav->coast = 0;
@@ -440,7 +441,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     } else if (track && nav->coast < MFNS_NAV_MAX_COAST) {
         /* Coast: move the prior on by the predicted motion, keep the motion. */
         nav->coast++;
-        mfns_acq_cv_advance(&nav->prior, &nav->prev, &nav->predicted);
+        mfns_motion_advance(&nav->prior, &nav->prev, &nav->predicted);
         nav->prior_is_fix = false; /* have_prev stays: the coast keeps the motion */
         out->coasting = nav->coast;
     } else {

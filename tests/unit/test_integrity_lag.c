@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "integrity_lag.h"
+#include "motion.h"
 #include "pose_testlib.h"
 #include "testutil.h"
 
@@ -88,7 +89,7 @@ static mfns_pose_status_t render(int k, int stale_cam, int lag, mfns_rng_t *rng)
 static mfns_integrity_status_t lag_at(int k, mfns_lag_eval_t *ev)
 {
     const mfns_pose_t last = pt_to_float(&sc.pose[k - 1]), prev = pt_to_float(&sc.pose[k - 2]);
-    const mfns_pose_t back = mfns_integrity_lag_back(&sc.sol.pose, &last, &prev);
+    const mfns_pose_t back = mfns_motion_step_back(&sc.sol.pose, &last, &prev);
     return mfns_integrity_lag(&sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &sc.set, &back, ev);
 }
 
@@ -106,7 +107,7 @@ static void test_back_undoes_one_cycle(void **state)
     make_motion(3);
     const mfns_pose_t now = pt_to_float(&sc.pose[3]), last = pt_to_float(&sc.pose[2]),
                       prev = pt_to_float(&sc.pose[1]);
-    const mfns_pose_t back = mfns_integrity_lag_back(&now, &last, &prev);
+    const mfns_pose_t back = mfns_motion_step_back(&now, &last, &prev);
     const pt_dpose_t b = pt_from_float(&back);
     assert_true(pt_pos_err(&b, &sc.pose[2]) < 1e-2);
     assert_true(pt_rot_err(b.C, sc.pose[2].C) < 1e-5);
