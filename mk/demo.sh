@@ -96,11 +96,14 @@ navigate turntable refined-calibration "$out/calib/refined.json" "" "--settings 
 navigate turntable paper-calibration "$out/calib/refined_paper.json" "" "--settings $bench"
 drop_frames turntable --scenario turntable --frames 200 --yaw-span 120 --seed 1 --survey-error
 # The module: 60 beacons. The robot starts from no knowledge too: lost-in-space
-# acquisition from the table's map index (docs/pose.md), then tracking.
+# acquisition from the table's map index (docs/pose.md), then tracking. Its tables
+# are built over the robot's workspace (the box its paths stay in, which
+# scenario.json states; the planned layout's over the box it was planned for,
+# plan.json), not the map's default box (docs/planning.md).
 simulate module --scenario module --frames 120 --seed 2 --survey-error
-navigate module true-rig "$out/module/frames/calib.json" ""
-navigate module refined-calibration "$out/calib/refined.json" ""
-navigate module paper-calibration "$out/calib/refined_paper.json" ""
+navigate module true-rig "$out/module/frames/calib.json" "" "--workspace $out/module/frames/scenario.json"
+navigate module refined-calibration "$out/calib/refined.json" "" "--workspace $out/module/frames/scenario.json"
+navigate module paper-calibration "$out/calib/refined_paper.json" "" "--workspace $out/module/frames/scenario.json"
 
 # Beacon layouts planned by mfns plan (docs/planning.md) for the same rig and
 # number of LEDs: the paper's 10 on its frame, the module's 60 on its walls.
@@ -122,7 +125,7 @@ navigate turntable-planned true-rig "$out/turntable-planned/frames/calib.json" "
 drop_frames turntable-planned --scenario turntable --frames 200 --yaw-span 120 --seed 1 \
   --beacon-map "$out/plan/turntable/beacons.csv" --survey-error
 simulate module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv" --survey-error
-navigate module-planned true-rig "$out/module-planned/frames/calib.json" ""
+navigate module-planned true-rig "$out/module-planned/frames/calib.json" "" "--workspace $out/plan/module/plan.json"
 drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map "$out/plan/module/beacons.csv" --survey-error
 
 # The paper's comparison, then README's module accuracy from this run (between its

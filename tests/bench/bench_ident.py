@@ -97,12 +97,15 @@ class Setup:
     index_s: float
 
 
-def setup(name: str) -> Setup:
-    """The map `name` (scenario) with its index built as `mfns table build` builds it."""
+def setup(name: str, ws_override: tuple | None = None) -> Setup:
+    """The map `name` (scenario) with its index built as `mfns table build` builds it, over
+    the map's default workspace box or ws_override (lo, hi)."""
     fl = Flight()
     cams = pose_sim.paper_rig()
     rig = fl.rig(cams)
     pos, nrm, ws, sig = scenario(name, fl, cams)
+    if ws_override is not None:
+        ws = ws_override
     bmap = fl.beacon_map(pos, sig)
     t0 = time.perf_counter()
     emission = None if nrm is None else (nrm, np.full(len(pos), 90.0))

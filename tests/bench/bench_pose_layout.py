@@ -6,10 +6,14 @@ sigma their beacons.csv states, LEDs aimed along the nearest wall's normal (as `
 nav --beacon-map` renders them), a reflection in 10 % of the frames.
 
 Poses: the module scenario's reachable poses (mfns.plan.workspace.module: the space the
-planner optimises over) with >= 4 beacons in view, on an independent stream; with --box,
-bench_ident.py's uniform attitude in the map's default workspace box instead.
+planner optimises over) with >= 4 beacons in view, on an independent stream, and the index
+built over that workspace's box (as the robot's table is: `mfns table build --workspace`, the
+plan.json's box); with --map-workspace over the table's default box instead (the beacons'
+box shrunk by 10 %: larger, and on a layout with no beacon low on the walls not holding the
+lowest poses). With --box, bench_ident.py's uniform attitude in the map's default box.
 
-    python tests/bench/bench_pose_layout.py PLANNED.csv ORIGINAL.csv [--poses N] [--seed S] [--box]
+    python tests/bench/bench_pose_layout.py PLANNED.csv ORIGINAL.csv [--poses N] [--seed S]
+        [--box] [--map-workspace] [--breakdown]
 
 Prints per layout: right / wrong / no fix (reasons), the share of poses with >= 4 and
 >= 5 beacons in view, and the call's time. Target (issue 27), the module's 60 LEDs:
@@ -55,14 +59,21 @@ def module_poses(fl, rig, bmap, idx, rng, n):
     return out
 
 
-def run(csv: str, n: int, seed: int, box: bool, breakdown: bool = False) -> bool:
+def run(csv: str, n: int, seed: int, box: bool, breakdown: bool = False, map_ws: bool = False) -> bool:
     fl = Flight()
     cams = pose_sim.paper_rig()
     rig = fl.rig(cams)
     _, pos, sig = load_beacon_csv(csv)
     nrm = nav.wall_normals(pos)
     bmap = fl.beacon_map(pos, sig)
-    ws = mapindex.default_workspace(pos)
+    # the table's workspace: the box the poses are drawn from, as the flight table of this
+    # robot is built (`mfns table build --workspace`, the plan's table_workspace_mm), or the
+    # table's default, the map's box shrunk by 10 % (--box poses are drawn in it; --map-workspace)
+    ws = (
+        mapindex.default_workspace(pos)
+        if box or map_ws
+        else (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy())
+    )
     t0 = time.perf_counter()
     idx, report = mapindex.build(fl, rig, bmap, (nrm, np.full(len(pos), 90.0)), ws, SIGMA_PX)
     t_index = time.perf_counter() - t0
@@ -81,7 +92,8 @@ def run(csv: str, n: int, seed: int, box: bool, breakdown: bool = False) -> bool
     ms = np.array(res.seconds) * 1e3
     print(
         f"== {csv}: {len(pos)} beacons, survey sigma {np.median(sig):g} mm; "
-        f"index {t_index:.0f} s ({report.lines()[2]})"
+        f"index {t_index:.0f} s ({report.lines()[2]}); workspace "
+        f"{np.round(ws[0]).tolist()}..{np.round(ws[1]).tolist()} mm{' (the map default)' if box or map_ws else ''}"
     )
     print(
         f"   one call: {res.right} right ({100.0 * res.right / n:.2f} %), {res.wrong} wrong of {n}; "
@@ -153,10 +165,16 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--box", action="store_true", help="uniform attitude in the map's default box")
     ap.add_argument("--breakdown", action="store_true", help="the no-fixes by beacons in view and reflection")
+    ap.add_argument(
+        "--map-workspace",
+        action="store_true",
+        help="build the index over the map's default box (the beacons' box shrunk by 10 %%) instead of "
+        "the module workspace the poses come from",
+    )
     a = ap.parse_args()
     ok = True
     for csv in a.layouts:
-        ok &= run(csv, a.poses, a.seed, a.box, a.breakdown)
+        ok &= run(csv, a.poses, a.seed, a.box, a.breakdown, a.map_workspace)
     return 0 if ok else 1
 
 

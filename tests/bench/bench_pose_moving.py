@@ -15,7 +15,7 @@ inlier its own beacon on the frame of the fix) within 1, 5, 20 and 40 cycles, th
 fixes (must be 0), the fixes from a carried search, and the time and work per cycle.
 
     python tests/bench/bench_pose_moving.py [--maps module large] [--starts N] [--seed S]
-                                            [--quick]
+                                            [--quick] [--robot-workspace]
 
 `make bench-pose` runs the default (600 starts per row); --quick is the tests' size.
 Targets (issue 27), module speed at 18.6 Hz: >= 99 % right within 40 cycles on both maps,
@@ -111,14 +111,20 @@ def run_row(fl, rig, bmap, idx, cams, truth, nrm, cfg, seed, starts, rate_hz, sp
     )
 
 
-def run_map(name: str, starts: int, seed: int, rates, speeds, max_cycles: int) -> bool:
-    m = setup(name)
+def run_map(name: str, starts: int, seed: int, rates, speeds, max_cycles: int, robot_ws: bool = False) -> bool:
+    # --robot-workspace: the index over the box the scenario's paths stay in (as `mfns table
+    # build --workspace scenario.json` builds the robot's table), not the map's default box
+    m = setup(name, (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy()) if robot_ws else None)
     fl, cams, rig, pos, nrm, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.bmap, m.idx
     cfg = m.cfg
     rng = np.random.default_rng([seed, len(pos), 27])
     truth = pos + rng.normal(0.0, SURVEY_SIGMA_MM, pos.shape)
     ok = True
-    print(f"== {name}: {len(pos)} beacons; {starts} starts per row, <= {max_cycles} cycles each")
+    print(
+        f"== {name}: {len(pos)} beacons; {starts} starts per row, <= {max_cycles} cycles each; index over "
+        f"{np.round(m.ws[0]).tolist()}..{np.round(m.ws[1]).tolist()} mm"
+        f"{' (the robot workspace)' if robot_ws else ' (the map default)'}"
+    )
     head = " | ".join(f"within {w}" for w in WITHIN if w <= max_cycles)
     print(f"| speed | frames | {head} | wrong | carried | ms per cycle median / p99 / max | units p99 |")
     for rate in rates:
@@ -155,13 +161,19 @@ def main() -> int:
     ap.add_argument("--rates", type=float, nargs="+", default=list(RATES_HZ), help="frame rates, Hz")
     ap.add_argument("--speeds", type=float, nargs="+", default=list(SPEEDS), help="x the scenario's speed")
     ap.add_argument("--quick", action="store_true", help="the tests' size: 40 starts, the module at 18.6 Hz")
+    ap.add_argument(
+        "--robot-workspace",
+        action="store_true",
+        help="build the index over the box the module paths stay in (the scenario's table_workspace_mm) "
+        "instead of the map's default box",
+    )
     a = ap.parse_args()
     rates, speeds, starts, maps = a.rates, a.speeds, a.starts, a.maps
     if a.quick:
         rates, speeds, starts, maps = (18.6,), (1.0,), 40, ["module"]
     ok = True
     for name in maps:
-        ok &= run_map(name, starts, a.seed, rates, speeds, a.cycles)
+        ok &= run_map(name, starts, a.seed, rates, speeds, a.cycles, a.robot_workspace)
     print("target: 0 wrong fixes in every row")
     return 0 if ok else 1
 

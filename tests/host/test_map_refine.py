@@ -201,3 +201,23 @@ def test_rigid_to_removes_a_rigid_motion_only():
     np.testing.assert_allclose(rigid_to(a, b), b, atol=1e-9)
     c = b * 1.001  # a scale is not removed
     assert np.abs(rigid_to(a, c) - c).max() > 0.1
+
+
+def test_a_fresh_path_without_a_fix_is_a_result_not_a_crash(tmp_path):
+    """A fresh path on which no fix is usable (seed 15's surveyed map, 3 December 2026) made
+    `mfns report` exit with "nothing to report" and ended the whole multi-seed bench; it is
+    now a row of 0 fixes, and any other failure still ends the run."""
+    import sys
+
+    from mfns.map import refine_demo
+
+    log = tmp_path / "report.log"
+    say = "import sys; print('mfns report: error: nothing to report: no solutions'); sys.exit(2)"
+    assert refine_demo._run([sys.executable, "-c", say], log, allow="nothing to report") is False
+    with pytest.raises(SystemExit, match="failed"):
+        refine_demo._run([sys.executable, "-c", "import sys; sys.exit(2)"], log, allow="nothing to report")
+    with pytest.raises(SystemExit, match="failed"):
+        refine_demo._run([sys.executable, "-c", say], log)  # not allowed: a failure
+    assert refine_demo._run([sys.executable, "-c", "pass"], log) is True
+    row = refine_demo._row("surveyed", refine_demo._no_fix_summary())
+    assert row.startswith("| surveyed | 0 | nan |") and row.endswith("| nan |")

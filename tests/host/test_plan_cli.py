@@ -75,6 +75,9 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
     assert all(float(r["z_mm"]) < 400 for r in rows)  # the keep-out took the top face
     plan = json.loads((out / "plan.json").read_text())
     assert plan["algorithm"].startswith("greedy") and plan["run_time_s"]["total"] > 0
+    # the box planned for (the turntable's poses: one body position, every yaw), padded
+    lo, hi = plan["table_workspace_mm"][:3], plan["table_workspace_mm"][3:]
+    assert all(a < 0.0 < b for a, b in zip(lo, hi, strict=True)) and max(hi) < 5.0
     tbl = subprocess.run(
         [
             sys.executable,
@@ -86,12 +89,37 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
             str(out / "beacons.csv"),
             "-o",
             str(tmp_path / "t.tbl"),
+            "--workspace",
+            str(out / "plan.json"),
         ],
         capture_output=True,
         text=True,
         check=False,
     )
     assert tbl.returncode == 0, tbl.stderr
+    # the table's map index is built over the planned box, not the map's default one
+    assert f"workspace [{lo[0]:.0f}, {hi[0]:.0f}] x [{lo[1]:.0f}, {hi[1]:.0f}]" in tbl.stdout, tbl.stdout
+
+
+def test_table_workspace_from_a_plan_or_numbers(tmp_path):
+    from mfns.errors import MfnsError
+    from mfns.table.mapindex import workspace_arg
+
+    lo, hi = workspace_arg("-800,-300,-300,800,300,300")
+    assert lo.tolist() == [-800, -300, -300] and hi.tolist() == [800, 300, 300]
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps({"table_workspace_mm": [-1.5, -2, -3, 4, 5, 6.25]}))
+    lo, hi = workspace_arg(str(plan))
+    assert lo.tolist() == [-1.5, -2, -3] and hi.tolist() == [4, 5, 6.25]
+    for text, message in (
+        ('{"optimised_on": "module"}', "table_workspace_mm"),
+        ('{"table_workspace_mm": [1, 2, 3]}', "table_workspace_mm"),
+        ('{"table_workspace_mm": [1, 2, 3, 0, 5, 6]}', "below its maximum"),
+        ("[1, 2", "not a readable JSON"),
+    ):
+        plan.write_text(text)
+        with pytest.raises(MfnsError, match=message):
+            workspace_arg(str(plan))
 
 
 @pytest.mark.parametrize(

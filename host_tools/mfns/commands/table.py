@@ -34,7 +34,7 @@ def cmd_build(args) -> int:
         raise MfnsError(f"--pixel-sigma {args.pixel_sigma}: expected a value in (0, 10] px")
     from ..table import mapindex
 
-    ws = mapindex.parse_workspace(args.workspace) if args.workspace else None
+    ws = mapindex.workspace_arg(args.workspace) if args.workspace else None
     if args.certify_samples < 1:
         raise MfnsError(f"--certify-samples {args.certify_samples}: expected at least 1")
     from tqdm import tqdm
@@ -178,9 +178,11 @@ def register(subparsers) -> None:
     )
     b.add_argument(
         "--workspace",
-        metavar="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX",
-        help="box the body origin can be in, world frame, mm (default: the map's bounding box shrunk by "
-        "10%% of its extent on each side)",
+        metavar="XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX|FILE.json",
+        help="box the body origin can be in, world frame, mm, or a JSON file with it as table_workspace_mm "
+        "(the plan.json of `mfns plan optimize`, a module scenario.json of `mfns sim nav`); the "
+        "acquisition searches over it and certifies no pose outside it (20 mm + 6 sigma) "
+        "(default: the map's bounding box shrunk by 10%% of its extent on each side)",
     )
     b.add_argument(
         "--certify-samples",

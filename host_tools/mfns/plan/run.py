@@ -143,23 +143,36 @@ def _survey_sigma(args) -> tuple[float, str]:
     return DEFAULT_SURVEY_SIGMA_MM, "the paper's map accuracy (docs/system.md Table 4)"
 
 
+# table_workspace: the samples' box is widened by this share of its span and this many mm
+# (poses between and just beyond the samples).
+TABLE_WS_PAD_SHARE = 0.05
+TABLE_WS_PAD_MM = 1.0
+
+
+def table_workspace(ws) -> tuple[np.ndarray, np.ndarray]:
+    """The box of the body origin a layout is planned for, as `mfns table build --workspace`
+    takes it (plan.json "table_workspace_mm"): the samples' positions' bounding box widened
+    by TABLE_WS_PAD_SHARE of its span and TABLE_WS_PAD_MM. The flight's map index and the
+    acquisition's physical test are built over the table's workspace; the table's default
+    (the beacons' bounding box shrunk by 10 %) need not contain this box (a layout with no
+    beacon low on the walls leaves the robot's lowest poses outside: never acquired) and is
+    larger where it does (more admissible beacon pairs: more work per acquisition;
+    docs/planning.md)."""
+    lo, hi = ws.r_wb_w.min(axis=0), ws.r_wb_w.max(axis=0)
+    span = np.maximum(hi - lo, 1.0)
+    pad = TABLE_WS_PAD_SHARE * span + TABLE_WS_PAD_MM
+    return lo - pad, hi + pad
+
+
 def ident_check(core, layout: np.ndarray, sigma_mm: float, ws, sigma_px: float, n: int) -> dict:
     """The acquisition's map analysis (ident.py, the C core through the binding) on the
     first n pose samples of ws with >= 4 beacons in view: how many views are ambiguous
-    (identification margin <= 0: the flight code refuses them) and the margins."""
+    (identification margin <= 0: the flight code refuses them) and the margins, over the
+    map index of the planned workspace (table_workspace)."""
     from .ident import IdentMargin
 
-    lo, hi = ws.r_wb_w.min(axis=0), ws.r_wb_w.max(axis=0)
-    span = np.maximum(hi - lo, 1.0)
-    im = IdentMargin(
-        core.flight,
-        core.rig,
-        layout,
-        np.full(len(layout), sigma_mm),
-        lo - 0.05 * span - 1.0,
-        hi + 0.05 * span + 1.0,
-        sigma_px,
-    )
+    lo, hi = table_workspace(ws)
+    im = IdentMargin(core.flight, core.rig, layout, np.full(len(layout), sigma_mm), lo, hi, sigma_px)
     m = []
     for i in range(ws.n):
         if len(m) >= n:
@@ -251,6 +264,9 @@ def run_optimize(args) -> int:
         "min_spacing_mm": args.min_spacing,
         "keep_out": [[k.lo.tolist(), k.hi.tolist()] for k in keep],
         "optimised_on": ws.description,
+        # the box to build the layout's flight table over (`mfns table build --workspace`
+        # takes this file): the one the map analysis above used
+        "table_workspace_mm": [round(float(v), 1) for v in np.concatenate(table_workspace(ws))],
         "noise": noise,
         "iterations": args.iterations,
         "restarts": args.restarts,
@@ -311,6 +327,11 @@ def run_optimize(args) -> int:
         )
     if args.baseline:
         print(f"  baseline {args.baseline}: availability {plan_doc['baseline']['availability_pct']} %")
+    box = ",".join(f"{v:g}" for v in plan_doc["table_workspace_mm"])
+    print(
+        f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
+        f"(the planned box {box} mm; the default, the beacons' box shrunk by 10 %, may not hold it)"
+    )
     return 0
 
 

@@ -353,6 +353,10 @@ def module_scenario(
         {
             "module_size_mm": (2 * MODULE_HALF).tolist(),
             "module_origin": "centre; Xw along the module's length",
+            # the box the body origin stays in on every module path (the trajectory's
+            # amplitude about the centre): the robot's workspace, as `mfns table build
+            # --workspace` reads it from this file
+            "table_workspace_mm": [*(-MODULE_POS_AMP_MM).tolist(), *MODULE_POS_AMP_MM.tolist()],
             "trajectory": {
                 "pos_amp_mm": MODULE_POS_AMP_MM.tolist(),
                 "pos_period_s": MODULE_POS_PERIOD_S.tolist(),

@@ -6,7 +6,9 @@ analysis runs on, and reports what it found (docs/pose.md "Acquisition").
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -48,6 +50,27 @@ def default_workspace(pos_w: np.ndarray, warn=None) -> tuple[np.ndarray, np.ndar
                 + " mm (give --workspace XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX)"
             )
     return wlo, whi
+
+
+def workspace_arg(text: str) -> tuple[np.ndarray, np.ndarray]:
+    """--workspace of `mfns table build`: six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm), or
+    the path of a JSON file holding them as "table_workspace_mm" (the plan.json of `mfns
+    plan optimize`: the box the layout was planned for; the scenario.json of `mfns sim nav
+    --scenario module`: the box its paths stay in)."""
+    path = Path(text)
+    if not path.is_file():
+        return parse_workspace(text)
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MfnsError(f"--workspace {text}: not a readable JSON file ({exc})") from None
+    v = doc.get("table_workspace_mm") if isinstance(doc, dict) else None
+    if not isinstance(v, list) or len(v) != 6 or not all(isinstance(x, (int, float)) for x in v):
+        raise MfnsError(
+            f'--workspace {text}: no "table_workspace_mm" of six numbers (a plan.json of `mfns plan '
+            "optimize` has one, as does a module scenario.json; else give XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX)"
+        )
+    return parse_workspace(",".join(repr(float(x)) for x in v))
 
 
 def parse_workspace(text: str) -> tuple[np.ndarray, np.ndarray]:
