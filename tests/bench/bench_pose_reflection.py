@@ -17,7 +17,7 @@ four of the five blobs, so the frame cannot tell which blob is the reflection), 
 work a five-blob completion took.
 
     python tests/bench/bench_pose_reflection.py [--maps paper module large] [--poses N]
-                                                [--seed S] [--cycles K]
+                                                [--seed S] [--cycles K] [--robot-workspace]
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, setup  # noqa: E402
 
 from mfns import pose_sim  # noqa: E402
+from mfns.simulate import nav  # noqa: E402
 from mfns.table import mapindex  # noqa: E402
 
 UNBOUNDED = 10**9
@@ -80,8 +81,12 @@ def pct(counts: dict, key: str, n: int) -> str:
     return f"{100.0 * counts.get(key, 0) / n:.1f} %"
 
 
-def run(name: str, n: int, seed: int, cycles: int) -> bool:
-    m = setup(name)
+def run(name: str, n: int, seed: int, cycles: int, robot_ws: bool = False) -> bool:
+    # --robot-workspace (the module maps): index and poses in the box the module scenario's
+    # paths stay in, as the robot's table is built (`mfns table build --workspace
+    # scenario.json`); else the map's default box
+    box = (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy())
+    m = setup(name, box if robot_ws and name != "paper" else None)
     fl, cams, rig, pos, nrm, ws, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.ws, m.bmap, m.idx
     rng = np.random.default_rng([seed, len(pos), 27])
     truth = pos if name == "paper" else pos + rng.normal(0.0, SURVEY_SIGMA_MM, pos.shape)
@@ -107,7 +112,7 @@ def run(name: str, n: int, seed: int, cycles: int) -> bool:
     u = np.array(free_units)
     print(
         f"== {name}: {len(pos)} beacons, {n} views of four beacons + one reflection "
-        f"(budget {idx.budget_units})"
+        f"(budget {idx.budget_units}; workspace {np.round(ws[0]).tolist()}..{np.round(ws[1]).tolist()} mm)"
     )
     rows = [("one call", one), ("one call, no budget", free)]
     if cycles > 0:
@@ -131,10 +136,15 @@ def main() -> int:
     ap.add_argument("--poses", type=int, default=200)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--cycles", type=int, default=40, help="cycles of the still robot (0: none)")
+    ap.add_argument(
+        "--robot-workspace",
+        action="store_true",
+        help="module maps: index and poses in the box the module paths stay in, not the map's default box",
+    )
     a = ap.parse_args()
     ok = True
     for name in a.maps:
-        ok &= run(name, a.poses, a.seed, a.cycles)
+        ok &= run(name, a.poses, a.seed, a.cycles, a.robot_workspace)
     print("target: 0 wrong on every map")
     return 0 if ok else 1
 

@@ -9,12 +9,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[2]
 
 
-def test_quick_moving_bench_prints_its_table_and_no_wrong_fix():
+@pytest.mark.parametrize("box", [[], ["--map-workspace"]], ids=["robot-workspace", "map-workspace"])
+def test_quick_moving_bench_prints_its_table_and_no_wrong_fix(box):
     res = subprocess.run(
-        [sys.executable, str(REPO / "tests" / "bench" / "bench_pose_moving.py"), "--quick"],
+        [sys.executable, str(REPO / "tests" / "bench" / "bench_pose_moving.py"), "--quick", *box],
         cwd=REPO,
         check=False,
         capture_output=True,
@@ -22,6 +25,7 @@ def test_quick_moving_bench_prints_its_table_and_no_wrong_fix():
         timeout=600,
     )
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert ("(the map default)" in res.stdout) == bool(box), res.stdout
     rows = [ln for ln in res.stdout.splitlines() if ln.startswith("| x1 | 18.6 Hz |")]
     assert len(rows) == 1, res.stdout
     cells = [c.strip() for c in rows[0].split("|")]
