@@ -99,6 +99,7 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
     assert tbl.returncode == 0, tbl.stderr
     # the table's map index is built over the planned box, not the map's default one
     assert f"workspace [{lo[0]:.0f}, {hi[0]:.0f}] x [{lo[1]:.0f}, {hi[1]:.0f}]" in tbl.stdout, tbl.stdout
+    assert "the workspace is the default" not in tbl.stdout
 
 
 def test_table_workspace_from_a_plan_or_numbers(tmp_path):

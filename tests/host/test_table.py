@@ -84,6 +84,8 @@ def test_build_prints_grid_error(sources, tmp_path, capsys):
     worst = float(line[0].split()[-2])
     assert 0.003 < worst < MAX_GRID_ERROR_PX  # a dense grid: the measurement is real, not a constant
     assert decode(out.read_bytes()).cameras[0].grid.nx == 101
+    # no --workspace: the builder says the default box is one and what a robot's own buys
+    assert "the workspace is the default" in text and "give --workspace" in text
 
 
 def test_build_refuses_a_grid_too_coarse_with_the_figure(sources, tmp_path, capsys):
