@@ -186,6 +186,11 @@ def check_folder(folder, scenario):
         assert abs(float(r["t_s"]) - int(r["frame"]) / rate) < 1e-6
         for k in nav.TRUTH_HEADER[1:]:
             assert num.match(r[k]) and r[k] != "-0.000000", r[k]
+    if scenario == "module":
+        # the robot's workspace the tables are built over holds every pose of the path
+        box = np.array(doc["table_workspace_mm"], dtype=float)
+        xyz = np.array([[float(r[k]) for k in ("x_mm", "y_mm", "z_mm")] for r in truth])
+        assert box.shape == (6,) and np.all(xyz >= box[:3]) and np.all(xyz <= box[3:])
 
     frames = read_csv_strict(folder / "frames.csv", nav.FRAMES_HEADER)
     assert len(frames) == 3 * n
