@@ -102,6 +102,19 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
     assert "the workspace is the default" not in tbl.stdout
 
 
+def test_a_workspace_beyond_the_beacons_is_named():
+    import numpy as np
+
+    from mfns.table.mapindex import workspace_outside
+
+    pos = np.array([[-2000.0, -1000.0, -1000.0], [2000.0, 1000.0, 1000.0], [0.0, 0.0, 0.0]])
+    assert workspace_outside(pos, np.array([-800, -300, -300]), np.array([800, 300, 300])) is None
+    line = workspace_outside(pos, np.array([-800, -300, -300]), np.array([800, 300, 3000]))
+    assert "along z by 2000 mm" in line and "units (mm)" in line
+    line = workspace_outside(pos, np.array([-8000, -300, -300]), np.array([800, 1500, 300]))
+    assert "x by 6000 mm, y by 500 mm" in line
+
+
 def test_table_workspace_from_a_plan_or_numbers(tmp_path):
     from mfns.errors import MfnsError
     from mfns.table.mapindex import workspace_arg

@@ -169,6 +169,8 @@ def build_table(
     rig = fl.rig(rig_from_doc(doc))
     bmap = fl.beacon_map(f32(pos), f32(sig), ids=ids)
     ws = workspace if workspace is not None else mapindex.default_workspace(f32(pos), _warn)
+    if workspace is not None and (line := mapindex.workspace_outside(f32(pos), *workspace)) is not None:
+        _warn(line)
     idx, report = mapindex.build(
         fl, rig, bmap, load_beacon_emission(beacons_csv), ws, sigma, certify_samples, seed, progress
     )

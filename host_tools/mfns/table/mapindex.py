@@ -52,6 +52,30 @@ def default_workspace(pos_w: np.ndarray, warn=None) -> tuple[np.ndarray, np.ndar
     return wlo, whi
 
 
+def workspace_outside(pos_w: np.ndarray, lo, hi) -> str | None:
+    """None when the workspace box [lo, hi] lies inside the beacons' bounding box, else a
+    line naming the axes it reaches beyond and by how much: a robot outside its beacons
+    sees wall-mounted LEDs from behind, so such a box is more likely a slip (metres for
+    millimetres, a sign) than a robot's space (the table is built all the same: a map on
+    one wall, or a robot flying past its beacons, has its reasons)."""
+    pmin, pmax = pos_w.min(axis=0), pos_w.max(axis=0)
+    over = [
+        f"{'xyz'[i]} by {max(pmin[i] - lo[i], hi[i] - pmax[i]):.0f} mm"
+        for i in range(3)
+        if lo[i] < pmin[i] or hi[i] > pmax[i]
+    ]
+    if not over:
+        return None
+    return (
+        "the workspace "
+        + " x ".join(f"[{a:.0f}, {b:.0f}]" for a, b in zip(lo, hi, strict=True))
+        + " mm reaches beyond the beacons' bounding box along "
+        + ", ".join(over)
+        + " (a robot there sees wall-mounted LEDs from behind; if that is not meant, check the "
+        "box's units (mm) and signs)"
+    )
+
+
 def workspace_arg(text: str) -> tuple[np.ndarray, np.ndarray]:
     """--workspace of `mfns table build`: six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm), or
     the path of a JSON file holding them as "table_workspace_mm" (the plan.json of `mfns
