@@ -130,10 +130,17 @@ def test_table_workspace_from_a_plan_or_numbers(tmp_path):
         ('{"table_workspace_mm": [1, 2, 3]}', "table_workspace_mm"),
         ('{"table_workspace_mm": [1, 2, 3, 0, 5, 6]}', "below its maximum"),
         ("[1, 2", "not a readable JSON"),
+        ('{"table_workspace_mm": [true, 2, 3, 4, 5, 6]}', "table_workspace_mm"),
+        ('{"table_workspace_mm": [1, 2, 3, 4, 5, "6"]}', "table_workspace_mm"),
     ):
         plan.write_text(text)
         with pytest.raises(MfnsError, match=message):
             workspace_arg(str(plan))
+    with pytest.raises(MfnsError, match="no such file"):
+        workspace_arg(str(tmp_path / "plan_typo.json"))
+    plan.write_bytes(b" " * ((1 << 20) + 1))
+    with pytest.raises(MfnsError, match="larger than"):
+        workspace_arg(str(plan))
 
 
 @pytest.mark.parametrize(

@@ -176,6 +176,26 @@ def test_settings_json(work, doc, muts):
             assert not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v), (k, v)
 
 
+@PROFILE
+@given(doc=json_values, box=st.lists(json_scalars, min_size=0, max_size=8))
+def test_workspace_json(work, doc, box):
+    """`mfns table build --workspace FILE.json` (mapindex.workspace_arg): any JSON, or one
+    whose table_workspace_mm is any list, gives a box of finite numbers with lo < hi or
+    the one clear line."""
+    from mfns.table.mapindex import workspace_arg
+
+    for candidate in (doc, {"table_workspace_mm": box}):
+        path = work / "plan.json"
+        path.write_text(json.dumps(candidate))
+        try:
+            lo, hi = workspace_arg(str(path))
+        except MfnsError as exc:
+            one_clear_line(exc)
+            continue
+        assert lo.shape == hi.shape == (3,) and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))
+        assert np.all(lo < hi)
+
+
 # ---- CSV -------------------------------------------------------------------------------
 csv_cells = st.sampled_from(
     ["1", "0", "-2", "3.7", "1e3", "nan", "inf", "", " ", "x", '"', "0.4", "65536", "\0"]

@@ -52,6 +52,10 @@ def default_workspace(pos_w: np.ndarray, warn=None) -> tuple[np.ndarray, np.ndar
     return wlo, whi
 
 
+# workspace_arg: a plan.json or scenario.json is a few kB; a larger file is not one.
+MAX_WORKSPACE_JSON_BYTES = 1 << 20
+
+
 def workspace_outside(pos_w: np.ndarray, lo, hi) -> str | None:
     """None when the workspace box [lo, hi] lies inside the beacons' bounding box, else a
     line naming the axes it reaches beyond and by how much: a robot outside its beacons
@@ -83,13 +87,21 @@ def workspace_arg(text: str) -> tuple[np.ndarray, np.ndarray]:
     --scenario module`: the box its paths stay in)."""
     path = Path(text)
     if not path.is_file():
+        if text.lower().endswith(".json"):
+            raise MfnsError(f"--workspace {text}: no such file")
         return parse_workspace(text)
+    if path.stat().st_size > MAX_WORKSPACE_JSON_BYTES:
+        raise MfnsError(f"--workspace {text}: larger than {MAX_WORKSPACE_JSON_BYTES} bytes (not a plan.json)")
     try:
         doc = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise MfnsError(f"--workspace {text}: not a readable JSON file ({exc})") from None
     v = doc.get("table_workspace_mm") if isinstance(doc, dict) else None
-    if not isinstance(v, list) or len(v) != 6 or not all(isinstance(x, (int, float)) for x in v):
+    if (
+        not isinstance(v, list)
+        or len(v) != 6
+        or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+    ):
         raise MfnsError(
             f'--workspace {text}: no "table_workspace_mm" of six numbers (a plan.json of `mfns plan '
             "optimize` has one, as does a module scenario.json; else give XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX)"
