@@ -17,7 +17,7 @@ four of the five blobs, so the frame cannot tell which blob is the reflection), 
 work a five-blob completion took.
 
     python tests/bench/bench_pose_reflection.py [--maps paper module large] [--poses N]
-                                                [--seed S] [--cycles K] [--robot-workspace]
+                                                [--seed S] [--cycles K] [--map-workspace]
 """
 
 from __future__ import annotations
@@ -81,10 +81,10 @@ def pct(counts: dict, key: str, n: int) -> str:
     return f"{100.0 * counts.get(key, 0) / n:.1f} %"
 
 
-def run(name: str, n: int, seed: int, cycles: int, robot_ws: bool = False) -> bool:
-    # --robot-workspace (the module maps): index and poses in the box the module scenario's
-    # paths stay in, as the robot's table is built (`mfns table build --workspace
-    # scenario.json`); else the map's default box
+def run(name: str, n: int, seed: int, cycles: int, robot_ws: bool = True) -> bool:
+    # the module maps: index and poses in the box the module scenario's paths stay in, as
+    # the robot's table is built (`mfns table build --workspace scenario.json`);
+    # --map-workspace: the map's default box
     box = (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy())
     m = setup(name, box if robot_ws and name != "paper" else None)
     fl, cams, rig, pos, nrm, ws, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.ws, m.bmap, m.idx
@@ -137,14 +137,14 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--cycles", type=int, default=40, help="cycles of the still robot (0: none)")
     ap.add_argument(
-        "--robot-workspace",
+        "--map-workspace",
         action="store_true",
-        help="module maps: index and poses in the box the module paths stay in, not the map's default box",
+        help="module maps: index and poses in the map's default box, not the box the module paths stay in",
     )
     a = ap.parse_args()
     ok = True
     for name in a.maps:
-        ok &= run(name, a.poses, a.seed, a.cycles, a.robot_workspace)
+        ok &= run(name, a.poses, a.seed, a.cycles, not a.map_workspace)
     print("target: 0 wrong on every map")
     return 0 if ok else 1
 
