@@ -239,12 +239,28 @@ def nees_values(e: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
             except np.linalg.LinAlgError:
                 ok[k] = False
         chol = chol[ok[idx]]
-    # NEES = |L^-1 e|^2
-    y = np.linalg.solve(chol, e[ok][:, :, None])[:, :, 0] if len(chol) else np.zeros((0, 6))
-    nees = np.sum(y * y, axis=1)
-    d = np.sqrt(np.einsum("nii->ni", p[ok]))
-    z = e[ok] / d
-    return ok, nees, z
+    rows = np.flatnonzero(ok)  # the rows chol holds, in order
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        # NEES = |L^-1 e|^2, row by row where the batch meets a singular factor
+        y = np.zeros((len(rows), 6))
+        if len(rows):
+            try:
+                y = np.linalg.solve(chol, e[rows][:, :, None])[:, :, 0]
+            except np.linalg.LinAlgError:
+                for n, k in enumerate(rows):
+                    try:
+                        y[n] = np.linalg.solve(chol[n], e[k])
+                    except np.linalg.LinAlgError:
+                        y[n] = np.nan
+        nees = np.sum(y * y, axis=1)
+        d = np.sqrt(np.einsum("nii->ni", p[rows]))
+        z = e[rows] / d
+    # A covariance whose factor or NEES overflowed (entries near 1e308 pass the finiteness
+    # test and Cholesky, then give inf or nan) is no usable covariance either: counted with
+    # the ones that are not positive definite, never a NaN in the statistics.
+    finite = np.isfinite(nees) & np.all(np.isfinite(z), axis=1) & np.all(np.isfinite(chol), axis=(1, 2))
+    ok[rows[~finite]] = False
+    return ok, nees[finite], z[finite]
 
 
 def compute(

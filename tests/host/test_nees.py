@@ -457,3 +457,19 @@ def test_hostile_covariance_and_quaternion_cells(tmp_path_factory, data):
     assert np.all(np.isfinite(res.nees)) and np.all(res.nees >= 0)
     json.dumps(rpt.summary_json(rep), allow_nan=False)
     rpt.summary_markdown(rep)
+
+
+def test_an_overflowing_covariance_is_not_a_nan_nees():
+    """Found by test_hostile_covariance_and_quaternion_cells (CI, 3 December 2026): a
+    covariance cell of 1e308 passes the finiteness test, and its factor or NEES overflows to
+    inf / nan, which entered the statistics as a NaN. Such a row counts as not positive
+    definite, like a covariance whose Cholesky fails."""
+    e = np.ones((4, 6))
+    p = np.stack([np.eye(6)] * 4)
+    p[1][0, 2] = p[1][2, 0] = 1e308  # overflows
+    p[2][0, 0] = 1e308  # PD, but its z and NEES stay finite: kept
+    p[3][4, 4] = 0.0  # singular: Cholesky refuses it
+    ok, nees, z = N.nees_values(e, p)
+    assert ok.tolist() == [True, False, True, False]
+    assert len(nees) == len(z) == 2 and np.all(np.isfinite(nees)) and np.all(np.isfinite(z))
+    assert nees[0] == pytest.approx(6.0) and nees[1] == pytest.approx(5.0)
