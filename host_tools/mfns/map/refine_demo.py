@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import load_beacons
+from ..report import AXES
 from . import fixlog
 
 SURVEY_RATE_HZ = 2.0  # frames of the survey flight: one every 0.5 s is plenty for a map
@@ -45,7 +46,7 @@ def _no_fix_summary() -> dict:
     """The summary of a flight with no usable fix matched to truth (`mfns report` has
     nothing to report): no fixes, every figure undefined."""
     nan = float("nan")
-    axes = [{"axis": a, "mean": nan, "sigma": nan} for a in ("x", "y", "z", "roll", "pitch", "yaw")]
+    axes = [{"axis": a, "mean": nan, "sigma": nan} for a in AXES]
     return {"n_used": 0, "axes": axes, "nees": {"mean": nan}}
 
 
