@@ -69,11 +69,7 @@ def run(csv: str, n: int, seed: int, box: bool, breakdown: bool = False, map_ws:
     # the table's workspace: the box the poses are drawn from, as the flight table of this
     # robot is built (`mfns table build --workspace`, the plan's table_workspace_mm), or the
     # table's default, the map's box shrunk by 10 % (--box poses are drawn in it; --map-workspace)
-    ws = (
-        mapindex.default_workspace(pos)
-        if box or map_ws
-        else (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy())
-    )
+    ws = mapindex.default_workspace(pos) if box or map_ws else nav.module_workspace()
     t0 = time.perf_counter()
     idx, report = mapindex.build(fl, rig, bmap, (nrm, np.full(len(pos), 90.0)), ws, SIGMA_PX)
     t_index = time.perf_counter() - t0

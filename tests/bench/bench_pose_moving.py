@@ -114,7 +114,7 @@ def run_row(fl, rig, bmap, idx, cams, truth, nrm, cfg, seed, starts, rate_hz, sp
 def run_map(name: str, starts: int, seed: int, rates, speeds, max_cycles: int, robot_ws: bool = True) -> bool:
     # the index over the box the scenario's paths stay in (as `mfns table build --workspace
     # scenario.json` builds the robot's table); --map-workspace: the map's default box
-    m = setup(name, (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy()) if robot_ws else None)
+    m = setup(name, nav.module_workspace() if robot_ws else None)
     fl, cams, rig, pos, nrm, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.bmap, m.idx
     cfg = m.cfg
     rng = np.random.default_rng([seed, len(pos), 27])

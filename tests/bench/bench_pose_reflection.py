@@ -85,8 +85,7 @@ def run(name: str, n: int, seed: int, cycles: int, robot_ws: bool = True) -> boo
     # the module maps: index and poses in the box the module scenario's paths stay in, as
     # the robot's table is built (`mfns table build --workspace scenario.json`);
     # --map-workspace: the map's default box
-    box = (-nav.MODULE_POS_AMP_MM.copy(), nav.MODULE_POS_AMP_MM.copy())
-    m = setup(name, box if robot_ws and name != "paper" else None)
+    m = setup(name, nav.module_workspace() if robot_ws and name != "paper" else None)
     fl, cams, rig, pos, nrm, ws, bmap, idx = m.fl, m.cams, m.rig, m.pos, m.nrm, m.ws, m.bmap, m.idx
     rng = np.random.default_rng([seed, len(pos), 27])
     truth = pos if name == "paper" else pos + rng.normal(0.0, SURVEY_SIGMA_MM, pos.shape)

@@ -73,6 +73,15 @@ MODULE_POS_AMP_MM = np.array([800.0, 300.0, 300.0])
 MODULE_POS_PERIOD_S = np.array([47.0, 31.0, 37.0])
 MODULE_ATT_AMP_DEG = np.array([20.0, 20.0, 30.0])
 MODULE_ATT_PERIOD_S = np.array([29.0, 41.0, 53.0])
+
+
+def module_workspace() -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi): the box the body origin stays in on every module path (the trajectory's
+    amplitude about the centre), the robot's workspace its tables are built over
+    (scenario.json table_workspace_mm; the acquisition benches)."""
+    return -MODULE_POS_AMP_MM.copy(), MODULE_POS_AMP_MM.copy()
+
+
 # Half-width (mm of Xw) of the turn-around manoeuvre at the module's centre.
 MODULE_TURN_WIDTH_MM = 250.0
 
@@ -356,7 +365,7 @@ def module_scenario(
             # the box the body origin stays in on every module path (the trajectory's
             # amplitude about the centre): the robot's workspace, as `mfns table build
             # --workspace` reads it from this file
-            "table_workspace_mm": [*(-MODULE_POS_AMP_MM).tolist(), *MODULE_POS_AMP_MM.tolist()],
+            "table_workspace_mm": np.concatenate(module_workspace()).tolist(),
             "trajectory": {
                 "pos_amp_mm": MODULE_POS_AMP_MM.tolist(),
                 "pos_period_s": MODULE_POS_PERIOD_S.tolist(),
