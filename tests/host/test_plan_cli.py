@@ -132,6 +132,7 @@ def test_table_workspace_from_a_plan_or_numbers(tmp_path):
         ("[1, 2", "not a readable JSON"),
         ('{"table_workspace_mm": [true, 2, 3, 4, 5, 6]}', "table_workspace_mm"),
         ('{"table_workspace_mm": [1, 2, 3, 4, 5, "6"]}', "table_workspace_mm"),
+        ('{"table_workspace_mm": [1, 2, 3, 4, 5, 1' + "0" * 400 + "]}", "six numbers"),
     ):
         plan.write_text(text)
         with pytest.raises(MfnsError, match=message):

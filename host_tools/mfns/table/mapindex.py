@@ -106,23 +106,27 @@ def workspace_arg(text: str) -> tuple[np.ndarray, np.ndarray]:
             f'--workspace {text}: no "table_workspace_mm" of six numbers (a plan.json of `mfns plan '
             "optimize` has one, as does a module scenario.json; else give XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX)"
         )
-    return parse_workspace(",".join(repr(float(x)) for x in v))
+    return _workspace_box(v, text)
 
 
 def parse_workspace(text: str) -> tuple[np.ndarray, np.ndarray]:
+    return _workspace_box(text.split(","), repr(text))
+
+
+def _workspace_box(values: list, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Six values XMIN..ZMAX (numbers or their text) -> (lo, hi), or the one clear line
+    naming `what` (the argument, or the file it came from)."""
     try:
-        v = [float(x) for x in text.split(",")]
-    except ValueError:
+        v = [float(x) for x in values]
+    except (ValueError, OverflowError):  # OverflowError: a JSON integer beyond a double
         raise MfnsError(
-            f"--workspace {text!r}: expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)"
+            f"--workspace {what}: expected six numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)"
         ) from None
     if len(v) != 6 or not all(np.isfinite(v)):
-        raise MfnsError(
-            f"--workspace {text!r}: expected six finite numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)"
-        )
+        raise MfnsError(f"--workspace {what}: expected six finite numbers XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm)")
     lo, hi = np.array(v[:3]), np.array(v[3:])
     if not np.all(lo < hi):
-        raise MfnsError(f"--workspace {text!r}: each minimum must be below its maximum")
+        raise MfnsError(f"--workspace {what}: each minimum must be below its maximum")
     return lo, hi
 
 
