@@ -108,6 +108,7 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "n_beacons_biased", s->n_beacons_biased, 0);
         ground_row_num(r, "frame_period_us", s->frame_period_us, 0);
         ground_row_num(r, "cycle_margin_us", s->cycle_margin_us, 0);
+        ground_row_str(r, "workspace", tlm_workspace_name(s->workspace));
         break;
     }
     case TLM_TYPE_EVENT: {

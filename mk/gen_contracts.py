@@ -68,6 +68,7 @@ C_ENUMS = {
         "tlm_time_quality_name",
         "uint8_t",
     ),
+    "workspace_t": ("tlm_workspace_t", "TLM_WS_", "TLM_WORKSPACE_COUNT", "tlm_workspace_name", "uint8_t"),
 }
 # Packet container -> (tlm_type_t constant suffix, struct, union member).
 C_PACKETS = {

@@ -18,6 +18,7 @@
 
 #define FLUSH_TRIES 200 /* x 10 ms: telemetry drain at exit */
 #define FLUSH_WAIT_US 10000u
+#define EVT_CENTI_PER_MM 100.0f /* WORKSPACE_LEFT carries mm as counts of 0.01 mm */
 
 void nav_tlm_init(nav_tlm_t *t)
 {
@@ -157,6 +158,15 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
     if (cw->disagrees >= 0 && cw->disagrees < MFNS_NUM_CAMERAS) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERAS_DISAGREE, TLM_SEV_WARNING, (uint8_t)cw->disagrees,
                             cw->pair_evidence, cw->disagrees_with);
+    }
+    if (o->ws.left) {
+        const float beyond = o->ws.beyond_mm * EVT_CENTI_PER_MM, tol = o->ws.tol_mm * EVT_CENTI_PER_MM;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_WORKSPACE_LEFT, TLM_SEV_WARNING, o->ws.axes,
+                            beyond < 2.0e9f ? (int32_t)beyond : INT32_MAX, tol < 2.0e9f ? (int32_t)tol : INT32_MAX);
+    }
+    if (o->ws.reentered) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_WORKSPACE_REENTERED, TLM_SEV_INFO, 0,
+                            o->ws.cycles_outside < (uint32_t)INT32_MAX ? (int32_t)o->ws.cycles_outside : INT32_MAX, 0);
     }
     if (r->readmitted_camera >= 0) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
@@ -339,6 +349,19 @@ void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfn
     }
 }
 
+_Static_assert((int)TLM_WS_INSIDE == (int)MFNS_WS_INSIDE && (int)TLM_WS_OUTSIDE == (int)MFNS_WS_OUTSIDE,
+               "the housekeeping's workspace_t extends the core's watch states");
+
+/* The workspace watch's state as housekeeping carries it: outside with no
+ * track is LOST_OUTSIDE, the state in which acquisitions are refused. */
+static uint8_t hk_workspace(const mfns_nav_t *nav)
+{
+    if (nav->wsw.state == (uint8_t)MFNS_WS_INSIDE) {
+        return (uint8_t)TLM_WS_INSIDE;
+    }
+    return (uint8_t)(nav->mode == MFNS_NAV_MODE_TRACK ? TLM_WS_OUTSIDE : TLM_WS_LOST_OUTSIDE);
+}
+
 void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
 {
     tlm_packet_t p;
@@ -364,6 +387,7 @@ void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uin
     h->tc_epoch = app->tc.auth.epoch;           /* not secret: the ground signs with it */
     h->tc_arsn_last = app->tc.auth.count_last;
     h->n_beacons_biased = app->nav.bmon.n_flagged;
+    h->workspace = hk_workspace(&app->nav);
     /* the cycle margin (issue 24 item 6): the frame period less the longest cycle of the interval */
     h->frame_period_us = app->frame_period_min_us;
     h->cycle_margin_us = app->frame_period_min_us == 0u

@@ -17,6 +17,7 @@
 
 #include "acquire.h"
 #include "pose_internal.h"
+#include "workspace_watch.h"
 
 /* A pose from three rays carries their noise amplified by the geometry
  * (tens of times near the "danger cylinder"): measured, a right minimal pose
@@ -25,8 +26,8 @@
  * associated again with the tracking gate itself. */
 #define MFNS_ACQ_MINIMAL_GATE_FACTOR 4.0f
 /* Tolerance of the workspace test of a candidate (mfns_acq_physical) and of
- * a minimal pose (the completion's sound test). */
-#define MFNS_ACQ_WORKSPACE_TOL_MM 20.0f
+ * a minimal pose (the completion's sound test): the workspace watch's. */
+#define MFNS_ACQ_WORKSPACE_TOL_MM MFNS_WS_TOL_MM
 
 /* The acquisition gathers a frame's blobs (every one, or the completion's 4)
  * into the pose solver's measurement arrays. */

@@ -15,10 +15,6 @@
  * missing (a spot cut by the border may be refused by the centroider). */
 #define MISSING_EDGE_PX 8.0f
 
-/* The workspace test of a candidate (mfns_acq_physical) widens the box by
- * this many of the solution's own position sigma as well. */
-#define WORKSPACE_TOL_SIGMA 6.0f
-
 /* Upper 1e-5 quantiles of chi-square with k = 1..16 degrees of freedom. */
 static const float chi2_q[16] = {19.51f, 23.03f, 25.90f, 28.47f, 30.86f, 33.11f, 35.26f, 37.33f,
                                  39.34f, 41.30f, 43.21f, 45.08f, 46.91f, 48.72f, 50.49f, 52.24f};
@@ -193,24 +189,19 @@ int mfns_acq_count_missing(mfns_acq_t *q, const mfns_pose_solution_t *sol)
 }
 
 /* A pose the rig can physically have: the body origin inside the table's
- * workspace (widened by MFNS_ACQ_WORKSPACE_TOL_MM plus WORKSPACE_TOL_SIGMA of the
- * solution's own position sigma, so that a right pose is never refused for
- * its noise), and every inlier's LED facing the camera that sees it. The
+ * workspace (workspace_watch.h mfns_ws_beyond: widened by MFNS_WS_TOL_MM plus
+ * MFNS_WS_TOL_SIGMA of the solution's own position sigma, so that a right
+ * pose is never refused for its noise), and every inlier's LED facing the camera that sees it. The
  * truth always passes (the workspace is the contract of the table); a wrong
  * correspondence often fits the blobs only from behind a wall or through an
  * LED's back, and without this check such a rival would make a view
  * ambiguous or spend the certificate. */
 bool mfns_acq_physical(const mfns_acq_t *q, const mfns_pose_solution_t *sol)
 {
-    const mfns_v3_t p = mfns_pose_position_w(&sol->pose);
-    const float pw[3] = {p.x, p.y, p.z};
-    const float lo[3] = {q->idx->ws_min_w.x, q->idx->ws_min_w.y, q->idx->ws_min_w.z};
-    const float hi[3] = {q->idx->ws_max_w.x, q->idx->ws_max_w.y, q->idx->ws_max_w.z};
-    for (int a = 0; a < 3; a++) {
-        const float tol = MFNS_ACQ_WORKSPACE_TOL_MM + WORKSPACE_TOL_SIGMA * sol->sigma_pos_mm[a];
-        if (!(pw[a] >= lo[a] - tol && pw[a] <= hi[a] + tol)) {
-            return false;
-        }
+    uint8_t beyond = 0U;
+    (void)mfns_ws_beyond(q->idx, sol, &beyond, NULL); /* the flight's workspace watch makes the same test */
+    if (beyond != 0U) {
+        return false;
     }
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         const mfns_v3_t ck = mfns_acq_cam_centre_w(q, &sol->pose, c);

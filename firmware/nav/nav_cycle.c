@@ -61,6 +61,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     nav->integ_set = table->integrity;
     mfns_integrity_memory_reset(&nav->integ_mem);
     mfns_bmon_reset(&nav->bmon);
+    mfns_ws_watch_init(&nav->wsw); /* the new table's box, as declared */
     nav->magic = NAV_MAGIC;
     return MFNS_NAV_OK;
 }
@@ -346,6 +347,17 @@ static void one_camera_contradicted(const mfns_nav_t *nav, const uint8_t solver_
     }
 }
 
+/* An acquisition while the robot was last tracked outside the table's
+ * workspace (workspace_watch.h) is not certified: whatever it found, usable
+ * or only carrying the track, is refused and carries nothing, so it cannot
+ * clear the watch by being tracked. */
+static void outside_workspace(const mfns_nav_t *nav, mfns_nav_output_t *out)
+{
+    if (out->acquired && mfns_ws_watch_refuses(&nav->wsw) && carries_track(&out->sol, false)) {
+        mfns_pose_solution_clear(&out->sol, MFNS_POSE_R_OUTSIDE_WORKSPACE);
+    }
+}
+
 static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -400,6 +412,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     }
     if (st == MFNS_NAV_OK) {
         const mfns_caltable_t *t = nav->table;
+        outside_workspace(nav, out);
         lag_monitor(nav, out);
         uint8_t solver_inlier[MFNS_NUM_CAMERAS]; /* before FDE holds cameras out (integrity_cameras.h) */
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
@@ -421,7 +434,10 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
                                  MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
         mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &t->beacons, &nav->obs, &out->sol,
                                  carries_track(&out->sol, !out->acquired), solver_inlier, &out->cameras);
+        mfns_ws_watch_update(&nav->wsw, &t->index, &out->sol, carries_track(&out->sol, !out->acquired),
+                             !out->acquired, &out->ws);
     }
+    out->ws_state = nav->wsw.state;
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;
         mfns_nav_lose_track(nav);

@@ -32,6 +32,13 @@
  * fix with a fault that could not be excluded (FAULT_DETECTED) does not: the
  * prediction coasts.
  *
+ * Workspace (workspace_watch.h): the acquisition is certified for a robot
+ * inside the table's workspace box only. A tracked pose beyond the box is
+ * reported (the watch's state); while the robot was last tracked outside, an
+ * acquisition's pose is refused (NO_FIX OUTSIDE_WORKSPACE) and does not
+ * carry the track, until a tracked pose is inside again (the track coming
+ * back, or one from mfns_nav_set_prior) or a table is bound (mfns_nav_init).
+ *
  * A camera that delivers no frame (NULL: dead, timed out, being recovered)
  * contributes nothing and is reported as such; the solve goes on with the
  * others (the pose solver then reports DEGRADED or NO_FIX by itself).
@@ -53,6 +60,7 @@
 #include "integrity.h"
 #include "integrity_lag.h"
 #include "pose.h"
+#include "workspace_watch.h"
 
 #define MFNS_NAV_MAX_COAST 10 /* cycles (0.54 s at 18.6 Hz) */
 
@@ -112,6 +120,10 @@ typedef struct {
     mfns_beacon_watch_report_t beacons; /* beacons newly found missing or rejected (integrity_beacons.h) */
     mfns_camera_watch_report_t cameras; /* cameras inconsistent with the fix (integrity_cameras.h) */
     uint8_t cam_held[MFNS_NUM_CAMERAS];
+    /* The tracked pose against the table's workspace box (workspace_watch.h):
+     * ws the transitions this cycle, ws_state the state after it. */
+    mfns_ws_report_t ws;
+    uint8_t ws_state; /* mfns_ws_state_t */
 } mfns_nav_output_t;
 
 typedef struct {
@@ -130,6 +142,7 @@ typedef struct {
     mfns_integrity_settings_t integ_set; /* alert limits, P_fa, P_md, hold */
     mfns_integrity_memory_t integ_mem;   /* beacons and cameras held out by FDE */
     mfns_bmon_t bmon;                    /* slow residual bias per beacon and camera (beacon_monitor.h) */
+    mfns_ws_watch_t wsw;                 /* the tracked pose against the table's workspace (workspace_watch.h) */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;
     mfns_centroid_result_t cres;

@@ -81,6 +81,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return MFNS_MSG("five blobs: several identifications explain four of them; the spurious blob cannot be told");
     case MFNS_POSE_R_CAMERAS_CONTRADICT:
         return MFNS_MSG("a one-camera fix that another camera's image contradicts: one of the two is wrong");
+    case MFNS_POSE_R_OUTSIDE_WORKSPACE:
+        return MFNS_MSG("an acquisition while the robot was last tracked outside the table's workspace: not certified");
     }
     return MFNS_MSG("unknown pose reason");
 }

@@ -97,7 +97,9 @@ typedef enum {
     TLM_EVT_CYCLE_BUDGET = 41, /* the acquisition budget at start: subject 0 the table's, 1 the board's (budget_units, --budget-units; docs/budgets.md); arg0 reserved (0); arg1 budget, work units per cycle */
     TLM_EVT_CAMERA_INCONSISTENT = 42, /* subject camera; arg0 beacons the fixes of two or more other cameras predicted in its image since it last had an inlier, none found (20: a working camera misses them all with probability below 1e-6); arg1 those fixes: it gives images, but no spot where the other cameras' fix puts a beacon (frames stale by two periods and more, a mount that moved, a wrong camera); it contributes nothing to the fix (sent once per episode) */
     TLM_EVT_CAMERAS_DISAGREE = 43, /* subject camera; arg0 beacons the fixes of ONE other camera predicted in its image since it last had an inlier, none found (20: below 1e-6 for two working cameras); arg1 that other camera (0 x, 1 y, 2 z): the two cameras' images disagree and one of them is wrong (stale, moved), nothing says which; the fix is that other camera's alone (sent once per episode) */
-    TLM_EVT_CODE_COUNT = 44
+    TLM_EVT_WORKSPACE_LEFT = 44, /* a tracked pose is beyond the table's workspace box (widened by 20 mm plus 6 sigma of its position): the box the acquisition's certificate covers; tracking goes on and its fixes stay usable, acquisitions are refused (OUTSIDE_WORKSPACE) until a tracked pose is inside again: subject the axes beyond (bit 0 x, bit 1 y, bit 2 z); arg0 how far beyond the widened box, 0.01 mm; arg1 that widening, 0.01 mm (sent once per excursion; not seen: an excursion while no pose is tracked) */
+    TLM_EVT_WORKSPACE_REENTERED = 45, /* a tracked pose is inside the table's workspace box again after WORKSPACE_LEFT: acquisitions are certified again: subject 0; arg0 cycles since the pose left; arg1 0 */
+    TLM_EVT_CODE_COUNT = 46
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */
@@ -107,6 +109,14 @@ typedef enum {
     TLM_TIMEQ_SYNCED = 2, /* UTC from the board's clock, synchronised (kernel NTP/PTP status) */
     TLM_TIME_QUALITY_COUNT = 3
 } tlm_time_quality_t;
+
+/* where the tracked pose is against the table's workspace box (firmware/nav/workspace_watch.h) */
+typedef enum {
+    TLM_WS_INSIDE = 0, /* the last tracked pose was inside the box (or none yet since the table was loaded: the box is taken as declared) */
+    TLM_WS_OUTSIDE = 1, /* the pose being tracked is outside the box: its fixes stay usable; an acquisition would be refused */
+    TLM_WS_LOST_OUTSIDE = 2, /* the track was lost with the robot last seen outside the box: acquisitions are refused (OUTSIDE_WORKSPACE) until a tracked pose is inside again (SET_POSE_HINT) or a table is loaded */
+    TLM_WORKSPACE_COUNT = 3
+} tlm_workspace_t;
 
 /* Wire counts per engineering unit of each scaled type (1 / its calibrator coefficient). */
 #define TLM_SCALE_DB_FROM_CDB_I16 100.0f /* counts per dB */

@@ -122,6 +122,8 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_CYCLE_BUDGET: return MFNS_MSG("CYCLE_BUDGET");
     case TLM_EVT_CAMERA_INCONSISTENT: return MFNS_MSG("CAMERA_INCONSISTENT");
     case TLM_EVT_CAMERAS_DISAGREE: return MFNS_MSG("CAMERAS_DISAGREE");
+    case TLM_EVT_WORKSPACE_LEFT: return MFNS_MSG("WORKSPACE_LEFT");
+    case TLM_EVT_WORKSPACE_REENTERED: return MFNS_MSG("WORKSPACE_REENTERED");
     default: return "?";
     }
 }
@@ -130,6 +132,12 @@ const char *tlm_time_quality_name(uint8_t code)
 {
     static const char *const k_name[3] = {MFNS_MSG("NONE"), MFNS_MSG("SYSTEM"), MFNS_MSG("SYNCED")};
     return (code <= TLM_TIMEQ_SYNCED) ? k_name[code] : "?";
+}
+
+const char *tlm_workspace_name(uint8_t code)
+{
+    static const char *const k_name[3] = {MFNS_MSG("INSIDE"), MFNS_MSG("OUTSIDE"), MFNS_MSG("LOST_OUTSIDE")};
+    return (code <= TLM_WS_LOST_OUTSIDE) ? k_name[code] : "?";
 }
 
 /* tlm_payload_pack's layout: runs of fields of one width (1, 2 or 4 bytes)
@@ -197,6 +205,7 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_arsn_last) == 4u, "hk.t
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_beacons_biased) == 2u, "hk.n_beacons_biased: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.frame_period_us) == 4u, "hk.frame_period_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_margin_us) == 4u, "hk.cycle_margin_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.workspace) == 1u, "hk.workspace: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.cycle) == 4u, "event.cycle: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.code) == 2u, "event.code: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.severity) == 1u, "event.severity: C type and wire width differ");
@@ -213,7 +222,7 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.uv_px[0]) == 4u, "fixo
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.cov_px2[0]) == 4u, "fixobs.cov_px2: C type and wire width differ");
 _Static_assert(sizeof(tlm_packet_t) <= UINT16_MAX, "struct offsets of tlm_run_t are 16-bit");
 
-static const tlm_run_t k_runs[70] = {
+static const tlm_run_t k_runs[71] = {
     {offsetof(tlm_packet_t, u.nav.cycle), 0u, 12u}, /* nav.cycle */
     {offsetof(tlm_packet_t, u.nav.status), 4u, 9u}, /* nav.status */
     {offsetof(tlm_packet_t, u.nav.reason), 5u, 9u}, /* nav.reason */
@@ -270,6 +279,7 @@ static const tlm_run_t k_runs[70] = {
     {offsetof(tlm_packet_t, u.hk.n_beacons_biased), 93u, 10u}, /* hk.n_beacons_biased */
     {offsetof(tlm_packet_t, u.hk.frame_period_us), 95u, 12u}, /* hk.frame_period_us */
     {offsetof(tlm_packet_t, u.hk.cycle_margin_us), 99u, 12u}, /* hk.cycle_margin_us */
+    {offsetof(tlm_packet_t, u.hk.workspace), 103u, 9u}, /* hk.workspace */
     {offsetof(tlm_packet_t, u.event.cycle), 0u, 12u}, /* event.cycle */
     {offsetof(tlm_packet_t, u.event.code), 4u, 10u}, /* event.code */
     {offsetof(tlm_packet_t, u.event.severity), 6u, 9u}, /* event.severity */
@@ -285,7 +295,7 @@ static const tlm_run_t k_runs[70] = {
     {offsetof(tlm_packet_t, u.fixobs.uv_px[0]), 10u, 20u}, /* fixobs.uv_px */
     {offsetof(tlm_packet_t, u.fixobs.cov_px2[0]), 18u, 28u}, /* fixobs.cov_px2 */
 };
-static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 56u, 62u, 70u};
+static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 57u, 63u, 71u};
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
 {
@@ -399,6 +409,7 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->n_beacons_biased = tlm_get_u16(b + 93);
         s->frame_period_us = tlm_get_u32(b + 95);
         s->cycle_margin_us = get_i32(b + 99);
+        s->workspace = b[103];
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -456,7 +467,8 @@ bool tlm_payload_valid(const tlm_packet_t *p)
         return p->u.hk.mode < TLM_MODE_COUNT &&
                p->u.hk.cpu_load_permille <= 1000u &&
                p->u.hk.cams_enabled <= 7u &&
-               p->u.hk.time_quality < TLM_TIME_QUALITY_COUNT;
+               p->u.hk.time_quality < TLM_TIME_QUALITY_COUNT &&
+               p->u.hk.workspace < TLM_WORKSPACE_COUNT;
     case TLM_TYPE_EVENT:
         return tlm_event_name(p->u.event.code)[0] != '?' &&
                p->u.event.severity < TLM_SEV_COUNT;

@@ -28,7 +28,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 103u
+#define TLM_HK_PAYLOAD_LEN 104u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
@@ -105,6 +105,7 @@ typedef struct {
     uint16_t n_beacons_biased; /* hk_n_beacons_biased: beacons the self-survey monitor reported biased and down-weights (BEACON_BIASED) since the table was loaded */
     uint32_t frame_period_us; /* hk_frame_period_us: the camera frame period: the shortest step between the frame stamps of consecutive fused cycles in the report interval (0: fewer than two fused cycles) [us] */
     int32_t cycle_margin_us; /* hk_cycle_margin_us: cycle margin, us: hk_frame_period_us - hk_cycle_max_us (negative: a cycle overran the frame period; 0 when no period is known; docs/budgets.md) */
+    uint8_t workspace; /* hk_workspace: the tracked pose against the table's workspace box at this packet (WORKSPACE_LEFT, WORKSPACE_REENTERED) [workspace_t] */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */
@@ -155,6 +156,7 @@ const char *tlm_cam_state_name(uint8_t code); /* the XTCE label, "?" for an unkn
 const char *tlm_severity_name(uint8_t code); /* the XTCE label, "?" for an unknown code */
 const char *tlm_event_name(uint16_t code); /* the XTCE label, "?" for an unknown code */
 const char *tlm_time_quality_name(uint8_t code); /* the XTCE label, "?" for an unknown code */
+const char *tlm_workspace_name(uint8_t code); /* the XTCE label, "?" for an unknown code */
 
 /* The payload of p (p->type valid) at b (tlm_payload_len bytes), and back; the range
  * check both ends apply (XTCE enumerations and ValidRange, floats finite). */

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from flight_replay import fly_replay  # tests/host
+from flight_replay import fly_replay, read_csv  # tests/host
 
 REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"
@@ -248,3 +248,41 @@ def test_module_reacquires_after_a_blackout(bins, tmp_path):
     # held NO_FIX LAG_UNTESTED (no motion known yet to test a stale camera: docs/pose.md)
     assert after and after[0] <= last + 3, (after[:3], log)
     assert np.max(np.abs(dp)) < 3.0 and np.max(np.abs(da)) < 0.2  # no wrong fix, before or after
+
+
+def test_a_robot_that_leaves_its_table_workspace(bins, tmp_path):
+    """The table's workspace is the box the acquisition's certificate covers (docs/pose.md
+    "The table's workspace in flight"). A table built over the box of the path's first
+    40 frames only: the robot flies out of it. While tracked it keeps its usable fixes and
+    WORKSPACE_LEFT is reported once, with the axes; blacked out out there, the track is
+    lost, no acquisition is usable afterwards and housekeeping says LOST_OUTSIDE (the
+    refusal of an acquisition in that state: test_nav_cycle.c test_leaving_the_workspace);
+    never a wrong fix."""
+    frames = tmp_path / "frames"
+    res = mfns("sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "110", "--seed", "5")
+    assert res.returncode == 0, res.stderr
+    truth = np.atleast_1d(np.genfromtxt(frames / "truth.csv", delimiter=",", names=True))
+    pos = np.column_stack([truth[a + "_mm"] for a in ("x", "y", "z")])
+    lo, hi = pos[:40].min(axis=0) - 25.0, pos[:40].max(axis=0) + 25.0
+    # the widened box (20 mm + 6 sigma, sigma well under 1 mm here) the flight tests against
+    outside = np.any((pos < lo - 30.0) | (pos > hi + 30.0), axis=1)
+    left = int(np.argmax(outside))
+    assert outside.any() and 40 < left < 80, "the scenario no longer leaves the box: pick another"
+    first = left + 10
+    assert outside[first:].all(), "the robot comes back in: pick another blackout"
+    _blackout(frames, first, first + 20)
+    box = ",".join(f"{v:.1f}" for v in (*lo, *hi))
+    rows, truth, log = fly(bins, tmp_path, frames, [], ("--workspace=" + box,))
+    cyc, dp, da = errors(rows, truth)
+    assert np.max(np.abs(dp)) < 3.0 and np.max(np.abs(da)) < 0.2  # never a wrong fix
+    assert [k for k in cyc if left + 2 <= k < first], log  # tracked outside: still usable
+    assert not [k for k in cyc if k >= first], "a fix after the track was lost outside the box"
+    ground = tmp_path / "ground"
+    events = [e for e in read_csv(ground / "events.csv") if e["event"].startswith("WORKSPACE_")]
+    assert [e["event"] for e in events] == ["WORKSPACE_LEFT"], events
+    # between leaving the box widened by the fixed 20 mm and by 30 mm (6 sigma < 10 mm here)
+    beyond_20 = int(np.argmax(np.any((pos < lo - 20.0) | (pos > hi + 20.0), axis=1)))
+    assert beyond_20 <= int(events[0]["cycle"]) <= left, (beyond_20, left, events)
+    assert int(events[0]["subject"]) != 0 and int(events[0]["arg0"]) > 0
+    hk = read_csv(ground / "housekeeping.csv")
+    assert hk[-1]["workspace"] == "LOST_OUTSIDE", hk[-1]

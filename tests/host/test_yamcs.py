@@ -7,7 +7,7 @@ Chromium. Checked, all read back through yamcs-client:
   the wire integers of mfns-ground's grammar; the flight's answers verify them in Yamcs' command
   history (Accepted and Complete, or Failed with the reason), within the window;
 - flight events are Yamcs events with their severity; each alarm of the dictionaries triggers:
-  a camera LOST, the CPU margin, a no-fix run, a table CRC change, a command rejected;
+  a camera LOST, the CPU margin, the workspace, a no-fix run, a table CRC change, a command rejected;
 - the operator view in a real browser shows the values of nav.csv, the cameras, the alarms and
   the commands with their verification; screenshots in build/operator/.
 
@@ -317,9 +317,11 @@ def test_each_alarm_triggers(chain):
     assert alarms["/MFNS_GROUND/cmd_rejected"]["severity"] == "WARNING"  # TABLE_LOAD refused
     assert alarms["/MFNS_GROUND/cpu_margin_pct"]["severity"] == "WARNING"  # 90 % load twice: 10 % margin
     assert not alarms["/MFNS_GROUND/cpu_margin_pct"]["ok"]
+    assert alarms["/MFNS/hk_workspace"]["severity"] == "CRITICAL"  # LOST_OUTSIDE, injected with the CPU load
     # nothing else: no alarm without its cause (the start-up cycle's 100 % load is one report)
     assert set(alarms) == {
         "/MFNS/cam_state",
+        "/MFNS/hk_workspace",
         "/MFNS_GROUND/nofix_run_cycles",
         "/MFNS_GROUND/table_crc_changed",
         "/MFNS_GROUND/cmd_rejected",

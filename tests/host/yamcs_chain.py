@@ -48,6 +48,7 @@ NAV_PARAMS = [
 EVENT_PARAMS = ["evt_code", "evt_subject", "evt_arg0", "evt_arg1"]
 VIEW_PORT = 8095
 CPU_LOAD_INJECTED_PCT = 90.0  # above the 80 % the ground dictionary warns at
+WORKSPACE_INJECTED = 2  # workspace_t LOST_OUTSIDE: CRITICAL in mfns_tm.xml
 
 
 def iso(t) -> str | None:
@@ -143,8 +144,10 @@ def archive_settled(client, arch, timeout_s: float) -> tuple[int, float]:
 
 def cpu_packet(arch) -> bytes:
     """The last housekeeping packet of this run, its CPU load field set to
-    CPU_LOAD_INJECTED_PCT and its time to now: the flight cannot be made busy on demand, the
-    packet is otherwise the flight's own."""
+    CPU_LOAD_INJECTED_PCT, its workspace state to LOST_OUTSIDE and its time to now: the
+    flight cannot be made busy, or its robot be carried out of the table's box, on demand
+    in this chain (the flight's own LOST_OUTSIDE: test_e2e_nav.py); the packet is otherwise
+    the flight's own."""
     pkts = list(arch.list_packets(name="/MFNS/housekeeping", descending=True, page_size=1))
     pkt = bytearray(next(iter(pkts)).binary)
     d = tlm_dict.load()
@@ -152,6 +155,8 @@ def cpu_packet(arch) -> bytes:
     hdr = max(h.offset + h.size for h in d.header)  # primary header + CUC time
     raw = round(CPU_LOAD_INJECTED_PCT / f.coefficient)
     pkt[hdr + f.offset : hdr + f.offset + f.size] = raw.to_bytes(f.size, "big")
+    w = next(f for f in d.packets["housekeeping"].fields if f.param == "hk_workspace")
+    pkt[hdr + w.offset : hdr + w.offset + w.size] = WORKSPACE_INJECTED.to_bytes(w.size, "big")
     now = time.time()
     pkt[6:12] = int(now).to_bytes(4, "big") + int((now % 1) * 65536).to_bytes(2, "big")
     return bytes(pkt)

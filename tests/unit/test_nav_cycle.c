@@ -398,6 +398,90 @@ static void test_tracking_from_a_given_pose(void **state)
     assert_int_equal(mfns_nav_set_prior(&nav, &bad), MFNS_NAV_E_ARG);
 }
 
+/* The robot leaves the table's workspace box (workspace_watch.h). Moving the
+ * box away from the still robot stands for the robot moving out of it: the
+ * tracked fixes stay usable and the exit is reported once; the track lost
+ * out there, an acquisition -- even a right one, with the box back around
+ * the robot -- is refused (OUTSIDE_WORKSPACE) and carries nothing, cycle
+ * after cycle; an operator's pose, tracked inside, ends it; a new table too. */
+static void test_leaving_the_workspace(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 17);
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    const mfns_v3_t lo = table.index.ws_min_w, hi = table.index.ws_max_w;
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    render_background(&rng);
+    render_beacons();
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.ws_state, MFNS_WS_INSIDE);
+        assert_false(out.ws.left);
+    }
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    /* the box 1 m further along x: the tracked pose is 400 mm beyond it */
+    table.index.ws_min_w.x += 1000.0f;
+    table.index.ws_max_w.x += 1000.0f;
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.mode, MFNS_NAV_MODE_TRACK);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK); /* tracking does not rely on the box */
+    assert_pose_close(&out.sol);
+    assert_true(out.ws.left);
+    assert_int_equal(out.ws.axes, 1);
+    assert_near(out.ws.beyond_mm, 1000.0 - 300.0 - (double)out.ws.tol_mm, 1.0);
+    assert_int_equal(out.ws_state, MFNS_WS_OUTSIDE);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_false(out.ws.left); /* once */
+    /* the LEDs go dark until the track is dropped */
+    render_background(&rng);
+    for (int i = 0; i <= MFNS_NAV_MAX_COAST; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.ws_state, MFNS_WS_OUTSIDE);
+    }
+    assert_int_equal(out.next_mode, MFNS_NAV_MODE_ACQUIRE);
+    /* the box back around the robot, the LEDs back: the acquisition finds the
+     * pose, but the robot was last seen outside: refused, nothing carried */
+    table.index.ws_min_w = lo;
+    table.index.ws_max_w = hi;
+    render_beacons();
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_true(out.acquired);
+        assert_int_equal(out.sol.status, MFNS_POSE_NO_FIX);
+        assert_int_equal(out.sol.reason, MFNS_POSE_R_OUTSIDE_WORKSPACE);
+        assert_int_equal(out.sol.beacons_used, 0);
+        assert_int_equal(out.next_mode, MFNS_NAV_MODE_ACQUIRE);
+        assert_int_equal(out.ws_state, MFNS_WS_OUTSIDE);
+        assert_false(out.ws.reentered);
+    }
+    /* the operator's pose, tracked inside the box: the state ends */
+    float d[6] = {0.002f, 0.0f, -0.002f, 3.0f, -2.0f, 0.0f};
+    const mfns_pose_t hint = mfns_pose_apply(&truth, d);
+    assert_int_equal(mfns_nav_set_prior(&nav, &hint), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_false(out.acquired);
+    assert_lag_untested();
+    assert_true(out.ws.reentered);
+    assert_true(out.ws.cycles_outside >= (uint32_t)MFNS_NAV_MAX_COAST + 4U);
+    assert_int_equal(out.ws_state, MFNS_WS_INSIDE);
+    /* a new table (init) takes its box as declared */
+    table.index.ws_min_w.x += 1000.0f;
+    table.index.ws_max_w.x += 1000.0f;
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    }
+    assert_int_equal(out.ws_state, MFNS_WS_OUTSIDE);
+    table.index.ws_min_w = lo;
+    table.index.ws_max_w = hi;
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.ws_state, MFNS_WS_INSIDE);
+    assert_lag_untested();
+}
+
 /* Three beacons in view: a pose without redundancy is usable only while
  * tracking and only when it agrees with the prediction (issue 17: a wrong
  * identification of three blobs cannot be caught in the frame). */
@@ -480,6 +564,7 @@ int main(void)
         cmocka_unit_test(test_no_beacons_gives_no_fix_and_drops_the_prior),
         cmocka_unit_test(test_gap_holds_two_fixes_untested),
         cmocka_unit_test(test_tracking_from_a_given_pose),
+        cmocka_unit_test(test_leaving_the_workspace),
         cmocka_unit_test(test_three_beacons_track_but_never_usable),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
