@@ -14,6 +14,7 @@ from ..camera import rig_from_doc
 from ..errors import MfnsError
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
+from ..table.mapindex import WORKSPACE_KEY
 from . import optimize as opt
 from . import report, surfaces, workspace
 from .analyze import analyze
@@ -266,7 +267,7 @@ def run_optimize(args) -> int:
         "optimised_on": ws.description,
         # the box to build the layout's flight table over (`mfns table build --workspace`
         # takes this file): the one the map analysis above used
-        "table_workspace_mm": [round(float(v), 1) for v in np.concatenate(table_workspace(ws))],
+        WORKSPACE_KEY: [round(float(v), 1) for v in np.concatenate(table_workspace(ws))],
         "noise": noise,
         "iterations": args.iterations,
         "restarts": args.restarts,
@@ -327,7 +328,7 @@ def run_optimize(args) -> int:
         )
     if args.baseline:
         print(f"  baseline {args.baseline}: availability {plan_doc['baseline']['availability_pct']} %")
-    box = ",".join(f"{v:g}" for v in plan_doc["table_workspace_mm"])
+    box = ",".join(f"{v:g}" for v in plan_doc[WORKSPACE_KEY])
     print(
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
         f"(the planned box {box} mm; the default, the beacons' box shrunk by 10 %, may not hold it)"

@@ -331,6 +331,9 @@ def module_scenario(
     rig: Path | None = None,
     beacon_map: Path | None = None,
 ) -> Scenario:
+    # the reader owns the key; imported here so that importing the simulator stays light
+    from ..table.mapindex import WORKSPACE_KEY
+
     cams, doc = load_rig(rig)
     rng = np.random.default_rng([seed, 1])  # geometry stream, independent of the noise stream
     pos, normals = module_beacons(n_beacons, rng)  # drawn even with a given map: same trajectory
@@ -365,7 +368,7 @@ def module_scenario(
             # the box the body origin stays in on every module path (the trajectory's
             # amplitude about the centre): the robot's workspace, as `mfns table build
             # --workspace` reads it from this file
-            "table_workspace_mm": np.concatenate(module_workspace()).tolist(),
+            WORKSPACE_KEY: np.concatenate(module_workspace()).tolist(),
             "trajectory": {
                 "pos_amp_mm": MODULE_POS_AMP_MM.tolist(),
                 "pos_period_s": MODULE_POS_PERIOD_S.tolist(),

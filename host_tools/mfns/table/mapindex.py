@@ -54,6 +54,9 @@ def default_workspace(pos_w: np.ndarray, warn=None) -> tuple[np.ndarray, np.ndar
 
 # workspace_arg: a plan.json or scenario.json is a few kB; a larger file is not one.
 MAX_WORKSPACE_JSON_BYTES = 1 << 20
+# The key of the robot's box in the JSON files --workspace reads (plan.json, a module
+# scenario.json): their writers (mfns.plan.run, mfns.simulate.nav) take it from here.
+WORKSPACE_KEY = "table_workspace_mm"
 
 
 def workspace_outside(pos_w: np.ndarray, lo, hi) -> str | None:
@@ -96,14 +99,14 @@ def workspace_arg(text: str) -> tuple[np.ndarray, np.ndarray]:
         doc = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise MfnsError(f"--workspace {text}: not a readable JSON file ({exc})") from None
-    v = doc.get("table_workspace_mm") if isinstance(doc, dict) else None
+    v = doc.get(WORKSPACE_KEY) if isinstance(doc, dict) else None
     if (
         not isinstance(v, list)
         or len(v) != 6
         or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
     ):
         raise MfnsError(
-            f'--workspace {text}: no "table_workspace_mm" of six numbers (a plan.json of `mfns plan '
+            f'--workspace {text}: no "{WORKSPACE_KEY}" of six numbers (a plan.json of `mfns plan '
             "optimize` has one, as does a module scenario.json; else give XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX)"
         )
     return _workspace_box(v, text)
