@@ -67,6 +67,7 @@ HK = [
     "n_cmd_rejected",
     "table_crc32",
     "time_quality",
+    "workspace",
 ]
 GROUND = ["nofix_run_cycles", "cpu_margin_pct", "table_crc_changed", "cmd_rejected"]
 PARAMS = (

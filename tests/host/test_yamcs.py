@@ -418,6 +418,7 @@ def test_operator_view_in_a_real_browser(chain):
     rate = 100.0 * (int(last["n_fix"]) + int(last["n_degraded"])) / int(last["n_cycles"])
     assert t["fix-rate"] == f"{rate:.1f} %"
     assert t["cpu-margin"] == "10.0" and t["hk-cpu_load_pct"] == "90.0"  # the injected report
+    assert t["hk-workspace"] == "LOST_OUTSIDE"  # injected with it
     assert t["cam-y-state"] in ("OK", "PROBATION", "LOST", "SKIPPED")
     shown = {r["data-name"]: r["data-severity"] for r in after["rows"] if "data-severity" in r}
     assert shown == {a["name"]: a["severity"] for a in res["alarms"]}
