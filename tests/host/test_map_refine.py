@@ -221,3 +221,37 @@ def test_a_fresh_path_without_a_fix_is_a_result_not_a_crash(tmp_path):
     assert refine_demo._run([sys.executable, "-c", "pass"], log) is True
     row = refine_demo._row("surveyed", refine_demo._no_fix_summary())
     assert row.startswith("| surveyed | 0 | nan |") and row.endswith("| nan |")
+
+
+def test_datum_split_separates_a_rigid_motion_from_the_rest():
+    """datum_split: a covariance that is a rigid motion of the map alone comes back as that
+    datum covariance with no relative part; independent errors give the datum s^2 (A^T A)^-1
+    (a shift s^2 / N per axis) and a relative sigma just below s; the two parts add back."""
+    rng = np.random.default_rng(3)
+    p = rng.uniform(-2000.0, 2000.0, (40, 3))
+    n = len(p)
+    c = p.mean(axis=0)
+    A = np.zeros((3 * n, 6))
+    for i in range(n):
+        A[3 * i : 3 * i + 3, :3] = np.eye(3)
+        A[3 * i : 3 * i + 3, 3:] = -np.array(
+            [
+                [0.0, -(p[i] - c)[2], (p[i] - c)[1]],
+                [(p[i] - c)[2], 0.0, -(p[i] - c)[0]],
+                [-(p[i] - c)[1], (p[i] - c)[0], 0.0],
+            ]
+        )
+    L = rng.normal(size=(6, 6))
+    M = L @ L.T + 6.0 * np.eye(6)
+    R = M / np.sqrt(np.outer(np.diag(M), np.diag(M)))  # a correlation matrix
+    d = np.sqrt([0.01, 0.02, 0.03, 1e-8, 2e-8, 3e-8])  # mm^2 shift, rad^2 turn
+    S = R * np.outer(d, d)
+    cov_d, sig_rel, cen = refine.datum_split(p, A @ S @ A.T)
+    np.testing.assert_allclose(cov_d, S, rtol=1e-6, atol=1e-15)
+    assert sig_rel.max() < 1e-6
+    np.testing.assert_allclose(cen, c)
+    s = 0.4
+    cov_d, sig_rel, _ = refine.datum_split(p, s * s * np.eye(3 * n))
+    np.testing.assert_allclose(cov_d, s * s * np.linalg.inv(A.T @ A), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(np.sqrt(np.diag(cov_d)[:3]), s / np.sqrt(n), rtol=1e-9)
+    assert np.all((sig_rel < s) & (sig_rel > 0.9 * s))

@@ -119,6 +119,39 @@ class Result:
     n_downweighted: int = 0
     mounts: bool = False
     info: dict = field(default_factory=dict)
+    # The map's covariance split into a rigid datum part and the rest (datum_split):
+    # (B,) sqrt of the largest eigenvalue of each beacon's relative covariance, and the
+    # datum's 6x6 covariance (shift mm, turn rad about the centroid); not yet in the table.
+    sigma_relative: np.ndarray | None = None
+    datum_cov: np.ndarray | None = None
+
+
+def datum_split(p: np.ndarray, cov_bb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The map's covariance (3B x 3B, beacon order, refined positions p (B, 3)) split into a
+    rigid motion of the whole map -- the datum: a shift dt and a turn dth about the centroid
+    c, dp_i = dt - [p_i - c]x dth -- and what no rigid motion explains (the beacons relative
+    to each other) -> (datum covariance (6, 6) over (dt mm, dth rad), per-beacon relative
+    sigma (B,) = sqrt of the largest eigenvalue of its 3x3 block, centroid (3,)).
+
+    The datum part is the covariance of the least-squares rigid fit of the error field
+    (A^+ C A^+^T), the relative part (I - A A^+) C (I - A A^+)^T. Why it matters
+    (docs/self_survey.md "Which part of the 1-sigma is the map's"): a pose moves rigidly
+    with the map, so the datum enters a fix once, where the same error written into each
+    beacon as independent is multiplied by a weak geometry."""
+    p = np.asarray(p, dtype=float)
+    n = len(p)
+    c = p.mean(axis=0)
+    A = np.zeros((3 * n, 6))
+    for i in range(n):
+        A[3 * i : 3 * i + 3, :3] = np.eye(3)
+        A[3 * i : 3 * i + 3, 3:] = -skew(p[i] - c)
+    Ap = np.linalg.pinv(A)  # (A^T A)^-1 A^T; pinv also holds a degenerate (collinear) map
+    cov_d = Ap @ cov_bb @ Ap.T
+    P = np.eye(3 * n) - A @ Ap
+    rel = P @ cov_bb @ P.T
+    blocks = [rel[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] for i in range(n)]
+    sig = np.sqrt(np.maximum([np.linalg.eigvalsh(b).max() for b in blocks], 0.0))
+    return 0.5 * (cov_d + cov_d.T), sig, c
 
 
 def whitening(cov_uv: np.ndarray, floor_px: float) -> np.ndarray:
@@ -447,6 +480,13 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
     cbb = cov[: 3 * nb, : 3 * nb].reshape(nb, 3, nb, 3)
     info["sigma_datum_mm"] = float(np.sqrt(np.linalg.eigvalsh(cbb.sum(axis=(0, 2)) / nb**2).max()))
     info["sigma_scale"] = float(s_scale)
+    cov_d, sig_rel, centroid = datum_split(pb.p_survey + b3[:nb], cov[: 3 * nb, : 3 * nb])
+    info["datum"] = {
+        "centroid_mm": [round(float(v), 3) for v in centroid],
+        "sigma_shift_mm": [round(float(v), 4) for v in np.sqrt(np.diag(cov_d)[:3])],
+        "sigma_turn_deg": [round(float(v), 5) for v in np.degrees(np.sqrt(np.diag(cov_d)[3:]))],
+        "relative_sigma_median_mm": round(float(np.median(sig_rel)), 4),
+    }
     n_obs = np.bincount(pb.bea, minlength=nb)
     rot = np.zeros((3, 3))
     off = np.zeros((3, 3))
@@ -498,6 +538,8 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
         n_downweighted=int(np.sum(w[:n_obs_res] < 1.0)),
         mounts=pb.mounts,
         info=info,
+        sigma_relative=sig_rel,
+        datum_cov=cov_d,
     )
 
 
@@ -540,12 +582,15 @@ def report(res: Result) -> dict:
                 "id": int(i),
                 "shift_mm": [round(float(v), 4) for v in d],
                 "sigma_mm": round(float(s), 4),
+                "sigma_relative_mm": None
+                if res.sigma_relative is None
+                else round(float(res.sigma_relative[k]), 4),
                 "chi2": round(float(c), 2),
                 "moved": bool(m),
                 "observations": int(n),
             }
-            for i, d, s, c, m, n in zip(
-                res.ids, shift, res.sigma, res.chi2_moved, res.moved, res.n_obs, strict=True
+            for k, (i, d, s, c, m, n) in enumerate(
+                zip(res.ids, shift, res.sigma, res.chi2_moved, res.moved, res.n_obs, strict=True)
             )
         ],
         "moved_beacons": [int(i) for i in res.ids[res.moved]],
