@@ -78,7 +78,7 @@ WHY = {
     "CAMERAS_CONTRADICT": "refused: the fix comes from one camera and another camera's image, "
     "with beacons predicted in it, has none of them: one of the two is wrong (docs/pose.md Integrity)",
     "OUTSIDE_WORKSPACE": "refused: an acquisition while the robot was last tracked outside the table's "
-    "workspace box, where the certificate does not hold (docs/pose.md \"The table's workspace in flight\")",
+    "workspace box, where the certificate does not hold (docs/pose.md, the table's workspace in flight)",
 }
 
 
