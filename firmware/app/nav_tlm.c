@@ -113,12 +113,19 @@ void nav_tlm_nav_packet(const mfns_nav_output_t *o, uint32_t cycle, uint64_t t_u
     }
 }
 
+/* An event argument from a scaled float: INT32_MAX when it does not fit the
+ * wire's i32 (beyond +-2e9) or is not a number. */
+static int32_t event_arg(float v)
+{
+    return fabsf(v) < 2.0e9f ? (int32_t)v : INT32_MAX;
+}
+
 void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mfns_beacon_map_t *map,
                               uint16_t hold_cycles, uint32_t cycle, uint64_t t_us)
 {
     const mfns_integrity_result_t *r = &o->integrity;
     const float ns = r->detect_norm_sep * 100.0f;
-    const int32_t sep = ns < 2.0e9f ? (int32_t)ns : INT32_MAX; /* also for NaN: no */
+    const int32_t sep = event_arg(ns);
     if (r->new_beacon_exclusion && r->excluded_beacon >= 0 && r->excluded_beacon < (int)map->count) {
         const uint16_t id = map->beacon[r->excluded_beacon].id;
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_BEACON_EXCLUDED, TLM_SEV_WARNING, (uint8_t)(id > 255u ? 255u : id),
@@ -137,7 +144,7 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         const unsigned c = (unsigned)(uint8_t)o->lag_new_camera; /* checked non-negative above */
         const float lag = o->lag.lag_cycles[c] * 1000.0f, z = o->lag.z[c] * 100.0f;
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_LAG, TLM_SEV_WARNING, (uint8_t)c,
-                            fabsf(lag) < 2.0e9f ? (int32_t)lag : INT32_MAX, fabsf(z) < 2.0e9f ? (int32_t)z : INT32_MAX);
+                            event_arg(lag), event_arg(z));
     }
     const mfns_beacon_watch_report_t *bw = &o->beacons;
     if (bw->missing >= 0 && bw->missing < (int)map->count) {
@@ -162,7 +169,7 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
     if (o->ws.left) {
         const float beyond = o->ws.beyond_mm * EVT_CENTI_PER_MM, tol = o->ws.tol_mm * EVT_CENTI_PER_MM;
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_WORKSPACE_LEFT, TLM_SEV_WARNING, o->ws.axes,
-                            beyond < 2.0e9f ? (int32_t)beyond : INT32_MAX, tol < 2.0e9f ? (int32_t)tol : INT32_MAX);
+                            event_arg(beyond), event_arg(tol));
     }
     if (o->ws.reentered) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_WORKSPACE_REENTERED, TLM_SEV_INFO, 0,

@@ -49,7 +49,7 @@ static bool minimal_in_workspace(const mfns_acq_t *q, const mfns_pose_t *pose,
     const float hi[3] = {q->idx->ws_max_w.x, q->idx->ws_max_w.y, q->idx->ws_max_w.z};
     for (int m = 0; m < 3; m++) {
         const float out = pw[m] < lo[m] ? lo[m] - pw[m] : (pw[m] > hi[m] ? pw[m] - hi[m] : 0.0f);
-        if (out <= MFNS_ACQ_WORKSPACE_TOL_MM) {
+        if (out <= MFNS_WS_TOL_MM) {
             continue;
         }
         const mfns_v3_t cm = {pose->C_w_b.m[0][m], pose->C_w_b.m[1][m], pose->C_w_b.m[2][m]};
@@ -61,7 +61,7 @@ static bool minimal_in_workspace(const mfns_acq_t *q, const mfns_pose_t *pose,
                 var += g[i] * cov[i][j] * g[j];
             }
         }
-        const float tol = MFNS_ACQ_WORKSPACE_TOL_MM + MINIMAL_WS_SIGMA * sqrtf(var > 0.0f ? var : 0.0f);
+        const float tol = MFNS_WS_TOL_MM + MINIMAL_WS_SIGMA * sqrtf(var > 0.0f ? var : 0.0f);
         if (out > tol) {
             return false;
         }

@@ -25,9 +25,6 @@
  * therefore uses this multiple of the tracking gate; the refined pose is then
  * associated again with the tracking gate itself. */
 #define MFNS_ACQ_MINIMAL_GATE_FACTOR 4.0f
-/* Tolerance of the workspace test of a candidate (mfns_acq_physical) and of
- * a minimal pose (the completion's sound test): the workspace watch's. */
-#define MFNS_ACQ_WORKSPACE_TOL_MM MFNS_WS_TOL_MM
 
 /* The acquisition gathers a frame's blobs (every one, or the completion's 4)
  * into the pose solver's measurement arrays. */

@@ -429,13 +429,12 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
                                &out->bmon); /* arguments checked above */
         count_identified(nav, out);
         held_cameras(nav, out);
-        mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &t->beacons, &nav->obs, &out->sol,
-                                 carries_track(&out->sol, !out->acquired), nav->integ_mem.beacon,
-                                 MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
-        mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &t->beacons, &nav->obs, &out->sol,
-                                 carries_track(&out->sol, !out->acquired), solver_inlier, &out->cameras);
-        mfns_ws_watch_update(&nav->wsw, &t->index, &out->sol, carries_track(&out->sol, !out->acquired),
-                             !out->acquired, &out->ws);
+        const bool carries = carries_track(&out->sol, !out->acquired); /* the cycle's verdict is final here */
+        mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &t->beacons, &nav->obs, &out->sol, carries,
+                                 nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
+        mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &t->beacons, &nav->obs, &out->sol, carries,
+                                 solver_inlier, &out->cameras);
+        mfns_ws_watch_update(&nav->wsw, &t->index, &out->sol, carries, !out->acquired, &out->ws);
     }
     out->ws_state = nav->wsw.state;
     if (st != MFNS_NAV_OK) {

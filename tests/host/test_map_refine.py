@@ -13,7 +13,7 @@ from mfns import calib_results
 from mfns.camera import pose_from_position, rig_from_doc
 from mfns.map import refine
 from mfns.map.fixlog import Fix
-from mfns.rotations import euler213_deg_to_matrix, rot_exp
+from mfns.rotations import euler213_deg_to_matrix, rot_exp, skew
 from mfns.simulate.nav import PAPER_CALIB, module_beacons, module_trajectory, project_beacons
 
 PIXEL_SIGMA = 0.02  # px, the order of the module's centroids
@@ -234,13 +234,7 @@ def test_datum_split_separates_a_rigid_motion_from_the_rest():
     A = np.zeros((3 * n, 6))
     for i in range(n):
         A[3 * i : 3 * i + 3, :3] = np.eye(3)
-        A[3 * i : 3 * i + 3, 3:] = -np.array(
-            [
-                [0.0, -(p[i] - c)[2], (p[i] - c)[1]],
-                [(p[i] - c)[2], 0.0, -(p[i] - c)[0]],
-                [-(p[i] - c)[1], (p[i] - c)[0], 0.0],
-            ]
-        )
+        A[3 * i : 3 * i + 3, 3:] = -skew(p[i] - c)
     L = rng.normal(size=(6, 6))
     M = L @ L.T + 6.0 * np.eye(6)
     R = M / np.sqrt(np.outer(np.diag(M), np.diag(M)))  # a correlation matrix

@@ -48,7 +48,7 @@ NAV_PARAMS = [
 EVENT_PARAMS = ["evt_code", "evt_subject", "evt_arg0", "evt_arg1"]
 VIEW_PORT = 8095
 CPU_LOAD_INJECTED_PCT = 90.0  # above the 80 % the ground dictionary warns at
-WORKSPACE_INJECTED = 2  # workspace_t LOST_OUTSIDE: CRITICAL in mfns_tm.xml
+WORKSPACE_INJECTED = "LOST_OUTSIDE"  # workspace_t: CRITICAL in mfns_tm.xml
 
 
 def iso(t) -> str | None:
@@ -156,7 +156,8 @@ def cpu_packet(arch) -> bytes:
     raw = round(CPU_LOAD_INJECTED_PCT / f.coefficient)
     pkt[hdr + f.offset : hdr + f.offset + f.size] = raw.to_bytes(f.size, "big")
     w = next(f for f in d.packets["housekeeping"].fields if f.param == "hk_workspace")
-    pkt[hdr + w.offset : hdr + w.offset + w.size] = WORKSPACE_INJECTED.to_bytes(w.size, "big")
+    code = next(v for v, lab in d.labels("workspace_t").items() if lab == WORKSPACE_INJECTED)
+    pkt[hdr + w.offset : hdr + w.offset + w.size] = code.to_bytes(w.size, "big")
     now = time.time()
     pkt[6:12] = int(now).to_bytes(4, "big") + int((now % 1) * 65536).to_bytes(2, "big")
     return bytes(pkt)

@@ -480,7 +480,8 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
     cbb = cov[: 3 * nb, : 3 * nb].reshape(nb, 3, nb, 3)
     info["sigma_datum_mm"] = float(np.sqrt(np.linalg.eigvalsh(cbb.sum(axis=(0, 2)) / nb**2).max()))
     info["sigma_scale"] = float(s_scale)
-    cov_d, sig_rel, centroid = datum_split(pb.p_survey + b3[:nb], cov[: 3 * nb, : 3 * nb])
+    p_ref = pb.p_survey + b3  # the refined map
+    cov_d, sig_rel, centroid = datum_split(p_ref, cov[: 3 * nb, : 3 * nb])
     info["datum"] = {
         "centroid_mm": [round(float(v), 3) for v in centroid],
         "sigma_shift_mm": [round(float(v), 4) for v in np.sqrt(np.diag(cov_d)[:3])],
@@ -520,7 +521,7 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
         ids=pb.ids,
         p_survey=pb.p_survey,
         sigma_survey=pb.sigma_survey,
-        p=pb.p_survey + b3,
+        p=p_ref,
         cov=cov_b,
         sigma=sig,
         chi2_moved=chi,
