@@ -152,6 +152,9 @@ static bool parse_body(mfns_ct_parser_t *p, mfns_caltable_t *dst)
     if (!mfns_ct_parse_calib_cov(p, &pos, dst != NULL ? &dst->calib_cov : NULL)) {
         return false;
     }
+    if (!mfns_ct_parse_map_datum(p, &pos, dst != NULL ? &dst->datum : NULL)) {
+        return false;
+    }
     if (!mfns_ct_parse_integrity(p, &pos, dst != NULL ? &dst->integrity : NULL)) {
         return false;
     }

@@ -40,11 +40,14 @@
 
 #define MFNS_CALTABLE_COV_MAX_SIZE \
     (MFNS_CALTABLE_COV_HEADER_SIZE + 4u * MFNS_CALIB_PARAMS * (MFNS_CALIB_PARAMS + 1u) / 2u)
+#define MFNS_CALTABLE_DATUM_MAX_SIZE \
+    (MFNS_CALTABLE_DATUM_HEADER_SIZE + 4u * MFNS_MAP_DATUM_PARAMS * (MFNS_MAP_DATUM_PARAMS + 1u) / 2u)
 /* Largest table this build accepts (bytes): all maxima of nav_config.h used. */
 #define MFNS_CALTABLE_MAX_BYTES                                                                           \
     (MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_GLOBALS_SIZE +                                             \
      MFNS_NUM_CAMERAS * (MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * MFNS_MAX_GRID_NODES) + \
-     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_CALTABLE_COV_MAX_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE + \
+     MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_CALTABLE_COV_MAX_SIZE + MFNS_CALTABLE_DATUM_MAX_SIZE + \
+     MFNS_CALTABLE_INTEGRITY_SIZE + \
      MFNS_BIDX_MAX_SECTION_SIZE)
 
 /* Acceptance limits (docs/caltable.md "Validation"). */
@@ -59,6 +62,7 @@ typedef struct {
     mfns_beacon_map_t beacons;
     mfns_beacon_index_t index;             /* the map's index for acquisition */
     mfns_calib_cov_t calib_cov;            /* the calibration's uncertainty (present = 0: unknown) */
+    mfns_map_datum_t datum;                /* the map's shared error (present = 0: none; nav_config.h) */
     mfns_centroid_settings_t centroid;
     mfns_solver_settings_t solver;
     mfns_integrity_settings_t integrity;   /* fault detection and exclusion (integrity.h) */

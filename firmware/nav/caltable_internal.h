@@ -100,6 +100,8 @@ bool mfns_ct_parse_camera(mfns_ct_parser_t *p, uint32_t *pos, uint16_t index, mf
                           mfns_undist_grid_t *g, q16_16_t (*dst_nodes)[2]);
 bool mfns_ct_parse_beacons(mfns_ct_parser_t *p, uint32_t pos, uint16_t n, mfns_beacon_map_t *dst);
 bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_t *dst);
+/* The map datum section at *pos (advanced past it on success). */
+bool mfns_ct_parse_map_datum(mfns_ct_parser_t *p, uint32_t *pos, mfns_map_datum_t *dst);
 bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_settings_t *dst);
 bool mfns_ct_parse_index(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, mfns_beacon_index_t *dst);
 

@@ -16,6 +16,7 @@ _Static_assert(MFNS_BIDX_MAX_MISSING == 3, "firmware/nav/caltable_layout.toml [c
 _Static_assert(MFNS_BIDX_MIN_CERT == 5, "firmware/nav/caltable_layout.toml [constants] MFNS_BIDX_MIN_CERT differs from its header");
 _Static_assert(MFNS_BIDX_MAX_CERT == 16, "firmware/nav/caltable_layout.toml [constants] MFNS_BIDX_MAX_CERT differs from its header");
 _Static_assert(MFNS_CALIB_PARAMS == 45, "firmware/nav/caltable_layout.toml [constants] MFNS_CALIB_PARAMS differs from its header");
+_Static_assert(MFNS_MAP_DATUM_PARAMS == 6, "firmware/nav/caltable_layout.toml [constants] MFNS_MAP_DATUM_PARAMS differs from its header");
 /* Every record's fields fill its size exactly. */
 _Static_assert(MFNS_CALTABLE_OFF_HEADER_CRC32 + 4u == MFNS_CALTABLE_HEADER_SIZE, "record header has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_GLOBALS_SOLVER_MIN_RCOND + 4u == MFNS_CALTABLE_GLOBALS_SIZE, "record globals has no padding");
@@ -23,6 +24,7 @@ _Static_assert(MFNS_CALTABLE_OFF_CAMERA_GRID_STEP_V_Q8 + 4u == MFNS_CALTABLE_CAM
 _Static_assert(MFNS_CALTABLE_OFF_NODE_V_Q16 + 4u == MFNS_CALTABLE_NODE_SIZE, "record node has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_BEACON_SIGMA_MM + 4u == MFNS_CALTABLE_BEACON_SIZE, "record beacon has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_CALIB_COV_RESERVED + 2u == MFNS_CALTABLE_COV_HEADER_SIZE, "record calib_cov has no padding");
+_Static_assert(MFNS_CALTABLE_OFF_MAP_DATUM_C_W + 12u == MFNS_CALTABLE_DATUM_HEADER_SIZE, "record map_datum has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_INTEGRITY_MONITOR_ONLY + 1u == MFNS_CALTABLE_INTEGRITY_SIZE, "record integrity has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_INDEX_CERT_INLIERS + 4u == MFNS_CALTABLE_INDEX_HEADER_SIZE, "record index has no padding");
 _Static_assert(MFNS_CALTABLE_OFF_INDEX_GEOM_RANGE_MAX_MM + 4u == MFNS_CALTABLE_INDEX_GEOM_SIZE, "record index_geom has no padding");
@@ -73,6 +75,9 @@ const char *const mfns_caltable_status_text[MFNS_CALTABLE_STATUS_COUNT] = {
     [MFNS_CALTABLE_E_CALIB_COV_PSD] = MFNS_MSG("calibration table calibration covariance: not positive semi-definite (negative variance or inconsistent correlations)"),
     [MFNS_CALTABLE_E_FILE_NOT_REGULAR] = MFNS_MSG("calibration table path is not a regular file (a FIFO, device or directory is refused: it could block the cycle)"),
     [MFNS_CALTABLE_E_INTEGRITY_SETTINGS] = MFNS_MSG("calibration table integrity settings out of range (alert limits, probabilities, hold)"),
+    [MFNS_CALTABLE_E_MAP_DATUM_COUNT] = MFNS_MSG("calibration table map datum: parameter count is neither 0 nor 6"),
+    [MFNS_CALTABLE_E_MAP_DATUM_PSD] = MFNS_MSG("calibration table map datum: covariance not positive semi-definite (negative variance or inconsistent correlations)"),
+    [MFNS_CALTABLE_E_MAP_DATUM_CENTRE] = MFNS_MSG("calibration table map datum: centre out of range (beyond 1e7 mm, or not 0 with no datum)"),
 };
 #endif
 
@@ -110,6 +115,8 @@ const mfns_caltable_field_t mfns_caltable_fields[MFNS_CALTABLE_F_COUNT] = {
     [MFNS_CALTABLE_F_BEACON_P_W] = {MFNS_CALTABLE_OFF_BEACON_P_W, MFNS_CALTABLE_T_F32, MFNS_CALTABLE_E_BEACON_VALUE, 0u, -10000000.0f, 10000000.0f}, /* [-1e7, 1e7] */
     [MFNS_CALTABLE_F_BEACON_SIGMA_MM] = {MFNS_CALTABLE_OFF_BEACON_SIGMA_MM, MFNS_CALTABLE_T_F32, MFNS_CALTABLE_E_BEACON_VALUE, MFNS_CALTABLE_LO_OPEN, 0.0f, 10000.0f}, /* (0, 1e4] */
     [MFNS_CALTABLE_F_CALIB_COV_RESERVED] = {MFNS_CALTABLE_OFF_CALIB_COV_RESERVED, MFNS_CALTABLE_T_U16, MFNS_CALTABLE_E_RESERVED, 0u, 0.0f, 0.0f}, /* reserved: 0 */
+    [MFNS_CALTABLE_F_MAP_DATUM_RESERVED] = {MFNS_CALTABLE_OFF_MAP_DATUM_RESERVED, MFNS_CALTABLE_T_U16, MFNS_CALTABLE_E_RESERVED, 0u, 0.0f, 0.0f}, /* reserved: 0 */
+    [MFNS_CALTABLE_F_MAP_DATUM_C_W] = {MFNS_CALTABLE_OFF_MAP_DATUM_C_W, MFNS_CALTABLE_T_F32, MFNS_CALTABLE_E_MAP_DATUM_CENTRE, 0u, -10000000.0f, 10000000.0f}, /* [-1e7, 1e7] */
     [MFNS_CALTABLE_F_INTEGRITY_ALERT_LIMIT_POS_MM] = {MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_POS_MM, MFNS_CALTABLE_T_F32, MFNS_CALTABLE_E_INTEGRITY_SETTINGS, MFNS_CALTABLE_LO_OPEN, 0.0f, 10000.0f}, /* (0, 1e4] */
     [MFNS_CALTABLE_F_INTEGRITY_ALERT_LIMIT_ATT_DEG] = {MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_ATT_DEG, MFNS_CALTABLE_T_F32, MFNS_CALTABLE_E_INTEGRITY_SETTINGS, MFNS_CALTABLE_LO_OPEN, 0.0f, 180.0f}, /* (0, 180] */
     [MFNS_CALTABLE_F_INTEGRITY_P_FA] = {MFNS_CALTABLE_OFF_INTEGRITY_P_FA, MFNS_CALTABLE_T_F32, MFNS_CALTABLE_E_INTEGRITY_SETTINGS, MFNS_CALTABLE_LO_OPEN | MFNS_CALTABLE_HI_OPEN, 0.0f, 0.5f}, /* (0, 0.5) */

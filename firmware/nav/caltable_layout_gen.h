@@ -9,8 +9,8 @@
 #include <stdint.h>
 
 #define MFNS_CALTABLE_MAGIC "MFTB"
-#define MFNS_CALTABLE_VERSION 4u     /* the newest format this loader reads */
-#define MFNS_CALTABLE_MIN_VERSION 4u /* the oldest */
+#define MFNS_CALTABLE_VERSION 5u     /* the newest format this loader reads */
+#define MFNS_CALTABLE_MIN_VERSION 5u /* the oldest */
 
 /* Record sizes (bytes); a record's fields have no padding. */
 #define MFNS_CALTABLE_HEADER_SIZE 16u /* Header */
@@ -19,6 +19,7 @@
 #define MFNS_CALTABLE_NODE_SIZE 8u /* Grid node */
 #define MFNS_CALTABLE_BEACON_SIZE 20u /* Beacon record */
 #define MFNS_CALTABLE_COV_HEADER_SIZE 4u /* Calibration covariance */
+#define MFNS_CALTABLE_DATUM_HEADER_SIZE 16u /* Map datum covariance */
 #define MFNS_CALTABLE_INTEGRITY_SIZE 20u /* Integrity settings */
 #define MFNS_CALTABLE_INDEX_HEADER_SIZE 44u /* Map index */
 #define MFNS_CALTABLE_INDEX_GEOM_SIZE 24u /* Map index: beacon geometry */
@@ -75,6 +76,9 @@
 #define MFNS_CALTABLE_OFF_BEACON_SIGMA_MM 16u
 #define MFNS_CALTABLE_OFF_CALIB_COV_COUNT 0u
 #define MFNS_CALTABLE_OFF_CALIB_COV_RESERVED 2u
+#define MFNS_CALTABLE_OFF_MAP_DATUM_COUNT 0u
+#define MFNS_CALTABLE_OFF_MAP_DATUM_RESERVED 2u
+#define MFNS_CALTABLE_OFF_MAP_DATUM_C_W 4u
 #define MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_POS_MM 0u
 #define MFNS_CALTABLE_OFF_INTEGRITY_ALERT_LIMIT_ATT_DEG 4u
 #define MFNS_CALTABLE_OFF_INTEGRITY_P_FA 8u
@@ -174,7 +178,10 @@ typedef enum {
     MFNS_CALTABLE_E_CALIB_COV_PSD = 41, /* calibration covariance: negative variance or not positive semi-definite */
     MFNS_CALTABLE_E_FILE_NOT_REGULAR = 42, /* (caltable_file.h) not a regular file */
     MFNS_CALTABLE_E_INTEGRITY_SETTINGS = 43, /* integrity settings: alert limit, P_fa, P_md, hold or require_camera_monitor out of range */
-    MFNS_CALTABLE_STATUS_COUNT = 44
+    MFNS_CALTABLE_E_MAP_DATUM_COUNT = 44, /* map datum: parameter count neither 0 nor MFNS_MAP_DATUM_PARAMS */
+    MFNS_CALTABLE_E_MAP_DATUM_PSD = 45, /* map datum: negative variance or not positive semi-definite */
+    MFNS_CALTABLE_E_MAP_DATUM_CENTRE = 46, /* map datum: centre coordinate beyond 1e7 mm, or not 0 when the count is 0 */
+    MFNS_CALTABLE_STATUS_COUNT = 47
 } mfns_caltable_status_t;
 
 /* One-line message of each status (index = value). */
@@ -236,6 +243,8 @@ typedef enum {
     MFNS_CALTABLE_F_BEACON_P_W,
     MFNS_CALTABLE_F_BEACON_SIGMA_MM,
     MFNS_CALTABLE_F_CALIB_COV_RESERVED,
+    MFNS_CALTABLE_F_MAP_DATUM_RESERVED,
+    MFNS_CALTABLE_F_MAP_DATUM_C_W,
     MFNS_CALTABLE_F_INTEGRITY_ALERT_LIMIT_POS_MM,
     MFNS_CALTABLE_F_INTEGRITY_ALERT_LIMIT_ATT_DEG,
     MFNS_CALTABLE_F_INTEGRITY_P_FA,

@@ -1,5 +1,5 @@
 /* caltable_sections.c -- the loader's variable sections (caltable_internal.h):
- * the calibration covariance, the integrity settings and the map index. Offsets and ranges are the
+ * the calibration covariance, the map datum, the integrity settings and the map index. Offsets and ranges are the
  * generated ones (caltable_layout_gen.h); the order of the checks is the
  * loader's contract (the first failure is the one reported). */
 #include <math.h>
@@ -12,40 +12,42 @@
 #define X_ID(f) MFNS_CALTABLE_F_INDEX_##f
 #define XG_OFF(f) MFNS_CALTABLE_OFF_INDEX_GEOM_##f
 
-/* The calibration-covariance section at pos (docs/caltable.md "Calibration
- * covariance"): u16 parameter count (0 = unknown, or MFNS_CALIB_PARAMS), u16
- * reserved, then the upper triangle row-major as f32. Accepted: every value
- * finite and the matrix positive semi-definite, tested on its correlation
- * form (unit diagonal: the units differ by 1e10) by a Cholesky factorisation
- * that takes pivots below MFNS_CALTABLE_COV_PSD_TOL as zero and refuses one
- * below -MFNS_CALTABLE_COV_PSD_TOL. The factor is a packed triangle on the
- * stack (4.1 KB). Advances *pos past the section. */
+/* The covariance sections (docs/caltable.md "Calibration covariance", "Map
+ * datum covariance"): a count, then the upper triangle row-major of an n x n
+ * covariance as f32. Accepted: every value finite and the matrix positive
+ * semi-definite, tested on its correlation form (unit diagonal: the units differ
+ * by 1e10) by a Cholesky factorisation that takes pivots below
+ * MFNS_CALTABLE_COV_PSD_TOL as zero and refuses one below
+ * -MFNS_CALTABLE_COV_PSD_TOL. The factor is a packed triangle on the stack (4.1 KB
+ * at the calibration's 45 parameters, the largest). */
 #define CALIB_TRI ((uint32_t)MFNS_CALIB_PARAMS * (MFNS_CALIB_PARAMS + 1u) / 2u)
+#define DATUM_TRI ((uint32_t)MFNS_MAP_DATUM_PARAMS * (MFNS_MAP_DATUM_PARAMS + 1u) / 2u)
 _Static_assert(CALIB_TRI * sizeof(float) < 4200u, "the packed factor stays a 4.1 KB stack array");
+_Static_assert(MFNS_MAP_DATUM_PARAMS <= MFNS_CALIB_PARAMS, "the datum's factor fits the calibration's arrays");
 
-static uint32_t tri_upper(uint32_t i, uint32_t j) /* (i, j), i <= j, in the stored upper triangle */
+static uint32_t tri_upper(uint32_t n, uint32_t i, uint32_t j) /* (i, j), i <= j, in a stored upper triangle */
 {
-    return i * MFNS_CALIB_PARAMS - i * (i - 1u) / 2u + (j - i);
+    return i * n - i * (i - 1u) / 2u + (j - i);
 }
 
-/* The correlation form of the stored covariance at body, lower triangle packed
- * by rows (l[i (i + 1) / 2 + j]), factorised in place; false at the first
- * element that makes it not positive semi-definite. */
-static bool check_psd(mfns_ct_parser_t *p, uint32_t body)
+/* The correlation form of the n x n covariance stored at body, lower triangle
+ * packed by rows (l[i (i + 1) / 2 + j]), factorised in place; false (status
+ * st) at the first element that makes it not positive semi-definite. */
+static bool check_psd(mfns_ct_parser_t *p, uint32_t body, uint32_t n, mfns_caltable_status_t st)
 {
     const uint8_t *b = p->b;
     float sd[MFNS_CALIB_PARAMS];
-    for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
-        const float d = mfns_ct_f32(b, body + 4u * tri_upper(i, i));
+    for (uint32_t i = 0; i < n; i++) {
+        const float d = mfns_ct_f32(b, body + 4u * tri_upper(n, i, i));
         if (!(d >= 0.0f)) {
-            return mfns_ct_fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, body + 4u * tri_upper(i, i));
+            return mfns_ct_fail(p, st, body + 4u * tri_upper(n, i, i));
         }
         sd[i] = sqrtf(d);
     }
     float l[CALIB_TRI];
-    for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
+    for (uint32_t i = 0; i < n; i++) {
         for (uint32_t j = 0; j <= i; j++) {
-            const uint32_t off = body + 4u * tri_upper(j, i);
+            const uint32_t off = body + 4u * tri_upper(n, j, i);
             const float s = mfns_ct_f32(b, off);
             float c;
             if (sd[i] > 0.0f && sd[j] > 0.0f) {
@@ -53,12 +55,12 @@ static bool check_psd(mfns_ct_parser_t *p, uint32_t body)
             } else if (s == 0.0f) {
                 c = 0.0f; /* a parameter known exactly: no correlation */
             } else {
-                return mfns_ct_fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, off);
+                return mfns_ct_fail(p, st, off);
             }
             l[i * (i + 1u) / 2u + j] = c;
         }
     }
-    for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
+    for (uint32_t i = 0; i < n; i++) {
         for (uint32_t j = 0; j <= i; j++) {
             float s = l[i * (i + 1u) / 2u + j];
             for (uint32_t k = 0; k < j; k++) {
@@ -66,7 +68,7 @@ static bool check_psd(mfns_ct_parser_t *p, uint32_t body)
             }
             if (i == j) {
                 if (s < -MFNS_CALTABLE_COV_PSD_TOL) {
-                    return mfns_ct_fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, body + 4u * tri_upper(i, i));
+                    return mfns_ct_fail(p, st, body + 4u * tri_upper(n, i, i));
                 }
                 l[i * (i + 1u) / 2u + i] = s > MFNS_CALTABLE_COV_PSD_TOL ? sqrtf(s) : 0.0f;
             } else {
@@ -76,12 +78,24 @@ static bool check_psd(mfns_ct_parser_t *p, uint32_t body)
                 } else if (fabsf(s) <= sqrtf(MFNS_CALTABLE_COV_PSD_TOL)) {
                     l[i * (i + 1u) / 2u + j] = 0.0f; /* a null direction stays null */
                 } else {
-                    return mfns_ct_fail(p, MFNS_CALTABLE_E_CALIB_COV_PSD, body + 4u * tri_upper(j, i));
+                    return mfns_ct_fail(p, st, body + 4u * tri_upper(n, j, i));
                 }
             }
         }
     }
     return true;
+}
+
+/* The n x n matrix of the checked triangle at body into dst (symmetric). */
+static void read_tri(const uint8_t *b, uint32_t body, uint32_t n, float *dst)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        for (uint32_t j = i; j < n; j++) {
+            const float v = mfns_ct_f32(b, body + 4u * tri_upper(n, i, j));
+            dst[i * n + j] = v;
+            dst[j * n + i] = v;
+        }
+    }
 }
 
 bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_t *dst)
@@ -109,20 +123,68 @@ bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_
     if ((p->size - body) / 4u < CALIB_TRI) {
         return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
     }
-    if (!mfns_ct_f32s(p, body, CALIB_TRI, NULL) || !check_psd(p, body)) {
+    if (!mfns_ct_f32s(p, body, CALIB_TRI, NULL) ||
+        !check_psd(p, body, MFNS_CALIB_PARAMS, MFNS_CALTABLE_E_CALIB_COV_PSD)) {
         return false;
     }
     if (dst != NULL) {
         dst->present = 1u;
-        for (uint32_t i = 0; i < MFNS_CALIB_PARAMS; i++) {
-            for (uint32_t j = i; j < MFNS_CALIB_PARAMS; j++) {
-                const float v = mfns_ct_f32(b, body + 4u * tri_upper(i, j));
-                dst->cov[i][j] = v;
-                dst->cov[j][i] = v;
-            }
-        }
+        read_tri(b, body, MFNS_CALIB_PARAMS, &dst->cov[0][0]);
     }
     *pos = body + 4u * CALIB_TRI;
+    return true;
+}
+
+bool mfns_ct_parse_map_datum(mfns_ct_parser_t *p, uint32_t *pos, mfns_map_datum_t *dst)
+{
+    enum {
+        COUNT = MFNS_CALTABLE_OFF_MAP_DATUM_COUNT,
+        CW = MFNS_CALTABLE_OFF_MAP_DATUM_C_W,
+    };
+    const uint8_t *b = p->b;
+    const uint32_t o = *pos;
+    if (p->size - o < MFNS_CALTABLE_DATUM_HEADER_SIZE) {
+        return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
+    }
+    const uint16_t n = mfns_ct_u16(b, o + COUNT);
+    if (n != 0u && n != MFNS_MAP_DATUM_PARAMS) {
+        return mfns_ct_fail(p, MFNS_CALTABLE_E_MAP_DATUM_COUNT, o + COUNT);
+    }
+    if (!mfns_ct_field(p, o, MFNS_CALTABLE_F_MAP_DATUM_RESERVED)) {
+        return false;
+    }
+    float c[3];
+    if (!mfns_ct_f32s(p, o + CW, 3u, c)) {
+        return false;
+    }
+    for (int i = 0; i < 3; i++) {
+        /* the generated range, per coordinate; no datum names no centre */
+        if (!mfns_caltable_in_range(&mfns_caltable_fields[MFNS_CALTABLE_F_MAP_DATUM_C_W], c[i]) ||
+            (n == 0u && c[i] != 0.0f)) {
+            return mfns_ct_fail(p, MFNS_CALTABLE_E_MAP_DATUM_CENTRE, o + CW + 4u * (uint32_t)i);
+        }
+    }
+    const uint32_t body = o + MFNS_CALTABLE_DATUM_HEADER_SIZE;
+    if (n == 0u) {
+        if (dst != NULL) {
+            memset(dst, 0, sizeof *dst);
+        }
+        *pos = body;
+        return true;
+    }
+    if ((p->size - body) / 4u < DATUM_TRI) {
+        return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
+    }
+    if (!mfns_ct_f32s(p, body, DATUM_TRI, NULL) ||
+        !check_psd(p, body, MFNS_MAP_DATUM_PARAMS, MFNS_CALTABLE_E_MAP_DATUM_PSD)) {
+        return false;
+    }
+    if (dst != NULL) {
+        dst->present = 1u;
+        dst->c_w = mfns_v3(c[0], c[1], c[2]);
+        read_tri(b, body, MFNS_MAP_DATUM_PARAMS, &dst->cov[0][0]);
+    }
+    *pos = body + 4u * DATUM_TRI;
     return true;
 }
 

@@ -335,6 +335,16 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
         mul_pb(w.p0, b, w.a0);
         add_calib(w.a0, cfg->calib_cov, p0f);
     }
+    /* The map datum moves the fix and every subset solution alike: it widens
+     * the fault-free and the subset covariances, never a separation's. */
+    float datum[6][6];
+    memset(datum, 0, sizeof datum); /* all-zero bytes are 0.0f */
+    mfns_pose_add_datum_term(&sol->pose, cfg->datum, datum);
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            p0f[i][j] += datum[i][j];
+        }
+    }
 
     mfns_integrity_hyp_t hyp[MFNS_INTEGRITY_MAX_HYP];
     const int nh = hypotheses(&w, hyp);
@@ -387,6 +397,11 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
             }
             add_calib(dk, cfg->calib_cov, pss);
             add_calib(ak, cfg->calib_cov, pkf);
+        }
+        for (int i = 0; i < 6; i++) {
+            for (int j = 0; j < 6; j++) {
+                pkf[i][j] += datum[i][j];
+            }
         }
         float ddx[6], s[6];
         for (int i = 0; i < 6; i++) {

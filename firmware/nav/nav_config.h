@@ -118,6 +118,21 @@ typedef struct {
     float cov[MFNS_CALIB_PARAMS][MFNS_CALIB_PARAMS]; /* symmetric PSD; index = camera * 15 + param */
 } mfns_calib_cov_t;
 
+/* The beacon map's datum (docs/caltable.md "Map datum covariance"): the error the
+ * whole map shares, a rigid motion of it -- a shift dt (mm) and a small turn dth
+ * (rad) about c_w -- so that each surveyed position is p_w(table) = p_w(true) + dt
+ * + dth x (p_w(true) - c_w) + its own relative error (the table's sigma_mm). A fix
+ * moves rigidly with the map: the datum adds to the pose covariance once
+ * (mfns_pose_datum_term), where written into every beacon's sigma_mm as
+ * independent it would be multiplied by a weak geometry, and it leaves every
+ * residual, gate and fault test unchanged. Order of cov: dt x, y, z, dth x, y, z. */
+#define MFNS_MAP_DATUM_PARAMS 6
+typedef struct {
+    uint8_t present; /* 0: the table has none: no datum term */
+    mfns_v3_t c_w;   /* mm, world */
+    float cov[MFNS_MAP_DATUM_PARAMS][MFNS_MAP_DATUM_PARAMS]; /* symmetric PSD; mm^2, mm rad, rad^2 */
+} mfns_map_datum_t;
+
 /* The default settings: one set, used by the flight code's tests and tools
  * and written into every table by `mfns table build`. Generated
  * (nav_defaults_gen.c) from the table's definition, caltable_layout.toml, which

@@ -55,6 +55,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     nav->pose_cfg.s = table->solver;
     nav->pose_cfg.sigma_px = table->pixel_sigma_px;
     nav->pose_cfg.calib_cov = &table->calib_cov; /* the table outlives the cycle */
+    nav->pose_cfg.datum = &table->datum;
     nav->pose_cfg.mode = mode;
     nav->mode = MFNS_NAV_MODE_ACQUIRE;
     mfns_acq_cycle_reset(&nav->acq);

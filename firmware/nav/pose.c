@@ -261,7 +261,7 @@ mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t
     float h[6][6], b[6][MFNS_CALIB_PARAMS];
     const bool calib = cfg->calib_cov != NULL && cfg->calib_cov->present != 0U;
     mfns_pose_info_matrix(rig, m, n, &pose, h, calib ? b : NULL);
-    r = mfns_pose_covariance(h, calib ? b : NULL, cfg->calib_cov, cfg->s.min_rcond, out);
+    r = mfns_pose_covariance(h, calib ? b : NULL, cfg->calib_cov, cfg->datum, cfg->s.min_rcond, out);
     if (r != MFNS_POSE_R_NONE) {
         out->reason = r;
         return out->status;

@@ -87,6 +87,9 @@ typedef struct {
     /* The calibration's uncertainty (the table's, nav_config.h) or NULL:
      * NULL or not present gives no calibration term in the covariance. */
     const mfns_calib_cov_t *calib_cov;
+    /* The map's shared error (the table's, nav_config.h) or NULL: NULL or not
+     * present gives no datum term (each beacon's sigma_mm is its whole error). */
+    const mfns_map_datum_t *datum;
 } mfns_pose_config_t;
 
 typedef struct {
@@ -101,7 +104,8 @@ typedef struct {
     /* Covariance of the increment (dtheta rad, dt mm): (J^T R^-1 J)^-1 with
      * R_i each observation's covariance (mfns_pose_obs_cov), plus the
      * calibration term A Sigma_c A^T, A = (J^T R^-1 J)^-1 J^T R^-1 J_c, when
-     * the configuration carries a calibration covariance (docs/pose.md). */
+     * the configuration carries a calibration covariance, plus the map datum's
+     * rigid motion when it carries one (docs/pose.md). */
     float cov[6][6];
     /* The pose covariance for a fusion filter, in ROS PoseWithCovariance
      * order (x, y, z, rx, ry, rz): of the position error r_wb_w(est) -

@@ -1,7 +1,8 @@
 /* pose_cov.c -- the pose covariance of the ML solve: (J^T R^-1 J)^-1 with
  * each observation's covariance R_i (the Cramer-Rao bound for Gaussian pixel
  * noise), plus the first-order effect of the calibration's uncertainty
- * A Sigma_c A^T, A = (J^T R^-1 J)^-1 J^T R^-1 J_c, mapped to the output
+ * A Sigma_c A^T, A = (J^T R^-1 J)^-1 J^T R^-1 J_c, plus the map datum's rigid
+ * motion G Sigma_d G^T (mfns_pose_add_datum_term), mapped to the output
  * quantities: r_wb_w (mm), the 2-1-3 Euler angles (deg) and the ROS-order
  * covariance. */
 #include <math.h>
@@ -148,6 +149,49 @@ static void add_calibration_term(const float b[6][MFNS_CALIB_PARAMS], const mfns
     }
 }
 
+void mfns_pose_add_datum_term(const mfns_pose_t *pose, const mfns_map_datum_t *datum, float cov[6][6])
+{
+    if (datum == NULL || datum->present == 0U) {
+        return;
+    }
+    /* G (increment rows dtheta, dt_inc; datum columns dt, dth) */
+    const mfns_m3_t *c = &pose->C_w_b;
+    const mfns_m3_t sc = mfns_m3_skew(datum->c_w);
+    mfns_m3_t csc; /* C_w_b [c_w]x */
+    mfns_m3_mul_at(c, &sc, &csc);
+    float g[6][MFNS_MAP_DATUM_PARAMS];
+    for (int r = 0; r < 3; r++) {
+        for (int q = 0; q < 3; q++) {
+            g[r][q] = 0.0f;
+            g[r][q + 3] = -c->m[r][q];
+            g[r + 3][q] = -c->m[r][q];
+            g[r + 3][q + 3] = -csc.m[r][q];
+        }
+    }
+    float t[6][MFNS_MAP_DATUM_PARAMS]; /* G Sigma_d */
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < MFNS_MAP_DATUM_PARAMS; j++) {
+            float v = 0.0f;
+            for (int q = 0; q < MFNS_MAP_DATUM_PARAMS; q++) {
+                v += g[i][q] * datum->cov[q][j];
+            }
+            t[i][j] = v;
+        }
+    }
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j <= i; j++) {
+            float v = 0.0f;
+            for (int q = 0; q < MFNS_MAP_DATUM_PARAMS; q++) {
+                v += t[i][q] * g[j][q];
+            }
+            cov[i][j] += v;
+            if (j != i) {
+                cov[j][i] += v;
+            }
+        }
+    }
+}
+
 /* x^T c y, the products summed row by row (the output covariance of two
  * output Jacobian rows x and y). */
 static float quad_form(const float x[6], const float c[6][6], const float y[6])
@@ -164,8 +208,8 @@ static float quad_form(const float x[6], const float c[6][6], const float y[6])
 _Static_assert(MFNS_SPD_MAX_N == 6, "the pose's 6x6 matrices are the factorisation's");
 
 mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
-                                        const mfns_calib_cov_t *calib, float min_rcond,
-                                        mfns_pose_solution_t *out)
+                                        const mfns_calib_cov_t *calib, const mfns_map_datum_t *datum,
+                                        float min_rcond, mfns_pose_solution_t *out)
 {
     for (int i = 0; i < 6; i++) {
         for (int j = 0; j < 6; j++) {
@@ -185,6 +229,7 @@ mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MF
     if (b != NULL && calib != NULL && calib->present != 0U) {
         add_calibration_term(b, calib, out->cov);
     }
+    mfns_pose_add_datum_term(&out->pose, datum, out->cov);
     /* Output Jacobian rows (3 position, 3 Euler) w.r.t. the increment.
      * Position: r_wb_w = -C^T r, so d r_wb_w = -C^T skew(r) dtheta - C^T dt.
      * Euler: central differences of the angles of exp(h e_i) C (h = 1e-3 rad:

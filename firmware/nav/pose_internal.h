@@ -84,14 +84,22 @@ bool mfns_pose_calib_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose,
 void mfns_pose_info_matrix(const mfns_rig_t *rig, const mfns_pose_meas_t *m, int n,
                            const mfns_pose_t *pose, float h[6][6], float b[6][MFNS_CALIB_PARAMS]);
 
+/* The map datum's term of the increment's covariance at pose, G Sigma_d G^T,
+ * added to cov (6x6, symmetric). A rigid motion (dt, dth about c_w) of the map
+ * moves the fix rigidly with it: dtheta = -C_w_b dth and dt_inc = -C_w_b (dt +
+ * c_w x dth) (C_w_b' = exp(dtheta) C_w_b, r_bw_b' = r_bw_b + dt_inc), so that
+ * r_wb_w moves by dt + dth x (r_wb_w - c_w) and the attitude by dth, whatever
+ * the observations. Nothing when datum is NULL or not present. */
+void mfns_pose_add_datum_term(const mfns_pose_t *pose, const mfns_map_datum_t *datum, float cov[6][6]);
+
 /* Covariance (J^T R^-1 J)^-1 (+ A Sigma_c A^T with A = (J^T R^-1 J)^-1 B when
- * b and calib are not NULL and calib is present) into out->cov, out->cov_ros
- * and the 1-sigma per output axis (r_wb_w, Euler angles). Returns
- * MFNS_POSE_R_SINGULAR when h is rank-deficient or below min_rcond (out->cov
- * then zero). */
+ * b and calib are not NULL and calib is present, + the map datum's term when
+ * datum is present) into out->cov, out->cov_ros and the 1-sigma per output
+ * axis (r_wb_w, Euler angles), at out->pose. Returns MFNS_POSE_R_SINGULAR when
+ * h is rank-deficient or below min_rcond (out->cov then zero). */
 mfns_pose_reason_t mfns_pose_covariance(const float h[6][6], const float b[6][MFNS_CALIB_PARAMS],
-                                        const mfns_calib_cov_t *calib, float min_rcond,
-                                        mfns_pose_solution_t *out);
+                                        const mfns_calib_cov_t *calib, const mfns_map_datum_t *datum,
+                                        float min_rcond, mfns_pose_solution_t *out);
 
 /* Full refinement on gathered measurements (used by refine, track and acquire). */
 mfns_pose_status_t mfns_pose_refine_meas(const mfns_rig_t *rig, mfns_pose_meas_t *m, int n,

@@ -53,6 +53,7 @@ MAX_OBS_PER_CAMERA = 32
 NO_BEACON = -1
 CALIB_PARAMS_PER_CAMERA = 15  # nav_config.h mfns_calib_param_t (fx fy cx cy k1 k2 p1 p2 k3 theta r)
 CALIB_PARAMS = NUM_CAMERAS * CALIB_PARAMS_PER_CAMERA
+MAP_DATUM_PARAMS = 6  # nav_config.h mfns_map_datum_t: shift x y z (mm), turn x y z (rad)
 TC_PATH_MAX = 64
 TC_SEC_MAC_LEN = 16
 TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
@@ -69,6 +70,7 @@ CONSTANTS = {
     "MAX_OBS_PER_CAMERA": (MAX_OBS_PER_CAMERA, "MFNS_MAX_OBS_PER_CAMERA"),
     "NO_BEACON": (NO_BEACON, "MFNS_POSE_NO_BEACON"),
     "CALIB_PARAMS": (CALIB_PARAMS, "MFNS_CALIB_PARAMS"),
+    "MAP_DATUM_PARAMS": (MAP_DATUM_PARAMS, "MFNS_MAP_DATUM_PARAMS"),
     "TC_PATH_MAX": (TC_PATH_MAX, "TC_PATH_MAX"),
     "TC_SEC_MAC_LEN": (TC_SEC_MAC_LEN, "TC_SEC_MAC_LEN"),
     "TC_MAX_AUTH": (TC_MAX_AUTH, "TC_MAX_AUTH"),
@@ -182,14 +184,31 @@ class CalibCov(ct.Structure):
     _fields_ = [("present", ct.c_uint8), ("cov", (ct.c_float * CALIB_PARAMS) * CALIB_PARAMS)]
 
 
+class MapDatum(ct.Structure):
+    """mfns_map_datum_t (nav_config.h): the map's shared rigid error, 6 x 6 over (shift mm,
+    turn rad about c_w)."""
+
+    _c_ = ("nav_config.h", "mfns_map_datum_t")
+    _fields_ = [
+        ("present", ct.c_uint8),
+        ("c_w", V3),
+        ("cov", (ct.c_float * MAP_DATUM_PARAMS) * MAP_DATUM_PARAMS),
+    ]
+
+
 class PoseConfig(ct.Structure):
     _c_ = ("pose.h", "mfns_pose_config_t")
-    _c_types_ = {"mode": "mfns_pose_mode_t", "calib_cov": "const mfns_calib_cov_t *"}
+    _c_types_ = {
+        "mode": "mfns_pose_mode_t",
+        "calib_cov": "const mfns_calib_cov_t *",
+        "datum": "const mfns_map_datum_t *",
+    }
     _fields_ = [
         ("s", SolverSettings),
         ("sigma_px", ct.c_float),
         ("mode", ct.c_int),
         ("calib_cov", ct.POINTER(CalibCov)),
+        ("datum", ct.POINTER(MapDatum)),
     ]
 
 
@@ -470,8 +489,9 @@ PROTOTYPES: dict[str, tuple] = {
         ct.c_int,
         [_P(Rig), _P(BeaconMap), _P(ObsFrame), _P(Pose), _P(PoseConfig), _P(SolutionC)],
     ),
-    # (h = J^T R^-1 J, B = J^T R^-1 J_c or NULL, calibration covariance or NULL, min_rcond, out)
-    "mfns_pose_covariance": (ct.c_int, [_P(_H66), _VP, _VP, ct.c_float, _P(SolutionC)]),
+    # (h = J^T R^-1 J, B = J^T R^-1 J_c or NULL, calibration covariance or NULL, map datum or
+    # NULL, min_rcond, out)
+    "mfns_pose_covariance": (ct.c_int, [_P(_H66), _VP, _VP, _VP, ct.c_float, _P(SolutionC)]),
     "mfns_pose_strerror": (ct.c_char_p, [ct.c_int]),
     "mfns_centroid_settings_default": (None, [_P(CentroidSettings)]),
     "mfns_solver_settings_default": (None, [_P(SolverSettings)]),
@@ -549,6 +569,28 @@ PROTOTYPES: dict[str, tuple] = {
     "tc_packet_encode": (ct.c_int, [_P(TcCmd), ct.c_uint16, ct.c_char_p, ct.c_size_t, _P(ct.c_size_t)]),
     "tc_packet_decode": (ct.c_int, [ct.c_char_p, ct.c_size_t, _P(TcCmd)]),
 }
+
+# The headers that declare PROTOTYPES: binding_check.py compiles a call of each function
+# with arguments of the types declared above, so a count or type that differs from its C
+# prototype fails `make lib` (mfns_pose_covariance gained an argument once and the planner
+# crashed through ctypes: nothing had compared the two).
+PROTOTYPE_HEADERS = [
+    "math/camera.h",
+    "math/rotation.h",
+    "math/undistort.h",
+    "firmware/nav/pose.h",
+    "firmware/nav/pose_internal.h",
+    "firmware/nav/nav_config.h",
+    "firmware/nav/acquire.h",
+    "firmware/nav/acquire_cycle.h",
+    "firmware/nav/beacon_index.h",
+    "firmware/nav/caltable.h",
+    "firmware/host/abi.h",
+    "firmware/host/acquire_certify.h",
+    "firmware/host/caltable_host.h",
+    "firmware/tlm/tc_packets.h",
+    "firmware/tlm/tlm_packets_gen.h",
+]
 
 _LOADED: dict[str, ct.CDLL] = {}
 

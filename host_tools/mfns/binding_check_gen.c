@@ -5,16 +5,21 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "abi.h"
 #include "acquire.h"
 #include "acquire_certify.h"
 #include "acquire_cycle.h"
 #include "beacon_index.h"
+#include "caltable.h"
+#include "caltable_host.h"
 #include "camera.h"
 #include "linalg.h"
 #include "nav_config.h"
 #include "pose.h"
+#include "pose_internal.h"
 #include "rotation.h"
 #include "tc_packets.h"
+#include "tlm_packets_gen.h"
 #include "undistort.h"
 
 /* a member of T, for sizeof and _Generic only (never evaluated) */
@@ -30,6 +35,7 @@ _Static_assert(MFNS_BIDX_MAX_MISSING == 3, "binding.py MAX_MISSING = 3: C MFNS_B
 _Static_assert(MFNS_MAX_OBS_PER_CAMERA == 32, "binding.py MAX_OBS_PER_CAMERA = 32: C MFNS_MAX_OBS_PER_CAMERA differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_POSE_NO_BEACON == -1, "binding.py NO_BEACON = -1: C MFNS_POSE_NO_BEACON differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_CALIB_PARAMS == 45, "binding.py CALIB_PARAMS = 45: C MFNS_CALIB_PARAMS differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_MAP_DATUM_PARAMS == 6, "binding.py MAP_DATUM_PARAMS = 6: C MFNS_MAP_DATUM_PARAMS differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_PATH_MAX == 64, "binding.py TC_PATH_MAX = 64: C TC_PATH_MAX differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_SEC_MAC_LEN == 16, "binding.py TC_SEC_MAC_LEN = 16: C TC_SEC_MAC_LEN differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_MAX_AUTH == 82, "binding.py TC_MAX_AUTH = 82: C TC_MAX_AUTH differs"); /* NOLINT(misc-redundant-expression) */
@@ -183,7 +189,7 @@ _Static_assert(sizeof(MFNS_FIELD(mfns_calib_cov_t, cov)[0]) == 45u * sizeof(MFNS
 _Static_assert(_Generic(MFNS_FIELD(mfns_calib_cov_t, cov)[0][0], float: 1, default: 0), "binding.py CalibCov.cov: C type is not float[45][45]");
 
 /* PoseConfig = mfns_pose_config_t (pose.h) */
-_Static_assert(sizeof(mfns_pose_config_t) == 48u, "binding.py PoseConfig: 48 bytes here");
+_Static_assert(sizeof(mfns_pose_config_t) == 56u, "binding.py PoseConfig: 56 bytes here");
 _Static_assert(offsetof(mfns_pose_config_t, s) == 0u, "binding.py PoseConfig.s: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, s), mfns_solver_settings_t: 1, default: 0), "binding.py PoseConfig.s: C type is not mfns_solver_settings_t");
 _Static_assert(offsetof(mfns_pose_config_t, sigma_px) == 32u, "binding.py PoseConfig.sigma_px: offset 32 here");
@@ -193,6 +199,8 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, mode), mfns_pose_mode_t: 
 _Static_assert(sizeof(MFNS_FIELD(mfns_pose_config_t, mode)) == 4u, "binding.py PoseConfig.mode: 4 bytes here");
 _Static_assert(offsetof(mfns_pose_config_t, calib_cov) == 40u, "binding.py PoseConfig.calib_cov: offset 40 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, calib_cov), const mfns_calib_cov_t *: 1, default: 0), "binding.py PoseConfig.calib_cov: C type is not const mfns_calib_cov_t *");
+_Static_assert(offsetof(mfns_pose_config_t, datum) == 48u, "binding.py PoseConfig.datum: offset 48 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, datum), const mfns_map_datum_t *: 1, default: 0), "binding.py PoseConfig.datum: C type is not const mfns_map_datum_t *");
 
 /* Obs = mfns_obs_t (pose.h) */
 _Static_assert(sizeof(mfns_obs_t) == 28u, "binding.py Obs: 28 bytes here");
@@ -491,3 +499,328 @@ _Static_assert(sizeof(MFNS_FIELD(tc_cmd_t, u.path)) == 64u * sizeof(MFNS_FIELD(t
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.path)[0], char: 1, default: 0), "binding.py TcCmd.u.path: C type is not char[64]");
 _Static_assert(offsetof(tc_cmd_t, sec) == 72u, "binding.py TcCmd.sec: offset 72 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, sec), tc_sec_t: 1, default: 0), "binding.py TcCmd.sec: C type is not tc_sec_t");
+
+/* PROTOTYPES: each function called as ctypes calls it (compiled, never run) */
+void mfns_binding_prototypes(void);
+void mfns_binding_prototypes(void)
+{
+    {
+        mfns_camera_t a0 = {0};
+        mfns_pose_t a1 = {0};
+        mfns_v3_t a2 = {0};
+        float a3[2] = {0};
+        float a4[2][6] = {0};
+        int32_t r = mfns_cam_project(&a0, &a1, a2, a3, a4);
+        (void)r;
+    }
+    {
+        mfns_intrinsics_t a0 = {0};
+        mfns_v3_t a1 = {0};
+        float a2[2] = {0};
+        int32_t r = mfns_cam_project_c(&a0, a1, a2, NULL);
+        (void)r;
+    }
+    {
+        mfns_intrinsics_t a0 = {0};
+        float a1 = 0;
+        float a2 = 0;
+        float a3 = {0};
+        float a4 = {0};
+        mfns_cam_distort(&a0, a1, a2, &a3, &a4, NULL);
+    }
+    {
+        mfns_intrinsics_t a0 = {0};
+        float a1 = 0;
+        float a2 = 0;
+        _Bool r = mfns_cam_in_image(&a0, a1, a2);
+        (void)r;
+    }
+    {
+        mfns_m3_t a0 = {0};
+        float a1 = {0};
+        mfns_m3_to_quat(a0, &a1);
+    }
+    {
+        mfns_intrinsics_t a0 = {0};
+        float a1 = 0;
+        float a2 = 0;
+        int32_t a3 = 0;
+        float a4 = {0};
+        float a5 = {0};
+        int32_t a6 = {0};
+        int32_t r = mfns_undistort_iter(&a0, a1, a2, a3, &a4, &a5, &a6);
+        (void)r;
+    }
+    {
+        mfns_undist_grid_t a0 = {0};
+        int32_t a1 = 0;
+        int32_t a2 = 0;
+        int32_t a3 = {0};
+        int32_t a4 = {0};
+        int32_t r = mfns_undistort_grid_px(&a0, a1, a2, &a3, &a4);
+        (void)r;
+    }
+    {
+        mfns_intrinsics_t a0 = {0};
+        uint16_t a1 = 0;
+        uint16_t a2 = 0;
+        uint64_t a4 = 0;
+        mfns_undist_grid_t a5 = {0};
+        int32_t r = mfns_undist_grid_build(&a0, a1, a2, NULL, a4, &a5);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        const char *r = mfns_undist_strerror(a0);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        uint32_t r = mfns_pose_abi_size(a0);
+        (void)r;
+    }
+    {
+        mfns_pose_config_t a0 = {0};
+        mfns_pose_config_default(&a0);
+    }
+    {
+        mfns_rig_t a0 = {0};
+        mfns_beacon_map_t a1 = {0};
+        mfns_obs_frame_t a2 = {0};
+        mfns_pose_assoc_t a3 = {0};
+        mfns_pose_t a4 = {0};
+        mfns_pose_config_t a5 = {0};
+        mfns_pose_solution_t a6 = {0};
+        int32_t r = mfns_pose_refine(&a0, &a1, &a2, &a3, &a4, &a5, &a6);
+        (void)r;
+    }
+    {
+        mfns_rig_t a0 = {0};
+        mfns_beacon_map_t a1 = {0};
+        mfns_obs_frame_t a2 = {0};
+        mfns_pose_t a3 = {0};
+        mfns_pose_config_t a4 = {0};
+        mfns_pose_solution_t a5 = {0};
+        int32_t r = mfns_pose_track(&a0, &a1, &a2, &a3, &a4, &a5);
+        (void)r;
+    }
+    {
+        float a0[6][6] = {0};
+        float a4 = 0;
+        mfns_pose_solution_t a5 = {0};
+        int32_t r = mfns_pose_covariance(a0, NULL, NULL, NULL, a4, &a5);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        const char *r = mfns_pose_strerror(a0);
+        (void)r;
+    }
+    {
+        mfns_centroid_settings_t a0 = {0};
+        mfns_centroid_settings_default(&a0);
+    }
+    {
+        mfns_solver_settings_t a0 = {0};
+        mfns_solver_settings_default(&a0);
+    }
+    {
+        int32_t a0 = 0;
+        uint32_t r = mfns_acq_abi_size(a0);
+        (void)r;
+    }
+    {
+        mfns_rig_t a1 = {0};
+        mfns_beacon_map_t a2 = {0};
+        mfns_beacon_index_t a3 = {0};
+        mfns_obs_frame_t a4 = {0};
+        mfns_pose_config_t a5 = {0};
+        uint32_t a6 = 0;
+        mfns_pose_solution_t a7 = {0};
+        int32_t r = mfns_acquire(NULL, &a1, &a2, &a3, &a4, &a5, a6, &a7);
+        (void)r;
+    }
+    {
+        uint32_t a1 = 0;
+        mfns_pose_solution_t a2 = {0};
+        int32_t r = mfns_acq_resume(NULL, a1, &a2);
+        (void)r;
+    }
+    {
+        _Bool r = mfns_acq_pending(NULL);
+        (void)r;
+    }
+    {
+        mfns_acq_cycle_reset(NULL);
+    }
+    {
+        mfns_rig_t a1 = {0};
+        mfns_beacon_map_t a2 = {0};
+        mfns_beacon_index_t a3 = {0};
+        mfns_obs_frame_t a4 = {0};
+        mfns_pose_config_t a5 = {0};
+        uint32_t a6 = 0;
+        mfns_pose_solution_t a7 = {0};
+        mfns_acq_cycle_report_t a8 = {0};
+        int32_t r = mfns_acq_cycle_run(NULL, &a1, &a2, &a3, &a4, &a5, a6, &a7, &a8);
+        (void)r;
+    }
+    {
+        mfns_bidx_params_t a0 = {0};
+        mfns_bidx_params_default(&a0);
+    }
+    {
+        mfns_rig_t a0 = {0};
+        mfns_beacon_map_t a1 = {0};
+        mfns_beacon_emit_t a2 = {0};
+        mfns_v3_t a3 = {0};
+        mfns_v3_t a4 = {0};
+        mfns_bidx_params_t a5 = {0};
+        mfns_beacon_index_t a6 = {0};
+        int32_t r = mfns_bidx_build(&a0, &a1, &a2, a3, a4, &a5, &a6);
+        (void)r;
+    }
+    {
+        mfns_beacon_index_t a0 = {0};
+        uint32_t a2 = 0;
+        uint32_t a3 = {0};
+        int32_t r = mfns_bidx_encode(&a0, NULL, a2, &a3);
+        (void)r;
+    }
+    {
+        uint32_t a0 = 0;
+        uint32_t a1 = 0;
+        uint32_t r = mfns_bidx_section_size(a0, a1);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        const char *r = mfns_bidx_strerror(a0);
+        (void)r;
+    }
+    {
+        mfns_rig_t a1 = {0};
+        mfns_beacon_map_t a2 = {0};
+        mfns_beacon_index_t a3 = {0};
+        mfns_pose_config_t a4 = {0};
+        mfns_pose_t a5 = {0};
+        uint32_t a6 = 0;
+        uint32_t a7 = 0;
+        mfns_obs_frame_t a8 = {0};
+        mfns_certify_result_t a9 = {0};
+        int32_t r = mfns_certify(NULL, &a1, &a2, &a3, &a4, &a5, a6, a7, &a8, &a9);
+        (void)r;
+    }
+    {
+        mfns_certify_result_t a0 = {0};
+        mfns_beacon_index_t a1 = {0};
+        mfns_certify_finish(&a0, &a1);
+    }
+    {
+        mfns_certify_result_t a0 = {0};
+        mfns_certify_result_t a1 = {0};
+        uint32_t a2 = 0;
+        mfns_certify_accumulate(&a0, &a1, a2);
+    }
+    {
+        mfns_beacon_index_t a0 = {0};
+        mfns_certify_result_t a1 = {0};
+        mfns_certify_apply(&a0, &a1);
+    }
+    {
+        mfns_rig_t a0 = {0};
+        mfns_beacon_map_t a1 = {0};
+        mfns_beacon_index_t a2 = {0};
+        mfns_pose_t a3 = {0};
+        mfns_obs_frame_t a4 = {0};
+        mfns_pose_assoc_t a5 = {0};
+        mfns_certify_frame(&a0, &a1, &a2, &a3, &a4, &a5);
+    }
+    {
+        uint32_t r = mfns_caltable_host_table_size();
+        (void)r;
+    }
+    {
+        uint32_t r = mfns_caltable_host_max_bytes();
+        (void)r;
+    }
+    {
+        uint32_t r = mfns_caltable_host_max_grid_nodes();
+        (void)r;
+    }
+    {
+        uint32_t r = mfns_caltable_host_max_beacons();
+        (void)r;
+    }
+    {
+        uint64_t a1 = 0;
+        uint32_t a3 = {0};
+        int32_t r = mfns_caltable_load(NULL, a1, NULL, &a3);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        const char *r = mfns_caltable_strerror(a0);
+        (void)r;
+    }
+    {
+        uint16_t a0 = 0;
+        uint16_t a1 = 0;
+        int32_t a2 = 0;
+        int32_t a3 = 0;
+        int32_t a4 = 0;
+        int32_t a5 = 0;
+        int32_t a6 = {0};
+        uint32_t a7 = 0;
+        int32_t a8 = {0};
+        int32_t a9 = {0};
+        int32_t a10 = {0};
+        uint8_t a11 = {0};
+        int32_t r = mfns_caltable_host_grid_eval(a0, a1, a2, a3, a4, a5, &a6, a7, &a8, &a9, &a10, &a11);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        uint64_t r = tlm_payload_len(a0);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        uint16_t r = tlm_type_apid(a0);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        const char *r = tlm_type_name(a0);
+        (void)r;
+    }
+    {
+        uint8_t a0 = 0;
+        const char *r = tc_opcode_name(a0);
+        (void)r;
+    }
+    {
+        int32_t a0 = 0;
+        const char *r = tc_status_name(a0);
+        (void)r;
+    }
+    {
+        uint8_t a0 = 0;
+        int32_t r = tc_arg_len(a0);
+        (void)r;
+    }
+    {
+        tc_cmd_t a0 = {0};
+        uint16_t a1 = 0;
+        uint64_t a3 = 0;
+        uint64_t a4 = {0};
+        int32_t r = tc_packet_encode(&a0, a1, NULL, a3, &a4);
+        (void)r;
+    }
+    {
+        uint64_t a1 = 0;
+        tc_cmd_t a2 = {0};
+        int32_t r = tc_packet_decode(NULL, a1, &a2);
+        (void)r;
+    }
+}

@@ -1,7 +1,8 @@
 """The one binding of the C core (mfns.binding): held to the headers field by field by the
 generated binding_check_gen.c, which `make lib` compiles (mk/binding.mk). Here: the
 committed file is current, it compiles, and a copy of the declarations with two fields of
-one size swapped (or one field of the right size but the wrong type) does not."""
+one size swapped (or one field of the right size but the wrong type, or a function
+declared with an argument too few or of another type) does not."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import importlib.util
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -31,6 +33,10 @@ def _include_dirs() -> list[str]:
                 if d not in dirs:
                     dirs.append(d)
     assert all(any((REPO / d / cls._c_[0]).exists() for d in dirs) for cls in binding.STRUCTS)
+    for h in binding.PROTOTYPE_HEADERS:  # the functions' headers, by their place in the tree
+        d = str(Path(h).parent)
+        if d not in dirs:
+            dirs.append(d)
     return ["-I.", *[f"-I{d}" for d in dirs], f"-I{REPO / 'build' / 'gen'}"]
 
 
@@ -115,6 +121,36 @@ def test_a_field_of_the_right_size_but_the_wrong_type_or_shape_fails(tmp_path, o
     res = _compile(binding_check.generate(_variant(tmp_path, old, new)), tmp_path)
     assert res.returncode != 0
     assert message in res.stderr, res.stderr[-2000:]
+
+
+@needs_gcc
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        # an argument too few: what crashed the planner when mfns_pose_covariance gained one
+        (
+            '"mfns_pose_covariance": (ct.c_int, [_P(_H66), _VP, _VP, _VP, ct.c_float, _P(SolutionC)])',
+            '"mfns_pose_covariance": (ct.c_int, [_P(_H66), _VP, _VP, ct.c_float, _P(SolutionC)])',
+            "too few arguments to function 'mfns_pose_covariance'",
+        ),
+        # a pointer to another struct
+        (
+            '"mfns_pose_config_default": (None, [_P(PoseConfig)])',
+            '"mfns_pose_config_default": (None, [_P(SolverSettings)])',
+            "mfns_pose_config_default",
+        ),
+        # a wider integer where C takes a uint8_t
+        (
+            '"tc_opcode_name": (ct.c_char_p, [ct.c_uint8])',
+            '"tc_opcode_name": (ct.c_char_p, [ct.c_int])',
+            "may change value",
+        ),
+    ],
+)
+def test_a_function_declared_otherwise_than_its_prototype_fails(tmp_path, old, new, message):
+    res = _compile(binding_check.generate(_variant(tmp_path, old, new)), tmp_path)
+    assert res.returncode != 0
+    assert message in res.stderr.replace("\u2018", "'").replace("\u2019", "'"), res.stderr[-2000:]
 
 
 def test_one_loader_with_a_clear_error(tmp_path, monkeypatch):

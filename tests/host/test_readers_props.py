@@ -196,6 +196,34 @@ def test_workspace_json(work, doc, box):
         assert np.all(lo < hi)
 
 
+@PROFILE
+@given(doc=json_values, muts=mutations)
+def test_map_datum_json(work, doc, muts):
+    """`mfns table build --map-datum` (mfns.map.datum_file.load): any JSON, or a good
+    map_datum.json mutated, gives a 6 x 6 finite symmetric covariance, a finite centre and
+    a positive finite sigma for exactly the map's beacons, or the one clear line (PSD is
+    the flight loader's check, on the bytes the builder writes)."""
+    from mfns.map import datum_file
+
+    ids = np.array([0, 1, 5])
+    good = work / "good_datum.json"
+    datum_file.write(good, ids, [0.03, 0.04, 0.05], [10.0, -20.0, 30.0], np.diag([0.05**2] * 3 + [1e-9] * 3))
+    base = json.loads(good.read_text())
+    for choice, value, delete in muts:
+        base = _mutate(base, choice, value, delete)
+    for candidate in (doc, base):
+        path = work / "map_datum.json"
+        path.write_text(json.dumps(candidate))
+        try:
+            d, sig = datum_file.load(path, ids)
+        except MfnsError as exc:
+            one_clear_line(exc)
+            continue
+        assert d.cov.shape == (6, 6) and np.all(np.isfinite(d.cov)) and np.allclose(d.cov, d.cov.T)
+        assert d.c_w_mm.shape == (3,) and np.all(np.isfinite(d.c_w_mm))
+        assert sig.shape == (3,) and np.all(np.isfinite(sig)) and np.all(sig > 0)
+
+
 # ---- CSV -------------------------------------------------------------------------------
 csv_cells = st.sampled_from(
     ["1", "0", "-2", "3.7", "1e3", "nan", "inf", "", " ", "x", '"', "0.4", "65536", "\0"]

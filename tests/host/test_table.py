@@ -402,7 +402,7 @@ def test_build_carries_the_calibration_covariance(sources, tmp_path, capsys):
     data = out.read_bytes()
     assert check_table(data).ok
     t = decode(data)
-    assert t.version == VERSION == 4 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
+    assert t.version == VERSION == 5 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
     slot = {
         f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i
         for k, c in enumerate("xyz")
@@ -467,6 +467,84 @@ def test_show_names_the_covariance_element_refused(sources, tmp_path, capsys):
     bad.write_bytes(bytes(_refix_crc(data)))
     assert main(["table", "show", str(bad)]) == 2
     assert f"byte offset {at}: calibration covariance parameter count)" in capsys.readouterr().err
+
+
+def _datum_doc(sources, tmp_path, cov=None, drop=0):
+    """A map_datum.json for the paper's beacons (relative sigma 0.02 mm + 0.001 * index)."""
+    from mfns.camera import load_beacons
+    from mfns.map import datum_file
+
+    ids, pos, _ = load_beacons(sources[1])
+    if cov is None:
+        sd = np.array([0.05, 0.06, 0.04, 5e-5, 4e-5, 6e-5])
+        cov = np.diag(sd**2)
+        cov[0, 5] = cov[5, 0] = 0.5 * sd[0] * sd[5]
+    rel = 0.02 + 0.001 * np.arange(len(ids))
+    path = tmp_path / "map_datum.json"
+    datum_file.write(path, ids[drop:], rel[drop:], pos.mean(axis=0), cov, source="test")
+    return path, ids, rel, pos.mean(axis=0), cov
+
+
+def test_build_carries_the_map_datum(sources, tmp_path, capsys):
+    """--map-datum: the table's beacons carry the relative sigmas and its map datum section
+    the shared 6 x 6 (docs/caltable.md "Map datum covariance"), written and read as the flight
+    loader reads it; without it the section is empty and the CSV's sigma stands."""
+    from mfns.table.format import MAP_DATUM_PARAMS
+
+    path, ids, rel, centre, cov = _datum_doc(sources, tmp_path)
+    out = tmp_path / "t.mfnstbl"
+    assert main(["table", "build", *map(str, sources), "-o", str(out), "--map-datum", str(path), "-q"]) == 0
+    data = out.read_bytes()
+    assert check_table(data).ok
+    t = decode(data)
+    assert t.version == VERSION == 5
+    np.testing.assert_array_equal(t.beacon_ids, ids)
+    np.testing.assert_array_equal(t.beacon_sigma, np.round(rel, 4).astype(np.float32))
+    np.testing.assert_array_equal(t.map_datum.c_w_mm, np.round(centre, 4).astype(np.float32))
+    np.testing.assert_array_equal(t.map_datum.cov, np.asarray(cov, dtype=np.float32))
+    assert encode(t) == data
+    plain = tmp_path / "plain.mfnstbl"
+    assert main(["table", "build", *map(str, sources), "-o", str(plain), "-q"]) == 0
+    assert len(data) - plain.stat().st_size == 4 * MAP_DATUM_PARAMS * (MAP_DATUM_PARAMS + 1) // 2
+    assert decode(plain.read_bytes()).map_datum is None
+    capsys.readouterr()
+    assert main(["table", "show", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "map datum: shift 1-sigma 0.05 0.06 0.04 mm" in text, text
+    assert main(["table", "show", str(plain)]) == 0
+    assert "map datum: none" in capsys.readouterr().out
+
+
+def test_build_refuses_a_bad_map_datum(sources, tmp_path, capsys):
+    """An indefinite datum is the flight loader's refusal (nothing written); a file that
+    names other beacons than the map, or is malformed, is refused in one line."""
+    import json
+
+    cov = np.diag([0.05**2, 0.05**2, 0.05**2, 1e-9, 1e-9, 1e-9])
+    cov[0, 1] = cov[1, 0] = 1.2 * 0.05**2  # correlation above 1
+    path, *_ = _datum_doc(sources, tmp_path, cov=cov)
+    out = tmp_path / "t.mfnstbl"
+    args = ["table", "build", *map(str, sources), "-o", str(out), "-q", "--map-datum", str(path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("error:") == 1 and "map datum: covariance not positive semi-definite" in err, err
+    assert not out.exists()
+    path, *_ = _datum_doc(sources, tmp_path, drop=1)
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("error:") == 1 and "not the map's datum: it lacks beacons 0" in err, err
+    doc = json.loads(_datum_doc(sources, tmp_path)[0].read_text())
+    for key, value, message in [
+        ("cov", [[0.0] * 6] * 5, "cov: expected a list of 6"),
+        ("c_w_mm", [0.0, 2e7, 0.0], "c_w_mm: a coordinate beyond"),
+        ("format", "other", "format 'other'"),
+        ("sigma_relative_mm", {**doc["sigma_relative_mm"], "1": 0.0}, "sigma_relative_mm[1]: 0 below (0"),
+    ]:
+        path.write_text(json.dumps({**doc, key: value}))
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert err.count("error:") == 1 and message in err, (message, err)
+    assert not out.exists()
 
 
 def test_version_2_tables_are_refused_as_old(built):

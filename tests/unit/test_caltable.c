@@ -667,15 +667,15 @@ static void test_bad_beacons_and_size(void **state)
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(7));
     /* counts that disagree with the records: one beacon more than stored
-     * (the calibration-covariance header and the integrity settings are read
-     * as beacon 10: its id is the covariance count, 0, beacon 0's id),
+     * (the calibration-covariance and map-datum headers are read as beacon
+     * 10: its sigma_mm is the datum's centre z, 0),
      * one fewer (beacon 9 is read as the calibration-covariance header: its
      * count is 9 = the id), and trailing bytes covered by total_size and the
      * CRC (the index section is then too long) */
     fresh();
     put_u16(g_bad, GLB(BEACON_COUNT), 11);
     fix_crc(len);
-    EXPECT(len, MFNS_CALTABLE_E_BEACON_DUPLICATE, beacon_off(10));
+    EXPECT(len, MFNS_CALTABLE_E_BEACON_VALUE, beacon_off(10) + BCN(SIGMA_MM));
     put_u16(g_bad, GLB(BEACON_COUNT), 9);
     fix_crc(len);
     EXPECT(len, MFNS_CALTABLE_E_CALIB_COV_COUNT, beacon_off(9));
@@ -684,7 +684,8 @@ static void test_bad_beacons_and_size(void **state)
     put_u32(g_bad, 8, (uint32_t)len + 8);
     fix_crc(len + 8);
     EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH,
-           beacon_off(10) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE);
+           beacon_off(10) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_DATUM_HEADER_SIZE +
+               MFNS_CALTABLE_INTEGRITY_SIZE);
     /* a longer buffer than total_size is fine (a file read into a big buffer) */
     fresh();
     assert_int_equal(mfns_caltable_load(g_bad, len + 8, &g_out, NULL), MFNS_CALTABLE_OK);
@@ -696,9 +697,10 @@ static void test_bad_index(void **state)
 {
     (void)state;
     const size_t len = g_good_len;
-    /* the default table has no calibration covariance: a 4-byte section, then
-     * the integrity settings */
-    const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE;
+    /* the default table has no calibration covariance and no map datum: a 4-
+     * and a 16-byte section, then the integrity settings */
+    const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE +
+                        MFNS_CALTABLE_DATUM_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE;
     const uint32_t n = g_table.index.count, k = g_table.index.k_nbr;
     const uint32_t geom = ix + MFNS_CALTABLE_INDEX_HEADER_SIZE, nbr = geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * n;
     const uint32_t pairs = nbr + n * (1u + k);
@@ -778,6 +780,8 @@ static void test_old_version(void **state)
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
     put_u16(g_bad, 4, 3); /* version 3: no integrity settings: rebuild */
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
+    put_u16(g_bad, 4, 4); /* version 4: no map datum: rebuild */
+    EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
 }
 
 /* The integrity settings section (docs/caltable.md "Integrity settings"):
@@ -792,7 +796,8 @@ static void test_integrity_section(void **state)
                 g_table.integrity.alert_limit_att_deg == d.alert_limit_att_deg && g_table.integrity.p_fa == d.p_fa &&
                 g_table.integrity.p_md == d.p_md && g_table.integrity.hold_cycles == d.hold_cycles &&
                 g_table.integrity.require_camera_monitor == d.require_camera_monitor);
-    const uint32_t o = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE;
+    const uint32_t o =
+        beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_DATUM_HEADER_SIZE;
     const struct {
         uint32_t off;
         int kind; /* 0: u8, 1: f32, 2: u16 */
@@ -966,6 +971,116 @@ static void test_calib_cov_section(void **state)
     EXPECT(g_good_len, MFNS_CALTABLE_E_SIZE_MISMATCH, cov_off());
 }
 
+/* The map datum section (docs/caltable.md "Map datum covariance"), after the
+ * calibration covariance (none in the default table). */
+#define ND MFNS_MAP_DATUM_PARAMS
+
+static uint32_t datum_off(void) { return cov_off() + MFNS_CALTABLE_COV_HEADER_SIZE; }
+
+static uint32_t datum_elem(int i, int j)
+{
+    const int e = i * ND - i * (i - 1) / 2 + (j - i);
+    return datum_off() + MFNS_CALTABLE_DATUM_HEADER_SIZE + 4u * (uint32_t)e;
+}
+
+/* g_bad = the default table with the datum (c, centre) in its section. */
+static size_t with_datum(const double c[ND][ND], const float centre[3])
+{
+    const uint32_t at = datum_off();
+    const uint32_t rest = (uint32_t)g_good_len - at - MFNS_CALTABLE_DATUM_HEADER_SIZE;
+    memcpy(g_bad, g_good, at);
+    put_u16(g_bad, at, ND);
+    put_u16(g_bad, at + 2, 0);
+    for (int i = 0; i < 3; i++) {
+        put_f32(g_bad, at + MFNS_CALTABLE_OFF_MAP_DATUM_C_W + 4u * (uint32_t)i, centre[i]);
+    }
+    for (int i = 0; i < ND; i++) {
+        for (int j = i; j < ND; j++) {
+            put_f32(g_bad, datum_elem(i, j), (float)c[i][j]);
+        }
+    }
+    const uint32_t ix = at + MFNS_CALTABLE_DATUM_HEADER_SIZE + 4u * (ND * (ND + 1) / 2);
+    memcpy(g_bad + ix, g_good + at + MFNS_CALTABLE_DATUM_HEADER_SIZE, rest);
+    const size_t len = ix + rest;
+    put_u32(g_bad, 8, (uint32_t)len);
+    fix_crc(len);
+    return len;
+}
+
+/* A refined map's datum: 0.05 mm shifts, 0.003 deg turns, a shift-turn correlation. */
+static void sample_datum(double c[ND][ND])
+{
+    static const double sd[ND] = {0.05, 0.06, 0.04, 5e-5, 4e-5, 6e-5};
+    for (int i = 0; i < ND; i++) {
+        for (int j = 0; j < ND; j++) {
+            c[i][j] = i == j ? sd[i] * sd[i] : 0.0;
+        }
+    }
+    c[0][4] = c[4][0] = 0.5 * sd[0] * sd[4];
+    c[1][2] = c[2][1] = -0.3 * sd[1] * sd[2];
+}
+
+static void test_map_datum_section(void **state)
+{
+    (void)state;
+    static mfns_caltable_t t;
+    double c[ND][ND];
+    const float centre[3] = {1200.0f, -350.5f, 40.25f};
+    assert_int_equal(g_table.datum.present, 0); /* the default table has none */
+    sample_datum(c);
+    size_t len = with_datum(c, centre);
+    uint32_t off = 0;
+    assert_int_equal(mfns_caltable_load(g_bad, len, &t, &off), MFNS_CALTABLE_OK);
+    assert_int_equal(t.datum.present, 1);
+    assert_true(t.datum.c_w.x == centre[0] && t.datum.c_w.y == centre[1] && t.datum.c_w.z == centre[2]);
+    for (int i = 0; i < ND; i++) {
+        for (int j = 0; j < ND; j++) {
+            assert_true(t.datum.cov[i][j] == (float)c[i < j ? i : j][i < j ? j : i]);
+        }
+    }
+    assert_true(t.integrity.p_fa == g_table.integrity.p_fa); /* the sections after it are read */
+    assert_true(t.index.count == g_table.index.count);
+    /* each check: count, reserved, centre (range, and set without a datum),
+     * finite, negative variance, a correlation above 1 */
+    len = with_datum(c, centre);
+    put_u16(g_bad, datum_off(), 5);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_MAP_DATUM_COUNT, datum_off());
+    len = with_datum(c, centre);
+    put_u16(g_bad, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_RESERVED, 1);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_RESERVED, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_RESERVED);
+    const float far[3] = {0.0f, 2e7f, 0.0f};
+    len = with_datum(c, far);
+    EXPECT(len, MFNS_CALTABLE_E_MAP_DATUM_CENTRE, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_C_W + 4u);
+    len = with_datum(c, centre);
+    put_f32(g_bad, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_C_W + 8u, NAN);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_C_W + 8u);
+    len = with_datum(c, centre);
+    put_f32(g_bad, datum_elem(2, 5), INFINITY);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_NOT_FINITE, datum_elem(2, 5));
+    len = with_datum(c, centre);
+    put_f32(g_bad, datum_elem(3, 3), -1e-9f);
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_MAP_DATUM_PSD, datum_elem(3, 3));
+    len = with_datum(c, centre);
+    put_f32(g_bad, datum_elem(0, 4), (float)(1.05 * sqrt(c[0][0] * c[4][4])));
+    fix_crc(len);
+    EXPECT(len, MFNS_CALTABLE_E_MAP_DATUM_PSD, datum_elem(4, 4));
+    /* no datum names no centre; a count of 6 with the section cut short */
+    fresh();
+    put_f32(g_bad, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_C_W, 1.0f);
+    fix_crc(g_good_len);
+    EXPECT(g_good_len, MFNS_CALTABLE_E_MAP_DATUM_CENTRE, datum_off() + MFNS_CALTABLE_OFF_MAP_DATUM_C_W);
+    fresh();
+    put_u16(g_bad, datum_off(), ND);
+    put_u32(g_bad, 8, datum_off() + MFNS_CALTABLE_DATUM_HEADER_SIZE + 8u);
+    fix_crc(g_good_len);
+    EXPECT(g_good_len, MFNS_CALTABLE_E_SIZE_MISMATCH, datum_off());
+}
+
 /* A failed load leaves the previous table in service; a good one replaces it. */
 static void test_failed_load_keeps_previous_table(void **state)
 {
@@ -1049,6 +1164,7 @@ int main(void)
         cmocka_unit_test_setup(test_old_version, bad_setup),
         cmocka_unit_test_setup(test_integrity_section, bad_setup),
         cmocka_unit_test_setup(test_calib_cov_section, bad_setup),
+        cmocka_unit_test_setup(test_map_datum_section, bad_setup),
         cmocka_unit_test(test_failed_load_keeps_previous_table),
         cmocka_unit_test(test_strerror_and_crc),
         cmocka_unit_test_setup(test_file_loader, bad_setup),

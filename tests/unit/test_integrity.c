@@ -141,6 +141,42 @@ static void test_clean_fix_passes_with_a_sensible_pl(void **state)
     assert_true(ep <= (double)res.pl_pos_mm && ea <= (double)res.pl_att_deg);
 }
 
+/* The map datum (a rigid error of the whole map) moves the fix and every
+ * subset solution alike: the separations and the tests are the same with and
+ * without it, the protection level grows by at least its fault-free share
+ * (K_ff times the datum's own 1-sigma on the axis) and by no more than the
+ * datum's sigma times the sum of the largest factors. */
+static void test_map_datum_widens_the_pl_not_the_tests(void **state)
+{
+    (void)state;
+    const int per_cam[3] = {5, 5, 5};
+    assert_int_equal(make_scene(per_cam, 0.1, 11), MFNS_POSE_OK);
+    mfns_integrity_settings_t set;
+    mfns_integrity_settings_default(&set);
+    set.require_camera_monitor = 1;
+    mfns_integrity_eval_t ev0, ev1;
+    assert_int_equal(mfns_integrity_evaluate(&sc.rig, &sc.map, &sc.frame, &sc.sol, &sc.cfg, &set, NULL, &ev0),
+                     MFNS_INTEGRITY_OK);
+    static mfns_map_datum_t datum;
+    memset(&datum, 0, sizeof datum);
+    datum.present = 1;
+    const float sd_mm = 2.0f; /* a shift only, 2 mm per axis: far above the fix's own sigma */
+    for (int i = 0; i < 3; i++) {
+        datum.cov[i][i] = sd_mm * sd_mm;
+    }
+    mfns_pose_config_t cfg = sc.cfg;
+    cfg.datum = &datum;
+    assert_int_equal(mfns_integrity_evaluate(&sc.rig, &sc.map, &sc.frame, &sc.sol, &cfg, &set, NULL, &ev1),
+                     MFNS_INTEGRITY_OK);
+    assert_true(ev1.tests_passed == ev0.tests_passed);
+    assert_float_equal(ev1.max_norm_sep, ev0.max_norm_sep, 1e-5f * (1.0f + ev0.max_norm_sep));
+    assert_int_equal(ev1.worst.kind, ev0.worst.kind);
+    const float k_ff = mfns_integrity_q_inv(0.5f * set.p_md);
+    assert_true(ev1.pl_pos_mm >= k_ff * sd_mm);
+    assert_true(ev1.pl_pos_mm <= ev0.pl_pos_mm + (k_ff + ev1.k_md) * sd_mm);
+    assert_float_equal(ev1.pl_att_deg, ev0.pl_att_deg, 1e-4f * ev0.pl_att_deg); /* a shift turns nothing */
+}
+
 static void test_biased_beacon_detected_and_excluded(void **state)
 {
     (void)state;
@@ -389,6 +425,7 @@ int main(void)
         cmocka_unit_test(test_quantile_known_values),
         cmocka_unit_test(test_settings),
         cmocka_unit_test(test_clean_fix_passes_with_a_sensible_pl),
+        cmocka_unit_test(test_map_datum_widens_the_pl_not_the_tests),
         cmocka_unit_test(test_biased_beacon_detected_and_excluded),
         cmocka_unit_test(test_stale_camera_detected_and_excluded),
         cmocka_unit_test(test_three_beacons_never_usable),

@@ -762,6 +762,123 @@ static void test_calibration_error_nees(void **state)
     assert_true(ratio / used > 1.5);
 }
 
+/* The map datum (nav_config.h mfns_map_datum_t): the table's map is the true one
+ * moved rigidly, p(table) = R(dth) (p - c) + c + dt, drawn from Sigma_d every
+ * trial. The fix moves with the map: with the datum term the mean NEES is 6,
+ * without it far above; the term changes the covariance only, and by exactly
+ * [I, -[r_wb_w - c]x; 0, I] Sigma_d [..]^T in ROS order (position, world
+ * rotation), checked in double. */
+static void test_map_datum_term(void **state)
+{
+    (void)state;
+    const mfns_rig_t rig = pt_paper_rig();
+    pt_dpose_t truth;
+    mfns_beacon_map_t map;
+    dense_scene(941, &truth, &map);
+    static const double sd[6] = {0.4, 0.3, 0.5, 4e-4, 3e-4, 5e-4}; /* mm, rad */
+    double cov[36], l[36];
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            cov[i * 6 + j] = i == j ? sd[i] * sd[i] : 0.0;
+        }
+    }
+    cov[0 * 6 + 5] = cov[5 * 6 + 0] = 0.6 * sd[0] * sd[5]; /* a shift correlated with a turn */
+    cov[1 * 6 + 2] = cov[2 * 6 + 1] = -0.4 * sd[1] * sd[2];
+    assert_true(dchol(6, cov, l));
+    static mfns_map_datum_t datum;
+    datum.present = 1;
+    const double c[3] = {800.0, -1200.0, 300.0};
+    datum.c_w = mfns_v3((float)c[0], (float)c[1], (float)c[2]);
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            datum.cov[i][j] = (float)cov[i * 6 + j];
+        }
+    }
+    mfns_pose_config_t with = pt_config(0.1), without = pt_config(0.1);
+    with.datum = &datum;
+    const mfns_pose_t t0 = pt_to_float(&truth);
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 942);
+    const int trials = 500;
+    double nees = 0.0, nees_without = 0.0;
+    int used = 0;
+    for (int t = 0; t < trials; t++) {
+        double z[6], d[6];
+        for (int i = 0; i < 6; i++) {
+            z[i] = mfns_rng_normal(&rng);
+        }
+        for (int i = 0; i < 6; i++) {
+            d[i] = 0.0;
+            for (int k = 0; k <= i; k++) {
+                d[i] += l[i * 6 + k] * z[k];
+            }
+        }
+        double rm[3][3];
+        pt_rot_exp(&d[3], rm);
+        static mfns_beacon_map_t moved;
+        moved = map;
+        for (int b = 0; b < map.count; b++) {
+            const mfns_v3_t p = map.beacon[b].p_w;
+            const double q[3] = {p.x - c[0], p.y - c[1], p.z - c[2]};
+            double o[3];
+            for (int i = 0; i < 3; i++) {
+                o[i] = rm[i][0] * q[0] + rm[i][1] * q[1] + rm[i][2] * q[2] + c[i] + d[i];
+            }
+            moved.beacon[b].p_w = mfns_v3((float)o[0], (float)o[1], (float)o[2]);
+        }
+        mfns_obs_frame_t f;
+        mfns_pose_assoc_t assoc;
+        (void)pt_make_frame(&rig, &map, &truth, 0.1, &rng, &f, &assoc); /* seen from the true map */
+        mfns_pose_solution_t s, s0;
+        if (mfns_pose_refine(&rig, &moved, &f, &assoc, &t0, &with, &s) == MFNS_POSE_NO_FIX ||
+            mfns_pose_refine(&rig, &moved, &f, &assoc, &t0, &without, &s0) == MFNS_POSE_NO_FIX) {
+            continue;
+        }
+        const pt_dpose_t e = pt_from_float(&s.pose), e0 = pt_from_float(&s0.pose);
+        assert_true(pt_pos_err(&e, &e0) == 0.0 && pt_rot_err(e.C, e0.C) == 0.0);
+        double er[6];
+        ros_error(&e, &truth, er);
+        nees += nees6(s.cov_ros, er);
+        nees_without += nees6(s0.cov_ros, er);
+        if (t == 0) {
+            /* the term itself: G_ros Sigma_d G_ros^T with G_ros = [I, -[r - c]x; 0, I] */
+            double r[3], g[6][6];
+            pt_position_w(&e, r);
+            const double v[3] = {r[0] - c[0], r[1] - c[1], r[2] - c[2]};
+            const double sk[3][3] = {{0.0, -v[2], v[1]}, {v[2], 0.0, -v[0]}, {-v[1], v[0], 0.0}};
+            for (int i = 0; i < 6; i++) {
+                for (int j = 0; j < 6; j++) {
+                    g[i][j] = (i == j) ? 1.0 : 0.0;
+                    if (i < 3 && j >= 3) {
+                        g[i][j] = -sk[i][j - 3];
+                    }
+                }
+            }
+            for (int i = 0; i < 6; i++) {
+                for (int j = 0; j < 6; j++) {
+                    double want = 0.0;
+                    for (int p = 0; p < 6; p++) {
+                        for (int q = 0; q < 6; q++) {
+                            want += g[i][p] * cov[p * 6 + q] * g[j][q];
+                        }
+                    }
+                    const double got = (double)s.cov_ros[i][j] - (double)s0.cov_ros[i][j];
+                    const double scale = sqrt((double)s.cov_ros[i][i] * (double)s.cov_ros[j][j]);
+                    assert_true(fabs(got - want) <= 2e-4 * scale + 1e-12);
+                }
+            }
+        }
+        used++;
+    }
+    assert_true(used >= trials * 95 / 100);
+    nees /= used;
+    nees_without /= used;
+    print_message("  map datum: mean NEES %.2f with the datum term, %.2f without (6 expected)\n", nees,
+                  nees_without);
+    assert_true(fabs(nees - 6.0) < 0.9);
+    assert_true(nees_without > 30.0);
+}
+
 static void frame_for(const mfns_rig_t *rig, const int per_cam[3], double sigma, uint64_t seed, pt_dpose_t *truth,
                       mfns_beacon_map_t *map, mfns_obs_frame_t *frame, mfns_pose_assoc_t *assoc)
 {
@@ -984,6 +1101,7 @@ int main(void)
         cmocka_unit_test(test_bad_centroid_covariance),
         cmocka_unit_test(test_survey_error_nees),
         cmocka_unit_test(test_calibration_error_nees),
+        cmocka_unit_test(test_map_datum_term),
         cmocka_unit_test(test_status_codes),
         cmocka_unit_test(test_singular_geometry_is_reported),
         cmocka_unit_test(test_paper_mode),

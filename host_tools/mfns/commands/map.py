@@ -28,6 +28,16 @@ def cmd_refine(args) -> int:
     pb = refine.build_problem(fixes, cams, ids, p, sigma, mounts=args.mounts, pixel_floor_px=args.pixel_floor)
     res = refine.refine(pb)
     refine.write_beacons(out / "beacons.csv", res)
+    from ..map import datum_file
+
+    datum_file.write(
+        out / "map_datum.json",
+        res.ids,
+        res.sigma_relative,
+        res.datum_centre,
+        res.datum_cov,
+        source=f"mfns map refine of {args.fixlog} over {args.beacons}",
+    )
     rep = refine.report(res)
     rep["incomplete_fixes_left_out"] = incomplete
     (out / "refine.json").write_text(json.dumps(rep, indent=2) + "\n")
@@ -51,9 +61,19 @@ def cmd_refine(args) -> int:
                 f"offset {np.round(res.mount_off_mm[k], 3).tolist()} mm, chi2 {res.mount_chi2[k, 0]:.1f} / "
                 f"{res.mount_chi2[k, 1]:.1f}{'  MOVED' if res.mount_moved[k] else ''}"
             )
+    sd = np.sqrt(np.diag(res.datum_cov))
     print(
-        f"wrote {out / 'beacons.csv'}, {out / 'refine.json'}"
+        f"  map datum (shared by every beacon): shift 1-sigma {np.round(sd[:3], 4).tolist()} mm, turn "
+        f"{np.round(np.degrees(sd[3:]), 5).tolist()} deg; relative sigma median "
+        f"{np.median(res.sigma_relative):.3f} mm"
+    )
+    print(
+        f"wrote {out / 'beacons.csv'}, {out / 'map_datum.json'}, {out / 'refine.json'}"
         + (f", {out / 'calib.json'}" if args.mounts else "")
+    )
+    print(
+        f"  fly it: mfns table build CALIB {out / 'beacons.csv'} --map-datum "
+        f"{out / 'map_datum.json'} -o TABLE"
     )
     return 0
 

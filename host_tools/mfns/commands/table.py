@@ -58,6 +58,7 @@ def cmd_build(args) -> int:
             seed=args.seed,
             progress=bar.update,
             integrity=integrity,
+            map_datum=args.map_datum,
         )
     data = encode(table)
     try:
@@ -114,6 +115,21 @@ def calib_cov_summary(cov) -> str:
     return "\n".join(lines)
 
 
+def map_datum_summary(d) -> str:
+    """One line on the table's map datum section."""
+    if d is None:
+        return "map datum: none (each beacon's sigma is its whole error)"
+    sd = np.sqrt(np.maximum(np.diag(d.cov), 0.0))
+
+    def g(v) -> str:
+        return " ".join(f"{x:.4g}" for x in v)
+
+    return (
+        f"map datum: shift 1-sigma {g(sd[:3])} mm, turn 1-sigma {g(np.degrees(sd[3:]))} deg "
+        f"about ({g(d.c_w_mm)}) mm; the beacons' sigma is their relative error"
+    )
+
+
 def cmd_show(args) -> int:
     path = Path(args.table)
     # the flight program's load buffer bounds what it can load: nothing larger is read
@@ -129,6 +145,7 @@ def cmd_show(args) -> int:
         print(f"note: {len(data) - t.size_bytes} bytes after the table's total size (ignored by the loader)")
     print(f"pixel sigma (unmodelled error floor): {t.pixel_sigma_px:.6g} px")
     print(calib_cov_summary(t.calib_cov))
+    print(map_datum_summary(t.map_datum))
     print("centroid: " + ", ".join(f"{k}={v:.6g}" for k, v in t.centroid.items()))
     print("solver:   " + ", ".join(f"{k}={v:.6g}" for k, v in t.solver.items()))
     print("integrity: " + ", ".join(f"{k}={v:.6g}" for k, v in t.integrity.items()))
@@ -199,6 +216,14 @@ def register(subparsers) -> None:
         help="poses of the map analysis that sets the acquisition's certificate (default 200)",
     )
     b.add_argument("--seed", type=int, default=1, help="seed of the map analysis' poses (default 1)")
+    b.add_argument(
+        "--map-datum",
+        metavar="JSON",
+        help="the map_datum.json `mfns map refine` writes beside its beacons.csv: the beacons get its "
+        "relative sigmas and the table the map's shared error (a rigid shift and turn), which the flight "
+        'solver adds to a fix\'s covariance once (docs/caltable.md "Map datum covariance"; default: none, '
+        "the CSV's sigma_mm is each beacon's whole error)",
+    )
     b.set_defaults(func=cmd_build)
     s = sub.add_parser("show", help="print a table and verify its CRC")
     s.add_argument("table", metavar="TABLE")

@@ -34,7 +34,7 @@ from ..camera import load_beacons, pose_from_position
 from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
 from ..simulate import nav as simnav
 from . import fixlog, refine_demo
-from .refine_demo import map_figures
+from .refine_demo import _num, map_figures
 
 BEACON_EVENTS = ("BEACON_BIASED", "BEACON_EXCLUDED", "BEACON_REJECTED", "BEACON_MISSING")
 
@@ -62,13 +62,13 @@ def survey(a) -> int:
         if refine_demo.main(argv + ["--bin", a.bin]) != 0:
             return 1
         fig = map_figures(run)
-        for m in ("surveyed-map", "refined-map"):
+        for m in ("surveyed-map", "refined-map", "refined-map-no-datum"):
             s = _summary(run, m)
             ax = {x["axis"]: x for x in s["axes"]}
             fig[m] = {
-                "rms_mm": [float(np.hypot(ax[k]["mean"], ax[k]["sigma"])) for k in "xyz"],
+                "rms_mm": [float(np.hypot(_num(ax[k]["mean"]), _num(ax[k]["sigma"]))) for k in "xyz"],
                 "sigma_mm": _nav_sigma(run / m / "ground"),
-                "nees_mean": s["nees"]["mean"],
+                "nees_mean": _num(s["nees"]["mean"]),
                 "n_used": s["n_used"],
             }
         fig["seed"] = seed
@@ -103,7 +103,7 @@ def survey_table(rows: list[dict], minutes: float, rate_hz: float) -> str:
     line("refined, seen, in the survey's datum", lambda r: pair(r["refined_seen_datum"]))
     line("the survey's datum error itself", lambda r: pair(r["datum_error"]))
     line("written sigma, median", lambda r: f"{r['sigma_median']:.3f}")
-    for m in ("surveyed-map", "refined-map"):
+    for m in ("surveyed-map", "refined-map", "refined-map-no-datum"):
         line(f"nav RMS x/y/z, {m}", lambda r, m=m: " / ".join(f"{v:.3f}" for v in r[m]["rms_mm"]))
         line(
             f"nav 1-sigma x/y/z (median), {m}",

@@ -95,7 +95,7 @@ class Core:
                 h[i][j] = float(info[i, j])
         out = SolutionC()
         out.pose = Flight.pose(C_w_b, r_bw_b)
-        if self.lib.mfns_pose_covariance(ct.byref(h), None, None, self.min_rcond, ct.byref(out)) != 0:
+        if self.lib.mfns_pose_covariance(ct.byref(h), None, None, None, self.min_rcond, ct.byref(out)) != 0:
             return None
         return np.array(list(out.sigma_pos_mm), dtype=float), np.array(list(out.sigma_euler_deg), dtype=float)
 

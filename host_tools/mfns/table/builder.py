@@ -115,6 +115,7 @@ def build_table(
     seed: int = 1,
     progress=None,
     integrity: dict | None = None,
+    map_datum: str | Path | None = None,
 ) -> tuple[Table, list[GridError], mapindex.IndexReport]:
     """The table, per camera the measured worst-case error of its grid, and the report
     of its map index (workspace default: mapindex.default_workspace).
@@ -131,6 +132,9 @@ def build_table(
     calibration-covariance section (calib_covariance); a calibration without one gives
     no calibration term, which is right only for an exact rig (a warning says so).
     integrity: the integrity settings (settings.load_integrity); None = the defaults.
+    map_datum: a map_datum.json (mfns.map.datum_file, written by `mfns map refine`): the
+    table's beacons then carry its relative sigmas and its map datum section the shared
+    error; None = no datum (the CSV's sigma_mm is each beacon's whole error).
     """
     from .check import core
     from .settings import load_settings
@@ -139,6 +143,11 @@ def build_table(
     doc = calib_results.load(calib_json)
     dc, ds = load_settings(None)
     ids, pos, sig = load_beacon_csv(beacons_csv)
+    datum = None
+    if map_datum is not None:
+        from ..map import datum_file
+
+        datum, sig = datum_file.load(map_datum, ids)
     cams, errors = [], []
     for k, e in enumerate(doc["cameras"]):
         rec = _record(k, e)
@@ -184,6 +193,7 @@ def build_table(
         solver=solver if solver is not None else ds,
         index_section=fl.encode_index(idx),
         calib_cov=calib_covariance(doc),
+        map_datum=datum,
         integrity=dict(integrity) if integrity is not None else {},
     )
     return table, errors, report

@@ -174,10 +174,31 @@ def field_at(data: bytes, off: int) -> str:
         return f"calibration covariance ({_param_name(r)}, {_param_name(r + e)})"
     if n_c == fmt.CALIB_PARAMS:
         pos += 4 * n_c * (n_c + 1) // 2
+    if pos + fmt.DATUM_HEADER_SIZE > len(data):
+        return "map datum section"
+    n_d = struct.unpack_from("<H", data, pos)[0]
+    if off < pos + fmt.DATUM_HEADER_SIZE:
+        rel = off - pos
+        return "map datum " + (
+            "parameter count" if rel < 2 else "reserved" if rel < 4 else f"c_w[{(rel - 4) // 4}]"
+        )
+    pos += fmt.DATUM_HEADER_SIZE
+    if n_d == fmt.MAP_DATUM_PARAMS:
+        if off < pos + 4 * n_d * (n_d + 1) // 2:
+            e = (off - pos) // 4
+            r = 0
+            while e >= n_d - r:
+                e -= n_d - r
+                r += 1
+            return f"map datum covariance ({_DATUM_NAMES[r]}, {_DATUM_NAMES[r + e]})"
+        pos += 4 * n_d * (n_d + 1) // 2
     if off < pos + fmt.INTEGRITY_SIZE:
         return f"integrity.{_name(_INTEGRITY_FIELDS, off - pos)}"
     pos += fmt.INTEGRITY_SIZE
     return f"map index section, byte {off - pos}"
+
+
+_DATUM_NAMES = ("shift x", "shift y", "shift z", "turn x", "turn y", "turn z")
 
 
 def _param_name(i: int) -> str:

@@ -36,6 +36,11 @@ CALIB_PARAM_NAMES = COVARIANCE_PARAMETERS
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
 assert CALIB_PARAMS == L.CONSTANTS["MFNS_CALIB_PARAMS"]
 CAMERA_NAMES = ("x", "y", "z")
+# The map datum section (after the calibration covariance, format version 5): u16 count (0
+# or MAP_DATUM_PARAMS), u16 reserved, the turn's centre c_w (3 x f32 mm), the upper
+# triangle row-major of the covariance over (shift x y z mm, turn x y z rad) as f32.
+DATUM_HEADER_SIZE = L.SIZE["map_datum"]
+MAP_DATUM_PARAMS = L.CONSTANTS["MFNS_MAP_DATUM_PARAMS"]
 
 
 class Record:
@@ -76,7 +81,8 @@ _GLOBALS = Record("globals")
 _CAMERA = Record("camera")
 _BEACON = Record("beacon")
 _COV = Record("calib_cov")
-# The integrity settings (after the calibration covariance, format version 4).
+_DATUM = Record("map_datum")
+# The integrity settings (after the map datum).
 _INTEG = Record("integrity")
 INTEGRITY_SIZE = _INTEG.size
 INTEGRITY_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["integrity"] if n not in _INTEG.reserved)
@@ -146,6 +152,15 @@ class CameraRecord:
 
 
 @dataclass
+class MapDatum:
+    """The map's shared rigid error (docs/caltable.md "Map datum covariance"): cov (6, 6)
+    over (shift x y z mm, turn x y z rad about c_w_mm)."""
+
+    c_w_mm: np.ndarray
+    cov: np.ndarray
+
+
+@dataclass
 class Table:
     cameras: list[CameraRecord]
     beacon_ids: np.ndarray
@@ -157,6 +172,8 @@ class Table:
     index_section: bytes = b""  # the map index, as mfns_bidx_encode wrote it
     # (45, 45) covariance of the calibration (CALIB_PARAM_NAMES per camera), None = unknown
     calib_cov: np.ndarray | None = None
+    # the map's shared error; None = none (each beacon's sigma is its whole error)
+    map_datum: MapDatum | None = None
     # integrity settings (INTEGRITY_FIELDS); empty = the defaults
     integrity: dict = field(default_factory=dict)
     version: int = VERSION
@@ -213,6 +230,7 @@ def encode(t: Table) -> bytes:
         for bid, p, s in zip(t.beacon_ids, t.beacon_pos, t.beacon_sigma, strict=True):
             body += _BEACON.pack({"id": int(bid), "p_w": [float(x) for x in p[:3]], "sigma_mm": float(s)})
         body += encode_calib_cov(t.calib_cov)
+        body += encode_map_datum(t.map_datum)
         integ = {**L.DEFAULTS["integrity"], **t.integrity}
         body += _INTEG.pack(
             {k: int(integ[k]) if k in INTEGRITY_INT else float(integ[k]) for k in INTEGRITY_FIELDS}
@@ -225,6 +243,20 @@ def encode(t: Table) -> bytes:
     return _HEADER.pack({**header, "crc32": zlib.crc32(body)}) + bytes(body)
 
 
+def _tri_bytes(a: np.ndarray) -> bytes:
+    """The upper triangle of a symmetric matrix, row-major, as little-endian f32."""
+    return a[np.triu_indices(len(a))].astype("<f4").tobytes()
+
+
+def _tri_read(data: bytes, pos: int, n: int) -> tuple[np.ndarray, int]:
+    """(the n x n symmetric matrix whose upper triangle is stored at pos, the position
+    after it)."""
+    m = n * (n + 1) // 2
+    a = np.zeros((n, n))
+    a[np.triu_indices(n)] = np.frombuffer(data, dtype="<f4", count=m, offset=pos).astype(float)
+    return a + np.triu(a, 1).T, pos + 4 * m
+
+
 def encode_calib_cov(cov: np.ndarray | None) -> bytes:
     """The calibration-covariance section (docs/caltable.md): None -> count 0."""
     if cov is None:
@@ -232,8 +264,30 @@ def encode_calib_cov(cov: np.ndarray | None) -> bytes:
     a = np.asarray(cov, dtype=float)
     if a.shape != (CALIB_PARAMS, CALIB_PARAMS):
         raise MfnsError(f"calibration covariance: expected ({CALIB_PARAMS}, {CALIB_PARAMS}), got {a.shape}")
-    iu = np.triu_indices(CALIB_PARAMS)
-    return _COV.pack({"count": CALIB_PARAMS}) + a[iu].astype("<f4").tobytes()
+    return _COV.pack({"count": CALIB_PARAMS}) + _tri_bytes(a)
+
+
+def encode_map_datum(d: MapDatum | None) -> bytes:
+    """The map datum section (docs/caltable.md): None -> count 0, centre 0."""
+    if d is None:
+        return _DATUM.pack({"count": 0, "c_w": [0.0, 0.0, 0.0]})
+    n = MAP_DATUM_PARAMS
+    a = np.asarray(d.cov, dtype=float)
+    c = np.asarray(d.c_w_mm, dtype=float)
+    if a.shape != (n, n) or c.shape != (3,):
+        raise MfnsError(f"map datum: expected a ({n}, {n}) covariance and a 3-vector centre")
+    return _DATUM.pack({"count": n, "c_w": c.tolist()}) + _tri_bytes(a)
+
+
+def decode_map_datum(data: bytes, pos: int) -> tuple[MapDatum | None, int]:
+    """(datum or None, position after the section)."""
+    v = _DATUM.unpack(data, pos)
+    n = v["count"]
+    pos += DATUM_HEADER_SIZE
+    if n == 0:
+        return None, pos
+    a, pos = _tri_read(data, pos, n)
+    return MapDatum(np.array(v["c_w"], dtype=float), a), pos
 
 
 def decode_calib_cov(data: bytes, pos: int) -> tuple[np.ndarray | None, int]:
@@ -242,12 +296,7 @@ def decode_calib_cov(data: bytes, pos: int) -> tuple[np.ndarray | None, int]:
     pos += COV_HEADER_SIZE
     if n == 0:
         return None, pos
-    m = n * (n + 1) // 2
-    tri = np.frombuffer(data, dtype="<f4", count=m, offset=pos).astype(float)
-    a = np.zeros((n, n))
-    a[np.triu_indices(n)] = tri
-    a = a + np.triu(a, 1).T
-    return a, pos + 4 * m
+    return _tri_read(data, pos, n)
 
 
 def decode(data: bytes) -> Table:
@@ -298,6 +347,7 @@ def decode(data: bytes) -> Table:
         s.append(b["sigma_mm"])
     pos += n_b * BEACON_SIZE
     calib_cov, pos = decode_calib_cov(data, pos)
+    map_datum, pos = decode_map_datum(data, pos)
     iv = _INTEG.unpack(data, pos)
     integrity = {k: iv[k] for k in INTEGRITY_FIELDS}
     pos += _INTEG.size
@@ -311,6 +361,7 @@ def decode(data: bytes) -> Table:
         solver=solver,
         index_section=bytes(data[pos:total]),
         calib_cov=calib_cov,
+        map_datum=map_datum,
         integrity=integrity,
         version=version,
         crc32=crc,

@@ -7,8 +7,8 @@ writes; the flight loader's status codes."""
 # ruff: noqa: E501
 
 MAGIC = b"MFTB"
-VERSION = 4
-MIN_VERSION = 4
+VERSION = 5
+MIN_VERSION = 5
 # the build's compile-time constants the ranges name
 CONSTANTS = {
     "MFNS_NUM_CAMERAS": 3,
@@ -21,6 +21,7 @@ CONSTANTS = {
     "MFNS_BIDX_MIN_CERT": 5,
     "MFNS_BIDX_MAX_CERT": 16,
     "MFNS_CALIB_PARAMS": 45,
+    "MFNS_MAP_DATUM_PARAMS": 6,
 }
 # record -> size in bytes
 SIZE = {
@@ -30,6 +31,7 @@ SIZE = {
     "node": 8,
     "beacon": 20,
     "calib_cov": 4,
+    "map_datum": 16,
     "integrity": 20,
     "index": 44,
     "index_geom": 24,
@@ -99,6 +101,11 @@ FIELDS = {
         ("count", 0, "u16", 1),
         ("reserved", 2, "u16", 1),
     ),
+    "map_datum": (
+        ("count", 0, "u16", 1),
+        ("reserved", 2, "u16", 1),
+        ("c_w", 4, "f32", 3),
+    ),
     "integrity": (
         ("alert_limit_pos_mm", 0, "f32", 1),
         ("alert_limit_att_deg", 4, "f32", 1),
@@ -143,6 +150,7 @@ RESERVED = {
     "camera": ("reserved",),
     "beacon": ("reserved",),
     "calib_cov": ("reserved",),
+    "map_datum": ("reserved",),
     "index": ("reserved",),
 }
 # record -> little-endian struct format of its fields
@@ -153,6 +161,7 @@ STRUCT = {
     "node": "<ii",
     "beacon": "<HH3ff",
     "calib_cov": "<HH",
+    "map_datum": "<HH3f",
     "integrity": "<ffffHBB",
     "index": "<HBBBBHI3f3fI4B",
     "index_geom": "<3ffff",
@@ -377,5 +386,17 @@ STATUS = {
     43: (
         "E_INTEGRITY_SETTINGS",
         "calibration table integrity settings out of range (alert limits, probabilities, hold)",
+    ),
+    44: (
+        "E_MAP_DATUM_COUNT",
+        "calibration table map datum: parameter count is neither 0 nor 6",
+    ),
+    45: (
+        "E_MAP_DATUM_PSD",
+        "calibration table map datum: covariance not positive semi-definite (negative variance or inconsistent correlations)",
+    ),
+    46: (
+        "E_MAP_DATUM_CENTRE",
+        "calibration table map datum: centre out of range (beyond 1e7 mm, or not 0 with no datum)",
     ),
 }
