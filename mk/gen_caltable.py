@@ -360,6 +360,8 @@ def py_lit(v) -> str:
         return "b" + py_lit(v.decode("ascii"))
     if isinstance(v, tuple):
         return "(" + ", ".join(py_lit(x) for x in v) + ("," if len(v) == 1 else "") + ")"
+    if isinstance(v, float) and math.isinf(v):
+        return 'float("inf")' if v > 0 else '-float("inf")'
     return repr(v)
 
 
@@ -392,7 +394,8 @@ def gen_py(L: Layout) -> str:
         "",
         "The calibration table's layout (docs/caltable.md) for table/format.py: per record its size,",
         "its fields (name, offset, type, count) and struct format; the defaults `mfns table build`",
-        'writes; the flight loader\'s status codes."""',
+        "writes; the flight loader's accepted ranges (for readers that check an input before the",
+        'loader sees the table) and its status codes."""',
         "",
         "# ruff: noqa: E501",
         "",
@@ -437,6 +440,20 @@ def gen_py(L: Layout) -> str:
         if d:
             mins[r.key] = d
     o += py_dict("DEFAULT_MIN", mins, "record -> {field: the least a computed default may be}")
+    ranges = {}
+    for r in L.records.values():
+        d = {
+            f.name: (f.range[1], f.range[2], f.range[0], f.range[3])
+            for f in r.fields
+            if f.range and not f.reserved
+        }
+        if d:
+            ranges[r.key] = d
+    o += py_dict(
+        "RANGE",
+        ranges,
+        "record -> {field: (lo, hi, lo_open, hi_open)}, the loader's accepted interval (each element of an array)",
+    )
     o += py_dict(
         "STATUS",
         {s["value"]: [s["name"], s["message"]] for s in L.status},

@@ -110,11 +110,10 @@ def _record_checks(ctype: str, cls, prefix: str, base: int, label: str) -> list[
 
 
 def _c_scalar(t) -> str:
-    """The C type of a ctypes scalar, pointer-free (SCALARS, with size_t by its alias)."""
-    for k, v in SCALARS.items():
-        if t is k:
-            return v
-    raise ValueError(f"binding_check: no C type for {t!r}")
+    """The C type of a ctypes scalar (SCALARS; size_t is its fixed-width alias)."""
+    if t not in SCALARS:
+        raise ValueError(f"binding_check: no C type for {t!r}")
+    return SCALARS[t]
 
 
 def _array_decl(t, name: str) -> str:

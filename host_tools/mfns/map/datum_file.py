@@ -23,12 +23,13 @@ import numpy as np
 
 from .. import validate as V
 from ..errors import MfnsError
+from ..table import layout_gen as L
 from ..table.format import MAP_DATUM_PARAMS, MapDatum
 
 FORMAT = "mfns-map-datum-1"
-# the table's ranges (caltable_layout.toml): centre within 1e7 mm, sigma in (0, 1e4] mm
-MAX_CENTRE_MM = 1e7
-MAX_SIGMA_MM = 1e4
+# the table's accepted intervals (caltable_layout.toml, generated): (lo, hi, lo_open, hi_open)
+_CENTRE = L.RANGE["map_datum"]["c_w"]
+_SIGMA = L.RANGE["beacon"]["sigma_mm"]
 
 
 def write(path: Path, ids, sigma_relative_mm, c_w_mm, cov, source: str = "") -> None:
@@ -56,8 +57,9 @@ def load(path, ids) -> tuple[MapDatum, np.ndarray]:
     if d["format"] != FORMAT:
         raise MfnsError(f"{where}: format {d['format']!r}, expected {FORMAT!r}")
     c = V.array(d["c_w_mm"], f"{where} c_w_mm", (3,))
-    if np.abs(c).max() > MAX_CENTRE_MM:
-        raise MfnsError(f"{where} c_w_mm: a coordinate beyond {MAX_CENTRE_MM:g} mm")
+    lo, hi, lo_open, hi_open = _CENTRE
+    if any(v < lo or v > hi or (lo_open and v == lo) or (hi_open and v == hi) for v in c):
+        raise MfnsError(f"{where} c_w_mm: a coordinate beyond [{_CENTRE[0]:g}, {_CENTRE[1]:g}] mm")
     cov = V.array(d["cov"], f"{where} cov", (MAP_DATUM_PARAMS, MAP_DATUM_PARAMS))
     if not np.allclose(cov, cov.T, rtol=1e-6, atol=0.0):
         raise MfnsError(f"{where} cov: not symmetric")
@@ -72,7 +74,12 @@ def load(path, ids) -> tuple[MapDatum, np.ndarray]:
     sig = np.array(
         [
             V.number(
-                rel[str(int(i))], f"{where} sigma_relative_mm[{int(i)}]", 0.0, MAX_SIGMA_MM, lo_open=True
+                rel[str(int(i))],
+                f"{where} sigma_relative_mm[{int(i)}]",
+                _SIGMA[0],
+                _SIGMA[1],
+                lo_open=_SIGMA[2],
+                hi_open=_SIGMA[3],
             )
             for i in ids
         ]

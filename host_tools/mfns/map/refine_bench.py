@@ -34,7 +34,7 @@ from ..camera import load_beacons, pose_from_position
 from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
 from ..simulate import nav as simnav
 from . import fixlog, refine_demo
-from .refine_demo import _num, map_figures
+from .refine_demo import axis_rms, map_figures, summary_num
 
 BEACON_EVENTS = ("BEACON_BIASED", "BEACON_EXCLUDED", "BEACON_REJECTED", "BEACON_MISSING")
 
@@ -64,11 +64,10 @@ def survey(a) -> int:
         fig = map_figures(run)
         for m in ("surveyed-map", "refined-map", "refined-map-no-datum"):
             s = _summary(run, m)
-            ax = {x["axis"]: x for x in s["axes"]}
             fig[m] = {
-                "rms_mm": [float(np.hypot(_num(ax[k]["mean"]), _num(ax[k]["sigma"]))) for k in "xyz"],
+                "rms_mm": [axis_rms(s, k) for k in "xyz"],
                 "sigma_mm": _nav_sigma(run / m / "ground"),
-                "nees_mean": _num(s["nees"]["mean"]),
+                "nees_mean": summary_num(s["nees"]["mean"]),
                 "n_used": s["n_used"],
             }
         fig["seed"] = seed

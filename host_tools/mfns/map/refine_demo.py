@@ -160,21 +160,22 @@ def _ids(ids: list[int]) -> str:
     return ", ".join(map(str, ids)) if len(ids) <= 8 else f"{len(ids)} beacons"
 
 
-def _num(v) -> float:
+def summary_num(v) -> float:
     """A figure of `mfns report`'s summary.json: null (undefined, e.g. the 1-sigma of a
     single fix) is nan."""
     return float("nan") if v is None else float(v)
 
 
+def axis_rms(s: dict, axis: str) -> float:
+    """The error RMS on one axis of a summary.json (its mean and 1-sigma together)."""
+    a = next(x for x in s["axes"] if x["axis"] == axis)
+    return float(np.hypot(summary_num(a["mean"]), summary_num(a["sigma"])))
+
+
 def _row(name: str, s: dict) -> str:
-    ax = {a["axis"]: a for a in s["axes"]}
-
-    def rms(a: str) -> float:
-        return float(np.hypot(_num(ax[a]["mean"]), _num(ax[a]["sigma"])))
-
-    pos = " | ".join(f"{rms(a):.3f}" for a in ("x", "y", "z"))
-    att = " | ".join(f"{rms(a):.4f}" for a in ("roll", "pitch", "yaw"))
-    return f"| {name} | {s['n_used']} | {pos} | {att} | {_num(s['nees']['mean']):.2f} |"
+    pos = " | ".join(f"{axis_rms(s, a):.3f}" for a in ("x", "y", "z"))
+    att = " | ".join(f"{axis_rms(s, a):.4f}" for a in ("roll", "pitch", "yaw"))
+    return f"| {name} | {s['n_used']} | {pos} | {att} | {summary_num(s['nees']['mean']):.2f} |"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -166,12 +166,8 @@ def field_at(data: bytes, off: int) -> str:
         return "calibration covariance " + ("parameter count" if off < pos + 2 else "reserved")
     pos += fmt.COV_HEADER_SIZE
     if n_c == fmt.CALIB_PARAMS and off < pos + 4 * n_c * (n_c + 1) // 2:
-        e = (off - pos) // 4
-        r = 0
-        while e >= n_c - r:  # row r of the upper triangle holds n_c - r entries
-            e -= n_c - r
-            r += 1
-        return f"calibration covariance ({_param_name(r)}, {_param_name(r + e)})"
+        r, c = _tri_element((off - pos) // 4, n_c)
+        return f"calibration covariance ({_param_name(r)}, {_param_name(c)})"
     if n_c == fmt.CALIB_PARAMS:
         pos += 4 * n_c * (n_c + 1) // 2
     if pos + fmt.DATUM_HEADER_SIZE > len(data):
@@ -185,12 +181,8 @@ def field_at(data: bytes, off: int) -> str:
     pos += fmt.DATUM_HEADER_SIZE
     if n_d == fmt.MAP_DATUM_PARAMS:
         if off < pos + 4 * n_d * (n_d + 1) // 2:
-            e = (off - pos) // 4
-            r = 0
-            while e >= n_d - r:
-                e -= n_d - r
-                r += 1
-            return f"map datum covariance ({_DATUM_NAMES[r]}, {_DATUM_NAMES[r + e]})"
+            r, c = _tri_element((off - pos) // 4, n_d)
+            return f"map datum covariance ({fmt.MAP_DATUM_NAMES[r]}, {fmt.MAP_DATUM_NAMES[c]})"
         pos += 4 * n_d * (n_d + 1) // 2
     if off < pos + fmt.INTEGRITY_SIZE:
         return f"integrity.{_name(_INTEGRITY_FIELDS, off - pos)}"
@@ -198,7 +190,13 @@ def field_at(data: bytes, off: int) -> str:
     return f"map index section, byte {off - pos}"
 
 
-_DATUM_NAMES = ("shift x", "shift y", "shift z", "turn x", "turn y", "turn z")
+def _tri_element(e: int, n: int) -> tuple[int, int]:
+    """(row, column) of element e of an n x n upper triangle stored row-major."""
+    r = 0
+    while e >= n - r:  # row r of the upper triangle holds n - r entries
+        e -= n - r
+        r += 1
+    return r, r + e
 
 
 def _param_name(i: int) -> str:

@@ -41,6 +41,8 @@ CAMERA_NAMES = ("x", "y", "z")
 # triangle row-major of the covariance over (shift x y z mm, turn x y z rad) as f32.
 DATUM_HEADER_SIZE = L.SIZE["map_datum"]
 MAP_DATUM_PARAMS = L.CONSTANTS["MFNS_MAP_DATUM_PARAMS"]
+MAP_DATUM_NAMES = ("shift x", "shift y", "shift z", "turn x", "turn y", "turn z")  # nav_config.h order
+assert len(MAP_DATUM_NAMES) == MAP_DATUM_PARAMS
 
 
 class Record:

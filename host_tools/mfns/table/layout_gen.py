@@ -2,7 +2,8 @@
 
 The calibration table's layout (docs/caltable.md) for table/format.py: per record its size,
 its fields (name, offset, type, count) and struct format; the defaults `mfns table build`
-writes; the flight loader's status codes."""
+writes; the flight loader's accepted ranges (for readers that check an input before the
+loader sees the table) and its status codes."""
 
 # ruff: noqa: E501
 
@@ -207,6 +208,69 @@ DEFAULTS = {
 DEFAULT_MIN = {
     "globals": {
         "pixel_sigma_px": 0.001,
+    },
+}
+# record -> {field: (lo, hi, lo_open, hi_open)}, the loader's accepted interval (each element of an array)
+RANGE = {
+    "globals": {
+        "camera_count": (3.0, 3.0, False, False),
+        "beacon_count": (1.0, 256.0, False, False),
+        "pixel_sigma_px": (0.0, 10.0, True, False),
+        "centroid.min_area_px": (1.0, float("inf"), False, True),
+        "centroid.roi_half_size_px": (1.0, float("inf"), False, True),
+        "centroid.threshold_k_sigma": (0.0, 100.0, False, False),
+        "centroid.max_elongation": (1.0, 100.0, False, False),
+        "solver.max_iterations": (1.0, 1000.0, False, False),
+        "solver.step_tol": (0.0, 1.0, True, False),
+        "solver.grad_tol": (0.0, 1.0, True, False),
+        "solver.huber_k": (0.0, 1000.0, True, False),
+        "solver.outlier_gate_sigma": (0.0, 100000.0, True, False),
+        "solver.max_residual_rms_sigma": (0.0, 1000.0, True, False),
+        "solver.track_gate_px": (0.0, 4096.0, True, False),
+        "solver.min_rcond": (0.0, 0.999, True, False),
+    },
+    "camera": {
+        "width": (1.0, float("inf"), False, True),
+        "height": (1.0, float("inf"), False, True),
+        "fx": (0.0, 1000000.0, True, False),
+        "fy": (0.0, 1000000.0, True, False),
+        "dist": (-1000.0, 1000.0, False, False),
+        "r_bk_b": (-10000.0, 10000.0, False, False),
+        "grid.nx": (2.0, float("inf"), False, True),
+        "grid.ny": (2.0, float("inf"), False, True),
+        "grid.origin_u_q8": (-float("inf"), -128.0, True, False),
+        "grid.origin_v_q8": (-float("inf"), -128.0, True, False),
+        "grid.step_u_q8": (256.0, 65535.0, False, False),
+        "grid.step_v_q8": (256.0, 65535.0, False, False),
+    },
+    "beacon": {
+        "p_w": (-10000000.0, 10000000.0, False, False),
+        "sigma_mm": (0.0, 10000.0, True, False),
+    },
+    "map_datum": {
+        "c_w": (-10000000.0, 10000000.0, False, False),
+    },
+    "integrity": {
+        "alert_limit_pos_mm": (0.0, 10000.0, True, False),
+        "alert_limit_att_deg": (0.0, 180.0, True, False),
+        "p_fa": (0.0, 0.5, True, True),
+        "p_md": (0.0, 0.5, True, True),
+        "hold_cycles": (0.0, 10000.0, False, False),
+        "require_camera_monitor": (0.0, 1.0, False, False),
+        "monitor_only": (0.0, 1.0, False, False),
+    },
+    "index": {
+        "k_nbr": (1.0, 32.0, False, False),
+        "max_missing": (0.0, 3.0, False, False),
+        "max_unexplained": (0.0, 16.0, False, False),
+        "budget_units": (1.0, float("inf"), False, True),
+        "ws_min_w": (-10000000.0, 10000000.0, False, False),
+        "ws_max_w": (-10000000.0, 10000000.0, False, False),
+    },
+    "index_geom": {
+        "cos_half_angle": (-1.0, 1.0, False, False),
+        "range_min_mm": (0.0, float("inf"), True, True),
+        "range_max_mm": (0.0, 100000000.0, True, False),
     },
 }
 # status value -> (name, message) of mfns_caltable_status_t
