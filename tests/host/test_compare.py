@@ -169,6 +169,22 @@ def test_planned_layouts_beside_the_originals(demo):
     assert "## 5. Beacon layouts planned" in text
     assert "| module | original | 8 / 10 (80.0 %) |" in text
     assert "| module | planned | 8 / 10 (80.0 %) |" in text
+    assert text.count("| - |") >= 2  # no plan.json: its one-call views are not invented
+    # the plan's check and baseline give the one-call views and the four-in-view share
+    import json
+
+    (demo / "plan" / "module").mkdir(parents=True)
+    (demo / "plan" / "module" / "plan.json").write_text(
+        json.dumps(
+            {
+                "check": {"availability_pct": 99.6, "one_call_views_pct": 98.6, "four_in_view_pct": 1.0},
+                "baseline": {"availability_pct": 88.6, "one_call_views_pct": 80.1, "four_in_view_pct": 8.5},
+            }
+        )
+    )
+    text = compare.build(demo)
+    assert "| module | original | 8 / 10 (80.0 %) |" in text and "| 80.1, 8.5 |" in text
+    assert "| 98.6, 1.0 |" in text
 
 
 def test_meaning_column_is_never_silently_empty(monkeypatch):

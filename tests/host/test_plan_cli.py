@@ -47,6 +47,16 @@ def test_analyze_writes_csv_summary_and_plots_deterministically(tmp_path):
     s = json.loads((a / "summary.json").read_text())
     assert 0.0 <= s["availability_pct"] <= 100.0
     assert s["availability_pct"] == pytest.approx(100.0 * sum(r["fix"] == "1" for r in rows) / 30, abs=0.01)
+    # the one-call ceiling: views at or above the certificate's floor, and views of exactly four
+    from mfns.plan.analyze import CERT_MIN_IN_VIEW
+    from mfns.table.layout_gen import CONSTANTS
+
+    assert CERT_MIN_IN_VIEW == CONSTANTS["MFNS_BIDX_MIN_CERT"] == 5
+    n_in = [int(r["in_view"]) for r in rows]
+    assert s["one_call_views_pct"] == pytest.approx(100.0 * sum(n >= 5 for n in n_in) / 30, abs=0.01)
+    assert s["four_in_view_pct"] == pytest.approx(100.0 * sum(n == 4 for n in n_in) / 30, abs=0.01)
+    assert s["one_call_views_pct"] + s["four_in_view_pct"] == pytest.approx(s["availability_pct"], abs=0.02)
+    assert "one-call views" in (a / "summary.md").read_text()
     for name in ("in_view_hist.png", "availability.png", "sigma.png", "summary.md"):
         assert (a / name).stat().st_size > 1000
 
@@ -75,6 +85,11 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
     assert all(float(r["z_mm"]) < 400 for r in rows)  # the keep-out took the top face
     plan = json.loads((out / "plan.json").read_text())
     assert plan["algorithm"].startswith("greedy") and plan["run_time_s"]["total"] > 0
+    chk = plan["check"]
+    assert set(chk) == {"availability_pct", "one_call_views_pct", "four_in_view_pct", "samples"}
+    assert chk["one_call_views_pct"] + chk["four_in_view_pct"] == pytest.approx(
+        chk["availability_pct"], abs=0.02
+    )
     # the box planned for (the turntable's poses: one body position, every yaw), padded
     lo, hi = plan["table_workspace_mm"][:3], plan["table_workspace_mm"][3:]
     assert all(a < 0.0 < b for a, b in zip(lo, hi, strict=True)) and max(hi) < 5.0

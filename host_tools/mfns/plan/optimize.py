@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .analyze import FIX_MIN_IN_VIEW
+from .analyze import CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW
 from .core import Core
 from .crlb import Observation, information, output_jacobian, sigma_batch
 from .workspace import Workspace
@@ -59,8 +59,6 @@ ANNEAL_T0 = 0.05
 ANNEAL_T_END = 1e-4
 # Energy cost of a pose losing its fix, relative to the greedy layout's worst + mean score.
 ANNEAL_FIX_WEIGHT = 0.5
-# Beacons in view the acquisition certifies in one call (acquire.h: MFNS_BIDX_MIN_CERT).
-CERT_MIN_IN_VIEW = 5
 # Energy cost of a pose below CERT_MIN_IN_VIEW, relative to a pose losing its fix: a
 # four-beacon view still gets a fix, over cycles (the carried search).
 ANNEAL_CERT_WEIGHT = 0.5

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .analyze import AXES, FIX_MIN_IN_VIEW, TRACK_MIN_IN_VIEW, Analysis
+from .analyze import AXES, CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, TRACK_MIN_IN_VIEW, Analysis
 
 SAMPLES_HEADER = [
     "sample",
@@ -124,6 +124,10 @@ def summarize(a: Analysis, info: dict) -> dict:
         "fix_rule": f">= {FIX_MIN_IN_VIEW} distinct beacons in view (track: >= {TRACK_MIN_IN_VIEW})",
         "availability_pct": round(100.0 * float(fix.mean()), 2),
         "track_pct": round(100.0 * float(a.track.mean()), 2),
+        # the one-call ceiling: views the acquisition can certify at once (>= the
+        # certificate's floor), and the views of exactly four it acquires over cycles only
+        "one_call_views_pct": round(100.0 * float(np.mean(total >= CERT_MIN_IN_VIEW)), 2),
+        "four_in_view_pct": round(100.0 * float(np.mean(total == FIX_MIN_IN_VIEW)), 2),
         "availability_flight_pct": None
         if a.fix_flight is None
         else round(100.0 * float(a.fix_flight.mean()), 2),
@@ -162,6 +166,9 @@ def summary_markdown(s: dict, title: str) -> str:
         f"- fix rule: {s['fix_rule']}",
         f"- **availability {s['availability_pct']} %** (track {s['track_pct']} %); beacons in view mean "
         f"{s['in_view_mean']}, min {s['in_view_min']}; per camera {s['per_camera_mean']}",
+        f"- **one-call views {s['one_call_views_pct']} %** (>= {CERT_MIN_IN_VIEW} in view: the acquisition "
+        f"can certify them in one call); exactly {FIX_MIN_IN_VIEW} in view {s['four_in_view_pct']} % "
+        "(certified only by the completion, over cycles: the one-call rate's ceiling)",
         f"- fixes by the navigation cycle's rule along the sequence: "
         f"{'-' if s['availability_flight_pct'] is None else str(s['availability_flight_pct']) + ' %'}",
         "",

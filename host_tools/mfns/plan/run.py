@@ -17,7 +17,7 @@ from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY
 from . import optimize as opt
 from . import report, surfaces, workspace
-from .analyze import analyze
+from .analyze import CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, analyze
 from .core import Core, require_map_size
 from .crlb import CalibrationError
 
@@ -28,6 +28,8 @@ MAX_ITERATIONS, MAX_RESTARTS = 10_000_000, 1000
 # the --baseline beacons.csv states one (its median sigma_mm: the same survey places the
 # new layout): the paper's map accuracy (docs/system.md Table 4).
 DEFAULT_SURVEY_SIGMA_MM = 0.3963
+# What plan.json's check (independent samples) and its baseline carry from the analysis.
+CHECK_KEYS = ("availability_pct", "one_call_views_pct", "four_in_view_pct", "samples")
 
 
 def _triple(text: str | None, name: str, n: int):
@@ -296,7 +298,7 @@ def run_optimize(args) -> int:
     info["noise"] = check_noise
     sig = np.full(args.count, survey)
     s = _analyze_into(out, core, layout, sig, ws_check, sigma_px, calib, info, "plan optimize", progress)
-    plan_doc["check"] = {"availability_pct": s["availability_pct"], "samples": s["samples"]}
+    plan_doc["check"] = {k: s[k] for k in CHECK_KEYS}
     if args.baseline:
         _, bpos, _ = load_beacon_csv(args.baseline)
         bsig = np.full(len(bpos), survey)
@@ -304,7 +306,10 @@ def run_optimize(args) -> int:
         bs = _analyze_into(
             out / "baseline", core, bpos, bsig, ws_check, sigma_px, calib, binfo, "baseline", progress
         )
-        plan_doc["baseline"] = {"beacons": str(args.baseline), "availability_pct": bs["availability_pct"]}
+        plan_doc["baseline"] = {
+            "beacons": str(args.baseline),
+            **{k: bs[k] for k in CHECK_KEYS if k != "samples"},
+        }
         plan_doc["baseline"]["sigma_p99"] = {
             k: v["p99"] for k, v in bs["sigma_percentiles_over_fix_samples"].items()
         }
@@ -327,7 +332,11 @@ def run_optimize(args) -> int:
             f"margin median {res_ident['margin_median']}; survey sigma {survey:g} mm ({survey_from})"
         )
     if args.baseline:
-        print(f"  baseline {args.baseline}: availability {plan_doc['baseline']['availability_pct']} %")
+        b = plan_doc["baseline"]
+        print(
+            f"  baseline {args.baseline}: availability {b['availability_pct']} %, one-call views "
+            f"{b['one_call_views_pct']} %, four in view {b['four_in_view_pct']} %"
+        )
     box = ",".join(f"{v:g}" for v in plan_doc[WORKSPACE_KEY])
     print(
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
@@ -369,7 +378,8 @@ def _print(s: dict, head: str) -> None:
             if s["availability_flight_pct"] is None
             else f", nav-cycle rule {s['availability_flight_pct']} %"
         )
-        + "; "
+        + f"; one-call views {s['one_call_views_pct']} % (>= {CERT_MIN_IN_VIEW} in view; exactly "
+        f"{FIX_MIN_IN_VIEW}: {s['four_in_view_pct']} %, acquired over cycles only)\n  "
         f"in view mean {s['in_view_mean']}, min {s['in_view_min']}, per camera {s['per_camera_mean']}\n"
         f"  worst 1-sigma over fix samples: {worst or 'none (no fix)'}"
     )
