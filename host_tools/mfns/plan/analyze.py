@@ -36,8 +36,9 @@ from .workspace import Workspace
 FIX_MIN_IN_VIEW = 4
 # Beacons in view the acquisition can certify in one call: the certificate's floor
 # (beacon_index.h MFNS_BIDX_MIN_CERT, generated). A view of exactly FIX_MIN_IN_VIEW is
-# below it: certified only by the exhaustive completion, over 1-27 cycles' budget on the
-# module (docs/pose.md), so the share of such views bounds a layout's one-call rate.
+# below it: certified only by the exhaustive completion, over 1-31 cycles' budget on the
+# module's planned layouts (docs/planning.md), so the share of such views bounds a layout's
+# one-call rate.
 CERT_MIN_IN_VIEW = CONSTANTS["MFNS_BIDX_MIN_CERT"]
 TRACK_MIN_IN_VIEW = 3
 AXES = ("x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg")
