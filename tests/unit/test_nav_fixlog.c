@@ -151,8 +151,14 @@ static void test_log_rotates_and_reads_back(void **state)
             pk[i].u.fixobs.cycle = c;
         }
         assert_true(nav_fixlog_record(&log_, &nav, pk, n));
-        const struct timespec wait = {0, 20000000L};
-        (void)nanosleep(&wait, NULL); /* let the writer take each record: files then hold whole ones */
+        /* Let the writer take each record before the next (files then hold ~2
+         * each): wait until it has, not a fixed time, which a loaded machine
+         * can overrun. Bounded: 500 x 2 ms. */
+        const struct timespec wait = {0, 2000000L};
+        for (int t = 0; t < 500 && atomic_load(&log_.tail) != atomic_load(&log_.head); t++) {
+            (void)nanosleep(&wait, NULL);
+        }
+        assert_int_equal(atomic_load(&log_.tail), atomic_load(&log_.head));
     }
     nav_fixlog_close(&log_);
     assert_int_equal(atomic_load(&log_.records), 20);
