@@ -62,6 +62,23 @@ mfns_proj_status_t mfns_cam_project_c(const mfns_intrinsics_t *k, mfns_v3_t p_c,
     return MFNS_PROJ_OK;
 }
 
+void mfns_cam_chain_pose_jac(const mfns_camera_t *cam, mfns_v3_t q, const float jc[2][3], float jac[2][6])
+{
+    /* d p_c / d p_b = C_k_b^T; d p_b / d dtheta = -skew(q); d p_b / d dt = I. */
+    for (int r = 0; r < 2; r++) {
+        /* row r of d f/d p_b = jc C_k_b^T, i.e. C_k_b jc_r */
+        const mfns_v3_t row = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(jc[r][0], jc[r][1], jc[r][2]));
+        /* jb * (-skew(q)) = (q x jb_row)^T as a row: -jb . (e_i x q) = (q x jb)_i */
+        const mfns_v3_t rot = mfns_v3_cross(q, row);
+        jac[r][0] = rot.x;
+        jac[r][1] = rot.y;
+        jac[r][2] = rot.z;
+        jac[r][3] = row.x;
+        jac[r][4] = row.y;
+        jac[r][5] = row.z;
+    }
+}
+
 mfns_v3_t mfns_cam_world_to_camera(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w)
 {
     const mfns_v3_t p_b = mfns_v3_add(mfns_m3_mul_v3_at(&pose->C_w_b, p_w), pose->r_bw_b);
@@ -79,19 +96,7 @@ mfns_proj_status_t mfns_cam_project(const mfns_camera_t *cam, const mfns_pose_t 
     if (st != MFNS_PROJ_OK || jac == NULL) {
         return st;
     }
-    /* d p_c / d p_b = C_k_b^T; d p_b / d dtheta = -skew(q); d p_b / d dt = I. */
-    for (int r = 0; r < 2; r++) {
-        /* row r of d(u,v)/d p_b = jc C_k_b^T, i.e. C_k_b jc_r */
-        const mfns_v3_t row = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(jc[r][0], jc[r][1], jc[r][2]));
-        /* jb * (-skew(q)) = (q x jb_row)^T as a row: -jb . (e_i x q) = (q x jb)_i */
-        const mfns_v3_t rot = mfns_v3_cross(q, row);
-        jac[r][0] = rot.x;
-        jac[r][1] = rot.y;
-        jac[r][2] = rot.z;
-        jac[r][3] = row.x;
-        jac[r][4] = row.y;
-        jac[r][5] = row.z;
-    }
+    mfns_cam_chain_pose_jac(cam, q, jc, jac);
     return MFNS_PROJ_OK;
 }
 

@@ -69,6 +69,12 @@ mfns_proj_status_t mfns_cam_project_c(const mfns_intrinsics_t *k, mfns_v3_t p_c,
 mfns_proj_status_t mfns_cam_project(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w,
                                     float uv[2], float jac[2][6]);
 
+/* Chain rule from the camera frame to the pose increment: given rows
+ * jc = d(f)/d(p_c) of any two-valued function f of p_c, and q = C_w_b p_w (the
+ * rotated world point, body frame), jac = d(f)/d(increment), columns 0-2
+ * dtheta, 3-5 dt. One owner for the projection's and paper mode's Jacobians. */
+void mfns_cam_chain_pose_jac(const mfns_camera_t *cam, mfns_v3_t q, const float jc[2][3], float jac[2][6]);
+
 /* World point -> camera frame (mm). */
 mfns_v3_t mfns_cam_world_to_camera(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w);
 

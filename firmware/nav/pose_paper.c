@@ -22,19 +22,9 @@ static bool algebraic(const mfns_rig_t *rig, const mfns_pose_meas_t *m, const mf
     r[0] = m->x * p_c.z - p_c.x;
     r[1] = m->y * p_c.z - p_c.y;
     if (jac != NULL) {
-        /* d r / d p_c = [[-1, 0, x], [0, -1, y]]; d p_c / d p_b = C_k_b^T */
+        /* d r / d p_c = [[-1, 0, x], [0, -1, y]], chained to the increment */
         const float dc[2][3] = {{-1.0f, 0.0f, m->x}, {0.0f, -1.0f, m->y}};
-        for (int row = 0; row < 2; row++) {
-            /* row of d r / d p_b = dc C_k_b^T, i.e. C_k_b dc_row */
-            const mfns_v3_t jb = mfns_m3_mul_v3_at(&cam->C_k_b, mfns_v3(dc[row][0], dc[row][1], dc[row][2]));
-            const mfns_v3_t rot = mfns_v3_cross(q, jb);
-            jac[row][0] = rot.x;
-            jac[row][1] = rot.y;
-            jac[row][2] = rot.z;
-            jac[row][3] = jb.x;
-            jac[row][4] = jb.y;
-            jac[row][5] = jb.z;
-        }
+        mfns_cam_chain_pose_jac(cam, q, dc, jac);
     }
     return isfinite(r[0]) && isfinite(r[1]);
 }
