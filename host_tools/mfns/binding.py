@@ -57,6 +57,8 @@ MAP_DATUM_PARAMS = 6  # nav_config.h mfns_map_datum_t: shift x y z (mm), turn x 
 TC_PATH_MAX = 64
 TC_SEC_MAC_LEN = 16
 TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
+# pose.h mfns_pose_status_t: the solver's own status (the nav packet's nav_status_t differs)
+POSE_OK, POSE_DEGRADED, POSE_NO_FIX = 0, 1, 2
 
 # (Python value, C expression): binding_check.py asserts each equal
 CONSTANTS = {
@@ -74,6 +76,9 @@ CONSTANTS = {
     "TC_PATH_MAX": (TC_PATH_MAX, "TC_PATH_MAX"),
     "TC_SEC_MAC_LEN": (TC_SEC_MAC_LEN, "TC_SEC_MAC_LEN"),
     "TC_MAX_AUTH": (TC_MAX_AUTH, "TC_MAX_AUTH"),
+    "POSE_OK": (POSE_OK, "MFNS_POSE_OK"),
+    "POSE_DEGRADED": (POSE_DEGRADED, "MFNS_POSE_DEGRADED"),
+    "POSE_NO_FIX": (POSE_NO_FIX, "MFNS_POSE_NO_FIX"),
 }
 
 

@@ -39,6 +39,9 @@ _Static_assert(MFNS_MAP_DATUM_PARAMS == 6, "binding.py MAP_DATUM_PARAMS = 6: C M
 _Static_assert(TC_PATH_MAX == 64, "binding.py TC_PATH_MAX = 64: C TC_PATH_MAX differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_SEC_MAC_LEN == 16, "binding.py TC_SEC_MAC_LEN = 16: C TC_SEC_MAC_LEN differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_MAX_AUTH == 82, "binding.py TC_MAX_AUTH = 82: C TC_MAX_AUTH differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_POSE_OK == 0, "binding.py POSE_OK = 0: C MFNS_POSE_OK differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_POSE_DEGRADED == 1, "binding.py POSE_DEGRADED = 1: C MFNS_POSE_DEGRADED differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_POSE_NO_FIX == 2, "binding.py POSE_NO_FIX = 2: C MFNS_POSE_NO_FIX differs"); /* NOLINT(misc-redundant-expression) */
 
 /* V3 = mfns_v3_t (linalg.h) */
 _Static_assert(sizeof(mfns_v3_t) == 12u, "binding.py V3: 12 bytes here");

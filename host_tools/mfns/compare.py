@@ -437,7 +437,7 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
         for r in exp_runs:
             c = Counter(r.nav.status)
             n = len(r.nav.t_s)
-            ok = c["FIX"] + c["DEGRADED"]
+            ok = sum(c[s] for s in rpt.GOOD_STATUS)
             lines.append(
                 f"| {r.table} | {n} | {c['FIX']} | {c['DEGRADED']} | {c['NO_FIX']} "
                 f"| {100.0 * ok / max(n, 1):.1f} % |"
@@ -566,7 +566,7 @@ PLANNED = {"turntable": "turntable-planned", "module": "module-planned"}
 
 
 def _fix_rate(nav: rpt.NavLog) -> tuple[int, int]:
-    fixes = int(sum(1 for s in nav.status if s in ("FIX", "DEGRADED")))
+    fixes = int(sum(1 for s in nav.status if s in rpt.GOOD_STATUS))
     return fixes, len(nav.status)
 
 

@@ -33,6 +33,9 @@ from .binding import (  # noqa: F401 (re-exported: the names host tools use)
     MAX_PAIRS,
     NO_BEACON,
     NUM_CAMERAS,
+    POSE_DEGRADED,
+    POSE_NO_FIX,
+    POSE_OK,
     V3,
     AcqCycleReport,
     AcqProgress,
@@ -61,7 +64,7 @@ from .binding import (  # noqa: F401 (re-exported: the names host tools use)
 from .binding import load as load_core
 from .errors import MfnsError
 
-STATUS = {0: "OK", 1: "DEGRADED", 2: "NO_FIX"}
+STATUS = {POSE_OK: "OK", POSE_DEGRADED: "DEGRADED", POSE_NO_FIX: "NO_FIX"}  # pose.h, checked at build
 # Reason code -> name: the numbered wire codes of the telemetry dictionary (ground/mdb/mfns_tm.xml,
 # which tests/host/test_tlm_mdb.py holds to pose.h mfns_pose_reason_t).
 REASONS = tlm_dict.reason_names()

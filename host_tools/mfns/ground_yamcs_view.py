@@ -27,6 +27,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 from mfns import ground_yamcs as gy
+from mfns import tlm_dict
 
 # The page: the repository's ground/operator/index.html, or the copy an installed
 # wheel carries (host_tools/setup.py puts it in mfns/data).
@@ -78,7 +79,7 @@ PARAMS = (
 )
 N_COMMANDS = 8  # the last commands shown
 FAILED_RETURN = "Verifier_Failed_Return"  # command history: what the Failed verifier returned
-USABLE = ("FIX", "DEGRADED")  # a pose the flight's integrity checks passed (docs/pose.md)
+USABLE = tlm_dict.usable_status_names()  # a pose the flight's integrity checks passed (docs/pose.md)
 
 
 def iso(t) -> str | None:

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from . import nees as N
+from . import tlm_dict
 from . import validate as V
 from .errors import MfnsError
 
@@ -40,7 +41,7 @@ NAV_COLUMNS = {
 }
 UNITS = {"roll": "deg", "pitch": "deg", "yaw": "deg", "x": "mm", "y": "mm", "z": "mm"}
 TRUTH_HEADER = ["frame", "t_s", "x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"]
-GOOD_STATUS = ("FIX", "DEGRADED")
+GOOD_STATUS = tlm_dict.usable_status_names()  # the nav statuses that carry a pose: FIX, DEGRADED
 
 
 @dataclass

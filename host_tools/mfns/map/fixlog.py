@@ -23,7 +23,7 @@ from ..rotations import euler213_deg_to_matrix
 
 # big-endian struct code of each wire type of the dictionary (tlm_dict.Field.wire_type)
 _FMT = {"u8": "B", "u16": "H", "i16": "h", "u32": "I", "i32": "i", "f32": "f"}
-USABLE = ("FIX", "DEGRADED")
+USABLE = tlm_dict.usable_status_names()  # the nav statuses that carry a pose
 
 
 @dataclass
