@@ -111,6 +111,20 @@ def cfs_checksum(pkt: bytes) -> bytes:
     return bytes(b)
 
 
+def udp_bound(port: int, timeout_s: float = 10.0) -> bool:
+    """Wait until a local UDP socket is bound to 127.0.0.1:port (Linux /proc/net/udp): a
+    datagram sent before the receiver binds is lost, and a fixed sleep is a race on a loaded
+    machine."""
+    want = f"0100007F:{port:04X}"
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        table = Path("/proc/net/udp").read_text().splitlines()[1:]
+        if any(line.split()[1] == want for line in table):
+            return True
+        time.sleep(0.02)
+    return False
+
+
 def make_key(path: Path, key_id: int = 1) -> bytes:
     """A fresh board key in a key file of mode 0600 (never one from the repository)."""
     key = os.urandom(32)
@@ -518,12 +532,12 @@ def test_udp_forward_and_udp_commands(bins, run, tmp_path, key):
     ground = subprocess.Popen(
         [
             str(bins / "mfns-ground"), "--tty", str(fifo), "--out", str(tmp_path / "g2"), "--no-status",
-            "--max-seconds", "1.5", "--tc-file", str(up), "--udp-tc", f"127.0.0.1:{tc_port}",
+            "--max-seconds", "3", "--tc-file", str(up), "--udp-tc", f"127.0.0.1:{tc_port}",
             "--tc-seq-start", "40", "--tc-key", str(key), "--tc-epoch", "3",
         ],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    time.sleep(0.5)
+    assert udp_bound(tc_port), "mfns-ground never bound its UDP command port"
     tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     # Yamcs' CfsCommandPostprocessor: its own count and the cFS checksum in byte 7
     tx.sendto(cfs_checksum(tc_packet(OP["SET_MODE"], 1234, bytes([4]))), ("127.0.0.1", tc_port))
