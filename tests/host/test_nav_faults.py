@@ -195,13 +195,20 @@ def test_telemetry_fifo_without_reader_at_start_is_retried(bins, base, tmp_path)
     fifo = tmp_path / "tlm.fifo"
     os.mkfifo(fifo)
     args = [str(bins / "mfns-nav"), "--table", str(base["table"]), "--replay", str(base["frames"])]
-    nav = subprocess.Popen(
-        [*args, "--tlm-tty", str(fifo), "--realtime", base["init"]],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    time.sleep(0.3)  # the program is running without a reader
+    err_path = tmp_path / "nav.err"
+    with err_path.open("w") as err_f:
+        nav = subprocess.Popen(
+            [*args, "--tlm-tty", str(fifo), "--realtime", base["init"]],
+            stdout=subprocess.DEVNULL,
+            stderr=err_f,
+            text=True,
+        )
+    # the program is running without a reader: wait until it says so (not a fixed time,
+    # which a loaded machine can overrun; bounded at 30 s)
+    deadline = time.monotonic() + 30
+    while "not available yet" not in err_path.read_text() and nav.poll() is None:
+        assert time.monotonic() < deadline, err_path.read_text()
+        time.sleep(0.02)
     # non-blocking, so a program that already gave up cannot hang the test
     fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
     data = b""
@@ -218,7 +225,8 @@ def test_telemetry_fifo_without_reader_at_start_is_retried(bins, base, tmp_path)
         else:
             time.sleep(0.02)
     os.close(fd)
-    _, err = nav.communicate(timeout=60)
+    nav.wait(timeout=60)
+    err = err_path.read_text()
     assert nav.returncode == 0, err
     assert "not available yet" in err and "retrying" in err
     (tmp_path / "t.bin").write_bytes(data)
