@@ -19,7 +19,6 @@ from mfns import __version__
 from mfns.cli import build_parser, main
 
 REPO = Path(__file__).resolve().parents[2]
-BIN = REPO / "build" / "host-sim" / "bin"
 PROGRAMS = ("mfns-nav", "mfns-ground", "mfns-tlm-gen")
 
 
@@ -86,19 +85,6 @@ def test_version_string_has_one_source(tmp_path):
         ["bash", "mk/version.sh", "host_tools/mfns/__init__.py", str(header)], cwd=REPO, check=True
     )
     assert f'#define MFNS_VERSION_STR "{__version__}"' in header.read_text()
-
-
-@pytest.fixture(scope="module")
-def bins() -> Path:
-    res = subprocess.run(
-        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-        cwd=REPO,
-        check=False,
-        capture_output=True,
-        text=True,
-    )
-    assert res.returncode == 0, res.stdout + res.stderr
-    return BIN
 
 
 def run(bins: Path, prog: str, *args: str) -> subprocess.CompletedProcess:

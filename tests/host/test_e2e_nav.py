@@ -18,20 +18,6 @@ import pytest
 from flight_replay import fly_replay, read_csv  # tests/host
 
 REPO = Path(__file__).resolve().parents[2]
-BIN = REPO / "build" / "host-sim" / "bin"
-
-
-@pytest.fixture(scope="module")
-def bins() -> Path:
-    res = subprocess.run(
-        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-        cwd=REPO,
-        check=False,
-        capture_output=True,
-        text=True,
-    )
-    assert res.returncode == 0, res.stdout + res.stderr
-    return BIN
 
 
 def mfns(*args: str) -> subprocess.CompletedProcess:

@@ -25,22 +25,7 @@ from mfns import flight, report, tlm_dict
 from mfns.binding import load as load_core
 
 REPO = Path(__file__).resolve().parents[2]
-BIN = Path(os.environ.get("MFNS_BIN", REPO / "build" / "host-sim" / "bin"))
 MDB = REPO / "ground" / "mdb" / "mfns_tm.xml"
-
-
-@pytest.fixture(scope="module")
-def bins() -> Path:
-    if "MFNS_BIN" not in os.environ:
-        res = subprocess.run(
-            ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-            cwd=REPO,
-            check=False,
-            capture_output=True,
-            text=True,
-        )
-        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    return BIN
 
 
 @pytest.fixture(scope="module")

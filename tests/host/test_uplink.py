@@ -41,7 +41,6 @@ import pytest
 from mfns.table.layout_gen import STATUS
 
 REPO = Path(__file__).resolve().parents[2]
-BIN = REPO / "build" / "host-sim" / "bin"
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
 
 
@@ -145,19 +144,6 @@ def nav_auth(key: Path, state: Path) -> list[str]:
     """mfns-nav's options for signed commands (a fresh state directory: epoch 1)."""
     state.mkdir(exist_ok=True)
     return ["--tc-key", str(key), "--state-dir", str(state)]
-
-
-@pytest.fixture(scope="module")
-def bins() -> Path:
-    res = subprocess.run(
-        ["make", "--no-print-directory", "-j2", "BOARD=host-sim", "flight"],
-        cwd=REPO,
-        check=False,
-        capture_output=True,
-        text=True,
-    )
-    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    return BIN
 
 
 def mfns(*args: str) -> None:
