@@ -26,6 +26,7 @@
 #ifndef MFNS_UNDISTORT_H
 #define MFNS_UNDISTORT_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -51,6 +52,9 @@
  * weights are computed in 32-bit integers. */
 #define MFNS_UNDIST_GRID_MIN_STEP_Q8 256
 #define MFNS_UNDIST_GRID_MAX_STEP_Q8 65535
+/* Where a built grid's first node lies: pixel -0.5, the image corner under the
+ * pixel-centre convention, on both axes. */
+#define MFNS_UNDIST_GRID_ORIGIN_Q8 (-MFNS_PX_Q8_ONE / 2)
 _Static_assert(MFNS_UNDIST_GRID_MIN_STEP_Q8 == MFNS_PX_Q8_ONE, "the smallest node spacing is 1 px");
 _Static_assert(MFNS_UNDIST_GRID_MAX_STEP_Q8 < (1 << 16), "cell weights: t << 16 with t < step fits uint32");
 _Static_assert(MFNS_UNDIST_DEFAULT_ITER <= MFNS_UNDIST_MAX_ITER, "the recommended cap is within the bound");
@@ -108,6 +112,12 @@ mfns_undist_status_t mfns_undistort_grid(const mfns_undist_grid_t *g, const mfns
  * firmware/host/undist_grid_build.c (not in the flight image). */
 mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t nx, uint16_t ny,
                                             q16_16_t (*node)[2], size_t node_cap, mfns_undist_grid_t *g);
+
+/* The builder's node spacing: *step_q8 = ceil(256 * size_px / (n - 1)), so
+ * that n nodes from the corner span size_px. False (step_q8 untouched) when
+ * n < 2 or the spacing is outside [MIN_STEP_Q8, MAX_STEP_Q8]. Host-only, as
+ * the builder (the table tools size their grids with it). */
+bool mfns_undist_grid_step(uint16_t size_px, uint16_t n, px_q8_t *step_q8);
 
 /* Grid header checks shared with the table loader: dims >= 2, steps in range,
  * node not NULL. */

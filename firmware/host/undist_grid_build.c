@@ -6,12 +6,12 @@
 
 #include "undistort.h"
 
-static bool step_for(uint16_t width, uint16_t n, px_q8_t *step)
+bool mfns_undist_grid_step(uint16_t size_px, uint16_t n, px_q8_t *step)
 {
-    if (n < 2) {
+    if (step == NULL || n < 2) {
         return false;
     }
-    const uint32_t span = (uint32_t)width * (uint32_t)MFNS_PX_Q8_ONE;
+    const uint32_t span = (uint32_t)size_px * (uint32_t)MFNS_PX_Q8_ONE;
     const uint32_t s = (span + (uint32_t)n - 2u) / ((uint32_t)n - 1u); /* ceil */
     if (s < MFNS_UNDIST_GRID_MIN_STEP_Q8 || s > MFNS_UNDIST_GRID_MAX_STEP_Q8) {
         return false;
@@ -24,11 +24,11 @@ mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t
                                             q16_16_t (*node)[2], size_t node_cap, mfns_undist_grid_t *g)
 {
     px_q8_t su, sv;
-    if (k == NULL || node == NULL || g == NULL || (size_t)nx * ny > node_cap || !step_for(k->width, nx, &su) ||
-        !step_for(k->height, ny, &sv)) {
+    if (k == NULL || node == NULL || g == NULL || (size_t)nx * ny > node_cap || !mfns_undist_grid_step(k->width, nx, &su) ||
+        !mfns_undist_grid_step(k->height, ny, &sv)) {
         return MFNS_UNDIST_BAD_INPUT;
     }
-    const px_q8_t origin = -128; /* -0.5 px: the image corner */
+    const px_q8_t origin = MFNS_UNDIST_GRID_ORIGIN_Q8;
     for (uint32_t j = 0; j < ny; j++) {
         for (uint32_t i = 0; i < nx; i++) {
             const double u = ((double)origin + (double)i * (double)su) / (double)MFNS_PX_Q8_ONE;

@@ -59,6 +59,9 @@ TC_SEC_MAC_LEN = 16
 TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
 # pose.h mfns_pose_status_t: the solver's own status (the nav packet's nav_status_t differs)
 POSE_OK, POSE_DEGRADED, POSE_NO_FIX = 0, 1, 2
+PX_Q8_ONE = 256  # fixed.h: one pixel in px_q8 (1/256 px)
+UNDIST_GRID_ORIGIN_Q8 = -128  # undistort.h: a built grid's first node, pixel -0.5 (the image corner)
+UNDIST_BAD_INPUT = 1  # undistort.h mfns_undist_status_t
 
 # (Python value, C expression): binding_check.py asserts each equal
 CONSTANTS = {
@@ -79,6 +82,9 @@ CONSTANTS = {
     "POSE_OK": (POSE_OK, "MFNS_POSE_OK"),
     "POSE_DEGRADED": (POSE_DEGRADED, "MFNS_POSE_DEGRADED"),
     "POSE_NO_FIX": (POSE_NO_FIX, "MFNS_POSE_NO_FIX"),
+    "PX_Q8_ONE": (PX_Q8_ONE, "MFNS_PX_Q8_ONE"),
+    "UNDIST_GRID_ORIGIN_Q8": (UNDIST_GRID_ORIGIN_Q8, "MFNS_UNDIST_GRID_ORIGIN_Q8"),
+    "UNDIST_BAD_INPUT": (UNDIST_BAD_INPUT, "MFNS_UNDIST_BAD_INPUT"),
 }
 
 
@@ -482,6 +488,7 @@ PROTOTYPES: dict[str, tuple] = {
         ct.c_int,
         [_P(Intrinsics), ct.c_uint16, ct.c_uint16, _VP, ct.c_size_t, _P(UndistGrid)],
     ),
+    "mfns_undist_grid_step": (ct.c_bool, [ct.c_uint16, ct.c_uint16, _I32P]),
     "mfns_undist_strerror": (ct.c_char_p, [ct.c_int]),
     # pose
     "mfns_pose_abi_size": (_U32, [ct.c_int]),

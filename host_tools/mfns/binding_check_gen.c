@@ -42,6 +42,9 @@ _Static_assert(TC_MAX_AUTH == 82, "binding.py TC_MAX_AUTH = 82: C TC_MAX_AUTH di
 _Static_assert(MFNS_POSE_OK == 0, "binding.py POSE_OK = 0: C MFNS_POSE_OK differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_POSE_DEGRADED == 1, "binding.py POSE_DEGRADED = 1: C MFNS_POSE_DEGRADED differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_POSE_NO_FIX == 2, "binding.py POSE_NO_FIX = 2: C MFNS_POSE_NO_FIX differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_PX_Q8_ONE == 256, "binding.py PX_Q8_ONE = 256: C MFNS_PX_Q8_ONE differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_UNDIST_GRID_ORIGIN_Q8 == -128, "binding.py UNDIST_GRID_ORIGIN_Q8 = -128: C MFNS_UNDIST_GRID_ORIGIN_Q8 differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_UNDIST_BAD_INPUT == 1, "binding.py UNDIST_BAD_INPUT = 1: C MFNS_UNDIST_BAD_INPUT differs"); /* NOLINT(misc-redundant-expression) */
 
 /* V3 = mfns_v3_t (linalg.h) */
 _Static_assert(sizeof(mfns_v3_t) == 12u, "binding.py V3: 12 bytes here");
@@ -570,6 +573,13 @@ void mfns_binding_prototypes(void)
         uint64_t a4 = 0;
         mfns_undist_grid_t a5 = {0};
         int32_t r = mfns_undist_grid_build(&a0, a1, a2, NULL, a4, &a5);
+        (void)r;
+    }
+    {
+        uint16_t a0 = 0;
+        uint16_t a1 = 0;
+        int32_t a2 = {0};
+        _Bool r = mfns_undist_grid_step(a0, a1, &a2);
         (void)r;
     }
     {

@@ -241,6 +241,39 @@ static void test_grid_bad_headers(void **state)
     assert_int_equal(mfns_undist_grid_build(&k_paper[0], 3, 3, g_nodes[0], GNX * GNY, &b), MFNS_UNDIST_BAD_INPUT);
 }
 
+/* The builder's spacing, which the table tools size their grids with: the
+ * ceiling of 256 W / (n - 1), in [1, 256) px, and what a built grid holds. */
+static void test_grid_step(void **state)
+{
+    (void)state;
+    px_q8_t s = -1;
+    assert_true(mfns_undist_grid_step(1280, 76, &s));
+    assert_int_equal(s, 4370); /* 327680 / 75 = 4369.07: rounded up, so 76 nodes reach the far edge */
+    /* 1024 px over 4 cells is 256 px: one LSB beyond the 32-bit weight range; 5 cells fit */
+    assert_false(mfns_undist_grid_step(1024, 5, &s));
+    assert_int_equal(s, 4370); /* untouched on refusal */
+    assert_true(mfns_undist_grid_step(1024, 6, &s));
+    assert_int_equal(s, 52429);
+    /* the 1 px floor: 1000 px over 1003 cells is still 256 after the ceiling, 1004 cells not */
+    assert_true(mfns_undist_grid_step(1000, 1004, &s));
+    assert_int_equal(s, MFNS_UNDIST_GRID_MIN_STEP_Q8);
+    assert_false(mfns_undist_grid_step(1000, 1005, &s));
+    assert_true(mfns_undist_grid_step(1, 2, &s));
+    assert_int_equal(s, MFNS_PX_Q8_ONE);
+    assert_false(mfns_undist_grid_step(1280, 1, &s));
+    assert_false(mfns_undist_grid_step(1280, 0, &s));
+    assert_false(mfns_undist_grid_step(1280, 76, NULL));
+    /* a built grid holds this spacing and starts at the image corner */
+    const mfns_undist_grid_t g = grid_of(0);
+    assert_true(mfns_undist_grid_step(k_paper[0].width, GNX, &s));
+    assert_int_equal(g.step_u_q8, s);
+    assert_true(mfns_undist_grid_step(k_paper[0].height, GNY, &s));
+    assert_int_equal(g.step_v_q8, s);
+    assert_int_equal(g.origin_u_q8, MFNS_UNDIST_GRID_ORIGIN_Q8);
+    assert_int_equal(g.origin_v_q8, MFNS_UNDIST_GRID_ORIGIN_Q8);
+    assert_int_equal(MFNS_UNDIST_GRID_ORIGIN_Q8, -128);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -249,6 +282,7 @@ int main(void)
         cmocka_unit_test(test_grid_accuracy_whole_image),
         cmocka_unit_test(test_grid_nodes_edges_and_outside),
         cmocka_unit_test(test_grid_bad_headers),
+        cmocka_unit_test(test_grid_step),
     };
     return cmocka_run_group_tests_name("undistort", tests, g_setup, NULL);
 }

@@ -13,16 +13,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..binding import UndistGrid
+from ..binding import PX_Q8_ONE as Q8
+from ..binding import UNDIST_BAD_INPUT, UndistGrid
+from ..binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
 from ..camera import Camera
 from ..errors import MfnsError
 from ..flight import Flight
+from . import layout_gen
 from .format import CameraRecord, Grid
 
 MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)
-ORIGIN_Q8 = -128  # pixel -0.5: the image corner under the pixel-centre convention
-MIN_STEP_Q8, MAX_STEP_Q8 = 256, 65535
-UNDIST_BAD_INPUT = 1  # mfns_undist_status_t MFNS_UNDIST_BAD_INPUT (undistort.h)
+MAX_STEP_PX = layout_gen.CONSTANTS["MFNS_UNDIST_GRID_MAX_STEP_Q8"] / Q8  # the loader's widest node spacing
+U16_MAX = 0xFFFF  # the builder's node counts and image sizes are uint16
 
 
 def record_camera(rec: CameraRecord) -> Camera:
@@ -53,13 +55,21 @@ def ideal_pixels(cam: Camera, uv: np.ndarray) -> np.ndarray:
 
 
 def step_q8(size_px: int, n: int) -> int:
-    """Node spacing (1/256 px) so that n nodes from the corner span the whole image."""
+    """Node spacing (1/256 px) so that n nodes from the corner span the whole image: the C
+    builder's own (mfns_undist_grid_step), or MfnsError when it refuses the spacing."""
+    from .check import core
+
     if n < 2:
         raise MfnsError("a grid needs at least 2 nodes per axis")
-    s = -(-size_px * 256 // (n - 1))
-    if not MIN_STEP_Q8 <= s <= MAX_STEP_Q8:
-        raise MfnsError(f"{n} nodes over {size_px} px give a spacing of {s / 256:.2f} px, outside 1..255 px")
-    return s
+    if not (0 <= size_px <= U16_MAX and n <= U16_MAX):
+        raise MfnsError(f"{n} nodes over {size_px} px: beyond the builder's 16-bit range")
+    s = ct.c_int32()
+    if not core().lib.mfns_undist_grid_step(size_px, n, ct.byref(s)):
+        raise MfnsError(
+            f"{n} nodes over {size_px} px give a spacing of {size_px / (n - 1):.2f} px, "
+            f"outside 1..{int(MAX_STEP_PX)} px"
+        )
+    return s.value
 
 
 def build_grid(cam: Camera, nx: int, ny: int, max_nodes: int | None = None) -> Grid:
@@ -114,10 +124,10 @@ def error_samples(cam: Camera, sample_px: float = 1.75) -> ErrorSamples:
     and column."""
     u = np.arange(-0.5, cam.width - 0.5, sample_px)
     v = np.arange(-0.5, cam.height - 0.5, sample_px)
-    uu, vv = np.meshgrid(np.append(u, cam.width - 0.5 - 1 / 256), np.append(v, cam.height - 0.5 - 1 / 256))
-    u_q8 = np.round(uu.ravel() * 256).astype(np.int64)
-    v_q8 = np.round(vv.ravel() * 256).astype(np.int64)
-    return ErrorSamples(u_q8, v_q8, ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / 256.0))
+    uu, vv = np.meshgrid(np.append(u, cam.width - 0.5 - 1 / Q8), np.append(v, cam.height - 0.5 - 1 / Q8))
+    u_q8 = np.round(uu.ravel() * Q8).astype(np.int64)
+    v_q8 = np.round(vv.ravel() * Q8).astype(np.int64)
+    return ErrorSamples(u_q8, v_q8, ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / Q8))
 
 
 REFINE_WITHIN = 0.97  # cells whose lattice maximum is within 3 % of the worst are resampled
@@ -149,13 +159,18 @@ def _refine(
     us, vs = [], []
     for i, j in cells[:REFINE_MAX_CELLS]:
         u0, v0 = g.origin_u_q8 + i * g.step_u_q8, g.origin_v_q8 + j * g.step_v_q8
-        u = np.arange(max(u0, -128), min(u0 + g.step_u_q8, 256 * cam.width - 128 - 1) + 1, REFINE_STEP_Q8)
-        v = np.arange(max(v0, -128), min(v0 + g.step_v_q8, 256 * cam.height - 128 - 1) + 1, REFINE_STEP_Q8)
+        # inside the image [-0.5, W - 0.5): from the corner to the last q8 before the far edge
+        u = np.arange(
+            max(u0, ORIGIN_Q8), min(u0 + g.step_u_q8, Q8 * cam.width + ORIGIN_Q8 - 1) + 1, REFINE_STEP_Q8
+        )
+        v = np.arange(
+            max(v0, ORIGIN_Q8), min(v0 + g.step_v_q8, Q8 * cam.height + ORIGIN_Q8 - 1) + 1, REFINE_STEP_Q8
+        )
         uu, vv = np.meshgrid(u, v)
         us.append(uu.ravel())
         vs.append(vv.ravel())
     u_q8, v_q8 = np.concatenate(us).astype(np.int64), np.concatenate(vs).astype(np.int64)
-    exact = ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / 256.0)
+    exact = ideal_pixels(cam, np.column_stack([u_q8, v_q8]) / Q8)
     return _errors(cam, g, u_q8, v_q8, exact), u_q8, v_q8
 
 
@@ -170,10 +185,10 @@ def grid_error(
     fine, fu, fv = _refine(cam, g, s, err)
     if fine.max() > err.max():
         k = int(np.argmax(fine))
-        worst, where = float(fine[k]), (fu[k] / 256.0, fv[k] / 256.0)
+        worst, where = float(fine[k]), (fu[k] / Q8, fv[k] / Q8)
     else:
         k = int(np.argmax(err))
-        worst, where = float(err[k]), (s.u_q8[k] / 256.0, s.v_q8[k] / 256.0)
+        worst, where = float(err[k]), (s.u_q8[k] / Q8, s.v_q8[k] / Q8)
     return GridError(worst, float(np.sqrt(np.mean(err**2))), where, int(err.size + fine.size))
 
 
@@ -198,7 +213,9 @@ def size_grid(cam: Camera, max_nodes: int, target_px: float = MAX_GRID_ERROR_PX)
     target_px; MfnsError with the figure when even the densest grid within max_nodes is not."""
     cands = _candidates(cam, max_nodes)
     if not cands:
-        raise MfnsError(f"camera {cam.name}: no grid of 1..255 px spacing fits {max_nodes} nodes")
+        raise MfnsError(
+            f"camera {cam.name}: no grid of 1..{int(MAX_STEP_PX)} px spacing fits {max_nodes} nodes"
+        )
     samples = error_samples(cam)
     measured: dict[int, tuple[Grid, GridError]] = {}
 
@@ -213,7 +230,7 @@ def size_grid(cam: Camera, max_nodes: int, target_px: float = MAX_GRID_ERROR_PX)
     if e.max_px > target_px:
         raise MfnsError(
             f"camera {cam.name}: the lens cannot be corrected to {target_px} px within {max_nodes} nodes: "
-            f"the densest grid ({g.nx}x{g.ny}, {g.step_u_q8 / 256:.1f} px spacing) leaves {e.max_px:.4f} px "
+            f"the densest grid ({g.nx}x{g.ny}, {g.step_u_q8 / Q8:.1f} px spacing) leaves {e.max_px:.4f} px "
             f"at ({e.worst_uv[0]:.1f}, {e.worst_uv[1]:.1f})"
         )
     lo, hi = 0, last  # error shrinks with density (~h^2): bisect for the coarsest within target
