@@ -60,6 +60,7 @@ TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
 # pose.h mfns_pose_status_t: the solver's own status (the nav packet's nav_status_t differs)
 POSE_OK, POSE_DEGRADED, POSE_NO_FIX = 0, 1, 2
 PX_Q8_ONE = 256  # fixed.h: one pixel in px_q8 (1/256 px)
+Q16_16_ONE = 65536  # fixed.h: one in Q16.16 (the grid's nodes)
 UNDIST_GRID_ORIGIN_Q8 = -128  # undistort.h: a built grid's first node, pixel -0.5 (the image corner)
 UNDIST_BAD_INPUT = 1  # undistort.h mfns_undist_status_t
 
@@ -83,6 +84,7 @@ CONSTANTS = {
     "POSE_DEGRADED": (POSE_DEGRADED, "MFNS_POSE_DEGRADED"),
     "POSE_NO_FIX": (POSE_NO_FIX, "MFNS_POSE_NO_FIX"),
     "PX_Q8_ONE": (PX_Q8_ONE, "MFNS_PX_Q8_ONE"),
+    "Q16_16_ONE": (Q16_16_ONE, "MFNS_Q16_16_ONE"),
     "UNDIST_GRID_ORIGIN_Q8": (UNDIST_GRID_ORIGIN_Q8, "MFNS_UNDIST_GRID_ORIGIN_Q8"),
     "UNDIST_BAD_INPUT": (UNDIST_BAD_INPUT, "MFNS_UNDIST_BAD_INPUT"),
 }

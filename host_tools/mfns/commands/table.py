@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..binding import PX_Q8_ONE as Q8
 from ..errors import MfnsError
 from ..rotations import matrix_to_euler213_deg
 from ..table.check import TableRefused, check_table, core
@@ -76,7 +77,7 @@ def cmd_build(args) -> int:
     for name, rec, err in zip(CAMERA_NAMES, table.cameras, errors, strict=True):
         g = rec.grid
         print(
-            f"camera {name}: grid {g.nx}x{g.ny} step {g.step_u_q8 / 256:.3f}x{g.step_v_q8 / 256:.3f} px, "
+            f"camera {name}: grid {g.nx}x{g.ny} step {g.step_u_q8 / Q8:.3f}x{g.step_v_q8 / Q8:.3f} px, "
             f"worst-case error {err.max_px:.4f} px at ({err.worst_uv[0]:.1f}, {err.worst_uv[1]:.1f}), "
             f"rms {err.rms_px:.4f} px ({err.samples} samples)"
         )
@@ -159,8 +160,8 @@ def cmd_show(args) -> int:
         print(f"  C_k_b Euler 2-1-3 (roll pitch yaw) deg: {e[0]:.4f} {e[1]:.4f} {e[2]:.4f}")
         print(f"  r_bk_b mm: {_fmt(c.r_bk_b)}")
         print(
-            f"  grid {g.nx}x{g.ny} nodes, origin ({g.origin_u_q8 / 256:g}, {g.origin_v_q8 / 256:g}) px, "
-            f"step {g.step_u_q8 / 256:g} x {g.step_v_q8 / 256:g} px, {g.nx * g.ny * 8} bytes"
+            f"  grid {g.nx}x{g.ny} nodes, origin ({g.origin_u_q8 / Q8:g}, {g.origin_v_q8 / Q8:g}) px, "
+            f"step {g.step_u_q8 / Q8:g} x {g.step_v_q8 / Q8:g} px, {g.nx * g.ny * 8} bytes"
         )
     from ..table.format import index_summary
 

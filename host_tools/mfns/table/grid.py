@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..binding import PX_Q8_ONE as Q8
+from ..binding import Q16_16_ONE as Q16
 from ..binding import UNDIST_BAD_INPUT, UndistGrid
 from ..binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
 from ..camera import Camera
@@ -141,7 +142,7 @@ def _errors(cam: Camera, g: Grid, u_q8: np.ndarray, v_q8: np.ndarray, exact: np.
     val, inside = core().eval_grid(g, u_q8, v_q8)
     if not np.all(inside):
         raise MfnsError(f"camera {cam.name}: the grid does not cover the image")
-    return np.hypot(*(val / 65536.0 - exact).T)
+    return np.hypot(*(val / Q16 - exact).T)
 
 
 def _refine(
