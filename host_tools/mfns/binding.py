@@ -63,6 +63,7 @@ PX_Q8_ONE = 256  # fixed.h: one pixel in px_q8 (1/256 px)
 Q16_16_ONE = 65536  # fixed.h: one in Q16.16 (the grid's nodes)
 UNDIST_GRID_ORIGIN_Q8 = -128  # undistort.h: a built grid's first node, pixel -0.5 (the image corner)
 UNDIST_BAD_INPUT = 1  # undistort.h mfns_undist_status_t
+ACQ_SOURCES = ("NONE", "FRESH", "CARRIED")  # acquire_cycle.h mfns_acq_source_t, indexed by code
 
 # (Python value, C expression): binding_check.py asserts each equal
 CONSTANTS = {
@@ -85,6 +86,8 @@ CONSTANTS = {
     "POSE_NO_FIX": (POSE_NO_FIX, "MFNS_POSE_NO_FIX"),
     "PX_Q8_ONE": (PX_Q8_ONE, "MFNS_PX_Q8_ONE"),
     "Q16_16_ONE": (Q16_16_ONE, "MFNS_Q16_16_ONE"),
+    # each name's position is its code: MFNS_ACQ_SRC_<name> == index, asserted at build
+    **{f"ACQ_SRC_{n}": (i, f"MFNS_ACQ_SRC_{n}") for i, n in enumerate(ACQ_SOURCES)},
     "UNDIST_GRID_ORIGIN_Q8": (UNDIST_GRID_ORIGIN_Q8, "MFNS_UNDIST_GRID_ORIGIN_Q8"),
     "UNDIST_BAD_INPUT": (UNDIST_BAD_INPUT, "MFNS_UNDIST_BAD_INPUT"),
 }
@@ -350,10 +353,6 @@ class AcqCycleReport(ct.Structure):
         ("catchup_steps", ct.c_uint16),
         ("catchup_pending", ct.c_bool),
     ]
-
-
-# mfns_acq_source_t (acquire_cycle.h)
-ACQ_SOURCES = ("NONE", "FRESH", "CARRIED")
 
 
 class CertifyCase(ct.Structure):

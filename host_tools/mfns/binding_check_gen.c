@@ -44,6 +44,9 @@ _Static_assert(MFNS_POSE_DEGRADED == 1, "binding.py POSE_DEGRADED = 1: C MFNS_PO
 _Static_assert(MFNS_POSE_NO_FIX == 2, "binding.py POSE_NO_FIX = 2: C MFNS_POSE_NO_FIX differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_PX_Q8_ONE == 256, "binding.py PX_Q8_ONE = 256: C MFNS_PX_Q8_ONE differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_Q16_16_ONE == 65536, "binding.py Q16_16_ONE = 65536: C MFNS_Q16_16_ONE differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_ACQ_SRC_NONE == 0, "binding.py ACQ_SRC_NONE = 0: C MFNS_ACQ_SRC_NONE differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_ACQ_SRC_FRESH == 1, "binding.py ACQ_SRC_FRESH = 1: C MFNS_ACQ_SRC_FRESH differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(MFNS_ACQ_SRC_CARRIED == 2, "binding.py ACQ_SRC_CARRIED = 2: C MFNS_ACQ_SRC_CARRIED differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_UNDIST_GRID_ORIGIN_Q8 == -128, "binding.py UNDIST_GRID_ORIGIN_Q8 = -128: C MFNS_UNDIST_GRID_ORIGIN_Q8 differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_UNDIST_BAD_INPUT == 1, "binding.py UNDIST_BAD_INPUT = 1: C MFNS_UNDIST_BAD_INPUT differs"); /* NOLINT(misc-redundant-expression) */
 
