@@ -38,10 +38,9 @@ from test_uplink import (
     rows,
     tc_packet,
 )
-from test_uplink import bins as _bins
 from test_uplink import run as _run
 
-bins, run = _bins, _run  # the fixtures (built programs, the 40-frame replay), shared
+run = _run  # the fixture (the 40-frame replay), shared; bins is conftest's
 
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
 TM_XML = REPO / "ground" / "mdb" / "mfns_tm.xml"
