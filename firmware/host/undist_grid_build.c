@@ -24,8 +24,8 @@ mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t
                                             q16_16_t (*node)[2], size_t node_cap, mfns_undist_grid_t *g)
 {
     px_q8_t su, sv;
-    if (k == NULL || node == NULL || g == NULL || (size_t)nx * ny > node_cap || !mfns_undist_grid_step(k->width, nx, &su) ||
-        !mfns_undist_grid_step(k->height, ny, &sv)) {
+    if (k == NULL || node == NULL || g == NULL || (size_t)nx * ny > node_cap ||
+        !mfns_undist_grid_step(k->width, nx, &su) || !mfns_undist_grid_step(k->height, ny, &sv)) {
         return MFNS_UNDIST_BAD_INPUT;
     }
     const px_q8_t origin = MFNS_UNDIST_GRID_ORIGIN_Q8;
