@@ -61,7 +61,7 @@ TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
 POSE_OK, POSE_DEGRADED, POSE_NO_FIX = 0, 1, 2
 PX_Q8_ONE = 256  # fixed.h: one pixel in px_q8 (1/256 px)
 Q16_16_ONE = 65536  # fixed.h: one in Q16.16 (the grid's nodes)
-UNDIST_GRID_ORIGIN_Q8 = -128  # undistort.h: a built grid's first node, pixel -0.5 (the image corner)
+UNDIST_GRID_ORIGIN_Q8 = -PX_Q8_ONE // 2  # undistort.h: a built grid's first node, pixel -0.5
 UNDIST_BAD_INPUT = 1  # undistort.h mfns_undist_status_t
 ACQ_SOURCES = ("NONE", "FRESH", "CARRIED")  # acquire_cycle.h mfns_acq_source_t, indexed by code
 
