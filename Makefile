@@ -56,15 +56,21 @@ endif
 WARN := -Wall -Wextra -Werror -Wconversion -Wshadow -Wdouble-promotion \
         -Wstrict-prototypes -Wmissing-prototypes -Wvla -Wformat=2 -Wundef
 CSTD := -std=c11
-INCLUDES := -I. -Imath -Ifirmware/nav -Ifirmware/tlm -Ifirmware/app \
-            -Idrivers/camera -Idrivers/uart -Iground -Itests/unit/support
+# Every include is written from the repository root (#include "firmware/nav/pose/pose.h"),
+# so no name depends on the order of a search path: -I. is the one root (with build/gen
+# for the build's own generated version header, mk/version.mk). mk/include_graph.py --check
+# (make lint) fails on an include found only through a search path, and on a circle.
+INCLUDES := -I.
 comma := ,
 SAN_FLAGS := $(if $(SAN),-fsanitize=address$(comma)undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
 CFLAGS_ALL = $(CSTD) $(WARN) $(BOARD_CFLAGS) $(BOARD_DEFINES) $(INCLUDES) $(SAN_FLAGS) \
              $(EXTRA_CFLAGS) -MMD -MP
 
+# A folder and its family folders one level down (firmware/nav/pose/, firmware/tlm/generated/).
+tree = $(sort $(wildcard $(addsuffix /*$(2),$(1)) $(addsuffix /*/*$(2),$(1))))
 CORE_DIRS  := math firmware/nav firmware/tlm
-CORE_SRCS  := $(sort $(wildcard $(addsuffix /*.c,$(CORE_DIRS))))
+CORE_SRCS  := $(call tree,$(CORE_DIRS),.c)
+CORE_HDRS  := $(call tree,$(CORE_DIRS),.h)
 # The host-only core: code of the core that runs on the ground only (index
 # and grid builders, the map analysis, the struct-size hooks of the Python
 # binding). Same rules as the core (no OS, no heap) but never in mfns-nav or
@@ -72,9 +78,8 @@ CORE_SRCS  := $(sort $(wildcard $(addsuffix /*.c,$(CORE_DIRS))))
 # tests and the shared library, so a flight module cannot include them.
 HOST_CORE_DIR  := firmware/host
 HOST_CORE_SRCS := $(sort $(wildcard $(HOST_CORE_DIR)/*.c))
-HOST_INCLUDES  := -I$(HOST_CORE_DIR)
 APP_MAINS  := firmware/app/main.c ground/main.c
-LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c ground/*.c)))
+LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c ground/*.c ground/generated/*.c)))
 SUPPORT_SRCS := $(sort $(wildcard tests/unit/support/*.c))
 TEST_SRCS  := $(sort $(wildcard tests/unit/test_*.c))
 TESTS      := $(patsubst tests/unit/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
@@ -147,8 +152,6 @@ $(BUILD)/obj/%.o: %.c boards/$(BOARD)/board.mk
 	@mkdir -p $(@D)
 	$(call say,CC,$<)$(CC) $(CFLAGS_ALL) -c $< -o $@
 
-# Only the host-only core and the tests see the host-only headers.
-$(BUILD)/obj/$(HOST_CORE_DIR)/%.o $(BUILD)/obj/tests/%.o: INCLUDES += $(HOST_INCLUDES)
 
 $(BUILD)/obj/%.o: %.cpp
 	@mkdir -p $(@D)
@@ -196,9 +199,9 @@ lib: build/host-sim/lib/libmfns_core.so
 # ctypes mirrors check their sizes against)
 # CORE_LIB_CC is the library's one recipe: the wheel's build backend runs it too
 # (host_tools/setup.py -> mk/pkg.mk pkg-core-lib).
-CORE_LIB_CC = gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(HOST_INCLUDES) $(CORE_SRCS) $(HOST_CORE_SRCS) -lm
+CORE_LIB_CC = gcc $(CSTD) $(WARN) -O2 -fPIC -shared $(INCLUDES) $(CORE_SRCS) $(HOST_CORE_SRCS) -lm
 build/host-sim/lib/libmfns_core.so: $(CORE_SRCS) $(HOST_CORE_SRCS) \
-                                    $(wildcard $(addsuffix /*.h,$(CORE_DIRS) $(HOST_CORE_DIR)))
+                                    $(CORE_HDRS) $(wildcard $(HOST_CORE_DIR)/*.h)
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(CORE_LIB_CC) -o $@
 

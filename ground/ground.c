@@ -1,7 +1,7 @@
 /* ground.c -- mfns-ground's main loop (see ground.h). */
 #define _DEFAULT_SOURCE /* sigaction under -std=c11 */
 
-#include "ground.h"
+#include "ground/ground.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -11,9 +11,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "ground_out.h"
+#include "ground/ground_out.h"
 #include "mfns_version.h"
-#include "uart.h"
+#include "drivers/uart/uart.h"
 
 static volatile sig_atomic_t g_stop;
 

@@ -11,8 +11,8 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "tlm_decoder.h"
-#include "uart.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "drivers/uart/uart.h"
 
 /* --baud default: the board's UART rate. */
 #ifdef MFNS_BOARD_BAUD

@@ -1,5 +1,5 @@
 /* ground_gen.c -- the synthetic stream of ground_gen.h. */
-#include "ground_gen.h"
+#include "ground/ground_gen.h"
 
 #include <string.h>
 

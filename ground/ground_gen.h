@@ -16,7 +16,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 #define GROUND_GEN_CYCLE_US 53763u /* 1 / 18.6 Hz */
 #define GROUND_GEN_MAX_PER_CYCLE 6u

@@ -1,8 +1,8 @@
 /* ground_out.c -- CSV and JSON Lines writers of the ground station. */
 #define _DEFAULT_SOURCE /* gmtime_r under -std=c11 */
 
-#include "ground_out.h"
-#include "ground_row.h"
+#include "ground/ground_out.h"
+#include "ground/ground_row.h"
 
 #include <errno.h>
 #include <string.h>

@@ -12,9 +12,9 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "tlm_decoder.h"
-#include "time_corr.h"
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "ground/time_corr.h"
+#include "firmware/tlm/tlm_packets.h"
 
 typedef struct {
     FILE *csv[TLM_NUM_TYPES];

@@ -7,7 +7,7 @@
 
 #include <stdint.h>
 
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 #define GROUND_ROW_MAX_COLS 64
 #define GROUND_ROW_VAL_LEN 32

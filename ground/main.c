@@ -4,8 +4,8 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "ground.h"
-#include "uplink.h"
+#include "ground/ground.h"
+#include "ground/uplink.h"
 
 int main(int argc, char **argv)
 {

@@ -1,5 +1,5 @@
 /* tc_sign.c -- see tc_sign.h. */
-#include "tc_sign.h"
+#include "ground/tc_sign.h"
 
 tc_status_t tc_sign_frame(const tc_auth_key_t *key, const tc_cmd_t *cmd, uint16_t seq, uint64_t arsn,
                           uint8_t *out, size_t cap, size_t *out_len)

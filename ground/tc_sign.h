@@ -9,8 +9,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tc_auth.h"
-#include "tc_packets.h"
+#include "firmware/app/tc_auth.h"
+#include "firmware/tlm/tc_packets.h"
 
 /* The wire frame of cmd signed with key (id = SPI) and arsn into out[0..cap).
  * TC_OK, or the codec's status (TC_E_NULL also when the MAC failed). */

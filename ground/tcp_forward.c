@@ -2,7 +2,7 @@
 #define _DEFAULT_SOURCE /* accept4 */
 #define _GNU_SOURCE
 
-#include "tcp_forward.h"
+#include "ground/tcp_forward.h"
 
 #include <errno.h>
 #include <netinet/in.h>
@@ -12,7 +12,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "udp_forward.h"
+#include "ground/udp_forward.h"
 
 #define CCSDS_LEN_OFFSET 4u /* the packet data length field: bytes after the primary header - 1 */
 #define CCSDS_PRIMARY 6u

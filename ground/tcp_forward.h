@@ -25,7 +25,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 /* About three minutes of the demo's telemetry (~50 packets/s of <= 200 bytes). */
 #define TCP_FWD_QUEUE_BYTES (2u * 1024u * 1024u)

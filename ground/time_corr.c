@@ -1,9 +1,9 @@
 /* time_corr.c -- see time_corr.h. */
-#include "time_corr.h"
+#include "ground/time_corr.h"
 
 #include <string.h>
 
-#include "tlm_codes_gen.h"
+#include "firmware/tlm/generated/tlm_codes_gen.h"
 
 /* a flight clock that goes back by more than this is a restart (telemetry of
  * one boot arrives in time order; a shuffle within a second is not a reboot) */

@@ -16,7 +16,7 @@
 
 #include <stdint.h>
 
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 typedef enum {
     TIME_SRC_GROUND_RECEIPT = 0,

@@ -1,7 +1,7 @@
 /* udp_forward.c -- see udp_forward.h. */
 #define _DEFAULT_SOURCE /* inet_pton, struct ip_mreq under -std=c11 */
 
-#include "udp_forward.h"
+#include "ground/udp_forward.h"
 
 #include <arpa/inet.h>
 #include <errno.h>

@@ -20,8 +20,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tc_packets.h"
-#include "tlm_packets.h"
+#include "firmware/tlm/tc_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 typedef struct {
     int fd; /* -1 when off */

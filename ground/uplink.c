@@ -1,7 +1,7 @@
 /* uplink.c -- see uplink.h. */
 #define _DEFAULT_SOURCE /* strcasecmp, strtok_r under -std=c11 */
 
-#include "uplink.h"
+#include "ground/uplink.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -12,7 +12,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "txq_drain.h"
+#include "firmware/app/txq_drain.h"
 
 #define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
 #define TCP_CLOSE_MS 3000u /* what the TCP receiver still takes at exit, at most (bounded) */

@@ -33,12 +33,12 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "ground.h"
-#include "tc_packets.h"
-#include "tlm_txq.h"
-#include "tcp_forward.h"
-#include "udp_forward.h"
-#include "uplink_auth.h"
+#include "ground/ground.h"
+#include "firmware/tlm/tc_packets.h"
+#include "firmware/tlm/tlm_txq.h"
+#include "ground/tcp_forward.h"
+#include "ground/udp_forward.h"
+#include "ground/uplink_auth.h"
 
 #define UPLINK_MAX_CLI 32   /* --cmd options */
 #define UPLINK_LINE_MAX 256 /* a command line, bytes */

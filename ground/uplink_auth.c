@@ -1,6 +1,6 @@
 /* uplink_auth.c -- see uplink_auth.h. */
-#include "uplink_auth.h"
-#include "tc_sign.h"
+#include "ground/uplink_auth.h"
+#include "ground/tc_sign.h"
 
 #include <stdio.h>
 #include <string.h>

@@ -19,8 +19,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tc_auth.h"
-#include "tlm_packets.h"
+#include "firmware/app/tc_auth.h"
+#include "firmware/tlm/tlm_packets.h"
 
 typedef struct {
     bool on;                 /* --tc-key given */

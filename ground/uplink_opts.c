@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "uplink.h"
+#include "ground/uplink.h"
 
 void uplink_usage(FILE *f)
 {

@@ -1,5 +1,5 @@
 /* fixed.c -- see fixed.h. */
-#include "fixed.h"
+#include "math/fixed.h"
 
 #include <math.h>
 

@@ -1,6 +1,6 @@
 /* linalg.c -- see linalg.h. */
-#include "linalg.h"
-#include "core_inline.h"
+#include "math/linalg.h"
+#include "math/core_inline.h"
 
 #include <math.h>
 

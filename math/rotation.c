@@ -1,5 +1,5 @@
 /* rotation.c -- see rotation.h. */
-#include "rotation.h"
+#include "math/rotation.h"
 
 #include <math.h>
 

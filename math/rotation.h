@@ -6,7 +6,7 @@
 #ifndef MFNS_ROTATION_H
 #define MFNS_ROTATION_H
 
-#include "linalg.h"
+#include "math/linalg.h"
 
 /* Frame (passive) rotations of the paper:
  * R1(a) = [[1,0,0],[0,c,s],[0,-s,c]], R2(a) = [[c,0,-s],[0,1,0],[s,0,c]],

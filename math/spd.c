@@ -1,6 +1,6 @@
 /* spd.c -- see spd.h. */
-#include "spd.h"
-#include "core_text.h"
+#include "math/spd.h"
+#include "math/core_text.h"
 
 #include <math.h>
 #include <stddef.h>

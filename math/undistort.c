@@ -1,6 +1,6 @@
 /* undistort.c -- see undistort.h. */
-#include "undistort.h"
-#include "core_text.h"
+#include "math/undistort.h"
+#include "math/core_text.h"
 
 #include <math.h>
 

@@ -1,5 +1,5 @@
 /* undistort.h -- distortion correction: pixel -> undistorted coordinates, the
- * inverse of the lens model of camera.h (docs/system.md §3), in two forms.
+ * inverse of the lens model of lens.h (docs/system.md §3), in two forms.
  *
  * (a) mfns_undistort_iter: Newton iteration on the forward model, capped at
  *     max_iter updates (the cap is the caller's, at most MFNS_UNDIST_MAX_ITER).
@@ -30,8 +30,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "camera.h"
-#include "fixed.h"
+#include "math/lens.h"
+#include "math/fixed.h"
 
 /* (a): hard upper bound of the caller's iteration cap, the recommended cap
  * (the paper's lenses converge in <= 2 updates over the whole image, measured

@@ -9,10 +9,10 @@ BINDING_PY     := host_tools/mfns/binding.py host_tools/mfns/errors.py
 BINDING_C      := host_tools/mfns/binding_check_gen.c
 BINDING_STAMP  := build/host-sim/lib/binding-check.stamp
 
-$(BINDING_STAMP): $(BINDING_C) $(BINDING_GEN_PY) $(BINDING_PY) $(wildcard $(addsuffix /*.h,$(CORE_DIRS) $(HOST_CORE_DIR)))
+$(BINDING_STAMP): $(BINDING_C) $(BINDING_GEN_PY) $(BINDING_PY) $(CORE_HDRS) $(wildcard $(HOST_CORE_DIR)/*.h)
 	@mkdir -p $(@D)
 	@python3 $(BINDING_GEN_PY) --check
-	gcc $(CSTD) $(WARN) -fsyntax-only $(INCLUDES) $(HOST_INCLUDES) $(BINDING_C)
+	gcc $(CSTD) $(WARN) -fsyntax-only $(INCLUDES) $(BINDING_C)
 	@touch $@
 
 .PHONY: binding-check

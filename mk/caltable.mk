@@ -7,7 +7,7 @@
 # mk/gen_caltable.py (plain python3: it runs before the venv exists) into committed
 # files. Every `make` of all, size, lib and tests checks they are not stale: edit the
 # definition, run `python3 mk/gen_caltable.py`, commit both.
-# Generated: firmware/nav/caltable_layout_gen.h/.c, firmware/nav/nav_defaults_gen.c,
+# Generated: firmware/nav/generated/caltable_layout_gen.h/.c, firmware/nav/generated/nav_defaults_gen.c,
 # host_tools/mfns/table/layout_gen.py and the tables of docs/caltable.md.
 .PHONY: caltable-gen-check
 caltable-gen-check:

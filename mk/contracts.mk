@@ -11,10 +11,10 @@
 
 CONTRACTS_SRCS := host_tools/mfns/data/mfns_tm.xml host_tools/mfns/data/mfns_tc.xml \
                   host_tools/mfns/tlm_dict.py mk/gen_contracts.py mk/gen_output.py
-CONTRACTS_OUTS := firmware/tlm/tlm_codes_gen.h firmware/nav/nav_codes_gen.h \
-                  firmware/tlm/tlm_packets_gen.h firmware/tlm/tlm_packets_gen.c \
-                  firmware/tlm/tc_codes_gen.h firmware/tlm/tc_packets_gen.c \
-                  ground/ground_cols_gen.c docs/telemetry.md docs/uplink.md
+CONTRACTS_OUTS := firmware/tlm/generated/tlm_codes_gen.h firmware/nav/generated/nav_codes_gen.h \
+                  firmware/tlm/generated/tlm_packets_gen.h firmware/tlm/generated/tlm_packets_gen.c \
+                  firmware/tlm/generated/tc_codes_gen.h firmware/tlm/generated/tc_packets_gen.c \
+                  ground/generated/ground_cols_gen.c docs/telemetry.md docs/uplink.md
 CONTRACTS_STAMP := build/.contracts-ok
 
 .PHONY: contracts contracts-check

@@ -33,7 +33,7 @@ FUZZ_TARGETS += $(addprefix fuzz-,$(READER_FUZZERS))
 TEST_SUITES  += fuzz-readers-brief
 .PHONY: $(addprefix fuzz-,$(READER_FUZZERS)) fuzz-readers-brief
 
-build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(wildcard drivers/camera/replay_*.[ch] firmware/nav/*.h math/*.h firmware/app/nav_conf.[ch])
+build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(CORE_HDRS) $(wildcard drivers/camera/replay_*.[ch] firmware/app/nav_conf.[ch])
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_FLAGS) $(INCLUDES) $< $(fuzz_srcs_$*) -lm -o $@
 

@@ -9,13 +9,13 @@ host_tools/mfns/data/mfns_tm.xml (telemetry) and mfns_tc.xml (telecommands), rea
 host_tools/mfns/tlm_dict.py (standard library only, loaded here by path so this runs with
 plain python3 before any venv exists). Outputs, all committed:
 
-    firmware/tlm/tlm_codes_gen.h    numbered TM codes (status, mode, camera, severity, events)
-    firmware/nav/nav_codes_gen.h    the nav core's reason codes (mfns_pose_reason_t)
-    firmware/tlm/tlm_packets_gen.h  packet types, APIDs, payload lengths, one struct per packet
-    firmware/tlm/tlm_packets_gen.c  code names, payload pack/unpack/range check per packet
-    firmware/tlm/tc_codes_gen.h     TC APID, opcodes (+ TC_OPCODE_LIST), rejection codes, ranges
-    firmware/tlm/tc_packets_gen.c   argument lengths, names, pack/unpack/range check per opcode
-    ground/ground_cols_gen.c        the ground station's CSV/JSON columns per packet
+    firmware/tlm/generated/tlm_codes_gen.h    numbered TM codes (status, mode, camera, severity, events)
+    firmware/nav/generated/nav_codes_gen.h    the nav core's reason codes (mfns_pose_reason_t)
+    firmware/tlm/generated/tlm_packets_gen.h  packet types, APIDs, payload lengths, one struct per packet
+    firmware/tlm/generated/tlm_packets_gen.c  code names, payload pack/unpack/range check per packet
+    firmware/tlm/generated/tc_codes_gen.h     TC APID, opcodes (+ TC_OPCODE_LIST), rejection codes, ranges
+    firmware/tlm/generated/tc_packets_gen.c   argument lengths, names, pack/unpack/range check per opcode
+    ground/generated/ground_cols_gen.c        the ground station's CSV/JSON columns per packet
     docs/telemetry.md, docs/uplink.md  the tables between their tlm_dict/tc_dict markers
 
 What is not in the XTCE (the C spelling of each code family) is the table C_ENUMS below.
@@ -208,8 +208,8 @@ def tlm_packets_h(d) -> str:
         "#include <stddef.h>",
         "#include <stdint.h>",
         "",
-        '#include "ccsds.h"',
-        '#include "tlm_codes_gen.h"',
+        '#include "firmware/tlm/ccsds.h"',
+        '#include "firmware/tlm/generated/tlm_codes_gen.h"',
         "",
         "typedef enum {",
     ]
@@ -420,13 +420,13 @@ def tlm_packets_c(d) -> str:
     L = [
         banner(TM_SRC).rstrip(),
         "/* tlm_packets_gen.c -- code names and the payload layout of every packet. */",
-        '#include "tlm_packets.h"',
+        '#include "firmware/tlm/tlm_packets.h"',
         "",
         "#include <math.h>",
         "#include <stddef.h>",
         "#include <string.h>",
         "",
-        '#include "core_text.h"',
+        '#include "math/core_text.h"',
         "",
         "static int16_t get_i16(const uint8_t *b)",
         "{",
@@ -560,7 +560,7 @@ def ground_cols_c(d) -> str:
         " * packet, after t_s and seq: the XTCE parameters (names without the packet prefix, as the",
         " * Python readers read them) in wire order unless ground_after says otherwise; calibrated",
         " * values printed exactly (fixed point from the wire integer), codes by their label. */",
-        '#include "ground_row.h"',
+        '#include "ground/ground_row.h"',
         "",
         "@ASSERT@",
         "",
@@ -805,12 +805,12 @@ def tc_packets_c(t) -> str:
     L = [
         banner(TC_SRC).rstrip(),
         "/* tc_packets_gen.c -- opcode and status names, argument lengths, layouts and ranges. */",
-        '#include "tc_packets.h"',
+        '#include "firmware/tlm/tc_packets.h"',
         "",
         "#include <string.h>",
         "",
-        '#include "core_text.h"',
-        '#include "tlm_packets.h"',
+        '#include "math/core_text.h"',
+        '#include "firmware/tlm/tlm_packets.h"',
         "",
     ]
     st = sorted(t.statuses.items())
@@ -950,13 +950,13 @@ def outputs(tm_path: Path = TM_XML, tc_path: Path = TC_XML) -> dict[Path, str]:
         e.get("name"): e.get("shortDescription", "") for e in root.iter(td._X + "EnumeratedParameterType")
     }
     out = {
-        REPO / "firmware/tlm/tlm_codes_gen.h": tlm_codes_h(d, types_doc),
-        REPO / "firmware/nav/nav_codes_gen.h": nav_codes_h(d, types_doc),
-        REPO / "firmware/tlm/tlm_packets_gen.h": tlm_packets_h(d),
-        REPO / "firmware/tlm/tlm_packets_gen.c": tlm_packets_c(d),
-        REPO / "ground/ground_cols_gen.c": ground_cols_c(d),
-        REPO / "firmware/tlm/tc_codes_gen.h": tc_codes_h(t),
-        REPO / "firmware/tlm/tc_packets_gen.c": tc_packets_c(t),
+        REPO / "firmware/tlm/generated/tlm_codes_gen.h": tlm_codes_h(d, types_doc),
+        REPO / "firmware/nav/generated/nav_codes_gen.h": nav_codes_h(d, types_doc),
+        REPO / "firmware/tlm/generated/tlm_packets_gen.h": tlm_packets_h(d),
+        REPO / "firmware/tlm/generated/tlm_packets_gen.c": tlm_packets_c(d),
+        REPO / "ground/generated/ground_cols_gen.c": ground_cols_c(d),
+        REPO / "firmware/tlm/generated/tc_codes_gen.h": tc_codes_h(t),
+        REPO / "firmware/tlm/generated/tc_packets_gen.c": tc_packets_c(t),
     }
     doc = REPO / "docs/telemetry.md"
     out[doc] = td.render_doc(doc.read_text(), d)

@@ -6,7 +6,7 @@ py=$1
 rc=0
 mkdir -p build
 csrc=$(git ls-files -co --exclude-standard -- '*.c' '*.h' | grep -v '^build/' | sort)
-inc="-I. -Imath -Ifirmware/nav -Ifirmware/host -Ifirmware/tlm -Ifirmware/app -Idrivers/camera -Idrivers/uart -Iground -Itests/unit/support -Ibuild/gen"
+inc="-I. -Ibuild/gen"
 # shellcheck disable=SC2086
 if ! cppcheck --quiet --error-exitcode=1 --std=c11 --enable=warning,portability,performance \
      --inline-suppr --suppress=missingIncludeSystem $inc -D__GNUC__ $csrc; then

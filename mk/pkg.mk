@@ -10,7 +10,7 @@ PYTHON ?= python3
 pkg-core-lib:
 	@test -n "$(PKG_CORE_LIB)" || { echo "pkg-core-lib: set PKG_CORE_LIB=<output path>" >&2; exit 2; }
 	@$(PYTHON) $(BINDING_GEN_PY) --check
-	@gcc $(CSTD) $(WARN) -fsyntax-only $(INCLUDES) $(HOST_INCLUDES) $(BINDING_C)
+	@gcc $(CSTD) $(WARN) -fsyntax-only $(INCLUDES) $(BINDING_C)
 	@mkdir -p $(dir $(PKG_CORE_LIB))
 	@$(CORE_LIB_CC) -o $(PKG_CORE_LIB)
 

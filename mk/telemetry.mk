@@ -11,7 +11,7 @@
 TLM_FUZZ_CC      ?= clang
 TLM_FUZZ_SECONDS ?= 60
 TLM_FUZZ_BIN     := build/fuzz/fuzz_tlm_decoder
-TLM_FUZZ_SRCS    := tests/fuzz/fuzz_tlm_decoder.c $(sort $(wildcard firmware/tlm/*.c))
+TLM_FUZZ_SRCS    := tests/fuzz/fuzz_tlm_decoder.c $(call tree,firmware/tlm,.c)
 
 FUZZ_TARGETS += fuzz-tlm-decoder
 TEST_SUITES  += fuzz-brief
@@ -19,10 +19,10 @@ TEST_SUITES  += fuzz-brief
 
 tlm-docs: contracts
 
-$(TLM_FUZZ_BIN): $(TLM_FUZZ_SRCS) $(wildcard firmware/tlm/*.h)
+$(TLM_FUZZ_BIN): $(TLM_FUZZ_SRCS) $(call tree,firmware/tlm,.h)
 	@mkdir -p $(@D)
 	$(TLM_FUZZ_CC) -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-	  -Ifirmware/tlm -Imath $(TLM_FUZZ_SRCS) -o $@
+	  -I. $(TLM_FUZZ_SRCS) -o $@
 
 fuzz-tlm-decoder: $(TLM_FUZZ_BIN)
 	@mk/fuzz_run.sh fuzz-tlm-decoder $(TLM_FUZZ_BIN) build/fuzz/corpus-tlm $(TLM_FUZZ_SECONDS) 0 4096
@@ -44,8 +44,8 @@ endif
 # make bench: codec throughput on the host (encode frames/s, decode MB/s).
 BENCH_TARGETS += bench-tlm
 .PHONY: bench-tlm
-build/bench/bench_tlm: tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) $(wildcard firmware/tlm/*.h)
+build/bench/bench_tlm: tests/bench/bench_tlm.c $(call tree,firmware/tlm,.c) $(call tree,firmware/tlm,.h)
 	@mkdir -p $(@D)
-	gcc $(CSTD) $(WARN) -O2 -Ifirmware/tlm -Imath tests/bench/bench_tlm.c $(sort $(wildcard firmware/tlm/*.c)) -o $@
+	gcc $(CSTD) $(WARN) -O2 -I. tests/bench/bench_tlm.c $(call tree,firmware/tlm,.c) -o $@
 bench-tlm: build/bench/bench_tlm
 	@build/bench/bench_tlm

@@ -12,15 +12,15 @@
 #                            namespace: nsenter --net=/proc/PID/ns/net make ground-view
 
 TC_FUZZ_BIN  := build/fuzz/fuzz_tc_decoder
-TC_FUZZ_SRCS := tests/fuzz/fuzz_tc_decoder.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd_dispatch.c
+TC_FUZZ_SRCS := tests/fuzz/fuzz_tc_decoder.c $(call tree,firmware/tlm,.c) firmware/app/nav_cmd_dispatch.c
 
 FUZZ_TARGETS += fuzz-tc-decoder
 TEST_SUITES  += fuzz-tc-brief
 .PHONY: fuzz-tc-decoder fuzz-tc-brief ground-yamcs ground-view
 
-$(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(wildcard firmware/tlm/*.h) firmware/app/nav_cmd_dispatch.h
+$(TC_FUZZ_BIN): $(TC_FUZZ_SRCS) $(call tree,firmware/tlm,.h) firmware/app/nav_cmd_dispatch.h
 	@mkdir -p $(@D)
-	$(FUZZ_CC) $(FUZZ_FLAGS) -Ifirmware/tlm -Imath -Ifirmware/app $(TC_FUZZ_SRCS) -o $@
+	$(FUZZ_CC) $(FUZZ_FLAGS) -I. $(TC_FUZZ_SRCS) -o $@
 
 fuzz-tc-decoder: $(TC_FUZZ_BIN)
 	@mk/fuzz_run.sh fuzz-tc-decoder $(TC_FUZZ_BIN) build/fuzz/corpus-tc $(FUZZ_SECONDS) 0 4096 tests/fuzz/corpus/tc_decoder
@@ -33,16 +33,16 @@ fuzz-tc-brief: $(TC_FUZZ_BIN)
 # fuzzer, and mfns-ground's command inputs (grammar, UDP/Unix datagram intake, signing).
 #   make fuzz-tc-auth fuzz-uplink-grammar   FUZZ_SECONDS (60) s each, corpora in build/fuzz/
 TC_AUTH_FUZZERS := tc_auth uplink_grammar
-fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(sort $(wildcard firmware/tlm/*.c)) firmware/app/nav_cmd_dispatch.c \
+fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(call tree,firmware/tlm,.c) firmware/app/nav_cmd_dispatch.c \
                      firmware/app/tc_auth.c ground/tc_sign.c
-fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(sort $(wildcard firmware/tlm/*.c)) \
+fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(call tree,firmware/tlm,.c) \
                      firmware/app/tc_auth.c firmware/app/txq_drain.c ground/uplink.c ground/uplink_auth.c ground/tc_sign.c \
                      ground/udp_forward.c ground/tcp_forward.c $(sort $(wildcard drivers/uart/*.c))
 FUZZ_TARGETS += $(addprefix fuzz-,$(subst _,-,$(TC_AUTH_FUZZERS)))
 .PHONY: fuzz-tc-auth fuzz-uplink-grammar
 
 define auth_fuzz_bin
-build/fuzz/fuzz_$(1): $$(fuzz_srcs_$(1)) $$(wildcard firmware/tlm/*.h firmware/app/*.h ground/*.h)
+build/fuzz/fuzz_$(1): $$(fuzz_srcs_$(1)) $$(call tree,firmware/tlm,.h) $$(wildcard firmware/app/*.h ground/*.h)
 	@mkdir -p $$(@D)
 	$$(FUZZ_CC) $$(FUZZ_FLAGS) -DMFNS_HAVE_LIBCRYPTO=1 $$(INCLUDES) $$(fuzz_srcs_$(1)) \
 	  $$(shell pkg-config --libs libserialport) -lcrypto -lm -o $$@

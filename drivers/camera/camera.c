@@ -3,7 +3,7 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "camera.h"
+#include "drivers/camera/camera.h"
 
 #include <stdarg.h>
 #include <stdatomic.h>
@@ -11,9 +11,9 @@
 #include <string.h>
 #include <time.h>
 
-#include "camera_backend.h"
+#include "drivers/camera/camera_backend.h"
 #if defined(MFNS_HAVE_LIBCAMERA)
-#include "camera_libcamera.h"
+#include "drivers/camera/camera_libcamera.h"
 
 const mfns_cam_backend_ops_t mfns_cam_libcamera_ops = {mfns_lcam_open,    mfns_lcam_start, mfns_lcam_dequeue,
                                                        mfns_lcam_requeue, mfns_lcam_stop,  mfns_lcam_close,

@@ -2,7 +2,7 @@
  * delivers the frames: a V4L2 device, libcamera, or a replayed `mfns sim nav`
  * frame folder (docs/cameras.md).
  *
- * Include it as "drivers/camera/camera.h": math/camera.h (the imaging model)
+ * Include it as "drivers/camera/camera.h": math/lens.h (the imaging model)
  * has the same base name and comes first on the include path.
  *
  * Life cycle:  open -> start -> { dequeue -> use -> requeue }* -> stop -> close
@@ -119,7 +119,7 @@ typedef struct {
 
 /* Where a frame's timestamp_ns comes from (V4L2 buffer flags
  * V4L2_BUF_FLAG_TIMESTAMP_MASK and V4L2_BUF_FLAG_TSTAMP_SRC_MASK, portable):
- * the camera data health checks (firmware/nav/frame_health.h) compare a
+ * the camera data health checks (firmware/nav/frames/frame_health.h) compare a
  * capture stamp with the frame's arrival only when both are on one clock. */
 typedef enum {
     MFNS_CAM_TS_UNKNOWN = 0,     /* V4L2 TIMESTAMP_UNKNOWN (or no statement) */

@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "camera.h"
+#include "drivers/camera/camera.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -5,7 +5,7 @@
 // (one slot per request) guarded by a mutex, and dequeue waits on a condition
 // variable with the caller's timeout. No exception crosses into C: every
 // entry point catches and turns it into an error code.
-#include "camera_libcamera.h"
+#include "drivers/camera/camera_libcamera.h"
 
 #include <sys/mman.h>
 
@@ -20,7 +20,7 @@
 
 #include <libcamera/libcamera.h>
 
-#include "camera_backend.h"
+#include "drivers/camera/camera_backend.h"
 
 using namespace libcamera;
 

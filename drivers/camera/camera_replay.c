@@ -29,10 +29,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "camera_backend.h"
-#include "replay_index.h"
-#include "replay_pgm.h"
-#include "replay_scenario.h"
+#include "drivers/camera/camera_backend.h"
+#include "drivers/camera/replay_index.h"
+#include "drivers/camera/replay_pgm.h"
+#include "drivers/camera/replay_scenario.h"
 
 #define MAX_READ_TRIES 1024 /* EINTR retries and waits for one read */
 #define READ_TIMED_OUT (-2)

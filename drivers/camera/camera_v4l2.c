@@ -14,15 +14,15 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "camera_v4l2.h"
+#include "drivers/camera/camera_v4l2.h"
 
 #include <errno.h>
 #include <linux/videodev2.h>
 #include <stdio.h>
 #include <string.h>
 
-#include "camera_backend.h"
-#include "camera_v4l2_internal.h"
+#include "drivers/camera/camera_backend.h"
+#include "drivers/camera/camera_v4l2_internal.h"
 
 /* Buffer indices from the driver are below VIDEO_MAX_FRAME; the handle's
  * table holds MFNS_CAM_MAX_BUFFERS of them. */

@@ -5,7 +5,7 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "camera_v4l2.h"
+#include "drivers/camera/camera_v4l2.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -14,8 +14,8 @@
 #include <string.h>
 #include <sys/mman.h>
 
-#include "camera_backend.h"
-#include "camera_v4l2_internal.h"
+#include "drivers/camera/camera_backend.h"
+#include "drivers/camera/camera_v4l2_internal.h"
 
 /* ---- pixel formats ------------------------------------------------------- */
 static uint32_t to_fourcc(mfns_cam_pixfmt_t f)

@@ -10,7 +10,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "camera_v4l2.h"
+#include "drivers/camera/camera_v4l2.h"
 
 #define BUS_PREFIX "bus_info:"
 #define CARD_PREFIX "card:"

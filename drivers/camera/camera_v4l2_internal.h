@@ -14,8 +14,8 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "camera_backend.h"
-#include "camera_v4l2.h"
+#include "drivers/camera/camera_backend.h"
+#include "drivers/camera/camera_v4l2.h"
 
 /* ---- the seam (camera_v4l2_sys.c) ---------------------------------------- */
 

@@ -5,7 +5,7 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "camera_v4l2.h"
+#include "drivers/camera/camera_v4l2.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -13,8 +13,8 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "camera_backend.h"
-#include "camera_v4l2_internal.h"
+#include "drivers/camera/camera_backend.h"
+#include "drivers/camera/camera_v4l2_internal.h"
 
 /* ---- the real syscalls ------------------------------------------------- */
 static int sys_open(void *ctx, const char *path, int flags)

@@ -1,5 +1,5 @@
 /* replay_index.c -- see replay_index.h. */
-#include "replay_index.h"
+#include "drivers/camera/replay_index.h"
 
 #include <errno.h>
 #include <math.h>

@@ -1,5 +1,5 @@
 /* replay_pgm.c -- see replay_pgm.h. */
-#include "replay_pgm.h"
+#include "drivers/camera/replay_pgm.h"
 
 #include <stdio.h>
 #include <string.h>

@@ -2,7 +2,7 @@
  * (RFC 8259 syntax, iterative with an explicit depth stack: every loop is
  * bounded by the input length) that remembers the raw text of the two
  * top-level members it needs. */
-#include "replay_scenario.h"
+#include "drivers/camera/replay_scenario.h"
 
 #include <stdint.h>
 #include <stdio.h>

@@ -2,7 +2,7 @@
  * POSIX file-descriptor backend. See uart.h. */
 #define _DEFAULT_SOURCE /* cfmakeraw, cfsetspeed under -std=c11 */
 
-#include "uart.h"
+#include "drivers/uart/uart.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -6,7 +6,7 @@
 #include <libserialport.h>
 #include <unistd.h>
 
-#include "uart.h"
+#include "drivers/uart/uart.h"
 
 static int fail_code(mfns_uart_t *u, enum sp_return r, int gone_default)
 {

@@ -1,7 +1,7 @@
 /* caltable_file.c -- see caltable_file.h. */
 #define _DEFAULT_SOURCE /* fdopen, O_CLOEXEC under -std=c11 */
 
-#include "caltable_file.h"
+#include "firmware/app/caltable_file.h"
 
 #include <fcntl.h>
 #include <stdio.h>

@@ -1,6 +1,6 @@
 /* caltable_file.h -- load the calibration table from a file (Linux): read the
  * whole file into the caller's static buffer (bounded by buf_size), then
- * validate and load it with mfns_caltable_load (firmware/nav/caltable.h).
+ * validate and load it with mfns_caltable_load (firmware/nav/table/caltable.h).
  * On any failure *out is left untouched.
  */
 #ifndef MFNS_CALTABLE_FILE_H
@@ -9,7 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "caltable.h"
+#include "firmware/nav/table/caltable.h"
 
 /* Returns MFNS_CALTABLE_E_FILE_OPEN / _FILE_READ / _FILE_TOO_BIG for file
  * problems, MFNS_CALTABLE_E_FILE_NOT_REGULAR for a path that is not a regular

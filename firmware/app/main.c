@@ -2,8 +2,8 @@
  * then the program (nav_app.h) on its state, which lives here. */
 #include <stdio.h>
 
-#include "nav_app.h"
-#include "nav_opts.h"
+#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_opts.h"
 
 /* The program's whole state (tables, queue, cameras: a few MB), in static
  * storage so nothing is allocated after start-up; handed to nav_app_run. */

@@ -1,7 +1,7 @@
 /* nav_app.c -- see nav_app.h. */
 #define _DEFAULT_SOURCE /* clock_gettime, sigaction under -std=c11 */
 
-#include "nav_app.h"
+#include "firmware/app/nav_app.h"
 
 #include <errno.h>
 #include <signal.h>
@@ -12,8 +12,8 @@
 
 #include "math/units.h"
 #include "mfns_version.h"
-#include "nav_loop.h"
-#include "nav_tablestore.h"
+#include "firmware/app/nav_loop.h"
+#include "firmware/app/nav_tablestore.h"
 
 #define NAV_APP_VERSION MFNS_VERSION_CODE /* the one version (mk/version.sh) */
 

@@ -41,17 +41,17 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "caltable.h"
-#include "cycle_stats.h"
-#include "nav_cams.h"
-#include "nav_cycle.h"
-#include "nav_fixlog.h"
-#include "nav_opts.h"
-#include "nav_selftest.h"
-#include "nav_tc_in.h"
-#include "nav_service.h"
-#include "nav_time.h"
-#include "nav_tlm.h"
+#include "firmware/nav/table/caltable.h"
+#include "firmware/app/cycle_stats.h"
+#include "firmware/app/nav_cams.h"
+#include "firmware/nav/cycle/nav_cycle.h"
+#include "firmware/app/nav_fixlog.h"
+#include "firmware/app/nav_opts.h"
+#include "firmware/app/nav_selftest.h"
+#include "firmware/app/nav_tc_in.h"
+#include "firmware/app/nav_service.h"
+#include "firmware/app/nav_time.h"
+#include "firmware/app/nav_tlm.h"
 
 #define NAV_APP_TABLE_SLOTS 2
 

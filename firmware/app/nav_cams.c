@@ -1,5 +1,5 @@
 /* nav_cams.c -- see nav_cams.h. */
-#include "nav_cams.h"
+#include "firmware/app/nav_cams.h"
 
 #include <limits.h>
 #include <stdio.h>

@@ -1,5 +1,5 @@
 /* nav_cmd_dispatch.c -- see nav_cmd_dispatch.h. */
-#include "nav_cmd_dispatch.h"
+#include "firmware/app/nav_cmd_dispatch.h"
 
 #include <string.h>
 

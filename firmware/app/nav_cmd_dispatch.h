@@ -36,9 +36,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ccsds.h"
-#include "tc_packets.h"
-#include "tlm_packets.h"
+#include "firmware/tlm/ccsds.h"
+#include "firmware/tlm/tc_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 #define NAV_CMD_MAX_PER_CYCLE 4u /* commands handled between two cycles */
 #define NAV_CMD_SEQ_WINDOW 8191u /* counts ahead of the last accepted that are "newer" */

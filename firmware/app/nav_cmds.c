@@ -1,13 +1,13 @@
 /* nav_cmds.c -- see nav_cmds.h. */
-#include "nav_cmds.h"
+#include "firmware/app/nav_cmds.h"
 
 #include <stdio.h>
 #include <string.h>
 
-#include "caltable_file.h"
+#include "firmware/app/caltable_file.h"
 #include "math/units.h"
-#include "nav_app.h"
-#include "nav_tablestore.h"
+#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_tablestore.h"
 
 static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
                        int32_t a1)

@@ -23,7 +23,7 @@
 #ifndef MFNS_NAV_CMDS_H
 #define MFNS_NAV_CMDS_H
 
-#include "nav_cmd_dispatch.h"
+#include "firmware/app/nav_cmd_dispatch.h"
 
 struct nav_app; /* nav_app.h */
 

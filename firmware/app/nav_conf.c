@@ -3,7 +3,7 @@
 #define _DEFAULT_SOURCE 1 /* O_CLOEXEC under -std=c11 */
 #endif
 
-#include "nav_conf.h"
+#include "firmware/app/nav_conf.h"
 
 #include <errno.h>
 #include <fcntl.h>

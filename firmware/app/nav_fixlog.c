@@ -1,6 +1,6 @@
 /* nav_fixlog.c -- see nav_fixlog.h. */
 #define _POSIX_C_SOURCE 200809L
-#include "nav_fixlog.h"
+#include "firmware/app/nav_fixlog.h"
 
 #include <dirent.h>
 #include <errno.h>

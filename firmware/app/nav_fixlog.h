@@ -34,8 +34,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "nav_cycle.h"
-#include "tlm_packets.h"
+#include "firmware/nav/cycle/nav_cycle.h"
+#include "firmware/tlm/tlm_packets.h"
 
 /* One fix: its NAV frame and one FIXOBS frame per association. */
 #define NAV_FIXLOG_MAX_ASSOC (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA)

@@ -1,11 +1,11 @@
 /* nav_loop.c -- see nav_loop.h. */
-#include "nav_loop.h"
+#include "firmware/app/nav_loop.h"
 
 #include <stdio.h>
 #include <string.h>
 
 #include "math/units.h"
-#include "nav_cmds.h"
+#include "firmware/app/nav_cmds.h"
 
 _Static_assert(NAV_LOOP_HK_PERIOD_US == MFNS_US_PER_S, "housekeeping once per second of frame time");
 

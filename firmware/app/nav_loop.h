@@ -17,7 +17,7 @@
 #include <signal.h>
 #include <stdint.h>
 
-#include "nav_app.h"
+#include "firmware/app/nav_app.h"
 
 #define NAV_LOOP_HK_PERIOD_US 1000000u /* housekeeping: once per second of frame time */
 #define NAV_LOOP_FIX_DOWNLINK_PERIOD_US 1000000u /* fix record: one fix per second down the link (docs/telemetry.md 5) */

@@ -1,14 +1,14 @@
 /* nav_opts.c -- see nav_opts.h. */
 #define _DEFAULT_SOURCE /* getopt_long under -std=c11 */
 
-#include "nav_opts.h"
+#include "firmware/app/nav_opts.h"
 
 #include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "cam_sync.h"
+#include "firmware/app/cam_sync.h"
 #include "mfns_version.h"
 
 #ifndef MFNS_BOARD_NAME

@@ -25,8 +25,8 @@
 #include <stdio.h>
 
 #include "drivers/camera/camera.h"
-#include "nav_conf.h"
-#include "pose.h"
+#include "firmware/app/nav_conf.h"
+#include "firmware/nav/pose/pose.h"
 
 _Static_assert(MFNS_NUM_CAMERAS == 3, "the options name three cameras: --cam-x, --cam-y, --cam-z");
 

@@ -1,14 +1,14 @@
 /* nav_selftest.c -- see nav_selftest.h. */
 #define _DEFAULT_SOURCE /* clock_gettime, ntp_adjtime, nanosleep under -std=c11 */
 
-#include "nav_selftest.h"
+#include "firmware/app/nav_selftest.h"
 
 #include <stdio.h>
 #include <string.h>
 #include <sys/timex.h>
 #include <time.h>
 
-#include "nav_app.h"
+#include "firmware/app/nav_app.h"
 
 static void event(struct nav_app *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
                   int32_t a1)

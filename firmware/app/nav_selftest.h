@@ -27,9 +27,9 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "caltable.h"
-#include "nav_opts.h"
-#include "nav_tablestore.h"
+#include "firmware/nav/table/caltable.h"
+#include "firmware/app/nav_opts.h"
+#include "firmware/app/nav_tablestore.h"
 
 #define NAV_SELFTEST_UTC_MIN_S 1704067200LL /* 2024-01-01T00:00:00Z: a clock before it was never set */
 #define NAV_SELFTEST_FRAME_MS 1000          /* a camera's first frame: the longest frame period (2 Hz) x 2 */

@@ -1,7 +1,7 @@
 /* nav_service.c -- see nav_service.h. */
 #define _DEFAULT_SOURCE /* mlockall under -std=c11 */
 
-#include "nav_service.h"
+#include "firmware/app/nav_service.h"
 
 #include <errno.h>
 #include <stdio.h>

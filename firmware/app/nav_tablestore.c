@@ -1,7 +1,7 @@
 /* nav_tablestore.c -- see nav_tablestore.h. */
 #define _DEFAULT_SOURCE /* fsync, O_CLOEXEC, O_DIRECTORY under -std=c11 */
 
-#include "nav_tablestore.h"
+#include "firmware/app/nav_tablestore.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -10,7 +10,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "caltable_file.h"
+#include "firmware/app/caltable_file.h"
 
 #define WRITE_TRIES 64 /* partial writes of one table before it counts as an I/O error */
 

@@ -32,7 +32,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "caltable.h"
+#include "firmware/nav/table/caltable.h"
 
 #define NAV_TABLESTORE_ACTIVE "table.mfnstbl"
 #define NAV_TABLESTORE_PREV "table.prev.mfnstbl"

@@ -1,10 +1,10 @@
 /* nav_tc_in.c -- see nav_tc_in.h. */
-#include "nav_tc_in.h"
+#include "firmware/app/nav_tc_in.h"
 
 #include <stdio.h>
 #include <string.h>
 
-#include "tc_state.h"
+#include "firmware/app/tc_state.h"
 
 /* Keys and epoch, or insecure mode (nav_opts_parse made sure one is given
  * whenever there is a command input). */

@@ -19,10 +19,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "nav_cmd_dispatch.h"
-#include "tc_auth.h"
-#include "nav_opts.h"
-#include "uart.h"
+#include "firmware/app/nav_cmd_dispatch.h"
+#include "firmware/app/tc_auth.h"
+#include "firmware/app/nav_opts.h"
+#include "drivers/uart/uart.h"
 
 #define NAV_TC_IN_RX_BYTES 256u /* bytes read at once */
 #define NAV_TC_IN_READS 4       /* read-and-feed rounds per cycle */

@@ -1,14 +1,14 @@
 /* nav_time.c -- see nav_time.h. */
 #define _DEFAULT_SOURCE /* ntp_adjtime, clock_gettime under -std=c11 */
 
-#include "nav_time.h"
+#include "firmware/app/nav_time.h"
 
 #include <string.h>
 #include <sys/timex.h>
 #include <time.h>
 
 #include "math/units.h"
-#include "tlm_codes_gen.h"
+#include "firmware/tlm/generated/tlm_codes_gen.h"
 
 nav_time_pair_t nav_time_correlate(int64_t utc_now_us, uint64_t mono_now_us, uint64_t t_flight_us, bool monotonic,
                                    bool synced)

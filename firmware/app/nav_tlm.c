@@ -1,8 +1,8 @@
 /* nav_tlm.c -- see nav_tlm.h. */
 #define _DEFAULT_SOURCE /* usleep under -std=c11 */
 
-#include "nav_tlm.h"
-#include "nav_time.h"
+#include "firmware/app/nav_tlm.h"
+#include "firmware/app/nav_time.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -12,9 +12,9 @@
 #include <unistd.h>
 
 #include "math/units.h"
-#include "nav_app.h"
-#include "nav_cams.h"
-#include "txq_drain.h"
+#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_cams.h"
+#include "firmware/app/txq_drain.h"
 
 #define FLUSH_TRIES 200 /* x 10 ms: telemetry drain at exit */
 #define FLUSH_WAIT_US 10000u

@@ -25,11 +25,11 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "nav_cycle.h"
-#include "nav_opts.h"
-#include "tlm_packets.h"
-#include "tlm_txq.h"
-#include "uart.h"
+#include "firmware/nav/cycle/nav_cycle.h"
+#include "firmware/app/nav_opts.h"
+#include "firmware/tlm/tlm_packets.h"
+#include "firmware/tlm/tlm_txq.h"
+#include "drivers/uart/uart.h"
 
 _Static_assert(MFNS_NUM_CAMERAS <= 8, "cams_used and cams_enabled are one bit per camera in a u8");
 

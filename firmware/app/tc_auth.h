@@ -40,7 +40,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tc_packets.h"
+#include "firmware/tlm/tc_packets.h"
 
 #define TC_AUTH_MAX_KEYS 4u      /* keys loaded at once (rotation needs 2) */
 #define TC_AUTH_KEY_BYTES 32u    /* HMAC-SHA-256 key: the hash's output size */

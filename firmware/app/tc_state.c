@@ -1,7 +1,7 @@
 /* tc_state.c -- see tc_state.h. */
 #define _DEFAULT_SOURCE /* O_CLOEXEC, O_NOFOLLOW, fsync under -std=c11 */
 
-#include "tc_state.h"
+#include "firmware/app/tc_state.h"
 
 #include <errno.h>
 #include <stdbool.h>

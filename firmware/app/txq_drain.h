@@ -11,8 +11,8 @@
 
 #include <stdint.h>
 
-#include "tlm_txq.h"
-#include "uart.h"
+#include "firmware/tlm/tlm_txq.h"
+#include "drivers/uart/uart.h"
 
 /* Move queued frames to the port until it is full or the queue is empty.
  * On a disconnect the rest of a half-sent frame is discarded (the queue

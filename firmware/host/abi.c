@@ -1,11 +1,11 @@
 /* abi.c -- see abi.h. */
-#include "abi.h"
+#include "firmware/host/abi.h"
 
-#include "acquire.h"
-#include "acquire_certify.h"
-#include "acquire_cycle.h"
-#include "beacon_index.h"
-#include "pose.h"
+#include "firmware/nav/acquire/acquire.h"
+#include "firmware/host/acquire_certify.h"
+#include "firmware/nav/acquire/acquire_cycle.h"
+#include "firmware/nav/map/beacon_index.h"
+#include "firmware/nav/pose/pose.h"
 
 uint32_t mfns_pose_abi_size(mfns_pose_abi_t what)
 {

@@ -1,9 +1,9 @@
 /* acquire_certify.c -- see acquire_certify.h. */
-#include "acquire_certify.h"
+#include "firmware/host/acquire_certify.h"
 
 #include <string.h>
 
-#include "acquire_internal.h"
+#include "firmware/nav/acquire/acquire_internal.h"
 
 void mfns_certify_frame(const mfns_rig_t *rig, const mfns_beacon_map_t *map, const mfns_beacon_index_t *idx,
                         const mfns_pose_t *pose, mfns_obs_frame_t *frame, mfns_pose_assoc_t *truth)

@@ -19,7 +19,7 @@
 
 #include <stdint.h>
 
-#include "acquire.h"
+#include "firmware/nav/acquire/acquire.h"
 
 #define MFNS_CERTIFY_MAX_BLOBS MFNS_ACQ_MAX_MEAS
 

@@ -2,13 +2,13 @@
  * build of the map index (`mfns table build`, through the shared library)
  * and its serialisation into the table section. Bounded loops, no heap.
  * Host-only (firmware/host): the flight image only looks the index up
- * (firmware/nav/beacon_index.c). */
+ * (firmware/nav/map/beacon_index.c). */
 #include <math.h>
 #include <string.h>
 
-#include "beacon_index.h"
-#include "undistort.h"
-#include "units.h"
+#include "firmware/nav/map/beacon_index.h"
+#include "math/undistort.h"
+#include "math/units.h"
 
 #define FACE_GRID 16u       /* samples per side of each face of the camera-centre box */
 #define VOLUME_GRID 6u      /* samples per axis inside it (emission-cone tests only) */

@@ -1,5 +1,5 @@
 /* caltable_host.c -- see caltable_host.h. */
-#include "caltable_host.h"
+#include "firmware/host/caltable_host.h"
 
 #include <stddef.h>
 

@@ -9,8 +9,8 @@
 
 #include <stdint.h>
 
-#include "caltable.h"
-#include "undistort.h"
+#include "firmware/nav/table/caltable.h"
+#include "math/undistort.h"
 
 /* sizeof(mfns_caltable_t): the caller allocates the loader's output. */
 uint32_t mfns_caltable_host_table_size(void);

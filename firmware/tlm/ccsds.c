@@ -1,9 +1,9 @@
 /* ccsds.c -- CCSDS primary header and CUC time (see ccsds.h). */
-#include "ccsds.h"
+#include "firmware/tlm/ccsds.h"
 
 #include <stddef.h>
 
-#include "tlm_err.h"
+#include "firmware/tlm/tlm_err.h"
 
 void tlm_put_u16(uint8_t *p, uint16_t v)
 {

@@ -1,7 +1,7 @@
 /* cobs.c -- COBS encode/decode of whole buffers (see cobs.h). */
-#include "cobs.h"
+#include "firmware/tlm/cobs.h"
 
-#include "tlm_err.h"
+#include "firmware/tlm/tlm_err.h"
 
 int tlm_cobs_encode(const uint8_t *in, size_t n, uint8_t *out, size_t cap, size_t *out_len)
 {

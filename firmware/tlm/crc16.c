@@ -1,5 +1,5 @@
 /* crc16.c -- CRC-16/CCITT-FALSE (see crc16.h). */
-#include "crc16.h"
+#include "firmware/tlm/crc16.h"
 
 uint16_t tlm_crc16_update(uint16_t crc, const uint8_t *data, size_t len)
 {

@@ -1,14 +1,14 @@
 /* tc_packets.c -- telecommand codec and receiver (see tc_packets.h): the
  * CCSDS header, framing and CRC; the argument layouts, ranges and names are
  * generated from the XTCE (tc_packets_gen.c). */
-#include "tc_packets.h"
+#include "firmware/tlm/tc_packets.h"
 
 #include <string.h>
 
-#include "core_inline.h"
-#include "crc16.h"
-#include "tlm_err.h"
-#include "tlm_packets.h"
+#include "math/core_inline.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/tlm/tlm_err.h"
+#include "firmware/tlm/tlm_packets.h"
 
 #define TC_SEQ_FLAGS TLM_CCSDS_SEQ_UNSEGMENTED
 

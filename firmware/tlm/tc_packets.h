@@ -32,10 +32,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ccsds.h"
-#include "cobs.h"
+#include "firmware/tlm/ccsds.h"
+#include "firmware/tlm/cobs.h"
 
-#include "tc_codes_gen.h" /* TC_APID, tc_opcode_t, TC_OPCODE_LIST, tc_status_t, ranges, tc_args_t */
+#include "firmware/tlm/generated/tc_codes_gen.h" /* TC_APID, tc_opcode_t, TC_OPCODE_LIST, tc_status_t, ranges, tc_args_t */
 
 #define TC_SEC_HDR_LEN 2u            /* opcode + reserved */
 #define TC_HDR_LEN (TLM_CCSDS_PRI_LEN + TC_SEC_HDR_LEN)

@@ -1,9 +1,9 @@
 /* tlm_decoder.c -- streaming COBS/CRC/CCSDS decoder (see tlm_decoder.h). */
-#include "tlm_decoder.h"
+#include "firmware/tlm/tlm_decoder.h"
 
 #include <string.h>
 
-#include "crc16.h"
+#include "firmware/tlm/crc16.h"
 
 void tlm_decoder_init(tlm_decoder_t *d)
 {

@@ -1,12 +1,12 @@
 /* tlm_packets.c -- packet structs <-> CCSDS packets <-> wire frames: the
  * CCSDS headers, framing and CRC. The payload layouts and their range checks
  * are generated from the XTCE (tlm_packets_gen.c). */
-#include "tlm_packets.h"
-#include "core_text.h"
+#include "firmware/tlm/tlm_packets.h"
+#include "math/core_text.h"
 
 #include <string.h>
 
-#include "crc16.h"
+#include "firmware/tlm/crc16.h"
 
 const char *tlm_strerror(int err)
 {

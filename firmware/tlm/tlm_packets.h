@@ -17,14 +17,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ccsds.h"
-#include "cobs.h"
-#include "tlm_err.h"
+#include "firmware/tlm/ccsds.h"
+#include "firmware/tlm/cobs.h"
+#include "firmware/tlm/tlm_err.h"
 
 /* Packet types, APIDs, payload lengths (bytes after the 12-byte CCSDS
  * headers), one struct per packet and the numbered codes: generated from the
  * mission database ground/mdb/mfns_tm.xml (XTCE) by mk/gen_contracts.py. */
-#include "tlm_packets_gen.h"
+#include "firmware/tlm/generated/tlm_packets_gen.h"
 
 /* Attitude quaternion on the wire: Q1.30 signed (value * 2^30), so every
  * component of a unit quaternion, 1.0 included, fits an int32 with a

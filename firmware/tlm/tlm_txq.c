@@ -1,5 +1,5 @@
 /* tlm_txq.c -- drop-oldest frame queue (see tlm_txq.h). */
-#include "tlm_txq.h"
+#include "firmware/tlm/tlm_txq.h"
 
 #include <string.h>
 

@@ -14,7 +14,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 /* 8192: ~27 cycles of nav + three camera packets (298 B each since the
  * protection levels), ~1.4 s of telemetry at the full rate, 89 ms at 921600

@@ -16,11 +16,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ground_gen.h"
+#include "ground/ground_gen.h"
 #include "mfns_version.h"
-#include "tlm_txq.h"
-#include "txq_drain.h"
-#include "uart.h"
+#include "firmware/tlm/tlm_txq.h"
+#include "firmware/app/txq_drain.h"
+#include "drivers/uart/uart.h"
 
 static tlm_txq_t g_q;
 

@@ -51,9 +51,9 @@ MAX_CERT = 16
 MAX_MISSING = 3
 MAX_OBS_PER_CAMERA = 32
 NO_BEACON = -1
-CALIB_PARAMS_PER_CAMERA = 15  # nav_config.h mfns_calib_param_t (fx fy cx cy k1 k2 p1 p2 k3 theta r)
+CALIB_PARAMS_PER_CAMERA = 15  # nav_settings.h mfns_calib_param_t (fx fy cx cy k1 k2 p1 p2 k3 theta r)
 CALIB_PARAMS = NUM_CAMERAS * CALIB_PARAMS_PER_CAMERA
-MAP_DATUM_PARAMS = 6  # nav_config.h mfns_map_datum_t: shift x y z (mm), turn x y z (rad)
+MAP_DATUM_PARAMS = 6  # nav_settings.h mfns_map_datum_t: shift x y z (mm), turn x y z (rad)
 TC_PATH_MAX = 64
 TC_SEC_MAC_LEN = 16
 TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
@@ -95,22 +95,22 @@ CONSTANTS = {
 
 # --- math/ ---------------------------------------------------------------------------------
 class V3(ct.Structure):
-    _c_ = ("linalg.h", "mfns_v3_t")
+    _c_ = ("math/linalg.h", "mfns_v3_t")
     _fields_ = [("x", ct.c_float), ("y", ct.c_float), ("z", ct.c_float)]
 
 
 class M3(ct.Structure):
-    _c_ = ("linalg.h", "mfns_m3_t")
+    _c_ = ("math/linalg.h", "mfns_m3_t")
     _fields_ = [("m", (ct.c_float * 3) * 3)]
 
 
 class Euler(ct.Structure):
-    _c_ = ("rotation.h", "mfns_euler_t")
+    _c_ = ("math/rotation.h", "mfns_euler_t")
     _fields_ = [("roll", ct.c_float), ("pitch", ct.c_float), ("yaw", ct.c_float)]
 
 
 class Intrinsics(ct.Structure):
-    _c_ = ("camera.h", "mfns_intrinsics_t")
+    _c_ = ("math/lens.h", "mfns_intrinsics_t")
     _fields_ = [
         ("fx", ct.c_float),
         ("fy", ct.c_float),
@@ -124,24 +124,24 @@ class Intrinsics(ct.Structure):
 
 
 class CameraC(ct.Structure):
-    _c_ = ("camera.h", "mfns_camera_t")
+    _c_ = ("math/lens.h", "mfns_camera_t")
     _fields_ = [("k", Intrinsics), ("C_k_b", M3), ("r_bk_b", V3)]
 
 
 class Rig(ct.Structure):
-    _c_ = ("camera.h", "mfns_rig_t")
+    _c_ = ("math/lens.h", "mfns_rig_t")
     _fields_ = [("cam", CameraC * NUM_CAMERAS)]
 
 
 class Pose(ct.Structure):
-    _c_ = ("camera.h", "mfns_pose_t")
+    _c_ = ("math/lens.h", "mfns_pose_t")
     _fields_ = [("C_w_b", M3), ("r_bw_b", V3)]
 
 
 class UndistGrid(ct.Structure):
     """mfns_undist_grid_t: the correction grid of one camera (nodes not owned)."""
 
-    _c_ = ("undistort.h", "mfns_undist_grid_t")
+    _c_ = ("math/undistort.h", "mfns_undist_grid_t")
     _c_types_ = {"node": "const q16_16_t (*)[2]"}
     _fields_ = [
         ("nx", ct.c_uint16),
@@ -156,17 +156,17 @@ class UndistGrid(ct.Structure):
 
 # --- firmware/nav/ -------------------------------------------------------------------------
 class Beacon(ct.Structure):
-    _c_ = ("nav_config.h", "mfns_beacon_t")
+    _c_ = ("firmware/nav/settings/nav_settings.h", "mfns_beacon_t")
     _fields_ = [("id", ct.c_uint16), ("p_w", V3), ("sigma_mm", ct.c_float)]
 
 
 class BeaconMap(ct.Structure):
-    _c_ = ("nav_config.h", "mfns_beacon_map_t")
+    _c_ = ("firmware/nav/settings/nav_settings.h", "mfns_beacon_map_t")
     _fields_ = [("count", ct.c_uint16), ("beacon", Beacon * MAX_BEACONS)]
 
 
 class SolverSettings(ct.Structure):
-    _c_ = ("nav_config.h", "mfns_solver_settings_t")
+    _c_ = ("firmware/nav/settings/nav_settings.h", "mfns_solver_settings_t")
     _fields_ = [
         ("max_iterations", ct.c_uint16),
         ("step_tol", ct.c_float),
@@ -180,7 +180,7 @@ class SolverSettings(ct.Structure):
 
 
 class CentroidSettings(ct.Structure):
-    _c_ = ("nav_config.h", "mfns_centroid_settings_t")
+    _c_ = ("firmware/nav/settings/nav_settings.h", "mfns_centroid_settings_t")
     _fields_ = [
         ("threshold_dn", ct.c_uint16),
         ("threshold_k_sigma", ct.c_float),
@@ -194,17 +194,17 @@ class CentroidSettings(ct.Structure):
 
 
 class CalibCov(ct.Structure):
-    """mfns_calib_cov_t (nav_config.h): the calibration's covariance, 45 x 45."""
+    """mfns_calib_cov_t (nav_settings.h): the calibration's covariance, 45 x 45."""
 
-    _c_ = ("nav_config.h", "mfns_calib_cov_t")
+    _c_ = ("firmware/nav/settings/nav_settings.h", "mfns_calib_cov_t")
     _fields_ = [("present", ct.c_uint8), ("cov", (ct.c_float * CALIB_PARAMS) * CALIB_PARAMS)]
 
 
 class MapDatum(ct.Structure):
-    """mfns_map_datum_t (nav_config.h): the map's shared rigid error, 6 x 6 over (shift mm,
+    """mfns_map_datum_t (nav_settings.h): the map's shared rigid error, 6 x 6 over (shift mm,
     turn rad about c_w)."""
 
-    _c_ = ("nav_config.h", "mfns_map_datum_t")
+    _c_ = ("firmware/nav/settings/nav_settings.h", "mfns_map_datum_t")
     _fields_ = [
         ("present", ct.c_uint8),
         ("c_w", V3),
@@ -213,7 +213,7 @@ class MapDatum(ct.Structure):
 
 
 class PoseConfig(ct.Structure):
-    _c_ = ("pose.h", "mfns_pose_config_t")
+    _c_ = ("firmware/nav/pose/pose.h", "mfns_pose_config_t")
     _c_types_ = {
         "mode": "mfns_pose_mode_t",
         "calib_cov": "const mfns_calib_cov_t *",
@@ -229,7 +229,7 @@ class PoseConfig(ct.Structure):
 
 
 class Obs(ct.Structure):
-    _c_ = ("pose.h", "mfns_obs_t")
+    _c_ = ("firmware/nav/pose/pose.h", "mfns_obs_t")
     _fields_ = [
         ("u", ct.c_float),
         ("v", ct.c_float),
@@ -240,7 +240,7 @@ class Obs(ct.Structure):
 
 
 class ObsFrame(ct.Structure):
-    _c_ = ("pose.h", "mfns_obs_frame_t")
+    _c_ = ("firmware/nav/pose/pose.h", "mfns_obs_frame_t")
     _fields_ = [
         ("count", ct.c_uint16 * NUM_CAMERAS),
         ("obs", (Obs * MAX_OBS_PER_CAMERA) * NUM_CAMERAS),
@@ -249,12 +249,12 @@ class ObsFrame(ct.Structure):
 
 
 class Assoc(ct.Structure):
-    _c_ = ("pose.h", "mfns_pose_assoc_t")
+    _c_ = ("firmware/nav/pose/pose.h", "mfns_pose_assoc_t")
     _fields_ = [("beacon", (ct.c_int16 * MAX_OBS_PER_CAMERA) * NUM_CAMERAS)]
 
 
 class SolutionC(ct.Structure):
-    _c_ = ("pose.h", "mfns_pose_solution_t")
+    _c_ = ("firmware/nav/pose/pose.h", "mfns_pose_solution_t")
     _c_types_ = {"status": "mfns_pose_status_t", "reason": "mfns_pose_reason_t"}
     _fields_ = [
         ("status", ct.c_int),
@@ -280,17 +280,17 @@ class SolutionC(ct.Structure):
 
 
 class BeaconEmit(ct.Structure):
-    _c_ = ("beacon_index.h", "mfns_beacon_emit_t")
+    _c_ = ("firmware/nav/map/beacon_index.h", "mfns_beacon_emit_t")
     _fields_ = [("axis_w", V3), ("cos_half_angle", ct.c_float)]
 
 
 class BeaconGeom(ct.Structure):
-    _c_ = ("beacon_index.h", "mfns_beacon_geom_t")
+    _c_ = ("firmware/nav/map/beacon_index.h", "mfns_beacon_geom_t")
     _fields_ = [("emit", BeaconEmit), ("range_min_mm", ct.c_float), ("range_max_mm", ct.c_float)]
 
 
 class BeaconIndex(ct.Structure):
-    _c_ = ("beacon_index.h", "mfns_beacon_index_t")
+    _c_ = ("firmware/nav/map/beacon_index.h", "mfns_beacon_index_t")
     _fields_ = [
         ("count", ct.c_uint16),
         ("k_nbr", ct.c_uint8),
@@ -311,7 +311,7 @@ class BeaconIndex(ct.Structure):
 
 
 class BidxParams(ct.Structure):
-    _c_ = ("beacon_index.h", "mfns_bidx_params_t")
+    _c_ = ("firmware/nav/map/beacon_index.h", "mfns_bidx_params_t")
     _fields_ = [
         ("k_nbr", ct.c_uint8),
         ("cert_inliers", ct.c_uint8),
@@ -322,7 +322,7 @@ class BidxParams(ct.Structure):
 
 
 class AcqProgress(ct.Structure):
-    _c_ = ("acquire.h", "mfns_acq_progress_t")
+    _c_ = ("firmware/nav/acquire/acquire.h", "mfns_acq_progress_t")
     _fields_ = [
         ("units", ct.c_uint32),
         ("units_total", ct.c_uint32),
@@ -342,7 +342,7 @@ class AcqProgress(ct.Structure):
 
 
 class AcqCycleReport(ct.Structure):
-    _c_ = ("acquire_cycle.h", "mfns_acq_cycle_report_t")
+    _c_ = ("firmware/nav/acquire/acquire_cycle.h", "mfns_acq_cycle_report_t")
     _fields_ = [
         ("progress", AcqProgress),
         ("carried_units", ct.c_uint32),
@@ -356,7 +356,7 @@ class AcqCycleReport(ct.Structure):
 
 
 class CertifyCase(ct.Structure):
-    _c_ = ("acquire_certify.h", "mfns_certify_case_t")
+    _c_ = ("firmware/host/acquire_certify.h", "mfns_certify_case_t")
     _fields_ = [
         ("sample", ct.c_uint32),
         ("n_blobs", ct.c_uint16),
@@ -368,7 +368,7 @@ class CertifyCase(ct.Structure):
 
 
 class CertifyResult(ct.Structure):
-    _c_ = ("acquire_certify.h", "mfns_certify_result_t")
+    _c_ = ("firmware/host/acquire_certify.h", "mfns_certify_result_t")
     _fields_ = [
         ("samples", ct.c_uint32),
         ("usable", ct.c_uint32),
@@ -385,7 +385,7 @@ class CertifyResult(ct.Structure):
 
 # --- firmware/tlm/ -------------------------------------------------------------------------
 class TcPoseHint(ct.Structure):
-    _c_ = ("tc_packets.h", "tc_pose_hint_t")
+    _c_ = ("firmware/tlm/tc_packets.h", "tc_pose_hint_t")
     _fields_ = [("pos_um", ct.c_int32 * 3), ("att_udeg", ct.c_int32 * 3)]
 
 
@@ -402,7 +402,7 @@ class TcArgs(ct.Union):
 
 
 class TcSec(ct.Structure):
-    _c_ = ("tc_packets.h", "tc_sec_t")
+    _c_ = ("firmware/tlm/tc_packets.h", "tc_sec_t")
     _fields_ = [
         ("present", ct.c_bool),
         ("spi", ct.c_uint16),
@@ -414,7 +414,7 @@ class TcSec(ct.Structure):
 
 
 class TcCmd(ct.Structure):
-    _c_ = ("tc_packets.h", "tc_cmd_t")
+    _c_ = ("firmware/tlm/tc_packets.h", "tc_cmd_t")
     _fields_ = [
         ("seq", ct.c_uint16),
         ("opcode", ct.c_uint8),
@@ -588,21 +588,21 @@ PROTOTYPES: dict[str, tuple] = {
 # prototype fails `make lib` (mfns_pose_covariance gained an argument once and the planner
 # crashed through ctypes: nothing had compared the two).
 PROTOTYPE_HEADERS = [
-    "math/camera.h",
+    "math/lens.h",
     "math/rotation.h",
     "math/undistort.h",
-    "firmware/nav/pose.h",
-    "firmware/nav/pose_internal.h",
-    "firmware/nav/nav_config.h",
-    "firmware/nav/acquire.h",
-    "firmware/nav/acquire_cycle.h",
-    "firmware/nav/beacon_index.h",
-    "firmware/nav/caltable.h",
+    "firmware/nav/pose/pose.h",
+    "firmware/nav/pose/pose_internal.h",
+    "firmware/nav/settings/nav_settings.h",
+    "firmware/nav/acquire/acquire.h",
+    "firmware/nav/acquire/acquire_cycle.h",
+    "firmware/nav/map/beacon_index.h",
+    "firmware/nav/table/caltable.h",
     "firmware/host/abi.h",
     "firmware/host/acquire_certify.h",
     "firmware/host/caltable_host.h",
     "firmware/tlm/tc_packets.h",
-    "firmware/tlm/tlm_packets_gen.h",
+    "firmware/tlm/generated/tlm_packets_gen.h",
 ]
 
 _LOADED: dict[str, ct.CDLL] = {}

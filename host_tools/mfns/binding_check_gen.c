@@ -5,22 +5,22 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "abi.h"
-#include "acquire.h"
-#include "acquire_certify.h"
-#include "acquire_cycle.h"
-#include "beacon_index.h"
-#include "caltable.h"
-#include "caltable_host.h"
-#include "camera.h"
-#include "linalg.h"
-#include "nav_config.h"
-#include "pose.h"
-#include "pose_internal.h"
-#include "rotation.h"
-#include "tc_packets.h"
-#include "tlm_packets_gen.h"
-#include "undistort.h"
+#include "firmware/host/abi.h"
+#include "firmware/host/acquire_certify.h"
+#include "firmware/host/caltable_host.h"
+#include "firmware/nav/acquire/acquire.h"
+#include "firmware/nav/acquire/acquire_cycle.h"
+#include "firmware/nav/map/beacon_index.h"
+#include "firmware/nav/pose/pose.h"
+#include "firmware/nav/pose/pose_internal.h"
+#include "firmware/nav/settings/nav_settings.h"
+#include "firmware/nav/table/caltable.h"
+#include "firmware/tlm/generated/tlm_packets_gen.h"
+#include "firmware/tlm/tc_packets.h"
+#include "math/lens.h"
+#include "math/linalg.h"
+#include "math/rotation.h"
+#include "math/undistort.h"
 
 /* a member of T, for sizeof and _Generic only (never evaluated) */
 #define MFNS_FIELD(T, member) (((T *)0)->member)
@@ -50,7 +50,7 @@ _Static_assert(MFNS_ACQ_SRC_CARRIED == 2, "binding.py ACQ_SRC_CARRIED = 2: C MFN
 _Static_assert(MFNS_UNDIST_GRID_ORIGIN_Q8 == -128, "binding.py UNDIST_GRID_ORIGIN_Q8 = -128: C MFNS_UNDIST_GRID_ORIGIN_Q8 differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_UNDIST_BAD_INPUT == 1, "binding.py UNDIST_BAD_INPUT = 1: C MFNS_UNDIST_BAD_INPUT differs"); /* NOLINT(misc-redundant-expression) */
 
-/* V3 = mfns_v3_t (linalg.h) */
+/* V3 = mfns_v3_t (math/linalg.h) */
 _Static_assert(sizeof(mfns_v3_t) == 12u, "binding.py V3: 12 bytes here");
 _Static_assert(offsetof(mfns_v3_t, x) == 0u, "binding.py V3.x: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_v3_t, x), float: 1, default: 0), "binding.py V3.x: C type is not float");
@@ -59,14 +59,14 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_v3_t, y), float: 1, default: 0), "bindin
 _Static_assert(offsetof(mfns_v3_t, z) == 8u, "binding.py V3.z: offset 8 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_v3_t, z), float: 1, default: 0), "binding.py V3.z: C type is not float");
 
-/* M3 = mfns_m3_t (linalg.h) */
+/* M3 = mfns_m3_t (math/linalg.h) */
 _Static_assert(sizeof(mfns_m3_t) == 36u, "binding.py M3: 36 bytes here");
 _Static_assert(offsetof(mfns_m3_t, m) == 0u, "binding.py M3.m: offset 0 here");
 _Static_assert(sizeof(MFNS_FIELD(mfns_m3_t, m)) == 3u * sizeof(MFNS_FIELD(mfns_m3_t, m)[0]), "binding.py M3.m: 3 elements");
 _Static_assert(sizeof(MFNS_FIELD(mfns_m3_t, m)[0]) == 3u * sizeof(MFNS_FIELD(mfns_m3_t, m)[0][0]), "binding.py M3.m: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_m3_t, m)[0][0], float: 1, default: 0), "binding.py M3.m: C type is not float[3][3]");
 
-/* Euler = mfns_euler_t (rotation.h) */
+/* Euler = mfns_euler_t (math/rotation.h) */
 _Static_assert(sizeof(mfns_euler_t) == 12u, "binding.py Euler: 12 bytes here");
 _Static_assert(offsetof(mfns_euler_t, roll) == 0u, "binding.py Euler.roll: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_euler_t, roll), float: 1, default: 0), "binding.py Euler.roll: C type is not float");
@@ -75,7 +75,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_euler_t, pitch), float: 1, default: 0), 
 _Static_assert(offsetof(mfns_euler_t, yaw) == 8u, "binding.py Euler.yaw: offset 8 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_euler_t, yaw), float: 1, default: 0), "binding.py Euler.yaw: C type is not float");
 
-/* Intrinsics = mfns_intrinsics_t (camera.h) */
+/* Intrinsics = mfns_intrinsics_t (math/lens.h) */
 _Static_assert(sizeof(mfns_intrinsics_t) == 44u, "binding.py Intrinsics: 44 bytes here");
 _Static_assert(offsetof(mfns_intrinsics_t, fx) == 0u, "binding.py Intrinsics.fx: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_intrinsics_t, fx), float: 1, default: 0), "binding.py Intrinsics.fx: C type is not float");
@@ -95,7 +95,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_intrinsics_t, width), uint16_t: 1, defau
 _Static_assert(offsetof(mfns_intrinsics_t, height) == 42u, "binding.py Intrinsics.height: offset 42 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_intrinsics_t, height), uint16_t: 1, default: 0), "binding.py Intrinsics.height: C type is not uint16_t");
 
-/* CameraC = mfns_camera_t (camera.h) */
+/* CameraC = mfns_camera_t (math/lens.h) */
 _Static_assert(sizeof(mfns_camera_t) == 92u, "binding.py CameraC: 92 bytes here");
 _Static_assert(offsetof(mfns_camera_t, k) == 0u, "binding.py CameraC.k: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_camera_t, k), mfns_intrinsics_t: 1, default: 0), "binding.py CameraC.k: C type is not mfns_intrinsics_t");
@@ -104,20 +104,20 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_camera_t, C_k_b), mfns_m3_t: 1, default:
 _Static_assert(offsetof(mfns_camera_t, r_bk_b) == 80u, "binding.py CameraC.r_bk_b: offset 80 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_camera_t, r_bk_b), mfns_v3_t: 1, default: 0), "binding.py CameraC.r_bk_b: C type is not mfns_v3_t");
 
-/* Rig = mfns_rig_t (camera.h) */
+/* Rig = mfns_rig_t (math/lens.h) */
 _Static_assert(sizeof(mfns_rig_t) == 276u, "binding.py Rig: 276 bytes here");
 _Static_assert(offsetof(mfns_rig_t, cam) == 0u, "binding.py Rig.cam: offset 0 here");
 _Static_assert(sizeof(MFNS_FIELD(mfns_rig_t, cam)) == 3u * sizeof(MFNS_FIELD(mfns_rig_t, cam)[0]), "binding.py Rig.cam: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_rig_t, cam)[0], mfns_camera_t: 1, default: 0), "binding.py Rig.cam: C type is not mfns_camera_t[3]");
 
-/* Pose = mfns_pose_t (camera.h) */
+/* Pose = mfns_pose_t (math/lens.h) */
 _Static_assert(sizeof(mfns_pose_t) == 48u, "binding.py Pose: 48 bytes here");
 _Static_assert(offsetof(mfns_pose_t, C_w_b) == 0u, "binding.py Pose.C_w_b: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_t, C_w_b), mfns_m3_t: 1, default: 0), "binding.py Pose.C_w_b: C type is not mfns_m3_t");
 _Static_assert(offsetof(mfns_pose_t, r_bw_b) == 36u, "binding.py Pose.r_bw_b: offset 36 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_t, r_bw_b), mfns_v3_t: 1, default: 0), "binding.py Pose.r_bw_b: C type is not mfns_v3_t");
 
-/* UndistGrid = mfns_undist_grid_t (undistort.h) */
+/* UndistGrid = mfns_undist_grid_t (math/undistort.h) */
 _Static_assert(sizeof(mfns_undist_grid_t) == 32u, "binding.py UndistGrid: 32 bytes here");
 _Static_assert(offsetof(mfns_undist_grid_t, nx) == 0u, "binding.py UndistGrid.nx: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_undist_grid_t, nx), uint16_t: 1, default: 0), "binding.py UndistGrid.nx: C type is not uint16_t");
@@ -134,7 +134,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_undist_grid_t, step_v_q8), int32_t: 1, d
 _Static_assert(offsetof(mfns_undist_grid_t, node) == 24u, "binding.py UndistGrid.node: offset 24 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_undist_grid_t, node), const q16_16_t (*)[2]: 1, default: 0), "binding.py UndistGrid.node: C type is not const q16_16_t (*)[2]");
 
-/* Beacon = mfns_beacon_t (nav_config.h) */
+/* Beacon = mfns_beacon_t (firmware/nav/settings/nav_settings.h) */
 _Static_assert(sizeof(mfns_beacon_t) == 20u, "binding.py Beacon: 20 bytes here");
 _Static_assert(offsetof(mfns_beacon_t, id) == 0u, "binding.py Beacon.id: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_t, id), uint16_t: 1, default: 0), "binding.py Beacon.id: C type is not uint16_t");
@@ -143,7 +143,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_t, p_w), mfns_v3_t: 1, default: 0
 _Static_assert(offsetof(mfns_beacon_t, sigma_mm) == 16u, "binding.py Beacon.sigma_mm: offset 16 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_t, sigma_mm), float: 1, default: 0), "binding.py Beacon.sigma_mm: C type is not float");
 
-/* BeaconMap = mfns_beacon_map_t (nav_config.h) */
+/* BeaconMap = mfns_beacon_map_t (firmware/nav/settings/nav_settings.h) */
 _Static_assert(sizeof(mfns_beacon_map_t) == 5124u, "binding.py BeaconMap: 5124 bytes here");
 _Static_assert(offsetof(mfns_beacon_map_t, count) == 0u, "binding.py BeaconMap.count: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_map_t, count), uint16_t: 1, default: 0), "binding.py BeaconMap.count: C type is not uint16_t");
@@ -151,7 +151,7 @@ _Static_assert(offsetof(mfns_beacon_map_t, beacon) == 4u, "binding.py BeaconMap.
 _Static_assert(sizeof(MFNS_FIELD(mfns_beacon_map_t, beacon)) == 256u * sizeof(MFNS_FIELD(mfns_beacon_map_t, beacon)[0]), "binding.py BeaconMap.beacon: 256 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_map_t, beacon)[0], mfns_beacon_t: 1, default: 0), "binding.py BeaconMap.beacon: C type is not mfns_beacon_t[256]");
 
-/* SolverSettings = mfns_solver_settings_t (nav_config.h) */
+/* SolverSettings = mfns_solver_settings_t (firmware/nav/settings/nav_settings.h) */
 _Static_assert(sizeof(mfns_solver_settings_t) == 32u, "binding.py SolverSettings: 32 bytes here");
 _Static_assert(offsetof(mfns_solver_settings_t, max_iterations) == 0u, "binding.py SolverSettings.max_iterations: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_solver_settings_t, max_iterations), uint16_t: 1, default: 0), "binding.py SolverSettings.max_iterations: C type is not uint16_t");
@@ -170,7 +170,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_solver_settings_t, track_gate_px), float
 _Static_assert(offsetof(mfns_solver_settings_t, min_rcond) == 28u, "binding.py SolverSettings.min_rcond: offset 28 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_solver_settings_t, min_rcond), float: 1, default: 0), "binding.py SolverSettings.min_rcond: C type is not float");
 
-/* CentroidSettings = mfns_centroid_settings_t (nav_config.h) */
+/* CentroidSettings = mfns_centroid_settings_t (firmware/nav/settings/nav_settings.h) */
 _Static_assert(sizeof(mfns_centroid_settings_t) == 24u, "binding.py CentroidSettings: 24 bytes here");
 _Static_assert(offsetof(mfns_centroid_settings_t, threshold_dn) == 0u, "binding.py CentroidSettings.threshold_dn: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_centroid_settings_t, threshold_dn), uint16_t: 1, default: 0), "binding.py CentroidSettings.threshold_dn: C type is not uint16_t");
@@ -189,7 +189,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_centroid_settings_t, saturation_dn), uin
 _Static_assert(offsetof(mfns_centroid_settings_t, gain_dn_per_e_q12) == 20u, "binding.py CentroidSettings.gain_dn_per_e_q12: offset 20 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_centroid_settings_t, gain_dn_per_e_q12), uint16_t: 1, default: 0), "binding.py CentroidSettings.gain_dn_per_e_q12: C type is not uint16_t");
 
-/* CalibCov = mfns_calib_cov_t (nav_config.h) */
+/* CalibCov = mfns_calib_cov_t (firmware/nav/settings/nav_settings.h) */
 _Static_assert(sizeof(mfns_calib_cov_t) == 8104u, "binding.py CalibCov: 8104 bytes here");
 _Static_assert(offsetof(mfns_calib_cov_t, present) == 0u, "binding.py CalibCov.present: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_calib_cov_t, present), uint8_t: 1, default: 0), "binding.py CalibCov.present: C type is not uint8_t");
@@ -198,7 +198,7 @@ _Static_assert(sizeof(MFNS_FIELD(mfns_calib_cov_t, cov)) == 45u * sizeof(MFNS_FI
 _Static_assert(sizeof(MFNS_FIELD(mfns_calib_cov_t, cov)[0]) == 45u * sizeof(MFNS_FIELD(mfns_calib_cov_t, cov)[0][0]), "binding.py CalibCov.cov: 45 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_calib_cov_t, cov)[0][0], float: 1, default: 0), "binding.py CalibCov.cov: C type is not float[45][45]");
 
-/* PoseConfig = mfns_pose_config_t (pose.h) */
+/* PoseConfig = mfns_pose_config_t (firmware/nav/pose/pose.h) */
 _Static_assert(sizeof(mfns_pose_config_t) == 56u, "binding.py PoseConfig: 56 bytes here");
 _Static_assert(offsetof(mfns_pose_config_t, s) == 0u, "binding.py PoseConfig.s: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, s), mfns_solver_settings_t: 1, default: 0), "binding.py PoseConfig.s: C type is not mfns_solver_settings_t");
@@ -212,7 +212,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, calib_cov), const mfns_ca
 _Static_assert(offsetof(mfns_pose_config_t, datum) == 48u, "binding.py PoseConfig.datum: offset 48 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_config_t, datum), const mfns_map_datum_t *: 1, default: 0), "binding.py PoseConfig.datum: C type is not const mfns_map_datum_t *");
 
-/* Obs = mfns_obs_t (pose.h) */
+/* Obs = mfns_obs_t (firmware/nav/pose/pose.h) */
 _Static_assert(sizeof(mfns_obs_t) == 28u, "binding.py Obs: 28 bytes here");
 _Static_assert(offsetof(mfns_obs_t, u) == 0u, "binding.py Obs.u: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_obs_t, u), float: 1, default: 0), "binding.py Obs.u: C type is not float");
@@ -226,7 +226,7 @@ _Static_assert(offsetof(mfns_obs_t, cov_px2) == 16u, "binding.py Obs.cov_px2: of
 _Static_assert(sizeof(MFNS_FIELD(mfns_obs_t, cov_px2)) == 3u * sizeof(MFNS_FIELD(mfns_obs_t, cov_px2)[0]), "binding.py Obs.cov_px2: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_obs_t, cov_px2)[0], float: 1, default: 0), "binding.py Obs.cov_px2: C type is not float[3]");
 
-/* ObsFrame = mfns_obs_frame_t (pose.h) */
+/* ObsFrame = mfns_obs_frame_t (firmware/nav/pose/pose.h) */
 _Static_assert(sizeof(mfns_obs_frame_t) == 2700u, "binding.py ObsFrame: 2700 bytes here");
 _Static_assert(offsetof(mfns_obs_frame_t, count) == 0u, "binding.py ObsFrame.count: offset 0 here");
 _Static_assert(sizeof(MFNS_FIELD(mfns_obs_frame_t, count)) == 3u * sizeof(MFNS_FIELD(mfns_obs_frame_t, count)[0]), "binding.py ObsFrame.count: 3 elements");
@@ -239,14 +239,14 @@ _Static_assert(offsetof(mfns_obs_frame_t, dark) == 2696u, "binding.py ObsFrame.d
 _Static_assert(sizeof(MFNS_FIELD(mfns_obs_frame_t, dark)) == 3u * sizeof(MFNS_FIELD(mfns_obs_frame_t, dark)[0]), "binding.py ObsFrame.dark: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_obs_frame_t, dark)[0], uint8_t: 1, default: 0), "binding.py ObsFrame.dark: C type is not uint8_t[3]");
 
-/* Assoc = mfns_pose_assoc_t (pose.h) */
+/* Assoc = mfns_pose_assoc_t (firmware/nav/pose/pose.h) */
 _Static_assert(sizeof(mfns_pose_assoc_t) == 192u, "binding.py Assoc: 192 bytes here");
 _Static_assert(offsetof(mfns_pose_assoc_t, beacon) == 0u, "binding.py Assoc.beacon: offset 0 here");
 _Static_assert(sizeof(MFNS_FIELD(mfns_pose_assoc_t, beacon)) == 3u * sizeof(MFNS_FIELD(mfns_pose_assoc_t, beacon)[0]), "binding.py Assoc.beacon: 3 elements");
 _Static_assert(sizeof(MFNS_FIELD(mfns_pose_assoc_t, beacon)[0]) == 32u * sizeof(MFNS_FIELD(mfns_pose_assoc_t, beacon)[0][0]), "binding.py Assoc.beacon: 32 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_assoc_t, beacon)[0][0], int16_t: 1, default: 0), "binding.py Assoc.beacon: C type is not int16_t[3][32]");
 
-/* SolutionC = mfns_pose_solution_t (pose.h) */
+/* SolutionC = mfns_pose_solution_t (firmware/nav/pose/pose.h) */
 _Static_assert(sizeof(mfns_pose_solution_t) == 716u, "binding.py SolutionC: 716 bytes here");
 _Static_assert(offsetof(mfns_pose_solution_t, status) == 0u, "binding.py SolutionC.status: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_solution_t, status), mfns_pose_status_t: 1, default: 0), "binding.py SolutionC.status: C type is not mfns_pose_status_t");
@@ -298,14 +298,14 @@ _Static_assert(sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)) == 3u * sizeof(M
 _Static_assert(sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)[0]) == 32u * sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)[0][0]), "binding.py SolutionC.inlier: 32 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_solution_t, inlier)[0][0], uint8_t: 1, default: 0), "binding.py SolutionC.inlier: C type is not uint8_t[3][32]");
 
-/* BeaconEmit = mfns_beacon_emit_t (beacon_index.h) */
+/* BeaconEmit = mfns_beacon_emit_t (firmware/nav/map/beacon_index.h) */
 _Static_assert(sizeof(mfns_beacon_emit_t) == 16u, "binding.py BeaconEmit: 16 bytes here");
 _Static_assert(offsetof(mfns_beacon_emit_t, axis_w) == 0u, "binding.py BeaconEmit.axis_w: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_emit_t, axis_w), mfns_v3_t: 1, default: 0), "binding.py BeaconEmit.axis_w: C type is not mfns_v3_t");
 _Static_assert(offsetof(mfns_beacon_emit_t, cos_half_angle) == 12u, "binding.py BeaconEmit.cos_half_angle: offset 12 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_emit_t, cos_half_angle), float: 1, default: 0), "binding.py BeaconEmit.cos_half_angle: C type is not float");
 
-/* BeaconGeom = mfns_beacon_geom_t (beacon_index.h) */
+/* BeaconGeom = mfns_beacon_geom_t (firmware/nav/map/beacon_index.h) */
 _Static_assert(sizeof(mfns_beacon_geom_t) == 24u, "binding.py BeaconGeom: 24 bytes here");
 _Static_assert(offsetof(mfns_beacon_geom_t, emit) == 0u, "binding.py BeaconGeom.emit: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_geom_t, emit), mfns_beacon_emit_t: 1, default: 0), "binding.py BeaconGeom.emit: C type is not mfns_beacon_emit_t");
@@ -314,7 +314,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_geom_t, range_min_mm), float: 1, 
 _Static_assert(offsetof(mfns_beacon_geom_t, range_max_mm) == 20u, "binding.py BeaconGeom.range_max_mm: offset 20 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_geom_t, range_max_mm), float: 1, default: 0), "binding.py BeaconGeom.range_max_mm: C type is not float");
 
-/* BeaconIndex = mfns_beacon_index_t (beacon_index.h) */
+/* BeaconIndex = mfns_beacon_index_t (firmware/nav/map/beacon_index.h) */
 _Static_assert(sizeof(mfns_beacon_index_t) == 79920u, "binding.py BeaconIndex: 79920 bytes here");
 _Static_assert(offsetof(mfns_beacon_index_t, count) == 0u, "binding.py BeaconIndex.count: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_index_t, count), uint16_t: 1, default: 0), "binding.py BeaconIndex.count: C type is not uint16_t");
@@ -354,7 +354,7 @@ _Static_assert(offsetof(mfns_beacon_index_t, pair_hi) == 47280u, "binding.py Bea
 _Static_assert(sizeof(MFNS_FIELD(mfns_beacon_index_t, pair_hi)) == 32640u * sizeof(MFNS_FIELD(mfns_beacon_index_t, pair_hi)[0]), "binding.py BeaconIndex.pair_hi: 32640 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_beacon_index_t, pair_hi)[0], uint8_t: 1, default: 0), "binding.py BeaconIndex.pair_hi: C type is not uint8_t[32640]");
 
-/* BidxParams = mfns_bidx_params_t (beacon_index.h) */
+/* BidxParams = mfns_bidx_params_t (firmware/nav/map/beacon_index.h) */
 _Static_assert(sizeof(mfns_bidx_params_t) == 8u, "binding.py BidxParams: 8 bytes here");
 _Static_assert(offsetof(mfns_bidx_params_t, k_nbr) == 0u, "binding.py BidxParams.k_nbr: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_bidx_params_t, k_nbr), uint8_t: 1, default: 0), "binding.py BidxParams.k_nbr: C type is not uint8_t");
@@ -367,7 +367,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_bidx_params_t, max_unexplained), uint8_t
 _Static_assert(offsetof(mfns_bidx_params_t, budget_units) == 4u, "binding.py BidxParams.budget_units: offset 4 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_bidx_params_t, budget_units), uint32_t: 1, default: 0), "binding.py BidxParams.budget_units: C type is not uint32_t");
 
-/* AcqProgress = mfns_acq_progress_t (acquire.h) */
+/* AcqProgress = mfns_acq_progress_t (firmware/nav/acquire/acquire.h) */
 _Static_assert(sizeof(mfns_acq_progress_t) == 28u, "binding.py AcqProgress: 28 bytes here");
 _Static_assert(offsetof(mfns_acq_progress_t, units) == 0u, "binding.py AcqProgress.units: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_progress_t, units), uint32_t: 1, default: 0), "binding.py AcqProgress.units: C type is not uint32_t");
@@ -398,7 +398,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_acq_progress_t, completed), _Bool: 1, de
 _Static_assert(offsetof(mfns_acq_progress_t, rivals) == 26u, "binding.py AcqProgress.rivals: offset 26 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_progress_t, rivals), uint8_t: 1, default: 0), "binding.py AcqProgress.rivals: C type is not uint8_t");
 
-/* AcqCycleReport = mfns_acq_cycle_report_t (acquire_cycle.h) */
+/* AcqCycleReport = mfns_acq_cycle_report_t (firmware/nav/acquire/acquire_cycle.h) */
 _Static_assert(sizeof(mfns_acq_cycle_report_t) == 44u, "binding.py AcqCycleReport: 44 bytes here");
 _Static_assert(offsetof(mfns_acq_cycle_report_t, progress) == 0u, "binding.py AcqCycleReport.progress: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, progress), mfns_acq_progress_t: 1, default: 0), "binding.py AcqCycleReport.progress: C type is not mfns_acq_progress_t");
@@ -417,7 +417,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, catchup_steps), uint
 _Static_assert(offsetof(mfns_acq_cycle_report_t, catchup_pending) == 40u, "binding.py AcqCycleReport.catchup_pending: offset 40 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_acq_cycle_report_t, catchup_pending), _Bool: 1, default: 0), "binding.py AcqCycleReport.catchup_pending: C type is not _Bool");
 
-/* CertifyCase = mfns_certify_case_t (acquire_certify.h) */
+/* CertifyCase = mfns_certify_case_t (firmware/host/acquire_certify.h) */
 _Static_assert(sizeof(mfns_certify_case_t) == 588u, "binding.py CertifyCase: 588 bytes here");
 _Static_assert(offsetof(mfns_certify_case_t, sample) == 0u, "binding.py CertifyCase.sample: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_certify_case_t, sample), uint32_t: 1, default: 0), "binding.py CertifyCase.sample: C type is not uint32_t");
@@ -434,7 +434,7 @@ _Static_assert(offsetof(mfns_certify_case_t, rival_id) == 204u, "binding.py Cert
 _Static_assert(sizeof(MFNS_FIELD(mfns_certify_case_t, rival_id)) == 96u * sizeof(MFNS_FIELD(mfns_certify_case_t, rival_id)[0]), "binding.py CertifyCase.rival_id: 96 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_certify_case_t, rival_id)[0], int32_t: 1, default: 0), "binding.py CertifyCase.rival_id: C type is not int32_t[96]");
 
-/* CertifyResult = mfns_certify_result_t (acquire_certify.h) */
+/* CertifyResult = mfns_certify_result_t (firmware/host/acquire_certify.h) */
 _Static_assert(sizeof(mfns_certify_result_t) == 688u, "binding.py CertifyResult: 688 bytes here");
 _Static_assert(offsetof(mfns_certify_result_t, samples) == 0u, "binding.py CertifyResult.samples: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_certify_result_t, samples), uint32_t: 1, default: 0), "binding.py CertifyResult.samples: C type is not uint32_t");
@@ -460,7 +460,7 @@ _Static_assert(_Generic(MFNS_FIELD(mfns_certify_result_t, cert_capped), uint8_t:
 _Static_assert(offsetof(mfns_certify_result_t, worst) == 100u, "binding.py CertifyResult.worst: offset 100 here");
 _Static_assert(_Generic(MFNS_FIELD(mfns_certify_result_t, worst), mfns_certify_case_t: 1, default: 0), "binding.py CertifyResult.worst: C type is not mfns_certify_case_t");
 
-/* TcPoseHint = tc_pose_hint_t (tc_packets.h) */
+/* TcPoseHint = tc_pose_hint_t (firmware/tlm/tc_packets.h) */
 _Static_assert(sizeof(tc_pose_hint_t) == 24u, "binding.py TcPoseHint: 24 bytes here");
 _Static_assert(offsetof(tc_pose_hint_t, pos_um) == 0u, "binding.py TcPoseHint.pos_um: offset 0 here");
 _Static_assert(sizeof(MFNS_FIELD(tc_pose_hint_t, pos_um)) == 3u * sizeof(MFNS_FIELD(tc_pose_hint_t, pos_um)[0]), "binding.py TcPoseHint.pos_um: 3 elements");
@@ -469,7 +469,7 @@ _Static_assert(offsetof(tc_pose_hint_t, att_udeg) == 12u, "binding.py TcPoseHint
 _Static_assert(sizeof(MFNS_FIELD(tc_pose_hint_t, att_udeg)) == 3u * sizeof(MFNS_FIELD(tc_pose_hint_t, att_udeg)[0]), "binding.py TcPoseHint.att_udeg: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(tc_pose_hint_t, att_udeg)[0], int32_t: 1, default: 0), "binding.py TcPoseHint.att_udeg: C type is not int32_t[3]");
 
-/* TcSec = tc_sec_t (tc_packets.h) */
+/* TcSec = tc_sec_t (firmware/tlm/tc_packets.h) */
 _Static_assert(sizeof(tc_sec_t) == 120u, "binding.py TcSec: 120 bytes here");
 _Static_assert(offsetof(tc_sec_t, present) == 0u, "binding.py TcSec.present: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_sec_t, present), _Bool: 1, default: 0), "binding.py TcSec.present: C type is not _Bool");
@@ -486,7 +486,7 @@ _Static_assert(offsetof(tc_sec_t, auth) == 34u, "binding.py TcSec.auth: offset 3
 _Static_assert(sizeof(MFNS_FIELD(tc_sec_t, auth)) == 82u * sizeof(MFNS_FIELD(tc_sec_t, auth)[0]), "binding.py TcSec.auth: 82 elements");
 _Static_assert(_Generic(MFNS_FIELD(tc_sec_t, auth)[0], uint8_t: 1, default: 0), "binding.py TcSec.auth: C type is not uint8_t[82]");
 
-/* TcCmd = tc_cmd_t (tc_packets.h) */
+/* TcCmd = tc_cmd_t (firmware/tlm/tc_packets.h) */
 _Static_assert(sizeof(tc_cmd_t) == 192u, "binding.py TcCmd: 192 bytes here");
 _Static_assert(offsetof(tc_cmd_t, seq) == 0u, "binding.py TcCmd.seq: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, seq), uint16_t: 1, default: 0), "binding.py TcCmd.seq: C type is not uint16_t");

@@ -1,4 +1,4 @@
-"""The MFNS imaging model in numpy (double precision), mirroring math/camera.h: the one
+"""The MFNS imaging model in numpy (double precision), mirroring math/lens.h: the one
 numpy lens model (vectorised: simulation, calibration and the host reference solver use
 it; tests/host/test_camera_model.py holds it to the C model through the binding).
 
@@ -111,7 +111,7 @@ class Camera:
     def project_camera_points(self, p_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points in the camera frame (..., 3) mm -> (pixels (..., 2), in_front mask (...)).
 
-        Behind (depth below 1 mm, camera.h MFNS_CAM_MIN_DEPTH_MM): a placeholder pixel and
+        Behind (depth below 1 mm, lens.h MFNS_CAM_MIN_DEPTH_MM): a placeholder pixel and
         False; (N, 3) or (3,) give (N, 2)."""
         p_c = np.asarray(p_c, dtype=float)
         if p_c.ndim < 2:
@@ -124,7 +124,7 @@ class Camera:
 
     def project_jacobian(self, p_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Camera-frame points (N, 3), in front -> (uv (N, 2), d(uv)/d(p_c) (N, 2, 3)),
-        distortion included (camera.h mfns_cam_project_c with its Jacobian)."""
+        distortion included (lens.h mfns_cam_project_c with its Jacobian)."""
         z = p_c[:, 2]
         x = p_c[:, 0] / z
         y = p_c[:, 1] / z
@@ -152,7 +152,7 @@ class Camera:
         return uv, front & self.in_image(uv)
 
     def in_image(self, uv: np.ndarray) -> np.ndarray:
-        """On the sensor: [-0.5, W-0.5) x [-0.5, H-0.5) (camera.h mfns_cam_in_image)."""
+        """On the sensor: [-0.5, W-0.5) x [-0.5, H-0.5) (lens.h mfns_cam_in_image)."""
         return (
             (uv[..., 0] >= -0.5)
             & (uv[..., 1] >= -0.5)
@@ -181,7 +181,7 @@ def _distort(dist, xy: np.ndarray, jacobian: bool):
 
 def distort(dist, xy: np.ndarray) -> np.ndarray:
     """The lens: undistorted normalized (..., 2) -> distorted normalized (..., 2) with the
-    5 coefficients dist = [k1, k2, p1, p2, k3] (camera.h mfns_cam_distort, in double)."""
+    5 coefficients dist = [k1, k2, p1, p2, k3] (lens.h mfns_cam_distort, in double)."""
     return _distort(dist, xy, False)[0]
 
 

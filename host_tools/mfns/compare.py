@@ -45,7 +45,7 @@ TABLES = {
     "paper-calibration": "table from the paper's CPC calibration",
 }
 CAMERAS = ("x", "y", "z")
-# What each flight reason (firmware/nav/pose.h, named by the C core) means for availability.
+# What each flight reason (firmware/nav/pose/pose.h, named by the C core) means for availability.
 # The reason text itself comes from mfns_pose_strerror through the core library when built.
 WHY = {
     "TOO_FEW": "a pose has six unknowns and each beacon gives two equations: fewer than three "
@@ -417,7 +417,7 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
     lines = [
         "## 3. Availability: fix rate and why cycles have no (full) fix",
         "",
-        "Status and reason per cycle come from the flight code's telemetry (`nav.csv`, firmware/nav/pose.h); "
+        "Status and reason per cycle come from the flight code's telemetry (`nav.csv`, firmware/nav/pose/pose.h); "
         "the beacons in view come from the simulator's truth (`frames/spots.csv`, real spots only), the "
         "blobs found from the flight code's camera telemetry (`camera.csv`: beacons and reflections, summed "
         "over the three cameras). Histograms read `count: cycles`.",

@@ -1,4 +1,4 @@
-"""The flight pose solver (firmware/nav/pose.h) and acquisition (acquire.h, beacon_index.h)
+"""The flight pose solver (firmware/nav/pose/pose.h) and acquisition (acquire.h, beacon_index.h)
 from Python: numpy in, numpy out.
 
 Host tools, tests and benchmarks call the same C code the navigation computer runs:
@@ -268,7 +268,7 @@ class Flight:
 
     def config(self, sigma_px: float = 0.1, mode: int = MODE_ML, calib_cov=None, **settings) -> PoseConfig:
         """calib_cov: None (no calibration term) or the (45, 45) covariance of the calibration
-        (nav_config.h order); the config keeps the C copy alive."""
+        (nav_settings.h order); the config keeps the C copy alive."""
         c = PoseConfig()
         self.lib.mfns_pose_config_default(ct.byref(c))
         c.sigma_px = sigma_px

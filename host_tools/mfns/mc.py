@@ -31,7 +31,7 @@ Extension: end-to-end pose error vs calibration error, in the module scenario of
 `mfns sim nav` (60 wall beacons, the paper's rig, poses along the module trajectory with
 >= 4 beacons in view): the beacons are observed through the true rig, the pose is solved
 with a perturbed rig or map by a pluggable `PoseSolver`. By default the flight solver: the C
-refinement of firmware/nav/pose.h with known correspondences, from the shared library
+refinement of firmware/nav/pose/pose.h with known correspondences, from the shared library
 `make lib` builds, through ctypes (mfns.mc_flight); `--solver reference` selects the host
 reference (mfns.pose_ref, double-precision Gauss-Newton on the same reprojection error).
 """
@@ -399,7 +399,7 @@ def plot_pose(path: Path, rows: list[dict], solver_name: str) -> None:
                 va="bottom",
                 fontsize=8,
             )
-    solver = solver_name.split(" (")[0]  # "flight solver (firmware/nav/pose.h ...)" -> "flight solver"
+    solver = solver_name.split(" (")[0]  # "flight solver (firmware/nav/pose/pose.h ...)" -> "flight solver"
     fig.suptitle(f"mfns mc: end-to-end pose error vs calibration error (module scenario, {solver})")
     fig.tight_layout()
     fig.savefig(path)

@@ -1,4 +1,4 @@
-"""The flight pose solver (firmware/nav/pose.h, through mfns.flight) as a `PoseSolver`.
+"""The flight pose solver (firmware/nav/pose/pose.h, through mfns.flight) as a `PoseSolver`.
 
 `mfns mc`'s end-to-end extension calls a solver with known correspondences and an initial
 pose; this adapter runs the C refinement (`mfns_pose_refine`, ML mode) with those
@@ -33,7 +33,7 @@ from .pose_ref import PoseSolution
 
 SOLVERS = ("flight", "reference")
 SOLVER_NAMES = {
-    "flight": "flight solver (firmware/nav/pose.h mfns_pose_refine via ctypes, libmfns_core.so)",
+    "flight": "flight solver (firmware/nav/pose/pose.h mfns_pose_refine via ctypes, libmfns_core.so)",
     "reference": "host reference solver (mfns.pose_ref, Python Gauss-Newton)",
 }
 

@@ -4,14 +4,14 @@ The normalized estimation error squared e^T P^-1 e of each fix (e: the ROS-order
 r_wb_w mm then phi_w rad, C_b_w(est) = exp(phi_w) C_b_w(true); P: the solution's cov_ros) has
 mean 6 when P is right. Poses along the module trajectory of `mfns sim nav` (60 wall beacons,
 the paper's rig, >= 4 beacons in view, mc.module_pose_pool), known correspondences, the C
-refinement (firmware/nav/pose.h mfns_pose_refine through mfns.flight) from the true pose, the
+refinement (firmware/nav/pose/pose.h mfns_pose_refine through mfns.flight) from the true pose, the
 flight defaults otherwise. Three error sources, each alone:
 
   pixel        centroid noise sigma_px on every blob, known to the solver (cov_px2 = s^2 I)
   survey       + every beacon displaced by N(0, sigma_b^2 I) per trial (the map keeps the
                nominal positions and says sigma_b)
   calibration  + the rig the images come from drawn from a calibration covariance Sigma_c
-               (truth = estimate - error, nav_config.h conventions); the solver has the
+               (truth = estimate - error, nav_settings.h conventions); the solver has the
                nominal rig and Sigma_c (its calibration term)
 
 and for each the same solve with the matching term switched off (survey: sigma_mm 0 in the map;

@@ -66,7 +66,7 @@ class Field:
 
     @property
     def c_field(self) -> str:
-        """The C struct member (firmware/tlm/tlm_packets_gen.h), e.g. pos_um[0]."""
+        """The C struct member (firmware/tlm/generated/tlm_packets_gen.h), e.g. pos_um[0]."""
         return self.anc.get("c_field", self.name)
 
     @property
@@ -346,7 +346,7 @@ def load_tc(path: str | None = None) -> TcDictionary:
 
 
 def reason_names() -> tuple[str, ...]:
-    """Reason code -> name (firmware/nav/pose.h mfns_pose_reason_t), as a tuple indexed by code."""
+    """Reason code -> name (firmware/nav/pose/pose.h mfns_pose_reason_t), as a tuple indexed by code."""
     r = load().labels("nav_reason_t")
     assert sorted(r)[0] == 0, "reason codes start at 0"
     # a code a parallel branch holds (each appends only in its own range) is named, never shifted

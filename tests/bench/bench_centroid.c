@@ -16,7 +16,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "centroid.h"
+#include "firmware/nav/centroid/centroid.h"
 
 #define W 1280
 #define H 1024

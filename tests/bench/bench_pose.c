@@ -12,8 +12,8 @@
 #include <stdlib.h>
 #include <time.h>
 
-#include "acquire.h"
-#include "pose_testlib.h"
+#include "firmware/nav/acquire/acquire.h"
+#include "tests/unit/support/pose_testlib.h"
 
 static mfns_beacon_index_t g_idx, g_pidx;
 static mfns_acq_t g_acq;

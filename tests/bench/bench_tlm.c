@@ -7,9 +7,9 @@
 #include <string.h>
 #include <time.h>
 
-#include "tlm_decoder.h"
-#include "tlm_packets.h"
-#include "tlm_txq.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "firmware/tlm/tlm_packets.h"
+#include "firmware/tlm/tlm_txq.h"
 
 static double now_s(void)
 {

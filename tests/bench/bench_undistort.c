@@ -8,9 +8,9 @@
 #include <stdlib.h>
 #include <time.h>
 
-#include "caltable.h"
-#include "caltable_file.h"
-#include "undistort.h"
+#include "firmware/nav/table/caltable.h"
+#include "firmware/app/caltable_file.h"
+#include "math/undistort.h"
 
 #define NPTS 4096
 #define REPS_A 20

@@ -1,5 +1,5 @@
 /* libFuzzer target for the calibration-table loader mfns_caltable_load
- * (firmware/nav/caltable.c, docs/caltable.md).
+ * (firmware/nav/table/caltable.c, docs/caltable.md).
  *
  * The first input byte picks a mode:
  *   even  the rest is handed to the loader as it is (header and CRC checks);
@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "caltable.h"
+#include "firmware/nav/table/caltable.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

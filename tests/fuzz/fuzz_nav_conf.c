@@ -11,7 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "nav_conf.h"
+#include "firmware/app/nav_conf.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

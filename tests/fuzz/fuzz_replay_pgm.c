@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "replay_pgm.h"
+#include "drivers/camera/replay_pgm.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -23,10 +23,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "nav_cmd_dispatch.h"
-#include "tc_auth.h"
-#include "tc_packets.h"
-#include "tc_sign.h"
+#include "firmware/app/nav_cmd_dispatch.h"
+#include "firmware/app/tc_auth.h"
+#include "firmware/tlm/tc_packets.h"
+#include "ground/tc_sign.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

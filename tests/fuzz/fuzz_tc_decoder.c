@@ -22,10 +22,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cobs.h"
-#include "crc16.h"
-#include "nav_cmd_dispatch.h"
-#include "tc_packets.h"
+#include "firmware/tlm/cobs.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/app/nav_cmd_dispatch.h"
+#include "firmware/tlm/tc_packets.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -16,10 +16,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cobs.h"
-#include "crc16.h"
-#include "tlm_decoder.h"
-#include "tlm_packets.h"
+#include "firmware/tlm/cobs.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "firmware/tlm/tlm_packets.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

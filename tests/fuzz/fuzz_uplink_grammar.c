@@ -16,10 +16,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "tc_auth.h"
-#include "tc_packets.h"
-#include "uplink.h"
-#include "uplink_auth.h"
+#include "firmware/app/tc_auth.h"
+#include "firmware/tlm/tc_packets.h"
+#include "ground/uplink.h"
+#include "ground/uplink_auth.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

@@ -46,7 +46,7 @@ def test_pose_round_trip():
     assert np.allclose(matrix_to_euler213_deg(c), [3.0, -20.0, 130.0])
 
 
-# --- the numpy lens model held to the C one (math/camera.h through mfns.binding) -------------
+# --- the numpy lens model held to the C one (math/lens.h through mfns.binding) -------------
 def _random_lens(rng):
     from mfns.camera import Camera
 

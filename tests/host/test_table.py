@@ -554,7 +554,7 @@ def test_version_2_tables_are_refused_as_old(built):
     assert not st.ok and st.offset == 4 and "rebuild it with mfns table build" in st.message
 
 
-# ---- the one definition (firmware/nav/caltable_layout.toml) and what is generated from it
+# ---- the one definition (firmware/nav/table/caltable_layout.toml) and what is generated from it
 
 
 def _generator(repo_root):

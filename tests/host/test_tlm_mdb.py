@@ -132,7 +132,8 @@ def test_generator_follows_the_dictionary(tmp_path):
     assert "uint16_t test_field;" in out["tlm_packets_gen.h"]
     hk_len = int(
         re.search(
-            r"#define TLM_HK_PAYLOAD_LEN (\d+)u", (REPO / "firmware/tlm/tlm_packets_gen.h").read_text()
+            r"#define TLM_HK_PAYLOAD_LEN (\d+)u",
+            (REPO / "firmware/tlm/generated/tlm_packets_gen.h").read_text(),
         )[1]
     )
     assert f"#define TLM_HK_PAYLOAD_LEN {hk_len + 2}u" in out["tlm_packets_gen.h"]  # 2 bytes more
@@ -145,8 +146,11 @@ def test_generator_follows_the_dictionary(tmp_path):
 
 def test_reason_codes_are_explicit_in_pose_h_and_match(lib):
     """pose.h takes the enum from the generated nav_codes_gen.h: explicit numbers, the dictionary's."""
-    assert '#include "nav_codes_gen.h"' in (REPO / "firmware" / "nav" / "pose.h").read_text()
-    text = (REPO / "firmware" / "nav" / "nav_codes_gen.h").read_text()
+    assert (
+        '#include "firmware/nav/generated/nav_codes_gen.h"'
+        in (REPO / "firmware" / "nav" / "pose" / "pose.h").read_text()
+    )
+    text = (REPO / "firmware" / "nav" / "generated" / "nav_codes_gen.h").read_text()
     body = re.search(r"typedef enum \{(.*?)\} mfns_pose_reason_t;", text, re.S).group(1)
     entries = re.findall(r"^\s*(MFNS_POSE_R_\w+)\s*(=\s*(\d+))?\s*,", body, re.M)
     assert entries and all(e[1] for e in entries), "every reason needs an explicit number"

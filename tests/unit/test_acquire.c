@@ -10,10 +10,10 @@
  * in make bench-pose: tests/bench/bench_ident.py.) */
 #include <string.h>
 
-#include "acquire.h"
-#include "acquire_certify.h"
-#include "acquire_cycle.h"
-#include "pose_testlib.h"
+#include "firmware/nav/acquire/acquire.h"
+#include "firmware/host/acquire_certify.h"
+#include "firmware/nav/acquire/acquire_cycle.h"
+#include "tests/unit/support/pose_testlib.h"
 
 /* Test code computes in double from the float model on purpose. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"

@@ -7,8 +7,8 @@
  * way as one call; three blobs are never searched. */
 #include <string.h>
 
-#include "acquire.h"
-#include "pose_testlib.h"
+#include "firmware/nav/acquire/acquire.h"
+#include "tests/unit/support/pose_testlib.h"
 
 /* Test code computes in double from the float model on purpose. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"

@@ -1,5 +1,5 @@
 /* test_beacon_monitor.c -- the self-survey's in-flight residual monitor
- * (firmware/nav/beacon_monitor.h): quiet on a map as good as it says, a
+ * (firmware/nav/integrity/beacon_monitor.h): quiet on a map as good as it says, a
  * beacon moved 5 mm reported (and only it) and down-weighted, also when
  * integrity holds it out; where a beacon's and a camera's detection end on the
  * survey's 0.4 mm map; a camera mount rotated 0.1 deg reported on a refined
@@ -8,10 +8,10 @@
 #include <math.h>
 #include <string.h>
 
-#include "beacon_monitor.h"
-#include "pose_testlib.h"
-#include "testutil.h"
-#include "units.h"
+#include "firmware/nav/integrity/beacon_monitor.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
+#include "math/units.h"
 
 #define N_FIXES 120
 #define SURVEY_SIGMA_MM 0.4

@@ -6,7 +6,7 @@
  * failure is provoked with a table crafted from the good one (patched bytes,
  * CRC fixed up when the check under test comes after the CRC). */
 #define _DEFAULT_SOURCE /* mkdtemp, mkfifo under -std=c11 */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdbool.h>
 #include <stdlib.h>
@@ -14,9 +14,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "caltable.h"
-#include "caltable_file.h"
-#include "undistort.h"
+#include "firmware/nav/table/caltable.h"
+#include "firmware/app/caltable_file.h"
+#include "math/undistort.h"
 
 static uint8_t g_good[MFNS_CALTABLE_MAX_BYTES]; /* the default table as built */
 static size_t g_good_len;

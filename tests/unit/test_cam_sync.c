@@ -2,9 +2,9 @@
  * (firmware/app/cam_sync.h): which frames one cycle fuses, stale and
  * out-of-step frames, LOST after MFNS_CAM_LOST_CYCLES, re-open cadence,
  * recovery. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
-#include "cam_sync.h"
+#include "firmware/app/cam_sync.h"
 
 static void test_frames_within_window_are_fused(void **state)
 {

@@ -7,7 +7,7 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -7,14 +7,14 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <linux/videodev2.h>
 #include <string.h>
 
 #include "drivers/camera/camera.h"
 #include "drivers/camera/camera_v4l2.h"
-#include "fakev4l2_dev.h"
+#include "tests/unit/support/fakev4l2_dev.h"
 
 typedef struct {
     fakev4l2_dev_t dev;

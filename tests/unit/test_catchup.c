@@ -8,10 +8,10 @@
 #include <math.h>
 #include <string.h>
 
-#include "acquire.h"
-#include "acquire_cycle.h"
-#include "blob_ring.h"
-#include "pose_testlib.h"
+#include "firmware/nav/acquire/acquire.h"
+#include "firmware/nav/acquire/acquire_cycle.h"
+#include "firmware/nav/acquire/blob_ring.h"
+#include "tests/unit/support/pose_testlib.h"
 
 /* Test code computes in double from the float model on purpose. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"

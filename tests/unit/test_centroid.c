@@ -3,13 +3,13 @@
  * 8- and 16-bit, padded stride), false blobs on pure noise, table overflow,
  * ROI mode against full frame, every rejection reason, the word-at-a-time
  * threshold scan against a per-pixel count, and malformed inputs. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "centroid.h"
-#include "centroid_synth.h"
+#include "firmware/nav/centroid/centroid.h"
+#include "tests/unit/support/centroid_synth.h"
 
 static mfns_centroid_work_t g_work;
 static mfns_centroid_result_t g_res;

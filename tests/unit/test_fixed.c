@@ -1,7 +1,7 @@
 /* Unit tests of math/fixed: conversions, rounding, saturation at the edges. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
-#include "fixed.h"
+#include "math/fixed.h"
 
 static void test_q16_conversions_and_rounding(void **state)
 {

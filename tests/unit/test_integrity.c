@@ -1,14 +1,14 @@
 /* test_integrity.c -- fault detection and exclusion and the protection level
- * (firmware/nav/integrity.h): the quantile, a clean fix, a biased beacon, a
+ * (firmware/nav/integrity/integrity.h): the quantile, a clean fix, a biased beacon, a
  * stale camera, fixes without redundancy, and the false-alarm rate and the
  * PL's bound over many fault-free noise draws. */
 #include <math.h>
 #include <string.h>
 
-#include "integrity.h"
-#include "pose_testlib.h"
-#include "testutil.h"
-#include "units.h"
+#include "firmware/nav/integrity/integrity.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
+#include "math/units.h"
 
 #define DEG (MFNS_PI / 180.0)
 

@@ -1,14 +1,14 @@
 /* test_integrity_beacons.c -- beacons missing or rejected
- * (firmware/nav/integrity_beacons.h) on their own: clean fixes report
+ * (firmware/nav/integrity/integrity_beacons.h) on their own: clean fixes report
  * nothing; a dead LED is reported MISSING after exactly 20 fixes, once; a
  * beacon gated out or held by FDE is reported REJECTED after 10; cycles
  * without a known pose count nothing; an episode ends after 10 clean uses. */
 #include <math.h>
 #include <string.h>
 
-#include "integrity_beacons.h"
-#include "pose_testlib.h"
-#include "testutil.h"
+#include "firmware/nav/integrity/integrity_beacons.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
 
 typedef struct {
     mfns_rig_t rig;

@@ -1,5 +1,5 @@
 /* test_integrity_cameras.c -- cameras inconsistent with the fix
- * (firmware/nav/integrity_cameras.h) on their own: clean fixes report
+ * (firmware/nav/integrity/integrity_cameras.h) on their own: clean fixes report
  * nothing; a camera whose spots are none of them used while beacons are
  * predicted in its image is reported once its missed predictions reach 20
  * (ceil(20 / n) fixes with n predicted per fix), once, and shows the state
@@ -14,9 +14,9 @@
 #include <math.h>
 #include <string.h>
 
-#include "integrity_cameras.h"
-#include "pose_testlib.h"
-#include "testutil.h"
+#include "firmware/nav/integrity/integrity_cameras.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
 
 typedef struct {
     mfns_rig_t rig;

@@ -1,5 +1,5 @@
 /* test_integrity_lag.c -- the per-camera time-offset monitor
- * (firmware/nav/integrity_lag.h) on its own: a clean moving scene (no
+ * (firmware/nav/integrity/integrity_lag.h) on its own: a clean moving scene (no
  * camera flagged, z distributed as N(0, 1)), one camera one and two cycles
  * stale (flagged, its lag estimated), no motion (nothing tested), and the
  * monitor's holds (a lagging camera held and reported once, a camera back
@@ -9,10 +9,10 @@
 #include <math.h>
 #include <string.h>
 
-#include "integrity_lag.h"
-#include "motion.h"
-#include "pose_testlib.h"
-#include "testutil.h"
+#include "firmware/nav/integrity/integrity_lag.h"
+#include "firmware/nav/pose/motion.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
 
 #define STEP_MM 1.0     /* motion per cycle (mm): a slow robot, so a stale frame stays below the solver gate */
 #define TURN_RAD 0.0005 /* turn per cycle (rad) */

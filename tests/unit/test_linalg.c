@@ -1,9 +1,9 @@
 /* Unit tests of math/linalg: products, transposes, skew, orthonormality. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
-#include "camera.h"
-#include "linalg.h"
-#include "rotation.h"
+#include "math/lens.h"
+#include "math/linalg.h"
+#include "math/rotation.h"
 
 static void test_products_hand_checked(void **state)
 {

@@ -1,14 +1,14 @@
-/* test_motion.c -- the constant-velocity motion model (firmware/nav/motion.h)
+/* test_motion.c -- the constant-velocity motion model (firmware/nav/pose/motion.h)
  * against double-precision truth: a constant-velocity, constant-turn
  * sequence is predicted one frame on; stepping back undoes a prediction; no
  * motion or a non-rotation predicts no motion; advance shifts the model. */
 #include <math.h>
 #include <string.h>
 
-#include "motion.h"
-#include "pose_testlib.h"
-#include "testutil.h"
-#include "units.h"
+#include "firmware/nav/pose/motion.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
+#include "math/units.h"
 
 #define DRAWS 200
 #define MAX_TURN_RAD 0.05 /* per frame: ~1 rad/s at 18.6 Hz, faster than the robot turns */

@@ -4,15 +4,15 @@
  * replayed and out-of-order sequence counts, an action refusing) answers
  * CMD_REJECTED with its code and touches nothing; the per-cycle bound; the
  * counters and RESET_COUNTERS. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "cobs.h"
-#include "crc16.h"
-#include "nav_app.h"
-#include "nav_cmd_dispatch.h"
-#include "nav_cmds.h"
+#include "firmware/tlm/cobs.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_cmd_dispatch.h"
+#include "firmware/app/nav_cmds.h"
 
 typedef struct {
     int code, sev, subject;

@@ -2,7 +2,7 @@
  * nav_opts --config), the V4L2 camera identity lookup through a fake seam
  * (drivers/camera/camera_v4l2_ident.c) and the self-test's clock flags. */
 #define _DEFAULT_SOURCE /* mkstemp under -std=c11 */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -13,9 +13,9 @@
 #include <unistd.h>
 
 #include "drivers/camera/camera_v4l2.h"
-#include "nav_conf.h"
-#include "nav_opts.h"
-#include "nav_selftest.h"
+#include "firmware/app/nav_conf.h"
+#include "firmware/app/nav_opts.h"
+#include "firmware/app/nav_selftest.h"
 
 /* The board's default for camera z (its board.mk); nav_opts.c falls back to
  * this one where no board defines it (a clang-tidy pass over the file). */

@@ -4,13 +4,13 @@
  * bad cycles must never leave a pose marked valid. Uses the default table
  * built by the Python generator (build/gen/default.mfnstbl) with its beacon
  * map replaced by beacons placed in view of all three cameras. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "beacon_index.h"
-#include "caltable_file.h"
-#include "nav_cycle.h"
+#include "firmware/nav/map/beacon_index.h"
+#include "firmware/app/caltable_file.h"
+#include "firmware/nav/cycle/nav_cycle.h"
 
 #define W 1280
 #define H 1024

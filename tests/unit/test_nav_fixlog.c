@@ -2,7 +2,7 @@
  * (whole records, readable back with the link's decoder), rotation by size
  * keeping N files, and a full ring that drops and counts instead of waiting. */
 #define _POSIX_C_SOURCE 200809L
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,9 +10,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "nav_fixlog.h"
-#include "pose_testlib.h"
-#include "tlm_decoder.h"
+#include "firmware/app/nav_fixlog.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "firmware/tlm/tlm_decoder.h"
 
 static nav_fixlog_t log_; /* 270 kB: static storage, as the app keeps it */
 static mfns_nav_output_t out;

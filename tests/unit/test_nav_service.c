@@ -2,13 +2,13 @@
  * from what the unit's ExecStopPost records; the notify calls are no-ops
  * outside systemd. */
 #define _DEFAULT_SOURCE /* mkstemp, setenv under -std=c11 */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "nav_service.h"
+#include "firmware/app/nav_service.h"
 
 static void test_parse_exit(void **state)
 {

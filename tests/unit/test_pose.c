@@ -1,10 +1,10 @@
-/* Unit tests of the pose refinement (firmware/nav/pose.h): exact recovery,
+/* Unit tests of the pose refinement (firmware/nav/pose/pose.h): exact recovery,
  * agreement of the float solver with the double reference, convergence from
  * far, the covariance against Monte Carlo on the paper's geometry, and every
  * status / reason the refinement can return. */
 #include <string.h>
 
-#include "pose_testlib.h"
+#include "tests/unit/support/pose_testlib.h"
 
 /* Test code computes in double from the float model on purpose: promotion is intended. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"
@@ -762,7 +762,7 @@ static void test_calibration_error_nees(void **state)
     assert_true(ratio / used > 1.5);
 }
 
-/* The map datum (nav_config.h mfns_map_datum_t): the table's map is the true one
+/* The map datum (nav_settings.h mfns_map_datum_t): the table's map is the true one
  * moved rigidly, p(table) = R(dth) (p - c) + c + dt, drawn from Sigma_d every
  * trial. The fix moves with the map: with the datum term the mean NEES is 6,
  * without it far above; the term changes the covariance only, and by exactly

@@ -1,7 +1,7 @@
-/* Unit tests of the generalized three-point solver (firmware/nav/pose_init.h). */
-#include "pose_init.h"
+/* Unit tests of the generalized three-point solver (firmware/nav/pose/pose_init.h). */
+#include "firmware/nav/pose/pose_init.h"
 
-#include "pose_testlib.h"
+#include "tests/unit/support/pose_testlib.h"
 
 /* Test code computes in double from the float model on purpose. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"

@@ -1,13 +1,13 @@
 /* Unit tests of the replay readers' pure parsers (drivers/camera/replay_*.h):
  * frames.csv rows validated once and attributed to one camera, and the
  * scenario.json check (top-level keys only, integer version, strict JSON). */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "replay_index.h"
-#include "replay_pgm.h"
-#include "replay_scenario.h"
+#include "drivers/camera/replay_index.h"
+#include "drivers/camera/replay_pgm.h"
+#include "drivers/camera/replay_scenario.h"
 
 #define HDR "frame,t_s,camera,file,exposure_us,gain_db\n"
 

@@ -1,8 +1,8 @@
 /* Unit tests of math/rotation: Eq. 9, Euler round trips (with the singular
  * case), small-angle matrix, exp/log. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
-#include "rotation.h"
+#include "math/rotation.h"
 
 #define DEG (MFNS_PI / 180.0)
 

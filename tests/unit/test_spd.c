@@ -1,10 +1,10 @@
 /* Unit tests of math/spd: Cholesky solve, inverse, singular and
  * ill-conditioned systems, float against a double reference. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "spd.h"
+#include "math/spd.h"
 
 static void test_hand_checked_3x3(void **state)
 {

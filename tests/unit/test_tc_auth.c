@@ -8,7 +8,7 @@
  * persisted boot epoch (tc_state.h). Keys are made here, never read from
  * the repository. Also measures the cost of one verify. */
 #define _DEFAULT_SOURCE /* mkdtemp, mkfifo */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -18,11 +18,11 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "nav_cmd_dispatch.h"
-#include "tc_auth.h"
-#include "tc_packets.h"
-#include "tc_sign.h"
-#include "tc_state.h"
+#include "firmware/app/nav_cmd_dispatch.h"
+#include "firmware/app/tc_auth.h"
+#include "firmware/tlm/tc_packets.h"
+#include "ground/tc_sign.h"
+#include "firmware/app/tc_state.h"
 
 static const tc_auth_key_t k_key1 = {
     1u, {0x10, 0x32, 0x54, 0x76, 0x98, 0xba, 0xdc, 0xfe, 0x01, 0x23, 0x45, 0x67, 0x89, 0xab, 0xcd, 0xef,

@@ -3,14 +3,14 @@
  * each rejection code the decoder can give, the encoder refusing what the
  * decoder would refuse, and the streaming deframer on garbage, idle fill,
  * oversize frames and frames split at every byte. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "cobs.h"
-#include "crc16.h"
-#include "tc_packets.h"
-#include "tlm_packets.h"
+#include "firmware/tlm/cobs.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/tlm/tc_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 /* One valid command per opcode. */
 static tc_cmd_t sample(uint8_t op)

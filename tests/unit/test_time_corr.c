@@ -1,13 +1,13 @@
 /* Unit tests of the time correlation: the flight's pair (firmware/app/
  * nav_time.h) and the ground's UTC per packet (ground/time_corr.h). */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "nav_time.h"
-#include "time_corr.h"
-#include "tlm_codes_gen.h"
+#include "firmware/app/nav_time.h"
+#include "ground/time_corr.h"
+#include "firmware/tlm/generated/tlm_codes_gen.h"
 
 #define US 1000000LL
 /* tolerances of 16 us: the CUC fine unit is 2^-16 s = 15.26 us */

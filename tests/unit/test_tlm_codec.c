@@ -1,15 +1,15 @@
 /* Unit tests of the telemetry codec: CRC-16/CCITT-FALSE, COBS, CCSDS headers,
  * CUC time, every packet type's round trip and its refusal rules. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <math.h>
 #include <string.h>
 
-#include "ccsds.h"
-#include "cobs.h"
-#include "crc16.h"
-#include "tlm_packets.h"
-#include "tlm_test_samples.h"
+#include "firmware/tlm/ccsds.h"
+#include "firmware/tlm/cobs.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/tlm/tlm_packets.h"
+#include "tests/unit/support/tlm_test_samples.h"
 
 static void test_crc16_check_value(void **state)
 {

@@ -3,13 +3,13 @@
  * oversize frames, lost bytes, lost frames), checking that exactly the hit
  * frames are lost, that decoding resumes at the next frame, and that each
  * fault lands in its own counter. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "crc16.h"
-#include "tlm_decoder.h"
-#include "tlm_test_samples.h"
+#include "firmware/tlm/crc16.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "tests/unit/support/tlm_test_samples.h"
 
 #define NPKT 120
 #define STREAM_CAP (NPKT * TLM_MAX_WIRE + 4096)

@@ -3,15 +3,15 @@
  * of ground_run() over a recorded stream with faults. */
 #define _DEFAULT_SOURCE /* mkdtemp under -std=c11 */
 
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
-#include "ground.h"
-#include "ground_gen.h"
-#include "ground_out.h"
+#include "ground/ground.h"
+#include "ground/ground_gen.h"
+#include "ground/ground_out.h"
 
 static void test_fixed_point_formatting(void **state)
 {

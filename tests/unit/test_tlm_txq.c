@@ -1,13 +1,13 @@
 /* Unit tests of the drop-oldest transmit queue: order, wrap-around, dropping
  * the oldest whole frames when full, never dropping a frame already started,
  * and that what leaves the queue is always a decodable frame sequence. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <string.h>
 
-#include "tlm_decoder.h"
-#include "tlm_test_samples.h"
-#include "tlm_txq.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "tests/unit/support/tlm_test_samples.h"
+#include "firmware/tlm/tlm_txq.h"
 
 static tlm_txq_t g_q;
 

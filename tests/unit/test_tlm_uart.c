@@ -5,7 +5,7 @@
  * its reconnect at the bounded retry cadence, files and EOF. */
 #define _DEFAULT_SOURCE /* openpty, mkdtemp under -std=c11 */
 
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <fcntl.h>
 #include <pty.h>
@@ -14,11 +14,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "tlm_decoder.h"
-#include "tlm_test_samples.h"
-#include "tlm_txq.h"
-#include "txq_drain.h"
-#include "uart.h"
+#include "firmware/tlm/tlm_decoder.h"
+#include "tests/unit/support/tlm_test_samples.h"
+#include "firmware/tlm/tlm_txq.h"
+#include "firmware/app/txq_drain.h"
+#include "drivers/uart/uart.h"
 
 static tlm_txq_t g_q;
 

@@ -2,13 +2,13 @@
  * fixed-point correction grid, for the three cameras of docs/system.md §7, Table 2
  * over the whole 1280x1024 image, plus their error paths. The reference is
  * the forward model in double (re-distortion), independent of both forms. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "camera.h"
-#include "undistort.h"
+#include "math/lens.h"
+#include "math/undistort.h"
 
 /* Table 2 of the paper: X, Y, Z. */
 static const mfns_intrinsics_t k_paper[3] = {

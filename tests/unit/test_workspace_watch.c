@@ -1,5 +1,5 @@
 /* test_workspace_watch.c -- the tracked pose against the table's workspace
- * box (firmware/nav/workspace_watch.h) on its own: the box test per axis
+ * box (firmware/nav/acquire/workspace_watch.h) on its own: the box test per axis
  * with its widening (fixed part and 6 sigma), NaN beyond; the watch's
  * transitions: a tracked pose beyond the box is reported once (left), an
  * acquisition's pose, a lost track or a pose that does not carry the track
@@ -8,8 +8,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "testutil.h"
-#include "workspace_watch.h"
+#include "tests/unit/support/testutil.h"
+#include "firmware/nav/acquire/workspace_watch.h"
 
 static mfns_beacon_index_t idx; /* large: static; only the box is read */
 

@@ -28,7 +28,7 @@ def register(subparsers) -> None:
         "--solver",
         choices=("flight", "reference"),
         default="flight",
-        help="pose solver of the extension: flight = the C solver of firmware/nav/pose.h through "
+        help="pose solver of the extension: flight = the C solver of firmware/nav/pose/pose.h through "
         "the core library (the installed package's own, else $MFNS_CORE_LIB, else the tree's "
         "`make lib`); reference = the host "
         "Python Gauss-Newton (mfns.pose_ref) (default flight)",

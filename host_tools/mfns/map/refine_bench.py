@@ -10,7 +10,7 @@ error against truth split the way a calibration engineer reads it (map_figures):
 beacons and over those the flight saw, per coordinate and per beacon in 3-D, against the
 true positions and against the true positions in the survey's datum.
 
-`monitor`: the in-flight monitor (firmware/nav/beacon_monitor.h) end to end. The module
+`monitor`: the in-flight monitor (firmware/nav/integrity/beacon_monitor.h) end to end. The module
 scenario's LEDs with their survey error, one beacon moved along its wall (5, 3, 2 and 1 mm) or
 camera y's mount turned (0.1 and 0.3 deg about its x axis) in the rendering only; frames at
 18.6 Hz flown by mfns-nav on the table of the surveyed, unmoved map; the events mfns-ground

@@ -6,14 +6,14 @@ whether a fix is possible, the Cramer-Rao 1-sigma of the six output axes (crlb.p
 pixel noise only, above the bound with survey or calibration errors) and the
 identification margin (ident.py: the acquisition's map analysis on the sample's view).
 
-Fix rule (firmware/nav/acquire.h): the flight code acquires only from a redundant solve
+Fix rule (firmware/nav/acquire/acquire.h): the flight code acquires only from a redundant solve
 using at least four beacons (three are never acquired); tracking keeps a fix on three
 when they agree with the prediction.
 So a fix is *possible* (``fix``) with >= FIX_MIN_IN_VIEW distinct beacons in view, and a
 fix can be *held* by tracking (``track``) with >= TRACK_MIN_IN_VIEW.
 
 For an ordered workspace (the turntable sweep, a recorded truth.csv) ``fix_flight`` plays
-the navigation cycle's rule along the sequence (firmware/nav/nav_cycle.c): acquire with
+the navigation cycle's rule along the sequence (firmware/nav/cycle/nav_cycle.c): acquire with
 >= FIX_MIN_IN_VIEW, then track with >= TRACK_MIN_IN_VIEW while the fixes are unbroken.
 A coast is not counted on to recover the track: after a coast the cycle predicts with
 no velocity (it takes velocity only between two real fixes), so a robot turning faster

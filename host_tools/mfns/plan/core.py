@@ -1,11 +1,11 @@
 """The C core's projection, visibility and pose covariance, for the planner (ctypes).
 
 Every decision the planner reports is the flight code's: a beacon is in view of camera k
-when ``mfns_cam_project`` (math/camera.h) gives a pixel (in front, depth >= 1 mm) and
+when ``mfns_cam_project`` (math/lens.h) gives a pixel (in front, depth >= 1 mm) and
 ``mfns_cam_in_image`` puts it on the sensor -- the rule the navigation cycle uses to
-predict beacons (firmware/nav/nav_cycle.c, track_windows). The Jacobians come from the
+predict beacons (firmware/nav/cycle/nav_cycle.c, track_windows). The Jacobians come from the
 same call. The 6x6 pose covariance is mapped to the output axes (r_wb_w, 2-1-3 Euler)
-by the flight code's ``mfns_pose_covariance`` (firmware/nav/pose_cov.c).
+by the flight code's ``mfns_pose_covariance`` (firmware/nav/pose/pose_cov.c).
 
 numpy only prunes: :func:`prefilter` drops points that are behind a camera or so far
 off its axis (undistorted normalized radius above PREFILTER_RADIUS_FACTOR times the
@@ -47,7 +47,7 @@ class Core:
     def project(self, k: int, C_w_b, r_bw_b, points_w):
         """Points (N, 3) into camera k at one pose -> (uv (N, 2), in_view (N,), jac (N, 2, 6)).
 
-        jac is d(u, v)/d(increment) (camera.h: dtheta rad, dt mm); rows of points not
+        jac is d(u, v)/d(increment) (lens.h: dtheta rad, dt mm); rows of points not
         in view are zero. ``prefilter`` runs first; the C call decides the rest.
         """
         pts = np.atleast_2d(np.asarray(points_w, dtype=float))

@@ -9,9 +9,9 @@ u = h(pose, p_b, c_k) + n with
            "sigma" entries, when given): the same error for every beacon camera k sees.
 Linearised about the true values, u is Gaussian with covariance
   S = sigma_px^2 I + Jp Sb Jp^T + Jc Sc Jc^T,
-so the Cramer-Rao bound of the pose increment (camera.h) is (J^T S^-1 J)^-1, J the pose
+so the Cramer-Rao bound of the pose increment (lens.h) is (J^T S^-1 J)^-1, J the pose
 Jacobian. Without survey and calibration errors this is sigma_px^2 (J^T J)^-1, the
-covariance the flight solver itself reports (firmware/nav/pose_cov.c). The pose and
+covariance the flight solver itself reports (firmware/nav/pose/pose_cov.c). The pose and
 beacon Jacobians are the C core's (mfns_cam_project); the calibration Jacobian is a
 central difference of the C projection, one 1-sigma step each way.
 """

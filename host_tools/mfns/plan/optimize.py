@@ -21,7 +21,7 @@ contributions, so a move costs only the poses the moved beacon touches.
    threshold, -worst score, -mean score), is returned.
 
 Certifiable acquisition (issue 27): a view of exactly four beacons is below every
-certificate (firmware/nav/acquire.h: at least MFNS_BIDX_MIN_CERT = 5 inliers); the
+certificate (firmware/nav/acquire/acquire.h: at least MFNS_BIDX_MIN_CERT = 5 inliers); the
 acquisition certifies it only by an exhaustive completion of ~N^3/5 gP3P solves, tens of
 cycles' budget, and 5.7 % of the module's four-blob views stay ambiguous
 (docs/pose.md). So the objective counts, right after the poses with a fix, the poses

@@ -1,5 +1,5 @@
 """The one table validator: the flight loader itself (mfns_caltable_load of
-firmware/nav/caltable.c), reached through the shared library of the C core
+firmware/nav/table/caltable.c), reached through the shared library of the C core
 (`make lib`, build/host-sim/lib/libmfns_core.so), and the C grid interpolation
 (mfns_undistort_grid_px) the builder measures its grids with.
 

@@ -1,7 +1,7 @@
 """The binary calibration table (docs/caltable.md): data model, writer and reader.
 
 Little-endian throughout; floats are IEEE-754 binary32. The flight loader
-(firmware/nav/caltable.c) is the only validator of a table: table/check.py calls it
+(firmware/nav/table/caltable.c) is the only validator of a table: table/check.py calls it
 through the shared library; decode() here only parses a table it has accepted.
 """
 
@@ -17,7 +17,7 @@ from ..calib_results import COVARIANCE_PARAMETERS
 from ..errors import MfnsError
 from . import layout_gen as L
 
-# The layout is generated from the one definition (firmware/nav/caltable_layout.toml,
+# The layout is generated from the one definition (firmware/nav/table/caltable_layout.toml,
 # mk/gen_caltable.py): sizes, field order and types, struct formats.
 MAGIC = L.MAGIC
 VERSION = L.VERSION
@@ -30,7 +30,7 @@ NUM_CAMERAS = L.CONSTANTS["MFNS_NUM_CAMERAS"]
 # The calibration-covariance section (after the beacon records): u16 count (0 or
 # CALIB_PARAMS), u16 reserved, the upper triangle row-major as f32.
 COV_HEADER_SIZE = L.SIZE["calib_cov"]
-# Per camera x, y, z, in the order of nav_config.h mfns_calib_param_t: the calibration-
+# Per camera x, y, z, in the order of nav_settings.h mfns_calib_param_t: the calibration-
 # results contract's own parameter list (docs/calib-results.md), defined once there.
 CALIB_PARAM_NAMES = COVARIANCE_PARAMETERS
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
@@ -41,7 +41,7 @@ CAMERA_NAMES = ("x", "y", "z")
 # triangle row-major of the covariance over (shift x y z mm, turn x y z rad) as f32.
 DATUM_HEADER_SIZE = L.SIZE["map_datum"]
 MAP_DATUM_PARAMS = L.CONSTANTS["MFNS_MAP_DATUM_PARAMS"]
-MAP_DATUM_NAMES = ("shift x", "shift y", "shift z", "turn x", "turn y", "turn z")  # nav_config.h order
+MAP_DATUM_NAMES = ("shift x", "shift y", "shift z", "turn x", "turn y", "turn z")  # nav_settings.h order
 assert len(MAP_DATUM_NAMES) == MAP_DATUM_PARAMS
 
 
@@ -92,7 +92,7 @@ INTEGRITY_INT = tuple(
     n for n, _, k, _ in L.FIELDS["integrity"] if k in ("u8", "u16") and n not in _INTEG.reserved
 )
 # The map-index section after the beacon records is written by the C core
-# (mfns_bidx_encode, firmware/nav/beacon_index.h); only its header is read here.
+# (mfns_bidx_encode, firmware/nav/map/beacon_index.h); only its header is read here.
 _INDEX = Record("index")
 INDEX_HEADER = _INDEX.struct
 

@@ -1,5 +1,5 @@
 """The beacon map's index for lost-in-space acquisition and its certificate
-(firmware/nav/beacon_index.h, acquire_certify.h), built by the C core through the
+(firmware/nav/map/beacon_index.h, acquire_certify.h), built by the C core through the
 shared library: this module only chooses the workspace, samples the poses the map
 analysis runs on, and reports what it found (docs/pose.md "Acquisition").
 """

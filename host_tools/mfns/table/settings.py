@@ -1,5 +1,5 @@
 """Default centroid and solver settings of the calibration table: the one definition's
-(firmware/nav/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
+(firmware/nav/table/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
 settings" gives the reasons, and the C core's nav_defaults_gen.c has the same numbers).
 `mfns table build --settings FILE` overrides any of them from a JSON object
 {"centroid": {...}, "solver": {...}, "integrity": {...}} (integrity: the fault detection
@@ -30,7 +30,7 @@ F32_MAX = 3.4028234663852886e38
 def _typed(section: str, key: str, v: object) -> int | float:
     """The type the table field can carry: u16 integers, finite binary32 numbers. Ranges
     are the flight loader's to decide: `mfns table build` checks the table it writes with
-    it (firmware/nav/caltable.c), so there is no second copy of them here."""
+    it (firmware/nav/table/caltable.c), so there is no second copy of them here."""
     name = f"{section}.{key}"
     if key in CENTROID_U16 or key in SOLVER_U16 or (section == "integrity" and key in INTEGRITY_INT):
         return V.integer(v, name, 0, 65535)

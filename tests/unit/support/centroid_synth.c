@@ -1,5 +1,5 @@
 /* centroid_synth.c -- see centroid_synth.h. */
-#include "centroid_synth.h"
+#include "tests/unit/support/centroid_synth.h"
 
 #include <math.h>
 

@@ -2,7 +2,7 @@
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
-#include "fakev4l2_dev.h"
+#include "tests/unit/support/fakev4l2_dev.h"
 
 #include <errno.h>
 #include <linux/videodev2.h>

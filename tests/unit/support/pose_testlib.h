@@ -6,9 +6,9 @@
 #ifndef MFNS_POSE_TESTLIB_H
 #define MFNS_POSE_TESTLIB_H
 
-#include "beacon_index.h"
-#include "pose.h"
-#include "testutil.h"
+#include "firmware/nav/map/beacon_index.h"
+#include "firmware/nav/pose/pose.h"
+#include "tests/unit/support/testutil.h"
 
 typedef struct {
     double C[3][3]; /* C_w_b */

@@ -1,5 +1,5 @@
 /* testutil.c -- see testutil.h. */
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 #include <stdlib.h>
 

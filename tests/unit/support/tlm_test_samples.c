@@ -1,9 +1,9 @@
 /* tlm_test_samples.c -- see tlm_test_samples.h. */
-#include "tlm_test_samples.h"
+#include "tests/unit/support/tlm_test_samples.h"
 
 #include <string.h>
 
-#include "testutil.h"
+#include "tests/unit/support/testutil.h"
 
 void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i)
 {

@@ -7,7 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "tlm_packets.h"
+#include "firmware/tlm/tlm_packets.h"
 
 void tlm_test_sample(tlm_packet_t *p, tlm_type_t type, uint32_t i);
 /* Field-by-field equality (not memcmp: padding is not data). */

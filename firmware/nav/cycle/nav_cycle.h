@@ -1,0 +1,175 @@
+/* nav_cycle.h -- one navigation cycle of the flight pipeline, portable:
+ * three camera frames in, a pose solution and per-camera diagnostics out.
+ *
+ *   frames -> centroid (full frame, or windows around predicted beacons)
+ *          -> distortion correction (the table's grid, fixed point)
+ *          -> identification + pose (firmware/nav/pose/pose.h)
+ *
+ * Modes: ACQUIRE (no usable prior: whole frames, identification by
+ * hypothesis and verification) and TRACK (after a fix: windows of
+ * roi_half_size_px around each beacon predicted from the last pose, gated
+ * association). The prediction is the last pose, or, after two consecutive
+ * fixes, the last pose moved on by the motion between them (constant
+ * velocity and turn rate per cycle): a turning robot's beacons then stay
+ * inside their windows. When too few beacons are seen for a fix, the
+ * prediction coasts for at most MFNS_NAV_MAX_COAST cycles, so tracking resumes
+ * as soon as beacons return; a coasted pose is only a search prior, never
+ * output as a fix. A TRACK cycle that gives no fix is redone once, in the
+ * same cycle, as ACQUIRE on whole frames (acquire_cycle.h, within the
+ * table's work budget); after the coast the prior is dropped, so a stale pose
+ * is never reused, and every ACQUIRE cycle searches its frame afresh while a
+ * search its budget stopped goes on beside it for a bounded number of
+ * cycles: the navigator recovers from a lost track by itself. This file is
+ * the one owner of that policy (track-else-acquire); acquire_cycle.h owns how
+ * acquisition spends its budget over cycles.
+ *
+ * Integrity (integrity.h): every fix the solver gives, tracked or
+ * acquired, goes through fault detection and exclusion; only a fix whose
+ * single-fault tests pass and whose protection levels are inside the alert
+ * limits stays usable (OK or DEGRADED). A fix refused for want of
+ * redundancy (MINIMAL: three beacons; UNMONITORED; PL_EXCEEDS_AL) still
+ * moves the tracking prior on, as before, but is never output as usable; a
+ * fix with a fault that could not be excluded (FAULT_DETECTED) does not: the
+ * prediction coasts.
+ *
+ * Workspace (workspace_watch.h): the acquisition is certified for a robot
+ * inside the table's workspace box only. A tracked pose beyond the box is
+ * reported (the watch's state); while the robot was last tracked outside, an
+ * acquisition's pose is refused (NO_FIX OUTSIDE_WORKSPACE) and does not
+ * carry the track, until a tracked pose is inside again (the track coming
+ * back, or one from mfns_nav_set_prior) or a table is bound (mfns_nav_init).
+ *
+ * A camera that delivers no frame (NULL: dead, timed out, being recovered)
+ * contributes nothing and is reported as such; the solve goes on with the
+ * others (the pose solver then reports DEGRADED or NO_FIX by itself).
+ *
+ * All storage is inside mfns_nav_t (about 1 MB with the centroid scratch):
+ * place it in static storage. Nothing allocates; time is bounded by the frame
+ * size, the blob and ROI tables and the solver's caps.
+ */
+#ifndef MFNS_NAV_CYCLE_H
+#define MFNS_NAV_CYCLE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "firmware/nav/acquire/acquire_cycle.h"
+#include "firmware/nav/integrity/beacon_monitor.h"
+#include "firmware/nav/table/caltable.h"
+#include "firmware/nav/centroid/centroid.h"
+#include "firmware/nav/integrity/integrity.h"
+#include "firmware/nav/integrity/integrity_lag.h"
+#include "firmware/nav/pose/pose.h"
+#include "firmware/nav/acquire/workspace_watch.h"
+
+#define MFNS_NAV_MAX_COAST 10 /* cycles (0.54 s at 18.6 Hz) */
+
+typedef enum {
+    MFNS_NAV_MODE_ACQUIRE = 0,
+    MFNS_NAV_MODE_TRACK = 1,
+} mfns_nav_mode_t;
+
+typedef enum {
+    MFNS_NAV_OK = 0,      /* the cycle ran; the fix is in out->sol.status */
+    MFNS_NAV_E_ARG,       /* NULL pointer or not initialised */
+    MFNS_NAV_E_TABLE,     /* the table's settings were refused by a stage */
+} mfns_nav_status_t;
+
+typedef enum {
+    MFNS_NAV_CAM_OK = 0,
+    MFNS_NAV_CAM_NO_FRAME,    /* no frame this cycle */
+    MFNS_NAV_CAM_FRAME_ERROR, /* the centroider refused the frame (size, stride, format) */
+    MFNS_NAV_CAM_TABLE_FULL,  /* more blobs than the blob table holds: brightest kept */
+} mfns_nav_cam_state_t;
+
+typedef struct {
+    mfns_nav_cam_state_t state;
+    int16_t centroid_status;     /* mfns_centroid_status_t of the last call */
+    uint16_t blobs;              /* blobs found (accepted + rejected) */
+    uint16_t accepted;           /* blobs passing every check */
+    uint16_t observations;       /* handed to the solver (brightest accepted, capped) */
+    uint16_t identified;         /* observations matched to a beacon and kept as inliers */
+    uint16_t undistort_failures; /* accepted blobs outside the correction grid */
+    uint16_t rois;               /* windows read (0 = whole frame) */
+    float background_dn;
+    float noise_dn;
+} mfns_nav_cam_diag_t;
+
+typedef struct {
+    mfns_pose_solution_t sol;
+    mfns_nav_mode_t mode;      /* the mode that produced sol */
+    mfns_nav_mode_t next_mode; /* the mode of the next cycle */
+    bool mode_changed;         /* next_mode differs from the previous cycle's mode */
+    bool reacquired;           /* TRACK failed and the cycle was redone as ACQUIRE */
+    uint16_t coasting;         /* cycles the prediction has coasted without a fix (0 = none) */
+    bool acquired;             /* the cycle ran acquisition (acq holds its progress) */
+    mfns_acq_progress_t acq;   /* search progress of that acquisition (units: the cycle's total) */
+    uint16_t acq_carry_age;    /* cycles a search has been carried over (0: none carried) */
+    uint8_t acq_source;        /* mfns_acq_source_t: where a fix came from */
+    mfns_nav_cam_diag_t cam[MFNS_NUM_CAMERAS];
+    /* Fault detection and exclusion on the fix (integrity.h): protection
+     * levels, the tests, what is held out; sol is the fix after it. */
+    mfns_integrity_result_t integrity;
+    mfns_bmon_report_t bmon; /* slow-bias monitor (beacon_monitor.h): beacon_chi2 > 0 when one was reported */
+    /* The time-offset monitor on the solver's fix (integrity_lag.h), before
+     * FDE; lag_new_camera: a camera found lagging that was not held for it
+     * (report once), -1 none; cam_held: 0 in, 1 held out by FDE, 2 held out
+     * for a lag, 3 held out until its lag is verified after an outage. */
+    mfns_lag_eval_t lag;
+    int8_t lag_new_camera;
+    mfns_beacon_watch_report_t beacons; /* beacons newly found missing or rejected (integrity_beacons.h) */
+    mfns_camera_watch_report_t cameras; /* cameras inconsistent with the fix (integrity_cameras.h) */
+    uint8_t cam_held[MFNS_NUM_CAMERAS];
+    /* The tracked pose against the table's workspace box (workspace_watch.h):
+     * ws the transitions this cycle, ws_state the state after it. */
+    mfns_ws_report_t ws;
+    uint8_t ws_state; /* mfns_ws_state_t */
+} mfns_nav_output_t;
+
+typedef struct {
+    const mfns_caltable_t *table;
+    mfns_pose_config_t pose_cfg;
+    mfns_nav_mode_t mode;
+    bool have_prior;
+    mfns_pose_t prior;      /* last fix, coasted prediction or given pose */
+    bool prior_is_fix;      /* prior came from this cycle's predecessor's fix */
+    bool have_prev;
+    mfns_pose_t prev;       /* the fix before it, in the cycle before */
+    mfns_pose_t predicted;  /* prediction used by this cycle's TRACK */
+    uint16_t coast;         /* consecutive TRACK cycles without a fix */
+    uint32_t magic; /* set by init: guards against use of a zeroed struct */
+    mfns_acq_cycle_t acq;   /* acquisition, with a search carried over cycles */
+    mfns_integrity_settings_t integ_set; /* alert limits, P_fa, P_md, hold */
+    mfns_integrity_memory_t integ_mem;   /* beacons and cameras held out by FDE */
+    mfns_bmon_t bmon;                    /* slow residual bias per beacon and camera (beacon_monitor.h) */
+    mfns_ws_watch_t wsw;                 /* the tracked pose against the table's workspace (workspace_watch.h) */
+    /* scratch, meaningless between cycles */
+    mfns_centroid_work_t work;
+    mfns_centroid_result_t cres;
+    mfns_obs_frame_t obs;
+    mfns_roi_t rois[MFNS_CENTROID_MAX_ROIS];
+    float pred_uv[MFNS_MAX_BEACONS][2];
+} mfns_nav_t;
+
+/* Bind to a loaded, validated table (which must outlive nav) and start in
+ * ACQUIRE. mode selects the solver (ML, or the paper's Eq. 3 baseline). */
+mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode);
+
+/* Run one cycle. frames[k] is camera k's frame or NULL when it has none. */
+mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
+                                 mfns_nav_output_t *out);
+
+/* Start tracking from a known pose (e.g. the docking port the robot leaves
+ * from, commanded from the ground): the next cycle tracks from it and falls
+ * back to acquisition if the beacons do not confirm it. MFNS_NAV_E_ARG for a
+ * pose whose rotation is not a rotation or whose numbers are not finite. */
+mfns_nav_status_t mfns_nav_set_prior(mfns_nav_t *nav, const mfns_pose_t *pose);
+
+/* Forget the prior: the next cycle acquires. */
+void mfns_nav_lose_track(mfns_nav_t *nav);
+
+const char *mfns_nav_strerror(mfns_nav_status_t s);
+const char *mfns_nav_mode_str(mfns_nav_mode_t m);
+const char *mfns_nav_cam_state_str(mfns_nav_cam_state_t s);
+
+#endif /* MFNS_NAV_CYCLE_H */
