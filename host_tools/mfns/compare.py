@@ -417,7 +417,8 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
     lines = [
         "## 3. Availability: fix rate and why cycles have no (full) fix",
         "",
-        "Status and reason per cycle come from the flight code's telemetry (`nav.csv`, firmware/nav/pose/pose.h); "
+        "Status and reason per cycle come from the flight code's telemetry (`nav.csv`, "
+        "firmware/nav/pose/pose.h); "
         "the beacons in view come from the simulator's truth (`frames/spots.csv`, real spots only), the "
         "blobs found from the flight code's camera telemetry (`camera.csv`: beacons and reflections, summed "
         "over the three cameras). Histograms read `count: cycles`.",
