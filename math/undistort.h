@@ -103,21 +103,8 @@ mfns_undist_status_t mfns_undistort_grid_px(const mfns_undist_grid_t *g, px_q8_t
 mfns_undist_status_t mfns_undistort_grid(const mfns_undist_grid_t *g, const mfns_intrinsics_t *k,
                                          px_q8_t u_q8, px_q8_t v_q8, float *x, float *y);
 
-/* Fill a grid of nx x ny nodes covering k's whole image: origin at pixel
- * (-0.5, -0.5) (the image corner), step = ceil(256 * W / (nx - 1)) in q8, same
- * for v. Nodes are computed with the iterative inverse in double. For
- * tools and tests (the flight path loads grids from the table). Fails with
- * BAD_INPUT when nx*ny > node_cap or a step is out of range, with the
- * status of the inverse when a node does not converge. Built on the ground:
- * firmware/host/undist_grid_build.c (not in the flight image). */
-mfns_undist_status_t mfns_undist_grid_build(const mfns_intrinsics_t *k, uint16_t nx, uint16_t ny,
-                                            q16_16_t (*node)[2], size_t node_cap, mfns_undist_grid_t *g);
-
-/* The builder's node spacing: *step_q8 = ceil(256 * size_px / (n - 1)), so
- * that n nodes from the corner span size_px. False (step_q8 untouched) when
- * n < 2 or the spacing is outside [MIN_STEP_Q8, MAX_STEP_Q8]. Host-only, as
- * the builder (the table tools size their grids with it). */
-bool mfns_undist_grid_step(uint16_t size_px, uint16_t n, px_q8_t *step_q8);
+/* The grid builder (mfns_undist_grid_build, mfns_undist_grid_step) is host-only:
+ * firmware/host/undist_grid_build.h. */
 
 /* Grid header checks shared with the table loader: dims >= 2, steps in range,
  * node not NULL. */

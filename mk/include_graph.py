@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """include_graph.py [--folders] [--check]: the C include graph of the tree, and its circles.
 
-A node is a module: `name.c` and `name.h` of one folder are one node (the header is the
-module's contract, the source its body). An edge A -> B is an `#include "..."` in A's files
+A node is a module: `name.c`, `name.h` and `name_internal.h` of one folder are one node
+(the header is the module's contract, the internal header what its own sources share, the
+source its body). An edge A -> B is an `#include "..."` in A's files
 that names B's header. A circle is a strongly connected set of two or more modules: two
 modules that reach each other through includes, which the house forbids (README.md
 "Adding a module"). --folders prints the folder-level graph (edges between folders with
@@ -29,8 +30,10 @@ def files():
 
 
 def node(p: Path) -> str:
-    rel = p.relative_to(ROOT)
-    return str(rel.with_suffix(""))
+    rel = p.relative_to(ROOT).with_suffix("")
+    if rel.name.endswith("_internal"):
+        rel = rel.with_name(rel.name[: -len("_internal")])
+    return str(rel)
 
 
 # The search path the build used before includes were written from the root: a bare name
@@ -40,8 +43,25 @@ LEGACY_PATH = ("math", "firmware/nav", "firmware/tlm", "firmware/app", "drivers/
                "drivers/uart", "ground", "tests/unit/support", "firmware/host")
 
 
+# Headers the build writes itself (mk/version.mk: build/gen/mfns_version.h, the one -I
+# beside the root).
+BUILD_GENERATED = ("mfns_version.h",)
+
+# The borders: a module in the first folder never includes one in the second (prefixes).
+# The flight core sees no OS, host-only or Linux code; the host-only core is never a
+# flight module's dependency; drivers know nothing of the program that uses them.
+BORDERS = (
+    (("math/", "firmware/nav/", "firmware/tlm/"),
+     ("firmware/app/", "firmware/host/", "firmware/linux/", "drivers/", "ground/", "tests/")),
+    (("math/",), ("firmware/",)),
+    (("drivers/",), ("firmware/app/", "ground/", "firmware/host/")),
+)
+
+
 def resolve(src: Path, name: str):
     """(path, how): how is 'root', 'local' (the including file's folder) or 'search'."""
+    if name in BUILD_GENERATED:
+        return ROOT / "build" / "gen" / name, "build"
     for cand, how in ((ROOT / name, "root"), (src.parent / name, "local")):
         if cand.is_file():
             return cand, how
@@ -65,6 +85,8 @@ def graph():
                 continue
             if how == "search":
                 searched.append((str(p.relative_to(ROOT)), name))
+            if how == "build":
+                continue
             b = node(q)
             if b != a:
                 g[a].add(b)
@@ -128,6 +150,10 @@ def main() -> int:
         for (fa, fb), n in sorted(fe.items()):
             print(f"{fa} -> {fb} ({n})")
     circles = sccs(g)
+    crossings = [(m, d) for m, deps in sorted(g.items()) for d in sorted(deps)
+                 for src, dst in BORDERS if m.startswith(src) and d.startswith(dst)]
+    for m, d in crossings:
+        print(f"border crossed: {m} -> {d}")
     for c in circles:
         print("circle: " + " <-> ".join(c))
     for src, name in unresolved:
@@ -135,8 +161,9 @@ def main() -> int:
     for src, name in searched:
         print(f"by search path: {src}: \"{name}\"")
     print(f"{len(g)} modules, {sum(len(v) for v in g.values())} includes, {len(circles)} circles, "
-          f"{len(searched)} includes found only by a search path, {len(unresolved)} unresolved")
-    return 1 if a.check and (circles or unresolved or searched) else 0
+          f"{len(searched)} includes found only by a search path, {len(unresolved)} unresolved, "
+          f"{len(crossings)} borders crossed")
+    return 1 if a.check and (circles or unresolved or searched or crossings) else 0
 
 
 if __name__ == "__main__":

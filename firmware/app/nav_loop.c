@@ -78,15 +78,13 @@ static void send_fix_record(nav_app_t *app, const tlm_packet_t *nav_pkt, uint32_
     }
 }
 
-/* The self-survey monitor's findings (beacon_monitor.h): one event each; a
- * biased beacon is down-weighted in the live table (its sigma_mm scaled)
- * until a refined map is loaded (a new table starts a new monitor). */
+/* The self-survey monitor's findings (beacon_monitor.h): one event each (the
+ * navigator itself down-weights a biased beacon in its live map, nav_cycle.h). */
 static void survey_monitor(nav_app_t *app, uint32_t cycle, uint64_t t_us)
 {
     const mfns_bmon_report_t *r = &app->out.bmon;
-    if (r->beacon_chi2 > 0.0f && r->new_beacon >= 0 && app->nav.table == &app->tables[app->table_cur]) {
-        mfns_beacon_t *b = &app->tables[app->table_cur].beacons.beacon[r->new_beacon];
-        b->sigma_mm *= app->nav.bmon.sigma_scale[r->new_beacon];
+    if (r->beacon_chi2 > 0.0f && r->new_beacon >= 0 && (uint32_t)r->new_beacon < app->nav.map.count) {
+        const mfns_beacon_t *b = &app->nav.map.beacon[r->new_beacon];
         (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_BEACON_BIASED, TLM_SEV_WARNING,
                             (uint8_t)(b->id > 254u ? 255u : b->id), (int32_t)(r->beacon_chi2 * 100.0f),
                             (int32_t)b->id); /* failures counted in tlm */

@@ -6,7 +6,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "firmware/nav/map/beacon_index.h"
+#include "firmware/host/beacon_index_build.h"
 #include "math/undistort.h"
 #include "math/units.h"
 

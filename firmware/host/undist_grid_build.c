@@ -4,7 +4,7 @@
  * interpolates grids loaded from the table (math/undistort.c). */
 #include <math.h>
 
-#include "math/undistort.h"
+#include "firmware/host/undist_grid_build.h"
 
 bool mfns_undist_grid_step(uint16_t size_px, uint16_t n, px_q8_t *step)
 {

@@ -2,6 +2,7 @@
 #include "firmware/tlm/ccsds.h"
 
 #include <stddef.h>
+#include <string.h>
 
 #include "firmware/tlm/tlm_err.h"
 
@@ -27,6 +28,15 @@ uint16_t tlm_get_u16(const uint8_t *p)
 uint32_t tlm_get_u32(const uint8_t *p)
 {
     return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) | (uint32_t)p[3];
+}
+
+/* the bit pattern: binary32 on every target we build for */
+float tlm_get_f32(const uint8_t *p)
+{
+    const uint32_t u = tlm_get_u32(p);
+    float v;
+    memcpy(&v, &u, sizeof v);
+    return v;
 }
 
 int tlm_ccsds_pack(const tlm_ccsds_hdr_t *h, uint8_t out[TLM_CCSDS_PRI_LEN])

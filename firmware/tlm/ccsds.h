@@ -57,5 +57,8 @@ void tlm_put_u16(uint8_t *p, uint16_t v);
 void tlm_put_u32(uint8_t *p, uint32_t v);
 uint16_t tlm_get_u16(const uint8_t *p);
 uint32_t tlm_get_u32(const uint8_t *p);
+/* IEEE-754 binary32 from its big-endian wire bytes (bit copy, no rounding; the
+ * encoder, tlm_payload_pack, copies a float's bits as it copies a u32's). */
+float tlm_get_f32(const uint8_t *p);
 
 #endif /* MFNS_TLM_CCSDS_H */

@@ -35,15 +35,6 @@ void tlm_encoder_init(tlm_encoder_t *enc)
     }
 }
 
-/* the bit pattern: binary32 on every target we build for */
-float tlm_get_f32(const uint8_t *p)
-{
-    const uint32_t u = tlm_get_u32(p);
-    float v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
-
 int tlm_packet_encode(const tlm_packet_t *pkt, uint16_t seq, uint8_t *out, size_t cap, size_t *out_len)
 {
     if (pkt == NULL || out == NULL || out_len == NULL) {

@@ -70,8 +70,4 @@ int32_t tlm_scale_i32(float value, float scale, bool *ok);
 uint32_t tlm_scale_u32(float value, float scale, bool *ok);
 uint16_t tlm_scale_u16(float value, float scale, bool *ok);
 
-/* IEEE-754 binary32 from its big-endian wire bytes (bit copy, no rounding; the
- * encoder, tlm_payload_pack, copies a float's bits as it copies a u32's). */
-float tlm_get_f32(const uint8_t *p);
-
 #endif /* MFNS_TLM_PACKETS_H */

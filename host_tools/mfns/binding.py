@@ -601,6 +601,8 @@ PROTOTYPE_HEADERS = [
     "firmware/host/abi.h",
     "firmware/host/acquire_certify.h",
     "firmware/host/caltable_host.h",
+    "firmware/host/beacon_index_build.h",
+    "firmware/host/undist_grid_build.h",
     "firmware/tlm/tc_packets.h",
     "firmware/tlm/generated/tlm_packets_gen.h",
 ]

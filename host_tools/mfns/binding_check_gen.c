@@ -7,7 +7,9 @@
 
 #include "firmware/host/abi.h"
 #include "firmware/host/acquire_certify.h"
+#include "firmware/host/beacon_index_build.h"
 #include "firmware/host/caltable_host.h"
+#include "firmware/host/undist_grid_build.h"
 #include "firmware/nav/acquire/acquire.h"
 #include "firmware/nav/acquire/acquire_cycle.h"
 #include "firmware/nav/map/beacon_index.h"

@@ -14,6 +14,7 @@
 
 #include "firmware/nav/acquire/acquire.h"
 #include "tests/unit/support/pose_testlib.h"
+#include "firmware/host/beacon_index_build.h"
 
 static mfns_beacon_index_t g_idx, g_pidx;
 static mfns_acq_t g_acq;

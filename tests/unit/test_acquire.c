@@ -14,6 +14,7 @@
 #include "firmware/host/acquire_certify.h"
 #include "firmware/nav/acquire/acquire_cycle.h"
 #include "tests/unit/support/pose_testlib.h"
+#include "firmware/host/beacon_index_build.h"
 
 /* Test code computes in double from the float model on purpose. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"

@@ -11,6 +11,7 @@
 #include "firmware/nav/map/beacon_index.h"
 #include "firmware/app/caltable_file.h"
 #include "firmware/nav/cycle/nav_cycle.h"
+#include "firmware/host/beacon_index_build.h"
 
 #define W 1280
 #define H 1024

@@ -8,7 +8,7 @@
 #include <string.h>
 
 #include "math/lens.h"
-#include "math/undistort.h"
+#include "firmware/host/undist_grid_build.h"
 
 /* Table 2 of the paper: X, Y, Z. */
 static const mfns_intrinsics_t k_paper[3] = {

@@ -51,6 +51,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     }
     memset(nav, 0, sizeof *nav);
     nav->table = table;
+    nav->map = table->beacons;
     mfns_pose_config_default(&nav->pose_cfg);
     nav->pose_cfg.s = table->solver;
     nav->pose_cfg.sigma_px = table->pixel_sigma_px;
@@ -99,9 +100,9 @@ static uint16_t track_windows(mfns_nav_t *nav, int k, const mfns_frame_t *frame)
     const mfns_caltable_t *t = nav->table;
     const mfns_camera_t *cam = &t->rig.cam[k];
     uint16_t n = 0;
-    for (uint16_t b = 0; b < t->beacons.count && b < MFNS_MAX_BEACONS; b++) {
+    for (uint16_t b = 0; b < nav->map.count && b < MFNS_MAX_BEACONS; b++) {
         float uv[2];
-        if (mfns_cam_project(cam, &nav->predicted, t->beacons.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
+        if (mfns_cam_project(cam, &nav->predicted, nav->map.beacon[b].p_w, uv, NULL) == MFNS_PROJ_OK &&
             mfns_cam_in_image(&cam->k, uv[0], uv[1])) {
             nav->pred_uv[n][0] = uv[0];
             nav->pred_uv[n][1] = uv[1];
@@ -262,7 +263,7 @@ static void acquire(mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     const mfns_caltable_t *t = nav->table;
     mfns_acq_cycle_report_t rep;
-    (void)mfns_acq_cycle_run(&nav->acq, &t->rig, &t->beacons, &t->index, &nav->obs, &nav->pose_cfg,
+    (void)mfns_acq_cycle_run(&nav->acq, &t->rig, &nav->map, &t->index, &nav->obs, &nav->pose_cfg,
                              t->index.budget_units, &out->sol, &rep); /* the status is also in out->sol.status */
     out->acq = rep.progress;
     out->acq_carry_age = rep.carry_age;
@@ -307,7 +308,7 @@ static void monitor_only(const mfns_nav_t *nav, mfns_nav_output_t *out)
 static void lag_monitor(mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     const mfns_caltable_t *t = nav->table;
-    out->lag_new_camera = (int8_t)mfns_integrity_lag_monitor(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs,
+    out->lag_new_camera = (int8_t)mfns_integrity_lag_monitor(&nav->integ_mem, &t->rig, &nav->map, &nav->obs,
                                                              &out->sol, &nav->pose_cfg, &nav->integ_set, &out->lag);
 }
 
@@ -341,7 +342,7 @@ static void one_camera_contradicted(const mfns_nav_t *nav, const uint8_t solver_
         verifying[c] = (uint8_t)(solver_inlier[c] != 0U && nav->integ_mem.cam_lag[c] == 2U ? 1U : 0U);
     }
     if (has_fix(&out->sol) &&
-        mfns_camera_watch_contradicting(&t->rig, &t->beacons, &nav->obs, &out->sol,
+        mfns_camera_watch_contradicting(&t->rig, &nav->map, &nav->obs, &out->sol,
                                         (float)t->centroid.roi_half_size_px, verifying) >= 0) {
         out->sol.status = MFNS_POSE_NO_FIX;
         out->sol.reason = MFNS_POSE_R_CAMERAS_CONTRADICT;
@@ -363,6 +364,16 @@ static void held_cameras(const mfns_nav_t *nav, mfns_nav_output_t *out)
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         out->cam_held[c] = (uint8_t)(nav->integ_mem.cam_held[c] == 0U ? 0U : (nav->integ_mem.cam_lag[c] != 0U ? 1U + nav->integ_mem.cam_lag[c] : 1U));
+    }
+}
+
+/* The bias monitor's finding acts on the live map once the cycle is done with it: a
+ * beacon it reports (once: the monitor flags each beacon at most once per table) counts
+ * with its sigma_mm scaled from the next cycle on, in every stage. */
+static void downweight_biased(mfns_nav_t *nav, const mfns_bmon_report_t *r)
+{
+    if (r->beacon_chi2 > 0.0f && r->new_beacon >= 0 && (uint32_t)r->new_beacon < nav->map.count) {
+        nav->map.beacon[r->new_beacon].sigma_mm *= nav->bmon.sigma_scale[r->new_beacon];
     }
 }
 
@@ -389,7 +400,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     mfns_nav_status_t st = measure(nav, frames, track, out);
     if (st == MFNS_NAV_OK && track) {
         const mfns_caltable_t *t = nav->table;
-        (void)mfns_pose_track(&t->rig, &t->beacons, &nav->obs, &nav->predicted, &nav->pose_cfg, &out->sol);
+        (void)mfns_pose_track(&t->rig, &nav->map, &nav->obs, &nav->predicted, &nav->pose_cfg, &out->sol);
         /* a three-beacon pose is never usable (pose.c: NO_FIX MINIMAL); it
          * carries the track only when it agrees with the prediction */
         if (out->sol.status == MFNS_POSE_NO_FIX && out->sol.reason == MFNS_POSE_R_MINIMAL &&
@@ -420,24 +431,25 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
             solver_inlier[c] =
                 (uint8_t)(has_fix(&out->sol) && mfns_camera_has_inlier(&out->sol, &nav->obs, c) ? 1U : 0U);
         }
-        (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &t->beacons, &nav->obs, &nav->pose_cfg, &nav->integ_set,
+        (void)mfns_integrity_fde(&nav->integ_mem, &t->rig, &nav->map, &nav->obs, &nav->pose_cfg, &nav->integ_set,
                                  &out->sol, &out->integrity); /* the verdict is in out->sol.status */
         lag_untested(nav, out);
         one_camera_contradicted(nav, solver_inlier, out);
         monitor_only(nav, out);
-        (void)mfns_bmon_update(&nav->bmon, &t->rig, &t->beacons, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
+        (void)mfns_bmon_update(&nav->bmon, &t->rig, &nav->map, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
                                nav->pose_cfg.s.track_gate_px, nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS,
                                &out->bmon); /* arguments checked above */
         count_identified(nav, out);
         held_cameras(nav, out);
         const bool carries = carries_track(&out->sol, !out->acquired); /* the cycle's verdict is final here */
-        mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &t->beacons, &nav->obs, &out->sol, carries,
+        mfns_beacon_watch_update(&nav->integ_mem.watch, &t->rig, &nav->map, &nav->obs, &out->sol, carries,
                                  nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS, &out->beacons);
-        mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &t->beacons, &nav->obs, &out->sol, carries,
+        mfns_camera_watch_update(&nav->integ_mem.camwatch, &t->rig, &nav->map, &nav->obs, &out->sol, carries,
                                  solver_inlier, &out->cameras);
         mfns_ws_watch_update(&nav->wsw, &t->index, &out->sol, carries, !out->acquired, &out->ws);
     }
     out->ws_state = nav->wsw.state;
+    downweight_biased(nav, &out->bmon);
     if (st != MFNS_NAV_OK) {
         out->sol.status = MFNS_POSE_NO_FIX;
         mfns_nav_lose_track(nav);

@@ -128,6 +128,11 @@ typedef struct {
 
 typedef struct {
     const mfns_caltable_t *table;
+    /* The live map: the table's beacons as bound (the table itself is never written:
+     * its CRC is what housekeeping reports), with a beacon the bias monitor reports
+     * down-weighted, its sigma_mm scaled by mfns_bmon_t.sigma_scale, until a table is
+     * bound again (a refined map starts a new monitor). Every stage reads this map. */
+    mfns_beacon_map_t map;
     mfns_pose_config_t pose_cfg;
     mfns_nav_mode_t mode;
     bool have_prior;

@@ -128,30 +128,12 @@ typedef struct {
     uint32_t budget_units;
 } mfns_bidx_params_t;
 
-/* ---- Ground side: the build and the serialisation of the index, defined
- * in firmware/host/beacon_index_build.c (the default parameters in
- * nav_defaults_gen.c, generated from caltable_layout.toml, with the other defaults; firmware/host is linked into libmfns_core.so and the
- * unit tests, never into the flight image; `make size` fails a flight module
- * that calls them). Declared here beside the layout they fill. */
-
-/* The defaults `mfns table build` writes (nav_defaults_gen.c, from caltable_layout.toml). */
+/* The defaults `mfns table build` writes (nav_defaults_gen.c, generated from
+ * caltable_layout.toml with the other defaults). */
 void mfns_bidx_params_default(mfns_bidx_params_t *p);
 
-/* Build the index of map for rig over the workspace box. emit may be NULL
- * (every beacon emits everywhere); else one entry per beacon. */
-mfns_bidx_status_t mfns_bidx_build(const mfns_rig_t *rig, const mfns_beacon_map_t *map,
-                                   const mfns_beacon_emit_t *emit, mfns_v3_t ws_min_w, mfns_v3_t ws_max_w,
-                                   const mfns_bidx_params_t *par, mfns_beacon_index_t *out);
-
-/* Serialize the index as the table's map-index section (little-endian).
- * *written receives the size; MFNS_BIDX_E_SPACE when cap is too small. */
-mfns_bidx_status_t mfns_bidx_encode(const mfns_beacon_index_t *idx, uint8_t *buf, uint32_t cap, uint32_t *written);
-
-/* MFNS_BIDX_SECTION_SIZE(n, k) as a function, for the host tools (ctypes). */
-uint32_t mfns_bidx_section_size(uint32_t n, uint32_t k);
-
-/* The widest angle between two pixels of any camera of the rig (rad). */
-float mfns_bidx_rig_fov_diag_rad(const mfns_rig_t *rig);
+/* The index's build and serialisation (mfns_bidx_build, mfns_bidx_encode,
+ * mfns_bidx_section_size, mfns_bidx_rig_fov_diag_rad): firmware/host/beacon_index_build.h. */
 
 /* ---- Flight side: the look-ups of the acquisition (beacon_index.c). */
 

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "firmware/nav/table/caltable_internal.h"
+#include "firmware/nav/generated/caltable_consts_gen.h" /* the definition's constants held to these headers */
 
 /* ---- CRC-32/ISO-HDLC, 4 bits at a time: a 64-byte table instead of 1 KiB. */
 static const uint32_t crc_nibble[16] = {

@@ -1,6 +1,7 @@
 /* pose_testlib.c -- see pose_testlib.h. Double precision throughout: this is
  * the truth and the reference the float flight code is measured against. */
 #include "tests/unit/support/pose_testlib.h"
+#include "firmware/host/beacon_index_build.h"
 
 /* Test code computes in double from the float model on purpose: promotion is intended. */
 #pragma GCC diagnostic ignored "-Wdouble-promotion"
