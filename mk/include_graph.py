@@ -17,7 +17,7 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parent.parent  # --root moves it (the tests' small trees)
 SCAN = ("math", "firmware", "drivers", "ground", "tests/unit/support")
 INC = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 
@@ -42,6 +42,11 @@ def node(p: Path) -> str:
 LEGACY_PATH = ("math", "firmware/nav", "firmware/tlm", "firmware/app", "drivers/camera",
                "drivers/uart", "ground", "tests/unit/support", "firmware/host")
 
+
+# Where a circle fails --check. The flight program's six-file circle through nav_app and
+# nav_tlm and the camera driver's front/backend circle are issue 41's app stage: printed,
+# not yet failing; a new circle anywhere else fails.
+CIRCLES_ENFORCED = ("math/", "firmware/nav/", "firmware/tlm/", "firmware/host/", "ground/", "tests/")
 
 # Headers the build writes itself (mk/version.mk: build/gen/mfns_version.h, the one -I
 # beside the root).
@@ -138,7 +143,11 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--folders", action="store_true", help="print the folder-level graph")
     ap.add_argument("--check", action="store_true", help="exit 1 when a circle exists")
+    ap.add_argument("--root", type=Path, help="the tree to read (default: this repository)")
     a = ap.parse_args()
+    if a.root is not None:
+        global ROOT
+        ROOT = a.root.resolve()
     g, unresolved, searched = graph()
     if a.folders:
         fe = defaultdict(int)
@@ -154,8 +163,9 @@ def main() -> int:
                  for src, dst in BORDERS if m.startswith(src) and d.startswith(dst)]
     for m, d in crossings:
         print(f"border crossed: {m} -> {d}")
+    failing = [c for c in circles if any(m.startswith(CIRCLES_ENFORCED) for m in c)]
     for c in circles:
-        print("circle: " + " <-> ".join(c))
+        print(("circle: " if c in failing else "circle (app stage, not yet enforced): ") + " <-> ".join(c))
     for src, name in unresolved:
         print(f"unresolved: {src}: \"{name}\"")
     for src, name in searched:
@@ -163,7 +173,7 @@ def main() -> int:
     print(f"{len(g)} modules, {sum(len(v) for v in g.values())} includes, {len(circles)} circles, "
           f"{len(searched)} includes found only by a search path, {len(unresolved)} unresolved, "
           f"{len(crossings)} borders crossed")
-    return 1 if a.check and (circles or unresolved or searched or crossings) else 0
+    return 1 if a.check and (failing or unresolved or searched or crossings) else 0
 
 
 if __name__ == "__main__":

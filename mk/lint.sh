@@ -19,6 +19,9 @@ if ! clang-tidy --quiet $csrc_only -- -std=c11 -D_DEFAULT_SOURCE $inc 2>/dev/nul
 elif grep -qE "(warning|error):" build/clang-tidy.log; then
   cat build/clang-tidy.log; echo "lint: clang-tidy found problems"; rc=1
 fi
+if ! python3 mk/include_graph.py --check >build/include-graph.log; then
+  cat build/include-graph.log; echo "lint: the include graph has a circle, a crossed border or a search-path include"; rc=1
+fi
 if ! "$py" -m ruff check --quiet host_tools tests/host; then
   echo "lint: ruff found problems"; rc=1
 fi
