@@ -18,7 +18,8 @@
 #   firmware/host/*.c                               host-only core (builders, analyses,
 #                                                   binding hooks): libmfns_core.so and
 #                                                   the unit tests, never a flight image
-#   drivers/*/*.c firmware/app/*.c ground/*.c       Linux-only code
+#   drivers/*/*.c firmware/app/*.c ground/*.c       Linux-only code (firmware/linux/*.c: what
+#                                                   both programs link, e.g. the MAC, the drain)
 #   tests/unit/test_*.c                             one cmocka binary each
 #   tests/unit/support/*.c                          helpers linked into every test
 #   mk/*.mk                                         per-topic rules (generated files,
@@ -79,7 +80,7 @@ CORE_HDRS  := $(call tree,$(CORE_DIRS),.h)
 HOST_CORE_DIR  := firmware/host
 HOST_CORE_SRCS := $(sort $(wildcard $(HOST_CORE_DIR)/*.c))
 APP_MAINS  := firmware/app/main.c ground/main.c
-LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c ground/*.c ground/generated/*.c)))
+LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c firmware/linux/*.c ground/*.c ground/generated/*.c)))
 SUPPORT_SRCS := $(sort $(wildcard tests/unit/support/*.c))
 TEST_SRCS  := $(sort $(wildcard tests/unit/test_*.c))
 TESTS      := $(patsubst tests/unit/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
@@ -105,7 +106,7 @@ else
 LINK := $(CC)
 endif
 # libcrypto (OpenSSL, Debian libssl-dev; libssl-dev:arm64 for sitss-nav) for the
-# telecommand MAC (firmware/app/tc_auth.c). A Linux build without it still builds, but
+# telecommand MAC (firmware/linux/tc_auth.c). A Linux build without it still builds, but
 # its programs load no key: commands then need --tc-insecure (docs/uplink.md).
 ifeq ($(BOARD_KIND),linux)
 HAVE_LIBCRYPTO := $(shell $(PKG_CONFIG) --exists libcrypto 2>/dev/null && echo 1)
@@ -287,7 +288,7 @@ size: $(CORE_OBJS) $(LTO_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
 	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
 	  -lm -Wl,-Map=$(BUILD)/core.map -o $(BUILD)/core.elf
 	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
-	@roots=$$(mk/flight_roots.sh "$(NM)" firmware/app $(CORE_OBJS)) && \
+	@roots=$$(mk/flight_roots.sh "$(NM)" "firmware/app firmware/linux" $(CORE_OBJS)) && \
 	  $(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) $$roots $(BUILD)/obj/boards/cortex-m7-core/entry.o $(CORE_OBJS) \
 	  -lm -Wl,-Map=$(BUILD)/flight-nolto.map -o $(BUILD)/flight-nolto.elf && \
 	  python3 mk/map_text.py --label "flight without LTO" $(BUILD)/flight-nolto.map && \

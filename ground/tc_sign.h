@@ -1,6 +1,6 @@
 /* tc_sign.h -- the ground's half of the telecommand authentication
  * (docs/uplink.md 1a): the wire frame of a command with its security header
- * and truncated HMAC, as firmware/app/tc_auth.c checks it. Ground only: the
+ * and truncated HMAC, as firmware/linux/tc_auth.c checks it. Ground only: the
  * flight program verifies commands and never signs one, so this lives out of
  * the flight folders and out of the flight image (issue 22). */
 #ifndef MFNS_GROUND_TC_SIGN_H
@@ -9,7 +9,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 #include "firmware/tlm/tc_packets.h"
 
 /* The wire frame of cmd signed with key (id = SPI) and arsn into out[0..cap).

@@ -12,7 +12,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "firmware/app/txq_drain.h"
+#include "firmware/linux/txq_drain.h"
 
 #define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
 #define TCP_CLOSE_MS 3000u /* what the TCP receiver still takes at exit, at most (bounded) */

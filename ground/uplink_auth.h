@@ -1,7 +1,7 @@
 /* uplink_auth.h -- mfns-ground's signing of telecommands (docs/uplink.md 1a):
  * with --tc-key FILE every command it sends, whatever its source (--cmd,
  * --cmd-file, --udp-tc, --tc-socket), leaves as a secured packet signed with
- * the first key of FILE (firmware/app/tc_auth.h), its ARSN = epoch << 32 |
+ * the first key of FILE (firmware/linux/tc_auth.h), its ARSN = epoch << 32 |
  * count, the count +1 per command.
  *
  * The epoch is the board's boot epoch: given (--tc-epoch N, e.g. to prepare
@@ -19,7 +19,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 #include "firmware/tlm/tlm_packets.h"
 
 typedef struct {

@@ -60,6 +60,11 @@ BORDERS = (
      ("firmware/app/", "firmware/host/", "firmware/linux/", "drivers/", "ground/", "tests/")),
     (("math/",), ("firmware/",)),
     (("drivers/",), ("firmware/app/", "ground/", "firmware/host/")),
+    # what both programs link lives in firmware/linux/: the ground never reaches into the
+    # flight program, nor the flight program into the ground
+    (("ground/",), ("firmware/app/",)),
+    (("firmware/app/", "firmware/linux/"), ("ground/",)),
+    (("firmware/linux/",), ("firmware/app/",)),
 )
 
 

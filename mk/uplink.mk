@@ -34,15 +34,15 @@ fuzz-tc-brief: $(TC_FUZZ_BIN)
 #   make fuzz-tc-auth fuzz-uplink-grammar   FUZZ_SECONDS (60) s each, corpora in build/fuzz/
 TC_AUTH_FUZZERS := tc_auth uplink_grammar
 fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(call tree,firmware/tlm,.c) firmware/app/nav_cmd_dispatch.c \
-                     firmware/app/tc_auth.c ground/tc_sign.c
+                     firmware/linux/tc_auth.c ground/tc_sign.c
 fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(call tree,firmware/tlm,.c) \
-                     firmware/app/tc_auth.c firmware/app/txq_drain.c ground/uplink.c ground/uplink_auth.c ground/tc_sign.c \
+                     firmware/linux/tc_auth.c firmware/linux/txq_drain.c ground/uplink.c ground/uplink_auth.c ground/tc_sign.c \
                      ground/udp_forward.c ground/tcp_forward.c $(sort $(wildcard drivers/uart/*.c))
 FUZZ_TARGETS += $(addprefix fuzz-,$(subst _,-,$(TC_AUTH_FUZZERS)))
 .PHONY: fuzz-tc-auth fuzz-uplink-grammar
 
 define auth_fuzz_bin
-build/fuzz/fuzz_$(1): $$(fuzz_srcs_$(1)) $$(call tree,firmware/tlm,.h) $$(wildcard firmware/app/*.h ground/*.h)
+build/fuzz/fuzz_$(1): $$(fuzz_srcs_$(1)) $$(call tree,firmware/tlm,.h) $$(wildcard firmware/app/*.h firmware/linux/*.h ground/*.h)
 	@mkdir -p $$(@D)
 	$$(FUZZ_CC) $$(FUZZ_FLAGS) -DMFNS_HAVE_LIBCRYPTO=1 $$(INCLUDES) $$(fuzz_srcs_$(1)) \
 	  $$(shell pkg-config --libs libserialport) -lcrypto -lm -o $$@

@@ -10,7 +10,7 @@
  * Writes never block: mfns_uart_write() takes what the port accepts now,
  * says how many bytes that was (possibly 0) and returns. Callers keep what
  * is not yet written; the flight program queues frames in a tlm_txq_t (drop
- * oldest) and empties it with txq_drain() (firmware/app/txq_drain.h).
+ * oldest) and empties it with txq_drain() (firmware/linux/txq_drain.h).
  *
  * Reconnect: when a port opened by path vanishes (USB adapter unplugged,
  * EIO/ENODEV/ENXIO, pty or FIFO peer gone), the transport closes it, counts a

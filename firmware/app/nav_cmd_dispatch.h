@@ -49,7 +49,7 @@ _Static_assert(NAV_CMD_SEQ_WINDOW == TLM_CCSDS_SEQ_MASK / 2u,
  * (TC_E_STATE, TC_E_ARG, TC_E_TABLE, ...); may set *arg1 (the CMD_ACCEPTED
  * event's arg1). cmd holds the decoded arguments (cmd->u per opcode). */
 typedef tc_status_t (*nav_cmd_fn_t)(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
-/* Authentication of a decoded command (firmware/app/tc_auth.h): TC_OK or
+/* Authentication of a decoded command (firmware/linux/tc_auth.h): TC_OK or
  * an AUTH_* code. Called before the sequence guard and the action, so an
  * unauthenticated command neither acts nor moves the sequence reference. */
 typedef tc_status_t (*nav_cmd_auth_fn_t)(void *ctx, const tc_cmd_t *cmd);

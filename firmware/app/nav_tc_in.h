@@ -20,7 +20,7 @@
 #include <stdint.h>
 
 #include "firmware/app/nav_cmd_dispatch.h"
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 #include "firmware/app/nav_opts.h"
 #include "drivers/uart/uart.h"
 

@@ -14,7 +14,7 @@
 #include "math/units.h"
 #include "firmware/app/nav_app.h"
 #include "firmware/app/nav_cams.h"
-#include "firmware/app/txq_drain.h"
+#include "firmware/linux/txq_drain.h"
 
 #define FLUSH_TRIES 200 /* x 10 ms: telemetry drain at exit */
 #define FLUSH_WAIT_US 10000u

@@ -19,7 +19,7 @@
 #include "ground/ground_gen.h"
 #include "mfns_version.h"
 #include "firmware/tlm/tlm_txq.h"
-#include "firmware/app/txq_drain.h"
+#include "firmware/linux/txq_drain.h"
 #include "drivers/uart/uart.h"
 
 static tlm_txq_t g_q;

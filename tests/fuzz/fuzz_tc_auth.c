@@ -1,6 +1,6 @@
 /* libFuzzer target for authenticated telecommands: the security header and
  * trailer (firmware/tlm/tc_packets.h tc_any_packet_decode), the MAC and
- * anti-replay check (firmware/app/tc_auth.h, OpenSSL's HMAC) and the flight
+ * anti-replay check (firmware/linux/tc_auth.h, OpenSSL's HMAC) and the flight
  * dispatch that calls it first (nav_cmd_dispatch.h), with two keys loaded
  * (ids 1 and 2) and boot epoch 7.
  *
@@ -24,7 +24,7 @@
 #include <string.h>
 
 #include "firmware/app/nav_cmd_dispatch.h"
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 #include "firmware/tlm/tc_packets.h"
 #include "ground/tc_sign.h"
 

@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 #include "firmware/tlm/tc_packets.h"
 #include "ground/uplink.h"
 #include "ground/uplink_auth.h"

@@ -19,7 +19,7 @@
 #include <unistd.h>
 
 #include "firmware/app/nav_cmd_dispatch.h"
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 #include "firmware/tlm/tc_packets.h"
 #include "ground/tc_sign.h"
 #include "firmware/app/tc_state.h"

@@ -17,7 +17,7 @@
 #include "firmware/tlm/tlm_decoder.h"
 #include "tests/unit/support/tlm_test_samples.h"
 #include "firmware/tlm/tlm_txq.h"
-#include "firmware/app/txq_drain.h"
+#include "firmware/linux/txq_drain.h"
 #include "drivers/uart/uart.h"
 
 static tlm_txq_t g_q;

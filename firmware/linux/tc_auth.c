@@ -1,7 +1,7 @@
 /* tc_auth.c -- see tc_auth.h. */
 #define _DEFAULT_SOURCE /* O_NOFOLLOW, O_CLOEXEC under -std=c11 */
 
-#include "firmware/app/tc_auth.h"
+#include "firmware/linux/tc_auth.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -1,5 +1,5 @@
 /* txq_drain.c -- see txq_drain.h. */
-#include "firmware/app/txq_drain.h"
+#include "firmware/linux/txq_drain.h"
 
 #include <stddef.h>
 
