@@ -128,11 +128,6 @@ typedef struct {
 
 typedef struct {
     const mfns_caltable_t *table;
-    /* The live map: the table's beacons as bound (the table itself is never written:
-     * its CRC is what housekeeping reports), with a beacon the bias monitor reports
-     * down-weighted, its sigma_mm scaled by mfns_bmon_t.sigma_scale, until a table is
-     * bound again (a refined map starts a new monitor). Every stage reads this map. */
-    mfns_beacon_map_t map;
     mfns_pose_config_t pose_cfg;
     mfns_nav_mode_t mode;
     bool have_prior;
@@ -154,6 +149,12 @@ typedef struct {
     mfns_obs_frame_t obs;
     mfns_roi_t rois[MFNS_CENTROID_MAX_ROIS];
     float pred_uv[MFNS_MAX_BEACONS][2];
+    /* The live map: the table's beacons as bound (the table itself is never written:
+     * its CRC is what housekeeping reports), with a beacon the bias monitor reports
+     * down-weighted, its sigma_mm scaled by mfns_bmon_t.sigma_scale, until a table is
+     * bound again (a refined map starts a new monitor). Every stage reads this map.
+     * Last in the struct: the other members keep their small offsets (Thumb-2 loads). */
+    mfns_beacon_map_t map;
 } mfns_nav_t;
 
 /* Bind to a loaded, validated table (which must outlive nav) and start in
