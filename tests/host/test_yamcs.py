@@ -365,18 +365,23 @@ def check_view(text: dict, nav: list[dict], cams: list[dict]) -> int:
     """The values shown against nav.csv's row of the cycle shown; the pose is checked to its
     digits on a FIX/DEGRADED cycle (a NO_FIX cycle's pose is no solution, check_fix covers the
     last one that was)."""
-    cyc = int(text["nav-cycle"])
+    stale = text["freshness"].startswith("STALE")  # issue 46: the last values, marked as such
+    unstale = {k: v.removesuffix(" (stale)") for k, v in text.items()}
+    cyc = int(unstale["nav-cycle"])
     row = nav[cyc]
     assert int(row["cycle"]) == cyc
-    assert text["nav-status"] == row["status"] and text["nav-mode"] == row["mode"]
-    check_digits(text, "nav", row, SIGMA_DIGITS)
-    if row["status"] in USABLE:
+    assert unstale["nav-status"] == row["status"] and unstale["nav-mode"] == row["mode"]
+    if row["status"] in USABLE and not stale:
+        check_digits(text, "nav", row, SIGMA_DIGITS)
         check_digits(text, "nav", row, POSE_DIGITS)
+    else:  # never a NO_FIX packet's zeros, nor stale values, as the present pose (issue 46)
+        for k in POSE_DIGITS:
+            assert text[f"nav-{k}"] == ("stale" if stale else "no fix"), (k, text[f"nav-{k}"])
     mask = int(row["cams_used"])
     used = "+".join(n for k, n in enumerate("xyz") if mask >> k & 1) or "none"
     assert text["fix-source"] == f"cameras {used}, {row['beacons_used']} beacons"
     for k in "xyz":  # a state this camera reported (the view keeps each camera's latest packet)
-        assert text[f"cam-{k}-state"] in {c["state"] for c in cams if c["camera"] == k}
+        assert unstale[f"cam-{k}-state"] in {c["state"] for c in cams if c["camera"] == k}
     return cyc
 
 
