@@ -12,7 +12,7 @@ from ..errors import MfnsError
 def register(subparsers) -> None:
     p = subparsers.add_parser(
         "live",
-        help="a live Foxglove WebSocket on 127.0.0.1: pose with covariance, TF, beacons, camera frusta, status",
+        help="a live Foxglove WebSocket on 127.0.0.1: pose with covariance, TF, beacons, frusta, status",
         description=(
             "Serves the navigation solution to Foxglove (open ws://127.0.0.1:PORT in Foxglove's "
             "'Open connection'; docs/robotics.md): /mfns/pose (PoseWithCovarianceStamped, none on "
