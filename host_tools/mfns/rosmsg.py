@@ -318,6 +318,8 @@ def nav_status(row: dict) -> dict:
     beacon fault, docs/pose.md), the reason by name and code, mode, what was used."""
     status = row.get("status", "")
     reason = reason_name(row.get("reason"))
+    if row.get("mode") == "STANDBY" and status == "NO_FIX":
+        reason = "STANDBY (commanded: the navigator does not run)"  # the wire's reason is NONE
     values = [_kv("reason", reason), _kv("reason_code", row.get("reason"))]
     values += [_kv(k, row.get(k)) for k in NAV_KEYS if k in row]
     return {

@@ -159,9 +159,10 @@ def test_no_fix_after_a_fix_shows_no_pose_and_the_last_fix(view):
 
 
 def test_commanded_standby_is_no_fix_by_design_and_says_so(view):
-    view.client.proc.on_data(nav_packet("NO_FIX", "STANDBY", 7, reason="STANDBY"))
+    view.client.proc.on_data(nav_packet("NO_FIX", "STANDBY", 7, reason="NONE"))  # the wire's reason
     ids = browse(view, "standby")["ids"]
-    assert ids["nav-mode"] == "STANDBY" and ids["nav-status"] == "NO_FIX" and ids["nav-reason"] == "STANDBY"
+    assert ids["nav-mode"] == "STANDBY" and ids["nav-status"] == "NO_FIX"
+    assert ids["nav-reason"] == "commanded STANDBY: the navigator does not run"
     assert ids["nav-x_mm"] == "no fix" and ids["fix-cycle"] == "–"  # no fix ever: nothing to show
 
 
