@@ -71,13 +71,19 @@ HK = [
     "workspace",
 ]
 GROUND = ["nofix_run_cycles", "cpu_margin_pct", "table_crc_changed", "cmd_rejected"]
+EVT = ["cycle", "code", "severity", "subject", "arg0", "arg1"]
 PARAMS = (
     [f"/MFNS/nav_{n}" for n in NAV]
+    + [f"/MFNS/evt_{n}" for n in EVT]
     + [f"/MFNS/cam_{n}" for n in CAM]
     + [f"/MFNS/hk_{n}" for n in HK]
     + [f"/MFNS_GROUND/{n}" for n in GROUND]
 )
 N_COMMANDS = 8  # the last commands shown
+N_EVENTS = 12  # the last event lines shown (a line aggregates repeats)
+# An event of the same code and subject as the line on top within this many cycles (about
+# 1 s at 18 Hz) adds to its count instead of a new line: a flood reads as one line "x 240".
+EVENT_REPEAT_CYCLES = 20
 # No navigation packet for this long and the view says STALE (mode, status, cameras and the
 # alarms' "back in limits" are then the last known, not the present). The flight sends one
 # navigation packet per cycle (about 18 Hz, docs/telemetry.md), so 3 s is some 50 missed
@@ -156,6 +162,7 @@ class State:
         self.clock = time.monotonic  # receipt times (a test may move it)
         self.rx_nav: float | None = None  # when the latest navigation packet arrived
         self.monitoring: dict[str, str | None] = {}  # parameter -> its latest value's monitoring result
+        self.events: list[dict] = []  # newest first, repeats aggregated (add_event)
         self.sub = self.proc.create_parameter_subscription(
             PARAMS, on_data=self._on_data, abort_on_invalid=False
         )
@@ -168,6 +175,10 @@ class State:
                 self.rx_nav = self.clock()
             for name, p in vals.items():
                 self.monitoring[name] = p.monitoring_result
+            if "/MFNS/evt_code" in vals:  # one event packet: its values belong to that event
+                self.add_event(
+                    {n: plain(vals[f"/MFNS/evt_{n}"].eng_value) for n in EVT if f"/MFNS/evt_{n}" in vals}
+                )
             cam = vals.get("/MFNS/cam_camera")
             if cam is not None:  # one camera's packet: its values belong to that camera only
                 d = self.cams.setdefault(str(cam.eng_value), {})
@@ -188,6 +199,36 @@ class State:
             status = vals.get("/MFNS/nav_status")
             if status is not None and str(status.eng_value) in USABLE:  # a navigation packet with a pose
                 self.last_fix = dict(self.nav)
+
+    def add_event(self, e: dict) -> None:
+        """A flight event as the operator reads it (names, decoded arguments: tlm_dict.event_text),
+        aggregated with the line on top when it repeats it (same code and subject within
+        EVENT_REPEAT_CYCLES cycles): the line then counts and spans the repeats."""
+        code, subject = str(e.get("code")), int(e.get("subject", 0))
+        cycle = int(e.get("cycle", 0))
+        top = self.events[0] if self.events else None
+        if (
+            top is not None
+            and (top["code"], top["subject"]) == (code, subject)
+            and 0 <= cycle - top["last_cycle"] <= EVENT_REPEAT_CYCLES
+        ):
+            top["count"] += 1
+            top["last_cycle"] = cycle
+            top["text"] = tlm_dict.event_text(code, subject, int(e.get("arg0", 0)), int(e.get("arg1", 0)))
+            return
+        self.events.insert(
+            0,
+            {
+                "code": code,
+                "subject": subject,
+                "severity": str(e.get("severity")),
+                "first_cycle": cycle,
+                "last_cycle": cycle,
+                "count": 1,
+                "text": tlm_dict.event_text(code, subject, int(e.get("arg0", 0)), int(e.get("arg1", 0))),
+            },
+        )
+        del self.events[N_EVENTS:]
 
     def alarms(self, stale: bool) -> list[dict]:
         """Yamcs' active alarms, each with its present state as the view states it: from the
@@ -255,6 +296,7 @@ class State:
                 "cams": {k: dict(v) for k, v in self.cams.items()},
                 "ground": dict(self.ground),
                 "deliveries": self.n_deliveries,
+                "events": [dict(e) for e in self.events],
             }
             age = None if self.rx_nav is None else self.clock() - self.rx_nav
         hk = snap["hk"]

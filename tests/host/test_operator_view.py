@@ -11,6 +11,7 @@ a command the flight rejected. tests/host/test_yamcs.py runs the same page over 
 
 from __future__ import annotations
 
+import html
 import re
 import shutil
 import subprocess
@@ -269,3 +270,49 @@ def test_a_rejected_command_in_operators_words(view):
     assert "sent · accepted by the flight · executed" in text[1] and "done" in text[1]
     for raw in ("Failed OK", "Failed CANCELLED", "Complete CANCELLED"):
         assert raw not in html
+
+
+def evt_packet(cycle, code, severity, subject, arg0, arg1):
+    vals = {
+        "cycle": cycle,
+        "code": code,
+        "severity": severity,
+        "subject": subject,
+        "arg0": arg0,
+        "arg1": arg1,
+    }
+    return SimpleNamespace(parameters=[pv(f"/MFNS/evt_{k}", v) for k, v in vals.items()])
+
+
+def test_events_by_name_with_decoded_arguments_and_repeats_counted(view):
+    """Names and arguments an operator reads (camera names, modes, beacons, commands and
+    rejection codes, table loader statuses by name, from mfns_tm.xml's AncillaryData and the
+    C core), and a flood aggregated into one line with its count."""
+    p = view.client.proc
+    p.on_data(nav_packet("FIX", "TRACK", 1, pose=FIX_POSE))
+    p.on_data(evt_packet(1, "TABLE_REFUSED", "ERROR", 0, 30, 0))
+    p.on_data(evt_packet(2, "MODE_CHANGE", "INFO", 0, 2, 4))
+    p.on_data(evt_packet(3, "CMD_REJECTED", "WARNING", 3, 7, 5))
+    for c in range(10, 250):  # one warning per cycle for 240 cycles: one line x 240
+        p.on_data(evt_packet(c, "CAMERA_LAG", "WARNING", 1, 1500, 420))
+    p.on_data(evt_packet(260, "BEACON_MISSING", "WARNING", 12, 20, 12))
+    d = browse(view, "events")
+    rows = re.findall(r'<tr class="event" data-code="([^"]+)" data-count="(\d+)">(.*?)</tr>', d["html"])
+    text = {code: (int(n), html.unescape(re.sub(r"<[^>]+>", " ", body))) for code, n, body in rows}
+    assert [code for code, _, _ in rows] == [
+        "BEACON_MISSING",
+        "CAMERA_LAG",
+        "CMD_REJECTED",
+        "MODE_CHANGE",
+        "TABLE_REFUSED",
+    ]
+    assert (
+        text["CAMERA_LAG"][0] == 240
+        and "cycles 10–249" in text["CAMERA_LAG"][1]
+        and "× 240" in text["CAMERA_LAG"][1]
+    )
+    assert "CAMERA_LAG camera y" in text["CAMERA_LAG"][1]
+    assert "MODE_CHANGE TRACK -> STANDBY" in text["MODE_CHANGE"][1]
+    assert "CMD_REJECTED SET_MODE" in text["CMD_REJECTED"][1]
+    assert "calibration table file cannot be opened" in text["TABLE_REFUSED"][1]  # 30, by the core's name
+    assert "BEACON_MISSING beacon 12" in text["BEACON_MISSING"][1]
