@@ -17,16 +17,15 @@ that works; skips, with the reason printed, where Java (Yamcs) or Chromium canno
 
 from __future__ import annotations
 
-from collections import Counter
-
 import csv
 import json
-import re
 import os
+import re
 import shutil
 import subprocess
 import sys
 import time
+from collections import Counter
 from datetime import datetime
 from pathlib import Path
 
