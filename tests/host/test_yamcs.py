@@ -371,7 +371,7 @@ def check_digits(text: dict, prefix: str, row: dict, digits: dict) -> None:
 def check_fix(text: dict, nav: list[dict]) -> int:
     """The view's last fix: the latest FIX/DEGRADED cycle of nav.csv up to the cycle shown, its
     pose to the digits shown."""
-    shown_cycle = int(text["nav-cycle"])
+    shown_cycle = int(text["nav-cycle"].removesuffix(" (stale)"))  # issue 46: a stale view says so
     cyc = int(text["fix-cycle"])
     row = nav[cyc]
     assert int(row["cycle"]) == cyc and row["status"] in USABLE and text["fix-status"] == row["status"]
