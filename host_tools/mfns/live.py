@@ -75,15 +75,30 @@ class Live:
         self.channels: dict = {}
         self.last_resend = 0.0
         self.counts: dict[str, int] = {}
+        # every ROS channel advertised from the start, so a viewer sees the topics (and can
+        # subscribe) before the first pose: a NO_FIX start has none for a while
+        topics = [
+            (rosmsg.TOPIC_POSE, rosmsg.TYPE_POSE),
+            (rosmsg.TOPIC_TF, rosmsg.TYPE_TF),
+            (rosmsg.TOPIC_DIAG, rosmsg.TYPE_DIAG),
+        ]
+        if rig:
+            topics.append((rosmsg.TOPIC_TF_STATIC, rosmsg.TYPE_TF))
+            topics += [(rosmsg.topic_camera_info(c.name), rosmsg.TYPE_CAMINFO) for c in rig]
+        for topic, typename in topics:
+            self._channel(topic, typename)
 
-    def _ros(self, topic: str, typename: str, msg: dict, ns: int) -> None:
+    def _channel(self, topic: str, typename: str):
         ch = self.channels.get(topic)
         if ch is None:
             schema = self.foxglove.Schema(
                 name=typename, encoding="ros2msg", data=rosmsg.msgdef(typename).encode()
             )
             ch = self.channels[topic] = self.foxglove.Channel(topic, schema=schema, message_encoding="cdr")
-        ch.log(self.enc(typename, msg), log_time=ns)
+        return ch
+
+    def _ros(self, topic: str, typename: str, msg: dict, ns: int) -> None:
+        self._channel(topic, typename).log(self.enc(typename, msg), log_time=ns)
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
     def _beacons(self, ns: int) -> None:

@@ -9,6 +9,7 @@ import math
 import struct
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -129,3 +130,93 @@ def test_bad_options_are_one_line(run):
     assert res.returncode == 2 and "--pace" in res.stderr and "Traceback" not in res.stderr
     res = mfns("live", str(run["ground"] / "nav.csv"), "--follow")
     assert res.returncode == 2 and "--follow" in res.stderr
+
+
+def test_tail_gives_whole_rows_only(tmp_path):
+    from mfns.live import Tail
+
+    p = tmp_path / "nav.csv"
+    t = Tail(p)
+    assert t.rows() == []  # not there yet
+    p.write_text("cycle,status\n0,NO_")
+    assert t.rows() == []  # the header, and a row not finished
+    with open(p, "a") as f:
+        f.write("FIX\n1,FIX\n2,DEG")
+    assert t.rows() == [{"cycle": "0", "status": "NO_FIX"}, {"cycle": "1", "status": "FIX"}]
+    with open(p, "a") as f:
+        f.write("RADED\n")
+    assert t.rows() == [{"cycle": "2", "status": "DEGRADED"}]
+
+
+def write_rows(path, rows):
+    for r in rows:
+        with open(path, "a") as f:
+            f.write(r)
+        time.sleep(0.1)
+
+
+def test_follow_serves_rows_as_the_ground_writes_them(run, tmp_path):
+    """--follow: a folder that grows while the server runs (as mfns-ground writes it)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    src = (run["ground"] / "nav.csv").read_text().splitlines(keepends=True)
+    live_dir = tmp_path / "ground"
+    live_dir.mkdir()
+    (live_dir / "nav.csv").write_text(src[0])  # the header only: nothing flown yet
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "mfns",
+            "live",
+            str(live_dir),
+            "--follow",
+            "--port",
+            "0",
+            "--max-seconds",
+            "10",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    line = proc.stdout.readline()
+    assert line.startswith("mfns live: ws://127.0.0.1:"), line + proc.stderr.read()
+    port = int(line.split("ws://127.0.0.1:")[1].split()[0])
+    got = []
+    try:
+        with ws_client.connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], open_timeout=5) as ws:
+            deadline = time.monotonic() + 8
+            appended = subscribed = False
+            while time.monotonic() < deadline and not got:
+                try:
+                    msg = ws.recv(timeout=0.5)
+                except TimeoutError:
+                    msg = None
+                if isinstance(msg, str):
+                    op = json.loads(msg)
+                    if op.get("op") == "advertise":
+                        subs = [
+                            {"id": 1, "channelId": c["id"]}
+                            for c in op["channels"]
+                            if c["topic"] == "/mfns/pose"
+                        ]
+                        if subs:
+                            ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                            time.sleep(0.3)  # the subscription in place before any pose
+                            subscribed = True
+                elif isinstance(msg, bytes) and msg[0] == 0x01:
+                    got.append(msg[13:])
+                if subscribed and not appended:  # the ground writes its rows now, one per 0.1 s
+                    threading.Thread(
+                        target=write_rows, args=(live_dir / "nav.csv", src[1:]), daemon=True
+                    ).start()
+                    appended = True
+    finally:
+        proc.wait(timeout=30)
+    assert proc.returncode == 0, proc.stderr.read()
+    m = get_typestore(Stores.ROS2_HUMBLE).deserialize_cdr(
+        got[0], "geometry_msgs/msg/PoseWithCovarianceStamped"
+    )
+    xs = {float(r.split(",")[9]) / 1000.0 for r in src[1:] if ",NO_FIX," not in r}
+    assert m.pose.pose.position.x in xs
