@@ -404,24 +404,6 @@ def check_view(text: dict, nav: list[dict], cams: list[dict]) -> int:
     return cyc
 
 
-def test_yamcs_pose_is_never_a_no_fix_zero(chain):
-    """Issue 46: /MFNS/nav_x_mm is the wire's 0 on NO_FIX; /MFNS_GROUND/pose_* (mfns_ground.xml
-    usable_pose) are updated by FIX and DEGRADED packets only, each with its cycle."""
-    nav = rows(chain["out"] / "ground" / "nav.csv")
-    hist = chain["res"]["ground_history"]
-    xs = {t: float(v) for t, v, _ in hist["/MFNS_GROUND/pose_x_mm"]}
-    cycles = {t: int(v) for t, v, _ in hist["/MFNS_GROUND/pose_cycle"]}
-    usable = {int(r["cycle"]): float(r["x_mm"]) for r in nav if r["status"] in USABLE}
-    nofix = {int(r["cycle"]) for r in nav if r["status"] not in USABLE}
-    assert nofix and usable  # the run has both
-    assert set(xs) == set(cycles) and cycles
-    assert not set(cycles.values()) & nofix  # never updated by a NO_FIX packet
-    for t, c in cycles.items():
-        assert abs(xs[t] - usable[c]) < 6e-4, (c, xs[t], usable[c])
-    assert len(cycles) >= len(usable) // 2
-    print(f"\nYamcs pose_*: {len(cycles)} updates, {len(usable)} usable cycles, {len(nofix)} NO_FIX")
-
-
 def test_pose_check_fails_on_a_wrong_pose(chain):
     """check_fix/check_view can fail: the view's text with one coordinate 0.011 mm (or
     0.0011 deg) off, or the last fix moved to a NO_FIX cycle, is refused."""

@@ -390,8 +390,6 @@ def main() -> int:
                 "/MFNS_GROUND/cpu_margin_pct",
                 "/MFNS_GROUND/table_crc_changed",
                 "/MFNS_GROUND/nofix_run_cycles",
-                "/MFNS_GROUND/pose_x_mm",
-                "/MFNS_GROUND/pose_cycle",
             )
         }
         res["total_s"] = time.monotonic() - t0
