@@ -390,8 +390,12 @@ def event_decoders(d: Dictionary | None = None) -> dict[str, dict[str, str]]:
 def _event_names():
     d = load()
     tc = load_tc()
+    dec = event_decoders(d)
+    arg1 = next(f for p in d.packets.values() for f in p.fields if f.param == "evt_arg1")
+    for code in arg1.anc.get("ground_hex_when", "").split():  # a CRC-32, as events.csv prints it
+        dec["arg1"].setdefault(code, "hex")
     return (
-        event_decoders(d),
+        dec,
         d.labels("camera_id_t"),
         d.labels("mode_t"),
         {c.opcode: c.name for c in tc.commands.values()},
@@ -433,6 +437,8 @@ def event_args(code: str, subject: int, arg0: int, arg1: int) -> dict[str, str]:
             out[slot] = statuses.get(v, str(v))
         elif kind == "table_status":
             out[slot] = _table_status(v)
+        elif kind == "hex":
+            out[slot] = f"0x{v & 0xFFFFFFFF:08x}"
         else:
             out[slot] = str(v)
     return out

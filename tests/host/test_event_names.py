@@ -59,3 +59,4 @@ def test_event_text_in_operators_words():
     assert t("TLM_DROPPED", 0, 3, 0) == "TLM_DROPPED subject 0: arg0 3, arg1 0"
     assert t("CMD_REJECTED", 3, 7, 5).startswith("CMD_REJECTED SET_MODE (sequence count 7): ")
     assert "cannot be opened" in t("TABLE_REFUSED", 0, 30, 0)
+    assert t("TABLE_LOADED", 0, 5, 741223092) == "TABLE_LOADED subject 0: arg0 5, arg1 0x2c2e2ab4"  # CRC, hex
