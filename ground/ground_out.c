@@ -180,7 +180,10 @@ int ground_out_packet(ground_out_t *o, const tlm_packet_t *p, int64_t rx_utc_us,
     fputc('\n', c);
     fputs("}\n", j);
     o->rows[p->type]++;
-    return (ferror(c) || ferror(j)) ? -1 : 0;
+    /* each CSV row whole on disk as it is decoded: a reader following the folder live
+     * (`mfns live --follow`, docs/robotics.md) sees it at once, not a stdio buffer later */
+    const int flushed = fflush(c);
+    return (flushed != 0 || ferror(c) || ferror(j)) ? -1 : 0;
 }
 
 int ground_out_stats(const ground_out_t *o, const tlm_decoder_stats_t *s, double seconds)

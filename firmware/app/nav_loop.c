@@ -114,10 +114,17 @@ static void send_solution(nav_app_t *app, uint32_t cycle, uint64_t t_us)
     }
     app->last_t_us = t_us;
     (void)nav_tlm_send(&app->tlm, &p); /* failures counted in tlm */
-    nav_tlm_integrity_events(&app->tlm, &app->out, &app->nav.table->beacons, app->nav.integ_set.hold_cycles, cycle,
-                             t_us);
+    if (!app->standby) {
+        /* In STANDBY the navigator did not run and app->out is zeroed: its "none"
+         * indices (-1) read as beacon or camera 0, which raised 5 WARNINGs and 2
+         * INFOs every cycle (issue 46). No findings without a navigation. */
+        nav_tlm_integrity_events(&app->tlm, &app->out, &app->nav.table->beacons, app->nav.integ_set.hold_cycles,
+                                 cycle, t_us);
+    }
     send_fix_record(app, &p, cycle, t_us);
-    survey_monitor(app, cycle, t_us);
+    if (!app->standby) {
+        survey_monitor(app, cycle, t_us);
+    }
 }
 
 static void print_cycle(const nav_app_t *app, uint32_t cycle)

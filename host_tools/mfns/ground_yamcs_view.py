@@ -71,13 +71,65 @@ HK = [
     "workspace",
 ]
 GROUND = ["nofix_run_cycles", "cpu_margin_pct", "table_crc_changed", "cmd_rejected"]
+EVT = ["cycle", "code", "severity", "subject", "arg0", "arg1"]
 PARAMS = (
     [f"/MFNS/nav_{n}" for n in NAV]
+    + [f"/MFNS/evt_{n}" for n in EVT]
     + [f"/MFNS/cam_{n}" for n in CAM]
     + [f"/MFNS/hk_{n}" for n in HK]
     + [f"/MFNS_GROUND/{n}" for n in GROUND]
 )
 N_COMMANDS = 8  # the last commands shown
+N_EVENTS = 12  # the last event lines shown (a line aggregates repeats)
+# An event of the same code and subject as the line on top within this many cycles (about
+# 1 s at 18 Hz) adds to its count instead of a new line: a flood reads as one line "x 240".
+EVENT_REPEAT_CYCLES = 20
+# No navigation packet for this long and the view says STALE (mode, status, cameras and the
+# alarms' "back in limits" are then the last known, not the present). The flight sends one
+# navigation packet per cycle (about 18 Hz, docs/telemetry.md), so 3 s is some 50 missed
+# packets: never a hiccup of the link, always a flight, link or ground that stopped.
+STALE_AFTER_S = 3.0
+
+# The verification stages of a command in an operator's words (docs/operators.md "Commands"):
+# (stage, Yamcs ack status) -> what it means; None = nothing to say (e.g. the failure check
+# CANCELLED because the command completed: it did not fail).
+STAGES = ("Acknowledge_Sent", "Verifier_Accepted", "Verifier_Complete", "Verifier_Failed")
+STAGE_WORDS = {
+    ("Acknowledge_Sent", "OK"): ("sent", "OK"),
+    ("Acknowledge_Sent", "NOK"): ("not sent", "FAILED"),
+    ("Verifier_Accepted", "OK"): ("accepted by the flight", "OK"),
+    ("Verifier_Accepted", "PENDING"): ("awaiting acceptance", "PENDING"),
+    ("Verifier_Accepted", "TIMEOUT"): ("no acceptance seen (timeout)", "TIMEOUT"),
+    ("Verifier_Accepted", "NOK"): ("not accepted", "FAILED"),
+    ("Verifier_Accepted", "CANCELLED"): None,
+    ("Verifier_Complete", "OK"): ("executed", "OK"),
+    ("Verifier_Complete", "PENDING"): ("awaiting execution", "PENDING"),
+    ("Verifier_Complete", "TIMEOUT"): ("no execution seen (timeout)", "TIMEOUT"),
+    ("Verifier_Complete", "NOK"): ("not executed", "FAILED"),
+    ("Verifier_Complete", "CANCELLED"): None,
+    ("Verifier_Failed", "OK"): ("REJECTED by the flight", "FAILED"),
+    ("Verifier_Failed", "NOK"): None,
+    ("Verifier_Failed", "PENDING"): None,
+    ("Verifier_Failed", "TIMEOUT"): None,
+    ("Verifier_Failed", "CANCELLED"): None,
+}
+
+
+def stage_words(acks: dict) -> list[dict]:
+    """The command's verification as the operator reads it: one {stage, text, cls} per stage
+    that says something (Yamcs' raw "Failed OK" is "REJECTED by the flight"; the failure
+    check CANCELLED after a completion is left out: nothing failed)."""
+    out = []
+    for k in STAGES:
+        a = acks.get(k)
+        if a is None:
+            continue
+        w = STAGE_WORDS.get((k, a["status"]), (f"{k.partition('_')[2].lower()} {a['status']}", a["status"]))
+        if w is not None:
+            out.append({"stage": k, "text": w[0], "cls": w[1]})
+    return out
+
+
 FAILED_RETURN = "Verifier_Failed_Return"  # command history: what the Failed verifier returned
 USABLE = tlm_dict.usable_status_names()  # a pose the flight's integrity checks passed (docs/pose.md)
 
@@ -107,6 +159,10 @@ class State:
         self.cams: dict[str, dict] = {}
         self.last_fix: dict = {}  # the navigation packet of the latest FIX or DEGRADED cycle
         self.n_deliveries = 0
+        self.clock = time.monotonic  # receipt times (a test may move it)
+        self.rx_nav: float | None = None  # when the latest navigation packet arrived
+        self.monitoring: dict[str, str | None] = {}  # parameter -> its latest value's monitoring result
+        self.events: list[dict] = []  # newest first, repeats aggregated (add_event)
         self.sub = self.proc.create_parameter_subscription(
             PARAMS, on_data=self._on_data, abort_on_invalid=False
         )
@@ -115,6 +171,14 @@ class State:
         vals = {p.name: p for p in data.parameters}
         with self.lock:
             self.n_deliveries += 1
+            if "/MFNS/nav_status" in vals:
+                self.rx_nav = self.clock()
+            for name, p in vals.items():
+                self.monitoring[name] = p.monitoring_result
+            if "/MFNS/evt_code" in vals:  # one event packet: its values belong to that event
+                self.add_event(
+                    {n: plain(vals[f"/MFNS/evt_{n}"].eng_value) for n in EVT if f"/MFNS/evt_{n}" in vals}
+                )
             cam = vals.get("/MFNS/cam_camera")
             if cam is not None:  # one camera's packet: its values belong to that camera only
                 d = self.cams.setdefault(str(cam.eng_value), {})
@@ -136,15 +200,60 @@ class State:
             if status is not None and str(status.eng_value) in USABLE:  # a navigation packet with a pose
                 self.last_fix = dict(self.nav)
 
-    def alarms(self) -> list[dict]:
+    def add_event(self, e: dict) -> None:
+        """A flight event as the operator reads it (names, decoded arguments: tlm_dict.event_text),
+        aggregated with the line on top when it repeats it (same code and subject within
+        EVENT_REPEAT_CYCLES cycles): the line then counts and spans the repeats."""
+        code, subject = str(e.get("code")), int(e.get("subject", 0))
+        cycle = int(e.get("cycle", 0))
+        top = self.events[0] if self.events else None
+        if (
+            top is not None
+            and (top["code"], top["subject"]) == (code, subject)
+            and 0 <= cycle - top["last_cycle"] <= EVENT_REPEAT_CYCLES
+        ):
+            top["count"] += 1
+            top["last_cycle"] = cycle
+            top["text"] = tlm_dict.event_text(code, subject, int(e.get("arg0", 0)), int(e.get("arg1", 0)))
+            return
+        self.events.insert(
+            0,
+            {
+                "code": code,
+                "subject": subject,
+                "severity": str(e.get("severity")),
+                "first_cycle": cycle,
+                "last_cycle": cycle,
+                "count": 1,
+                "text": tlm_dict.event_text(code, subject, int(e.get("arg0", 0)), int(e.get("arg1", 0))),
+            },
+        )
+        del self.events[N_EVENTS:]
+
+    def alarms(self, stale: bool) -> list[dict]:
+        """Yamcs' active alarms, each with its present state as the view states it: from the
+        latest value this view received of that parameter when it has one (the same value the
+        rest of the page shows), else from Yamcs' alarm; never "back in limits" on stale data."""
         out = []
+        with self.lock:
+            mon = dict(self.monitoring)
         for a in self.proc.list_alarms():
+            current = mon.get(a.name, "unknown")
+            if current == "unknown":
+                in_limits = bool(a.is_ok)
+            else:
+                in_limits = current in (None, "IN_LIMITS")
+            if stale:
+                state = "no fresh data"
+            else:
+                state = "back in limits" if in_limits else "in alarm"
             out.append(
                 {
                     "name": a.name,
                     "severity": a.severity,
                     "acknowledged": a.is_acknowledged,
-                    "ok": a.is_ok,
+                    "ok": in_limits,
+                    "state": state,
                     "trigger_time": iso(a.trigger_time),
                     "violations": a.violation_count,
                 }
@@ -167,6 +276,7 @@ class State:
                     "name": c.name.rpartition("/")[2],
                     "args": {k: plain(v) for k, v in c.assignments.items()},
                     "acks": acks,
+                    "stages": stage_words(acks),
                     "complete": c.is_complete(),
                     "success": c.is_success(),
                     "timed_out": timed_out and not c.is_complete(),
@@ -186,11 +296,19 @@ class State:
                 "cams": {k: dict(v) for k, v in self.cams.items()},
                 "ground": dict(self.ground),
                 "deliveries": self.n_deliveries,
+                "events": [dict(e) for e in self.events],
             }
+            age = None if self.rx_nav is None else self.clock() - self.rx_nav
         hk = snap["hk"]
         if hk.get("n_cycles"):  # cycles with a usable pose (FIX or DEGRADED) since the board started
             snap["fix_rate_pct"] = 100.0 * (hk["n_fix"] + hk["n_degraded"]) / hk["n_cycles"]
-        snap["alarms"] = self.alarms()
+        # freshness: "waiting" before the first navigation packet, "stale" once none came for
+        # STALE_AFTER_S; the page then marks every last-known value as such
+        snap["nav_age_s"] = age
+        snap["stale_after_s"] = STALE_AFTER_S
+        snap["freshness"] = "waiting" if age is None else ("stale" if age > STALE_AFTER_S else "live")
+        snap["pose_valid"] = snap["freshness"] == "live" and str(snap["nav"].get("status")) in USABLE
+        snap["alarms"] = self.alarms(snap["freshness"] != "live")
         snap["commands"] = self.commands()
         snap["now"] = datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
         return snap

@@ -19,7 +19,7 @@ import re
 import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import resources
 from pathlib import Path
 
@@ -356,6 +356,106 @@ def reason_names() -> tuple[str, ...]:
 def usable_status_names() -> tuple[str, ...]:
     """The nav statuses that carry a usable pose (all but NO_FIX)."""
     return tuple(lab for v, lab in sorted(load().labels("nav_status_t").items()) if lab != "NO_FIX")
+
+
+# --------------------------------------------------------------------------- event text
+EVENT_NAMERS = (
+    "camera_when",
+    "mode_when",
+    "beacon_when",
+    "tc_opcode_when",
+    "tc_status_when",
+    "table_status_when",
+)
+
+
+def event_decoders(d: Dictionary | None = None) -> dict[str, dict[str, str]]:
+    """For the event's subject, arg0 and arg1: event code label -> what the number names
+    (`camera`, `mode`, `beacon`, `tc_opcode`, `tc_status`), from the AncillaryData of
+    evt_subject / evt_arg0 / evt_arg1 in mfns_tm.xml (its header says what each means)."""
+    d = d or load()
+    fields = {f.param: f for p in d.packets.values() for f in p.fields}
+    out: dict[str, dict[str, str]] = {}
+    for slot, pname in (("subject", "evt_subject"), ("arg0", "evt_arg0"), ("arg1", "evt_arg1")):
+        per: dict[str, str] = {}
+        for key in EVENT_NAMERS:
+            for code in fields[pname].anc.get(key, "").split():
+                assert code not in per, f"{pname}: {code} named twice"
+                per[code] = key.removesuffix("_when")
+        out[slot] = per
+    return out
+
+
+@cache
+def _event_names():
+    d = load()
+    tc = load_tc()
+    dec = event_decoders(d)
+    arg1 = next(f for p in d.packets.values() for f in p.fields if f.param == "evt_arg1")
+    for code in arg1.anc.get("ground_hex_when", "").split():  # a CRC-32, as events.csv prints it
+        dec["arg1"].setdefault(code, "hex")
+    return (
+        dec,
+        d.labels("camera_id_t"),
+        d.labels("mode_t"),
+        {c.opcode: c.name for c in tc.commands.values()},
+        {v: lab for v, (lab, _desc) in tc.statuses.items()},
+    )
+
+
+@cache
+def _table_status(code: int) -> str:
+    """The loader's own words for a table status (the C core: mfns_caltable_strerror), with the
+    number; the number alone when the core library is not there."""
+    try:
+        from . import binding
+
+        text = binding.load().mfns_caltable_strerror(int(code)).decode()
+    except Exception:  # no core library: the number is still right
+        return str(code)
+    return f"{code} ({text})"
+
+
+def event_args(code: str, subject: int, arg0: int, arg1: int) -> dict[str, str]:
+    """An event's subject and arguments as an operator reads them: camera names (x|y|z), modes,
+    beacons (`beacon 12`), commands and rejection codes by name; a number without a name
+    stays a number (e.g. a loader error code: no dictionary names them)."""
+    dec, cams, modes, opcodes, statuses = _event_names()
+    out = {}
+    for slot, v in (("subject", subject), ("arg0", arg0), ("arg1", arg1)):
+        kind = dec[slot].get(code)
+        v = int(v)
+        if kind == "camera":
+            out[slot] = f"camera {cams.get(v, v)}"
+        elif kind == "mode":
+            out[slot] = modes.get(v, str(v))
+        elif kind == "beacon":
+            out[slot] = f"beacon {v}" + (" (id above 254)" if slot == "subject" and v == 255 else "")
+        elif kind == "tc_opcode":
+            out[slot] = opcodes.get(v, f"opcode {v}")
+        elif kind == "tc_status":
+            out[slot] = statuses.get(v, str(v))
+        elif kind == "table_status":
+            out[slot] = _table_status(v)
+        elif kind == "hex":
+            out[slot] = f"0x{v & 0xFFFFFFFF:08x}"
+        else:
+            out[slot] = str(v)
+    return out
+
+
+def event_text(code: str, subject: int, arg0: int, arg1: int) -> str:
+    """One line: `CAMERA_LOST camera y: arg0 -5, arg1 12`; MODE_CHANGE `TRACK -> STANDBY`."""
+    a = event_args(code, subject, arg0, arg1)
+    if code == "MODE_CHANGE":
+        return f"MODE_CHANGE {a['arg0']} -> {a['arg1']} (reason {a['subject']})"
+    if code == "CMD_REJECTED":
+        return f"CMD_REJECTED {a['subject']} (sequence count {a['arg0']}): {a['arg1']}"
+    if code == "CMD_ACCEPTED":
+        return f"CMD_ACCEPTED {a['subject']} (sequence count {a['arg0']})"
+    dec = _event_names()[0]
+    head = f"{code} {a['subject']}" if code in dec["subject"] else f"{code} subject {a['subject']}"
+    return f"{head}: arg0 {a['arg0']}, arg1 {a['arg1']}"
 
 
 # --------------------------------------------------------------------------- doc tables

@@ -181,9 +181,11 @@ def _rpy_matrix(roll, pitch, yaw):
 
 
 def test_urdf_mounts_read_back_equal_the_mount_matrices(exported):
-    """Issue 28 item 6: the URDF's fixed joints, read back with an XML parser, give each camera's
-    mount: origin xyz = r_bk_b in metres, R(rpy) = C_k_b, and a body point computed through the
-    joint equals the body_to_camera.yaml transform's."""
+    """Issue 28 item 6, issue 46 (REP 103 names): the URDF's fixed joints, read back with an XML
+    parser, chain mfns_body -> mfns_cam_<k>_link -> mfns_cam_<k>_optical_frame; the optical
+    joint is the drivers' rpy (-pi/2, 0, -pi/2) (the link x forward along the optic axis), and a
+    point of the camera frame taken through both joints equals the body_to_camera.yaml
+    transform's: the optical frame is the mfns camera frame."""
     import xml.etree.ElementTree as ET
 
     cal, out, paths, _notes = exported
@@ -196,18 +198,28 @@ def test_urdf_mounts_read_back_equal_the_mount_matrices(exported):
     tf = {
         c["name"]: c for c in yaml.safe_load((out.parent / "res_body_to_camera.yaml").read_text())["cameras"]
     }
-    for cam in cal.refined.rig.cams:
-        child = f"camera_{cam.name}"
-        assert {"body", child} <= links
-        j = joints[child]
-        assert j.get("type") == "fixed" and j.find("parent").get("link") == "body"
+
+    def origin(j):
         o = j.find("origin")
-        xyz = np.array([float(v) for v in o.get("xyz").split()])
-        rpy = [float(v) for v in o.get("rpy").split()]
+        return np.array([float(v) for v in o.get("xyz").split()]), [float(v) for v in o.get("rpy").split()]
+
+    for cam in cal.refined.rig.cams:
+        link, optical = f"mfns_cam_{cam.name}_link", f"mfns_cam_{cam.name}_optical_frame"
+        assert {"mfns_body", link, optical} <= links
+        j, jo = joints[link], joints[optical]
+        assert j.get("type") == "fixed" and j.find("parent").get("link") == "mfns_body"
+        assert jo.get("type") == "fixed" and jo.find("parent").get("link") == link
+        xyz, rpy = origin(j)
+        xyz_o, rpy_o = origin(jo)
         np.testing.assert_allclose(xyz, np.asarray(cam.r_bk_b) * 1e-3, atol=1e-12)
-        np.testing.assert_allclose(_rpy_matrix(*rpy), cam.C_k_b, atol=1e-9)
+        np.testing.assert_allclose(xyz_o, 0.0)
+        r_lo = _rpy_matrix(*rpy_o)
+        # REP 103: the optical z (optic axis) is the link's x, optical x (image right) its -y
+        np.testing.assert_allclose(r_lo @ [0, 0, 1], [1, 0, 0], atol=1e-12)
+        np.testing.assert_allclose(r_lo @ [1, 0, 0], [0, -1, 0], atol=1e-12)
+        np.testing.assert_allclose(_rpy_matrix(*rpy) @ r_lo, cam.C_k_b, atol=1e-9)
         p_k = np.array([10.0, -20.0, 500.0])
-        via_urdf = _rpy_matrix(*rpy) @ p_k * 1e-3 + xyz  # metres
+        via_urdf = _rpy_matrix(*rpy) @ (r_lo @ p_k) * 1e-3 + xyz  # metres
         t = np.asarray(tf[cam.name]["T_b_k_mm"], float)
         np.testing.assert_allclose(via_urdf * 1e3, t[:3, :3] @ p_k + t[:3, 3], atol=1e-6)
 

@@ -28,6 +28,8 @@ from datetime import UTC, datetime
 from html.parser import HTMLParser
 from pathlib import Path
 
+from yamcs.client.core.exceptions import TimeoutError as YamcsTimeout
+
 from mfns import ground_yamcs as gy
 from mfns import ground_yamcs_view as view
 from mfns import tlm_dict
@@ -285,7 +287,7 @@ def main() -> int:
             # a finished verifier unsubscribes while that packet is processed, docs/operators.md)
             try:
                 ic.await_complete(timeout=12.0)
-            except TimeoutError:
+            except (TimeoutError, YamcsTimeout):  # yamcs-client's own is not the builtin one
                 sent[-1]["not_complete"] = True
             time.sleep(0.3)
         res["sent"] = sent

@@ -213,31 +213,46 @@ def urdf_rpy(c: np.ndarray) -> tuple[float, float, float]:
 
 
 def urdf_mounts(cams: list[Camera], robot: str = "mfns") -> str:
-    """A URDF of the body-to-camera mounts: a `body` link, one link per camera, fixed joints.
+    """A URDF of the body-to-camera mounts, frames named as REP 103 expects (mfns.rosmsg).
 
-    Each joint has parent `body` and child `camera_<name>`; its <origin> is the camera frame
-    in the body frame, as URDF defines a joint origin (the child frame expressed in the
-    parent's): xyz = r_bk_b in metres, rpy from C_k_b (`urdf_rpy`), so a point p_k of the
-    camera frame is p_b = C_k_b p_k + r_bk_b in the body frame, the same transform as T_b_k
-    of <stem>_body_to_camera.yaml. The camera frames are mfns's (docs/conventions.md)."""
+    Link `mfns_body`; per camera a link `mfns_cam_<k>_link` (REP 103 body axes: x forward
+    along the optic axis, y left, z up) on a fixed joint `mfns_body_to_cam_<k>` whose <origin>
+    is that link in the body frame (xyz = r_bk_b in metres, rpy from C_link_b = C_k_b R_lo^T,
+    `urdf_rpy`), and the camera frame of docs/conventions.md (+Z optic axis, +X along u, +Y
+    along v) as `mfns_cam_<k>_optical_frame` on a fixed joint with rpy = (-pi/2, 0, -pi/2),
+    the rotation every ROS camera driver uses between a camera link and its optical frame.
+    Through both joints a point p_k of the camera frame is p_b = C_k_b p_k + r_bk_b, the
+    same transform as T_b_k of <stem>_body_to_camera.yaml, and the same frames as the TF of
+    `mfns export` (docs/robotics.md)."""
+    from ..rosmsg import BODY_FRAME, OPTICAL_RPY, camera_link, camera_link_rotation, camera_optical_frame
+
     out = [
         '<?xml version="1.0"?>',
-        "<!-- Camera mounts from mfns calib. Joint origin = camera frame in the body frame:",
-        "     p_body = R(rpy) p_camera + xyz; xyz = r_bk_b (m), R(rpy) = Rz(yaw) Ry(pitch) Rx(roll)",
-        "     = C_k_b (rad). The same transforms as <stem>_body_to_camera.yaml (T_b_k). -->",
+        "<!-- Camera mounts from mfns calib (REP 103 names). mfns_body -> mfns_cam_<k>_link:",
+        "     xyz = r_bk_b (m), R(rpy) = Rz(yaw) Ry(pitch) Rx(roll) = C_k_b R_lo^T (rad);",
+        "     mfns_cam_<k>_link -> mfns_cam_<k>_optical_frame: rpy = (-pi/2, 0, -pi/2) = R_lo.",
+        "     The optical frame is the mfns camera frame: p_body = C_k_b p_optical + r_bk_b,",
+        "     as T_b_k of <stem>_body_to_camera.yaml. -->",
         f'<robot name="{robot}">',
-        '  <link name="body"/>',
+        f'  <link name="{BODY_FRAME}"/>',
     ]
     for cam in cams:
-        roll, pitch, yaw = urdf_rpy(cam.C_k_b)
+        roll, pitch, yaw = urdf_rpy(camera_link_rotation(cam.C_k_b))
         xyz = np.asarray(cam.r_bk_b, float) * 1e-3
+        link, optical = camera_link(cam.name), camera_optical_frame(cam.name)
         out += [
-            f'  <link name="camera_{cam.name}"/>',
-            f'  <joint name="body_to_camera_{cam.name}" type="fixed">',
-            '    <parent link="body"/>',
-            f'    <child link="camera_{cam.name}"/>',
+            f'  <link name="{link}"/>',
+            f'  <joint name="{BODY_FRAME}_to_cam_{cam.name}" type="fixed">',
+            f'    <parent link="{BODY_FRAME}"/>',
+            f'    <child link="{link}"/>',
             f'    <origin xyz="{" ".join(_num(v) for v in xyz)}" '
             f'rpy="{" ".join(_num(v) for v in (roll, pitch, yaw))}"/>',
+            "  </joint>",
+            f'  <link name="{optical}"/>',
+            f'  <joint name="cam_{cam.name}_link_to_optical" type="fixed">',
+            f'    <parent link="{link}"/>',
+            f'    <child link="{optical}"/>',
+            f'    <origin xyz="0 0 0" rpy="{" ".join(_num(v) for v in OPTICAL_RPY)}"/>',
             "  </joint>",
         ]
     out.append("</robot>")
