@@ -109,6 +109,16 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "frame_period_us", s->frame_period_us, 0);
         ground_row_num(r, "cycle_margin_us", s->cycle_margin_us, 0);
         ground_row_str(r, "workspace", tlm_workspace_name(s->workspace));
+        ground_row_num(r, "tc_state", s->tc_state, 0);
+        ground_row_num(r, "tc_nonce_hi", s->tc_nonce_hi, 0);
+        ground_row_num(r, "tc_nonce_lo", s->tc_nonce_lo, 0);
+        ground_row_num(r, "tc_report_spi", s->tc_report_spi, 0);
+        ground_row_num(r, "tc_report_mac0", s->tc_report_mac0, 0);
+        ground_row_num(r, "tc_report_mac1", s->tc_report_mac1, 0);
+        ground_row_num(r, "tc_report_mac2", s->tc_report_mac2, 0);
+        ground_row_num(r, "tc_report_mac3", s->tc_report_mac3, 0);
+        ground_row_num(r, "n_fixlog_errors", s->n_fixlog_errors, 0);
+        ground_row_num(r, "n_storage_errors", s->n_storage_errors, 0);
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -99,7 +99,10 @@ typedef enum {
     TLM_EVT_CAMERAS_DISAGREE = 43, /* subject camera; arg0 beacons the fixes of ONE other camera predicted in its image since it last had an inlier, none found (20: below 1e-6 for two working cameras); arg1 that other camera (0 x, 1 y, 2 z): the two cameras' images disagree and one of them is wrong (stale, moved), nothing says which; the fix is that other camera's alone (sent once per episode) */
     TLM_EVT_WORKSPACE_LEFT = 44, /* a tracked pose is beyond the table's workspace box (widened by 20 mm plus 6 sigma of its position): the box the acquisition's certificate covers; tracking goes on and its fixes stay usable, acquisitions are refused (OUTSIDE_WORKSPACE) until a tracked pose is inside again: subject the axes beyond (bit 0 x, bit 1 y, bit 2 z); arg0 how far beyond the widened box, 0.01 mm; arg1 that widening, 0.01 mm (sent once per excursion; not seen: an excursion while no pose is tracked) */
     TLM_EVT_WORKSPACE_REENTERED = 45, /* a tracked pose is inside the table's workspace box again after WORKSPACE_LEFT: acquisitions are certified again: subject 0; arg0 cycles since the pose left; arg1 0 */
-    TLM_EVT_CODE_COUNT = 46
+    TLM_EVT_TC_RESYNC = 46, /* the uplink re-synchronised: an authenticated NOOP bound to the board's challenge (hk_tc_nonce) set a fresh command epoch from the ground (docs/uplink.md 1a): subject 0 stored in the state dir, 1 not stored (it runs; the ground's record keeps it fresh); arg0 the new epoch; arg1 errno of the store (0 ok) */
+    TLM_EVT_STORAGE_FAULT = 47, /* a write to the board's storage failed, counted in housekeeping (hk_n_storage_errors): subject 0 the uplink state (tc_epoch: the uplink then refuses every command but an authenticated re-synchronisation), 1 the fix log (records lost, hk_n_fixlog_errors), 2 the table store; arg0 errno; arg1 per subject: 0 uplink state missing, 1 damaged, 2 not writable; 1: records lost so far; 2: 0 (sent once per subject and kind of fault) */
+    TLM_EVT_TC_UNPROTECTED = 48, /* commands are NOT authenticated (tc_insecure / --tc-insecure): subject 0; arg0 1 set by the command line, 2 by the configuration file; arg1 0 (a WARNING at start, repeated in hk_tc_state bit 1) */
+    TLM_EVT_CODE_COUNT = 49
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */
