@@ -231,11 +231,11 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
                 app->tc.cmd.n_accepted, app->tc.cmd.n_rejected);
         const tc_auth_t *a = &app->tc.auth;
         fprintf(stderr,
-                "mfns-nav: authentication (epoch %u, %u re-synchronisations): %u passed, refused %u missing, %u "
-                "unknown key, %u bad MAC, %u replayed, %u stale epoch, %u awaiting re-synchronisation, %u count "
-                "exhausted\n",
-                a->epoch, a->n_resync, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4],
-                a->n_rej[5], a->n_rej[6]);
+                "mfns-nav: authentication (epoch %u): %u passed, refused %u missing, %u unknown key, %u bad MAC, "
+                "%u replayed, %u stale epoch, %u awaiting re-synchronisation, %u count exhausted; %u "
+                "re-synchronisations\n",
+                a->epoch, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4], a->n_rej[5],
+                a->n_rej[6], a->n_resync);
     }
     if (app->fixlog.dir[0] != '\0') {
         /* honest: only records on disk are "written" (issue 45: a full disk said 118 recorded) */
