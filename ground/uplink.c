@@ -389,6 +389,7 @@ static void hook_packet(void *ctx, const tlm_packet_t *p)
 static void hook_finish(void *ctx, mfns_uart_t *src)
 {
     uplink_t *up = ctx;
+    hook_poll(ctx, src, mfns_uart_now_ms()); /* what the last packets made due (a recording's last report) */
     mfns_uart_t *u = out_link(up, src);
     for (int i = 0; u != NULL && i < FLUSH_TRIES && tlm_txq_frames(&up->q) > 0u; i++) {
         (void)txq_drain(&up->q, u, mfns_uart_now_ms());
