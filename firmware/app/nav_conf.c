@@ -181,6 +181,12 @@ static int parse_line(nav_config_t *c, const char *text, size_t n, uint32_t line
         v0++;
     }
     size_t v1 = n;
+    for (size_t i = v0; i < n; i++) {
+        if (text[i] == '#' && i > eq + 1u && is_blank(text[i - 1])) {
+            v1 = i; /* an inline comment: '#' after a blank (a '#' inside a word stays part of it) */
+            break;
+        }
+    }
     while (v1 > v0 && is_blank(text[v1 - 1])) {
         v1--;
     }

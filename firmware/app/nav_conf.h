@@ -4,9 +4,11 @@
  * (nav_opts.h).
  *
  * Format: one `key = value` per line; a line whose first non-blank character
- * is '#' is a comment; blank lines are ignored; blanks around the key, the '='
- * and the value are ignored. No quoting, no continuation lines, no includes:
- * what is on the line is the value. Every key is known (a misspelt key is an
+ * is '#' is a comment, and so is the rest of a line from a '#' that follows a
+ * blank (`baud = 115200  # the bench`: the value is 115200; a '#' inside a
+ * word, `/data/run#2`, is part of it); blank lines are ignored; blanks around
+ * the key, the '=' and the value are ignored. No quoting, no continuation
+ * lines, no includes. Every key is known (a misspelt key is an
  * error, never silently ignored) and given at most once.
  *
  * The reader is bounded: at most NAV_CONFIG_MAX_BYTES of file,
