@@ -40,8 +40,8 @@ int tc_state_write(const char *dir, uint32_t epoch, char *err, size_t err_size);
 /* Whether dir takes a write now (a temporary file created, synced, removed). 0 or the errno. */
 int tc_state_probe_write(const char *dir);
 
-/* Recorded-file mode: read, +1, write. 0, or -1 with one line in err and
- * *fault what went wrong. */
+/* Recorded-file mode: read, +1, write (a missing file in a usable directory is
+ * epoch 0; any other fault refuses). 0, or -1 with one line in err. */
 int tc_state_next_epoch(const char *dir, uint32_t *epoch, char *err, size_t err_size);
 
 #endif /* MFNS_APP_TC_STATE_H */
