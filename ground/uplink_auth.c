@@ -1,5 +1,7 @@
 /* uplink_auth.c -- see uplink_auth.h. */
+#ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE /* O_CLOEXEC, O_NOFOLLOW, fsync under -std=c11 */
+#endif
 
 #include "uplink_auth.h"
 #include "tc_sign.h"
