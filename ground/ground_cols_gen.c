@@ -129,7 +129,7 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_str(r, "severity", tlm_severity_name(s->severity));
         ground_row_num(r, "subject", s->subject, 0);
         ground_row_num(r, "arg0", s->arg0, 0);
-        if (s->code == TLM_EVT_TABLE_LOADED || s->code == TLM_EVT_TABLE_REFUSED || s->code == TLM_EVT_SELFTEST_TABLE || s->code == TLM_EVT_TABLE_ROLLBACK || s->code == TLM_EVT_TABLE_STORED) {
+        if (s->code == TLM_EVT_TABLE_LOADED || s->code == TLM_EVT_TABLE_REFUSED || s->code == TLM_EVT_SELFTEST_TABLE || s->code == TLM_EVT_TABLE_ROLLBACK || s->code == TLM_EVT_TABLE_STORED || s->code == TLM_EVT_TABLE_ARG_OVERRIDDEN) {
             ground_row_hex32(r, "arg1", (uint32_t)s->arg1);
         } else {
             ground_row_num(r, "arg1", s->arg1, 0);

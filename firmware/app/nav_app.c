@@ -184,6 +184,14 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     if (ts_info.source != NAV_TS_SRC_INITIAL && o->verbose) {
         fprintf(stderr, "mfns-nav: table from the store: %s (crc %08x)\n", ts_info.path, table->crc32);
     }
+    if (ts_info.initial_differs) {
+        fprintf(stderr,
+                "mfns-nav: --table %s differs from the stored table, which runs (%s, crc %08x); send TABLE_LOAD %s "
+                "to switch\n",
+                o->table_path, ts_info.path, table->crc32, o->table_path);
+        send_event(app, TLM_EVT_TABLE_ARG_OVERRIDDEN, TLM_SEV_WARNING,
+                   (int32_t)(ts_info.initial_size > INT32_MAX ? INT32_MAX : ts_info.initial_size), (int32_t)table->crc32);
+    }
     send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, table->format_version, (int32_t)table->crc32);
     nav_app_apply_budget(app, table);
     send_event_subject(app, TLM_EVT_CYCLE_BUDGET, TLM_SEV_INFO, (uint8_t)(app->budget_units != 0u ? 1 : 0), 0,

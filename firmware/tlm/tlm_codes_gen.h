@@ -102,7 +102,8 @@ typedef enum {
     TLM_EVT_TC_RESYNC = 46, /* the uplink re-synchronised: an authenticated NOOP bound to the board's challenge (hk_tc_nonce) set a fresh command epoch from the ground (docs/uplink.md 1a): subject 0 stored in the state dir, 1 not stored (it runs; the ground's record keeps it fresh); arg0 the new epoch; arg1 errno of the store (0 ok) */
     TLM_EVT_STORAGE_FAULT = 47, /* a write to the board's storage failed, counted in housekeeping (hk_n_storage_errors): subject 0 the uplink state (tc_epoch: the uplink then refuses every command but an authenticated re-synchronisation), 1 the fix log (records lost, hk_n_fixlog_errors), 2 the table store; arg0 errno; arg1 per subject: 0 uplink state missing, 1 damaged, 2 not writable; 1: records lost so far; 2: 0 (sent once per subject and kind of fault) */
     TLM_EVT_TC_UNPROTECTED = 48, /* commands are NOT authenticated (tc_insecure / --tc-insecure): subject 0; arg0 1 set by the command line, 2 by the configuration file; arg1 0 (a WARNING at start, repeated in hk_tc_state bit 1) */
-    TLM_EVT_CODE_COUNT = 49
+    TLM_EVT_TABLE_ARG_OVERRIDDEN = 49, /* at start the table store's table runs and the given --table (or table key) is a different file: subject 0; arg0 that file's size in bytes (-1 unreadable); arg1 CRC-32 of the stored table that runs (TABLE_LOAD of the file switches to it) */
+    TLM_EVT_CODE_COUNT = 50
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

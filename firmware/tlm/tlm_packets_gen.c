@@ -127,6 +127,7 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_TC_RESYNC: return MFNS_MSG("TC_RESYNC");
     case TLM_EVT_STORAGE_FAULT: return MFNS_MSG("STORAGE_FAULT");
     case TLM_EVT_TC_UNPROTECTED: return MFNS_MSG("TC_UNPROTECTED");
+    case TLM_EVT_TABLE_ARG_OVERRIDDEN: return MFNS_MSG("TABLE_ARG_OVERRIDDEN");
     default: return "?";
     }
 }
