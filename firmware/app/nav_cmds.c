@@ -139,6 +139,16 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     if (ts == MFNS_CALTABLE_OK) {
         nav_app_apply_budget(app, nt); /* the board's budget holds for any table */
     }
+    if (ts == MFNS_CALTABLE_OK && nt->crc32 == cur->crc32 && nt->size_bytes == cur->size_bytes) {
+        /* the running table again (issue 45): nothing to re-bind, so the navigator keeps its
+         * track and its camera and beacon monitors (a re-bind cost ~10 cycles of fixes and
+         * raised false CAMERAS_DISAGREE / BEACON_MISSING); answered and stored as any load */
+        send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, nt->format_version, (int32_t)nt->crc32);
+        fprintf(stderr, "mfns-nav: TABLE_LOAD %s: the running table (crc %08x): kept, the track goes on\n", path,
+                nt->crc32);
+        *arg1 = (int32_t)nt->crc32;
+        return TC_OK;
+    }
     if (ts == MFNS_CALTABLE_OK && mfns_nav_init(&app->nav, nt, app->solver) != MFNS_NAV_OK) {
         ts = MFNS_CALTABLE_E_SOLVER_SETTINGS;
         if (mfns_nav_init(&app->nav, cur, app->solver) != MFNS_NAV_OK) {
