@@ -428,9 +428,8 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
         fprintf(stderr, "mfns-ground: --tc-key %s\n", err);
         return -1;
     }
-    if (o->tc_count_start != 0u && o->tc_count_start > up->auth.next_count) {
-        up->auth.next_count = o->tc_count_start; /* never below the persisted count */
-    } else if (o->tc_count_start != 0u && o->tc_state == NULL) {
+    /* --tc-count-start: never below a persisted count (with --tc-state) */
+    if (o->tc_count_start != 0u && (o->tc_state == NULL || o->tc_count_start > up->auth.next_count)) {
         up->auth.next_count = o->tc_count_start;
     }
     if (o->out == UPLINK_OUT_TTY || o->out == UPLINK_OUT_FILE) {

@@ -36,12 +36,24 @@ static int state_read(uplink_auth_t *a, char *err, size_t err_size)
         n = read(fd, buf, STATE_MAX);
     }
     (void)close(fd);
-    unsigned long long me = 0, e = 0, c = 0;
-    if (n > 0) {
+    unsigned long long v[3] = {0, 0, 0};
+    static const char *const names[3] = {"max_epoch ", "epoch ", "next_count "};
+    bool ok = n > 0;
+    if (ok) {
         buf[n] = '\0';
     }
-    if (n <= 0 || sscanf(buf, "max_epoch %llu\nepoch %llu\nnext_count %llu", &me, &e, &c) != 3 || me > UINT32_MAX ||
-        e > me || c > UINT32_MAX) {
+    const char *s = buf;
+    for (int i = 0; i < 3 && ok; i++) {
+        const size_t nl = strlen(names[i]);
+        char *end = NULL;
+        errno = 0;
+        ok = strncmp(s, names[i], nl) == 0 && s[nl] >= '0' && s[nl] <= '9';
+        v[i] = ok ? strtoull(s + nl, &end, 10) : 0u;
+        ok = ok && errno == 0 && end != NULL && *end == '\n' && v[i] <= UINT32_MAX;
+        s = ok ? end + 1 : s;
+    }
+    const unsigned long long me = v[0], e = v[1], c = v[2];
+    if (!ok || *s != '\0' || e > me) {
         (void)snprintf(err, err_size, "%s: damaged (want 'max_epoch E', 'epoch E', 'next_count C'); never reset: "
                                       "restore it or give the board a new key", a->state_path);
         return -1;

@@ -38,10 +38,10 @@ import time
 from pathlib import Path
 
 import pytest
-
-from mfns import tlm_dict
 from test_uplink import OP, REJ, REPO, cobs_decode, encode_commands, frame, make_key, rows
 from test_uplink import run as _run
+
+from mfns import tlm_dict
 
 run = _run  # the 40-frame replay fixture, shared; bins is conftest's
 
@@ -54,7 +54,9 @@ def _bits() -> dict[str, int]:
 
 
 ST = _bits()
-COUNT_MARGIN = int(re.search(r"TC_AUTH_COUNT_MARGIN (\d+)u", (REPO / "firmware/app/tc_auth.h").read_text())[1])
+COUNT_MARGIN = int(
+    re.search(r"TC_AUTH_COUNT_MARGIN (\d+)u", (REPO / "firmware/app/tc_auth.h").read_text())[1]
+)
 COUNT_MAX = 0xFFFFFFFF - COUNT_MARGIN
 HK = tlm_dict.load().packets["housekeeping"]
 HK_OFF = {f.name: (HDR + f.offset, f.size) for f in HK.fields}
@@ -149,7 +151,8 @@ def live_session(bins, run, d: Path, name: str, key: Path, state: Path, gstate: 
     )  # fmt: skip
     relay = Relay(gtc, ntc)
     out = d / f"{name}-ground"
-    args = [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status", "--max-seconds", "60",
+    args = [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status",
+           "--max-seconds", "60",
             "--tc-tty", str(gtc), "--tc-key", str(key), "--tc-state", str(gstate)]  # fmt: skip
     for c in cmds:
         args += ["--cmd", c]
@@ -280,7 +283,8 @@ def test_forged_housekeeping_cannot_steer_the_ground(bins, run, tmp_path):
     tlm = d / "genuine.tlm"
     nav = subprocess.run(
         [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
-         "--tlm-file", str(tlm), "--tc-tty", str(d / "tc.fifo"), "--tc-key", str(key), "--state-dir", str(state),
+         "--tlm-file", str(tlm), "--tc-tty", str(d / "tc.fifo"), "--tc-key", str(key),
+         "--state-dir", str(state),
          "--max-cycles", "12"],
         capture_output=True, text=True, timeout=60, check=False, cwd=d,
     )  # fmt: skip
@@ -306,8 +310,10 @@ def test_forged_housekeeping_cannot_steer_the_ground(bins, run, tmp_path):
         assert up == b"", (name, tc_frames(up))  # nothing signed, no re-synchronisation
         assert not gstate.exists(), name  # nothing given, nothing recorded
         assert "no authenticated uplink report" in g.stderr, g.stderr
-        print(f"\nforged housekeeping ({name}: {fields}): ground signed 0 frames: "
-              f"{g.stderr.strip().splitlines()[-2]}")
+        print(
+            f"\nforged housekeeping ({name}: {fields}): ground signed 0 frames: "
+            f"{g.stderr.strip().splitlines()[-2]}"
+        )
 
     # the genuine recording: a re-synchronisation bound to the board's challenge, then the command
     gstate = d / "g-genuine.state"
@@ -320,7 +326,9 @@ def test_forged_housekeeping_cannot_steer_the_ground(bins, run, tmp_path):
     arsn = int.from_bytes(rs[8:16], "big")
     epoch = arsn >> 32
     assert arsn & 0xFFFFFFFF == 1 and rs[16] == OP["NOOP"]
-    want = hmac.new(k, b"MFNS-TC-RESYNC-v1" + nonce.to_bytes(8, "big") + rs[:-16], hashlib.sha256).digest()[:16]
+    want = hmac.new(k, b"MFNS-TC-RESYNC-v1" + nonce.to_bytes(8, "big") + rs[:-16], hashlib.sha256).digest()[
+        :16
+    ]
     assert rs[-16:] == want  # bound to this boot's challenge
     assert rs[-16:] != hmac.new(k, rs[:-16], hashlib.sha256).digest()[:16]  # not an ordinary command MAC
     assert int.from_bytes(noop[8:16], "big") == (epoch << 32) | 2
@@ -350,7 +358,8 @@ def test_exhausted_counter_refused_without_wedging_the_uplink(bins, run, tmp_pat
     (d / "c.tc").write_bytes(stream)
     tlm = d / "c.tlm"
     nav = subprocess.run(
-        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]), "--tlm-file", str(tlm),
+        [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+         "--tlm-file", str(tlm),
          "--tc-file", str(d / "c.tc"), "--tc-key", str(key), "--state-dir", str(state), "--max-cycles", "12"],
         capture_output=True, text=True, timeout=60, check=False, cwd=d,
     )  # fmt: skip
@@ -367,8 +376,16 @@ def test_exhausted_counter_refused_without_wedging_the_uplink(bins, run, tmp_pat
     print(f"\nexhausted counter: {got}")
 
 
-def nav_fifo_session(bins, run, d: Path, key: Path, state_dir: str, extra: list[str] | None = None,
-                     wrap: list[str] | None = None, gstate: Path | None = None):
+def nav_fifo_session(
+    bins,
+    run,
+    d: Path,
+    key: Path,
+    state_dir: str,
+    extra: list[str] | None = None,
+    wrap: list[str] | None = None,
+    gstate: Path | None = None,
+):
     """mfns-nav live with a ground (re-synchronising) whose state dir is state_dir; wrap: a
     command prefix (unshare ... sh -c)."""
     tlm, tc = d / "tlm.fifo", d / "tc.fifo"
@@ -376,14 +393,17 @@ def nav_fifo_session(bins, run, d: Path, key: Path, state_dir: str, extra: list[
         if not f.exists():
             os.mkfifo(f)
     cmd = [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]), "--realtime",
-           "--tty", str(tlm), "--tc-tty", str(tc), "--tc-key", str(key), "--state-dir", state_dir, *(extra or [])]  # fmt: skip
+           "--tty", str(tlm), "--tc-tty", str(tc), "--tc-key", str(key),
+           "--state-dir", state_dir, *(extra or [])]  # fmt: skip
     if wrap is not None:
         cmd = [*wrap, " ".join(f"'{c}'" for c in cmd)]
     nav = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, cwd=d)
     out = d / "ground"
     ground = subprocess.Popen(
-        [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status", "--max-seconds", "60",
-         "--tc-tty", str(tc), "--tc-key", str(key), "--tc-state", str(gstate or d / "g.state"), "--cmd", "NOOP"],
+        [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status",
+         "--max-seconds", "60",
+         "--tc-tty", str(tc), "--tc-key", str(key), "--tc-state", str(gstate or d / "g.state"),
+         "--cmd", "NOOP"],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
@@ -417,8 +437,10 @@ def test_a_file_in_place_of_the_state_dir_degrades(bins, run, tmp_path):
     assert cmd_codes(out) == [("ACCEPTED", 0), ("ACCEPTED", 0)]  # the ground keeps the epoch fresh
     hk = rows(out / "housekeeping.csv")[-1]
     assert int(hk["tc_state"]) & ST["STATE_RO"] and int(hk["n_storage_errors"]) >= 1, hk
-    print(f"\nfile in place of the state dir: exit 0, {fixes} fixes, uplink re-synchronised, "
-          f"hk tc_state {hk['tc_state']}, n_storage_errors {hk['n_storage_errors']}")
+    print(
+        f"\nfile in place of the state dir: exit 0, {fixes} fixes, uplink re-synchronised, "
+        f"hk tc_state {hk['tc_state']}, n_storage_errors {hk['n_storage_errors']}"
+    )
 
 
 def can_mount_tmpfs(d: Path) -> str | None:
@@ -452,13 +474,16 @@ def test_full_or_read_only_disk_degrades_and_the_fixlog_is_honest(bins, run, tmp
     tlm, tc = d / "tlm.fifo", d / "tc.fifo"
     os.mkfifo(tlm)
     os.mkfifo(tc)
-    nav_cmd = [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]), "--realtime",
-               "--tty", str(tlm), "--tc-tty", str(tc), "--tc-key", str(key), "--state-dir", str(disk / "state"),
+    nav_cmd = [str(bins / "mfns-nav"), "--table", str(run["table"]), "--replay", str(run["frames"]),
+               "--realtime",
+               "--tty", str(tlm), "--tc-tty", str(tc), "--tc-key", str(key),
+               "--state-dir", str(disk / "state"),
                "--fixlog", str(disk / "fixlog")]  # fmt: skip
     nav = subprocess.Popen([*wrap, *nav_cmd], stderr=subprocess.PIPE, text=True, cwd=d)
     out = d / "ground"
     ground = subprocess.Popen(
-        [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status", "--max-seconds", "60",
+        [str(bins / "mfns-ground"), "--tty", str(tlm), "--out", str(out), "--no-status",
+         "--max-seconds", "60",
          "--tc-tty", str(tc), "--tc-key", str(key), "--tc-state", str(d / "g.state"), "--cmd", "NOOP"],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -486,8 +511,10 @@ def test_full_or_read_only_disk_degrades_and_the_fixlog_is_honest(bins, run, tmp
     subjects = {e["subject"] for e in ev if e["event"] == "STORAGE_FAULT"}
     assert {"0", "1"} <= subjects, subjects  # the uplink state and the fix log
     assert cmd_codes(out) == [("ACCEPTED", 0), ("ACCEPTED", 0)], cmd_codes(out)
-    print(f"\n{kind} disk: exit 0, {fixes} fixes, fix log {written} written / {lost} lost, "
-          f"hk n_fixlog_errors {hk['n_fixlog_errors']}, tc_state {hk['tc_state']}, uplink re-synchronised")
+    print(
+        f"\n{kind} disk: exit 0, {fixes} fixes, fix log {written} written / {lost} lost, "
+        f"hk n_fixlog_errors {hk['n_fixlog_errors']}, tc_state {hk['tc_state']}, uplink re-synchronised"
+    )
 
 
 def test_unsafe_configuration_refused_and_insecure_mode_reported(bins, run, tmp_path):
@@ -503,8 +530,9 @@ def test_unsafe_configuration_refused_and_insecure_mode_reported(bins, run, tmp_
     for mode in (0o666, 0o664, 0o646, 0o620):
         conf.chmod(mode)
         r = nav()
-        assert r.returncode == 2 and "refused from a file with mode" in r.stderr and "tc_insecure" in r.stderr, (
-            oct(mode), r.stderr)
+        assert (
+            r.returncode == 2 and "refused from a file with mode" in r.stderr and "tc_insecure" in r.stderr
+        ), (oct(mode), r.stderr)
     conf.chmod(0o600)
     os.chown(conf, 12345, 12345)  # another user's file (the tests run as root: root may chown)
     r = nav()
@@ -514,7 +542,8 @@ def test_unsafe_configuration_refused_and_insecure_mode_reported(bins, run, tmp_
     other = d / "plain.conf"
     other.write_text("timeout_ms = 500\n")
     other.chmod(0o666)
-    r = subprocess.run([*base[:1], "--config", str(other), *base[3:], "--tc-insecure", "-q"], capture_output=True,
+    r = subprocess.run([*base[:1], "--config", str(other), *base[3:], "--tc-insecure", "-q"],
+        capture_output=True,
                        text=True, timeout=60, check=False, cwd=d)  # fmt: skip
     assert r.returncode == 0, r.stderr
     # safe file: authentication off is reported on stderr, by an event and in housekeeping
@@ -536,15 +565,17 @@ SUPERVISE_SRC = REPO / "boards" / "sitss-nav" / "image" / "mfns-supervise.c"
 def build_supervise(d: Path, src: Path = SUPERVISE_SRC) -> Path:
     exe = d / "mfns-supervise"
     r = subprocess.run(
-        ["cc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-Wshadow", "-O2", str(src), "-o", str(exe)],
+        ["cc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-Wshadow",
+         "-O2", str(src), "-o", str(exe)],
         capture_output=True, text=True, check=False,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     return exe
 
 
-def supervise(exe: Path, d: Path, child: list[str], seconds: float, extra: list[str] | None = None,
-              during=None) -> tuple[str, Path]:
+def supervise(
+    exe: Path, d: Path, child: list[str], seconds: float, extra: list[str] | None = None, during=None
+) -> tuple[str, Path]:
     """Runs the supervisor for seconds (then SIGTERM); its log (stderr, LOG_PERROR) and exit file."""
     exit_file = d / "last-exit"
     sup = subprocess.Popen(
@@ -641,7 +672,16 @@ def test_reloading_the_running_table_keeps_the_track(bins, run, tmp_path):
         src = d / "empty.bin"
         src.write_bytes(b"")
         out = d / f"{last.split()[0]}.tc"
-        args = [str(bins / "mfns-ground"), "--file", str(src), "--out", str(d / "g-enc"), "-q", "--tc-file", str(out)]
+        args = [
+            str(bins / "mfns-ground"),
+            "--file",
+            str(src),
+            "--out",
+            str(d / "g-enc"),
+            "-q",
+            "--tc-file",
+            str(out),
+        ]
         for _ in range(18):  # 4 commands a cycle: the last one lands in cycle 4, mid-track
             args += ["--cmd", "NOOP"]
         args += ["--cmd", last]
@@ -673,5 +713,7 @@ def test_reloading_the_running_table_keeps_the_track(bins, run, tmp_path):
     n = sum(e["event"] in faults for e in ev)
     assert n == n_base, (n, n_base)
     fixes = sum(r["status"] in ("FIX", "DEGRADED") for r in nav)
-    print(f"\nreload of the running table at cycle 4: {fixes}/{len(nav)} fixes, as without it; "
-          f"fault events {n} (baseline {n_base})")
+    print(
+        f"\nreload of the running table at cycle 4: {fixes}/{len(nav)} fixes, as without it; "
+        f"fault events {n} (baseline {n_base})"
+    )

@@ -265,8 +265,8 @@ def test_round_trip_through_fifos(bins, run, tmp_path, key):
     assert ground.returncode == 0, g_err
     sent = rows(out / "commands.csv")
     assert [(r["seq"], r["opcode"], r["source"]) for r in sent] == [
-        ("0", "NOOP", "resync"), ("1", "NOOP", "cli"), ("2", "SET_POSE_HINT", "cli"), ("3", "SET_MODE", "cli"),
-        ("4", "NOOP", "file"),
+        ("0", "NOOP", "resync"), ("1", "NOOP", "cli"), ("2", "SET_POSE_HINT", "cli"),
+        ("3", "SET_MODE", "cli"), ("4", "NOOP", "file"),
     ]  # fmt: skip
     ev = cmd_events(out)
     assert [(e["event"], int(e["subject"]), int(e["arg0"])) for e in ev] == [

@@ -160,7 +160,9 @@ def test_key_and_state_refusals_and_insecure_mode(bins, run, tmp_path):
     # refuses every command and says why; a broken state file is never read as epoch 0
     (d / "tc_epoch").write_text("epoch banana\n")
     r = nav("--tc-key", str(key), "--state-dir", str(d))
-    assert r.returncode == 0 and "damaged" in r.stderr and "every command of the file refused" in r.stderr, r.stderr
+    assert r.returncode == 0 and "damaged" in r.stderr and "every command of the file refused" in r.stderr, (
+        r.stderr
+    )
     assert (d / "tc_epoch").read_text() == "epoch banana\n"  # never reset
     r = nav("--tc-key", str(key), "--state-dir", str(d / "absent"))
     assert r.returncode == 0 and "--state-dir" in r.stderr and "navigating" in r.stderr, r.stderr
