@@ -346,13 +346,17 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
     if (up->auth.resync_due) { /* the board asked for an epoch: it goes first */
         uint8_t wire[TC_MAX_WIRE];
         size_t n = 0;
-        if (uplink_auth_resync_frame(&up->auth, up->next_seq, now_ms, wire, sizeof wire, &n) == TC_OK) {
+        /* before anything was sent, the one before the first count (the board takes any count
+         * first): the sources' counts (--tc-seq-start, Yamcs' own) are left as they were */
+        const bool first = up->n_sent == 0u;
+        const uint16_t seq = first ? (uint16_t)((up->next_seq - 1u) & TLM_CCSDS_SEQ_MASK) : up->next_seq;
+        if (uplink_auth_resync_frame(&up->auth, seq, now_ms, wire, sizeof wire, &n) == TC_OK) {
             if (tlm_txq_push(&up->q, wire, n) == TLM_OK) {
                 tc_cmd_t c;
                 memset(&c, 0, sizeof c);
                 c.opcode = TC_OP_NOOP;
-                log_cmd(up, up->next_seq, &c, "resync", "RESYNC");
-                up->next_seq = (uint16_t)((up->next_seq + 1u) & TLM_CCSDS_SEQ_MASK);
+                log_cmd(up, seq, &c, "resync", "RESYNC");
+                up->next_seq = first ? up->next_seq : (uint16_t)((up->next_seq + 1u) & TLM_CCSDS_SEQ_MASK);
                 up->n_sent++;
             } else {
                 up->n_errors++;

@@ -265,19 +265,19 @@ def test_round_trip_through_fifos(bins, run, tmp_path, key):
     assert ground.returncode == 0, g_err
     sent = rows(out / "commands.csv")
     assert [(r["seq"], r["opcode"], r["source"]) for r in sent] == [
-        ("0", "NOOP", "resync"), ("1", "NOOP", "cli"), ("2", "SET_POSE_HINT", "cli"),
-        ("3", "SET_MODE", "cli"), ("4", "NOOP", "file"),
+        ("16383", "NOOP", "resync"), ("0", "NOOP", "cli"), ("1", "SET_POSE_HINT", "cli"),
+        ("2", "SET_MODE", "cli"), ("3", "NOOP", "file"),
     ]  # fmt: skip
     ev = cmd_events(out)
     assert [(e["event"], int(e["subject"]), int(e["arg0"])) for e in ev] == [
+        ("CMD_ACCEPTED", OP["NOOP"], 16383),  # the re-synchronisation: the count before the first
         ("CMD_ACCEPTED", OP["NOOP"], 0),
-        ("CMD_ACCEPTED", OP["NOOP"], 1),
-        ("CMD_ACCEPTED", OP["SET_POSE_HINT"], 2),
-        ("CMD_ACCEPTED", OP["SET_MODE"], 3),
-        ("CMD_ACCEPTED", OP["NOOP"], 4),
+        ("CMD_ACCEPTED", OP["SET_POSE_HINT"], 1),
+        ("CMD_ACCEPTED", OP["SET_MODE"], 2),
+        ("CMD_ACCEPTED", OP["NOOP"], 3),
     ], ev
     hk = rows(out / "housekeeping.csv")[-1]
-    assert (hk["n_cmd_accepted"], hk["n_cmd_rejected"], hk["cmd_seq_last"]) == ("5", "0", "4")
+    assert (hk["n_cmd_accepted"], hk["n_cmd_rejected"], hk["cmd_seq_last"]) == ("5", "0", "3")
     assert "commands: 5 accepted, 0 rejected" in nav_err
     epoch = int(hk["tc_epoch"])  # the ground's: above anything it gave before and UTC seconds
     assert epoch >= int(time.time()) - 600, epoch
