@@ -343,6 +343,26 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
     uplink_t *up = ctx;
     mfns_uart_t *u = out_link(up, src);
     tcp_forward_poll(&up->tcp); /* a client connecting, a queue draining */
+    if (up->auth.resync_due) { /* the board asked for an epoch: it goes first */
+        uint8_t wire[TC_MAX_WIRE];
+        size_t n = 0;
+        /* before anything was sent, the one before the first count (the board takes any count
+         * first): the sources' counts (--tc-seq-start, Yamcs' own) are left as they were */
+        const bool first = up->n_sent == 0u;
+        const uint16_t seq = first ? (uint16_t)((up->next_seq - 1u) & TLM_CCSDS_SEQ_MASK) : up->next_seq;
+        if (uplink_auth_resync_frame(&up->auth, seq, now_ms, wire, sizeof wire, &n) == TC_OK) {
+            if (tlm_txq_push(&up->q, wire, n) == TLM_OK) {
+                tc_cmd_t c;
+                memset(&c, 0, sizeof c);
+                c.opcode = TC_OP_NOOP;
+                log_cmd(up, seq, &c, "resync", "RESYNC");
+                up->next_seq = first ? up->next_seq : (uint16_t)((up->next_seq + 1u) & TLM_CCSDS_SEQ_MASK);
+                up->n_sent++;
+            } else {
+                up->n_errors++;
+            }
+        }
+    }
     if (!uplink_auth_ready(&up->auth)) { /* signing: the board's epoch not known yet; commands wait */
         if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
             (void)txq_drain(&up->q, u, now_ms);
@@ -364,7 +384,7 @@ static void hook_packet(void *ctx, const tlm_packet_t *p)
 {
     uplink_t *up = ctx;
     if (p->type == TLM_TYPE_HK) {
-        uplink_auth_housekeeping(&up->auth, &p->u.hk);
+        uplink_auth_housekeeping(&up->auth, &p->u.hk, mfns_uart_now_ms());
     }
     (void)udp_forward_packet(&up->fwd, p);
     (void)tcp_forward_packet(&up->tcp, p);
@@ -373,6 +393,7 @@ static void hook_packet(void *ctx, const tlm_packet_t *p)
 static void hook_finish(void *ctx, mfns_uart_t *src)
 {
     uplink_t *up = ctx;
+    hook_poll(ctx, src, mfns_uart_now_ms()); /* what the last packets made due (a recording's last report) */
     mfns_uart_t *u = out_link(up, src);
     for (int i = 0; u != NULL && i < FLUSH_TRIES && tlm_txq_frames(&up->q) > 0u; i++) {
         (void)txq_drain(&up->q, u, mfns_uart_now_ms());
@@ -385,8 +406,9 @@ static void hook_finish(void *ctx, mfns_uart_t *src)
         up->n_errors++;
     }
     if (!uplink_auth_ready(&up->auth) && (up->next_cli < up->o.n_cli || up->cmd_fd >= 0)) {
-        fprintf(stderr, "mfns-ground: commands not sent: the board's command epoch never arrived in housekeeping "
-                        "(give --tc-epoch N to sign for a known one)\n");
+        fprintf(stderr, "mfns-ground: commands not sent: no authenticated uplink report from the board arrived "
+                        "(%u housekeeping reports ignored as unauthenticated; give --tc-epoch N to sign for a "
+                        "known epoch)\n", up->auth.n_reports_ignored);
         up->n_errors++;
     }
 }
@@ -406,11 +428,12 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
     tlm_txq_init(&up->q);
     up->hooks = (ground_hooks_t){up, hook_poll, hook_packet, hook_finish};
     char err[384];
-    if (uplink_auth_open(&up->auth, o->tc_key, o->tc_epoch, err, sizeof err) != 0) {
+    if (uplink_auth_open(&up->auth, o->tc_key, o->tc_epoch, o->tc_state, err, sizeof err) != 0) {
         fprintf(stderr, "mfns-ground: --tc-key %s\n", err);
         return -1;
     }
-    if (o->tc_count_start != 0u) {
+    /* --tc-count-start: never below a persisted count (with --tc-state) */
+    if (o->tc_count_start != 0u && (o->tc_state == NULL || o->tc_count_start > up->auth.next_count)) {
         up->auth.next_count = o->tc_count_start;
     }
     if (o->out == UPLINK_OUT_TTY || o->out == UPLINK_OUT_FILE) {
@@ -500,7 +523,9 @@ int uplink_close(uplink_t *up)
             fprintf(stderr, "; socket commands: %u received, %u refused", up->sockin.received, up->sockin.refused);
         }
         if (up->auth.on) {
-            fprintf(stderr, "; signed for epoch %u up to count %u", up->auth.epoch, up->auth.next_count - 1u);
+            fprintf(stderr, "; signed for epoch %u up to count %u (%u re-synchronisations, %u uplink reports verified, "
+                            "%u ignored)", up->auth.epoch, up->auth.next_count - 1u, up->auth.n_resync,
+                    up->auth.n_reports_ok, up->auth.n_reports_ignored);
         }
         fputc('\n', stderr);
     }

@@ -59,6 +59,7 @@ typedef struct {
     const char *tc_key;                /* --tc-key FILE: sign every command (uplink_auth.h) */
     uint32_t tc_epoch;                 /* --tc-epoch N, 0 = learn from housekeeping */
     uint32_t tc_count_start;           /* --tc-count-start N, 0 = default (1) */
+    const char *tc_state;              /* --tc-state FILE: the ground's epoch and count, persisted (uplink_auth.h) */
     bool udp_allow_remote;
     const char *out_dir;               /* for commands.csv (from ground_opts_t) */
     bool quiet;                        /* -q (from ground_opts_t): no counters at exit, errors only */

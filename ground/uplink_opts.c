@@ -20,8 +20,11 @@ void uplink_usage(FILE *f)
             "  --uplink          send commands on the --tty/--serial source itself (read-write)\n"
             "  --tc-seq-start N  first sequence count (0..16383, default 0)\n"
             "  --tc-key FILE     sign every command with the first key of FILE ('ID HEX', mode 0600/0400)\n"
-            "  --tc-epoch N      the board's boot epoch to sign for (default: from its housekeeping;\n"
-            "                    commands wait until it is known)\n"
+            "  --tc-state FILE   the ground's own uplink state (largest epoch given, next count), written\n"
+            "                    atomically before every signed command; needed to re-synchronise the\n"
+            "                    board (it learns the board's state only from authenticated reports)\n"
+            "  --tc-epoch N      sign for this epoch without waiting (a command file prepared offline;\n"
+            "                    default: re-synchronise the board to a fresh epoch, with --tc-state)\n"
             "  --tc-count-start N  first anti-replay count with --tc-epoch (default 1)\n"
             "  --tc-socket PATH  receive CCSDS TC packets on a Unix datagram socket created mode 0600\n"
             "  grammar: NOOP | RESET_COUNTERS | SET_MODE standby|acquire|track |\n"
@@ -59,7 +62,7 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
         const bool has_val = i + 1 < argc;
         const char *needs[] = {"--cmd",          "--cmd-file", "--tc-tty", "--tc-file",
                                "--tc-seq-start", "--udp-forward", "--udp-tc", "--tc-key", "--tc-epoch",
-                               "--tc-socket", "--tc-count-start", "--tcp-forward"};
+                               "--tc-socket", "--tc-count-start", "--tcp-forward", "--tc-state"};
         bool mine_val = false;
         for (size_t k = 0; k < sizeof needs / sizeof needs[0]; k++) {
             mine_val = mine_val || strcmp(a, needs[k]) == 0;
@@ -112,6 +115,8 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
             o->tcp_forward = v;
         } else if (strcmp(a, "--tc-key") == 0) {
             o->tc_key = v;
+        } else if (strcmp(a, "--tc-state") == 0) {
+            o->tc_state = v;
         } else if (strcmp(a, "--tc-socket") == 0) {
             o->tc_socket = v;
         } else if (strcmp(a, "--tc-count-start") == 0 || strcmp(a, "--tc-epoch") == 0) {
@@ -141,6 +146,15 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
     }
     if ((o->tc_epoch != 0u || o->tc_count_start != 0u) && o->tc_key == NULL) {
         fprintf(err, "mfns-ground: --tc-epoch signs for an epoch: give --tc-key FILE too\n");
+        return -1;
+    }
+    if (o->tc_state != NULL && o->tc_key == NULL) {
+        fprintf(err, "mfns-ground: --tc-state keeps the signing state: give --tc-key FILE too\n");
+        return -1;
+    }
+    if (o->tc_key != NULL && o->tc_epoch == 0u && o->tc_state == NULL) {
+        fprintf(err, "mfns-ground: --tc-key without --tc-epoch needs --tc-state FILE: the ground gives the board "
+                     "its epochs and must remember them (docs/uplink.md 1a)\n");
         return -1;
     }
     if ((o->n_cli > 0 || o->cmd_file != NULL || o->udp_tc != NULL || o->tc_socket != NULL) &&

@@ -154,6 +154,15 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     if (o->tc_kind != NAV_TC_NONE) { /* the uplink's security, once: epoch 0 = not authenticated */
         send_event(app, TLM_EVT_TC_AUTH, app->tc.auth.insecure ? TLM_SEV_WARNING : TLM_SEV_INFO,
                    (int32_t)app->tc.auth.epoch, (int32_t)app->tc.auth.n_keys);
+        if (app->tc.auth.insecure) {
+            send_event(app, TLM_EVT_TC_UNPROTECTED, TLM_SEV_WARNING, o->tc_insecure_from_config ? 2 : 1, 0);
+        } else if (app->tc.state_fault != TC_STATE_OK) {
+            /* the uplink state: a wiped directory (missing) is told, damaged or unwritable warned */
+            const int kind = app->tc.state_fault == TC_STATE_MISSING ? 0 : (app->tc.state_fault == TC_STATE_DAMAGED ? 1 : 2);
+            send_event_subject(app, TLM_EVT_STORAGE_FAULT, kind == 0 ? TLM_SEV_INFO : TLM_SEV_WARNING, 0u,
+                               app->tc.state_errno, kind);
+            app->n_storage_errors += kind == 0 ? 0u : 1u;
+        }
     }
 
     mfns_caltable_t *table = &app->tables[app->table_cur];
@@ -175,6 +184,14 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     if (ts_info.source != NAV_TS_SRC_INITIAL && o->verbose) {
         fprintf(stderr, "mfns-nav: table from the store: %s (crc %08x)\n", ts_info.path, table->crc32);
     }
+    if (ts_info.initial_differs) {
+        fprintf(stderr,
+                "mfns-nav: --table %s differs from the stored table, which runs (%s, crc %08x); send TABLE_LOAD %s "
+                "to switch\n",
+                o->table_path, ts_info.path, table->crc32, o->table_path);
+        send_event(app, TLM_EVT_TABLE_ARG_OVERRIDDEN, TLM_SEV_WARNING,
+                   (int32_t)(ts_info.initial_size > INT32_MAX ? INT32_MAX : ts_info.initial_size), (int32_t)table->crc32);
+    }
     send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, table->format_version, (int32_t)table->crc32);
     nav_app_apply_budget(app, table);
     send_event_subject(app, TLM_EVT_CYCLE_BUDGET, TLM_SEV_INFO, (uint8_t)(app->budget_units != 0u ? 1 : 0), 0,
@@ -194,8 +211,10 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         return 2;
     }
     if (o->fixlog_dir != NULL && nav_fixlog_open(&app->fixlog, o->fixlog_dir, o->fixlog_file_kb * 1024u, o->fixlog_files) != 0) {
-        close_all(app);
-        return 2;
+        /* a storage fault degrades, never stops: navigation and telemetry go on without the log */
+        fprintf(stderr, "mfns-nav: --fixlog %s: no fix log this run; navigating\n", o->fixlog_dir);
+        send_event_subject(app, TLM_EVT_STORAGE_FAULT, TLM_SEV_WARNING, 1u, errno, 0);
+        app->fixlog_open_failed = true;
     }
     if (o->have_init_pose) {
         const float *ip = o->init_pose;
@@ -221,13 +240,16 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
         const tc_auth_t *a = &app->tc.auth;
         fprintf(stderr,
                 "mfns-nav: authentication (epoch %u): %u passed, refused %u missing, %u unknown key, %u bad MAC, "
-                "%u replayed, %u stale epoch\n",
-                a->epoch, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4]);
+                "%u replayed, %u stale epoch, %u awaiting re-synchronisation, %u count exhausted; %u "
+                "re-synchronisations\n",
+                a->epoch, a->n_ok, a->n_rej[0], a->n_rej[1], a->n_rej[2], a->n_rej[3], a->n_rej[4], a->n_rej[5],
+                a->n_rej[6], a->n_resync);
     }
     if (app->fixlog.dir[0] != '\0') {
-        fprintf(stderr, "mfns-nav: fix log %s: %u fixes recorded, %u dropped, %u write errors\n", app->fixlog.dir,
-                atomic_load(&app->fixlog.records), atomic_load(&app->fixlog.dropped_records),
-                atomic_load(&app->fixlog.write_errors));
+        /* honest: only records on disk are "written" (issue 45: a full disk said 118 recorded) */
+        fprintf(stderr, "mfns-nav: fix log %s: %u fixes written, %u lost to write errors (%u write errors), %u dropped\n",
+                app->fixlog.dir, atomic_load(&app->fixlog.written_records), atomic_load(&app->fixlog.lost_records),
+                atomic_load(&app->fixlog.write_errors), atomic_load(&app->fixlog.dropped_records));
     }
     if (verbose && app->latency.count > 0u) {
         fprintf(stderr,

@@ -103,7 +103,10 @@ typedef struct nav_app {
     mfns_cycle_stats_t latency;     /* frame stamp -> nav packet out of the queue, whole run (nav_app_note_latency) */
     uint64_t last_fused_t_us;       /* frame time of the last cycle that fused a frame (0: none yet) */
     uint32_t frame_period_min_us;   /* shortest step between fused cycles' frame times this HK interval (0: none) */
+    uint32_t n_storage_errors;      /* failed writes of the uplink state and the table store (housekeeping) */
+    uint32_t fixlog_lost_reported;  /* fix-log records lost, as last reported by STORAGE_FAULT */
     bool tlm_opened_at_start;       /* the telemetry link was open after start-up (the exit message) */
+    bool fixlog_open_failed;        /* --fixlog given, its directory unusable: no log this run (STORAGE_FAULT) */
 } nav_app_t;
 
 /* Runs the program on app (any contents: it is reset first; nothing is

@@ -1,6 +1,7 @@
 /* nav_cmds.c -- see nav_cmds.h. */
 #include "firmware/app/nav_cmds.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -8,6 +9,7 @@
 #include "math/units.h"
 #include "firmware/app/nav_app.h"
 #include "firmware/app/nav_tablestore.h"
+#include "firmware/app/tc_state.h"
 
 static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
                        int32_t a1)
@@ -137,6 +139,16 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     if (ts == MFNS_CALTABLE_OK) {
         nav_app_apply_budget(app, nt); /* the board's budget holds for any table */
     }
+    if (ts == MFNS_CALTABLE_OK && nt->crc32 == cur->crc32 && nt->size_bytes == cur->size_bytes) {
+        /* the running table again (issue 45): nothing to re-bind, so the navigator keeps its
+         * track and its camera and beacon monitors (a re-bind cost ~10 cycles of fixes and
+         * raised false CAMERAS_DISAGREE / BEACON_MISSING); answered and stored as any load */
+        send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, nt->format_version, (int32_t)nt->crc32);
+        fprintf(stderr, "mfns-nav: TABLE_LOAD %s: the running table (crc %08x): kept, the track goes on\n", path,
+                nt->crc32);
+        *arg1 = (int32_t)nt->crc32;
+        return TC_OK;
+    }
     if (ts == MFNS_CALTABLE_OK && mfns_nav_init(&app->nav, nt, app->solver) != MFNS_NAV_OK) {
         ts = MFNS_CALTABLE_E_SOLVER_SETTINGS;
         if (mfns_nav_init(&app->nav, cur, app->solver) != MFNS_NAV_OK) {
@@ -163,6 +175,7 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         if (err != 0) {
             fprintf(stderr, "mfns-nav: TABLE_LOAD %s runs but was not stored in %s: %s (a restart runs the old one)\n",
                     path, app->state_dir, strerror(err));
+            app->n_storage_errors++; /* housekeeping n_storage_errors */
         }
         send_event(app, TLM_EVT_TABLE_STORED, err == 0 ? TLM_SEV_INFO : TLM_SEV_ERROR, (uint8_t)(err == 0 ? 0 : 1), err,
                    (int32_t)nt->crc32);
@@ -186,7 +199,27 @@ _Static_assert(sizeof k_cmds / sizeof k_cmds[0] == (size_t)TC_OP_MAX + 1u,
 static tc_status_t cmd_auth(void *ctx, const tc_cmd_t *cmd)
 {
     nav_app_t *app = ctx;
-    return tc_auth_check(&app->tc.auth, cmd);
+    tc_auth_t *a = &app->tc.auth;
+    const tc_status_t st = tc_auth_check(a, cmd);
+    if (st == TC_OK && a->resynced) {
+        /* a re-synchronisation: keep the new epoch as the floor of the next
+         * start (best effort: the ground's record keeps epochs fresh anyway) */
+        a->resynced = false;
+        char err[384];
+        const int e = app->state_dir != NULL ? tc_state_write(app->state_dir, a->epoch, err, sizeof err) : EROFS;
+        if (e == 0) {
+            a->state_bits = 0u;
+        } else {
+            a->state_bits |= (uint8_t)TC_AUTH_ST_STATE_RO;
+            app->n_storage_errors++;
+            fprintf(stderr, "mfns-nav: uplink epoch %u not stored: %s\n", a->epoch,
+                    app->state_dir != NULL ? err : "no --state-dir");
+        }
+        send_event(app, TLM_EVT_TC_RESYNC, e == 0 ? TLM_SEV_INFO : TLM_SEV_WARNING, (uint8_t)(e == 0 ? 0u : 1u),
+                   (int32_t)a->epoch, e);
+        fprintf(stderr, "mfns-nav: cycle %u: uplink re-synchronised to epoch %u\n", app->cycle_now, a->epoch);
+    }
+    return st;
 }
 
 nav_cmd_ops_t nav_cmds_ops(struct nav_app *app)

@@ -181,6 +181,12 @@ static int parse_line(nav_config_t *c, const char *text, size_t n, uint32_t line
         v0++;
     }
     size_t v1 = n;
+    for (size_t i = v0; i < n; i++) {
+        if (text[i] == '#' && i > eq + 1u && is_blank(text[i - 1])) {
+            v1 = i; /* an inline comment: '#' after a blank (a '#' inside a word stays part of it) */
+            break;
+        }
+    }
     while (v1 > v0 && is_blank(text[v1 - 1])) {
         v1--;
     }
@@ -280,5 +286,28 @@ int nav_config_load(const char *path, nav_config_t *c, char *err, size_t err_siz
         FAIL("%s: %s", path, msg);
         return -1;
     }
+    c->have_stat = true; /* after the parse, which resets c */
+    c->file_uid = (uint32_t)st.st_uid;
+    c->file_mode = (uint32_t)st.st_mode & 07777u;
     return 0;
+}
+
+int nav_config_check_trust(const nav_config_t *c, uint32_t euid, char *err, size_t err_size)
+{
+    static const nav_config_key_t sec[] = {NAV_CFG_TC_KEY, NAV_CFG_TC_INSECURE, NAV_CFG_STATE_DIR, NAV_CFG_UPLINK};
+    const nav_config_key_t *hit = NULL;
+    for (size_t i = 0; i < sizeof sec / sizeof sec[0] && hit == NULL; i++) {
+        hit = c->set[sec[i]] ? &sec[i] : NULL;
+    }
+    if (hit == NULL || !c->have_stat) {
+        return 0; /* nothing security-relevant, or parsed from memory (tests, fuzzing) */
+    }
+    const bool owner_ok = c->file_uid == 0u || c->file_uid == euid;
+    if (owner_ok && (c->file_mode & 022u) == 0u) {
+        return 0;
+    }
+    FAIL("line %u: key '%s': refused from a file with mode %04o owned by uid %u: security settings are taken only "
+         "from a file owned by root or uid %u and not group- or world-writable (chmod go-w)",
+         c->line[*hit], nav_config_key_name(*hit), c->file_mode, c->file_uid, euid);
+    return -1;
 }

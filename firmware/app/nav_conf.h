@@ -4,9 +4,11 @@
  * (nav_opts.h).
  *
  * Format: one `key = value` per line; a line whose first non-blank character
- * is '#' is a comment; blank lines are ignored; blanks around the key, the '='
- * and the value are ignored. No quoting, no continuation lines, no includes:
- * what is on the line is the value. Every key is known (a misspelt key is an
+ * is '#' is a comment, and so is the rest of a line from a '#' that follows a
+ * blank (`baud = 115200  # the bench`: the value is 115200; a '#' inside a
+ * word, `/data/run#2`, is part of it); blank lines are ignored; blanks around
+ * the key, the '=' and the value are ignored. No quoting, no continuation
+ * lines, no includes. Every key is known (a misspelt key is an
  * error, never silently ignored) and given at most once.
  *
  * The reader is bounded: at most NAV_CONFIG_MAX_BYTES of file,
@@ -68,6 +70,9 @@ typedef struct {
     uint32_t line[NAV_CFG_KEY_COUNT];                     /* where each was given (1-based) */
     char value[NAV_CFG_KEY_COUNT][NAV_CONFIG_VALUE_MAX];  /* NUL-terminated, checked against its type */
     uint32_t number[NAV_CFG_KEY_COUNT];                   /* U32 keys: the value; BOOL keys: 0 or 1 */
+    bool have_stat;                                       /* nav_config_load: the file's owner and mode below */
+    uint32_t file_uid;
+    uint32_t file_mode;                                   /* permission bits */
 } nav_config_t;
 
 /* Parses text[0..len) (need not be NUL-terminated) into *c (reset first).
@@ -77,6 +82,13 @@ int nav_config_parse(const char *text, size_t len, nav_config_t *c, char *err, s
 /* Reads the file at path (a regular file, at most NAV_CONFIG_MAX_BYTES) and
  * parses it. 0 ok; -1 with "PATH: ..." or "PATH:N: key 'K': ..." in err. */
 int nav_config_load(const char *path, nav_config_t *c, char *err, size_t err_size);
+
+/* Security-relevant keys (tc_key, tc_insecure, state_dir, uplink) are only
+ * taken from a file owned by root or by the user running the program and
+ * writable by nobody else (no group or world write bit): otherwise anyone who
+ * can write the file switches authentication off. 0 when c may be used (or
+ * holds none of those keys), -1 with the reason in err. euid: the program's. */
+int nav_config_check_trust(const nav_config_t *c, uint32_t euid, char *err, size_t err_size);
 
 /* The key's name as written in the file ("cam_x"). */
 const char *nav_config_key_name(nav_config_key_t k);

@@ -134,6 +134,21 @@ static bool write_all(int fd, const uint8_t *b, size_t n)
     return n == 0;
 }
 
+/* The records whose bytes the writer just took (n bytes, whole records: head
+ * moves per record), counted written or lost. */
+static void account(nav_fixlog_t *l, size_t n, bool ok)
+{
+    const size_t rh = atomic_load_explicit(&l->rec_head, memory_order_acquire);
+    unsigned k = 0;
+    for (size_t guard = 0; guard < NAV_FIXLOG_REC_SLOTS && n > 0u && l->rec_tail < rh; guard++) {
+        const size_t len = l->rec_len[l->rec_tail % NAV_FIXLOG_REC_SLOTS];
+        n = n >= len ? n - len : 0u;
+        l->rec_tail++;
+        k++;
+    }
+    atomic_fetch_add(ok ? &l->written_records : &l->lost_records, k);
+}
+
 /* Everything the loop has published: whole records (head moves per record). */
 static void write_pending(nav_fixlog_t *l)
 {
@@ -145,6 +160,7 @@ static void write_pending(nav_fixlog_t *l)
     if (l->fd < 0 || l->in_file >= l->file_bytes_max) {
         if (open_next(l) != 0) {
             atomic_fetch_add(&l->write_errors, 1u);
+            account(l, head - tail, false);
             atomic_store_explicit(&l->tail, head, memory_order_release); /* given up, never waited for */
             return;
         }
@@ -158,6 +174,7 @@ static void write_pending(nav_fixlog_t *l)
     if (!ok) {
         atomic_fetch_add(&l->write_errors, 1u);
     }
+    account(l, n, ok);
     l->in_file += n;
     atomic_store_explicit(&l->tail, head, memory_order_release);
 }
@@ -233,6 +250,9 @@ int nav_fixlog_open(nav_fixlog_t *l, const char *dir, uint32_t file_bytes, uint3
     atomic_init(&l->records, 0u);
     atomic_init(&l->dropped_records, 0u);
     atomic_init(&l->write_errors, 0u);
+    atomic_init(&l->written_records, 0u);
+    atomic_init(&l->lost_records, 0u);
+    atomic_init(&l->rec_head, 0u);
     atomic_init(&l->stop, false);
     if (pthread_create(&l->thread, NULL, writer, l) != 0) {
         fprintf(stderr, "mfns-nav: --fixlog: cannot start the writer thread\n");
@@ -270,6 +290,12 @@ bool nav_fixlog_record(nav_fixlog_t *l, const tlm_packet_t *nav_pkt, const tlm_p
     const size_t first = len < NAV_FIXLOG_RING_BYTES - at ? len : NAV_FIXLOG_RING_BYTES - at;
     memcpy(l->ring + at, l->scratch, first);
     memcpy(l->ring, l->scratch + first, len - first);
+    /* its length for the writer's count; the length ring cannot overrun: a
+     * record is more than RING_BYTES / REC_SLOTS bytes, so the byte ring is
+     * full first */
+    const size_t rh = atomic_load_explicit(&l->rec_head, memory_order_relaxed);
+    l->rec_len[rh % NAV_FIXLOG_REC_SLOTS] = (uint32_t)len;
+    atomic_store_explicit(&l->rec_head, rh + 1u, memory_order_release);
     atomic_store_explicit(&l->head, head + len, memory_order_release);
     l->enc = enc;
     atomic_fetch_add(&l->records, 1u);

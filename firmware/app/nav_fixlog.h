@@ -19,7 +19,9 @@
  * the writer appends its whole batch of records first, so a file can pass the
  * limit by up to NAV_FIXLOG_RING_BYTES), the oldest deleted so that at most
  * NAV_FIXLOG_FILES remain: on disk at most FILES x (FILE_BYTES + RING_BYTES). Write errors are
- * counted (write_errors) and the record given up; the loop never sees them.
+ * counted (write_errors, and the records they cost in lost_records; only
+ * records on disk count as written_records) and the record given up; the loop
+ * never sees them (housekeeping n_fixlog_errors and a STORAGE_FAULT event do).
  *
  * What it misses: records dropped while the ring is full (a stalled disk) are
  * gone (counted); a crash loses what the ring held (at most the ring's size,
@@ -46,9 +48,11 @@
 #define NAV_FIXLOG_FILE_BYTES (8u * 1024u * 1024u) /* ~10 min of fixes per file */
 #define NAV_FIXLOG_FILES 16u                       /* kept: ~2.5 h of flight, 128 MiB */
 #define NAV_FIXLOG_PATH_MAX 512u
+#define NAV_FIXLOG_REC_SLOTS 16384u /* ring bytes / slots = 16 < the smallest record (two frames) */
 
 _Static_assert(NAV_FIXLOG_MAX_ASSOC <= 255u, "fix_index and fix_count are u8 on the wire");
 _Static_assert(NAV_FIXLOG_RING_BYTES >= 4u * NAV_FIXLOG_MAX_RECORD, "the ring holds several worst-case fixes");
+_Static_assert(NAV_FIXLOG_RING_BYTES / NAV_FIXLOG_REC_SLOTS < 2u * (TLM_CCSDS_HDR_LEN + 3u), "a record (two frames at least) is longer than a length slot's share of the ring");
 
 typedef struct {
     bool open;
@@ -61,6 +65,15 @@ typedef struct {
     atomic_size_t head; /* bytes ever written by the loop (mod ring when indexing) */
     atomic_size_t tail; /* bytes ever taken by the writer */
     atomic_uint records, dropped_records, write_errors;
+    /* honest counts (issue 45): records queued (records) are not records
+     * written: the writer counts each record it wrote (written_records) or
+     * could not write (lost_records: a full or read-only disk); it knows the
+     * records of a batch by the length ring below */
+    atomic_uint written_records, lost_records;
+    uint32_t rec_len[NAV_FIXLOG_REC_SLOTS]; /* length of each record in the ring, in order */
+    atomic_size_t rec_head;                 /* records ever published (the loop) */
+    size_t rec_tail;                        /* writer side: records accounted for */
+    size_t rec_bytes_left;                  /* writer side: bytes of the record at rec_tail not yet taken */
     atomic_bool stop;
     pthread_t thread;
     /* writer-thread side only */

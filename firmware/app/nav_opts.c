@@ -7,6 +7,7 @@
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "firmware/app/cam_sync.h"
 #include "mfns_version.h"
@@ -185,6 +186,7 @@ static int apply_config(nav_opts_t *o, from_file_t *ff, FILE *err)
     }
     if (c->set[NAV_CFG_TC_INSECURE]) {
         o->tc_insecure = c->number[NAV_CFG_TC_INSECURE] != 0u;
+        o->tc_insecure_from_config = o->tc_insecure;
         ff->insecure = true;
     }
     if (c->set[NAV_CFG_TABLE]) {
@@ -256,6 +258,10 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         char msg[NAV_CONFIG_ERR_LEN + 64];
         if (nav_config_load(o->config_path, &o->cfg, msg, sizeof msg) != 0) {
             fprintf(err, "mfns-nav: configuration %s\n", msg);
+            return -1;
+        }
+        if (nav_config_check_trust(&o->cfg, (uint32_t)geteuid(), msg, sizeof msg) != 0) {
+            fprintf(err, "mfns-nav: configuration %s:%s\n", o->config_path, msg + 4); /* "line N: ..." -> ":N: ..." */
             return -1;
         }
         if (apply_config(o, &ff, err) != 0) {
@@ -344,6 +350,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
             o->tc_key_path = optarg;
             if (ff.insecure) {
                 o->tc_insecure = false;
+                o->tc_insecure_from_config = false;
             }
             break;
         case O_STATE_DIR:
@@ -351,6 +358,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
             break;
         case O_TC_INSECURE:
             o->tc_insecure = true;
+            o->tc_insecure_from_config = false;
             if (ff.key) {
                 o->tc_key_path = NULL;
             }

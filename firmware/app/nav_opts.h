@@ -50,6 +50,7 @@ typedef struct {
     const char *tc_key_path;   /* --tc-key: the board's keys (tc_auth.h) */
     const char *state_dir;     /* --state-dir: the persisted boot epoch (tc_state.h) */
     bool tc_insecure;          /* --tc-insecure: commands without authentication */
+    bool tc_insecure_from_config; /* ... set by the configuration file's tc_insecure (reported so) */
     uint32_t baud;
     uint32_t max_cycles;       /* 0 = until the data ends or a signal */
     mfns_pose_mode_t solver;

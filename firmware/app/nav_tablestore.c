@@ -97,6 +97,36 @@ int nav_tablestore_commit(const char *state_dir, const uint8_t *bytes, size_t le
     return sync_dir(state_dir);
 }
 
+/* Whether the file at path holds exactly bytes[0..len) (read in chunks, bounded).
+ * 1 same, 0 different, -1 unreadable; *size its size. */
+static int same_bytes(const char *path, const uint8_t *bytes, size_t len, long *size)
+{
+    *size = -1;
+    const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) {
+        return -1;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        (void)close(fd);
+        return -1;
+    }
+    *size = (long)st.st_size;
+    int same = (size_t)st.st_size == len ? 1 : 0;
+    uint8_t chunk[4096];
+    size_t off = 0;
+    for (size_t guard = 0; same == 1 && off < len && guard <= MFNS_CALTABLE_MAX_BYTES / sizeof chunk + 1u; guard++) {
+        const ssize_t n = read(fd, chunk, sizeof chunk);
+        if (n <= 0 || (size_t)n > len - off || memcmp(chunk, bytes + off, (size_t)n) != 0) {
+            same = n < 0 ? -1 : 0;
+            break;
+        }
+        off += (size_t)n;
+    }
+    (void)close(fd);
+    return same;
+}
+
 /* Loads path into *out; the status. */
 static mfns_caltable_status_t load(const char *path, uint8_t *buf, size_t buf_size, mfns_caltable_t *out,
                                    uint32_t *off)
@@ -119,6 +149,10 @@ mfns_caltable_status_t nav_tablestore_load_start(const char *state_dir, const ch
         if (info->first_status == MFNS_CALTABLE_OK) {
             info->source = NAV_TS_SRC_ACTIVE;
             (void)snprintf(info->path, sizeof info->path, "%s", act);
+            if (initial_path != NULL) {
+                /* issue 45: a --table that differs from the stored one is said, never silently overridden */
+                info->initial_differs = same_bytes(initial_path, buf, out->size_bytes, &info->initial_size) != 1;
+            }
             return MFNS_CALTABLE_OK;
         }
         info->rolled_back = true;

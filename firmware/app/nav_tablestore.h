@@ -22,6 +22,10 @@
  * otherwise the previous one (the active is moved to table.bad.mfnstbl and
  * the previous becomes active: a rollback, reported as TABLE_ROLLBACK by the
  * caller); otherwise the initial table (--table), copied in as active.
+ * When the store's table runs and the --table file is not byte for byte the
+ * same, info says so (initial_differs): the caller reports it (stderr and
+ * TABLE_ARG_OVERRIDDEN), the stored table still runs (a TABLE_LOAD of the
+ * file switches).
  * Misses: the store trusts its directory; a table that validates but is wrong
  * for the rig (a valid table of another board) is not caught here.
  */
@@ -53,6 +57,8 @@ typedef struct {
     uint32_t first_err_offset;
     int store_errno;                      /* copying the initial table into the store failed (0 ok) */
     char path[NAV_TABLESTORE_PATH_MAX];   /* the file the running table came from */
+    bool initial_differs;                 /* the store's table runs and the --table file is not the same bytes */
+    long initial_size;                    /* that file's size (-1: unreadable) */
 } nav_ts_start_t;
 
 /* Loads the table to run at start into *out (buf: the caller's table buffer,

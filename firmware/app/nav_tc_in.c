@@ -1,10 +1,61 @@
 /* nav_tc_in.c -- see nav_tc_in.h. */
 #include "firmware/app/nav_tc_in.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "firmware/app/tc_state.h"
+
+/* The uplink state (tc_state.h) into tc->auth: never fatal. A live input
+ * always waits for the ground's re-synchronisation, the stored epoch a floor;
+ * a recorded file (--tc-file) counts locally, and with a state fault refuses
+ * every command (nobody can re-synchronise a file). */
+static void open_state(nav_tc_in_t *tc, const nav_opts_t *o)
+{
+    char err[384];
+    uint32_t floor = 0;
+    int e = 0;
+    tc_state_fault_t f = tc_state_read(o->state_dir, &floor, &e, err, sizeof err);
+    if (f == TC_STATE_OK || f == TC_STATE_MISSING) {
+        const int w = tc_state_probe_write(o->state_dir);
+        if (w != 0 && !(f == TC_STATE_MISSING && e != ENOENT)) {
+            f = TC_STATE_UNWRITABLE; /* read-only, full, or a file where the directory should be */
+            e = w;
+            (void)snprintf(err, sizeof err, "%s: cannot write: %s", o->state_dir, strerror(w));
+        }
+    }
+    if (f == TC_STATE_MISSING && e == ENOTDIR) {
+        f = TC_STATE_UNWRITABLE;
+    }
+    tc->state_fault = f;
+    tc->state_errno = e;
+    static const uint8_t bits[] = {0u, TC_AUTH_ST_STATE_MISSING, TC_AUTH_ST_STATE_DAMAGED, TC_AUTH_ST_STATE_RO};
+    const uint8_t sb = bits[f];
+    if (o->tc_kind == NAV_TC_FILE) {
+        uint32_t epoch = 0;
+        if ((f == TC_STATE_OK || (f == TC_STATE_MISSING && e == ENOENT)) &&
+            tc_state_next_epoch(o->state_dir, &epoch, err, sizeof err) == 0) {
+            tc->auth.epoch = epoch; /* the local counter: a recorded file cannot re-synchronise */
+            tc->auth.need_resync = false;
+            tc->state_fault = TC_STATE_OK;
+            tc->state_errno = 0;
+            return;
+        }
+        tc->state_fault = f == TC_STATE_OK || f == TC_STATE_MISSING ? TC_STATE_UNWRITABLE : f;
+        tc_auth_require_resync(&tc->auth, floor, f == TC_STATE_OK || f == TC_STATE_MISSING ? (uint8_t)TC_AUTH_ST_STATE_RO : sb);
+        fprintf(stderr, "mfns-nav: --state-dir %s: every command of the file refused (AUTH_RESYNC_NEEDED); navigating\n",
+                err);
+        return;
+    }
+    tc_auth_require_resync(&tc->auth, floor, sb);
+    if (f != TC_STATE_OK && !(f == TC_STATE_MISSING && e == ENOENT)) {
+        fprintf(stderr,
+                "mfns-nav: --state-dir %s: the uplink waits for the ground's re-synchronisation as always; the "
+                "epoch it sets cannot be kept; navigating\n",
+                err);
+    }
+}
 
 /* Keys and epoch, or insecure mode (nav_opts_parse made sure one is given
  * whenever there is a command input). */
@@ -12,8 +63,9 @@ static int open_auth(nav_tc_in_t *tc, const nav_opts_t *o)
 {
     if (o->tc_insecure) {
         tc_auth_init(&tc->auth, NULL, 0, 0);
-        fprintf(stderr, "mfns-nav: WARNING: --tc-insecure: telecommands are NOT authenticated; anyone who can "
-                        "write to the uplink commands this board\n");
+        fprintf(stderr, "mfns-nav: WARNING: %s: telecommands are NOT authenticated; anyone who can "
+                        "write to the uplink commands this board\n",
+                o->tc_insecure_from_config ? "tc_insecure = yes in the configuration" : "--tc-insecure");
         return 0;
     }
     tc_auth_key_t keys[TC_AUTH_MAX_KEYS];
@@ -23,14 +75,9 @@ static int open_auth(nav_tc_in_t *tc, const nav_opts_t *o)
         fprintf(stderr, "mfns-nav: --tc-key %s\n", err);
         return -1;
     }
-    uint32_t epoch = 0;
-    if (tc_state_next_epoch(o->state_dir, &epoch, err, sizeof err) != 0) {
-        fprintf(stderr, "mfns-nav: --state-dir %s\n", err);
-        tc_auth_wipe(keys, sizeof keys);
-        return -1;
-    }
-    tc_auth_init(&tc->auth, keys, n, epoch);
+    tc_auth_init(&tc->auth, keys, n, 0); /* no epoch yet */
     tc_auth_wipe(keys, sizeof keys); /* the copy in tc->auth is the one kept */
+    open_state(tc, o);
     return 0;
 }
 

@@ -21,6 +21,7 @@
 
 #include "firmware/app/nav_cmd_dispatch.h"
 #include "firmware/linux/tc_auth.h"
+#include "firmware/app/tc_state.h"
 #include "firmware/app/nav_opts.h"
 #include "drivers/uart/uart.h"
 
@@ -36,12 +37,16 @@ typedef struct {
     size_t len, off;
     bool eof;                        /* a recorded command file ended */
     bool error_printed;
+    tc_state_fault_t state_fault;    /* the uplink state at start (tc_state.h) */
+    int state_errno;
 } nav_tc_in_t;
 
 /* Opens the input o names, with its authentication: the keys of
- * --tc-key and the next boot epoch in --state-dir (tc_state.h, written
- * here, once), or insecure mode (--tc-insecure, a warning line). 0, or -1
- * after one stderr line. */
+ * --tc-key and the uplink state in --state-dir (tc_state.h: a live input
+ * waits for the ground's re-synchronisation, a recorded file counts
+ * locally), or insecure mode (--tc-insecure, a warning line). A state fault
+ * is recorded (state_fault) and never fails the start. 0, or -1 after one
+ * stderr line (keys refused, input not openable). */
 int nav_tc_in_open(nav_tc_in_t *tc, const nav_opts_t *o);
 /* Between cycles: reads what the input has now (never waits) and handles
  * at most NAV_CMD_MAX_PER_CYCLE commands through ops. link is the telemetry

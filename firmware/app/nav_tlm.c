@@ -393,6 +393,24 @@ void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uin
     h->cmd_seq_last = app->tc.cmd.seq_last;
     h->tc_epoch = app->tc.auth.epoch;           /* not secret: the ground signs with it */
     h->tc_arsn_last = app->tc.auth.count_last;
+    if (app->tc.kind != NAV_TC_NONE) {
+        /* the uplink report, MACed (tc_auth.h): the only thing the ground believes */
+        tc_auth_report_t r;
+        tc_auth_report(&app->tc.auth, &r);
+        h->tc_epoch = r.epoch;
+        h->tc_arsn_last = r.count_last;
+        h->tc_state = r.state;
+        h->tc_nonce_hi = (uint32_t)(r.nonce >> 32);
+        h->tc_nonce_lo = (uint32_t)(r.nonce & 0xFFFFFFFFu);
+        h->tc_report_spi = r.spi;
+        h->tc_report_mac0 = (uint32_t)r.mac[0] << 24 | (uint32_t)r.mac[1] << 16 | (uint32_t)r.mac[2] << 8 | r.mac[3];
+        h->tc_report_mac1 = (uint32_t)r.mac[4] << 24 | (uint32_t)r.mac[5] << 16 | (uint32_t)r.mac[6] << 8 | r.mac[7];
+        h->tc_report_mac2 = (uint32_t)r.mac[8] << 24 | (uint32_t)r.mac[9] << 16 | (uint32_t)r.mac[10] << 8 | r.mac[11];
+        h->tc_report_mac3 =
+            (uint32_t)r.mac[12] << 24 | (uint32_t)r.mac[13] << 16 | (uint32_t)r.mac[14] << 8 | r.mac[15];
+    }
+    h->n_fixlog_errors = atomic_load(&app->fixlog.lost_records) + atomic_load(&app->fixlog.dropped_records);
+    h->n_storage_errors = app->n_storage_errors;
     h->n_beacons_biased = app->nav.bmon.n_flagged;
     h->workspace = hk_workspace(&app->nav);
     /* the cycle margin (issue 24 item 6): the frame period less the longest cycle of the interval */
@@ -413,6 +431,12 @@ void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uin
     h->utc_us = utc.utc_us;
     h->time_quality = utc.quality;
     (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
+    const uint32_t lost = atomic_load(&app->fixlog.lost_records);
+    if (lost != app->fixlog_lost_reported && app->fixlog_lost_reported == 0u) {
+        /* once: the log's disk refuses (full, read-only); the count goes on in housekeeping */
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_STORAGE_FAULT, TLM_SEV_WARNING, 1u, 0, (int32_t)lost);
+    }
+    app->fixlog_lost_reported = lost;
     if (t->q.dropped != t->last_dropped_reported) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_TLM_DROPPED, TLM_SEV_WARNING, 0,
                             (int32_t)(t->q.dropped - t->last_dropped_reported), 0);

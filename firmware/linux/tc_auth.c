@@ -7,6 +7,7 @@
 #include <fcntl.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -236,6 +237,9 @@ void tc_auth_init(tc_auth_t *a, const tc_auth_key_t *keys, unsigned n, uint32_t 
     }
     a->insecure = a->n_keys == 0u;
     a->epoch = epoch;
+    if (!a->insecure && epoch == 0u) {
+        tc_auth_require_resync(a, 0u, 0u);
+    }
 }
 
 void tc_auth_clear(tc_auth_t *a)
@@ -244,10 +248,139 @@ void tc_auth_clear(tc_auth_t *a)
     a->n_keys = 0;
 }
 
+
 static tc_status_t refuse(tc_auth_t *a, tc_status_t why)
 {
     a->n_rej[why - TC_E_AUTH_MISSING]++;
     return why;
+}
+
+/* Big-endian put (the report message). */
+static size_t put_be(uint8_t *b, uint64_t v, unsigned bytes)
+{
+    for (unsigned i = 0; i < bytes; i++) {
+        b[i] = (uint8_t)(v >> (8u * (bytes - 1u - i)));
+    }
+    return bytes;
+}
+
+int tc_auth_resync_mac(const uint8_t key[TC_AUTH_KEY_BYTES], uint64_t nonce, const uint8_t *data, size_t n,
+                       uint8_t mac[TC_SEC_MAC_LEN])
+{
+    uint8_t msg[sizeof TC_AUTH_RESYNC_DOMAIN - 1u + 8u + TC_MAX_SEC_PACKET];
+    const size_t dl = sizeof TC_AUTH_RESYNC_DOMAIN - 1u;
+    if (data == NULL || n > TC_MAX_SEC_PACKET) {
+        return -1;
+    }
+    memcpy(msg, TC_AUTH_RESYNC_DOMAIN, dl);
+    (void)put_be(msg + dl, nonce, 8u);
+    memcpy(msg + dl + 8u, data, n);
+    return tc_auth_mac(key, msg, dl + 8u + n, mac);
+}
+
+static size_t report_msg(const tc_auth_report_t *r, uint8_t msg[TC_AUTH_REPORT_MSG_LEN])
+{
+    size_t k = sizeof TC_AUTH_REPORT_DOMAIN - 1u;
+    memcpy(msg, TC_AUTH_REPORT_DOMAIN, k);
+    k += put_be(msg + k, r->spi, 1u);
+    k += put_be(msg + k, r->epoch, 4u);
+    k += put_be(msg + k, r->count_last, 4u);
+    k += put_be(msg + k, r->nonce, 8u);
+    k += put_be(msg + k, r->state, 1u);
+    return k;
+}
+
+int tc_auth_report_mac(const uint8_t key[TC_AUTH_KEY_BYTES], const tc_auth_report_t *r, uint8_t mac[TC_SEC_MAC_LEN])
+{
+    uint8_t msg[TC_AUTH_REPORT_MSG_LEN];
+    const size_t n = report_msg(r, msg);
+    return tc_auth_mac(key, msg, n, mac);
+}
+
+bool tc_auth_report_verify(const tc_auth_key_t *key, const tc_auth_report_t *r)
+{
+    uint8_t mac[TC_SEC_MAC_LEN];
+    if (key == NULL || r == NULL || r->spi == 0u || r->spi != key->id || tc_auth_report_mac(key->key, r, mac) != 0) {
+        return false;
+    }
+    const bool ok = mac_equal(mac, r->mac);
+    tc_auth_wipe(mac, sizeof mac);
+    return ok;
+}
+
+bool tc_auth_new_nonce(tc_auth_t *a)
+{
+    uint64_t v = 0;
+    /* never blocks the start: without entropy yet, retried at the next report */
+    const ssize_t got = getrandom(&v, sizeof v, GRND_NONBLOCK);
+    a->nonce_valid = got == (ssize_t)sizeof v;
+    a->nonce = a->nonce_valid ? v : 0u;
+    return a->nonce_valid;
+}
+
+void tc_auth_require_resync(tc_auth_t *a, uint32_t floor_epoch, uint8_t state_bits)
+{
+    a->epoch = 0;
+    a->count_last = 0;
+    a->need_resync = !a->insecure;
+    a->floor_epoch = floor_epoch;
+    a->state_bits = state_bits;
+    if (a->need_resync) {
+        (void)tc_auth_new_nonce(a);
+    }
+}
+
+uint8_t tc_auth_state_bits(const tc_auth_t *a)
+{
+    uint8_t b = a->state_bits;
+    b |= a->need_resync ? (uint8_t)TC_AUTH_ST_RESYNC_NEEDED : 0u;
+    b |= a->insecure ? (uint8_t)TC_AUTH_ST_INSECURE : 0u;
+    b |= a->count_last > TC_AUTH_COUNT_LOW ? (uint8_t)TC_AUTH_ST_COUNT_LOW : 0u;
+    return b;
+}
+
+void tc_auth_report(tc_auth_t *a, tc_auth_report_t *r)
+{
+    memset(r, 0, sizeof *r);
+    if (a->need_resync && !a->nonce_valid) {
+        (void)tc_auth_new_nonce(a); /* entropy may have arrived since start */
+    }
+    r->epoch = a->epoch != 0u ? a->epoch : a->floor_epoch; /* resync needed: the floor a new one must exceed */
+    r->count_last = a->count_last;
+    r->nonce = a->nonce;
+    r->state = tc_auth_state_bits(a);
+    if (a->n_keys == 0u) {
+        return; /* insecure: nothing to MAC with (spi 0 says so) */
+    }
+    const tc_auth_key_t *k = &a->keys[a->report_turn % a->n_keys];
+    a->report_turn = (a->report_turn + 1u) % a->n_keys;
+    r->spi = k->id;
+    if (tc_auth_report_mac(k->key, r, r->mac) != 0) {
+        r->spi = 0; /* no MAC: the ground believes nothing of it */
+        memset(r->mac, 0, sizeof r->mac);
+    }
+}
+
+/* A re-synchronisation (tc_auth.h): the MAC bound to the challenge verified. */
+static tc_status_t resync(tc_auth_t *a, const tc_cmd_t *cmd)
+{
+    const uint32_t epoch = (uint32_t)(cmd->sec.arsn >> 32);
+    const uint32_t count = (uint32_t)(cmd->sec.arsn & 0xFFFFFFFFu);
+    if (cmd->opcode != TC_OP_NOOP || epoch <= a->floor_epoch || epoch <= a->epoch) {
+        return refuse(a, TC_E_AUTH_STALE_EPOCH); /* not fresher than what the board has seen */
+    }
+    if (count == 0u || count > TC_AUTH_COUNT_MAX) {
+        return refuse(a, TC_E_AUTH_COUNT_EXHAUSTED);
+    }
+    a->epoch = epoch;
+    a->floor_epoch = epoch;
+    a->count_last = count;
+    a->need_resync = false;
+    a->resynced = true;
+    a->n_resync++;
+    a->n_ok++;
+    (void)tc_auth_new_nonce(a); /* the challenge is spent */
+    return TC_OK;
 }
 
 tc_status_t tc_auth_check(tc_auth_t *a, const tc_cmd_t *cmd)
@@ -274,14 +407,27 @@ tc_status_t tc_auth_check(tc_auth_t *a, const tc_cmd_t *cmd)
         return refuse(a, TC_E_AUTH_KEY_UNKNOWN);
     }
     uint8_t mac[TC_SEC_MAC_LEN];
-    if (s->auth_len > sizeof s->auth || tc_auth_mac(k->key, s->auth, s->auth_len, mac) != 0 ||
-        !mac_equal(mac, s->mac)) {
+    if (s->auth_len > sizeof s->auth || tc_auth_mac(k->key, s->auth, s->auth_len, mac) != 0) {
         return refuse(a, TC_E_AUTH_BAD_MAC);
+    }
+    if (!mac_equal(mac, s->mac)) {
+        /* not an ordinary command: a re-synchronisation bound to the challenge? */
+        if (a->nonce_valid && tc_auth_resync_mac(k->key, a->nonce, s->auth, s->auth_len, mac) == 0 &&
+            mac_equal(mac, s->mac)) {
+            return resync(a, cmd);
+        }
+        return refuse(a, TC_E_AUTH_BAD_MAC);
+    }
+    if (a->need_resync) {
+        return refuse(a, TC_E_AUTH_RESYNC_NEEDED);
     }
     if ((uint32_t)(s->arsn >> 32) != a->epoch) {
         return refuse(a, TC_E_AUTH_STALE_EPOCH);
     }
     const uint32_t count = (uint32_t)(s->arsn & 0xFFFFFFFFu);
+    if (count > TC_AUTH_COUNT_MAX) {
+        return refuse(a, TC_E_AUTH_COUNT_EXHAUSTED); /* nothing used up: the uplink stays usable */
+    }
     if (count == 0u || count <= a->count_last) {
         return refuse(a, TC_E_AUTH_REPLAY);
     }

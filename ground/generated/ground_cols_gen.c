@@ -109,6 +109,16 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "frame_period_us", s->frame_period_us, 0);
         ground_row_num(r, "cycle_margin_us", s->cycle_margin_us, 0);
         ground_row_str(r, "workspace", tlm_workspace_name(s->workspace));
+        ground_row_num(r, "tc_state", s->tc_state, 0);
+        ground_row_num(r, "tc_nonce_hi", s->tc_nonce_hi, 0);
+        ground_row_num(r, "tc_nonce_lo", s->tc_nonce_lo, 0);
+        ground_row_num(r, "tc_report_spi", s->tc_report_spi, 0);
+        ground_row_num(r, "tc_report_mac0", s->tc_report_mac0, 0);
+        ground_row_num(r, "tc_report_mac1", s->tc_report_mac1, 0);
+        ground_row_num(r, "tc_report_mac2", s->tc_report_mac2, 0);
+        ground_row_num(r, "tc_report_mac3", s->tc_report_mac3, 0);
+        ground_row_num(r, "n_fixlog_errors", s->n_fixlog_errors, 0);
+        ground_row_num(r, "n_storage_errors", s->n_storage_errors, 0);
         break;
     }
     case TLM_TYPE_EVENT: {
@@ -119,7 +129,7 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_str(r, "severity", tlm_severity_name(s->severity));
         ground_row_num(r, "subject", s->subject, 0);
         ground_row_num(r, "arg0", s->arg0, 0);
-        if (s->code == TLM_EVT_TABLE_LOADED || s->code == TLM_EVT_TABLE_REFUSED || s->code == TLM_EVT_SELFTEST_TABLE || s->code == TLM_EVT_TABLE_ROLLBACK || s->code == TLM_EVT_TABLE_STORED) {
+        if (s->code == TLM_EVT_TABLE_LOADED || s->code == TLM_EVT_TABLE_REFUSED || s->code == TLM_EVT_SELFTEST_TABLE || s->code == TLM_EVT_TABLE_ROLLBACK || s->code == TLM_EVT_TABLE_STORED || s->code == TLM_EVT_TABLE_ARG_OVERRIDDEN) {
             ground_row_hex32(r, "arg1", (uint32_t)s->arg1);
         } else {
             ground_row_num(r, "arg1", s->arg1, 0);

@@ -84,6 +84,8 @@ class Board:
                 "--uplink",
                 "--tc-key",
                 str(IMAGE / "tc.key"),
+                "--tc-state",  # the ground gives the board its epochs (docs/uplink.md 1a)
+                str(self.work / "ground-uplink.state"),
                 "--cmd-file",
                 "-",
                 "--out",

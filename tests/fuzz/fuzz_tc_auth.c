@@ -16,7 +16,8 @@
  *   - every frame gives exactly one event;
  *   - an action runs only for a command whose MAC verified under a loaded key,
  *     with this epoch and a count newer than every earlier accepted one;
- *   - no command passes twice (mode 2's copy is AUTH_REPLAY or refused earlier).
+ *   - no command passes twice (mode 2's copy is AUTH_REPLAY or refused earlier);
+ *   - no count in the reserved top of the space passes (AUTH_COUNT_EXHAUSTED).
  * Build: clang -fsanitize=fuzzer,address,undefined with -lcrypto (mk/uplink.mk).
  */
 #include <stdint.h>
@@ -83,6 +84,7 @@ static tc_status_t a_auth(void *ctx, const tc_cmd_t *cmd)
     if (st == TC_OK) {
         const uint32_t count = (uint32_t)(cmd->sec.arsn & 0xFFFFFFFFu);
         check(count > g.last_count); /* strictly newer than everything that passed */
+        check(count <= TC_AUTH_COUNT_MAX); /* the reserved top never passes (issue 45) */
         g.last_count = count;
         uint8_t mac[TC_SEC_MAC_LEN];
         const tc_auth_key_t *k = cmd->sec.spi == 1u ? &k_keys[0] : &k_keys[1];

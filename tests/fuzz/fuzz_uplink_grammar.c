@@ -99,7 +99,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             size_t pn = 0;
             check(tc_packet_encode(&c, c.seq, p, sizeof p, &pn) == TC_OK);
             check(pn == size && memcmp(p, data, size) == 0);
-            sign_and_verify(&c, 0xFFFFFFFEu);
+            sign_and_verify(&c, TC_AUTH_COUNT_MAX); /* the last usable count (issue 45: the top is reserved) */
+            uplink_auth_t a;
+            memset(&a, 0, sizeof a);
+            a.on = true;
+            a.key = k_key;
+            a.epoch_known = true;
+            a.epoch = 5u;
+            a.next_count = TC_AUTH_COUNT_MAX + 1u;
+            uint8_t w[TC_MAX_WIRE];
+            size_t wn = 0;
+            check(uplink_auth_frame(&a, &c, 17u, w, sizeof w, &wn) == TC_E_STATE); /* never signed */
         }
     }
     return 0;

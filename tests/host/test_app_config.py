@@ -202,11 +202,19 @@ def test_table_load_survives_a_restart_and_a_corrupt_store_rolls_back(replay, tm
     assert (state / "table.prev.mfnstbl").read_bytes() == replay["t1"].read_bytes()
     assert not (state / "table.tmp").exists()
 
-    # a restart (the same --table on the line) runs the stored table
+    # a restart (the same --table on the line) runs the stored table, and says that the
+    # --table given (t1) is not the one that runs (issue 45: it was silently overridden)
     nav, ev = fly(tmp_path, "restart", [*base, "--max-cycles", "2"])
     st = ev_named(ev, "SELFTEST_TABLE")[0]
     assert st["subject"] == "0" and int(st["arg1"], 16) == crc_of(replay["t2"])
     assert not ev_named(ev, "TABLE_ROLLBACK")
+    ov = ev_named(ev, "TABLE_ARG_OVERRIDDEN")
+    assert len(ov) == 1 and int(ov[0]["arg1"], 16) == crc_of(replay["t2"]), ov
+    assert int(ov[0]["arg0"]) == replay["t1"].stat().st_size and ov[0]["severity"] == "WARNING"
+    assert "differs from the stored table, which runs" in nav.stderr, nav.stderr
+    # the --table that is the stored one: nothing to say
+    nav, ev = fly(tmp_path, "same", ["--table", str(replay["t2"]), *base[2:], "--max-cycles", "2"])
+    assert not ev_named(ev, "TABLE_ARG_OVERRIDDEN") and "differs" not in nav.stderr
 
     # the stored table corrupted on the medium: the previous one runs, the bad one is kept aside
     data = bytearray((state / "table.mfnstbl").read_bytes())

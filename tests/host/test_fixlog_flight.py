@@ -64,9 +64,14 @@ def _fly(bins: Path, frames, out: Path, *extra: str) -> tuple[str, list[dict]]:
 
 
 def _summary(stderr: str) -> tuple[int, int, int]:
-    m = re.search(r"fix log .*: (\d+) fixes recorded, (\d+) dropped, (\d+) write errors", stderr)
+    # only records on disk count as written (issue 45); a record lost to a write error is
+    # neither written nor dropped, and counted in the errors here
+    m = re.search(
+        r"fix log .*: (\d+) fixes written, (\d+) lost to write errors \((\d+) write errors\), (\d+) dropped",
+        stderr,
+    )
     assert m, stderr
-    return int(m[1]), int(m[2]), int(m[3])
+    return int(m[1]), int(m[4]), int(m[3]) + int(m[2])
 
 
 def _usable(rows: list[dict]) -> dict[int, dict]:

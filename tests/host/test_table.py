@@ -604,3 +604,23 @@ def test_c_and_python_share_the_generated_defaults_and_statuses():
     lib = core().lib
     for code, (_, message) in layout_gen.STATUS.items():
         assert lib.mfns_caltable_strerror(code).decode() == message
+
+
+def test_a_map_datum_that_leaves_no_usable_fix_is_warned_about():
+    """Issue 45: a datum whose shared error alone exceeds an alert limit makes every protection
+    level exceed it too: the build says so (the table is still built: a bench may want it)."""
+    import numpy as np
+
+    from mfns.table.builder import datum_unusable
+    from mfns.table.format import MapDatum
+
+    pos = np.array([[0.0, 0, 0], [1000, 0, 0], [0, 1000, 0]])
+    tight = MapDatum(np.zeros(3), np.diag([1.0, 1, 1, 1e-8, 1e-8, 1e-8]))
+    assert datum_unusable(tight, None, pos) == []
+    wide = MapDatum(np.zeros(3), np.diag([25.0**2, 1, 1, 1e-8, 1e-8, 1e-8]))  # 25 mm > the 20 mm default
+    lines = datum_unusable(wide, None, pos)
+    assert len(lines) == 1 and "world x" in lines[0] and "20 mm" in lines[0]
+    assert datum_unusable(wide, {"alert_limit_pos_mm": 30.0}, pos) == []  # the table's own limit counts
+    turn = MapDatum(np.zeros(3), np.diag([1.0, 1, 1, 1e-8, 1e-8, np.radians(1.5) ** 2]))
+    lines = datum_unusable(turn, None, pos)
+    assert len(lines) == 1 and "about z" in lines[0] and "1 deg" in lines[0]

@@ -225,7 +225,8 @@ def encode_commands(
 
 def test_round_trip_through_fifos(bins, run, tmp_path, key):
     """Both programs live on FIFOs: command -> flight -> event, with the time it took. The
-    ground learns the board's epoch from housekeeping and signs every command."""
+    ground re-synchronises the board to a fresh epoch (its authenticated uplink report asks for
+    one at every start, docs/uplink.md 1a), then signs every command."""
     tlm, tc = tmp_path / "tlm.fifo", tmp_path / "tc.fifo"
     os.mkfifo(tlm)
     os.mkfifo(tc)
@@ -247,6 +248,7 @@ def test_round_trip_through_fifos(bins, run, tmp_path, key):
             "--max-seconds", "60",
             "--tc-tty", str(tc), "--cmd", "NOOP", "--cmd", f"SET_POSE_HINT {hint}", "--cmd", "SET_MODE track",
             "--cmd-file", str(tmp_path / "later.txt"), "--tc-key", str(key),
+            "--tc-state", str(tmp_path / "ground.state"),
         ],
         stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -263,20 +265,25 @@ def test_round_trip_through_fifos(bins, run, tmp_path, key):
     assert ground.returncode == 0, g_err
     sent = rows(out / "commands.csv")
     assert [(r["seq"], r["opcode"], r["source"]) for r in sent] == [
-        ("0", "NOOP", "cli"), ("1", "SET_POSE_HINT", "cli"), ("2", "SET_MODE", "cli"), ("3", "NOOP", "file"),
+        ("16383", "NOOP", "resync"), ("0", "NOOP", "cli"), ("1", "SET_POSE_HINT", "cli"),
+        ("2", "SET_MODE", "cli"), ("3", "NOOP", "file"),
     ]  # fmt: skip
     ev = cmd_events(out)
     assert [(e["event"], int(e["subject"]), int(e["arg0"])) for e in ev] == [
+        ("CMD_ACCEPTED", OP["NOOP"], 16383),  # the re-synchronisation: the count before the first
         ("CMD_ACCEPTED", OP["NOOP"], 0),
         ("CMD_ACCEPTED", OP["SET_POSE_HINT"], 1),
         ("CMD_ACCEPTED", OP["SET_MODE"], 2),
         ("CMD_ACCEPTED", OP["NOOP"], 3),
     ], ev
     hk = rows(out / "housekeeping.csv")[-1]
-    assert (hk["n_cmd_accepted"], hk["n_cmd_rejected"], hk["cmd_seq_last"]) == ("4", "0", "3")
-    assert "commands: 4 accepted, 0 rejected" in nav_err
-    assert "authentication (epoch 1): 4 passed" in nav_err
-    assert (hk["tc_epoch"], hk["tc_arsn_last"]) == ("1", "4")
+    assert (hk["n_cmd_accepted"], hk["n_cmd_rejected"], hk["cmd_seq_last"]) == ("5", "0", "3")
+    assert "commands: 5 accepted, 0 rejected" in nav_err
+    epoch = int(hk["tc_epoch"])  # the ground's: above anything it gave before and UTC seconds
+    assert epoch >= int(time.time()) - 600, epoch
+    assert f"authentication (epoch {epoch}): 5 passed" in nav_err and "1 re-synchronisations" in nav_err
+    assert hk["tc_arsn_last"] == "5"
+    assert f"max_epoch {epoch}\n" in (tmp_path / "ground.state").read_text()
     # command (ground clock, commands.csv) -> its event back (ground receive time)
     from datetime import datetime
 
@@ -286,11 +293,11 @@ def test_round_trip_through_fifos(bins, run, tmp_path, key):
     lat = [utc(e["ground_utc"]) - utc(s["utc"]) for e, s in zip(ev, sent, strict=True)]
     print(
         "\ncommand -> event round trip through FIFOs: at start-up "
-        f"{', '.join(f'{x * 1e3:.0f}' for x in lat[:3])} ms "
-        f"(links connecting), steady state {lat[3] * 1e3:.0f} ms"
+        f"{', '.join(f'{x * 1e3:.0f}' for x in lat[:4])} ms "
+        f"(links connecting, the first the re-synchronisation), steady state {lat[4] * 1e3:.0f} ms"
     )
     assert all(0 < x < 5.0 for x in lat)
-    assert lat[3] < 0.5  # a few 53.8-ms cycles plus the ground's 100-ms poll
+    assert lat[4] < 0.5  # a few 53.8-ms cycles plus the ground's 100-ms poll
     # the hint was used: tracking from it, fixes close to the truth
     nav_rows = rows(out / "nav.csv")
     fixes = [r for r in nav_rows if r["status"] in ("FIX", "DEGRADED")]

@@ -220,6 +220,8 @@ def main() -> int:
                 f"127.0.0.1:{gy.TC_PORT}",
                 "--tc-key",
                 str(key),
+                "--tc-state",  # the ground gives the board its epochs (docs/uplink.md 1a)
+                str(out / "ground-uplink.state"),
             ],
             stderr=g_log,
         )

@@ -57,6 +57,52 @@ static void test_parse_ok(void **state)
     /* an empty file is a configuration with nothing set */
     assert_int_equal(nav_config_parse("", 0, &g_cfg, err, sizeof err), 0);
     assert_false(g_cfg.set[NAV_CFG_CAMERAS]);
+    /* inline comments (issue 45: the comment became part of the value) */
+    assert_int_equal(parse("baud = 115200  # the bench\ntc_insecure = no\t# never yes on the board\n"
+                           "table = /data/run#2/t.mfnstbl # a '#' inside a word stays\n",
+                           err, sizeof err),
+                     0);
+    assert_int_equal(g_cfg.number[NAV_CFG_BAUD], 115200);
+    assert_int_equal(g_cfg.number[NAV_CFG_TC_INSECURE], 0);
+    assert_string_equal(g_cfg.value[NAV_CFG_TABLE], "/data/run#2/t.mfnstbl");
+    assert_int_not_equal(parse("baud = # nothing before the comment\n", err, sizeof err), 0);
+    assert_non_null(strstr(err, "no value"));
+}
+
+/* security keys only from a file owned by root or the user, not group/world-writable (issue 45) */
+static void test_config_trust(void **state)
+{
+    (void)state;
+    char err[NAV_CONFIG_ERR_LEN + 64] = "";
+    assert_int_equal(parse("tc_insecure = yes\n", err, sizeof err), 0);
+    g_cfg.have_stat = true;
+    g_cfg.file_uid = 0;
+    g_cfg.file_mode = 0644;
+    assert_int_equal(nav_config_check_trust(&g_cfg, 1000u, err, sizeof err), 0); /* root's */
+    g_cfg.file_uid = 1000;
+    assert_int_equal(nav_config_check_trust(&g_cfg, 1000u, err, sizeof err), 0); /* the user's */
+    g_cfg.file_uid = 1001;
+    assert_int_equal(nav_config_check_trust(&g_cfg, 1000u, err, sizeof err), -1); /* another user's */
+    assert_non_null(strstr(err, "tc_insecure"));
+    const uint32_t loose[] = {0664u, 0646u, 0666u, 0620u, 0602u};
+    g_cfg.file_uid = 0;
+    for (size_t i = 0; i < sizeof loose / sizeof loose[0]; i++) {
+        g_cfg.file_mode = loose[i];
+        assert_int_equal(nav_config_check_trust(&g_cfg, 0u, err, sizeof err), -1);
+    }
+    /* no security key: any file */
+    assert_int_equal(parse("baud = 9600\n", err, sizeof err), 0);
+    g_cfg.have_stat = true;
+    g_cfg.file_mode = 0666u;
+    g_cfg.file_uid = 4242u;
+    assert_int_equal(nav_config_check_trust(&g_cfg, 0u, err, sizeof err), 0);
+    const char *guarded[] = {"tc_key = /k\n", "state_dir = /s\n", "uplink = yes\n"};
+    for (size_t i = 0; i < sizeof guarded / sizeof guarded[0]; i++) {
+        assert_int_equal(parse(guarded[i], err, sizeof err), 0);
+        g_cfg.have_stat = true;
+        g_cfg.file_mode = 0666u;
+        assert_int_equal(nav_config_check_trust(&g_cfg, 0u, err, sizeof err), -1);
+    }
 }
 
 /* each error names the line and the key */
@@ -316,6 +362,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_parse_ok),
+        cmocka_unit_test(test_config_trust),
         cmocka_unit_test(test_errors_name_line_and_key),
         cmocka_unit_test(test_bounds),
         cmocka_unit_test(test_file_then_command_line),

@@ -11,6 +11,7 @@
 #include "tests/unit/support/testutil.h"
 
 #include <dirent.h>
+#include <errno.h>
 #include <fcntl.h>
 #include <stdlib.h>
 #include <string.h>
@@ -412,6 +413,157 @@ static void test_state_epoch(void **state)
     assert_int_equal(tc_state_next_epoch(nodir, &e, err, sizeof err), -1);
 }
 
+/* A re-synchronisation frame (the ground's half, as ground/uplink_auth.c builds it): a NOOP
+ * for epoch << 32 | count, MACed with the challenge. */
+static tc_status_t resync_receive(const tc_auth_key_t *k, uint64_t nonce, uint16_t seq, uint64_t arsn, tc_cmd_t *out)
+{
+    const tc_cmd_t c = noop();
+    uint8_t pkt[TC_MAX_SEC_PACKET];
+    size_t n = 0;
+    assert_int_equal(tc_sec_packet_encode(&c, seq, k->id, arsn, pkt, sizeof pkt, &n), TC_OK);
+    assert_int_equal(tc_auth_resync_mac(k->key, nonce, pkt, n, pkt + n), 0);
+    uint8_t w[TC_MAX_WIRE];
+    size_t wn = 0;
+    assert_int_equal(tc_packet_frame(pkt, n + TC_SEC_MAC_LEN, w, sizeof w, &wn), TC_OK);
+    tc_deframer_t d;
+    tc_deframer_init(&d);
+    tc_status_t st = TC_E_NULL;
+    for (size_t i = 0; i < wn; i++) {
+        (void)tc_deframer_push(&d, w[i], out, &st);
+    }
+    return st;
+}
+
+/* Epochs from the ground (issue 45): nothing passes before a re-synchronisation bound to the
+ * challenge; a recorded one (another challenge) or one not above the floor is refused; the
+ * challenge is spent by use; the count space keeps a margin that cannot wedge the uplink. */
+static void test_resync_and_count_exhaustion(void **state)
+{
+    (void)state;
+    tc_auth_t a;
+    tc_auth_init(&a, &k_key1, 1, 0);
+    tc_auth_require_resync(&a, 40u, TC_AUTH_ST_STATE_MISSING);
+    assert_true(a.need_resync && a.nonce_valid && a.nonce != 0u);
+    assert_int_equal(tc_auth_state_bits(&a), TC_AUTH_ST_RESYNC_NEEDED | TC_AUTH_ST_STATE_MISSING);
+    const tc_cmd_t c = noop();
+    tc_cmd_t r;
+    const uint64_t n0 = a.nonce;
+    /* an ordinary signed command: refused until the re-synchronisation */
+    assert_int_equal(sign_and_receive(&k_key1, &c, 0, ((uint64_t)41u << 32) | 1u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_E_AUTH_RESYNC_NEEDED);
+    /* bound to another boot's challenge (a recording): no MAC verifies */
+    assert_int_equal(resync_receive(&k_key1, n0 ^ 1u, 0, ((uint64_t)41u << 32) | 1u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_E_AUTH_BAD_MAC);
+    /* not above the floor */
+    assert_int_equal(resync_receive(&k_key1, n0, 0, ((uint64_t)40u << 32) | 1u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_E_AUTH_STALE_EPOCH);
+    assert_true(a.need_resync);
+    /* the genuine one */
+    assert_int_equal(resync_receive(&k_key1, n0, 0, ((uint64_t)41u << 32) | 1u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_OK);
+    assert_true(!a.need_resync && a.resynced && a.epoch == 41u && a.count_last == 1u && a.n_resync == 1u);
+    assert_true(a.nonce != n0); /* spent */
+    assert_int_equal(tc_auth_check(&a, &r), TC_E_AUTH_BAD_MAC); /* the same again: its challenge is gone */
+    const uint64_t e41 = (uint64_t)41u << 32;
+    assert_int_equal(sign_and_receive(&k_key1, &c, 1, e41 | 2u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_OK);
+    /* a validly signed 0xFFFFFFFF, and one inside the margin: refused, nothing used up */
+    assert_int_equal(sign_and_receive(&k_key1, &c, 2, e41 | 0xFFFFFFFFu, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_E_AUTH_COUNT_EXHAUSTED);
+    assert_int_equal(sign_and_receive(&k_key1, &c, 2, e41 | (TC_AUTH_COUNT_MAX + 1u), &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_E_AUTH_COUNT_EXHAUSTED);
+    assert_int_equal(a.count_last, 2u);
+    assert_int_equal(sign_and_receive(&k_key1, &c, 2, e41 | 3u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_OK); /* not wedged */
+    assert_int_equal(sign_and_receive(&k_key1, &c, 3, e41 | TC_AUTH_COUNT_MAX, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_OK);
+    assert_true((tc_auth_state_bits(&a) & TC_AUTH_ST_COUNT_LOW) != 0u); /* the ground re-synchronises */
+    /* a new epoch with the new challenge: the way on */
+    assert_int_equal(resync_receive(&k_key1, a.nonce, 4, ((uint64_t)42u << 32) | 1u, &r), TC_OK);
+    assert_int_equal(tc_auth_check(&a, &r), TC_OK);
+    assert_true(a.epoch == 42u && a.count_last == 1u && (tc_auth_state_bits(&a) & TC_AUTH_ST_COUNT_LOW) == 0u);
+    assert_int_equal(a.n_rej[TC_E_AUTH_COUNT_EXHAUSTED - TC_E_AUTH_MISSING], 2);
+    assert_int_equal(a.n_rej[TC_E_AUTH_RESYNC_NEEDED - TC_E_AUTH_MISSING], 1);
+    tc_auth_clear(&a);
+}
+
+/* The uplink report: MACed under each key in turn; any field changed fails; another key's
+ * turn does not verify under this one; domain separated from a command MAC. */
+static void test_uplink_report(void **state)
+{
+    (void)state;
+    const tc_auth_key_t keys[2] = {k_key1, k_key2};
+    tc_auth_t a;
+    tc_auth_init(&a, keys, 2, 0);
+    tc_auth_report_t r1, r2;
+    tc_auth_report(&a, &r1);
+    tc_auth_report(&a, &r2);
+    assert_int_equal(r1.spi, 1);
+    assert_int_equal(r2.spi, 2);
+    assert_true(tc_auth_report_verify(&k_key1, &r1));
+    assert_false(tc_auth_report_verify(&k_key1, &r2)); /* key 2's turn */
+    assert_true(tc_auth_report_verify(&k_key2, &r2));
+    assert_true((r1.state & TC_AUTH_ST_RESYNC_NEEDED) != 0u && r1.nonce == a.nonce);
+    tc_auth_report_t f = r1;
+    f.count_last = 0xFFFFFFFFu;
+    assert_false(tc_auth_report_verify(&k_key1, &f));
+    f = r1;
+    f.epoch ^= 1u;
+    assert_false(tc_auth_report_verify(&k_key1, &f));
+    f = r1;
+    f.nonce ^= 1u;
+    assert_false(tc_auth_report_verify(&k_key1, &f));
+    f = r1;
+    f.state = 0;
+    assert_false(tc_auth_report_verify(&k_key1, &f));
+    f = r1;
+    f.spi = 0;
+    assert_false(tc_auth_report_verify(&k_key1, &f));
+    /* insecure: no MAC, spi 0, the INSECURE bit */
+    tc_auth_t in;
+    tc_auth_init(&in, NULL, 0, 0);
+    tc_auth_report(&in, &f);
+    assert_true(f.spi == 0u && (f.state & TC_AUTH_ST_INSECURE) != 0u);
+    tc_auth_clear(&a);
+}
+
+/* The live uplink's state: classified, never fatal, never read as 0 when damaged. */
+static void test_state_classified(void **state)
+{
+    (void)state;
+    char dir[96];
+    (void)snprintf(dir, sizeof dir, "%s/st2", g_dir);
+    char err[256];
+    uint32_t e = 7;
+    int en = 0;
+    assert_int_equal(tc_state_read(dir, &e, &en, err, sizeof err), TC_STATE_MISSING); /* no directory */
+    assert_int_equal(e, 0u);
+    assert_int_equal(mkdir(dir, 0700), 0);
+    assert_int_equal(tc_state_read(dir, &e, &en, err, sizeof err), TC_STATE_MISSING);
+    assert_int_equal(en, ENOENT);
+    assert_int_equal(tc_state_probe_write(dir), 0);
+    assert_int_equal(tc_state_write(dir, 77u, err, sizeof err), 0);
+    assert_int_equal(tc_state_read(dir, &e, &en, err, sizeof err), TC_STATE_OK);
+    assert_int_equal(e, 77u);
+    char path[160];
+    (void)snprintf(path, sizeof path, "%s/%s", dir, TC_STATE_FILE);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    (void)fputs("epoch banana\n", f);
+    assert_int_equal(fclose(f), 0);
+    assert_int_equal(tc_state_read(dir, &e, &en, err, sizeof err), TC_STATE_DAMAGED);
+    assert_int_equal(e, 0u);
+    /* a file where the directory should be */
+    char notdir[128];
+    (void)snprintf(notdir, sizeof notdir, "%s/afile", g_dir);
+    f = fopen(notdir, "w");
+    assert_non_null(f);
+    assert_int_equal(fclose(f), 0);
+    assert_int_equal(tc_state_read(notdir, &e, &en, err, sizeof err), TC_STATE_UNWRITABLE);
+    assert_int_not_equal(tc_state_probe_write(notdir), 0);
+    assert_int_not_equal(tc_state_write(notdir, 5u, err, sizeof err), 0);
+}
+
 /* The cost of one verify (deframed command in hand): printed for docs/uplink.md. */
 static void test_verify_cost(void **state)
 {
@@ -450,6 +602,9 @@ int main(void)
         cmocka_unit_test(test_dispatch_authenticates_first),
         cmocka_unit_test(test_key_files),
         cmocka_unit_test(test_state_epoch),
+        cmocka_unit_test(test_resync_and_count_exhaustion),
+        cmocka_unit_test(test_uplink_report),
+        cmocka_unit_test(test_state_classified),
         cmocka_unit_test(test_verify_cost),
     };
     return cmocka_run_group_tests_name("tc_auth", tests, setup_dir, teardown_dir);

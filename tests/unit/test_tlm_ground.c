@@ -167,7 +167,9 @@ static void test_ground_run_on_recorded_stream(void **state)
     /* then the packet's UTC (the generator's housekeeping has no time
      * correlation: quality NONE, so correlated at receipt) and the receipt time */
     assert_non_null(strstr(text, ",utc_s,utc_us,time_quality,tc_epoch,tc_arsn_last,n_beacons_biased,frame_period_us,"
-                                 "cycle_margin_us,workspace,utc,time_source,ground_utc\n"));
+                                 "cycle_margin_us,workspace,tc_state,tc_nonce_hi,tc_nonce_lo,tc_report_spi,"
+                                 "tc_report_mac0,tc_report_mac1,tc_report_mac2,tc_report_mac3,n_fixlog_errors,"
+                                 "n_storage_errors,utc,time_source,ground_utc\n"));
     assert_non_null(strstr(text, ",NONE,"));
     assert_non_null(strstr(text, ",GROUND_RECEIPT,"));
     snprintf(path, sizeof path, "%s/nav.csv", out_dir);

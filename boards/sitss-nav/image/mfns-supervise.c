@@ -20,7 +20,16 @@
  *     unlimited (so its --mlock works); when the kernel refuses either, one
  *     warning is logged and it runs without (never a failed start);
  *   - logs: its own lines and every line the child writes on stdout/stderr
- *     go to syslog (facility daemon), and to its stderr (the console).
+ *     go to syslog (facility daemon), and to its stderr (the console);
+ *   - only the child: notify datagrams are taken only from the child's pid
+ *     (SO_PASSCRED, the kernel's SCM_CREDENTIALS: systemd's NotifyAccess=main);
+ *     a ping from any other process is ignored and logged once per run;
+ *   - its descendants: the child leads its own process group; the log pipe is
+ *     read without blocking, so a descendant holding it open (a grandchild
+ *     that inherited stdout) never delays the restart, and once the child is
+ *     reaped whatever is left of its group is killed (systemd's
+ *     KillMode=control-group, as far as a process group reaches: a
+ *     descendant that left the group with setsid escapes it).
  *
  * Usage: mfns-supervise [options] -- PROGRAM [ARGS...]
  * SIGTERM/SIGINT: the child gets SIGTERM, is waited for (SIGKILL after the
@@ -156,7 +165,9 @@ static int notify_socket(const char *path)
         return -1;
     }
     (void)unlink(path); /* a stale socket of a previous supervisor; absent is fine */
-    if (bind(fd, (const struct sockaddr *)&sa, sizeof sa) != 0 || chmod(path, 0600) != 0) {
+    const int on = 1;
+    if (bind(fd, (const struct sockaddr *)&sa, sizeof sa) != 0 || chmod(path, 0600) != 0 ||
+        setsockopt(fd, SOL_SOCKET, SO_PASSCRED, &on, sizeof on) != 0) {
         syslog(LOG_ERR, "notify socket %s: %m", path);
         (void)close(fd);
         return -1;
@@ -168,6 +179,7 @@ static int notify_socket(const char *path)
  * the notify environment, stdout/stderr into the log pipe, then exec. */
 static void child_exec(const opts_t *o, int log_w)
 {
+    (void)setpgid(0, 0); /* its own process group: its descendants can be found and ended */
     const struct rlimit unlimited = {RLIM_INFINITY, RLIM_INFINITY};
     if (setrlimit(RLIMIT_MEMLOCK, &unlimited) != 0) {
         syslog(LOG_WARNING, "RLIMIT_MEMLOCK not raised (%m): --mlock may be refused");
@@ -217,12 +229,49 @@ static void on_notify(char *msg, bool *ready, int64_t *last_ping, pid_t child)
     }
 }
 
-/* The child's output, line by line, into the log. buf keeps a partial line. */
-static void on_log(int fd, char *buf, size_t *len, pid_t child)
+/* One notify datagram, taken only when the kernel says it came from the child. */
+static void recv_notify(int nfd, bool *ready, int64_t *last_ping, pid_t child, bool *foreign_said)
+{
+    char msg[NOTIFY_MAX_BYTES];
+    union {
+        struct cmsghdr align;
+        char buf[CMSG_SPACE(sizeof(struct ucred))];
+    } ctl;
+    struct iovec iov = {.iov_base = msg, .iov_len = sizeof msg - 1};
+    struct msghdr mh = {.msg_iov = &iov, .msg_iovlen = 1, .msg_control = ctl.buf, .msg_controllen = sizeof ctl.buf};
+    const ssize_t n = recvmsg(nfd, &mh, MSG_DONTWAIT | MSG_CMSG_CLOEXEC);
+    if (n <= 0) {
+        return;
+    }
+    pid_t from = 0;
+    for (struct cmsghdr *c = CMSG_FIRSTHDR(&mh); c != NULL; c = CMSG_NXTHDR(&mh, c)) {
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_CREDENTIALS &&
+            c->cmsg_len == CMSG_LEN(sizeof(struct ucred))) {
+            struct ucred cr;
+            memcpy(&cr, CMSG_DATA(c), sizeof cr);
+            from = cr.pid;
+        }
+    }
+    if (from != child) {
+        if (!*foreign_said) {
+            *foreign_said = true;
+            syslog(LOG_WARNING, "notify datagram from pid %ld ignored: only mfns-nav[%ld] is heard", (long)from,
+                   (long)child);
+        }
+        return;
+    }
+    msg[n] = '\0';
+    on_notify(msg, ready, last_ping, child);
+}
+
+/* The child's output, line by line, into the log. buf keeps a partial line.
+ * Never blocks (the read end is O_NONBLOCK: a descendant may hold the pipe).
+ * Returns the bytes read (0: none now, or the end). */
+static ssize_t on_log(int fd, char *buf, size_t *len, pid_t child)
 {
     const ssize_t n = read(fd, buf + *len, LINE_MAX_BYTES - 1 - *len);
     if (n <= 0) {
-        return;
+        return 0;
     }
     *len += (size_t)n;
     buf[*len] = '\0';
@@ -239,6 +288,7 @@ static void on_log(int fd, char *buf, size_t *len, pid_t child)
     }
     memmove(buf, start, rest);
     *len = rest;
+    return n;
 }
 
 /* systemd's words for how a run ended (nav_service_parse_exit reads them). */
@@ -283,10 +333,15 @@ static bool run_once(const opts_t *o, int nfd)
         child_exec(o, pipefd[1]); /* does not return */
     }
     (void)close(pipefd[1]);
+    (void)setpgid(child, child); /* as the child does: no race with its exec */
+    const int fl = fcntl(pipefd[0], F_GETFL);
+    if (fl < 0 || fcntl(pipefd[0], F_SETFL, fl | O_NONBLOCK) != 0) {
+        syslog(LOG_WARNING, "log pipe not made non-blocking: %m");
+    }
     syslog(LOG_INFO, "started mfns-nav[%ld]", (long)child);
     const int64_t started = now_ms();
     int64_t last_ping = started, kill_at = -1;
-    bool ready = false, watchdog = false, timeout = false, terminating = false;
+    bool ready = false, watchdog = false, timeout = false, terminating = false, foreign_said = false;
     char logbuf[LINE_MAX_BYTES];
     size_t loglen = 0;
     int status = 0;
@@ -294,15 +349,10 @@ static bool run_once(const opts_t *o, int nfd)
         struct pollfd p[2] = {{.fd = nfd, .events = POLLIN}, {.fd = pipefd[0], .events = POLLIN}};
         const int pr = poll(p, 2, POLL_MS);
         if (pr > 0 && (p[0].revents & POLLIN)) {
-            char msg[NOTIFY_MAX_BYTES];
-            const ssize_t n = recv(nfd, msg, sizeof msg - 1, 0);
-            if (n > 0) {
-                msg[n] = '\0';
-                on_notify(msg, &ready, &last_ping, child);
-            }
+            recv_notify(nfd, &ready, &last_ping, child, &foreign_said);
         }
         if (pr > 0 && (p[1].revents & (POLLIN | POLLHUP))) {
-            on_log(pipefd[0], logbuf, &loglen, child);
+            (void)on_log(pipefd[0], logbuf, &loglen, child);
         }
         const pid_t w = waitpid(child, &status, WNOHANG);
         if (w == child) {
@@ -338,7 +388,14 @@ static bool run_once(const opts_t *o, int nfd)
             kill_at = -1;
         }
     }
-    on_log(pipefd[0], logbuf, &loglen, child); /* what is left in the pipe */
+    /* its descendants go with it (a grandchild holding the log pipe, a
+     * forgotten helper): the group is ended, never waited for */
+    if (kill(-child, SIGKILL) == 0) {
+        syslog(LOG_WARNING, "mfns-nav[%ld] left processes in its group: killed", (long)child);
+    }
+    for (int i = 0; i < 64 && on_log(pipefd[0], logbuf, &loglen, child) > 0; i++) {
+        /* what is left in the pipe: bounded, never blocking */
+    }
     (void)close(pipefd[0]);
     record_exit(o->exit_file, status, watchdog, timeout);
     return !g_stop;

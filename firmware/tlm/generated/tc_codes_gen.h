@@ -53,7 +53,9 @@ typedef enum {
     TC_E_AUTH_BAD_MAC = 17, /* MAC (HMAC-SHA-256/128) of the command does not verify */
     TC_E_AUTH_REPLAY = 18, /* anti-replay counter not newer than the last accepted one of this boot epoch */
     TC_E_AUTH_STALE_EPOCH = 19, /* anti-replay counter from another boot epoch (signed before the last reboot) */
-    TC_STATUS_MAX = 19
+    TC_E_AUTH_RESYNC_NEEDED = 20, /* the board has no fresh epoch yet (every start, or a lost, damaged or unwritable state): only an authenticated re-synchronisation bound to its challenge is accepted */
+    TC_E_AUTH_COUNT_EXHAUSTED = 21, /* anti-replay count beyond the usable space (the last 65536 counts of an epoch are reserved): refused without using it up; the ground re-synchronises to a new epoch */
+    TC_STATUS_MAX = 21
 } tc_status_t;
 
 /* Argument ranges (XTCE ValidRange, inclusive) and string fields (bytes, NUL-padded). */

@@ -72,6 +72,8 @@ const char *tc_status_name(int status)
     case TC_E_AUTH_BAD_MAC: return MFNS_MSG("AUTH_BAD_MAC");
     case TC_E_AUTH_REPLAY: return MFNS_MSG("AUTH_REPLAY");
     case TC_E_AUTH_STALE_EPOCH: return MFNS_MSG("AUTH_STALE_EPOCH");
+    case TC_E_AUTH_RESYNC_NEEDED: return MFNS_MSG("AUTH_RESYNC_NEEDED");
+    case TC_E_AUTH_COUNT_EXHAUSTED: return MFNS_MSG("AUTH_COUNT_EXHAUSTED");
     default: return "?";
     }
 }
@@ -99,6 +101,8 @@ const char *tc_strerror(int status)
     case TC_E_AUTH_BAD_MAC: return MFNS_MSG("MAC (HMAC-SHA-256/128) of the command does not verify");
     case TC_E_AUTH_REPLAY: return MFNS_MSG("anti-replay counter not newer than the last accepted one of this boot epoch");
     case TC_E_AUTH_STALE_EPOCH: return MFNS_MSG("anti-replay counter from another boot epoch (signed before the last reboot)");
+    case TC_E_AUTH_RESYNC_NEEDED: return MFNS_MSG("the board has no fresh epoch yet (every start, or a lost, damaged or unwritable state): only an authenticated re-synchronisation bound to its challenge is accepted");
+    case TC_E_AUTH_COUNT_EXHAUSTED: return MFNS_MSG("anti-replay count beyond the usable space (the last 65536 counts of an epoch are reserved): refused without using it up; the ground re-synchronises to a new epoch");
     default: return MFNS_MSG("unknown command status");
     }
 }

@@ -125,6 +125,10 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_CAMERAS_DISAGREE: return MFNS_MSG("CAMERAS_DISAGREE");
     case TLM_EVT_WORKSPACE_LEFT: return MFNS_MSG("WORKSPACE_LEFT");
     case TLM_EVT_WORKSPACE_REENTERED: return MFNS_MSG("WORKSPACE_REENTERED");
+    case TLM_EVT_TC_RESYNC: return MFNS_MSG("TC_RESYNC");
+    case TLM_EVT_STORAGE_FAULT: return MFNS_MSG("STORAGE_FAULT");
+    case TLM_EVT_TC_UNPROTECTED: return MFNS_MSG("TC_UNPROTECTED");
+    case TLM_EVT_TABLE_ARG_OVERRIDDEN: return MFNS_MSG("TABLE_ARG_OVERRIDDEN");
     default: return "?";
     }
 }
@@ -207,6 +211,16 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_beacons_biased) == 2u, "
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.frame_period_us) == 4u, "hk.frame_period_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_margin_us) == 4u, "hk.cycle_margin_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.workspace) == 1u, "hk.workspace: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_state) == 1u, "hk.tc_state: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_nonce_hi) == 4u, "hk.tc_nonce_hi: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_nonce_lo) == 4u, "hk.tc_nonce_lo: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_spi) == 1u, "hk.tc_report_spi: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_mac0) == 4u, "hk.tc_report_mac0: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_mac1) == 4u, "hk.tc_report_mac1: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_mac2) == 4u, "hk.tc_report_mac2: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_mac3) == 4u, "hk.tc_report_mac3: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_fixlog_errors) == 4u, "hk.n_fixlog_errors: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_storage_errors) == 4u, "hk.n_storage_errors: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.cycle) == 4u, "event.cycle: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.code) == 2u, "event.code: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.severity) == 1u, "event.severity: C type and wire width differ");
@@ -223,7 +237,7 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.uv_px[0]) == 4u, "fixo
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.cov_px2[0]) == 4u, "fixobs.cov_px2: C type and wire width differ");
 _Static_assert(sizeof(tlm_packet_t) <= UINT16_MAX, "struct offsets of tlm_run_t are 16-bit");
 
-static const tlm_run_t k_runs[71] = {
+static const tlm_run_t k_runs[81] = {
     {offsetof(tlm_packet_t, u.nav.cycle), 0u, 12u}, /* nav.cycle */
     {offsetof(tlm_packet_t, u.nav.status), 4u, 9u}, /* nav.status */
     {offsetof(tlm_packet_t, u.nav.reason), 5u, 9u}, /* nav.reason */
@@ -281,6 +295,16 @@ static const tlm_run_t k_runs[71] = {
     {offsetof(tlm_packet_t, u.hk.frame_period_us), 95u, 12u}, /* hk.frame_period_us */
     {offsetof(tlm_packet_t, u.hk.cycle_margin_us), 99u, 12u}, /* hk.cycle_margin_us */
     {offsetof(tlm_packet_t, u.hk.workspace), 103u, 9u}, /* hk.workspace */
+    {offsetof(tlm_packet_t, u.hk.tc_state), 104u, 9u}, /* hk.tc_state */
+    {offsetof(tlm_packet_t, u.hk.tc_nonce_hi), 105u, 12u}, /* hk.tc_nonce_hi */
+    {offsetof(tlm_packet_t, u.hk.tc_nonce_lo), 109u, 12u}, /* hk.tc_nonce_lo */
+    {offsetof(tlm_packet_t, u.hk.tc_report_spi), 113u, 9u}, /* hk.tc_report_spi */
+    {offsetof(tlm_packet_t, u.hk.tc_report_mac0), 114u, 12u}, /* hk.tc_report_mac0 */
+    {offsetof(tlm_packet_t, u.hk.tc_report_mac1), 118u, 12u}, /* hk.tc_report_mac1 */
+    {offsetof(tlm_packet_t, u.hk.tc_report_mac2), 122u, 12u}, /* hk.tc_report_mac2 */
+    {offsetof(tlm_packet_t, u.hk.tc_report_mac3), 126u, 12u}, /* hk.tc_report_mac3 */
+    {offsetof(tlm_packet_t, u.hk.n_fixlog_errors), 130u, 12u}, /* hk.n_fixlog_errors */
+    {offsetof(tlm_packet_t, u.hk.n_storage_errors), 134u, 12u}, /* hk.n_storage_errors */
     {offsetof(tlm_packet_t, u.event.cycle), 0u, 12u}, /* event.cycle */
     {offsetof(tlm_packet_t, u.event.code), 4u, 10u}, /* event.code */
     {offsetof(tlm_packet_t, u.event.severity), 6u, 9u}, /* event.severity */
@@ -296,7 +320,7 @@ static const tlm_run_t k_runs[71] = {
     {offsetof(tlm_packet_t, u.fixobs.uv_px[0]), 10u, 20u}, /* fixobs.uv_px */
     {offsetof(tlm_packet_t, u.fixobs.cov_px2[0]), 18u, 28u}, /* fixobs.cov_px2 */
 };
-static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 57u, 63u, 71u};
+static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 67u, 73u, 81u};
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
 {
@@ -411,6 +435,16 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->frame_period_us = tlm_get_u32(b + 95);
         s->cycle_margin_us = get_i32(b + 99);
         s->workspace = b[103];
+        s->tc_state = b[104];
+        s->tc_nonce_hi = tlm_get_u32(b + 105);
+        s->tc_nonce_lo = tlm_get_u32(b + 109);
+        s->tc_report_spi = b[113];
+        s->tc_report_mac0 = tlm_get_u32(b + 114);
+        s->tc_report_mac1 = tlm_get_u32(b + 118);
+        s->tc_report_mac2 = tlm_get_u32(b + 122);
+        s->tc_report_mac3 = tlm_get_u32(b + 126);
+        s->n_fixlog_errors = tlm_get_u32(b + 130);
+        s->n_storage_errors = tlm_get_u32(b + 134);
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -28,7 +28,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 104u
+#define TLM_HK_PAYLOAD_LEN 138u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
@@ -106,6 +106,16 @@ typedef struct {
     uint32_t frame_period_us; /* hk_frame_period_us: the camera frame period: the shortest step between the frame stamps of consecutive fused cycles in the report interval (0: fewer than two fused cycles) [us] */
     int32_t cycle_margin_us; /* hk_cycle_margin_us: cycle margin, us: hk_frame_period_us - hk_cycle_max_us (negative: a cycle overran the frame period; 0 when no period is known; docs/budgets.md) */
     uint8_t workspace; /* hk_workspace: the tracked pose against the table's workspace box at this packet (WORKSPACE_LEFT, WORKSPACE_REENTERED) [workspace_t] */
+    uint8_t tc_state; /* hk_tc_state: uplink security state, bits: 0 re-synchronisation needed (every command but an authenticated re-synchronisation refused), 1 authentication OFF (tc_insecure), 2 uplink state missing, 3 damaged, 4 not writable, 5 anti-replay count near its end (the ground re-synchronises); docs/uplink.md 1a */
+    uint32_t tc_nonce_hi; /* hk_tc_nonce_hi: the board's re-synchronisation challenge, high 32 bits: 64 random bits drawn at start and after each re-synchronisation (getrandom); a re-synchronisation must bind it */
+    uint32_t tc_nonce_lo; /* hk_tc_nonce_lo: the challenge, low 32 bits */
+    uint8_t tc_report_spi; /* hk_tc_report_spi: key id (SPI) of hk_tc_report_mac (0: not authenticated, no key); the loaded keys take turns, one per report */
+    uint32_t tc_report_mac0; /* hk_tc_report_mac0: authenticated uplink report: HMAC-SHA-256/128 under key hk_tc_report_spi over "MFNS-TM-UPLINK-v1", spi, hk_tc_epoch, hk_tc_arsn_last, hk_tc_nonce, hk_tc_state (docs/uplink.md 1a), bytes 0..3 (big-endian) */
+    uint32_t tc_report_mac1; /* hk_tc_report_mac1: bytes 4..7 of the report MAC */
+    uint32_t tc_report_mac2; /* hk_tc_report_mac2: bytes 8..11 of the report MAC */
+    uint32_t tc_report_mac3; /* hk_tc_report_mac3: bytes 12..15 of the report MAC */
+    uint32_t n_fixlog_errors; /* hk_n_fixlog_errors: fix-log records not written (write, flush or rotation failures: a full or read-only disk) */
+    uint32_t n_storage_errors; /* hk_n_storage_errors: other writes to the board's storage that failed: uplink state, table store (STORAGE_FAULT, TABLE_STORED subject 1) */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */

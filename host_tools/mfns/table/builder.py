@@ -9,6 +9,7 @@ import numpy as np
 from .. import calib_results
 from ..camera import load_beacon_emission, load_beacons, rig_from_doc
 from ..errors import MfnsError
+from . import layout_gen as L
 from . import mapindex
 from .format import CALIB_PARAM_NAMES, CALIB_PARAMS, CAMERA_NAMES, CameraRecord, Grid, Table, f32
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
@@ -72,6 +73,40 @@ def calib_covariance(doc: dict) -> np.ndarray | None:
     dropped = [n for n in names if n not in slot]
     if dropped:
         _warn(f"covariance parameters not carried by the table (marginalised out): {', '.join(dropped[:8])}")
+    return out
+
+
+def datum_unusable(datum, integrity: dict | None, pos) -> list[str]:
+    """Lines saying that the map datum alone leaves no usable fix (issue 45): its 1-sigma
+    shared error already exceeds an alert limit, so every protection level (a multiple
+    > 1 of it, docs/pose.md "Integrity") does too. Per world axis the shift's sigma, per
+    attitude axis the turn's: a floor of the datum's share (the turn's lever arm only adds).
+    What it misses: a datum between AL / K and AL, or one whose turn over the beacons' lever
+    arm alone passes the limit (usable fixes then depend on the geometry), is not warned
+    about."""
+    lim = dict(L.DEFAULTS["integrity"])
+    lim.update({k: v for k, v in (integrity or {}).items() if k in lim})
+    al_pos, al_att = float(lim["alert_limit_pos_mm"]), float(lim["alert_limit_att_deg"])
+    cov = np.asarray(datum.cov, dtype=float)
+    s_shift = np.sqrt(np.clip(np.diag(cov)[:3], 0.0, None))
+    s_turn = np.sqrt(np.clip(np.diag(cov)[3:], 0.0, None))
+    del pos  # the lever arm is not a floor (see above)
+    s_pos = s_shift
+    s_att_deg = np.degrees(s_turn)
+    out = []
+    axes = "xyz"
+    for i in range(3):
+        if s_pos[i] > al_pos:
+            out.append(
+                f"map datum: its shared shift alone ({s_pos[i]:.2f} mm 1-sigma on world {axes[i]}) "
+                f"exceeds the position alert limit {al_pos:g} mm: no fix from this table will be usable "
+                f"(refine the map or widen the limit)"
+            )
+        if s_att_deg[i] > al_att:
+            out.append(
+                f"map datum: its turn alone ({s_att_deg[i]:.3f} deg 1-sigma about {axes[i]}) exceeds "
+                f"the attitude alert limit {al_att:g} deg: no fix from this table will be usable"
+            )
     return out
 
 
@@ -183,6 +218,9 @@ def build_table(
     idx, report = mapindex.build(
         fl, rig, bmap, load_beacon_emission(beacons_csv), ws, sigma, certify_samples, seed, progress
     )
+    if datum is not None:
+        for line in datum_unusable(datum, integrity, pos):
+            _warn(line)
     table = Table(
         cameras=cams,
         beacon_ids=ids,
