@@ -109,6 +109,8 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "frame_period_us", s->frame_period_us, 0);
         ground_row_num(r, "cycle_margin_us", s->cycle_margin_us, 0);
         ground_row_str(r, "workspace", tlm_workspace_name(s->workspace));
+        ground_row_num(r, "time_error_us", s->time_error_us, 0);
+        ground_row_num(r, "time_offset_us", s->time_offset_us, 0);
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -58,8 +58,8 @@ const char *tlm_nav_status_name(uint8_t code)
 
 const char *tlm_mode_name(uint8_t code)
 {
-    static const char *const k_name[5] = {MFNS_MSG("BOOT"), MFNS_MSG("ACQUIRE"), MFNS_MSG("TRACK"), MFNS_MSG("SAFE"), MFNS_MSG("STANDBY")};
-    return (code <= TLM_MODE_STANDBY) ? k_name[code] : "?";
+    static const char *const k_name[6] = {MFNS_MSG("BOOT"), MFNS_MSG("ACQUIRE"), MFNS_MSG("TRACK"), MFNS_MSG("SAFE"), MFNS_MSG("STANDBY"), MFNS_MSG("WAIT_TABLE")};
+    return (code <= TLM_MODE_WAIT_TABLE) ? k_name[code] : "?";
 }
 
 const char *tlm_camera_name(uint8_t code)
@@ -124,6 +124,7 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_CAMERAS_DISAGREE: return MFNS_MSG("CAMERAS_DISAGREE");
     case TLM_EVT_WORKSPACE_LEFT: return MFNS_MSG("WORKSPACE_LEFT");
     case TLM_EVT_WORKSPACE_REENTERED: return MFNS_MSG("WORKSPACE_REENTERED");
+    case TLM_EVT_CLOCK_STEP: return MFNS_MSG("CLOCK_STEP");
     default: return "?";
     }
 }
@@ -206,6 +207,8 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_beacons_biased) == 2u, "
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.frame_period_us) == 4u, "hk.frame_period_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.cycle_margin_us) == 4u, "hk.cycle_margin_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.workspace) == 1u, "hk.workspace: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.time_error_us) == 4u, "hk.time_error_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.time_offset_us) == 4u, "hk.time_offset_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.cycle) == 4u, "event.cycle: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.code) == 2u, "event.code: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.severity) == 1u, "event.severity: C type and wire width differ");
@@ -222,7 +225,7 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.uv_px[0]) == 4u, "fixo
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.cov_px2[0]) == 4u, "fixobs.cov_px2: C type and wire width differ");
 _Static_assert(sizeof(tlm_packet_t) <= UINT16_MAX, "struct offsets of tlm_run_t are 16-bit");
 
-static const tlm_run_t k_runs[71] = {
+static const tlm_run_t k_runs[73] = {
     {offsetof(tlm_packet_t, u.nav.cycle), 0u, 12u}, /* nav.cycle */
     {offsetof(tlm_packet_t, u.nav.status), 4u, 9u}, /* nav.status */
     {offsetof(tlm_packet_t, u.nav.reason), 5u, 9u}, /* nav.reason */
@@ -280,6 +283,8 @@ static const tlm_run_t k_runs[71] = {
     {offsetof(tlm_packet_t, u.hk.frame_period_us), 95u, 12u}, /* hk.frame_period_us */
     {offsetof(tlm_packet_t, u.hk.cycle_margin_us), 99u, 12u}, /* hk.cycle_margin_us */
     {offsetof(tlm_packet_t, u.hk.workspace), 103u, 9u}, /* hk.workspace */
+    {offsetof(tlm_packet_t, u.hk.time_error_us), 104u, 12u}, /* hk.time_error_us */
+    {offsetof(tlm_packet_t, u.hk.time_offset_us), 108u, 12u}, /* hk.time_offset_us */
     {offsetof(tlm_packet_t, u.event.cycle), 0u, 12u}, /* event.cycle */
     {offsetof(tlm_packet_t, u.event.code), 4u, 10u}, /* event.code */
     {offsetof(tlm_packet_t, u.event.severity), 6u, 9u}, /* event.severity */
@@ -295,7 +300,7 @@ static const tlm_run_t k_runs[71] = {
     {offsetof(tlm_packet_t, u.fixobs.uv_px[0]), 10u, 20u}, /* fixobs.uv_px */
     {offsetof(tlm_packet_t, u.fixobs.cov_px2[0]), 18u, 28u}, /* fixobs.cov_px2 */
 };
-static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 57u, 63u, 71u};
+static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 59u, 65u, 73u};
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
 {
@@ -410,6 +415,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->frame_period_us = tlm_get_u32(b + 95);
         s->cycle_margin_us = get_i32(b + 99);
         s->workspace = b[103];
+        s->time_error_us = tlm_get_u32(b + 104);
+        s->time_offset_us = get_i32(b + 108);
         break;
     }
     case TLM_TYPE_EVENT: {

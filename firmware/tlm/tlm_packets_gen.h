@@ -28,7 +28,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 104u
+#define TLM_HK_PAYLOAD_LEN 112u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
@@ -106,6 +106,8 @@ typedef struct {
     uint32_t frame_period_us; /* hk_frame_period_us: the camera frame period: the shortest step between the frame stamps of consecutive fused cycles in the report interval (0: fewer than two fused cycles) [us] */
     int32_t cycle_margin_us; /* hk_cycle_margin_us: cycle margin, us: hk_frame_period_us - hk_cycle_max_us (negative: a cycle overran the frame period; 0 when no period is known; docs/budgets.md) */
     uint8_t workspace; /* hk_workspace: the tracked pose against the table's workspace box at this packet (WORKSPACE_LEFT, WORKSPACE_REENTERED) [workspace_t] */
+    uint32_t time_error_us; /* hk_time_error_us: the kernel's estimated error of the board's UTC (adjtimex esterror, us, as the time daemon sets it; 4294967295: unknown, the clock is not synchronised) [us] */
+    int32_t time_offset_us; /* hk_time_offset_us: the kernel clock discipline's current offset from its reference (adjtimex offset, us; 0 when not synchronised); with hk_time_quality SYNCED, the UTC is within hk_time_error_us */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */
