@@ -1,12 +1,15 @@
 """mfns-nav as a supervised service (issue 24 items 3, 4): the systemd notify
 protocol spoken to a socket this test owns (READY, watchdog pings from the
 cycle loop, STOPPING), the previous run's end carried by the BOOT event, the
-unit file, `make install` and the arm64 `make deb` (lintian clean)."""
+unit file, `make install` and the arm64 `make deb` (lintian clean); issue 44:
+the first run without a table, the hardened unit's exposure, the packages
+(flight, ground, debug symbols) and `make install` equal to them."""
 
 from __future__ import annotations
 
 import csv
 import os
+import re
 import shutil
 import socket
 import subprocess
@@ -135,6 +138,53 @@ def test_unit_file_verifies():
         assert key in text
 
 
+def test_unit_is_hardened():
+    """Issue 44 item 2: the unit's exposure as systemd-analyze scores it, and the
+    settings it rests on (a test that a relaxed unit fails)."""
+    unit = REPO / "boards/sitss-nav/service/mfns-nav.service"
+    text = unit.read_text()
+    for key in (
+        "User=mfns", "SupplementaryGroups=video dialout", "AmbientCapabilities=CAP_SYS_NICE CAP_IPC_LOCK",
+        "CapabilityBoundingSet=CAP_SYS_NICE CAP_IPC_LOCK", "NoNewPrivileges=yes", "ProtectSystem=strict",
+        "ProtectHome=yes", "PrivateTmp=yes", "ReadWritePaths=/var/lib/mfns /run/mfns-nav", "StateDirectory=mfns",
+        "RestrictAddressFamilies=AF_UNIX", "SystemCallFilter=@system-service", "DevicePolicy=closed",
+        "DeviceAllow=char-video4linux rw", "DeviceAllow=char-ttyAMA rw", "After=local-fs.target",
+        "time-sync.target", "Wants=time-sync.target",
+    ):  # fmt: skip
+        assert key in text, key
+    # the program's own syscalls the filter must keep: adjtimex (time quality, read only), mlockall
+    assert "adjtimex" in text and "ProtectClock=yes" not in text
+    sysusers = (REPO / "boards/sitss-nav/service/mfns-nav.sysusers").read_text()
+    assert "u mfns " in sysusers and "m mfns video" in sysusers and "m mfns dialout" in sysusers
+    if shutil.which("systemd-analyze") is None:
+        pytest.skip("systemd-analyze is not installed")
+    res = subprocess.run(
+        ["systemd-analyze", "security", "--offline=yes", str(unit)], capture_output=True, text=True, check=False
+    )
+    m = re.search(r"Overall exposure level for mfns-nav.service: ([0-9.]+)", res.stdout)
+    assert m is not None, res.stdout[-2000:] + res.stderr
+    assert float(m.group(1)) <= 3.0, res.stdout
+    # the measure is real: the unit as it was (root, no sandbox) scores far above
+    bare = "\n".join(ln for ln in text.splitlines() if ln.startswith(("[", "Type=", "ExecStart=", "Description=")))
+    plain = unit.parent.parent.parent.parent / "build" / "test-plain.service"
+    plain.parent.mkdir(exist_ok=True)
+    plain.write_text(bare + "\n")
+    res = subprocess.run(
+        ["systemd-analyze", "security", "--offline=yes", str(plain)], capture_output=True, text=True, check=False
+    )
+    m2 = re.search(r"Overall exposure level for test-plain.service: ([0-9.]+)", res.stdout)
+    assert m2 is not None and float(m2.group(1)) > 9.0, res.stdout[-500:]
+
+
+def _tree(root: Path) -> set[str]:
+    return {str(p.relative_to(root)) for p in root.rglob("*") if not p.is_dir() and "DEBIAN" not in p.parts}
+
+
+def _deb_files(deb: Path) -> set[str]:
+    out = subprocess.run(["dpkg-deb", "--contents", str(deb)], capture_output=True, text=True, check=True).stdout
+    return {ln.split()[5].removeprefix("./") for ln in out.splitlines() if not ln.split()[5].endswith("/")}
+
+
 def test_make_install_tree(tmp_path):
     res = subprocess.run(
         ["make", "--no-print-directory", "BOARD=host-sim", "install", f"DESTDIR={tmp_path}", "PREFIX=/usr"],
@@ -142,10 +192,15 @@ def test_make_install_tree(tmp_path):
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     for p in ("usr/bin/mfns-nav", "usr/bin/mfns-ground", "usr/lib/mfns-nav/record-exit",
-              "usr/lib/systemd/system/mfns-nav.service", "etc/default/mfns-nav",
-              "usr/share/doc/mfns-nav/operations.md"):  # fmt: skip
+              "usr/lib/systemd/system/mfns-nav.service", "etc/default/mfns-nav", "usr/lib/sysusers.d/mfns-nav.conf",
+              "usr/share/doc/mfns-nav/operations.md.gz", "usr/share/man/man1/mfns-nav.1.gz",
+              "usr/share/man/man1/mfns-ground.1.gz", "usr/share/mfns-ground/yamcs/mdb/mfns_tm.xml",
+              "usr/share/doc/mfns-nav/examples/chrony-mfns.conf"):  # fmt: skip
         assert (tmp_path / p).exists(), p
     assert os.access(tmp_path / "usr/bin/mfns-nav", os.X_OK)
+    man = subprocess.run(["zcat", str(tmp_path / "usr/share/man/man1/mfns-nav.1.gz")], capture_output=True,
+                         text=True, check=True).stdout  # fmt: skip
+    assert man.startswith(".TH MFNS-NAV 1") and "--config" in man
     local = tmp_path / "local"
     subprocess.run(
         ["make", "--no-print-directory", "BOARD=host-sim", "install", f"DESTDIR={local}", "PREFIX=/opt/mfns"],
@@ -156,34 +211,98 @@ def test_make_install_tree(tmp_path):
     assert (local / "opt/mfns/etc/default/mfns-nav").exists()
 
 
-def test_make_deb_for_the_board():
-    if shutil.which("dpkg-deb") is None or shutil.which("aarch64-linux-gnu-gcc") is None:
-        pytest.skip("dpkg-deb or the aarch64 cross compiler is missing")
+def test_install_equals_the_packages(tmp_path):
+    """Issue 44 item 4: make install-flight / install-ground hold exactly the files
+    of mfns-nav / mfns-ground (host-sim: amd64), the debug symbols are in the
+    -dbgsym packages by build id, the flight package has no ground program, and
+    `make deb TABLE=` packages a board's table (refusing one that is not)."""
+    if shutil.which("dpkg-deb") is None:
+        pytest.skip("dpkg-deb is missing")
+    deb_dir = REPO / "build/host-sim/deb"
+    for target, pkg in (("install-flight", "mfns-nav"), ("install-ground", "mfns-ground")):
+        dest = tmp_path / target
+        subprocess.run(
+            ["make", "--no-print-directory", "BOARD=host-sim", target, f"DESTDIR={dest}", "PREFIX=/usr"],
+            cwd=REPO, capture_output=True, check=True,
+        )  # fmt: skip
+        res = subprocess.run(
+            ["make", "--no-print-directory", "BOARD=host-sim", "deb" if pkg == "mfns-nav" else "deb-ground"],
+            cwd=REPO, capture_output=True, text=True, check=False, timeout=900,
+        )  # fmt: skip
+        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+        (deb,) = deb_dir.glob(f"{pkg}_*.deb")
+        assert _deb_files(deb) == _tree(dest), (_deb_files(deb) ^ _tree(dest))
+        (dbg,) = deb_dir.glob(f"{pkg}-dbgsym_*.deb")
+        dbg_files = _deb_files(dbg)
+        bin_path = dest / "usr/bin" / pkg
+        note = subprocess.run(["readelf", "-n", str(bin_path)], capture_output=True, text=True, check=True).stdout
+        build_id = re.search(r"Build ID: ([0-9a-f]+)", note).group(1)
+        assert f"usr/lib/debug/.build-id/{build_id[:2]}/{build_id[2:]}.debug" in dbg_files, dbg_files
+        info = subprocess.run(["dpkg-deb", "--info", str(dbg)], capture_output=True, text=True, check=True).stdout
+        assert f"Depends: {pkg} (=" in info and "Section: debug" in info and build_id in info
+        if shutil.which("lintian") is not None:
+            text = (deb_dir / f"lintian-{pkg}.txt").read_text()
+            assert not [ln for ln in text.splitlines() if ln.startswith(("E:", "W:"))], text
+    flight = _deb_files(next(deb_dir.glob("mfns-nav_*.deb")))
+    assert "usr/bin/mfns-ground" not in flight and not [f for f in flight if "yamcs" in f]
+    ground = _deb_files(next(deb_dir.glob("mfns-ground_*.deb")))
+    assert {"usr/bin/mfns-ground", "usr/share/mfns-ground/yamcs/etc/yamcs.mfns.yaml",
+            "usr/share/mfns-ground/yamcs/mdb/mfns_tm.xml", "usr/share/mfns-ground/yamcs/mdb/mfns_tc.xml",
+            "usr/share/mfns-ground/yamcs/mdb/mfns_ground.xml"} <= ground  # fmt: skip
+    # a table that is not one is refused; a real one ships and the configuration names it
+    bad = tmp_path / "bad.mfnstbl"
+    bad.write_bytes(b"x" * 64)
+    res = subprocess.run(["make", "--no-print-directory", "BOARD=host-sim", "deb", f"TABLE={bad}"], cwd=REPO,
+                         capture_output=True, text=True, check=False)  # fmt: skip
+    assert res.returncode != 0 and "refused" in res.stderr, res.stdout + res.stderr
+
+
+def test_deb_table_is_packaged(replay, tmp_path):
+    if shutil.which("dpkg-deb") is None:
+        pytest.skip("dpkg-deb is missing")
     res = subprocess.run(
-        ["make", "--no-print-directory", "-j2", "BOARD=sitss-nav", "deb"],
+        ["make", "--no-print-directory", "BOARD=host-sim", "deb", f"TABLE={replay['table']}"],
         cwd=REPO, capture_output=True, text=True, check=False, timeout=900,
     )  # fmt: skip
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    debs = list((REPO / "build/sitss-nav/deb").glob("mfns-nav_*_arm64.deb"))
+    (deb,) = (REPO / "build/host-sim/deb").glob("mfns-nav_*.deb")
+    subprocess.run(["dpkg-deb", "-x", str(deb), str(tmp_path)], check=True)
+    assert (tmp_path / "usr/share/mfns-nav/table.mfnstbl").read_bytes() == replay["table"].read_bytes()
+    conf = (tmp_path / "etc/mfns/mfns-nav.conf").read_text()
+    assert "\ntable = /usr/share/mfns-nav/table.mfnstbl\n" in conf
+    info = subprocess.run(["dpkg-deb", "--info", str(deb)], capture_output=True, text=True, check=True).stdout
+    assert "Recommends: chrony" in info
+    post = subprocess.run(["dpkg-deb", "--ctrl-tarfile", str(deb)], capture_output=True, check=True).stdout
+    assert b"systemd-sysusers mfns-nav.conf" in post
+
+
+def test_make_deb_for_the_board():
+    if shutil.which("dpkg-deb") is None or shutil.which("aarch64-linux-gnu-gcc") is None:
+        pytest.skip("dpkg-deb or the aarch64 cross compiler is missing")
+    for target in ("deb", "deb-ground"):
+        res = subprocess.run(
+            ["make", "--no-print-directory", "-j2", "BOARD=sitss-nav", target],
+            cwd=REPO, capture_output=True, text=True, check=False, timeout=1800,
+        )  # fmt: skip
+        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    deb_dir = REPO / "build/sitss-nav/deb"
+    debs = list(deb_dir.glob("mfns-nav_*_arm64.deb"))
     assert len(debs) == 1
     info = subprocess.run(
         ["dpkg-deb", "--info", str(debs[0])], capture_output=True, text=True, check=True
     ).stdout
     assert "Architecture: arm64" in info and "libsystemd0" in info and "libserialport0" in info
-    files = subprocess.run(
-        ["dpkg-deb", "--contents", str(debs[0])], capture_output=True, text=True, check=True
-    )
-    for p in ("./usr/bin/mfns-nav", "./usr/lib/systemd/system/mfns-nav.service", "./etc/default/mfns-nav",
-              "./usr/share/man/man1/mfns-nav.1.gz"):  # fmt: skip
-        assert p in files.stdout, p
-    conff = subprocess.run(
-        ["dpkg-deb", "--field", str(debs[0]), "Package"], capture_output=True, text=True, check=True
-    ).stdout.strip()
-    assert conff == "mfns-nav"
-    lint = REPO / "build/sitss-nav/deb/lintian.txt"
+    files = _deb_files(debs[0])
+    for p in ("usr/bin/mfns-nav", "usr/lib/systemd/system/mfns-nav.service", "etc/default/mfns-nav",
+              "usr/share/man/man1/mfns-nav.1.gz", "usr/lib/sysusers.d/mfns-nav.conf"):  # fmt: skip
+        assert p in files, p
+    assert "usr/bin/mfns-ground" not in files
+    assert len(list(deb_dir.glob("mfns-ground_*_arm64.deb"))) == 1
+    assert len(list(deb_dir.glob("mfns-nav-dbgsym_*_arm64.deb"))) == 1
     if shutil.which("lintian") is not None:
-        text = lint.read_text()
-        assert not [ln for ln in text.splitlines() if ln.startswith(("E:", "W:"))], text
+        for name in ("mfns-nav", "mfns-ground"):
+            text = (deb_dir / f"lintian-{name}.txt").read_text()
+            assert not [ln for ln in text.splitlines() if ln.startswith(("E:", "W:"))], text
 
 
 def _recv_until(rx: socket.socket, pred, limit: int = 400) -> list[str]:
