@@ -399,3 +399,45 @@ def test_first_run_table_load_command_and_stop(replay, tmp_path):
         rx.close()
         err = nav.communicate(timeout=30)[1]
     assert nav.returncode == 2, err  # stopped before it ever ran: the start-up did not complete
+
+
+def test_image_supervisor_drops_root(tmp_path):
+    """Issue 44 item 2, the image: mfns-supervise --user runs the program as that
+    user with CAP_SYS_NICE and CAP_IPC_LOCK only (ambient and bounding), no new
+    privileges, and fails closed on a user that does not exist."""
+    if os.geteuid() != 0:
+        pytest.skip("needs root (the supervisor drops it)")
+    sup = tmp_path / "mfns-supervise"
+    subprocess.run(
+        ["gcc", "-std=c11", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-Wshadow", "-Wstrict-prototypes",
+         "-O2", "-o", str(sup), str(REPO / "boards/sitss-nav/image/mfns-supervise.c")],
+        check=True,
+    )  # fmt: skip
+    child = "id -u; id -g; grep -E '^(CapEff|CapBnd|CapAmb|NoNewPrivs)' /proc/self/status; sleep 30"
+    p = subprocess.Popen(
+        [str(sup), "--rt-prio", "0", "--user", "nobody", "--socket", str(tmp_path / "n"), "--exit-file",
+         str(tmp_path / "e"), "--", "/bin/sh", "-c", child],
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    lines = []
+    try:
+        for line in p.stderr:
+            lines.append(line.split(": ", 2)[-1].strip())
+            if "NoNewPrivs" in line:
+                break
+    finally:
+        p.terminate()
+        p.communicate(timeout=20)
+    caps = (1 << 23) | (1 << 14)
+    got = {ln.split(":")[0]: ln.split(":", 1)[1].strip() for ln in lines if ":" in ln and ln.startswith(("Cap", "No"))}
+    nobody = subprocess.run(["id", "-u", "nobody"], capture_output=True, text=True, check=True).stdout.strip()
+    assert nobody in lines, lines
+    for k in ("CapEff", "CapBnd", "CapAmb"):
+        assert int(got[k], 16) == caps, (k, got)
+    assert got["NoNewPrivs"] == "1"
+    res = subprocess.run(
+        [str(sup), "--user", "no-such-user-mfns", "--socket", str(tmp_path / "n2"), "--exit-file",
+         str(tmp_path / "e2"), "--", "/bin/true"],
+        capture_output=True, text=True, timeout=10, check=False,
+    )  # fmt: skip
+    assert res.returncode == 2 and "no such user" in res.stderr
