@@ -167,7 +167,7 @@ static void test_ground_run_on_recorded_stream(void **state)
     /* then the packet's UTC (the generator's housekeeping has no time
      * correlation: quality NONE, so correlated at receipt) and the receipt time */
     assert_non_null(strstr(text, ",utc_s,utc_us,time_quality,tc_epoch,tc_arsn_last,n_beacons_biased,frame_period_us,"
-                                 "cycle_margin_us,workspace,utc,time_source,ground_utc\n"));
+                                 "cycle_margin_us,workspace,time_error_us,time_offset_us,utc,time_source,ground_utc\n"));
     assert_non_null(strstr(text, ",NONE,"));
     assert_non_null(strstr(text, ",GROUND_RECEIPT,"));
     snprintf(path, sizeof path, "%s/nav.csv", out_dir);
