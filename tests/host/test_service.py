@@ -441,3 +441,48 @@ def test_image_supervisor_drops_root(tmp_path):
         capture_output=True, text=True, timeout=10, check=False,
     )  # fmt: skip
     assert res.returncode == 2 and "no such user" in res.stderr
+
+
+def test_first_run_takes_table_load(replay, tmp_path):
+    """Waiting for a table, commands run: a command that needs the navigator is
+    refused (TC_E_STATE), TABLE_LOAD of a table on the board ends the wait (it is
+    validated, stored in the state dir and the start-up goes on with it)."""
+    (tmp_path / "t.mfnstbl").write_bytes(replay["table"].read_bytes())
+    empty = tmp_path / "empty.bin"
+    empty.write_bytes(b"")
+    tc = tmp_path / "tc.bin"
+    enc = subprocess.run(
+        [str(BIN / "mfns-ground"), "--file", str(empty), "--out", str(tmp_path / "g-enc"), "--no-status",
+         "--tc-file", str(tc), "--cmd", "SET_MODE standby", "--cmd", "TABLE_LOAD t.mfnstbl"],
+        capture_output=True, text=True, timeout=30, check=False,
+    )  # fmt: skip
+    assert enc.returncode in (0, 3) and tc.stat().st_size > 0, enc.stderr
+    state = tmp_path / "state"
+    state.mkdir()
+    sock_path = str(tmp_path / "notify.sock")
+    rx = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    rx.bind(sock_path)
+    rx.settimeout(10.0)
+    tlm = tmp_path / "t.bin"
+    nav = subprocess.Popen(
+        [str(BIN / "mfns-nav"), "--table", str(tmp_path / "none.mfnstbl"), "--state-dir", str(state),
+         "--replay", str(replay["frames"]), "--file", str(tlm), "--tc-file", str(tc), "--tc-insecure", "-q",
+         "--max-cycles", "5"],
+        env=dict(os.environ, NOTIFY_SOCKET=sock_path), stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    try:
+        msgs = _recv_until(rx, lambda m: m.startswith("STOPPING=1"))
+    finally:
+        rx.close()
+        err = nav.communicate(timeout=60)[1]
+    assert nav.returncode == 0, err
+    assert "waiting for a calibration table" in msgs[0]
+    out = tmp_path / "g"
+    subprocess.run([str(BIN / "mfns-ground"), "--file", str(tlm), "--out", str(out), "-q"], check=True)
+    ev = rows(out / "events.csv")
+    names = [e["event"] for e in ev]
+    rej = [e for e in ev if e["event"] == "CMD_REJECTED"]
+    acc = [e for e in ev if e["event"] == "CMD_ACCEPTED"]
+    assert len(rej) == 1 and len(acc) == 1, names
+    assert names.index("TABLE_REFUSED") < names.index("CMD_ACCEPTED") < names.index("TABLE_LOADED"), names
+    assert "TABLE_STORED" in names and any(state.iterdir())  # a restart runs it
