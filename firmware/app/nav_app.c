@@ -166,15 +166,13 @@ static void wait_status(nav_app_t *app, const nav_ts_start_t *info, mfns_caltabl
 
 /* Supervised, no table: stay up and say why until one validates (nav_app.h).
  * 0 with the table in the current slot, or -1 when stopped by a signal. */
-static int wait_for_table(nav_app_t *app, const nav_opts_t *o, mfns_caltable_status_t ts, const char *why)
+static int wait_for_table(nav_app_t *app, const nav_opts_t *o, nav_ts_start_t *info, mfns_caltable_status_t ts,
+                          const char *why)
 {
     mfns_caltable_t *table = &app->tables[app->table_cur];
     memset(table, 0, sizeof *table); /* housekeeping: no table (crc 0) */
     app->waiting_table = true;
-    nav_ts_start_t info;
-    memset(&info, 0, sizeof info);
-    (void)snprintf(info.path, sizeof info.path, "%s", o->table_path != NULL ? o->table_path : "(none)");
-    wait_status(app, &info, ts, why, true);
+    wait_status(app, info, ts, why, true);
     mfns_caltable_status_t last = ts;
     bool link_up = app->tlm.uart.connected;
     uint64_t last_try_us = nav_app_now_us(), last_hk_us = 0;
@@ -187,10 +185,10 @@ static int wait_for_table(nav_app_t *app, const nav_opts_t *o, mfns_caltable_sta
         if (app->waiting_table && now - last_try_us >= NAV_APP_WAIT_RETRY_US) {
             last_try_us = now;
             const mfns_caltable_status_t t2 = nav_tablestore_load_start(o->state_dir, o->table_path, app->table_buf,
-                                                                        sizeof app->table_buf, table, &info);
+                                                                        sizeof app->table_buf, table, info);
             if (t2 == MFNS_CALTABLE_OK) {
                 app->waiting_table = false;
-                fprintf(stderr, "mfns-nav: calibration table %s validated (crc %08x): starting\n", info.path,
+                fprintf(stderr, "mfns-nav: calibration table %s validated (crc %08x): starting\n", info->path,
                         table->crc32);
                 break;
             }
@@ -198,7 +196,7 @@ static int wait_for_table(nav_app_t *app, const nav_opts_t *o, mfns_caltable_sta
             if (t2 != last) { /* a new reason (the file appeared but is refused, ...): said once */
                 last = t2;
                 send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)t2, 0);
-                wait_status(app, &info, t2, NULL, false);
+                wait_status(app, info, t2, NULL, false);
             }
         }
         if (app->tlm.uart.connected && !link_up) { /* the ground just came: tell it why there is no fix */
@@ -265,7 +263,7 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         fprintf(stderr, "mfns-nav: calibration table %s refused: %s%s%s (at byte %u)\n", ts_info.path,
                 mfns_caltable_strerror(ts), why != NULL ? ": " : "", why != NULL ? why : "", ts_info.first_err_offset);
         send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)ts, 0);
-        if (!app->service.notify || wait_for_table(app, o, ts, why) != 0) {
+        if (!app->service.notify || wait_for_table(app, o, &ts_info, ts, why) != 0) {
             close_all(app); /* by hand: exit 2 (nav_app.h); supervised: stopped while waiting */
             return 2;
         }
