@@ -95,7 +95,8 @@ def test_runs_as_mfns_with_two_capabilities(board):
     mfns in video and dialout, CAP_SYS_NICE and CAP_IPC_LOCK only (ambient,
     bounding set cut), no new privileges."""
     t0 = board.shell(
-        "pid=$(pidof mfns-nav); echo ID=$(grep -E '^(Uid|Groups|CapEff|CapBnd|CapAmb|NoNewPrivs)' /proc/$pid/status"
+        "pid=$(pidof mfns-nav); echo ID=$(grep -E '^(Uid|Groups|CapEff|CapBnd|CapAmb|NoNewPrivs)'"
+        " /proc/$pid/status"
         " | tr -s '\t ' ' ' | paste -sd';' -)"
     )
     m = board.wait_console(r"ID=(Uid:.*NoNewPrivs: \d)", 20, since=t0)
@@ -105,7 +106,7 @@ def test_runs_as_mfns_with_two_capabilities(board):
     caps = (1 << 23) | (1 << 14)  # CAP_SYS_NICE, CAP_IPC_LOCK
     assert int(f["CapEff"], 16) == caps and int(f["CapBnd"], 16) == caps and int(f["CapAmb"], 16) == caps, f
     assert f["NoNewPrivs"].strip() == "1", f
-    RESULTS["service_user"] = "mfns (uid 990), CapAmb 0x%x" % caps
+    RESULTS["service_user"] = f"mfns (uid 990), CapAmb 0x{caps:x}"
 
 
 def test_rendered_frames_through_vivids_loop(board):
@@ -277,7 +278,8 @@ def test_first_run_waits_for_a_table(board):
     empty = "/var/lib/mfns/first-run"
     t0 = board.shell(
         f"cp {conf} /run/conf.keep && rm -rf {empty} && install -d -o mfns -g mfns -m 0700 {empty} && "
-        f"sed -i -e 's#^table = .*#table = {empty}/table.mfnstbl#' -e 's#^state_dir = .*#state_dir = {empty}#' {conf}"
+        f"sed -i -e 's#^table = .*#table = {empty}/table.mfnstbl#'"
+        f" -e 's#^state_dir = .*#state_dir = {empty}#' {conf}"
         " && kill -KILL $(pidof mfns-nav)"
     )
     ref = board.wait_event("TABLE_REFUSED", RESTART_S, since=t0)

@@ -146,7 +146,8 @@ def test_unit_is_hardened():
     for key in (
         "User=mfns", "SupplementaryGroups=video dialout", "AmbientCapabilities=CAP_SYS_NICE CAP_IPC_LOCK",
         "CapabilityBoundingSet=CAP_SYS_NICE CAP_IPC_LOCK", "NoNewPrivileges=yes", "ProtectSystem=strict",
-        "ProtectHome=yes", "PrivateTmp=yes", "ReadWritePaths=/var/lib/mfns /run/mfns-nav", "StateDirectory=mfns",
+        "ProtectHome=yes", "PrivateTmp=yes", "ReadWritePaths=/var/lib/mfns /run/mfns-nav",
+        "StateDirectory=mfns",
         "RestrictAddressFamilies=AF_UNIX", "SystemCallFilter=@system-service", "DevicePolicy=closed",
         "DeviceAllow=char-video4linux rw", "DeviceAllow=char-ttyAMA rw", "After=local-fs.target",
         "time-sync.target", "Wants=time-sync.target",
@@ -159,18 +160,26 @@ def test_unit_is_hardened():
     if shutil.which("systemd-analyze") is None:
         pytest.skip("systemd-analyze is not installed")
     res = subprocess.run(
-        ["systemd-analyze", "security", "--offline=yes", str(unit)], capture_output=True, text=True, check=False
+        ["systemd-analyze", "security", "--offline=yes", str(unit)],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     m = re.search(r"Overall exposure level for mfns-nav.service: ([0-9.]+)", res.stdout)
     assert m is not None, res.stdout[-2000:] + res.stderr
     assert float(m.group(1)) <= 3.0, res.stdout
     # the measure is real: the unit as it was (root, no sandbox) scores far above
-    bare = "\n".join(ln for ln in text.splitlines() if ln.startswith(("[", "Type=", "ExecStart=", "Description=")))
+    bare = "\n".join(
+        ln for ln in text.splitlines() if ln.startswith(("[", "Type=", "ExecStart=", "Description="))
+    )
     plain = unit.parent.parent.parent.parent / "build" / "test-plain.service"
     plain.parent.mkdir(exist_ok=True)
     plain.write_text(bare + "\n")
     res = subprocess.run(
-        ["systemd-analyze", "security", "--offline=yes", str(plain)], capture_output=True, text=True, check=False
+        ["systemd-analyze", "security", "--offline=yes", str(plain)],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     m2 = re.search(r"Overall exposure level for test-plain.service: ([0-9.]+)", res.stdout)
     assert m2 is not None and float(m2.group(1)) > 9.0, res.stdout[-500:]
@@ -181,7 +190,9 @@ def _tree(root: Path) -> set[str]:
 
 
 def _deb_files(deb: Path) -> set[str]:
-    out = subprocess.run(["dpkg-deb", "--contents", str(deb)], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        ["dpkg-deb", "--contents", str(deb)], capture_output=True, text=True, check=True
+    ).stdout
     return {ln.split()[5].removeprefix("./") for ln in out.splitlines() if not ln.split()[5].endswith("/")}
 
 
@@ -192,7 +203,8 @@ def test_make_install_tree(tmp_path):
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     for p in ("usr/bin/mfns-nav", "usr/bin/mfns-ground", "usr/lib/mfns-nav/record-exit",
-              "usr/lib/systemd/system/mfns-nav.service", "etc/default/mfns-nav", "usr/lib/sysusers.d/mfns-nav.conf",
+              "usr/lib/systemd/system/mfns-nav.service", "etc/default/mfns-nav",
+              "usr/lib/sysusers.d/mfns-nav.conf",
               "usr/share/doc/mfns-nav/operations.md.gz", "usr/share/man/man1/mfns-nav.1.gz",
               "usr/share/man/man1/mfns-ground.1.gz", "usr/share/mfns-ground/yamcs/mdb/mfns_tm.xml",
               "usr/share/doc/mfns-nav/examples/chrony-mfns.conf"):  # fmt: skip
@@ -231,14 +243,18 @@ def test_install_equals_the_packages(tmp_path):
         )  # fmt: skip
         assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
         (deb,) = deb_dir.glob(f"{pkg}_*.deb")
-        assert _deb_files(deb) == _tree(dest), (_deb_files(deb) ^ _tree(dest))
+        assert _deb_files(deb) == _tree(dest), _deb_files(deb) ^ _tree(dest)
         (dbg,) = deb_dir.glob(f"{pkg}-dbgsym_*.deb")
         dbg_files = _deb_files(dbg)
         bin_path = dest / "usr/bin" / pkg
-        note = subprocess.run(["readelf", "-n", str(bin_path)], capture_output=True, text=True, check=True).stdout
+        note = subprocess.run(
+            ["readelf", "-n", str(bin_path)], capture_output=True, text=True, check=True
+        ).stdout
         build_id = re.search(r"Build ID: ([0-9a-f]+)", note).group(1)
         assert f"usr/lib/debug/.build-id/{build_id[:2]}/{build_id[2:]}.debug" in dbg_files, dbg_files
-        info = subprocess.run(["dpkg-deb", "--info", str(dbg)], capture_output=True, text=True, check=True).stdout
+        info = subprocess.run(
+            ["dpkg-deb", "--info", str(dbg)], capture_output=True, text=True, check=True
+        ).stdout
         assert f"Depends: {pkg} (=" in info and "Section: debug" in info and build_id in info
         if shutil.which("lintian") is not None:
             text = (deb_dir / f"lintian-{pkg}.txt").read_text()
@@ -330,7 +346,8 @@ def test_first_run_waits_for_a_table(replay, tmp_path):
     env = dict(os.environ, NOTIFY_SOCKET=sock_path, WATCHDOG_USEC="400000")
     tlm = tmp_path / "t.bin"
     nav = subprocess.Popen(
-        [str(BIN / "mfns-nav"), "--table", str(table), "--state-dir", str(state), "--replay", str(replay["frames"]),
+        [str(BIN / "mfns-nav"), "--table", str(table), "--state-dir", str(state),
+         "--replay", str(replay["frames"]),
          "--file", str(tlm), "-q", "--max-cycles", "10"],
         env=env, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
@@ -429,7 +446,11 @@ def test_image_supervisor_drops_root(tmp_path):
         p.terminate()
         p.communicate(timeout=20)
     caps = (1 << 23) | (1 << 14)
-    got = {ln.split(":")[0]: ln.split(":", 1)[1].strip() for ln in lines if ":" in ln and ln.startswith(("Cap", "No"))}
+    got = {
+        ln.split(":")[0]: ln.split(":", 1)[1].strip()
+        for ln in lines
+        if ":" in ln and ln.startswith(("Cap", "No"))
+    }
     nobody = subprocess.run(["id", "-u", "nobody"], capture_output=True, text=True, check=True).stdout.strip()
     assert nobody in lines, lines
     for k in ("CapEff", "CapBnd", "CapAmb"):
