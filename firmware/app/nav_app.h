@@ -88,6 +88,7 @@ typedef struct nav_app {
     mfns_nav_output_t out;          /* the last cycle's */
     bool standby;                   /* SET_MODE standby: frames flow, the navigator does not run */
     bool waiting_table;             /* no table validated yet: WAIT_TABLE (supervised start-up only) */
+    bool hk_now;                    /* housekeeping this cycle (a UTC step: nav_app_watch_clock) */
     nav_cams_t cams;
     nav_tlm_t tlm;
     nav_tc_in_t tc;
@@ -105,7 +106,6 @@ typedef struct nav_app {
     nav_service_t service;          /* the supervisor: readiness, watchdog (nav_service.h) */
     uint64_t prev_start_us;         /* the previous cycle's start (cycle period) */
     uint64_t last_hk_us;            /* flight clock of the last housekeeping */
-    bool hk_now;                    /* housekeeping this cycle (a UTC step: nav_app_watch_clock) */
     /* The fix record (nav_fixlog.h): the on-board log (--fixlog) and the
      * downlink of one fix per NAV_LOOP_FIX_DOWNLINK_PERIOD_US. */
     nav_fixlog_t fixlog;
