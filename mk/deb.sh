@@ -41,8 +41,10 @@ if [ "$pkg" = flight ] && [ -n "${TABLE:-}" ]; then
   [ -r "$TABLE" ] || { echo "deb: TABLE=$TABLE cannot be read" >&2; exit 2; }
   py=${PYTHON:-.venv/bin/python}
   [ -x "$py" ] || py=python3
-  "$py" -m mfns table show "$TABLE" >/dev/null \
-    || { echo "deb: TABLE=$TABLE refused by mfns table show (not packaged)" >&2; exit 1; }
+  if ! why=$(PYTHONPATH=host_tools "$py" -m mfns table show "$TABLE" 2>&1 >/dev/null); then
+    echo "deb: TABLE=$TABLE refused by mfns table show (not packaged): $why" >&2
+    exit 1
+  fi
   install -d "$root/usr/share/mfns-nav"
   install -m 0644 "$TABLE" "$root/usr/share/mfns-nav/table.mfnstbl"
   sed -i -E 's#^table = .*#table = /usr/share/mfns-nav/table.mfnstbl#' "$root/etc/mfns/mfns-nav.conf"
