@@ -122,9 +122,9 @@ void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us)
 
 void nav_app_watch_clock(nav_app_t *app, uint32_t cycle, uint64_t t_us)
 {
-    if (!app->clock_monotonic) {
-        return; /* a replay's times are its recording's: a step of this board's UTC does not touch them */
-    }
+    /* live and in a replay alike: it is this board's UTC that stepped (a
+     * replay's packet times are its recording's and do not move; its UTC
+     * pairs keep their anchor) */
     const int64_t step_us = nav_time_step_now(&app->time);
     if (step_us == 0) {
         return;

@@ -150,7 +150,7 @@ void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[],
 void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us);
 /* Telemetry mode now: STANDBY, or the navigator's ACQUIRE/TRACK. */
 uint8_t nav_app_tlm_mode(const nav_app_t *app);
-/* Once per cycle (live only): a step of the board's UTC against the flight
+/* Once per cycle: a step of the board's UTC against the flight
  * clock (nav_time_step_now) is said on stderr, sent as CLOCK_STEP and forces
  * a housekeeping packet (the new time correlation) this cycle. */
 void nav_app_watch_clock(nav_app_t *app, uint32_t cycle, uint64_t t_us);

@@ -507,3 +507,59 @@ def test_first_run_takes_table_load(replay, tmp_path):
     assert len(rej) == 1 and len(acc) == 1, names
     assert names.index("TABLE_REFUSED") < names.index("CMD_ACCEPTED") < names.index("TABLE_LOADED"), names
     assert "TABLE_STORED" in names and any(state.iterdir())  # a restart runs it
+
+
+STEP_SHIM = r"""
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdlib.h>
+#include <time.h>
+/* CLOCK_REALTIME 5 s ahead from its STEP_AFTER-th reading on: a clock step,
+ * seen by the program only (no real clock is touched) */
+int clock_gettime(clockid_t id, struct timespec *ts)
+{
+    static int (*real)(clockid_t, struct timespec *);
+    static int n;
+    if (real == NULL) {
+        real = (int (*)(clockid_t, struct timespec *))dlsym(RTLD_NEXT, "clock_gettime");
+    }
+    const int rc = real(id, ts);
+    if (rc == 0 && id == CLOCK_REALTIME && ++n > atoi(getenv("STEP_AFTER"))) {
+        ts->tv_sec += 5;
+    }
+    return rc;
+}
+"""
+
+
+def test_clock_step_in_flight_is_reported(replay, tmp_path):
+    """Issue 44 item 3: a step of the board's UTC during the run (CLOCK_REALTIME
+    5 s ahead from some reading on, through an LD_PRELOAD shim) is one CLOCK_STEP
+    event (+5000 ms, step 1), a housekeeping packet at once, and nothing else
+    changes: the run completes and the nav packets' flight times do not jump."""
+    shim = tmp_path / "step.so"
+    (tmp_path / "step.c").write_text(STEP_SHIM)
+    subprocess.run(
+        ["gcc", "-shared", "-fPIC", "-O2", "-o", str(shim), str(tmp_path / "step.c"), "-ldl"], check=True
+    )
+    tlm = tmp_path / "t.bin"
+    env = dict(os.environ, LD_PRELOAD=str(shim), STEP_AFTER="20")
+    res = subprocess.run(
+        [str(BIN / "mfns-nav"), "--table", str(replay["table"]), "--replay", str(replay["frames"]),
+         "--file", str(tlm), "-q"],
+        env=env, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert "the board's UTC stepped by +5000 ms" in res.stderr, res.stderr
+    out = tmp_path / "g"
+    subprocess.run([str(BIN / "mfns-ground"), "--file", str(tlm), "--out", str(out), "-q"], check=True)
+    ev = rows(out / "events.csv")
+    steps = [e for e in ev if e["event"] == "CLOCK_STEP"]
+    assert len(steps) == 1, [e["event"] for e in ev]
+    assert steps[0]["severity"] == "WARNING" and int(steps[0]["arg0"]) in range(4990, 5011)
+    assert int(steps[0]["arg1"]) == 1
+    hk = rows(out / "housekeeping.csv")
+    assert any(h["cycle"] == steps[0]["cycle"] for h in hk), "a housekeeping packet in the step's cycle"
+    nav = rows(out / "nav.csv")
+    t = [float(r["t_s"]) for r in nav]
+    assert len(nav) == 30 and all(0 < b - a < 0.2 for a, b in zip(t, t[1:], strict=False))
