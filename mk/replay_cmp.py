@@ -1,7 +1,8 @@
 """replay_cmp.py A B: every cell of the ground station's CSV files under A (any depth:
 mk/replay_ident.sh's output, or two `make demo` folders) equal in B, but the wall-clock
-ones (cycle times, CPU load, frame period and margin, UTC stamps, the clock self-test's
-value), which differ between two runs of the same binary. Exit 1 on any difference."""
+ones (cycle times, CPU load, frame period and margin, UTC stamps, the kernel's
+time error and offset, the clock self-test's value), which differ between two runs of the
+same binary. Exit 1 on any difference."""
 
 from __future__ import annotations
 
@@ -9,7 +10,16 @@ import csv
 import sys
 from pathlib import Path
 
-WALL = ("cycle_p", "cycle_max", "cycle_margin", "cpu_load", "utc", "frame_period")
+WALL = (
+    "cycle_p",
+    "cycle_max",
+    "cycle_margin",
+    "cpu_load",
+    "utc",
+    "frame_period",
+    "time_error",
+    "time_offset",
+)
 
 
 def main() -> int:

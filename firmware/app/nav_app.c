@@ -12,6 +12,7 @@
 
 #include "math/units.h"
 #include "mfns_version.h"
+#include "firmware/app/nav_cmds.h"
 #include "firmware/app/nav_loop.h"
 #include "firmware/app/nav_tablestore.h"
 
@@ -42,6 +43,9 @@ const mfns_caltable_t *nav_app_table(const nav_app_t *app)
 
 uint8_t nav_app_tlm_mode(const nav_app_t *app)
 {
+    if (app->waiting_table) {
+        return (uint8_t)TLM_MODE_WAIT_TABLE;
+    }
     return app->standby ? (uint8_t)TLM_MODE_STANDBY : nav_tlm_mode(app->nav.mode);
 }
 
@@ -116,12 +120,102 @@ void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us)
     mfns_cycle_stats_add(&app->latency, lat_us > UINT32_MAX ? UINT32_MAX : (uint32_t)lat_us, 0u);
 }
 
+void nav_app_watch_clock(nav_app_t *app, uint32_t cycle, uint64_t t_us)
+{
+    /* live and in a replay alike: it is this board's UTC that stepped (a
+     * replay's packet times are its recording's and do not move; its UTC
+     * pairs keep their anchor) */
+    const int64_t step_us = nav_time_step_now(&app->time);
+    if (step_us == 0) {
+        return;
+    }
+    const int64_t step_ms = step_us / 1000;
+    const int32_t s32 = step_ms > INT32_MAX ? INT32_MAX : step_ms < -INT32_MAX ? -INT32_MAX : (int32_t)step_ms;
+    const nav_time_sync_t sync = nav_time_sync_now();
+    const uint8_t q = (uint8_t)(sync.synced ? TLM_TIMEQ_SYNCED : TLM_TIMEQ_SYSTEM);
+    fprintf(stderr,
+            "mfns-nav: the board's UTC stepped by %+lld ms against the flight clock (step %u; %s): the flight clock is "
+            "unaffected, the next housekeeping carries the new UTC\n",
+            (long long)step_ms, app->time.n_steps, sync.synced ? "synchronised" : "not synchronised");
+    (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_CLOCK_STEP, TLM_SEV_WARNING, q, s32,
+                        (int32_t)app->time.n_steps); /* failures counted in tlm */
+    app->hk_now = true; /* housekeeping this cycle: the ground re-correlates at once */
+}
+
 static void close_all(nav_app_t *app)
 {
     nav_fixlog_close(&app->fixlog); /* no-op when not open */
     nav_cams_close(&app->cams);
     nav_tlm_flush_and_close(&app->tlm, app->cycle_now);
     nav_tc_in_close(&app->tc);
+}
+
+static void wait_status(nav_app_t *app, const nav_ts_start_t *info, mfns_caltable_status_t ts, const char *why,
+                        bool ready)
+{
+    char status[NAV_TABLESTORE_PATH_MAX + 192];
+    (void)snprintf(status, sizeof status,
+                   "waiting for a calibration table: %s: %s%s%s; install one there or send TABLE_LOAD "
+                   "(docs/operations.md \"First run\")",
+                   info->path, mfns_caltable_strerror(ts), why != NULL ? ": " : "", why != NULL ? why : "");
+    fprintf(stderr, "mfns-nav: %s\n", status); /* the journal, once per reason */
+    char msg[sizeof status + 16];
+    (void)snprintf(msg, sizeof msg, "%sSTATUS=%s", ready ? "READY=1\n" : "", status);
+    nav_service_notify(&app->service, msg);
+}
+
+/* Supervised, no table: stay up and say why until one validates (nav_app.h).
+ * 0 with the table in the current slot, or -1 when stopped by a signal. */
+static int wait_for_table(nav_app_t *app, const nav_opts_t *o, nav_ts_start_t *info, mfns_caltable_status_t ts,
+                          const char *why)
+{
+    mfns_caltable_t *table = &app->tables[app->table_cur];
+    memset(table, 0, sizeof *table); /* housekeeping: no table (crc 0) */
+    app->waiting_table = true;
+    wait_status(app, info, ts, why, true);
+    mfns_caltable_status_t last = ts;
+    bool link_up = app->tlm.uart.connected;
+    uint64_t last_try_us = nav_app_now_us(), last_hk_us = 0;
+    const struct timespec tick = {0, (long)NAV_APP_WAIT_TICK_US * 1000L};
+    while (!stop_requested && app->waiting_table) {
+        (void)nanosleep(&tick, NULL); /* EINTR: a signal, seen at the loop's test */
+        const uint64_t now = nav_app_now_us();
+        const nav_cmd_ops_t ops = nav_cmds_ops_waiting(app);
+        nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, now / 1000u); /* a TABLE_LOAD ends the wait */
+        if (app->waiting_table && now - last_try_us >= NAV_APP_WAIT_RETRY_US) {
+            last_try_us = now;
+            const mfns_caltable_status_t t2 = nav_tablestore_load_start(o->state_dir, o->table_path, app->table_buf,
+                                                                        sizeof app->table_buf, table, info);
+            if (t2 == MFNS_CALTABLE_OK) {
+                app->waiting_table = false;
+                fprintf(stderr, "mfns-nav: calibration table %s validated (crc %08x): starting\n", info->path,
+                        table->crc32);
+                break;
+            }
+            memset(table, 0, sizeof *table);
+            if (t2 != last) { /* a new reason (the file appeared but is refused, ...): said once */
+                last = t2;
+                send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)t2, 0);
+                wait_status(app, info, t2, NULL, false);
+            }
+        }
+        if (app->tlm.uart.connected && !link_up) { /* the ground just came: tell it why there is no fix */
+            send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)last, 0);
+        }
+        link_up = app->tlm.uart.connected;
+        if (now - last_hk_us >= NAV_LOOP_HK_PERIOD_US) {
+            nav_loop_housekeeping(app, 0u, 0u, app->clock_monotonic ? now : 0u); /* a replay: its first frame's time */
+            last_hk_us = now;
+        }
+        nav_tlm_drain(&app->tlm, 0u, now / 1000u);
+        nav_service_alive(&app->service, now);
+    }
+    if (app->waiting_table) {
+        app->waiting_table = false;
+        return -1;
+    }
+    nav_service_notify(&app->service, "STATUS=calibration table loaded: starting");
+    return 0;
 }
 
 /* Everything that may fail hard, in order (nav_app.h). 0, or the exit code. */
@@ -178,8 +272,10 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
         fprintf(stderr, "mfns-nav: calibration table %s refused: %s%s%s (at byte %u)\n", ts_info.path,
                 mfns_caltable_strerror(ts), why != NULL ? ": " : "", why != NULL ? why : "", ts_info.first_err_offset);
         send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, (int32_t)ts, 0);
-        close_all(app);
-        return 2;
+        if (!app->service.notify || wait_for_table(app, o, &ts_info, ts, why) != 0) {
+            close_all(app); /* by hand: exit 2 (nav_app.h); supervised: stopped while waiting */
+            return 2;
+        }
     }
     if (ts_info.source != NAV_TS_SRC_INITIAL && o->verbose) {
         fprintf(stderr, "mfns-nav: table from the store: %s (crc %08x)\n", ts_info.path, table->crc32);

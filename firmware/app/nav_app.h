@@ -21,8 +21,18 @@
  * nav_tablestore.h), bind the navigator, open the three cameras, apply
  * --init-pose; the self-test reports each step as an event (nav_selftest.h).
  * A table that fails validation (and no previous one that passes) is refused
- * with its error and the program stops after sending a TABLE_REFUSED event:
- * navigating on a wrong table would produce poses marked valid that are not.
+ * with its error and a TABLE_REFUSED event: navigating on a wrong table would
+ * produce poses marked valid that are not. Run by hand the program then stops
+ * (exit 2: the operator at the shell reads why at once). Under a supervisor
+ * (NOTIFY_SOCKET: systemd, the image's mfns-supervise) it does not exit, which
+ * would only restart-loop it: it waits (mode WAIT_TABLE; docs/operations.md
+ * "First run"): READY=1 with STATUS= saying why, the watchdog pinged, one
+ * journal line per new reason, housekeeping each second, the TABLE_REFUSED
+ * event again each time the link comes up, commands taken (NOOP,
+ * RESET_COUNTERS, TABLE_LOAD; nav_cmds_ops_waiting), the configured table
+ * tried again every NAV_APP_WAIT_RETRY_US; a table that validates (that file,
+ * or a TABLE_LOAD) and the start-up goes on. The loop sleeps
+ * NAV_APP_WAIT_TICK_US a turn: no busy wait.
  * A camera that does not open is reported and the others run; with none the
  * program stops.
  *
@@ -37,6 +47,9 @@
  */
 #ifndef MFNS_NAV_APP_H
 #define MFNS_NAV_APP_H
+
+#define NAV_APP_WAIT_TICK_US 200000u   /* waiting for a table: one turn (commands, link, watchdog) */
+#define NAV_APP_WAIT_RETRY_US 2000000u /* ... and the configured table tried again this often */
 
 #include <stdbool.h>
 #include <stdint.h>
@@ -74,6 +87,8 @@ typedef struct nav_app {
     mfns_nav_t nav;
     mfns_nav_output_t out;          /* the last cycle's */
     bool standby;                   /* SET_MODE standby: frames flow, the navigator does not run */
+    bool waiting_table;             /* no table validated yet: WAIT_TABLE (supervised start-up only) */
+    bool hk_now;                    /* housekeeping this cycle (a UTC step: nav_app_watch_clock) */
     nav_cams_t cams;
     nav_tlm_t tlm;
     nav_tc_in_t tc;
@@ -138,6 +153,10 @@ void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[],
 void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us);
 /* Telemetry mode now: STANDBY, or the navigator's ACQUIRE/TRACK. */
 uint8_t nav_app_tlm_mode(const nav_app_t *app);
+/* Once per cycle: a step of the board's UTC against the flight
+ * clock (nav_time_step_now) is said on stderr, sent as CLOCK_STEP and forces
+ * a housekeeping packet (the new time correlation) this cycle. */
+void nav_app_watch_clock(nav_app_t *app, uint32_t cycle, uint64_t t_us);
 /* The pose of x, y, z (mm) and 2-1-3 Euler roll, pitch, yaw (deg), as the
  * navigator's prior: --init-pose and SET_POSE_HINT share it. */
 mfns_nav_status_t nav_app_set_prior(nav_app_t *app, float x, float y, float z, float roll_deg, float pitch_deg,

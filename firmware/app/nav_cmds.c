@@ -114,6 +114,36 @@ static tc_status_t cmd_CAMERA_DISABLE(void *ctx, const tc_cmd_t *cmd, int32_t *a
     return camera_enable(ctx, cmd->u.camera, false, arg1);
 }
 
+/* TABLE_LOAD while waiting for a first table (nav_app.h WAIT_TABLE): no
+ * navigator and no camera yet, so nothing to compare or swap: the table is
+ * validated into the current slot, stored (so a restart runs it) and the
+ * start-up goes on with it (nav_app.c; it sends TABLE_LOADED). */
+static tc_status_t table_load_first(nav_app_t *app, const char *path, int32_t *arg1)
+{
+    mfns_caltable_t *t = &app->tables[app->table_cur];
+    uint32_t off = 0;
+    const mfns_caltable_status_t ts = mfns_caltable_load_file(path, app->table_buf, sizeof app->table_buf, t, &off);
+    if (ts != MFNS_CALTABLE_OK) {
+        fprintf(stderr, "mfns-nav: TABLE_LOAD %s refused: %s (at byte %u); still waiting for a table\n", path,
+                mfns_caltable_strerror(ts), off);
+        send_event(app, TLM_EVT_TABLE_REFUSED, TLM_SEV_ERROR, 0, (int32_t)ts, 0);
+        memset(t, 0, sizeof *t); /* housekeeping says no table (crc 0) */
+        return TC_E_TABLE;
+    }
+    if (app->state_dir != NULL) {
+        const int err = nav_tablestore_commit(app->state_dir, app->table_buf, t->size_bytes);
+        if (err != 0) {
+            fprintf(stderr, "mfns-nav: TABLE_LOAD %s runs but was not stored in %s: %s (a restart waits again)\n", path,
+                    app->state_dir, strerror(err));
+        }
+        send_event(app, TLM_EVT_TABLE_STORED, err == 0 ? TLM_SEV_INFO : TLM_SEV_ERROR, (uint8_t)(err == 0 ? 0 : 1), err,
+                   (int32_t)t->crc32);
+    }
+    app->waiting_table = false; /* the start-up goes on with this table */
+    *arg1 = (int32_t)t->crc32;
+    return TC_OK;
+}
+
 /* TABLE_LOAD: read and validate completely into the spare slot, then bind the
  * navigator to it (between cycles, so no cycle ever sees half a table). The
  * old table keeps running on any failure. */
@@ -121,6 +151,9 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     nav_app_t *app = ctx;
     const char *path = cmd->u.path;
+    if (app->waiting_table) {
+        return table_load_first(app, path, arg1);
+    }
     const mfns_caltable_t *cur = nav_app_table(app);
     const int spare = 1 - app->table_cur;
     mfns_caltable_t *nt = &app->tables[spare];
@@ -225,4 +258,29 @@ static tc_status_t cmd_auth(void *ctx, const tc_cmd_t *cmd)
 nav_cmd_ops_t nav_cmds_ops(struct nav_app *app)
 {
     return (nav_cmd_ops_t){app, k_cmds, sizeof k_cmds / sizeof k_cmds[0], cmd_event, cmd_auth};
+}
+
+/* Waiting for a table there is no navigator and no camera: NOOP,
+ * RESET_COUNTERS and TABLE_LOAD run, every other command is refused with
+ * TC_E_STATE (a SET_POSE_HINT would touch a navigator never initialised). */
+static tc_status_t cmd_waiting(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+{
+    switch (cmd->opcode) {
+    case TC_OP_NOOP:
+    case TC_OP_RESET_COUNTERS:
+    case TC_OP_TABLE_LOAD:
+        return k_cmds[cmd->opcode](ctx, cmd, arg1);
+    default:
+        return TC_E_STATE;
+    }
+}
+#define NAV_WAIT_ENTRY(NAME, opcode, arg_bytes, arg_count) [TC_OP_##NAME] = cmd_waiting,
+static const nav_cmd_fn_t k_cmds_waiting[] = {TC_OPCODE_LIST(NAV_WAIT_ENTRY)};
+#undef NAV_WAIT_ENTRY
+_Static_assert(sizeof k_cmds_waiting / sizeof k_cmds_waiting[0] == sizeof k_cmds / sizeof k_cmds[0],
+               "the waiting table covers every opcode");
+
+nav_cmd_ops_t nav_cmds_ops_waiting(struct nav_app *app)
+{
+    return (nav_cmd_ops_t){app, k_cmds_waiting, sizeof k_cmds_waiting / sizeof k_cmds_waiting[0], cmd_event, cmd_auth};
 }

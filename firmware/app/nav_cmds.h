@@ -30,5 +30,9 @@ struct nav_app; /* nav_app.h */
 /* The dispatch's view of the program: the command table and the event
  * hook, acting on app. */
 nav_cmd_ops_t nav_cmds_ops(struct nav_app *app);
+/* The same while waiting for a first table (nav_app.h): NOOP, RESET_COUNTERS
+ * and TABLE_LOAD (which then validates, stores and hands the table to the
+ * start-up); every other command refused with TC_E_STATE. */
+nav_cmd_ops_t nav_cmds_ops_waiting(struct nav_app *app);
 
 #endif /* MFNS_NAV_CMDS_H */

@@ -173,10 +173,12 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
         (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, (uint8_t)app->out.sol.reason,
                             nav_tlm_mode(before), nav_tlm_mode(app->out.next_mode)); /* failures counted in tlm */
     }
+    nav_app_watch_clock(app, cycle, t_us); /* a UTC step: reported, housekeeping below re-correlates */
     const uint64_t end = nav_app_now_us();
     mfns_cycle_stats_add(&app->stats, (uint32_t)(end - start), (uint32_t)(start - app->prev_start_us));
     app->prev_start_us = start;
-    if (t_us - app->last_hk_us >= NAV_LOOP_HK_PERIOD_US || cycle == 0) {
+    if (t_us - app->last_hk_us >= NAV_LOOP_HK_PERIOD_US || cycle == 0 || app->hk_now) {
+        app->hk_now = false;
         nav_loop_housekeeping(app, cycle, cycle + 1u, t_us);
         app->last_hk_us = t_us;
     }

@@ -29,6 +29,11 @@ static void notify(const nav_service_t *s, const char *msg)
     }
 }
 
+void nav_service_notify(nav_service_t *s, const char *msg)
+{
+    notify(s, msg);
+}
+
 void nav_service_ready(nav_service_t *s, const char *status)
 {
     char msg[256];

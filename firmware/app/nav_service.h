@@ -50,6 +50,8 @@ void nav_service_ready(nav_service_t *s, const char *status);
 /* WATCHDOG=1 when half the interval has passed since the last ping (now_us:
  * CLOCK_MONOTONIC). Called every cycle. */
 void nav_service_alive(nav_service_t *s, uint64_t now_us);
+/* Any notify message (e.g. "STATUS=..."; "READY=1\nSTATUS=..."). */
+void nav_service_notify(nav_service_t *s, const char *msg);
 /* STOPPING=1 with a status line. */
 void nav_service_stopping(nav_service_t *s, const char *status);
 /* mlockall; false (after one stderr line) when refused. */

@@ -45,10 +45,7 @@ nav_time_pair_t nav_time_pair_now(nav_time_t *t, uint64_t t_flight_us)
     if (clock_gettime(CLOCK_REALTIME, &rt) != 0 || clock_gettime(CLOCK_MONOTONIC, &mt) != 0) {
         return (nav_time_pair_t){0u, 0u, (uint8_t)TLM_TIMEQ_NONE};
     }
-    struct timex tx;
-    memset(&tx, 0, sizeof tx); /* modes 0: read only */
-    const int state = ntp_adjtime(&tx);
-    const bool synced = state != TIME_ERROR && state >= 0 && (tx.status & STA_UNSYNC) == 0;
+    const bool synced = nav_time_sync_now().synced;
     const int64_t utc_now_us = (int64_t)rt.tv_sec * (int64_t)MFNS_US_PER_S + (int64_t)rt.tv_nsec / 1000;
     const uint64_t mono_now_us = (uint64_t)mt.tv_sec * MFNS_US_PER_S + (uint64_t)mt.tv_nsec / 1000u;
     if (t->monotonic) {
@@ -65,4 +62,57 @@ nav_time_pair_t nav_time_pair_now(nav_time_t *t, uint64_t t_flight_us)
     /* the anchor's UTC for this recorded time, same quality as now */
     const nav_time_pair_t q = nav_time_correlate((int64_t)t_flight_us + t->offset_us, 0u, 0u, false, synced);
     return q.quality == TLM_TIMEQ_NONE ? p : q;
+}
+
+nav_time_sync_t nav_time_sync_from(int state, int status, long esterror_us, long offset)
+{
+    nav_time_sync_t r = {false, NAV_TIME_ERROR_UNKNOWN_US, 0};
+    if (state < 0 || state == TIME_ERROR || (status & STA_UNSYNC) != 0) {
+        return r;
+    }
+    r.synced = true;
+    r.error_us = esterror_us < 0 ? NAV_TIME_ERROR_UNKNOWN_US
+                 : (unsigned long)esterror_us >= (unsigned long)UINT32_MAX ? UINT32_MAX - 1u
+                                                                           : (uint32_t)esterror_us;
+    const long off_us = (status & STA_NANO) != 0 ? offset / 1000L : offset;
+    r.offset_us = off_us > (long)INT32_MAX ? INT32_MAX : off_us < -(long)INT32_MAX ? -INT32_MAX : (int32_t)off_us;
+    return r;
+}
+
+nav_time_sync_t nav_time_sync_now(void)
+{
+    struct timex tx;
+    memset(&tx, 0, sizeof tx); /* modes 0: read only */
+    const int state = ntp_adjtime(&tx);
+    return nav_time_sync_from(state, tx.status, tx.esterror, tx.offset);
+}
+
+int64_t nav_time_step_check(nav_time_t *t, int64_t utc_now_us, uint64_t mono_now_us)
+{
+    int64_t step = 0;
+    if (t->have_last && mono_now_us >= t->last_mono_us) {
+        const uint64_t d_mono = mono_now_us - t->last_mono_us;
+        const int64_t d_utc = utc_now_us - t->last_utc_us;
+        step = d_mono > (uint64_t)INT64_MAX ? 0 : d_utc - (int64_t)d_mono;
+        if (step > NAV_TIME_STEP_THRESHOLD_US || step < -NAV_TIME_STEP_THRESHOLD_US) {
+            t->n_steps++;
+        } else {
+            step = 0;
+        }
+    }
+    t->have_last = true;
+    t->last_utc_us = utc_now_us;
+    t->last_mono_us = mono_now_us;
+    return step;
+}
+
+int64_t nav_time_step_now(nav_time_t *t)
+{
+    struct timespec rt, mt;
+    if (clock_gettime(CLOCK_REALTIME, &rt) != 0 || clock_gettime(CLOCK_MONOTONIC, &mt) != 0) {
+        return 0;
+    }
+    const int64_t utc_now_us = (int64_t)rt.tv_sec * (int64_t)MFNS_US_PER_S + (int64_t)rt.tv_nsec / 1000;
+    const uint64_t mono_now_us = (uint64_t)mt.tv_sec * MFNS_US_PER_S + (uint64_t)mt.tv_nsec / 1000u;
+    return nav_time_step_check(t, utc_now_us, mono_now_us);
 }

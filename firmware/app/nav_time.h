@@ -45,12 +45,47 @@ typedef struct {
 nav_time_pair_t nav_time_correlate(int64_t utc_now_us, uint64_t mono_now_us, uint64_t t_flight_us, bool monotonic,
                                    bool synced);
 
-/* The correlation state of one run (caller-owned): a replay's anchor. */
+/* The kernel's clock discipline as adjtimex reports it, reduced to what
+ * housekeeping carries (hk_time_quality, hk_time_error_us, hk_time_offset_us). */
+#define NAV_TIME_ERROR_UNKNOWN_US UINT32_MAX /* not synchronised: no error bound */
+typedef struct {
+    bool synced;         /* not TIME_ERROR, STA_UNSYNC clear */
+    uint32_t error_us;   /* esterror, or NAV_TIME_ERROR_UNKNOWN_US when not synced */
+    int32_t offset_us;   /* the discipline's offset (us; STA_NANO: ns / 1000), 0 when not synced */
+} nav_time_sync_t;
+
+/* From adjtimex's return (state), status bits, esterror (us), offset (us, or
+ * ns when STA_NANO is set). Pure: unit-tested with made-up readings. */
+nav_time_sync_t nav_time_sync_from(int state, int status, long esterror_us, long offset);
+
+/* A clock step: CLOCK_REALTIME moved against CLOCK_MONOTONIC between two
+ * cycles by more than this (a time daemon's step, a manual date; a slew is
+ * at most 500 ppm, 0.05 ms in 100 ms, far below). */
+#define NAV_TIME_STEP_THRESHOLD_US 100000LL
+
+/* The correlation state of one run (caller-owned): a replay's anchor, and
+ * the last clock pair the step watch compares against. */
 typedef struct {
     bool monotonic;      /* the flight clock is CLOCK_MONOTONIC (else a recording's time) */
     bool anchored;       /* replay: the offset below is set */
     int64_t offset_us;   /* replay: UTC - recorded time, from the first pair */
+    bool have_last;      /* step watch: a previous reading */
+    int64_t last_utc_us; /* CLOCK_REALTIME at the previous reading */
+    uint64_t last_mono_us; /* CLOCK_MONOTONIC at the previous reading */
+    uint32_t n_steps;    /* steps seen since start */
 } nav_time_t;
+
+/* The step watch, from given readings (pure: unit-tested). Returns the step,
+ * us (UTC's advance minus the monotonic clock's), when its magnitude is above
+ * NAV_TIME_STEP_THRESHOLD_US (and counts it in n_steps), else 0. The first
+ * reading only primes it. */
+int64_t nav_time_step_check(nav_time_t *t, int64_t utc_now_us, uint64_t mono_now_us);
+
+/* The same from this board's clocks (called once per cycle; two clock reads). */
+int64_t nav_time_step_now(nav_time_t *t);
+
+/* The kernel's synchronisation state now (one adjtimex call). */
+nav_time_sync_t nav_time_sync_now(void);
 
 void nav_time_init(nav_time_t *t, bool monotonic);
 

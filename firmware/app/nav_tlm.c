@@ -430,6 +430,9 @@ void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uin
     h->utc_s = utc.utc_s;
     h->utc_us = utc.utc_us;
     h->time_quality = utc.quality;
+    const nav_time_sync_t sync = nav_time_sync_now(); /* the kernel's bound on that UTC */
+    h->time_error_us = sync.error_us;
+    h->time_offset_us = sync.offset_us;
     (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
     const uint32_t lost = atomic_load(&app->fixlog.lost_records);
     if (lost != app->fixlog_lost_reported && app->fixlog_lost_reported == 0u) {

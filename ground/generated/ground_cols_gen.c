@@ -119,6 +119,8 @@ void ground_row_fields(const tlm_packet_t *p, ground_row_t *r)
         ground_row_num(r, "tc_report_mac3", s->tc_report_mac3, 0);
         ground_row_num(r, "n_fixlog_errors", s->n_fixlog_errors, 0);
         ground_row_num(r, "n_storage_errors", s->n_storage_errors, 0);
+        ground_row_num(r, "time_error_us", s->time_error_us, 0);
+        ground_row_num(r, "time_offset_us", s->time_offset_us, 0);
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -90,6 +90,25 @@ def test_realtime_priority_and_locked_memory(board):
     RESULTS["locked_kb"] = locked_kb
 
 
+def test_runs_as_mfns_with_two_capabilities(board):
+    """Issue 44 item 2: the supervisor dropped root as the Debian unit does: user
+    mfns in video and dialout, CAP_SYS_NICE and CAP_IPC_LOCK only (ambient,
+    bounding set cut), no new privileges."""
+    t0 = board.shell(
+        "pid=$(pidof mfns-nav); echo ID=$(grep -E '^(Uid|Groups|CapEff|CapBnd|CapAmb|NoNewPrivs)'"
+        " /proc/$pid/status"
+        " | tr -s '\t ' ' ' | paste -sd';' -)"
+    )
+    m = board.wait_console(r"ID=(Uid:.*NoNewPrivs: \d)", 20, since=t0)
+    f = dict(kv.strip().split(":", 1) for kv in m.group(1).split(";"))
+    assert f["Uid"].split()[:2] == ["990", "990"], f
+    assert {"20", "44"} <= set(f["Groups"].split()), f
+    caps = (1 << 23) | (1 << 14)  # CAP_SYS_NICE, CAP_IPC_LOCK
+    assert int(f["CapEff"], 16) == caps and int(f["CapBnd"], 16) == caps and int(f["CapAmb"], 16) == caps, f
+    assert f["NoNewPrivs"].strip() == "1", f
+    RESULTS["service_user"] = f"mfns (uid 990), CapAmb 0x{caps:x}"
+
+
 def test_rendered_frames_through_vivids_loop(board):
     """vivid's output-to-capture loop carries the rendered LED frames byte for byte: before
     the service starts, mfns-frame-feed captures frames from each camera's capture node and
@@ -249,6 +268,35 @@ def test_missing_camera_runs_on_the_others(board):
     board.wait_event(
         "SELFTEST_DONE", RESTART_S, since=t1, where=lambda p: int(p.fields["arg0"]) & 0b111 == 0b111
     )  # camera z is back
+
+
+def test_first_run_waits_for_a_table(board):
+    """Issue 44 item 1: with no table (an empty state dir, the configured table
+    absent) the service stays up in WAIT_TABLE, says why (TABLE_REFUSED) and is
+    not restarted; the table appearing at its path starts navigation."""
+    conf = "/etc/mfns/mfns-nav.conf"
+    empty = "/var/lib/mfns/first-run"
+    t0 = board.shell(
+        f"cp {conf} /run/conf.keep && rm -rf {empty} && install -d -o mfns -g mfns -m 0700 {empty} && "
+        f"sed -i -e 's#^table = .*#table = {empty}/table.mfnstbl#'"
+        f" -e 's#^state_dir = .*#state_dir = {empty}#' {conf}"
+        " && kill -KILL $(pidof mfns-nav)"
+    )
+    ref = board.wait_event("TABLE_REFUSED", RESTART_S, since=t0)
+    board.wait_packet(
+        lambda p: p.kind == "housekeeping" and str(p.fields["mode"]) in ("5", "WAIT_TABLE"),
+        20,
+        since=ref.t,
+        what="housekeeping in WAIT_TABLE",
+    )
+    time.sleep(5.0)  # waiting, not restarting: no BOOT in these seconds
+    assert not [e for e in board.events(since=ref.t) if board.event_name(e) == "BOOT"]
+    t1 = board.shell(f"install -o mfns -g mfns -m 0640 /usr/share/mfns/table.mfnstbl {empty}/table.mfnstbl")
+    board.wait_event("TABLE_LOADED", 30, since=t1)
+    board.wait_packet(lambda p: p.kind == "nav", 30, since=t1, what="nav packet after the first table")
+    RESULTS["first_run_wait_to_nav_s"] = round(time.monotonic() - t1, 2)
+    t2 = board.shell(f"cp /run/conf.keep {conf} && kill -KILL $(pidof mfns-nav)")
+    board.wait_event("SELFTEST_DONE", RESTART_S, since=t2)
 
 
 def test_ground_csv_has_utc(board):

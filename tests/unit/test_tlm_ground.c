@@ -169,7 +169,7 @@ static void test_ground_run_on_recorded_stream(void **state)
     assert_non_null(strstr(text, ",utc_s,utc_us,time_quality,tc_epoch,tc_arsn_last,n_beacons_biased,frame_period_us,"
                                  "cycle_margin_us,workspace,tc_state,tc_nonce_hi,tc_nonce_lo,tc_report_spi,"
                                  "tc_report_mac0,tc_report_mac1,tc_report_mac2,tc_report_mac3,n_fixlog_errors,"
-                                 "n_storage_errors,utc,time_source,ground_utc\n"));
+                                 "n_storage_errors,time_error_us,time_offset_us,utc,time_source,ground_utc\n"));
     assert_non_null(strstr(text, ",NONE,"));
     assert_non_null(strstr(text, ",GROUND_RECEIPT,"));
     snprintf(path, sizeof path, "%s/nav.csv", out_dir);

@@ -30,6 +30,13 @@
  *     reaped whatever is left of its group is killed (systemd's
  *     KillMode=control-group, as far as a process group reaches: a
  *     descendant that left the group with setsid escapes it).
+ *   - user (--user NAME, issue 44): after what needs root (the real-time
+ *     policy, the memory-lock limit) the child drops root as mfns-nav.service
+ *     does: the bounding set cut to CAP_SYS_NICE and CAP_IPC_LOCK, NAME's
+ *     groups (setgroups: video, dialout), setgid, setuid with those two kept
+ *     as ambient capabilities (so mfns-nav's --mlock works), no new
+ *     privileges; any step refused and the child does not run (never as root
+ *     by accident). The notify socket is then owned by NAME.
  *
  * Usage: mfns-supervise [options] -- PROGRAM [ARGS...]
  * SIGTERM/SIGINT: the child gets SIGTERM, is waited for (SIGKILL after the
@@ -39,7 +46,10 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <grp.h>
+#include <linux/capability.h>
 #include <poll.h>
+#include <pwd.h>
 #include <sched.h>
 #include <signal.h>
 #include <stdbool.h>
@@ -47,7 +57,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -62,11 +74,17 @@
 #define BURST_RESTARTS 5              /* more restarts than this within BURST_WINDOW_MS ... */
 #define BURST_WINDOW_MS 30000
 #define BURST_PAUSE_MS 10000          /* ... and the next start waits this long */
+#define MAX_GROUPS 32                 /* supplementary groups of --user */
 
 typedef struct {
     long watchdog_ms, restart_ms, start_timeout_ms, kill_grace_ms;
     int rt_prio;
     const char *socket_path, *exit_file;
+    const char *user;                 /* --user: drop root to it in the child (NULL: stay root) */
+    uid_t uid;
+    gid_t gid;
+    gid_t groups[MAX_GROUPS];
+    int n_groups;
     char **argv;
 } opts_t;
 
@@ -88,7 +106,7 @@ static int64_t now_ms(void)
 static int usage(void)
 {
     fprintf(stderr, "usage: mfns-supervise [--watchdog-ms N] [--restart-ms N] [--start-timeout-ms N]\n"
-                    "         [--kill-grace-ms N] [--rt-prio N] --socket PATH --exit-file PATH -- PROGRAM [ARGS]\n");
+                    "         [--kill-grace-ms N] [--rt-prio N] [--user NAME] --socket PATH --exit-file PATH -- PROGRAM [ARGS]\n");
     return 2;
 }
 
@@ -124,6 +142,8 @@ static int parse(int argc, char **argv, opts_t *o)
             o->socket_path = v;
         } else if (strcmp(a, "--exit-file") == 0) {
             o->exit_file = v;
+        } else if (strcmp(a, "--user") == 0) {
+            o->user = v;
         } else if (strcmp(a, "--watchdog-ms") == 0) {
             ok = parse_ms(v, &o->watchdog_ms) && o->watchdog_ms > 0;
         } else if (strcmp(a, "--restart-ms") == 0) {
@@ -175,6 +195,72 @@ static int notify_socket(const char *path)
     return fd;
 }
 
+/* --user: NAME's ids and groups, once, before any child (getpwnam may read files). */
+static int resolve_user(opts_t *o)
+{
+    if (o->user == NULL) {
+        return 0;
+    }
+    const struct passwd *pw = getpwnam(o->user);
+    if (pw == NULL || pw->pw_uid == 0) {
+        fprintf(stderr, "mfns-supervise: --user %s: no such user (or root)\n", o->user);
+        return -1;
+    }
+    o->uid = pw->pw_uid;
+    o->gid = pw->pw_gid;
+    int n = MAX_GROUPS;
+    if (getgrouplist(o->user, pw->pw_gid, o->groups, &n) < 0) {
+        fprintf(stderr, "mfns-supervise: --user %s: more than %d groups\n", o->user, MAX_GROUPS);
+        return -1;
+    }
+    o->n_groups = n;
+    return 0;
+}
+
+/* In the child: root dropped as the unit does (header). 0, or -1 after a log line. */
+static int drop_root(const opts_t *o)
+{
+    if (o->user == NULL) {
+        return 0;
+    }
+    static const int keep[] = {CAP_SYS_NICE, CAP_IPC_LOCK};
+    for (int c = 0; c <= CAP_LAST_CAP; c++) { /* bounding set: the two only (needs CAP_SETPCAP: before setuid) */
+        if (c != CAP_SYS_NICE && c != CAP_IPC_LOCK && prctl(PR_CAPBSET_DROP, (unsigned long)c, 0UL, 0UL, 0UL) != 0 &&
+            errno != EINVAL) {
+            syslog(LOG_ERR, "--user: dropping capability %d from the bounding set: %m", c);
+            return -1;
+        }
+    }
+    if (setgroups((size_t)o->n_groups, o->groups) != 0 || setgid(o->gid) != 0) {
+        syslog(LOG_ERR, "--user %s: setgroups/setgid: %m", o->user);
+        return -1;
+    }
+    if (prctl(PR_SET_KEEPCAPS, 1UL, 0UL, 0UL, 0UL) != 0 || setuid(o->uid) != 0) {
+        syslog(LOG_ERR, "--user %s: setuid: %m", o->user);
+        return -1;
+    }
+    struct __user_cap_header_struct h = {.version = _LINUX_CAPABILITY_VERSION_3, .pid = 0};
+    struct __user_cap_data_struct d[_LINUX_CAPABILITY_U32S_3];
+    memset(d, 0, sizeof d);
+    _Static_assert(CAP_SYS_NICE < 32 && CAP_IPC_LOCK < 32, "both capabilities in the first word");
+    d[0].effective = d[0].permitted = d[0].inheritable = (1u << CAP_SYS_NICE) | (1u << CAP_IPC_LOCK);
+    if (syscall(SYS_capset, &h, d) != 0) {
+        syslog(LOG_ERR, "--user %s: capset: %m", o->user);
+        return -1;
+    }
+    for (size_t i = 0; i < sizeof keep / sizeof keep[0]; i++) {
+        if (prctl(PR_CAP_AMBIENT, (unsigned long)PR_CAP_AMBIENT_RAISE, (unsigned long)keep[i], 0UL, 0UL) != 0) {
+            syslog(LOG_ERR, "--user %s: ambient capability %d: %m", o->user, keep[i]);
+            return -1;
+        }
+    }
+    if (prctl(PR_SET_NO_NEW_PRIVS, 1UL, 0UL, 0UL, 0UL) != 0 || setuid(0) == 0) {
+        syslog(LOG_ERR, "--user %s: root not dropped", o->user); /* setuid(0) must fail now */
+        return -1;
+    }
+    return 0;
+}
+
 /* The child: real-time priority and the memory-lock limit where permitted,
  * the notify environment, stdout/stderr into the log pipe, then exec. */
 static void child_exec(const opts_t *o, int log_w)
@@ -189,6 +275,9 @@ static void child_exec(const opts_t *o, int log_w)
         if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0) {
             syslog(LOG_WARNING, "SCHED_FIFO %d refused (%m): running at normal priority", o->rt_prio);
         }
+    }
+    if (drop_root(o) != 0) {
+        _exit(127); /* never run the program as root when told not to */
     }
     char pid[24], usec[32];
     (void)snprintf(pid, sizeof pid, "%ld", (long)getpid());
@@ -423,8 +512,15 @@ int main(int argc, char **argv)
         syslog(LOG_ERR, "sigaction: %m");
         return 1;
     }
+    if (resolve_user(&o) != 0) {
+        return 2;
+    }
     const int nfd = notify_socket(o.socket_path);
     if (nfd < 0) {
+        return 1;
+    }
+    if (o.user != NULL && chown(o.socket_path, o.uid, o.gid) != 0) { /* the child, as --user, sends to it */
+        syslog(LOG_ERR, "notify socket %s: chown: %m", o.socket_path);
         return 1;
     }
     syslog(LOG_INFO, "supervising %s: watchdog %ld ms, restart after %ld ms, SCHED_FIFO %d", o.argv[0], o.watchdog_ms,

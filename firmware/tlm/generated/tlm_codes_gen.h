@@ -18,7 +18,8 @@ typedef enum {
     TLM_MODE_TRACK = 2, /* tracking from the last pose */
     TLM_MODE_SAFE = 3, /* safe mode */
     TLM_MODE_STANDBY = 4, /* commanded standby (SET_MODE) */
-    TLM_MODE_COUNT = 5
+    TLM_MODE_WAIT_TABLE = 5, /* no usable calibration table (none at the configured path, or refused: TABLE_REFUSED says why): the service stays up without navigating, sends housekeeping and takes commands, and starts navigating once a table validates (the configured path appearing, checked every 2 s, or TABLE_LOAD; docs/operations.md "First run") */
+    TLM_MODE_COUNT = 6
 } tlm_mode_t;
 
 /* camera */
@@ -87,7 +88,7 @@ typedef enum {
     TLM_EVT_BEACON_REJECTED = 28, /* subject beacon survey id (255 when above 254); arg0 leaky count of fixes it was gated out as an outlier or held out by FDE (+1) against used (-1), reported at 10; arg1 beacon survey id: a beacon moved or mis-surveyed beyond the outlier gate (sent once per episode) */
     TLM_EVT_BEACON_BIASED = 30, /* self-survey monitor (docs/self_survey.md): a beacon's mean whitened residual over at least 32 of its fixes is biased beyond chi-square(2) at 1e-4; it is down-weighted (its sigma_mm times 1 + the bias) until the map is refined: subject beacon survey id (255 when above 254); arg0 the bias's chi-square x100; arg1 beacon survey id (sent once) */
     TLM_EVT_CAMERA_BIASED = 31, /* self-survey monitor: the residuals of a camera's beacons shift together (mean over at least 32 fixes beyond chi-square(2) at 1e-4: a mount that moved?): subject camera; arg0 chi-square x100; arg1 0 (sent once) */
-    TLM_EVT_SELFTEST_TABLE = 34, /* start-up self-test of the calibration table (docs/operations.md): subject 0 pass, 1 fail (nothing validated: the program stops), 2 the stored table failed and the previous one runs; arg0 loader status of the table tried first (0 ok); arg1 CRC-32 of the table now running (0 none) */
+    TLM_EVT_SELFTEST_TABLE = 34, /* start-up self-test of the calibration table (docs/operations.md): subject 0 pass, 1 fail (nothing validated: run by hand the program stops; under a supervisor it waits in mode WAIT_TABLE), 2 the stored table failed and the previous one runs; arg0 loader status of the table tried first (0 ok); arg1 CRC-32 of the table now running (0 none) */
     TLM_EVT_SELFTEST_CAMERA = 35, /* start-up self-test of one camera: subject camera; arg0 0 opened and streamed a frame, 1 missing (no such device, identity not found, or open failed: the others run, it is re-opened like a lost one), 2 opened but no frame in time, 3 opened (a replay: not streamed ahead); arg1 driver error code (0 ok) */
     TLM_EVT_SELFTEST_UART = 36, /* start-up self-test of the telemetry link: subject 0 open, 1 not open (retried like a link lost later), 2 no link (a file or none); arg0 errno of the last attempt (0 ok); arg1 baud */
     TLM_EVT_SELFTEST_CLOCK = 37, /* start-up self-test of the clocks: subject 0 pass (monotonic advancing and UTC set), 1 fail; arg0 flags: bit0 UTC set (after 2024-01-01), bit1 UTC synchronised (kernel NTP/PTP status), bit2 CLOCK_MONOTONIC advancing; arg1 UTC, s since 1970 (low 31 bits) */
@@ -103,7 +104,8 @@ typedef enum {
     TLM_EVT_STORAGE_FAULT = 47, /* a write to the board's storage failed, counted in housekeeping (hk_n_storage_errors): subject 0 the uplink state (tc_epoch: the uplink then refuses every command but an authenticated re-synchronisation), 1 the fix log (records lost, hk_n_fixlog_errors), 2 the table store; arg0 errno; arg1 per subject: 0 uplink state missing, 1 damaged, 2 not writable; 1: records lost so far; 2: 0 (sent once per subject and kind of fault) */
     TLM_EVT_TC_UNPROTECTED = 48, /* commands are NOT authenticated (tc_insecure / --tc-insecure): subject 0; arg0 1 set by the command line, 2 by the configuration file; arg1 0 (a WARNING at start, repeated in hk_tc_state bit 1) */
     TLM_EVT_TABLE_ARG_OVERRIDDEN = 49, /* at start the table store's table runs and the given --table (or table key) is a different file: subject 0; arg0 that file's size in bytes (-1 unreadable); arg1 CRC-32 of the stored table that runs (TABLE_LOAD of the file switches to it) */
-    TLM_EVT_CODE_COUNT = 50
+    TLM_EVT_CLOCK_STEP = 50, /* the board's UTC (CLOCK_REALTIME) stepped against the flight clock (CLOCK_MONOTONIC) between two cycles by more than 100 ms (a time daemon's step, a manual set): the flight clock and every packet's time are unaffected, the next housekeeping's time correlation carries the new UTC: subject the time quality after the step (0 NONE, 1 SYSTEM, 2 SYNCED); arg0 the step, ms (UTC minus the flight clock's advance; saturated at +-2^31-1); arg1 steps seen since start */
+    TLM_EVT_CODE_COUNT = 51
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */

@@ -59,8 +59,8 @@ const char *tlm_nav_status_name(uint8_t code)
 
 const char *tlm_mode_name(uint8_t code)
 {
-    static const char *const k_name[5] = {MFNS_MSG("BOOT"), MFNS_MSG("ACQUIRE"), MFNS_MSG("TRACK"), MFNS_MSG("SAFE"), MFNS_MSG("STANDBY")};
-    return (code <= TLM_MODE_STANDBY) ? k_name[code] : "?";
+    static const char *const k_name[6] = {MFNS_MSG("BOOT"), MFNS_MSG("ACQUIRE"), MFNS_MSG("TRACK"), MFNS_MSG("SAFE"), MFNS_MSG("STANDBY"), MFNS_MSG("WAIT_TABLE")};
+    return (code <= TLM_MODE_WAIT_TABLE) ? k_name[code] : "?";
 }
 
 const char *tlm_camera_name(uint8_t code)
@@ -129,6 +129,7 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_STORAGE_FAULT: return MFNS_MSG("STORAGE_FAULT");
     case TLM_EVT_TC_UNPROTECTED: return MFNS_MSG("TC_UNPROTECTED");
     case TLM_EVT_TABLE_ARG_OVERRIDDEN: return MFNS_MSG("TABLE_ARG_OVERRIDDEN");
+    case TLM_EVT_CLOCK_STEP: return MFNS_MSG("CLOCK_STEP");
     default: return "?";
     }
 }
@@ -221,6 +222,8 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_mac2) == 4u, "hk
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.tc_report_mac3) == 4u, "hk.tc_report_mac3: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_fixlog_errors) == 4u, "hk.n_fixlog_errors: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.n_storage_errors) == 4u, "hk.n_storage_errors: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.time_error_us) == 4u, "hk.time_error_us: C type and wire width differ");
+_Static_assert(sizeof(((const tlm_packet_t *)0)->u.hk.time_offset_us) == 4u, "hk.time_offset_us: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.cycle) == 4u, "event.cycle: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.code) == 2u, "event.code: C type and wire width differ");
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.event.severity) == 1u, "event.severity: C type and wire width differ");
@@ -237,7 +240,7 @@ _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.uv_px[0]) == 4u, "fixo
 _Static_assert(sizeof(((const tlm_packet_t *)0)->u.fixobs.cov_px2[0]) == 4u, "fixobs.cov_px2: C type and wire width differ");
 _Static_assert(sizeof(tlm_packet_t) <= UINT16_MAX, "struct offsets of tlm_run_t are 16-bit");
 
-static const tlm_run_t k_runs[81] = {
+static const tlm_run_t k_runs[83] = {
     {offsetof(tlm_packet_t, u.nav.cycle), 0u, 12u}, /* nav.cycle */
     {offsetof(tlm_packet_t, u.nav.status), 4u, 9u}, /* nav.status */
     {offsetof(tlm_packet_t, u.nav.reason), 5u, 9u}, /* nav.reason */
@@ -305,6 +308,8 @@ static const tlm_run_t k_runs[81] = {
     {offsetof(tlm_packet_t, u.hk.tc_report_mac3), 126u, 12u}, /* hk.tc_report_mac3 */
     {offsetof(tlm_packet_t, u.hk.n_fixlog_errors), 130u, 12u}, /* hk.n_fixlog_errors */
     {offsetof(tlm_packet_t, u.hk.n_storage_errors), 134u, 12u}, /* hk.n_storage_errors */
+    {offsetof(tlm_packet_t, u.hk.time_error_us), 138u, 12u}, /* hk.time_error_us */
+    {offsetof(tlm_packet_t, u.hk.time_offset_us), 142u, 12u}, /* hk.time_offset_us */
     {offsetof(tlm_packet_t, u.event.cycle), 0u, 12u}, /* event.cycle */
     {offsetof(tlm_packet_t, u.event.code), 4u, 10u}, /* event.code */
     {offsetof(tlm_packet_t, u.event.severity), 6u, 9u}, /* event.severity */
@@ -320,7 +325,7 @@ static const tlm_run_t k_runs[81] = {
     {offsetof(tlm_packet_t, u.fixobs.uv_px[0]), 10u, 20u}, /* fixobs.uv_px */
     {offsetof(tlm_packet_t, u.fixobs.cov_px2[0]), 18u, 28u}, /* fixobs.cov_px2 */
 };
-static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 67u, 73u, 81u};
+static const uint8_t k_run_first[TLM_NUM_TYPES + 1] = {0u, 16u, 25u, 69u, 75u, 83u};
 
 void tlm_payload_pack(const tlm_packet_t *p, uint8_t *b)
 {
@@ -445,6 +450,8 @@ void tlm_payload_unpack(const uint8_t *b, tlm_packet_t *p)
         s->tc_report_mac3 = tlm_get_u32(b + 126);
         s->n_fixlog_errors = tlm_get_u32(b + 130);
         s->n_storage_errors = tlm_get_u32(b + 134);
+        s->time_error_us = tlm_get_u32(b + 138);
+        s->time_offset_us = get_i32(b + 142);
         break;
     }
     case TLM_TYPE_EVENT: {

@@ -28,7 +28,7 @@ typedef enum {
 
 #define TLM_NAV_PAYLOAD_LEN 168u
 #define TLM_CAMERA_PAYLOAD_LEN 22u
-#define TLM_HK_PAYLOAD_LEN 138u
+#define TLM_HK_PAYLOAD_LEN 146u
 #define TLM_EVENT_PAYLOAD_LEN 16u
 #define TLM_FIXOBS_PAYLOAD_LEN 30u
 #define TLM_MAX_PAYLOAD 168u
@@ -116,6 +116,8 @@ typedef struct {
     uint32_t tc_report_mac3; /* hk_tc_report_mac3: bytes 12..15 of the report MAC */
     uint32_t n_fixlog_errors; /* hk_n_fixlog_errors: fix-log records not written (write, flush or rotation failures: a full or read-only disk) */
     uint32_t n_storage_errors; /* hk_n_storage_errors: other writes to the board's storage that failed: uplink state, table store (STORAGE_FAULT, TABLE_STORED subject 1) */
+    uint32_t time_error_us; /* hk_time_error_us: the kernel's estimated error of the board's UTC (adjtimex esterror, us, as the time daemon sets it; 4294967295: unknown, the clock is not synchronised) [us] */
+    int32_t time_offset_us; /* hk_time_offset_us: the kernel clock discipline's current offset from its reference (adjtimex offset, us; 0 when not synchronised); with hk_time_quality SYNCED, the UTC is within hk_time_error_us */
 } tlm_hk_t;
 
 /* event: event (APID 0x104) */
