@@ -9,7 +9,13 @@ def _common(p) -> None:
     p.add_argument("out", metavar="OUT", help="output folder (created; files in it are overwritten)")
     p.add_argument("--rig", help="calibration-results JSON of the rig (default: the paper's, Tables 2-3)")
     w = p.add_argument_group("workspace (docs/planning.md)")
-    w.add_argument("--workspace", choices=("turntable", "module", "box", "truth"), default="turntable")
+    w.add_argument(
+        "--workspace",
+        choices=("turntable", "module", "box", "truth"),
+        default="turntable",
+        help="pose samples: the turntable's sweep, the demo module's interior, a --box, or the "
+        "poses of a --truth file (default turntable)",
+    )
     w.add_argument("--truth", metavar="CSV", help="truth: the poses of a truth.csv (mfns sim nav), in order")
     w.add_argument("--samples", type=int, default=200, help="pose samples (default 200)")
     w.add_argument("--yaw-start", type=float, default=0.0, help="turntable: first yaw, deg (default 0)")
