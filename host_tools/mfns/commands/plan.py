@@ -114,5 +114,13 @@ def register(subparsers) -> None:
         default=100,
         help="views the map analysis checks per restart for ambiguity (~50 ms each; 0: none) (default 100)",
     )
+    o.add_argument(
+        "--fly-frames",
+        type=int,
+        default=120,
+        help="fly check: frames per fresh module path flown by mfns sim nav + the flight program "
+        "before the plan is reported (0: no fly check) (default 120)",
+    )
+    o.add_argument("--fly-paths", type=int, default=2, help="fly check: fresh paths per layout (default 2)")
     o.set_defaults(func=run.run_optimize)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

@@ -16,7 +16,7 @@ from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY
 from . import optimize as opt
-from . import report, surfaces, workspace
+from . import report, surfaces, usable, workspace
 from .analyze import CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, analyze
 from .core import Core, require_map_size
 from .crlb import CalibrationError
@@ -29,7 +29,7 @@ MAX_ITERATIONS, MAX_RESTARTS = 10_000_000, 1000
 # new layout): the paper's map accuracy (docs/system.md Table 4).
 DEFAULT_SURVEY_SIGMA_MM = 0.3963
 # What plan.json's check (independent samples) and its baseline carry from the analysis.
-CHECK_KEYS = ("availability_pct", "one_call_views_pct", "four_in_view_pct", "samples")
+CHECK_KEYS = ("availability_pct", "one_call_views_pct", "four_in_view_pct", "samples", "flight_verdict")
 
 
 def _triple(text: str | None, name: str, n: int):
@@ -98,6 +98,10 @@ def _analyze_into(out, core, beacons, sigma_mm, ws, sigma_px, calib, info, title
     _prepare(out)
     report.write_samples(a, out / "samples.csv")
     s = report.summarize(a, info)
+    # what flies: the C core's solver and integrity on each sample's view (usable.py), over
+    # the map index of the planned box, with the survey sigma the map states
+    lo, hi = table_workspace(ws)
+    s["flight_verdict"] = usable.evaluate(core, beacons, sigma_mm, ws, sigma_px, lo, hi).summary()
     report.write_summary(s, out, title)
     report.write_plots(a, out, title)
     return s
@@ -207,6 +211,8 @@ def run_optimize(args) -> int:
     require_map_size(args.count)
     if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
         raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
+    if args.fly_frames < 0 or args.fly_paths < 1 or args.fly_frames > 10_000:
+        raise MfnsError("--fly-frames must be 0 to 10000, --fly-paths at least 1")
     if getattr(args, "cert_in_view", None) is not None and args.cert_in_view < 0:
         raise MfnsError("--cert-in-view must be >= 0")
     # bounded like the samples: beyond these a run is hours (a typo, not a plan)
@@ -228,7 +234,7 @@ def run_optimize(args) -> int:
     progress = not args.quiet
     t0 = time.perf_counter()
     prob = opt.build_problem(core, cand, ws, sigma_px, survey, progress)
-    res, res_ident, search_s = None, None, []
+    res, res_ident, res_use, search_s, restart_usable = None, None, None, [], []
     certify = not args.no_certify
     for r in range(args.restarts):
         rng = np.random.default_rng([args.seed, 7, r])
@@ -251,8 +257,14 @@ def run_optimize(args) -> int:
             if certify and args.ident_samples > 0
             else None
         )
-        if res is None or _preferred(one, one_ident, res, res_ident):
-            res, res_ident = one, one_ident
+        # the flight's verdict (usable.py: the C solver and integrity) on the samples decides
+        # first: beacons in view are not what flies (a blind camera, a PL over the limit)
+        one_use = usable.evaluate(
+            core, cand[one.chosen], np.full(args.count, survey), ws, sigma_px, *table_workspace(ws)
+        ).summary()
+        restart_usable.append(one_use["usable_pct"])
+        if res is None or _preferred(one, one_ident, res, res_ident, one_use, res_use):
+            res, res_ident, res_use = one, one_ident, one_use
     total_s = time.perf_counter() - t0
     out = Path(args.out)
     _prepare(out)
@@ -316,7 +328,13 @@ def run_optimize(args) -> int:
         if certify and args.ident_samples > 0:
             plan_doc["baseline"]["ident"] = ident_check(core, bpos, survey, ws, sigma_px, args.ident_samples)
     plan_doc["sigma_p99"] = {k: v["p99"] for k, v in s["sigma_percentiles_over_fix_samples"].items()}
+    plan_doc["restart_usable_pct"] = restart_usable
     (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
+    if args.fly_frames > 0 and args.workspace == "module":
+        plan_doc["fly"] = fly_check(args, core, out, sigma_px, progress)
+    elif args.fly_frames > 0:
+        print(f"  fly check: not run (flown paths are module paths; the workspace is {args.workspace})")
+        (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     rt = plan_doc["run_time_s"]
     _print(
         s,
@@ -337,6 +355,20 @@ def run_optimize(args) -> int:
             f"  baseline {args.baseline}: availability {b['availability_pct']} %, one-call views "
             f"{b['one_call_views_pct']} %, four in view {b['four_in_view_pct']} %"
         )
+    if args.baseline:
+        bv = plan_doc["baseline"]["flight_verdict"]
+        print(
+            f"  baseline by the flight's verdict: usable {bv['usable_pct']} %, "
+            f"one call {bv['one_call_pct']} %; "
+            f"cameras x/y/z see beacons in {bv['per_camera_seen_pct']} % of the samples"
+        )
+    for name, f in plan_doc.get("fly", {}).items():
+        print(
+            f"  flown ({name}, {f['paths']} fresh paths x {f['frames_per_path']} frames): "
+            f"usable {f['flown_usable_pct']} %"
+            f" (predicted on the flown poses {f['predicted_usable_pct']} %); first fix at cycle "
+            f"{f['first_fix_cycles']}; error 1-sigma {f['error_sigma']}"
+        )
     box = ",".join(f"{v:g}" for v in plan_doc[WORKSPACE_KEY])
     print(
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
@@ -345,9 +377,14 @@ def run_optimize(args) -> int:
     return 0
 
 
-def _preferred(a, a_ident, b, b_ident) -> bool:
-    """Layout a over b: more poses with a fix, then more certifiable in one call, then
-    fewer ambiguous views (the map analysis), then the rest of the objective."""
+def _preferred(a, a_ident, b, b_ident, a_use=None, b_use=None) -> bool:
+    """Layout a over b: more poses the flight would use (usable.py), then more of them
+    certifiable in one call, then more poses with a fix, then more certifiable in one call,
+    then fewer ambiguous views (the map analysis), then the rest of the objective."""
+    if a_use is not None and b_use is not None:
+        ua, ub = (a_use["usable_pct"], a_use["one_call_pct"]), (b_use["usable_pct"], b_use["one_call_pct"])
+        if ua != ub:
+            return ua > ub
     ka, kb = a.objective[:2], b.objective[:2]
     if ka != kb:
         return ka > kb
@@ -383,3 +420,63 @@ def _print(s: dict, head: str) -> None:
         f"in view mean {s['in_view_mean']}, min {s['in_view_min']}, per camera {s['per_camera_mean']}\n"
         f"  worst 1-sigma over fix samples: {worst or 'none (no fix)'}"
     )
+    v = s.get("flight_verdict")
+    if v:
+        why = ", ".join(f"{k} {c}" for k, c in v["unusable_reasons"].items()) or "none"
+        print(
+            f"  the flight's verdict (C solver + integrity, survey sigma as the map states): usable "
+            f"{v['usable_pct']} %, one call {v['one_call_pct']} % (not usable: {why}); cameras x/y/z see "
+            f"beacons in {v['per_camera_seen_pct']} % of the samples"
+        )
+
+
+# The fly check's paths: seeds of their own (never the planner's samples), one per path.
+FLY_SEED_BASE = 9100
+
+
+def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
+    """Fly the planned layout (and the baseline) on fresh module paths (fly.py): flown usable
+    % against the flight's verdict predicted on the very poses flown, per layout."""
+    from . import fly
+
+    layouts = {"planned": out / "beacons.csv"}
+    if args.baseline:
+        layouts["baseline"] = Path(args.baseline)
+    res = {}
+    for name, csv_path in layouts.items():
+        runs = []
+        pred_usable, n_pred = 0, 0
+        for k in range(args.fly_paths):
+            seed = FLY_SEED_BASE + 17 * args.seed + k
+            if progress:
+                print(f"  fly check: {name}, path {k + 1}/{args.fly_paths}", flush=True)
+            r = fly.fly(csv_path, out / "plan.json", out / "fly" / f"{name}-{k}", args.fly_frames, seed)
+            runs.append(r)
+            _, pos, sig = load_beacon_csv(csv_path)
+            ws_f = workspace.from_truth(Path(r["work"]) / "frames" / "truth.csv")
+            u = usable.evaluate(core, pos, sig, ws_f, sigma_px, *table_workspace(ws_f))
+            pred_usable += int(u.usable.sum())
+            n_pred += ws_f.n
+        frames = sum(r["frames"] for r in runs)
+        used = sum(r["usable"] for r in runs)
+        reasons: dict[str, int] = {}
+        for r in runs:
+            for k2, c in r["unusable_reasons"].items():
+                reasons[k2] = reasons.get(k2, 0) + c
+        sig_axes = [r["error_sigma"] for r in runs if r["error_sigma"]]
+        res[name] = {
+            "beacons": str(csv_path),
+            "paths": args.fly_paths,
+            "frames_per_path": args.fly_frames,
+            "flown_usable_pct": round(100.0 * used / frames, 2) if frames else None,
+            "predicted_usable_pct": round(100.0 * pred_usable / n_pred, 2) if n_pred else None,
+            "unusable_reasons": reasons,
+            "first_fix_cycles": [r["first_fix_cycle"] for r in runs],
+            "error_sigma": {
+                a: round(float(np.sqrt(np.mean([d[a] ** 2 for d in sig_axes]))), 4) for a in sig_axes[0]
+            }
+            if sig_axes
+            else None,
+            "seeds": [r["seed"] for r in runs],
+        }
+    return res
