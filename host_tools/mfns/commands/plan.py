@@ -123,4 +123,33 @@ def register(subparsers) -> None:
     )
     o.add_argument("--fly-paths", type=int, default=2, help="fly check: fresh paths per layout (default 2)")
     o.set_defaults(func=run.run_optimize)
+    z = sub.add_parser(
+        "size",
+        help="how many LEDs a module needs: the curve LED count -> usable and one-call rates",
+        description="For each --counts, plan a layout on the surfaces (greedy + annealing) and judge it "
+        "by the flight's own verdict (the C solver and integrity per view) on independent samples; "
+        "writes size.json, size.csv, size.png and beacons_<N>.csv into OUT, prints the smallest count "
+        "reaching the targets and what each smaller count cannot reach.",
+    )
+    _common(z)
+    z.add_argument("--surfaces", default="module", help="paper-frame, module or a JSON file (default module)")
+    z.add_argument(
+        "--counts", default="12,24,36,48,60,90", help="LED counts to try (default 12,24,36,48,60,90)"
+    )
+    z.add_argument("--target-usable", type=float, help="target usable rate, %% of workspace poses")
+    z.add_argument("--target-one-call", type=float, help="target one-call acquisition rate, %%")
+    z.add_argument(
+        "--grid", type=float, default=100.0, help="candidate grid spacing on the surfaces, mm (default 100)"
+    )
+    z.add_argument(
+        "--min-spacing", type=float, default=150.0, help="minimum beacon spacing, mm (default 150)"
+    )
+    z.add_argument(
+        "--keep-out", action="append", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box with no beacon (repeatable)"
+    )
+    z.add_argument("--iterations", type=int, default=1500, help="annealing moves per count (default 1500)")
+    z.add_argument(
+        "--margin", type=int, default=1, help="optimise for 4 + MARGIN beacons in view (default 1)"
+    )
+    z.set_defaults(func=run.run_size)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

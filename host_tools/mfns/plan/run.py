@@ -480,3 +480,137 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             "seeds": [r["seed"] for r in runs],
         }
     return res
+
+
+def _counts(text: str) -> list[int]:
+    try:
+        v = sorted({int(t) for t in text.split(",") if t.strip()})
+    except ValueError as exc:
+        raise MfnsError(f"--counts {text!r}: expected comma-separated beacon counts") from exc
+    if not v or v[0] < 4:
+        raise MfnsError(f"--counts {text!r}: every count must be at least 4")
+    require_map_size(v[-1])
+    return v
+
+
+def _pct(text: float | None, name: str) -> float | None:
+    if text is not None and not 0.0 < text <= 100.0:
+        raise MfnsError(f"--{name} {text}: expected a percentage in (0, 100]")
+    return text
+
+
+def run_size(args) -> int:
+    """`mfns plan size`: the LED count a module needs for a target usable rate and one-call
+    rate. For each count, a layout is planned (greedy + annealing, one restart) and judged by
+    the flight's verdict (usable.py) on independent samples: the curve count -> usable %,
+    one-call %; the answer is the smallest count that reaches both targets, and every count
+    that cannot is named with the target it misses."""
+    counts = _counts(args.counts)
+    t_use, t_one = _pct(args.target_usable, "target-usable"), _pct(args.target_one_call, "target-one-call")
+    if args.iterations < 0 or args.iterations > MAX_ITERATIONS:
+        raise MfnsError(f"--iterations must be 0 to {MAX_ITERATIONS}")
+    doc, cams = _load_rig(args)
+    core = Core(cams)
+    surf, keep = surfaces.load(args.surfaces)
+    keep += [surfaces.parse_box(k) for k in args.keep_out or []]
+    cand, _ = surfaces.candidates(surf, args.grid, keep)
+    survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM
+    if not survey >= 0:
+        raise MfnsError("--beacon-sigma must be >= 0")
+    sigma_px, _, _, _ = _noise(args, doc, core, np.zeros(0))
+    ws, ws_check = build_workspace(args, stream=0), build_workspace(args, stream=1)
+    progress = not args.quiet
+    t0 = time.perf_counter()
+    prob = opt.build_problem(core, cand, ws, sigma_px, survey, progress)
+    out = Path(args.out)
+    _prepare(out)
+    rows = []
+    for n in counts:
+        if n > len(cand):
+            raise MfnsError(
+                f"{n} beacons: only {len(cand)} candidates on {args.surfaces} (try a finer --grid)"
+            )
+        rng = np.random.default_rng([args.seed, 11, n])
+        res = opt.optimize(prob, n, args.min_spacing, args.iterations, rng, margin=args.margin)
+        layout = cand[res.chosen]
+        v = usable.evaluate(core, layout, np.full(n, survey), ws_check, sigma_px, *table_workspace(ws_check))
+        s = v.summary()
+        write_beacons(out / f"beacons_{n}.csv", layout, survey if survey > 0 else DEFAULT_SURVEY_SIGMA_MM)
+        misses = []
+        if t_use is not None and s["usable_pct"] < t_use:
+            misses.append(f"usable {s['usable_pct']} % < {t_use:g} %")
+        if t_one is not None and s["one_call_pct"] < t_one:
+            misses.append(f"one call {s['one_call_pct']} % < {t_one:g} %")
+        rows.append({"count": n, **s, "misses": misses})
+        if progress:
+            print(f"  {n} beacons: usable {s['usable_pct']} %, one call {s['one_call_pct']} %", flush=True)
+    enough = [r["count"] for r in rows if not r["misses"]]
+    doc_out = {
+        "surfaces": args.surfaces,
+        "workspace": ws_check.description,
+        "samples": ws_check.n,
+        "survey_sigma_mm": survey,
+        "pixel_sigma_px": sigma_px,
+        "target_usable_pct": t_use,
+        "target_one_call_pct": t_one,
+        "verdict": "the flight's own (C solver + integrity per view, mfns.plan.usable); the one-call "
+        f"rate counts usable views with >= {CERT_MIN_IN_VIEW} beacons in view",
+        "curve": rows,
+        "answer": enough[0] if enough else None,
+        "run_time_s": round(time.perf_counter() - t0, 1),
+    }
+    (out / "size.json").write_text(json.dumps(doc_out, indent=2) + "\n")
+    with open(out / "size.csv", "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(["count", "usable_pct", "one_call_pct", "per_camera_seen_pct", "misses"])
+        for r in rows:
+            w.writerow(
+                [
+                    r["count"],
+                    r["usable_pct"],
+                    r["one_call_pct"],
+                    r["per_camera_seen_pct"],
+                    "; ".join(r["misses"]),
+                ]
+            )
+    _size_plot(rows, t_use, t_one, out / "size.png", args.surfaces)
+    for r in rows:
+        print(
+            f"{r['count']:4d} LEDs: usable {r['usable_pct']:6.2f} %, one call {r['one_call_pct']:6.2f} %"
+            + (f"  cannot reach: {', '.join(r['misses'])}" if r["misses"] else "")
+        )
+    if t_use is not None or t_one is not None:
+        targets = " and ".join(
+            t
+            for t in (f"usable >= {t_use:g} %" if t_use else "", f"one call >= {t_one:g} %" if t_one else "")
+            if t
+        )
+        if enough:
+            print(f"plan size: {enough[0]} LEDs reach {targets} (of the counts tried)")
+        else:
+            print(f"plan size: no count tried reaches {targets}: try more LEDs (--counts)")
+    print(f"wrote {out / 'size.json'}, {out / 'size.csv'}, {out / 'size.png'}")
+    return 0
+
+
+def _size_plot(rows, t_use, t_one, path: Path, surfaces_name: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = [r["count"] for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(n, [r["usable_pct"] for r in rows], "o-", label="usable (flight verdict)")
+    ax.plot(n, [r["one_call_pct"] for r in rows], "s-", label="usable in one call")
+    for t, st, lab in ((t_use, "--", "target usable"), (t_one, ":", "target one call")):
+        if t is not None:
+            ax.axhline(t, color="k", ls=st, lw=0.9, label=lab)
+    ax.set_xlabel("LEDs")
+    ax.set_ylabel("% of workspace poses")
+    ax.set_title(f"LED count -> rates ({surfaces_name})")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
