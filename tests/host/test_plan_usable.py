@@ -83,3 +83,25 @@ def test_a_blind_camera_costs_usable_poses(core, module_map):
     moved[:, 2] = -np.abs(moved[:, 2])
     other = usable.evaluate(core, moved, sig, ws, 0.05, *table_workspace(ws))
     assert other.usable.sum() < base.usable.sum()
+
+
+def test_polish_climbs_on_the_flights_verdict_and_keeps_the_spacing(core):
+    """usable.polish: the samples the flight would use never decrease, the result is judged
+    again from scratch to the count it reports, and every beacon keeps the min spacing."""
+    from mfns.plan import optimize as opt
+    from mfns.plan import surfaces
+
+    surf, keep = surfaces.load("module")
+    cand, _ = surfaces.candidates(surf, 200.0, keep)
+    ws = _ws(60, 11)
+    prob = opt.build_problem(core, cand, ws, 0.0155, 0.4)
+    res = opt.optimize(prob, 16, 150.0, 100, np.random.default_rng(1), margin=1)
+    lo, hi = table_workspace(ws)
+    pol = usable.polish(core, prob, res.chosen, 0.4, 0.0155, 150, 150.0, np.random.default_rng(2), lo, hi)
+    assert pol.usable_after >= pol.usable_before
+    assert pol.moves_kept > 0
+    again = usable.evaluate(core, cand[pol.chosen], np.full(16, 0.4), ws, 0.0155, lo, hi)
+    assert int(again.usable.sum()) == pol.usable_after
+    p = cand[pol.chosen]
+    d = np.linalg.norm(p[:, None] - p[None], axis=2) + np.eye(len(p)) * 1e9
+    assert d.min() >= 150.0 - 1e-6 and len(set(pol.chosen)) == 16

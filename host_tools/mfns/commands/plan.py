@@ -115,6 +115,13 @@ def register(subparsers) -> None:
         help="views the map analysis checks per restart for ambiguity (~50 ms each; 0: none) (default 100)",
     )
     o.add_argument(
+        "--polish",
+        type=int,
+        default=2000,
+        help="moves of the final hill climb on the flight's own verdict (C solver + integrity per "
+        "view: usable, then usable in one call), 0: none (default 2000)",
+    )
+    o.add_argument(
         "--fly-frames",
         type=int,
         default=120,

@@ -211,6 +211,8 @@ def run_optimize(args) -> int:
     require_map_size(args.count)
     if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
         raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
+    if not 0 <= args.polish <= MAX_ITERATIONS:
+        raise MfnsError(f"--polish must be 0 to {MAX_ITERATIONS}")
     if args.fly_frames < 0 or args.fly_paths < 1 or args.fly_frames > 10_000:
         raise MfnsError("--fly-frames must be 0 to 10000, --fly-paths at least 1")
     if getattr(args, "cert_in_view", None) is not None and args.cert_in_view < 0:
@@ -265,6 +267,21 @@ def run_optimize(args) -> int:
         restart_usable.append(one_use["usable_pct"])
         if res is None or _preferred(one, one_ident, res, res_ident, one_use, res_use):
             res, res_ident, res_use = one, one_ident, one_use
+    pol = None
+    if args.polish > 0:
+        # the flight's verdict as the objective (usable.polish): the C core judges each move
+        pol = usable.polish(
+            core,
+            prob,
+            res.chosen,
+            survey,
+            sigma_px,
+            args.polish,
+            args.min_spacing,
+            np.random.default_rng([args.seed, 13]),
+            *table_workspace(ws),
+        )
+        res.chosen = pol.chosen
     total_s = time.perf_counter() - t0
     out = Path(args.out)
     _prepare(out)
@@ -329,6 +346,15 @@ def run_optimize(args) -> int:
             plan_doc["baseline"]["ident"] = ident_check(core, bpos, survey, ws, sigma_px, args.ident_samples)
     plan_doc["sigma_p99"] = {k: v["p99"] for k, v in s["sigma_percentiles_over_fix_samples"].items()}
     plan_doc["restart_usable_pct"] = restart_usable
+    if pol is not None:
+        plan_doc["polish"] = {
+            "what": "hill climb on the flight's verdict (mfns.plan.usable.polish), the samples optimised on",
+            "usable": f"{pol.usable_before} -> {pol.usable_after} of {ws.n}",
+            "one_call": f"{pol.one_call_before} -> {pol.one_call_after} of {ws.n}",
+            "moves_tried": pol.moves_tried,
+            "moves_kept": pol.moves_kept,
+            "seconds": round(pol.seconds, 1),
+        }
     (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     if args.fly_frames > 0 and args.workspace == "module":
         plan_doc["fly"] = fly_check(args, core, out, sigma_px, progress)
@@ -354,6 +380,12 @@ def run_optimize(args) -> int:
         print(
             f"  baseline {args.baseline}: availability {b['availability_pct']} %, one-call views "
             f"{b['one_call_views_pct']} %, four in view {b['four_in_view_pct']} %"
+        )
+    if "polish" in plan_doc:
+        pd = plan_doc["polish"]
+        print(
+            f"  polish on the flight's verdict: usable {pd['usable']}, one call {pd['one_call']} "
+            f"({pd['moves_kept']}/{pd['moves_tried']} moves kept, {pd['seconds']} s)"
         )
     if args.baseline:
         bv = plan_doc["baseline"]["flight_verdict"]

@@ -104,3 +104,87 @@ def evaluate(core: Core, beacons_w, sigma_mm, ws: Workspace, sigma_px: float, lo
         pl_p[i], pl_a[i] = f.pl_pos_mm, f.pl_att_deg
         cams[i] = counts
     return Usable(usable, reason, pl_p, pl_a, cams)
+
+
+@dataclass
+class PolishResult:
+    chosen: list[int]
+    usable_before: int  # poses of the samples the flight would use, before and after
+    usable_after: int
+    one_call_before: int
+    one_call_after: int
+    moves_tried: int
+    moves_kept: int
+    seconds: float
+
+
+# polish: share of moves to a candidate within near_mm of the moved beacon (else anywhere)
+POLISH_NEAR_PROB = 0.5
+POLISH_NEAR_MM = 300.0
+
+
+def polish(core: Core, prob, chosen: list[int], sigma_mm: float, sigma_px: float, moves: int,
+           min_spacing_mm: float, rng: np.random.Generator, lo, hi) -> PolishResult:  # fmt: skip
+    """Hill-climb the layout on the flight's own verdict (issue 43): move one beacon at a time
+    to a feasible candidate (min spacing kept; half the moves nearby) and keep the move when
+    the samples the flight would use -- then those usable in one call -- do not decrease.
+
+    The optimiser's objective (optimize.py) counts beacons in view and the Cramer-Rao score,
+    which a numpy sum makes fast; it cannot see a protection level over the alert limit or a
+    camera left blind, which is what the flight refuses. Only the poses that see the old or
+    the new candidate (prob.pair_p, the C core's visibility) are judged again per move, by
+    the C core (mfns_plan_fix). The map index the frames are made with is built once: the
+    planner's beacons have no emission cone (every beacon emits toward every pose), so the
+    index's per-beacon geometry does not depend on where the beacon is."""
+    import time
+
+    from .optimize import _Spacing
+
+    t0 = time.perf_counter()
+    chosen = list(chosen)
+    cand, ws = prob.cand, prob.ws
+    model = UsableModel(core, cand[chosen], np.full(len(chosen), sigma_mm), lo, hi, sigma_px)
+    use = np.zeros(ws.n, dtype=bool)
+    one = np.zeros(ws.n, dtype=bool)
+
+    def judge(poses) -> tuple[np.ndarray, np.ndarray]:
+        u, o = np.zeros(len(poses), dtype=bool), np.zeros(len(poses), dtype=bool)
+        for i, p in enumerate(poses):
+            f, counts = model.judge(ws.C_w_b[p], ws.r_bw_b(p))
+            u[i] = bool(f.usable)
+            o[i] = u[i] and int(counts.sum()) >= CERT_MIN_IN_VIEW
+        return u, o
+
+    use[:], one[:] = judge(np.arange(ws.n))
+    before = (int(use.sum()), int(one.sum()))
+    spacing = _Spacing(cand, min_spacing_mm, POLISH_NEAR_MM)
+    kept = 0
+    for _ in range(moves):
+        j = int(rng.integers(len(chosen)))
+        old = chosen[j]
+        ok = spacing.feasible(chosen, skip=j)
+        if rng.random() < POLISH_NEAR_PROB and (ok & spacing.near[old]).any():
+            ok &= spacing.near[old]
+        if not ok.any():
+            continue
+        new = int(rng.choice(np.flatnonzero(ok)))
+        poses = np.union1d(
+            prob.pair_p[prob.start[old] : prob.start[old + 1]],
+            prob.pair_p[prob.start[new] : prob.start[new + 1]],
+        )
+        model.bmap.beacon[j].p_w.x, model.bmap.beacon[j].p_w.y, model.bmap.beacon[j].p_w.z = map(
+            float, cand[new]
+        )
+        u, o = judge(poses)
+        d_use = int(u.sum()) - int(use[poses].sum())
+        d_one = int(o.sum()) - int(one[poses].sum())
+        if d_use > 0 or (d_use == 0 and d_one >= 0):
+            chosen[j] = new
+            use[poses], one[poses] = u, o
+            kept += 1
+        else:
+            p = cand[old]
+            model.bmap.beacon[j].p_w.x, model.bmap.beacon[j].p_w.y, model.bmap.beacon[j].p_w.z = map(float, p)
+    return PolishResult(
+        chosen, before[0], int(use.sum()), before[1], int(one.sum()), moves, kept, time.perf_counter() - t0
+    )
