@@ -50,3 +50,24 @@ def test_optimize_refuses_bad_fly_arguments(tmp_path, capsys):
     for bad in (["--fly-frames", "-1"], ["--fly-paths", "0"]):
         assert main(["plan", "optimize", str(tmp_path / "o"), "--count", "6", *bad]) == 2
         assert "--fly-frames" in capsys.readouterr().err
+
+
+def test_a_module_plan_is_flown_before_it_is_reported(tmp_path, capsys, core_lib):
+    """Issue 43: the planned layout is flown on a fresh module path (mfns sim nav, its table,
+    the flight program, the ground station) and plan.json gives flown against predicted."""
+    from mfns.programs import program_path
+
+    if not core_lib.exists() or program_path("mfns-nav") is None:
+        pytest.skip("make lib flight first")
+    out = tmp_path / "p"
+    argv = ["plan", "optimize", str(out), "--surfaces", "module", "--count", "30", "--grid", "200"]
+    argv += [*SMALL, "--no-calib-sigma", "--restarts", "1", "--polish", "30", "--ident-samples", "0"]
+    assert main([*argv, "--fly-frames", "8", "--fly-paths", "1"]) == 0
+    text = capsys.readouterr().out
+    plan = json.loads((out / "plan.json").read_text())
+    f = plan["fly"]["planned"]
+    assert f["paths"] == 1 and f["frames_per_path"] == 8
+    assert 0.0 <= f["flown_usable_pct"] <= 100.0 and 0.0 <= f["predicted_usable_pct"] <= 100.0
+    assert "flown (planned, 1 fresh paths x 8 frames)" in text
+    assert "polish on the flight's verdict" in text
+    assert (out / "fly" / "planned-0" / "ground" / "nav.csv").is_file()

@@ -358,9 +358,9 @@ def run_optimize(args) -> int:
     (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     if args.fly_frames > 0 and args.workspace == "module":
         plan_doc["fly"] = fly_check(args, core, out, sigma_px, progress)
+        (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     elif args.fly_frames > 0:
         print(f"  fly check: not run (flown paths are module paths; the workspace is {args.workspace})")
-        (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     rt = plan_doc["run_time_s"]
     _print(
         s,
