@@ -9,7 +9,18 @@ import pytest
 
 from mfns.cli import main
 
-SMALL = ["--workspace", "module", "--samples", "40", "--iterations", "50", "--pixel-sigma", "0.0155"]
+SMALL = [
+    "--workspace",
+    "module",
+    "--samples",
+    "40",
+    "--iterations",
+    "50",
+    "--pixel-sigma",
+    "0.0155",
+    "--polish",
+    "20",
+]
 
 
 def test_size_curve_and_the_targets_a_count_cannot_reach(tmp_path, capsys, core_lib):

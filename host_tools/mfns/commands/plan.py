@@ -158,5 +158,12 @@ def register(subparsers) -> None:
     z.add_argument(
         "--margin", type=int, default=1, help="optimise for 4 + MARGIN beacons in view (default 1)"
     )
+    z.add_argument(
+        "--polish",
+        type=int,
+        default=1000,
+        help="moves per count of the hill climb on the flight's own verdict (as plan optimize), "
+        "0: none (default 1000)",
+    )
     z.set_defaults(func=run.run_size)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

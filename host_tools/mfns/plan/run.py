@@ -539,8 +539,8 @@ def run_size(args) -> int:
     that cannot is named with the target it misses."""
     counts = _counts(args.counts)
     t_use, t_one = _pct(args.target_usable, "target-usable"), _pct(args.target_one_call, "target-one-call")
-    if args.iterations < 0 or args.iterations > MAX_ITERATIONS:
-        raise MfnsError(f"--iterations must be 0 to {MAX_ITERATIONS}")
+    if not (0 <= args.iterations <= MAX_ITERATIONS and 0 <= args.polish <= MAX_ITERATIONS):
+        raise MfnsError(f"--iterations and --polish must be 0 to {MAX_ITERATIONS}")
     doc, cams = _load_rig(args)
     core = Core(cams)
     surf, keep = surfaces.load(args.surfaces)
@@ -564,7 +564,13 @@ def run_size(args) -> int:
             )
         rng = np.random.default_rng([args.seed, 11, n])
         res = opt.optimize(prob, n, args.min_spacing, args.iterations, rng, margin=args.margin)
-        layout = cand[res.chosen]
+        chosen = res.chosen
+        if args.polish > 0:  # the flight's verdict as the objective, as plan optimize does
+            lo_hi = table_workspace(ws)
+            chosen = usable.polish(
+                core, prob, chosen, survey, sigma_px, args.polish, args.min_spacing, rng, *lo_hi
+            ).chosen
+        layout = cand[chosen]
         v = usable.evaluate(core, layout, np.full(n, survey), ws_check, sigma_px, *table_workspace(ws_check))
         s = v.summary()
         write_beacons(out / f"beacons_{n}.csv", layout, survey if survey > 0 else DEFAULT_SURVEY_SIGMA_MM)
