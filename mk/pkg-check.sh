@@ -63,7 +63,7 @@ cd "$work" || exit 1
 mkdir run && cd run || exit 1
 check "mfns --help" "$v/mfns" --help
 for c in calib compare mc plan report sim table "sim calib" "sim nav" "table build" "table show" \
-         "plan analyze" "plan optimize"; do
+         "plan analyze" "plan optimize" "plan size"; do
   # shellcheck disable=SC2086
   check "mfns $c --help" "$v/mfns" $c --help
 done
