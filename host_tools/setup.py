@@ -8,6 +8,11 @@ pyproject.toml holds the metadata; this file adds only what setuptools cannot de
   (ground/yamcs/etc) into mfns/data/yamcs, so `mfns.ground_yamcs` needs no repository.
   An editable install (`make venv`) builds nothing: the binding then loads the tree's build
   (`make lib`), see mfns/binding.py `lib_path`.
+- build_py also builds the host (host-sim) flight and ground programs into mfns/bin/
+  (`make -C <repo> pkg-programs`, mk/pkg.mk: the Makefile's own mfns-nav and mfns-ground
+  targets with BUILD in a temporary folder), run by the console scripts `mfns-nav` and
+  `mfns-ground` (mfns/programs.py), as the cmake and ninja wheels carry their binaries: a
+  pip install flies sim -> table -> fly -> report without the repository.
 - The wheel is tagged py3-none-<platform>: it holds a native library loaded with ctypes,
   not a CPython extension, so any Python >= 3.11 on the same platform can use it.
 - Nothing is written into the tree: setuptools' build folder and the egg-info go to a
@@ -76,6 +81,28 @@ class BuildPyWithCore(build_py):
             subprocess.run(cmd, check=True)
         except (OSError, subprocess.CalledProcessError) as e:
             raise SystemExit(f"mfns: building {LIB_NAME} failed ({e}); needs GNU make and gcc") from e
+        bin_dir = Path(self.build_lib).resolve() / "mfns" / "bin"
+        objs = Path(_tmp) / "programs"
+        cmd = [
+            "make",
+            "-s",
+            "--no-print-directory",
+            "-C",
+            str(REPO),
+            f"-j{min(os.cpu_count() or 1, 4)}",
+            "pkg-programs",
+            f"PKG_BIN_DIR={bin_dir}",
+            f"PKG_BUILD_DIR={objs}",
+            f"PYTHON={sys.executable}",
+        ]
+        self.announce(" ".join(cmd), level=2)
+        try:
+            subprocess.run(cmd, check=True)
+        except (OSError, subprocess.CalledProcessError) as e:
+            raise SystemExit(
+                f"mfns: building the flight and ground programs failed ({e}); needs the flight "
+                "build's packages (mk/deps.sh)"
+            ) from e
         etc = Path(self.build_lib) / "mfns" / "data" / "yamcs"
         shutil.copytree(YAMCS_ETC, etc, dirs_exist_ok=True)
         # the operator's view (mfns.ground_yamcs_view) serves this page

@@ -9,15 +9,16 @@
 #      (its default flight solver: the wheel's library), `mfns sim calib` + `mfns calib`,
 #      `mfns sim nav` + `mfns report` (+ its refusal of another run's truth), `mfns compare`
 #      (meaning column filled), `mfns plan`, mfns.ground_yamcs' run folder and the
-#      operator view's page (mfns.ground_yamcs_view).
-# The flight programs (build/host-sim/bin, `make flight`) turn the simulated frames into the
-# nav.csv the report reads: they are the input's maker, not part of the package.
+#      operator view's page (mfns.ground_yamcs_view);
+#   4. a user's whole chain from the wheel alone (issue 43): the wheel's own flight and ground
+#      programs (console scripts mfns-nav, mfns-ground: mfns/bin, built by the Makefile's
+#      targets during the wheel build) fly a simulated module run (sim -> table -> fly ->
+#      ground -> report) with small frame counts, then `mfns plan analyze` on its map.
 # Prints the wheel's size and the install time.
 set -uo pipefail
 py=$1
 table=$(cd "$(dirname "$2")" && pwd)/$(basename "$2")
 repo=$(pwd)
-bin=$repo/build/host-sim/bin
 wheels=build/wheels
 lock=build/pkg-runtime.txt
 awk '/^# --- runtime/{s=1;next} /^# --- build tools/{s=2;next} /^# ---/{s=0} s && /^[A-Za-z]/' \
@@ -48,6 +49,8 @@ after=$(git status --porcelain --ignored host_tools | grep -v __pycache__)
 check "no build debris in host_tools/" test "$before" = "$after"
 whl=$(ls "$work"/dist/mfns-*.whl 2>/dev/null | head -n 1)
 check "the wheel carries mfns/libmfns_core.so" sh -c "unzip -l '$whl' | grep -q ' mfns/libmfns_core.so$'"
+check "the wheel carries mfns/bin/mfns-nav and mfns-ground" sh -c "
+  unzip -l '$whl' | grep -q ' mfns/bin/mfns-nav$' && unzip -l '$whl' | grep -q ' mfns/bin/mfns-ground$'"
 
 "$py" -m venv "$work/venv"
 v=$work/venv/bin
@@ -60,10 +63,16 @@ cd "$work" || exit 1
 mkdir run && cd run || exit 1
 check "mfns --help" "$v/mfns" --help
 for c in calib compare mc plan report sim table "sim calib" "sim nav" "table build" "table show" \
-         "plan analyze" "plan optimize"; do
+         "plan analyze" "plan optimize" "plan size"; do
   # shellcheck disable=SC2086
   check "mfns $c --help" "$v/mfns" $c --help
 done
+check "mfns-nav --help, mfns-ground --help (the wheel's programs)" sh -c "
+  '$v/mfns-nav' --help >/dev/null && '$v/mfns-ground' --help >/dev/null"
+check "the programs are the package's own" "$v/python" -c "
+import mfns.programs as p
+for n in p.PROGRAMS:
+    assert p.program_path(n) == p.PACKAGE_BIN / n, p.program_path(n)"
 check "the core library is the package's own" "$v/python" -c \
   "import mfns.binding as b, pathlib; p = b.lib_path(); assert p == b.PACKAGE_LIB and p.is_file(), p; b.load()"
 data=$("$v/python" -c "import mfns.data, pathlib; print(pathlib.Path(mfns.data.__file__).parent)")
@@ -83,8 +92,8 @@ mkdir -p "$d"
 check "input: mfns-nav + mfns-ground on the frames" sh -c "
   printf '{\"integrity\": {\"monitor_only\": 1}}' > $d/bench.json &&
   '$v/mfns' table build demo/turntable/frames/calib.json demo/turntable/frames/beacons.csv -o $d/table.mfnstbl -q --settings $d/bench.json &&
-  '$bin/mfns-nav' --table $d/table.mfnstbl --replay demo/turntable/frames --tlm-file $d/telemetry.bin 2>$d/nav.log &&
-  '$bin/mfns-ground' --file $d/telemetry.bin --out $d/ground -q"
+  '$v/mfns-nav' --table $d/table.mfnstbl --replay demo/turntable/frames --tlm-file $d/telemetry.bin 2>$d/nav.log &&
+  '$v/mfns-ground' --file $d/telemetry.bin --out $d/ground -q"
 check "mfns report" "$v/mfns" report "$d/ground" --truth demo/turntable/frames/truth.csv --out "$d/report" --no-plots
 check "mfns report refuses another run's truth (exit 2, one line)" sh -c "
   '$v/mfns' report '$d/ground' --truth other/truth.csv --out bad --no-plots >out.txt 2>err.txt; rc=\$?;
@@ -93,6 +102,26 @@ check "mfns compare (meaning column filled)" sh -c "
   '$v/mfns' compare demo -o report.md -q && grep -q '| meaning |' report.md &&
   rows=\$(grep -E '^\| true-rig \| (NO_FIX|DEGRADED) \|' report.md) && test -n \"\$rows\" &&
   ! printf '%s\n' \"\$rows\" | grep -qE '\| *\|\$'"
+# the whole chain a user runs, from the wheel alone: a module with its own map, flown by the
+# wheel's flight program with the flight's defaults (integrity enforced), reported, planned
+m=fly
+check "chain: mfns sim nav (module, 24 frames)" "$v/mfns" sim nav $m/frames --scenario module --frames 24 --seed 3 -q
+check "chain: mfns table build (the module's workspace)" "$v/mfns" table build $m/frames/calib.json \
+  $m/frames/beacons.csv -o $m/table.mfnstbl -q --workspace $m/frames/scenario.json
+check "chain: mfns-nav (the wheel's) flies the frames" sh -c "
+  '$v/mfns-nav' --table $m/table.mfnstbl --replay $m/frames --tlm-file $m/telemetry.bin 2>$m/nav.log"
+check "chain: mfns-ground (the wheel's) decodes the telemetry" sh -c "
+  '$v/mfns-ground' --file $m/telemetry.bin --out $m/ground -q && test \$(wc -l <$m/ground/nav.csv) -eq 25"
+check "chain: mfns report (fixes against truth)" sh -c "
+  '$v/mfns' report $m/ground --truth $m/frames/truth.csv --out $m/report --no-plots >$m/report.txt &&
+  grep -qE '^[0-9]+ of 24 solutions used' $m/report.txt && ! grep -qE '^0 of 24' $m/report.txt"
+# issue 43: a turntable truth of the same length and rate passes the span and count checks
+check "chain: mfns report refuses a turntable's truth (same time base) for the module's run" sh -c "
+  '$v/mfns' sim nav $m/tt --scenario turntable --frames 24 --seed 3 -q &&
+  { '$v/mfns' report $m/ground --truth $m/tt/truth.csv --out $m/bad --no-plots 2>$m/err.txt; test \$? -eq 2; } &&
+  test \$(wc -l <$m/err.txt) -eq 1 && grep -q 'gross errors' $m/err.txt && test ! -e $m/bad"
+check "chain: mfns plan analyze (the module's map)" "$v/mfns" plan analyze $m/plan --workspace module \
+  --beacons $m/frames/beacons.csv --samples 20 --no-ident-margin -q
 check "mfns.ground_yamcs: run folder without the repository" "$v/python" -c "
 import pathlib, mfns.ground_yamcs as g
 r = g.prepare(pathlib.Path('yamcs-run'))

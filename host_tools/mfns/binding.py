@@ -253,6 +253,25 @@ class Assoc(ct.Structure):
     _fields_ = [("beacon", (ct.c_int16 * MAX_OBS_PER_CAMERA) * NUM_CAMERAS)]
 
 
+class PlanFix(ct.Structure):
+    """mfns_plan_fix_t (firmware/host/plan_fix.h): the flight's verdict on one planned view."""
+
+    _c_ = ("firmware/host/plan_fix.h", "mfns_plan_fix_t")
+    _fields_ = [
+        ("status", ct.c_int32),
+        ("reason", ct.c_int32),
+        ("pl_pos_mm", ct.c_float),
+        ("pl_att_deg", ct.c_float),
+        ("sigma_pos_mm", ct.c_float * 3),
+        ("sigma_euler_deg", ct.c_float * 3),
+        ("beacons_used", ct.c_uint16),
+        ("cameras_used", ct.c_uint16),
+        ("unmonitorable", ct.c_uint16),
+        ("usable", ct.c_uint8),
+        ("camera_unmonitored", ct.c_uint8),
+    ]
+
+
 class SolutionC(ct.Structure):
     _c_ = ("firmware/nav/pose/pose.h", "mfns_pose_solution_t")
     _c_types_ = {"status": "mfns_pose_status_t", "reason": "mfns_pose_reason_t"}
@@ -445,6 +464,7 @@ STRUCTS = [
     ObsFrame,
     Assoc,
     SolutionC,
+    PlanFix,
     BeaconEmit,
     BeaconGeom,
     BeaconIndex,
@@ -506,6 +526,11 @@ PROTOTYPES: dict[str, tuple] = {
     # NULL, min_rcond, out)
     "mfns_pose_covariance": (ct.c_int, [_P(_H66), _VP, _VP, _VP, ct.c_float, _P(SolutionC)]),
     "mfns_pose_strerror": (ct.c_char_p, [ct.c_int]),
+    # the planner's snapshot solve + integrity (plan_fix.h; settings NULL: the flight's defaults)
+    "mfns_plan_fix": (
+        ct.c_int,
+        [_P(Rig), _P(BeaconMap), _P(ObsFrame), _P(Assoc), _P(Pose), _P(PoseConfig), _VP, _P(PlanFix)],
+    ),
     "mfns_centroid_settings_default": (None, [_P(CentroidSettings)]),
     "mfns_solver_settings_default": (None, [_P(SolverSettings)]),
     # acquisition, map index, map analysis
@@ -603,6 +628,7 @@ PROTOTYPE_HEADERS = [
     "firmware/host/caltable_host.h",
     "firmware/host/beacon_index_build.h",
     "firmware/host/undist_grid_build.h",
+    "firmware/host/plan_fix.h",
     "firmware/tlm/tc_packets.h",
     "firmware/tlm/generated/tlm_packets_gen.h",
 ]

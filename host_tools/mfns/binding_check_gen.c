@@ -9,6 +9,7 @@
 #include "firmware/host/acquire_certify.h"
 #include "firmware/host/beacon_index_build.h"
 #include "firmware/host/caltable_host.h"
+#include "firmware/host/plan_fix.h"
 #include "firmware/host/undist_grid_build.h"
 #include "firmware/nav/acquire/acquire.h"
 #include "firmware/nav/acquire/acquire_cycle.h"
@@ -299,6 +300,33 @@ _Static_assert(offsetof(mfns_pose_solution_t, inlier) == 620u, "binding.py Solut
 _Static_assert(sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)) == 3u * sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)[0]), "binding.py SolutionC.inlier: 3 elements");
 _Static_assert(sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)[0]) == 32u * sizeof(MFNS_FIELD(mfns_pose_solution_t, inlier)[0][0]), "binding.py SolutionC.inlier: 32 elements");
 _Static_assert(_Generic(MFNS_FIELD(mfns_pose_solution_t, inlier)[0][0], uint8_t: 1, default: 0), "binding.py SolutionC.inlier: C type is not uint8_t[3][32]");
+
+/* PlanFix = mfns_plan_fix_t (firmware/host/plan_fix.h) */
+_Static_assert(sizeof(mfns_plan_fix_t) == 48u, "binding.py PlanFix: 48 bytes here");
+_Static_assert(offsetof(mfns_plan_fix_t, status) == 0u, "binding.py PlanFix.status: offset 0 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, status), int32_t: 1, default: 0), "binding.py PlanFix.status: C type is not int32_t");
+_Static_assert(offsetof(mfns_plan_fix_t, reason) == 4u, "binding.py PlanFix.reason: offset 4 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, reason), int32_t: 1, default: 0), "binding.py PlanFix.reason: C type is not int32_t");
+_Static_assert(offsetof(mfns_plan_fix_t, pl_pos_mm) == 8u, "binding.py PlanFix.pl_pos_mm: offset 8 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, pl_pos_mm), float: 1, default: 0), "binding.py PlanFix.pl_pos_mm: C type is not float");
+_Static_assert(offsetof(mfns_plan_fix_t, pl_att_deg) == 12u, "binding.py PlanFix.pl_att_deg: offset 12 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, pl_att_deg), float: 1, default: 0), "binding.py PlanFix.pl_att_deg: C type is not float");
+_Static_assert(offsetof(mfns_plan_fix_t, sigma_pos_mm) == 16u, "binding.py PlanFix.sigma_pos_mm: offset 16 here");
+_Static_assert(sizeof(MFNS_FIELD(mfns_plan_fix_t, sigma_pos_mm)) == 3u * sizeof(MFNS_FIELD(mfns_plan_fix_t, sigma_pos_mm)[0]), "binding.py PlanFix.sigma_pos_mm: 3 elements");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, sigma_pos_mm)[0], float: 1, default: 0), "binding.py PlanFix.sigma_pos_mm: C type is not float[3]");
+_Static_assert(offsetof(mfns_plan_fix_t, sigma_euler_deg) == 28u, "binding.py PlanFix.sigma_euler_deg: offset 28 here");
+_Static_assert(sizeof(MFNS_FIELD(mfns_plan_fix_t, sigma_euler_deg)) == 3u * sizeof(MFNS_FIELD(mfns_plan_fix_t, sigma_euler_deg)[0]), "binding.py PlanFix.sigma_euler_deg: 3 elements");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, sigma_euler_deg)[0], float: 1, default: 0), "binding.py PlanFix.sigma_euler_deg: C type is not float[3]");
+_Static_assert(offsetof(mfns_plan_fix_t, beacons_used) == 40u, "binding.py PlanFix.beacons_used: offset 40 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, beacons_used), uint16_t: 1, default: 0), "binding.py PlanFix.beacons_used: C type is not uint16_t");
+_Static_assert(offsetof(mfns_plan_fix_t, cameras_used) == 42u, "binding.py PlanFix.cameras_used: offset 42 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, cameras_used), uint16_t: 1, default: 0), "binding.py PlanFix.cameras_used: C type is not uint16_t");
+_Static_assert(offsetof(mfns_plan_fix_t, unmonitorable) == 44u, "binding.py PlanFix.unmonitorable: offset 44 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, unmonitorable), uint16_t: 1, default: 0), "binding.py PlanFix.unmonitorable: C type is not uint16_t");
+_Static_assert(offsetof(mfns_plan_fix_t, usable) == 46u, "binding.py PlanFix.usable: offset 46 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, usable), uint8_t: 1, default: 0), "binding.py PlanFix.usable: C type is not uint8_t");
+_Static_assert(offsetof(mfns_plan_fix_t, camera_unmonitored) == 47u, "binding.py PlanFix.camera_unmonitored: offset 47 here");
+_Static_assert(_Generic(MFNS_FIELD(mfns_plan_fix_t, camera_unmonitored), uint8_t: 1, default: 0), "binding.py PlanFix.camera_unmonitored: C type is not uint8_t");
 
 /* BeaconEmit = mfns_beacon_emit_t (firmware/nav/map/beacon_index.h) */
 _Static_assert(sizeof(mfns_beacon_emit_t) == 16u, "binding.py BeaconEmit: 16 bytes here");
@@ -633,6 +661,17 @@ void mfns_binding_prototypes(void)
     {
         int32_t a0 = 0;
         const char *r = mfns_pose_strerror(a0);
+        (void)r;
+    }
+    {
+        mfns_rig_t a0 = {0};
+        mfns_beacon_map_t a1 = {0};
+        mfns_obs_frame_t a2 = {0};
+        mfns_pose_assoc_t a3 = {0};
+        mfns_pose_t a4 = {0};
+        mfns_pose_config_t a5 = {0};
+        mfns_plan_fix_t a7 = {0};
+        int32_t r = mfns_plan_fix(&a0, &a1, &a2, &a3, &a4, &a5, NULL, &a7);
         (void)r;
     }
     {

@@ -48,6 +48,38 @@ class MfnsParser(argparse.ArgumentParser):
             "-v", "--verbose", action="store_true", help="also print the time the command took"
         )
 
+    def parse_known_args(self, args=None, namespace=None):
+        # kept for error(): the words this parser was given (a sub-parser gets the rest of the
+        # command line after its name)
+        self._words = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
+    def unknown_options(self) -> list[str]:
+        """The words given to this parser that look like options and are none of its own (nor
+        an abbreviation of one): `--nope`, `--nope=1`. Words after `--` are operands, and a
+        negative number is a value."""
+        out = []
+        for w in getattr(self, "_words", []):
+            if w == "--":
+                break
+            if not w.startswith("-") or w == "-" or self._negative_number_matcher.match(w):
+                continue
+            name = w.split("=", 1)[0] if w.startswith("--") else w[:2]
+            known = self._option_string_actions
+            if name in known or (name.startswith("--") and any(o.startswith(name) for o in known)):
+                continue
+            out.append(name)
+        return out
+
+    def error(self, message: str):
+        # argparse reports a missing operand before an unknown option (`mfns calib --nope`
+        # says "DATASET is required"): the unknown option is the likelier mistake, so it is
+        # named first, in the same one line
+        unknown = self.unknown_options()
+        if unknown and "unrecognized arguments" not in message:
+            message = f"unrecognized arguments: {' '.join(unknown)} ({message})"
+        super().error(message)
+
     def add_argument(self, *names, **kwargs):
         if names and set(names) <= self.COMMON:
             return None  # already there, with the project-wide meaning

@@ -390,6 +390,22 @@ def markdown(res: Nees) -> list[str]:
     return lines
 
 
+# The histogram's axis: to the 99th percentile of the data (plus a tenth), never past
+# HIST_TOP_MAX (the fixes beyond go to the last bin, counted in the label) nor below
+# HIST_TOP_MIN (a run of near-zero NEES still shows the density's rise).
+HIST_TOP_MAX = 20 * BOUND_99
+HIST_TOP_MIN = 1.0
+
+
+def hist_top(v: np.ndarray) -> float:
+    """Right end of the NEES histogram's axis, scaled to the data v."""
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    if not len(v):
+        return 3 * BOUND_99
+    return float(min(max(1.1 * np.quantile(v, 0.99), HIST_TOP_MIN), HIST_TOP_MAX))
+
+
 def plot(res: Nees, path, title: str | None = None) -> None:
     """NEES per fix over time with the chi-square(6) bounds, and its histogram against the
     chi-square(6) density."""
@@ -419,14 +435,15 @@ def plot(res: Nees, path, title: str | None = None) -> None:
         f"{100 * res.frac_95:.0f} %, 99 %: {100 * res.frac_99:.0f} %",
         fontsize=9,
     )
-    top = max(3 * BOUND_99, float(np.quantile(v, 0.95)) if res.n else 0.0)
-    top = min(top, 20 * BOUND_99)
+    top = hist_top(v)
     over = int(np.count_nonzero(v > top))
     ax_h.hist(np.minimum(v, top), bins=40, range=(0, top), density=True, alpha=0.6, label="fixes")
     x = np.linspace(0, top, 400)
     ax_h.plot(x, chi2.pdf(x, DOF), "k-", lw=1.2, label="chi-square(6) density")
-    ax_h.axvline(BOUND_95, color="k", ls="--", lw=0.9)
-    ax_h.axvline(BOUND_99, color="k", ls=":", lw=0.9)
+    for b, st in ((BOUND_95, "--"), (BOUND_99, ":")):
+        if b <= top:  # a bound beyond the data would stretch the axis again
+            ax_h.axvline(b, color="k", ls=st, lw=0.9)
+    ax_h.set_xlim(0, top)
     ax_h.set_xlabel("NEES" + (f" ({over} fixes above {top:.0f} counted in the last bin)" if over else ""))
     ax_h.set_ylabel("density")
     ax_h.legend(fontsize=8)

@@ -58,6 +58,9 @@ class Truth:
     t_s: np.ndarray
     values: dict[str, np.ndarray]
     path: Path | None = None
+    # what scenario.json beside the truth says of the run (`mfns sim nav`): scenario, rate_hz,
+    # n_frames; empty for a truth file without one
+    scenario: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -82,6 +85,9 @@ class Report:
     n_unmatched: int
     status: np.ndarray | None = None  # status of each used row (FIX, DEGRADED, ...)
     nees: N.Nees | None = None  # covariance consistency (with truth and covariance columns)
+    # the 1-sigma the flight code reported with each used row, per axis (nav.csv's sigma_*
+    # columns), NaN where a row has none; None for a nav.csv without them
+    sigma: dict[str, np.ndarray] | None = None
 
 
 MAX_CSV_BYTES = 256 * V.MIB  # ~1.3 M rows of nav.csv: 19 hours at 18.6 Hz
@@ -147,25 +153,40 @@ def load_truth(path: Path) -> Truth:
         order = np.argsort(t, kind="stable")
         rows = [rows[i] for i in order]
         t = t[order]
-    _check_run_record(path, len(rows))
-    return Truth(t_s=t, values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()}, path=path)
+    scenario = _check_run_record(path, len(rows))
+    return Truth(
+        t_s=t,
+        values={a: _floats(rows, c, path) for a, c in NAV_COLUMNS.items()},
+        path=path,
+        scenario=scenario,
+    )
 
 
-def _check_run_record(path: Path, n_rows: int) -> None:
+def _check_run_record(path: Path, n_rows: int) -> dict:
     """A truth.csv beside a scenario.json that records its run (`mfns sim nav`: "run") must be
-    that run's truth file: the same digest (and so the same rows)."""
+    that run's truth file: the same digest (and so the same rows). Returns the scenario's
+    identity (scenario, rate_hz, n_frames: the fields present) for check_same_run."""
     scen = path.parent / "scenario.json"
     try:
-        run = json.loads(scen.read_text()).get("run") if scen.is_file() else None
-    except (OSError, ValueError, AttributeError):
-        run = None  # not a nav-frames record: nothing to hold the truth to
+        doc = json.loads(scen.read_text()) if scen.is_file() else None
+    except (OSError, ValueError):
+        doc = None  # not a nav-frames record: nothing to hold the truth to
+    if not isinstance(doc, dict):
+        return {}
+    ident = {
+        k: doc[k]
+        for k, kind in (("scenario", str), ("rate_hz", (int, float)), ("n_frames", int))
+        if isinstance(doc.get(k), kind) and not isinstance(doc.get(k), bool)
+    }
+    run = doc.get("run")
     if not isinstance(run, dict) or not isinstance(run.get("truth_sha256"), str):
-        return
+        return ident
     if hashlib.sha256(path.read_bytes()).hexdigest() != run["truth_sha256"]:
         raise MfnsError(
             f"{path}: not the truth of the run {scen} records ({n_rows} rows here, "
             f"{run.get('truth_rows')} there; the digest differs)"
         )
+    return ident
 
 
 def check_same_run(nav: NavLog, truth: Truth, nav_name: str, partial: bool = False) -> None:
@@ -175,7 +196,11 @@ def check_same_run(nav: NavLog, truth: Truth, nav_name: str, partial: bool = Fal
     check is on what both record: a nav log of the run has no more cycles than the truth has
     frames and lies within the truth's time span; unless `partial`, it also covers that span
     (to two frame periods at each end: the first and last cycles may be lost on the link).
-    Another scenario's truth fails one of these (a longer run's truth fails the coverage)."""
+    Another scenario's truth fails one of these (a longer run's truth fails the coverage).
+    With a scenario.json beside the truth (Truth.scenario) the nav log's cycle period must
+    also be the scenario's frame period (within RATE_TOLERANCE; the median gap, so lost
+    cycles do not matter). What this misses: another run of the same scenario, rate and
+    length (another seed): gross_error() catches that one when its poses differ."""
     if len(nav.t_s) == 0 or len(truth.t_s) < 2:
         return
     t = nav.t_s[np.isfinite(nav.t_s)]
@@ -192,6 +217,51 @@ def check_same_run(nav: NavLog, truth: Truth, nav_name: str, partial: bool = Fal
         raise MfnsError(what)
     if not partial and (n0 - t0 > slack or t1 - n1 > slack):
         raise MfnsError(f"{what} (the nav log covers part of it: --partial accepts that)")
+    rate = truth.scenario.get("rate_hz")
+    if rate and len(t) >= 3:
+        gap = float(np.median(np.diff(np.sort(t))))
+        if gap > 0 and abs(gap * rate - 1.0) > RATE_TOLERANCE:
+            raise MfnsError(
+                f"{nav_name} and {truth.path or 'the truth'} are not the same run: scenario "
+                f"{truth.scenario.get('scenario', '?')} runs at {rate:g} Hz, the nav log's cycles "
+                f"are {gap:.4f} s apart ({1.0 / gap:.2f} Hz)"
+            )
+
+
+# A nav log's median cycle gap may differ this much (relative) from the scenario's period.
+RATE_TOLERANCE = 0.2
+# gross_error(): errors no covariance of a fix of this run explains. Median NEES 1e4 is a
+# median normalised error of ~40 sigma on each of the six axes; a module is a few metres and
+# the turntable's truth a fixed point, so a median position error of a metre or an attitude
+# error of 30 degrees is a pose of another run, never a fix of this one.
+GROSS_MEDIAN_NEES = 1.0e4
+GROSS_POS_MM = 1000.0
+GROSS_ATT_DEG = 30.0
+
+
+def gross_error(rep: Report) -> str | None:
+    """Why the report's errors are not a fix's errors (a truth of another run or scenario
+    with the same time base), or None. Medians, so a few wrong fixes (the ones the report is
+    for) do not trip it."""
+    if not rep.with_truth or rep.n_used == 0:
+        return None
+    pos = np.sqrt(sum(rep.series[a] ** 2 for a in ("x", "y", "z")))
+    att = np.max(np.abs(np.column_stack([rep.series[a] for a in ("roll", "pitch", "yaw")])), axis=1)
+    med_pos, med_att = float(np.median(pos)), float(np.median(att))
+    why = []
+    if rep.nees is not None and rep.nees.n and rep.nees.median > GROSS_MEDIAN_NEES:
+        why.append(f"median NEES {rep.nees.median:.3g} (> {GROSS_MEDIAN_NEES:g})")
+    if med_pos > GROSS_POS_MM:
+        why.append(f"median position error {med_pos:.0f} mm (> {GROSS_POS_MM:g})")
+    if med_att > GROSS_ATT_DEG:
+        why.append(f"median attitude error {med_att:.1f} deg (> {GROSS_ATT_DEG:g})")
+    if not why:
+        return None
+    return (
+        f"gross errors: {', '.join(why)} over {rep.n_used} fixes: the truth is not this run's "
+        "(another scenario or seed with the same time base), or the flight is broken; "
+        "--accept-gross-errors reports it anyway"
+    )
 
 
 def wrap_deg(a: np.ndarray) -> np.ndarray:
@@ -282,7 +352,15 @@ def build_report(
         n_unmatched=n_unmatched,
         status=nav.status[keep],
         nees=nees,
+        sigma=_reported_sigma(nav, keep),
     )
+
+
+def _reported_sigma(nav: NavLog, keep: np.ndarray) -> dict[str, np.ndarray] | None:
+    """The reported 1-sigma per axis of the kept rows (N.SIGMA_COLUMNS, in N.DIAG_AXES order)."""
+    if not all(c in nav.extra for c in N.SIGMA_COLUMNS):
+        return None
+    return {a: nav.extra[c][keep] for a, c in zip(N.DIAG_AXES, N.SIGMA_COLUMNS, strict=True)}
 
 
 def summary_markdown(rep: Report, title: str | None = None) -> str:
@@ -344,6 +422,20 @@ def write_summary_csv(rep: Report, path: Path) -> None:
             w.writerow([s.axis, s.unit, kind, f"{s.mean:.6f}", f"{s.sigma:.6f}", s.n])
 
 
+def _sigma_band(ax, x: np.ndarray, v: np.ndarray, sigma: np.ndarray, errors: bool) -> None:
+    """The reported +-1-sigma of each fix as a shaded band, over x in ascending order: about 0
+    for errors (an error outside the band is one the fix's covariance did not expect), about
+    the estimate itself without truth. Rows without a sigma leave a gap."""
+    order = np.argsort(x, kind="stable")
+    xs, sd = x[order], sigma[order]
+    mid = np.zeros_like(sd) if errors else v[order]
+    if not np.any(np.isfinite(sd)):
+        return
+    ax.fill_between(
+        xs, mid - sd, mid + sd, color="tab:orange", alpha=0.25, lw=0, label="±1σ reported", zorder=0
+    )
+
+
 def write_plots(rep: Report, out_dir: Path, title: str | None = None) -> list[Path]:
     """Fig. 11-style figures: attitude and position errors (or values) vs time, and vs true yaw.
 
@@ -370,6 +462,10 @@ def write_plots(rep: Report, out_dir: Path, title: str | None = None) -> list[Pa
                 ax.plot(np.asarray(x)[m], rep.series[a][m], ".", ms=3, label=st or None)
             if k == 0 and len(set(status)) > 1:
                 ax.legend(fontsize=8, markerscale=2)
+            if rep.sigma is not None:
+                _sigma_band(ax, np.asarray(x, dtype=float), rep.series[a], rep.sigma[a], rep.with_truth)
+                if k == 0:
+                    ax.legend(fontsize=8, markerscale=2)
             s = rep.stats[k]
             ax.axhline(s.mean, color="k", lw=0.8)
             ax.set_title(f"{a}: mean {s.mean:.4f}, 1σ {s.sigma:.4f} {s.unit}", fontsize=9)

@@ -166,3 +166,56 @@ def test_output_folder_is_out_everywhere(tmp_path, capsys):
         with pytest.raises(SystemExit):
             main([*cmd, "--help"])
         assert "--out" in capsys.readouterr().out, cmd
+
+
+def _parsers(parser: argparse.ArgumentParser, prefix=()):
+    yield prefix, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _parsers(sub, (*prefix, name))
+
+
+def test_every_option_of_every_command_has_help_text():
+    """Issue 43: every option and operand of every `mfns` command says what it is (--help), and
+    every subcommand has a one-line help in its parent's list."""
+    missing = []
+    for path, parser in _parsers(build_parser()):
+        where = " ".join(("mfns", *path))
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                listed = {a.dest for a in action._choices_actions if a.help and a.help.strip()}
+                missing += [f"{where} {n} (no help in the list)" for n in action.choices if n not in listed]
+                continue
+            if action.help is argparse.SUPPRESS:
+                continue
+            if not (action.help or "").strip():
+                missing.append(f"{where} {'/'.join(action.option_strings) or action.dest}")
+    assert not missing, "options without help text: " + ", ".join(missing)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["calib", "--nope"],
+        ["report", "--nope"],
+        ["report", "x", "--nope=1"],
+        ["sim", "nav", "--nope"],
+        ["plan", "analyze", "--nope"],
+    ],
+    ids=" ".join,
+)
+def test_an_unknown_option_is_named(argv, capsys):
+    """`mfns calib --nope` names --nope (argparse alone reports the missing DATASET first)."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "--nope" in err[-1] and "unrecognized arguments" in err[-1], err
+
+
+def test_negative_values_and_abbreviations_are_not_unknown(capsys):
+    with pytest.raises(SystemExit):
+        main(["report", "--time-tol", "-1", "--no-pl"])  # the missing operand is the error
+    err = capsys.readouterr().err
+    assert "unrecognized" not in err and "required" in err, err

@@ -86,7 +86,19 @@ def test_optimize_writes_a_map_the_simulator_and_table_builder_read(tmp_path):
     plan = json.loads((out / "plan.json").read_text())
     assert plan["algorithm"].startswith("greedy") and plan["run_time_s"]["total"] > 0
     chk = plan["check"]
-    assert set(chk) == {"availability_pct", "one_call_views_pct", "four_in_view_pct", "samples"}
+    assert set(chk) == {
+        "availability_pct",
+        "one_call_views_pct",
+        "four_in_view_pct",
+        "samples",
+        "flight_verdict",
+    }
+    # issue 43: the flight's own verdict on the check samples, per camera (mfns.plan.usable)
+    v = chk["flight_verdict"]
+    assert 0.0 <= v["one_call_pct"] <= v["usable_pct"] <= chk["availability_pct"]
+    assert len(v["per_camera_seen_pct"]) == 3
+    assert len(plan["restart_usable_pct"]) == 1
+    assert "fly" not in plan  # a turntable workspace is not flown (module paths only)
     assert chk["one_call_views_pct"] + chk["four_in_view_pct"] == pytest.approx(
         chk["availability_pct"], abs=0.02
     )

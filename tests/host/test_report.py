@@ -220,3 +220,108 @@ def test_truth_file_is_held_to_its_run_record(tmp_path):
     truth_p.write_text(truth_p.read_text() + "30,99.0,0,0,0,0,0,0\n")
     with pytest.raises(MfnsError, match="not the truth of the run"):
         rpt.load_truth(truth_p)
+
+
+def _shift_truth(src: Path, dst: Path, dx_mm: float = 0.0, dyaw_deg: float = 0.0) -> Path:
+    """The truth of another run with the same time base: every pose moved."""
+    rows = list(csv.DictReader(src.open()))
+    with dst.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=rpt.TRUTH_HEADER)
+        w.writeheader()
+        for r in rows:
+            r["x_mm"] = f"{float(r['x_mm']) + dx_mm:.6f}"
+            r["yaw_deg"] = f"{(float(r['yaw_deg']) + dyaw_deg + 180) % 360 - 180:.6f}"
+            w.writerow(r)
+    return dst
+
+
+@pytest.mark.parametrize("dx_mm,dyaw_deg,why", [(2500.0, 0.0, "position"), (0.0, 90.0, "attitude")])
+def test_report_refuses_a_truth_with_gross_errors(tmp_path, capsys, dx_mm, dyaw_deg, why):
+    """Issue 43: a module run's nav against a turntable truth with the same time base passed the
+    span and count checks and printed NEES 4e8 with exit 0; the gross-error check refuses it
+    (exit 2, one line, nothing written) unless --accept-gross-errors."""
+    nav_p, truth_p, _, _ = write_case(tmp_path, n=120)
+    (tmp_path / "other").mkdir()
+    bad = _shift_truth(truth_p, tmp_path / "other" / "truth.csv", dx_mm, dyaw_deg)
+    out = tmp_path / "bad"
+    assert main(["report", str(nav_p), "--truth", str(bad), "--out", str(out), "--no-plots"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "gross errors" in err[0] and f"median {why} error" in err[0], err
+    assert not out.exists()
+    ok = ["report", str(nav_p), "--truth", str(bad), "--out", str(out), "--no-plots", "--accept-gross-errors"]
+    assert main(ok) == 0
+    # the run's own truth passes
+    assert rpt.gross_error(rpt.build_report(rpt.load_nav(nav_p), rpt.load_truth(truth_p))) is None
+
+
+def test_gross_error_by_nees_alone(tmp_path):
+    """A covariance that cannot explain the errors (median NEES > 1e4) even where the errors are
+    under the absolute limits: sigma 1 um against errors of ~1.6 mm."""
+    nav_p, truth_p, _, _ = write_case(tmp_path, n=80)
+    nav = rpt.load_nav(nav_p)
+    n = len(nav.t_s)
+    nav.extra = {c: np.full(n, 1e-3) for c in rpt.N.SIGMA_COLUMNS}
+    rep = rpt.build_report(nav, rpt.load_truth(truth_p))
+    assert rep.nees is not None and rep.nees.median > rpt.GROSS_MEDIAN_NEES
+    assert "median NEES" in rpt.gross_error(rep)
+    nav.extra = {c: np.full(n, 2.0 if c.endswith("_mm") else 0.2) for c in rpt.N.SIGMA_COLUMNS}
+    assert rpt.gross_error(rpt.build_report(nav, rpt.load_truth(truth_p))) is None
+
+
+def test_scenario_rate_is_held_to_the_nav_log(tmp_path, capsys):
+    """A truth beside a scenario.json (mfns sim nav) names its scenario and frame rate: a nav log
+    at another rate is another run's, refused with the scenario's name and both rates."""
+    import json
+
+    nav_p, truth_p, _, _ = write_case(tmp_path, n=60)  # 18.6 Hz
+    (tmp_path / "scenario.json").write_text(
+        json.dumps({"scenario": "module", "rate_hz": 10.0, "n_frames": 60})
+    )
+    truth = rpt.load_truth(truth_p)
+    assert truth.scenario == {"scenario": "module", "rate_hz": 10.0, "n_frames": 60}
+    with pytest.raises(MfnsError, match=r"scenario module runs at 10 Hz.*\(18\.\d+ Hz\)"):
+        rpt.check_same_run(rpt.load_nav(nav_p), truth, "nav", partial=True)
+    (tmp_path / "scenario.json").write_text(json.dumps({"scenario": "turntable", "rate_hz": 18.6}))
+    rpt.check_same_run(rpt.load_nav(nav_p), rpt.load_truth(truth_p), "nav")
+
+
+def test_plots_carry_the_reported_sigma_band(tmp_path, monkeypatch):
+    """Error plots show the reported +-1-sigma of each fix as a band about zero."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nav_p, truth_p, _, fix = write_case(tmp_path, n=60)
+    nav = rpt.load_nav(nav_p)
+    nav.extra = {c: np.full(len(nav.t_s), 1.5 if c.endswith("_mm") else 0.15) for c in rpt.N.SIGMA_COLUMNS}
+    rep = rpt.build_report(nav, rpt.load_truth(truth_p))
+    assert rep.sigma is not None and np.all(rep.sigma["x"] == 1.5)
+    bands = []
+    real_savefig = plt.Figure.savefig
+
+    def spy(fig, path, **kw):
+        for ax in fig.axes:
+            for coll in ax.collections:
+                if coll.get_label() == "±1σ reported":
+                    ys = np.concatenate([p.vertices[:, 1] for p in coll.get_paths()])
+                    bands.append((ax.get_ylabel(), float(ys.min()), float(ys.max())))
+        return real_savefig(fig, path, **kw)
+
+    monkeypatch.setattr(plt.Figure, "savefig", spy)
+    rpt.write_plots(rep, tmp_path)
+    assert len(bands) == 12  # six axes, two figures
+    by_axis = {lab: (lo, hi) for lab, lo, hi in bands}
+    assert by_axis["x error (mm)"] == pytest.approx((-1.5, 1.5))
+    assert by_axis["yaw error (deg)"] == pytest.approx((-0.15, 0.15))
+
+
+def test_nees_histogram_axis_is_scaled_to_the_data():
+    """Issue 43: data <= 6.5 drew on an axis to 50; the axis now ends just past the data's 99th
+    percentile, with the bounds capped for a wild run (the rest counted in the last bin)."""
+    from mfns import nees as N
+
+    v = np.random.default_rng(0).uniform(0, 6.5, 500)
+    assert 6.5 < N.hist_top(v) < 7.5
+    assert N.hist_top(np.full(10, 1e9)) == N.HIST_TOP_MAX
+    assert N.hist_top(np.zeros(5)) == N.HIST_TOP_MIN

@@ -9,7 +9,13 @@ def _common(p) -> None:
     p.add_argument("out", metavar="OUT", help="output folder (created; files in it are overwritten)")
     p.add_argument("--rig", help="calibration-results JSON of the rig (default: the paper's, Tables 2-3)")
     w = p.add_argument_group("workspace (docs/planning.md)")
-    w.add_argument("--workspace", choices=("turntable", "module", "box", "truth"), default="turntable")
+    w.add_argument(
+        "--workspace",
+        choices=("turntable", "module", "box", "truth"),
+        default="turntable",
+        help="pose samples: the turntable's sweep, the demo module's interior, a --box, or the "
+        "poses of a --truth file (default turntable)",
+    )
     w.add_argument("--truth", metavar="CSV", help="truth: the poses of a truth.csv (mfns sim nav), in order")
     w.add_argument("--samples", type=int, default=200, help="pose samples (default 200)")
     w.add_argument("--yaw-start", type=float, default=0.0, help="turntable: first yaw, deg (default 0)")
@@ -108,5 +114,56 @@ def register(subparsers) -> None:
         default=100,
         help="views the map analysis checks per restart for ambiguity (~50 ms each; 0: none) (default 100)",
     )
+    o.add_argument(
+        "--polish",
+        type=int,
+        default=2000,
+        help="moves of the final hill climb on the flight's own verdict (C solver + integrity per "
+        "view: usable, then usable in one call), 0: none (default 2000)",
+    )
+    o.add_argument(
+        "--fly-frames",
+        type=int,
+        default=120,
+        help="fly check: frames per fresh module path flown by mfns sim nav + the flight program "
+        "before the plan is reported (0: no fly check) (default 120)",
+    )
+    o.add_argument("--fly-paths", type=int, default=2, help="fly check: fresh paths per layout (default 2)")
     o.set_defaults(func=run.run_optimize)
+    z = sub.add_parser(
+        "size",
+        help="how many LEDs a module needs: the curve LED count -> usable and one-call rates",
+        description="For each --counts, plan a layout on the surfaces (greedy + annealing) and judge it "
+        "by the flight's own verdict (the C solver and integrity per view) on independent samples; "
+        "writes size.json, size.csv, size.png and beacons_<N>.csv into OUT, prints the smallest count "
+        "reaching the targets and what each smaller count cannot reach.",
+    )
+    _common(z)
+    z.add_argument("--surfaces", default="module", help="paper-frame, module or a JSON file (default module)")
+    z.add_argument(
+        "--counts", default="12,24,36,48,60,90", help="LED counts to try (default 12,24,36,48,60,90)"
+    )
+    z.add_argument("--target-usable", type=float, help="target usable rate, %% of workspace poses")
+    z.add_argument("--target-one-call", type=float, help="target one-call acquisition rate, %%")
+    z.add_argument(
+        "--grid", type=float, default=100.0, help="candidate grid spacing on the surfaces, mm (default 100)"
+    )
+    z.add_argument(
+        "--min-spacing", type=float, default=150.0, help="minimum beacon spacing, mm (default 150)"
+    )
+    z.add_argument(
+        "--keep-out", action="append", metavar="X0,Y0,Z0,X1,Y1,Z1", help="box with no beacon (repeatable)"
+    )
+    z.add_argument("--iterations", type=int, default=1500, help="annealing moves per count (default 1500)")
+    z.add_argument(
+        "--margin", type=int, default=1, help="optimise for 4 + MARGIN beacons in view (default 1)"
+    )
+    z.add_argument(
+        "--polish",
+        type=int,
+        default=1000,
+        help="moves per count of the hill climb on the flight's own verdict (as plan optimize), "
+        "0: none (default 1000)",
+    )
+    z.set_defaults(func=run.run_size)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

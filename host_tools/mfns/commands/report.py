@@ -41,6 +41,12 @@ def register(subparsers) -> None:
         help="the nav log covers part of the truth's run (e.g. mfns-nav --max-cycles); it must "
         "still lie within the truth's time span",
     )
+    p.add_argument(
+        "--accept-gross-errors",
+        action="store_true",
+        help="report errors no fix of this run can have (median NEES > 1e4, median position "
+        "error > 1 m or attitude error > 30 deg); by default such a truth is refused as another run's",
+    )
     p.add_argument("--title", help="name of the run, heading the summary and every figure")
     p.set_defaults(func=run)
 
@@ -54,6 +60,9 @@ def run(args) -> int:
     if truth is not None:
         rpt.check_same_run(nav, truth, str(nav_path), partial=args.partial)
     rep = rpt.build_report(nav, truth, tolerance_s=args.time_tolerance, all_status=args.all_status)
+    gross = None if args.accept_gross_errors else rpt.gross_error(rep)
+    if gross is not None:
+        raise MfnsError(f"{nav_path} against {args.truth}: {gross}")
     out = args.out if args.out is not None else (nav_path if nav_path.is_dir() else nav_path.parent)
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -183,9 +183,11 @@ def register(subparsers) -> None:
     parser = subparsers.add_parser("table", help="build or show the binary calibration table")
     sub = parser.add_subparsers(dest="table_command", metavar="ACTION")
     b = sub.add_parser("build", help="build a table from a calibration-results JSON and a beacon CSV")
-    b.add_argument("calib_json", metavar="CALIB_JSON")
-    b.add_argument("beacons_csv", metavar="BEACONS_CSV")
-    b.add_argument("-o", "--output", required=True, metavar="OUT")
+    b.add_argument(
+        "calib_json", metavar="CALIB_JSON", help="calibration-results JSON (docs/calib-results.md) of the rig"
+    )
+    b.add_argument("beacons_csv", metavar="BEACONS_CSV", help="the beacon map (id,x_mm,y_mm,z_mm,sigma_mm)")
+    b.add_argument("-o", "--output", required=True, metavar="OUT", help="the table file to write (.mfnstbl)")
     b.add_argument(
         "--grid",
         metavar="NXxNY",
@@ -227,6 +229,6 @@ def register(subparsers) -> None:
     )
     b.set_defaults(func=cmd_build)
     s = sub.add_parser("show", help="print a table and verify its CRC")
-    s.add_argument("table", metavar="TABLE")
+    s.add_argument("table", metavar="TABLE", help="a calibration table (.mfnstbl) to print")
     s.set_defaults(func=cmd_show)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

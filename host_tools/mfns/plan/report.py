@@ -156,6 +156,18 @@ def _margin_summary(a: Analysis) -> str:
     )
 
 
+def _verdict_line(v: dict | None) -> str:
+    if not v:
+        return "- the flight's verdict: not computed"
+    why = ", ".join(f"{k} {c}" for k, c in v["unusable_reasons"].items()) or "none"
+    return (
+        f"- **usable {v['usable_pct']} %** by the flight's own verdict (the C solver and integrity on "
+        f"each view: PL within the alert limits, faults monitorable; mfns.plan.usable), one call "
+        f"{v['one_call_pct']} %; not usable: {why}; cameras x/y/z see beacons in "
+        f"{v['per_camera_seen_pct']} % of the samples"
+    )
+
+
 def summary_markdown(s: dict, title: str) -> str:
     lines = [
         f"# {title}",
@@ -169,6 +181,7 @@ def summary_markdown(s: dict, title: str) -> str:
         f"- **one-call views {s['one_call_views_pct']} %** (>= {CERT_MIN_IN_VIEW} in view: the acquisition "
         f"can certify them in one call); exactly {FIX_MIN_IN_VIEW} in view {s['four_in_view_pct']} % "
         "(certified only by the completion, over cycles: the one-call rate's ceiling)",
+        _verdict_line(s.get("flight_verdict")),
         f"- fixes by the navigation cycle's rule along the sequence: "
         f"{'-' if s['availability_flight_pct'] is None else str(s['availability_flight_pct']) + ' %'}",
         "",

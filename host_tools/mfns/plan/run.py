@@ -16,7 +16,7 @@ from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY
 from . import optimize as opt
-from . import report, surfaces, workspace
+from . import report, surfaces, usable, workspace
 from .analyze import CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, analyze
 from .core import Core, require_map_size
 from .crlb import CalibrationError
@@ -29,7 +29,7 @@ MAX_ITERATIONS, MAX_RESTARTS = 10_000_000, 1000
 # new layout): the paper's map accuracy (docs/system.md Table 4).
 DEFAULT_SURVEY_SIGMA_MM = 0.3963
 # What plan.json's check (independent samples) and its baseline carry from the analysis.
-CHECK_KEYS = ("availability_pct", "one_call_views_pct", "four_in_view_pct", "samples")
+CHECK_KEYS = ("availability_pct", "one_call_views_pct", "four_in_view_pct", "samples", "flight_verdict")
 
 
 def _triple(text: str | None, name: str, n: int):
@@ -98,6 +98,10 @@ def _analyze_into(out, core, beacons, sigma_mm, ws, sigma_px, calib, info, title
     _prepare(out)
     report.write_samples(a, out / "samples.csv")
     s = report.summarize(a, info)
+    # what flies: the C core's solver and integrity on each sample's view (usable.py), over
+    # the map index of the planned box, with the survey sigma the map states
+    lo, hi = table_workspace(ws)
+    s["flight_verdict"] = usable.evaluate(core, beacons, sigma_mm, ws, sigma_px, lo, hi).summary()
     report.write_summary(s, out, title)
     report.write_plots(a, out, title)
     return s
@@ -207,6 +211,10 @@ def run_optimize(args) -> int:
     require_map_size(args.count)
     if args.iterations < 0 or args.min_spacing < 0 or args.restarts < 1 or args.margin < 0:
         raise MfnsError("--iterations, --min-spacing and --margin must be >= 0, --restarts >= 1")
+    if not 0 <= args.polish <= MAX_ITERATIONS:
+        raise MfnsError(f"--polish must be 0 to {MAX_ITERATIONS}")
+    if args.fly_frames < 0 or args.fly_paths < 1 or args.fly_frames > 10_000:
+        raise MfnsError("--fly-frames must be 0 to 10000, --fly-paths at least 1")
     if getattr(args, "cert_in_view", None) is not None and args.cert_in_view < 0:
         raise MfnsError("--cert-in-view must be >= 0")
     # bounded like the samples: beyond these a run is hours (a typo, not a plan)
@@ -228,7 +236,7 @@ def run_optimize(args) -> int:
     progress = not args.quiet
     t0 = time.perf_counter()
     prob = opt.build_problem(core, cand, ws, sigma_px, survey, progress)
-    res, res_ident, search_s = None, None, []
+    res, res_ident, res_use, search_s, restart_usable = None, None, None, [], []
     certify = not args.no_certify
     for r in range(args.restarts):
         rng = np.random.default_rng([args.seed, 7, r])
@@ -251,8 +259,29 @@ def run_optimize(args) -> int:
             if certify and args.ident_samples > 0
             else None
         )
-        if res is None or _preferred(one, one_ident, res, res_ident):
-            res, res_ident = one, one_ident
+        # the flight's verdict (usable.py: the C solver and integrity) on the samples decides
+        # first: beacons in view are not what flies (a blind camera, a PL over the limit)
+        one_use = usable.evaluate(
+            core, cand[one.chosen], np.full(args.count, survey), ws, sigma_px, *table_workspace(ws)
+        ).summary()
+        restart_usable.append(one_use["usable_pct"])
+        if res is None or _preferred(one, one_ident, res, res_ident, one_use, res_use):
+            res, res_ident, res_use = one, one_ident, one_use
+    pol = None
+    if args.polish > 0:
+        # the flight's verdict as the objective (usable.polish): the C core judges each move
+        pol = usable.polish(
+            core,
+            prob,
+            res.chosen,
+            survey,
+            sigma_px,
+            args.polish,
+            args.min_spacing,
+            np.random.default_rng([args.seed, 13]),
+            *table_workspace(ws),
+        )
+        res.chosen = pol.chosen
     total_s = time.perf_counter() - t0
     out = Path(args.out)
     _prepare(out)
@@ -316,7 +345,22 @@ def run_optimize(args) -> int:
         if certify and args.ident_samples > 0:
             plan_doc["baseline"]["ident"] = ident_check(core, bpos, survey, ws, sigma_px, args.ident_samples)
     plan_doc["sigma_p99"] = {k: v["p99"] for k, v in s["sigma_percentiles_over_fix_samples"].items()}
+    plan_doc["restart_usable_pct"] = restart_usable
+    if pol is not None:
+        plan_doc["polish"] = {
+            "what": "hill climb on the flight's verdict (mfns.plan.usable.polish), the samples optimised on",
+            "usable": f"{pol.usable_before} -> {pol.usable_after} of {ws.n}",
+            "one_call": f"{pol.one_call_before} -> {pol.one_call_after} of {ws.n}",
+            "moves_tried": pol.moves_tried,
+            "moves_kept": pol.moves_kept,
+            "seconds": round(pol.seconds, 1),
+        }
     (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
+    if args.fly_frames > 0 and args.workspace == "module":
+        plan_doc["fly"] = fly_check(args, core, out, sigma_px, progress)
+        (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
+    elif args.fly_frames > 0:
+        print(f"  fly check: not run (flown paths are module paths; the workspace is {args.workspace})")
     rt = plan_doc["run_time_s"]
     _print(
         s,
@@ -337,6 +381,26 @@ def run_optimize(args) -> int:
             f"  baseline {args.baseline}: availability {b['availability_pct']} %, one-call views "
             f"{b['one_call_views_pct']} %, four in view {b['four_in_view_pct']} %"
         )
+    if "polish" in plan_doc:
+        pd = plan_doc["polish"]
+        print(
+            f"  polish on the flight's verdict: usable {pd['usable']}, one call {pd['one_call']} "
+            f"({pd['moves_kept']}/{pd['moves_tried']} moves kept, {pd['seconds']} s)"
+        )
+    if args.baseline:
+        bv = plan_doc["baseline"]["flight_verdict"]
+        print(
+            f"  baseline by the flight's verdict: usable {bv['usable_pct']} %, "
+            f"one call {bv['one_call_pct']} %; "
+            f"cameras x/y/z see beacons in {bv['per_camera_seen_pct']} % of the samples"
+        )
+    for name, f in plan_doc.get("fly", {}).items():
+        print(
+            f"  flown ({name}, {f['paths']} fresh paths x {f['frames_per_path']} frames): "
+            f"usable {f['flown_usable_pct']} %"
+            f" (predicted on the flown poses {f['predicted_usable_pct']} %); first fix at cycle "
+            f"{f['first_fix_cycles']}; error 1-sigma {f['error_sigma']}"
+        )
     box = ",".join(f"{v:g}" for v in plan_doc[WORKSPACE_KEY])
     print(
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
@@ -345,9 +409,14 @@ def run_optimize(args) -> int:
     return 0
 
 
-def _preferred(a, a_ident, b, b_ident) -> bool:
-    """Layout a over b: more poses with a fix, then more certifiable in one call, then
-    fewer ambiguous views (the map analysis), then the rest of the objective."""
+def _preferred(a, a_ident, b, b_ident, a_use=None, b_use=None) -> bool:
+    """Layout a over b: more poses the flight would use (usable.py), then more of them
+    certifiable in one call, then more poses with a fix, then more certifiable in one call,
+    then fewer ambiguous views (the map analysis), then the rest of the objective."""
+    if a_use is not None and b_use is not None:
+        ua, ub = (a_use["usable_pct"], a_use["one_call_pct"]), (b_use["usable_pct"], b_use["one_call_pct"])
+        if ua != ub:
+            return ua > ub
     ka, kb = a.objective[:2], b.objective[:2]
     if ka != kb:
         return ka > kb
@@ -383,3 +452,203 @@ def _print(s: dict, head: str) -> None:
         f"in view mean {s['in_view_mean']}, min {s['in_view_min']}, per camera {s['per_camera_mean']}\n"
         f"  worst 1-sigma over fix samples: {worst or 'none (no fix)'}"
     )
+    v = s.get("flight_verdict")
+    if v:
+        why = ", ".join(f"{k} {c}" for k, c in v["unusable_reasons"].items()) or "none"
+        print(
+            f"  the flight's verdict (C solver + integrity, survey sigma as the map states): usable "
+            f"{v['usable_pct']} %, one call {v['one_call_pct']} % (not usable: {why}); cameras x/y/z see "
+            f"beacons in {v['per_camera_seen_pct']} % of the samples"
+        )
+
+
+# The fly check's paths: seeds of their own (never the planner's samples), one per path.
+FLY_SEED_BASE = 9100
+
+
+def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
+    """Fly the planned layout (and the baseline) on fresh module paths (fly.py): flown usable
+    % against the flight's verdict predicted on the very poses flown, per layout."""
+    from . import fly
+
+    layouts = {"planned": out / "beacons.csv"}
+    if args.baseline:
+        layouts["baseline"] = Path(args.baseline)
+    res = {}
+    for name, csv_path in layouts.items():
+        runs = []
+        pred_usable, n_pred = 0, 0
+        for k in range(args.fly_paths):
+            seed = FLY_SEED_BASE + 17 * args.seed + k
+            if progress:
+                print(f"  fly check: {name}, path {k + 1}/{args.fly_paths}", flush=True)
+            r = fly.fly(csv_path, out / "plan.json", out / "fly" / f"{name}-{k}", args.fly_frames, seed)
+            runs.append(r)
+            _, pos, sig = load_beacon_csv(csv_path)
+            ws_f = workspace.from_truth(Path(r["work"]) / "frames" / "truth.csv")
+            u = usable.evaluate(core, pos, sig, ws_f, sigma_px, *table_workspace(ws_f))
+            pred_usable += int(u.usable.sum())
+            n_pred += ws_f.n
+        frames = sum(r["frames"] for r in runs)
+        used = sum(r["usable"] for r in runs)
+        reasons: dict[str, int] = {}
+        for r in runs:
+            for k2, c in r["unusable_reasons"].items():
+                reasons[k2] = reasons.get(k2, 0) + c
+        sig_axes = [r["error_sigma"] for r in runs if r["error_sigma"]]
+        res[name] = {
+            "beacons": str(csv_path),
+            "paths": args.fly_paths,
+            "frames_per_path": args.fly_frames,
+            "flown_usable_pct": round(100.0 * used / frames, 2) if frames else None,
+            "predicted_usable_pct": round(100.0 * pred_usable / n_pred, 2) if n_pred else None,
+            "unusable_reasons": reasons,
+            "first_fix_cycles": [r["first_fix_cycle"] for r in runs],
+            "error_sigma": {
+                a: round(float(np.sqrt(np.mean([d[a] ** 2 for d in sig_axes]))), 4) for a in sig_axes[0]
+            }
+            if sig_axes
+            else None,
+            "seeds": [r["seed"] for r in runs],
+        }
+    return res
+
+
+def _counts(text: str) -> list[int]:
+    try:
+        v = sorted({int(t) for t in text.split(",") if t.strip()})
+    except ValueError as exc:
+        raise MfnsError(f"--counts {text!r}: expected comma-separated beacon counts") from exc
+    if not v or v[0] < 4:
+        raise MfnsError(f"--counts {text!r}: every count must be at least 4")
+    require_map_size(v[-1])
+    return v
+
+
+def _pct(text: float | None, name: str) -> float | None:
+    if text is not None and not 0.0 < text <= 100.0:
+        raise MfnsError(f"--{name} {text}: expected a percentage in (0, 100]")
+    return text
+
+
+def run_size(args) -> int:
+    """`mfns plan size`: the LED count a module needs for a target usable rate and one-call
+    rate. For each count, a layout is planned (greedy + annealing, one restart) and judged by
+    the flight's verdict (usable.py) on independent samples: the curve count -> usable %,
+    one-call %; the answer is the smallest count that reaches both targets, and every count
+    that cannot is named with the target it misses."""
+    counts = _counts(args.counts)
+    t_use, t_one = _pct(args.target_usable, "target-usable"), _pct(args.target_one_call, "target-one-call")
+    if not (0 <= args.iterations <= MAX_ITERATIONS and 0 <= args.polish <= MAX_ITERATIONS):
+        raise MfnsError(f"--iterations and --polish must be 0 to {MAX_ITERATIONS}")
+    doc, cams = _load_rig(args)
+    core = Core(cams)
+    surf, keep = surfaces.load(args.surfaces)
+    keep += [surfaces.parse_box(k) for k in args.keep_out or []]
+    cand, _ = surfaces.candidates(surf, args.grid, keep)
+    survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM
+    if not survey >= 0:
+        raise MfnsError("--beacon-sigma must be >= 0")
+    sigma_px, _, _, _ = _noise(args, doc, core, np.zeros(0))
+    ws, ws_check = build_workspace(args, stream=0), build_workspace(args, stream=1)
+    progress = not args.quiet
+    t0 = time.perf_counter()
+    prob = opt.build_problem(core, cand, ws, sigma_px, survey, progress)
+    out = Path(args.out)
+    _prepare(out)
+    rows = []
+    for n in counts:
+        if n > len(cand):
+            raise MfnsError(
+                f"{n} beacons: only {len(cand)} candidates on {args.surfaces} (try a finer --grid)"
+            )
+        rng = np.random.default_rng([args.seed, 11, n])
+        res = opt.optimize(prob, n, args.min_spacing, args.iterations, rng, margin=args.margin)
+        chosen = res.chosen
+        if args.polish > 0:  # the flight's verdict as the objective, as plan optimize does
+            lo_hi = table_workspace(ws)
+            chosen = usable.polish(
+                core, prob, chosen, survey, sigma_px, args.polish, args.min_spacing, rng, *lo_hi
+            ).chosen
+        layout = cand[chosen]
+        v = usable.evaluate(core, layout, np.full(n, survey), ws_check, sigma_px, *table_workspace(ws_check))
+        s = v.summary()
+        write_beacons(out / f"beacons_{n}.csv", layout, survey if survey > 0 else DEFAULT_SURVEY_SIGMA_MM)
+        misses = []
+        if t_use is not None and s["usable_pct"] < t_use:
+            misses.append(f"usable {s['usable_pct']} % < {t_use:g} %")
+        if t_one is not None and s["one_call_pct"] < t_one:
+            misses.append(f"one call {s['one_call_pct']} % < {t_one:g} %")
+        rows.append({"count": n, **s, "misses": misses})
+        if progress:
+            print(f"  {n} beacons: usable {s['usable_pct']} %, one call {s['one_call_pct']} %", flush=True)
+    enough = [r["count"] for r in rows if not r["misses"]]
+    doc_out = {
+        "surfaces": args.surfaces,
+        "workspace": ws_check.description,
+        "samples": ws_check.n,
+        "survey_sigma_mm": survey,
+        "pixel_sigma_px": sigma_px,
+        "target_usable_pct": t_use,
+        "target_one_call_pct": t_one,
+        "verdict": "the flight's own (C solver + integrity per view, mfns.plan.usable); the one-call "
+        f"rate counts usable views with >= {CERT_MIN_IN_VIEW} beacons in view",
+        "curve": rows,
+        "answer": enough[0] if enough else None,
+        "run_time_s": round(time.perf_counter() - t0, 1),
+    }
+    (out / "size.json").write_text(json.dumps(doc_out, indent=2) + "\n")
+    with open(out / "size.csv", "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(["count", "usable_pct", "one_call_pct", "per_camera_seen_pct", "misses"])
+        for r in rows:
+            w.writerow(
+                [
+                    r["count"],
+                    r["usable_pct"],
+                    r["one_call_pct"],
+                    r["per_camera_seen_pct"],
+                    "; ".join(r["misses"]),
+                ]
+            )
+    _size_plot(rows, t_use, t_one, out / "size.png", args.surfaces)
+    for r in rows:
+        print(
+            f"{r['count']:4d} LEDs: usable {r['usable_pct']:6.2f} %, one call {r['one_call_pct']:6.2f} %"
+            + (f"  cannot reach: {', '.join(r['misses'])}" if r["misses"] else "")
+        )
+    if t_use is not None or t_one is not None:
+        targets = " and ".join(
+            t
+            for t in (f"usable >= {t_use:g} %" if t_use else "", f"one call >= {t_one:g} %" if t_one else "")
+            if t
+        )
+        if enough:
+            print(f"plan size: {enough[0]} LEDs reach {targets} (of the counts tried)")
+        else:
+            print(f"plan size: no count tried reaches {targets}: try more LEDs (--counts)")
+    print(f"wrote {out / 'size.json'}, {out / 'size.csv'}, {out / 'size.png'}")
+    return 0
+
+
+def _size_plot(rows, t_use, t_one, path: Path, surfaces_name: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = [r["count"] for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(n, [r["usable_pct"] for r in rows], "o-", label="usable (flight verdict)")
+    ax.plot(n, [r["one_call_pct"] for r in rows], "s-", label="usable in one call")
+    for t, st, lab in ((t_use, "--", "target usable"), (t_one, ":", "target one call")):
+        if t is not None:
+            ax.axhline(t, color="k", ls=st, lw=0.9, label=lab)
+    ax.set_xlabel("LEDs")
+    ax.set_ylabel("% of workspace poses")
+    ax.set_title(f"LED count -> rates ({surfaces_name})")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -737,7 +737,13 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[0],
     )
     p.add_argument("out", metavar="OUT", help="output folder (created; must be empty unless --force)")
-    p.add_argument("--scenario", choices=("turntable", "module"), default="turntable")
+    p.add_argument(
+        "--scenario",
+        choices=("turntable", "module"),
+        default="turntable",
+        help="turntable: the paper's experiment (yaw sweep); module: a free flight among wall "
+        "beacons (default turntable)",
+    )
     p.add_argument("--frames", type=int, default=60, help="time steps (default 60)")
     p.add_argument("--seed", type=int, default=0, help="random seed (beacon map, trajectory, noise)")
     p.add_argument("--rate-hz", type=float, default=18.6, help="frame rate (default 18.6)")
