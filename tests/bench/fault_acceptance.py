@@ -502,14 +502,30 @@ def grown_campaign(
     def cam(*cs: str) -> list[tuple[str, int, str]]:
         return [("camera", cam_idx[c], c) for c in cs]
 
+    counts: dict[tuple[str, int], int] = {}
+    for r in score.read_csv(base / "spots.csv"):
+        if int(r["beacon_id"]) >= 0:
+            counts[(r["camera"], int(r["frame"]))] = counts.get((r["camera"], int(r["frame"])), 0) + 1
+
+    def busy(c: str, frame: int) -> int:
+        """The first frame from `frame` on in which camera c sees three beacons or more (else the
+        one it sees most in; `frame` when it sees none): a camera fault injected while the
+        camera sees nothing is no test."""
+        later = [f for f in range(frame, n_frames)]
+        for f in later:
+            if counts.get((c, f), 0) >= 3:
+                return f
+        best = max(later, key=lambda f: (counts.get((c, f), 0), -f), default=frame)
+        return best if counts.get((c, best), 0) > 0 else frame
+
     faults = [Fault("clean", tables=(nom, sur))]
-    on = k(40)
     for c, axis, deg in POINTING:
         ax = "/".join(f"{a:g}" for a in axis)
+        on = busy(c, k(40))
         faults.append(
             Fault(
                 f"camera {c} knocked {deg:g} deg about its ({ax}) at frame {on}",
-                lambda f, c=c, axis=axis, deg=deg: inject.point_camera(f, c, on, axis, deg, 7),
+                lambda f, c=c, axis=axis, deg=deg, on=on: inject.point_camera(f, c, on, axis, deg, 7),
                 None,
                 on,
                 cam(c),
@@ -540,32 +556,34 @@ def grown_campaign(
                 report_from=10**9,  # never half a period in a run: no report is due
             )
         )
-    s0 = k(30)
     for c in score.CAMERAS:
+        s0 = busy(c, k(30))
         faults.append(
             Fault(
                 f"camera {c} drops frame {s0}, then one period stale",
-                lambda f, c=c: inject.stale_after_drop(f, c, s0),
+                lambda f, c=c, s0=s0: inject.stale_after_drop(f, c, s0),
                 None,
                 s0,
                 cam(c),
             )
         )
     for c in score.CAMERAS:
+        s0 = busy(c, k(30))
         faults.append(
             Fault(
                 f"camera {c} stuck on two alternating buffers from frame {s0}",
-                lambda f, c=c: inject.alternate_buffers(f, c, s0),
+                lambda f, c=c, s0=s0: inject.alternate_buffers(f, c, s0),
                 None,
                 s0,
                 cam(c),
             )
         )
     for c in score.CAMERAS:
+        s0 = busy(c, k(30))
         faults.append(
             Fault(
                 f"camera {c} frozen scene with fresh noise from frame {s0}",
-                lambda f, c=c: inject.frozen_noisy(f, c, s0, 8),
+                lambda f, c=c, s0=s0: inject.frozen_noisy(f, c, s0, 8),
                 None,
                 s0,
                 cam(c),
@@ -600,30 +618,33 @@ def grown_campaign(
             )
         )
     for c in score.CAMERAS:
+        s0 = busy(c, k(30))
         faults.append(
             Fault(
                 f"camera {c} reflection beside every beacon from frame {s0}",
-                lambda f, c=c: {"reflections": inject.reflections(f, c, s0, 9)},
+                lambda f, c=c, s0=s0: {"reflections": inject.reflections(f, c, s0, 9)},
                 None,
                 s0,
                 cam(c),
             )
         )
     for a, b in (("x", "y"), ("y", "z")):
+        on = min(busy(a, k(40)), busy(b, k(40)))
         faults.append(
             Fault(
                 f"cameras {a} and {b} streams swapped from frame {on}",
-                lambda f, a=a, b=b: {"swapped": inject.swap_streams(f, a, b, on)},
+                lambda f, a=a, b=b, on=on: {"swapped": inject.swap_streams(f, a, b, on)},
                 None,
                 on,
                 cam(a, b),
             )
         )
     for c in score.CAMERAS:
+        s0 = busy(c, k(30))
         faults.append(
             Fault(
                 f"camera {c} gain halved from frame {s0}",
-                lambda f, c=c: {"images": inject.scale_gain(f, c, s0, 0.5)},
+                lambda f, c=c, s0=s0: {"images": inject.scale_gain(f, c, s0, 0.5)},
                 None,
                 s0,
                 cam(c),
