@@ -602,6 +602,7 @@ def test_collision_is_a_velocity_step() -> None:
 def test_blame_names_right_and_wrong_subjects() -> None:
     ev = [
         {"cycle": "1", "seq": "0", "event": "BEACON_MISSING", "subject": "4"},  # before the onset
+        {"cycle": "3", "seq": "0", "event": "SELFTEST_CAMERA", "subject": "2"},  # start-up: no blame
         {"cycle": "5", "seq": "1", "event": "BEACON_EXCLUDED", "subject": "19"},
         {"cycle": "6", "seq": "2", "event": "CAMERA_LAG", "subject": "0"},
         {"cycle": "7", "seq": "3", "event": "CAMERAS_DISAGREE", "subject": "2", "arg1": "1"},

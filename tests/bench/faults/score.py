@@ -395,6 +395,8 @@ MOTION = "motion"  # the subject of a fault of the robot's motion: no camera, no
 # A motion fault is reported by any event that is not ordinary, or by the mode leaving
 # tracking (MODE_CHANGE: a re-acquisition).
 MOTION_REPORTS = frozenset({"MODE_CHANGE"})
+# The start-up self-test names cameras too (SELFTEST_CAMERA): no blame.
+STARTUP_PREFIX = "SELFTEST_"
 
 
 def subject_events(events: list[dict], onset: int, described: dict[str, str] | None = None) -> list[dict]:
@@ -405,6 +407,8 @@ def subject_events(events: list[dict], onset: int, described: dict[str, str] | N
     for r in sorted(events, key=lambda r: (int(r["cycle"]), int(r.get("seq", 0) or 0))):
         name = r.get("event", "")
         if name in ORDINARY or name.endswith(ORDINARY_ENDS) or int(r["cycle"]) < onset:
+            continue
+        if name.startswith(STARTUP_PREFIX):
             continue
         kind = event_subject_kind(name, described)
         if kind not in ("camera", "beacon"):
@@ -429,6 +433,8 @@ def first_motion_report(events: list[dict], onset: int) -> dict | None:
     for r in sorted(events, key=lambda r: (int(r["cycle"]), int(r.get("seq", 0) or 0))):
         name = r.get("event", "")
         if int(r["cycle"]) < onset:
+            continue
+        if name.startswith(STARTUP_PREFIX):
             continue
         if name in MOTION_REPORTS or not (name in ORDINARY or name.endswith(ORDINARY_ENDS)):
             return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
