@@ -192,6 +192,7 @@ def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict
         subj = [(k, i) for k, i, _ in fault.subjects if k != score.MOTION]
         res["blame"] = score.blame(events, res["onset_cycle"], subj, ctx["described"])
         res["subjects"] = [list(x) for x in fault.subjects]
+        res["report_within_cycles"] = REPORT_WITHIN_CYCLES
         start = fault.report_from if fault.report_from is not None else fault.onset_frame
         res["report_window_from_cycle"] = score.onset_cycle(cam_rows, start) if start < 10**9 else None
     res["held_at_end"] = held_at_end(cam_rows, ctx["truth"])

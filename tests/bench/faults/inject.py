@@ -377,16 +377,25 @@ def clock_drift(folder: Path, cam: str, first: int, per_frame_s: float) -> Conte
 
 
 def stale_after_drop(folder: Path, cam: str, first: int) -> ContentMap:
-    """A camera that drops frame `first` (its image file missing: the replay reports it and
-    the frame-index gap shows) and from then on delivers each frame one period late: image f
-    (f > first) is image f-1, its frames.csv row keeps t_f (stamped on arrival). No image is
-    repeated: the sequence of contents is ..., first-1, (none), first, first+1, ..."""
+    """A camera that drops frame `first` and from then on delivers each frame one period
+    late, stamped on arrival: its frames.csv row of frame `first` is gone (the driver never
+    got it: the replay shows the frame-index gap, as a V4L2 sequence gap would, with no
+    error) and its image of frame f > first is its image of f-1 while the row keeps t_f.
+    No image is repeated: the contents delivered are ..., first-1, first, first+1, ... at
+    the stamps ..., t_(first-1), t_(first+1), t_(first+2), ..."""
     files = camera_files(folder, cam)
     done: ContentMap = {}
     for f in sorted(files, reverse=True):  # newest first: f-1 is still the original
         if f > first and f - 1 in files:
             replace_file(files[f], files[f - 1].read_bytes())
             done[(cam, f)] = f - 1
+    out = []
+    for ln in _rows_text(folder):
+        p = ln.split(",")
+        if len(p) == 6 and p[0].isdigit() and p[2] == cam and int(p[0]) == first:
+            continue
+        out.append(ln)
+    replace_file(folder / "frames.csv", "\n".join(out).encode())
     files[first].unlink()
     return done
 
