@@ -37,7 +37,7 @@ faults: venv lib
 # sigma, cycles to report within 10 cycles, the first subject blamed and the wrong-subject blame
 # the clean run did not give (docs/pose.md "The grown campaign"). One work folder per seed
 # (build/faults-grown/seedN/results.json); all seeds are flown, the target fails if any failed.
-# About 6 min per seed on 2 cores.
+# About 8-13 min per seed (80 runs, -j 1, 2 shared cores; 6 Dec 2026), most of it the 6 tables.
 # FAULTS_SEEDS: the module scenario's seeds (default 2; e.g. FAULTS_SEEDS='2 3 4 5').
 # FAULTS_GROWN_ARGS: more arguments, e.g. '--only knocked -j 1', or a planned layout:
 # '--beacon-map build/demo/plan/module/beacons.csv --workspace build/demo/plan/module/plan.json'.
