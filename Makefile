@@ -10,6 +10,7 @@
 #   make bench                benchmarks (speed targets are checked here, not in tests)
 #   make demo                 the main job (see README.md); installs only what it needs
 #   make faults               fault acceptance: misleading fixes under injected faults
+#   make faults-grown         issue 42's grown fault campaign (opt-in; FAULTS_SEEDS='2 3 4 5')
 #   make soak SOAK_MINUTES=N  the flight program under sanitizers for N minutes
 #
 # Sources are discovered by folder, so adding a module or a test needs no edit

@@ -24,3 +24,30 @@ FAULTS_ARGS ?=
 faults: venv lib
 	@$(MAKE) --no-print-directory BOARD=host-sim flight
 	@$(PY) tests/bench/fault_acceptance.py --work build/faults $(FAULTS_ARGS)
+
+# make faults-grown: issue 42's grown campaign (tests/bench/fault_acceptance.py --campaign grown),
+# opt-in until the navigation filter lands: the snapshot navigator of today is expected to give
+# misleading fixes in some of its faults, and the target fails when any fix is. Each fault with
+# and without survey error: camera mounts knocked 0.3-1 deg about several axes (re-rendered
+# through the simulator from the onset); each camera's clock drifting 0.5, 1, 2 ms per frame and
+# 100 ppm; stale after a dropped frame (no repeated image); two alternating buffers; a frozen
+# scene with fresh noise; two beacons moved 20 and 50 mm; a reflection beside every beacon of a
+# camera; cameras x/y and y/z swapped; a camera's gain halved; collisions (mfns sim nav
+# --collision: 100 mm/s, 15 deg/s steps). Prints usable, misleading, worst error against PL and
+# sigma, cycles to report within 10 cycles, the first subject blamed and the wrong-subject blame
+# the clean run did not give (docs/pose.md "The grown campaign"). One work folder per seed
+# (build/faults-grown/seedN/results.json); all seeds are flown, the target fails if any failed.
+# About 8-13 min per seed (80 runs, -j 1, 2 shared cores; 6 Dec 2026), most of it the 6 tables.
+# FAULTS_SEEDS: the module scenario's seeds (default 2; e.g. FAULTS_SEEDS='2 3 4 5').
+# FAULTS_GROWN_ARGS: more arguments, e.g. '--only knocked -j 1', or a planned layout:
+# '--beacon-map build/demo/plan/module/beacons.csv --workspace build/demo/plan/module/plan.json'.
+FAULTS_SEEDS ?= 2
+FAULTS_GROWN_ARGS ?=
+.PHONY: faults-grown
+faults-grown: venv lib
+	@$(MAKE) --no-print-directory BOARD=host-sim flight
+	@rc=0; for s in $(FAULTS_SEEDS); do \
+	  echo "== faults-grown: seed $$s"; \
+	  $(PY) tests/bench/fault_acceptance.py --campaign grown --seed $$s --work build/faults-grown/seed$$s \
+	    $(FAULTS_GROWN_ARGS) || rc=1; \
+	done; exit $$rc

@@ -362,3 +362,278 @@ def test_scorer_reads_csv_files(tmp_path: Path) -> None:
         w.writeheader()
         w.writerow(row)
     assert score.read_csv(p) == [row] and score.read_csv(tmp_path / "none.csv") == []
+
+
+# --------------------------------------------------------------------------- the grown campaign (issue 42)
+def make_folder(root: Path, n: int) -> Path:
+    """n frames x 3 cameras of uniform images (value 10 * f + camera index + 1)."""
+    rows = ["frame,t_s,camera,file,exposure_us,gain_db"]
+    for f in range(n):
+        for k, c in enumerate("xyz"):
+            (root / f"cam_{c}").mkdir(parents=True, exist_ok=True)
+            (root / f"cam_{c}" / f"{f:06d}.pgm").write_bytes(pgm(10 * f + k + 1))
+            rows.append(f"{f},{f * PERIOD:.6f},{c},cam_{c}/{f:06d}.pgm,1000,0.0")
+    (root / "frames.csv").write_text("\n".join(rows) + "\n")
+    return root
+
+
+@pytest.fixture()
+def folder6(tmp_path: Path) -> Path:
+    return make_folder(tmp_path / "src6", 6)
+
+
+@pytest.fixture(scope="module")
+def simfolder(tmp_path_factory) -> Path:
+    """A real `mfns sim nav` module folder of 4 frames (seed 2), rendered in-process."""
+    from mfns.simulate import nav as sim
+
+    out = tmp_path_factory.mktemp("sim") / "frames"
+    out.mkdir()
+    scn = sim.module_scenario(4, 18.6, 60, 2)
+    sim.simulate(scn, out, 2, 18.6, sim.RenderParams(spurious_rate=0.0), progress=False)
+    return out
+
+
+def spots_of(folder: Path, cam: str, frame: int, beacons_only: bool = True) -> dict[int, tuple[float, float]]:
+    out = {}
+    for r in score.read_csv(folder / "spots.csv"):
+        if r["camera"] == cam and int(r["frame"]) == frame and (int(r["beacon_id"]) >= 0 or not beacons_only):
+            out[int(r["beacon_id"])] = (float(r["u"]), float(r["v"]))
+    return out
+
+
+def centroid(px: np.ndarray, u: float, v: float, r: int = 5) -> tuple[float, float]:
+    """Intensity-weighted centroid above the window's median, around (u, v)."""
+    cu, cv = int(round(u)), int(round(v))
+    win = px[cv - r : cv + r + 1, cu - r : cu + r + 1]
+    w = np.clip(win - np.median(px), 0.0, None)
+    yy, xx = np.mgrid[cv - r : cv + r + 1, cu - r : cu + r + 1]
+    return float((w * xx).sum() / w.sum()), float((w * yy).sum() / w.sum())
+
+
+def busy_camera(folder: Path) -> str:
+    """The camera with the most beacon spots in frame 1."""
+    return max("xyz", key=lambda c: len(spots_of(folder, c, 1)))
+
+
+def test_rerender_puts_spots_where_the_simulator_did(simfolder: Path) -> None:
+    from faults import render
+
+    scene = render.Scene.load(simfolder)
+    cam = busy_camera(simfolder)
+    s, ids = scene.spots(cam, 2)
+    want = spots_of(simfolder, cam, 2)
+    assert sorted(int(i) for i in ids) == sorted(want) and len(want) >= 3
+    for i, row in zip(ids, s, strict=True):
+        assert np.hypot(row[0] - want[int(i)][0], row[1] - want[int(i)][1]) < 1e-3
+
+
+@pytest.mark.parametrize(("axis", "deg"), [((0.0, 1.0, 0.0), 0.3), ((1.0, 0.0, 0.0), 1.0)])
+def test_knocked_camera_moves_its_spots_by_the_angle(simfolder: Path, tmp_path: Path, axis, deg) -> None:
+    cam = busy_camera(simfolder)
+    d = inject.link_frames(simfolder, tmp_path / "d")
+    info = inject.point_camera(d, cam, 2, axis, deg, seed=1)
+    assert info["images"] == 2 and info["spots"] > 0
+    fx = json_cam(simfolder, cam)["fx"]
+    expect_px = fx * math.tan(math.radians(deg))  # on the axis; more off it (distortion, 1 + x^2)
+    before, after = spots_of(simfolder, cam, 3), spots_of(d, cam, 3)
+    common = sorted(set(before) & set(after))
+    assert common
+    px, _ = inject.read_pgm(d / f"cam_{cam}" / "000003.pgm")
+    for b in common:
+        du, dv = np.subtract(after[b], before[b])
+        along, across = (du, dv) if axis[1] else (dv, du)
+        # camera turned +deg about its y (x) axis: the world moves -x (+y) in its image
+        assert (-along if axis[1] else along) == pytest.approx(expect_px, rel=0.25), (b, du, dv)
+        assert abs(across) < 0.2 * expect_px
+        cu, cv = centroid(px, *after[b])  # the image really has the spot where spots.csv says
+        assert np.hypot(cu - after[b][0], cv - after[b][1]) < 0.5
+    # frames before the onset, the other cameras and frames.csv untouched
+    assert img(d, cam, 1) == img(simfolder, cam, 1) and img(d, cam, 3) != img(simfolder, cam, 3)
+    other = next(c for c in "xyz" if c != cam)
+    assert img(d, other, 3) == img(simfolder, other, 3)
+    assert (d / "frames.csv").read_bytes() == (simfolder / "frames.csv").read_bytes()
+
+
+def json_cam(folder: Path, cam: str) -> dict:
+    import json
+
+    doc = json.loads((folder / "calib.json").read_text())
+    return doc["cameras"]["xyz".index(cam)]
+
+
+@pytest.mark.parametrize("rate_s", [0.5e-3, 2e-3, 100e-6 * PERIOD])
+def test_clock_drift_grows_by_its_rate_per_frame(folder6: Path, tmp_path: Path, rate_s: float) -> None:
+    d = inject.link_frames(folder6, tmp_path / "d")
+    assert inject.clock_drift(d, "y", 2, rate_s) == {}
+    before = {(r["camera"], r["frame"]): r for r in inject.frame_rows(folder6)}
+    after = {(r["camera"], r["frame"]): r for r in inject.frame_rows(d)}
+    for (c, f), r in before.items():
+        drift = rate_s * (f - 1) if c == "y" and f >= 2 else 0.0
+        assert after[(c, f)]["t_s"] - r["t_s"] == pytest.approx(drift, abs=1.5e-6), (c, f)
+    for f in range(6):
+        assert img(d, "y", f) == img(folder6, "y", f)  # the images are taken at the true instant
+    # the scorer judges by the image's instant: a fix stamped by the drifting clock is that far off
+    cap = score.capture_times(inject.frame_rows(folder6), {})
+    assert cap[("y", 5)] == pytest.approx(5 * PERIOD)
+
+
+def test_stale_after_a_drop_repeats_no_image(folder6: Path, tmp_path: Path) -> None:
+    d = inject.link_frames(folder6, tmp_path / "d")
+    done = inject.stale_after_drop(d, "x", 2)
+    assert done == {("x", f): f - 1 for f in range(3, 6)}
+    assert not (d / "cam_x" / "000002.pgm").exists()  # the dropped frame
+    delivered = [img(d, "x", f) for f in (0, 1, 3, 4, 5)]
+    assert delivered == [img(folder6, "x", f) for f in (0, 1, 2, 3, 4)]
+    assert len(set(delivered)) == len(delivered)  # no repeated image at the onset
+    rows0 = {(r["camera"], r["frame"]): r["t_s"] for r in inject.frame_rows(folder6)}
+    rows1 = {(r["camera"], r["frame"]): r["t_s"] for r in inject.frame_rows(d)}
+    assert set(rows0) - set(rows1) == {("x", 2)}  # its row is gone: a gap, no error
+    assert all(rows1[key] == rows0[key] for key in rows1)  # fresh stamps: image f-1 at t_f
+    assert img(d, "y", 3) == img(folder6, "y", 3)
+
+
+def test_alternating_buffers_never_repeat_in_a_row(folder6: Path, tmp_path: Path) -> None:
+    d = inject.link_frames(folder6, tmp_path / "d")
+    done = inject.alternate_buffers(d, "z", 2)
+    assert done == {("z", 2): 2, ("z", 3): 1, ("z", 4): 2, ("z", 5): 1}
+    seq = [img(d, "z", f) for f in range(6)]
+    assert seq[2:] == [img(folder6, "z", f) for f in (2, 1, 2, 1)]
+    assert all(a != b for a, b in zip(seq, seq[1:], strict=False))  # a digest of the last frame misses it
+    assert seq[:2] == [img(folder6, "z", f) for f in (0, 1)]
+
+
+def test_frozen_scene_keeps_fresh_noise(simfolder: Path, tmp_path: Path) -> None:
+    cam = busy_camera(simfolder)
+    d = inject.link_frames(simfolder, tmp_path / "d")
+    done = inject.frozen_noisy(d, cam, 1, seed=3)
+    assert done == {(cam, f): 1 for f in (1, 2, 3)}
+    a, b, c = (inject.read_pgm(d / f"cam_{cam}" / f"{f:06d}.pgm")[0] for f in (1, 2, 3))
+    assert not np.array_equal(b, c) and not np.array_equal(a, b)  # no byte-equal frames
+    diff = (b - c)[100:-100, 100:-100]
+    assert 0.8 < diff.std() / math.sqrt(2) < 2.0  # fresh sensor noise of about 1 DN, nothing else
+    for u, v in spots_of(simfolder, cam, 1).values():  # the spots of frame 1, not of frame 3
+        if 10 < u < a.shape[1] - 10 and 10 < v < a.shape[0] - 10:
+            cu, cv = centroid(c, u, v)
+            assert np.hypot(cu - u, cv - v) < 0.5
+    assert spots_of(d, cam, 3) == spots_of(simfolder, cam, 1)
+
+
+def test_reflections_beside_every_beacon(simfolder: Path, tmp_path: Path) -> None:
+    cam = busy_camera(simfolder)
+    d = inject.link_frames(simfolder, tmp_path / "d")
+    n = inject.reflections(d, cam, 2, seed=4)
+    beacons = {f: spots_of(simfolder, cam, f) for f in (2, 3)}
+    assert n == sum(len(b) for b in beacons.values())
+    for f in (2, 3):
+        ghosts = [
+            (float(r["u"]), float(r["v"]), float(r["peak_dn"]))
+            for r in score.read_csv(d / "spots.csv")
+            if r["camera"] == cam and int(r["frame"]) == f and int(r["beacon_id"]) == -1
+        ]
+        assert len(ghosts) == len(beacons[f])
+        for u, v in beacons[f].values():  # one ghost 3-6 px from each beacon
+            dist = min(np.hypot(g[0] - u, g[1] - v) for g in ghosts)
+            assert 3.0 - 1e-6 <= dist <= 6.0 + 1e-6
+        px0, _ = inject.read_pgm(simfolder / f"cam_{cam}" / f"{f:06d}.pgm")
+        px1, _ = inject.read_pgm(d / f"cam_{cam}" / f"{f:06d}.pgm")
+        assert (px1 - px0).sum() > 0 and (px1 >= px0).all()  # light added, nothing removed
+    assert img(d, cam, 1) == img(simfolder, cam, 1)
+
+
+def test_swapped_streams_really_swap(folder6: Path, tmp_path: Path) -> None:
+    d = inject.link_frames(folder6, tmp_path / "d")
+    assert inject.swap_streams(d, "x", "y", 3) == 3
+    for f in range(6):
+        if f >= 3:
+            assert img(d, "x", f) == img(folder6, "y", f) and img(d, "y", f) == img(folder6, "x", f)
+        else:
+            assert img(d, "x", f) == img(folder6, "x", f) and img(d, "y", f) == img(folder6, "y", f)
+        assert img(d, "z", f) == img(folder6, "z", f)
+    assert (d / "frames.csv").read_bytes() == (folder6 / "frames.csv").read_bytes()
+
+
+def test_gain_halved_halves_every_pixel(folder: Path, tmp_path: Path) -> None:
+    d = inject.link_frames(folder, tmp_path / "d")
+    assert inject.scale_gain(d, "y", 1, 0.5) == 2
+    for f in range(3):
+        px0, _ = inject.read_pgm(folder / "cam_y" / f"{f:06d}.pgm")
+        px1, _ = inject.read_pgm(d / "cam_y" / f"{f:06d}.pgm")
+        want = np.floor(px0 * 0.5 + 0.5) if f >= 1 else px0
+        np.testing.assert_array_equal(px1, want)
+    assert px0.max() > 150 and px1.max() <= 0.5 * px0.max() + 0.5  # the spot's peak halved too
+
+
+def test_two_beacons_moved(folder: Path, tmp_path: Path) -> None:
+    rows = inject.read_beacons(folder / "beacons.csv")
+    moves = {3: inject.move_vector(rows, 3, 20.0, False), 9: inject.move_vector(rows, 9, 20.0, False)}
+    out = inject.moved_beacons_map(folder / "beacons.csv", tmp_path / "b.csv", moves)
+    new = {int(r["id"]): r for r in inject.read_beacons(out)}
+    for r in rows:
+        p0 = np.array([float(r[a]) for a in inject.AXES])
+        p1 = np.array([float(new[int(r["id"])][a]) for a in inject.AXES])
+        np.testing.assert_allclose(p1 - p0, -moves.get(int(r["id"]), np.zeros(3)), atol=1e-4)
+    assert inject.seen_beacons(folder / "spots.csv") == [7]
+    with pytest.raises(ValueError):
+        inject.moved_beacons_map(folder / "beacons.csv", tmp_path / "c.csv", {99: np.ones(3)})
+
+
+def test_collision_is_a_velocity_step() -> None:
+    from mfns.errors import MfnsError
+    from mfns.simulate import nav as sim
+
+    scn = sim.module_scenario(40, 18.6, 60, 2)
+    ref = sim.module_scenario(40, 18.6, 60, 2)
+    t_c = float(scn.t_s[20])
+    sim.apply_collision(scn, *sim.parse_collision(f"{t_c},0,100,0,0,0,15"))
+    dp = scn.r_wb_w - ref.r_wb_w
+    np.testing.assert_allclose(dp[:21], 0.0, atol=1e-9)  # continuous: nothing before or at t_c
+    np.testing.assert_allclose(dp[21:, 1], 100.0 * (scn.t_s[21:] - t_c), rtol=1e-9)
+    dyaw = (scn.euler_deg[:, 2] - ref.euler_deg[:, 2] + 180.0) % 360.0 - 180.0
+    np.testing.assert_allclose(dyaw[21:], 15.0 * (scn.t_s[21:] - t_c), atol=1e-6)
+    # the velocity (finite differences) jumps by the step within one frame period
+    v = np.diff(scn.r_wb_w[:, 1]) * 18.6
+    v0 = np.diff(ref.r_wb_w[:, 1]) * 18.6
+    assert (v - v0)[19] == pytest.approx(0.0, abs=1e-6) and (v - v0)[21] == pytest.approx(100.0)
+    assert scn.info["collision"]["velocity_step_mm_s"] == [0.0, 100.0, 0.0]
+    assert "collision" not in ref.info  # without the option nothing changes
+    for bad in ("1,2,3", "1,2,3,x", "1,2,3,4,5", "nan,0,0,0"):
+        with pytest.raises(MfnsError):
+            sim.parse_collision(bad)
+
+
+def test_blame_names_right_and_wrong_subjects() -> None:
+    ev = [
+        {"cycle": "1", "seq": "0", "event": "BEACON_MISSING", "subject": "4"},  # before the onset
+        {"cycle": "3", "seq": "0", "event": "SELFTEST_CAMERA", "subject": "2"},  # start-up: no blame
+        {"cycle": "5", "seq": "1", "event": "BEACON_EXCLUDED", "subject": "19"},
+        {"cycle": "6", "seq": "2", "event": "CAMERA_LAG", "subject": "0"},
+        {"cycle": "7", "seq": "3", "event": "CAMERAS_DISAGREE", "subject": "2", "arg1": "1"},
+        {"cycle": "8", "seq": "4", "event": "BEACON_MISSING", "subject": "4"},
+        {"cycle": "9", "seq": "5", "event": "CAMERA_RECOVERED", "subject": "2"},  # ordinary
+    ]
+    b = score.blame(ev, 3, [("camera", 1)])
+    assert b["first"] == {
+        "event": "BEACON_EXCLUDED",
+        "cycle": 5,
+        "delay": 2,
+        "label": "beacon 19",
+        "right": False,
+    }
+    assert b["wrong"] == {
+        "beacon 19": ["BEACON_EXCLUDED"],
+        "camera x": ["CAMERA_LAG"],
+        "camera z": ["CAMERAS_DISAGREE"],
+        "beacon 4": ["BEACON_MISSING"],
+    }
+    assert b["wrong_not_in_clean"] is None
+    clean = score.baseline_blame([{"cycle": "2", "seq": "0", "event": "BEACON_MISSING", "subject": "4"}])
+    b = score.blame(ev, 3, [("camera", 1)], baseline=clean)
+    assert "beacon 4" not in b["wrong_not_in_clean"] and "beacon 19" in b["wrong_not_in_clean"]
+    assert score.blame(ev, 6, [("camera", 0)])["first"]["right"] is True
+    assert score.blame(ev, 10, [("camera", 0)]) == {"first": None, "wrong": {}, "wrong_not_in_clean": None}
+    # a motion fault has no subject: any report that is not ordinary, or a mode change
+    assert score.first_motion_report(ev, 6)["event"] == "CAMERA_LAG"
+    mode = [{"cycle": "12", "seq": "0", "event": "MODE_CHANGE", "subject": "3"}]
+    assert score.first_motion_report(mode, 10) == {"cycle": 12, "delay": 2, "event": "MODE_CHANGE"}
+    assert score.first_motion_report(ev[-1:], 0) is None

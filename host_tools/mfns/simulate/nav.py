@@ -261,6 +261,34 @@ def apply_survey_error(scn: Scenario, seed: int) -> float:
     return float(np.sqrt(np.mean(d * d))) if d.size else 0.0
 
 
+def apply_collision(scn: Scenario, t_s: float, v_mm_s, w_deg_s=(0.0, 0.0, 0.0)) -> None:
+    """A collision (or a hard burst) at t_s: from then on the path carries a velocity step,
+    r_wb_w += v (t - t_s) and the Euler angles of C_w_b += w (t - t_s) (mm/s, deg/s; the
+    angles re-extracted as a reader would). Position and attitude stay continuous; velocity
+    jumps within one frame period: an acceleration far beyond any propulsion bound."""
+    dt = np.clip(np.asarray(scn.t_s, dtype=float) - t_s, 0.0, None)[:, None]
+    scn.r_wb_w = scn.r_wb_w + dt * np.asarray(v_mm_s, dtype=float)
+    att = scn.euler_deg + dt * np.asarray(w_deg_s, dtype=float)
+    scn.euler_deg = np.array([matrix_to_euler213_deg(euler213_deg_to_matrix(a)) for a in att]).reshape(-1, 3)
+    scn.info["collision"] = {
+        "t_s": t_s,
+        "velocity_step_mm_s": [float(v) for v in v_mm_s],
+        "rate_step_deg_s": [float(w) for w in w_deg_s],
+        "note": "from t_s on: position += v (t - t_s), Euler angles += w (t - t_s)",
+    }
+
+
+def parse_collision(text: str) -> tuple[float, list[float], list[float]]:
+    """--collision T,VX,VY,VZ[,WR,WP,WY] -> (t_s, v mm/s, w deg/s)."""
+    try:
+        vals = [float(x) for x in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) not in (4, 7) or not all(math.isfinite(v) for v in vals):
+        raise MfnsError(f"--collision {text!r}: expected T_S,VX,VY,VZ[,WROLL,WPITCH,WYAW] (s, mm/s, deg/s)")
+    return vals[0], vals[1:4], (vals[4:7] if len(vals) == 7 else [0.0, 0.0, 0.0])
+
+
 def true_rig_document(doc: dict) -> dict:
     """The calibration document of the simulated (true) rig: without an estimate's covariance."""
     return {k: v for k, v in doc.items() if k != "covariance"}
@@ -696,6 +724,8 @@ def run(args) -> int:
     if not (0.0 <= args.spurious_rate <= 1.0):
         raise MfnsError("--spurious-rate must be in [0, 1]")
     scn = build_scenario(args)
+    if getattr(args, "collision", None):
+        apply_collision(scn, *parse_collision(args.collision))
     if args.survey_seed is not None and not args.survey_error:
         raise MfnsError("--survey-seed needs --survey-error")
     if args.survey_error:
@@ -773,6 +803,13 @@ def register(subparsers) -> None:
         metavar="S",
         help="with --survey-error: seed of the displacements (default --seed), for several survey "
         "realisations of one scenario",
+    )
+    p.add_argument(
+        "--collision",
+        metavar="T,VX,VY,VZ[,WR,WP,WY]",
+        help="a collision at T s: a velocity step of (VX, VY, VZ) mm/s in the world frame and "
+        "optionally (WR, WP, WY) deg/s on the Euler angles of C_w_b from T on (the fault "
+        "campaign's robot beyond its acceleration bound); scenario.json records it",
     )
     p.add_argument("--force", action="store_true", help="replace an existing nav-frames folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

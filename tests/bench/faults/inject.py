@@ -315,3 +315,223 @@ def erase_spot(px: np.ndarray, u: float, v: float, sigma_px: float, rng, n_sigma
         noise = float(np.std(border))
     inner = win[2:-2, 2:-2]
     inner[...] = bg + rng.normal(0.0, noise, inner.shape)
+
+
+# --------------------------------------------------------------------------- the grown campaign
+# (issue 42 item 4). Faults that change what a camera sees are re-rendered through the
+# simulator's own projection and renderer (render.py), so their spots are physically right.
+def _rows_text(folder: Path) -> list[str]:
+    return (folder / "frames.csv").read_text().split("\n")
+
+
+def point_camera(folder: Path, cam: str, first: int, axis_c, deg: float, seed: int) -> dict:
+    """A camera mount knocked at frame `first`: from then on camera cam's images are
+    re-rendered as the camera turned deg degrees about axis_c (its own axes: x right, y down,
+    z optical) sees the beacons (render.knocked), with fresh sensor noise; spots.csv is
+    updated for those images. frames.csv and the capture instants are unchanged. Returns
+    {"images": re-rendered, "spots": beacon spots in them, "shift_px": median spot shift}."""
+    from . import render
+
+    scene = render.Scene.load(folder)
+    k = render.CAMERAS.index(cam)
+    moved = render.knocked(scene.cams[k], np.asarray(axis_c, dtype=float), deg)
+    renderer = scene.renderer()
+    rng = np.random.default_rng([seed, 42, k])
+    spots = [r for r in render.read_spots(folder) if not (r["camera"] == cam and int(r["frame"]) >= first)]
+    shifts, n_img, n_spots = [], 0, 0
+    for f, path in sorted(camera_files(folder, cam).items()):
+        if f < first:
+            continue
+        s_new, ids_new = scene.spots(cam, f, moved)
+        s_old, ids_old = scene.spots(cam, f)
+        old = {int(i): s for i, s in zip(ids_old, s_old, strict=True)}
+        shifts += [
+            float(np.hypot(*(s[:2] - old[int(i)][:2])))
+            for i, s in zip(ids_new, s_new, strict=True)
+            if int(i) in old
+        ]
+        replace_file(path, render.render_pgm(renderer, s_new, rng))
+        spots += [render.spot_row(f, cam, i, s) for i, s in zip(ids_new, s_new, strict=True)]
+        n_img += 1
+        n_spots += len(ids_new)
+    render.write_spots(folder, spots)
+    return {"images": n_img, "spots": n_spots, "shift_px": float(np.median(shifts)) if shifts else None}
+
+
+def clock_drift(folder: Path, cam: str, first: int, per_frame_s: float) -> ContentMap:
+    """Camera cam's clock drifting from frame `first`: its frames.csv t_s of frame f >= first
+    is the true instant plus per_frame_s * (f - first + 1), a ramp (a clock running fast by
+    per_frame_s per frame period). The images are unchanged: the light reached the sensor at
+    the true instant, the camera's clock labels it wrongly. The scorer's capture time is the
+    image's (the original row's), so a fix stamped by the drifting clock is judged by how far
+    its stamp is from when its frames were taken."""
+    out = []
+    for ln in _rows_text(folder):
+        p = ln.split(",")
+        if len(p) == 6 and p[0].isdigit() and p[2] == cam and int(p[0]) >= first:
+            p[1] = f"{float(p[1]) + per_frame_s * (int(p[0]) - first + 1):.6f}"
+            ln = ",".join(p)
+        out.append(ln)
+    replace_file(folder / "frames.csv", "\n".join(out).encode())
+    return {}
+
+
+def stale_after_drop(folder: Path, cam: str, first: int) -> ContentMap:
+    """A camera that drops frame `first` and from then on delivers each frame one period
+    late, stamped on arrival: its frames.csv row of frame `first` is gone (the driver never
+    got it: the replay shows the frame-index gap, as a V4L2 sequence gap would, with no
+    error) and its image of frame f > first is its image of f-1 while the row keeps t_f.
+    No image is repeated: the contents delivered are ..., first-1, first, first+1, ... at
+    the stamps ..., t_(first-1), t_(first+1), t_(first+2), ..."""
+    files = camera_files(folder, cam)
+    done: ContentMap = {}
+    for f in sorted(files, reverse=True):  # newest first: f-1 is still the original
+        if f > first and f - 1 in files:
+            replace_file(files[f], files[f - 1].read_bytes())
+            done[(cam, f)] = f - 1
+    out = []
+    for ln in _rows_text(folder):
+        p = ln.split(",")
+        if len(p) == 6 and p[0].isdigit() and p[2] == cam and int(p[0]) == first:
+            continue
+        out.append(ln)
+    replace_file(folder / "frames.csv", "\n".join(out).encode())
+    files[first].unlink()
+    return done
+
+
+def alternate_buffers(folder: Path, cam: str, first: int) -> ContentMap:
+    """A capture stuck on two buffers from frame `first`: images first-1 and first are the
+    last two written, and from then on the camera delivers them in turn (f > first: image
+    first-1 when f - first is odd, image first when even), stamps advancing. Byte-identical
+    repeats, but never two equal images in a row."""
+    files = camera_files(folder, cam)
+    bufs = {0: files[first].read_bytes(), 1: files[first - 1].read_bytes()}
+    done: ContentMap = {(cam, first): first}
+    for f, p in sorted(files.items()):
+        if f > first:
+            replace_file(p, bufs[(f - first) % 2])
+            done[(cam, f)] = first - (f - first) % 2
+    return done
+
+
+def frozen_noisy(folder: Path, cam: str, first: int, seed: int) -> ContentMap:
+    """A frozen scene with live sensor noise (a stuck ISP crop or a mirror: the sensor keeps
+    reading out): from frame `first` on, camera cam's images are its frame `first` spots
+    (spots.csv, reflections included) re-rendered with a fresh noise draw each frame. No two
+    images are byte-equal; what they show is frame `first`."""
+    from . import render
+
+    scene = render.Scene.load(folder)
+    renderer = scene.renderer()
+    rows = render.read_spots(folder)
+    spots = np.array(
+        [
+            [float(r[c]) for c in ("u", "v", "peak_dn", "sigma_px")]
+            for r in rows
+            if r["camera"] == cam and int(r["frame"]) == first
+        ]
+    ).reshape(-1, 4)
+    rng = np.random.default_rng([seed, 43, render.CAMERAS.index(cam)])
+    done: ContentMap = {}
+    keep = [r for r in rows if not (r["camera"] == cam and int(r["frame"]) > first)]
+    same = [r for r in rows if r["camera"] == cam and int(r["frame"]) == first]
+    for f, p in sorted(camera_files(folder, cam).items()):
+        if f > first:
+            replace_file(p, render.render_pgm(renderer, spots, rng))
+            keep += [r | {"frame": str(f)} for r in same]
+        if f >= first:
+            done[(cam, f)] = first
+    render.write_spots(folder, keep)
+    return done
+
+
+def reflections(
+    folder: Path, cam: str, first: int, seed: int, dist_px=(3.0, 6.0), rel_peak=(0.3, 0.6)
+) -> int:
+    """A reflection beside every beacon of one camera from frame `first` (a shiny bracket by
+    each LED, or a cover glass ghost): for every beacon spot of camera cam in spots.csv, a
+    second spot dist_px away (uniform, random direction), rel_peak of its peak and as wide,
+    added to the image with its shot noise; spots.csv lists it (beacon_id -1). At 3-6 px, two
+    to four spot sigmas, the ghost is a separate blob or merges with the beacon and pulls its
+    centroid. Returns the number of reflections added."""
+    from . import render
+
+    scene = render.Scene.load(folder)
+    renderer = scene.renderer()
+    rng = np.random.default_rng([seed, 44, render.CAMERAS.index(cam)])
+    rows = render.read_spots(folder)
+    by_frame: dict[int, list[dict]] = {}
+    for r in rows:
+        if r["camera"] == cam and int(r["frame"]) >= first and int(r["beacon_id"]) >= 0:
+            by_frame.setdefault(int(r["frame"]), []).append(r)
+    files = camera_files(folder, cam)
+    n = 0
+    e_dn = scene.params.electrons_per_dn
+    for f, beacon_rows in sorted(by_frame.items()):
+        ghosts = []
+        for r in beacon_rows:
+            ang, d = rng.uniform(0.0, 2 * np.pi), rng.uniform(*dist_px)
+            u, v = float(r["u"]) + d * np.cos(ang), float(r["v"]) + d * np.sin(ang)
+            ghosts.append([u, v, float(r["peak_dn"]) * rng.uniform(*rel_peak), float(r["sigma_px"])])
+        g = np.array(ghosts)
+        px, maxv = read_pgm(files[f])
+        idx, sig = renderer.signal(g)
+        px[idx] += rng.poisson(np.maximum(sig, 0.0) * e_dn) / e_dn  # the ghost's light and its shot noise
+        replace_file(files[f], pgm_bytes(px, maxv))
+        rows += [render.spot_row(f, cam, -1, s) for s in g]
+        n += len(g)
+    render.write_spots(folder, rows)
+    return n
+
+
+def swap_streams(folder: Path, a: str, b: str, first: int) -> int:
+    """Two cameras' streams swapped from frame `first` (two cables or device nodes crossed
+    after a driver restart): camera a's file of frame f holds camera b's image of frame f and
+    the reverse; frames.csv is unchanged, so each image keeps its instant. Returns the number
+    of frames swapped."""
+    fa, fb = camera_files(folder, a), camera_files(folder, b)
+    n = 0
+    for f in sorted(fa):
+        if f >= first and f in fb:
+            da, db = fa[f].read_bytes(), fb[f].read_bytes()
+            replace_file(fa[f], db)
+            replace_file(fb[f], da)
+            n += 1
+    return n
+
+
+def scale_gain(folder: Path, cam: str, first: int, factor: float) -> int:
+    """Camera cam's gain multiplied by factor from frame `first` (every DN scaled, background
+    included; rounded) while frames.csv keeps the gain it reported: a gain register lost or
+    a half-scaled readout. Returns the number of images changed."""
+    n = 0
+    for f, p in sorted(camera_files(folder, cam).items()):
+        if f >= first:
+            px, maxv = read_pgm(p)
+            replace_file(p, pgm_bytes(np.floor(px * factor + 0.5), maxv))
+            n += 1
+    return n
+
+
+def seen_beacons(spots_csv: Path) -> list[int]:
+    """Beacon ids by how many rendered spots they have, most first (lowest id on a tie)."""
+    counts: dict[int, int] = {}
+    with open(spots_csv, newline="") as f:
+        for r in csv.DictReader(f):
+            b = int(r["beacon_id"])
+            if b >= 0:
+                counts[b] = counts.get(b, 0) + 1
+    return sorted(counts, key=lambda b: (-counts[b], b))
+
+
+def moved_beacons_map(src: Path, out: Path, moves: dict[int, np.ndarray]) -> Path:
+    """moved_beacon_map for several beacons at once."""
+    rows = read_beacons(src)
+    for beacon_id, move_mm in moves.items():
+        hit = [r for r in rows if int(r["id"]) == beacon_id]
+        if len(hit) != 1:
+            raise ValueError(f"{src}: beacon {beacon_id} not found once")
+        for a, m in zip(AXES, move_mm, strict=True):
+            hit[0][a] = f"{float(hit[0][a]) - float(m):.4f}"
+    return write_beacons(rows, out)

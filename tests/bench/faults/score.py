@@ -387,3 +387,105 @@ def first_report(
         if name in PAIR_EVENTS and kind == "camera" and other.isdigit() and int(other) == subject:
             return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
     return None
+
+
+# --------------------------------------------------------------------------- subjects blamed
+# (issue 42 item 4: which event names the right camera or beacon, and who else was blamed)
+MOTION = "motion"  # the subject of a fault of the robot's motion: no camera, no beacon
+# A motion fault is reported by any event that is not ordinary, or by the mode leaving
+# tracking (MODE_CHANGE: a re-acquisition).
+MOTION_REPORTS = frozenset({"MODE_CHANGE"})
+# The start-up self-test names cameras too (SELFTEST_CAMERA): no blame.
+STARTUP_PREFIX = "SELFTEST_"
+
+
+def subject_events(events: list[dict], onset: int, described: dict[str, str] | None = None) -> list[dict]:
+    """The events at or after cycle onset that blame a camera or a beacon (not ordinary, and
+    their subject a camera index or beacon id): {"cycle", "event", "kind", "subject"} in order;
+    a pair event (CAMERAS_DISAGREE) gives one entry per camera it names."""
+    out = []
+    for r in sorted(events, key=lambda r: (int(r["cycle"]), int(r.get("seq", 0) or 0))):
+        name = r.get("event", "")
+        if name in ORDINARY or name.endswith(ORDINARY_ENDS) or int(r["cycle"]) < onset:
+            continue
+        if name.startswith(STARTUP_PREFIX):
+            continue
+        kind = event_subject_kind(name, described)
+        if kind not in ("camera", "beacon"):
+            continue
+        subj = r.get("subject", "").strip()
+        if kind == "camera" and subj in CAMERAS:
+            subj = str(CAMERAS.index(subj))
+        if kind == "beacon" and subj == str(SUBJECT_SATURATED):
+            subj = r.get("arg1", "").strip()
+        if not subj.lstrip("-").isdigit():
+            continue
+        out.append({"cycle": int(r["cycle"]), "event": name, "kind": kind, "subject": int(subj)})
+        other = r.get("arg1", "").strip()
+        if name in PAIR_EVENTS and kind == "camera" and other.isdigit():
+            out.append({"cycle": int(r["cycle"]), "event": name, "kind": kind, "subject": int(other)})
+    return out
+
+
+def first_motion_report(events: list[dict], onset: int) -> dict | None:
+    """The first event at or after onset that is not ordinary, or a MODE_CHANGE (the report a
+    motion fault, which has no camera or beacon subject, can have)."""
+    for r in sorted(events, key=lambda r: (int(r["cycle"]), int(r.get("seq", 0) or 0))):
+        name = r.get("event", "")
+        if int(r["cycle"]) < onset:
+            continue
+        if name.startswith(STARTUP_PREFIX):
+            continue
+        if name in MOTION_REPORTS or not (name in ORDINARY or name.endswith(ORDINARY_ENDS)):
+            return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
+    return None
+
+
+def subject_label(kind: str, subject: int) -> str:
+    if kind == "camera" and 0 <= subject < len(CAMERAS):
+        return f"camera {CAMERAS[subject]}"
+    return f"{kind} {subject}"
+
+
+def blame(
+    events: list[dict],
+    onset: int,
+    subjects: list[tuple[str, int]],
+    described: dict[str, str] | None = None,
+    baseline: set[tuple[str, str, int]] | None = None,
+) -> dict:
+    """Who the events after onset blame, for a fault whose true subjects are `subjects`
+    [(kind, id)]: the first subject blamed ({"event", "cycle", "delay", "label", "right"}),
+    the wrong-subject blame {label: [event names]} (events naming a camera or beacon that is
+    not a subject of the fault) and, with baseline (the (event, kind, subject) triples the
+    fault-free run of the same table gave at any time), the wrong blame that run did not give
+    (the fault's own wrong blame, not the scenario's background)."""
+    truth = {(k, int(i)) for k, i in subjects}
+    evs = subject_events(events, onset, described)
+    first = None
+    if evs:
+        e = evs[0]
+        first = {
+            "event": e["event"],
+            "cycle": e["cycle"],
+            "delay": e["cycle"] - onset,
+            "label": subject_label(e["kind"], e["subject"]),
+            "right": (e["kind"], e["subject"]) in truth,
+        }
+    wrong: dict[str, list[str]] = {}
+    excess: dict[str, list[str]] = {}
+    for e in evs:
+        if (e["kind"], e["subject"]) in truth:
+            continue
+        label = subject_label(e["kind"], e["subject"])
+        if e["event"] not in wrong.setdefault(label, []):
+            wrong[label].append(e["event"])
+        if baseline is not None and (e["event"], e["kind"], e["subject"]) not in baseline:
+            if e["event"] not in excess.setdefault(label, []):
+                excess[label].append(e["event"])
+    return {"first": first, "wrong": wrong, "wrong_not_in_clean": excess if baseline is not None else None}
+
+
+def baseline_blame(events: list[dict], described: dict[str, str] | None = None) -> set[tuple[str, str, int]]:
+    """The (event, kind, subject) triples a fault-free run's events blame (blame()'s baseline)."""
+    return {(e["event"], e["kind"], e["subject"]) for e in subject_events(events, 0, described)}
