@@ -14,7 +14,8 @@
 #
 # Sources are discovered by folder, so adding a module or a test needs no edit
 # here (README.md "Adding a module"):
-#   math/*.c firmware/nav/*.c firmware/tlm/*.c     portable core (no OS, no heap): flies
+#   math/*.c firmware/nav/*.c firmware/nav/filter/*.c
+#   firmware/tlm/*.c                                portable core (no OS, no heap): flies
 #   firmware/host/*.c                               host-only core (builders, analyses,
 #                                                   binding hooks): libmfns_core.so and
 #                                                   the unit tests, never a flight image
@@ -63,7 +64,7 @@ SAN_FLAGS := $(if $(SAN),-fsanitize=address$(comma)undefined -fno-sanitize-recov
 CFLAGS_ALL = $(CSTD) $(WARN) $(BOARD_CFLAGS) $(BOARD_DEFINES) $(INCLUDES) $(SAN_FLAGS) \
              $(EXTRA_CFLAGS) -MMD -MP
 
-CORE_DIRS  := math firmware/nav firmware/tlm
+CORE_DIRS  := math firmware/nav firmware/nav/filter firmware/tlm
 CORE_SRCS  := $(sort $(wildcard $(addsuffix /*.c,$(CORE_DIRS))))
 # The host-only core: code of the core that runs on the ground only (index
 # and grid builders, the map analysis, the struct-size hooks of the Python

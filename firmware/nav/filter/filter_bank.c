@@ -1,0 +1,453 @@
+/* filter_bank.c -- solution separation over time (filter_bank.h). */
+#include "firmware/nav/filter/filter_bank.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "integrity.h"
+#include "rotation.h"
+#include "units.h"
+
+#define NO_BEACON (-1)
+
+_Static_assert(MFNS_BANK_MAX_BEACON_HYP <= 255, "slot index fits a u8");
+_Static_assert(MFNS_BANK_AXES == MFNS_INTEGRITY_AXES, "the snapshot's axes: 3 position, 3 attitude");
+
+static void clear_cycle(mfns_filter_bank_t *b)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        b->cam_gated[c] = 0;
+        b->cam_passed[c] = 0;
+        b->cam_dirty[c] = 0;
+        b->cam_tested[c] = 0;
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        b->slot_seen[i] = 0;
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
+        b->excl_beacon_dirty[i] = 0;
+        b->excl_beacon_tested[i] = 0;
+    }
+    b->gated_beacon = NO_BEACON;
+    b->gated_beacon_passed = 0;
+    b->work = 0;
+}
+
+mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *pose, const float cov_ros[6][6],
+                                    mfns_v3_t v_w, float sigma_v_mm_s, mfns_v3_t w_w, float sigma_w_rad_s,
+                                    int64_t t_us)
+{
+    if (b == NULL) {
+        return MFNS_FILTER_E_ARG;
+    }
+    memset(b, 0, sizeof(*b));
+    const mfns_filter_status_t st =
+        mfns_filter_init(&b->full, pose, cov_ros, v_w, sigma_v_mm_s, w_w, sigma_w_rad_s, t_us);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    for (int k = 0; k < MFNS_BANK_CAM_HYP; k++) {
+        b->sub[k] = b->full;
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        b->slot_beacon[i] = NO_BEACON;
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
+        b->excl_beacon[i] = NO_BEACON;
+    }
+    clear_cycle(b);
+    b->initialised = 1;
+    return MFNS_FILTER_OK;
+}
+
+static int excl_index(const mfns_filter_bank_t *b, int16_t beacon)
+{
+    for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
+        if (b->excl_beacon[i] == beacon && beacon != NO_BEACON) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+bool mfns_bank_beacon_excluded(const mfns_filter_bank_t *b, int16_t beacon)
+{
+    return b != NULL && excl_index(b, beacon) >= 0;
+}
+
+bool mfns_bank_camera_excluded(const mfns_filter_bank_t *b, int cam)
+{
+    return b != NULL && cam >= 0 && cam < MFNS_NUM_CAMERAS && b->cam_excluded[cam] != 0U;
+}
+
+static int slot_of(const mfns_filter_bank_t *b, int16_t beacon)
+{
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        if (b->slot_beacon[i] == beacon) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+/* The largest relative variance b's data still holds in the full filter:
+ * max_j (P_k - P_0)_jj / P_0_jj over the pose axes. */
+static float residual_influence(const mfns_filter_t *full, const mfns_filter_t *sub)
+{
+    float m = 0.0f;
+    for (int j = 0; j < MFNS_BANK_AXES; j++) {
+        const float p0 = full->P[j][j];
+        const float d = sub->P[j][j] - p0;
+        m = fmaxf(m, p0 > 0.0f ? d / p0 : INFINITY);
+    }
+    return m;
+}
+
+/* A slot for a beacon seen for the first time (since its last eviction):
+ * a free one, else one whose beacon is out of view this cycle and whose
+ * effect has decayed; -1 when none. */
+static int new_slot(mfns_filter_bank_t *b)
+{
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        if (b->slot_beacon[i] == NO_BEACON) {
+            return i;
+        }
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        if (b->slot_seen[i] == 0U &&
+            residual_influence(&b->full, &b->sub[MFNS_BANK_CAM_HYP + i]) <= MFNS_BANK_EVICT_RATIO) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+/* An excluded beacon or camera's observation: tested against the full
+ * filter, never applied. */
+static mfns_filter_status_t test_held(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                      const mfns_rig_t *rig, float sigma_px, const mfns_filter_obs_t *obs,
+                                      int excl, bool cam_held)
+{
+    float nis = 0.0f;
+    const mfns_filter_status_t st = mfns_filter_test(&b->full, fs, rig, sigma_px, obs, &nis);
+    b->work++;
+    if (st == MFNS_FILTER_E_ARG) {
+        return st;
+    }
+    const bool clean = st == MFNS_FILTER_OK && nis <= mfns_filter_gate_nis(fs);
+    if (excl >= 0) {
+        b->excl_beacon_tested[excl] = 1;
+        b->excl_beacon_dirty[excl] = (uint8_t)(b->excl_beacon_dirty[excl] | (clean ? 0U : 1U));
+    }
+    if (cam_held) {
+        b->cam_tested[obs->cam] = 1;
+        b->cam_dirty[obs->cam] = (uint8_t)(b->cam_dirty[obs->cam] | (clean ? 0U : 1U));
+    }
+    return MFNS_FILTER_OK;
+}
+
+mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                       const mfns_rig_t *rig, float sigma_px, int16_t beacon,
+                                       const mfns_filter_obs_t *obs)
+{
+    if (b == NULL || b->initialised == 0U || fs == NULL || rig == NULL || obs == NULL || beacon < 0 ||
+        beacon >= MFNS_MAX_BEACONS || obs->cam >= MFNS_NUM_CAMERAS) {
+        return MFNS_FILTER_E_ARG;
+    }
+    const int excl = excl_index(b, beacon);
+    const bool cam_held = b->cam_excluded[obs->cam] != 0U;
+    if (excl >= 0 || cam_held) {
+        return test_held(b, fs, rig, sigma_px, obs, excl, cam_held);
+    }
+    int slot = slot_of(b, beacon);
+    if (slot < 0) {
+        slot = new_slot(b);
+        if (slot < 0) {
+            b->unmonitored_obs++; /* no hypothesis would cover it: nobody uses it */
+            return MFNS_FILTER_OK;
+        }
+        b->slot_beacon[slot] = beacon;
+        b->sub[MFNS_BANK_CAM_HYP + slot] = b->full; /* just before its first update */
+    }
+    b->slot_seen[slot] = 1;
+    const mfns_filter_status_t st = mfns_filter_update(&b->full, fs, rig, sigma_px, obs, NULL);
+    b->work++;
+    if (st == MFNS_FILTER_GATED) {
+        b->cam_gated[obs->cam]++;
+        if (b->gated_beacon == NO_BEACON) {
+            b->gated_beacon = beacon;
+        }
+    } else if (st == MFNS_FILTER_OK) {
+        b->cam_passed[obs->cam]++;
+        if (b->gated_beacon == beacon) {
+            b->gated_beacon_passed = 1;
+        }
+    } else {
+        return st;
+    }
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        const bool skip = k < MFNS_BANK_CAM_HYP ? k == (int)obs->cam
+                                                : (b->slot_beacon[k - MFNS_BANK_CAM_HYP] == NO_BEACON ||
+                                                   k - MFNS_BANK_CAM_HYP == slot);
+        if (skip) {
+            continue;
+        }
+        /* a subset filter's own gate and errors are its own: a coasted camera
+         * subset that cannot follow any more shows in evaluate */
+        (void)mfns_filter_update(&b->sub[k], fs, rig, sigma_px, obs, NULL);
+        b->work++;
+    }
+    return st;
+}
+
+/* The separation x_0 - x_k on the pose axes (attitude rad: C_b_w0 =
+ * exp(s) C_b_wk; position mm). */
+static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s[6])
+{
+    mfns_m3_t ct, d;
+    mfns_m3_transpose_at(&f0->C_w_b, &ct);
+    mfns_m3_mul_at(&ct, &fk->C_w_b, &d); /* C_b_w0 C_w_bk */
+    const mfns_v3_t a = mfns_rot_log(d);
+    s[0] = a.x;
+    s[1] = a.y;
+    s[2] = a.z;
+    s[3] = f0->r_wb_w.x - fk->r_wb_w.x;
+    s[4] = f0->r_wb_w.y - fk->r_wb_w.y;
+    s[5] = f0->r_wb_w.z - fk->r_wb_w.z;
+}
+
+static void restart_hypotheses(mfns_filter_bank_t *b)
+{
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        if (k < MFNS_BANK_CAM_HYP || b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON) {
+            b->sub[k] = b->full;
+        }
+    }
+}
+
+/* Exclude hypothesis k (sub index): the full filter becomes its subset. */
+static bool exclude(mfns_filter_bank_t *b, int k, mfns_bank_output_t *out)
+{
+    if (k < MFNS_BANK_CAM_HYP) {
+        b->cam_excluded[k] = 1;
+        b->cam_clean[k] = 0;
+        out->detected_kind = MFNS_BANK_HYP_CAMERA;
+        out->detected_id = (int16_t)k;
+    } else {
+        const int slot = k - MFNS_BANK_CAM_HYP;
+        const int16_t beacon = b->slot_beacon[slot];
+        int e = -1;
+        for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS && e < 0; i++) {
+            e = b->excl_beacon[i] == NO_BEACON ? i : -1;
+        }
+        out->detected_kind = MFNS_BANK_HYP_BEACON;
+        out->detected_id = beacon;
+        if (e < 0) {
+            return false; /* no room to hold it out: FAULT_DETECTED */
+        }
+        b->excl_beacon[e] = beacon;
+        b->excl_beacon_clean[e] = 0;
+        b->slot_beacon[slot] = NO_BEACON;
+    }
+    b->full = b->sub[k];
+    restart_hypotheses(b);
+    return true;
+}
+
+/* Re-admission after hold consecutive clean cycles of tests. */
+static void readmit(mfns_filter_bank_t *b, uint16_t hold, mfns_bank_output_t *out)
+{
+    for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
+        if (b->excl_beacon[i] == NO_BEACON || b->excl_beacon_tested[i] == 0U) {
+            continue;
+        }
+        b->excl_beacon_clean[i] = b->excl_beacon_dirty[i] != 0U ? 0U : (uint16_t)(b->excl_beacon_clean[i] + 1U);
+        if (b->excl_beacon_clean[i] >= hold) {
+            out->readmitted_beacon = b->excl_beacon[i];
+            b->excl_beacon[i] = NO_BEACON;
+        }
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (b->cam_excluded[c] == 0U || b->cam_tested[c] == 0U) {
+            continue;
+        }
+        b->cam_clean[c] = b->cam_dirty[c] != 0U ? 0U : (uint16_t)(b->cam_clean[c] + 1U);
+        if (b->cam_clean[c] >= hold) {
+            out->readmitted_camera = (int8_t)c;
+            b->cam_excluded[c] = 0;
+            b->sub[c] = b->full; /* its hypothesis starts afresh */
+        }
+    }
+}
+
+/* A subject named by the full filter's gate this cycle: sub index or -1. */
+static int gate_subject(const mfns_filter_bank_t *b, uint8_t *by_gate)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        bool other_passed = false;
+        for (int o = 0; o < MFNS_NUM_CAMERAS; o++) {
+            other_passed = other_passed || (o != c && b->cam_passed[o] > 0U);
+        }
+        if (b->cam_gated[c] >= 2U && b->cam_passed[c] == 0U && other_passed) {
+            *by_gate = 1;
+            return c;
+        }
+    }
+    if (b->gated_beacon != NO_BEACON && b->gated_beacon_passed == 0U) {
+        const int slot = slot_of(b, b->gated_beacon);
+        if (slot >= 0) {
+            *by_gate = 1;
+            return MFNS_BANK_CAM_HYP + slot;
+        }
+    }
+    return -1;
+}
+
+typedef struct {
+    float pl[MFNS_BANK_AXES];
+    float max_ns;
+    int worst;
+    uint16_t nh, unmon;
+} sep_eval_t;
+
+static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t *is, const float dvar[6],
+                         const bool active[MFNS_BANK_MAX_HYP], const bool ok[MFNS_BANK_MAX_HYP],
+                         mfns_bank_output_t *out, sep_eval_t *ev)
+{
+    ev->nh = 0;
+    ev->unmon = 0;
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        ev->nh = (uint16_t)(ev->nh + (active[k] ? 1U : 0U));
+        ev->unmon = (uint16_t)(ev->unmon + (active[k] && !ok[k] ? 1U : 0U));
+    }
+    out->k_fa = mfns_integrity_q_inv(is->p_fa / (2.0f * (float)MFNS_BANK_AXES * (float)(ev->nh > 0 ? ev->nh : 1)));
+    out->k_md = mfns_integrity_q_inv(is->p_md);
+    const float k_ff = mfns_integrity_q_inv(0.5f * is->p_md);
+    for (int j = 0; j < MFNS_BANK_AXES; j++) {
+        ev->pl[j] = k_ff * sqrtf(fmaxf(b->full.P[j][j] + dvar[j], 0.0f));
+    }
+    ev->max_ns = 0.0f;
+    ev->worst = -1;
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        if (!active[k]) {
+            continue;
+        }
+        if (!ok[k]) {
+            for (int j = 0; j < MFNS_BANK_AXES; j++) {
+                ev->pl[j] = INFINITY;
+            }
+            continue;
+        }
+        float s[6];
+        separation(&b->full, &b->sub[k], s);
+        b->work++;
+        for (int j = 0; j < MFNS_BANK_AXES; j++) {
+            const float p0 = b->full.P[j][j];
+            const float vss = fmaxf(b->sub[k].P[j][j] - p0, MFNS_BANK_VAR_FLOOR_REL * p0);
+            const float t = out->k_fa * sqrtf(vss);
+            const float ns = fabsf(s[j]) / t;
+            if (ns > ev->max_ns) {
+                ev->max_ns = ns;
+                ev->worst = k;
+            }
+            ev->pl[j] = fmaxf(ev->pl[j], t + out->k_md * sqrtf(fmaxf(b->sub[k].P[j][j] + dvar[j], 0.0f)));
+        }
+    }
+}
+
+mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                        const mfns_integrity_settings_t *is, const mfns_map_datum_t *datum,
+                                        int64_t t_us, mfns_bank_output_t *out)
+{
+    if (out == NULL) {
+        return MFNS_FILTER_E_ARG;
+    }
+    memset(out, 0, sizeof(*out));
+    out->status = MFNS_POSE_NO_FIX;
+    out->reason = MFNS_POSE_R_BAD_ARG;
+    out->readmitted_beacon = NO_BEACON;
+    out->readmitted_camera = -1;
+    out->detected_id = NO_BEACON;
+    if (b == NULL || b->initialised == 0U || !mfns_filter_settings_valid(fs) || is == NULL ||
+        !mfns_integrity_settings_valid(is)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    const mfns_filter_status_t st = mfns_filter_propagate(&b->full, fs, t_us);
+    b->work++;
+    if (st != MFNS_FILTER_OK || b->full.motion_exceeded != 0U) {
+        /* the filter cannot vouch for anything: re-acquire */
+        out->restart = true;
+        out->reason = st == MFNS_FILTER_E_ARG ? MFNS_POSE_R_BAD_ARG
+                      : st == MFNS_FILTER_E_TIME ? MFNS_POSE_R_TRACK_LOST
+                                                 : MFNS_POSE_R_MOTION_EXCEEDED;
+        out->work = b->work;
+        clear_cycle(b);
+        return st == MFNS_FILTER_E_ARG ? st : MFNS_FILTER_OK;
+    }
+    bool active[MFNS_BANK_MAX_HYP], ok[MFNS_BANK_MAX_HYP];
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        active[k] = k < MFNS_BANK_CAM_HYP ? b->cam_excluded[k] == 0U
+                                          : b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON;
+        ok[k] = active[k] && mfns_filter_propagate(&b->sub[k], fs, t_us) == MFNS_FILTER_OK;
+        b->work += active[k] ? 1U : 0U;
+    }
+    out->pose = mfns_filter_pose(&b->full);
+    float d[6][6], dvar[6];
+    mfns_filter_datum_cov(&out->pose, datum, d);
+    for (int j = 0; j < 6; j++) {
+        dvar[j] = d[j][j];
+    }
+    sep_eval_t ev;
+    evaluate_sep(b, is, dvar, active, ok, out, &ev);
+    out->max_norm_sep = ev.max_ns;
+    bool excl_failed = false;
+    int subject = gate_subject(b, &out->by_gate);
+    if (subject < 0 && ev.max_ns > 1.0f) {
+        subject = ev.worst;
+    }
+    if (subject >= 0) {
+        excl_failed = !exclude(b, subject, out);
+        for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+            active[k] = k < MFNS_BANK_CAM_HYP ? b->cam_excluded[k] == 0U
+                                              : b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON;
+            ok[k] = active[k];
+        }
+        out->pose = mfns_filter_pose(&b->full);
+        evaluate_sep(b, is, dvar, active, ok, out, &ev);
+    }
+    readmit(b, is->hold_cycles, out);
+    /* evict the decayed hypotheses of beacons out of view */
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        if (b->slot_beacon[i] != NO_BEACON && b->slot_seen[i] == 0U &&
+            residual_influence(&b->full, &b->sub[MFNS_BANK_CAM_HYP + i]) <= MFNS_BANK_EVICT_RATIO) {
+            b->slot_beacon[i] = NO_BEACON;
+        }
+    }
+    mfns_filter_pose_cov_ros(&b->full, datum, out->cov_ros);
+    out->hypotheses = ev.nh;
+    out->unmonitorable = ev.unmon;
+    out->pl_pos_mm = fmaxf(fmaxf(ev.pl[3], ev.pl[4]), ev.pl[5]);
+    out->pl_att_deg = fmaxf(fmaxf(ev.pl[0], ev.pl[1]), ev.pl[2]) * MFNS_DEG_PER_RAD_F;
+    bool held = false;
+    for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
+        held = held || b->excl_beacon[i] != NO_BEACON;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        held = held || b->cam_excluded[c] != 0U;
+    }
+    if (excl_failed) {
+        out->reason = MFNS_POSE_R_FAULT_DETECTED;
+    } else if (ev.unmon > 0U) {
+        out->reason = MFNS_POSE_R_UNMONITORED;
+    } else if (!(out->pl_pos_mm <= is->alert_limit_pos_mm && out->pl_att_deg <= is->alert_limit_att_deg)) {
+        out->reason = MFNS_POSE_R_PL_EXCEEDS_AL;
+    } else {
+        out->usable = true;
+        out->status = held ? MFNS_POSE_DEGRADED : MFNS_POSE_OK;
+        out->reason = held ? MFNS_POSE_R_EXCLUDED : MFNS_POSE_R_NONE;
+    }
+    out->work = b->work;
+    clear_cycle(b);
+    return MFNS_FILTER_OK;
+}
