@@ -24,13 +24,13 @@ static void clear_cycle(mfns_filter_bank_t *b)
     }
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         b->slot_seen[i] = 0;
+        b->slot_gated[i] = 0;
+        b->slot_passed[i] = 0;
     }
     for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
         b->excl_beacon_dirty[i] = 0;
         b->excl_beacon_tested[i] = 0;
     }
-    b->gated_beacon = NO_BEACON;
-    b->gated_beacon_passed = 0;
     b->work = 0;
 }
 
@@ -168,6 +168,7 @@ mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_
             return MFNS_FILTER_OK;
         }
         b->slot_beacon[slot] = beacon;
+        b->slot_gate_run[slot] = 0;
         b->sub[MFNS_BANK_CAM_HYP + slot] = b->full; /* just before its first update */
     }
     b->slot_seen[slot] = 1;
@@ -175,14 +176,10 @@ mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_
     b->work++;
     if (st == MFNS_FILTER_GATED) {
         b->cam_gated[obs->cam]++;
-        if (b->gated_beacon == NO_BEACON) {
-            b->gated_beacon = beacon;
-        }
+        b->slot_gated[slot] = 1;
     } else if (st == MFNS_FILTER_OK) {
         b->cam_passed[obs->cam]++;
-        if (b->gated_beacon == beacon) {
-            b->gated_beacon_passed = 1;
-        }
+        b->slot_passed[slot] = 1;
     } else {
         return st;
     }
@@ -252,6 +249,9 @@ static bool exclude(mfns_filter_bank_t *b, int k, mfns_bank_output_t *out)
     }
     b->full = b->sub[k];
     restart_hypotheses(b);
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        b->slot_gate_run[i] = 0;
+    }
     return true;
 }
 
@@ -289,16 +289,15 @@ static int gate_subject(const mfns_filter_bank_t *b, uint8_t *by_gate)
         for (int o = 0; o < MFNS_NUM_CAMERAS; o++) {
             other_passed = other_passed || (o != c && b->cam_passed[o] > 0U);
         }
-        if (b->cam_gated[c] >= 2U && b->cam_passed[c] == 0U && other_passed) {
+        if (b->cam_gated[c] >= 2U && other_passed) {
             *by_gate = 1;
             return c;
         }
     }
-    if (b->gated_beacon != NO_BEACON && b->gated_beacon_passed == 0U) {
-        const int slot = slot_of(b, b->gated_beacon);
-        if (slot >= 0) {
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        if (b->slot_beacon[i] != NO_BEACON && b->slot_gate_run[i] >= MFNS_BANK_GATE_EXCLUDE_RUN) {
             *by_gate = 1;
-            return MFNS_BANK_CAM_HYP + slot;
+            return MFNS_BANK_CAM_HYP + i;
         }
     }
     return -1;
@@ -384,6 +383,12 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         out->work = b->work;
         clear_cycle(b);
         return st == MFNS_FILTER_E_ARG ? st : MFNS_FILTER_OK;
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
+        const bool all_gated = b->slot_gated[i] != 0U && b->slot_passed[i] == 0U;
+        b->slot_gate_run[i] = all_gated ? (uint8_t)(b->slot_gate_run[i] < UINT8_MAX ? b->slot_gate_run[i] + 1U
+                                                                                   : UINT8_MAX)
+                                        : 0U;
     }
     bool active[MFNS_BANK_MAX_HYP], ok[MFNS_BANK_MAX_HYP];
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {

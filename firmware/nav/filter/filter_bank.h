@@ -44,9 +44,10 @@
  * PLs are infinite, status UNMONITORED.
  *
  * Exclusion: the gate of the full filter (nav_filter.h) names an observation
- * inconsistent with the motion-bounded prediction: a beacon whose every
- * observation this cycle was gated is excluded; a camera whose every
- * observation was gated (two or more) while another camera's passed is
+ * inconsistent with the motion-bounded prediction: a camera with two or more
+ * observations gated in a cycle while another camera's passed is excluded (a
+ * single beacon fault fails one observation per frame); a beacon whose every
+ * observation was gated in MFNS_BANK_GATE_EXCLUDE_RUN consecutive cycles is
  * excluded. Otherwise the hypothesis of the largest |s|/T > 1 is excluded.
  * Excluding k replaces the full filter by k's subset filter (the one that
  * never took k's data: the fault leaves the solution with it) and restarts
@@ -90,6 +91,11 @@
 #define MFNS_BANK_EVICT_RATIO 0.01f
 #define MFNS_BANK_MAX_EXCLUDED_BEACONS 4
 #define MFNS_BANK_AXES 6
+/* a beacon whose observations fail the full filter's gate in this many
+ * consecutive cycles is excluded by the gate; one gated cycle is not enough,
+ * so that a camera fault that fails one of its beacons first (a late frame on
+ * a slow turn) shows as the camera it is before a healthy beacon is blamed */
+#define MFNS_BANK_GATE_EXCLUDE_RUN 2U
 /* the separation's variance floor, relative to P_0's: identical filters
  * (a hypothesis just started) give s = 0 and must not fail on round-off */
 #define MFNS_BANK_VAR_FLOOR_REL 1e-6f
@@ -105,6 +111,9 @@ typedef struct {
     mfns_filter_t sub[MFNS_BANK_MAX_HYP]; /* 0..2 cameras, then beacon slots */
     int16_t slot_beacon[MFNS_BANK_MAX_BEACON_HYP]; /* map index, -1 free */
     uint8_t slot_seen[MFNS_BANK_MAX_BEACON_HYP];   /* observed this cycle */
+    uint8_t slot_gated[MFNS_BANK_MAX_BEACON_HYP];  /* gated this cycle, none passed */
+    uint8_t slot_passed[MFNS_BANK_MAX_BEACON_HYP]; /* an observation passed this cycle */
+    uint8_t slot_gate_run[MFNS_BANK_MAX_BEACON_HYP]; /* consecutive cycles all gated */
     int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS]; /* -1 free */
     uint16_t excl_beacon_clean[MFNS_BANK_MAX_EXCLUDED_BEACONS];
     uint8_t excl_beacon_dirty[MFNS_BANK_MAX_EXCLUDED_BEACONS]; /* failed its test this cycle */
@@ -115,8 +124,6 @@ typedef struct {
     uint8_t cam_tested[MFNS_NUM_CAMERAS];
     /* this cycle's gate outcomes in the full filter */
     uint16_t cam_gated[MFNS_NUM_CAMERAS], cam_passed[MFNS_NUM_CAMERAS];
-    int16_t gated_beacon;   /* a beacon gated this cycle (first), -1 none */
-    uint8_t gated_beacon_passed; /* ... that also passed once this cycle */
     uint32_t unmonitored_obs; /* observations used by no filter: no free slot */
     uint32_t work;            /* filter updates + propagations + separations this cycle */
     uint8_t initialised;

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "core_text.h"
+#include "integrity.h"
 #include "pose.h"
 #include "pose_internal.h"
 #include "rotation.h"
@@ -369,16 +370,24 @@ mfns_filter_status_t mfns_filter_update(mfns_filter_t *f, const mfns_filter_sett
         info->innov_px[1] = in.y[1];
     }
     if (!(in.nis <= mfns_filter_gate_nis(s))) {
+        f->cyc_nis += mfns_filter_gate_nis(s);
+        f->cyc_dof = (uint16_t)(f->cyc_dof < UINT16_MAX - 2U ? f->cyc_dof + 2U : f->cyc_dof);
         f->gated++;
         if (f->reject_run < UINT16_MAX) {
             f->reject_run++;
         }
-        if (f->reject_run >= s->gate_reject_run) {
+        f->reject_cams = (uint8_t)(f->reject_cams | (1U << obs->cam));
+        /* two or more cameras in the run: one camera's fault (a knocked mount,
+         * a late frame) fails only its own observations */
+        if (f->reject_run >= s->gate_reject_run && (f->reject_cams & (f->reject_cams - 1U)) != 0U) {
             f->motion_exceeded = 1;
         }
         return MFNS_FILTER_GATED;
     }
     f->reject_run = 0;
+    f->reject_cams = 0;
+    f->cyc_nis += in.nis;
+    f->cyc_dof = (uint16_t)(f->cyc_dof < UINT16_MAX - 2U ? f->cyc_dof + 2U : f->cyc_dof);
     /* K = P H^T S^-1; dx = K y; P -= K (P H^T)^T */
     const float det = in.s[0] * in.s[2] - in.s[1] * in.s[1];
     const float si[3] = {in.s[2] / det, -in.s[1] / det, in.s[0] / det};
@@ -458,4 +467,50 @@ void mfns_filter_pose_cov_ros(const mfns_filter_t *f, const mfns_map_datum_t *da
             cov_ros[i][j] = f->P[a][b] + d[a][b];
         }
     }
+}
+
+float mfns_filter_chi2_quantile(float dof, float p)
+{
+    const float z = mfns_integrity_q_inv(p);
+    const float a = 2.0f / (9.0f * dof);
+    const float c = 1.0f - a + z * sqrtf(a);
+    return dof * c * c * c;
+}
+
+void mfns_filter_reset_window(mfns_filter_t *f)
+{
+    f->cyc_nis = 0.0f;
+    f->cyc_dof = 0;
+    for (int i = 0; i < MFNS_FILTER_NIS_WINDOW; i++) {
+        f->win_nis[i] = 0.0f;
+        f->win_dof[i] = 0;
+    }
+    f->win_pos = 0;
+    f->win_fill = 0;
+}
+
+bool mfns_filter_end_cycle(mfns_filter_t *f, const mfns_filter_settings_t *s)
+{
+    if (f == NULL || f->initialised == 0U || !mfns_filter_settings_valid(s)) {
+        return false;
+    }
+    f->win_nis[f->win_pos] = f->cyc_nis;
+    f->win_dof[f->win_pos] = f->cyc_dof;
+    f->win_pos = (uint8_t)((f->win_pos + 1U) % MFNS_FILTER_NIS_WINDOW);
+    f->win_fill = (uint8_t)(f->win_fill < MFNS_FILTER_NIS_WINDOW ? f->win_fill + 1U : f->win_fill);
+    f->cyc_nis = 0.0f;
+    f->cyc_dof = 0;
+    if (f->win_fill < MFNS_FILTER_NIS_WINDOW) {
+        return false;
+    }
+    float sum = 0.0f, dof = 0.0f;
+    for (int i = 0; i < MFNS_FILTER_NIS_WINDOW; i++) {
+        sum += f->win_nis[i];
+        dof += (float)f->win_dof[i];
+    }
+    if (dof < 4.0f || !(sum > mfns_filter_chi2_quantile(dof, s->gate_p))) {
+        return false;
+    }
+    f->motion_exceeded = 1;
+    return true;
 }

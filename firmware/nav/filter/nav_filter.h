@@ -58,9 +58,13 @@
  * Innovation gate (the motion bound's monitor): NIS = y^T S^-1 y against the
  * chi-square(2) quantile -2 ln(gate_p) (exact for 2 degrees of freedom). A
  * gated observation is not applied. gate_reject_run consecutive gated
- * observations (none accepted between them) set motion_exceeded: a single
- * faulty beacon between healthy ones never does, a robot that left the motion
- * bound makes every observation fail. The caller then restarts from
+ * observations (none accepted between them) from at least two cameras set
+ * motion_exceeded: a single faulty beacon between healthy ones never does,
+ * nor does one faulty camera (its own observations only: the filter bank
+ * names it), a robot that left the motion bound makes every observation of
+ * every camera fail. A robot seen by one camera alone that breaks the bound
+ * is not told from a fault of that camera: every observation is gated, the
+ * filter coasts and max_coast_s ends it (E_TIME). The caller then restarts from
  * acquisition (mfns_filter_init from a certified snapshot fix).
  *
  * Map datum: it is a rigid motion of the whole map, common to every
@@ -117,6 +121,8 @@
 /* re-orthonormalise the attitude after every injection: at most this many
  * iterations (linalg.h) */
 #define MFNS_FILTER_ORTHO_ITERS 4
+/* cycles of the windowed NIS test (mfns_filter_end_cycle): 8 frames = 0.43 s */
+#define MFNS_FILTER_NIS_WINDOW 8
 
 typedef struct {
     float accel_bound_mm_s2;  /* unmodelled linear acceleration bound a_max */
@@ -147,7 +153,14 @@ typedef struct {
     uint32_t gated;         /* observations gated out since init */
     uint32_t clamp_events;  /* negative diagonals clamped (numerical trouble: should stay 0) */
     uint16_t reject_run;    /* consecutive gated observations */
+    uint8_t reject_cams;    /* cameras of those (bit per camera) */
     uint8_t motion_exceeded; /* sticky until the next init */
+    /* the cycle-window NIS test (mfns_filter_end_cycle) */
+    float cyc_nis;
+    uint16_t cyc_dof;
+    float win_nis[MFNS_FILTER_NIS_WINDOW];
+    uint16_t win_dof[MFNS_FILTER_NIS_WINDOW];
+    uint8_t win_pos, win_fill;
     uint8_t initialised;
 } mfns_filter_t;
 
@@ -199,6 +212,25 @@ mfns_filter_status_t mfns_filter_update(mfns_filter_t *f, const mfns_filter_sett
 mfns_filter_status_t mfns_filter_test(const mfns_filter_t *f, const mfns_filter_settings_t *s,
                                       const mfns_rig_t *rig, float sigma_px, const mfns_filter_obs_t *obs,
                                       float *nis);
+
+/* Close a cycle for the windowed consistency test of the motion bound: the
+ * sum of the NIS of every observation of the last MFNS_FILTER_NIS_WINDOW
+ * cycles (a gated one counted at the gate's value) against chi-square of
+ * their degrees of freedom at gate_p (Wilson-Hilferty, z = Q^-1(gate_p)).
+ * The sequential NIS of a cycle sum to the joint NIS of its observations
+ * against the prediction, so the window is a proper chi-square test; it sees
+ * a sustained excess the per-observation gate lets through (the filter
+ * follows it, but too surprised too often). Sets motion_exceeded and
+ * returns true when it fails. A fault of one beacon or camera inflates it
+ * too: the bank excludes those first and resets the window
+ * (mfns_filter_reset_window); one it has not caught ends as a restart, which
+ * costs availability, never integrity. */
+bool mfns_filter_end_cycle(mfns_filter_t *f, const mfns_filter_settings_t *s);
+void mfns_filter_reset_window(mfns_filter_t *f);
+
+/* Upper chi-square quantile of dof degrees of freedom at tail probability p
+ * (Wilson-Hilferty; relative error < 1 % for dof >= 4 at p >= 1e-7). */
+float mfns_filter_chi2_quantile(float dof, float p);
 
 /* The pose of the state. */
 mfns_pose_t mfns_filter_pose(const mfns_filter_t *f);
