@@ -4,6 +4,9 @@
 #include <math.h>
 #include <stddef.h>
 #include <string.h>
+#ifdef BANK_TRACE
+#include <stdio.h>
+#endif
 
 #include "integrity.h"
 #include "rotation.h"
@@ -59,6 +62,30 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
     clear_cycle(b);
     b->initialised = 1;
     return MFNS_FILTER_OK;
+}
+
+static void start_hypothesis(mfns_filter_bank_t *b, int k)
+{
+    b->sub[k] = b->full;
+    mfns_filter_reset_window(&b->sub[k]);
+    b->cons_nis[k] = 0.0f;
+    b->cons_dof[k] = 0.0f;
+}
+
+static void restart_hypotheses(mfns_filter_bank_t *b)
+{
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        if (k < MFNS_BANK_CAM_HYP || b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON) {
+            start_hypothesis(b, k);
+        }
+    }
+}
+
+/* The excess of a subset's innovations over their expectation (sigmas). */
+static float consistency_z(const mfns_filter_bank_t *b, int k)
+{
+    const float dof = b->cons_dof[k];
+    return dof > 0.0f ? (b->cons_nis[k] - dof) / sqrtf(2.0f * dof) : 0.0f;
 }
 
 static int excl_index(const mfns_filter_bank_t *b, int16_t beacon)
@@ -135,7 +162,7 @@ static mfns_filter_status_t test_held(mfns_filter_bank_t *b, const mfns_filter_s
     if (st == MFNS_FILTER_E_ARG) {
         return st;
     }
-    const bool clean = st == MFNS_FILTER_OK && nis <= mfns_filter_gate_nis(fs);
+    const bool clean = st == MFNS_FILTER_OK && nis <= -2.0f * logf(MFNS_BANK_READMIT_P);
     if (excl >= 0) {
         b->excl_beacon_tested[excl] = 1;
         b->excl_beacon_dirty[excl] = (uint8_t)(b->excl_beacon_dirty[excl] | (clean ? 0U : 1U));
@@ -169,7 +196,7 @@ mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_
         }
         b->slot_beacon[slot] = beacon;
         b->slot_gate_run[slot] = 0;
-        b->sub[MFNS_BANK_CAM_HYP + slot] = b->full; /* just before its first update */
+        start_hypothesis(b, MFNS_BANK_CAM_HYP + slot); /* just before its first update */
     }
     b->slot_seen[slot] = 1;
     const mfns_filter_status_t st = mfns_filter_update(&b->full, fs, rig, sigma_px, obs, NULL);
@@ -183,6 +210,9 @@ mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_
     } else {
         return st;
     }
+    if (st == MFNS_FILTER_GATED) {
+        return st; /* the full filter's gate decides for every subset */
+    }
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
         const bool skip = k < MFNS_BANK_CAM_HYP ? k == (int)obs->cam
                                                 : (b->slot_beacon[k - MFNS_BANK_CAM_HYP] == NO_BEACON ||
@@ -190,9 +220,10 @@ mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_
         if (skip) {
             continue;
         }
-        /* a subset filter's own gate and errors are its own: a coasted camera
-         * subset that cannot follow any more shows in evaluate */
-        (void)mfns_filter_update(&b->sub[k], fs, rig, sigma_px, obs, NULL);
+        /* ungated: the same data as the full filter but its hypothesis's; a
+         * coasted camera subset that cannot follow any more (E_TIME) shows in
+         * evaluate */
+        (void)mfns_filter_update_ungated(&b->sub[k], fs, rig, sigma_px, obs, NULL);
         b->work++;
     }
     return st;
@@ -214,14 +245,6 @@ static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s
     s[5] = f0->r_wb_w.z - fk->r_wb_w.z;
 }
 
-static void restart_hypotheses(mfns_filter_bank_t *b)
-{
-    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
-        if (k < MFNS_BANK_CAM_HYP || b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON) {
-            b->sub[k] = b->full;
-        }
-    }
-}
 
 /* Exclude hypothesis k (sub index): the full filter becomes its subset. */
 static bool exclude(mfns_filter_bank_t *b, int k, mfns_bank_output_t *out)
@@ -248,6 +271,7 @@ static bool exclude(mfns_filter_bank_t *b, int k, mfns_bank_output_t *out)
         b->slot_beacon[slot] = NO_BEACON;
     }
     b->full = b->sub[k];
+    mfns_filter_reset_window(&b->full); /* the fault's surprise leaves the window with it */
     restart_hypotheses(b);
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         b->slot_gate_run[i] = 0;
@@ -276,7 +300,7 @@ static void readmit(mfns_filter_bank_t *b, uint16_t hold, mfns_bank_output_t *ou
         if (b->cam_clean[c] >= hold) {
             out->readmitted_camera = (int8_t)c;
             b->cam_excluded[c] = 0;
-            b->sub[c] = b->full; /* its hypothesis starts afresh */
+            start_hypothesis(b, c); /* its hypothesis starts afresh */
         }
     }
 }
@@ -308,6 +332,7 @@ typedef struct {
     float max_ns;
     int worst;
     uint16_t nh, unmon;
+    bool failed[MFNS_BANK_MAX_HYP];
 } sep_eval_t;
 
 static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t *is, const float dvar[6],
@@ -329,6 +354,7 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
     ev->max_ns = 0.0f;
     ev->worst = -1;
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        ev->failed[k] = false;
         if (!active[k]) {
             continue;
         }
@@ -346,6 +372,13 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
             const float vss = fmaxf(b->sub[k].P[j][j] - p0, MFNS_BANK_VAR_FLOOR_REL * p0);
             const float t = out->k_fa * sqrtf(vss);
             const float ns = fabsf(s[j]) / t;
+            ev->failed[k] = ev->failed[k] || ns > 1.0f;
+#ifdef BANK_TRACE
+            if (ns > 1.0f) {
+                fprintf(stderr, "   hyp %d axis %d s %.3g var_k %.3g var_0 %.3g ns %.2f\n", k, j, (double)s[j],
+                        (double)b->sub[k].P[j][j], (double)p0, (double)ns);
+            }
+#endif
             if (ns > ev->max_ns) {
                 ev->max_ns = ns;
                 ev->worst = k;
@@ -353,6 +386,42 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
             ev->pl[j] = fmaxf(ev->pl[j], t + out->k_md * sqrtf(fmaxf(b->sub[k].P[j][j] + dvar[j], 0.0f)));
         }
     }
+}
+
+/* The subject of a failed separation test (MFNS_BANK_CONSIST_FORGET). */
+static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev)
+{
+    int best_b = -1, best_c = -1;
+    float zb = INFINITY, zc = INFINITY;
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        if (!ev->failed[k]) {
+            continue;
+        }
+        const float z = consistency_z(b, k);
+        if (k < MFNS_BANK_CAM_HYP && z < zc) {
+            zc = z;
+            best_c = k;
+        } else if (k >= MFNS_BANK_CAM_HYP && z < zb) {
+            zb = z;
+            best_b = k;
+        }
+    }
+#ifdef BANK_TRACE
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        if (ev->failed[k]) {
+            fprintf(stderr, "   failed hyp %d (beacon %d) z %.2f dof %.1f\n", k,
+                    k >= MFNS_BANK_CAM_HYP ? b->slot_beacon[k - MFNS_BANK_CAM_HYP] : -1, (double)consistency_z(b, k),
+                    (double)b->cons_dof[k]);
+        }
+    }
+#endif
+    if (best_b < 0) {
+        return best_c;
+    }
+    if (best_c >= 0 && zc < zb - MFNS_BANK_CAMERA_PREF_Z) {
+        return best_c;
+    }
+    return best_b;
 }
 
 mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
@@ -374,6 +443,12 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     }
     const mfns_filter_status_t st = mfns_filter_propagate(&b->full, fs, t_us);
     b->work++;
+    (void)mfns_filter_end_cycle(&b->full, fs); /* the windowed motion test */
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        b->cons_nis[k] = MFNS_BANK_CONSIST_FORGET * b->cons_nis[k] + b->sub[k].cyc_nis;
+        b->cons_dof[k] = MFNS_BANK_CONSIST_FORGET * b->cons_dof[k] + (float)b->sub[k].cyc_dof;
+        mfns_filter_reset_window(&b->sub[k]); /* only the full filter's window is tested */
+    }
     if (st != MFNS_FILTER_OK || b->full.motion_exceeded != 0U) {
         /* the filter cannot vouch for anything: re-acquire */
         out->restart = true;
@@ -397,6 +472,18 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         ok[k] = active[k] && mfns_filter_propagate(&b->sub[k], fs, t_us) == MFNS_FILTER_OK;
         b->work += active[k] ? 1U : 0U;
     }
+#ifdef BANK_TRACE
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        for (int j = 0; j < 6 && active[k]; j++) {
+            if (b->sub[k].P[j][j] < b->full.P[j][j]) {
+                fprintf(stderr, "   NEG t %lld hyp %d axis %d rel %.3g upd %u/%u gated %u/%u\n", (long long)t_us, k, j,
+                        (double)((b->sub[k].P[j][j] - b->full.P[j][j]) / b->full.P[j][j]), b->sub[k].updates,
+                        b->full.updates, b->sub[k].gated, b->full.gated);
+                break;
+            }
+        }
+    }
+#endif
     out->pose = mfns_filter_pose(&b->full);
     float d[6][6], dvar[6];
     mfns_filter_datum_cov(&out->pose, datum, d);
@@ -409,7 +496,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     bool excl_failed = false;
     int subject = gate_subject(b, &out->by_gate);
     if (subject < 0 && ev.max_ns > 1.0f) {
-        subject = ev.worst;
+        subject = attribute(b, &ev);
     }
     if (subject >= 0) {
         excl_failed = !exclude(b, subject, out);

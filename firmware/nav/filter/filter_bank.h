@@ -48,7 +48,9 @@
  * observations gated in a cycle while another camera's passed is excluded (a
  * single beacon fault fails one observation per frame); a beacon whose every
  * observation was gated in MFNS_BANK_GATE_EXCLUDE_RUN consecutive cycles is
- * excluded. Otherwise the hypothesis of the largest |s|/T > 1 is excluded.
+ * excluded. Otherwise, when a separation test fails (|s|/T > 1), the failed
+ * hypothesis whose subset is the most consistent with its observations is
+ * excluded (MFNS_BANK_CONSIST_FORGET below).
  * Excluding k replaces the full filter by k's subset filter (the one that
  * never took k's data: the fault leaves the solution with it) and restarts
  * every other hypothesis as a copy of it. An excluded beacon or camera is
@@ -96,6 +98,23 @@
  * so that a camera fault that fails one of its beacons first (a late frame on
  * a slow turn) shows as the camera it is before a healthy beacon is blamed */
 #define MFNS_BANK_GATE_EXCLUDE_RUN 2U
+/* Attribution after a failed separation test: several hypotheses' tests can
+ * fail for one fault (every subset but the faulty one's took the fault, with
+ * its own gain). The subject is the failed hypothesis whose subset filter is
+ * the most consistent with the observations it took: the smallest excess of
+ * its innovations, z = (sum NIS - dof) / sqrt(2 dof), the sums forgotten by
+ * MFNS_BANK_CONSIST_FORGET per cycle (~10 cycles of memory). A faulty
+ * beacon's subset never took the fault; every other subset did. A beacon
+ * and the camera that sees it are both consistent for a beacon fault: the
+ * beacon (the smaller exclusion) is preferred unless the camera's z is lower
+ * by MFNS_BANK_CAMERA_PREF_Z. */
+#define MFNS_BANK_CONSIST_FORGET 0.9f
+#define MFNS_BANK_CAMERA_PREF_Z 3.0f
+/* Re-admission test: an excluded item's observation is clean when its NIS
+ * against the full filter is below chi-square(2) at this tail probability
+ * (9.21): stricter than the gate, so that a fault near the gate's size does
+ * not count as healed. */
+#define MFNS_BANK_READMIT_P 0.01f
 /* the separation's variance floor, relative to P_0's: identical filters
  * (a hypothesis just started) give s = 0 and must not fail on round-off */
 #define MFNS_BANK_VAR_FLOOR_REL 1e-6f
@@ -124,6 +143,7 @@ typedef struct {
     uint8_t cam_tested[MFNS_NUM_CAMERAS];
     /* this cycle's gate outcomes in the full filter */
     uint16_t cam_gated[MFNS_NUM_CAMERAS], cam_passed[MFNS_NUM_CAMERAS];
+    float cons_nis[MFNS_BANK_MAX_HYP], cons_dof[MFNS_BANK_MAX_HYP]; /* forgetting sums (attribution) */
     uint32_t unmonitored_obs; /* observations used by no filter: no free slot */
     uint32_t work;            /* filter updates + propagations + separations this cycle */
     uint8_t initialised;

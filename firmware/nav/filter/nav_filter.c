@@ -347,9 +347,27 @@ static void inject(mfns_filter_t *f, const float dx[N])
     f->w_w = mfns_v3_add(f->w_w, mfns_v3(dx[9], dx[10], dx[11]));
 }
 
+static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
+                                   float sigma_px, const mfns_filter_obs_t *obs, bool gate,
+                                   mfns_filter_update_info_t *info);
+
 mfns_filter_status_t mfns_filter_update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
                                         float sigma_px, const mfns_filter_obs_t *obs,
                                         mfns_filter_update_info_t *info)
+{
+    return update(f, s, rig, sigma_px, obs, true, info);
+}
+
+mfns_filter_status_t mfns_filter_update_ungated(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                const mfns_rig_t *rig, float sigma_px, const mfns_filter_obs_t *obs,
+                                                mfns_filter_update_info_t *info)
+{
+    return update(f, s, rig, sigma_px, obs, false, info);
+}
+
+static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
+                                   float sigma_px, const mfns_filter_obs_t *obs, bool gate,
+                                   mfns_filter_update_info_t *info)
 {
     if (f == NULL || f->initialised == 0U || rig == NULL || obs == NULL || !mfns_filter_settings_valid(s) ||
         !obs_valid(obs) || !pos_finite(sigma_px)) {
@@ -369,7 +387,7 @@ mfns_filter_status_t mfns_filter_update(mfns_filter_t *f, const mfns_filter_sett
         info->innov_px[0] = in.y[0];
         info->innov_px[1] = in.y[1];
     }
-    if (!(in.nis <= mfns_filter_gate_nis(s))) {
+    if (gate && !(in.nis <= mfns_filter_gate_nis(s))) {
         f->cyc_nis += mfns_filter_gate_nis(s);
         f->cyc_dof = (uint16_t)(f->cyc_dof < UINT16_MAX - 2U ? f->cyc_dof + 2U : f->cyc_dof);
         f->gated++;

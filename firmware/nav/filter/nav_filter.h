@@ -110,8 +110,8 @@
 /* Defaults (argued above). */
 #define MFNS_FILTER_DEFAULT_ACCEL_MM_S2 100.0f
 #define MFNS_FILTER_DEFAULT_ALPHA_RAD_S2 0.25f
-#define MFNS_FILTER_DEFAULT_BOUND_TIME_S 1.0f
-#define MFNS_FILTER_DEFAULT_MAX_COAST_S 1.0f
+#define MFNS_FILTER_DEFAULT_BOUND_TIME_S 0.2f
+#define MFNS_FILTER_DEFAULT_MAX_COAST_S 0.2f
 /* per-observation gate: chi-square(2) false alarm 1e-5 -> NIS 23.0 */
 #define MFNS_FILTER_DEFAULT_GATE_P 1e-5f
 /* consecutive gated observations that mean the motion bound is broken: three
@@ -205,6 +205,14 @@ mfns_filter_status_t mfns_filter_propagate(mfns_filter_t *f, const mfns_filter_s
 mfns_filter_status_t mfns_filter_update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
                                         float sigma_px, const mfns_filter_obs_t *obs,
                                         mfns_filter_update_info_t *info);
+
+/* The same without the gate: the observation is applied whatever its NIS
+ * (which still enters the cycle's sums). For the subset filters of a bank
+ * (filter_bank.h): the full filter's gate decides for all of them, so that
+ * every filter takes the same data but its hypothesis's. */
+mfns_filter_status_t mfns_filter_update_ungated(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                const mfns_rig_t *rig, float sigma_px, const mfns_filter_obs_t *obs,
+                                                mfns_filter_update_info_t *info);
 
 /* Innovation test only, state untouched (for re-admitting an excluded beacon
  * or camera): the NIS of obs against the state predicted to its time.
