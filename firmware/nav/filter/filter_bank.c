@@ -22,8 +22,11 @@ static void clear_cycle(mfns_filter_bank_t *b)
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         b->cam_gated[c] = 0;
         b->cam_passed[c] = 0;
+        b->frame_rejected[c] = 0;
         b->cam_dirty[c] = 0;
         b->cam_tested[c] = 0;
+        b->cam_held_nis[c] = 0.0f;
+        b->cam_held_dof[c] = 0;
     }
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         b->slot_seen[i] = 0;
@@ -35,6 +38,9 @@ static void clear_cycle(mfns_filter_bank_t *b)
         b->excl_beacon_tested[i] = 0;
     }
     b->work = 0;
+    b->det_kind = MFNS_BANK_HYP_NONE;
+    b->det_id = NO_BEACON;
+    b->det_by_gate = 0;
 }
 
 mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *pose, const float cov_ros[6][6],
@@ -163,25 +169,27 @@ static mfns_filter_status_t test_held(mfns_filter_bank_t *b, const mfns_filter_s
         return st;
     }
     const bool clean = st == MFNS_FILTER_OK && nis <= -2.0f * logf(MFNS_BANK_READMIT_P);
+    if (cam_held) {
+        /* a camera is judged on its whole frame: sum of NIS against chi-square(2n) */
+        b->cam_held_nis[obs->cam] += st == MFNS_FILTER_OK ? nis : INFINITY;
+        b->cam_held_dof[obs->cam] = (uint16_t)(b->cam_held_dof[obs->cam] + 2U);
+    }
     if (excl >= 0) {
         b->excl_beacon_tested[excl] = 1;
         b->excl_beacon_dirty[excl] = (uint8_t)(b->excl_beacon_dirty[excl] | (clean ? 0U : 1U));
     }
     if (cam_held) {
         b->cam_tested[obs->cam] = 1;
-        b->cam_dirty[obs->cam] = (uint8_t)(b->cam_dirty[obs->cam] | (clean ? 0U : 1U));
     }
     return MFNS_FILTER_OK;
 }
 
-mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
-                                       const mfns_rig_t *rig, float sigma_px, int16_t beacon,
-                                       const mfns_filter_obs_t *obs)
+static bool exclude(mfns_filter_bank_t *b, int k);
+
+static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                        const mfns_rig_t *rig, float sigma_px, int16_t beacon,
+                                        const mfns_filter_obs_t *obs)
 {
-    if (b == NULL || b->initialised == 0U || fs == NULL || rig == NULL || obs == NULL || beacon < 0 ||
-        beacon >= MFNS_MAX_BEACONS || obs->cam >= MFNS_NUM_CAMERAS) {
-        return MFNS_FILTER_E_ARG;
-    }
     const int excl = excl_index(b, beacon);
     const bool cam_held = b->cam_excluded[obs->cam] != 0U;
     if (excl >= 0 || cam_held) {
@@ -229,6 +237,126 @@ mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_
     return st;
 }
 
+/* The frame's observations that fail the gate against filter f's
+ * prediction (excluded beacons not counted). */
+static mfns_filter_status_t frame_fails(mfns_filter_bank_t *b, const mfns_filter_t *f,
+                                        const mfns_filter_settings_t *fs, const mfns_rig_t *rig, float sigma_px,
+                                        int n, const int16_t beacon[], const mfns_filter_obs_t obs[], int *fails)
+{
+    const float gate = mfns_filter_gate_nis(fs);
+    *fails = 0;
+    for (int i = 0; i < n; i++) {
+        if (excl_index(b, beacon[i]) >= 0) {
+            continue;
+        }
+        float nis = 0.0f;
+        const mfns_filter_status_t st = mfns_filter_test(f, fs, rig, sigma_px, &obs[i], &nis);
+        b->work++;
+        if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
+            return st;
+        }
+        *fails += (st != MFNS_FILTER_OK || !(nis <= gate)) ? 1 : 0;
+    }
+    return MFNS_FILTER_OK;
+}
+
+static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s[6]);
+
+/* Has camera c's data pulled the full filter off its subset: a separation
+ * beyond the gate's own level, sqrt(gate NIS) per axis, at t_us. A subset
+ * merely too uncertain to judge a frame is not blamed for it. */
+static bool pulled_by(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs, int c, int64_t t_us)
+{
+    mfns_filter_t f0 = b->full, fk = b->sub[c]; /* 2 x ~750 B of stack, propagated copies */
+    if (mfns_filter_propagate(&f0, fs, t_us) != MFNS_FILTER_OK ||
+        mfns_filter_propagate(&fk, fs, t_us) != MFNS_FILTER_OK) {
+        return false;
+    }
+    b->work += 3U;
+    float s[6];
+    separation(&f0, &fk, s);
+    const float k = sqrtf(mfns_filter_gate_nis(fs));
+    for (int j = 0; j < MFNS_BANK_AXES; j++) {
+        const float p0 = f0.P[j][j];
+        const float v = fmaxf(fk.P[j][j] - p0, MFNS_BANK_VAR_FLOOR_REL * p0);
+        if (fabsf(s[j]) > k * sqrtf(v)) {
+            return true;
+        }
+    }
+    return false;
+}
+
+mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                             const mfns_rig_t *rig, float sigma_px, int n, const int16_t beacon[],
+                                             const mfns_filter_obs_t obs[])
+{
+    if (b == NULL || b->initialised == 0U || !mfns_filter_settings_valid(fs) || rig == NULL || n < 0 ||
+        n > MFNS_MAX_OBS_PER_CAMERA || (n > 0 && (beacon == NULL || obs == NULL))) {
+        return MFNS_FILTER_E_ARG;
+    }
+    for (int i = 0; i < n; i++) {
+        if (beacon[i] < 0 || beacon[i] >= MFNS_MAX_BEACONS || obs[i].cam != obs[0].cam ||
+            obs[i].cam >= MFNS_NUM_CAMERAS || obs[i].t_us != obs[0].t_us) {
+            return MFNS_FILTER_E_ARG;
+        }
+    }
+    if (n == 0) {
+        return MFNS_FILTER_OK;
+    }
+    const int cam = obs[0].cam;
+    /* the frame against the prediction, before any of it is applied: a
+     * single beacon fault fails one observation of a frame, a camera fault
+     * (pointing, a late frame) or a robot beyond the motion bound fails
+     * several, and a frame applied one by one would pull the filter toward
+     * its first observations before the rest could be seen to disagree */
+    int fails = 0;
+    if (b->cam_excluded[cam] == 0U) {
+        mfns_filter_status_t st = frame_fails(b, &b->full, fs, rig, sigma_px, n, beacon, obs, &fails);
+        if (st != MFNS_FILTER_OK) {
+            return st;
+        }
+        /* Who is wrong: this frame, or a camera whose frame the full filter
+         * took before and that pulled it off? The camera subsets answer: a
+         * frame consistent with the subset that never took camera c' names
+         * c' (a late or moved camera seen first in the cycle). At most one
+         * such exclusion per cycle. */
+        for (int c = 0; c < MFNS_NUM_CAMERAS && fails >= 2 && b->det_kind == MFNS_BANK_HYP_NONE; c++) {
+            int f2 = 0;
+            if (c == cam || b->cam_excluded[c] != 0U || !pulled_by(b, fs, c, obs[0].t_us) ||
+                frame_fails(b, &b->sub[c], fs, rig, sigma_px, n, beacon, obs, &f2) != MFNS_FILTER_OK || f2 >= 2) {
+                continue;
+            }
+            if (exclude(b, c)) {
+                b->det_by_gate = 1;
+                st = frame_fails(b, &b->full, fs, rig, sigma_px, n, beacon, obs, &fails);
+                if (st != MFNS_FILTER_OK) {
+                    return st;
+                }
+            }
+        }
+    }
+    if (fails >= 2) {
+        b->cam_gated[cam] = (uint16_t)(b->cam_gated[cam] + (uint16_t)fails);
+        b->frame_rejected[cam] = 1;
+        for (int i = 0; i < n; i++) {
+            const int slot = slot_of(b, beacon[i]);
+            if (slot >= 0) {
+                b->slot_seen[slot] = 1; /* in view: not evicted */
+            }
+        }
+        return MFNS_FILTER_GATED;
+    }
+    mfns_filter_status_t worst = MFNS_FILTER_OK;
+    for (int i = 0; i < n; i++) {
+        const mfns_filter_status_t st = observe_one(b, fs, rig, sigma_px, beacon[i], &obs[i]);
+        if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
+            return st;
+        }
+        worst = st != MFNS_FILTER_OK ? st : worst;
+    }
+    return worst;
+}
+
 /* The separation x_0 - x_k on the pose axes (attitude rad: C_b_w0 =
  * exp(s) C_b_wk; position mm). */
 static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s[6])
@@ -247,13 +375,13 @@ static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s
 
 
 /* Exclude hypothesis k (sub index): the full filter becomes its subset. */
-static bool exclude(mfns_filter_bank_t *b, int k, mfns_bank_output_t *out)
+static bool exclude(mfns_filter_bank_t *b, int k)
 {
     if (k < MFNS_BANK_CAM_HYP) {
         b->cam_excluded[k] = 1;
         b->cam_clean[k] = 0;
-        out->detected_kind = MFNS_BANK_HYP_CAMERA;
-        out->detected_id = (int16_t)k;
+        b->det_kind = MFNS_BANK_HYP_CAMERA;
+        b->det_id = (int16_t)k;
     } else {
         const int slot = k - MFNS_BANK_CAM_HYP;
         const int16_t beacon = b->slot_beacon[slot];
@@ -261,8 +389,8 @@ static bool exclude(mfns_filter_bank_t *b, int k, mfns_bank_output_t *out)
         for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS && e < 0; i++) {
             e = b->excl_beacon[i] == NO_BEACON ? i : -1;
         }
-        out->detected_kind = MFNS_BANK_HYP_BEACON;
-        out->detected_id = beacon;
+        b->det_kind = MFNS_BANK_HYP_BEACON;
+        b->det_id = beacon;
         if (e < 0) {
             return false; /* no room to hold it out: FAULT_DETECTED */
         }
@@ -296,6 +424,10 @@ static void readmit(mfns_filter_bank_t *b, uint16_t hold, mfns_bank_output_t *ou
         if (b->cam_excluded[c] == 0U || b->cam_tested[c] == 0U) {
             continue;
         }
+        b->cam_dirty[c] = b->cam_held_nis[c] <=
+                                  mfns_filter_chi2_quantile((float)b->cam_held_dof[c], MFNS_BANK_READMIT_P)
+                              ? 0U
+                              : 1U;
         b->cam_clean[c] = b->cam_dirty[c] != 0U ? 0U : (uint16_t)(b->cam_clean[c] + 1U);
         if (b->cam_clean[c] >= hold) {
             out->readmitted_camera = (int8_t)c;
@@ -441,6 +573,13 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         !mfns_integrity_settings_valid(is)) {
         return MFNS_FILTER_E_ARG;
     }
+    int rejected = 0;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        rejected += b->frame_rejected[c] != 0U ? 1 : 0;
+    }
+    if (rejected >= 2) {
+        b->full.motion_exceeded = 1; /* two cameras' frames against the prediction: the motion */
+    }
     const mfns_filter_status_t st = mfns_filter_propagate(&b->full, fs, t_us);
     b->work++;
     (void)mfns_filter_end_cycle(&b->full, fs); /* the windowed motion test */
@@ -494,12 +633,12 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     evaluate_sep(b, is, dvar, active, ok, out, &ev);
     out->max_norm_sep = ev.max_ns;
     bool excl_failed = false;
-    int subject = gate_subject(b, &out->by_gate);
+    int subject = b->det_kind != MFNS_BANK_HYP_NONE ? -1 : gate_subject(b, &b->det_by_gate);
     if (subject < 0 && ev.max_ns > 1.0f) {
         subject = attribute(b, &ev);
     }
     if (subject >= 0) {
-        excl_failed = !exclude(b, subject, out);
+        excl_failed = !exclude(b, subject);
         for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
             active[k] = k < MFNS_BANK_CAM_HYP ? b->cam_excluded[k] == 0U
                                               : b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON;
@@ -508,7 +647,12 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         out->pose = mfns_filter_pose(&b->full);
         evaluate_sep(b, is, dvar, active, ok, out, &ev);
     }
-    readmit(b, is->hold_cycles, out);
+    if (b->last_usable != 0U) {
+        /* a clean test counts only against a filter that was certified: an
+         * uncertain one sees no fault (a camera a frame late passes the test
+         * of a filter whose PL is already beyond the alert limit) */
+        readmit(b, is->hold_cycles, out);
+    }
     /* evict the decayed hypotheses of beacons out of view */
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         if (b->slot_beacon[i] != NO_BEACON && b->slot_seen[i] == 0U &&
@@ -516,6 +660,9 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
             b->slot_beacon[i] = NO_BEACON;
         }
     }
+    out->detected_kind = b->det_kind;
+    out->detected_id = b->det_id;
+    out->by_gate = b->det_by_gate;
     mfns_filter_pose_cov_ros(&b->full, datum, out->cov_ros);
     out->hypotheses = ev.nh;
     out->unmonitorable = ev.unmon;
@@ -539,6 +686,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         out->status = held ? MFNS_POSE_DEGRADED : MFNS_POSE_OK;
         out->reason = held ? MFNS_POSE_R_EXCLUDED : MFNS_POSE_R_NONE;
     }
+    b->last_usable = out->usable ? 1U : 0U;
     out->work = b->work;
     clear_cycle(b);
     return MFNS_FILTER_OK;

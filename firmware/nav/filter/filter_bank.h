@@ -44,9 +44,11 @@
  * PLs are infinite, status UNMONITORED.
  *
  * Exclusion: the gate of the full filter (nav_filter.h) names an observation
- * inconsistent with the motion-bounded prediction: a camera with two or more
- * observations gated in a cycle while another camera's passed is excluded (a
- * single beacon fault fails one observation per frame); a beacon whose every
+ * inconsistent with the motion-bounded prediction: a camera whose frame
+ * failed as a whole (two or more observations gated against the prediction,
+ * mfns_bank_observe_frame) while another camera's passed is excluded (a
+ * single beacon fault fails one observation per frame; two cameras' frames
+ * failing in one cycle are the motion: MOTION_EXCEEDED); a beacon whose every
  * observation was gated in MFNS_BANK_GATE_EXCLUDE_RUN consecutive cycles is
  * excluded. Otherwise, when a separation test fails (|s|/T > 1), the failed
  * hypothesis whose subset is the most consistent with its observations is
@@ -54,9 +56,15 @@
  * Excluding k replaces the full filter by k's subset filter (the one that
  * never took k's data: the fault leaves the solution with it) and restarts
  * every other hypothesis as a copy of it. An excluded beacon or camera is
- * tested every cycle against the full filter (innovation gate, not applied)
- * and re-admitted after hold_cycles consecutive clean cycles (the table's
- * integrity hold); its hypothesis then starts afresh.
+ * tested every cycle against the full filter (not applied): a beacon's
+ * observation is clean with its NIS below chi-square(2) at
+ * MFNS_BANK_READMIT_P, a camera's frame with the sum of its NIS below
+ * chi-square(2n) at the same level (a late camera's observations are each
+ * only a little off, all together clearly); re-admitted after hold_cycles
+ * consecutive clean cycles (the table's integrity hold), a cycle counting
+ * only when the previous one was usable (a filter whose PL is beyond the
+ * alert limit has no power to call anything clean); its hypothesis then
+ * starts afresh.
  *
  * Status: OK (reason NONE), DEGRADED EXCLUDED (something held out), NO_FIX
  * PL_EXCEEDS_AL, UNMONITORED, FAULT_DETECTED (more excluded than the bank
@@ -73,7 +81,8 @@
  *     bound; its subset coasts, the PL grows past the alert limit;
  *   - faults common to every camera and beacon (datum, common clock).
  *
- * Work per observation: at most 1 + MFNS_BANK_MAX_HYP filter updates; per
+ * Work per observation: one test against the prediction and at most 1 +
+ * MFNS_BANK_MAX_HYP filter updates; per
  * evaluation at most 1 + MFNS_BANK_MAX_HYP propagations and separations; the
  * bank counts them (work) so tests assert the bound.
  */
@@ -115,9 +124,12 @@
  * (9.21): stricter than the gate, so that a fault near the gate's size does
  * not count as healed. */
 #define MFNS_BANK_READMIT_P 0.01f
-/* the separation's variance floor, relative to P_0's: identical filters
- * (a hypothesis just started) give s = 0 and must not fail on round-off */
-#define MFNS_BANK_VAR_FLOOR_REL 1e-6f
+/* the separation's variance floor, relative to P_0's: P_k - P_0 is a small
+ * difference of two float covariances that went through hundreds of updates
+ * (rounding of ~1e-4 of P_0 measured: a beacon seen once gave P_k - P_0 =
+ * -9e-5 P_0); a hypothesis just started has a real P_k - P_0 below that. The
+ * floor, 1e-3 P_0, sets T_k >= 0.17 sigma_0 at K_fa = 5.3: nothing for the PL */
+#define MFNS_BANK_VAR_FLOOR_REL 1e-3f
 
 typedef enum {
     MFNS_BANK_HYP_NONE = 0,
@@ -141,11 +153,18 @@ typedef struct {
     uint16_t cam_clean[MFNS_NUM_CAMERAS];
     uint8_t cam_dirty[MFNS_NUM_CAMERAS];
     uint8_t cam_tested[MFNS_NUM_CAMERAS];
+    float cam_held_nis[MFNS_NUM_CAMERAS]; /* a held camera's frame: sum of NIS this cycle */
+    uint16_t cam_held_dof[MFNS_NUM_CAMERAS];
     /* this cycle's gate outcomes in the full filter */
     uint16_t cam_gated[MFNS_NUM_CAMERAS], cam_passed[MFNS_NUM_CAMERAS];
+    uint8_t frame_rejected[MFNS_NUM_CAMERAS]; /* the frame failed as a whole this cycle */
     float cons_nis[MFNS_BANK_MAX_HYP], cons_dof[MFNS_BANK_MAX_HYP]; /* forgetting sums (attribution) */
+    uint8_t det_kind;    /* this cycle's exclusion (mfns_bank_hyp_kind_t), reported by evaluate */
+    int16_t det_id;
+    uint8_t det_by_gate;
     uint32_t unmonitored_obs; /* observations used by no filter: no free slot */
     uint32_t work;            /* filter updates + propagations + separations this cycle */
+    uint8_t last_usable; /* the last evaluation was usable: re-admission tests count */
     uint8_t initialised;
 } mfns_filter_bank_t;
 
@@ -175,13 +194,20 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
                                     mfns_v3_t v_w, float sigma_v_mm_s, mfns_v3_t w_w, float sigma_w_rad_s,
                                     int64_t t_us);
 
-/* One observation of map beacon `beacon` (time order across calls: the
- * caller orders a cycle's observations by capture time). Returns the full
- * filter's status for it (OK, GATED; E_* for bad input); an excluded
- * beacon's or camera's observation is only tested (OK). */
-mfns_filter_status_t mfns_bank_observe(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
-                                       const mfns_rig_t *rig, float sigma_px, int16_t beacon,
-                                       const mfns_filter_obs_t *obs);
+/* One camera's frame: n observations (n <= MFNS_MAX_OBS_PER_CAMERA) of one
+ * camera at one capture time, beacon[i] the map index of obs[i]. Frames in
+ * time order across calls (the caller orders a cycle's frames by capture
+ * time). Each observation is first tested against the full filter's
+ * prediction: two or more failing the gate reject the frame as a whole
+ * (GATED: a camera fault or the motion; nothing of it is applied);
+ * otherwise each is applied to the full filter (its own gate: a single
+ * faulty beacon is GATED alone) and, when the full filter took it, to every
+ * subset but its hypotheses'. An excluded beacon's or camera's observations
+ * are only tested (for re-admission). E_TIME: the full filter coasted beyond
+ * max_coast_s (evaluate asks for a restart); E_ARG: bad input. */
+mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                             const mfns_rig_t *rig, float sigma_px, int n, const int16_t beacon[],
+                                             const mfns_filter_obs_t obs[]);
 
 /* Close a cycle at t_us (>= every observation's time): propagate the bank,
  * test, exclude, re-admit, evict, and output the pose with its PL and status. */
