@@ -4,9 +4,6 @@
 #include <math.h>
 #include <stddef.h>
 #include <string.h>
-#ifdef BANK_TRACE
-#include <stdio.h>
-#endif
 
 #include "integrity.h"
 #include "rotation.h"
@@ -346,13 +343,23 @@ mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_f
         }
         return MFNS_FILTER_GATED;
     }
+    /* the frame's usable observations first, then the held ones tested
+     * against the filter they updated: a test at the start of a frame has
+     * the whole inter-frame process noise in it (0.8 px at the default
+     * bound), one after the frame's other beacons has not */
     mfns_filter_status_t worst = MFNS_FILTER_OK;
-    for (int i = 0; i < n; i++) {
-        const mfns_filter_status_t st = observe_one(b, fs, rig, sigma_px, beacon[i], &obs[i]);
-        if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
-            return st;
+    for (int pass = 0; pass < 2; pass++) {
+        for (int i = 0; i < n; i++) {
+            const bool held = excl_index(b, beacon[i]) >= 0 || b->cam_excluded[cam] != 0U;
+            if (held != (pass == 1)) {
+                continue;
+            }
+            const mfns_filter_status_t st = observe_one(b, fs, rig, sigma_px, beacon[i], &obs[i]);
+            if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
+                return st;
+            }
+            worst = st != MFNS_FILTER_OK ? st : worst;
         }
-        worst = st != MFNS_FILTER_OK ? st : worst;
     }
     return worst;
 }
@@ -424,10 +431,9 @@ static void readmit(mfns_filter_bank_t *b, uint16_t hold, mfns_bank_output_t *ou
         if (b->cam_excluded[c] == 0U || b->cam_tested[c] == 0U) {
             continue;
         }
-        b->cam_dirty[c] = b->cam_held_nis[c] <=
-                                  mfns_filter_chi2_quantile((float)b->cam_held_dof[c], MFNS_BANK_READMIT_P)
-                              ? 0U
-                              : 1U;
+        const bool clean =
+            b->cam_held_nis[c] <= mfns_filter_chi2_quantile((float)b->cam_held_dof[c], MFNS_BANK_READMIT_P);
+        b->cam_dirty[c] = (uint8_t)(clean ? 0U : 1U);
         b->cam_clean[c] = b->cam_dirty[c] != 0U ? 0U : (uint16_t)(b->cam_clean[c] + 1U);
         if (b->cam_clean[c] >= hold) {
             out->readmitted_camera = (int8_t)c;
@@ -505,12 +511,6 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
             const float t = out->k_fa * sqrtf(vss);
             const float ns = fabsf(s[j]) / t;
             ev->failed[k] = ev->failed[k] || ns > 1.0f;
-#ifdef BANK_TRACE
-            if (ns > 1.0f) {
-                fprintf(stderr, "   hyp %d axis %d s %.3g var_k %.3g var_0 %.3g ns %.2f\n", k, j, (double)s[j],
-                        (double)b->sub[k].P[j][j], (double)p0, (double)ns);
-            }
-#endif
             if (ns > ev->max_ns) {
                 ev->max_ns = ns;
                 ev->worst = k;
@@ -518,6 +518,34 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
             ev->pl[j] = fmaxf(ev->pl[j], t + out->k_md * sqrtf(fmaxf(b->sub[k].P[j][j] + dvar[j], 0.0f)));
         }
     }
+}
+
+/* The hypothesis that explains a failed innovation window: the most
+ * consistent active subset, if consistent (z <= MFNS_BANK_EXPLAIN_Z); a
+ * beacon preferred to a camera as in attribute(). -1: none does. */
+static int explain(const mfns_filter_bank_t *b)
+{
+    int best_b = -1, best_c = -1;
+    float zb = INFINITY, zc = INFINITY;
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        const bool active = k < MFNS_BANK_CAM_HYP ? b->cam_excluded[k] == 0U
+                                                  : b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON;
+        if (!active || !(b->cons_dof[k] > 0.0f)) {
+            continue;
+        }
+        const float z = consistency_z(b, k);
+        if (k < MFNS_BANK_CAM_HYP && z < zc) {
+            zc = z;
+            best_c = k;
+        } else if (k >= MFNS_BANK_CAM_HYP && z < zb) {
+            zb = z;
+            best_b = k;
+        }
+    }
+    if (best_c >= 0 && (best_b < 0 || zc < zb - MFNS_BANK_CAMERA_PREF_Z)) {
+        return zc <= MFNS_BANK_EXPLAIN_Z ? best_c : -1;
+    }
+    return best_b >= 0 && zb <= MFNS_BANK_EXPLAIN_Z ? best_b : -1;
 }
 
 /* The subject of a failed separation test (MFNS_BANK_CONSIST_FORGET). */
@@ -538,15 +566,6 @@ static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev)
             best_b = k;
         }
     }
-#ifdef BANK_TRACE
-    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
-        if (ev->failed[k]) {
-            fprintf(stderr, "   failed hyp %d (beacon %d) z %.2f dof %.1f\n", k,
-                    k >= MFNS_BANK_CAM_HYP ? b->slot_beacon[k - MFNS_BANK_CAM_HYP] : -1, (double)consistency_z(b, k),
-                    (double)b->cons_dof[k]);
-        }
-    }
-#endif
     if (best_b < 0) {
         return best_c;
     }
@@ -582,11 +601,22 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     }
     const mfns_filter_status_t st = mfns_filter_propagate(&b->full, fs, t_us);
     b->work++;
-    (void)mfns_filter_end_cycle(&b->full, fs); /* the windowed motion test */
+    const uint8_t motion_before = b->full.motion_exceeded;
+    const bool window_failed = mfns_filter_end_cycle(&b->full, fs); /* the windowed motion test */
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
         b->cons_nis[k] = MFNS_BANK_CONSIST_FORGET * b->cons_nis[k] + b->sub[k].cyc_nis;
         b->cons_dof[k] = MFNS_BANK_CONSIST_FORGET * b->cons_dof[k] + (float)b->sub[k].cyc_dof;
         mfns_filter_reset_window(&b->sub[k]); /* only the full filter's window is tested */
+    }
+    if (window_failed && motion_before == 0U && st == MFNS_FILTER_OK) {
+        /* the full filter's innovations are too large over the window: the
+         * motion, or one beacon or camera (a slow ramp the separation has
+         * not reached yet). A hypothesis whose subset took all but its
+         * data and stayed consistent explains it: exclude that one. */
+        const int k = explain(b);
+        if (k >= 0 && exclude(b, k)) {
+            b->full.motion_exceeded = 0;
+        }
     }
     if (st != MFNS_FILTER_OK || b->full.motion_exceeded != 0U) {
         /* the filter cannot vouch for anything: re-acquire */
@@ -611,18 +641,6 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         ok[k] = active[k] && mfns_filter_propagate(&b->sub[k], fs, t_us) == MFNS_FILTER_OK;
         b->work += active[k] ? 1U : 0U;
     }
-#ifdef BANK_TRACE
-    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
-        for (int j = 0; j < 6 && active[k]; j++) {
-            if (b->sub[k].P[j][j] < b->full.P[j][j]) {
-                fprintf(stderr, "   NEG t %lld hyp %d axis %d rel %.3g upd %u/%u gated %u/%u\n", (long long)t_us, k, j,
-                        (double)((b->sub[k].P[j][j] - b->full.P[j][j]) / b->full.P[j][j]), b->sub[k].updates,
-                        b->full.updates, b->sub[k].gated, b->full.gated);
-                break;
-            }
-        }
-    }
-#endif
     out->pose = mfns_filter_pose(&b->full);
     float d[6][6], dvar[6];
     mfns_filter_datum_cov(&out->pose, datum, d);

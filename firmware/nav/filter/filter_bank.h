@@ -118,6 +118,11 @@
  * beacon (the smaller exclusion) is preferred unless the camera's z is lower
  * by MFNS_BANK_CAMERA_PREF_Z. */
 #define MFNS_BANK_CONSIST_FORGET 0.9f
+/* The full filter's innovation window (nav_filter.h mfns_filter_end_cycle)
+ * failing is the motion unless one hypothesis explains it: its subset's
+ * consistency z at most this (a slow ramp on one beacon: every subset but
+ * the beacon's took it) */
+#define MFNS_BANK_EXPLAIN_Z 3.0f
 #define MFNS_BANK_CAMERA_PREF_Z 3.0f
 /* Re-admission test: an excluded item's observation is clean when its NIS
  * against the full filter is below chi-square(2) at this tail probability
