@@ -31,6 +31,7 @@ typedef enum {
     F_CAM_POINTING, /* arg deg about the camera's x axis, camera fault_id */
     F_CAM_LAG,      /* camera fault_id one frame late */
     F_BEACON_PULSE, /* arg px for 10 cycles, then healthy (readmission) */
+    F_COLLISION,    /* arg mm/s^2 along x for one frame period from FAULT_CYCLE */
 } fault_t;
 
 typedef struct {
@@ -54,6 +55,7 @@ typedef struct {
     uint32_t max_work, work_bound_violations;
     int readmitted_cycle;
     int restarts;
+    int restart_cycle, restart_reason;
 } result_t;
 
 static void run(const scenario_t *sc, result_t *res)
@@ -106,7 +108,9 @@ static void run(const scenario_t *sc, result_t *res)
         int nobs = 0;
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             const int64_t tc = t + c * CAM_STAGGER_US;
-            fs_truth_advance(&x, (double)(tc - tt) * 1e-6, 0.0, 0.0, NULL, NULL);
+            const double a_col[3] = {sc->arg, 0.0, 0.0};
+            const bool collide = sc->kind == F_COLLISION && k == FAULT_CYCLE;
+            fs_truth_advance(&x, (double)(tc - tt) * 1e-6, 0.0, 0.0, collide ? a_col : NULL, NULL);
             tt = tc;
             mfns_filter_obs_t obs[MAX_OBS];
             int16_t beacon[MAX_OBS];
@@ -140,6 +144,9 @@ static void run(const scenario_t *sc, result_t *res)
         res->work_bound_violations += out.work > bound ? 1U : 0U;
         if (out.restart) {
             res->restarts++;
+            res->restart_cycle = k;
+            res->restart_reason = (int)out.reason;
+            assert_false(out.usable);
             break;
         }
         if (out.detected_kind != MFNS_BANK_HYP_NONE) {
@@ -284,6 +291,24 @@ static void test_beacon_readmitted_after_clean_hold(void **state)
     assert_int_equal(r.bound_violations, 0);
 }
 
+/* A collision: 5 m/s^2 over one frame (0.27 m/s of velocity change, 50x
+ * the bound): restart with MOTION_EXCEEDED within two cycles, nothing
+ * blamed, no usable cycle beyond its PL before. */
+static void test_collision_restarts(void **state)
+{
+    (void)state;
+    const scenario_t sc = {F_COLLISION, -1, 5000.0, 30.0, 0.02, 41, 0};
+    result_t r;
+    run(&sc, &r);
+    report("collision 5 m/s^2", &r);
+    print_message("  restart at cycle %d reason %d\n", r.restart_cycle, r.restart_reason);
+    assert_int_equal(r.restarts, 1);
+    assert_true(r.restart_cycle >= FAULT_CYCLE && r.restart_cycle <= FAULT_CYCLE + 2);
+    assert_int_equal(r.restart_reason, MFNS_POSE_R_MOTION_EXCEEDED);
+    assert_int_equal(r.wrong_subject, 0);
+    assert_int_equal(r.bound_violations, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -294,6 +319,7 @@ int main(void)
         cmocka_unit_test(test_camera_pointing_step),
         cmocka_unit_test(test_camera_one_frame_late),
         cmocka_unit_test(test_beacon_readmitted_after_clean_hold),
+        cmocka_unit_test(test_collision_restarts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
