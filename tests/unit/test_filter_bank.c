@@ -122,13 +122,10 @@ static void run(const scenario_t *sc, result_t *res)
                 obs[i].p_w = map.beacon[beacon[i]].p_w; /* the map's, not the camera's */
                 obs[i].cam = (uint8_t)c;
                 if (beacon[i] == sc->id && on) {
-                    if (sc->kind == F_BEACON_STEP) {
-                        obs[i].u += (float)sc->arg;
-                    } else if (sc->kind == F_BEACON_RAMP) {
-                        obs[i].u += (float)(sc->arg * (k - FAULT_CYCLE + 1));
-                    } else if (sc->kind == F_BEACON_PULSE && k < FAULT_CYCLE + 10) {
-                        obs[i].u += (float)sc->arg;
-                    }
+                    /* a step (or a pulse while it lasts) of arg px, or a ramp of arg px per cycle */
+                    const bool step = sc->kind == F_BEACON_STEP || (sc->kind == F_BEACON_PULSE && k < FAULT_CYCLE + 10);
+                    const double ramp = sc->kind == F_BEACON_RAMP ? sc->arg * (k - FAULT_CYCLE + 1) : 0.0;
+                    obs[i].u += (float)((step ? sc->arg : 0.0) + ramp);
                 }
             }
             const mfns_filter_status_t st = mfns_bank_observe_frame(&bank, &fs, &rig, (float)SIGMA_PX, n, beacon, obs);

@@ -69,7 +69,7 @@ static void test_jacobian_matches_finite_differences(void **state)
             for (int j = 0; j < 6; j++) {
                 const double step = j < 3 ? 1e-4 : 0.05; /* rad, mm */
                 double fd[2];
-                float up[2], um[2];
+                float up[2] = {0.0f, 0.0f}, um[2] = {0.0f, 0.0f};
                 for (int sgn = 0; sgn < 2; sgn++) {
                     mfns_filter_t g = f;
                     float dx[6] = {0, 0, 0, 0, 0, 0};

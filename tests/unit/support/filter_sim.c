@@ -147,7 +147,7 @@ double fs_nees(const mfns_filter_t *f, const fs_truth_t *x)
             l[i][j] = t / l[j][j];
         }
     }
-    double y[6], nees = 0.0;
+    double y[6] = {0, 0, 0, 0, 0, 0}, nees = 0.0;
     for (int i = 0; i < 6; i++) {
         double t = e[i];
         for (int k = 0; k < i; k++) {
