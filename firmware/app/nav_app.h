@@ -71,6 +71,7 @@ typedef struct nav_app {
     mfns_caltable_t tables[NAV_APP_TABLE_SLOTS];
     int table_cur;                  /* the slot the navigator uses */
     mfns_pose_mode_t solver;
+    uint32_t nav_filter_period_us; /* --nav-filter: 0 off; re-applied after every table bind */
     mfns_nav_t nav;
     mfns_nav_output_t out;          /* the last cycle's */
     bool standby;                   /* SET_MODE standby: frames flow, the navigator does not run */

@@ -467,6 +467,7 @@ static int gate_subject(const mfns_filter_bank_t *b, uint8_t *by_gate)
 
 typedef struct {
     float pl[MFNS_BANK_AXES];
+    float pl_b[MFNS_BANK_AXES]; /* fault-free and beacon hypotheses only */
     float max_ns;
     int worst;
     uint16_t nh, unmon;
@@ -488,6 +489,7 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
     const float k_ff = mfns_integrity_q_inv(0.5f * is->p_md);
     for (int j = 0; j < MFNS_BANK_AXES; j++) {
         ev->pl[j] = k_ff * sqrtf(fmaxf(b->full.P[j][j] + dvar[j], 0.0f));
+        ev->pl_b[j] = ev->pl[j];
     }
     ev->max_ns = 0.0f;
     ev->worst = -1;
@@ -499,6 +501,7 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
         if (!ok[k]) {
             for (int j = 0; j < MFNS_BANK_AXES; j++) {
                 ev->pl[j] = INFINITY;
+                ev->pl_b[j] = k < MFNS_BANK_CAM_HYP ? ev->pl_b[j] : INFINITY;
             }
             continue;
         }
@@ -515,7 +518,9 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
                 ev->max_ns = ns;
                 ev->worst = k;
             }
-            ev->pl[j] = fmaxf(ev->pl[j], t + out->k_md * sqrtf(fmaxf(b->sub[k].P[j][j] + dvar[j], 0.0f)));
+            const float plk = t + out->k_md * sqrtf(fmaxf(b->sub[k].P[j][j] + dvar[j], 0.0f));
+            ev->pl[j] = fmaxf(ev->pl[j], plk);
+            ev->pl_b[j] = k < MFNS_BANK_CAM_HYP ? ev->pl_b[j] : fmaxf(ev->pl_b[j], plk);
         }
     }
 }
@@ -686,6 +691,8 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     out->unmonitorable = ev.unmon;
     out->pl_pos_mm = fmaxf(fmaxf(ev.pl[3], ev.pl[4]), ev.pl[5]);
     out->pl_att_deg = fmaxf(fmaxf(ev.pl[0], ev.pl[1]), ev.pl[2]) * MFNS_DEG_PER_RAD_F;
+    out->pl_beacon_pos_mm = fmaxf(fmaxf(ev.pl_b[3], ev.pl_b[4]), ev.pl_b[5]);
+    out->pl_beacon_att_deg = fmaxf(fmaxf(ev.pl_b[0], ev.pl_b[1]), ev.pl_b[2]) * MFNS_DEG_PER_RAD_F;
     bool held = false;
     for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
         held = held || b->excl_beacon[i] != NO_BEACON;

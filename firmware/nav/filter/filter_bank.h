@@ -181,6 +181,8 @@ typedef struct {
     mfns_pose_t pose;
     float cov_ros[6][6];      /* with the datum term */
     float pl_pos_mm, pl_att_deg;
+    float pl_beacon_pos_mm, pl_beacon_att_deg; /* the same over the fault-free and beacon hypotheses only
+                                                  (diagnostics: what camera faults cost) */
     float max_norm_sep;       /* max |s|/T over hypotheses and axes (before any exclusion) */
     float k_fa, k_md;
     uint16_t hypotheses;      /* active hypotheses tested */
