@@ -318,5 +318,5 @@ int main(void)
         cmocka_unit_test(test_beacon_readmitted_after_clean_hold),
         cmocka_unit_test(test_collision_restarts),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests_name("filter_bank", tests, NULL, NULL);
 }

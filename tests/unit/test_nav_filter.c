@@ -439,5 +439,5 @@ int main(void)
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_datum_at_output_only),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests_name("nav_filter", tests, NULL, NULL);
 }

@@ -130,5 +130,5 @@ int main(void)
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
 }

@@ -8,7 +8,8 @@
  * output; velocity prior 0 +- MFNS_NAVF_SIGMA_V0_MM_S, 0 +- MFNS_NAVF_SIGMA_W0_RAD_S),
  * then takes every observation the cycle's solver associated with a beacon,
  * camera by camera. A cycle whose bank output is usable reports the filter's
- * pose, covariance, PL and status; otherwise the snapshot's verdict stands
+ * pose, covariance, PL and status (the solution's counts, residuals and
+ * associations stay the solver's); otherwise the snapshot's verdict stands
  * (each is a certified bound on its own). A bank that asks for a restart
  * (motion bound exceeded, coast too long) starts again from the next usable
  * snapshot fix.
