@@ -15,7 +15,8 @@
 #
 # Sources are discovered by folder, so adding a module or a test needs no edit
 # here (README.md "Adding a module"):
-#   math/*.c firmware/nav/*.c firmware/tlm/*.c     portable core (no OS, no heap): flies
+#   math/*.c firmware/nav/*.c firmware/nav/filter/*.c
+#   firmware/tlm/*.c                                portable core (no OS, no heap): flies
 #   firmware/host/*.c                               host-only core (builders, analyses,
 #                                                   binding hooks): libmfns_core.so and
 #                                                   the unit tests, never a flight image

@@ -295,7 +295,9 @@ static int start_up(nav_app_t *app, const nav_opts_t *o)
     nav_selftest_uart(app, o);
     app->tlm_opened_at_start = app->tlm.uart.connected;
     nav_selftest_clock(app);
-    if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK) {
+    app->nav_filter_period_us = o->nav_filter_period_ms * 1000u;
+    if (mfns_nav_init(&app->nav, table, o->solver) != MFNS_NAV_OK ||
+        mfns_nav_enable_filter(&app->nav, app->nav_filter_period_us) != MFNS_NAV_OK) {
         close_all(app);
         return 2;
     }

@@ -95,6 +95,7 @@ typedef struct nav_app {
     nav_counts_t count;
     mfns_cycle_stats_t stats;       /* cycle timing over the housekeeping interval */
     uint32_t cycle_now;             /* the cycle running (or the last one) */
+    uint32_t nav_filter_period_us; /* --nav-filter: 0 off; re-applied after every table bind */
     uint64_t last_t_us;             /* the last cycle's time: the flight clock */
     uint64_t t0_us;                 /* program clock at start-up */
     /* The flight clock is CLOCK_MONOTONIC (live cameras stamp with it; a

@@ -188,6 +188,7 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
             fprintf(stderr, "mfns-nav: re-binding the old table failed\n"); /* it was bound before: cannot happen */
         }
     }
+    (void)mfns_nav_enable_filter(&app->nav, app->nav_filter_period_us); /* a bind turns it off */
     if (ts != MFNS_CALTABLE_OK) {
         fprintf(stderr, "mfns-nav: TABLE_LOAD %s refused: %s (at byte %u); the old table (crc %08x) stays\n", path,
                 mfns_caltable_strerror(ts), off, cur->crc32);

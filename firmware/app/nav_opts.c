@@ -58,6 +58,9 @@ static void usage(FILE *f)
             "                      (the last TABLE_LOAD that validated, and the one before)\n"
             "  --budget-units N    acquisition work units per cycle (default: measured at start-up\n"
             "                      to fit the frame period; docs/budgets.md)\n"
+            "  --nav-filter MS     run the navigation filter bank (issue 42; off by default) with\n"
+            "                      the frame period MS: a usable filtered fix replaces the snapshot's\n"
+            "                      (docs/pose.md \"Navigation filter\")\n"
             "  --tc-insecure       accept commands WITHOUT authentication (tests, bench; a warning)\n"
             "  --max-cycles N      stop after N cycles\n"
             "  --init-pose X,Y,Z,ROLL,PITCH,YAW   start tracking from this pose (mm, deg;\n"
@@ -218,7 +221,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
            O_SERIAL, O_TTY, O_FILE, O_BAUD, O_MAX, O_PAPER, O_VERBOSE, O_HELP, O_VERSION, O_INIT, O_QUIET,
            O_SYNC_WINDOW, O_TC_TTY, O_TC_FILE, O_UPLINK, O_MLOCK, O_LAST_EXIT, O_TC_KEY, O_STATE_DIR,
            O_TC_INSECURE, O_FIXLOG, O_CONFIG, O_BUDGET,
-           O_FIXLOG_ROTATE };
+           O_FIXLOG_ROTATE, O_NAV_FILTER };
     static const struct option opts[] = {
         {"table", required_argument, NULL, O_TABLE},     {"replay", required_argument, NULL, O_REPLAY},
         {"realtime", no_argument, NULL, O_REALTIME},     {"v4l2", no_argument, NULL, O_V4L2},
@@ -242,6 +245,7 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
         {"fixlog", required_argument, NULL, O_FIXLOG},
         {"fixlog-rotate", required_argument, NULL, O_FIXLOG_ROTATE},
         {"config", required_argument, NULL, O_CONFIG}, {"budget-units", required_argument, NULL, O_BUDGET},
+        {"nav-filter", required_argument, NULL, O_NAV_FILTER},
         {NULL, 0, NULL, 0},
     };
     memset(o, 0, sizeof *o);
@@ -365,6 +369,12 @@ int nav_opts_parse(int argc, char **argv, nav_opts_t *o, FILE *out, FILE *err)
             break;
         case O_CONFIG:
             break; /* read before the loop (find_config) */
+        case O_NAV_FILTER:
+            if (!parse_u32(optarg, 1, 1000, &o->nav_filter_period_ms)) {
+                fprintf(err, "mfns-nav: --nav-filter wants a frame period of 1..1000 ms, got '%s'\n", optarg);
+                return -1;
+            }
+            break;
         case O_BUDGET:
             if (!parse_u32(optarg, 100, 1000000, &o->budget_units)) {
                 fprintf(err, "mfns-nav: --budget-units wants 100..1000000, got '%s'\n", optarg);

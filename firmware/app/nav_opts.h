@@ -64,6 +64,7 @@ typedef struct {
     uint32_t fixlog_file_kb;   /* --fixlog-rotate KB,FILES: rotation (0, 0: nav_fixlog.h's defaults) */
     uint32_t fixlog_files;
     uint32_t budget_units;     /* --budget-units: acquisition work per cycle; 0 = measured at start (nav_selftest.h) */
+    uint32_t nav_filter_period_ms; /* --nav-filter MS: the navigation filter on with this frame period; 0 off */
     const char *config_path;   /* --config FILE, or NULL */
     nav_config_t cfg;          /* its contents (strings above may point here) */
 } nav_opts_t;

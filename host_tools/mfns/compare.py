@@ -79,6 +79,8 @@ WHY = {
     "with beacons predicted in it, has none of them: one of the two is wrong (docs/pose.md Integrity)",
     "OUTSIDE_WORKSPACE": "refused: an acquisition while the robot was last tracked outside the table's "
     "workspace box, where the certificate does not hold (docs/pose.md, the table's workspace in flight)",
+    "MOTION_EXCEEDED": "refused: the robot accelerated beyond the navigation filter's motion bound "
+    "(a collision, a hard burst): navigation restarts from acquisition",
 }
 
 

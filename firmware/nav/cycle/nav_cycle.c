@@ -83,6 +83,15 @@ mfns_nav_status_t mfns_nav_set_prior(mfns_nav_t *nav, const mfns_pose_t *pose)
     return MFNS_NAV_OK;
 }
 
+mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us)
+{
+    if (nav == NULL || nav->magic != NAV_MAGIC) {
+        return MFNS_NAV_E_ARG;
+    }
+    mfns_navf_enable(&nav->filt, period_us);
+    return MFNS_NAV_OK;
+}
+
 void mfns_nav_lose_track(mfns_nav_t *nav)
 {
     if (nav != NULL) {
@@ -436,6 +445,8 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         lag_untested(nav, out);
         one_camera_contradicted(nav, solver_inlier, out);
         monitor_only(nav, out);
+        mfns_navf_step(&nav->filt, t, &nav->integ_set, &nav->obs, nav->pose_cfg.sigma_px, &out->sol,
+                       &out->integrity, &out->filt); /* nothing when off (the default) */
         (void)mfns_bmon_update(&nav->bmon, &t->rig, &nav->map, &nav->obs, &out->sol, nav->pose_cfg.sigma_px,
                                nav->pose_cfg.s.track_gate_px, nav->integ_mem.beacon, MFNS_INTEGRITY_MAX_HELD_BEACONS,
                                &out->bmon); /* arguments checked above */

@@ -61,6 +61,7 @@
 #include "firmware/nav/integrity/integrity_lag.h"
 #include "firmware/nav/pose/pose.h"
 #include "firmware/nav/acquire/workspace_watch.h"
+#include "firmware/nav/filter/nav_filter_cycle.h"
 
 #define MFNS_NAV_MAX_COAST 10 /* cycles (0.54 s at 18.6 Hz) */
 
@@ -124,6 +125,9 @@ typedef struct {
      * ws the transitions this cycle, ws_state the state after it. */
     mfns_ws_report_t ws;
     uint8_t ws_state; /* mfns_ws_state_t */
+    /* The navigation filter (nav_filter_cycle.h; off unless mfns_nav_enable_filter):
+     * what it did this cycle; when filt.used, sol and integrity are its. */
+    mfns_navf_report_t filt;
 } mfns_nav_output_t;
 
 typedef struct {
@@ -143,6 +147,7 @@ typedef struct {
     mfns_integrity_memory_t integ_mem;   /* beacons and cameras held out by FDE */
     mfns_bmon_t bmon;                    /* slow residual bias per beacon and camera (beacon_monitor.h) */
     mfns_ws_watch_t wsw;                 /* the tracked pose against the table's workspace (workspace_watch.h) */
+    mfns_navf_t filt;                    /* the navigation filter bank, off by default (nav_filter_cycle.h) */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;
     mfns_centroid_result_t cres;
@@ -164,6 +169,12 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
 /* Run one cycle. frames[k] is camera k's frame or NULL when it has none. */
 mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
                                  mfns_nav_output_t *out);
+
+/* The navigation filter (firmware/nav/filter/nav_filter_cycle.h): on with
+ * the frame period period_us (> 0), off with 0. Off after mfns_nav_init (a
+ * table bound turns it off: enable it again after). Off, the cycle is the
+ * snapshot navigator, bit for bit. */
+mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us);
 
 /* Start tracking from a known pose (e.g. the docking port the robot leaves
  * from, commanded from the ground): the next cycle tracks from it and falls

@@ -29,6 +29,7 @@ typedef enum {
     MFNS_POSE_R_SPURIOUS_AMBIGUOUS = 22, /* NO_FIX: five blobs, and more than one identification explains four or five of them: which blob is spurious (a reflection) cannot be told */
     MFNS_POSE_R_CAMERAS_CONTRADICT = 23, /* NO_FIX: the fix comes from one camera, and another camera that gave an image has none of its spots on the beacons the fix predicts in it: one of the two is wrong (stale, moved), nothing says which; the pose carries the track */
     MFNS_POSE_R_OUTSIDE_WORKSPACE = 24, /* NO_FIX: an acquisition while the robot was last tracked outside the table's workspace box (WORKSPACE_LEFT): the acquisition's identification is certified unique only for a robot inside the box, so it is refused and does not carry the track, until a tracked pose is inside the box again (the track coming back, or tracking from SET_POSE_HINT) or a table is loaded (docs/pose.md "The table's workspace") */
+    MFNS_POSE_R_MOTION_EXCEEDED = 25, /* NO_FIX: the navigation filter's observations failed its innovation gate in a row: the robot accelerated beyond the motion bound the filter assumes (a collision, a hard burst), so its prediction and protection levels no longer hold; navigation restarts from acquisition (firmware/nav/filter/nav_filter.h) */
 } mfns_pose_reason_t;
 
 #endif /* MFNS_NAV_CODES_GEN_H */

@@ -83,6 +83,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return MFNS_MSG("a one-camera fix that another camera's image contradicts: one of the two is wrong");
     case MFNS_POSE_R_OUTSIDE_WORKSPACE:
         return MFNS_MSG("an acquisition while the robot was last tracked outside the table's workspace: not certified");
+    case MFNS_POSE_R_MOTION_EXCEEDED:
+        return MFNS_MSG("the robot accelerated beyond the navigation filter's motion bound: restart from acquisition");
     }
     return MFNS_MSG("unknown pose reason");
 }

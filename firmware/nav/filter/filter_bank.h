@@ -1,0 +1,229 @@
+/* filter_bank.h -- integrity over time (issue 42): solution separation
+ * between the full navigation filter and a bank of subset filters, one per
+ * single-fault hypothesis (Brenner, ION GPS 1995/96; docs/pose.md
+ * "Integrity"; /work/shared/INTEGRITY-NOTES.md).
+ *
+ * Hypotheses, with equal standing:
+ *   - camera k (always, MFNS_NUM_CAMERAS of them): its subset filter never
+ *     takes camera k's observations. A mount knocked (pointing), a frame a
+ *     period late or a drifting clock moves the full filter, not this one.
+ *   - beacon b in view: started as a copy of the full filter just before
+ *     b's first observation is applied, it takes every observation but b's.
+ *     A step or a ramp on b moves the full filter only.
+ * A beacon with no free hypothesis slot is not used by any filter (counted in
+ * unmonitored_obs): nothing enters the full filter that no hypothesis covers.
+ *
+ * Memory: a filter is ~690 B (12 x 12 floats of covariance = 576 B + the
+ * nominal state). MFNS_BANK_MAX_BEACON_HYP = 12: the original module layout
+ * keeps 4-7 beacons in view over two cameras, the planned 60-LED layout up to
+ * ~10; 12 leaves room for the beacons that just left view and whose effect
+ * has not decayed yet. 1 + 3 + 12 filters = ~11 KB of caller-owned RAM, and
+ * an observation costs at most 15 filter updates.
+ *
+ * Eviction: the hypothesis of a beacon out of view this cycle ends once its
+ * effect on the full filter has decayed: max over the six pose axes of
+ * (P_k - P_0)_jj / P_0_jj <= MFNS_BANK_EVICT_RATIO (0.01). P_k - P_0 is the
+ * covariance of the separation x_0 - x_k, i.e. of everything b's data put
+ * into x_0; at 1 % of P_0's variance, b's influence on the current state is
+ * 0.1 sigma_0 per sigma of b's own data, and a fault on b large enough to
+ * matter after that was gated (nav_filter.h) or detected while b was in view.
+ *
+ * Detection, per hypothesis k and pose axis j (position mm, attitude rad,
+ * world axes), at a common time:
+ *   s_kj = (x_0 - x_k)_j,  T_kj = K_fa sqrt((P_k - P_0)_jj),  test |s_kj| <= T_kj
+ *   K_fa = Q^-1(P_fa / (2 * 6 * N_hyp)), K_md = Q^-1(P_md), K_ff = Q^-1(P_md / 2)
+ * with P_fa, P_md the table's integrity settings (mfns_integrity_settings_t,
+ * nav_settings.h) and Q^-1 integrity.h's: the same allocation as the snapshot
+ * FDE (integrity.h). Protection level per axis:
+ *   PL_j = max( K_ff sigma_0j, max_k (T_kj + K_md sigma_kj) )
+ * with sigma including the map datum's term (added once, common to all
+ * filters, so not in the separation). PL_pos_mm / PL_att_deg are the largest
+ * position / attitude axis (per axis: compare with a per-axis alert limit).
+ * A hypothesis whose subset filter cannot follow (a camera that alone sees
+ * the beacons coasts its subset beyond max_coast_s) is unmonitorable: the
+ * PLs are infinite, status UNMONITORED.
+ *
+ * Exclusion: the gate of the full filter (nav_filter.h) names an observation
+ * inconsistent with the motion-bounded prediction: a camera whose frame
+ * failed as a whole (two or more observations gated against the prediction,
+ * mfns_bank_observe_frame) while another camera's passed is excluded (a
+ * single beacon fault fails one observation per frame; two cameras' frames
+ * failing in one cycle are the motion: MOTION_EXCEEDED); a beacon whose every
+ * observation was gated in MFNS_BANK_GATE_EXCLUDE_RUN consecutive cycles is
+ * excluded. Otherwise, when a separation test fails (|s|/T > 1), the failed
+ * hypothesis whose subset is the most consistent with its observations is
+ * excluded (MFNS_BANK_CONSIST_FORGET below).
+ * Excluding k replaces the full filter by k's subset filter (the one that
+ * never took k's data: the fault leaves the solution with it) and restarts
+ * every other hypothesis as a copy of it. An excluded beacon or camera is
+ * tested every cycle against the full filter (not applied): a beacon's
+ * observation is clean with its NIS below chi-square(2) at
+ * MFNS_BANK_READMIT_P, a camera's frame with the sum of its NIS below
+ * chi-square(2n) at the same level (a late camera's observations are each
+ * only a little off, all together clearly); re-admitted after hold_cycles
+ * consecutive clean cycles (the table's integrity hold), a cycle counting
+ * only when the previous one was usable (a filter whose PL is beyond the
+ * alert limit has no power to call anything clean); its hypothesis then
+ * starts afresh.
+ *
+ * Status: OK (reason NONE), DEGRADED EXCLUDED (something held out), NO_FIX
+ * PL_EXCEEDS_AL, UNMONITORED, FAULT_DETECTED (more excluded than the bank
+ * holds), MOTION_EXCEEDED (the full filter's gate: restart from acquisition).
+ *
+ * What it misses:
+ *   - two simultaneous faults (single-fault hypotheses only);
+ *   - a fault present in the snapshot fix the bank started from (the first
+ *     PLs are only as good as that certified fix);
+ *   - a fault of a beacon or camera that began before its hypothesis was
+ *     (re)started: after an exclusion every other hypothesis restarts from the
+ *     new full filter;
+ *   - a camera that alone sees the beacons: checked only against the motion
+ *     bound; its subset coasts, the PL grows past the alert limit;
+ *   - faults common to every camera and beacon (datum, common clock).
+ *
+ * Work per observation: one test against the prediction and at most 1 +
+ * MFNS_BANK_MAX_HYP filter updates; per
+ * evaluation at most 1 + MFNS_BANK_MAX_HYP propagations and separations; the
+ * bank counts them (work) so tests assert the bound.
+ */
+#ifndef MFNS_FILTER_BANK_H
+#define MFNS_FILTER_BANK_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "firmware/nav/filter/nav_filter.h"
+#include "firmware/nav/settings/nav_settings.h"
+#include "firmware/nav/pose/pose.h"
+
+#define MFNS_BANK_MAX_BEACON_HYP 12
+#define MFNS_BANK_CAM_HYP MFNS_NUM_CAMERAS
+#define MFNS_BANK_MAX_HYP (MFNS_BANK_CAM_HYP + MFNS_BANK_MAX_BEACON_HYP)
+#define MFNS_BANK_EVICT_RATIO 0.01f
+#define MFNS_BANK_MAX_EXCLUDED_BEACONS 4
+#define MFNS_BANK_AXES 6
+/* a beacon whose observations fail the full filter's gate in this many
+ * consecutive cycles is excluded by the gate; one gated cycle is not enough,
+ * so that a camera fault that fails one of its beacons first (a late frame on
+ * a slow turn) shows as the camera it is before a healthy beacon is blamed */
+#define MFNS_BANK_GATE_EXCLUDE_RUN 2U
+/* Attribution after a failed separation test: several hypotheses' tests can
+ * fail for one fault (every subset but the faulty one's took the fault, with
+ * its own gain). The subject is the failed hypothesis whose subset filter is
+ * the most consistent with the observations it took: the smallest excess of
+ * its innovations, z = (sum NIS - dof) / sqrt(2 dof), the sums forgotten by
+ * MFNS_BANK_CONSIST_FORGET per cycle (~10 cycles of memory). A faulty
+ * beacon's subset never took the fault; every other subset did. A beacon
+ * and the camera that sees it are both consistent for a beacon fault: the
+ * beacon (the smaller exclusion) is preferred unless the camera's z is lower
+ * by MFNS_BANK_CAMERA_PREF_Z. */
+#define MFNS_BANK_CONSIST_FORGET 0.9f
+/* The full filter's innovation window (nav_filter.h mfns_filter_end_cycle)
+ * failing is the motion unless one hypothesis explains it: its subset's
+ * consistency z at most this (a slow ramp on one beacon: every subset but
+ * the beacon's took it) */
+#define MFNS_BANK_EXPLAIN_Z 3.0f
+#define MFNS_BANK_CAMERA_PREF_Z 3.0f
+/* Re-admission test: an excluded item's observation is clean when its NIS
+ * against the full filter is below chi-square(2) at this tail probability
+ * (9.21): stricter than the gate, so that a fault near the gate's size does
+ * not count as healed. */
+#define MFNS_BANK_READMIT_P 0.01f
+/* the separation's variance floor, relative to P_0's: P_k - P_0 is a small
+ * difference of two float covariances that went through hundreds of updates
+ * (rounding of ~1e-4 of P_0 measured: a beacon seen once gave P_k - P_0 =
+ * -9e-5 P_0); a hypothesis just started has a real P_k - P_0 below that. The
+ * floor, 1e-3 P_0, sets T_k >= 0.17 sigma_0 at K_fa = 5.3: nothing for the PL */
+#define MFNS_BANK_VAR_FLOOR_REL 1e-3f
+
+typedef enum {
+    MFNS_BANK_HYP_NONE = 0,
+    MFNS_BANK_HYP_BEACON = 1, /* id: map index */
+    MFNS_BANK_HYP_CAMERA = 2, /* id: camera */
+} mfns_bank_hyp_kind_t;
+
+typedef struct {
+    mfns_filter_t full;
+    mfns_filter_t sub[MFNS_BANK_MAX_HYP]; /* 0..2 cameras, then beacon slots */
+    int16_t slot_beacon[MFNS_BANK_MAX_BEACON_HYP]; /* map index, -1 free */
+    uint8_t slot_seen[MFNS_BANK_MAX_BEACON_HYP];   /* observed this cycle */
+    uint8_t slot_gated[MFNS_BANK_MAX_BEACON_HYP];  /* gated this cycle, none passed */
+    uint8_t slot_passed[MFNS_BANK_MAX_BEACON_HYP]; /* an observation passed this cycle */
+    uint8_t slot_gate_run[MFNS_BANK_MAX_BEACON_HYP]; /* consecutive cycles all gated */
+    int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS]; /* -1 free */
+    uint16_t excl_beacon_clean[MFNS_BANK_MAX_EXCLUDED_BEACONS];
+    uint8_t excl_beacon_dirty[MFNS_BANK_MAX_EXCLUDED_BEACONS]; /* failed its test this cycle */
+    uint8_t excl_beacon_tested[MFNS_BANK_MAX_EXCLUDED_BEACONS];
+    uint8_t cam_excluded[MFNS_NUM_CAMERAS];
+    uint16_t cam_clean[MFNS_NUM_CAMERAS];
+    uint8_t cam_dirty[MFNS_NUM_CAMERAS];
+    uint8_t cam_tested[MFNS_NUM_CAMERAS];
+    float cam_held_nis[MFNS_NUM_CAMERAS]; /* a held camera's frame: sum of NIS this cycle */
+    uint16_t cam_held_dof[MFNS_NUM_CAMERAS];
+    /* this cycle's gate outcomes in the full filter */
+    uint16_t cam_gated[MFNS_NUM_CAMERAS], cam_passed[MFNS_NUM_CAMERAS];
+    uint8_t frame_rejected[MFNS_NUM_CAMERAS]; /* the frame failed as a whole this cycle */
+    float cons_nis[MFNS_BANK_MAX_HYP], cons_dof[MFNS_BANK_MAX_HYP]; /* forgetting sums (attribution) */
+    uint8_t det_kind;    /* this cycle's exclusion (mfns_bank_hyp_kind_t), reported by evaluate */
+    int16_t det_id;
+    uint8_t det_by_gate;
+    uint32_t unmonitored_obs; /* observations used by no filter: no free slot */
+    uint32_t work;            /* filter updates + propagations + separations this cycle */
+    uint8_t last_usable; /* the last evaluation was usable: re-admission tests count */
+    uint8_t initialised;
+} mfns_filter_bank_t;
+
+typedef struct {
+    mfns_pose_status_t status;
+    mfns_pose_reason_t reason;
+    bool usable;
+    bool restart; /* the caller re-acquires: motion bound exceeded or the filter lost */
+    mfns_pose_t pose;
+    float cov_ros[6][6];      /* with the datum term */
+    float pl_pos_mm, pl_att_deg;
+    float pl_beacon_pos_mm, pl_beacon_att_deg; /* the same over the fault-free and beacon hypotheses only
+                                                  (diagnostics: what camera faults cost) */
+    float max_norm_sep;       /* max |s|/T over hypotheses and axes (before any exclusion) */
+    float k_fa, k_md;
+    uint16_t hypotheses;      /* active hypotheses tested */
+    uint16_t unmonitorable;
+    uint8_t detected_kind;    /* mfns_bank_hyp_kind_t of this cycle's exclusion, NONE */
+    int16_t detected_id;
+    uint8_t by_gate;          /* the exclusion came from the innovation gate */
+    int16_t readmitted_beacon; /* -1 none */
+    int8_t readmitted_camera;  /* -1 none */
+    uint32_t work;
+} mfns_bank_output_t;
+
+/* Start (or restart) from a certified snapshot fix, as mfns_filter_init.
+ * Exclusions are cleared (a restart from acquisition re-verifies all). */
+mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *pose, const float cov_ros[6][6],
+                                    mfns_v3_t v_w, float sigma_v_mm_s, mfns_v3_t w_w, float sigma_w_rad_s,
+                                    int64_t t_us);
+
+/* One camera's frame: n observations (n <= MFNS_MAX_OBS_PER_CAMERA) of one
+ * camera at one capture time, beacon[i] the map index of obs[i]. Frames in
+ * time order across calls (the caller orders a cycle's frames by capture
+ * time). Each observation is first tested against the full filter's
+ * prediction: two or more failing the gate reject the frame as a whole
+ * (GATED: a camera fault or the motion; nothing of it is applied);
+ * otherwise each is applied to the full filter (its own gate: a single
+ * faulty beacon is GATED alone) and, when the full filter took it, to every
+ * subset but its hypotheses'. An excluded beacon's or camera's observations
+ * are only tested (for re-admission). E_TIME: the full filter coasted beyond
+ * max_coast_s (evaluate asks for a restart); E_ARG: bad input. */
+mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                             const mfns_rig_t *rig, float sigma_px, int n, const int16_t beacon[],
+                                             const mfns_filter_obs_t obs[]);
+
+/* Close a cycle at t_us (>= every observation's time): propagate the bank,
+ * test, exclude, re-admit, evict, and output the pose with its PL and status. */
+mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                        const mfns_integrity_settings_t *is, const mfns_map_datum_t *datum,
+                                        int64_t t_us, mfns_bank_output_t *out);
+
+/* Is beacon (map index) / camera held out now. */
+bool mfns_bank_beacon_excluded(const mfns_filter_bank_t *b, int16_t beacon);
+bool mfns_bank_camera_excluded(const mfns_filter_bank_t *b, int cam);
+
+#endif /* MFNS_FILTER_BANK_H */

@@ -1,0 +1,534 @@
+/* nav_filter.c -- the navigation filter of nav_filter.h: constant-velocity
+ * propagation with an overbounding white-acceleration process noise and the
+ * sequential update from beacon image positions. */
+#include "firmware/nav/filter/nav_filter.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "math/core_text.h"
+#include "firmware/nav/integrity/integrity.h"
+#include "firmware/nav/pose/pose.h"
+#include "firmware/nav/pose/pose_internal.h"
+#include "math/rotation.h"
+
+#define N MFNS_FILTER_N
+#define US_PER_S 1e6f
+/* a rotation whose orthonormality drifted beyond this is refused (init) */
+#define ROT_TOL 1e-3f
+#define ORTHO_TOL 1e-6f
+
+_Static_assert(MFNS_FILTER_N == 12, "pose 6 + velocity 6");
+_Static_assert(MFNS_FILTER_POS + 3 == MFNS_FILTER_VEL && MFNS_FILTER_ATT + 3 == MFNS_FILTER_POS,
+               "pose block first, attitude then position");
+
+void mfns_filter_settings_default(mfns_filter_settings_t *s)
+{
+    s->accel_bound_mm_s2 = MFNS_FILTER_DEFAULT_ACCEL_MM_S2;
+    s->alpha_bound_rad_s2 = MFNS_FILTER_DEFAULT_ALPHA_RAD_S2;
+    s->bound_time_s = MFNS_FILTER_DEFAULT_BOUND_TIME_S;
+    s->max_coast_s = MFNS_FILTER_DEFAULT_MAX_COAST_S;
+    s->gate_p = MFNS_FILTER_DEFAULT_GATE_P;
+    s->gate_reject_run = MFNS_FILTER_DEFAULT_REJECT_RUN;
+}
+
+static bool pos_finite(float x)
+{
+    return isfinite(x) && x > 0.0f;
+}
+
+bool mfns_filter_settings_valid(const mfns_filter_settings_t *s)
+{
+    return s != NULL && pos_finite(s->accel_bound_mm_s2) && pos_finite(s->alpha_bound_rad_s2) &&
+           pos_finite(s->bound_time_s) && pos_finite(s->max_coast_s) && s->max_coast_s <= s->bound_time_s &&
+           s->gate_p > 0.0f && s->gate_p < 0.5f && s->gate_reject_run > 0U;
+}
+
+float mfns_filter_gate_nis(const mfns_filter_settings_t *s)
+{
+    return -2.0f * logf(s->gate_p);
+}
+
+const char *mfns_filter_strerror(mfns_filter_status_t s)
+{
+    switch (s) {
+    case MFNS_FILTER_OK:
+        return MFNS_MSG("ok");
+    case MFNS_FILTER_GATED:
+        return MFNS_MSG("observation inconsistent with the motion-bounded prediction: not applied");
+    case MFNS_FILTER_E_ARG:
+        return MFNS_MSG("bad argument: null, not initialised, bad settings or non-finite input");
+    case MFNS_FILTER_E_TIME:
+        return MFNS_MSG("time before the filter's state, or a coast longer than max_coast_s");
+    case MFNS_FILTER_E_GEOM:
+        return MFNS_MSG("beacon behind the camera or innovation covariance not positive definite");
+    }
+    return MFNS_MSG("unknown filter status");
+}
+
+static bool v3_finite(mfns_v3_t a)
+{
+    return isfinite(a.x) && isfinite(a.y) && isfinite(a.z);
+}
+
+static void symmetrise(mfns_filter_t *f)
+{
+    for (int i = 0; i < N; i++) {
+        if (!(f->P[i][i] >= 0.0f)) {
+            f->P[i][i] = 0.0f;
+            f->clamp_events++;
+        }
+        for (int j = i + 1; j < N; j++) {
+            const float m = 0.5f * (f->P[i][j] + f->P[j][i]);
+            f->P[i][j] = m;
+            f->P[j][i] = m;
+        }
+    }
+}
+
+mfns_filter_status_t mfns_filter_init(mfns_filter_t *f, const mfns_pose_t *pose, const float cov_ros[6][6],
+                                      mfns_v3_t v_w, float sigma_v_mm_s, mfns_v3_t w_w, float sigma_w_rad_s,
+                                      int64_t t_us)
+{
+    if (f == NULL) {
+        return MFNS_FILTER_E_ARG;
+    }
+    memset(f, 0, sizeof(*f));
+    if (pose == NULL || cov_ros == NULL || !mfns_m3_is_rotation_at(&pose->C_w_b, ROT_TOL) ||
+        !v3_finite(pose->r_bw_b) || !v3_finite(v_w) || !v3_finite(w_w) || !pos_finite(sigma_v_mm_s) ||
+        !pos_finite(sigma_w_rad_s)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    /* cov_ros (position 0-2, attitude 3-5) -> the filter's (attitude 0-2, position 3-5) */
+    static const int from_ros[6] = {3, 4, 5, 0, 1, 2};
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            const float c = cov_ros[from_ros[i]][from_ros[j]];
+            if (!isfinite(c)) {
+                return MFNS_FILTER_E_ARG;
+            }
+            f->P[i][j] = c;
+        }
+    }
+    for (int i = 0; i < 3; i++) {
+        f->P[MFNS_FILTER_VEL + i][MFNS_FILTER_VEL + i] = sigma_v_mm_s * sigma_v_mm_s;
+        f->P[MFNS_FILTER_OMEGA + i][MFNS_FILTER_OMEGA + i] = sigma_w_rad_s * sigma_w_rad_s;
+    }
+    if (!mfns_m3_reorthonormalize_at(&pose->C_w_b, MFNS_FILTER_ORTHO_ITERS, ORTHO_TOL, &f->C_w_b)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    f->r_wb_w = mfns_pose_position_w(pose);
+    f->v_w = v_w;
+    f->w_w = w_w;
+    f->t_us = t_us;
+    f->t_meas_us = t_us;
+    symmetrise(f);
+    f->initialised = 1;
+    return MFNS_FILTER_OK;
+}
+
+/* The partner of error-state row i under F = I + dt E: attitude <- angular
+ * rate, position <- velocity; -1 for the velocity rows. */
+static int partner(int i)
+{
+    if (i < MFNS_FILTER_POS) {
+        return i + MFNS_FILTER_OMEGA;
+    }
+    if (i < MFNS_FILTER_VEL) {
+        return i - MFNS_FILTER_POS + MFNS_FILTER_VEL;
+    }
+    return -1;
+}
+
+/* Nominal state and covariance moved on by dt (s). */
+static void propagate_dt(mfns_filter_t *f, const mfns_filter_settings_t *s, float dt)
+{
+    if (dt <= 0.0f) {
+        return;
+    }
+    /* nominal: r += v dt; C_b_w <- exp(w dt) C_b_w, i.e. C_w_b <- C_w_b exp(w dt)^T */
+    f->r_wb_w = mfns_v3_add(f->r_wb_w, mfns_v3_scale(f->v_w, dt));
+    const mfns_m3_t e = mfns_rot_exp(mfns_v3_scale(f->w_w, dt));
+    mfns_m3_t et, c;
+    mfns_m3_transpose_at(&e, &et);
+    mfns_m3_mul_at(&f->C_w_b, &et, &c);
+    if (!mfns_m3_reorthonormalize_at(&c, MFNS_FILTER_ORTHO_ITERS, ORTHO_TOL, &f->C_w_b)) {
+        f->C_w_b = c; /* a product of rotations: cannot fail on finite input */
+    }
+    /* P <- F P F^T: rows, then columns */
+    for (int i = 0; i < MFNS_FILTER_VEL; i++) {
+        const int p = partner(i);
+        for (int j = 0; j < N; j++) {
+            f->P[i][j] += dt * f->P[p][j];
+        }
+    }
+    for (int j = 0; j < MFNS_FILTER_VEL; j++) {
+        const int p = partner(j);
+        for (int i = 0; i < N; i++) {
+            f->P[i][j] += dt * f->P[i][p];
+        }
+    }
+    /* + Q: q [[dt^3/3, dt^2/2], [dt^2/2, dt]] per axis */
+    const float q_lin = s->accel_bound_mm_s2 * s->accel_bound_mm_s2 * s->bound_time_s;
+    const float q_ang = s->alpha_bound_rad_s2 * s->alpha_bound_rad_s2 * s->bound_time_s;
+    const float d2 = dt * dt, d3 = d2 * dt;
+    for (int i = 0; i < MFNS_FILTER_VEL; i++) {
+        const int p = partner(i);
+        const float q = i < MFNS_FILTER_POS ? q_ang : q_lin;
+        f->P[i][i] += q * d3 / 3.0f;
+        f->P[i][p] += q * d2 / 2.0f;
+        f->P[p][i] += q * d2 / 2.0f;
+        f->P[p][p] += q * dt;
+    }
+    symmetrise(f);
+}
+
+static mfns_filter_status_t step_dt(const mfns_filter_t *f, const mfns_filter_settings_t *s, int64_t t_us,
+                                    float *dt)
+{
+    if (t_us < f->t_us) {
+        return MFNS_FILTER_E_TIME;
+    }
+    const int64_t d = t_us - f->t_us;
+    if ((float)(t_us - f->t_meas_us) > s->max_coast_s * US_PER_S) {
+        return MFNS_FILTER_E_TIME; /* coasted too long since the last measurement */
+    }
+    *dt = (float)d / US_PER_S;
+    return MFNS_FILTER_OK;
+}
+
+mfns_filter_status_t mfns_filter_propagate(mfns_filter_t *f, const mfns_filter_settings_t *s, int64_t t_us)
+{
+    if (f == NULL || f->initialised == 0U || !mfns_filter_settings_valid(s)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    float dt = 0.0f;
+    const mfns_filter_status_t st = step_dt(f, s, t_us, &dt);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    propagate_dt(f, s, dt);
+    f->t_us = t_us;
+    return MFNS_FILTER_OK;
+}
+
+mfns_pose_t mfns_filter_pose(const mfns_filter_t *f)
+{
+    return mfns_pose_from_position_at(&f->C_w_b, f->r_wb_w);
+}
+
+bool mfns_filter_obs_jacobian(const mfns_camera_t *cam, const mfns_pose_t *pose, mfns_v3_t p_w, float uv[2],
+                              float h[2][6])
+{
+    float ji[2][6];
+    if (mfns_cam_project(cam, pose, p_w, uv, ji) != MFNS_PROJ_OK) {
+        return false;
+    }
+    /* d inc / d phi = [-C ; [r_bw_b]x C], d inc / d dr = [0 ; -C] (C = C_w_b) */
+    const mfns_m3_t *c = &pose->C_w_b;
+    const mfns_m3_t sr = mfns_m3_skew(pose->r_bw_b);
+    mfns_m3_t src;
+    mfns_m3_mul_at(&sr, c, &src);
+    for (int a = 0; a < 2; a++) {
+        for (int j = 0; j < 3; j++) {
+            float hp = 0.0f, hr = 0.0f;
+            for (int q = 0; q < 3; q++) {
+                hp += -ji[a][q] * c->m[q][j] + ji[a][3 + q] * src.m[q][j];
+                hr += -ji[a][3 + q] * c->m[q][j];
+            }
+            h[a][j] = hp;
+            h[a][3 + j] = hr;
+        }
+    }
+    return true;
+}
+
+static bool obs_valid(const mfns_filter_obs_t *o)
+{
+    const float *c = o->cov_px2;
+    return o->cam < MFNS_NUM_CAMERAS && isfinite(o->u) && isfinite(o->v) && v3_finite(o->p_w) &&
+           isfinite(o->sigma_mm) && o->sigma_mm >= 0.0f && isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]) &&
+           c[0] >= 0.0f && c[2] >= 0.0f && c[1] * c[1] <= c[0] * c[2];
+}
+
+/* The innovation y = z - h(x), its covariance S and P H^T at the state f. */
+typedef struct {
+    float y[2];
+    float s[3]; /* S: [0] 00, [1] 01, [2] 11 */
+    float pht[N][2];
+    float nis;
+} innov_t;
+
+static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px,
+                                       const mfns_filter_obs_t *o, innov_t *in)
+{
+    const mfns_camera_t *cam = &rig->cam[o->cam];
+    const mfns_pose_t pose = mfns_filter_pose(f);
+    float uv[2], h[2][6], r[3];
+    if (!mfns_filter_obs_jacobian(cam, &pose, o->p_w, uv, h)) {
+        return MFNS_FILTER_E_GEOM;
+    }
+    if (!mfns_pose_obs_cov(cam, &pose, o->p_w, o->cov_px2, o->sigma_mm, sigma_px, r)) {
+        /* pose.c's fallback: the floor alone */
+        r[0] = sigma_px * sigma_px;
+        r[1] = 0.0f;
+        r[2] = r[0];
+    }
+    in->y[0] = o->u - uv[0];
+    in->y[1] = o->v - uv[1];
+    for (int i = 0; i < N; i++) {
+        for (int a = 0; a < 2; a++) {
+            float v = 0.0f;
+            for (int q = 0; q < 6; q++) {
+                v += f->P[i][q] * h[a][q];
+            }
+            in->pht[i][a] = v;
+        }
+    }
+    float hph[2][2];
+    for (int a = 0; a < 2; a++) {
+        for (int b = 0; b < 2; b++) {
+            float v = 0.0f;
+            for (int q = 0; q < 6; q++) {
+                v += h[a][q] * in->pht[q][b];
+            }
+            hph[a][b] = v;
+        }
+    }
+    in->s[0] = hph[0][0] + r[0];
+    in->s[1] = 0.5f * (hph[0][1] + hph[1][0]) + r[1];
+    in->s[2] = hph[1][1] + r[2];
+    const float det = in->s[0] * in->s[2] - in->s[1] * in->s[1];
+    if (!(in->s[0] > 0.0f && det > 0.0f) || !isfinite(det)) {
+        return MFNS_FILTER_E_GEOM;
+    }
+    in->nis = (in->s[2] * in->y[0] * in->y[0] - 2.0f * in->s[1] * in->y[0] * in->y[1] +
+               in->s[0] * in->y[1] * in->y[1]) /
+              det;
+    return MFNS_FILTER_OK;
+}
+
+mfns_filter_status_t mfns_filter_test(const mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                      const mfns_rig_t *rig, float sigma_px, const mfns_filter_obs_t *obs,
+                                      float *nis)
+{
+    if (f == NULL || f->initialised == 0U || rig == NULL || obs == NULL || nis == NULL ||
+        !mfns_filter_settings_valid(s) || !obs_valid(obs) || !pos_finite(sigma_px)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    float dt = 0.0f;
+    mfns_filter_status_t st = step_dt(f, s, obs->t_us, &dt);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    mfns_filter_t g = *f; /* ~680 B on the stack: the state itself is untouched */
+    propagate_dt(&g, s, dt);
+    innov_t in;
+    st = innovation(&g, rig, sigma_px, obs, &in);
+    if (st == MFNS_FILTER_OK) {
+        *nis = in.nis;
+    }
+    return st;
+}
+
+/* x (+) dx: rotation on the manifold, the rest added. */
+static void inject(mfns_filter_t *f, const float dx[N])
+{
+    const mfns_m3_t e = mfns_rot_exp(mfns_v3(dx[0], dx[1], dx[2]));
+    mfns_m3_t et, c;
+    mfns_m3_transpose_at(&e, &et);
+    mfns_m3_mul_at(&f->C_w_b, &et, &c); /* C_b_w <- exp(phi) C_b_w */
+    if (!mfns_m3_reorthonormalize_at(&c, MFNS_FILTER_ORTHO_ITERS, ORTHO_TOL, &f->C_w_b)) {
+        f->C_w_b = c;
+    }
+    f->r_wb_w = mfns_v3_add(f->r_wb_w, mfns_v3(dx[3], dx[4], dx[5]));
+    f->v_w = mfns_v3_add(f->v_w, mfns_v3(dx[6], dx[7], dx[8]));
+    f->w_w = mfns_v3_add(f->w_w, mfns_v3(dx[9], dx[10], dx[11]));
+}
+
+static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
+                                   float sigma_px, const mfns_filter_obs_t *obs, bool gate,
+                                   mfns_filter_update_info_t *info);
+
+mfns_filter_status_t mfns_filter_update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
+                                        float sigma_px, const mfns_filter_obs_t *obs,
+                                        mfns_filter_update_info_t *info)
+{
+    return update(f, s, rig, sigma_px, obs, true, info);
+}
+
+mfns_filter_status_t mfns_filter_update_ungated(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                const mfns_rig_t *rig, float sigma_px, const mfns_filter_obs_t *obs,
+                                                mfns_filter_update_info_t *info)
+{
+    return update(f, s, rig, sigma_px, obs, false, info);
+}
+
+static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
+                                   float sigma_px, const mfns_filter_obs_t *obs, bool gate,
+                                   mfns_filter_update_info_t *info)
+{
+    if (f == NULL || f->initialised == 0U || rig == NULL || obs == NULL || !mfns_filter_settings_valid(s) ||
+        !obs_valid(obs) || !pos_finite(sigma_px)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    mfns_filter_status_t st = mfns_filter_propagate(f, s, obs->t_us);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    innov_t in;
+    st = innovation(f, rig, sigma_px, obs, &in);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    if (info != NULL) {
+        info->nis = in.nis;
+        info->innov_px[0] = in.y[0];
+        info->innov_px[1] = in.y[1];
+    }
+    if (gate && !(in.nis <= mfns_filter_gate_nis(s))) {
+        f->cyc_nis += mfns_filter_gate_nis(s);
+        f->cyc_dof = (uint16_t)(f->cyc_dof < UINT16_MAX - 2U ? f->cyc_dof + 2U : f->cyc_dof);
+        f->gated++;
+        if (f->reject_run < UINT16_MAX) {
+            f->reject_run++;
+        }
+        f->reject_cams = (uint8_t)(f->reject_cams | (1U << obs->cam));
+        /* two or more cameras in the run: one camera's fault (a knocked mount,
+         * a late frame) fails only its own observations */
+        if (f->reject_run >= s->gate_reject_run && (f->reject_cams & (f->reject_cams - 1U)) != 0U) {
+            f->motion_exceeded = 1;
+        }
+        return MFNS_FILTER_GATED;
+    }
+    f->reject_run = 0;
+    f->reject_cams = 0;
+    f->cyc_nis += in.nis;
+    f->cyc_dof = (uint16_t)(f->cyc_dof < UINT16_MAX - 2U ? f->cyc_dof + 2U : f->cyc_dof);
+    /* K = P H^T S^-1; dx = K y; P -= K (P H^T)^T */
+    const float det = in.s[0] * in.s[2] - in.s[1] * in.s[1];
+    const float si[3] = {in.s[2] / det, -in.s[1] / det, in.s[0] / det};
+    float k[N][2], dx[N];
+    for (int i = 0; i < N; i++) {
+        k[i][0] = in.pht[i][0] * si[0] + in.pht[i][1] * si[1];
+        k[i][1] = in.pht[i][0] * si[1] + in.pht[i][1] * si[2];
+        dx[i] = k[i][0] * in.y[0] + k[i][1] * in.y[1];
+    }
+    for (int i = 0; i < N; i++) {
+        for (int j = 0; j <= i; j++) {
+            f->P[i][j] -= k[i][0] * in.pht[j][0] + k[i][1] * in.pht[j][1];
+            f->P[j][i] = f->P[i][j];
+        }
+    }
+    symmetrise(f);
+    inject(f, dx);
+    f->t_meas_us = obs->t_us;
+    f->updates++;
+    return MFNS_FILTER_OK;
+}
+
+void mfns_filter_datum_cov(const mfns_pose_t *pose, const mfns_map_datum_t *datum, float d[6][6])
+{
+    float inc[6][6];
+    memset(inc, 0, sizeof inc);
+    memset(d, 0, sizeof(float[6][6]));
+    if (datum == NULL || datum->present == 0U) {
+        return;
+    }
+    mfns_pose_add_datum_term(pose, datum, inc);
+    /* increment -> filter pose error (phi_w, dr_w), sign aside (second moments):
+     * phi = -C^T dtheta, dr = -C^T [r_bw_b]x dtheta - C^T dt */
+    mfns_m3_t ct, a;
+    mfns_m3_transpose_at(&pose->C_w_b, &ct);
+    a = mfns_m3_skew(pose->r_bw_b);
+    mfns_m3_mul_at(&ct, &a, &a);
+    float g[6][6];
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++) {
+            g[r][c] = -ct.m[r][c];
+            g[r][c + 3] = 0.0f;
+            g[r + 3][c] = -a.m[r][c];
+            g[r + 3][c + 3] = -ct.m[r][c];
+        }
+    }
+    float t[6][6];
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            float v = 0.0f;
+            for (int q = 0; q < 6; q++) {
+                v += g[i][q] * inc[q][j];
+            }
+            t[i][j] = v;
+        }
+    }
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            float v = 0.0f;
+            for (int q = 0; q < 6; q++) {
+                v += t[i][q] * g[j][q];
+            }
+            d[i][j] = v;
+        }
+    }
+}
+
+void mfns_filter_pose_cov_ros(const mfns_filter_t *f, const mfns_map_datum_t *datum, float cov_ros[6][6])
+{
+    const mfns_pose_t pose = mfns_filter_pose(f);
+    float d[6][6];
+    mfns_filter_datum_cov(&pose, datum, d);
+    static const int to_filter[6] = {3, 4, 5, 0, 1, 2}; /* ros index -> filter index */
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            const int a = to_filter[i], b = to_filter[j];
+            cov_ros[i][j] = f->P[a][b] + d[a][b];
+        }
+    }
+}
+
+float mfns_filter_chi2_quantile(float dof, float p)
+{
+    const float z = mfns_integrity_q_inv(p);
+    const float a = 2.0f / (9.0f * dof);
+    const float c = 1.0f - a + z * sqrtf(a);
+    return dof * c * c * c;
+}
+
+void mfns_filter_reset_window(mfns_filter_t *f)
+{
+    f->cyc_nis = 0.0f;
+    f->cyc_dof = 0;
+    for (int i = 0; i < MFNS_FILTER_NIS_WINDOW; i++) {
+        f->win_nis[i] = 0.0f;
+        f->win_dof[i] = 0;
+    }
+    f->win_pos = 0;
+    f->win_fill = 0;
+}
+
+bool mfns_filter_end_cycle(mfns_filter_t *f, const mfns_filter_settings_t *s)
+{
+    if (f == NULL || f->initialised == 0U || !mfns_filter_settings_valid(s)) {
+        return false;
+    }
+    f->win_nis[f->win_pos] = f->cyc_nis;
+    f->win_dof[f->win_pos] = f->cyc_dof;
+    f->win_pos = (uint8_t)((f->win_pos + 1U) % MFNS_FILTER_NIS_WINDOW);
+    f->win_fill = (uint8_t)(f->win_fill < MFNS_FILTER_NIS_WINDOW ? f->win_fill + 1U : f->win_fill);
+    f->cyc_nis = 0.0f;
+    f->cyc_dof = 0;
+    if (f->win_fill < MFNS_FILTER_NIS_WINDOW) {
+        return false;
+    }
+    float sum = 0.0f, dof = 0.0f;
+    for (int i = 0; i < MFNS_FILTER_NIS_WINDOW; i++) {
+        sum += f->win_nis[i];
+        dof += (float)f->win_dof[i];
+    }
+    if (dof < 4.0f || !(sum > mfns_filter_chi2_quantile(dof, s->gate_p))) {
+        return false;
+    }
+    f->motion_exceeded = 1;
+    return true;
+}

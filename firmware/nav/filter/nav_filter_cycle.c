@@ -1,0 +1,140 @@
+/* nav_filter_cycle.c -- the filter bank in the navigation cycle
+ * (nav_filter_cycle.h). */
+#include "firmware/nav/filter/nav_filter_cycle.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <string.h>
+
+#include "math/rotation.h"
+#include "math/units.h"
+
+void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us)
+{
+    if (nf == NULL) {
+        return;
+    }
+    memset(nf, 0, sizeof(*nf));
+    nf->on = period_us > 0U;
+    nf->period_us = period_us;
+    mfns_filter_settings_default(&nf->set);
+}
+
+static bool usable(const mfns_pose_solution_t *s)
+{
+    return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
+}
+
+/* Start from the snapshot fix: its cov_ros less the datum term. */
+static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_solution_t *sol)
+{
+    float d[6][6], cov[6][6];
+    mfns_filter_datum_cov(&sol->pose, &t->datum, d); /* filter order: phi 0-2, r 3-5 */
+    static const int to_filter[6] = {3, 4, 5, 0, 1, 2};
+    for (int i = 0; i < 6; i++) {
+        for (int j = 0; j < 6; j++) {
+            cov[i][j] = sol->cov_ros[i][j] - d[to_filter[i]][to_filter[j]];
+        }
+    }
+    for (int i = 0; i < 6; i++) {
+        if (!(cov[i][i] > 0.0f)) {
+            return false;
+        }
+    }
+    nf->running = mfns_bank_init(&nf->bank, &sol->pose, (const float(*)[6])cov, mfns_v3(0.0f, 0.0f, 0.0f),
+                                 MFNS_NAVF_SIGMA_V0_MM_S, mfns_v3(0.0f, 0.0f, 0.0f), MFNS_NAVF_SIGMA_W0_RAD_S,
+                                 nf->t_us) == MFNS_FILTER_OK;
+    return nf->running;
+}
+
+static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame_t *obs, float sigma_px,
+                 const mfns_pose_solution_t *sol)
+{
+    for (int c = 0; c < MFNS_NUM_CAMERAS && nf->running; c++) {
+        mfns_filter_obs_t fo[MFNS_MAX_OBS_PER_CAMERA];
+        int16_t beacon[MFNS_MAX_OBS_PER_CAMERA];
+        int n = 0;
+        const int count = obs->count[c] <= MFNS_MAX_OBS_PER_CAMERA ? obs->count[c] : MFNS_MAX_OBS_PER_CAMERA;
+        for (int i = 0; i < count; i++) {
+            const int16_t b = sol->assoc.beacon[c][i];
+            if (b < 0 || b >= (int16_t)t->beacons.count) {
+                continue;
+            }
+            const mfns_obs_t *o = &obs->obs[c][i];
+            fo[n].t_us = nf->t_us;
+            fo[n].cam = (uint8_t)c;
+            fo[n].u = o->u;
+            fo[n].v = o->v;
+            memcpy(fo[n].cov_px2, o->cov_px2, sizeof fo[n].cov_px2);
+            fo[n].p_w = t->beacons.beacon[b].p_w;
+            fo[n].sigma_mm = t->beacons.beacon[b].sigma_mm;
+            beacon[n] = b;
+            n++;
+        }
+        const mfns_filter_status_t st = mfns_bank_observe_frame(&nf->bank, &nf->set, &t->rig, sigma_px, n, beacon, fo);
+        if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
+            nf->running = false;
+        }
+    }
+}
+
+/* The filter's verdict into the cycle's solution and integrity result. */
+static void apply(const mfns_bank_output_t *o, mfns_pose_solution_t *sol, mfns_integrity_result_t *integ)
+{
+    sol->status = o->status;
+    sol->reason = o->reason;
+    sol->pose = o->pose;
+    sol->r_wb_w = mfns_pose_position_w(&o->pose);
+    mfns_euler_t e;
+    (void)mfns_m3_to_euler213_at(&o->pose.C_w_b, &e);
+    sol->euler_deg.roll = e.roll * MFNS_DEG_PER_RAD_F;
+    sol->euler_deg.pitch = e.pitch * MFNS_DEG_PER_RAD_F;
+    sol->euler_deg.yaw = e.yaw * MFNS_DEG_PER_RAD_F;
+    mfns_m3_t c_b_w;
+    mfns_m3_transpose_at(&o->pose.C_w_b, &c_b_w);
+    mfns_m3_to_quat(c_b_w, sol->q_b_w);
+    memcpy(sol->cov_ros, o->cov_ros, sizeof sol->cov_ros);
+    for (int i = 0; i < 3; i++) {
+        sol->sigma_pos_mm[i] = sqrtf(fmaxf(o->cov_ros[i][i], 0.0f));
+        /* about the world axes, not the Euler angles' (close near level) */
+        sol->sigma_euler_deg[i] = sqrtf(fmaxf(o->cov_ros[3 + i][3 + i], 0.0f)) * MFNS_DEG_PER_RAD_F;
+    }
+    integ->evaluated = true;
+    integ->tests_passed = true;
+    integ->pl_pos_mm = o->pl_pos_mm;
+    integ->pl_att_deg = o->pl_att_deg;
+    integ->max_norm_sep = o->max_norm_sep;
+    integ->hypotheses = o->hypotheses;
+    integ->unmonitorable = o->unmonitorable;
+    integ->camera_unmonitored = false;
+}
+
+void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,
+                    const mfns_obs_frame_t *obs, float sigma_px, mfns_pose_solution_t *sol,
+                    mfns_integrity_result_t *integ, mfns_navf_report_t *rep)
+{
+    if (rep == NULL) {
+        return;
+    }
+    memset(rep, 0, sizeof(*rep));
+    if (nf == NULL || !nf->on || t == NULL || is == NULL || obs == NULL || sol == NULL || integ == NULL) {
+        return;
+    }
+    nf->t_us += (int64_t)nf->period_us;
+    if (nf->running) {
+        feed(nf, t, obs, sigma_px, sol);
+    }
+    if (nf->running) {
+        rep->ran = mfns_bank_evaluate(&nf->bank, &nf->set, is, &t->datum, nf->t_us, &rep->out) ==
+                   MFNS_FILTER_OK;
+        nf->running = rep->ran && !rep->out.restart;
+    }
+    if (!nf->running) {
+        rep->started = usable(sol) && start(nf, t, sol);
+        return; /* the snapshot's verdict stands this cycle */
+    }
+    if (rep->out.usable) {
+        apply(&rep->out, sol, integ);
+        rep->used = true;
+    }
+}

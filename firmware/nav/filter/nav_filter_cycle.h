@@ -1,0 +1,62 @@
+/* nav_filter_cycle.h -- the navigation filter bank (filter_bank.h) inside the
+ * navigation cycle (nav_cycle.c), behind a switch that is OFF by default:
+ * with it off nothing here runs and the cycle is bit-identical to the
+ * snapshot navigator.
+ *
+ * On: the bank starts from the first usable snapshot fix (pose and its
+ * covariance less the map datum term, which the filter adds back at its
+ * output; velocity prior 0 +- MFNS_NAVF_SIGMA_V0_MM_S, 0 +- MFNS_NAVF_SIGMA_W0_RAD_S),
+ * then takes every observation the cycle's solver associated with a beacon,
+ * camera by camera. A cycle whose bank output is usable reports the filter's
+ * pose, covariance, PL and status (the solution's counts, residuals and
+ * associations stay the solver's); otherwise the snapshot's verdict stands
+ * (each is a certified bound on its own). A bank that asks for a restart
+ * (motion bound exceeded, coast too long) starts again from the next usable
+ * snapshot fix.
+ *
+ * Time: the cycle does not know the frames' capture times yet: every
+ * camera's frame of cycle k is stamped k x period_us (the caller's frame
+ * period). A camera late or drifting is still a camera hypothesis of the
+ * bank, but its frames enter at the cycle's time, not their own.
+ */
+#ifndef MFNS_NAV_FILTER_CYCLE_H
+#define MFNS_NAV_FILTER_CYCLE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "firmware/nav/table/caltable.h"
+#include "firmware/nav/filter/filter_bank.h"
+#include "firmware/nav/integrity/integrity.h"
+#include "firmware/nav/pose/pose.h"
+
+/* the velocity prior at a start: Astrobee-class top speeds (0.5 m/s, 0.5 rad/s) */
+#define MFNS_NAVF_SIGMA_V0_MM_S 500.0f
+#define MFNS_NAVF_SIGMA_W0_RAD_S 0.5f
+
+typedef struct {
+    bool on;
+    bool running;
+    uint32_t period_us;
+    int64_t t_us;
+    mfns_filter_settings_t set;
+    mfns_filter_bank_t bank;
+} mfns_navf_t;
+
+/* What the cycle output carries. */
+typedef struct {
+    bool ran;          /* the bank was evaluated this cycle */
+    bool used;         /* its output replaced the snapshot's (usable) */
+    bool started;      /* it (re)started from this cycle's snapshot fix */
+    mfns_bank_output_t out;
+} mfns_navf_report_t;
+
+/* Switch on (period_us > 0: the frame period) or off (period_us = 0). */
+void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us);
+
+/* One cycle, after the snapshot's integrity: sol and integ in/out. */
+void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,
+                    const mfns_obs_frame_t *obs, float sigma_px, mfns_pose_solution_t *sol,
+                    mfns_integrity_result_t *integ, mfns_navf_report_t *rep);
+
+#endif /* MFNS_NAV_FILTER_CYCLE_H */

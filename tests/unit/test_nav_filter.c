@@ -1,0 +1,443 @@
+/* test_nav_filter.c -- the navigation filter (firmware/nav/filter/nav_filter.h)
+ * against a double-precision truth (support/filter_sim.h):
+ *  - the measurement Jacobian against finite differences of the lens model;
+ *  - propagation: the covariance grows exactly as the continuous white-
+ *    acceleration model says (closed form), in one step or in many;
+ *  - consistency: a robot moved by the model's own process noise, observed
+ *    with the model's pixel noise, gives a pose NEES whose mean over many
+ *    runs is chi-square(6)'s (two-sided bound), a static robot and a slowly
+ *    moving one at the default (overbounding) process noise give NEES no
+ *    larger than chi-square(6) (one-sided: mean and tail);
+ *  - an acceleration 20x beyond the bound sets motion_exceeded; a clean run
+ *    never does;
+ *  - bad input: time going back, a coast beyond max_coast_s, non-finite
+ *    observations, bad settings. */
+#include <string.h>
+
+#include "tests/unit/support/filter_sim.h"
+#include "firmware/nav/filter/nav_filter.h"
+#include "tests/unit/support/testutil.h"
+
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+
+#define FRAME_US 54000 /* 18.5 Hz */
+#define SIGMA_PX 0.1
+#define MAX_OBS 48
+/* a map of 4 + 3 + 3 beacons in the cameras' fields of view at the start
+ * pose, 900-1400 mm deep */
+static const int PER_CAM[3] = {4, 3, 3};
+
+typedef struct {
+    mfns_rig_t rig;
+    mfns_beacon_map_t map;
+    fs_truth_t x;
+} world_t;
+
+static void make_world(world_t *w, mfns_rng_t *rng)
+{
+    memset(w, 0, sizeof(*w));
+    w->rig = pt_paper_rig();
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++) {
+            w->x.C_w_b[i][j] = i == j ? 1.0 : 0.0;
+        }
+    }
+    const pt_dpose_t p = fs_truth_pose(&w->x);
+    w->map = pt_dense_map(&w->rig, &p, PER_CAM, 900, 1400, rng);
+}
+
+static void test_jacobian_matches_finite_differences(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 11);
+    world_t w;
+    make_world(&w, &rng);
+    mfns_filter_t f;
+    fs_init_filter(&f, &w.x, 1e-3, 1.0, 10.0, 0.01, 0, &rng);
+    const mfns_pose_t pose = mfns_filter_pose(&f);
+    int checked = 0;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        for (int b = 0; b < w.map.count; b++) {
+            float uv[2], h[2][6];
+            if (!mfns_filter_obs_jacobian(&w.rig.cam[c], &pose, w.map.beacon[b].p_w, uv, h)) {
+                continue;
+            }
+            if (!mfns_cam_in_image(&w.rig.cam[c].k, uv[0], uv[1])) {
+                continue;
+            }
+            for (int j = 0; j < 6; j++) {
+                const double step = j < 3 ? 1e-4 : 0.05; /* rad, mm */
+                double fd[2];
+                float up[2] = {0.0f, 0.0f}, um[2] = {0.0f, 0.0f};
+                for (int sgn = 0; sgn < 2; sgn++) {
+                    mfns_filter_t g = f;
+                    float dx[6] = {0, 0, 0, 0, 0, 0};
+                    dx[j] = (float)(sgn == 0 ? step : -step);
+                    /* the filter's perturbation: C_b_w <- exp(phi) C_b_w, r += dr */
+                    const mfns_m3_t e = mfns_rot_exp(mfns_v3(dx[0], dx[1], dx[2]));
+                    g.C_w_b = mfns_m3_mul(g.C_w_b, mfns_m3_transpose(e));
+                    g.r_wb_w = mfns_v3_add(g.r_wb_w, mfns_v3(dx[3], dx[4], dx[5]));
+                    const mfns_pose_t pg = mfns_filter_pose(&g);
+                    assert_int_equal(mfns_cam_project(&w.rig.cam[c], &pg, w.map.beacon[b].p_w, sgn == 0 ? up : um,
+                                                      NULL),
+                                     MFNS_PROJ_OK);
+                }
+                fd[0] = (up[0] - um[0]) / (2.0 * step);
+                fd[1] = (up[1] - um[1]) / (2.0 * step);
+                for (int a = 0; a < 2; a++) {
+                    const double scale = j < 3 ? 1600.0 : 1.6; /* px/rad, px/mm at ~1 m */
+                    assert_near(h[a][j], fd[a], 0.01 * scale);
+                }
+            }
+            checked++;
+        }
+    }
+    assert_true(checked >= 8);
+}
+
+/* P(T) of one axis of the double integrator from diag(s_x^2, s_v^2):
+ * P_xx = s_x^2 + T^2 s_v^2 + q T^3 / 3, P_xv = T s_v^2 + q T^2 / 2,
+ * P_vv = s_v^2 + q T. */
+static void check_axis(const mfns_filter_t *f, int ix, int iv, double sx, double sv, double q, double t)
+{
+    const double pxx = sx * sx + t * t * sv * sv + q * t * t * t / 3.0;
+    const double pxv = t * sv * sv + q * t * t / 2.0;
+    const double pvv = sv * sv + q * t;
+    assert_near(f->P[ix][ix], pxx, 1e-4 * pxx);
+    assert_near(f->P[ix][iv], pxv, 1e-4 * pxv);
+    assert_near(f->P[iv][ix], pxv, 1e-4 * pxv);
+    assert_near(f->P[iv][iv], pvv, 1e-4 * pvv);
+}
+
+static void test_propagation_matches_white_acceleration_model(void **state)
+{
+    (void)state;
+    mfns_filter_settings_t s;
+    mfns_filter_settings_default(&s);
+    const double q_lin = (double)s.accel_bound_mm_s2 * s.accel_bound_mm_s2 * s.bound_time_s;
+    const double q_ang = (double)s.alpha_bound_rad_s2 * s.alpha_bound_rad_s2 * s.bound_time_s;
+    assert_near(q_lin, 100.0 * 100.0 * 0.2, 1e-3); /* the defaults: 0.1 m/s^2 over 0.2 s */
+    const double sx = 0.3, sa = 2e-4, sv = 5.0, sw = 0.002;
+    float cov[6][6];
+    memset(cov, 0, sizeof cov);
+    for (int i = 0; i < 3; i++) {
+        cov[i][i] = (float)(sx * sx);
+        cov[3 + i][3 + i] = (float)(sa * sa);
+    }
+    const mfns_pose_t pose = mfns_pose_from_position(mfns_m3_identity(), mfns_v3(100.0f, -50.0f, 20.0f));
+    mfns_filter_t one, many;
+    assert_int_equal(mfns_filter_init(&one, &pose, (const float(*)[6])cov, mfns_v3(10, 0, 0), (float)sv,
+                                      mfns_v3(0, 0, 0), (float)sw, 1000000),
+                     MFNS_FILTER_OK);
+    many = one;
+    const int steps = 3;
+    const double t = steps * FRAME_US * 1e-6; /* 0.162 s, under max_coast_s */
+    assert_int_equal(mfns_filter_propagate(&one, &s, 1000000 + (int64_t)steps * FRAME_US), MFNS_FILTER_OK);
+    for (int k = 1; k <= steps; k++) {
+        assert_int_equal(mfns_filter_propagate(&many, &s, 1000000 + (int64_t)k * FRAME_US), MFNS_FILTER_OK);
+    }
+    for (int i = 0; i < 3; i++) {
+        check_axis(&one, MFNS_FILTER_POS + i, MFNS_FILTER_VEL + i, sx, sv, q_lin, t);
+        check_axis(&many, MFNS_FILTER_POS + i, MFNS_FILTER_VEL + i, sx, sv, q_lin, t);
+        check_axis(&one, MFNS_FILTER_ATT + i, MFNS_FILTER_OMEGA + i, sa, sw, q_ang, t);
+        check_axis(&many, MFNS_FILTER_ATT + i, MFNS_FILTER_OMEGA + i, sa, sw, q_ang, t);
+    }
+    /* no cross-talk between axes or between position and attitude */
+    assert_near(one.P[MFNS_FILTER_POS][MFNS_FILTER_POS + 1], 0.0, 1e-9);
+    assert_near(one.P[MFNS_FILTER_POS][MFNS_FILTER_ATT], 0.0, 1e-9);
+    /* the nominal moved at constant velocity */
+    assert_near(one.r_wb_w.x, 100.0 + 10.0 * t, 1e-3);
+    assert_near(many.r_wb_w.x, 100.0 + 10.0 * t, 1e-3);
+    /* the bound overbounds a sustained a_max over the coast: a_max t^2 / 2 below 1 sigma */
+    const double dev = 0.5 * s.accel_bound_mm_s2 * t * t;
+    assert_true(dev < sqrt(q_lin * t * t * t / 3.0));
+}
+
+/* One cycle: the three cameras' frames at staggered capture times (camera c
+ * at t + c * 7 ms, as unsynchronised cameras would), the truth moved to each,
+ * every observation applied in time order. Returns gated observations. */
+static int run_cycle(world_t *w, mfns_filter_t *f, const mfns_filter_settings_t *s, int64_t t_us, double q_lin,
+                     double q_ang, const double a_lin[3], int64_t *t_truth_us, mfns_rng_t *rng, mfns_rng_t *obs_rng)
+{
+    int gated = 0;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        const int64_t tc = t_us + c * 7000;
+        fs_truth_advance(&w->x, (double)(tc - *t_truth_us) * 1e-6, q_lin, q_ang, a_lin, q_lin > 0.0 ? rng : NULL);
+        *t_truth_us = tc;
+        mfns_filter_obs_t obs[MAX_OBS];
+        int16_t beacon[MAX_OBS];
+        const int n = fs_observe(&w->rig, &w->map, &w->x, c, SIGMA_PX, obs_rng, tc, obs, beacon, MAX_OBS);
+        for (int i = 0; i < n; i++) {
+            const mfns_filter_status_t st = mfns_filter_update(f, s, &w->rig, (float)SIGMA_PX, &obs[i], NULL);
+            assert_true(st == MFNS_FILTER_OK || st == MFNS_FILTER_GATED);
+            gated += st == MFNS_FILTER_GATED ? 1 : 0;
+        }
+    }
+    (void)mfns_filter_end_cycle(f, s);
+    return gated;
+}
+
+#define NEES_RUNS 40
+#define NEES_CYCLES 100
+
+/* Model-matched: the truth moves by the filter's own process (white
+ * acceleration at the filter's q), so NEES ~ chi-square(6). Samples: 40 runs
+ * x 100 cycles; the NEES of one run is correlated over ~10 cycles, so ~400
+ * effective samples: the mean's sd is sqrt(12 / 400) = 0.17; bound 6 +- 0.9
+ * (over 5 sd, leaving room for float and the first-order attitude model).
+ * Tail: P(chi2(6) > 16.81) = 1 %, accepted up to 3 %. */
+static void test_nees_consistent_model_matched(void **state)
+{
+    (void)state;
+    mfns_filter_settings_t s;
+    mfns_filter_settings_default(&s);
+    /* a gentle process (a robot drifting), the filter told the same */
+    s.accel_bound_mm_s2 = 5.0f;
+    s.alpha_bound_rad_s2 = 0.005f;
+    const double q_lin = (double)s.accel_bound_mm_s2 * s.accel_bound_mm_s2 * s.bound_time_s;
+    const double q_ang = (double)s.alpha_bound_rad_s2 * s.alpha_bound_rad_s2 * s.bound_time_s;
+    mfns_rng_t rng, orng;
+    mfns_rng_seed(&rng, 4242);
+    mfns_rng_seed(&orng, 777);
+    double sum = 0.0;
+    int n = 0, tail = 0, gated = 0;
+    uint32_t clamps = 0;
+    for (int run = 0; run < NEES_RUNS; run++) {
+        world_t w;
+        make_world(&w, &rng);
+        for (int i = 0; i < 3; i++) {
+            w.x.v_w[i] = 5.0 * mfns_rng_normal(&rng);
+            w.x.w_w[i] = 0.002 * mfns_rng_normal(&rng);
+        }
+        mfns_filter_t f;
+        fs_init_filter(&f, &w.x, 5e-4, 0.5, 5.0, 0.002, 0, &rng);
+        int64_t tt = 0;
+        for (int k = 1; k <= NEES_CYCLES; k++) {
+            const int64_t t = (int64_t)k * FRAME_US;
+            gated += run_cycle(&w, &f, &s, t, q_lin, q_ang, NULL, &tt, &rng, &orng);
+            const double e = fs_nees(&f, &w.x);
+            sum += e;
+            n++;
+            tail += e > 16.81 ? 1 : 0;
+        }
+        assert_int_equal(f.motion_exceeded, 0);
+        clamps += f.clamp_events;
+    }
+    const double mean = sum / n;
+    print_message("model-matched NEES: mean %.3f over %d, tail(>16.81) %.2f %%, gated %d\n", mean, n,
+                  100.0 * tail / n, gated);
+    assert_true(mean > 5.1 && mean < 6.9);
+    assert_true(tail <= n * 3 / 100);
+    assert_int_equal(clamps, 0);
+    assert_true(gated <= n / 100); /* gate at 1e-5 per observation */
+}
+
+/* The default bound on a static robot and on one moving slowly at constant
+ * velocity: the process noise overbounds the (absent) acceleration, so the
+ * NEES must not exceed chi-square(6): mean <= 6, tail beyond the 1 % point
+ * within 1.5 %. Also no observation gated and no motion flag. */
+static void nees_overbound(double speed_mm_s, double rate_rad_s, uint64_t seed, double *mean_out)
+{
+    mfns_filter_settings_t s;
+    mfns_filter_settings_default(&s);
+    mfns_rng_t rng, orng;
+    mfns_rng_seed(&rng, seed);
+    mfns_rng_seed(&orng, seed + 1);
+    double sum = 0.0;
+    int n = 0, tail = 0, gated = 0;
+    for (int run = 0; run < 20; run++) {
+        world_t w;
+        make_world(&w, &rng);
+        w.x.v_w[0] = speed_mm_s;
+        w.x.w_w[2] = rate_rad_s;
+        mfns_filter_t f;
+        fs_init_filter(&f, &w.x, 5e-4, 0.5, 20.0, 0.01, 0, &rng);
+        int64_t tt = 0;
+        for (int k = 1; k <= NEES_CYCLES; k++) {
+            gated += run_cycle(&w, &f, &s, (int64_t)k * FRAME_US, 0.0, 0.0, NULL, &tt, &rng, &orng);
+            const double e = fs_nees(&f, &w.x);
+            sum += e;
+            n++;
+            tail += e > 16.81 ? 1 : 0;
+        }
+        assert_int_equal(f.motion_exceeded, 0);
+        assert_int_equal(f.clamp_events, 0);
+    }
+    *mean_out = sum / n;
+    print_message("overbound NEES (%.0f mm/s, %.3f rad/s): mean %.3f over %d, tail %.2f %%, gated %d\n", speed_mm_s,
+                  rate_rad_s, *mean_out, n, 100.0 * tail / n, gated);
+    assert_true(*mean_out <= 6.0);
+    assert_true(tail <= n * 15 / 1000);
+    assert_int_equal(gated, 0);
+}
+
+static void test_nees_static_robot(void **state)
+{
+    (void)state;
+    double m;
+    nees_overbound(0.0, 0.0, 99, &m);
+    assert_true(m > 0.5); /* an overbound, not a filter that believes nothing */
+}
+
+static void test_nees_slowly_moving_robot(void **state)
+{
+    (void)state;
+    double m;
+    nees_overbound(50.0, 0.02, 123, &m);
+    assert_true(m > 0.5);
+}
+
+/* An acceleration a_lin (mm/s^2, x) from cycle 20 for `cycles` cycles; the
+ * cycle motion_exceeded was raised, -1 never (40 cycles). */
+static int motion_run(double accel, int cycles)
+{
+    mfns_filter_settings_t s;
+    mfns_filter_settings_default(&s);
+    mfns_rng_t rng, orng;
+    mfns_rng_seed(&rng, 5);
+    mfns_rng_seed(&orng, 6);
+    world_t w;
+    make_world(&w, &rng);
+    mfns_filter_t f;
+    fs_init_filter(&f, &w.x, 5e-4, 0.5, 20.0, 0.01, 0, &rng);
+    int64_t tt = 0;
+    for (int k = 1; k <= 40; k++) {
+        const double a[3] = {k >= 20 && k < 20 + cycles ? accel : 0.0, 0.0, 0.0};
+        (void)run_cycle(&w, &f, &s, (int64_t)k * FRAME_US, 0.0, 0.0, a, &tt, &rng, &orng);
+        if (f.motion_exceeded != 0U) {
+            return k;
+        }
+    }
+    return -1;
+}
+
+static void test_motion_bound_exceeded_flagged(void **state)
+{
+    (void)state;
+    /* a collision: 5 m/s^2 for one frame (0.27 m/s of velocity change), 50x the bound */
+    const int k_collision = motion_run(5000.0, 1);
+    /* a hard burst: 2 m/s^2 sustained, 20x the bound (the filter follows it
+     * within a millimetre, but too surprised too often: the window test) */
+    const int k_burst = motion_run(2000.0, 40);
+    print_message("motion_exceeded: collision (5 m/s^2, 1 frame) at cycle %d, burst (2 m/s^2) at cycle %d "
+                  "(onset 20)\n",
+                  k_collision, k_burst);
+    assert_true(k_collision >= 20 && k_collision <= 21);
+    assert_true(k_burst >= 20 && k_burst <= 20 + MFNS_FILTER_NIS_WINDOW + 2);
+    /* no burst, and a sustained burst at the bound itself (0.1 m/s^2): never */
+    assert_int_equal(motion_run(0.0, 40), -1);
+    assert_int_equal(motion_run(100.0, 40), -1);
+}
+
+static void test_chi2_quantile(void **state)
+{
+    (void)state;
+    /* tables: chi2(8) 1 % 20.09, chi2(20) 0.1 % 45.31, chi2(160) 1e-5 248.02 (regularised gamma, bisection) */
+    assert_near(mfns_filter_chi2_quantile(8.0f, 0.01f), 20.09, 0.2);
+    assert_near(mfns_filter_chi2_quantile(20.0f, 0.001f), 45.31, 0.4);
+    assert_near(mfns_filter_chi2_quantile(160.0f, 1e-5f), 248.02, 2.5);
+}
+
+static void test_bad_input(void **state)
+{
+    (void)state;
+    mfns_filter_settings_t s;
+    mfns_filter_settings_default(&s);
+    assert_true(mfns_filter_settings_valid(&s));
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 1);
+    world_t w;
+    make_world(&w, &rng);
+    mfns_filter_t f;
+    fs_init_filter(&f, &w.x, 5e-4, 0.5, 20.0, 0.01, 1000000, &rng);
+    /* time going back */
+    assert_int_equal(mfns_filter_propagate(&f, &s, 999999), MFNS_FILTER_E_TIME);
+    /* a coast beyond max_coast_s since the last measurement */
+    assert_int_equal(mfns_filter_propagate(&f, &s, 1000000 + 190000), MFNS_FILTER_OK);
+    assert_int_equal(mfns_filter_propagate(&f, &s, 1000000 + 210000), MFNS_FILTER_E_TIME);
+    fs_init_filter(&f, &w.x, 5e-4, 0.5, 20.0, 0.01, 1000000, &rng);
+    mfns_filter_obs_t obs[MAX_OBS];
+    int16_t beacon[MAX_OBS];
+    const int n = fs_observe(&w.rig, &w.map, &w.x, 0, SIGMA_PX, &rng, 1000000 + FRAME_US, obs, beacon, MAX_OBS);
+    assert_true(n > 0);
+    mfns_filter_obs_t bad = obs[0];
+    bad.u = NAN;
+    const mfns_filter_t before = f;
+    assert_int_equal(mfns_filter_update(&f, &s, &w.rig, 0.1f, &bad, NULL), MFNS_FILTER_E_ARG);
+    assert_memory_equal(&f, &before, sizeof f);
+    bad = obs[0];
+    bad.cam = 3;
+    assert_int_equal(mfns_filter_update(&f, &s, &w.rig, 0.1f, &bad, NULL), MFNS_FILTER_E_ARG);
+    bad = obs[0];
+    bad.cov_px2[1] = 1.0f; /* not PSD */
+    assert_int_equal(mfns_filter_update(&f, &s, &w.rig, 0.1f, &bad, NULL), MFNS_FILTER_E_ARG);
+    assert_int_equal(mfns_filter_update(&f, &s, &w.rig, 0.0f, &obs[0], NULL), MFNS_FILTER_E_ARG);
+    mfns_filter_settings_t bs = s;
+    bs.max_coast_s = 2.0f * bs.bound_time_s; /* a coast the noise does not overbound */
+    assert_false(mfns_filter_settings_valid(&bs));
+    bs = s;
+    bs.gate_p = 0.0f;
+    assert_false(mfns_filter_settings_valid(&bs));
+    /* a beacon behind the camera */
+    bad = obs[0];
+    bad.p_w = mfns_v3(-bad.p_w.x, -bad.p_w.y, -bad.p_w.z);
+    const mfns_filter_status_t st = mfns_filter_update(&f, &s, &w.rig, 0.1f, &bad, NULL);
+    assert_true(st == MFNS_FILTER_E_GEOM || st == MFNS_FILTER_GATED);
+    /* the test call leaves the state alone */
+    const mfns_filter_t keep = f;
+    float nis = -1.0f;
+    assert_int_equal(mfns_filter_test(&f, &s, &w.rig, 0.1f, &obs[1], &nis), MFNS_FILTER_OK);
+    assert_true(nis >= 0.0f && nis < 50.0f);
+    assert_memory_equal(&f, &keep, sizeof f);
+    /* an uninitialised filter is refused */
+    mfns_filter_t z;
+    memset(&z, 0, sizeof z);
+    assert_int_equal(mfns_filter_update(&z, &s, &w.rig, 0.1f, &obs[0], NULL), MFNS_FILTER_E_ARG);
+    assert_near(mfns_filter_gate_nis(&s), -2.0 * log(1e-5), 1e-3);
+}
+
+/* The datum term is added once, at the output: the filter's own P does not
+ * carry it, the output covariance is P + the datum's term. */
+static void test_datum_at_output_only(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 3);
+    world_t w;
+    make_world(&w, &rng);
+    mfns_filter_t f;
+    fs_init_filter(&f, &w.x, 5e-4, 0.5, 20.0, 0.01, 0, &rng);
+    mfns_map_datum_t d;
+    memset(&d, 0, sizeof d);
+    d.present = 1;
+    for (int i = 0; i < 3; i++) {
+        d.cov[i][i] = 4.0f;         /* 2 mm shift */
+        d.cov[3 + i][3 + i] = 1e-6f; /* 1 mrad turn */
+    }
+    float with[6][6], without[6][6];
+    mfns_filter_pose_cov_ros(&f, &d, with);
+    mfns_filter_pose_cov_ros(&f, NULL, without);
+    for (int i = 0; i < 3; i++) {
+        /* position: 4 mm^2 + the turn about c_w = 0 at |r| ~ 0: at least 4 */
+        assert_true(with[i][i] - without[i][i] >= 3.99f);
+        assert_near(with[3 + i][3 + i] - without[3 + i][3 + i], 1e-6, 1e-8);
+        assert_near(without[i][i], f.P[MFNS_FILTER_POS + i][MFNS_FILTER_POS + i], 1e-9);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_jacobian_matches_finite_differences),
+        cmocka_unit_test(test_propagation_matches_white_acceleration_model),
+        cmocka_unit_test(test_nees_consistent_model_matched),
+        cmocka_unit_test(test_nees_static_robot),
+        cmocka_unit_test(test_nees_slowly_moving_robot),
+        cmocka_unit_test(test_motion_bound_exceeded_flagged),
+        cmocka_unit_test(test_chi2_quantile),
+        cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_datum_at_output_only),
+    };
+    return cmocka_run_group_tests_name("nav_filter", tests, NULL, NULL);
+}

@@ -1,0 +1,134 @@
+/* test_nav_filter_cycle.c -- the filter bank inside the navigation cycle
+ * (firmware/nav/filter/nav_filter_cycle.h): off, nothing changes (the
+ * solution and integrity result are left bit for bit); on, it starts from a
+ * usable snapshot fix, takes the solver's associations and, once its PL is
+ * within the alert limits, reports its own pose, covariance and PL. */
+#include <string.h>
+
+#include "firmware/nav/filter/nav_filter_cycle.h"
+#include "tests/unit/support/pose_testlib.h"
+#include "tests/unit/support/testutil.h"
+
+#pragma GCC diagnostic ignored "-Wdouble-promotion"
+
+#define CYCLES 40
+static const int PER_CAM[3] = {4, 3, 3};
+
+static mfns_caltable_t table; /* large: static */
+
+static void setup(mfns_rng_t *rng, pt_dpose_t *truth)
+{
+    memset(&table, 0, sizeof table);
+    table.rig = pt_paper_rig();
+    static const double eye[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    static const double r0[3] = {0, 0, 0};
+    *truth = pt_pose(eye, r0);
+    table.beacons = pt_dense_map(&table.rig, truth, PER_CAM, 900, 1400, rng);
+    mfns_integrity_settings_default(&table.integrity);
+}
+
+/* A snapshot "fix" at the truth with its frame's associations. */
+static void snapshot(const pt_dpose_t *truth, mfns_rng_t *rng, mfns_obs_frame_t *frame, mfns_pose_solution_t *sol,
+                     mfns_integrity_result_t *integ)
+{
+    mfns_pose_solution_clear(sol, MFNS_POSE_R_NONE);
+    mfns_pose_assoc_t assoc;
+    assert_true(pt_make_frame(&table.rig, &table.beacons, truth, 0.1, rng, frame, &assoc) >= 8);
+    sol->assoc = assoc;
+    sol->status = MFNS_POSE_DEGRADED;
+    sol->reason = MFNS_POSE_R_CAMERA_UNMONITORED;
+    sol->pose = pt_to_float(truth);
+    for (int i = 0; i < 3; i++) {
+        sol->cov_ros[i][i] = 0.25f;        /* 0.5 mm */
+        sol->cov_ros[3 + i][3 + i] = 1e-7f; /* 0.3 mrad */
+    }
+    memset(integ, 0, sizeof(*integ));
+    integ->pl_pos_mm = 19.0f;
+}
+
+static void test_off_changes_nothing(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 1);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    memset(&nf, 0, sizeof nf); /* as mfns_nav_init leaves it: off */
+    for (int k = 0; k < 5; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol, before;
+        mfns_integrity_result_t integ, integ_before;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        before = sol;
+        integ_before = integ;
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_memory_equal(&sol, &before, sizeof sol);
+        assert_memory_equal(&integ, &integ_before, sizeof integ);
+        assert_false(rep.ran || rep.used || rep.started);
+    }
+}
+
+static void test_on_starts_and_takes_over(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 2);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 54000);
+    int used = 0, first_used = -1;
+    for (int k = 0; k < CYCLES; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        if (k == 0) {
+            assert_true(rep.started);
+            assert_false(rep.used);
+            continue;
+        }
+        assert_true(rep.ran);
+        assert_false(rep.out.restart);
+        if (rep.used) {
+            used++;
+            first_used = first_used < 0 ? k : first_used;
+            assert_true(sol.status == MFNS_POSE_OK || sol.status == MFNS_POSE_DEGRADED);
+            assert_true(integ.pl_pos_mm <= table.integrity.alert_limit_pos_mm);
+            assert_near(integ.pl_pos_mm, rep.out.pl_pos_mm, 1e-6);
+            /* its pose, within its PL of the truth */
+            double r[3];
+            pt_position_w(&truth, r);
+            const double est[3] = {sol.r_wb_w.x, sol.r_wb_w.y, sol.r_wb_w.z};
+            for (int i = 0; i < 3; i++) {
+                assert_true(fabs(est[i] - r[i]) <= integ.pl_pos_mm);
+                assert_true(sol.sigma_pos_mm[i] > 0.0f);
+            }
+        }
+    }
+    print_message("filter in the cycle: first used at cycle %d, used in %d of %d\n", first_used, used, CYCLES - 1);
+    assert_true(first_used >= 1 && first_used <= 10);
+    assert_true(used >= CYCLES - 11);
+    /* off again: nothing */
+    mfns_navf_enable(&nf, 0);
+    mfns_obs_frame_t frame;
+    mfns_pose_solution_t sol;
+    mfns_integrity_result_t integ;
+    snapshot(&truth, &rng, &frame, &sol, &integ);
+    mfns_navf_report_t rep;
+    mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+    assert_false(rep.ran);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_off_changes_nothing),
+        cmocka_unit_test(test_on_starts_and_takes_over),
+    };
+    return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
+}
