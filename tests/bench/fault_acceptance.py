@@ -139,6 +139,9 @@ def slug(tag: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", tag.lower()).strip("_")[:80]
 
 
+NAV_ARGS: tuple[str, ...] = ()  # --nav-arg: extra mfns-nav arguments of every run
+
+
 def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict) -> dict:
     out = work / "runs" / slug(tag)
     if out.exists():
@@ -156,6 +159,7 @@ def fly(frames: Path, table: Path, work: Path, tag: str, fault: Fault, ctx: dict
             "--file",
             out / "tlm.bin",
             "-q",
+            *NAV_ARGS,
             timeout=NAV_TIMEOUT_S,
         )
         res["nav_exit"] = nav.returncode
@@ -789,6 +793,14 @@ def main() -> int:
     )
     ap.add_argument("--keep-frames", action="store_true", help="keep the simulated frames at the end")
     ap.add_argument(
+        "--nav-arg",
+        action="append",
+        default=[],
+        metavar="ARG",
+        help="one more argument for every mfns-nav run, repeatable (e.g. --nav-arg=--nav-filter "
+        "--nav-arg=54: the campaign with the navigation filter on)",
+    )
+    ap.add_argument(
         "--campaign",
         choices=("default", "grown"),
         default="default",
@@ -820,7 +832,8 @@ def main() -> int:
         "instead of the simulator's true rig",
     )
     args = ap.parse_args()
-    global PY, BIN
+    global PY, BIN, NAV_ARGS
+    NAV_ARGS = tuple(args.nav_arg)
     dictionary = None
     if args.tree is not None:
         tree = args.tree.resolve()
