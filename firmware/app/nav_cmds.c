@@ -182,13 +182,19 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         *arg1 = (int32_t)nt->crc32;
         return TC_OK;
     }
-    if (ts == MFNS_CALTABLE_OK && mfns_nav_init(&app->nav, nt, app->solver) != MFNS_NAV_OK) {
+    bool kept = false; /* a compatible table (same rig and beacons, other settings): the core re-binds */
+    if (ts == MFNS_CALTABLE_OK && mfns_nav_rebind(&app->nav, nt, &kept) == MFNS_NAV_OK && kept) {
+        fprintf(stderr, "mfns-nav: TABLE_LOAD %s: the same rig and beacons (crc %08x -> %08x): re-bound, the "
+                "track goes on\n", path, cur->crc32, nt->crc32);
+    } else if (ts == MFNS_CALTABLE_OK && mfns_nav_init(&app->nav, nt, app->solver) != MFNS_NAV_OK) {
         ts = MFNS_CALTABLE_E_SOLVER_SETTINGS;
         if (mfns_nav_init(&app->nav, cur, app->solver) != MFNS_NAV_OK) {
             fprintf(stderr, "mfns-nav: re-binding the old table failed\n"); /* it was bound before: cannot happen */
         }
     }
-    (void)mfns_nav_enable_filter(&app->nav, app->nav_filter_period_us); /* a bind turns it off */
+    if (!kept) {
+        (void)mfns_nav_enable_filter(&app->nav, app->nav_filter_period_us); /* a bind turns it off */
+    }
     if (ts != MFNS_CALTABLE_OK) {
         fprintf(stderr, "mfns-nav: TABLE_LOAD %s refused: %s (at byte %u); the old table (crc %08x) stays\n", path,
                 mfns_caltable_strerror(ts), off, cur->crc32);
@@ -199,7 +205,7 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         return TC_E_TABLE;
     }
     app->table_cur = spare;
-    if (had_prior) {
+    if (had_prior && !kept) {
         (void)mfns_nav_set_prior(&app->nav, &prior); /* confirmed by the new table's beacons, or dropped */
     }
     send_event(app, TLM_EVT_TABLE_LOADED, TLM_SEV_INFO, 0, nt->format_version, (int32_t)nt->crc32);

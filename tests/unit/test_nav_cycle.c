@@ -535,6 +535,60 @@ static void test_three_beacons_track_but_never_usable(void **state)
     assert_int_equal(out.sol.reason, MFNS_POSE_R_MINIMAL_UNCONFIRMED);
 }
 
+/* A table re-loaded while tracking (issue 45): the same system with other settings and
+ * sigmas is re-bound keeping the track (the next cycle tracks, no re-acquisition) and
+ * its sigmas count; a moved beacon or a changed rig is refused (nav untouched) so the
+ * caller binds afresh. */
+static mfns_caltable_t table2;
+static void test_rebind_keeps_the_track_of_the_same_system(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 99);
+    render_background(&rng);
+    render_beacons();
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    for (int c = 0; c < 3; c++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    }
+    assert_int_equal(out.next_mode, MFNS_NAV_MODE_TRACK);
+    bool kept = false;
+
+    table2 = table; /* a moved beacon: another system */
+    table2.beacons.beacon[0].p_w.x += 1.0f;
+    const mfns_pose_t prior = nav.prior;
+    assert_int_equal(mfns_nav_rebind(&nav, &table2, &kept), MFNS_NAV_OK);
+    assert_false(kept);
+    assert_ptr_equal(nav.table, &table); /* untouched */
+    table2 = table; /* a turned camera: another system */
+    table2.rig.cam[1].C_k_b.m[0][1] += 1e-6f;
+    assert_int_equal(mfns_nav_rebind(&nav, &table2, &kept), MFNS_NAV_OK);
+    assert_false(kept);
+    assert_memory_equal(&nav.prior, &prior, sizeof prior);
+
+    table2 = table; /* the same system, looser beacons and another pixel sigma */
+    for (uint32_t b = 0; b < table2.beacons.count; b++) {
+        table2.beacons.beacon[b].sigma_mm *= 2.0f;
+    }
+    table2.pixel_sigma_px *= 1.5f;
+    assert_int_equal(mfns_nav_rebind(&nav, &table2, &kept), MFNS_NAV_OK);
+    assert_true(kept);
+    assert_ptr_equal(nav.table, &table2);
+    assert_true(nav.map.beacon[0].sigma_mm == table2.beacons.beacon[0].sigma_mm);
+    assert_true(nav.pose_cfg.sigma_px == table2.pixel_sigma_px);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.mode, MFNS_NAV_MODE_TRACK); /* the track went on */
+    assert_false(out.acquired);
+    assert_int_equal(out.sol.status, MFNS_POSE_OK);
+    assert_pose_close(&out.sol);
+
+    assert_int_equal(mfns_nav_rebind(NULL, &table2, &kept), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_rebind(&nav, NULL, &kept), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_rebind(&nav, &table2, NULL), MFNS_NAV_E_ARG);
+}
+
 static void test_bad_frame_and_bad_arguments(void **state)
 {
     (void)state;
@@ -567,6 +621,7 @@ int main(void)
         cmocka_unit_test(test_tracking_from_a_given_pose),
         cmocka_unit_test(test_leaving_the_workspace),
         cmocka_unit_test(test_three_beacons_track_but_never_usable),
+        cmocka_unit_test(test_rebind_keeps_the_track_of_the_same_system),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
     return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);

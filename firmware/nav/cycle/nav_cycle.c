@@ -44,27 +44,68 @@ const char *mfns_nav_cam_state_str(mfns_nav_cam_state_t s)
     return MFNS_MSG("?");
 }
 
-mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode)
+/* The table's settings, noise model and uncertainty terms: what a bind takes from it
+ * (mfns_nav_init, mfns_nav_rebind). */
+static void take_settings(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode)
 {
-    if (nav == NULL || table == NULL) {
-        return MFNS_NAV_E_ARG;
-    }
-    memset(nav, 0, sizeof *nav);
     nav->table = table;
-    nav->map = table->beacons;
     mfns_pose_config_default(&nav->pose_cfg);
     nav->pose_cfg.s = table->solver;
     nav->pose_cfg.sigma_px = table->pixel_sigma_px;
     nav->pose_cfg.calib_cov = &table->calib_cov; /* the table outlives the cycle */
     nav->pose_cfg.datum = &table->datum;
     nav->pose_cfg.mode = mode;
+    nav->integ_set = table->integrity;
+}
+
+mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode)
+{
+    if (nav == NULL || table == NULL) {
+        return MFNS_NAV_E_ARG;
+    }
+    memset(nav, 0, sizeof *nav);
+    take_settings(nav, table, mode);
+    nav->map = table->beacons;
     nav->mode = MFNS_NAV_MODE_ACQUIRE;
     mfns_acq_cycle_reset(&nav->acq);
-    nav->integ_set = table->integrity;
     mfns_integrity_memory_reset(&nav->integ_mem);
     mfns_bmon_reset(&nav->bmon);
     mfns_ws_watch_init(&nav->wsw); /* the new table's box, as declared */
     nav->magic = NAV_MAGIC;
+    return MFNS_NAV_OK;
+}
+
+/* Same rig and same beacons, bit for bit (ids and positions; sigmas may differ). */
+static bool same_system(const mfns_caltable_t *a, const mfns_caltable_t *b)
+{
+    if (memcmp(&a->rig, &b->rig, sizeof a->rig) != 0 || a->beacons.count != b->beacons.count) {
+        return false;
+    }
+    for (uint32_t i = 0; i < a->beacons.count && i < MFNS_MAX_BEACONS; i++) {
+        const mfns_beacon_t *x = &a->beacons.beacon[i], *y = &b->beacons.beacon[i];
+        if (x->id != y->id || memcmp(&x->p_w, &y->p_w, sizeof x->p_w) != 0) {
+            return false;
+        }
+    }
+    return true;
+}
+
+mfns_nav_status_t mfns_nav_rebind(mfns_nav_t *nav, const mfns_caltable_t *table, bool *kept)
+{
+    if (nav == NULL || table == NULL || kept == NULL || nav->magic != NAV_MAGIC || nav->table == NULL) {
+        return MFNS_NAV_E_ARG;
+    }
+    *kept = same_system(nav->table, table);
+    if (!*kept) {
+        return MFNS_NAV_OK;
+    }
+    take_settings(nav, table, nav->pose_cfg.mode);
+    nav->map = table->beacons;
+    for (uint32_t b = 0; b < nav->map.count && b < MFNS_MAX_BEACONS; b++) {
+        if (nav->bmon.flagged[b] != 0U) {
+            nav->map.beacon[b].sigma_mm *= nav->bmon.sigma_scale[b]; /* down-weighted, as before */
+        }
+    }
     return MFNS_NAV_OK;
 }
 

@@ -166,6 +166,19 @@ typedef struct {
  * ACQUIRE. mode selects the solver (ML, or the paper's Eq. 3 baseline). */
 mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, mfns_pose_mode_t mode);
 
+/* Re-bind a running navigator to another validated table (which must outlive nav)
+ * without losing what it has learnt, when the new table describes the same system: the
+ * same rig (every camera's intrinsics and mounting, bit for bit) and the same beacons
+ * (count, ids and positions, bit for bit). Then the track, the prior and its motion, the
+ * camera and beacon monitors, the bias monitor and the filter are kept; the settings,
+ * the noise model, the sigmas, the map index, the workspace box, the calibration
+ * covariance and the map datum are the new table's (a beacon the bias monitor has
+ * down-weighted stays down-weighted in the live map). *kept says so. Otherwise nav is
+ * left untouched and *kept is false: the caller binds afresh (mfns_nav_init), which a
+ * changed map or rig needs (a refined map starts a new monitor). MFNS_NAV_E_ARG for a
+ * NULL argument or an unbound nav. */
+mfns_nav_status_t mfns_nav_rebind(mfns_nav_t *nav, const mfns_caltable_t *table, bool *kept);
+
 /* Run one cycle. frames[k] is camera k's frame or NULL when it has none. */
 mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS],
                                  mfns_nav_output_t *out);
