@@ -162,11 +162,11 @@ static void print_counters(FILE *f, const tlm_decoder_stats_t *s, double secs)
 {
     fprintf(f,
             "mfns-ground: %.1f s, %lu bytes: frames_ok=%lu crc_errors=%lu truncated=%lu oversize=%lu "
-            "bad_packets=%lu resyncs=%lu seq_gaps=%lu seq_lost=%lu seq_back=%lu (",
+            "bad_packets=%lu resyncs=%lu seq_gaps=%lu seq_lost=%lu seq_back=%lu seq_late=%lu (",
             secs, (unsigned long)s->bytes, (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
             (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->bad_packets,
             (unsigned long)s->resyncs, (unsigned long)s->seq_gaps, (unsigned long)s->seq_lost,
-            (unsigned long)s->seq_back);
+            (unsigned long)s->seq_back, (unsigned long)s->seq_late);
     /* every packet type of the dictionary, by its name there (a new packet is counted
      * here without an edit: the list was a hand copy that missed FIXOBS) */
     for (unsigned t = 0; t < TLM_NUM_TYPES; t++) {

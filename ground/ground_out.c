@@ -197,15 +197,16 @@ int ground_out_stats(const ground_out_t *o, const tlm_decoder_stats_t *s, double
     fprintf(f,
             "{\"seconds\": %.3f, \"bytes\": %lu, \"frames_ok\": %lu, \"crc_errors\": %lu, \"truncated\": %lu, "
             "\"oversize\": %lu, \"bad_packets\": %lu, \"resyncs\": %lu, \"bytes_discarded\": %lu, "
-            "\"seq_gaps\": %lu, \"seq_lost\": %lu, \"seq_back\": %lu, \"packets\": {",
+            "\"seq_gaps\": %lu, \"seq_lost\": %lu, \"seq_back\": %lu, \"seq_late\": %lu, \"packets\": {",
             seconds, (unsigned long)s->bytes, (unsigned long)s->frames_ok, (unsigned long)s->crc_errors,
             (unsigned long)s->truncated, (unsigned long)s->oversize, (unsigned long)s->bad_packets,
             (unsigned long)s->resyncs, (unsigned long)s->bytes_discarded, (unsigned long)s->seq_gaps,
-            (unsigned long)s->seq_lost, (unsigned long)s->seq_back);
+            (unsigned long)s->seq_lost, (unsigned long)s->seq_back, (unsigned long)s->seq_late);
     for (int t = 0; t < (int)TLM_NUM_TYPES; t++) {
-        fprintf(f, "%s\"%s\": {\"packets\": %lu, \"gaps\": %lu, \"lost\": %lu, \"back\": %lu}", t ? ", " : "",
-                tlm_type_name((tlm_type_t)t), (unsigned long)s->type[t].packets, (unsigned long)s->type[t].gaps,
-                (unsigned long)s->type[t].lost, (unsigned long)s->type[t].back);
+        fprintf(f, "%s\"%s\": {\"packets\": %lu, \"gaps\": %lu, \"lost\": %lu, \"back\": %lu, \"late\": %lu}",
+                t ? ", " : "", tlm_type_name((tlm_type_t)t), (unsigned long)s->type[t].packets,
+                (unsigned long)s->type[t].gaps, (unsigned long)s->type[t].lost, (unsigned long)s->type[t].back,
+                (unsigned long)s->type[t].late);
     }
     fputs("}}\n", f);
     return fclose(f) == 0 ? 0 : -1;

@@ -38,31 +38,68 @@ static int drop(tlm_decoder_t *d, int err)
     return err;
 }
 
+static bool missing_bit(const uint32_t *m, uint16_t seq)
+{
+    return (m[seq >> 5] >> (seq & 31u) & 1u) != 0u;
+}
+
+static void set_missing(uint32_t *m, uint16_t seq, bool on)
+{
+    const uint32_t bit = 1u << (seq & 31u);
+    m[seq >> 5] = on ? (m[seq >> 5] | bit) : (m[seq >> 5] & ~bit);
+}
+
+/* Sequence accounting per packet type (tlm_decoder.h: lost, late, back). Work per packet
+ * bounded by the forward jump, at most TLM_CCSDS_SEQ_HALF - 1 bits set. */
 static void count_sequence(tlm_decoder_t *d, const tlm_packet_t *p)
 {
     tlm_apid_stats_t *s = &d->stats.type[p->type];
-    if (s->seen) {
+    uint32_t *m = d->seq_missing[p->type];
+    const uint16_t seq = (uint16_t)(p->seq & TLM_CCSDS_SEQ_MASK);
+    if (!s->seen) {
+        s->high_seq = seq;
+    } else {
         const uint16_t expected = (uint16_t)((s->last_seq + 1u) & TLM_CCSDS_SEQ_MASK);
-        if (p->seq != expected) {
-            /* Modulo 2^14 a count can only be read one way: a jump of less
-             * than half the modulus forward is that many packets lost; half
-             * or more is a count that went back (a repeat, a reorder, a
-             * restarted sender), counted as such and never as ~16,000 lost
-             * (490 shuffled frames read as 4,095,661 lost before). */
-            const uint32_t ahead = (uint32_t)((p->seq - expected) & TLM_CCSDS_SEQ_MASK);
+        if (seq != expected) {
             s->gaps++;
             d->stats.seq_gaps++;
-            if (ahead < TLM_CCSDS_SEQ_HALF) {
-                s->lost += ahead;
-                d->stats.seq_lost += ahead;
-            } else {
-                s->back++;
-                d->stats.seq_back++;
+        }
+        /* Modulo 2^14 a count can only be read one way: a jump of less than half the
+         * modulus forward of the highest count is that many skipped; half or more is a
+         * count behind it (never ~16,000 lost: 490 shuffled frames once read as 4,095,661) */
+        const uint32_t ahead = (uint32_t)((seq - s->high_seq) & TLM_CCSDS_SEQ_MASK);
+        if (ahead != 0u && ahead < TLM_CCSDS_SEQ_HALF) {
+            for (uint32_t i = 1u; i < ahead; i++) {
+                set_missing(m, (uint16_t)((s->high_seq + i) & TLM_CCSDS_SEQ_MASK), true);
             }
+            set_missing(m, seq, false);
+            s->lost += ahead - 1u;
+            d->stats.seq_lost += ahead - 1u;
+            s->high_seq = seq;
+            s->run_len = 0;
+        } else if (missing_bit(m, seq) && s->lost > 0u) {
+            set_missing(m, seq, false); /* skipped before, here now: reordered, not lost */
+            s->lost--;
+            d->stats.seq_lost--;
+            s->late++;
+            d->stats.seq_late++;
+            s->run_len = 0;
+        } else if (s->run_len != 0u && seq == ((s->run_seq + 1u) & TLM_CCSDS_SEQ_MASK)) {
+            s->run_seq = seq; /* the counts after a back arrival, in order: a restart if it goes on */
+            if (++s->run_len >= TLM_DECODER_RESTART_RUN) {
+                memset(m, 0, sizeof d->seq_missing[0]); /* the sender restarted: read on from here */
+                s->high_seq = seq;
+                s->run_len = 0;
+            }
+        } else {
+            s->back++;
+            d->stats.seq_back++;
+            s->run_seq = seq;
+            s->run_len = 1;
         }
     }
     s->seen = 1;
-    s->last_seq = p->seq;
+    s->last_seq = seq;
     s->packets++;
 }
 

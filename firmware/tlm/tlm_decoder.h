@@ -18,13 +18,22 @@
 
 #include "firmware/tlm/tlm_packets.h"
 
+#define TLM_DECODER_RESTART_RUN 3u /* consecutive counts from a back arrival: a restarted sender */
+
 typedef struct {
     uint32_t packets;  /* good packets of this type */
     uint32_t gaps;     /* sequence discontinuities (count != previous + 1 mod 2^14) */
-    uint32_t lost;     /* packets missing according to those gaps (forward jumps only) */
-    uint32_t back;     /* counts that went back (repeated, reordered, or a restarted sender) */
+    uint32_t lost;     /* counts skipped by a forward jump and not received since (a late one,
+                        * arriving after a later count, is taken back: see late) */
+    uint32_t back;     /* counts behind the highest read that were not missing: a repeat, a
+                        * reordered packet the stream had not skipped, or a restarted sender */
+    uint32_t late;     /* counts that arrived after a later one and had been counted lost:
+                        * reordered, not lost (taken back from lost) */
     uint16_t last_seq; /* valid when seen */
+    uint16_t high_seq; /* the highest count read since the sender last (re)started */
+    uint16_t run_seq;  /* the last count of a run that began with a back arrival */
     uint8_t seen;
+    uint8_t run_len;   /* counts in that run, 0 when none: TLM_DECODER_RESTART_RUN make a restart */
 } tlm_apid_stats_t;
 
 typedef struct {
@@ -39,6 +48,7 @@ typedef struct {
     uint32_t seq_gaps;        /* sum of the per-type gaps */
     uint32_t seq_lost;        /* sum of the per-type lost */
     uint32_t seq_back;        /* sum of the per-type back */
+    uint32_t seq_late;        /* sum of the per-type late */
     tlm_apid_stats_t type[TLM_NUM_TYPES];
 } tlm_decoder_stats_t;
 
@@ -52,6 +62,16 @@ typedef struct {
     bool lost_sync;             /* a frame was dropped since the last good one */
     int last_error;             /* tlm_err_t of the last dropped frame */
     tlm_decoder_stats_t stats;
+    /* One bit per sequence count and packet type: skipped by a forward jump and not yet
+     * received (counted in lost). A count that arrives later clears its bit and is counted
+     * late instead of lost, so a reordered or shuffled recording reads no loss; a jump of
+     * half the modulus or more cannot be told from a count going back (2^14 counts: a
+     * packet more than 8191 counts late reads as back, its slot stays lost). A back arrival
+     * followed by the counts after it, TLM_DECODER_RESTART_RUN in a row, is a restarted
+     * sender: the bits are cleared and the reading goes on from the new count (what was
+     * missing before stays lost; a shuffle makes such a run with a chance of about 1/N^2
+     * per back arrival, N the counts in play). */
+    uint32_t seq_missing[TLM_NUM_TYPES][(TLM_CCSDS_SEQ_MASK + 1u) / 32u];
 } tlm_decoder_t;
 
 void tlm_decoder_init(tlm_decoder_t *d);
