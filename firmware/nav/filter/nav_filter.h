@@ -101,11 +101,33 @@
 #include "camera.h"
 #include "nav_config.h"
 
-#define MFNS_FILTER_N 12
+/* 12 states of the body + at most MFNS_FILTER_MAX_AUG fault parameters of
+ * one camera (a camera hypothesis of filter_bank.h): 16 x 16 floats of
+ * covariance, 1 KB per filter. A filter with no augmented camera keeps those
+ * rows and columns at zero (they never receive variance: no work changes
+ * its result, the loops are bounded by MFNS_FILTER_N). */
+#define MFNS_FILTER_BASE_N 12
+#define MFNS_FILTER_MAX_AUG 4
+#define MFNS_FILTER_N (MFNS_FILTER_BASE_N + MFNS_FILTER_MAX_AUG)
 #define MFNS_FILTER_ATT 0
 #define MFNS_FILTER_POS 3
 #define MFNS_FILTER_VEL 6
 #define MFNS_FILTER_OMEGA 9
+/* camera aug_cam's pointing bias (rad, body axes: C_k_b(true) =
+ * exp([b]x) C_k_b(table)) and time offset (s: its frame stamped t was
+ * captured at t - tau) */
+#define MFNS_FILTER_AUG_ROT 12
+#define MFNS_FILTER_AUG_DT 15
+#define MFNS_FILTER_NO_AUG 0xFFU
+/* Fault parameters' random walk, one step per frame of the augmented camera
+ * (filter_bank.h argues the values): 1 deg of pointing and 60 ms (more than a
+ * frame period) of timing per frame, i.e. the hypothesis assumes nothing
+ * about the fault's profile (a step at any time, a ramp of any slope within
+ * the linear range): each frame's fault parameters are nearly free, only the
+ * part of the frame they cannot move (the beacons' relative geometry) informs
+ * the pose. */
+#define MFNS_FILTER_DEFAULT_AUG_ROT_RAD 0.0175f
+#define MFNS_FILTER_DEFAULT_AUG_DT_S 0.06f
 
 /* Defaults (argued above). */
 #define MFNS_FILTER_DEFAULT_ACCEL_MM_S2 100.0f
@@ -131,6 +153,8 @@ typedef struct {
     float max_coast_s;        /* longest time without an applied observation (E_TIME: restart) */
     float gate_p;             /* per-observation gate false-alarm probability, (0, 0.5) */
     uint16_t gate_reject_run; /* consecutive gated observations that flag motion_exceeded */
+    float aug_rot_rad;        /* per-frame random-walk sigma of an augmented camera's pointing bias */
+    float aug_dt_s;           /* per-frame random-walk sigma of its time offset */
 } mfns_filter_settings_t;
 
 typedef enum {
@@ -162,6 +186,14 @@ typedef struct {
     uint16_t win_dof[MFNS_FILTER_NIS_WINDOW];
     uint8_t win_pos, win_fill;
     uint8_t initialised;
+    /* camera fault parameters (MFNS_FILTER_AUG_*): the camera they belong
+     * to (MFNS_FILTER_NO_AUG: none, rows and columns 12-15 of P zero), the
+     * nominal pointing bias (rad, body axes) and time offset (s), the
+     * capture time of the last frame that stepped their random walk */
+    uint8_t aug_cam;
+    mfns_v3_t aug_rot;
+    float aug_dt_s;
+    int64_t aug_frame_us;
 } mfns_filter_t;
 
 /* One observation as the filter takes it. */
@@ -239,6 +271,27 @@ void mfns_filter_reset_window(mfns_filter_t *f);
 /* Upper chi-square quantile of dof degrees of freedom at tail probability p
  * (Wilson-Hilferty; relative error < 1 % for dof >= 4 at p >= 1e-7). */
 float mfns_filter_chi2_quantile(float dof, float p);
+
+/* Make camera cam's fault parameters free states of f (a camera hypothesis
+ * of the bank): nominal zero, variance set at cam's next frame by the random
+ * walk (settings aug_rot_rad, aug_dt_s). Every later observation of cam is
+ * predicted through its biased mount and time offset:
+ *   z = h(x(t - tau); C_k_b = exp([b]x) C_k_b) ~ h(x(t)) - tau (H_phi w + H_r v)
+ *   d z / d b   = J_c C_k_b'^T [p_b - r_bk_b]x       (J_c = d(u,v)/d p_k)
+ *   d z / d tau = -(H_phi w_w + H_r v_w)            (the beacon's image velocity)
+ * (the second-order d z / d v = -tau H_r, d z / d w = -tau H_phi are left
+ * out: tau is nearly free at every frame, and a linearisation at a poorly
+ * known tau would invent velocity information). cam out of range: E_ARG. */
+mfns_filter_status_t mfns_filter_augment(mfns_filter_t *f, int cam);
+
+/* Drop the fault parameters (the marginal of the body states: exact). */
+void mfns_filter_strip_aug(mfns_filter_t *f);
+
+/* The observation Jacobian w.r.t. all N states at the state f for obs
+ * (rows 2, columns MFNS_FILTER_N) and the prediction; exposed for tests
+ * (finite differences). False when the beacon is behind the camera. */
+bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig, const mfns_filter_obs_t *obs,
+                                   float uv[2], float h[2][MFNS_FILTER_N]);
 
 /* The pose of the state. */
 mfns_pose_t mfns_filter_pose(const mfns_filter_t *f);
