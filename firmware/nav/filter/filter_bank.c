@@ -270,7 +270,7 @@ static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s
  * merely too uncertain to judge a frame is not blamed for it. */
 static bool pulled_by(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs, int c, int64_t t_us)
 {
-    mfns_filter_t f0 = b->full, fk = b->sub[c]; /* 2 x ~750 B of stack, propagated copies */
+    mfns_filter_t f0 = b->full, fk = b->sub[c]; /* 2 x 1.2 KB of stack, propagated copies */
     if (mfns_filter_propagate(&f0, fs, t_us) != MFNS_FILTER_OK ||
         mfns_filter_propagate(&fk, fs, t_us) != MFNS_FILTER_OK) {
         return false;

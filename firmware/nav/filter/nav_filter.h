@@ -3,7 +3,7 @@
  * velocity model whose process noise overbounds the robot's unmodelled
  * acceleration, updated observation by observation from beacon image
  * positions at each frame's own capture time. Portable core: no heap, no OS,
- * caller-owned state (mfns_filter_t, ~680 B), bounded work per call.
+ * caller-owned state (mfns_filter_t, 1,216 B), bounded work per call.
  *
  * State (nominal): C_w_b (world -> body, camera.h), r_wb_w (mm, world), v_w
  * (mm/s, world), w_w (rad/s, world: C_b_w' = exp([w_w dt]x) C_b_w), the time
@@ -14,6 +14,9 @@
  *   3-5  dr_w   r_wb_w(true) - r_wb_w(est)                         (mm)
  *   6-8  dv_w   linear velocity error                               (mm/s)
  *   9-11 dw_w   angular velocity error (world axes)                 (rad/s)
+ *   12-14 db     pointing bias of camera aug_cam (rad, body axes)     } only in a
+ *   15   dtau    time offset of camera aug_cam (s)                   } camera hypothesis
+ * (filter_bank.h); otherwise rows and columns 12-15 stay zero.
  * The pose block (0-5) has the attitude first; pose.h's cov_ros has position
  * first (mfns_filter_init and mfns_filter_pose_cov_ros reorder).
  *
@@ -85,8 +88,9 @@
  *     frames (a soft push): the gate is per observation, a slow excess
  *     shows as a growing separation in the bank before it trips the gate.
  *
- * Work per call: propagate O(12 x 6) multiply-adds; update one projection,
- * O(12^2 x 2); no loop without a constant bound. Float throughout: the
+ * Work per call: propagate O(16 x 6) multiply-adds; update one projection,
+ * O(16^2 x 2) (an augmented camera's observation: a second projection of
+ * the same point for J_c); no loop without a constant bound. Float throughout: the
  * covariance spans 1e-9 rad^2 to 1e4 (mm/s)^2 but every update keeps P
  * symmetric and its diagonal non-negative (clamped, counted in
  * clamp_events, which the tests assert stays 0); time is int64 microseconds
