@@ -309,6 +309,58 @@ static void test_nees_consistent_model_matched(void **state)
     assert_true(gated <= n / 100); /* gate at 1e-5 per observation */
 }
 
+/* The same model-matched runs with the filter augmented by one camera's
+ * fault parameters (a camera hypothesis of the bank, camera run % 3), the
+ * truth fault-free: its pose NEES must stay chi-square(6) (measured mean
+ * 6.07, tail 1.15 %: the same bounds as the model-matched test) and not
+ * collapse (mean > 3); P must stay positive definite through hundreds of
+ * frames whose pointing prior (1 deg) one observation cuts to 1e-4 deg
+ * (it did not with the short update form: E_GEOM here). */
+static void test_nees_augmented_camera_hypothesis(void **state)
+{
+    (void)state;
+    mfns_filter_settings_t s;
+    mfns_filter_settings_default(&s);
+    s.accel_bound_mm_s2 = 5.0f;
+    s.alpha_bound_rad_s2 = 0.005f;
+    const double q_lin = (double)s.accel_bound_mm_s2 * s.accel_bound_mm_s2 * s.bound_time_s;
+    const double q_ang = (double)s.alpha_bound_rad_s2 * s.alpha_bound_rad_s2 * s.bound_time_s;
+    mfns_rng_t rng, orng;
+    mfns_rng_seed(&rng, 4343);
+    mfns_rng_seed(&orng, 778);
+    double sum = 0.0;
+    int n = 0, tail = 0, gated = 0;
+    uint32_t clamps = 0;
+    for (int run = 0; run < NEES_RUNS; run++) {
+        world_t w;
+        make_world(&w, &rng);
+        for (int i = 0; i < 3; i++) {
+            w.x.v_w[i] = 5.0 * mfns_rng_normal(&rng);
+            w.x.w_w[i] = 0.002 * mfns_rng_normal(&rng);
+        }
+        mfns_filter_t f;
+        fs_init_filter(&f, &w.x, 5e-4, 0.5, 5.0, 0.002, 0, &rng);
+        assert_int_equal(mfns_filter_augment(&f, run % MFNS_NUM_CAMERAS), MFNS_FILTER_OK);
+        int64_t tt = 0;
+        for (int k = 1; k <= NEES_CYCLES; k++) {
+            const int64_t t = (int64_t)k * FRAME_US;
+            gated += run_cycle(&w, &f, &s, t, q_lin, q_ang, NULL, &tt, &rng, &orng);
+            const double e = fs_nees(&f, &w.x);
+            sum += e;
+            n++;
+            tail += e > 16.81 ? 1 : 0;
+        }
+        clamps += f.clamp_events;
+    }
+    const double mean = sum / n;
+    print_message("augmented (camera hypothesis) NEES: mean %.3f over %d, tail(>16.81) %.2f %%, gated %d\n", mean, n,
+                  100.0 * tail / n, gated);
+    assert_true(mean > 3.0 && mean < 6.9);
+    assert_true(tail <= n * 3 / 100);
+    assert_int_equal(clamps, 0);
+    assert_true(gated <= n / 100);
+}
+
 /* The default bound on a static robot and on one moving slowly at constant
  * velocity: the process noise overbounds the (absent) acceleration, so the
  * NEES must not exceed chi-square(6): mean <= 6, tail beyond the 1 % point
@@ -509,6 +561,7 @@ int main(void)
         cmocka_unit_test(test_aug_jacobian_matches_finite_differences),
         cmocka_unit_test(test_propagation_matches_white_acceleration_model),
         cmocka_unit_test(test_nees_consistent_model_matched),
+        cmocka_unit_test(test_nees_augmented_camera_hypothesis),
         cmocka_unit_test(test_nees_static_robot),
         cmocka_unit_test(test_nees_slowly_moving_robot),
         cmocka_unit_test(test_motion_bound_exceeded_flagged),

@@ -18,10 +18,11 @@
  *     subset that drops the camera threw away (module seed 2: PL 120-320 mm
  *     dropped, the camera hypotheses' PL now close to the beacon
  *     hypotheses', docs/pose.md).
- *     Fault profile: b_k and tau_k are random walks stepped at every frame
- *     of camera k by sigma 1 deg and 60 ms (settings aug_rot_rad, aug_dt_s):
- *     each frame's fault parameters are nearly free (a frame measures b_k to
- *     ~1e-4 rad), so the hypothesis assumes nothing of the fault's time
+ *     Fault profile: b_k and tau_k start afresh at every frame of camera k
+ *     (old ones marginalised out, new ones N(last estimate, (1 deg)^2 /
+ *     (60 ms)^2) independent of the rest; settings aug_rot_rad, aug_dt_s):
+ *     each frame's fault parameters are its own unknowns (a frame measures
+ *     b_k to ~1e-4 rad), so the hypothesis assumes nothing of the fault's time
  *     profile (a step at any time, a ramp of any slope, a drift): x_k is
  *     unmoved by any camera-k fault within the linearisation (a few degrees
  *     and a frame period; larger ones fail the frame test as a whole). A

@@ -265,6 +265,9 @@ typedef struct {
     float y[2];
     float s[3]; /* S: [0] 00, [1] 01, [2] 11 */
     float pht[N][2];
+    float h[2][N]; /* the observation's Jacobian (Joseph update) */
+    float r[3];    /* its noise R: [0] 00, [1] 01, [2] 11 */
+    int nh;        /* columns of h that can be non-zero */
     float nis;
 } innov_t;
 
@@ -322,7 +325,7 @@ bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig
         }
         /* timing: the image velocity of the beacon. The offset's lever on the
          * velocity states (-tau H) is left out on purpose: tau is nearly
-         * free at every frame (its random walk), and a linearisation at a
+         * free at every frame (restarted), and a linearisation at a
          * poorly known tau would feed the velocity information that the
          * frame does not hold (measured: P_k below P_0 on yaw) */
         float zdot = 0.0f;
@@ -342,7 +345,7 @@ mfns_filter_status_t mfns_filter_augment(mfns_filter_t *f, int cam)
     }
     mfns_filter_strip_aug(f);
     f->aug_cam = (uint8_t)cam;
-    f->aug_frame_us = INT64_MIN; /* the next frame of cam steps the random walk */
+    f->aug_frame_us = INT64_MIN; /* the next frame of cam starts its parameters */
     return MFNS_FILTER_OK;
 }
 
@@ -362,18 +365,31 @@ void mfns_filter_strip_aug(mfns_filter_t *f)
     f->aug_dt_s = 0.0f;
 }
 
-/* A new frame of the augmented camera: one step of its fault parameters'
- * random walk (the fault may have changed since its last frame). */
+/* A new frame of the augmented camera: its fault parameters start afresh.
+ * The old ones are marginalised out (their rows and columns dropped: exact
+ * for the other states) and new ones enter, independent, with the prior
+ * N(last estimate, sigma^2): each frame's pointing and timing are their own
+ * unknowns, whatever the fault's time profile. (Adding sigma^2 to the old
+ * variance, a random walk, is the same model up to the weak link to the last
+ * frame, but in float it left P indefinite after a few hundred frames: a
+ * 1 deg^2 variance next to cross-covariances of 1e-8; measured, S not
+ * positive definite in test_nees_augmented_camera_hypothesis.) */
 static void aug_step(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_filter_obs_t *o)
 {
     if (f->aug_cam != o->cam || f->aug_frame_us == o->t_us) {
         return;
     }
     f->aug_frame_us = o->t_us;
-    for (int i = 0; i < 3; i++) {
-        f->P[MFNS_FILTER_AUG_ROT + i][MFNS_FILTER_AUG_ROT + i] += s->aug_rot_rad * s->aug_rot_rad;
+    for (int i = MFNS_FILTER_BASE_N; i < N; i++) {
+        for (int j = 0; j < N; j++) {
+            f->P[i][j] = 0.0f;
+            f->P[j][i] = 0.0f;
+        }
     }
-    f->P[MFNS_FILTER_AUG_DT][MFNS_FILTER_AUG_DT] += s->aug_dt_s * s->aug_dt_s;
+    for (int i = 0; i < 3; i++) {
+        f->P[MFNS_FILTER_AUG_ROT + i][MFNS_FILTER_AUG_ROT + i] = s->aug_rot_rad * s->aug_rot_rad;
+    }
+    f->P[MFNS_FILTER_AUG_DT][MFNS_FILTER_AUG_DT] = s->aug_dt_s * s->aug_dt_s;
 }
 
 static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px,
@@ -413,6 +429,9 @@ static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t 
             hph[a][b] = v;
         }
     }
+    memcpy(in->h, h, sizeof in->h);
+    memcpy(in->r, r, sizeof in->r);
+    in->nh = nh;
     in->s[0] = hph[0][0] + r[0];
     in->s[1] = 0.5f * (hph[0][1] + hph[1][0]) + r[1];
     in->s[2] = hph[1][1] + r[2];
@@ -541,10 +560,32 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
         k[i][1] = in.pht[i][0] * si[1] + in.pht[i][1] * si[2];
         dx[i] = k[i][0] * in.y[0] + k[i][1] * in.y[1];
     }
+    /* Joseph form, P <- (I - K H) P (I - K H)^T + K R K^T, in its rank-2
+     * shape: A = P - K (P H^T)^T, then P <- A - (A H^T) K^T + K R K^T.
+     * The short form P - K S K^T lost positive definiteness in float on
+     * an augmented camera (a 1 deg prior of the pointing bias cut to 1e-4
+     * deg in one observation: H P H^T of a later observation of the frame
+     * came out -0.02 px^2, test_nees_augmented_camera_hypothesis). */
+    float aht[N][2];
     for (int i = 0; i < N; i++) {
-        for (int j = 0; j <= i; j++) {
+        for (int j = 0; j < N; j++) {
             f->P[i][j] -= k[i][0] * in.pht[j][0] + k[i][1] * in.pht[j][1];
-            f->P[j][i] = f->P[i][j];
+        }
+    }
+    for (int i = 0; i < N; i++) {
+        for (int a = 0; a < 2; a++) {
+            float v = 0.0f;
+            for (int q = 0; q < in.nh; q++) {
+                v += f->P[i][q] * in.h[a][q];
+            }
+            aht[i][a] = v;
+        }
+    }
+    for (int i = 0; i < N; i++) {
+        const float kr0 = k[i][0] * in.r[0] + k[i][1] * in.r[1];
+        const float kr1 = k[i][0] * in.r[1] + k[i][1] * in.r[2];
+        for (int j = 0; j < N; j++) {
+            f->P[i][j] += -aht[i][0] * k[j][0] - aht[i][1] * k[j][1] + kr0 * k[j][0] + kr1 * k[j][1];
         }
     }
     symmetrise(f);

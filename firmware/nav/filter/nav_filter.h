@@ -55,7 +55,8 @@
  * survey error projected into the image. Linearised with mfns_cam_project's
  * Jacobian d(u, v)/d(increment) at the prediction, chained to the error
  * state above: H = [J_th (-C) + J_t [r_bw_b]x C,  -J_t C,  0,  0]. Standard
- * 2-D update K = P H^T S^-1, S = H P H^T + R, P <- P - K S K^T (symmetrised),
+ * 2-D update K = P H^T S^-1, S = H P H^T + R, P <- (I - K H) P (I - K H)^T +
+ * K R K^T (Joseph form, rank-2 shaped: O(N^2); symmetrised),
  * then the error injected into the nominal state (rotation on the manifold).
  *
  * Innovation gate (the motion bound's monitor): NIS = y^T S^-1 y against the
@@ -123,11 +124,12 @@
 #define MFNS_FILTER_AUG_ROT 12
 #define MFNS_FILTER_AUG_DT 15
 #define MFNS_FILTER_NO_AUG 0xFFU
-/* Fault parameters' random walk, one step per frame of the augmented camera
+/* Fault parameters' prior, fresh at every frame of the augmented camera
  * (filter_bank.h argues the values): 1 deg of pointing and 60 ms (more than a
- * frame period) of timing per frame, i.e. the hypothesis assumes nothing
- * about the fault's profile (a step at any time, a ramp of any slope within
- * the linear range): each frame's fault parameters are nearly free, only the
+ * frame period) of timing around the last estimate, independent of the rest,
+ * i.e. the hypothesis assumes nothing about the fault's profile (a step at
+ * any time, a ramp of any slope within the linear range): each frame's fault
+ * parameters are its own unknowns, only the
  * part of the frame they cannot move (the beacons' relative geometry) informs
  * the pose. */
 #define MFNS_FILTER_DEFAULT_AUG_ROT_RAD 0.0175f
@@ -157,8 +159,8 @@ typedef struct {
     float max_coast_s;        /* longest time without an applied observation (E_TIME: restart) */
     float gate_p;             /* per-observation gate false-alarm probability, (0, 0.5) */
     uint16_t gate_reject_run; /* consecutive gated observations that flag motion_exceeded */
-    float aug_rot_rad;        /* per-frame random-walk sigma of an augmented camera's pointing bias */
-    float aug_dt_s;           /* per-frame random-walk sigma of its time offset */
+    float aug_rot_rad;        /* per-frame prior sigma of an augmented camera's pointing bias */
+    float aug_dt_s;           /* per-frame prior sigma of its time offset */
 } mfns_filter_settings_t;
 
 typedef enum {
@@ -193,7 +195,7 @@ typedef struct {
     /* camera fault parameters (MFNS_FILTER_AUG_*): the camera they belong
      * to (MFNS_FILTER_NO_AUG: none, rows and columns 12-15 of P zero), the
      * nominal pointing bias (rad, body axes) and time offset (s), the
-     * capture time of the last frame that stepped their random walk */
+     * capture time of the last frame that restarted them */
     uint8_t aug_cam;
     mfns_v3_t aug_rot;
     float aug_dt_s;
@@ -277,9 +279,11 @@ void mfns_filter_reset_window(mfns_filter_t *f);
 float mfns_filter_chi2_quantile(float dof, float p);
 
 /* Make camera cam's fault parameters free states of f (a camera hypothesis
- * of the bank): nominal zero, variance set at cam's next frame by the random
- * walk (settings aug_rot_rad, aug_dt_s). Every later observation of cam is
- * predicted through its biased mount and time offset:
+ * of the bank): nominal zero, variance set at cam's next frame (settings
+ * aug_rot_rad, aug_dt_s). Every later observation of cam is
+ * predicted through its biased mount and time offset, and each new frame of
+ * cam restarts them (old ones marginalised out, new ones N(last estimate,
+ * aug_rot_rad^2 / aug_dt_s^2) independent of the rest):
  *   z = h(x(t - tau); C_k_b = exp([b]x) C_k_b) ~ h(x(t)) - tau (H_phi w + H_r v)
  *   d z / d b   = J_c C_k_b'^T [p_b - r_bk_b]x       (J_c = d(u,v)/d p_k)
  *   d z / d tau = -(H_phi w_w + H_r v_w)            (the beacon's image velocity)
