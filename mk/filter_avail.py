@@ -8,6 +8,7 @@ of the attitude (deg: the largest component of log(C_est C_true^T)), the worst
 |error| / PL over usable cycles per axis, and the usable fixes whose error on
 some axis is beyond its PL (pl_pos_mm / pl_att_deg of the same row).
 """
+
 from __future__ import annotations
 
 import csv
@@ -61,8 +62,10 @@ def case(out: Path, frames: Path, name: str, mode: str) -> str:
 
 def main() -> int:
     out, frames = Path(sys.argv[1]), Path(sys.argv[2])
-    print("| run | filter | usable | of them camera faults bounded | worst error x / y / z mm / att deg "
-          "| worst error/PL x / y / z / att | usable beyond PL |")
+    print(
+        "| run | filter | usable | of them camera faults bounded | worst error x / y / z mm / att deg "
+        "| worst error/PL x / y / z / att | usable beyond PL |"
+    )
     print("|---|---|---|---|---|---|---|")
     for name in CASES:
         for mode in ("off", "on"):
