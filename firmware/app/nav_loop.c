@@ -42,6 +42,12 @@ static void navigate(nav_app_t *app, uint32_t cycle, const mfns_frame_t *frames[
         app->out.sol.status = MFNS_POSE_NO_FIX;
         app->out.mode = app->out.next_mode = app->nav.mode;
     } else {
+        /* each frame's own capture stamp for the filter (nav_filter_cycle.h) */
+        int64_t t_cap[MFNS_NUM_CAMERAS];
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            t_cap[k] = frames[k] != NULL ? (int64_t)(app->cams.cam[k].frame.timestamp_ns / 1000u) : 0;
+        }
+        (void)mfns_nav_set_frame_times(&app->nav, t_cap); /* app->nav is initialised: cannot fail */
         ns = mfns_nav_cycle(&app->nav, frames, &app->out);
     }
     nav_cams_give_back_used(&app->cams);

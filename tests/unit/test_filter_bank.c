@@ -7,7 +7,10 @@
  *    excluded with the right beacon named, the PL bounding the error before;
  *  - one camera pointing 0.3 deg off, and one camera a frame (54 ms) late on
  *    a moving robot: the camera named;
- *  - a readmission after a clean hold. */
+ *  - a readmission after a clean hold;
+ *  - a slow pointing ramp (0.005 deg per cycle) on each camera;
+ *  - two cameras seeing beacons (the module's seed-2 geometry): the camera
+ *    hypotheses' PL bounded, a pointing step and ramp detected. */
 #include <string.h>
 
 #include "tests/unit/support/filter_sim.h"
@@ -32,6 +35,7 @@ typedef enum {
     F_CAM_LAG,      /* camera fault_id one frame late */
     F_BEACON_PULSE, /* arg px for 10 cycles, then healthy (readmission) */
     F_COLLISION,    /* arg mm/s^2 along x for one frame period from FAULT_CYCLE */
+    F_CAM_RAMP,     /* arg deg per cycle about the camera's x axis, camera fault_id */
 } fault_t;
 
 typedef struct {
@@ -41,6 +45,7 @@ typedef struct {
     double speed_mm_s, rate_rad_s;
     uint64_t seed;
     int cycles; /* 0: CYCLES */
+    const int *per_cam; /* beacons per camera, NULL: PER_CAM */
 } scenario_t;
 
 typedef struct {
@@ -52,6 +57,9 @@ typedef struct {
     int bound_violations_before; /* of them, before the detection */
     double worst_ratio;    /* max error / PL over usable cycles */
     double max_pl_pos, max_pl_att;
+    double max_pl_beacon_pos; /* over the beacon hypotheses alone (what the cameras cost: max_pl_pos) */
+    double max_sigma_pos;     /* the output's largest position sigma (mm) */
+    double max_pl_any_pos;    /* the largest finite-hypothesis PL, usable or not (mm) */
     uint32_t max_work, work_bound_violations;
     int readmitted_cycle;
     int restarts;
@@ -73,7 +81,7 @@ static void run(const scenario_t *sc, result_t *res)
         x.C_w_b[i][i] = 1.0;
     }
     const pt_dpose_t p0 = fs_truth_pose(&x);
-    const mfns_beacon_map_t map = pt_dense_map(&rig, &p0, PER_CAM, 900, 1400, &rng);
+    const mfns_beacon_map_t map = pt_dense_map(&rig, &p0, sc->per_cam != NULL ? sc->per_cam : PER_CAM, 900, 1400, &rng);
     x.v_w[0] = sc->speed_mm_s;
     x.w_w[2] = sc->rate_rad_s;
     mfns_rig_t bad_rig = rig;
@@ -105,6 +113,11 @@ static void run(const scenario_t *sc, result_t *res)
     for (int k = 1; k <= cycles; k++) {
         const int64_t t = (int64_t)k * FRAME_US;
         const bool on = k >= FAULT_CYCLE;
+        if (sc->kind == F_CAM_RAMP && on) {
+            const double a = sc->arg * (k - FAULT_CYCLE + 1) * MFNS_PI / 180.0;
+            const mfns_m3_t r = mfns_rot_exp(mfns_v3((float)a, 0.0f, 0.0f));
+            bad_rig.cam[sc->id].C_k_b = mfns_m3_mul(rig.cam[sc->id].C_k_b, r);
+        }
         int nobs = 0;
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             const int64_t tc = t + c * CAM_STAGGER_US;
@@ -115,7 +128,8 @@ static void run(const scenario_t *sc, result_t *res)
             mfns_filter_obs_t obs[MAX_OBS];
             int16_t beacon[MAX_OBS];
             const bool lag = on && sc->kind == F_CAM_LAG && c == sc->id;
-            const mfns_rig_t *r = (on && sc->kind == F_CAM_POINTING && c == sc->id) ? &bad_rig : &rig;
+            const mfns_rig_t *r =
+                (on && (sc->kind == F_CAM_POINTING || sc->kind == F_CAM_RAMP) && c == sc->id) ? &bad_rig : &rig;
             const int n = fs_observe(r, &map, lag ? &late[c] : &x, c, SIGMA_PX, &orng, tc, obs, beacon, MAX_OBS);
             late[c] = x;
             for (int i = 0; i < n; i++) {
@@ -147,7 +161,8 @@ static void run(const scenario_t *sc, result_t *res)
             break;
         }
         if (out.detected_kind != MFNS_BANK_HYP_NONE) {
-            const bool right = (int)out.detected_kind == (sc->kind == F_CAM_POINTING || sc->kind == F_CAM_LAG
+            const bool right = (int)out.detected_kind == (sc->kind == F_CAM_POINTING || sc->kind == F_CAM_LAG ||
+                                                                  sc->kind == F_CAM_RAMP
                                                               ? MFNS_BANK_HYP_CAMERA
                                                               : MFNS_BANK_HYP_BEACON) &&
                                out.detected_id == sc->id && sc->kind != F_NONE && on;
@@ -179,6 +194,13 @@ static void run(const scenario_t *sc, result_t *res)
             res->max_pl_pos = fmax(res->max_pl_pos, out.pl_pos_mm);
             res->max_pl_att = fmax(res->max_pl_att, out.pl_att_deg);
         }
+        if (out.status != MFNS_POSE_NO_FIX || out.reason == MFNS_POSE_R_PL_EXCEEDS_AL) {
+            res->max_pl_beacon_pos = fmax(res->max_pl_beacon_pos, out.pl_beacon_pos_mm);
+            for (int j = 0; j < 3; j++) {
+                res->max_sigma_pos = fmax(res->max_sigma_pos, sqrt(fmax(out.cov_ros[j][j], 0.0)));
+            }
+            res->max_pl_any_pos = fmax(res->max_pl_any_pos, out.pl_pos_mm);
+        }
     }
 }
 
@@ -195,7 +217,7 @@ static void test_clean_runs(void **state)
 {
     (void)state;
     for (uint64_t seed = 1; seed <= 4; seed++) {
-        const scenario_t sc = {F_NONE, -1, 0.0, seed % 2 ? 30.0 : 0.0, seed % 2 ? 0.02 : 0.0, seed, 0};
+        const scenario_t sc = {F_NONE, -1, 0.0, seed % 2 ? 30.0 : 0.0, seed % 2 ? 0.02 : 0.0, seed, 0, NULL};
         result_t r;
         run(&sc, &r);
         report("clean", &r);
@@ -222,7 +244,7 @@ static void expect_detected(const char *name, const scenario_t *sc, int within)
 static void test_beacon_step_gated(void **state)
 {
     (void)state;
-    const scenario_t sc = {F_BEACON_STEP, 2, 1.0, 30.0, 0.02, 7, 0};
+    const scenario_t sc = {F_BEACON_STEP, 2, 1.0, 30.0, 0.02, 7, 0, NULL};
     expect_detected("beacon step 1 px", &sc, 2);
 }
 
@@ -233,7 +255,7 @@ static void test_beacon_small_step_bounded(void **state)
 {
     (void)state;
     for (uint64_t seed = 8; seed < 12; seed++) {
-        const scenario_t sc = {F_BEACON_STEP, (int)seed - 3, 0.4, 30.0, 0.02, seed, 0};
+        const scenario_t sc = {F_BEACON_STEP, (int)seed - 3, 0.4, 30.0, 0.02, seed, 0, NULL};
         result_t r;
         run(&sc, &r);
         report("beacon step 0.4 px", &r);
@@ -247,7 +269,7 @@ static void test_beacon_small_step_bounded(void **state)
 static void test_beacon_slow_ramp(void **state)
 {
     (void)state;
-    const scenario_t sc = {F_BEACON_RAMP, 1, 0.02, 30.0, 0.02, 9, 0};
+    const scenario_t sc = {F_BEACON_RAMP, 1, 0.02, 30.0, 0.02, 9, 0, NULL};
     expect_detected("beacon ramp .02 px/cyc", &sc, 40);
 }
 
@@ -255,7 +277,7 @@ static void test_camera_pointing_step(void **state)
 {
     (void)state;
     for (int cam = 0; cam < MFNS_NUM_CAMERAS; cam++) {
-        const scenario_t sc = {F_CAM_POINTING, cam, 0.3, 30.0, 0.02, 10 + (uint64_t)cam, 0};
+        const scenario_t sc = {F_CAM_POINTING, cam, 0.3, 30.0, 0.02, 10 + (uint64_t)cam, 0, NULL};
         expect_detected("camera 0.3 deg", &sc, 2);
     }
 }
@@ -266,7 +288,7 @@ static void test_camera_one_frame_late(void **state)
     for (int cam = 0; cam < MFNS_NUM_CAMERAS; cam++) {
         /* 100 mm/s and 0.05 rad/s (5.4 mm and 2.7 mrad a frame): the robot
          * leaves the 10-beacon map after ~4 s, so 75 cycles */
-        const scenario_t sc = {F_CAM_LAG, cam, 0.0, 100.0, 0.05, 20 + (uint64_t)cam, 75};
+        const scenario_t sc = {F_CAM_LAG, cam, 0.0, 100.0, 0.05, 20 + (uint64_t)cam, 75, NULL};
         expect_detected("camera 54 ms late", &sc, 10);
     }
 }
@@ -274,7 +296,7 @@ static void test_camera_one_frame_late(void **state)
 static void test_beacon_readmitted_after_clean_hold(void **state)
 {
     (void)state;
-    const scenario_t sc = {F_BEACON_PULSE, 3, 1.0, 30.0, 0.02, 31, 0};
+    const scenario_t sc = {F_BEACON_PULSE, 3, 1.0, 30.0, 0.02, 31, 0, NULL};
     result_t r;
     run(&sc, &r);
     report("beacon pulse 10 cyc", &r);
@@ -294,7 +316,7 @@ static void test_beacon_readmitted_after_clean_hold(void **state)
 static void test_collision_restarts(void **state)
 {
     (void)state;
-    const scenario_t sc = {F_COLLISION, -1, 5000.0, 30.0, 0.02, 41, 0};
+    const scenario_t sc = {F_COLLISION, -1, 5000.0, 30.0, 0.02, 41, 0, NULL};
     result_t r;
     run(&sc, &r);
     report("collision 5 m/s^2", &r);
@@ -304,6 +326,88 @@ static void test_collision_restarts(void **state)
     assert_int_equal(r.restart_reason, MFNS_POSE_R_MOTION_EXCEEDED);
     assert_int_equal(r.wrong_subject, 0);
     assert_int_equal(r.bound_violations, 0);
+}
+
+/* A camera's mount turning slowly, 0.005 deg per cycle (0.09 deg/s): inside
+ * one frame's residuals for many cycles. The camera's hypothesis filter
+ * follows it in its pointing bias, the full filter is pulled: named from
+ * the separation, no usable error beyond its PL before. */
+static void test_camera_pointing_ramp(void **state)
+{
+    (void)state;
+    for (int cam = 0; cam < MFNS_NUM_CAMERAS; cam++) {
+        const scenario_t sc = {F_CAM_RAMP, cam, 0.005, 30.0, 0.02, 50 + (uint64_t)cam, 0, NULL};
+        expect_detected("camera ramp .005 deg/c", &sc, 60);
+    }
+}
+
+/* The module's seed-2 geometry: two cameras see beacons, 2-4 each, the
+ * third none. Dropping a camera left the other's 2-3 beacons and the motion
+ * model (PL 120-320 mm on the module replay); the parametric hypothesis
+ * keeps the camera's inter-beacon geometry: the camera hypotheses' PL stays
+ * bounded, nothing is blamed, the error stays inside its PL. */
+static const int TWO_CAM[2][3] = {{3, 3, 0}, {4, 2, 0}};
+
+static void test_two_camera_scene_bounded(void **state)
+{
+    (void)state;
+    for (int g = 0; g < 2; g++) {
+        for (uint64_t seed = 60; seed < 62; seed++) {
+            const scenario_t sc = {F_NONE, -1, 0.0, 30.0, 0.02, seed + 10U * (uint64_t)g, 0, TWO_CAM[g]};
+            result_t r;
+            run(&sc, &r);
+            report("two cameras clean", &r);
+            print_message("  PL max %.2f mm (beacon hypotheses alone %.2f mm), sigma_pos max %.3f mm\n",
+                          r.max_pl_any_pos, r.max_pl_beacon_pos, r.max_sigma_pos);
+            assert_int_equal(r.restarts, 0);
+            assert_int_equal(r.first_detect, -1);
+            assert_int_equal(r.bound_violations, 0);
+            assert_true(isfinite(r.max_pl_any_pos));
+            /* measured 5.0 / 5.9 / 7.4 / 25.3 mm (sigma_pos <= 0.3 mm); the
+             * camera-dropping bank gave 120-320 mm on the module's replay */
+            assert_true(r.max_pl_any_pos <= 40.0);
+            assert_true(r.usable * 100 >= r.evaluated * 95);
+        }
+    }
+}
+
+/* A pointing step and a slow pointing ramp on one of the two cameras of
+ * that geometry: detected (the step named), no usable error beyond its PL. (A one-frame lag on
+ * a 3-beacon camera of this geometry is NOT yet handled: on seed 90 the
+ * separation of beacon 1's hypothesis fails first, beacon 1 is excluded and
+ * one usable cycle is beyond its PL (1.30); docs/pose.md.) */
+static void test_two_camera_scene_faults(void **state)
+{
+    (void)state;
+    for (int cam = 0; cam < 2; cam++) {
+        /* the first exclusion names the camera at onset; after it one camera
+         * is left (PL beyond the alert limit, not usable) and a later
+         * exclusion in that state may name another subject (measured on
+         * camera 1: one more) -- only the first is asserted */
+        const scenario_t step = {F_CAM_POINTING, cam, 0.3, 30.0, 0.02, 80 + (uint64_t)cam, 0, TWO_CAM[0]};
+        result_t rs;
+        run(&step, &rs);
+        report("2 cams: 0.3 deg", &rs);
+        assert_int_equal(rs.restarts, 0);
+        assert_true(rs.first_detect >= FAULT_CYCLE && rs.first_detect <= FAULT_CYCLE + 2);
+        assert_int_equal(rs.detect_kind, MFNS_BANK_HYP_CAMERA);
+        assert_int_equal(rs.detect_id, cam);
+        assert_int_equal(rs.bound_violations, 0);
+        /* a slow ramp of one of two cameras is a change of their relative
+         * pointing: either camera's hypothesis explains it (the motion model
+         * alone could tell them apart, and its bound allows the rotation):
+         * measured, camera 0's ramp named camera 1 at +16 cycles and camera
+         * 1's named camera 0 at +11 -- a known defect (docs/pose.md); what is
+         * asserted is the detection and the bound */
+        const scenario_t ramp = {F_CAM_RAMP, cam, 0.005, 30.0, 0.02, 85 + (uint64_t)cam, 0, TWO_CAM[0]};
+        result_t r;
+        run(&ramp, &r);
+        report("2 cams: .005 deg/cycle", &r);
+        assert_int_equal(r.restarts, 0);
+        assert_true(r.first_detect >= FAULT_CYCLE && r.first_detect <= FAULT_CYCLE + 60);
+        assert_int_equal(r.detect_kind, MFNS_BANK_HYP_CAMERA);
+        assert_int_equal(r.bound_violations, 0);
+    }
 }
 
 int main(void)
@@ -317,6 +421,9 @@ int main(void)
         cmocka_unit_test(test_camera_one_frame_late),
         cmocka_unit_test(test_beacon_readmitted_after_clean_hold),
         cmocka_unit_test(test_collision_restarts),
+        cmocka_unit_test(test_camera_pointing_ramp),
+        cmocka_unit_test(test_two_camera_scene_bounded),
+        cmocka_unit_test(test_two_camera_scene_faults),
     };
     return cmocka_run_group_tests_name("filter_bank", tests, NULL, NULL);
 }

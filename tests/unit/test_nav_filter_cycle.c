@@ -124,11 +124,55 @@ static void test_on_starts_and_takes_over(void **state)
     assert_false(rep.ran);
 }
 
+/* Capture times (mfns_navf_set_frame_times): each camera's frame enters at
+ * its own stamp, cameras in time order whatever their index, the cycle is
+ * evaluated at the latest stamp, a start takes the earliest; a frame stamped
+ * before the bank's state (a stale stamp) is not fed and is counted. */
+static void test_capture_times(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 3);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 54000);
+    const int64_t base = 5000000; /* a capture clock that does not start at 0 */
+    int used = 0;
+    for (int k = 0; k < 20; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        /* camera 2 first, then 0, then 1 (7 ms apart); at k = 12 camera 1's
+         * frame carries last cycle's stamp */
+        int64_t t[MFNS_NUM_CAMERAS] = {base + k * 54000 + 7000, base + k * 54000 + 14000, base + k * 54000};
+        if (k == 12) {
+            t[1] = base + 11 * 54000 + 14000 - 54000;
+        }
+        mfns_navf_set_frame_times(&nf, t);
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        if (k == 0) {
+            assert_true(rep.started);
+            assert_int_equal(nf.bank.full.t_us, base); /* the earliest frame of the fix */
+            continue;
+        }
+        assert_true(rep.ran);
+        assert_false(rep.out.restart);
+        assert_int_equal(nf.bank.full.t_us, k == 12 ? base + k * 54000 + 7000 : base + k * 54000 + 14000);
+        used += rep.used ? 1 : 0;
+    }
+    assert_int_equal(nf.stale_frames, 1);
+    assert_true(used >= 10);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
+        cmocka_unit_test(test_capture_times),
     };
     return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
 }

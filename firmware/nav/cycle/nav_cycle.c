@@ -133,6 +133,15 @@ mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us)
     return MFNS_NAV_OK;
 }
 
+mfns_nav_status_t mfns_nav_set_frame_times(mfns_nav_t *nav, const int64_t t_us[MFNS_NUM_CAMERAS])
+{
+    if (nav == NULL || nav->magic != NAV_MAGIC || t_us == NULL) {
+        return MFNS_NAV_E_ARG;
+    }
+    mfns_navf_set_frame_times(&nav->filt, t_us);
+    return MFNS_NAV_OK;
+}
+
 void mfns_nav_lose_track(mfns_nav_t *nav)
 {
     if (nav != NULL) {

@@ -189,6 +189,13 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
  * snapshot navigator, bit for bit. */
 mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us);
 
+/* The next cycle's frames' capture times (microseconds, the cameras' clock
+ * as stamped; t_us[k] of a camera without a frame is ignored): with the
+ * filter on, each camera's observations enter it at its own frame's time
+ * (nav_filter_cycle.h). Not called before a cycle: the frames of cycle k are
+ * stamped k x period. Used by the next mfns_nav_cycle only. */
+mfns_nav_status_t mfns_nav_set_frame_times(mfns_nav_t *nav, const int64_t t_us[MFNS_NUM_CAMERAS]);
+
 /* Start tracking from a known pose (e.g. the docking port the robot leaves
  * from, commanded from the ground): the next cycle tracks from it and falls
  * back to acquisition if the beacons do not confirm it. MFNS_NAV_E_ARG for a

@@ -55,6 +55,7 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
     }
     for (int k = 0; k < MFNS_BANK_CAM_HYP; k++) {
         b->sub[k] = b->full;
+        (void)mfns_filter_augment(&b->sub[k], k); /* k < MFNS_NUM_CAMERAS: cannot fail */
     }
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         b->slot_beacon[i] = NO_BEACON;
@@ -70,6 +71,9 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
 static void start_hypothesis(mfns_filter_bank_t *b, int k)
 {
     b->sub[k] = b->full;
+    if (k < MFNS_BANK_CAM_HYP) {
+        (void)mfns_filter_augment(&b->sub[k], k); /* camera k's fault parameters free */
+    }
     mfns_filter_reset_window(&b->sub[k]);
     b->cons_nis[k] = 0.0f;
     b->cons_dof[k] = 0.0f;
@@ -219,7 +223,9 @@ static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter
         return st; /* the full filter's gate decides for every subset */
     }
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
-        const bool skip = k < MFNS_BANK_CAM_HYP ? k == (int)obs->cam
+        /* a camera's hypothesis takes its camera's observations too, through
+         * the camera's free fault parameters (pointing, timing) */
+        const bool skip = k < MFNS_BANK_CAM_HYP ? false
                                                 : (b->slot_beacon[k - MFNS_BANK_CAM_HYP] == NO_BEACON ||
                                                    k - MFNS_BANK_CAM_HYP == slot);
         if (skip) {
@@ -264,7 +270,7 @@ static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s
  * merely too uncertain to judge a frame is not blamed for it. */
 static bool pulled_by(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs, int c, int64_t t_us)
 {
-    mfns_filter_t f0 = b->full, fk = b->sub[c]; /* 2 x ~750 B of stack, propagated copies */
+    mfns_filter_t f0 = b->full, fk = b->sub[c]; /* 2 x 1.2 KB of stack, propagated copies */
     if (mfns_filter_propagate(&f0, fs, t_us) != MFNS_FILTER_OK ||
         mfns_filter_propagate(&fk, fs, t_us) != MFNS_FILTER_OK) {
         return false;
@@ -406,6 +412,7 @@ static bool exclude(mfns_filter_bank_t *b, int k)
         b->slot_beacon[slot] = NO_BEACON;
     }
     b->full = b->sub[k];
+    mfns_filter_strip_aug(&b->full); /* the camera is held out: its fault parameters are not needed */
     mfns_filter_reset_window(&b->full); /* the fault's surprise leaves the window with it */
     restart_hypotheses(b);
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {

@@ -4,21 +4,52 @@
  * "Integrity"; /work/shared/INTEGRITY-NOTES.md).
  *
  * Hypotheses, with equal standing:
- *   - camera k (always, MFNS_NUM_CAMERAS of them): its subset filter never
- *     takes camera k's observations. A mount knocked (pointing), a frame a
- *     period late or a drifting clock moves the full filter, not this one.
+ *   - camera k (always, MFNS_NUM_CAMERAS of them), PARAMETRIC: its filter is
+ *     the full filter augmented with camera k's fault parameters as free
+ *     states (nav_filter.h mfns_filter_augment): a pointing bias b_k (3,
+ *     C_k_b(true) = exp([b_k]x) C_k_b) and a time offset tau_k (1, the frame
+ *     stamped t was captured at t - tau_k). It keeps taking camera k's
+ *     observations through them. What a camera fault can do is exactly a
+ *     change of b_k or tau_k (a knocked mount, a lag, a drifting clock); what
+ *     it cannot do is change the part of camera k's frame those 4 parameters
+ *     do not reach: the beacons' relative geometry (inter-beacon angles,
+ *     2n - 3 numbers for n beacons) and, on a static robot, everything
+ *     timing-related. That part still informs the pose, which is what a
+ *     subset that drops the camera threw away (module seed 2: PL 120-320 mm
+ *     dropped, the camera hypotheses' PL now close to the beacon
+ *     hypotheses', docs/pose.md).
+ *     Fault profile: b_k and tau_k start afresh at every frame of camera k
+ *     (old ones marginalised out, new ones N(last estimate, (1 deg)^2 /
+ *     (60 ms)^2) independent of the rest; settings aug_rot_rad, aug_dt_s):
+ *     each frame's fault parameters are its own unknowns (a frame measures
+ *     b_k to ~1e-4 rad), so the hypothesis assumes nothing of the fault's time
+ *     profile (a step at any time, a ramp of any slope, a drift): x_k is
+ *     unmoved by any camera-k fault within the linearisation (a few degrees
+ *     and a frame period; larger ones fail the frame test as a whole). A
+ *     constant-bias or rate-bounded model would give more (information
+ *     accumulated over frames) but is unsound for a step after the start or
+ *     a ramp beyond the bound; not chosen. Under no fault, x_k is an unbiased
+ *     estimate from the same data whose true covariance is at most P_k (its
+ *     model has more noise than the truth), so cov(x_0 - x_k) <= P_k - P_0
+ *     and the separation test below stays conservative.
+ *     A camera with one beacon in view gives nothing invariant (2 numbers, 3
+ *     pointing parameters): its hypothesis coasts on the motion model.
  *   - beacon b in view: started as a copy of the full filter just before
  *     b's first observation is applied, it takes every observation but b's.
- *     A step or a ramp on b moves the full filter only.
+ *     A step or a ramp on b moves the full filter only. (Kept as before: not
+ *     parametric; a beacon's 3-D offset free would leave its observation
+ *     nothing to say, the same as dropping it.)
  * A beacon with no free hypothesis slot is not used by any filter (counted in
  * unmonitored_obs): nothing enters the full filter that no hypothesis covers.
  *
- * Memory: a filter is ~690 B (12 x 12 floats of covariance = 576 B + the
- * nominal state). MFNS_BANK_MAX_BEACON_HYP = 12: the original module layout
+ * Memory: a filter is 1,216 B (16 x 16 floats of covariance = 1 KB + the
+ * nominal state; nav_filter.h MFNS_FILTER_MAX_AUG). MFNS_BANK_MAX_BEACON_HYP = 12: the original module layout
  * keeps 4-7 beacons in view over two cameras, the planned 60-LED layout up to
  * ~10; 12 leaves room for the beacons that just left view and whose effect
- * has not decayed yet. 1 + 3 + 12 filters = ~11 KB of caller-owned RAM, and
- * an observation costs at most 15 filter updates.
+ * has not decayed yet. 1 + 3 + 12 filters = 19,744 B of caller-owned RAM (was
+ * 12,192 B with 12 states), and an observation costs at most 16 filter
+ * updates (a camera filter's update of its own camera's observation is
+ * 16-wide, every other one 6-wide in H).
  *
  * Eviction: the hypothesis of a beacon out of view this cycle ends once its
  * effect on the full filter has decayed: max over the six pose axes of
@@ -54,7 +85,10 @@
  * hypothesis whose subset is the most consistent with its observations is
  * excluded (MFNS_BANK_CONSIST_FORGET below).
  * Excluding k replaces the full filter by k's subset filter (the one that
- * never took k's data: the fault leaves the solution with it) and restarts
+ * never took k's data, or took camera k's only through its free fault
+ * parameters: the fault leaves the solution with it; a camera's parameters
+ * are then dropped, the camera held out: simplest, and a pointing estimated
+ * from a knocked camera's own frames is not trusted to fly on) and restarts
  * every other hypothesis as a copy of it. An excluded beacon or camera is
  * tested every cycle against the full filter (not applied): a beacon's
  * observation is clean with its NIS below chi-square(2) at
@@ -77,8 +111,18 @@
  *   - a fault of a beacon or camera that began before its hypothesis was
  *     (re)started: after an exclusion every other hypothesis restarts from the
  *     new full filter;
- *   - a camera that alone sees the beacons: checked only against the motion
- *     bound; its subset coasts, the PL grows past the alert limit;
+ *   - a camera that alone sees the beacons: its hypothesis keeps that
+ *     camera's inter-beacon geometry, but its attitude and position along
+ *     the pointing are the motion model's only: the PL grows past the alert
+ *     limit; a camera with one beacon in view is the same for its hypothesis;
+ *   - two cameras seeing beacons and a slow pointing ramp of one: a change
+ *     of their relative pointing that either camera's hypothesis explains
+ *     (only the motion model could tell them apart, and its bound allows
+ *     the body rotation): detected, but the other camera was named in both
+ *     runs measured (test_filter_bank, two-camera ramp);
+ *   - a one-frame lag of a 3-beacon camera in a two-camera scene: a beacon
+ *     hypothesis's separation can fail first and the beacon is blamed
+ *     (test_filter_bank comment; not yet handled);
  *   - faults common to every camera and beacon (datum, common clock).
  *
  * Work per observation: one test against the prediction and at most 1 +

@@ -3,7 +3,7 @@
  * velocity model whose process noise overbounds the robot's unmodelled
  * acceleration, updated observation by observation from beacon image
  * positions at each frame's own capture time. Portable core: no heap, no OS,
- * caller-owned state (mfns_filter_t, ~680 B), bounded work per call.
+ * caller-owned state (mfns_filter_t, 1,216 B), bounded work per call.
  *
  * State (nominal): C_w_b (world -> body, camera.h), r_wb_w (mm, world), v_w
  * (mm/s, world), w_w (rad/s, world: C_b_w' = exp([w_w dt]x) C_b_w), the time
@@ -14,6 +14,9 @@
  *   3-5  dr_w   r_wb_w(true) - r_wb_w(est)                         (mm)
  *   6-8  dv_w   linear velocity error                               (mm/s)
  *   9-11 dw_w   angular velocity error (world axes)                 (rad/s)
+ *   12-14 db     pointing bias of camera aug_cam (rad, body axes)     } only in a
+ *   15   dtau    time offset of camera aug_cam (s)                   } camera hypothesis
+ * (filter_bank.h); otherwise rows and columns 12-15 stay zero.
  * The pose block (0-5) has the attitude first; pose.h's cov_ros has position
  * first (mfns_filter_init and mfns_filter_pose_cov_ros reorder).
  *
@@ -52,7 +55,8 @@
  * survey error projected into the image. Linearised with mfns_cam_project's
  * Jacobian d(u, v)/d(increment) at the prediction, chained to the error
  * state above: H = [J_th (-C) + J_t [r_bw_b]x C,  -J_t C,  0,  0]. Standard
- * 2-D update K = P H^T S^-1, S = H P H^T + R, P <- P - K S K^T (symmetrised),
+ * 2-D update K = P H^T S^-1, S = H P H^T + R, P <- (I - K H) P (I - K H)^T +
+ * K R K^T (Joseph form, rank-2 shaped: O(N^2); symmetrised),
  * then the error injected into the nominal state (rotation on the manifold).
  *
  * Innovation gate (the motion bound's monitor): NIS = y^T S^-1 y against the
@@ -85,8 +89,9 @@
  *     frames (a soft push): the gate is per observation, a slow excess
  *     shows as a growing separation in the bank before it trips the gate.
  *
- * Work per call: propagate O(12 x 6) multiply-adds; update one projection,
- * O(12^2 x 2); no loop without a constant bound. Float throughout: the
+ * Work per call: propagate O(16 x 6) multiply-adds; update one projection,
+ * O(16^2 x 2) (an augmented camera's observation: a second projection of
+ * the same point for J_c); no loop without a constant bound. Float throughout: the
  * covariance spans 1e-9 rad^2 to 1e4 (mm/s)^2 but every update keeps P
  * symmetric and its diagonal non-negative (clamped, counted in
  * clamp_events, which the tests assert stays 0); time is int64 microseconds
@@ -101,11 +106,34 @@
 #include "math/lens.h"
 #include "firmware/nav/settings/nav_settings.h"
 
-#define MFNS_FILTER_N 12
+/* 12 states of the body + at most MFNS_FILTER_MAX_AUG fault parameters of
+ * one camera (a camera hypothesis of filter_bank.h): 16 x 16 floats of
+ * covariance, 1 KB per filter. A filter with no augmented camera keeps those
+ * rows and columns at zero (they never receive variance: no work changes
+ * its result, the loops are bounded by MFNS_FILTER_N). */
+#define MFNS_FILTER_BASE_N 12
+#define MFNS_FILTER_MAX_AUG 4
+#define MFNS_FILTER_N (MFNS_FILTER_BASE_N + MFNS_FILTER_MAX_AUG)
 #define MFNS_FILTER_ATT 0
 #define MFNS_FILTER_POS 3
 #define MFNS_FILTER_VEL 6
 #define MFNS_FILTER_OMEGA 9
+/* camera aug_cam's pointing bias (rad, body axes: C_k_b(true) =
+ * exp([b]x) C_k_b(table)) and time offset (s: its frame stamped t was
+ * captured at t - tau) */
+#define MFNS_FILTER_AUG_ROT 12
+#define MFNS_FILTER_AUG_DT 15
+#define MFNS_FILTER_NO_AUG 0xFFU
+/* Fault parameters' prior, fresh at every frame of the augmented camera
+ * (filter_bank.h argues the values): 1 deg of pointing and 60 ms (more than a
+ * frame period) of timing around the last estimate, independent of the rest,
+ * i.e. the hypothesis assumes nothing about the fault's profile (a step at
+ * any time, a ramp of any slope within the linear range): each frame's fault
+ * parameters are its own unknowns, only the
+ * part of the frame they cannot move (the beacons' relative geometry) informs
+ * the pose. */
+#define MFNS_FILTER_DEFAULT_AUG_ROT_RAD 0.0175f
+#define MFNS_FILTER_DEFAULT_AUG_DT_S 0.06f
 
 /* Defaults (argued above). */
 #define MFNS_FILTER_DEFAULT_ACCEL_MM_S2 100.0f
@@ -131,6 +159,8 @@ typedef struct {
     float max_coast_s;        /* longest time without an applied observation (E_TIME: restart) */
     float gate_p;             /* per-observation gate false-alarm probability, (0, 0.5) */
     uint16_t gate_reject_run; /* consecutive gated observations that flag motion_exceeded */
+    float aug_rot_rad;        /* per-frame prior sigma of an augmented camera's pointing bias */
+    float aug_dt_s;           /* per-frame prior sigma of its time offset */
 } mfns_filter_settings_t;
 
 typedef enum {
@@ -162,6 +192,14 @@ typedef struct {
     uint16_t win_dof[MFNS_FILTER_NIS_WINDOW];
     uint8_t win_pos, win_fill;
     uint8_t initialised;
+    /* camera fault parameters (MFNS_FILTER_AUG_*): the camera they belong
+     * to (MFNS_FILTER_NO_AUG: none, rows and columns 12-15 of P zero), the
+     * nominal pointing bias (rad, body axes) and time offset (s), the
+     * capture time of the last frame that restarted them */
+    uint8_t aug_cam;
+    mfns_v3_t aug_rot;
+    float aug_dt_s;
+    int64_t aug_frame_us;
 } mfns_filter_t;
 
 /* One observation as the filter takes it. */
@@ -239,6 +277,29 @@ void mfns_filter_reset_window(mfns_filter_t *f);
 /* Upper chi-square quantile of dof degrees of freedom at tail probability p
  * (Wilson-Hilferty; relative error < 1 % for dof >= 4 at p >= 1e-7). */
 float mfns_filter_chi2_quantile(float dof, float p);
+
+/* Make camera cam's fault parameters free states of f (a camera hypothesis
+ * of the bank): nominal zero, variance set at cam's next frame (settings
+ * aug_rot_rad, aug_dt_s). Every later observation of cam is
+ * predicted through its biased mount and time offset, and each new frame of
+ * cam restarts them (old ones marginalised out, new ones N(last estimate,
+ * aug_rot_rad^2 / aug_dt_s^2) independent of the rest):
+ *   z = h(x(t - tau); C_k_b = exp([b]x) C_k_b) ~ h(x(t)) - tau (H_phi w + H_r v)
+ *   d z / d b   = J_c C_k_b'^T [p_b - r_bk_b]x       (J_c = d(u,v)/d p_k)
+ *   d z / d tau = -(H_phi w_w + H_r v_w)            (the beacon's image velocity)
+ * (the second-order d z / d v = -tau H_r, d z / d w = -tau H_phi are left
+ * out: tau is nearly free at every frame, and a linearisation at a poorly
+ * known tau would invent velocity information). cam out of range: E_ARG. */
+mfns_filter_status_t mfns_filter_augment(mfns_filter_t *f, int cam);
+
+/* Drop the fault parameters (the marginal of the body states: exact). */
+void mfns_filter_strip_aug(mfns_filter_t *f);
+
+/* The observation Jacobian w.r.t. all N states at the state f for obs
+ * (rows 2, columns MFNS_FILTER_N) and the prediction; exposed for tests
+ * (finite differences). False when the beacon is behind the camera. */
+bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig, const mfns_filter_obs_t *obs,
+                                   float uv[2], float h[2][MFNS_FILTER_N]);
 
 /* The pose of the state. */
 mfns_pose_t mfns_filter_pose(const mfns_filter_t *f);

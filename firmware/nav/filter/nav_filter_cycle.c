@@ -20,6 +20,17 @@ void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us)
     mfns_filter_settings_default(&nf->set);
 }
 
+void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAMERAS])
+{
+    if (nf == NULL || t_us == NULL) {
+        return;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        nf->cap_us[c] = t_us[c];
+    }
+    nf->have_cap = true;
+}
+
 static bool usable(const mfns_pose_solution_t *s)
 {
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
@@ -47,10 +58,28 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
     return nf->running;
 }
 
+/* Camera c's frame time this cycle. */
+static int64_t frame_time(const mfns_navf_t *nf, int c)
+{
+    return nf->have_cap ? nf->cap_us[c] : nf->t_us;
+}
+
 static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame_t *obs, float sigma_px,
                  const mfns_pose_solution_t *sol)
 {
-    for (int c = 0; c < MFNS_NUM_CAMERAS && nf->running; c++) {
+    /* the cameras in the order of their capture times (3: insertion sort) */
+    int order[MFNS_NUM_CAMERAS];
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        int j = c;
+        while (j > 0 && frame_time(nf, order[j - 1]) > frame_time(nf, c)) {
+            order[j] = order[j - 1];
+            j--;
+        }
+        order[j] = c;
+    }
+    for (int oi = 0; oi < MFNS_NUM_CAMERAS && nf->running; oi++) {
+        const int c = order[oi];
+        const int64_t tc = frame_time(nf, c);
         mfns_filter_obs_t fo[MFNS_MAX_OBS_PER_CAMERA];
         int16_t beacon[MFNS_MAX_OBS_PER_CAMERA];
         int n = 0;
@@ -61,7 +90,7 @@ static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame
                 continue;
             }
             const mfns_obs_t *o = &obs->obs[c][i];
-            fo[n].t_us = nf->t_us;
+            fo[n].t_us = tc;
             fo[n].cam = (uint8_t)c;
             fo[n].u = o->u;
             fo[n].v = o->v;
@@ -70,6 +99,10 @@ static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame
             fo[n].sigma_mm = t->beacons.beacon[b].sigma_mm;
             beacon[n] = b;
             n++;
+        }
+        if (n > 0 && tc < nf->bank.full.t_us) {
+            nf->stale_frames++; /* before the bank's state: it cannot go back */
+            continue;
         }
         const mfns_filter_status_t st = mfns_bank_observe_frame(&nf->bank, &nf->set, &t->rig, sigma_px, n, beacon, fo);
         if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
@@ -120,7 +153,18 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
     if (nf == NULL || !nf->on || t == NULL || is == NULL || obs == NULL || sol == NULL || integ == NULL) {
         return;
     }
-    nf->t_us += (int64_t)nf->period_us;
+    /* the cycle's time: the latest frame's capture (or one period on) */
+    int64_t t0 = INT64_MAX, t1 = INT64_MIN;
+    for (int c = 0; c < MFNS_NUM_CAMERAS && nf->have_cap; c++) {
+        if (obs->count[c] > 0U && obs->dark[c] == 0U) {
+            t0 = nf->cap_us[c] < t0 ? nf->cap_us[c] : t0;
+            t1 = nf->cap_us[c] > t1 ? nf->cap_us[c] : t1;
+        }
+    }
+    if (nf->have_cap && t1 == INT64_MIN) {
+        nf->have_cap = false; /* no camera saw anything: the period's clock */
+    }
+    nf->t_us = nf->have_cap ? (t1 > nf->t_us || !nf->running ? t1 : nf->t_us) : nf->t_us + (int64_t)nf->period_us;
     if (nf->running) {
         feed(nf, t, obs, sigma_px, sol);
     }
@@ -130,9 +174,14 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
         nf->running = rep->ran && !rep->out.restart;
     }
     if (!nf->running) {
+        if (nf->have_cap) {
+            nf->t_us = t0; /* the earliest of the fix's frames: the others follow it */
+        }
+        nf->have_cap = false;
         rep->started = usable(sol) && start(nf, t, sol);
         return; /* the snapshot's verdict stands this cycle */
     }
+    nf->have_cap = false;
     if (rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;

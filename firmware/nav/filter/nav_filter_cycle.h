@@ -14,10 +14,17 @@
  * (motion bound exceeded, coast too long) starts again from the next usable
  * snapshot fix.
  *
- * Time: the cycle does not know the frames' capture times yet: every
- * camera's frame of cycle k is stamped k x period_us (the caller's frame
- * period). A camera late or drifting is still a camera hypothesis of the
- * bank, but its frames enter at the cycle's time, not their own.
+ * Time: each camera's observations enter the bank at their frame's capture
+ * time when the caller gave them (mfns_navf_set_frame_times before the
+ * cycle; the flight program passes the frames' stamps), cameras in the order
+ * of their times; the cycle is evaluated at the latest of them and a start
+ * takes the earliest (the snapshot fix treats the cycle's frames as one
+ * instant: their spread, 14 ms on the rig, is inside the velocity prior's
+ * effect). A frame stamped before the bank's state (a stale frame with its
+ * old stamp) is not fed (counted in stale_frames): the bank cannot go back in
+ * time; the camera's timing hypothesis covers a stamp that lies. Without
+ * times, every camera's frame of cycle k is stamped k x period_us (the
+ * caller's frame period), as before.
  */
 #ifndef MFNS_NAV_FILTER_CYCLE_H
 #define MFNS_NAV_FILTER_CYCLE_H
@@ -39,6 +46,9 @@ typedef struct {
     bool running;
     uint32_t period_us;
     int64_t t_us;
+    int64_t cap_us[MFNS_NUM_CAMERAS]; /* this cycle's capture times (have_cap) */
+    bool have_cap;
+    uint32_t stale_frames; /* frames stamped before the bank's state: not fed */
     mfns_filter_settings_t set;
     mfns_filter_bank_t bank;
 } mfns_navf_t;
@@ -53,6 +63,9 @@ typedef struct {
 
 /* Switch on (period_us > 0: the frame period) or off (period_us = 0). */
 void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us);
+
+/* The coming cycle's capture times (consumed by the next mfns_navf_step). */
+void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAMERAS]);
 
 /* One cycle, after the snapshot's integrity: sol and integ in/out. */
 void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,
