@@ -593,6 +593,8 @@ PROTOTYPES: dict[str, tuple] = {
     "mfns_caltable_host_max_beacons": (_U32, []),
     "mfns_caltable_load": (ct.c_int, [ct.c_char_p, ct.c_size_t, _VP, _P(_U32)]),
     "mfns_caltable_strerror": (ct.c_char_p, [ct.c_int]),
+    # integrity: the inverse normal tail the flight's K_fa, K_md, K_ff come from
+    "mfns_integrity_q_inv": (ct.c_float, [ct.c_float]),
     "mfns_caltable_host_grid_eval": (
         ct.c_int,
         [*[ct.c_uint16] * 2, *[ct.c_int32] * 4, _I32P, _U32, _I32P, _I32P, _I32P, _P(ct.c_uint8)],
@@ -613,6 +615,7 @@ PROTOTYPES: dict[str, tuple] = {
 # prototype fails `make lib` (mfns_pose_covariance gained an argument once and the planner
 # crashed through ctypes: nothing had compared the two).
 PROTOTYPE_HEADERS = [
+    "firmware/nav/integrity/integrity.h",
     "math/lens.h",
     "math/rotation.h",
     "math/undistort.h",

@@ -13,6 +13,7 @@
 #include "firmware/host/undist_grid_build.h"
 #include "firmware/nav/acquire/acquire.h"
 #include "firmware/nav/acquire/acquire_cycle.h"
+#include "firmware/nav/integrity/integrity.h"
 #include "firmware/nav/map/beacon_index.h"
 #include "firmware/nav/pose/pose.h"
 #include "firmware/nav/pose/pose_internal.h"
@@ -819,6 +820,11 @@ void mfns_binding_prototypes(void)
     {
         int32_t a0 = 0;
         const char *r = mfns_caltable_strerror(a0);
+        (void)r;
+    }
+    {
+        float a0 = 0;
+        float r = mfns_integrity_q_inv(a0);
         (void)r;
     }
     {

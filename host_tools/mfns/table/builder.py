@@ -77,35 +77,42 @@ def calib_covariance(doc: dict) -> np.ndarray | None:
 
 
 def datum_unusable(datum, integrity: dict | None, pos) -> list[str]:
-    """Lines saying that the map datum alone leaves no usable fix (issue 45): its 1-sigma
-    shared error already exceeds an alert limit, so every protection level (a multiple
-    > 1 of it, docs/pose.md "Integrity") does too. Per world axis the shift's sigma, per
-    attitude axis the turn's: a floor of the datum's share (the turn's lever arm only adds).
-    What it misses: a datum between AL / K and AL, or one whose turn over the beacons' lever
-    arm alone passes the limit (usable fixes then depend on the geometry), is not warned
-    about."""
+    """Lines saying that the map datum alone leaves no usable fix (issue 45). The flight adds
+    the datum once to every fix's covariance, the fault-free one of the protection level
+    included, so every PL is at least K_ff times the datum's own sigma on each axis
+    (integrity.h: PL_j >= K_ff sqrt(P0f_jj), K_ff = Q^-1(P_md / 2) with the table's P_md,
+    computed by the C core's mfns_integrity_q_inv). Per world axis the shift's sigma, per
+    attitude axis the turn's: a floor of the datum's share (the turn's lever arm over the
+    beacons only adds). What it misses: a datum whose floor is under the limit but whose
+    turn over the beacons' lever arm, or whose sum with the measurement noise, passes it
+    (usable fixes then depend on the geometry): not warned about."""
+    from ..binding import load
+
     lim = dict(L.DEFAULTS["integrity"])
     lim.update({k: v for k, v in (integrity or {}).items() if k in lim})
     al_pos, al_att = float(lim["alert_limit_pos_mm"]), float(lim["alert_limit_att_deg"])
+    k_ff = float(load().mfns_integrity_q_inv(float(lim["p_md"]) / 2.0))
     cov = np.asarray(datum.cov, dtype=float)
     s_shift = np.sqrt(np.clip(np.diag(cov)[:3], 0.0, None))
     s_turn = np.sqrt(np.clip(np.diag(cov)[3:], 0.0, None))
     del pos  # the lever arm is not a floor (see above)
-    s_pos = s_shift
-    s_att_deg = np.degrees(s_turn)
+    pl_pos = k_ff * s_shift
+    pl_att_deg = k_ff * np.degrees(s_turn)
     out = []
     axes = "xyz"
     for i in range(3):
-        if s_pos[i] > al_pos:
+        if pl_pos[i] > al_pos:
             out.append(
-                f"map datum: its shared shift alone ({s_pos[i]:.2f} mm 1-sigma on world {axes[i]}) "
-                f"exceeds the position alert limit {al_pos:g} mm: no fix from this table will be usable "
+                f"map datum: its shared shift alone ({s_shift[i]:.2f} mm 1-sigma on world {axes[i]}) puts "
+                f"every protection level at {pl_pos[i]:.1f} mm or more (K_ff {k_ff:.2f}), beyond the "
+                f"position alert limit {al_pos:g} mm: no fix from this table will be usable "
                 f"(refine the map or widen the limit)"
             )
-        if s_att_deg[i] > al_att:
+        if pl_att_deg[i] > al_att:
             out.append(
-                f"map datum: its turn alone ({s_att_deg[i]:.3f} deg 1-sigma about {axes[i]}) exceeds "
-                f"the attitude alert limit {al_att:g} deg: no fix from this table will be usable"
+                f"map datum: its turn alone ({np.degrees(s_turn[i]):.3f} deg 1-sigma about {axes[i]}) puts "
+                f"every protection level at {pl_att_deg[i]:.3f} deg or more (K_ff {k_ff:.2f}), beyond the "
+                f"attitude alert limit {al_att:g} deg: no fix from this table will be usable"
             )
     return out
 
