@@ -277,7 +277,8 @@ def test_first_run_waits_for_a_table(board):
     conf = "/etc/mfns/mfns-nav.conf"
     empty = "/var/lib/mfns/first-run"
     t0 = board.shell(
-        f"cp {conf} /run/conf.keep && rm -rf {empty} && install -d -o mfns -g mfns -m 0700 {empty} && "
+        f"cp {conf} /run/conf.keep && rm -rf {empty} && mkdir -p {empty} && chown mfns:mfns {empty} && "
+        f"chmod 0700 {empty} && "
         f"sed -i -e 's#^table = .*#table = {empty}/table.mfnstbl#'"
         f" -e 's#^state_dir = .*#state_dir = {empty}#' {conf}"
         " && kill -KILL $(pidof mfns-nav)"
@@ -291,7 +292,12 @@ def test_first_run_waits_for_a_table(board):
     )
     time.sleep(5.0)  # waiting, not restarting: no BOOT in these seconds
     assert not [e for e in board.events(since=ref.t) if board.event_name(e) == "BOOT"]
-    t1 = board.shell(f"install -o mfns -g mfns -m 0640 /usr/share/mfns/table.mfnstbl {empty}/table.mfnstbl")
+    # busybox has no install(1): copy, then owner and mode; the copy lands under a temporary
+    # name and is renamed, so the program never reads a half-written table
+    t1 = board.shell(
+        f"cp /usr/share/mfns/table.mfnstbl {empty}/.t.tmp && chown mfns:mfns {empty}/.t.tmp && "
+        f"chmod 0640 {empty}/.t.tmp && mv {empty}/.t.tmp {empty}/table.mfnstbl"
+    )
     board.wait_event("TABLE_LOADED", 30, since=t1)
     board.wait_packet(lambda p: p.kind == "nav", 30, since=t1, what="nav packet after the first table")
     RESULTS["first_run_wait_to_nav_s"] = round(time.monotonic() - t1, 2)
