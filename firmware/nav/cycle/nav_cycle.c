@@ -75,15 +75,44 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     return MFNS_NAV_OK;
 }
 
-/* Same rig and same beacons, bit for bit (ids and positions; sigmas may differ). */
+/* Same rig and same beacons, value for value (ids and positions; sigmas may differ).
+ * Member by member: a float's representation is not unique (+0 and -0), its value is;
+ * a validated table holds no NaN. */
+static bool same_v3(mfns_v3_t a, mfns_v3_t b)
+{
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+}
+
+static bool same_camera(const mfns_camera_t *a, const mfns_camera_t *b)
+{
+    const mfns_intrinsics_t *ka = &a->k, *kb = &b->k;
+    bool same = ka->fx == kb->fx && ka->fy == kb->fy && ka->cx == kb->cx && ka->cy == kb->cy &&
+                ka->skew == kb->skew && ka->width == kb->width && ka->height == kb->height &&
+                same_v3(a->r_bk_b, b->r_bk_b);
+    for (int i = 0; i < 5 && same; i++) {
+        same = ka->dist[i] == kb->dist[i];
+    }
+    for (int r = 0; r < 3 && same; r++) {
+        for (int c = 0; c < 3 && same; c++) {
+            same = a->C_k_b.m[r][c] == b->C_k_b.m[r][c];
+        }
+    }
+    return same;
+}
+
 static bool same_system(const mfns_caltable_t *a, const mfns_caltable_t *b)
 {
-    if (memcmp(&a->rig, &b->rig, sizeof a->rig) != 0 || a->beacons.count != b->beacons.count) {
+    if (a->beacons.count != b->beacons.count) {
         return false;
+    }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        if (!same_camera(&a->rig.cam[k], &b->rig.cam[k])) {
+            return false;
+        }
     }
     for (uint32_t i = 0; i < a->beacons.count && i < MFNS_MAX_BEACONS; i++) {
         const mfns_beacon_t *x = &a->beacons.beacon[i], *y = &b->beacons.beacon[i];
-        if (x->id != y->id || memcmp(&x->p_w, &y->p_w, sizeof x->p_w) != 0) {
+        if (x->id != y->id || !same_v3(x->p_w, y->p_w)) {
             return false;
         }
     }

@@ -168,8 +168,8 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
 
 /* Re-bind a running navigator to another validated table (which must outlive nav)
  * without losing what it has learnt, when the new table describes the same system: the
- * same rig (every camera's intrinsics and mounting, bit for bit) and the same beacons
- * (count, ids and positions, bit for bit). Then the track, the prior and its motion, the
+ * same rig (every camera's intrinsics and mounting, value for value) and the same beacons
+ * (count, ids and positions, value for value). Then the track, the prior and its motion, the
  * camera and beacon monitors, the bias monitor and the filter are kept; the settings,
  * the noise model, the sigmas, the map index, the workspace box, the calibration
  * covariance and the map datum are the new table's (a beacon the bias monitor has
