@@ -1,7 +1,7 @@
 /* filter_bank.h -- integrity over time (issue 42): solution separation
  * between the full navigation filter and a bank of subset filters, one per
  * single-fault hypothesis (Brenner, ION GPS 1995/96; docs/pose.md
- * "Integrity"; /work/shared/INTEGRITY-NOTES.md).
+ * "Navigation filter and integrity over time").
  *
  * Hypotheses, with equal standing:
  *   - camera k (always, MFNS_NUM_CAMERAS of them), PARAMETRIC: its filter is
