@@ -50,5 +50,8 @@ def test_commanded_standby_raises_no_event_per_cycle(bins, tmp_path):
     ev = read_csv(out / "events.csv")
     per_cycle = Counter(e["event"] for e in ev if int(e["cycle"]) >= 1)
     assert per_cycle == Counter(), per_cycle  # nothing after the command's own cycle
-    assert [e["event"] for e in ev if e["severity"] == "WARNING"] == ["TC_AUTH"]  # --tc-insecure's own
+    assert [e["event"] for e in ev if e["severity"] == "WARNING"] == [
+        "TC_AUTH",
+        "TC_UNPROTECTED",
+    ]  # --tc-insecure's own two
     assert {"MODE_CHANGE", "CMD_ACCEPTED"} <= {e["event"] for e in ev}

@@ -223,8 +223,17 @@ def test_commands_in_engineering_units_are_verified(chain):
     for s, q in zip(sent, seqs, strict=True):
         assert int.from_bytes(bytes.fromhex(hist[s["id"]]["binary"])[2:4], "big") & 0x3FFF == q
     uplinked = [(int(r["seq"]), r["opcode"], r["source"]) for r in rows(out / "ground" / "commands.csv")]
+    # first the ground's authenticated re-synchronisation (docs/uplink.md 1a: a NOOP bound to
+    # the board's challenge, on the count before Yamcs' first), then Yamcs' commands
+    resync = [u for u in uplinked if u[2] == "resync"]
+    assert resync == [(16383, "NOOP", "resync")], uplinked
+    uplinked = [u for u in uplinked if u[2] != "resync"]
     assert uplinked == [(q, n, "udp") for q, n in zip(seqs, names, strict=True)]
-    answers = [e for e in rows(out / "ground" / "events.csv") if e["event"].startswith("CMD_")]
+    answers = [
+        e
+        for e in rows(out / "ground" / "events.csv")
+        if e["event"].startswith("CMD_") and int(e["arg0"]) != resync[0][0]
+    ]
     # the flight answers each command once, naming its sequence count (arg0)
     assert [(e["event"], e["subject"], int(e["arg0"]), e["arg1"]) for e in answers[:6]] == [
         ("CMD_ACCEPTED", "1", seqs[0], "0"),
