@@ -90,6 +90,10 @@ static void test_on_starts_and_takes_over(void **state)
         if (k == 0) {
             assert_true(rep.started);
             assert_false(rep.used);
+            /* the snapshot stands in, but its PL bounds no camera fault:
+             * refused with the filter on (nav_filter_cycle.c) */
+            assert_int_equal(sol.status, MFNS_POSE_NO_FIX);
+            assert_int_equal(sol.reason, MFNS_POSE_R_UNMONITORED);
             continue;
         }
         assert_true(rep.ran);
@@ -167,12 +171,90 @@ static void test_capture_times(void **state)
     assert_true(used >= 10);
 }
 
+/* An exclusion ends the bank (nav_filter_cycle.h): the cycle that excludes
+ * reports the subject in the integrity result (the flight program's
+ * BEACON_EXCLUDED / CAMERA_EXCLUDED events), carries the snapshot's verdict,
+ * restarts from the snapshot fix with the subject still held out; a usable
+ * fix after the fault's onset is within its PL. */
+static void test_exclusion_restarts_with_subject_held(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 4);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 54000);
+    int exclusions = 0, first_beacon_excl = -1, used_after = 0, wrong_named = 0;
+    int16_t faulty = -1;
+    for (int k = 0; k < CYCLES; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        integ.excluded_beacon = -1;
+        integ.excluded_camera = -1;
+        if (k >= 15) {
+            /* camera 0's first observation: a beacon 4 px off from cycle 15 on */
+            frame.obs[0][0].u += 4.0f;
+            faulty = sol.assoc.beacon[0][0];
+        }
+        const mfns_pose_solution_t snap = sol;
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        if (rep.ran && rep.out.detected_kind != (uint8_t)MFNS_BANK_HYP_NONE) {
+            exclusions++;
+            const int16_t id = rep.out.detected_id;
+            /* the result the events come from names the bank's subject.
+             * Which subject the bank names is test_filter_bank's; here a
+             * 4 px fault that passes its own gate once pulls the filter,
+             * and the bank has named camera 0 and a healthy beacon of it
+             * before the faulty one (a known miss of the attribution,
+             * docs/pose.md): only the restart keeps those from flying on */
+            if (rep.out.detected_kind == (uint8_t)MFNS_BANK_HYP_BEACON) {
+                assert_true(integ.new_beacon_exclusion);
+                assert_int_equal(integ.excluded_beacon, id);
+                first_beacon_excl = id == faulty && first_beacon_excl < 0 ? k : first_beacon_excl;
+                wrong_named += id != faulty ? 1 : 0;
+            } else {
+                assert_int_equal(rep.out.detected_kind, MFNS_BANK_HYP_CAMERA);
+                assert_true(integ.new_camera_exclusion);
+                assert_int_equal(integ.excluded_camera, id);
+                wrong_named++;
+            }
+            assert_false(rep.used); /* the snapshot's verdict stands */
+            assert_memory_equal(&sol.pose, &snap.pose, sizeof sol.pose);
+            assert_int_equal(sol.status, MFNS_POSE_NO_FIX); /* camera faults unbounded in it */
+            assert_int_equal(sol.reason, MFNS_POSE_R_UNMONITORED);
+            assert_true(rep.started); /* from this cycle's usable snapshot */
+            assert_true(rep.out.detected_kind == (uint8_t)MFNS_BANK_HYP_BEACON
+                            ? mfns_bank_beacon_excluded(&nf.bank, id)
+                            : mfns_bank_camera_excluded(&nf.bank, id));
+            continue;
+        }
+        if (k >= 15 && rep.used) {
+            used_after++;
+            double r[3];
+            pt_position_w(&truth, r);
+            assert_true(fabs(sol.r_wb_w.x - r[0]) <= integ.pl_pos_mm);
+            assert_true(fabs(sol.r_wb_w.y - r[1]) <= integ.pl_pos_mm);
+            assert_true(fabs(sol.r_wb_w.z - r[2]) <= integ.pl_pos_mm);
+        }
+    }
+    print_message("%d exclusions (%d of another subject), the faulty beacon's at cycle %d (fault from 15), %d "
+                  "usable cycles after the onset, each within its PL\n",
+                  exclusions, wrong_named, first_beacon_excl, used_after);
+    assert_true(exclusions >= 1); /* the fault was detected */
+    assert_true(used_after >= 5);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
         cmocka_unit_test(test_capture_times),
+        cmocka_unit_test(test_exclusion_restarts_with_subject_held),
     };
     return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
 }

@@ -68,6 +68,22 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
     return MFNS_FILTER_OK;
 }
 
+void mfns_bank_keep_exclusions(mfns_filter_bank_t *b, const int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS],
+                               const uint8_t cam_excluded[MFNS_NUM_CAMERAS])
+{
+    if (b == NULL || excl_beacon == NULL || cam_excluded == NULL || b->initialised == 0U) {
+        return;
+    }
+    for (int i = 0; i < MFNS_BANK_MAX_EXCLUDED_BEACONS; i++) {
+        b->excl_beacon[i] = excl_beacon[i];
+        b->excl_beacon_clean[i] = 0;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        b->cam_excluded[c] = cam_excluded[c] != 0U ? 1U : 0U;
+        b->cam_clean[c] = 0;
+    }
+}
+
 static void start_hypothesis(mfns_filter_bank_t *b, int k)
 {
     b->sub[k] = b->full;

@@ -266,6 +266,11 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
                                         const mfns_integrity_settings_t *is, const mfns_map_datum_t *datum,
                                         int64_t t_us, mfns_bank_output_t *out);
 
+/* After mfns_bank_init: hold out what `from` held out (a restart that follows
+ * an exclusion, nav_filter_cycle.h); the re-admission counts start afresh. */
+void mfns_bank_keep_exclusions(mfns_filter_bank_t *b, const int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS],
+                               const uint8_t cam_excluded[MFNS_NUM_CAMERAS]);
+
 /* Is beacon (map index) / camera held out now. */
 bool mfns_bank_beacon_excluded(const mfns_filter_bank_t *b, int16_t beacon);
 bool mfns_bank_camera_excluded(const mfns_filter_bank_t *b, int cam);

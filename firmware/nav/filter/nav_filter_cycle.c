@@ -52,9 +52,17 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
             return false;
         }
     }
+    int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS];
+    uint8_t cam_excluded[MFNS_NUM_CAMERAS];
+    memcpy(excl_beacon, nf->bank.excl_beacon, sizeof excl_beacon);
+    memcpy(cam_excluded, nf->bank.cam_excluded, sizeof cam_excluded);
     nf->running = mfns_bank_init(&nf->bank, &sol->pose, (const float(*)[6])cov, mfns_v3(0.0f, 0.0f, 0.0f),
                                  MFNS_NAVF_SIGMA_V0_MM_S, mfns_v3(0.0f, 0.0f, 0.0f), MFNS_NAVF_SIGMA_W0_RAD_S,
                                  nf->t_us) == MFNS_FILTER_OK;
+    if (nf->running && nf->carry_excl) {
+        mfns_bank_keep_exclusions(&nf->bank, excl_beacon, cam_excluded);
+    }
+    nf->carry_excl = false;
     return nf->running;
 }
 
@@ -142,6 +150,49 @@ static void apply(const mfns_bank_output_t *o, mfns_pose_solution_t *sol, mfns_i
     integ->camera_unmonitored = false;
 }
 
+/* With the filter on, a usable pose bounds every camera fault too (issue
+ * 42): a snapshot fix whose PL covers the beacon faults only (DEGRADED
+ * CAMERA_UNMONITORED: no redundancy against a camera, left to the camera
+ * health checks, which a knocked mount passes) is refused when it stands in
+ * for the filter: NO_FIX UNMONITORED, the pose kept for tracking and
+ * diagnostics. The bank still starts from such a fix (its camera
+ * hypotheses then cover what follows; a fault already in it is the start's
+ * known miss, filter_bank.h). Measured on the grown campaign's knocked
+ * camera x (seed 2): 6 such fixes beyond 5 sigma before this. */
+static void camera_bound_or_refused(mfns_pose_solution_t *sol)
+{
+    if (sol->status == MFNS_POSE_DEGRADED && sol->reason == MFNS_POSE_R_CAMERA_UNMONITORED) {
+        sol->status = MFNS_POSE_NO_FIX;
+        sol->reason = MFNS_POSE_R_UNMONITORED;
+    }
+}
+
+/* The bank's exclusion and re-admission of this cycle into the integrity
+ * result, whose fields the flight program reports as events (BEACON_EXCLUDED,
+ * CAMERA_EXCLUDED, *_READMITTED against their subject): the bank's verdict
+ * names its subject whether or not the cycle's pose is usable. A snapshot
+ * exclusion of the same cycle is replaced (the filter's is the one flown on
+ * while it runs). */
+static void report(const mfns_bank_output_t *o, mfns_integrity_result_t *integ)
+{
+    if (o->detected_kind == (uint8_t)MFNS_BANK_HYP_BEACON && o->detected_id >= 0) {
+        integ->excluded_beacon = o->detected_id;
+        integ->new_beacon_exclusion = true;
+        integ->detect_norm_sep = o->max_norm_sep;
+    } else if (o->detected_kind == (uint8_t)MFNS_BANK_HYP_CAMERA && o->detected_id >= 0 &&
+               o->detected_id < MFNS_NUM_CAMERAS) {
+        integ->excluded_camera = (int8_t)o->detected_id;
+        integ->new_camera_exclusion = true;
+        integ->detect_norm_sep = o->max_norm_sep;
+    }
+    if (o->readmitted_beacon >= 0) {
+        integ->readmitted_beacon = o->readmitted_beacon;
+    }
+    if (o->readmitted_camera >= 0) {
+        integ->readmitted_camera = o->readmitted_camera;
+    }
+}
+
 void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,
                     const mfns_obs_frame_t *obs, float sigma_px, mfns_pose_solution_t *sol,
                     mfns_integrity_result_t *integ, mfns_navf_report_t *rep)
@@ -172,6 +223,13 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
         rep->ran = mfns_bank_evaluate(&nf->bank, &nf->set, is, &t->datum, nf->t_us, &rep->out) ==
                    MFNS_FILTER_OK;
         nf->running = rep->ran && !rep->out.restart;
+        if (rep->ran) {
+            report(&rep->out, integ);
+        }
+        if (nf->running && rep->out.detected_kind != (uint8_t)MFNS_BANK_HYP_NONE) {
+            nf->running = false; /* restart from a certified snapshot (nav_filter_cycle.h) */
+            nf->carry_excl = true;
+        }
     }
     if (!nf->running) {
         if (nf->have_cap) {
@@ -179,11 +237,14 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
         }
         nf->have_cap = false;
         rep->started = usable(sol) && start(nf, t, sol);
-        return; /* the snapshot's verdict stands this cycle */
+        camera_bound_or_refused(sol); /* the snapshot's verdict stands this cycle, if it bounds cameras */
+        return;
     }
     nf->have_cap = false;
     if (rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;
+        return;
     }
+    camera_bound_or_refused(sol);
 }

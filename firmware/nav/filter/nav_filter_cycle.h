@@ -14,6 +14,19 @@
  * (motion bound exceeded, coast too long) starts again from the next usable
  * snapshot fix.
  *
+ * An exclusion (filter_bank.h) ends the bank too: it restarts from the next
+ * usable snapshot fix with the subject still held out (re-admission as
+ * before). Why: an exclusion replaces the full filter by the excluded
+ * hypothesis's subset and every other hypothesis restarts as a copy of it,
+ * so their separations start at zero and the PL falls to about K_ff sigma at
+ * once; a fault that was already in the filter (the subject named wrongly:
+ * a beacon of a drifting or knocked camera gated first) is then bounded by
+ * nothing (issue 42's grown campaign: camera y drifting 1 ms per frame,
+ * beacon 36 excluded, the next fixes 2x beyond their PL). The certified
+ * snapshot fix is the only independent verdict at hand; until it comes the
+ * cycles carry the snapshot's own status (the cost: availability after each
+ * exclusion; measured in docs/pose.md).
+ *
  * Time: each camera's observations enter the bank at their frame's capture
  * time when the caller gave them (mfns_navf_set_frame_times before the
  * cycle; the flight program passes the frames' stamps), cameras in the order
@@ -49,6 +62,7 @@ typedef struct {
     int64_t cap_us[MFNS_NUM_CAMERAS]; /* this cycle's capture times (have_cap) */
     bool have_cap;
     uint32_t stale_frames; /* frames stamped before the bank's state: not fed */
+    bool carry_excl;       /* the next start keeps the bank's exclusions (it follows one) */
     mfns_filter_settings_t set;
     mfns_filter_bank_t bank;
 } mfns_navf_t;
