@@ -27,7 +27,7 @@ def _tree(tmp: Path, files: dict[str, str]) -> Path:
 def test_this_tree_holds_the_rules():
     res = _run("--check")
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "0 includes found only by a search path, 0 unresolved, 0 borders crossed" in res.stdout
+    assert "0 circles, 0 includes found only by a search path, 0 unresolved, 0 borders crossed" in res.stdout
 
 
 def test_a_clean_tree_passes(tmp_path):
@@ -45,6 +45,18 @@ def test_a_clean_tree_passes(tmp_path):
     res = _run("--check", "--root", str(root))
     assert res.returncode == 0, res.stdout
     assert "0 circles" in res.stdout  # an internal header belongs to its module
+
+
+def test_a_circle_in_the_app_or_a_driver_fails(tmp_path):
+    """No folder is exempt: the flight program's rooms and the drivers are held to it too."""
+    for a, b in (("firmware/app/x", "firmware/app/y"), ("drivers/camera/x", "drivers/camera/y")):
+        root = _tree(
+            tmp_path / a.split("/")[0] / a.split("/")[1],
+            {f"{a}.h": f'#include "{b}.h"\n', f"{b}.h": "", f"{b}.c": f'#include "{a}.h"\n'},
+        )
+        res = _run("--check", "--root", str(root))
+        assert res.returncode == 1, res.stdout
+        assert f"circle: {a} <-> {b}" in res.stdout
 
 
 def test_a_circle_fails(tmp_path):
