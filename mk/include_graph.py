@@ -48,10 +48,15 @@ LEGACY_PATH = ("math", "firmware/nav", "firmware/tlm", "firmware/app", "drivers/
 BUILD_GENERATED = ("mfns_version.h",)
 
 # The borders: a module in the first folder never includes one in the second (prefixes).
-# The flight core sees no OS, host-only or Linux code; the host-only core is never a
-# flight module's dependency; drivers know nothing of the program that uses them.
+# The flight core sees no OS, host-only or Linux code, nor the frame policies beside it;
+# the host-only core is never a flight module's dependency; drivers know nothing of the
+# program that uses them.
 BORDERS = (
     (("math/", "firmware/nav/", "firmware/tlm/"),
+     ("firmware/app/", "firmware/host/", "firmware/linux/", "firmware/frames/", "drivers/", "ground/", "tests/")),
+    # the frame policies (issue 41) are portable like the core and sit beside it: they may
+    # use the core, nothing of an OS, a program or the ground; the core never uses them
+    (("firmware/frames/",),
      ("firmware/app/", "firmware/host/", "firmware/linux/", "drivers/", "ground/", "tests/")),
     (("math/",), ("firmware/",)),
     (("drivers/",), ("firmware/app/", "ground/", "firmware/host/")),

@@ -104,7 +104,7 @@ typedef struct {
 
 /* Where a frame's timestamp_ns comes from (V4L2 buffer flags
  * V4L2_BUF_FLAG_TIMESTAMP_MASK and V4L2_BUF_FLAG_TSTAMP_SRC_MASK, portable):
- * the camera data health checks (firmware/nav/frames/frame_health.h) compare a
+ * the camera data health checks (firmware/frames/frame_health.h) compare a
  * capture stamp with the frame's arrival only when both are on one clock. */
 typedef enum {
     MFNS_CAM_TS_UNKNOWN = 0,     /* V4L2 TIMESTAMP_UNKNOWN (or no statement) */

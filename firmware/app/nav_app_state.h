@@ -23,7 +23,7 @@
 #include <stdint.h>
 
 #include "firmware/nav/table/caltable.h"
-#include "firmware/app/cycle_stats.h"
+#include "firmware/frames/cycle_stats.h"
 #include "firmware/app/nav_cams.h"
 #include "firmware/nav/cycle/nav_cycle.h"
 #include "firmware/app/nav_fixlog.h"

@@ -14,7 +14,7 @@
  * to. A fused frame is handed to the navigator as an mfns_frame_t and given
  * back to its driver once the navigator is done (nav_cams_give_back_used).
  *
- * Data health (firmware/nav/frames/frame_health.h): every frame dequeued is
+ * Data health (firmware/frames/frame_health.h): every frame dequeued is
  * checked before synchronisation (frozen content or sequence, a stamp that
  * jumps against the camera's cadence or its arrival, a late frame) and the
  * cameras' sequence numbers are checked against each other; a camera the
@@ -40,9 +40,9 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "firmware/app/cam_sync.h"
+#include "firmware/frames/cam_sync.h"
 #include "drivers/camera/camera.h"
-#include "firmware/nav/frames/frame_health.h"
+#include "firmware/frames/frame_health.h"
 #include "firmware/app/nav_opts.h"
 #include "firmware/app/nav_tlm.h"
 
