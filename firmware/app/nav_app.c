@@ -1,5 +1,5 @@
 /* nav_app.c -- see nav_app.h. */
-#define _DEFAULT_SOURCE /* clock_gettime, sigaction under -std=c11 */
+#define _DEFAULT_SOURCE /* sigaction, nanosleep under -std=c11 */
 
 #include "firmware/app/nav_app.h"
 
@@ -10,7 +10,6 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "math/units.h"
 #include "mfns_version.h"
 #include "firmware/app/nav_cmds.h"
 #include "firmware/app/nav_loop.h"

@@ -2,7 +2,6 @@
 #define _DEFAULT_SOURCE /* usleep under -std=c11 */
 
 #include "firmware/app/nav_tlm.h"
-#include "firmware/app/nav_time.h"
 
 #include <errno.h>
 #include <fcntl.h>
