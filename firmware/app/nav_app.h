@@ -14,10 +14,11 @@
  *   nav_cmd_dispatch.h  sequence guard, table dispatch, one event per command
  *   nav_tlm.h         the transmit queue and its link, nav packet, events
  * (each includes only rooms below it in this list, main.c excepted:
- * nav_app_state.h draws the layering)
- * and their helpers: cam_sync.h (which frames a cycle fuses, camera health
- * rules), cycle_stats.h (cycle timing), caltable_file.h (a table from a
- * file), txq_drain.h (the transmit queue into the link).
+ * nav_app_state.h draws the layering), and their helpers: the frame policies
+ * of firmware/frames/ (cam_sync.h: which frames a cycle fuses, camera health
+ * rules; frame_health.h: camera data health; cycle_stats.h: cycle timing),
+ * caltable_file.h (a table from a file), txq_drain.h (the transmit queue into
+ * the link).
  *
  * Start-up (the only phase that may fail hard): open the telemetry link and
  * the command input, load and validate the calibration table (from the

@@ -9,7 +9,8 @@
  *             nav_selftest (the start-up self-test)
  *          -> nav_app_state (here: the state, its accessors, housekeeping)
  *          -> nav_cams (cameras, and the CAMERA packets of their data),
- *             nav_tc_in, nav_fixlog, nav_time, nav_service, cycle_stats
+ *             nav_tc_in, nav_fixlog, nav_time, nav_service (and the frame
+ *             policies of firmware/frames/: cam_sync, frame_health, cycle_stats)
  *          -> nav_tlm (the transmit queue, its link, the nav packet and events)
  *
  * Every include points down this list: a room reads the state through this
