@@ -88,3 +88,14 @@ def test_the_flight_core_never_includes_the_host_only_core(tmp_path):
     res = _run("--check", "--root", str(root))
     assert res.returncode == 1
     assert "border crossed: firmware/nav/x/x -> firmware/host/build" in res.stdout
+
+
+def test_the_frame_policies_sit_beside_the_core_on_both_sides_of_a_border(tmp_path):
+    """firmware/frames/ may use the core; the core never uses it, nor it the program."""
+    for src, dst in (("firmware/nav/x/x", "firmware/frames/f"), ("firmware/frames/f", "firmware/app/a")):
+        root = _tree(tmp_path / src.replace("/", "_"), {f"{dst}.h": "", f"{src}.c": f'#include "{dst}.h"\n'})
+        res = _run("--check", "--root", str(root))
+        assert res.returncode == 1, res.stdout
+        assert f"border crossed: {src} -> {dst}" in res.stdout
+    root = _tree(tmp_path / "ok", {"math/m.h": "", "firmware/frames/f.c": '#include "math/m.h"\n'})
+    assert _run("--check", "--root", str(root)).returncode == 0
