@@ -82,7 +82,13 @@ CORE_HDRS  := $(call tree,$(CORE_DIRS),.h)
 HOST_CORE_DIR  := firmware/host
 HOST_CORE_SRCS := $(sort $(wildcard $(HOST_CORE_DIR)/*.c))
 APP_MAINS  := firmware/app/main.c ground/main.c
-LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c firmware/linux/*.c ground/*.c ground/generated/*.c)))
+# The frame policies (issue 41): which frames a cycle fuses, camera data health, cycle
+# timing. Portable like the core (no OS, no heap: `make size` compiles and checks them for
+# the Cortex-M7) but applied by the flight program around the navigator, which never calls
+# them: beside the core, linked with the Linux programs, outside the core's image.
+FRAMES_DIR  := firmware/frames
+FRAMES_SRCS := $(sort $(wildcard $(FRAMES_DIR)/*.c))
+LINUX_SRCS := $(sort $(filter-out $(APP_MAINS),$(wildcard drivers/*/*.c firmware/app/*.c firmware/linux/*.c ground/*.c ground/generated/*.c) $(FRAMES_SRCS)))
 SUPPORT_SRCS := $(sort $(wildcard tests/unit/support/*.c))
 TEST_SRCS  := $(sort $(wildcard tests/unit/test_*.c))
 TESTS      := $(patsubst tests/unit/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
@@ -284,13 +290,16 @@ $(BUILD)/lto/%.o: %.c boards/$(BOARD)/board.mk
 	@mkdir -p $(@D)
 	$(call say,CC,$< (lto))$(CC) $(filter-out -fstack-usage -fcallgraph-info=su,$(CFLAGS_ALL)) $(BOARD_LTO) -c $< -o $@
 
-size: $(CORE_OBJS) $(LTO_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o
+size: $(CORE_OBJS) $(LTO_OBJS) $(BUILD)/obj/boards/cortex-m7-core/entry.o $(call obj,$(FRAMES_SRCS))
 	@mk/size.sh "$(SIZE)" "$(NM)" "$(BUILD)" $(CORE_OBJS)
+	@echo "frame policies ($(FRAMES_DIR)/: portable, linked by the Linux programs, not part of the core's image):"
+	@mk/size.sh "$(SIZE)" "$(NM)" "$(BUILD)" $(call obj,$(FRAMES_SRCS)) $(CORE_OBJS) >$(BUILD)/frames-size.txt
+	@grep -E '^($(FRAMES_DIR)/|size:)' $(BUILD)/frames-size.txt
 	$(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) -Wl,--no-gc-sections \
 	  $(BUILD)/obj/boards/cortex-m7-core/entry.o -Wl,--whole-archive $(CORE_OBJS) -Wl,--no-whole-archive \
 	  -lm -Wl,-Map=$(BUILD)/core.map -o $(BUILD)/core.elf
 	@$(SIZE) $(BUILD)/core.elf | sed 's/^/image: /'
-	@roots=$$(mk/flight_roots.sh "$(NM)" "firmware/app firmware/linux" $(CORE_OBJS)) && \
+	@roots=$$(mk/flight_roots.sh "$(NM)" "firmware/app firmware/linux $(FRAMES_DIR)" $(CORE_OBJS)) && \
 	  $(CC) $(BOARD_CFLAGS) $(BOARD_LDFLAGS) $$roots $(BUILD)/obj/boards/cortex-m7-core/entry.o $(CORE_OBJS) \
 	  -lm -Wl,-Map=$(BUILD)/flight-nolto.map -o $(BUILD)/flight-nolto.elf && \
 	  python3 mk/map_text.py --label "flight without LTO" $(BUILD)/flight-nolto.map && \

@@ -1,5 +1,6 @@
-/* camera.c -- handle pool, backend dispatch and the bookkeeping every backend
- * shares (messages, sequence numbers, state checks). */
+/* camera.c -- the front: handle pool, settings checks, state checks and the
+ * dispatch to the backends. The bookkeeping the backends share is
+ * camera_backend.c, the names of codes and formats camera_types.c. */
 #ifndef _DEFAULT_SOURCE
 #define _DEFAULT_SOURCE 1
 #endif
@@ -23,133 +24,9 @@ const mfns_cam_backend_ops_t mfns_cam_libcamera_ops = {mfns_lcam_open,    mfns_l
 static mfns_cam_t g_pool[MFNS_CAM_MAX_HANDLES];
 static atomic_bool g_used[MFNS_CAM_MAX_HANDLES];
 
-/* The invariants camera.h states (C only: camera.h is also C++'s). */
-_Static_assert(MFNS_CAM_E_COUNT_ == 20, "camera error codes are numbered in telemetry: append, never renumber");
-_Static_assert(MFNS_CAM_MIN_BUFFERS <= MFNS_CAM_DEFAULT_BUFFERS && MFNS_CAM_DEFAULT_BUFFERS <= MFNS_CAM_MAX_BUFFERS,
-               "the default buffer count must be a valid one");
-_Static_assert((uint64_t)MFNS_CAM_MAX_DIM * MFNS_CAM_MAX_DIM * 2u <= UINT32_MAX,
-               "a frame of MFNS_CAM_MAX_DIM^2 16-bit pixels must fit the uint32_t byte counts");
-
-static const char *const g_err_names[MFNS_CAM_E_COUNT_] = {
-    [MFNS_CAM_OK] = "ok",
-    [MFNS_CAM_E_ARG] = "invalid argument",
-    [MFNS_CAM_E_NO_SLOT] = "no free camera handle",
-    [MFNS_CAM_E_BACKEND] = "camera backend not built into this program",
-    [MFNS_CAM_E_OPEN] = "cannot open camera",
-    [MFNS_CAM_E_NOT_CAPTURE] = "not a streaming video capture device",
-    [MFNS_CAM_E_FORMAT] = "pixel format or size not supported",
-    [MFNS_CAM_E_CONTROL] = "camera control unsupported or out of range",
-    [MFNS_CAM_E_BUFFERS] = "too few capture buffers",
-    [MFNS_CAM_E_MMAP] = "cannot map capture buffer",
-    [MFNS_CAM_E_STREAM] = "cannot start or stop streaming",
-    [MFNS_CAM_E_STATE] = "call not valid in this state",
-    [MFNS_CAM_E_BUSY] = "all buffers held by the caller",
-    [MFNS_CAM_E_TIMEOUT] = "timed out waiting for a frame",
-    [MFNS_CAM_E_IO] = "camera I/O error",
-    [MFNS_CAM_E_LOST] = "camera lost, recovering",
-    [MFNS_CAM_E_NO_DEVICE] = "camera lost, recovery failed",
-    [MFNS_CAM_E_NO_CAMERA] = "no such camera",
-    [MFNS_CAM_E_END] = "end of recorded frames",
-    [MFNS_CAM_E_DATA] = "malformed recorded frames",
-};
-_Static_assert(sizeof g_err_names / sizeof g_err_names[0] == MFNS_CAM_E_COUNT_, "one name per camera error code");
-
-const char *mfns_cam_strerror(mfns_cam_err_t e)
-{
-    if ((unsigned)e >= (unsigned)MFNS_CAM_E_COUNT_) {
-        return "unknown camera error";
-    }
-    return g_err_names[e];
-}
-
 const char *mfns_cam_message(const mfns_cam_t *h)
 {
     return h ? h->msg : "";
-}
-
-const char *mfns_cam_pixfmt_name(mfns_cam_pixfmt_t f)
-{
-    switch (f) {
-    case MFNS_CAM_PIX_ANY: return "ANY";
-    case MFNS_CAM_PIX_GREY: return "GREY";
-    case MFNS_CAM_PIX_Y10: return "Y10";
-    case MFNS_CAM_PIX_Y12: return "Y12";
-    case MFNS_CAM_PIX_Y16: return "Y16";
-    case MFNS_CAM_PIX_COUNT_: break;
-    }
-    return "invalid";
-}
-
-uint32_t mfns_cam_pixfmt_bytes(mfns_cam_pixfmt_t f)
-{
-    switch (f) {
-    case MFNS_CAM_PIX_GREY: return 1;
-    case MFNS_CAM_PIX_Y10:
-    case MFNS_CAM_PIX_Y12:
-    case MFNS_CAM_PIX_Y16: return 2;
-    case MFNS_CAM_PIX_ANY:
-    case MFNS_CAM_PIX_COUNT_: break;
-    }
-    return 0;
-}
-
-mfns_cam_err_t mfns_cam_fail(mfns_cam_t *h, mfns_cam_err_t e, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    /* ap is initialised by va_start just above; the analyzer loses it across
-     * camera_v4l2_ident.c's call paths (a false positive, clang-tidy 14). */
-    /* NOLINTNEXTLINE(clang-analyzer-valist.Uninitialized) */
-    (void)vsnprintf(h->msg, sizeof h->msg, fmt, ap);
-    va_end(ap);
-    return e;
-}
-
-int64_t mfns_cam_now_ns(void)
-{
-    struct timespec ts;
-    if (clock_gettime(CLOCK_MONOTONIC, &ts) != 0) {
-        return 0; /* cannot fail for CLOCK_MONOTONIC on Linux */
-    }
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
-}
-
-void mfns_cam_seq_reset(mfns_cam_t *h)
-{
-    h->have_seq = false;
-    h->missing = 0;
-}
-
-/* Frames between the baseline and seq; a step backwards (counter reset or a
- * reordered frame) rebases without counting. */
-static uint32_t seq_gap(mfns_cam_t *h, uint32_t seq)
-{
-    uint32_t gap = 0;
-    if (h->have_seq) {
-        const uint32_t d = seq - h->last_seq - 1u; /* modulo 2^32: wraps are fine */
-        gap = d < 0x80000000u ? d : 0u;
-    }
-    h->have_seq = true;
-    h->last_seq = seq;
-    return gap;
-}
-
-uint32_t mfns_cam_seq_delivered(mfns_cam_t *h, uint32_t seq)
-{
-    const uint32_t gap = seq_gap(h, seq);
-    h->stats.dropped += gap;
-    h->stats.frames++;
-    const uint32_t missing = h->missing + gap;
-    h->missing = 0;
-    return missing;
-}
-
-void mfns_cam_seq_errored(mfns_cam_t *h, uint32_t seq)
-{
-    const uint32_t gap = seq_gap(h, seq);
-    h->stats.dropped += gap;
-    h->stats.error_frames++;
-    h->missing += gap + 1u;
 }
 
 mfns_cam_settings_t mfns_cam_default_settings(mfns_cam_backend_t backend, const char *path)

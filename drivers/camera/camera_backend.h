@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "drivers/camera/camera.h"
+#include "drivers/camera/camera_types.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -21,7 +21,7 @@
 #ifndef MFNS_DRIVERS_CAMERA_LIBCAMERA_H
 #define MFNS_DRIVERS_CAMERA_LIBCAMERA_H
 
-#include "drivers/camera/camera.h"
+#include "drivers/camera/camera_types.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -1,5 +1,5 @@
 /* nav_app.c -- see nav_app.h. */
-#define _DEFAULT_SOURCE /* clock_gettime, sigaction under -std=c11 */
+#define _DEFAULT_SOURCE /* sigaction, nanosleep under -std=c11 */
 
 #include "firmware/app/nav_app.h"
 
@@ -10,10 +10,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "math/units.h"
 #include "mfns_version.h"
 #include "firmware/app/nav_cmds.h"
 #include "firmware/app/nav_loop.h"
+#include "firmware/app/nav_selftest.h"
 #include "firmware/app/nav_tablestore.h"
 
 #define NAV_APP_VERSION MFNS_VERSION_CODE /* the one version (mk/version.sh) */
@@ -25,37 +25,6 @@ static void on_signal(int sig)
 {
     (void)sig;
     stop_requested = 1;
-}
-
-uint64_t nav_app_now_us(void)
-{
-    struct timespec ts;
-    if (clock_gettime(CLOCK_MONOTONIC, &ts) != 0) {
-        return 0;
-    }
-    return (uint64_t)ts.tv_sec * MFNS_US_PER_S + (uint64_t)ts.tv_nsec / 1000u;
-}
-
-const mfns_caltable_t *nav_app_table(const nav_app_t *app)
-{
-    return &app->tables[app->table_cur];
-}
-
-uint8_t nav_app_tlm_mode(const nav_app_t *app)
-{
-    if (app->waiting_table) {
-        return (uint8_t)TLM_MODE_WAIT_TABLE;
-    }
-    return app->standby ? (uint8_t)TLM_MODE_STANDBY : nav_tlm_mode(app->nav.mode);
-}
-
-mfns_nav_status_t nav_app_set_prior(nav_app_t *app, float x, float y, float z, float roll_deg, float pitch_deg,
-                                    float yaw_deg)
-{
-    const float d2r = MFNS_RAD_PER_DEG_F;
-    const mfns_euler_t e = {roll_deg * d2r, pitch_deg * d2r, yaw_deg * d2r};
-    const mfns_pose_t p0 = mfns_pose_from_position(mfns_euler213_to_m3(e), mfns_v3(x, y, z));
-    return mfns_nav_set_prior(&app->nav, &p0);
 }
 
 static void send_event_subject(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
@@ -71,75 +40,6 @@ static void send_event(nav_app_t *app, tlm_event_code_t code, tlm_severity_t sev
      * first frame's time, in a replay) */
     const uint64_t t_us = app->clock_monotonic ? nav_app_now_us() : 0u;
     (void)nav_tlm_event(&app->tlm, 0, t_us, code, sev, 0, a0, a1); /* failures counted in tlm */
-}
-
-void nav_app_apply_budget(nav_app_t *app, mfns_caltable_t *t)
-{
-    if (app->budget_units != 0u) {
-        t->index.budget_units = app->budget_units; /* the board's, over the table's (docs/budgets.md) */
-    }
-}
-
-void nav_app_note_frame_time(nav_app_t *app, const mfns_frame_t *const frames[], uint64_t t_us)
-{
-    bool fused = false;
-    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        fused = fused || frames[k] != NULL;
-    }
-    if (!fused) {
-        return;
-    }
-    if (app->last_fused_t_us != 0u && t_us > app->last_fused_t_us) {
-        const uint64_t step = t_us - app->last_fused_t_us;
-        const uint32_t s32 = step > UINT32_MAX ? UINT32_MAX : (uint32_t)step;
-        if (app->frame_period_min_us == 0u || s32 < app->frame_period_min_us) {
-            app->frame_period_min_us = s32;
-        }
-    }
-    app->last_fused_t_us = t_us;
-}
-
-void nav_app_note_latency(nav_app_t *app, uint64_t gathered_us)
-{
-    if (app->tlm.kind == NAV_TLM_NONE || tlm_txq_frames(&app->tlm.q) != 0u) {
-        return; /* no link, or something of this cycle is still queued: not out yet */
-    }
-    uint64_t arrival_max_ns = 0, stamp_min_ns = UINT64_MAX;
-    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        const nav_cam_t *c = &app->cams.cam[k];
-        if (c->used && c->frame.arrival_ns != 0u) {
-            arrival_max_ns = c->frame.arrival_ns > arrival_max_ns ? c->frame.arrival_ns : arrival_max_ns;
-            stamp_min_ns = c->frame.timestamp_ns < stamp_min_ns ? c->frame.timestamp_ns : stamp_min_ns;
-        }
-    }
-    if (arrival_max_ns == 0u || arrival_max_ns < stamp_min_ns) {
-        return; /* no arrival time (an unpaced replay), or stamps not on the arrival's clock */
-    }
-    const uint64_t now = nav_app_now_us();
-    const uint64_t lat_us = (now - gathered_us) + (arrival_max_ns - stamp_min_ns) / 1000u;
-    mfns_cycle_stats_add(&app->latency, lat_us > UINT32_MAX ? UINT32_MAX : (uint32_t)lat_us, 0u);
-}
-
-void nav_app_watch_clock(nav_app_t *app, uint32_t cycle, uint64_t t_us)
-{
-    /* live and in a replay alike: it is this board's UTC that stepped (a
-     * replay's packet times are its recording's and do not move; its UTC
-     * pairs keep their anchor) */
-    const int64_t step_us = nav_time_step_now(&app->time);
-    if (step_us == 0) {
-        return;
-    }
-    const int64_t step_ms = step_us / 1000;
-    const int32_t s32 = step_ms > INT32_MAX ? INT32_MAX : step_ms < -INT32_MAX ? -INT32_MAX : (int32_t)step_ms;
-    const nav_time_sync_t sync = nav_time_sync_now();
-    const uint8_t q = (uint8_t)(sync.synced ? TLM_TIMEQ_SYNCED : TLM_TIMEQ_SYSTEM);
-    fprintf(stderr,
-            "mfns-nav: the board's UTC stepped by %+lld ms against the flight clock (step %u; %s): the flight clock is "
-            "unaffected, the next housekeeping carries the new UTC\n",
-            (long long)step_ms, app->time.n_steps, sync.synced ? "synchronised" : "not synchronised");
-    (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_CLOCK_STEP, TLM_SEV_WARNING, q, s32,
-                        (int32_t)app->time.n_steps); /* failures counted in tlm */
-    app->hk_now = true; /* housekeeping this cycle: the ground re-correlates at once */
 }
 
 static void close_all(nav_app_t *app)

@@ -580,3 +580,71 @@ void nav_cams_print_faults(const nav_cams_t *cs)
         }
     }
 }
+
+/* The camera's state: the link's when it is off or ended, else the data
+ * health monitor's when it holds the camera out, else the link's. */
+static uint8_t camera_state(const nav_cams_t *cams, const mfns_nav_output_t *out, int k)
+{
+    const nav_cam_t *c = &cams->cam[k];
+    switch (c->health.state) {
+    case CAM_HEALTH_OFF: return TLM_CAM_OFF;
+    case CAM_HEALTH_ENDED: return TLM_CAM_ENDED;
+    case CAM_HEALTH_LOST:
+    case CAM_HEALTH_UP: break;
+    }
+    switch (fh_state(&cams->health, (unsigned)k)) {
+    case FH_PROBATION: return TLM_CAM_PROBATION;
+    case FH_FROZEN: return TLM_CAM_FROZEN;
+    case FH_CLOCK_FAULT: return TLM_CAM_CLOCK_FAULT;
+    case FH_LATE: return TLM_CAM_LATE;
+    case FH_OUT_OF_STEP: return TLM_CAM_OUT_OF_STEP;
+    case FH_HEALTHY:
+    case FH_STATE_COUNT: break;
+    }
+    if (c->health.state == CAM_HEALTH_LOST) {
+        return TLM_CAM_LOST;
+    }
+    /* integrity's holds (integrity_lag.h) describe frames the camera gave:
+     * without one this cycle it is SKIPPED, what the operator must see first */
+    if (c->have && out->cam_held[k] == 2U) {
+        return TLM_CAM_LAGGING; /* its frames lag */
+    }
+    if (c->have && out->cam_held[k] == 3U) {
+        return TLM_CAM_LAG_VERIFY;
+    }
+    if (c->have && out->cameras.state[k] == 1U) {
+        return TLM_CAM_INCONSISTENT; /* no spot where the other cameras' fix puts a beacon */
+    }
+    if (c->have && out->cameras.state[k] == 2U) {
+        return TLM_CAM_DISAGREES; /* no spot where the one other camera's fix puts a beacon */
+    }
+    return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
+}
+
+void nav_cams_packets(const nav_cams_t *cams, nav_tlm_t *t, const mfns_nav_output_t *out, uint32_t cycle,
+                      uint64_t t_us)
+{
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        const nav_cam_t *cs = &cams->cam[k];
+        tlm_packet_t p;
+        memset(&p, 0, sizeof p);
+        p.type = TLM_TYPE_CAMERA;
+        p.time = tlm_time_from_us(t_us);
+        tlm_camera_t *c = &p.u.camera;
+        mfns_cam_stats_t st;
+        memset(&st, 0, sizeof st);
+        if (cs->cam) {
+            (void)mfns_cam_get_stats(cs->cam, &st); /* zeros on failure are the honest answer */
+        }
+        c->cycle = cycle;
+        c->camera = (uint8_t)k;
+        c->state = camera_state(cams, out, k);
+        c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
+        c->beacons_identified = (uint8_t)out->cam[k].identified;
+        c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;
+        /* a frame the health monitor left out still names its sequence number */
+        c->frame_seq = cs->used || cs->held_out ? cs->frame.sequence : 0;
+        c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
+        (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
+    }
+}

@@ -14,7 +14,7 @@
  * to. A fused frame is handed to the navigator as an mfns_frame_t and given
  * back to its driver once the navigator is done (nav_cams_give_back_used).
  *
- * Data health (firmware/nav/frames/frame_health.h): every frame dequeued is
+ * Data health (firmware/frames/frame_health.h): every frame dequeued is
  * checked before synchronisation (frozen content or sequence, a stamp that
  * jumps against the camera's cadence or its arrival, a late frame) and the
  * cameras' sequence numbers are checked against each other; a camera the
@@ -40,9 +40,9 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#include "firmware/app/cam_sync.h"
+#include "firmware/frames/cam_sync.h"
 #include "drivers/camera/camera.h"
-#include "firmware/nav/frames/frame_health.h"
+#include "firmware/frames/frame_health.h"
 #include "firmware/app/nav_opts.h"
 #include "firmware/app/nav_tlm.h"
 
@@ -118,6 +118,11 @@ void nav_cams_give_back_used(nav_cams_t *cs);
 void nav_cams_driver_events(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us, uint64_t now_ms);
 /* Health transitions after a cycle (see above), re-opening cameras that are due. */
 void nav_cams_update_health(nav_cams_t *cs, nav_tlm_t *tlm, const nav_opts_t *o, uint32_t cycle, uint64_t t_us);
+/* One CAMERA packet per camera into tlm: its state after this cycle's health
+ * update, what the navigator found in its frame (out), the frame's exposure
+ * and sequence when it was fused, the driver's drop count. */
+void nav_cams_packets(const nav_cams_t *cs, nav_tlm_t *tlm, const mfns_nav_output_t *out, uint32_t cycle,
+                      uint64_t t_us);
 /* Every camera is off for good or has ended. */
 bool nav_cams_all_gone(const nav_cams_t *cs);
 /* Bit k set when camera k is enabled. */

@@ -7,7 +7,7 @@
 
 #include "firmware/app/caltable_file.h"
 #include "math/units.h"
-#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_app_state.h"
 #include "firmware/app/nav_tablestore.h"
 #include "firmware/app/tc_state.h"
 

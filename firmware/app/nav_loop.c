@@ -18,7 +18,7 @@ static uint64_t now_ms(void)
 
 void nav_loop_housekeeping(nav_app_t *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
 {
-    nav_tlm_housekeeping(&app->tlm, app, cycle, n_cycles, t_us);
+    nav_app_housekeeping(app, cycle, n_cycles, t_us);
     app->count.acq_units_max = 0; /* per report interval */
     mfns_cycle_stats_reset(&app->stats);
     app->frame_period_min_us = 0;
@@ -174,7 +174,7 @@ static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle
     send_solution(app, cycle, t_us);
     nav_cams_driver_events(cams, &app->tlm, cycle, t_us, now_ms());
     nav_cams_update_health(cams, &app->tlm, o, cycle, t_us); /* first: the packets carry the state after this cycle */
-    nav_tlm_camera_packets(&app->tlm, cams, &app->out, cycle, t_us);
+    nav_cams_packets(cams, &app->tlm, &app->out, cycle, t_us);
     if (app->out.mode_changed) {
         (void)nav_tlm_event(&app->tlm, cycle, t_us, TLM_EVT_MODE_CHANGE, TLM_SEV_INFO, (uint8_t)app->out.sol.reason,
                             nav_tlm_mode(before), nav_tlm_mode(app->out.next_mode)); /* failures counted in tlm */

@@ -17,7 +17,7 @@
 #include <signal.h>
 #include <stdint.h>
 
-#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_app_state.h"
 
 #define NAV_LOOP_HK_PERIOD_US 1000000u /* housekeeping: once per second of frame time */
 #define NAV_LOOP_FIX_DOWNLINK_PERIOD_US 1000000u /* fix record: one fix per second down the link (docs/telemetry.md 5) */
@@ -27,7 +27,7 @@
  * "every camera is gone") and *cycles the cycles run. */
 const char *nav_loop_run(nav_app_t *app, const nav_opts_t *o, const volatile sig_atomic_t *stop, uint32_t *cycles);
 
-/* Sends housekeeping (nav_tlm_housekeeping) and starts the next report
+/* Sends housekeeping (nav_app_housekeeping) and starts the next report
  * interval (cycle timing and the most acquisition work). */
 void nav_loop_housekeeping(nav_app_t *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us);
 

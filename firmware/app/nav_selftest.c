@@ -8,7 +8,7 @@
 #include <sys/timex.h>
 #include <time.h>
 
-#include "firmware/app/nav_app.h"
+#include "firmware/app/nav_app_state.h"
 
 static void event(struct nav_app *app, tlm_event_code_t code, tlm_severity_t sev, uint8_t subject, int32_t a0,
                   int32_t a1)

@@ -44,11 +44,7 @@ enum { NAV_ST_CAM_OK = 0, NAV_ST_CAM_MISSING = 1, NAV_ST_CAM_NO_FRAME = 2, NAV_S
 /* SELFTEST_UART subject */
 enum { NAV_ST_UART_OPEN = 0, NAV_ST_UART_NOT_OPEN = 1, NAV_ST_UART_NONE = 2 };
 
-typedef struct {
-    uint8_t checks;      /* run so far */
-    uint8_t failed;      /* of them, failed */
-    uint8_t cams_passed; /* bit k: camera k passed */
-} nav_selftest_t;
+/* Its tally, nav_selftest_t, is part of the program's state (nav_app_state.h). */
 
 struct nav_app;
 

@@ -2,7 +2,6 @@
 #define _DEFAULT_SOURCE /* usleep under -std=c11 */
 
 #include "firmware/app/nav_tlm.h"
-#include "firmware/app/nav_time.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -12,8 +11,6 @@
 #include <unistd.h>
 
 #include "math/units.h"
-#include "firmware/app/nav_app.h"
-#include "firmware/app/nav_cams.h"
 #include "firmware/linux/txq_drain.h"
 
 #define FLUSH_TRIES 200 /* x 10 ms: telemetry drain at exit */
@@ -286,163 +283,4 @@ void nav_tlm_flush_and_close(nav_tlm_t *t, uint32_t cycle)
         }
     }
     mfns_uart_close(&t->uart);
-}
-
-/* The camera's state: the link's when it is off or ended, else the data
- * health monitor's when it holds the camera out, else the link's. */
-static uint8_t camera_state(const struct nav_cams *cams, const mfns_nav_output_t *out, int k)
-{
-    const nav_cam_t *c = &cams->cam[k];
-    switch (c->health.state) {
-    case CAM_HEALTH_OFF: return TLM_CAM_OFF;
-    case CAM_HEALTH_ENDED: return TLM_CAM_ENDED;
-    case CAM_HEALTH_LOST:
-    case CAM_HEALTH_UP: break;
-    }
-    switch (fh_state(&cams->health, (unsigned)k)) {
-    case FH_PROBATION: return TLM_CAM_PROBATION;
-    case FH_FROZEN: return TLM_CAM_FROZEN;
-    case FH_CLOCK_FAULT: return TLM_CAM_CLOCK_FAULT;
-    case FH_LATE: return TLM_CAM_LATE;
-    case FH_OUT_OF_STEP: return TLM_CAM_OUT_OF_STEP;
-    case FH_HEALTHY:
-    case FH_STATE_COUNT: break;
-    }
-    if (c->health.state == CAM_HEALTH_LOST) {
-        return TLM_CAM_LOST;
-    }
-    /* integrity's holds (integrity_lag.h) describe frames the camera gave:
-     * without one this cycle it is SKIPPED, what the operator must see first */
-    if (c->have && out->cam_held[k] == 2U) {
-        return TLM_CAM_LAGGING; /* its frames lag */
-    }
-    if (c->have && out->cam_held[k] == 3U) {
-        return TLM_CAM_LAG_VERIFY;
-    }
-    if (c->have && out->cameras.state[k] == 1U) {
-        return TLM_CAM_INCONSISTENT; /* no spot where the other cameras' fix puts a beacon */
-    }
-    if (c->have && out->cameras.state[k] == 2U) {
-        return TLM_CAM_DISAGREES; /* no spot where the one other camera's fix puts a beacon */
-    }
-    return c->used ? TLM_CAM_OK : TLM_CAM_SKIPPED;
-}
-
-void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfns_nav_output_t *out, uint32_t cycle,
-                            uint64_t t_us)
-{
-    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        const nav_cam_t *cs = &cams->cam[k];
-        tlm_packet_t p;
-        memset(&p, 0, sizeof p);
-        p.type = TLM_TYPE_CAMERA;
-        p.time = tlm_time_from_us(t_us);
-        tlm_camera_t *c = &p.u.camera;
-        mfns_cam_stats_t st;
-        memset(&st, 0, sizeof st);
-        if (cs->cam) {
-            (void)mfns_cam_get_stats(cs->cam, &st); /* zeros on failure are the honest answer */
-        }
-        c->cycle = cycle;
-        c->camera = (uint8_t)k;
-        c->state = camera_state(cams, out, k);
-        c->blobs = (uint8_t)(out->cam[k].blobs > 255 ? 255 : out->cam[k].blobs);
-        c->beacons_identified = (uint8_t)out->cam[k].identified;
-        c->exposure_us = cs->used && cs->frame.exposure_us > 0 ? (uint32_t)cs->frame.exposure_us : 0;
-        /* a frame the health monitor left out still names its sequence number */
-        c->frame_seq = cs->used || cs->held_out ? cs->frame.sequence : 0;
-        c->frames_dropped = (uint32_t)(st.dropped > UINT32_MAX ? UINT32_MAX : st.dropped);
-        (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
-    }
-}
-
-_Static_assert((int)TLM_WS_INSIDE == (int)MFNS_WS_INSIDE && (int)TLM_WS_OUTSIDE == (int)MFNS_WS_OUTSIDE,
-               "the housekeeping's workspace_t extends the core's watch states");
-
-/* The workspace watch's state as housekeeping carries it: outside with no
- * track is LOST_OUTSIDE, the state in which acquisitions are refused. */
-static uint8_t hk_workspace(const mfns_nav_t *nav)
-{
-    if (nav->wsw.state == (uint8_t)MFNS_WS_INSIDE) {
-        return (uint8_t)TLM_WS_INSIDE;
-    }
-    return (uint8_t)(nav->mode == MFNS_NAV_MODE_TRACK ? TLM_WS_OUTSIDE : TLM_WS_LOST_OUTSIDE);
-}
-
-void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us)
-{
-    tlm_packet_t p;
-    memset(&p, 0, sizeof p);
-    p.type = TLM_TYPE_HK;
-    p.time = tlm_time_from_us(t_us);
-    tlm_hk_t *h = &p.u.hk;
-    h->cycle = cycle;
-    h->mode = nav_app_tlm_mode(app);
-    h->cpu_load_permille = (uint16_t)(TLM_SCALE_PCT_FROM_PERMILLE_U16 * mfns_cycle_stats_cpu_load_pct(&app->stats));
-    h->cycle_p50_us = mfns_cycle_stats_percentile(&app->stats, 50.0f);
-    h->cycle_p95_us = mfns_cycle_stats_percentile(&app->stats, 95.0f);
-    h->cycle_p99_us = mfns_cycle_stats_percentile(&app->stats, 99.0f);
-    h->cycle_max_us = app->stats.max_us;
-    h->n_cycles = n_cycles;
-    h->n_fix = app->count.n_fix;
-    h->n_degraded = app->count.n_degraded;
-    h->n_no_fix = app->count.n_no_fix;
-    h->cams_enabled = nav_cams_enabled_mask(&app->cams); /* CAMERA_DISABLE clears bits */
-    h->n_cmd_accepted = app->tc.cmd.n_accepted;
-    h->n_cmd_rejected = app->tc.cmd.n_rejected;
-    h->cmd_seq_last = app->tc.cmd.seq_last;
-    h->tc_epoch = app->tc.auth.epoch;           /* not secret: the ground signs with it */
-    h->tc_arsn_last = app->tc.auth.count_last;
-    if (app->tc.kind != NAV_TC_NONE) {
-        /* the uplink report, MACed (tc_auth.h): the only thing the ground believes */
-        tc_auth_report_t r;
-        tc_auth_report(&app->tc.auth, &r);
-        h->tc_epoch = r.epoch;
-        h->tc_arsn_last = r.count_last;
-        h->tc_state = r.state;
-        h->tc_nonce_hi = (uint32_t)(r.nonce >> 32);
-        h->tc_nonce_lo = (uint32_t)(r.nonce & 0xFFFFFFFFu);
-        h->tc_report_spi = r.spi;
-        h->tc_report_mac0 = (uint32_t)r.mac[0] << 24 | (uint32_t)r.mac[1] << 16 | (uint32_t)r.mac[2] << 8 | r.mac[3];
-        h->tc_report_mac1 = (uint32_t)r.mac[4] << 24 | (uint32_t)r.mac[5] << 16 | (uint32_t)r.mac[6] << 8 | r.mac[7];
-        h->tc_report_mac2 = (uint32_t)r.mac[8] << 24 | (uint32_t)r.mac[9] << 16 | (uint32_t)r.mac[10] << 8 | r.mac[11];
-        h->tc_report_mac3 =
-            (uint32_t)r.mac[12] << 24 | (uint32_t)r.mac[13] << 16 | (uint32_t)r.mac[14] << 8 | r.mac[15];
-    }
-    h->n_fixlog_errors = atomic_load(&app->fixlog.lost_records) + atomic_load(&app->fixlog.dropped_records);
-    h->n_storage_errors = app->n_storage_errors;
-    h->n_beacons_biased = app->nav.bmon.n_flagged;
-    h->workspace = hk_workspace(&app->nav);
-    /* the cycle margin (issue 24 item 6): the frame period less the longest cycle of the interval */
-    h->frame_period_us = app->frame_period_min_us;
-    h->cycle_margin_us = app->frame_period_min_us == 0u
-                             ? 0
-                             : (int32_t)((int64_t)app->frame_period_min_us - (int64_t)app->stats.max_us);
-    h->n_tlm_dropped = t->q.dropped;
-    h->n_cam_errors = (uint32_t)(app->cams.errors > UINT32_MAX ? UINT32_MAX : app->cams.errors);
-    h->table_crc32 = nav_app_table(app)->crc32;
-    h->n_acquire = app->count.n_acquire;
-    h->acq_units_max = app->count.acq_units_max;
-    h->acq_units_last = app->count.acq_last.units;
-    h->acq_band_last = app->count.acq_last.band;
-    h->acq_best_last = app->count.acq_last.best_inliers;
-    const nav_time_pair_t utc = nav_time_pair_now(&app->time, t_us); /* CCSDS-style time correlation */
-    h->utc_s = utc.utc_s;
-    h->utc_us = utc.utc_us;
-    h->time_quality = utc.quality;
-    const nav_time_sync_t sync = nav_time_sync_now(); /* the kernel's bound on that UTC */
-    h->time_error_us = sync.error_us;
-    h->time_offset_us = sync.offset_us;
-    (void)nav_tlm_send(t, &p); /* failures counted in encode_errors */
-    const uint32_t lost = atomic_load(&app->fixlog.lost_records);
-    if (lost != app->fixlog_lost_reported && app->fixlog_lost_reported == 0u) {
-        /* once: the log's disk refuses (full, read-only); the count goes on in housekeeping */
-        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_STORAGE_FAULT, TLM_SEV_WARNING, 1u, 0, (int32_t)lost);
-    }
-    app->fixlog_lost_reported = lost;
-    if (t->q.dropped != t->last_dropped_reported) {
-        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_TLM_DROPPED, TLM_SEV_WARNING, 0,
-                            (int32_t)(t->q.dropped - t->last_dropped_reported), 0);
-        t->last_dropped_reported = t->q.dropped;
-    }
 }

@@ -1,7 +1,10 @@
-/* nav_tlm.h -- the flight program's telemetry room: every packet mfns-nav
- * sends, the drop-oldest transmit queue they wait in, and the link they
- * leave by (drivers/uart, which only moves bytes; the queue is emptied into
- * it by txq_drain.h).
+/* nav_tlm.h -- the flight program's telemetry room: the drop-oldest transmit
+ * queue every packet mfns-nav sends waits in, the link they leave by
+ * (drivers/uart, which only moves bytes; the queue is emptied into it by
+ * txq_drain.h), and the packets of the navigator's output (nav packet,
+ * integrity events). Each other packet is built by the room that owns its
+ * data and queued here: CAMERA by nav_cams.h, housekeeping by
+ * nav_app_state.h. This room includes neither (issue 41: no circle).
  *
  * Packets (docs/telemetry.md): the navigation solution of every cycle (a
  * NO_FIX solution carries zeros in every pose field: a stale or unconverged
@@ -32,9 +35,6 @@
 #include "drivers/uart/uart.h"
 
 _Static_assert(MFNS_NUM_CAMERAS <= 8, "cams_used and cams_enabled are one bit per camera in a u8");
-
-struct nav_cams; /* nav_cams.h */
-struct nav_app;  /* nav_app.h */
 
 typedef struct {
     tlm_encoder_t enc;
@@ -74,16 +74,5 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
                               uint16_t hold_cycles, uint32_t cycle, uint64_t t_us);
 /* Telemetry mode of a navigation mode (ACQUIRE/TRACK). */
 uint8_t nav_tlm_mode(mfns_nav_mode_t m);
-/* One CAMERA packet per camera: its state after this cycle's health update,
- * what the navigator found in its frame (out), the frame's exposure and
- * sequence when it was fused, the driver's drop count. */
-void nav_tlm_camera_packets(nav_tlm_t *t, const struct nav_cams *cams, const mfns_nav_output_t *out, uint32_t cycle,
-                            uint64_t t_us);
-/* The housekeeping packet of app's counters (n_cycles: cycles run so far,
- * the one of index cycle included), then a TLM_DROPPED event when frames
- * were dropped since the last one. Reads the counters (and moves app's time
- * correlation on: a replay anchors at its first pair); the caller starts the
- * next report interval. */
-void nav_tlm_housekeeping(nav_tlm_t *t, struct nav_app *app, uint32_t cycle, uint32_t n_cycles, uint64_t t_us);
 
 #endif /* MFNS_NAV_TLM_H */

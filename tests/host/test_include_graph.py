@@ -27,7 +27,7 @@ def _tree(tmp: Path, files: dict[str, str]) -> Path:
 def test_this_tree_holds_the_rules():
     res = _run("--check")
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "0 includes found only by a search path, 0 unresolved, 0 borders crossed" in res.stdout
+    assert "0 circles, 0 includes found only by a search path, 0 unresolved, 0 borders crossed" in res.stdout
 
 
 def test_a_clean_tree_passes(tmp_path):
@@ -45,6 +45,18 @@ def test_a_clean_tree_passes(tmp_path):
     res = _run("--check", "--root", str(root))
     assert res.returncode == 0, res.stdout
     assert "0 circles" in res.stdout  # an internal header belongs to its module
+
+
+def test_a_circle_in_the_app_or_a_driver_fails(tmp_path):
+    """No folder is exempt: the flight program's rooms and the drivers are held to it too."""
+    for a, b in (("firmware/app/x", "firmware/app/y"), ("drivers/camera/x", "drivers/camera/y")):
+        root = _tree(
+            tmp_path / a.split("/")[0] / a.split("/")[1],
+            {f"{a}.h": f'#include "{b}.h"\n', f"{b}.h": "", f"{b}.c": f'#include "{a}.h"\n'},
+        )
+        res = _run("--check", "--root", str(root))
+        assert res.returncode == 1, res.stdout
+        assert f"circle: {a} <-> {b}" in res.stdout
 
 
 def test_a_circle_fails(tmp_path):
@@ -76,3 +88,14 @@ def test_the_flight_core_never_includes_the_host_only_core(tmp_path):
     res = _run("--check", "--root", str(root))
     assert res.returncode == 1
     assert "border crossed: firmware/nav/x/x -> firmware/host/build" in res.stdout
+
+
+def test_the_frame_policies_sit_beside_the_core_on_both_sides_of_a_border(tmp_path):
+    """firmware/frames/ may use the core; the core never uses it, nor it the program."""
+    for src, dst in (("firmware/nav/x/x", "firmware/frames/f"), ("firmware/frames/f", "firmware/app/a")):
+        root = _tree(tmp_path / src.replace("/", "_"), {f"{dst}.h": "", f"{src}.c": f'#include "{dst}.h"\n'})
+        res = _run("--check", "--root", str(root))
+        assert res.returncode == 1, res.stdout
+        assert f"border crossed: {src} -> {dst}" in res.stdout
+    root = _tree(tmp_path / "ok", {"math/m.h": "", "firmware/frames/f.c": '#include "math/m.h"\n'})
+    assert _run("--check", "--root", str(root)).returncode == 0

@@ -1,10 +1,10 @@
 /* Unit tests of the cycle synchronisation and camera health rules
- * (firmware/app/cam_sync.h): which frames one cycle fuses, stale and
+ * (firmware/frames/cam_sync.h): which frames one cycle fuses, stale and
  * out-of-step frames, LOST after MFNS_CAM_LOST_CYCLES, re-open cadence,
  * recovery. */
 #include "tests/unit/support/testutil.h"
 
-#include "firmware/app/cam_sync.h"
+#include "firmware/frames/cam_sync.h"
 
 static void test_frames_within_window_are_fused(void **state)
 {

@@ -1,7 +1,7 @@
-/* Unit tests of firmware/app/cycle_stats: percentiles within one bin, CPU load. */
+/* Unit tests of firmware/frames/cycle_stats: percentiles within one bin, CPU load. */
 #include "tests/unit/support/testutil.h"
 
-#include "firmware/app/cycle_stats.h"
+#include "firmware/frames/cycle_stats.h"
 
 static mfns_cycle_stats_t stats;
 

@@ -1,4 +1,4 @@
-/* Unit tests of camera data health (firmware/nav/frames/frame_health.h): each
+/* Unit tests of camera data health (firmware/frames/frame_health.h): each
  * detector on its own with the fault injected and clean, no false alarm over
  * long clean runs with stamp jitter of the stated bound (+-FH_JITTER_FRAC of
  * a period) and dropped frames, period learning at 18.6 Hz and 2 Hz,
@@ -8,7 +8,7 @@
 
 #include <string.h>
 
-#include "firmware/nav/frames/frame_health.h"
+#include "firmware/frames/frame_health.h"
 
 #define P18_US (1e6 / 18.6) /* 53763 us */
 #define P2_US 500000.0

@@ -1,5 +1,5 @@
 /* cam_sync.c -- see cam_sync.h. */
-#include "firmware/app/cam_sync.h"
+#include "firmware/frames/cam_sync.h"
 
 void cam_sync_init(cam_sync_t *s, uint32_t window_us)
 {

@@ -1,5 +1,5 @@
 /* cycle_stats.c -- see cycle_stats.h. */
-#include "firmware/app/cycle_stats.h"
+#include "firmware/frames/cycle_stats.h"
 
 #include <math.h>
 #include <string.h>

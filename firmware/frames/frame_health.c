@@ -1,5 +1,5 @@
 /* frame_health.c -- see frame_health.h. */
-#include "firmware/nav/frames/frame_health.h"
+#include "firmware/frames/frame_health.h"
 #include "math/core_inline.h"
 
 #include <string.h>
