@@ -16,7 +16,7 @@ test_uplink_auth.py.
 
 The frames of the link are checked with independent code here (binascii.crc_hqx is
 CRC-16/CCITT-FALSE; a 10-line COBS), the numbered codes are read from the XTCE
-dictionaries (ground/mdb/), not copied.
+dictionaries (contract/), not copied.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mfns.table.layout_gen import STATUS
+from mfns.table.generated.layout_gen import STATUS
 
 REPO = Path(__file__).resolve().parents[2]
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}

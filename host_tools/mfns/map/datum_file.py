@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import validate as V
 from ..errors import MfnsError
-from ..table import layout_gen as L
+from ..table.generated import layout_gen as L
 from ..table.format import MAP_DATUM_PARAMS, MapDatum
 
 FORMAT = "mfns-map-datum-1"

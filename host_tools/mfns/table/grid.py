@@ -20,7 +20,7 @@ from ..binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
 from ..camera import Camera
 from ..errors import MfnsError
 from ..flight import Flight
-from . import layout_gen
+from .generated import layout_gen
 from .format import CameraRecord, Grid
 
 MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)

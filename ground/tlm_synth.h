@@ -1,4 +1,4 @@
-/* ground_gen.h -- a deterministic synthetic telemetry stream, so the link
+/* tlm_synth.h -- a deterministic synthetic telemetry stream, so the link
  * and the ground station can be tested before (and independently of) the
  * flight program. Used by mfns-tlm-gen and the tests.
  *
@@ -7,7 +7,7 @@
  *   - a NAV packet; three CAMERA packets (camera 0, 1, 2);
  *   - a HK packet when i % 19 == 18 (about 1 Hz).
  * Time of cycle i: tlm_time_from_us(i * 53763). Field values are integer
- * formulas of i, written out in ground_gen.c; tests/host/test_telemetry_link.py
+ * formulas of i, written out in tlm_synth.c; tests/host/test_telemetry_link.py
  * re-implements the NAV formulas independently to check the CSV.
  */
 #ifndef MFNS_GROUND_GEN_H
