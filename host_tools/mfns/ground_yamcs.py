@@ -29,8 +29,8 @@ from .data import dictionary
 
 # What the server needs from the project, found without the repository: the dictionaries
 # (contract/, copied into mfns/data by the wheel's build step: mfns.data.dictionary); the
-# configuration is ground/yamcs/etc, which the wheel's build step copies into mfns/data/yamcs (host_tools/setup.py). In the
-# repository (editable install) the tree's copy is read.
+# configuration is ground/yamcs/etc, which the wheel's build step copies into mfns/data/yamcs
+# (host_tools/setup.py). In the repository (editable install) the tree's copy is read.
 DATA = Path(__file__).resolve().parent / "data"
 ETC = (
     DATA / "yamcs"

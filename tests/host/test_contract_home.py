@@ -35,7 +35,9 @@ def test_every_generated_file_carries_the_marker_and_no_other_does():
 
 
 def test_gen_suffix_means_generated():
-    stray = [str(p) for p in tracked() if re.search(r"_gen\.\w+$", p.name) and "generated" not in p.parts[:-1]]
+    stray = [
+        str(p) for p in tracked() if re.search(r"_gen\.\w+$", p.name) and "generated" not in p.parts[:-1]
+    ]
     assert not stray, f"a _gen file outside a generated/ folder (rename it or move it): {stray}"
 
 
@@ -44,7 +46,10 @@ def test_generators_reproduce_the_committed_files():
     doc tables) is byte for byte what the generator writes from contract/ now."""
     for gen in ("gen_contracts.py", "gen_caltable.py"):
         r = subprocess.run(
-            [sys.executable, str(REPO / "contract" / gen), "--check"], cwd=REPO, capture_output=True, text=True
+            [sys.executable, str(REPO / "contract" / gen), "--check"],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
         )
         assert r.returncode == 0, f"{gen}: {r.stderr}"
 

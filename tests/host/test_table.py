@@ -571,7 +571,9 @@ def test_generated_files_are_fresh(repo_root):
     import subprocess
     import sys
 
-    r = subprocess.run([sys.executable, "contract/gen_caltable.py", "--check"], cwd=repo_root, capture_output=True)
+    r = subprocess.run(
+        [sys.executable, "contract/gen_caltable.py", "--check"], cwd=repo_root, capture_output=True
+    )
     assert r.returncode == 0, r.stderr.decode()
 
 

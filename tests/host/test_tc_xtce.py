@@ -23,7 +23,7 @@ from mfns.binding import TcCmd as Cmd
 from mfns.binding import load as load_core
 
 REPO = Path(__file__).resolve().parents[2]
-TC_XML = REPO / "ground" / "mdb" / "mfns_tc.xml"
+TC_XML = REPO / "contract" / "mfns_tc.xml"
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
 
 

@@ -25,7 +25,7 @@ from mfns import flight, report, tlm_dict
 from mfns.binding import load as load_core
 
 REPO = Path(__file__).resolve().parents[2]
-MDB = REPO / "ground" / "mdb" / "mfns_tm.xml"
+MDB = REPO / "contract" / "mfns_tm.xml"
 
 
 @pytest.fixture(scope="module")

@@ -51,7 +51,7 @@ def enum(xml: Path, type_name: str) -> dict[str, int]:
     return {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
 
 
-TC_XML = REPO / "ground" / "mdb" / "mfns_tc.xml"
+TC_XML = REPO / "contract" / "mfns_tc.xml"
 OP = enum(TC_XML, "opcode_t")
 REJ = enum(TC_XML, "tc_status_t")
 
