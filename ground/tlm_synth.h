@@ -10,8 +10,8 @@
  * formulas of i, written out in tlm_synth.c; tests/host/test_telemetry_link.py
  * re-implements the NAV formulas independently to check the CSV.
  */
-#ifndef MFNS_GROUND_GEN_H
-#define MFNS_GROUND_GEN_H
+#ifndef MFNS_TLM_SYNTH_H
+#define MFNS_TLM_SYNTH_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -28,4 +28,4 @@ void ground_gen_hk(uint32_t i, tlm_packet_t *p);
 /* All packets of cycle i in stream order; returns their count (<= GROUND_GEN_MAX_PER_CYCLE). */
 size_t ground_gen_cycle(uint32_t i, tlm_packet_t out[GROUND_GEN_MAX_PER_CYCLE]);
 
-#endif /* MFNS_GROUND_GEN_H */
+#endif /* MFNS_TLM_SYNTH_H */
