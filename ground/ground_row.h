@@ -1,7 +1,7 @@
 /* ground_row.h -- one row of the ground station's CSV / JSON Lines output:
  * named, formatted values. ground_out.c fills the first columns (t_s, seq)
  * and the last (ground_utc); ground_row_fields, generated from the telemetry
- * dictionary (ground_cols_gen.c by mk/gen_contracts.py), fills each packet's. */
+ * dictionary (ground_cols_gen.c by contract/gen_contracts.py), fills each packet's. */
 #ifndef MFNS_GROUND_ROW_H
 #define MFNS_GROUND_ROW_H
 

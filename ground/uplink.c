@@ -210,7 +210,7 @@ static void log_cmd(uplink_t *up, uint16_t seq, const tc_cmd_t *c, const char *s
 
 /* The count a command goes up with. A command of the ground system's TC link (Yamcs, which
  * numbers its commands and verifies each one on the flight's answer carrying that number,
- * ground/mdb/mfns_tc.xml) keeps its own count when that is newer than the last count sent, so
+ * contract/mfns_tc.xml) keeps its own count when that is newer than the last count sent, so
  * the flight's answer names the command Yamcs knows; every other source, and a Yamcs count
  * that is not newer (Yamcs restarted while the board ran on, or other sources went ahead),
  * gets the next count of the ground's one counter: the flight would refuse an older count. */

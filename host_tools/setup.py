@@ -5,7 +5,8 @@ pyproject.toml holds the metadata; this file adds only what setuptools cannot de
 - build_py compiles the C core into the wheel's mfns/ with the Makefile's one recipe
   (`make -C <repo> pkg-core-lib`, mk/pkg.mk: the binding check, then CORE_LIB_CC on the
   sources of CORE_DIRS and HOST_CORE_DIR), and copies the Yamcs configuration
-  (ground/yamcs/etc) into mfns/data/yamcs, so `mfns.ground_yamcs` needs no repository.
+  (ground/yamcs/etc) into mfns/data/yamcs and the XTCE dictionaries (contract/*.xml) into
+  mfns/data, so `mfns.ground_yamcs` needs no repository.
   An editable install (`make venv`) builds nothing: the binding then loads the tree's build
   (`make lib`), see mfns/binding.py `lib_path`.
 - build_py also builds the host (host-sim) flight and ground programs into mfns/bin/
@@ -49,6 +50,8 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 LIB_NAME = "libmfns_core.so"
 YAMCS_ETC = REPO / "ground" / "yamcs" / "etc"
+# the XTCE dictionaries' one source (contract/README.md); the package reads them at run time
+DICTIONARIES = [REPO / "contract" / n for n in ("mfns_tm.xml", "mfns_tc.xml", "mfns_ground.xml")]
 OPERATOR_PAGE = REPO / "ground" / "operator" / "index.html"
 
 
@@ -103,6 +106,8 @@ class BuildPyWithCore(build_py):
                 f"mfns: building the flight and ground programs failed ({e}); needs the flight "
                 "build's packages (mk/deps.sh)"
             ) from e
+        for src in DICTIONARIES:  # mfns.data.dictionary finds them here once installed
+            shutil.copy2(src, Path(self.build_lib) / "mfns" / "data" / src.name)
         etc = Path(self.build_lib) / "mfns" / "data" / "yamcs"
         shutil.copytree(YAMCS_ETC, etc, dirs_exist_ok=True)
         # the operator's view (mfns.ground_yamcs_view) serves this page

@@ -6,7 +6,7 @@
 # with a header fails `make lib` (and every target that needs the library).
 BINDING_GEN_PY := host_tools/mfns/binding_check.py
 BINDING_PY     := host_tools/mfns/binding.py host_tools/mfns/errors.py
-BINDING_C      := host_tools/mfns/binding_check_gen.c
+BINDING_C      := host_tools/mfns/generated/binding_check_gen.c
 BINDING_STAMP  := build/host-sim/lib/binding-check.stamp
 
 $(BINDING_STAMP): $(BINDING_C) $(BINDING_GEN_PY) $(BINDING_PY) $(CORE_HDRS) $(wildcard $(HOST_CORE_DIR)/*.h)

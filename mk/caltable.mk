@@ -4,14 +4,14 @@
 # undistortion benchmark.
 
 # The table's contract is generated from one definition, caltable_layout.toml, by
-# mk/gen_caltable.py (plain python3: it runs before the venv exists) into committed
+# contract/gen_caltable.py (plain python3: it runs before the venv exists) into committed
 # files. Every `make` of all, size, lib and tests checks they are not stale: edit the
-# definition, run `python3 mk/gen_caltable.py`, commit both.
+# definition, run `python3 contract/gen_caltable.py`, commit both.
 # Generated: firmware/nav/generated/caltable_layout_gen.h/.c, firmware/nav/generated/nav_defaults_gen.c,
-# host_tools/mfns/table/layout_gen.py and the tables of docs/caltable.md.
+# host_tools/mfns/table/generated/layout_gen.py and the tables of docs/caltable.md.
 .PHONY: caltable-gen-check
 caltable-gen-check:
-	@python3 mk/gen_caltable.py --check
+	@python3 contract/gen_caltable.py --check
 all size lib tests: caltable-gen-check
 
 CALTABLE_SRC := host_tools/mfns/data/paper_calib.json host_tools/mfns/data/paper_beacons.csv

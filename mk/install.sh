@@ -77,9 +77,9 @@ ground)
   install -d "$root$prefix/bin" "$share/yamcs/etc" "$share/yamcs/mdb" "$share/operator"
   install -m 0755 "$build/bin/mfns-ground" "$root$prefix/bin/"
   install -m 0644 ground/yamcs/etc/*.yaml "$share/yamcs/etc/"
-  # the dictionaries themselves (ground/mdb's links resolved): the one source, copied
-  install -m 0644 host_tools/mfns/data/mfns_tm.xml host_tools/mfns/data/mfns_tc.xml \
-    host_tools/mfns/data/mfns_ground.xml "$share/yamcs/mdb/"
+  # the dictionaries' one source (contract/), copied
+  install -m 0644 contract/mfns_tm.xml contract/mfns_tc.xml \
+    contract/mfns_ground.xml "$share/yamcs/mdb/"
   install -m 0644 ground/operator/index.html "$share/operator/"
   man_page mfns-ground "the MFNS ground station" mfns-ground
   doc_dir mfns-ground docs/operators.md docs/telemetry.md docs/uplink.md README.md

@@ -32,11 +32,11 @@ fuzz-brief: $(TLM_FUZZ_BIN)
 	@rm -rf build/fuzz/corpus-brief
 	@mk/fuzz_run.sh fuzz-brief $(TLM_FUZZ_BIN) build/fuzz/corpus-brief 10 1 4096
 
-# mfns-tlm-gen (ground/tools/mfns_tlm_gen.c): built with `make flight` on Linux boards.
+# mfns-tlm-gen (ground/tools/mfns_tlm_synth.c): built with `make flight` on Linux boards.
 ifeq ($(BOARD_KIND),linux)
 TLM_GEN_BIN := $(BUILD)/bin/mfns-tlm-gen
 flight: $(TLM_GEN_BIN)
-$(TLM_GEN_BIN): $(call obj,ground/tools/mfns_tlm_gen.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
+$(TLM_GEN_BIN): $(call obj,ground/tools/mfns_tlm_synth.c) $(BUILD)/libmfns_linux.a $(BUILD)/libmfns_core.a
 	@mkdir -p $(@D)
 	$(call say,LD,$@)$(LINK) $(BOARD_LDFLAGS) $(SAN_FLAGS) $^ $(LIBS) -o $@
 endif

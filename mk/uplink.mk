@@ -4,7 +4,7 @@
 #                            fuzzer, FUZZ_SECONDS (60) s, corpus in build/fuzz/corpus-tc/
 #   make fuzz-tc-brief       the same for FUZZ_BRIEF_SECONDS (4) s from the committed
 #                            seeds (tests/fuzz/corpus/tc_decoder/), part of `make test`
-#   make ground-yamcs        Yamcs with the project's MDB (ground/mdb/) and config
+#   make ground-yamcs        Yamcs with the project's MDB (contract/) and config
 #                            (ground/yamcs/), HTTP on 127.0.0.1:8090, in a private
 #                            network namespace where `unshare -n` works
 #   make ground-view         the operator's view (ground/operator/) of a running Yamcs,

@@ -6,4 +6,4 @@ INCLUDES += -I$(GEN)
 version-header: $(VERSION_H)
 $(VERSION_H): host_tools/mfns/__init__.py mk/version.sh
 	@mk/version.sh $< $@
-$(call obj,firmware/app/nav_app.c firmware/app/nav_opts.c ground/ground.c ground/tools/mfns_tlm_gen.c): $(VERSION_H)
+$(call obj,firmware/app/nav_app.c firmware/app/nav_opts.c ground/ground.c ground/tools/mfns_tlm_synth.c): $(VERSION_H)

@@ -4,7 +4,7 @@
  * pose it gave (the cycle's NAV packet, pose and full covariance), kept in a
  * bounded on-board log for the ground's self-survey (`mfns map refine`).
  *
- * The format is the telemetry dictionary's (host_tools/mfns/data/mfns_tm.xml):
+ * The format is the telemetry dictionary's (contract/mfns_tm.xml):
  * the log is a stream of the same wire frames the link carries (CCSDS packet,
  * CRC-16, COBS, 0x00), so the ground reads it with the same dictionary, and
  * the downlink carries the same records at a low rate (nav_loop.c: about one

@@ -76,7 +76,7 @@ _Static_assert(TC_E_AUTH_COUNT_EXHAUSTED - TC_E_AUTH_MISSING + 1 == (int)TC_AUTH
 #define TC_AUTH_REPORT_DOMAIN "MFNS-TM-UPLINK-v1"
 #define TC_AUTH_REPORT_MSG_LEN (sizeof TC_AUTH_REPORT_DOMAIN - 1u + 1u + 4u + 4u + 8u + 1u)
 
-/* hk_tc_state bits (ground/mdb/mfns_tm.xml hk_tc_state says the same) */
+/* hk_tc_state bits (contract/mfns_tm.xml hk_tc_state says the same) */
 #define TC_AUTH_ST_RESYNC_NEEDED 0x01u  /* no fresh epoch: only a re-synchronisation is accepted */
 #define TC_AUTH_ST_INSECURE 0x02u       /* authentication OFF (tc_insecure) */
 #define TC_AUTH_ST_STATE_MISSING 0x04u  /* STATE_DIR/tc_epoch (or the directory) absent */

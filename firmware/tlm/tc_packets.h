@@ -3,8 +3,8 @@
  * FALSE, 0x00 delimiter; docs/telemetry.md 1-2). Portable: the ground station
  * encodes with it, the flight program decodes and validates with it.
  * Layouts, opcodes and rejection codes: docs/uplink.md. The XTCE dictionary
- * ground/mdb/mfns_tc.xml is the master: the opcodes, rejection codes, argument
- * lengths, layouts and ranges are generated from it by mk/gen_contracts.py
+ * contract/mfns_tc.xml is the master: the opcodes, rejection codes, argument
+ * lengths, layouts and ranges are generated from it by contract/gen_contracts.py
  * (tc_codes_gen.h, tc_packets_gen.c).
  *
  * Packet (all big-endian):

@@ -23,7 +23,7 @@
 
 /* Packet types, APIDs, payload lengths (bytes after the 12-byte CCSDS
  * headers), one struct per packet and the numbered codes: generated from the
- * mission database ground/mdb/mfns_tm.xml (XTCE) by mk/gen_contracts.py. */
+ * mission database contract/mfns_tm.xml (XTCE) by contract/gen_contracts.py. */
 #include "firmware/tlm/generated/tlm_packets_gen.h"
 
 /* Attitude quaternion on the wire: Q1.30 signed (value * 2^30), so every

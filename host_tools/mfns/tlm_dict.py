@@ -1,6 +1,7 @@
-"""The telemetry dictionary (XTCE mission database ground/mdb/mfns_tm.xml) for Python.
+"""The telemetry dictionary (XTCE mission database contract/mfns_tm.xml) for Python.
 
-The file itself is host_tools/mfns/data/mfns_tm.xml (package data); ground/mdb/ links to it.
+The file itself is contract/mfns_tm.xml (contract/README.md); the wheel carries a copy in
+mfns/data (host_tools/setup.py), found by mfns.data.dictionary.
 
 The XTCE file is the one definition of the telemetry packets: their CCSDS headers, every
 parameter with its encoding, unit and calibration, and every numbered code (status, reason,
@@ -8,7 +9,7 @@ mode, camera state, event code, severity). This module reads it with the standar
 only, so the host tools take the codes' names from it instead of copying them, and it renders
 the tables of docs/telemetry.md between their markers (``python -m mfns.tlm_dict --write``;
 ``--check`` fails when the doc is stale). It also reads the telecommand dictionary
-(``load_tc``). mk/gen_contracts.py generates the C codecs, codes, ground columns and doc tables
+(``load_tc``). contract/gen_contracts.py generates the C codecs, codes, ground columns and doc tables
 from both through this module (standard library only, so it runs before any venv exists).
 """
 
@@ -20,7 +21,6 @@ import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
-from importlib import resources
 from pathlib import Path
 
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
@@ -42,10 +42,19 @@ RATES = {
 }
 
 
+def _dictionary(name: str) -> Path:
+    """mfns.data.dictionary; loaded by path (contract/gen_contracts.py, no package), the
+    repository's contract/ folder."""
+    try:
+        from mfns.data import dictionary
+    except ImportError:
+        return REPO / "contract" / name
+    return dictionary(name)
+
+
 def mdb_path() -> Path:
-    """The XTCE file. It lives in the package (mfns/data, so an installed mfns has it);
-    ground/mdb/mfns_tm.xml, where ground systems (Yamcs) load it from, links to it."""
-    return Path(str(resources.files("mfns.data").joinpath("mfns_tm.xml")))
+    """The XTCE file: contract/mfns_tm.xml, or the wheel's copy in mfns/data when installed."""
+    return _dictionary("mfns_tm.xml")
 
 
 @dataclass
@@ -193,8 +202,8 @@ def load(path: str | None = None) -> Dictionary:
 
 # --------------------------------------------------------------------------- telecommands
 def tc_mdb_path() -> Path:
-    """The telecommand XTCE (package data, like the telemetry one; ground/mdb/ links to it)."""
-    return Path(str(resources.files("mfns.data").joinpath("mfns_tc.xml")))
+    """The telecommand XTCE: contract/mfns_tc.xml, or the wheel's copy (like the telemetry one)."""
+    return _dictionary("mfns_tc.xml")
 
 
 @dataclass

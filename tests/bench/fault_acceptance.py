@@ -840,7 +840,7 @@ def main() -> int:
         BIN = tree / "build/host-sim/bin"
         if (tree / ".venv/bin/python").exists():
             PY = str(tree / ".venv/bin/python")
-        dictionary = tree / "host_tools/mfns/data/mfns_tm.xml"
+        dictionary = tree / "contract/mfns_tm.xml"
     t_start = time.monotonic()
     work = args.work.resolve()
     shutil.rmtree(work, ignore_errors=True)

@@ -49,7 +49,7 @@ def test_analyze_writes_csv_summary_and_plots_deterministically(tmp_path):
     assert s["availability_pct"] == pytest.approx(100.0 * sum(r["fix"] == "1" for r in rows) / 30, abs=0.01)
     # the one-call ceiling: views at or above the certificate's floor, and views of exactly four
     from mfns.plan.analyze import CERT_MIN_IN_VIEW
-    from mfns.table.layout_gen import CONSTANTS
+    from mfns.table.generated.layout_gen import CONSTANTS
 
     assert CERT_MIN_IN_VIEW == CONSTANTS["MFNS_BIDX_MIN_CERT"] == 5
     n_in = [int(r["in_view"]) for r in rows]

@@ -554,13 +554,13 @@ def test_version_2_tables_are_refused_as_old(built):
     assert not st.ok and st.offset == 4 and "rebuild it with mfns table build" in st.message
 
 
-# ---- the one definition (firmware/nav/table/caltable_layout.toml) and what is generated from it
+# ---- the one definition (contract/caltable_layout.toml) and what is generated from it
 
 
 def _generator(repo_root):
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("gen_caltable", repo_root / "mk" / "gen_caltable.py")
+    spec = importlib.util.spec_from_file_location("gen_caltable", repo_root / "contract" / "gen_caltable.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -571,7 +571,9 @@ def test_generated_files_are_fresh(repo_root):
     import subprocess
     import sys
 
-    r = subprocess.run([sys.executable, "mk/gen_caltable.py", "--check"], cwd=repo_root, capture_output=True)
+    r = subprocess.run(
+        [sys.executable, "contract/gen_caltable.py", "--check"], cwd=repo_root, capture_output=True
+    )
     assert r.returncode == 0, r.stderr.decode()
 
 
@@ -597,7 +599,7 @@ def test_c_and_python_share_the_generated_defaults_and_statuses():
     """The C core's defaults (nav_defaults_gen.c) and messages (caltable_layout_gen.c), through
     the shared library, are the builder's (layout_gen.py): both generated from one definition."""
     from mfns.flight import Flight
-    from mfns.table import layout_gen
+    from mfns.table.generated import layout_gen
     from mfns.table.settings import defaults
 
     assert Flight().default_settings() == defaults()

@@ -1,6 +1,6 @@
 """End to end telemetry link: encoder -> pseudo-terminal -> mfns-ground -> CSV.
 
-The C encoder (mfns-tlm-gen, the synthetic stream of ground/ground_gen.h)
+The C encoder (mfns-tlm-gen, the synthetic stream of ground/tlm_synth.h)
 writes through the fd transport into a pty this test creates; mfns-ground
 reads the other side and writes CSV. The expected navigation rows are
 computed here, independently, from the generator's documented integer

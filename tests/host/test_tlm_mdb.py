@@ -1,7 +1,7 @@
-"""The telemetry dictionary (ground/mdb/mfns_tm.xml, XTCE) against everything that uses it
+"""The telemetry dictionary (contract/mfns_tm.xml, XTCE) against everything that uses it
 (issue 13 items 1 and 2; issue 12 item 4).
 
-The XTCE file is the one definition of the packets; mk/gen_contracts.py generates the C codec,
+The XTCE file is the one definition of the packets; contract/gen_contracts.py generates the C codec,
 codes, ground columns and doc tables from it. These tests fail when a generated file is stale,
 when the generator does not follow the dictionary, and on any difference between it and: the
 XTCE schema; the C codec's layouts (streams the C encoder wrote, decoded by
@@ -25,7 +25,7 @@ from mfns import flight, report, tlm_dict
 from mfns.binding import load as load_core
 
 REPO = Path(__file__).resolve().parents[2]
-MDB = REPO / "ground" / "mdb" / "mfns_tm.xml"
+MDB = REPO / "contract" / "mfns_tm.xml"
 
 
 @pytest.fixture(scope="module")
@@ -98,9 +98,9 @@ def test_uplink_codes_agree_with_the_brief():
 
 
 def test_generated_contracts_are_fresh():
-    """Every file mk/gen_contracts.py writes from the dictionaries is what it would write now."""
+    """Every file contract/gen_contracts.py writes from the dictionaries is what it would write now."""
     res = subprocess.run(
-        ["python3", str(REPO / "mk" / "gen_contracts.py"), "--check"],
+        ["python3", str(REPO / "contract" / "gen_contracts.py"), "--check"],
         capture_output=True,
         text=True,
         check=False,
@@ -113,7 +113,7 @@ def test_generator_follows_the_dictionary(tmp_path):
     struct, the encoder, the decoder, the payload length and the ground columns."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("gen_contracts", REPO / "mk" / "gen_contracts.py")
+    spec = importlib.util.spec_from_file_location("gen_contracts", REPO / "contract" / "gen_contracts.py")
     gen = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(gen)
     text = MDB.read_text()

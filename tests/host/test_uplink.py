@@ -16,7 +16,7 @@ test_uplink_auth.py.
 
 The frames of the link are checked with independent code here (binascii.crc_hqx is
 CRC-16/CCITT-FALSE; a 10-line COBS), the numbered codes are read from the XTCE
-dictionaries (ground/mdb/), not copied.
+dictionaries (contract/), not copied.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mfns.table.layout_gen import STATUS
+from mfns.table.generated.layout_gen import STATUS
 
 REPO = Path(__file__).resolve().parents[2]
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
@@ -51,7 +51,7 @@ def enum(xml: Path, type_name: str) -> dict[str, int]:
     return {e.get("label"): int(e.get("value")) for e in t.find("x:EnumerationList", NS)}
 
 
-TC_XML = REPO / "ground" / "mdb" / "mfns_tc.xml"
+TC_XML = REPO / "contract" / "mfns_tc.xml"
 OP = enum(TC_XML, "opcode_t")
 REJ = enum(TC_XML, "tc_status_t")
 

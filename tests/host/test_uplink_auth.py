@@ -43,7 +43,7 @@ from test_uplink import run as _run
 run = _run  # the fixture (the 40-frame replay), shared; bins is conftest's
 
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
-TM_XML = REPO / "ground" / "mdb" / "mfns_tm.xml"
+TM_XML = REPO / "contract" / "mfns_tm.xml"
 
 
 def plain_commands(bins: Path, tmp: Path, cmds: list[str], seq_start: int) -> bytes:

@@ -10,7 +10,7 @@
 #include <unistd.h>
 
 #include "ground/ground.h"
-#include "ground/ground_gen.h"
+#include "ground/tlm_synth.h"
 #include "ground/ground_out.h"
 
 static void test_fixed_point_formatting(void **state)

@@ -66,7 +66,7 @@ typedef enum {
 /* Why a solution is not a full fix: mfns_pose_reason_t, MFNS_POSE_R_NONE = 0,
  * DEGRADED reasons (the pose is usable) CAMERA_UNUSED, OUTLIERS, MINIMAL, then
  * NO_FIX reasons. The numbers are wire codes (the nav packet's reason), so the
- * enum is generated from the telemetry dictionary ground/mdb/mfns_tm.xml
+ * enum is generated from the telemetry dictionary contract/mfns_tm.xml
  * (nav_reason_t) with explicit, never reused numbers; docs/telemetry.md lists them. */
 #include "firmware/nav/generated/nav_codes_gen.h"
 

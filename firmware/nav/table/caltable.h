@@ -35,7 +35,7 @@
 /* The layout (format version, record sizes, field offsets), the status codes
  * mfns_caltable_status_t with their values and messages, and the default
  * settings are generated from the one definition, caltable_layout.toml
- * (mk/gen_caltable.py), into caltable_layout_gen.h: */
+ * (contract/gen_caltable.py), into caltable_layout_gen.h: */
 #include "firmware/nav/generated/caltable_layout_gen.h"
 
 #define MFNS_CALTABLE_COV_MAX_SIZE \

@@ -23,8 +23,8 @@ import numpy as np
 
 from .. import validate as V
 from ..errors import MfnsError
-from ..table import layout_gen as L
 from ..table.format import MAP_DATUM_PARAMS, MapDatum
+from ..table.generated import layout_gen as L
 
 FORMAT = "mfns-map-datum-1"
 # the table's accepted intervals (caltable_layout.toml, generated): (lo, hi, lo_open, hi_open)

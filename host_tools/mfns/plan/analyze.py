@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..table.layout_gen import CONSTANTS
+from ..table.generated.layout_gen import CONSTANTS
 from .core import Core
 from .crlb import CalibrationError, Observation, flight_information, information
 from .ident import IdentMargin, identification_margin

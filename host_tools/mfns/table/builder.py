@@ -9,11 +9,11 @@ import numpy as np
 from .. import calib_results
 from ..camera import load_beacon_emission, load_beacons, rig_from_doc
 from ..errors import MfnsError
-from . import layout_gen as L
 from . import mapindex
 from .format import CALIB_PARAM_NAMES, CALIB_PARAMS, CAMERA_NAMES, CameraRecord, Grid, Table, f32
+from .generated import layout_gen as L
+from .generated.layout_gen import DEFAULT_MIN
 from .grid import MAX_GRID_ERROR_PX, GridError, build_grid, grid_error, record_camera, size_grid
-from .layout_gen import DEFAULT_MIN
 
 
 def _record(k: int, e: dict) -> CameraRecord:

@@ -21,7 +21,7 @@ import numpy as np
 from ..binding import load as load_core
 from ..errors import MfnsError
 from . import format as fmt
-from . import layout_gen
+from .generated import layout_gen
 
 
 @dataclass

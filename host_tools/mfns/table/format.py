@@ -15,10 +15,10 @@ import numpy as np
 
 from ..calib_results import COVARIANCE_PARAMETERS
 from ..errors import MfnsError
-from . import layout_gen as L
+from .generated import layout_gen as L
 
-# The layout is generated from the one definition (firmware/nav/table/caltable_layout.toml,
-# mk/gen_caltable.py): sizes, field order and types, struct formats.
+# The layout is generated from the one definition (contract/caltable_layout.toml,
+# contract/gen_caltable.py): sizes, field order and types, struct formats.
 MAGIC = L.MAGIC
 VERSION = L.VERSION
 HEADER_SIZE = L.SIZE["header"]

@@ -20,8 +20,8 @@ from ..binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
 from ..camera import Camera
 from ..errors import MfnsError
 from ..flight import Flight
-from . import layout_gen
 from .format import CameraRecord, Grid
+from .generated import layout_gen
 
 MAX_GRID_ERROR_PX = 0.01  # worst-case correction error a table may carry (docs/distortion-grid.md)
 MAX_STEP_PX = layout_gen.CONSTANTS["MFNS_UNDIST_GRID_MAX_STEP_Q8"] / Q8  # the loader's widest node spacing

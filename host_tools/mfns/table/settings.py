@@ -1,5 +1,5 @@
 """Default centroid and solver settings of the calibration table: the one definition's
-(firmware/nav/table/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
+(contract/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
 settings" gives the reasons, and the C core's nav_defaults_gen.c has the same numbers).
 `mfns table build --settings FILE` overrides any of them from a JSON object
 {"centroid": {...}, "solver": {...}, "integrity": {...}} (integrity: the fault detection
@@ -10,8 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import validate as V
-from . import layout_gen
 from .format import CENTROID_F32, CENTROID_U16, INTEGRITY_FIELDS, INTEGRITY_INT, SOLVER_F32, SOLVER_U16
+from .generated import layout_gen
 
 
 def defaults() -> tuple[dict, dict]:

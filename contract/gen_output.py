@@ -1,4 +1,4 @@
-"""gen_output.py -- what every generator of mk/ does with its output: write the generated
+"""gen_output.py -- what every generator of contract/ does with its output: write the generated
 files that changed, or, with --check, write nothing and fail naming the stale ones (the
 check `make` runs, so a stale committed file fails the build). Standard library only.
 
@@ -24,6 +24,7 @@ def write_or_check(root: Path, files: Mapping[str | Path, str], check: bool, too
             continue
         stale.append(str(path.relative_to(root)))
         if not check:
+            path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text, encoding="utf-8")
     if check and stale:
         print(f"{tool}: stale generated files ({hint}): {' '.join(stale)}", file=sys.stderr)

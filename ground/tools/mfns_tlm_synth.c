@@ -1,4 +1,4 @@
-/* mfns-tlm-gen: writes the synthetic telemetry stream of ground_gen.h, so
+/* mfns-tlm-gen: writes the synthetic telemetry stream of tlm_synth.h, so
  * the link and mfns-ground can be exercised without the flight program.
  *
  *   mfns-tlm-gen --cycles N [--file FILE|-]         frames to a file/stdout (--out: older spelling)
@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ground/ground_gen.h"
+#include "ground/tlm_synth.h"
 #include "mfns_version.h"
 #include "firmware/tlm/tlm_txq.h"
 #include "firmware/linux/txq_drain.h"
@@ -28,7 +28,7 @@ static int usage(int rc)
 {
     fprintf(rc ? stderr : stdout,
             "usage: mfns-tlm-gen --cycles N [--file FILE|- | --tty PATH [--baud B] | --fd FD] [--rate HZ]\n"
-            "Synthetic MFNS telemetry (ground/ground_gen.h): per 18.6 Hz cycle one nav and three\n"
+            "Synthetic MFNS telemetry (ground/tlm_synth.h): per 18.6 Hz cycle one nav and three\n"
             "camera packets, housekeeping every 19th cycle, BOOT and TABLE_LOADED events first.\n"
             "  --cycles N        cycles to generate (0..100000000)\n"
             "  --file FILE|-     frames to a file, '-' stdout (default; --out: older spelling)\n"

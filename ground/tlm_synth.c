@@ -1,5 +1,5 @@
-/* ground_gen.c -- the synthetic stream of ground_gen.h. */
-#include "ground/ground_gen.h"
+/* tlm_synth.c -- the synthetic stream of tlm_synth.h. */
+#include "ground/tlm_synth.h"
 
 #include <string.h>
 
