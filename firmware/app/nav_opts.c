@@ -505,14 +505,15 @@ static void man_page(FILE *f)
             MFNS_VERSION_STR);
     for (int i = 0; i < (int)NAV_OPT_COUNT; i++) {
         const nav_opt_row_t *r = &k_opts[i];
-        fprintf(f, ".TP\n");
+        /* the tag on one line (.TP's): .B \-\-name, .BI "\-\-name " META, .BR \-v ", " \-\-name */
         if (r->short_name != 0) {
-            fprintf(f, ".BR \\-%c \", \"\n", r->short_name);
+            fprintf(f, ".TP\n.BR \\-%c \", \" \\-\\-", r->short_name);
+        } else {
+            fprintf(f, ".TP\n.B%s\\-\\-", r->meta != NULL ? "I \"" : " ");
         }
-        fprintf(f, ".B \\-\\-");
         roff_text(f, r->name);
         if (r->meta != NULL) {
-            fprintf(f, "\n.I ");
+            fprintf(f, " \" ");
             roff_text(f, r->meta);
         }
         fputc('\n', f);

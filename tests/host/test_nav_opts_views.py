@@ -29,9 +29,12 @@ def test_man_page_lists_options_and_keys(bins):
     assert man.startswith(".TH MFNS-NAV 1 ")
     keys = _man_keys(man)
     assert len(keys) == 15 and keys["uart"] == "serial" and keys["cameras"] == "v4l2"
-    options = {o.replace("\\-", "-") for o in re.findall(r"^\.B \\-\\-(\S+)$", man, flags=re.M)}
+    section = man.split(".SH OPTIONS", 1)[1].split(".SH ", 1)[0]
+    tags = re.findall(r"^\.TP\n\.B[IR]? (.*)$", section, flags=re.M)  # .B --name, .BI "--name " META, .BR -v ", " --name
+    options = {re.findall(r"\\-\\-((?:[a-z0-9]|\\-)+)", t)[0].replace("\\-", "-") for t in tags}
     assert set(keys.values()) <= options
-    assert {"table", "replay", "config", "init-pose", "tlm-tty", "help-man"} <= options
+    assert {"table", "replay", "config", "init-pose", "tlm-tty", "help-man", "verbose"} <= options
+    assert len(options) == len(tags) == 38
     help_text = subprocess.run([str(bins / "mfns-nav"), "--help"], capture_output=True, text=True).stdout
     for opt in options:  # --help lists the same options
         assert f"--{opt}" in help_text
