@@ -30,7 +30,8 @@ def test_man_page_lists_options_and_keys(bins):
     keys = _man_keys(man)
     assert len(keys) == 15 and keys["uart"] == "serial" and keys["cameras"] == "v4l2"
     section = man.split(".SH OPTIONS", 1)[1].split(".SH ", 1)[0]
-    tags = re.findall(r"^\.TP\n\.B[IR]? (.*)$", section, flags=re.M)  # .B --name, .BI "--name " META, .BR -v ", " --name
+    # each tag: .B --name, .BI "--name " META or .BR -v ", " --name
+    tags = re.findall(r"^\.TP\n\.B[IR]? (.*)$", section, flags=re.M)
     options = {re.findall(r"\\-\\-((?:[a-z0-9]|\\-)+)", t)[0].replace("\\-", "-") for t in tags}
     assert set(keys.values()) <= options
     assert {"table", "replay", "config", "init-pose", "tlm-tty", "help-man", "verbose"} <= options
