@@ -9,8 +9,9 @@
 #   PKG=ground  mfns-ground, the XTCE dictionaries, the Yamcs set-up and the
 #               operator page under PREFIX/share/mfns-ground, man page, docs
 # Configuration goes to /etc when PREFIX=/usr, else PREFIX/etc. The man pages
-# come from each program's own --help (one source), run under the board's
-# runner (qemu-aarch64 for arm64). Docs are gzipped as Debian ships them.
+# come from each program itself, run under the board's runner (qemu-aarch64
+# for arm64): mfns-nav writes its page from its options' table
+# (`--help-man`, firmware/app/nav_opts_table.h), mfns-ground's wraps its --help. Docs are gzipped as Debian ships them.
 set -euo pipefail
 pkg=$1 board=$2 build=$3 root=$4 prefix=$5
 case $prefix in /usr) etc=/etc ;; *) etc=$prefix/etc ;; esac
@@ -67,7 +68,9 @@ flight)
   install -m 0644 $svc/mfns-nav.sysusers "$root$prefix/lib/sysusers.d/mfns-nav.conf"
   install -m 0644 $svc/mfns-nav.default "$root$etc/default/mfns-nav"
   install -m 0644 $svc/mfns-nav.conf "$root$etc/mfns/mfns-nav.conf"
-  man_page mfns-nav "the MFNS navigation computer's flight program" mfns-nav
+  install -d "$root$prefix/share/man/man1"
+  $run "$build/bin/mfns-nav" --help-man | sed -e "s#/usr/share/doc/#$prefix/share/doc/#" | gzip -9n \
+    > "$root$prefix/share/man/man1/mfns-nav.1.gz" || { echo "install: mfns-nav --help-man failed" >&2; exit 1; }
   doc_dir mfns-nav docs/operations.md docs/telemetry.md docs/uplink.md docs/cameras.md README.md
   install -d "$root$prefix/share/doc/mfns-nav/examples"
   install -m 0644 $svc/chrony-mfns.conf "$root$prefix/share/doc/mfns-nav/examples/chrony-mfns.conf"

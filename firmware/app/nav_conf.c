@@ -16,9 +16,10 @@ typedef struct {
     const char *name;
     nav_config_type_t type;
     uint32_t lo, hi;
+    const char *option; /* the long option the key stands for */
 } key_spec_t;
 
-#define NAV_CONFIG_SPEC(NAME, name, type, lo, hi) {name, type, lo, hi},
+#define NAV_CONFIG_SPEC(NAME, name, type, lo, hi, opt) {name, type, lo, hi, opt},
 static const key_spec_t k_spec[NAV_CFG_KEY_COUNT] = {NAV_CONFIG_KEYS(NAV_CONFIG_SPEC)};
 #undef NAV_CONFIG_SPEC
 
@@ -28,6 +29,26 @@ _Static_assert(NAV_CONFIG_VALUE_MAX > NAV_CONFIG_LINE_MAX, "any value that fits 
 const char *nav_config_key_name(nav_config_key_t k)
 {
     return (unsigned)k < (unsigned)NAV_CFG_KEY_COUNT ? k_spec[k].name : "?";
+}
+
+const char *nav_config_key_option(nav_config_key_t k)
+{
+    return (unsigned)k < (unsigned)NAV_CFG_KEY_COUNT ? k_spec[k].option : "?";
+}
+
+nav_config_type_t nav_config_key_type(nav_config_key_t k)
+{
+    return (unsigned)k < (unsigned)NAV_CFG_KEY_COUNT ? k_spec[k].type : NAV_CFG_T_TEXT;
+}
+
+uint32_t nav_config_key_lo(nav_config_key_t k)
+{
+    return (unsigned)k < (unsigned)NAV_CFG_KEY_COUNT ? k_spec[k].lo : 0u;
+}
+
+uint32_t nav_config_key_hi(nav_config_key_t k)
+{
+    return (unsigned)k < (unsigned)NAV_CFG_KEY_COUNT ? k_spec[k].hi : 0u;
 }
 
 /* The message of an error into the caller's err (nullable, any size; never

@@ -29,29 +29,17 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "firmware/app/nav_opts_table.h"
+
 #define NAV_CONFIG_DEFAULT_PATH "/etc/mfns/mfns-nav.conf"
 #define NAV_CONFIG_MAX_BYTES 16384u /* a configuration is a few hundred bytes; more is not one */
 #define NAV_CONFIG_LINE_MAX 255u    /* characters a line, without its newline */
 #define NAV_CONFIG_VALUE_MAX 256u   /* bytes of a value with its NUL (PATH_MAX is not needed on the board) */
 #define NAV_CONFIG_ERR_LEN 200u     /* an error message's buffer */
 
-/* The keys, in the order of the documentation. X(enum suffix, name, type, lo, hi) */
-#define NAV_CONFIG_KEYS(X)                                                                                             \
-    X(CAMERAS, "cameras", NAV_CFG_T_WORD, 0, 0)                                                                        \
-    X(CAM_X, "cam_x", NAV_CFG_T_TEXT, 0, 0)                                                                            \
-    X(CAM_Y, "cam_y", NAV_CFG_T_TEXT, 0, 0)                                                                            \
-    X(CAM_Z, "cam_z", NAV_CFG_T_TEXT, 0, 0)                                                                            \
-    X(UART, "uart", NAV_CFG_T_PATH, 0, 0)                                                                              \
-    X(TTY, "tty", NAV_CFG_T_PATH, 0, 0)                                                                                \
-    X(BAUD, "baud", NAV_CFG_T_U32, 1200, 4000000)                                                                      \
-    X(UPLINK, "uplink", NAV_CFG_T_BOOL, 0, 0)                                                                          \
-    X(TC_KEY, "tc_key", NAV_CFG_T_PATH, 0, 0)                                                                          \
-    X(TC_INSECURE, "tc_insecure", NAV_CFG_T_BOOL, 0, 0)                                                                \
-    X(TABLE, "table", NAV_CFG_T_PATH, 0, 0)                                                                            \
-    X(STATE_DIR, "state_dir", NAV_CFG_T_PATH, 0, 0)                                                                    \
-    X(TIMEOUT_MS, "timeout_ms", NAV_CFG_T_U32, 1, 5000)                                                                \
-    X(MLOCK, "mlock", NAV_CFG_T_BOOL, 0, 0)                                                                            \
-    X(BUDGET_UNITS, "budget_units", NAV_CFG_T_U32, 100, 1000000)
+/* The keys, in the order of the documentation: the KEY rows of the options'
+ * table (nav_opts_table.h), X(enum suffix, name, type, lo, hi, option). */
+#define NAV_CONFIG_KEYS(X) NAV_OPTS(NAV_OPTS_SKIP, X)
 
 typedef enum {
     NAV_CFG_T_TEXT, /* any printable text (a camera identity, nav_opts.h) */
@@ -61,7 +49,7 @@ typedef enum {
     NAV_CFG_T_WORD, /* `cameras`: v4l2 or libcamera */
 } nav_config_type_t;
 
-#define NAV_CONFIG_ENUM(NAME, name, type, lo, hi) NAV_CFG_##NAME,
+#define NAV_CONFIG_ENUM(NAME, name, type, lo, hi, opt) NAV_CFG_##NAME,
 typedef enum { NAV_CONFIG_KEYS(NAV_CONFIG_ENUM) NAV_CFG_KEY_COUNT } nav_config_key_t;
 #undef NAV_CONFIG_ENUM
 
@@ -92,5 +80,15 @@ int nav_config_check_trust(const nav_config_t *c, uint32_t euid, char *err, size
 
 /* The key's name as written in the file ("cam_x"). */
 const char *nav_config_key_name(nav_config_key_t k);
+
+/* The long option the key stands for ("cam-x"; `cameras`: "v4l2", which
+ * --libcamera shares), "?" for no key. */
+const char *nav_config_key_option(nav_config_key_t k);
+
+/* The key's type, and for NAV_CFG_T_U32 its range lo..hi (0, 0 otherwise;
+ * NAV_CFG_T_TEXT for no key). */
+nav_config_type_t nav_config_key_type(nav_config_key_t k);
+uint32_t nav_config_key_lo(nav_config_key_t k);
+uint32_t nav_config_key_hi(nav_config_key_t k);
 
 #endif /* MFNS_NAV_CONF_H */

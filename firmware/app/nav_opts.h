@@ -7,8 +7,10 @@
  * run: no table, no cameras, two telemetry outputs or two command inputs,
  * a command input with neither --tc-key (and --state-dir) nor --tc-insecure,
  * --uplink without a link it can read, --cam-x/y/z with --replay, numbers
- * out of range. --help writes the usage and --version the one version
- * (mk/version.sh) on out. The strings in nav_opts_t point into argv, or into
+ * out of range. --help writes the usage, --help-man the man page (roff, which
+ * mk/install.sh installs) and --version the one version (mk/version.sh) on
+ * out. The options, their ranges, help texts and configuration keys are one
+ * table, nav_opts_table.h. The strings in nav_opts_t point into argv, or into
  * o->cfg.
  *
  * --config FILE (nav_conf.h; the board's /etc/mfns/mfns-nav.conf) is read

@@ -215,7 +215,7 @@ def test_make_install_tree(tmp_path):
     assert os.access(tmp_path / "usr/bin/mfns-nav", os.X_OK)
     man = subprocess.run(["zcat", str(tmp_path / "usr/share/man/man1/mfns-nav.1.gz")], capture_output=True,
                          text=True, check=True).stdout  # fmt: skip
-    assert man.startswith(".TH MFNS-NAV 1") and "--config" in man
+    assert man.startswith(".TH MFNS-NAV 1") and "\\-\\-config" in man  # roff's option dashes (--help-man)
     local = tmp_path / "local"
     subprocess.run(
         ["make", "--no-print-directory", "BOARD=host-sim", "install", f"DESTDIR={local}", "PREFIX=/opt/mfns"],
