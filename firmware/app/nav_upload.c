@@ -1,5 +1,7 @@
 /* nav_upload.c -- see nav_upload.h. */
-#define _DEFAULT_SOURCE /* fsync, O_CLOEXEC, O_DIRECTORY under -std=c11 */
+#ifndef _DEFAULT_SOURCE
+#define _DEFAULT_SOURCE /* fsync, O_CLOEXEC, O_DIRECTORY under -std=c11 (the fuzz build defines it) */
+#endif
 
 #include "firmware/app/nav_upload.h"
 
