@@ -17,23 +17,25 @@ FUZZ_BRIEF_SECONDS ?= 4
 TLM_FUZZ_SECONDS   ?= $(FUZZ_SECONDS)
 FUZZ_FLAGS := -std=c11 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -D_DEFAULT_SOURCE
 
-READER_FUZZERS := caltable replay_pgm replay_csv replay_scenario nav_conf
+READER_FUZZERS := caltable replay_pgm replay_csv replay_scenario nav_conf nav_upload
 fuzz_srcs_caltable        := $(CORE_SRCS)
 fuzz_srcs_replay_pgm      := drivers/camera/replay_pgm.c
 fuzz_srcs_replay_csv      := drivers/camera/replay_index.c
 fuzz_srcs_replay_scenario := drivers/camera/replay_scenario.c
 fuzz_srcs_nav_conf        := firmware/app/nav_conf.c
+fuzz_srcs_nav_upload      := $(CORE_SRCS) firmware/app/nav_upload.c
 fuzz_maxlen_caltable      := 262144
 fuzz_maxlen_replay_pgm    := 4096
 fuzz_maxlen_replay_csv    := 8192
 fuzz_maxlen_replay_scenario := 8192
 fuzz_maxlen_nav_conf      := 20000
+fuzz_maxlen_nav_upload    := 8192
 
 FUZZ_TARGETS += $(addprefix fuzz-,$(READER_FUZZERS))
 TEST_SUITES  += fuzz-readers-brief
 .PHONY: $(addprefix fuzz-,$(READER_FUZZERS)) fuzz-readers-brief
 
-build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(CORE_HDRS) $(wildcard drivers/camera/replay_*.[ch] firmware/app/nav_conf.[ch])
+build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(CORE_SRCS) $(CORE_HDRS) $(wildcard drivers/camera/replay_*.[ch] firmware/app/nav_conf.[ch] firmware/app/nav_upload.[ch])
 	@mkdir -p $(@D)
 	$(FUZZ_CC) $(FUZZ_FLAGS) $(INCLUDES) $< $(fuzz_srcs_$*) -lm -o $@
 
@@ -57,4 +59,5 @@ fuzz-readers-brief: $(addprefix build/fuzz/fuzz_,$(READER_FUZZERS)) $(GEN)/defau
 	$(call reader_run_fuzz,replay_csv,build/fuzz/brief-replay_csv,$(FUZZ_BRIEF_SECONDS),1)
 	$(call reader_run_fuzz,replay_scenario,build/fuzz/brief-replay_scenario,$(FUZZ_BRIEF_SECONDS),1)
 	$(call reader_run_fuzz,nav_conf,build/fuzz/brief-nav_conf,$(FUZZ_BRIEF_SECONDS),1)
+	$(call reader_run_fuzz,nav_upload,build/fuzz/brief-nav_upload,$(FUZZ_BRIEF_SECONDS),1)
 	@echo "fuzz-readers-brief: $(words $(READER_FUZZERS)) passed, 0 failed"
