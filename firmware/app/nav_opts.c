@@ -9,7 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "firmware/app/cam_sync.h"
+#include "firmware/frames/cam_sync.h"
 #include "firmware/app/nav_opts_table.h"
 #include "mfns_version.h"
 

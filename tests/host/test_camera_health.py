@@ -1,4 +1,4 @@
-"""Camera data health in the flight program (issue 23, item 1; firmware/nav/frames/frame_health.h).
+"""Camera data health in the flight program (issue 23, item 1; firmware/frames/frame_health.h).
 
 A small module folder (`mfns sim nav`, 40 frames) is flown by the built `mfns-nav`
 on replay cameras with one camera's data broken the way a stuck sensor or a

@@ -12,7 +12,7 @@
 #include <string.h>
 
 #include "drivers/camera/camera.h"
-#include "firmware/app/cam_sync.h"
+#include "firmware/frames/cam_sync.h"
 #include "firmware/app/nav_conf.h"
 #include "firmware/app/nav_opts.h"
 #include "firmware/app/nav_opts_table.h"
