@@ -42,11 +42,15 @@ image:
 endif
 
 # The board test's frames disk: LED frames rendered by `mfns sim nav` (the
-# turntable scenario: the paper's rig and beacons, the image's table), 8 per
-# camera, as an ext4 image the guest streams into vivid's loop.
+# module scenario: a free flight among wall beacons, several in view per camera),
+# 8 per camera, with their truth and the table built from their rig and map
+# (module.mfnstbl, which the board test loads with TABLE_LOAD and the host replay
+# flies), as an ext4 image the guest streams into vivid's loop.
 $(IMAGE_DIR)/frames.img: $(VENV)/.stamp build/host-sim/lib/libmfns_core.so mk/image.mk
 	@rm -rf $(IMAGE_DIR)/frames && mkdir -p $(IMAGE_DIR)
-	@$(PY) -m mfns sim nav -q --scenario turntable --frames 8 --out $(IMAGE_DIR)/frames
+	@$(PY) -m mfns sim nav -q --scenario module --seed 3 --frames 8 --out $(IMAGE_DIR)/frames
+	@$(PY) -m mfns table build $(IMAGE_DIR)/frames/calib.json $(IMAGE_DIR)/frames/beacons.csv \
+	  -o $(IMAGE_DIR)/frames/module.mfnstbl >/dev/null
 	@rm -f $@ && mke2fs -q -F -t ext4 -L mfns-frames -d $(IMAGE_DIR)/frames $@ 48M
 
 # Without qemu-system-aarch64 (and not root to install it) the test skips and says so.

@@ -146,6 +146,77 @@ def test_rendered_frames_through_vivids_loop(board):
     )
 
 
+FRAMES = IMAGE / "frames"
+NAV_WINDOW_S = 20.0  # board cycles collected on the module table
+USABLE = ("FIX", "DEGRADED")
+
+
+def _host_replay(out) -> list[dict]:
+    """The host replay of the frames the board is fed: mfns-nav (host-sim) with the same table
+    on the same frames, its telemetry decoded by mfns-ground -> nav.csv rows."""
+    import subprocess
+
+    nav = REPO / "build" / "host-sim" / "bin" / "mfns-nav"
+    tlm = out / "host_tlm.bin"
+    first = (FRAMES / "truth.csv").read_text().splitlines()[1].split(",")[2:8]
+    r = subprocess.run(
+        [str(nav), "--table", str(FRAMES / "module.mfnstbl"), "--replay", str(FRAMES), "--tlm-file", str(tlm),
+         "--init-pose=" + ",".join(first)],
+        check=False, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    g = subprocess.run(
+        [str(GROUND), "--file", str(tlm), "--out", str(out / "host_ground"), "--no-status"],
+        check=False, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert g.returncode == 0, g.stderr
+    with open(out / "host_ground" / "nav.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured 2026-12-06: 0 of 522 board cycles usable (every one NO_FIX TOO_FEW with 0 cameras "
+    "fused, no blobs reported) against the host's 6 of 8; the three vivid instances run free, with no "
+    "common trigger (issue 44 item 6 open)",
+)
+def test_module_frames_navigate_as_on_the_host(board):
+    """The module scenario's frames (several beacons per camera) through the kernel's V4L2 path:
+    the board loads the frames' table (TABLE_LOAD from the frames disk), and its usable-fix rate
+    over NAV_WINDOW_S is held to >= 90 % of the host replay's on the same frames and table. A
+    board fix is misleading when its position is farther than its protection level from every
+    truth pose of the looped frames (the board's packets do not name the frame they came from:
+    this misses a fix that lands near another frame's pose)."""
+    hk = board.wait_packet(lambda p: p.kind == "housekeeping", 30, what="housekeeping")
+    t0 = board.command("TABLE_LOAD /srv/frames/module.mfnstbl")
+    loaded = board.wait_event("TABLE_LOADED", ROUND_TRIP_S, since=t0)
+    assert int(loaded.fields["arg1"]) & 0xFFFFFFFF != int(hk.fields["table_crc32"]) & 0xFFFFFFFF
+    t1 = loaded.t + 2.0
+    time.sleep(NAV_WINDOW_S + 2.0)
+    with board.lock:
+        nav = [p for p in board.packets if p.kind == "nav" and t1 <= p.t <= t1 + NAV_WINDOW_S]
+    fixes = [p for p in nav if str(p.fields["status"]) in USABLE]
+    host = _host_replay(OUT)
+    host_fixes = [r for r in host if r["status"] in USABLE]
+    rows = (FRAMES / "truth.csv").read_text().splitlines()[1:]
+    truth = [[float(v) for v in row.split(",")[2:5]] for row in rows]
+    misleading = 0
+    for p in fixes:
+        r = [float(p.fields[k]) for k in ("x_mm", "y_mm", "z_mm")]
+        err = min(sum((a - b) ** 2 for a, b in zip(r, t, strict=True)) ** 0.5 for t in truth)
+        misleading += err > float(p.fields["pl_pos_mm"])
+    board_rate = len(fixes) / max(1, len(nav))
+    host_rate = len(host_fixes) / max(1, len(host))
+    RESULTS["module_board_usable"] = f"{len(fixes)}/{len(nav)}"
+    RESULTS["module_host_usable"] = f"{len(host_fixes)}/{len(host)}"
+    RESULTS["module_board_misleading"] = misleading
+    assert host_rate > 0.5, f"the host replay itself gives {len(host_fixes)}/{len(host)} usable fixes"
+    assert misleading == 0, f"{misleading} misleading board fixes"
+    assert board_rate >= 0.9 * host_rate, (
+        f"board usable {len(fixes)}/{len(nav)} < 90 % of the host's {len(host_fixes)}/{len(host)}"
+    )
+
+
 def _cam(p) -> int:
     c = p.fields["camera"]
     return {"X": 0, "Y": 1, "Z": 2}.get(str(c).upper(), c) if isinstance(c, str) else int(c)
