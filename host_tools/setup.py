@@ -5,9 +5,9 @@ pyproject.toml holds the metadata; this file adds only what setuptools cannot de
 - build_py compiles the C core into the wheel's mfns/ with the Makefile's one recipe
   (`make -C <repo> pkg-core-lib`, mk/pkg.mk: the binding check, then CORE_LIB_CC on the
   sources of CORE_DIRS and HOST_CORE_DIR), and copies the Yamcs configuration
-  (ground/yamcs/etc) into mfns/data/yamcs, so `mfns.ground_yamcs` needs no repository.
+  (ground/yamcs/etc) into mfns/data/yamcs, so `mfns.ground.ground_yamcs` needs no repository.
   An editable install (`make venv`) builds nothing: the binding then loads the tree's build
-  (`make lib`), see mfns/binding.py `lib_path`.
+  (`make lib`), see mfns/core/binding.py `lib_path`.
 - build_py also builds the host (host-sim) flight and ground programs into mfns/bin/
   (`make -C <repo> pkg-programs`, mk/pkg.mk: the Makefile's own mfns-nav and mfns-ground
   targets with BUILD in a temporary folder), run by the console scripts `mfns-nav` and
@@ -105,7 +105,7 @@ class BuildPyWithCore(build_py):
             ) from e
         etc = Path(self.build_lib) / "mfns" / "data" / "yamcs"
         shutil.copytree(YAMCS_ETC, etc, dirs_exist_ok=True)
-        # the operator's view (mfns.ground_yamcs_view) serves this page
+        # the operator's view (mfns.ground.ground_yamcs_view) serves this page
         shutil.copy2(OPERATOR_PAGE, Path(self.build_lib) / "mfns" / "data" / "operator.html")
 
 

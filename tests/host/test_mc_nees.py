@@ -1,11 +1,11 @@
-"""The flight pose covariance on the module scenario (mfns.mc_nees): mean NEES 6 with each
+"""The flight pose covariance on the module scenario (mfns.analysis.mc_nees): mean NEES 6 with each
 error source modelled, far above 6 with its term switched off."""
 
 from __future__ import annotations
 
 import pytest
 
-from mfns import mc_nees
+from mfns.analysis import mc_nees
 
 
 @pytest.fixture(scope="module")

@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MfnsError
-from ..rotations import rot_exp, skew
+from ..core.errors import MfnsError
+from ..model.rotations import rot_exp, skew
 from .model import PURE_AXIS_SIGMAS, Observations, turntable_matrix
 from .zhang import ZhangResult
 

@@ -18,9 +18,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
-from ..camera import Camera
-from ..errors import MfnsError
-from ..rotations import rot_exp, rot_log
+from ..core.errors import MfnsError
+from ..model.camera import Camera
+from ..model.rotations import rot_exp, rot_log
 from .model import Observations, Rig
 from .zhang import INTRINSIC_NAMES
 

@@ -5,15 +5,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..errors import MfnsError
+from ..core.errors import MfnsError
 
 
 def cmd_refine(args) -> int:
     import numpy as np
 
-    from .. import calib_results
-    from ..camera import load_beacons, rig_from_doc
+    from ..analysis import calib_results
     from ..map import fixlog, refine
+    from ..model.camera import load_beacons, rig_from_doc
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -3,7 +3,7 @@ fixes of a fix log: every fix's pose, every beacon's position with the survey as
 and optionally each camera's mount (rotation and offset in the body), by scipy's
 least_squares with a robust (Huber) loss on a sparse analytic Jacobian.
 
-Projection goes through the one numpy lens model (mfns.camera.Camera: `project_jacobian`,
+Projection goes through the one numpy lens model (mfns.model.camera.Camera: `project_jacobian`,
 held to the C model by tests/host/test_camera_model.py); nothing here restates it.
 
 Model of one association j (fix f, camera k, beacon b), all in double:
@@ -38,9 +38,9 @@ import scipy.sparse as sp
 from scipy.optimize import least_squares
 from scipy.stats import chi2, norm
 
-from ..camera import Camera
-from ..errors import MfnsError
-from ..rotations import matrix_to_euler213_deg, rot_exp, skew
+from ..core.errors import MfnsError
+from ..model.camera import Camera
+from ..model.rotations import matrix_to_euler213_deg, rot_exp, skew
 from .fixlog import Fix
 
 # Stated test levels (docs/self_survey.md): a beacon's refined place against its survey, and

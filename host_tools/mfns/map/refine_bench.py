@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import load_beacons, pose_from_position
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
+from ..model.camera import load_beacons, pose_from_position
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
 from ..simulate import nav as simnav
 from . import fixlog, refine_demo
 from .refine_demo import axis_rms, map_figures, summary_num

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..flight import CameraC
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213, matrix_to_euler213_deg, rot_exp
+from ..core.flight import CameraC
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213, matrix_to_euler213_deg, rot_exp
 
 # Calibration parameters with a 1-sigma in the calibration-results "sigma" entry.
 CALIB_SCALARS = ("fx", "fy", "cx", "cy")

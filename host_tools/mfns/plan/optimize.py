@@ -244,7 +244,7 @@ def optimize(
     certifiable)."""
     from tqdm import tqdm
 
-    from ..errors import MfnsError
+    from ..core.errors import MfnsError
 
     st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=_cert_target(certify, margin, cert_in_view))
     t0 = time.perf_counter()

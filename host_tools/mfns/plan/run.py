@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import calib_results
-from ..camera import rig_from_doc
-from ..errors import MfnsError
+from ..analysis import calib_results
+from ..core.errors import MfnsError
+from ..model.camera import rig_from_doc
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MfnsError
+from ..core.errors import MfnsError
 from ..simulate.nav import MODULE_EDGE_MARGIN_MM, MODULE_HALF
 
 PAPER_FRAME_LO = np.array([-460.0, -740.0, -70.0])

@@ -20,6 +20,9 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from ..analysis.calib_results import FORMAT as RESULTS_FORMAT
+from ..analysis.calib_results import VERSION as RESULTS_VERSION
+from ..analysis.calib_results import load
 from ..calib.model import (
     ARCSEC,
     CAMERA_NAMES,
@@ -32,12 +35,9 @@ from ..calib.model import (
     pure_axis,
     world_to_pixels,
 )
-from ..calib_results import FORMAT as RESULTS_FORMAT
-from ..calib_results import VERSION as RESULTS_VERSION
-from ..calib_results import load
-from ..camera import Camera, rig_from_doc
-from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rz
+from ..core.errors import MfnsError
+from ..model.camera import Camera, rig_from_doc
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rz
 
 DATASET_FORMAT = "mfns-calib-dataset"
 DATASET_VERSION = 1

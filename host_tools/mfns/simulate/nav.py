@@ -41,10 +41,10 @@ from pathlib import Path
 import numpy as np
 from scipy.special import erf, ndtri
 
-from .. import calib_results
-from ..camera import Camera, load_beacons, pose_from_position, rig_from_doc
-from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..analysis import calib_results
+from ..core.errors import MfnsError
+from ..model.camera import Camera, load_beacons, pose_from_position, rig_from_doc
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 PAPER_CALIB = DATA / "paper_calib.json"

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..calib_results import COVARIANCE_PARAMETERS
-from ..errors import MfnsError
+from ..analysis.calib_results import COVARIANCE_PARAMETERS
+from ..core.errors import MfnsError
 from . import layout_gen as L
 
 # The layout is generated from the one definition (firmware/nav/table/caltable_layout.toml,

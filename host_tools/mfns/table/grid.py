@@ -13,13 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..binding import PX_Q8_ONE as Q8
-from ..binding import Q16_16_ONE as Q16
-from ..binding import UNDIST_BAD_INPUT, UndistGrid
-from ..binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
-from ..camera import Camera
-from ..errors import MfnsError
-from ..flight import Flight
+from ..core.binding import PX_Q8_ONE as Q8
+from ..core.binding import Q16_16_ONE as Q16
+from ..core.binding import UNDIST_BAD_INPUT, UndistGrid
+from ..core.binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
+from ..core.errors import MfnsError
+from ..core.flight import Flight
+from ..model.camera import Camera
 from . import layout_gen
 from .format import CameraRecord, Grid
 

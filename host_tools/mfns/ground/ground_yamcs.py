@@ -10,7 +10,7 @@ XTCE mfns_ground.xml (flight events as Yamcs events, the alarm parameters and th
 Yamcs' UDP TM link listens on every interface and has no bind option, so the server is
 meant to run in a private network namespace (``unshare -n``, as root), where only
 loopback exists; :func:`loopback_up` brings that loopback up (a new namespace starts with
-it down). ``python -m mfns.ground_yamcs serve RUNDIR`` is what ``make ground-yamcs`` runs.
+it down). ``python -m mfns.ground.ground_yamcs serve RUNDIR`` is what ``make ground-yamcs`` runs.
 """
 
 from __future__ import annotations
@@ -29,11 +29,11 @@ from pathlib import Path
 # are the package's data (ground/mdb links to them); the configuration is ground/yamcs/etc,
 # which the wheel's build step copies into mfns/data/yamcs (host_tools/setup.py). In the
 # repository (editable install) the tree's copy is read.
-DATA = Path(__file__).resolve().parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 ETC = (
     DATA / "yamcs"
     if (DATA / "yamcs").is_dir()
-    else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
+    else Path(__file__).resolve().parents[3] / "ground" / "yamcs" / "etc"
 )
 MDB_FILES = (DATA / "mfns_tm.xml", DATA / "mfns_tc.xml", DATA / "mfns_ground.xml")
 ADDRESS = "127.0.0.1:8090"
@@ -219,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
         reason = why_not()
         print(reason or "ok")
         return 0 if reason is None else 1
-    print("usage: python -m mfns.ground_yamcs serve RUNDIR | check", file=sys.stderr)
+    print("usage: python -m mfns.ground.ground_yamcs serve RUNDIR | check", file=sys.stderr)
     return 2
 
 

@@ -32,8 +32,8 @@ Extension: end-to-end pose error vs calibration error, in the module scenario of
 >= 4 beacons in view): the beacons are observed through the true rig, the pose is solved
 with a perturbed rig or map by a pluggable `PoseSolver`. By default the flight solver: the C
 refinement of firmware/nav/pose/pose.h with known correspondences, from the shared library
-`make lib` builds, through ctypes (mfns.mc_flight); `--solver reference` selects the host
-reference (mfns.pose_ref, double-precision Gauss-Newton on the same reprojection error).
+`make lib` builds, through ctypes (mfns.analysis.mc_flight); `--solver reference` selects the host
+reference (mfns.model.pose_ref, double-precision Gauss-Newton on the same reprojection error).
 """
 
 from __future__ import annotations
@@ -47,11 +47,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .camera import Camera, position_from_pose
-from .errors import MfnsError
+from ..core.errors import MfnsError
+from ..model.camera import Camera, position_from_pose
+from ..model.pose_ref import PoseSolver
+from ..model.rotations import rot_exp, rot_log
 from .mc_flight import make_solver
-from .pose_ref import PoseSolver
-from .rotations import rot_exp, rot_log
 
 TABLE1 = {"fx": 1600.0, "fy": 1600.0, "cx": 640.0, "cy": 512.0, "width": 1280, "height": 1024}
 X_RANGE_MM = (0.0, 1000.0)
@@ -228,8 +228,8 @@ def module_pose_pool(seed: int, n_poses: int = 400):
 
     Usable: >= 4 beacons in view and a position dilution <= MAX_POSITION_DILUTION_MM_PER_PX.
     """
-    from .pose_ref import residuals_and_jacobian
-    from .simulate import nav
+    from ..model.pose_ref import residuals_and_jacobian
+    from ..simulate import nav
 
     scn = nav.module_scenario(n_poses * 2, 0.5, 60, seed)  # one pose every 2 s of the path
     keep = []
@@ -260,7 +260,7 @@ def pose_errors(
     pixel_noise_px: float = 0.0,
 ) -> dict:
     """Solve `trials` poses with a rig/map perturbed at `level`; RMS of the pose errors."""
-    from .simulate import nav
+    from ..simulate import nav
 
     scn, keep = pool
     true_cams = scn.cams
@@ -420,7 +420,7 @@ def run_mc(
     progress: bool = True,
 ) -> dict:
     """solver: "flight" (the C solver through ctypes, needs `make lib`), "reference"
-    (mfns.pose_ref), or any PoseSolver callable (then described by solver_name)."""
+    (mfns.model.pose_ref), or any PoseSolver callable (then described by solver_name)."""
     from tqdm import tqdm
 
     if not 10 <= trials <= MAX_TRIALS:

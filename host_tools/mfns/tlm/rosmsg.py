@@ -246,7 +246,7 @@ def camera_link_rotation(C_k_b: np.ndarray) -> np.ndarray:
 
 def tf_static_msg(cams, ns: int, body_frame: str = BODY_FRAME) -> dict:
     """tf2_msgs/TFMessage of the mounts: body -> mfns_cam_<k>_link -> mfns_cam_<k>_optical_frame
-    (cams: objects with name, C_k_b, r_bk_b in mm, e.g. mfns.camera.Camera)."""
+    (cams: objects with name, C_k_b, r_bk_b in mm, e.g. mfns.model.camera.Camera)."""
     out = []
     q_lo = quaternion_xyzw(R_LINK_OPTICAL)
     for cam in cams:

@@ -1,6 +1,6 @@
 """The operator's view (docs/operators.md "The view"): a small local web page over Yamcs.
 
-``python -m mfns.ground_yamcs_view [--port 8095]`` (``make ground-view``) serves
+``python -m mfns.ground.ground_yamcs_view [--port 8095]`` (``make ground-view``) serves
 ground/operator/index.html and ``/state.json``, a snapshot this process keeps from Yamcs
 through ``yamcs-client``: a WebSocket parameter subscription (the navigation solution, the
 camera packets, housekeeping, the ground's alarm parameters), the realtime processor's
@@ -26,13 +26,13 @@ from datetime import UTC, datetime
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
-from mfns import ground_yamcs as gy
-from mfns import tlm_dict
+from mfns.ground import ground_yamcs as gy
+from mfns.tlm import tlm_dict
 
 # The page: the repository's ground/operator/index.html, or the copy an installed
 # wheel carries (host_tools/setup.py puts it in mfns/data).
-_TREE_PAGE = Path(__file__).resolve().parents[2] / "ground" / "operator" / "index.html"
-_WHEEL_PAGE = Path(__file__).resolve().parent / "data" / "operator.html"
+_TREE_PAGE = Path(__file__).resolve().parents[3] / "ground" / "operator" / "index.html"
+_WHEEL_PAGE = Path(__file__).resolve().parents[1] / "data" / "operator.html"
 PAGE = _TREE_PAGE if _TREE_PAGE.is_file() else _WHEEL_PAGE
 NAV = [
     "cycle",
@@ -366,7 +366,9 @@ def serve(port: int, ready: threading.Event | None = None, stop: threading.Event
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mfns.ground_yamcs_view", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m mfns.ground.ground_yamcs_view", description=__doc__.split("\n")[0]
+    )
     ap.add_argument("--port", type=int, default=8095, help="HTTP port on 127.0.0.1 (default 8095)")
     a = ap.parse_args(argv)
     try:

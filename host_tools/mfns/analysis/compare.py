@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from .. import __version__
+from ..core.errors import MfnsError
+from ..model.rotations import matrix_to_euler213_deg, rot_log
 from . import nees as nees_mod
 from . import report as rpt
 from .calib_results import load as load_calib
-from .errors import MfnsError
-from .rotations import matrix_to_euler213_deg, rot_log
 
 EXPERIMENTS = {
     "turntable": "the paper's turntable run (Sec. 5: ten beacons, rotation about Zt)",
@@ -390,7 +390,8 @@ def _reason_text(code: int) -> tuple[str, str]:
     """(name, meaning) of a pose reason code: the C core's text (mfns_pose_strerror), else the
     TM dictionary's description of the code (package data: always there), else why not. The
     meaning column is never left silently empty."""
-    from . import flight, tlm_dict
+    from ..core import flight
+    from ..tlm import tlm_dict
 
     name = flight.REASONS[code] if 0 <= code < len(flight.REASONS) else f"code {code}"
     try:

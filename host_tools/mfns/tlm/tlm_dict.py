@@ -6,7 +6,7 @@ The XTCE file is the one definition of the telemetry packets: their CCSDS header
 parameter with its encoding, unit and calibration, and every numbered code (status, reason,
 mode, camera state, event code, severity). This module reads it with the standard library
 only, so the host tools take the codes' names from it instead of copying them, and it renders
-the tables of docs/telemetry.md between their markers (``python -m mfns.tlm_dict --write``;
+the tables of docs/telemetry.md between their markers (``python -m mfns.tlm.tlm_dict --write``;
 ``--check`` fails when the doc is stale). It also reads the telecommand dictionary
 (``load_tc``). mk/gen_contracts.py generates the C codecs, codes, ground columns and doc tables
 from both through this module (standard library only, so it runs before any venv exists).
@@ -25,7 +25,7 @@ from pathlib import Path
 
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
 _X = "{" + NS["x"] + "}"
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 # Framing per frame (docs/telemetry.md 2): CRC-16 (2), COBS overhead (1 below 254 bytes), 0x00.
 FRAME_OVERHEAD = 4
@@ -408,7 +408,7 @@ def _table_status(code: int) -> str:
     """The loader's own words for a table status (the C core: mfns_caltable_strerror), with the
     number; the number alone when the core library is not there."""
     try:
-        from . import binding
+        from ..core import binding
 
         text = binding.load().mfns_caltable_strerror(int(code)).decode()
     except Exception:  # no core library: the number is still right
@@ -584,7 +584,7 @@ def render_doc(text: str, d: Dictionary | None = None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mfns.tlm_dict", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m mfns.tlm.tlm_dict", description=__doc__.splitlines()[0])
     ap.add_argument("doc", nargs="?", default=str(REPO / "docs" / "telemetry.md"))
     g = ap.add_mutually_exclusive_group(required=True)
     g.add_argument("--write", action="store_true", help="regenerate the doc's tables in place")
@@ -596,7 +596,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.check:
         if new != text:
             print(
-                f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm_dict --write)",
+                f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm.tlm_dict --write)",
                 file=sys.stderr,
             )
             return 1
