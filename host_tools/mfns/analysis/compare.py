@@ -101,7 +101,7 @@ def _paper() -> tuple[dict, dict]:
     )
 
 
-def _f(x: float, nd: int = 4) -> str:
+def _f(x: float | None, nd: int = 4) -> str:
     return "-" if x is None or not np.isfinite(x) else f"{x:.{nd}f}"
 
 

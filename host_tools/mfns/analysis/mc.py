@@ -90,7 +90,7 @@ GROUPS = (
 
 def table1_camera() -> Camera:
     t = TABLE1
-    return Camera("z", t["fx"], t["fy"], t["cx"], t["cy"], width=t["width"], height=t["height"])
+    return Camera("z", t["fx"], t["fy"], t["cx"], t["cy"], width=int(t["width"]), height=int(t["height"]))
 
 
 def sample_beacons(rng: np.random.Generator, n: int, z_min: float, cam: Camera | None = None) -> np.ndarray:
@@ -268,15 +268,16 @@ def pose_errors(
     for _ in range(trials):
         i = int(keep[rng.integers(len(keep))])
         c_true, r_true = scn.pose(i)
-        idx, pts, uv = [], [], []
+        cam_of: list[int] = []
+        pts, uv_k = [], []
         for k, cam in enumerate(true_cams):
             uvk, vis, _ = nav.project_beacons(cam, c_true, r_true, scn.beacons)
-            idx.extend([k] * int(vis.sum()))
+            cam_of.extend([k] * int(vis.sum()))
             pts.append(np.nonzero(vis)[0])
-            uv.append(uvk[vis])
-        idx = np.array(idx)
+            uv_k.append(uvk[vis])
+        idx = np.array(cam_of)
         ids = np.concatenate(pts)
-        uv = np.vstack(uv) + rng.normal(0.0, pixel_noise_px, (len(idx), 2))
+        uv = np.vstack(uv_k) + rng.normal(0.0, pixel_noise_px, (len(idx), 2))
         believed_cams = [_copy_cam(c) for c in true_cams]
         believed_map = scn.beacons.copy()
         if group == "position":
@@ -432,12 +433,15 @@ def run_mc(
     if not 0 <= pose_trials <= MAX_TRIALS:
         raise MfnsError(f"--pose-trials must be in 0..{MAX_TRIALS}")
     solver_key = solver if isinstance(solver, str) else "custom"
+    pose_solver: PoseSolver | None = None
     if pose_trials:
         # Before any long work: a missing flight library is reported at once.
         if isinstance(solver, str):
-            solver, default_name = make_solver(solver)
+            pose_solver, default_name = make_solver(solver)
             solver_name = solver_name or default_name
-        solver_name = solver_name or getattr(solver, "__name__", "custom solver")
+        else:
+            pose_solver = solver
+        solver_name = solver_name or getattr(pose_solver, "__name__", "custom solver")
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     summary: dict = {
@@ -492,15 +496,16 @@ def run_mc(
     }
 
     if pose_trials:
+        assert pose_solver is not None and solver_name is not None  # both set above
         pool = module_pose_pool(seed)
         pose_rows = []
-        for gi, (g, _unit, levels) in enumerate(POSE_GROUPS):
+        for gi, (pg, _unit, levels) in enumerate(POSE_GROUPS):
             for level in levels:
                 # Common random numbers: every level of a group sees the same poses and the
                 # same error directions, scaled by the level, so the curve shows the growth
                 # with the level rather than the draw-to-draw spread of a few weak poses.
                 crn = np.random.default_rng([seed, 7, gi])
-                pose_rows.append(pose_errors(solver, g, level, pose_trials, crn, pool))
+                pose_rows.append(pose_errors(pose_solver, pg, level, pose_trials, crn, pool))
             bar.update()
         write_csv(
             out / "pose_vs_calib.csv",
@@ -535,9 +540,9 @@ def run_mc(
             "scenario": f"module, seed {seed}, 60 beacons, paper rig",
             "rows": pose_rows,
         }
-        for g, unit, _levels in POSE_GROUPS:
-            rr = [r for r in pose_rows if r["group"] == g and r["level"] > 0 and r["solved"]]
-            ext[f"{g}_slope"] = {
+        for pg, unit, _levels in POSE_GROUPS:
+            rr = [r for r in pose_rows if r["group"] == pg and r["level"] > 0 and r["solved"]]
+            ext[f"{pg}_slope"] = {
                 f"pos_mm_per_{unit}": slope_through_origin(
                     [r["level"] for r in rr], [r["pos_rms_mm"] for r in rr]
                 ),

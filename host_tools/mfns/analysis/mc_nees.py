@@ -74,7 +74,7 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
     cfg_c = f.config(sigma_px=floor, calib_cov=sigma_c)
     lc = np.linalg.cholesky(sigma_c)
     chi2_95 = 12.5916  # chi-square, 6 degrees of freedom
-    cases = {
+    cases: dict[str, list[float]] = {
         k: []
         for k in (
             "pixel",

@@ -61,6 +61,8 @@ def cmd_refine(args) -> int:
                 f"offset {np.round(res.mount_off_mm[k], 3).tolist()} mm, chi2 {res.mount_chi2[k, 0]:.1f} / "
                 f"{res.mount_chi2[k, 1]:.1f}{'  MOVED' if res.mount_moved[k] else ''}"
             )
+    # refine() fills both (None only in a Result built by hand)
+    assert res.datum_cov is not None and res.sigma_relative is not None
     sd = np.sqrt(np.diag(res.datum_cov))
     print(
         f"  map datum (shared by every beacon): shift 1-sigma {np.round(sd[:3], 4).tolist()} mm, turn "

@@ -367,7 +367,7 @@ class Flight:
 
     def _acq_progress(self) -> Progress:
         pr = AcqProgress.from_buffer(self._acq_state)
-        return Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
+        return Progress(**{n: getattr(pr, n) for n, *_ in AcqProgress._fields_})
 
     def acquire_resume(self, budget_units: int) -> tuple[Solution, Progress]:
         """Go on with the search the last acquire (or resume) left on its budget (acquire.h)."""

@@ -25,6 +25,7 @@ import time
 from datetime import UTC, datetime
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
+from typing import Any
 
 from mfns.ground import ground_yamcs as gy
 from mfns.tlm import tlm_dict
@@ -289,7 +290,7 @@ class State:
 
     def snapshot(self) -> dict:
         with self.lock:
-            snap = {
+            snap: dict[str, Any] = {  # the page's JSON: values of every kind
                 "nav": dict(self.nav),
                 "last_fix": dict(self.last_fix),
                 "hk": dict(self.hk),

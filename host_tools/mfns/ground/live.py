@@ -38,7 +38,8 @@ class Tail:
     """Rows of a CSV file that is still being written: complete lines only."""
 
     def __init__(self, path: Path) -> None:
-        self.path, self.pos, self.header, self.part = path, 0, None, ""
+        self.path, self.pos, self.part = path, 0, ""
+        self.header: list[str] | None = None
 
     def rows(self) -> list[dict]:
         if not self.path.is_file():
@@ -50,7 +51,7 @@ class Tail:
         text = self.part + data
         lines = text.split("\n")
         self.part = lines.pop()  # an unfinished line waits for its end
-        out = []
+        out: list[dict[str, str]] = []
         for line in lines:
             if not line:
                 continue

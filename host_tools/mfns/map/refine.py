@@ -193,7 +193,7 @@ def build_problem(
         raise MfnsError("no fixes to refine from (a fix log of usable fixes is needed)")
     ids = np.asarray(ids, dtype=int)
     index = {int(i): n for n, i in enumerate(ids)}
-    fx, cm, be, uv, cv = [], [], [], [], []
+    fx, cm, be, uv, cv_list = [], [], [], [], []
     for f_i, f in enumerate(fixes):
         for c, b, u, r in zip(f.camera, f.beacon_id, f.uv, f.cov_uv, strict=True):
             if int(b) not in index:
@@ -204,8 +204,8 @@ def build_problem(
             cm.append(int(c))
             be.append(index[int(b)])
             uv.append(u)
-            cv.append(r)
-    cv = np.asarray(cv, dtype=float).reshape(-1, 2, 2)
+            cv_list.append(r)
+    cv = np.asarray(cv_list, dtype=float).reshape(-1, 2, 2)
     if not np.all(np.isfinite(cv)):
         raise MfnsError("a centroid covariance of the fix log is not finite")
     return Problem(
@@ -550,7 +550,7 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
                 best[0] = min(best[0], float(dk[:3] @ np.linalg.solve(cd[:3, :3], dk[:3])))
                 best[1] = min(best[1], float(dk[3:] @ np.linalg.solve(cd[3:, 3:], dk[3:])))
             mchi[k] = best
-        mmoved = (mchi > CHI2_3).any(axis=1)
+        mmoved = np.asarray((mchi > CHI2_3).any(axis=1))
         rot = np.rad2deg(rel[:, :3])
         off = rel[:, 3:]
     Cwb = pb.C0 @ np.transpose(_rot_batch(f6[:, :3]), (0, 2, 1))

@@ -27,6 +27,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -191,10 +192,10 @@ def monitor(a) -> int:
         str(table),
         log=out / "table.log",
     )
-    cases = [("clean", None, None)]
+    cases: list[tuple[str, float | None, float | None]] = [("clean", None, None)]
     cases += [(f"beacon {int(ids[b])} moved {d:g} mm along its wall", d, None) for d in (5.0, 3.0, 2.0, 1.0)]
     cases += [(f"camera y turned {t:g} deg", None, t) for t in (0.1, 0.3)]
-    rows = []
+    rows: list[dict[str, Any]] = []  # case, fixes, events (the report's rows)
     for k, (name, move_mm, turn_deg) in enumerate(cases):
         run = out / f"case{k}"
         run.mkdir()

@@ -25,6 +25,7 @@ import csv
 import subprocess
 import sys
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ def _run(cmd: list[str], log: Path, what: str) -> None:
         raise MfnsError(f"fly check: {what} failed (exit {r.returncode}; see {log})")
 
 
-def _reason(text: str, names: list[str]) -> str:
+def _reason(text: str, names: Sequence[str]) -> str:
     """nav.csv's reason code as the core's name (the code itself when out of range)."""
     return names[int(text)] if text.isdigit() and int(text) < len(names) else text
 

@@ -137,10 +137,10 @@ def candidates(
         p = s.origin + a.reshape(-1, 1) * s.u + b.reshape(-1, 1) * s.v
         pts.append(p)
         idx.append(np.full(len(p), i))
-    p, i = np.concatenate(pts), np.concatenate(idx)
-    keep = np.ones(len(p), dtype=bool)
+    pos, surf = np.concatenate(pts), np.concatenate(idx)
+    keep = np.ones(len(pos), dtype=bool)
     for k in keep_out:
-        keep &= ~k.contains(p)
+        keep &= ~k.contains(pos)
     if not keep.any():
         raise MfnsError("no candidate position left outside the keep-out zones")
-    return p[keep], i[keep]
+    return pos[keep], surf[keep]

@@ -101,9 +101,7 @@ def box(
         for name, r in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg)):
             if len(r) != 2 or not r[0] <= r[1]:
                 raise MfnsError(f"{name} range must be LO,HI with LO <= HI")
-        ang = np.column_stack(
-            [rng.uniform(*roll_deg, n), rng.uniform(*pitch_deg, n), rng.uniform(*yaw_deg, n)]
-        )
+        ang = np.column_stack([rng.uniform(r[0], r[1], n) for r in (roll_deg, pitch_deg, yaw_deg)])
         C = np.array([euler213_deg_to_matrix(a) for a in ang])
         att = f"roll {roll_deg}, pitch {pitch_deg}, yaw {yaw_deg} deg (uniform)"
     else:

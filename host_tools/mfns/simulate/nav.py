@@ -447,8 +447,8 @@ class Renderer:
         ok = (rr >= 0) & (rr < self.h) & (cc >= 0) & (cc < self.w)
         np.add.at(sig, (rr[ok], cc[ok]), win[ok])
         mask[rr[ok], cc[ok]] = True
-        idx = np.nonzero(mask)
-        return idx, sig[idx]
+        r_i, c_i = np.nonzero(mask)
+        return (r_i, c_i), sig[r_i, c_i]
 
     def render(self, spots: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """spots (S, 4): u, v, peak_dn, sigma_px -> uint8 image (H, W)."""
@@ -603,13 +603,13 @@ def simulate(
             exp_us, gain_db = exposure[k]
             scale = exp_us / params.exposure_ref_us * 10 ** (gain_db / 20)
             peak = ref * scale
-            spots = [np.column_stack([uvv, peak, sig])]
+            spot_sets = [np.column_stack([uvv, peak, sig])]
             labels = list(ids)
             if params.spurious_rate > 0 and rng.random() < params.spurious_rate:
-                spots.append(spurious_spot(rng, spots[0], width, height))
+                spot_sets.append(spurious_spot(rng, spot_sets[0], width, height))
                 labels.append(-1)
                 n_spurious += 1
-            spots = np.vstack(spots) if len(spots) > 1 else spots[0]
+            spots = np.vstack(spot_sets) if len(spot_sets) > 1 else spot_sets[0]
             img = renderer.render(spots, rng)
             name = f"cam_{CAMERA_LETTERS[k]}/{i:06d}.pgm"
             write_pgm(out / name, img)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import struct
 import zlib
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -61,9 +62,9 @@ class Record:
         return next(off for n, off, _, _ in self.fields if n == name)
 
     def pack(self, values: dict) -> bytes:
-        flat = []
+        flat: list[object] = []
         for name, _, kind, count in self.fields:
-            v = 0 if name in self.reserved else values[name]
+            v: Any = 0 if name in self.reserved else values[name]  # a value of the caller's dict
             if count > 1 and kind != "char":
                 flat.extend(v)
             else:
@@ -337,7 +338,11 @@ def decode(data: bytes) -> Table:
                 C_k_b=np.array(v["C_k_b"], dtype=float).reshape(3, 3),
                 r_bk_b=np.array(v["r_bk_b"], dtype=float),
                 grid=Grid(
-                    *(v[f"grid.{n}"] for n in ("origin_u_q8", "origin_v_q8", "step_u_q8", "step_v_q8")), nodes
+                    v["grid.origin_u_q8"],
+                    v["grid.origin_v_q8"],
+                    v["grid.step_u_q8"],
+                    v["grid.step_v_q8"],
+                    nodes,
                 ),
             )
         )
