@@ -33,6 +33,7 @@ from ..core.errors import MfnsError
 from ..model.rotations import matrix_to_euler213_deg, rot_log
 from . import nees as nees_mod
 from . import report as rpt
+from .calib_results import CAMERA_NAMES
 from .calib_results import load as load_calib
 
 EXPERIMENTS = {
@@ -44,7 +45,7 @@ TABLES = {
     "refined-calibration": "table from our refined calibration",
     "paper-calibration": "table from the paper's CPC calibration",
 }
-CAMERAS = ("x", "y", "z")
+CAMERAS = CAMERA_NAMES
 # What each flight reason (firmware/nav/pose/pose.h, named by the C core) means for availability.
 # The reason text itself comes from mfns_pose_strerror through the core library when built.
 WHY = {

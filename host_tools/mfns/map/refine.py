@@ -38,6 +38,7 @@ import scipy.sparse as sp
 from scipy.optimize import least_squares
 from scipy.stats import chi2, norm
 
+from ..analysis.calib_results import CAMERA_NAMES
 from ..core.errors import MfnsError
 from ..model.camera import Camera
 from ..model.rotations import matrix_to_euler213_deg, rot_exp, skew
@@ -637,7 +638,7 @@ def report(res: Result) -> dict:
         if not res.mounts
         else [
             {
-                "camera": "xyz"[k],
+                "camera": CAMERA_NAMES[k],
                 "rotation_deg": [round(float(v), 5) for v in res.mount_rot_deg[k]],
                 "offset_mm": [round(float(v), 4) for v in res.mount_off_mm[k]],
                 "chi2_rotation": round(float(res.mount_chi2[k, 0]), 2),

@@ -34,6 +34,7 @@ import numpy as np
 from ..model.camera import load_beacons, pose_from_position
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
 from ..simulate import nav as simnav
+from ..tlm.tlm_dict import CYCLE_HZ
 from . import fixlog, refine_demo
 from .refine_demo import axis_rms, map_figures, summary_num
 
@@ -136,7 +137,7 @@ def along_wall(p: np.ndarray) -> np.ndarray:
 
 def most_seen_beacon(seed: int, frames: int, ids: np.ndarray, p: np.ndarray) -> int:
     """The map index of the beacon in view (any camera) in most poses of the fresh path."""
-    scn = simnav.module_scenario(frames, 18.6, len(ids), seed)
+    scn = simnav.module_scenario(frames, CYCLE_HZ, len(ids), seed)
     count = np.zeros(len(ids), int)
     for rw, att in zip(scn.r_wb_w, scn.euler_deg, strict=True):
         c = euler213_deg_to_matrix(att)

@@ -45,6 +45,7 @@ from ..analysis import calib_results
 from ..core.errors import MfnsError
 from ..model.camera import Camera, load_beacons, pose_from_position, rig_from_doc
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..tlm.tlm_dict import CYCLE_HZ
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 PAPER_CALIB = DATA / "paper_calib.json"
@@ -52,7 +53,7 @@ PAPER_BEACONS = DATA / "paper_beacons.csv"
 
 FORMAT = "mfns-nav-frames"
 VERSION = 1
-CAMERA_LETTERS = ("x", "y", "z")
+CAMERA_LETTERS = calib_results.CAMERA_NAMES  # one home: the flight rig's camera names
 TRUTH_HEADER = ["frame", "t_s", "x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"]
 FRAMES_HEADER = ["frame", "t_s", "camera", "file", "exposure_us", "gain_db"]
 BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
@@ -776,7 +777,9 @@ def register(subparsers) -> None:
     )
     p.add_argument("--frames", type=int, default=60, help="time steps (default 60)")
     p.add_argument("--seed", type=int, default=0, help="random seed (beacon map, trajectory, noise)")
-    p.add_argument("--rate-hz", type=float, default=18.6, help="frame rate (default 18.6)")
+    p.add_argument(
+        "--rate-hz", type=float, default=CYCLE_HZ, help=f"frame rate (default {CYCLE_HZ:g}, the flight cycle)"
+    )
     p.add_argument("--rig", help="calibration-results JSON of the simulated rig (default: the paper's)")
     p.add_argument("--beacons", type=int, default=60, help="module: number of wall beacons (default 60)")
     p.add_argument(

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis.calib_results import COVARIANCE_PARAMETERS
+from ..analysis.calib_results import CAMERA_NAMES, COVARIANCE_PARAMETERS  # noqa: F401 (CAMERA_NAMES: re-exported)
 from ..core.errors import MfnsError
 from . import layout_gen as L
 
@@ -36,7 +36,6 @@ COV_HEADER_SIZE = L.SIZE["calib_cov"]
 CALIB_PARAM_NAMES = COVARIANCE_PARAMETERS
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
 assert CALIB_PARAMS == L.CONSTANTS["MFNS_CALIB_PARAMS"]
-CAMERA_NAMES = ("x", "y", "z")
 # The map datum section (after the calibration covariance, format version 5): u16 count (0
 # or MAP_DATUM_PARAMS), u16 reserved, the turn's centre c_w (3 x f32 mm), the upper
 # triangle row-major of the covariance over (shift x y z mm, turn x y z rad) as f32.

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..analysis.calib_results import CAMERA_NAMES
 from ..core.binding import PX_Q8_ONE as Q8
 from ..core.binding import Q16_16_ONE as Q16
 from ..core.binding import UNDIST_BAD_INPUT, UndistGrid
@@ -31,7 +32,7 @@ U16_MAX = 0xFFFF  # the builder's node counts and image sizes are uint16
 def record_camera(rec: CameraRecord) -> Camera:
     """The numpy camera of a table record (its binary32 values, in double)."""
     return Camera(
-        name="xyz"[rec.camera_id],
+        name=CAMERA_NAMES[rec.camera_id],
         fx=float(rec.fx),
         fy=float(rec.fy),
         cx=float(rec.cx),
