@@ -17,16 +17,16 @@ flight defaults otherwise. Three error sources, each alone:
 and for each the same solve with the matching term switched off (survey: sigma_mm 0 in the map;
 calibration: no calibration covariance), which shows the term is what makes NEES 6.
 
-Rerun: `.venv/bin/python -m mfns.analysis.mc_nees [--trials N] [--seed S]` (after `make lib`).
+Rerun: `mfns nees [--trials N] [--seed S]` (after `make lib`).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
 
+from ..core.errors import MfnsError
 from ..model.camera import Camera, position_from_pose
 from ..model.rotations import rot_exp, rot_log
 
@@ -133,21 +133,19 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
     }
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mfns.analysis.mc_nees", description=__doc__.splitlines()[0])
-    p.add_argument("--trials", type=int, default=2000)
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args(argv)
-    res = run(a.trials, a.seed)
+MAX_TRIALS = 1_000_000  # a bound on the run, as mfns mc's
+
+
+def report(args) -> int:
+    """`mfns nees` (commands/nees.py): run() printed as the table of docs/error-analysis.md."""
+    if not 1 <= args.trials <= MAX_TRIALS:
+        raise MfnsError(f"--trials must be in 1..{MAX_TRIALS}")
+    res = run(args.trials, args.seed)
     print(
-        f"module scenario, {a.trials} poses, pixel 0.1 px, survey 0.4 mm, "
+        f"module scenario, {args.trials} poses, pixel 0.1 px, survey 0.4 mm, "
         "calibration Sigma_c (mc_nees.CALIB_SD)"
     )
     print(f"{'case':36s} {'mean NEES':>10s} {'in 95 %':>8s} {'fixes':>6s}   (6 and 95 % when right)")
     for k, (m, frac, n) in res.items():
         print(f"{k:36s} {m:10.2f} {100 * frac:7.1f}% {n:6d}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
