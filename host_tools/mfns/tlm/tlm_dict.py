@@ -6,17 +6,15 @@ The XTCE file is the one definition of the telemetry packets: their CCSDS header
 parameter with its encoding, unit and calibration, and every numbered code (status, reason,
 mode, camera state, event code, severity). This module reads it with the standard library
 only, so the host tools take the codes' names from it instead of copying them, and it renders
-the tables of docs/telemetry.md between their markers (``python -m mfns.tlm.tlm_dict --write``;
-``--check`` fails when the doc is stale). It also reads the telecommand dictionary
+the tables of docs/telemetry.md between their markers (``render_doc``, which ``make contracts``
+runs; ``make contracts-check`` fails when the doc is stale). It also reads the telecommand dictionary
 (``load_tc``). mk/gen_contracts.py generates the C codecs, codes, ground columns and doc tables
 from both through this module (standard library only, so it runs before any venv exists).
 """
 
 from __future__ import annotations
 
-import argparse
 import re
-import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
@@ -604,30 +602,3 @@ def render_doc(text: str, d: Dictionary | None = None) -> str:
     if missing:
         raise ValueError(f"docs/telemetry.md lacks the markers of {sorted(missing)}")
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mfns.tlm.tlm_dict", description=__doc__.splitlines()[0])
-    ap.add_argument("doc", nargs="?", default=str(REPO / "docs" / "telemetry.md"))
-    g = ap.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write", action="store_true", help="regenerate the doc's tables in place")
-    g.add_argument("--check", action="store_true", help="exit 1 when the doc's tables are stale")
-    a = ap.parse_args(argv)
-    doc = Path(a.doc)
-    text = doc.read_text()
-    new = render_doc(text)
-    if a.check:
-        if new != text:
-            print(
-                f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm.tlm_dict --write)",
-                file=sys.stderr,
-            )
-            return 1
-        return 0
-    if new != text:
-        doc.write_text(new)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
