@@ -386,7 +386,7 @@ def py_lit(v) -> str:
     return repr(v)
 
 
-def py_dict(name: str, d: dict, comment: str, depth: int = 0) -> list[str]:
+def py_dict(name: str, d: dict, comment: str, depth: int = 0, annotation: str = "") -> list[str]:
     """name = {...}, one entry a line, nested dicts expanded (magic trailing commas)."""
 
     def body(x: dict, ind: int) -> list[str]:
@@ -406,7 +406,8 @@ def py_dict(name: str, d: dict, comment: str, depth: int = 0) -> list[str]:
                 out.append(" " * ind + f"{py_lit(k)}: {py_lit(v)},")
         return out
 
-    return [f"# {comment}", f"{name} = {{", *body(d, 4), "}"]
+    ann = f": {annotation}" if annotation else ""  # for the type checker where values are mixed
+    return [f"# {comment}", f"{name}{ann} = {{", *body(d, 4), "}"]
 
 
 def gen_py(L: Layout) -> str:
@@ -454,6 +455,7 @@ def gen_py(L: Layout) -> str:
         "DEFAULTS",
         defaults,
         "record -> {field: default}; f32 fields hold the binary32 value the table stores",
+        annotation="dict[str, dict[str, int | float]]",
     )
     mins = {}
     for r in L.records.values():

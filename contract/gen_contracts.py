@@ -6,7 +6,7 @@
 
 One direction only: dictionary -> C (and doc tables). The sources are
 contract/mfns_tm.xml (telemetry) and mfns_tc.xml (telecommands), read by
-host_tools/mfns/tlm_dict.py (standard library only, loaded here by path so this runs with
+host_tools/mfns/tlm/tlm_dict.py (standard library only, loaded here by path so this runs with
 plain python3 before any venv exists). Outputs, all committed:
 
     firmware/tlm/generated/tlm_codes_gen.h    numbered TM codes (status, mode, camera, severity, events)
@@ -37,7 +37,7 @@ ME = "contract/gen_contracts.py"
 
 
 def _load_tlm_dict():
-    spec = importlib.util.spec_from_file_location("tlm_dict", REPO / "host_tools" / "mfns" / "tlm_dict.py")
+    spec = importlib.util.spec_from_file_location("tlm_dict", REPO / "host_tools" / "mfns" / "tlm" / "tlm_dict.py")
     mod = importlib.util.module_from_spec(spec)
     sys.modules["tlm_dict"] = mod  # dataclasses look their module up
     spec.loader.exec_module(mod)

@@ -6,9 +6,9 @@ pyproject.toml holds the metadata; this file adds only what setuptools cannot de
   (`make -C <repo> pkg-core-lib`, mk/pkg.mk: the binding check, then CORE_LIB_CC on the
   sources of CORE_DIRS and HOST_CORE_DIR), and copies the Yamcs configuration
   (ground/yamcs/etc) into mfns/data/yamcs and the XTCE dictionaries (contract/*.xml) into
-  mfns/data, so `mfns.ground_yamcs` needs no repository.
+  mfns/data, so `mfns.ground.ground_yamcs` needs no repository.
   An editable install (`make venv`) builds nothing: the binding then loads the tree's build
-  (`make lib`), see mfns/binding.py `lib_path`.
+  (`make lib`), see mfns/core/binding.py `lib_path`.
 - build_py also builds the host (host-sim) flight and ground programs into mfns/bin/
   (`make -C <repo> pkg-programs`, mk/pkg.mk: the Makefile's own mfns-nav and mfns-ground
   targets with BUILD in a temporary folder), run by the console scripts `mfns-nav` and
@@ -110,7 +110,7 @@ class BuildPyWithCore(build_py):
             shutil.copy2(src, Path(self.build_lib) / "mfns" / "data" / src.name)
         etc = Path(self.build_lib) / "mfns" / "data" / "yamcs"
         shutil.copytree(YAMCS_ETC, etc, dirs_exist_ok=True)
-        # the operator's view (mfns.ground_yamcs_view) serves this page
+        # the operator's view (mfns.ground.ground_yamcs_view) serves this page
         shutil.copy2(OPERATOR_PAGE, Path(self.build_lib) / "mfns" / "data" / "operator.html")
 
 

@@ -45,7 +45,7 @@
  * focal length), so its Q16.16 rounding does not depend on where the
  * iteration stopped (at 1e-6 px, 0.1 % of the nodes of the paper's lenses
  * rounded to the neighbouring 1.5e-5 px value: measured against the double
- * Newton of host_tools/mfns/camera.py, which the tables were built with). */
+ * Newton of host_tools/mfns/model/camera.py, which the tables were built with). */
 #define MFNS_UNDIST_GRID_TOL_PX 1e-11
 
 /* (b): the span between nodes is limited to [1, 256) px so that the cell

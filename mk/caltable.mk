@@ -16,7 +16,7 @@ all size lib tests: caltable-gen-check
 
 CALTABLE_SRC := host_tools/mfns/data/paper_calib.json host_tools/mfns/data/paper_beacons.csv
 CALTABLE_PY  := $(wildcard host_tools/mfns/table/*.py) host_tools/mfns/commands/table.py \
-                host_tools/mfns/camera.py host_tools/mfns/calib_results.py host_tools/mfns/validate.py
+                host_tools/mfns/model/camera.py host_tools/mfns/analysis/calib_results.py host_tools/mfns/core/validate.py
 
 # the builder checks its output with the flight loader and sizes grids with the
 # C interpolation, both through the shared library

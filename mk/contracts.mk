@@ -11,7 +11,7 @@
 # files are committed, so a bare cross build such as `make size` still works).
 
 CONTRACTS_SRCS := contract/mfns_tm.xml contract/mfns_tc.xml \
-                  host_tools/mfns/tlm_dict.py contract/gen_contracts.py contract/gen_output.py
+                  host_tools/mfns/tlm/tlm_dict.py contract/gen_contracts.py contract/gen_output.py
 CONTRACTS_OUTS := firmware/tlm/generated/tlm_codes_gen.h firmware/nav/generated/nav_codes_gen.h \
                   firmware/tlm/generated/tlm_packets_gen.h firmware/tlm/generated/tlm_packets_gen.c \
                   firmware/tlm/generated/tc_codes_gen.h firmware/tlm/generated/tc_packets_gen.c \

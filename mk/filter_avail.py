@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mfns.rotations import euler213_deg_to_matrix, rot_log
+from mfns.model.rotations import euler213_deg_to_matrix, rot_log
 
 CASES = ["module2", "module3", "module4", "module5", "turn1"]
 USABLE = ("FIX", "DEGRADED")

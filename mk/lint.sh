@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# lint.sh PY: cppcheck and clang-tidy over the C code, ruff over the Python.
+# lint.sh PY: cppcheck and clang-tidy over the C code, ruff and mypy (the whole mfns package,
+# [tool.mypy] in host_tools/pyproject.toml) over the Python.
 # Exits non-zero on any finding; prints "lint: clean" otherwise.
 set -uo pipefail
 py=$1
@@ -27,6 +28,9 @@ if ! "$py" -m ruff check --quiet host_tools tests/host; then
 fi
 if ! "$py" -m ruff format --check --quiet host_tools tests/host; then
   echo "lint: ruff format would reformat files (run: $py -m ruff format host_tools tests/host)"; rc=1
+fi
+if ! "$py" -m mypy --config-file host_tools/pyproject.toml --cache-dir build/mypy host_tools/mfns; then
+  echo "lint: mypy found type errors (run: $py -m mypy --config-file host_tools/pyproject.toml host_tools/mfns)"; rc=1
 fi
 [ "$rc" -eq 0 ] && echo "lint: clean"
 exit "$rc"

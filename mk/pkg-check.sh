@@ -8,8 +8,8 @@
 #      `mfns table build` (byte-identical to the tree's TABLE), `mfns table show`, `mfns mc`
 #      (its default flight solver: the wheel's library), `mfns sim calib` + `mfns calib`,
 #      `mfns sim nav` + `mfns report` (+ its refusal of another run's truth), `mfns compare`
-#      (meaning column filled), `mfns plan`, mfns.ground_yamcs' run folder and the
-#      operator view's page (mfns.ground_yamcs_view);
+#      (meaning column filled), `mfns plan`, mfns.ground.ground_yamcs' run folder and the
+#      operator view's page (mfns.ground.ground_yamcs_view);
 #   4. a user's whole chain from the wheel alone (issue 43): the wheel's own flight and ground
 #      programs (console scripts mfns-nav, mfns-ground: mfns/bin, built by the Makefile's
 #      targets during the wheel build) fly a simulated module run (sim -> table -> fly ->
@@ -74,7 +74,7 @@ import mfns.programs as p
 for n in p.PROGRAMS:
     assert p.program_path(n) == p.PACKAGE_BIN / n, p.program_path(n)"
 check "the core library is the package's own" "$v/python" -c \
-  "import mfns.binding as b, pathlib; p = b.lib_path(); assert p == b.PACKAGE_LIB and p.is_file(), p; b.load()"
+  "import mfns.core.binding as b, pathlib; p = b.lib_path(); assert p == b.PACKAGE_LIB and p.is_file(), p; b.load()"
 data=$("$v/python" -c "import mfns.data, pathlib; print(pathlib.Path(mfns.data.__file__).parent)")
 check "mfns table build" "$v/mfns" table build "$data/paper_calib.json" "$data/paper_beacons.csv" -o t.mfnstbl -q
 check "table byte-identical to the tree's $(basename "$table")" cmp t.mfnstbl "$table"
@@ -122,8 +122,8 @@ check "chain: mfns report refuses a turntable's truth (same time base) for the m
   test \$(wc -l <$m/err.txt) -eq 1 && grep -q 'gross errors' $m/err.txt && test ! -e $m/bad"
 check "chain: mfns plan analyze (the module's map)" "$v/mfns" plan analyze $m/plan --workspace module \
   --beacons $m/frames/beacons.csv --samples 20 --no-ident-margin -q
-check "mfns.ground_yamcs: run folder without the repository" "$v/python" -c "
-import pathlib, mfns.ground_yamcs as g
+check "mfns.ground.ground_yamcs: run folder without the repository" "$v/python" -c "
+import pathlib, mfns.ground.ground_yamcs as g
 r = g.prepare(pathlib.Path('yamcs-run'))
 assert (r / 'etc' / 'yamcs.mfns.yaml').is_file() and (r / 'mdb' / 'mfns_tm.xml').is_file()
 import mfns.data, mfns.tlm_dict as t
@@ -131,8 +131,8 @@ assert all('contract' not in str(mfns.data.dictionary(n)) and mfns.data.dictiona
            for n in ('mfns_tm.xml', 'mfns_tc.xml', 'mfns_ground.xml')), 'dictionaries not in the wheel'
 assert 'fixobs' in t.load().packets
 assert 'ground' not in str(g.ETC), g.ETC"
-check "mfns.ground_yamcs_view: the operator's page without the repository" "$v/python" -c "
-import mfns.ground_yamcs_view as v
+check "mfns.ground.ground_yamcs_view: the operator's page without the repository" "$v/python" -c "
+import mfns.ground.ground_yamcs_view as v
 assert v.PAGE.is_file() and 'ground' not in str(v.PAGE), v.PAGE"
 check "the installed package needs no dev extras" sh -c "! '$v/python' -c 'import pytest' 2>/dev/null"
 

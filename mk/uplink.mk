@@ -70,13 +70,13 @@ YAMCS_RUN ?= build/yamcs
 ground-yamcs: ground-venv
 	@mkdir -p $(YAMCS_RUN)
 	@if command -v unshare >/dev/null 2>&1 && unshare -n true 2>/dev/null; then \
-	  MFNS_NETNS=1 exec unshare -n $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
+	  MFNS_NETNS=1 exec unshare -n $(VENV)/bin/mfns ground yamcs $(YAMCS_RUN); \
 	else \
 	  echo "ground-yamcs: no private network namespace (unshare -n refused): Yamcs' UDP link listens on all interfaces"; \
-	  exec $(PY) -m mfns.ground_yamcs serve $(YAMCS_RUN); \
+	  exec $(VENV)/bin/mfns ground yamcs $(YAMCS_RUN); \
 	fi
 
-# The operator's view over Yamcs (host_tools/mfns/ground_yamcs_view.py): in the foreground, Ctrl-C stops it.
+# The operator's view over Yamcs (host_tools/mfns/ground/ground_yamcs_view.py): in the foreground, Ctrl-C stops it.
 GROUND_VIEW_PORT ?= 8095
 ground-view: ground-venv
-	exec $(PY) -m mfns.ground_yamcs_view --port $(GROUND_VIEW_PORT)
+	exec $(VENV)/bin/mfns ground view --port $(GROUND_VIEW_PORT)

@@ -1,5 +1,5 @@
 /* abi.h -- sizeof of the C core's API structs, so that the foreign-function
- * mirrors of the host tools (Python ctypes, host_tools/mfns/flight.py) can
+ * mirrors of the host tools (Python ctypes, host_tools/mfns/core/flight.py) can
  * check their layout against the library they load. Host-only (firmware/host:
  * linked into libmfns_core.so and the unit tests, never into the flight
  * image). The enumerators are positions the Python side passes as integers:

@@ -20,7 +20,7 @@ import sys
 import time
 
 from . import __version__, commands
-from .errors import MfnsError
+from .core.errors import MfnsError
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 

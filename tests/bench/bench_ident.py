@@ -41,8 +41,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
 
-from mfns import pose_sim  # noqa: E402
-from mfns.flight import Flight  # noqa: E402
+from mfns.core.flight import Flight  # noqa: E402
+from mfns.model import pose_sim  # noqa: E402
 from mfns.simulate import nav  # noqa: E402
 from mfns.table import mapindex  # noqa: E402
 

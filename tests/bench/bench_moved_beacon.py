@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, setup, visible_poses  # noqa: E402
 
-from mfns import pose_sim  # noqa: E402
+from mfns.model import pose_sim  # noqa: E402
 
 MOVES_MM = (0.0, 5.0, 20.0, 50.0)
 

@@ -27,9 +27,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
 import poselib  # noqa: E402
 import pycolmap  # noqa: E402
 
-from mfns import pose_sim  # noqa: E402
-from mfns.flight import MODE_PAPER, Flight, SolutionC  # noqa: E402
-from mfns.rotations import random_rotations  # noqa: E402
+from mfns.core.flight import MODE_PAPER, Flight, SolutionC  # noqa: E402
+from mfns.model import pose_sim  # noqa: E402
+from mfns.model.rotations import random_rotations  # noqa: E402
 
 SIGMA = 0.3
 FRAMES = 100

@@ -34,8 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_ident import SIGMA_PX, SPURIOUS_RATE, visible_poses  # noqa: E402
 
-from mfns import pose_sim  # noqa: E402
-from mfns.flight import Flight  # noqa: E402
+from mfns.core.flight import Flight  # noqa: E402
+from mfns.model import pose_sim  # noqa: E402
 from mfns.plan import workspace  # noqa: E402
 from mfns.simulate import nav  # noqa: E402
 from mfns.table import mapindex  # noqa: E402

@@ -36,10 +36,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_ident import SIGMA_PX, SPURIOUS_RATE, SURVEY_SIGMA_MM, setup  # noqa: E402
 
-from mfns import pose_sim  # noqa: E402
-from mfns.camera import pose_from_position  # noqa: E402
-from mfns.flight import ACQ_SOURCES  # noqa: E402
-from mfns.rotations import euler213_deg_to_matrix  # noqa: E402
+from mfns.core.flight import ACQ_SOURCES  # noqa: E402
+from mfns.model import pose_sim  # noqa: E402
+from mfns.model.camera import pose_from_position  # noqa: E402
+from mfns.model.rotations import euler213_deg_to_matrix  # noqa: E402
 from mfns.simulate import nav  # noqa: E402
 
 WITHIN = (1, 5, 20, 40)

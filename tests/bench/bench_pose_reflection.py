@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_ident import SIGMA_PX, SURVEY_SIGMA_MM, setup  # noqa: E402
 
-from mfns import pose_sim  # noqa: E402
+from mfns.model import pose_sim  # noqa: E402
 from mfns.simulate import nav  # noqa: E402
 from mfns.table import mapindex  # noqa: E402
 

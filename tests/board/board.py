@@ -39,7 +39,7 @@ class Board:
     def __init__(self, work: Path):
         from space_packet_parser.xtce.definitions import XtcePacketDefinition
 
-        from mfns import tlm_dict
+        from mfns.tlm import tlm_dict
 
         self.work = work
         self.dict = tlm_dict.load()

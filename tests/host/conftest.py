@@ -73,7 +73,7 @@ def xtce_decode():
 
     from space_packet_parser.xtce.definitions import XtcePacketDefinition
 
-    from mfns import tlm_dict
+    from mfns.tlm import tlm_dict
 
     definition = XtcePacketDefinition.from_xtce(tlm_dict.mdb_path())
     names = {p.apid: p.name for p in tlm_dict.load().packets.values()}
@@ -106,7 +106,7 @@ def assert_packets_match_csv(decoded: list[tuple[str, dict]], out_dir: Path) -> 
 
     import numpy as np
 
-    from mfns import tlm_dict
+    from mfns.tlm import tlm_dict
 
     d = tlm_dict.load()
     counts = {}

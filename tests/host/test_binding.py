@@ -1,4 +1,4 @@
-"""The one binding of the C core (mfns.binding): held to the headers field by field by the
+"""The one binding of the C core (mfns.core.binding): held to the headers field by field by the
 generated binding_check_gen.c, which `make lib` compiles (mk/binding.mk). Here: the
 committed file is current, it compiles, and a copy of the declarations with two fields of
 one size swapped (or one field of the right size but the wrong type, or a function
@@ -14,8 +14,8 @@ import sys
 
 import pytest
 
-from mfns import binding, binding_check
-from mfns.errors import MfnsError
+from mfns.core import binding, binding_check
+from mfns.core.errors import MfnsError
 
 REPO = binding.REPO
 CFLAGS = ["-std=c11", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-fsyntax-only"]
@@ -40,11 +40,11 @@ def _compile(text: str, tmp_path) -> subprocess.CompletedProcess:
 
 def _variant(tmp_path, old: str, new: str):
     """A copy of binding.py with one edit, imported as a module of the package."""
-    text = (REPO / "host_tools" / "mfns" / "binding.py").read_text()
+    text = (REPO / "host_tools" / "mfns" / "core" / "binding.py").read_text()
     assert text.count(old) == 1, old
     path = tmp_path / "binding_variant.py"
     path.write_text(text.replace(old, new))
-    name = f"mfns._binding_variant_{abs(hash(new))}"
+    name = f"mfns.core._binding_variant_{abs(hash(new))}"
     spec = importlib.util.spec_from_file_location(name, path)
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod

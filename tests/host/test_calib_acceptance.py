@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
+from mfns.analysis.calib_results import load
 from mfns.calib.covariance import nees, paper_covariance, parameter_error, refined_covariance
 from mfns.calib.evaluate import run_seeds
-from mfns.calib_results import load
 from mfns.cli import main
 from mfns.commands.calib import calibrate_dataset
 from mfns.simulate.calib import truth_from_document

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mfns.calib_results import load
+from mfns.analysis.calib_results import load
 from mfns.cli import main
 
 

@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from mfns import calib_results
+from mfns.analysis import calib_results
 from mfns.calib.covariance import (
     N_PARAMETERS,
     euler_sigma,
@@ -26,8 +26,8 @@ from mfns.calib.evaluate import _reangle
 from mfns.calib.model import Board
 from mfns.calib.pipeline import calibrate
 from mfns.cli import main
-from mfns.errors import MfnsError
-from mfns.rotations import rot_exp, rot_log
+from mfns.core.errors import MfnsError
+from mfns.model.rotations import rot_exp, rot_log
 from mfns.simulate.calib import PAPER_CALIB, corner_observations, default_truth, make_plan
 
 CONTRACT = (

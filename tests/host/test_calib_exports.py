@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import yaml
 
+from mfns.analysis.calib_results import load
 from mfns.calib.exports import write_outputs
 from mfns.calib.model import Board
 from mfns.calib.pipeline import calibrate
 from mfns.calib.plots import write_plots
-from mfns.calib_results import load
 from mfns.simulate.calib import corner_observations, default_truth, make_plan
 
 

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mfns.calib_results import load
+from mfns.analysis.calib_results import load
 from mfns.cli import main
 
 DATA = Path(__file__).resolve().parents[2] / "host_tools" / "mfns" / "data"

@@ -230,7 +230,7 @@ def test_a_rig_turning_about_one_axis_only_is_refused_by_name_before_the_refinem
     it, from the Jacobian at the start (no refinement is run)."""
     import time
 
-    from mfns.errors import MfnsError
+    from mfns.core.errors import MfnsError
 
     truth = default_truth(("z",))
     rng = np.random.default_rng(3)
@@ -252,7 +252,7 @@ def test_a_rig_turning_about_one_axis_only_is_refused_by_name_before_the_refinem
 def test_views_from_one_orientation_are_refused_before_the_refinement():
     """Six copies of one view gave fx = 23,000 px silently; now a one-line error."""
     from mfns.calib.zhang import calibrate_camera
-    from mfns.errors import MfnsError
+    from mfns.core.errors import MfnsError
 
     truth = default_truth(("z",))
     rng = np.random.default_rng(0)
@@ -297,7 +297,7 @@ def test_half_turn_symmetric_board_is_put_in_order_by_the_turntable():
 
 def _turned(shot, board):
     """Board pose (C_w_k, t) of a prepared image whose corners are reversed."""
-    from mfns.rotations import rz
+    from mfns.model.rotations import rz
 
     c_w_k = shot.C_k_w.T
     t = -c_w_k @ shot.r_wk_w
@@ -313,7 +313,7 @@ def test_unobservable_parameters_are_refused_by_name():
     information) is refused by name with what views would fix it, not reported with NaN
     sigmas after a singular inverse."""
     from mfns.calib.refine import check_observable, parameter_names
-    from mfns.errors import MfnsError
+    from mfns.core.errors import MfnsError
 
     truth = default_truth()
     rng = np.random.default_rng(21)

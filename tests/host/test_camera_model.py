@@ -4,9 +4,9 @@ import cv2
 import numpy as np
 import pytest
 
-from mfns.calib_results import load
-from mfns.camera import pose_from_position, position_from_pose, rig_from_doc
-from mfns.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from mfns.analysis.calib_results import load
+from mfns.model.camera import pose_from_position, position_from_pose, rig_from_doc
+from mfns.model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 
 
 def paper_rig(repo_root):
@@ -46,9 +46,9 @@ def test_pose_round_trip():
     assert np.allclose(matrix_to_euler213_deg(c), [3.0, -20.0, 130.0])
 
 
-# --- the numpy lens model held to the C one (math/lens.h through mfns.binding) -------------
+# --- the numpy lens model held to the C one (math/lens.h through mfns.core.binding) -------------
 def _random_lens(rng):
-    from mfns.camera import Camera
+    from mfns.model.camera import Camera
 
     w, h = int(rng.integers(320, 2600)), int(rng.integers(240, 2000))
     f = rng.uniform(300.0, 3000.0)
@@ -81,8 +81,8 @@ def test_numpy_lens_model_matches_the_c_model_on_random_lenses_and_points(core_l
 
     if not core_lib.exists():
         pytest.fail(f"{core_lib} missing: run make lib")
-    from mfns.binding import V3, load
-    from mfns.flight import Flight
+    from mfns.core.binding import V3, load
+    from mfns.core.flight import Flight
 
     lib = load(core_lib)
     rng = np.random.default_rng(22)
@@ -121,8 +121,8 @@ def test_numpy_inverse_matches_the_c_iterative_inverse(core_lib):
 
     if not core_lib.exists():
         pytest.fail(f"{core_lib} missing: run make lib")
-    from mfns.binding import load
-    from mfns.flight import Flight
+    from mfns.core.binding import load
+    from mfns.core.flight import Flight
 
     lib = load(core_lib)
     rng = np.random.default_rng(23)

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mfns import compare
+from mfns.analysis import compare
+from mfns.analysis.report import NAV_COLUMNS, TRUTH_HEADER
 from mfns.cli import main
-from mfns.report import NAV_COLUMNS, TRUTH_HEADER
-from mfns.rotations import matrix_to_euler213_deg, rot_exp
+from mfns.model.rotations import matrix_to_euler213_deg, rot_exp
 
 REPO = Path(__file__).resolve().parents[2]
 PAPER = json.loads((REPO / "host_tools" / "mfns" / "data" / "paper_calib.json").read_text())
@@ -190,8 +190,8 @@ def test_planned_layouts_beside_the_originals(demo):
 def test_meaning_column_is_never_silently_empty(monkeypatch):
     """Issue 28 item 1: without the core library the meaning of a reason comes from the TM
     dictionary (package data), never an empty cell."""
-    from mfns import flight
-    from mfns.errors import MfnsError
+    from mfns.core import flight
+    from mfns.core.errors import MfnsError
 
     def no_library(*_a, **_k):
         raise MfnsError("no such library")

@@ -2,7 +2,7 @@
 
 mfns_tm.xml's AncillaryData on evt_subject / evt_arg0 / evt_arg1 say, per event code, what the
 number names (a camera, a mode, a beacon, a command, a rejection code, a table status). The
-operator view decodes through mfns.tlm_dict.event_text; the Yamcs event algorithm
+operator view decodes through mfns.tlm.tlm_dict.event_text; the Yamcs event algorithm
 (mfns_ground.xml flight_event, JavaScript: it cannot read the dictionary) carries the same lists,
 held equal here."""
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
-from mfns import tlm_dict
+from mfns.tlm import tlm_dict
 
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
 

@@ -579,7 +579,7 @@ def test_two_beacons_moved(folder: Path, tmp_path: Path) -> None:
 
 
 def test_collision_is_a_velocity_step() -> None:
-    from mfns.errors import MfnsError
+    from mfns.core.errors import MfnsError
     from mfns.simulate import nav as sim
 
     scn = sim.module_scenario(40, 18.6, 60, 2)

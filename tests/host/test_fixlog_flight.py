@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from flight_replay import fly_replay  # tests/host
 
-from mfns.camera import load_beacons, pose_from_position, rig_from_doc
 from mfns.map import fixlog
-from mfns.rotations import euler213_deg_to_matrix
+from mfns.model.camera import load_beacons, pose_from_position, rig_from_doc
+from mfns.model.rotations import euler213_deg_to_matrix
 
 FRAMES = 40
 

@@ -66,7 +66,7 @@ def start(run, *extra):
 def test_a_websocket_client_on_loopback_receives_the_pose_and_the_beacons(run):
     from rosbags.typesys import Stores, get_typestore
 
-    from mfns.rosexport import read_rows
+    from mfns.tlm.rosexport import read_rows
 
     nav = {r["cycle"]: r for r in read_rows(run["ground"] / "nav.csv") if r["status"] != "NO_FIX"}
     t0 = time.monotonic()
@@ -111,7 +111,7 @@ def test_a_websocket_client_on_loopback_receives_the_pose_and_the_beacons(run):
     assert poses
     rows_by_stamp = {}
     for r in nav.values():
-        from mfns.rosmsg import row_stamp_ns
+        from mfns.tlm.rosmsg import row_stamp_ns
 
         rows_by_stamp[row_stamp_ns(r)] = r
     for m in poses:
@@ -133,7 +133,7 @@ def test_bad_options_are_one_line(run):
 
 
 def test_tail_gives_whole_rows_only(tmp_path):
-    from mfns.live import Tail
+    from mfns.ground.live import Tail
 
     p = tmp_path / "nav.csv"
     t = Tail(p)

@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mfns import calib_results
-from mfns.camera import pose_from_position, rig_from_doc
+from mfns.analysis import calib_results
 from mfns.map import refine
 from mfns.map.fixlog import Fix
-from mfns.rotations import euler213_deg_to_matrix, rot_exp, skew
+from mfns.model.camera import pose_from_position, rig_from_doc
+from mfns.model.rotations import euler213_deg_to_matrix, rot_exp, skew
 from mfns.simulate.nav import PAPER_CALIB, module_beacons, module_trajectory, project_beacons
 
 PIXEL_SIGMA = 0.02  # px, the order of the module's centroids
@@ -152,7 +152,7 @@ def test_turned_camera_mount_is_flagged_alone(cam):
 
 def test_refuses_a_log_of_another_map():
     fixes, cams, ids, p, s, _ = scene(n_fix=20)
-    from mfns.errors import MfnsError
+    from mfns.core.errors import MfnsError
 
     with pytest.raises(MfnsError, match="not in the survey"):
         refine.build_problem(fixes, cams, ids[:30], p[:30], s[:30])

@@ -7,9 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from mfns import mc, pose_ref
+from mfns.analysis import mc
 from mfns.cli import main
-from mfns.rotations import euler213_to_matrix, rot_exp
+from mfns.model import pose_ref
+from mfns.model.rotations import euler213_to_matrix, rot_exp
 from mfns.simulate import nav
 
 

@@ -1,5 +1,5 @@
 """`mfns mc`'s end-to-end extension with the flight solver (C mfns_pose_refine through ctypes,
-mfns.mc_flight) against the host reference (mfns.pose_ref) on identical inputs."""
+mfns.analysis.mc_flight) against the host reference (mfns.model.pose_ref) on identical inputs."""
 
 from __future__ import annotations
 
@@ -9,12 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from mfns import mc, pose_ref
-from mfns.camera import position_from_pose
+from mfns.analysis import mc
+from mfns.analysis.mc_flight import FlightPoseSolver
 from mfns.cli import main
-from mfns.mc_flight import FlightPoseSolver
-from mfns.pose_ref import PoseSolution
-from mfns.rotations import rot_log
+from mfns.model import pose_ref
+from mfns.model.camera import position_from_pose
+from mfns.model.pose_ref import PoseSolution
+from mfns.model.rotations import rot_log
 
 # Agreement the brief asks for, per pose.
 POS_TOL_MM = 0.01

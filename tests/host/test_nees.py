@@ -1,9 +1,9 @@
-"""`mfns report`'s covariance check (mfns.nees): NEES of errors drawn from a known covariance,
+"""`mfns report`'s covariance check (mfns.analysis.nees): NEES of errors drawn from a known covariance,
 a covariance too small or too large detected, the attitude-error convention (phi_w about the
 world axes, C_b_w(est) = exp(phi_w) C_b_w(true)), the quaternion held to the C core's, and
 malformed or missing covariance columns.
 
-The synthetic nav.csv files here are written independently of mfns.nees: the estimated
+The synthetic nav.csv files here are written independently of mfns.analysis.nees: the estimated
 quaternion is built with scipy's Rotation (scalar-last) and the Hamilton product, the
 covariance columns from their documented names (docs/telemetry.md).
 """
@@ -22,12 +22,12 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from mfns import compare
-from mfns import nees as N
-from mfns import report as rpt
+from mfns.analysis import compare
+from mfns.analysis import nees as N
+from mfns.analysis import report as rpt
 from mfns.cli import main
-from mfns.errors import MfnsError
-from mfns.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from mfns.core.errors import MfnsError
+from mfns.model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 
 BASE_HEADER = [
     "t_s",
@@ -273,7 +273,7 @@ def test_quaternion_matches_the_flight_cores(core_lib):
     is the matrix it came from."""
     if not core_lib.exists():
         pytest.skip("make lib first")
-    from mfns.binding import M3, load
+    from mfns.core.binding import M3, load
 
     lib = load(core_lib)
     rots = Rotation.random(500, random_state=11).as_matrix()

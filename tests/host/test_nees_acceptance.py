@@ -46,7 +46,7 @@ from pathlib import Path
 import pytest
 from flight_replay import fly_replay  # tests/host
 
-from mfns import nees as N
+from mfns.analysis import nees as N
 
 REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"

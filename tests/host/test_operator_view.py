@@ -1,7 +1,7 @@
 """Issue 46: the operator's view never misleads, in headless Chromium (screenshots in
 build/operator-states/).
 
-The view's server (mfns.ground_yamcs_view.State and its HTTP handler) and the page
+The view's server (mfns.ground.ground_yamcs_view.State and its HTTP handler) and the page
 (ground/operator/index.html) run for real; Yamcs is replaced by a stand-in client that delivers
 the parameter values, alarms and command history a Yamcs server would (the same yamcs-client
 shapes: ParameterValue-like objects, alarms, command history entries), so each failure state is
@@ -25,7 +25,7 @@ import pytest
 
 pytest.importorskip("yamcs.client")  # ground_yamcs imports it (ground/requirements.txt)
 
-from mfns import ground_yamcs_view as gv  # noqa: E402
+from mfns.ground import ground_yamcs_view as gv  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 SHOTS = REPO / "build" / "operator-states"

@@ -23,13 +23,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mfns import calib_results
+from mfns.analysis import calib_results
+from mfns.model.pose_sim import make_frame, paper_beacons, paper_rig
+from mfns.model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 from mfns.plan import analyze as A
 from mfns.plan import workspace
 from mfns.plan.core import Core
 from mfns.plan.crlb import CalibrationError
-from mfns.pose_sim import make_frame, paper_beacons, paper_rig
-from mfns.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 from mfns.simulate import nav
 
 REPO = Path(__file__).resolve().parents[2]

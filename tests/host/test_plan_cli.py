@@ -143,7 +143,7 @@ def test_a_workspace_beyond_the_beacons_is_named():
 
 
 def test_table_workspace_from_a_plan_or_numbers(tmp_path):
-    from mfns.errors import MfnsError
+    from mfns.core.errors import MfnsError
     from mfns.table.mapindex import workspace_arg
 
     lo, hi = workspace_arg("-800,-300,-300,800,300,300")

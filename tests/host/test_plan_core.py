@@ -10,13 +10,13 @@ import json
 import numpy as np
 import pytest
 
-from mfns import calib_results
-from mfns.flight import V3, Flight
+from mfns.analysis import calib_results
+from mfns.core.flight import V3, Flight
+from mfns.model.pose_sim import make_frame, paper_beacons, paper_rig, random_visible_poses
 from mfns.plan import analyze as A
 from mfns.plan import surfaces, workspace
 from mfns.plan.core import Core, prefilter
 from mfns.plan.crlb import CalibrationError, output_jacobian, sigma_batch
-from mfns.pose_sim import make_frame, paper_beacons, paper_rig, random_visible_poses
 from mfns.simulate.nav import PAPER_CALIB
 
 

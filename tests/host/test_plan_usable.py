@@ -10,12 +10,12 @@ import ctypes as ct
 import numpy as np
 import pytest
 
-from mfns.binding import PlanFix
-from mfns.flight import REASONS
+from mfns.core.binding import PlanFix
+from mfns.core.flight import REASONS
+from mfns.model.pose_sim import paper_rig
 from mfns.plan import usable, workspace
 from mfns.plan.core import Core
 from mfns.plan.run import table_workspace
-from mfns.pose_sim import paper_rig
 from mfns.simulate.nav import module_scenario
 
 

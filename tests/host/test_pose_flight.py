@@ -1,4 +1,4 @@
-"""The C pose solver through ctypes (mfns.flight): the statistics that are too slow for
+"""The C pose solver through ctypes (mfns.core.flight): the statistics that are too slow for
 the C unit tests under qemu: identification on 1000 random poses, and the 1000-trial
 Monte Carlo of the covariance on the paper's geometry."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mfns import pose_sim
-from mfns.flight import Flight
+from mfns.core.flight import Flight
+from mfns.model import pose_sim
 from mfns.table import mapindex
 
 

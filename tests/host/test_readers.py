@@ -268,7 +268,7 @@ def test_emission_columns_refused_alike_by_plan_and_table(
 
 
 def test_zero_axis_that_emits_everywhere_is_accepted(tmp_path):
-    from mfns.camera import load_beacon_emission, load_beacons
+    from mfns.model.camera import load_beacon_emission, load_beacons
 
     csv_path = tmp_path / "beacons.csv"
     csv_path.write_text(_EMISSION_HEAD + "\n".join(["1,0,0,0,0.4,0,0,0,180", *_EMISSION_ROWS]) + "\n")

@@ -16,9 +16,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mfns import calib_results, report
-from mfns.camera import load_beacons
-from mfns.errors import MfnsError
+from mfns.analysis import calib_results, report
+from mfns.core.errors import MfnsError
+from mfns.model.camera import load_beacons
 from mfns.table.settings import load_settings
 
 PROFILE = settings(
@@ -298,7 +298,7 @@ def test_nav_and_truth_csv(work, text):
 @PROFILE
 @given(text=st.text(alphabet='[]{}",:0123456789.-eEtruefalsnNI \\', max_size=300))
 def test_parse_json_never_raises_anything_else(text):
-    from mfns import validate as V
+    from mfns.core import validate as V
 
     try:
         V.parse_json(text, "doc")

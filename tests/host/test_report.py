@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mfns import report as rpt
+from mfns.analysis import report as rpt
 from mfns.cli import main
-from mfns.errors import MfnsError
+from mfns.core.errors import MfnsError
 
 NAV_HEADER = (
     "t_s,seq,cycle,status,reason,mode,beacons_used,cams_used,iterations,x_mm,y_mm,z_mm,"
@@ -319,7 +319,7 @@ def test_plots_carry_the_reported_sigma_band(tmp_path, monkeypatch):
 def test_nees_histogram_axis_is_scaled_to_the_data():
     """Issue 43: data <= 6.5 drew on an axis to 50; the axis now ends just past the data's 99th
     percentile, with the bounds capped for a wild run (the rest counted in the last bin)."""
-    from mfns import nees as N
+    from mfns.analysis import nees as N
 
     v = np.random.default_rng(0).uniform(0, 6.5, 500)
     assert 6.5 < N.hist_top(v) < 7.5

@@ -4,7 +4,7 @@ The run: `mfns sim nav` (module, 30 frames, no start pose: the first cycles are 
 acquires) -> `mfns table build` -> mfns-nav -> mfns-ground. The export's CDR is written by
 mcap-ros2-support's encoder; it is read back with rosbags' own CDR decoder (and, for the MCAP
 containers, mcap's reader), and every pose, covariance, frame and stamp is checked against
-nav.csv and calib.json computed here from the columns, not through mfns.rosmsg.
+nav.csv and calib.json computed here from the columns, not through mfns.tlm.rosmsg.
 """
 
 from __future__ import annotations

@@ -41,7 +41,7 @@ import pytest
 from test_uplink import OP, REJ, REPO, cobs_decode, encode_commands, frame, make_key, rows
 from test_uplink import run as _run
 
-from mfns import tlm_dict
+from mfns.tlm import tlm_dict
 
 run = _run  # the 40-frame replay fixture, shared; bins is conftest's
 

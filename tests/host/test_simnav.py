@@ -11,9 +11,9 @@ import cv2
 import numpy as np
 import pytest
 
-from mfns import calib_results
+from mfns.analysis import calib_results
 from mfns.cli import main
-from mfns.rotations import euler213_deg_to_matrix
+from mfns.model.rotations import euler213_deg_to_matrix
 from mfns.simulate import nav
 
 W, H = 1280, 1024

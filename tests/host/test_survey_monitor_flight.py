@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from flight_replay import fly_replay  # tests/host
 
-from mfns.camera import load_beacons
 from mfns.map.refine_bench import along_wall, most_seen_beacon
+from mfns.model.camera import load_beacons
 
 SEED, FRESH_SEED, FRAMES = 2, 7, 150  # the demo's module LEDs and fresh path
 

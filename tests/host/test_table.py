@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mfns.binding import UndistGrid
-from mfns.binding import load as load_core
 from mfns.cli import main
+from mfns.core.binding import UndistGrid
+from mfns.core.binding import load as load_core
 from mfns.table.builder import build_table
 from mfns.table.check import TableRefused, check_table, core
 from mfns.table.format import VERSION, decode, encode
@@ -438,7 +438,7 @@ def test_build_refuses_an_indefinite_covariance(sources, tmp_path, capsys):
 
 
 def test_build_covariance_input_errors(sources, tmp_path, capsys):
-    """The document's covariance is checked by its reader (mfns.calib_results): one line."""
+    """The document's covariance is checked by its reader (mfns.analysis.calib_results): one line."""
     names, m = _cov_names_and_matrix()
     calib = _calib_with_cov(sources[0], tmp_path, names[:-2], m[:-2, :-2])  # y.r_z missing
     assert main(["table", "build", str(calib), str(sources[1]), "-o", str(tmp_path / "t"), "-q"]) == 2
@@ -471,8 +471,8 @@ def test_show_names_the_covariance_element_refused(sources, tmp_path, capsys):
 
 def _datum_doc(sources, tmp_path, cov=None, drop=0):
     """A map_datum.json for the paper's beacons (relative sigma 0.02 mm + 0.001 * index)."""
-    from mfns.camera import load_beacons
     from mfns.map import datum_file
+    from mfns.model.camera import load_beacons
 
     ids, pos, _ = load_beacons(sources[1])
     if cov is None:
@@ -598,7 +598,7 @@ def test_generator_refuses_an_inconsistent_definition(repo_root):
 def test_c_and_python_share_the_generated_defaults_and_statuses():
     """The C core's defaults (nav_defaults_gen.c) and messages (caltable_layout_gen.c), through
     the shared library, are the builder's (layout_gen.py): both generated from one definition."""
-    from mfns.flight import Flight
+    from mfns.core.flight import Flight
     from mfns.table.generated import layout_gen
     from mfns.table.settings import defaults
 

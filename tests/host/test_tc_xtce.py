@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from mfns.binding import TC_PATH_MAX as PATH_MAX
-from mfns.binding import TcCmd as Cmd
-from mfns.binding import load as load_core
+from mfns.core.binding import TC_PATH_MAX as PATH_MAX
+from mfns.core.binding import TcCmd as Cmd
+from mfns.core.binding import load as load_core
 
 REPO = Path(__file__).resolve().parents[2]
 TC_XML = REPO / "contract" / "mfns_tc.xml"

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import pytest
 
-from mfns import ground_yamcs as gy
+from mfns.ground import ground_yamcs as gy
 
 REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"

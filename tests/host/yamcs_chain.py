@@ -4,7 +4,7 @@ every interface, sees loopback only, and its fixed ports collide with nothing.
 
   replay frames -> mfns-nav -> FIFO -> mfns-ground -> UDP -> Yamcs (XTCE MDB)
   Yamcs command -> UDP -> mfns-ground -> FIFO -> mfns-nav -> event -> ... -> Yamcs verifiers
-  Yamcs -> yamcs-client -> the operator view (mfns.ground_yamcs_view) -> headless Chromium
+  Yamcs -> yamcs-client -> the operator view (mfns.ground.ground_yamcs_view) -> headless Chromium
 
 Everything is read back through yamcs-client. Writes OUT/result.json: Yamcs' start-up time,
 its link counters, the nav parameters of the archive (per packet), the commands issued and
@@ -30,9 +30,9 @@ from pathlib import Path
 
 from yamcs.client.core.exceptions import TimeoutError as YamcsTimeout
 
-from mfns import ground_yamcs as gy
-from mfns import ground_yamcs_view as view
-from mfns import tlm_dict
+from mfns.ground import ground_yamcs as gy
+from mfns.ground import ground_yamcs_view as view
+from mfns.tlm import tlm_dict
 
 NAV_PARAMS = [
     "nav_cycle",

@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calib_results import COVARIANCE_PARAMETERS
-from ..rotations import matrix_to_euler213_deg, rot_exp, rot_log, skew
+from ..analysis.calib_results import COVARIANCE_PARAMETERS
+from ..model.rotations import matrix_to_euler213_deg, rot_exp, rot_log, skew
 from .model import Rig
 from .refine import N_CAM, RefineResult
 from .zhang import INTRINSIC_NAMES

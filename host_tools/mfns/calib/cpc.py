@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MfnsError
-from ..rotations import rot_exp, skew
+from ..core.errors import MfnsError
+from ..model.rotations import rot_exp, skew
 from .model import PURE_AXIS_SIGMAS, Observations, turntable_matrix
 from .zhang import ZhangResult
 
@@ -155,4 +155,4 @@ def run_cpc(obs: Observations, zhang: list[ZhangResult], a10_iterations: int = 1
     for k in others:  # Eqs. A17, A18
         est = [(t_w @ turntable_matrix(a, b)).T @ (r - r_wt) - r_tb for a, b, _c, r in poses[k]]
         r_bk[k] = np.mean(est, axis=0)
-    return CpcResult(t_w, c_k_b, r_bk, r_wb, r_wt, r_tb, n_it)  # type: ignore[arg-type]
+    return CpcResult(t_w, c_k_b, r_bk, r_wb, r_wt, r_tb, n_it)

@@ -21,8 +21,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..calib_results import camera_name_problem
-from ..errors import MfnsError
+from ..analysis.calib_results import camera_name_problem
+from ..core.errors import MfnsError
 from .model import ARCSEC, CHARUCO_DICTIONARIES, MAX_CAMERAS, Board, ImageObs, Observations, pure_axis
 
 FORMAT = "mfns-calib-dataset"

@@ -18,8 +18,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..calib_results import CAMERA_NAMES, save
-from ..camera import Camera
+from ..analysis.calib_results import CAMERA_NAMES, save
+from ..model.camera import Camera
 from .pipeline import Calibration
 from .report import paper_document, results_document
 
@@ -213,7 +213,7 @@ def urdf_rpy(c: np.ndarray) -> tuple[float, float, float]:
 
 
 def urdf_mounts(cams: list[Camera], robot: str = "mfns") -> str:
-    """A URDF of the body-to-camera mounts, frames named as REP 103 expects (mfns.rosmsg).
+    """A URDF of the body-to-camera mounts, frames named as REP 103 expects (mfns.tlm.rosmsg).
 
     Link `mfns_body`; per camera a link `mfns_cam_<k>_link` (REP 103 body axes: x forward
     along the optic axis, y left, z up) on a fixed joint `mfns_body_to_cam_<k>` whose <origin>
@@ -224,7 +224,7 @@ def urdf_mounts(cams: list[Camera], robot: str = "mfns") -> str:
     Through both joints a point p_k of the camera frame is p_b = C_k_b p_k + r_bk_b, the
     same transform as T_b_k of <stem>_body_to_camera.yaml, and the same frames as the TF of
     `mfns export` (docs/robotics.md)."""
-    from ..rosmsg import BODY_FRAME, OPTICAL_RPY, camera_link, camera_link_rotation, camera_optical_frame
+    from ..tlm.rosmsg import BODY_FRAME, OPTICAL_RPY, camera_link, camera_link_rotation, camera_optical_frame
 
     out = [
         '<?xml version="1.0"?>',

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import MfnsError
-from ..rotations import rot_log, rz
+from ..core.errors import MfnsError
+from ..model.rotations import rot_log, rz
 from .handeye import check_turntable_geometry, rotations_closed_form
 from .model import Observations, turntable_matrix
 from .zhang import ZhangResult

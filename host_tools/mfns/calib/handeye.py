@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MfnsError
-from ..rotations import rot_log
+from ..core.errors import MfnsError
+from ..model.rotations import rot_log
 from .model import Observations, turntable_matrix
 from .zhang import ZhangResult
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..camera import Camera
-from ..rotations import rx, rz
+from ..model.camera import Camera
+from ..model.rotations import rx, rz
 
 CAMERA_NAMES = ("x", "y", "z")  # the flight rig's cameras (the default dataset)
 MAX_CAMERAS = 8

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import Camera
-from ..errors import MfnsError
+from ..core.errors import MfnsError
+from ..model.camera import Camera
 from .cpc import CpcNotApplicable, CpcResult, run_cpc
 from .halfturn import apply_half_turns, resolve_half_turns
 from .handeye import HandEyeResult, solve_hand_eye

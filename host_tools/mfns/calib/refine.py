@@ -18,9 +18,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
-from ..camera import Camera
-from ..errors import MfnsError
-from ..rotations import rot_exp, rot_log
+from ..core.errors import MfnsError
+from ..model.camera import Camera
+from ..model.rotations import rot_exp, rot_log
 from .model import Observations, Rig
 from .zhang import INTRINSIC_NAMES
 
@@ -403,7 +403,7 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200,
     # point): one Jacobian at the start refuses an unobservable rig before the refinement runs.
     prob = Problem(obs, start, sigma_px)
     check_observable(prob.jacobian(prob.x0()), prob, "the start")
-    x = None
+    x: np.ndarray | None = None
     for _ in range(2):
         prob = Problem(obs, start, sigma_px)
         x0 = prob.x0() if x is None else x
@@ -430,6 +430,7 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200,
     rms = float(np.sqrt(np.sum(r**2) / max(prob.n_corner_res, 1)))
     if check is not None:
         check(rms)
+    assert x is not None  # the loop above runs at least once
     jac = prob.jacobian(x)
     check_observable(jac, prob)
     try:
@@ -455,6 +456,7 @@ def cramer_rao(obs: Observations, truth: Rig, true_prepared, true_angles_deg, si
     x = prob.x0()
     true = np.deg2rad(np.asarray(true_angles_deg, float)).reshape(-1, 2)
     x[prob.ang0 : prob.prep0] = (true - np.column_stack([prob.tt_big, prob.tt_small])).ravel()
+    assert x is not None  # the loop above runs at least once
     jac = prob.jacobian(x)
     cov = np.linalg.inv(jac.T @ jac)
     names, qj = prob.quantity_jacobian(x)

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..calib_results import FORMAT, VERSION, camera_entry
-from ..rotations import matrix_to_euler213_deg
+from ..analysis.calib_results import FORMAT, VERSION, camera_entry
+from ..model.rotations import matrix_to_euler213_deg
 from .covariance import (
     euler_sigma,
     nees,

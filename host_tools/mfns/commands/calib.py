@@ -6,8 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..calib_results import load
-from ..errors import MfnsError
+from ..analysis.calib_results import load
+from ..core.errors import MfnsError
 
 
 def calibrate_dataset(

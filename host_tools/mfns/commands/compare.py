@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import MfnsError
+from ..core.errors import MfnsError
 
 
 def register(subparsers) -> None:
@@ -22,7 +22,7 @@ def register(subparsers) -> None:
 
 
 def _run(args) -> int:
-    from .. import compare
+    from ..analysis import compare
 
     if not Path(args.demo_dir).is_dir():
         raise MfnsError(f"{args.demo_dir}: not a folder")

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .. import rosmsg
-from ..errors import MfnsError
+from ..core.errors import MfnsError
+from ..tlm import rosmsg
 
 
 def register(subparsers) -> None:
@@ -77,7 +77,7 @@ def need_ros_packages() -> None:
 
 
 def run(args) -> int:
-    from .. import rosexport
+    from ..tlm import rosexport
 
     need_ros_packages()
     fmt = args.format or ("mcap" if args.output.suffix == ".mcap" else "rosbag2")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .. import rosmsg
-from ..errors import MfnsError
+from ..core.errors import MfnsError
+from ..tlm import rosmsg
 
 
 def register(subparsers) -> None:
@@ -66,8 +66,8 @@ def run(args) -> int:
         raise MfnsError(f"--max-seconds {args.max_seconds}: expected seconds > 0")
     if not 0 <= args.port <= 65535:
         raise MfnsError(f"--port {args.port}: expected 0..65535")
-    from .. import live
-    from ..rosexport import Frames
+    from ..ground import live
+    from ..tlm.rosexport import Frames
 
     def ready(port: int) -> None:
         print(

@@ -5,15 +5,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..errors import MfnsError
+from ..core.errors import MfnsError
 
 
 def cmd_refine(args) -> int:
     import numpy as np
 
-    from .. import calib_results
-    from ..camera import load_beacons, rig_from_doc
+    from ..analysis import calib_results
     from ..map import fixlog, refine
+    from ..model.camera import load_beacons, rig_from_doc
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -61,6 +61,8 @@ def cmd_refine(args) -> int:
                 f"offset {np.round(res.mount_off_mm[k], 3).tolist()} mm, chi2 {res.mount_chi2[k, 0]:.1f} / "
                 f"{res.mount_chi2[k, 1]:.1f}{'  MOVED' if res.mount_moved[k] else ''}"
             )
+    # refine() fills both (None only in a Result built by hand)
+    assert res.datum_cov is not None and res.sigma_relative is not None
     sd = np.sqrt(np.diag(res.datum_cov))
     print(
         f"  map datum (shared by every beacon): shift 1-sigma {np.round(sd[:3], 4).tolist()} mm, turn "

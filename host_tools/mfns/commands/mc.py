@@ -1,8 +1,8 @@
-"""`mfns mc`: the paper's Section 3 error analysis by Monte Carlo (mfns.mc)."""
+"""`mfns mc`: the paper's Section 3 error analysis by Monte Carlo (mfns.analysis.mc)."""
 
 from __future__ import annotations
 
-from .. import mc
+from ..analysis import mc
 
 
 def register(subparsers) -> None:
@@ -31,7 +31,7 @@ def register(subparsers) -> None:
         help="pose solver of the extension: flight = the C solver of firmware/nav/pose/pose.h through "
         "the core library (the installed package's own, else $MFNS_CORE_LIB, else the tree's "
         "`make lib`); reference = the host "
-        "Python Gauss-Newton (mfns.pose_ref) (default flight)",
+        "Python Gauss-Newton (mfns.model.pose_ref) (default flight)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=mc.run)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .. import report as rpt
-from ..errors import MfnsError
+from ..analysis import report as rpt
+from ..core.errors import MfnsError
 
 
 def register(subparsers) -> None:

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..binding import PX_Q8_ONE as Q8
-from ..errors import MfnsError
-from ..rotations import matrix_to_euler213_deg
+from ..core.binding import PX_Q8_ONE as Q8
+from ..core.errors import MfnsError
+from ..core.validate import read_bytes
+from ..model.rotations import matrix_to_euler213_deg
 from ..table.check import TableRefused, check_table, core
 from ..table.format import CAMERA_NAMES, decode, encode
-from ..validate import read_bytes
 
 
 def _grid_arg(text: str | None) -> tuple[int, int] | None:

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import validate as V
-from ..errors import MfnsError
+from ..core import validate as V
+from ..core.errors import MfnsError
 from ..table.format import MAP_DATUM_PARAMS, MapDatum
 from ..table.generated import layout_gen as L
 

@@ -1,7 +1,7 @@
 """Reader of the fix record (docs/self_survey.md): the on-board log `mfns-nav --fixlog DIR`
 writes (files fixlog_NNNNNN.tlm) or a telemetry recording (`mfns-ground --record`), both
 streams of the link's wire frames. Every layout comes from the telemetry dictionary
-(mfns.tlm_dict: offsets, wire types, calibrations); nothing here restates a packet.
+(mfns.tlm.tlm_dict: offsets, wire types, calibrations); nothing here restates a packet.
 
 A fix is the NAV packet of a usable cycle (its pose and covariance) joined with the FIXOBS
 packets of the same cycle (one per association: camera, beacon survey id, measured centroid
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import tlm_dict
-from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix
+from ..core.errors import MfnsError
+from ..model.rotations import euler213_deg_to_matrix
+from ..tlm import tlm_dict
 
 # big-endian struct code of each wire type of the dictionary (tlm_dict.Field.wire_type)
 _FMT = {"u8": "B", "u16": "H", "i16": "h", "u32": "I", "i32": "i", "f32": "f"}

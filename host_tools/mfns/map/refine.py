@@ -3,7 +3,7 @@ fixes of a fix log: every fix's pose, every beacon's position with the survey as
 and optionally each camera's mount (rotation and offset in the body), by scipy's
 least_squares with a robust (Huber) loss on a sparse analytic Jacobian.
 
-Projection goes through the one numpy lens model (mfns.camera.Camera: `project_jacobian`,
+Projection goes through the one numpy lens model (mfns.model.camera.Camera: `project_jacobian`,
 held to the C model by tests/host/test_camera_model.py); nothing here restates it.
 
 Model of one association j (fix f, camera k, beacon b), all in double:
@@ -38,9 +38,10 @@ import scipy.sparse as sp
 from scipy.optimize import least_squares
 from scipy.stats import chi2, norm
 
-from ..camera import Camera
-from ..errors import MfnsError
-from ..rotations import matrix_to_euler213_deg, rot_exp, skew
+from ..analysis.calib_results import CAMERA_NAMES
+from ..core.errors import MfnsError
+from ..model.camera import Camera
+from ..model.rotations import matrix_to_euler213_deg, rot_exp, skew
 from .fixlog import Fix
 
 # Stated test levels (docs/self_survey.md): a beacon's refined place against its survey, and
@@ -193,7 +194,7 @@ def build_problem(
         raise MfnsError("no fixes to refine from (a fix log of usable fixes is needed)")
     ids = np.asarray(ids, dtype=int)
     index = {int(i): n for n, i in enumerate(ids)}
-    fx, cm, be, uv, cv = [], [], [], [], []
+    fx, cm, be, uv, cv_list = [], [], [], [], []
     for f_i, f in enumerate(fixes):
         for c, b, u, r in zip(f.camera, f.beacon_id, f.uv, f.cov_uv, strict=True):
             if int(b) not in index:
@@ -204,8 +205,8 @@ def build_problem(
             cm.append(int(c))
             be.append(index[int(b)])
             uv.append(u)
-            cv.append(r)
-    cv = np.asarray(cv, dtype=float).reshape(-1, 2, 2)
+            cv_list.append(r)
+    cv = np.asarray(cv_list, dtype=float).reshape(-1, 2, 2)
     if not np.all(np.isfinite(cv)):
         raise MfnsError("a centroid covariance of the fix log is not finite")
     return Problem(
@@ -550,7 +551,7 @@ def refine(pb: Problem, max_iter: int = 30, polish_nfev: int = 3) -> Result:
                 best[0] = min(best[0], float(dk[:3] @ np.linalg.solve(cd[:3, :3], dk[:3])))
                 best[1] = min(best[1], float(dk[3:] @ np.linalg.solve(cd[3:, 3:], dk[3:])))
             mchi[k] = best
-        mmoved = (mchi > CHI2_3).any(axis=1)
+        mmoved = np.asarray((mchi > CHI2_3).any(axis=1))
         rot = np.rad2deg(rel[:, :3])
         off = rel[:, 3:]
     Cwb = pb.C0 @ np.transpose(_rot_batch(f6[:, :3]), (0, 2, 1))
@@ -637,7 +638,7 @@ def report(res: Result) -> dict:
         if not res.mounts
         else [
             {
-                "camera": "xyz"[k],
+                "camera": CAMERA_NAMES[k],
                 "rotation_deg": [round(float(v), 5) for v in res.mount_rot_deg[k]],
                 "offset_mm": [round(float(v), 4) for v in res.mount_off_mm[k]],
                 "chi2_rotation": round(float(res.mount_chi2[k, 0]), 2),

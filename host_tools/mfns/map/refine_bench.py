@@ -27,12 +27,14 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from ..camera import load_beacons, pose_from_position
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
+from ..model.camera import load_beacons, pose_from_position
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
 from ..simulate import nav as simnav
+from ..tlm.tlm_dict import CYCLE_HZ
 from . import fixlog, refine_demo
 from .refine_demo import axis_rms, map_figures, summary_num
 
@@ -135,7 +137,7 @@ def along_wall(p: np.ndarray) -> np.ndarray:
 
 def most_seen_beacon(seed: int, frames: int, ids: np.ndarray, p: np.ndarray) -> int:
     """The map index of the beacon in view (any camera) in most poses of the fresh path."""
-    scn = simnav.module_scenario(frames, 18.6, len(ids), seed)
+    scn = simnav.module_scenario(frames, CYCLE_HZ, len(ids), seed)
     count = np.zeros(len(ids), int)
     for rw, att in zip(scn.r_wb_w, scn.euler_deg, strict=True):
         c = euler213_deg_to_matrix(att)
@@ -191,10 +193,10 @@ def monitor(a) -> int:
         str(table),
         log=out / "table.log",
     )
-    cases = [("clean", None, None)]
+    cases: list[tuple[str, float | None, float | None]] = [("clean", None, None)]
     cases += [(f"beacon {int(ids[b])} moved {d:g} mm along its wall", d, None) for d in (5.0, 3.0, 2.0, 1.0)]
     cases += [(f"camera y turned {t:g} deg", None, t) for t in (0.1, 0.3)]
-    rows = []
+    rows: list[dict[str, Any]] = []  # case, fixes, events (the report's rows)
     for k, (name, move_mm, turn_deg) in enumerate(cases):
         run = out / f"case{k}"
         run.mkdir()

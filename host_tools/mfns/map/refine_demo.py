@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import load_beacons
-from ..report import AXES
+from ..analysis.report import AXES
+from ..model.camera import load_beacons
 from . import fixlog
 
 SURVEY_RATE_HZ = 2.0  # frames of the survey flight: one every 0.5 s is plenty for a map

@@ -20,9 +20,9 @@ import ctypes as ct
 
 import numpy as np
 
-from ..camera import Camera
-from ..errors import MfnsError
-from ..flight import V3, CameraC, Flight, SolutionC
+from ..core.errors import MfnsError
+from ..core.flight import V3, CameraC, Flight, SolutionC
+from ..model.camera import Camera
 
 # Prune beyond this multiple of the pinhole half-diagonal (normalized): the lenses of
 # docs/system.md Table 2 image the corner at ~0.51, so 3x leaves a wide margin.
@@ -111,7 +111,7 @@ def prefilter(cam: Camera, C_w_b, r_bw_b, points_w) -> np.ndarray:
 
 
 def require_map_size(n: int) -> None:
-    from ..flight import MAX_BEACONS
+    from ..core.flight import MAX_BEACONS
 
     if n > MAX_BEACONS:
         raise MfnsError(f"{n} beacons: the flight map holds at most {MAX_BEACONS}")

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..flight import CameraC
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213, matrix_to_euler213_deg, rot_exp
+from ..core.flight import CameraC
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213, matrix_to_euler213_deg, rot_exp
 
 # Calibration parameters with a 1-sigma in the calibration-results "sigma" entry.
 CALIB_SCALARS = ("fx", "fy", "cx", "cy")
@@ -103,7 +103,9 @@ class CalibrationError:
                     self.params.append((k, key, 0, float(sig[key])))
             for key, n in (("dist", 5), ("euler_213_deg", 3), ("r_bk_b", 3)):
                 vals = sig.get(key)
-                for i in range(n if vals is not None else 0):
+                if vals is None:
+                    continue
+                for i in range(n):
                     if vals[i]:
                         self.params.append((k, key, i, float(vals[i])))
         self.sigma = np.array([p[3] for p in self.params])

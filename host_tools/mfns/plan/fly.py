@@ -13,7 +13,7 @@ was planned for (plan.json table_workspace_mm), in a work folder:
    build) and the ground station `mfns-ground --file` on its telemetry;
 4. the count over nav.csv: usable cycles (FIX, DEGRADED), the reasons of the others, the
    cycle of the first fix (a lost-in-space start), and the per-axis error 1-sigma against
-   the run's truth (mfns.report).
+   the run's truth (mfns.analysis.report).
 
 Runs the programs as subprocesses (their own exit codes checked); a failed step raises
 MfnsError naming the step and its log.
@@ -25,12 +25,13 @@ import csv
 import subprocess
 import sys
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from .. import report as rpt
-from ..errors import MfnsError
+from ..analysis import report as rpt
+from ..core.errors import MfnsError
 from ..programs import program_path
 
 
@@ -41,14 +42,14 @@ def _run(cmd: list[str], log: Path, what: str) -> None:
         raise MfnsError(f"fly check: {what} failed (exit {r.returncode}; see {log})")
 
 
-def _reason(text: str, names: list[str]) -> str:
+def _reason(text: str, names: Sequence[str]) -> str:
     """nav.csv's reason code as the core's name (the code itself when out of range)."""
     return names[int(text)] if text.isdigit() and int(text) < len(names) else text
 
 
 def fly(layout_csv: Path, plan_json: Path, work: Path, frames: int, seed: int) -> dict:
     """Fly the layout once (module docstring); returns the counts."""
-    from ..flight import REASONS
+    from ..core.flight import REASONS
 
     nav, ground = program_path("mfns-nav"), program_path("mfns-ground")
     if nav is None or ground is None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..flight import Flight
+from ..core.flight import Flight
 from ..table.mapindex import ANALYSIS_BUDGET_FACTOR
 
 

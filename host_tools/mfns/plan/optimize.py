@@ -88,8 +88,10 @@ def build_problem(
         per_cand: dict[int, list[Observation]] = {}
         for k in range(3):
             uv, vis, jac = core.project(k, C, r, cand)
-            for c in np.nonzero(vis)[0]:
-                per_cand.setdefault(int(c), []).append(Observation(k, 0, uv[c], jac[c], jac[c][:, 3:] @ C))
+            for cv in np.nonzero(vis)[0]:
+                per_cand.setdefault(int(cv), []).append(
+                    Observation(k, 0, uv[cv], jac[cv], jac[cv][:, 3:] @ C)
+                )
         for c, obs in per_cand.items():
             pc.append(c)
             pp.append(p)
@@ -139,6 +141,8 @@ class State:
         if new is not None:
             touched.append(self._apply(new, +1))
         if i is None:
+            if new is None:
+                raise ValueError("move(None, None): neither a beacon to replace nor one to add")
             self.chosen.append(new)
         elif new is None:
             self.chosen.pop(i)
@@ -208,7 +212,11 @@ class _Spacing:
     def feasible(self, chosen: list[int], skip: int | None = None) -> np.ndarray:
         """Candidates not chosen and at least min_spacing from every chosen one but skip."""
         others = [c for j, c in enumerate(chosen) if j != skip]
-        ok = ~self.close[others].any(axis=0) if others else np.ones(self.close.shape[0], dtype=bool)
+        ok = (
+            np.asarray(~self.close[others].any(axis=0))
+            if others
+            else np.ones(self.close.shape[0], dtype=bool)
+        )
         ok[chosen] = False
         return ok
 
@@ -244,7 +252,7 @@ def optimize(
     certifiable)."""
     from tqdm import tqdm
 
-    from ..errors import MfnsError
+    from ..core.errors import MfnsError
 
     st = State(prob, target=FIX_MIN_IN_VIEW + margin, cert=_cert_target(certify, margin, cert_in_view))
     t0 = time.perf_counter()
@@ -262,15 +270,16 @@ def optimize(
         tied = np.nonzero(primary == primary.max())[0]
         if len(tied) > TIE_SAMPLE:
             tied = rng.choice(tied, TIE_SAMPLE, replace=False)
-        best, best_obj = None, None
+        pick: int | None = None
+        pick_obj: tuple | None = None
         for c in tied:
             p = st.move(None, int(c))
             obj = st.objective()
-            if best is None or better(obj, best_obj):
-                best, best_obj = int(c), obj
+            if pick_obj is None or better(obj, pick_obj):
+                pick, pick_obj = int(c), obj
             st.move(len(st.chosen) - 1, None)
             del p
-        st.move(None, best)
+        st.move(None, pick)
     greedy_obj = st.objective()
     t1 = time.perf_counter()
     tried = kept = 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -99,7 +100,7 @@ def summarize(a: Analysis, info: dict) -> dict:
     fix = a.fix
     pct, fpct = _percentiles(a.sigma[fix]), _percentiles(a.flight_sigma[fix])
     labels, key = _region_keys(a)
-    regions = []
+    regions: list[dict[str, Any]] = []  # one JSON row per region
     pos_worst = np.max(np.where(np.isfinite(a.sigma[:, :3]), a.sigma[:, :3], -np.inf), axis=1)
     att_worst = np.max(np.where(np.isfinite(a.sigma[:, 3:]), a.sigma[:, 3:], -np.inf), axis=1)
     for k in np.unique(key):
@@ -210,8 +211,8 @@ def summary_markdown(s: dict, title: str) -> str:
     for r in s["worst_regions"]:
         pm = "-" if r["sigma_pos_max_mm"] is None else f"{r['sigma_pos_max_mm']:.4g}"
         am = "-" if r["sigma_att_max_deg"] is None else f"{r['sigma_att_max_deg']:.4g}"
-        cells = (r["region"], r["samples"], r["availability_pct"], r["in_view_mean"], pm, am)
-        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+        row = (r["region"], r["samples"], r["availability_pct"], r["in_view_mean"], pm, am)
+        lines.append("| " + " | ".join(str(c) for c in row) + " |")
     lines += ["", f"Identification margin: {s['ident_margin']}.", ""]
     return "\n".join(lines)
 
@@ -232,7 +233,7 @@ def write_plots(a: Analysis, out: Path, title: str) -> list[Path]:
     # histogram of beacons in view
     fig, ax = plt.subplots(figsize=(7, 4))
     n_max = int(a.in_view.max()) if a.ws.n else 0
-    bins = np.arange(n_max + 2) - 0.5
+    bins = (np.arange(n_max + 2) - 0.5).tolist()
     ax.hist(a.in_view, bins=bins, color="tab:blue", alpha=0.8, label="all cameras (distinct)")
     for k, (name, col) in enumerate(zip("XYZ", ("tab:orange", "tab:green", "tab:red"), strict=True)):
         ax.hist(a.in_view_cam[:, k], bins=bins, histtype="step", lw=1.8, color=col, label=f"camera {name}")

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import calib_results
-from ..camera import rig_from_doc
-from ..errors import MfnsError
+from ..analysis import calib_results
+from ..core.errors import MfnsError
+from ..model.camera import rig_from_doc
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY
@@ -180,7 +180,7 @@ def ident_check(core, layout: np.ndarray, sigma_mm: float, ws, sigma_px: float, 
 
     lo, hi = table_workspace(ws)
     im = IdentMargin(core.flight, core.rig, layout, np.full(len(layout), sigma_mm), lo, hi, sigma_px)
-    m = []
+    m: list[float] = []
     for i in range(ws.n):
         if len(m) >= n:
             break
@@ -267,6 +267,8 @@ def run_optimize(args) -> int:
         restart_usable.append(one_use["usable_pct"])
         if res is None or _preferred(one, one_ident, res, res_ident, one_use, res_use):
             res, res_ident, res_use = one, one_ident, one_use
+    if res is None:  # --restarts >= 1
+        raise MfnsError("plan optimize: no restart ran (--restarts must be at least 1)")
     pol = None
     if args.polish > 0:
         # the flight's verdict as the objective (usable.polish): the C core judges each move

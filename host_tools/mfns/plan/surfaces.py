@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MfnsError
+from ..core.errors import MfnsError
 from ..simulate.nav import MODULE_EDGE_MARGIN_MM, MODULE_HALF
 
 PAPER_FRAME_LO = np.array([-460.0, -740.0, -70.0])
@@ -137,10 +137,10 @@ def candidates(
         p = s.origin + a.reshape(-1, 1) * s.u + b.reshape(-1, 1) * s.v
         pts.append(p)
         idx.append(np.full(len(p), i))
-    p, i = np.concatenate(pts), np.concatenate(idx)
-    keep = np.ones(len(p), dtype=bool)
+    pos, surf = np.concatenate(pts), np.concatenate(idx)
+    keep = np.ones(len(pos), dtype=bool)
     for k in keep_out:
-        keep &= ~k.contains(p)
+        keep &= ~k.contains(pos)
     if not keep.any():
         raise MfnsError("no candidate position left outside the keep-out zones")
-    return p[keep], i[keep]
+    return pos[keep], surf[keep]

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..binding import PlanFix
+from ..core.binding import PlanFix
 from .analyze import CERT_MIN_IN_VIEW
 from .core import Core
 from .workspace import Workspace
@@ -89,7 +89,7 @@ class UsableModel:
 
 def evaluate(core: Core, beacons_w, sigma_mm, ws: Workspace, sigma_px: float, lo, hi) -> Usable:
     """The flight's verdict at every pose of ws (module docstring)."""
-    from ..flight import REASONS
+    from ..core.flight import REASONS
 
     m = UsableModel(core, beacons_w, sigma_mm, lo, hi, sigma_px)
     n = ws.n

@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, random_rotations
+from ..core.errors import MfnsError
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, random_rotations
 from ..simulate.nav import MODULE_ATT_AMP_DEG, MODULE_POS_AMP_MM
 
 
@@ -53,7 +53,7 @@ def _from_matrices(kind: str, pos: np.ndarray, C: np.ndarray, text: str, ordered
 
 def from_truth(path) -> Workspace:
     """The poses of a truth.csv (frame,t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg)."""
-    from ..report import load_truth
+    from ..analysis.report import load_truth
 
     t = load_truth(path)
     v = t.values
@@ -101,9 +101,7 @@ def box(
         for name, r in (("roll", roll_deg), ("pitch", pitch_deg), ("yaw", yaw_deg)):
             if len(r) != 2 or not r[0] <= r[1]:
                 raise MfnsError(f"{name} range must be LO,HI with LO <= HI")
-        ang = np.column_stack(
-            [rng.uniform(*roll_deg, n), rng.uniform(*pitch_deg, n), rng.uniform(*yaw_deg, n)]
-        )
+        ang = np.column_stack([rng.uniform(r[0], r[1], n) for r in (roll_deg, pitch_deg, yaw_deg)])
         C = np.array([euler213_deg_to_matrix(a) for a in ang])
         att = f"roll {roll_deg}, pitch {pitch_deg}, yaw {yaw_deg} deg (uniform)"
     else:

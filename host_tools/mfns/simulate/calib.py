@@ -20,6 +20,9 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from ..analysis.calib_results import FORMAT as RESULTS_FORMAT
+from ..analysis.calib_results import VERSION as RESULTS_VERSION
+from ..analysis.calib_results import load
 from ..calib.model import (
     ARCSEC,
     CAMERA_NAMES,
@@ -32,12 +35,9 @@ from ..calib.model import (
     pure_axis,
     world_to_pixels,
 )
-from ..calib_results import FORMAT as RESULTS_FORMAT
-from ..calib_results import VERSION as RESULTS_VERSION
-from ..calib_results import load
-from ..camera import Camera, rig_from_doc
-from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rz
+from ..core.errors import MfnsError
+from ..model.camera import Camera, rig_from_doc
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rz
 
 DATASET_FORMAT = "mfns-calib-dataset"
 DATASET_VERSION = 1
@@ -182,13 +182,13 @@ def choose_turntable_angles(
     cam = truth.cams[k]
     big = np.arange(-180.0, 180.0, step_deg)
     small = np.arange(-90.0, 90.0 + 1e-9, step_deg)
-    feas = []
+    feas_ab: list[tuple[float, float]] = []
     for a in big:
         for b in small:
             pose = truth.camera_pose(k, np.deg2rad(a), np.deg2rad(b))
             if view_ok(cam, *pose, board, max_outside=max_outside):
-                feas.append((a, b))
-    feas = np.array(feas).reshape(-1, 2)
+                feas_ab.append((a, b))
+    feas = np.array(feas_ab).reshape(-1, 2)
     fine = np.arange(-90.0, 90.0 + 1e-9, 0.5)  # camera Z tolerates only a few degrees of tilt
     pure_small = np.array(
         [
@@ -242,10 +242,10 @@ def single_axis_line(truth: Rig, board: Board, k: int, n: int, rng, max_outside:
         span = line[-1][1] - line[0][1] if line else 0.0
         if span > best[0] + 1e-9:
             best = (span, line)
-    line = np.array(best[1]).reshape(-1, 2)
-    if len(line) < n:
-        raise MfnsError(f"camera {cam.name}: only {len(line)} single-axis turntable views see the board")
-    return [tuple(line[i]) for i in _spread(line, n, rng)]
+    views = np.array(best[1]).reshape(-1, 2)
+    if len(views) < n:
+        raise MfnsError(f"camera {cam.name}: only {len(views)} single-axis turntable views see the board")
+    return [tuple(views[i]) for i in _spread(views, n, rng)]
 
 
 def _look_at(center_w, target_w, roll) -> np.ndarray:

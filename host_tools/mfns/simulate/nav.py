@@ -41,10 +41,11 @@ from pathlib import Path
 import numpy as np
 from scipy.special import erf, ndtri
 
-from .. import calib_results
-from ..camera import Camera, load_beacons, pose_from_position, rig_from_doc
-from ..errors import MfnsError
-from ..rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..analysis import calib_results
+from ..core.errors import MfnsError
+from ..model.camera import Camera, load_beacons, pose_from_position, rig_from_doc
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..tlm.tlm_dict import CYCLE_HZ
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 PAPER_CALIB = DATA / "paper_calib.json"
@@ -52,7 +53,7 @@ PAPER_BEACONS = DATA / "paper_beacons.csv"
 
 FORMAT = "mfns-nav-frames"
 VERSION = 1
-CAMERA_LETTERS = ("x", "y", "z")
+CAMERA_LETTERS = calib_results.CAMERA_NAMES  # one home: the flight rig's camera names
 TRUTH_HEADER = ["frame", "t_s", "x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"]
 FRAMES_HEADER = ["frame", "t_s", "camera", "file", "exposure_us", "gain_db"]
 BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
@@ -447,8 +448,8 @@ class Renderer:
         ok = (rr >= 0) & (rr < self.h) & (cc >= 0) & (cc < self.w)
         np.add.at(sig, (rr[ok], cc[ok]), win[ok])
         mask[rr[ok], cc[ok]] = True
-        idx = np.nonzero(mask)
-        return idx, sig[idx]
+        r_i, c_i = np.nonzero(mask)
+        return (r_i, c_i), sig[r_i, c_i]
 
     def render(self, spots: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """spots (S, 4): u, v, peak_dn, sigma_px -> uint8 image (H, W)."""
@@ -603,13 +604,13 @@ def simulate(
             exp_us, gain_db = exposure[k]
             scale = exp_us / params.exposure_ref_us * 10 ** (gain_db / 20)
             peak = ref * scale
-            spots = [np.column_stack([uvv, peak, sig])]
+            spot_sets = [np.column_stack([uvv, peak, sig])]
             labels = list(ids)
             if params.spurious_rate > 0 and rng.random() < params.spurious_rate:
-                spots.append(spurious_spot(rng, spots[0], width, height))
+                spot_sets.append(spurious_spot(rng, spot_sets[0], width, height))
                 labels.append(-1)
                 n_spurious += 1
-            spots = np.vstack(spots) if len(spots) > 1 else spots[0]
+            spots = np.vstack(spot_sets) if len(spot_sets) > 1 else spot_sets[0]
             img = renderer.render(spots, rng)
             name = f"cam_{CAMERA_LETTERS[k]}/{i:06d}.pgm"
             write_pgm(out / name, img)
@@ -776,7 +777,9 @@ def register(subparsers) -> None:
     )
     p.add_argument("--frames", type=int, default=60, help="time steps (default 60)")
     p.add_argument("--seed", type=int, default=0, help="random seed (beacon map, trajectory, noise)")
-    p.add_argument("--rate-hz", type=float, default=18.6, help="frame rate (default 18.6)")
+    p.add_argument(
+        "--rate-hz", type=float, default=CYCLE_HZ, help=f"frame rate (default {CYCLE_HZ:g}, the flight cycle)"
+    )
     p.add_argument("--rig", help="calibration-results JSON of the simulated rig (default: the paper's)")
     p.add_argument("--beacons", type=int, default=60, help="module: number of wall beacons (default 60)")
     p.add_argument(

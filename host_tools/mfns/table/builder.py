@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import calib_results
-from ..camera import load_beacon_emission, load_beacons, rig_from_doc
-from ..errors import MfnsError
+from ..analysis import calib_results
+from ..core.errors import MfnsError
+from ..model.camera import load_beacon_emission, load_beacons, rig_from_doc
 from . import mapindex
 from .format import CALIB_PARAM_NAMES, CALIB_PARAMS, CAMERA_NAMES, CameraRecord, Grid, Table, f32
 from .generated import layout_gen as L
@@ -86,7 +86,7 @@ def datum_unusable(datum, integrity: dict | None, pos) -> list[str]:
     beacons only adds). What it misses: a datum whose floor is under the limit but whose
     turn over the beacons' lever arm, or whose sum with the measurement noise, passes it
     (usable fixes then depend on the geometry): not warned about."""
-    from ..binding import load
+    from ..core.binding import load
 
     lim = dict(L.DEFAULTS["integrity"])
     lim.update({k: v for k, v in (integrity or {}).items() if k in lim})
@@ -214,7 +214,7 @@ def build_table(
         )
     if doc.get("cameras") is not None and len(doc["cameras"]) != 3:
         raise MfnsError(f"{calib_json}: the flight table holds exactly three cameras (x, y, z)")
-    from ..flight import Flight
+    from ..core.flight import Flight
 
     fl = Flight()
     rig = fl.rig(rig_from_doc(doc))

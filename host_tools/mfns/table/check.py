@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..binding import load as load_core
-from ..errors import MfnsError
+from ..core.binding import load as load_core
+from ..core.errors import MfnsError
 from . import format as fmt
 from .generated import layout_gen
 

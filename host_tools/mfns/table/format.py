@@ -10,11 +10,12 @@ from __future__ import annotations
 import struct
 import zlib
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from ..calib_results import COVARIANCE_PARAMETERS
-from ..errors import MfnsError
+from ..analysis.calib_results import CAMERA_NAMES, COVARIANCE_PARAMETERS  # noqa: F401 (CAMERA_NAMES: re-exported)
+from ..core.errors import MfnsError
 from .generated import layout_gen as L
 
 # The layout is generated from the one definition (contract/caltable_layout.toml,
@@ -35,7 +36,6 @@ COV_HEADER_SIZE = L.SIZE["calib_cov"]
 CALIB_PARAM_NAMES = COVARIANCE_PARAMETERS
 CALIB_PARAMS = NUM_CAMERAS * len(CALIB_PARAM_NAMES)
 assert CALIB_PARAMS == L.CONSTANTS["MFNS_CALIB_PARAMS"]
-CAMERA_NAMES = ("x", "y", "z")
 # The map datum section (after the calibration covariance, format version 5): u16 count (0
 # or MAP_DATUM_PARAMS), u16 reserved, the turn's centre c_w (3 x f32 mm), the upper
 # triangle row-major of the covariance over (shift x y z mm, turn x y z rad) as f32.
@@ -61,9 +61,9 @@ class Record:
         return next(off for n, off, _, _ in self.fields if n == name)
 
     def pack(self, values: dict) -> bytes:
-        flat = []
+        flat: list[object] = []
         for name, _, kind, count in self.fields:
-            v = 0 if name in self.reserved else values[name]
+            v: Any = 0 if name in self.reserved else values[name]  # a value of the caller's dict
             if count > 1 and kind != "char":
                 flat.extend(v)
             else:
@@ -337,7 +337,11 @@ def decode(data: bytes) -> Table:
                 C_k_b=np.array(v["C_k_b"], dtype=float).reshape(3, 3),
                 r_bk_b=np.array(v["r_bk_b"], dtype=float),
                 grid=Grid(
-                    *(v[f"grid.{n}"] for n in ("origin_u_q8", "origin_v_q8", "step_u_q8", "step_v_q8")), nodes
+                    v["grid.origin_u_q8"],
+                    v["grid.origin_v_q8"],
+                    v["grid.step_u_q8"],
+                    v["grid.step_v_q8"],
+                    nodes,
                 ),
             )
         )

@@ -13,13 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..binding import PX_Q8_ONE as Q8
-from ..binding import Q16_16_ONE as Q16
-from ..binding import UNDIST_BAD_INPUT, UndistGrid
-from ..binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
-from ..camera import Camera
-from ..errors import MfnsError
-from ..flight import Flight
+from ..analysis.calib_results import CAMERA_NAMES
+from ..core.binding import PX_Q8_ONE as Q8
+from ..core.binding import Q16_16_ONE as Q16
+from ..core.binding import UNDIST_BAD_INPUT, UndistGrid
+from ..core.binding import UNDIST_GRID_ORIGIN_Q8 as ORIGIN_Q8
+from ..core.errors import MfnsError
+from ..core.flight import Flight
+from ..model.camera import Camera
 from .format import CameraRecord, Grid
 from .generated import layout_gen
 
@@ -31,7 +32,7 @@ U16_MAX = 0xFFFF  # the builder's node counts and image sizes are uint16
 def record_camera(rec: CameraRecord) -> Camera:
     """The numpy camera of a table record (its binary32 values, in double)."""
     return Camera(
-        name="xyz"[rec.camera_id],
+        name=CAMERA_NAMES[rec.camera_id],
         fx=float(rec.fx),
         fy=float(rec.fy),
         cx=float(rec.cx),

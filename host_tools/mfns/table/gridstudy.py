@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .. import calib_results
+from ..analysis import calib_results
 from .builder import _record
 from .check import core
 from .format import NODE_SIZE

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MfnsError
-from ..flight import CertifyResult, Flight
+from ..core.errors import MfnsError
+from ..core.flight import CertifyResult, Flight
 
 # The default workspace: the map's bounding box shrunk by this share of its extent on
 # each side (the robot moves inside the beacon hull, not on the walls).
@@ -135,7 +135,7 @@ def _workspace_box(values: list, what: str) -> tuple[np.ndarray, np.ndarray]:
 
 def random_poses(rng: np.random.Generator, lo, hi, n: int):
     """n poses (C_w_b, r_bw_b): body origin uniform in the box, attitude uniform."""
-    from ..rotations import random_rotations
+    from ..model.rotations import random_rotations
 
     C = random_rotations(rng, n)
     p = rng.uniform(lo, hi, size=(n, 3))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .. import validate as V
+from ..core import validate as V
 from .format import CENTROID_F32, CENTROID_U16, INTEGRITY_FIELDS, INTEGRITY_INT, SOLVER_F32, SOLVER_U16
 from .generated import layout_gen
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..rotations import euler213_to_matrix
+from ..model.rotations import euler213_to_matrix
 from .check import read_table
 from .format import CENTROID_F32, CENTROID_U16, SOLVER_F32, SOLVER_U16, Table, index_summary
 from .grid import ideal_pixels, record_camera

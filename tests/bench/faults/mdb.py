@@ -32,7 +32,7 @@ from statistics import NormalDist
 
 import numpy as np
 
-from mfns.camera import Camera
+from mfns.model.camera import Camera
 
 from . import score
 

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mfns import calib_results
-from mfns.camera import Camera, pose_from_position, rig_from_doc
-from mfns.rotations import euler213_deg_to_matrix
+from mfns.analysis import calib_results
+from mfns.model.camera import Camera, pose_from_position, rig_from_doc
+from mfns.model.rotations import euler213_deg_to_matrix
 from mfns.simulate import nav as sim
 
 CAMERAS = "xyz"

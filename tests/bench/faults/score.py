@@ -328,7 +328,7 @@ def dictionary_subjects(mdb: Path | None = None) -> dict[str, str]:
     code says "subject camera ..." or "subject beacon ..." (mdb: the dictionary file, default
     the mfns package's; empty without the mfns package)."""
     try:
-        from mfns import tlm_dict
+        from mfns.tlm import tlm_dict
 
         codes = tlm_dict.load(str(mdb) if mdb else None).enums["event_code_t"]
     except Exception:  # the scorer also runs on its own (tests): the names alone then

@@ -168,7 +168,7 @@ STRUCT = {
     "index_geom": "<3ffff",
 }
 # record -> {field: default}; f32 fields hold the binary32 value the table stores
-DEFAULTS = {
+DEFAULTS: dict[str, dict[str, int | float]] = {
     "globals": {
         "centroid.threshold_dn": 0,
         "centroid.min_area_px": 3,

@@ -4,7 +4,7 @@ The normalized estimation error squared e^T P^-1 e of each fix (e: the ROS-order
 r_wb_w mm then phi_w rad, C_b_w(est) = exp(phi_w) C_b_w(true); P: the solution's cov_ros) has
 mean 6 when P is right. Poses along the module trajectory of `mfns sim nav` (60 wall beacons,
 the paper's rig, >= 4 beacons in view, mc.module_pose_pool), known correspondences, the C
-refinement (firmware/nav/pose/pose.h mfns_pose_refine through mfns.flight) from the true pose, the
+refinement (firmware/nav/pose/pose.h mfns_pose_refine through mfns.core.flight) from the true pose, the
 flight defaults otherwise. Three error sources, each alone:
 
   pixel        centroid noise sigma_px on every blob, known to the solver (cov_px2 = s^2 I)
@@ -17,18 +17,18 @@ flight defaults otherwise. Three error sources, each alone:
 and for each the same solve with the matching term switched off (survey: sigma_mm 0 in the map;
 calibration: no calibration covariance), which shows the term is what makes NEES 6.
 
-Rerun: `.venv/bin/python -m mfns.mc_nees [--trials N] [--seed S]` (after `make lib`).
+Rerun: `mfns nees [--trials N] [--seed S]` (after `make lib`).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import numpy as np
 
-from .camera import Camera, position_from_pose
-from .rotations import rot_exp, rot_log
+from ..core.errors import MfnsError
+from ..model.camera import Camera, position_from_pose
+from ..model.rotations import rot_exp, rot_log
 
 # A calibration covariance of the size the paper's method leaves (px, unitless, rad, mm per
 # parameter of format.CALIB_PARAM_NAMES), correlated across parameters and cameras.
@@ -59,9 +59,9 @@ def perturbed_rig(cams: list[Camera], err: np.ndarray) -> list[Camera]:
 
 def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: float = 0.4, lib=None) -> dict:
     """{case: (mean NEES, fraction inside the chi-square(6) 95 % bound, fixes)}."""
-    from . import flight as fl
+    from ..core import flight as fl
+    from ..simulate import nav
     from .mc import module_pose_pool
-    from .simulate import nav
 
     f = fl.Flight(lib)
     rng = np.random.default_rng(seed)
@@ -74,7 +74,7 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
     cfg_c = f.config(sigma_px=floor, calib_cov=sigma_c)
     lc = np.linalg.cholesky(sigma_c)
     chi2_95 = 12.5916  # chi-square, 6 degrees of freedom
-    cases = {
+    cases: dict[str, list[float]] = {
         k: []
         for k in (
             "pixel",
@@ -133,21 +133,19 @@ def run(trials: int = 2000, seed: int = 0, sigma_px: float = 0.1, sigma_b_mm: fl
     }
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mfns.mc_nees", description=__doc__.splitlines()[0])
-    p.add_argument("--trials", type=int, default=2000)
-    p.add_argument("--seed", type=int, default=0)
-    a = p.parse_args(argv)
-    res = run(a.trials, a.seed)
+MAX_TRIALS = 1_000_000  # a bound on the run, as mfns mc's
+
+
+def report(args) -> int:
+    """`mfns nees` (commands/nees.py): run() printed as the table of docs/error-analysis.md."""
+    if not 1 <= args.trials <= MAX_TRIALS:
+        raise MfnsError(f"--trials must be in 1..{MAX_TRIALS}")
+    res = run(args.trials, args.seed)
     print(
-        f"module scenario, {a.trials} poses, pixel 0.1 px, survey 0.4 mm, "
+        f"module scenario, {args.trials} poses, pixel 0.1 px, survey 0.4 mm, "
         "calibration Sigma_c (mc_nees.CALIB_SD)"
     )
     print(f"{'case':36s} {'mean NEES':>10s} {'in 95 %':>8s} {'fixes':>6s}   (6 and 95 % when right)")
     for k, (m, frac, n) in res.items():
         print(f"{k:36s} {m:10.2f} {100 * frac:7.1f}% {n:6d}")
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

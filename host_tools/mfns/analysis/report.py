@@ -11,7 +11,7 @@ Without truth the same statistics describe the estimates themselves (useful
 for a static test, where the spread is the noise).
 
 With truth, the covariance the flight code reported with each fix is checked against the
-actual error: the NEES of mfns.nees (full 6x6 covariance columns, or the diagonal 1-sigma
+actual error: the NEES of mfns.analysis.nees (full 6x6 covariance columns, or the diagonal 1-sigma
 columns of an older nav.csv), in summary.md, summary.json and nees.png.
 """
 
@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import validate as V
+from ..core.errors import MfnsError
+from ..tlm import tlm_dict
 from . import nees as N
-from . import tlm_dict
-from . import validate as V
-from .errors import MfnsError
 
 AXES = ("roll", "pitch", "yaw", "x", "y", "z")
 NAV_COLUMNS = {
@@ -49,7 +49,7 @@ class NavLog:
     t_s: np.ndarray
     status: np.ndarray  # str
     values: dict[str, np.ndarray]  # axis -> value (deg or mm)
-    # optional columns (mfns.nees: covariance, quaternion, 1-sigma), NaN where a field is empty
+    # optional columns (mfns.analysis.nees: covariance, quaternion, 1-sigma), NaN where a field is empty
     extra: dict[str, np.ndarray] = field(default_factory=dict)
 
 
@@ -106,7 +106,7 @@ def _floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
 def _optional_floats(rows: list[dict[str, str]], col: str, path: Path) -> np.ndarray:
     """A column a row may leave empty (no covariance without a fix) or fill with a non-finite
     value (nan, inf: a covariance the flight code could not give). Such a row is counted as
-    one without a usable covariance (mfns.nees); text that is no number is refused."""
+    one without a usable covariance (mfns.analysis.nees); text that is no number is refused."""
     out = np.empty(len(rows))
     for i, r in enumerate(rows):
         t = r[col].strip()

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import tlm_dict
+from ..tlm import tlm_dict
 from .binding import (  # noqa: F401 (re-exported: the names host tools use)
     ACQ_ABI_CYCLE,
     ACQ_ABI_STATE,
@@ -144,7 +144,7 @@ class Flight:
     # --- building the C inputs -------------------------------------------------------
     @staticmethod
     def rig(cameras) -> Rig:
-        """From three mfns.camera.Camera (x, y, z)."""
+        """From three mfns.model.camera.Camera (x, y, z)."""
         r = Rig()
         for i, c in enumerate(cameras):
             r.cam[i].k = Flight.intrinsics(c)
@@ -154,7 +154,7 @@ class Flight:
 
     @staticmethod
     def intrinsics(c) -> Intrinsics:
-        """The lens of one mfns.camera.Camera as the C core holds it (binary32)."""
+        """The lens of one mfns.model.camera.Camera as the C core holds it (binary32)."""
         k = Intrinsics()
         k.fx, k.fy, k.cx, k.cy, k.skew = c.fx, c.fy, c.cx, c.cy, c.skew
         for j in range(5):
@@ -367,7 +367,7 @@ class Flight:
 
     def _acq_progress(self) -> Progress:
         pr = AcqProgress.from_buffer(self._acq_state)
-        return Progress(**{n: getattr(pr, n) for n, _ in AcqProgress._fields_})
+        return Progress(**{n: getattr(pr, n) for n, *_ in AcqProgress._fields_})
 
     def acquire_resume(self, budget_units: int) -> tuple[Solution, Progress]:
         """Go on with the search the last acquire (or resume) left on its budget (acquire.h)."""

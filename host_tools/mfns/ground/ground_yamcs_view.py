@@ -1,6 +1,6 @@
 """The operator's view (docs/operators.md "The view"): a small local web page over Yamcs.
 
-``python -m mfns.ground_yamcs_view [--port 8095]`` (``make ground-view``) serves
+``mfns ground view [--port 8095]`` (``make ground-view``) serves
 ground/operator/index.html and ``/state.json``, a snapshot this process keeps from Yamcs
 through ``yamcs-client``: a WebSocket parameter subscription (the navigation solution, the
 camera packets, housekeeping, the ground's alarm parameters), the realtime processor's
@@ -17,7 +17,6 @@ the latest per camera, which a plain parameter display could not.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import threading
@@ -25,14 +24,15 @@ import time
 from datetime import UTC, datetime
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
+from typing import Any
 
-from mfns import ground_yamcs as gy
-from mfns import tlm_dict
+from mfns.ground import ground_yamcs as gy
+from mfns.tlm import tlm_dict
 
 # The page: the repository's ground/operator/index.html, or the copy an installed
 # wheel carries (host_tools/setup.py puts it in mfns/data).
-_TREE_PAGE = Path(__file__).resolve().parents[2] / "ground" / "operator" / "index.html"
-_WHEEL_PAGE = Path(__file__).resolve().parent / "data" / "operator.html"
+_TREE_PAGE = Path(__file__).resolve().parents[3] / "ground" / "operator" / "index.html"
+_WHEEL_PAGE = Path(__file__).resolve().parents[1] / "data" / "operator.html"
 PAGE = _TREE_PAGE if _TREE_PAGE.is_file() else _WHEEL_PAGE
 NAV = [
     "cycle",
@@ -289,7 +289,7 @@ class State:
 
     def snapshot(self) -> dict:
         with self.lock:
-            snap = {
+            snap: dict[str, Any] = {  # the page's JSON: values of every kind
                 "nav": dict(self.nav),
                 "last_fix": dict(self.last_fix),
                 "hk": dict(self.hk),
@@ -365,14 +365,12 @@ def serve(port: int, ready: threading.Event | None = None, stop: threading.Event
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mfns.ground_yamcs_view", description=__doc__.split("\n")[0])
-    ap.add_argument("--port", type=int, default=8095, help="HTTP port on 127.0.0.1 (default 8095)")
-    a = ap.parse_args(argv)
+def run(port: int) -> int:
+    """`mfns ground view` (commands/ground.py): serve, with a clear error for a busy port or no Yamcs."""
     try:
-        return serve(a.port)
+        return serve(port)
     except OSError as e:
-        print(f"ground-view: cannot serve on 127.0.0.1:{a.port}: {e}", file=sys.stderr)
+        print(f"ground-view: cannot serve on 127.0.0.1:{port}: {e}", file=sys.stderr)
         return 2
     except Exception as e:  # yamcs-client: no server there
         print(
@@ -381,7 +379,3 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

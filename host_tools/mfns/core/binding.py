@@ -35,9 +35,9 @@ from pathlib import Path
 
 from .errors import MfnsError
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 # the installed package's own library (the wheel's build step puts it there, host_tools/setup.py)
-PACKAGE_LIB = Path(__file__).resolve().parent / "libmfns_core.so"
+PACKAGE_LIB = Path(__file__).resolve().parents[1] / "libmfns_core.so"  # the package root (setup.py)
 # the tree's build (`make lib`): what an editable install (make venv) loads
 DEFAULT_LIB = REPO / "build" / "host-sim" / "lib" / "libmfns_core.so"
 

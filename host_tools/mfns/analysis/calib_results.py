@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import validate as V
-from .errors import MfnsError
-from .rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
-from .validate import MIB
+from ..core import validate as V
+from ..core.errors import MfnsError
+from ..core.validate import MIB
+from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 
 FORMAT = "mfns-calib-results"
 VERSION = 1

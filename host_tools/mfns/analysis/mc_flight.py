@@ -1,11 +1,11 @@
-"""The flight pose solver (firmware/nav/pose/pose.h, through mfns.flight) as a `PoseSolver`.
+"""The flight pose solver (firmware/nav/pose/pose.h, through mfns.core.flight) as a `PoseSolver`.
 
 `mfns mc`'s end-to-end extension calls a solver with known correspondences and an initial
 pose; this adapter runs the C refinement (`mfns_pose_refine`, ML mode) with those
 correspondences from that pose, so the extension measures the code the navigation computer
 runs (one implementation, host and flight).
 
-Semantics made to match the host reference (mfns.pose_ref.solve_pose_gn): plain least
+Semantics made to match the host reference (mfns.model.pose_ref.solve_pose_gn): plain least
 squares on the pixel reprojection error, every observation kept. The flight defaults are
 built to reject measurement outliers, which here would hide exactly what the extension
 measures (a miscalibrated rig gives residuals of several pixels on every beacon), so:
@@ -27,14 +27,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .camera import Camera
-from .errors import MfnsError
-from .pose_ref import PoseSolution
+from ..core.errors import MfnsError
+from ..model.camera import Camera
+from ..model.pose_ref import PoseSolution
 
 SOLVERS = ("flight", "reference")
 SOLVER_NAMES = {
     "flight": "flight solver (firmware/nav/pose/pose.h mfns_pose_refine via ctypes, libmfns_core.so)",
-    "reference": "host reference solver (mfns.pose_ref, Python Gauss-Newton)",
+    "reference": "host reference solver (mfns.model.pose_ref, Python Gauss-Newton)",
 }
 
 
@@ -44,7 +44,7 @@ class FlightPoseSolver:
     name = SOLVER_NAMES["flight"]
 
     def __init__(self, lib=None, max_iterations: int = 50):
-        from . import flight
+        from ..core import flight
 
         try:
             self.flight = flight.Flight(lib)
@@ -107,7 +107,7 @@ def make_solver(kind: str, lib=None):
         s = FlightPoseSolver(lib)
         return s, s.name
     if kind == "reference":
-        from .pose_ref import solve_pose_gn
+        from ..model.pose_ref import solve_pose_gn
 
         return solve_pose_gn, SOLVER_NAMES["reference"]
     raise MfnsError(f"unknown solver {kind!r} (choose from {', '.join(SOLVERS)})")

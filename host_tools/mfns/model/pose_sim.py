@@ -79,7 +79,7 @@ def paper_index(flight, rig, bmap, pos_range: float = 150.0):
     """The map index of the paper's beacons over the poses random_visible_poses draws
     (body within +-pos_range mm of the origin), with its certificate from the map
     analysis (mfns.table.mapindex, as `mfns table build` makes it)."""
-    from .table import mapindex
+    from ..table import mapindex
 
     lo, hi = np.full(3, -pos_range), np.full(3, pos_range)
     idx, _ = mapindex.build(flight, rig, bmap, None, (lo, hi), sigma_px=0.3, samples=40)
@@ -207,7 +207,7 @@ def acquisition_cycles_sweep(
     and every cycle's time and work."""
     import time
 
-    from .flight import ACQ_SOURCES
+    from ..core.flight import ACQ_SOURCES
 
     if max_cycles < 1:
         raise ValueError(f"max_cycles must be at least 1, not {max_cycles}")

@@ -32,8 +32,8 @@ Extension: end-to-end pose error vs calibration error, in the module scenario of
 >= 4 beacons in view): the beacons are observed through the true rig, the pose is solved
 with a perturbed rig or map by a pluggable `PoseSolver`. By default the flight solver: the C
 refinement of firmware/nav/pose/pose.h with known correspondences, from the shared library
-`make lib` builds, through ctypes (mfns.mc_flight); `--solver reference` selects the host
-reference (mfns.pose_ref, double-precision Gauss-Newton on the same reprojection error).
+`make lib` builds, through ctypes (mfns.analysis.mc_flight); `--solver reference` selects the host
+reference (mfns.model.pose_ref, double-precision Gauss-Newton on the same reprojection error).
 """
 
 from __future__ import annotations
@@ -47,11 +47,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .camera import Camera, position_from_pose
-from .errors import MfnsError
+from ..core.errors import MfnsError
+from ..model.camera import Camera, position_from_pose
+from ..model.pose_ref import PoseSolver
+from ..model.rotations import rot_exp, rot_log
 from .mc_flight import make_solver
-from .pose_ref import PoseSolver
-from .rotations import rot_exp, rot_log
 
 TABLE1 = {"fx": 1600.0, "fy": 1600.0, "cx": 640.0, "cy": 512.0, "width": 1280, "height": 1024}
 X_RANGE_MM = (0.0, 1000.0)
@@ -90,7 +90,7 @@ GROUPS = (
 
 def table1_camera() -> Camera:
     t = TABLE1
-    return Camera("z", t["fx"], t["fy"], t["cx"], t["cy"], width=t["width"], height=t["height"])
+    return Camera("z", t["fx"], t["fy"], t["cx"], t["cy"], width=int(t["width"]), height=int(t["height"]))
 
 
 def sample_beacons(rng: np.random.Generator, n: int, z_min: float, cam: Camera | None = None) -> np.ndarray:
@@ -228,8 +228,8 @@ def module_pose_pool(seed: int, n_poses: int = 400):
 
     Usable: >= 4 beacons in view and a position dilution <= MAX_POSITION_DILUTION_MM_PER_PX.
     """
-    from .pose_ref import residuals_and_jacobian
-    from .simulate import nav
+    from ..model.pose_ref import residuals_and_jacobian
+    from ..simulate import nav
 
     scn = nav.module_scenario(n_poses * 2, 0.5, 60, seed)  # one pose every 2 s of the path
     keep = []
@@ -260,7 +260,7 @@ def pose_errors(
     pixel_noise_px: float = 0.0,
 ) -> dict:
     """Solve `trials` poses with a rig/map perturbed at `level`; RMS of the pose errors."""
-    from .simulate import nav
+    from ..simulate import nav
 
     scn, keep = pool
     true_cams = scn.cams
@@ -268,15 +268,16 @@ def pose_errors(
     for _ in range(trials):
         i = int(keep[rng.integers(len(keep))])
         c_true, r_true = scn.pose(i)
-        idx, pts, uv = [], [], []
+        cam_of: list[int] = []
+        pts, uv_k = [], []
         for k, cam in enumerate(true_cams):
             uvk, vis, _ = nav.project_beacons(cam, c_true, r_true, scn.beacons)
-            idx.extend([k] * int(vis.sum()))
+            cam_of.extend([k] * int(vis.sum()))
             pts.append(np.nonzero(vis)[0])
-            uv.append(uvk[vis])
-        idx = np.array(idx)
+            uv_k.append(uvk[vis])
+        idx = np.array(cam_of)
         ids = np.concatenate(pts)
-        uv = np.vstack(uv) + rng.normal(0.0, pixel_noise_px, (len(idx), 2))
+        uv = np.vstack(uv_k) + rng.normal(0.0, pixel_noise_px, (len(idx), 2))
         believed_cams = [_copy_cam(c) for c in true_cams]
         believed_map = scn.beacons.copy()
         if group == "position":
@@ -420,7 +421,7 @@ def run_mc(
     progress: bool = True,
 ) -> dict:
     """solver: "flight" (the C solver through ctypes, needs `make lib`), "reference"
-    (mfns.pose_ref), or any PoseSolver callable (then described by solver_name)."""
+    (mfns.model.pose_ref), or any PoseSolver callable (then described by solver_name)."""
     from tqdm import tqdm
 
     if not 10 <= trials <= MAX_TRIALS:
@@ -432,12 +433,15 @@ def run_mc(
     if not 0 <= pose_trials <= MAX_TRIALS:
         raise MfnsError(f"--pose-trials must be in 0..{MAX_TRIALS}")
     solver_key = solver if isinstance(solver, str) else "custom"
+    pose_solver: PoseSolver | None = None
     if pose_trials:
         # Before any long work: a missing flight library is reported at once.
         if isinstance(solver, str):
-            solver, default_name = make_solver(solver)
+            pose_solver, default_name = make_solver(solver)
             solver_name = solver_name or default_name
-        solver_name = solver_name or getattr(solver, "__name__", "custom solver")
+        else:
+            pose_solver = solver
+        solver_name = solver_name or getattr(pose_solver, "__name__", "custom solver")
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     summary: dict = {
@@ -492,15 +496,16 @@ def run_mc(
     }
 
     if pose_trials:
+        assert pose_solver is not None and solver_name is not None  # both set above
         pool = module_pose_pool(seed)
         pose_rows = []
-        for gi, (g, _unit, levels) in enumerate(POSE_GROUPS):
+        for gi, (pg, _unit, levels) in enumerate(POSE_GROUPS):
             for level in levels:
                 # Common random numbers: every level of a group sees the same poses and the
                 # same error directions, scaled by the level, so the curve shows the growth
                 # with the level rather than the draw-to-draw spread of a few weak poses.
                 crn = np.random.default_rng([seed, 7, gi])
-                pose_rows.append(pose_errors(solver, g, level, pose_trials, crn, pool))
+                pose_rows.append(pose_errors(pose_solver, pg, level, pose_trials, crn, pool))
             bar.update()
         write_csv(
             out / "pose_vs_calib.csv",
@@ -535,9 +540,9 @@ def run_mc(
             "scenario": f"module, seed {seed}, 60 beacons, paper rig",
             "rows": pose_rows,
         }
-        for g, unit, _levels in POSE_GROUPS:
-            rr = [r for r in pose_rows if r["group"] == g and r["level"] > 0 and r["solved"]]
-            ext[f"{g}_slope"] = {
+        for pg, unit, _levels in POSE_GROUPS:
+            rr = [r for r in pose_rows if r["group"] == pg and r["level"] > 0 and r["solved"]]
+            ext[f"{pg}_slope"] = {
                 f"pos_mm_per_{unit}": slope_through_origin(
                     [r["level"] for r in rr], [r["pos_rms_mm"] for r in rr]
                 ),

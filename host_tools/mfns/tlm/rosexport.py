@@ -1,7 +1,7 @@
 """`mfns export`: a ground output folder (or a telemetry recording) as an MCAP file or a
 rosbag2 folder of ROS 2 messages (docs/robotics.md).
 
-What is written (mfns.rosmsg holds every convention):
+What is written (mfns.tlm.rosmsg holds every convention):
 - /mfns/pose  geometry_msgs/PoseWithCovarianceStamped, one per usable cycle (FIX or DEGRADED):
   a NO_FIX cycle writes no pose and no TF (its zeros are not a pose), only its diagnostics;
 - /tf  tf2_msgs/TFMessage world -> body with the same pose;
@@ -28,8 +28,8 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..core.errors import MfnsError
 from . import rosmsg
-from .errors import MfnsError
 
 FORMATS = ("mcap", "rosbag2")
 STORAGES = ("mcap", "sqlite3")
@@ -70,7 +70,7 @@ def find_ground(explicit: str | None) -> str:
     on_path = shutil.which("mfns-ground")
     if on_path:
         return on_path
-    tree = Path(__file__).resolve().parents[2] / "build" / "host-sim" / "bin" / "mfns-ground"
+    tree = Path(__file__).resolve().parents[3] / "build" / "host-sim" / "bin" / "mfns-ground"
     if tree.is_file():
         return str(tree)
     raise MfnsError(
@@ -102,17 +102,17 @@ def ground_folder(source: Path, ground: str | None, tmp: Path) -> Path:
 
 def load_cameras(calib: Path | None, table: Path | None) -> list:
     """The three cameras (name, intrinsics, C_k_b, r_bk_b mm) of a calib.json or a table."""
-    from .camera import Camera
+    from ..model.camera import Camera
 
     if calib is not None and table is not None:
         raise MfnsError("give --calib or --table, not both")
     if calib is not None:
-        from . import calib_results
-        from .camera import rig_from_doc
+        from ..analysis import calib_results
+        from ..model.camera import rig_from_doc
 
         return rig_from_doc(calib_results.load(calib))
     if table is not None:
-        from .table.check import read_table
+        from ..table.check import read_table
 
         try:
             t = read_table(Path(table).read_bytes())

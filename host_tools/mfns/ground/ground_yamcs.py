@@ -10,7 +10,7 @@ XTCE mfns_ground.xml (flight events as Yamcs events, the alarm parameters and th
 Yamcs' UDP TM link listens on every interface and has no bind option, so the server is
 meant to run in a private network namespace (``unshare -n``, as root), where only
 loopback exists; :func:`loopback_up` brings that loopback up (a new namespace starts with
-it down). ``python -m mfns.ground_yamcs serve RUNDIR`` is what ``make ground-yamcs`` runs.
+it down). ``mfns ground yamcs RUNDIR`` is what ``make ground-yamcs`` runs.
 """
 
 from __future__ import annotations
@@ -25,17 +25,17 @@ import sys
 import time
 from pathlib import Path
 
-from .data import dictionary
+from ..data import dictionary
 
 # What the server needs from the project, found without the repository: the dictionaries
 # (contract/, copied into mfns/data by the wheel's build step: mfns.data.dictionary); the
 # configuration is ground/yamcs/etc, which the wheel's build step copies into mfns/data/yamcs
 # (host_tools/setup.py). In the repository (editable install) the tree's copy is read.
-DATA = Path(__file__).resolve().parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 ETC = (
     DATA / "yamcs"
     if (DATA / "yamcs").is_dir()
-    else Path(__file__).resolve().parents[2] / "ground" / "yamcs" / "etc"
+    else Path(__file__).resolve().parents[3] / "ground" / "yamcs" / "etc"
 )
 MDB_FILES = tuple(dictionary(n) for n in ("mfns_tm.xml", "mfns_tc.xml", "mfns_ground.xml"))
 ADDRESS = "127.0.0.1:8090"
@@ -209,21 +209,3 @@ def serve(rundir: Path) -> int:
     finally:
         stop(proc)
     return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else argv
-    if len(args) == 2 and args[0] == "serve":
-        rundir = Path(args[1]).resolve()
-        rundir.mkdir(parents=True, exist_ok=True)
-        return serve(rundir)
-    if args == ["check"]:
-        reason = why_not()
-        print(reason or "ok")
-        return 0 if reason is None else 1
-    print("usage: python -m mfns.ground_yamcs serve RUNDIR | check", file=sys.stderr)
-    return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import MfnsError
+from ..core.errors import MfnsError
 
 POSE_AXES = ("x", "y", "z", "rx", "ry", "rz")
 POSE_UNITS = ("mm", "mm", "mm", "deg", "deg", "deg")
@@ -111,7 +111,7 @@ def quat_to_matrix(q_wxyz: np.ndarray) -> np.ndarray:
 
 def euler_to_c_w_b(euler_deg: np.ndarray) -> np.ndarray:
     """(N, 3) 2-1-3 Euler angles (roll, pitch, yaw) of C_w_b in deg -> (N, 3, 3) C_w_b."""
-    from .rotations import euler213_deg_to_matrix
+    from ..model.rotations import euler213_deg_to_matrix
 
     e = np.asarray(euler_deg, dtype=float).reshape(-1, 3)
     return np.array([euler213_deg_to_matrix(a) for a in e]).reshape(-1, 3, 3)

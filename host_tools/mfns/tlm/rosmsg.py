@@ -162,7 +162,8 @@ def ros_covariance(p_tlm: np.ndarray) -> np.ndarray:
 
 
 def position_m(row: dict) -> tuple[float, float, float]:
-    return tuple(float(row[a + "_mm"]) / MM_PER_M for a in "xyz")  # divided: correctly rounded
+    x, y, z = (float(row[a + "_mm"]) / MM_PER_M for a in "xyz")  # divided: correctly rounded
+    return x, y, z
 
 
 def orientation_xyzw(row: dict) -> tuple[float, float, float, float]:
@@ -170,7 +171,8 @@ def orientation_xyzw(row: dict) -> tuple[float, float, float, float]:
     n = float(np.linalg.norm(q))
     if not (0.5 < n < 1.5):
         raise ValueError(f"nav row of cycle {row.get('cycle')}: quaternion norm {n:.3f} is not a rotation")
-    return tuple(float(v) for v in q / n)  # the wire's 2^-30 quantisation, renormalised
+    x, y, z, w = (float(v) for v in q / n)  # the wire's 2^-30 quantisation, renormalised
+    return x, y, z, w
 
 
 def pose_msg(row: dict, world_frame: str = WORLD_FRAME) -> dict:
@@ -233,9 +235,9 @@ def quaternion_xyzw(c: np.ndarray) -> np.ndarray:
     else:
         s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
         q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
-    q = np.array(q)
-    q /= np.linalg.norm(q)
-    return -q if q[3] < 0 else q
+    qa = np.array(q)
+    qa /= np.linalg.norm(qa)
+    return -qa if qa[3] < 0 else qa
 
 
 def camera_link_rotation(C_k_b: np.ndarray) -> np.ndarray:
@@ -246,7 +248,7 @@ def camera_link_rotation(C_k_b: np.ndarray) -> np.ndarray:
 
 def tf_static_msg(cams, ns: int, body_frame: str = BODY_FRAME) -> dict:
     """tf2_msgs/TFMessage of the mounts: body -> mfns_cam_<k>_link -> mfns_cam_<k>_optical_frame
-    (cams: objects with name, C_k_b, r_bk_b in mm, e.g. mfns.camera.Camera)."""
+    (cams: objects with name, C_k_b, r_bk_b in mm, e.g. mfns.model.camera.Camera)."""
     out = []
     q_lo = quaternion_xyzw(R_LINK_OPTICAL)
     for cam in cams:

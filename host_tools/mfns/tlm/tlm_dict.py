@@ -7,25 +7,42 @@ The XTCE file is the one definition of the telemetry packets: their CCSDS header
 parameter with its encoding, unit and calibration, and every numbered code (status, reason,
 mode, camera state, event code, severity). This module reads it with the standard library
 only, so the host tools take the codes' names from it instead of copying them, and it renders
-the tables of docs/telemetry.md between their markers (``python -m mfns.tlm_dict --write``;
-``--check`` fails when the doc is stale). It also reads the telecommand dictionary
+the tables of docs/telemetry.md between their markers (``render_doc``, which ``make contracts``
+runs; ``make contracts-check`` fails when the doc is stale). It also reads the telecommand dictionary
 (``load_tc``). contract/gen_contracts.py generates the C codecs, codes, ground columns and doc tables
 from both through this module (standard library only, so it runs before any venv exists).
 """
 
 from __future__ import annotations
 
-import argparse
 import re
-import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
 from pathlib import Path
+from typing import Any
 
 NS = {"x": "http://www.omg.org/spec/XTCE/20180204"}
 _X = "{" + NS["x"] + "}"
-REPO = Path(__file__).resolve().parents[2]
+
+
+def _req(e: ET.Element, path: str) -> ET.Element:
+    """The element at PATH under E: a dictionary without it is malformed (a clear error, not None)."""
+    found = e.find(path, NS)
+    if found is None:
+        raise ValueError(f"XTCE {e.get('name') or e.tag.removeprefix(_X)}: no {path}")
+    return found
+
+
+def _attr(e: ET.Element, name: str) -> str:
+    """E's attribute NAME: a dictionary without it is malformed (a clear error, not None)."""
+    v = e.get(name)
+    if v is None:
+        raise ValueError(f"XTCE {e.get('name') or e.tag.removeprefix(_X)}: no attribute {name}")
+    return v
+
+
+REPO = Path(__file__).resolve().parents[3]
 
 # Framing per frame (docs/telemetry.md 2): CRC-16 (2), COBS overhead (1 below 254 bytes), 0x00.
 FRAME_OVERHEAD = 4
@@ -116,39 +133,38 @@ class Dictionary:
 
 def _types(root: ET.Element) -> dict[str, dict]:
     out: dict[str, dict] = {}
-    for t in root.find("x:TelemetryMetaData/x:ParameterTypeSet", NS):
+    for t in _req(root, "x:TelemetryMetaData/x:ParameterTypeSet"):
         tag = t.tag.removeprefix(_X)
         enc = t.find("x:IntegerDataEncoding", NS)
-        fenc = t.find("x:FloatDataEncoding", NS)
-        e = enc if enc is not None else fenc
+        e = enc if enc is not None else _req(t, "x:FloatDataEncoding")
         unit = t.find("x:UnitSet/x:Unit", NS)
         term = t.find(".//x:PolynomialCalibrator/x:Term[@exponent='1']", NS)
         vr = t.find("x:ValidRange", NS)
-        info = {
-            "valid_range": (float(vr.get("minInclusive")), float(vr.get("maxInclusive")))
+        info: dict[str, Any] = {  # one type's fields, heterogeneous (read into Field / Arg)
+            "valid_range": (float(_attr(vr, "minInclusive")), float(_attr(vr, "maxInclusive")))
             if vr is not None
             else None,
             "kind": {"IntegerParameterType": "int", "FloatParameterType": "float"}.get(tag, "enum"),
-            "bits": int(e.get("sizeInBits")),
+            "bits": int(_attr(e, "sizeInBits")),
             "encoding": e.get("encoding", "unsigned" if enc is not None else "IEEE754"),
-            "coefficient": float(term.get("coefficient")) if term is not None else None,
+            "coefficient": float(_attr(term, "coefficient")) if term is not None else None,
             "unit": unit.text if unit is not None else "",
             "description": t.get("shortDescription", ""),
             "enum": None,
         }
         if tag == "EnumeratedParameterType":
             info["enum"] = {
-                int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
+                int(_attr(x, "value")): (_attr(x, "label"), x.get("shortDescription", ""))
                 for x in t.findall("x:EnumerationList/x:Enumeration", NS)
             }
-        out[t.get("name")] = info
+        out[_attr(t, "name")] = info
     return out
 
 
 def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> list[Field]:
     out, off = [], 0
     for entry in container.findall("x:EntryList/x:ParameterRefEntry", NS):
-        pname = entry.get("parameterRef")
+        pname = _attr(entry, "parameterRef")
         tname, desc, anc = params[pname]
         t = types[tname]
         f = Field(
@@ -172,7 +188,7 @@ def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> li
 
 
 def _ancillary(e: ET.Element) -> dict[str, str]:
-    return {a.get("name"): (a.text or "") for a in e.findall("x:AncillaryDataSet/x:AncillaryData", NS)}
+    return {_attr(a, "name"): (a.text or "") for a in e.findall("x:AncillaryDataSet/x:AncillaryData", NS)}
 
 
 PREFIX = {"nav": "nav_", "camera": "cam_", "housekeeping": "hk_", "event": "evt_", "fixobs": "fix_"}
@@ -183,16 +199,17 @@ def load(path: str | None = None) -> Dictionary:
     root = ET.parse(path or mdb_path()).getroot()
     types = _types(root)
     params = {
-        p.get("name"): (p.get("parameterTypeRef"), p.get("shortDescription", ""), _ancillary(p))
+        _attr(p, "name"): (_attr(p, "parameterTypeRef"), p.get("shortDescription", ""), _ancillary(p))
         for p in root.findall("x:TelemetryMetaData/x:ParameterSet/x:Parameter", NS)
     }
-    header, packets = [], {}
+    header: list[Field] = []
+    packets: dict[str, Packet] = {}
     for c in root.findall("x:TelemetryMetaData/x:ContainerSet/x:SequenceContainer", NS):
-        name = c.get("name")
+        name = _attr(c, "name")
         if c.get("abstract") == "true":
             header = _fields(c, params, types, "")
             continue
-        apid = int(c.find("x:BaseContainer/x:RestrictionCriteria/x:Comparison", NS).get("value"))
+        apid = int(_attr(_req(c, "x:BaseContainer/x:RestrictionCriteria/x:Comparison"), "value"))
         packets[name] = Packet(
             name, apid, c.get("shortDescription", ""), _fields(c, params, types, PREFIX[name])
         )
@@ -253,11 +270,11 @@ class TcDictionary:
 
 def _tc_types(root: ET.Element) -> dict[str, dict]:
     out: dict[str, dict] = {}
-    for t in root.find("x:CommandMetaData/x:ArgumentTypeSet", NS):
+    for t in _req(root, "x:CommandMetaData/x:ArgumentTypeSet"):
         tag = t.tag.removeprefix(_X)
         vr = t.find("x:ValidRangeSet/x:ValidRange", NS)
         unit = t.find("x:UnitSet/x:Unit", NS)
-        info = {
+        info: dict[str, Any] = {  # one type's fields, heterogeneous (read into Field / Arg)
             "description": t.get("shortDescription", ""),
             "enum": None,
             "unit": unit.text if unit is not None else "",
@@ -268,32 +285,32 @@ def _tc_types(root: ET.Element) -> dict[str, dict]:
         term = t.find(
             "x:IntegerDataEncoding/x:DefaultCalibrator/x:PolynomialCalibrator/x:Term[@exponent='1']", NS
         )
-        per_unit = float(term.get("coefficient")) if term is not None else 1.0
+        per_unit = float(_attr(term, "coefficient")) if term is not None else 1.0
         info["scale"] = 1.0 / per_unit
         if vr is None:
             info["range"] = None
         elif term is None:
-            info["range"] = (int(vr.get("minInclusive")), int(vr.get("maxInclusive")))
+            info["range"] = (int(_attr(vr, "minInclusive")), int(_attr(vr, "maxInclusive")))
         else:
             info["range"] = tuple(
-                round(float(vr.get(k)) * per_unit) for k in ("minInclusive", "maxInclusive")
+                round(float(_attr(vr, k)) * per_unit) for k in ("minInclusive", "maxInclusive")
             )
         if tag in ("StringArgumentType", "BinaryArgumentType"):  # binary: the security trailer (MAC)
             kind = "string" if tag == "StringArgumentType" else "binary"
-            info.update(kind=kind, bits=int(t.find(".//x:FixedValue", NS).text), signed=False)
+            info.update(kind=kind, bits=int(_req(t, ".//x:FixedValue").text or ""), signed=False)
         else:
-            enc = t.find("x:IntegerDataEncoding", NS)
+            enc = _req(t, "x:IntegerDataEncoding")
             info.update(
                 kind="enum" if tag == "EnumeratedArgumentType" else "int",
-                bits=int(enc.get("sizeInBits")),
+                bits=int(_attr(enc, "sizeInBits")),
                 signed=enc.get("encoding") == "twosComplement",
             )
         if tag == "EnumeratedArgumentType":
             info["enum"] = {
-                int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
+                int(_attr(x, "value")): (_attr(x, "label"), x.get("shortDescription", ""))
                 for x in t.findall("x:EnumerationList/x:Enumeration", NS)
             }
-        out[t.get("name")] = info
+        out[_attr(t, "name")] = info
     return out
 
 
@@ -302,7 +319,7 @@ def load_tc(path: str | None = None) -> TcDictionary:
     root = ET.parse(path or tc_mdb_path()).getroot()
     types = _tc_types(root)
     statuses = {
-        int(x.get("value")): (x.get("label"), x.get("shortDescription", ""))
+        int(_attr(x, "value")): (_attr(x, "label"), x.get("shortDescription", ""))
         for x in root.findall(
             "x:TelemetryMetaData/x:ParameterTypeSet/x:EnumeratedParameterType[@name='tc_status_t']//x:Enumeration",
             NS,
@@ -311,25 +328,27 @@ def load_tc(path: str | None = None) -> TcDictionary:
     opcodes = {lab: v for v, (lab, _) in types["opcode_t"]["enum"].items()}
     header: list[tuple[str, int]] = []
     cmds: list[Command] = []
-    apid = None
+    apid: int | None = None
     for mc in root.findall("x:CommandMetaData/x:MetaCommandSet/x:MetaCommand", NS):
-        decl = {a.get("name"): a for a in mc.findall("x:ArgumentList/x:Argument", NS)}
+        decl = {_attr(a, "name"): a for a in mc.findall("x:ArgumentList/x:Argument", NS)}
         order = [
-            e.get("argumentRef") for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)
+            _attr(e, "argumentRef")
+            for e in mc.findall("x:CommandContainer/x:EntryList/x:ArgumentRefEntry", NS)
         ]
         if sorted(order) != sorted(decl):
             raise ValueError(f"{mc.get('name')}: every argument must be placed exactly once")
         if mc.get("abstract") == "true":
-            header = [(n, types[decl[n].get("argumentTypeRef")]["bits"]) for n in order]
+            header = [(n, types[_attr(decl[n], "argumentTypeRef")]["bits"]) for n in order]
             continue
         assign = {
-            a.get("argumentName"): a.get("argumentValue") for a in mc.findall(".//x:ArgumentAssignment", NS)
+            _attr(a, "argumentName"): _attr(a, "argumentValue")
+            for a in mc.findall(".//x:ArgumentAssignment", NS)
         }
         apid = int(assign["ccsds_apid"])
-        cmd = Command(mc.get("name"), opcodes[assign["opcode"]], mc.get("shortDescription", ""))
+        cmd = Command(_attr(mc, "name"), opcodes[assign["opcode"]], mc.get("shortDescription", ""))
         off = 0
         for n in order:
-            tname = decl[n].get("argumentTypeRef")
+            tname = _attr(decl[n], "argumentTypeRef")
             t = types[tname]
             a = Arg(
                 n,
@@ -350,6 +369,8 @@ def load_tc(path: str | None = None) -> TcDictionary:
         if int(assign["ccsds_length"]) != 2 + cmd.arg_len - 1:
             raise ValueError(f"{cmd.name}: ccsds_length disagrees with its arguments")
         cmds.append(cmd)
+    if apid is None:
+        raise ValueError("XTCE: no telecommand (the ccsds_apid is given by the commands)")
     cmds.sort(key=lambda c: c.opcode)
     return TcDictionary(apid, header, {c.name: c for c in cmds}, statuses)
 
@@ -417,7 +438,7 @@ def _table_status(code: int) -> str:
     """The loader's own words for a table status (the C core: mfns_caltable_strerror), with the
     number; the number alone when the core library is not there."""
     try:
-        from . import binding
+        from ..core import binding
 
         text = binding.load().mfns_caltable_strerror(int(code)).decode()
     except Exception:  # no core library: the number is still right
@@ -590,30 +611,3 @@ def render_doc(text: str, d: Dictionary | None = None) -> str:
     if missing:
         raise ValueError(f"docs/telemetry.md lacks the markers of {sorted(missing)}")
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mfns.tlm_dict", description=__doc__.splitlines()[0])
-    ap.add_argument("doc", nargs="?", default=str(REPO / "docs" / "telemetry.md"))
-    g = ap.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write", action="store_true", help="regenerate the doc's tables in place")
-    g.add_argument("--check", action="store_true", help="exit 1 when the doc's tables are stale")
-    a = ap.parse_args(argv)
-    doc = Path(a.doc)
-    text = doc.read_text()
-    new = render_doc(text)
-    if a.check:
-        if new != text:
-            print(
-                f"{doc}: tables differ from {mdb_path()} (run python -m mfns.tlm_dict --write)",
-                file=sys.stderr,
-            )
-            return 1
-        return 0
-    if new != text:
-        doc.write_text(new)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

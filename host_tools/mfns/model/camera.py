@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import validate as V
-from .calib_results import CAMERA_NAMES, camera_entry
-from .errors import MfnsError
+from ..analysis.calib_results import CAMERA_NAMES, camera_entry
+from ..core import validate as V
+from ..core.errors import MfnsError
 
 
 @dataclass

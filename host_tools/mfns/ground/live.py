@@ -1,7 +1,7 @@
 """`mfns live`: the navigation solution as a live Foxglove WebSocket stream on 127.0.0.1
 (docs/robotics.md "Live").
 
-Channels, the same ROS 2 messages as `mfns export` (mfns.rosmsg; CDR with their ros2msg
+Channels, the same ROS 2 messages as `mfns export` (mfns.tlm.rosmsg; CDR with their ros2msg
 schemas, which Foxglove decodes and draws: the pose with its covariance ellipsoid, the TF
 tree, the camera frusta from CameraInfo, the diagnostics):
 /mfns/pose, /tf, /tf_static, /mfns/cam_<k>/camera_info, /diagnostics; and, in Foxglove's own
@@ -24,9 +24,9 @@ import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from . import rosmsg
-from .errors import MfnsError
-from .rosexport import Encoders, Frames, ground_folder, load_cameras
+from ..core.errors import MfnsError
+from ..tlm import rosmsg
+from ..tlm.rosexport import Encoders, Frames, ground_folder, load_cameras
 
 HOST = "127.0.0.1"
 RESEND_S = 1.0  # /tf_static, camera info and beacons again every second (late viewers)
@@ -38,7 +38,8 @@ class Tail:
     """Rows of a CSV file that is still being written: complete lines only."""
 
     def __init__(self, path: Path) -> None:
-        self.path, self.pos, self.header, self.part = path, 0, None, ""
+        self.path, self.pos, self.part = path, 0, ""
+        self.header: list[str] | None = None
 
     def rows(self) -> list[dict]:
         if not self.path.is_file():
@@ -50,7 +51,7 @@ class Tail:
         text = self.part + data
         lines = text.split("\n")
         self.part = lines.pop()  # an unfinished line waits for its end
-        out = []
+        out: list[dict[str, str]] = []
         for line in lines:
             if not line:
                 continue
@@ -196,7 +197,7 @@ def load_beacons(table: Path | None):
     """(ids, positions mm) of the table's map, or None without a table."""
     if table is None:
         return None
-    from .table.check import read_table
+    from ..table.check import read_table
 
     t = read_table(Path(table).read_bytes())
     return [int(b) for b in t.beacon_ids], [[float(v) for v in p] for p in t.beacon_pos]
@@ -205,7 +206,7 @@ def load_beacons(table: Path | None):
 def replay(folder: Path, pace: float, loop: bool, deadline: Callable[[], bool]) -> Iterator[tuple[str, dict]]:
     """('nav'|'camera', row) in UTC order, released at `pace` times the recorded spacing
     (0: at once), from the start again with `loop`, until `deadline()`."""
-    from .rosexport import read_rows
+    from ..tlm.rosexport import read_rows
 
     nav = read_rows(folder / "nav.csv")
     cams = read_rows(folder / "camera.csv") if (folder / "camera.csv").is_file() else []

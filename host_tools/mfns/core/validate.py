@@ -204,7 +204,7 @@ def string(v: object, name: str) -> str:
 def array(v: object, name: str, shape: tuple[int, ...]) -> np.ndarray:
     """A nested JSON list of finite numbers of exactly this shape, as float64."""
 
-    def walk(x: object, dims: tuple[int, ...], where: str) -> list:
+    def walk(x: object, dims: tuple[int, ...], where: str) -> float | list:
         if not dims:
             return number(x, where)
         if not isinstance(x, list) or len(x) != dims[0]:

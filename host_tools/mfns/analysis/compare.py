@@ -28,12 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from .. import __version__
+from ..core.errors import MfnsError
+from ..model.rotations import matrix_to_euler213_deg, rot_log
 from . import nees as nees_mod
 from . import report as rpt
+from .calib_results import CAMERA_NAMES
 from .calib_results import load as load_calib
-from .errors import MfnsError
-from .rotations import matrix_to_euler213_deg, rot_log
 
 EXPERIMENTS = {
     "turntable": "the paper's turntable run (Sec. 5: ten beacons, rotation about Zt)",
@@ -44,7 +45,7 @@ TABLES = {
     "refined-calibration": "table from our refined calibration",
     "paper-calibration": "table from the paper's CPC calibration",
 }
-CAMERAS = ("x", "y", "z")
+CAMERAS = CAMERA_NAMES
 # What each flight reason (firmware/nav/pose/pose.h, named by the C core) means for availability.
 # The reason text itself comes from mfns_pose_strerror through the core library when built.
 WHY = {
@@ -101,7 +102,7 @@ def _paper() -> tuple[dict, dict]:
     )
 
 
-def _f(x: float, nd: int = 4) -> str:
+def _f(x: float | None, nd: int = 4) -> str:
     return "-" if x is None or not np.isfinite(x) else f"{x:.{nd}f}"
 
 
@@ -390,7 +391,8 @@ def _reason_text(code: int) -> tuple[str, str]:
     """(name, meaning) of a pose reason code: the C core's text (mfns_pose_strerror), else the
     TM dictionary's description of the code (package data: always there), else why not. The
     meaning column is never left silently empty."""
-    from . import flight, tlm_dict
+    from ..core import flight
+    from ..tlm import tlm_dict
 
     name = flight.REASONS[code] if 0 <= code < len(flight.REASONS) else f"code {code}"
     try:

@@ -1,0 +1,3 @@
+"""Error analysis and reports: Monte Carlo, NEES, the paper comparison, the ground report,
+calibration results.
+"""

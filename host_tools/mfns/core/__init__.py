@@ -1,0 +1,3 @@
+"""The C core seen from Python: the ctypes binding and its header check, the flight solver wrapper,
+errors, checked input reading.
+"""

@@ -1,0 +1,1 @@
+"""Ground-side programs: the Yamcs ground system, the operator's view, the live Foxglove stream."""

@@ -1,0 +1,3 @@
+"""The imaging and pose model in numpy: camera, rotations, the reference pose solver, synthetic
+observations.
+"""
