@@ -126,7 +126,7 @@ check "mfns.ground.ground_yamcs: run folder without the repository" "$v/python" 
 import pathlib, mfns.ground.ground_yamcs as g
 r = g.prepare(pathlib.Path('yamcs-run'))
 assert (r / 'etc' / 'yamcs.mfns.yaml').is_file() and (r / 'mdb' / 'mfns_tm.xml').is_file()
-import mfns.data, mfns.tlm_dict as t
+import mfns.data, mfns.tlm.tlm_dict as t
 assert all('contract' not in str(mfns.data.dictionary(n)) and mfns.data.dictionary(n).is_file()
            for n in ('mfns_tm.xml', 'mfns_tc.xml', 'mfns_ground.xml')), 'dictionaries not in the wheel'
 assert 'fixobs' in t.load().packets

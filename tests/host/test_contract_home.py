@@ -76,7 +76,7 @@ def test_ground_summary_counts_every_tm_packet(tmp_path):
     summary's packet names with the dictionary's."""
     import pytest
 
-    from mfns import tlm_dict
+    from mfns.tlm import tlm_dict
 
     bindir = REPO / "build" / "host-sim" / "bin"
     gen, ground = bindir / "mfns-tlm-gen", bindir / "mfns-ground"
