@@ -151,7 +151,10 @@ install -m 0644 "$tables"/*.mfnstbl "$root/usr/share/mfns/tables/"
 cp "$here/../service/mfns-nav.default" "$root/etc/default/mfns-nav.debian"  # the Debian unit's, for reference
 # The flight program's configuration: a file when the program reads one
 # (--config, s-app's /etc/mfns/mfns-nav.conf), else its options.
-if qemu-aarch64 "$root/usr/bin/mfns-nav" --help 2>&1 | grep -q -- '--config'; then
+# (read whole first: grep -q stopping at the first match would end the writer
+# with SIGPIPE, which pipefail turns into "no --config")
+nav_help=$(qemu-aarch64 "$root/usr/bin/mfns-nav" --help 2>&1 || true)
+if grep -q -- '--config' <<<"$nav_help"; then
   install -m 0644 "$here/mfns-nav.conf" "$root/etc/mfns/mfns-nav.conf"
   echo 'MFNS_NAV_ARGS="--config /etc/mfns/mfns-nav.conf"' > "$root/etc/default/mfns-nav"
 else
