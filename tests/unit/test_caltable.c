@@ -34,18 +34,8 @@ static void gen_path(char *dst, size_t n, const char *name)
 static int setup(void **state)
 {
     (void)state;
-    char path[512];
-    const int w = snprintf(path, sizeof path, "%s/default.mfnstbl", mfns_test_gen_dir());
-    if (w <= 0 || (size_t)w >= sizeof path) {
-        return -1;
-    }
-    FILE *f = fopen(path, "rb");
-    if (f == NULL) {
-        fprintf(stderr, "cannot open %s (run make gen)\n", path);
-        return -1;
-    }
-    g_good_len = fread(g_good, 1, sizeof g_good, f);
-    if (fclose(f) != 0 || g_good_len == 0) {
+    g_good_len = mfns_test_read_gen("default.mfnstbl", g_good, sizeof g_good);
+    if (g_good_len == 0) {
         return -1;
     }
     uint32_t off = 0;

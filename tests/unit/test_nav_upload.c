@@ -24,18 +24,7 @@ static nav_upload_t g_u;
 static int load_default(void **state)
 {
     (void)state;
-    char path[512];
-    const int w = snprintf(path, sizeof path, "%s/default.mfnstbl", mfns_test_gen_dir());
-    if (w <= 0 || (size_t)w >= sizeof path) {
-        return -1;
-    }
-    FILE *f = fopen(path, "rb");
-    if (f == NULL) {
-        fprintf(stderr, "cannot open %s (run make gen)\n", path);
-        return -1;
-    }
-    const size_t n = fread(g_file, 1, sizeof g_file, f);
-    (void)fclose(f);
+    const size_t n = mfns_test_read_gen("default.mfnstbl", g_file, sizeof g_file);
     g_size = (uint32_t)n;
     return n > 0u ? 0 : -1;
 }

@@ -1,6 +1,7 @@
 /* testutil.c -- see testutil.h. */
 #include "tests/unit/support/testutil.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 
 void mfns_assert_near(double actual, double expected, double tol, const char *expr, const char *file,
@@ -42,4 +43,23 @@ const char *mfns_test_gen_dir(void)
 {
     const char *g = getenv("MFNS_GEN");
     return (g != NULL && g[0] != '\0') ? g : "build/gen";
+}
+
+size_t mfns_test_read_gen(const char *name, uint8_t *buf, size_t cap)
+{
+    char path[512];
+    const int w = snprintf(path, sizeof path, "%s/%s", mfns_test_gen_dir(), name);
+    if (w <= 0 || (size_t)w >= sizeof path) {
+        return 0;
+    }
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        fprintf(stderr, "cannot open %s (run make gen)\n", path);
+        return 0;
+    }
+    const size_t n = fread(buf, 1, cap, f);
+    if (fclose(f) != 0) {
+        return 0;
+    }
+    return n;
 }
