@@ -14,6 +14,8 @@
 
 #include "firmware/linux/txq_drain.h"
 
+_Static_assert(TC_MAX_WIRE <= TLM_TXQ_MAX_WIRE, "a command frame fits the uplink queue");
+
 #define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
 #define TCP_CLOSE_MS 3000u /* what the TCP receiver still takes at exit, at most (bounded) */
 
@@ -422,6 +424,11 @@ static void hook_finish(void *ctx, mfns_uart_t *src)
 {
     uplink_t *up = ctx;
     hook_poll(ctx, src, mfns_uart_now_ms()); /* what the last packets made due (a recording's last report) */
+    tc_cmd_t abort_cmd;
+    if (up->o.upload != NULL && uplink_auth_ready(&up->auth) &&
+        ground_upload_abort(&up->upl, mfns_uart_now_ms(), &abort_cmd)) {
+        (void)send_cmd(up, &abort_cmd, "upload", "UPLOAD_ABORT", false); /* flushed below */
+    }
     mfns_uart_t *u = out_link(up, src);
     for (int i = 0; u != NULL && i < FLUSH_TRIES && tlm_txq_frames(&up->q) > 0u; i++) {
         (void)txq_drain(&up->q, u, mfns_uart_now_ms());
@@ -535,6 +542,9 @@ static bool report_upload(const ground_upload_t *g)
     char why[256];
     if (g->phase == UPLOAD_FAILED && g->reject != 0) {
         (void)snprintf(why, sizeof why, "refused: %s (%s)", tc_status_name(g->reject), tc_strerror(g->reject));
+    } else if (g->aborted) {
+        (void)snprintf(why, sizeof why, "interrupted at offset %u of %u: UPLOAD_ABORT sent (nothing stored)", g->acked,
+                       g->size);
     } else if (g->phase == UPLOAD_FAILED) {
         (void)snprintf(why, sizeof why, "no answer from the board (%u tries of %u ms)", UPLOAD_TRIES, UPLOAD_ANSWER_MS);
     } else {

@@ -220,3 +220,15 @@ bool ground_upload_finished(const ground_upload_t *g)
 {
     return g->phase == UPLOAD_OK || g->phase == UPLOAD_FAILED;
 }
+
+bool ground_upload_abort(ground_upload_t *g, uint64_t now_ms, tc_cmd_t *cmd)
+{
+    if (ground_upload_finished(g) || g->phase == UPLOAD_OFF || g->t_start_ms == 0u) {
+        return false;
+    }
+    memset(cmd, 0, sizeof *cmd);
+    cmd->opcode = TC_OP_UPLOAD_ABORT;
+    fail(g, 0, now_ms);
+    g->aborted = true;
+    return true;
+}

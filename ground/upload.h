@@ -15,6 +15,10 @@
  * sent again, which resumes the board's open upload and answers its next
  * expected offset; UPLOAD_TRIES such rounds without progress end the upload.
  * Any other refusal ends it with that code, named (tc_status_name).
+ * A run that ends before the answer to UPLOAD_END (Ctrl-C, --max-seconds,
+ * the link gone) sends UPLOAD_ABORT: the board drops the upload, nothing is
+ * stored (a ground that dies without it leaves the upload open on the board:
+ * the same --upload resumes it, or the board abandons it after 10 min).
  */
 #ifndef MFNS_GROUND_UPLOAD_H
 #define MFNS_GROUND_UPLOAD_H
@@ -60,6 +64,7 @@ typedef struct {
     int reject;                     /* the refusal's tc_status_t, 0: none (or no answer) */
     uint32_t table_crc;             /* UPLOAD_END's answer: the table now flying */
     uint32_t n_data, n_resent, n_gaps, n_restarts;
+    bool aborted;                   /* the run ended first: UPLOAD_ABORT sent */
 } ground_upload_t;
 
 /* Reads path into buf (cap bytes), its CRC-32 and its name (the base name,
@@ -73,5 +78,8 @@ void ground_upload_sent(ground_upload_t *g, const tc_cmd_t *cmd, uint16_t seq, u
 /* Every event packet received (others are ignored). */
 void ground_upload_event(ground_upload_t *g, const tlm_event_t *e, uint64_t now_ms);
 bool ground_upload_finished(const ground_upload_t *g);
+/* The run ends unfinished: true with *cmd the UPLOAD_ABORT to send when
+ * something was sent (then the upload counts as aborted). */
+bool ground_upload_abort(ground_upload_t *g, uint64_t now_ms, tc_cmd_t *cmd);
 
 #endif /* MFNS_GROUND_UPLOAD_H */
