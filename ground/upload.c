@@ -33,7 +33,7 @@ int ground_upload_open(ground_upload_t *g, const char *path, uint8_t *buf, size_
     const char *base = strrchr(path, '/');
     base = base != NULL ? base + 1 : path;
     size_t k = 0;
-    for (; base[k] != '\0' && k < sizeof g->name - 1u; k++) {
+    for (; k < sizeof g->name - 1u && base[k] != '\0'; k++) {
         const char c = base[k];
         const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '.' ||
                         c == '_' || c == '-';

@@ -148,7 +148,7 @@ static tc_status_t table_load_first(nav_app_t *app, const char *path, int32_t *a
 /* TABLE_LOAD: read and validate completely into the spare slot, then bind the
  * navigator to it (between cycles, so no cycle ever sees half a table). The
  * old table keeps running on any failure. */
-tc_status_t nav_cmds_table_load(nav_app_t *app, const char *path, int32_t *arg1)
+static tc_status_t table_load(nav_app_t *app, const char *path, int32_t *arg1)
 {
     if (app->waiting_table) {
         return table_load_first(app, path, arg1);
@@ -225,7 +225,17 @@ tc_status_t nav_cmds_table_load(nav_app_t *app, const char *path, int32_t *arg1)
 
 static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
-    return nav_cmds_table_load(ctx, cmd->u.path, arg1);
+    return table_load(ctx, cmd->u.path, arg1);
+}
+
+/* UPLOAD_END: the received file checked and stored (nav_cmds_upload.h), then
+ * loaded as TABLE_LOAD loads a file (a refused one leaves the old table flying). */
+static tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+{
+    (void)cmd;
+    char path[512];
+    const tc_status_t st = nav_cmds_upload_end(ctx, path, sizeof path);
+    return st == TC_OK ? table_load(ctx, path, arg1) : st;
 }
 
 /* Indexed by the opcode, generated from the dictionary: TC_OPCODE_LIST

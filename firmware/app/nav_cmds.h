@@ -18,25 +18,17 @@
  *                   the navigator to it; on any failure the old table stays
  *                   (TABLE_REFUSED event, TC_E_TABLE); arg1 = the new crc
  *   UPLOAD_START / UPLOAD_DATA / UPLOAD_END / UPLOAD_ABORT
- *                   a table over the link (nav_cmds_upload.h): END loads it
- *                   through nav_cmds_table_load, the TABLE_LOAD path
+ *                   a table over the link (nav_cmds_upload.h): END loads the
+ *                   stored file through the TABLE_LOAD path (table_load)
  *
  * Every command's outcome is also one stderr line (nav_cmds_ops' event).
  */
 #ifndef MFNS_NAV_CMDS_H
 #define MFNS_NAV_CMDS_H
 
-#include <stdint.h>
-
 #include "firmware/app/nav_cmd_dispatch.h"
 
 struct nav_app; /* nav_app.h */
-
-/* TABLE_LOAD's action on a path on the board (also the end of an upload):
- * validated completely, then swapped in between cycles and stored; while
- * waiting for a first table it becomes the first. TC_OK with *arg1 the new
- * table's CRC, or TC_E_TABLE with the old table still flying. */
-tc_status_t nav_cmds_table_load(struct nav_app *app, const char *path, int32_t *arg1);
 
 /* The dispatch's view of the program: the command table and the event
  * hook, acting on app. */

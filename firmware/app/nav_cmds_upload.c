@@ -4,9 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "firmware/app/nav_app.h"
 #include "firmware/app/nav_app_state.h"
-#include "firmware/app/nav_cmds.h"
 #include "firmware/app/nav_upload.h"
 
 /* The wire's segment and name are the receiver's: one size each. */
@@ -77,11 +75,9 @@ tc_status_t cmd_UPLOAD_DATA(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     return refused(app, "UPLOAD_DATA", s);
 }
 
-tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+tc_status_t nav_cmds_upload_end(nav_app_t *app, char *path, size_t path_len)
 {
-    nav_app_t *app = ctx;
     nav_upload_t *u = &app->upload;
-    (void)cmd;
     const nav_upload_status_t s = nav_upload_end(u, up_now_ms());
     if (s != NAV_UP_OK) {
         return refused(app, "UPLOAD_END", s);
@@ -101,8 +97,7 @@ tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         fprintf(stderr, "mfns-nav: cycle %u: upload not stored: no --state-dir\n", app->cycle_now);
         return TC_E_UPLOAD_STORE;
     }
-    char path[512];
-    const int err = nav_upload_store(u, app->state_dir, path, sizeof path);
+    const int err = nav_upload_store(u, app->state_dir, path, path_len);
     if (err != 0) {
         app->n_storage_errors++; /* housekeeping n_storage_errors */
         fprintf(stderr, "mfns-nav: cycle %u: upload not stored in %s: %s; the old table stays\n", app->cycle_now,
@@ -110,7 +105,7 @@ tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
         return TC_E_UPLOAD_STORE;
     }
     fprintf(stderr, "mfns-nav: cycle %u: upload complete and stored as %s: loading it\n", app->cycle_now, path);
-    return nav_cmds_table_load(app, path, arg1);
+    return TC_OK;
 }
 
 tc_status_t cmd_UPLOAD_ABORT(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)

@@ -15,13 +15,13 @@
  *
  * UPLOAD_END, after size and CRC-32 are right: the loader validates the
  * bytes in RAM, they are written atomically to STATE_DIR/upload.mfnstbl
- * (nav_upload_store) and that file is loaded by nav_cmds_table_load, the
- * TABLE_LOAD path (re-bind or swap between cycles, the table store's commit);
+ * (nav_upload_store) and that file is loaded by nav_cmds.c's TABLE_LOAD path (re-bind or swap between cycles, the table store's commit);
  * without --state-dir nothing is stored (TC_E_UPLOAD_STORE).
  */
 #ifndef MFNS_NAV_CMDS_UPLOAD_H
 #define MFNS_NAV_CMDS_UPLOAD_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "firmware/tlm/tc_packets.h"
@@ -30,7 +30,10 @@ struct nav_app; /* nav_app_state.h */
 
 tc_status_t cmd_UPLOAD_START(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
 tc_status_t cmd_UPLOAD_DATA(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
-tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
+/* UPLOAD_END up to the load: size and CRC checked, the table validated in
+ * RAM, stored as STATE_DIR/upload.mfnstbl, whose path goes to path. TC_OK:
+ * the caller (nav_cmds.c cmd_UPLOAD_END) loads path by the TABLE_LOAD path. */
+tc_status_t nav_cmds_upload_end(struct nav_app *app, char *path, size_t path_len);
 tc_status_t cmd_UPLOAD_ABORT(void *ctx, const tc_cmd_t *cmd, int32_t *arg1);
 
 /* Once per cycle (and per tick while waiting for a table): an upload idle

@@ -187,7 +187,11 @@ SAMPLES = {
     "TABLE_LOAD": {"path": "/data/tables/next.mfnstbl"},
     "UPLOAD_START": {"size": 106780, "crc32": 0x9A521E07, "name": "table2.mfnstbl"},
     # every byte value, the last ones past length (they travel, the board ignores them)
-    "UPLOAD_DATA": {"offset": 0xFEDCBA98, "length": 200, "data": bytes((i * 7 + 3) & 0xFF for i in range(200))},
+    "UPLOAD_DATA": {
+        "offset": 0xFEDCBA98,
+        "length": 200,
+        "data": bytes((i * 7 + 3) & 0xFF for i in range(200)),
+    },
     "UPLOAD_END": {},
     "UPLOAD_ABORT": {},
 }
@@ -321,7 +325,11 @@ def test_upload_data_carries_its_block(lib):
     header, cmds = commands(root)
     vals = dict(SAMPLES["UPLOAD_DATA"])
     rc, back = c_decode(lib, xtce_packet(header, cmds["UPLOAD_DATA"], types, vals, 9))
-    assert rc == 0 and bytes(back.u.upload_data.bytes) == vals["data"] and back.u.upload_data.offset == vals["offset"]
+    assert (
+        rc == 0
+        and bytes(back.u.upload_data.bytes) == vals["data"]
+        and back.u.upload_data.offset == vals["offset"]
+    )
     for n, ok in ((0, False), (1, True), (200, True), (201, False)):
         rc, _ = c_decode(lib, xtce_packet(header, cmds["UPLOAD_DATA"], types, {**vals, "length": n}, 9))
         assert (rc == 0) == ok, (n, rc)

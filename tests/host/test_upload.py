@@ -65,7 +65,15 @@ def run(tmp_path_factory) -> dict:
     frames = d / "frames"
     mfns("sim", "nav", str(frames), "--quiet", "--scenario", "module", "--frames", "360", "--seed", "3")
     for name, extra in (("table.mfnstbl", []), ("table2.mfnstbl", ["--pixel-sigma", "0.3"])):
-        mfns("table", "build", str(frames / "calib.json"), str(frames / "beacons.csv"), "-o", str(d / name), *extra)
+        mfns(
+            "table",
+            "build",
+            str(frames / "calib.json"),
+            str(frames / "beacons.csv"),
+            "-o",
+            str(d / name),
+            *extra,
+        )
     key = d / "board.key"
     fd = os.open(key, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     with os.fdopen(fd, "w") as f:
@@ -95,9 +103,9 @@ class Board:
     def ground(self, out: str, *extra: str) -> subprocess.Popen:
         return subprocess.Popen(
             [
-                str(self.bins / "mfns-ground"), "--tty", str(self.tlm), "--out", str(self.d / out), "--no-status",
-                "--max-seconds", "45", "--tc-tty", str(self.tc), "--tc-key", str(self.run["key"]),
-                "--tc-state", str(self.d / "ground.state"), *extra,
+                str(self.bins / "mfns-ground"), "--tty", str(self.tlm), "--out", str(self.d / out),
+                "--no-status", "--max-seconds", "45", "--tc-tty", str(self.tc),
+                "--tc-key", str(self.run["key"]), "--tc-state", str(self.d / "ground.state"), *extra,
             ],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
@@ -105,8 +113,8 @@ class Board:
     def housekeeping_crcs(self, out: str) -> list[str]:
         """A second ground on the telemetry FIFO for 3 s: the table CRCs housekeeping reports."""
         res = subprocess.run(
-            [str(self.bins / "mfns-ground"), "--tty", str(self.tlm), "--out", str(self.d / out), "--no-status",
-             "--max-seconds", "3"],
+            [str(self.bins / "mfns-ground"), "--tty", str(self.tlm), "--out", str(self.d / out),
+             "--no-status", "--max-seconds", "3"],
             capture_output=True, text=True, timeout=30, check=False,
         )  # fmt: skip
         assert res.returncode == 0, res.stderr
@@ -130,7 +138,8 @@ def upload_events(ground: Path) -> list[tuple[str, str, int]]:
     return [
         (e["event"], names.get(int(e["subject"]), "?"), int(e["arg1"]))
         for e in rows(ground / "events.csv")
-        if e["event"] in ("CMD_ACCEPTED", "CMD_REJECTED") and names.get(int(e["subject"]), "").startswith("UPLOAD")
+        if e["event"] in ("CMD_ACCEPTED", "CMD_REJECTED")
+        and names.get(int(e["subject"]), "").startswith("UPLOAD")
     ]
 
 
@@ -148,8 +157,11 @@ def test_a_valid_table_is_stored_and_flown(bins, run, tmp_path):
         out, err = g.communicate(timeout=60)
         wall = time.monotonic() - t0
         assert g.returncode == 0, out + err
-        m = re.search(r"upload table2\.mfnstbl: (\d+) bytes \(crc (\w+)\) in ([\d.]+) s .*: stored and loaded, "
-                      r"table crc (\w+)", out)  # fmt: skip
+        m = re.search(
+            r"upload table2\.mfnstbl: (\d+) bytes \(crc (\w+)\) in ([\d.]+) s .*: stored and loaded, "
+            r"table crc (\w+)",
+            out,
+        )
         assert m, out
         size, secs, new_crc = int(m.group(1)), float(m.group(3)), "0x" + m.group(4)
         data = run["table2"].read_bytes()
@@ -168,7 +180,11 @@ def test_a_valid_table_is_stored_and_flown(bins, run, tmp_path):
     assert n_data == math.ceil(size / SEG)  # a lossless FIFO: no segment sent twice
     ev = upload_events(tmp_path / "g")
     assert ev[0] == ("CMD_ACCEPTED", "UPLOAD_START", 0)
-    assert ev[-1] == ("CMD_ACCEPTED", "UPLOAD_END", int(new_crc, 16) - (1 << 32 if int(new_crc, 16) >= 1 << 31 else 0))
+    assert ev[-1] == (
+        "CMD_ACCEPTED",
+        "UPLOAD_END",
+        int(new_crc, 16) - (1 << 32 if int(new_crc, 16) >= 1 << 31 else 0),
+    )
     data_acks = [a for e, o, a in ev if o == "UPLOAD_DATA"]
     assert data_acks == [min((i + 1) * SEG, size) for i in range(n_data)]  # the next expected offsets
     assert "re-bound, the track goes on" in nav_err or "TABLE_LOAD" in nav_err
