@@ -131,11 +131,13 @@ void ground_upload_sent(ground_upload_t *g, const tc_cmd_t *cmd, uint16_t seq, u
             break;
         }
     }
-    if (cmd->u.upload_data.offset < g->acked) {
+    const uint32_t end = cmd->u.upload_data.offset + cmd->u.upload_data.len;
+    if (cmd->u.upload_data.offset < g->sent_end) {
         g->n_resent++;
     }
+    g->sent_end = end > g->sent_end ? end : g->sent_end;
     g->n_data++;
-    g->send_off = cmd->u.upload_data.offset + cmd->u.upload_data.len;
+    g->send_off = end;
 }
 
 static void control_answer(ground_upload_t *g, const tlm_event_t *e, bool ok, uint64_t now_ms)

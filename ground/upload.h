@@ -53,6 +53,7 @@ typedef struct {
     char name[TC_UPLOAD_NAME_MAX];
     uint32_t acked;                 /* the board's next expected offset, the highest reported */
     uint32_t send_off;              /* the next segment's offset */
+    uint32_t sent_end;              /* the furthest byte sent so far (a segment below it is re-sent) */
     uint32_t gen;
     upload_slot_t slot[UPLOAD_WINDOW];
     unsigned n_inflight;
