@@ -626,11 +626,21 @@ def type_const(tname: str) -> str:
 
 
 # A command whose arguments' c_field is "member.field" gets a struct: member -> its C type name.
-C_ARG_STRUCTS = {"pose": "tc_pose_hint_t"}
+C_ARG_STRUCTS = {"pose": "tc_pose_hint_t", "upload_start": "tc_upload_start_t", "upload_data": "tc_upload_data_t"}
 
 
 def _arg_ctype(a) -> str:
     return ("int" if a.signed else "uint") + f"{a.bits}_t"
+
+
+def _arg_member(a, name: str) -> str:
+    """The C declaration of an argument as member name: an integer, a NUL-padded string
+    (char[TYPE_MAX]) or a fixed-size binary block (uint8_t[TYPE_LEN])."""
+    if a.kind == "string":
+        return f"char {name}[{type_const(a.type_name)}_MAX]"
+    if a.kind == "binary":
+        return f"uint8_t {name}[{type_const(a.type_name)}_LEN]"
+    return f"{_arg_ctype(a)} {name}"
 
 
 def tc_args_union(t) -> list[str]:
@@ -658,14 +668,19 @@ def tc_args_union(t) -> list[str]:
                 fields.setdefault(base, []).append((idx, a))
             L += [f"/* The arguments of {cmds}. */", "typedef struct {"]
             for base, items in fields.items():
-                n = "" if items[0][0] is None else f"[{len(items)}]"
                 names = ", ".join(a.name for _i, a in items)
                 doc = ccomment(items[0][1].description)
-                L.append(f"    {_arg_ctype(items[0][1])} {base}{n}; /* {names}: {doc} */")
+                if items[0][0] is None:
+                    L.append(f"    {_arg_member(items[0][1], base)}; /* {names}: {doc} */")
+                else:
+                    assert items[0][1].kind in ("int", "enum", "float"), f"{names}: arrays of integers only"
+                    L.append(f"    {_arg_ctype(items[0][1])} {base}[{len(items)}]; /* {names}: {doc} */")
             L += [f"}} {sname};", ""]
             body.append(f"    {sname} {top}; /* {cmds} */")
         elif a0.kind == "string":
             body.append(f"    char {top}[{type_const(a0.type_name)}_MAX]; /* {cmds}: NUL-padded */")
+        elif a0.kind == "binary":
+            body.append(f"    uint8_t {top}[{type_const(a0.type_name)}_LEN]; /* {cmds}: raw bytes */")
         else:
             body.append(f"    {_arg_ctype(a0)} {top}; /* {cmds}: {ccomment(a0.description)} */")
     return L + [
@@ -761,6 +776,8 @@ def tc_codes_h(t) -> str:
             k = type_const(a.type_name)
             if a.kind == "string":
                 L.append(f"#define {k}_MAX {a.size}u /* {ccomment(a.description)} */")
+            elif a.kind == "binary":
+                L.append(f"#define {k}_LEN {a.size}u /* {ccomment(a.description)} */")
             elif a.valid_range is not None:
                 lo, hi = a.valid_range
                 if lo == -hi:
@@ -787,7 +804,11 @@ def cases(items: list[tuple[str, list[str]]]) -> list[str]:
     return out
 
 
-def tc_check(a, v: str) -> str:
+def tc_check(a, v: str) -> str | None:
+    """The C condition an argument's value must meet; None when every value is valid (a binary
+    block, an integer without a ValidRange)."""
+    if a.kind == "binary" or (a.kind == "int" and a.valid_range is None):
+        return None
     if a.kind == "string":
         return f"tc_string_valid(c->u.{a.c_field}, sizeof c->u.{a.c_field})"
     if a.kind == "enum":
@@ -838,7 +859,7 @@ def tc_packets_c(t) -> str:
     ]
     checks = []
     for c in cmds:
-        conds = [tc_check(a, f"c->u.{a.c_field}") for a in c.args]
+        conds = [x for x in (tc_check(a, f"c->u.{a.c_field}") for a in c.args) if x is not None]
         expr = "(" + " &&\n                ".join(conds) + ") ? TC_OK : TC_E_ARG" if conds else "TC_OK"
         checks.append((f"TC_OP_{c.name}", [f"return {expr};"]))
     L += [
@@ -858,7 +879,7 @@ def tc_packets_c(t) -> str:
         out = []
         for a in c.args:
             v, o = f"c->u.{a.c_field}", a.offset
-            if a.kind == "string":
+            if a.kind in ("string", "binary"):
                 out.append(
                     f"        memcpy(a + {o}, {v}, {a.size}u);"
                     if pack
@@ -897,9 +918,13 @@ def tc_packets_c(t) -> str:
 def _arg_text(a) -> str:
     if a.kind == "string":
         return f"char {a.name}[{a.size}]: {a.description}"
+    if a.kind == "binary":
+        return f"u8 {a.name}[{a.size}]: {a.description}"
     ty = ("i" if a.signed else "u") + str(a.bits)
     if a.kind == "enum":
         return f"{ty} {a.name}: " + ", ".join(f"{v} {lab}" for v, (lab, _) in sorted(a.enum.items()))
+    if a.valid_range is None:
+        return f"{ty} {a.name}: {a.description}"
     lo, hi = a.valid_range
     if a.scale != 1.0:  # engineering units on the ground, counts of a.scale on the wire
         return f"{ty} {a.name} {lo * a.scale:g}..{hi * a.scale:g} {a.unit} (wire: counts of {a.scale:g} {a.unit})"

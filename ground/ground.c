@@ -325,6 +325,9 @@ int ground_run(const ground_opts_t *o, tlm_decoder_stats_t *stats_out)
         if (o->hooks != NULL && o->hooks->poll != NULL) {
             o->hooks->poll(o->hooks->ctx, &u, now); /* commands up, UDP commands in */
         }
+        if (o->hooks != NULL && o->hooks->done != NULL && o->hooks->done(o->hooks->ctx)) {
+            break; /* --upload answered */
+        }
         uint8_t buf[4096];
         size_t got = 0;
         const int rc = mfns_uart_read(&u, buf, sizeof buf, &got, 100, now);

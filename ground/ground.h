@@ -8,6 +8,7 @@
 #ifndef MFNS_GROUND_H
 #define MFNS_GROUND_H
 
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 
@@ -25,13 +26,15 @@ typedef enum { GROUND_SRC_NONE = 0, GROUND_SRC_SERIAL, GROUND_SRC_TTY, GROUND_SR
 
 /* Hooks for the uplink and the UDP forwarder (ground/uplink.h), called from
  * ground_run's loop: poll every iteration (<= 100 ms apart), packet for each
- * decoded packet, finish before the source closes. src is the source link
+ * decoded packet, finish before the source closes; done (nullable) ends the
+ * run when it says true (--upload answered). src is the source link
  * (commands go up on it with --uplink). */
 typedef struct {
     void *ctx;
     void (*poll)(void *ctx, mfns_uart_t *src, uint64_t now_ms);
     void (*packet)(void *ctx, const tlm_packet_t *p);
     void (*finish)(void *ctx, mfns_uart_t *src);
+    bool (*done)(void *ctx);
 } ground_hooks_t;
 
 typedef struct {

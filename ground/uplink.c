@@ -14,6 +14,8 @@
 
 #include "firmware/linux/txq_drain.h"
 
+_Static_assert(TC_MAX_WIRE <= TLM_TXQ_MAX_WIRE, "a command frame fits the uplink queue");
+
 #define FLUSH_TRIES 100 /* x 10 ms: commands drained at exit */
 #define TCP_CLOSE_MS 3000u /* what the TCP receiver still takes at exit, at most (bounded) */
 
@@ -232,8 +234,8 @@ static uint16_t pick_seq(uplink_t *up, const tc_cmd_t *c, bool keep_senders)
     return up->next_seq;
 }
 
-/* Give c its sequence count (pick_seq) and queue its frame. */
-static void send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const char *text, bool keep_senders)
+/* Give c its sequence count (pick_seq) and queue its frame: the count, or -1 when not sent. */
+static int send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const char *text, bool keep_senders)
 {
     uint8_t wire[TC_MAX_WIRE];
     size_t n = 0;
@@ -242,11 +244,12 @@ static void send_cmd(uplink_t *up, const tc_cmd_t *c, const char *source, const 
     if (st != TC_OK || tlm_txq_push(&up->q, wire, n) != TLM_OK) {
         up->n_errors++;
         fprintf(stderr, "mfns-ground: command '%s' not sent: %s\n", text, tc_strerror(st));
-        return;
+        return -1;
     }
     up->next_seq = (uint16_t)((seq + 1u) & TLM_CCSDS_SEQ_MASK);
     up->n_sent++;
     log_cmd(up, seq, c, source, text);
+    return (int)seq;
 }
 
 static void handle_line(uplink_t *up, const char *line, const char *source, uint64_t now_ms)
@@ -264,7 +267,7 @@ static void handle_line(uplink_t *up, const char *line, const char *source, uint
     if (kind == UPLINK_LINE_WAIT) {
         up->wait_until_ms = now_ms + (uint64_t)llround(w * 1000.0);
     } else if (kind == UPLINK_LINE_CMD) {
-        send_cmd(up, &c, source, line, false);
+        (void)send_cmd(up, &c, source, line, false);
     }
 }
 
@@ -334,8 +337,31 @@ static void poll_intake(uplink_t *up, udp_tc_in_t *in, const char *source, bool 
             fprintf(stderr, "mfns-ground: %s command refused: %s (not sent)\n", source, tc_strerror(st));
             continue;
         }
-        send_cmd(up, &c, source, tc_opcode_name(c.opcode), keep_senders);
+        (void)send_cmd(up, &c, source, tc_opcode_name(c.opcode), keep_senders);
     }
+}
+
+/* --upload: the upload's next commands, while the queue has room (it drops the oldest). */
+static void poll_upload(uplink_t *up, uint64_t now_ms)
+{
+    for (unsigned i = 0; up->o.upload != NULL && i < UPLOAD_WINDOW && tlm_txq_frames(&up->q) < UPLOAD_QUEUED_MAX;
+         i++) {
+        tc_cmd_t c;
+        if (!ground_upload_next(&up->upl, now_ms, &c)) {
+            break;
+        }
+        const int seq = send_cmd(up, &c, "upload", tc_opcode_name(c.opcode), false);
+        if (seq < 0) {
+            break; /* counted and said by send_cmd; tried again at the next poll */
+        }
+        ground_upload_sent(&up->upl, &c, (uint16_t)seq, now_ms);
+    }
+}
+
+static bool hook_done(void *ctx)
+{
+    const uplink_t *up = ctx;
+    return up->o.upload != NULL && ground_upload_finished(&up->upl) && tlm_txq_frames(&up->q) == 0u;
 }
 
 static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
@@ -375,6 +401,7 @@ static void hook_poll(void *ctx, mfns_uart_t *src, uint64_t now_ms)
     read_cmd_file(up, now_ms);
     poll_intake(up, &up->tcin, "udp", true); /* Yamcs: its own counts (pick_seq) */
     poll_intake(up, &up->sockin, "socket", false);
+    poll_upload(up, now_ms);
     if (u != NULL && tlm_txq_frames(&up->q) > 0u) {
         (void)txq_drain(&up->q, u, now_ms); /* a link not there yet: frames wait */
     }
@@ -386,6 +413,9 @@ static void hook_packet(void *ctx, const tlm_packet_t *p)
     if (p->type == TLM_TYPE_HK) {
         uplink_auth_housekeeping(&up->auth, &p->u.hk, mfns_uart_now_ms());
     }
+    if (p->type == TLM_TYPE_EVENT && up->o.upload != NULL) {
+        ground_upload_event(&up->upl, &p->u.event, mfns_uart_now_ms());
+    }
     (void)udp_forward_packet(&up->fwd, p);
     (void)tcp_forward_packet(&up->tcp, p);
 }
@@ -394,6 +424,11 @@ static void hook_finish(void *ctx, mfns_uart_t *src)
 {
     uplink_t *up = ctx;
     hook_poll(ctx, src, mfns_uart_now_ms()); /* what the last packets made due (a recording's last report) */
+    tc_cmd_t abort_cmd;
+    if (up->o.upload != NULL && uplink_auth_ready(&up->auth) &&
+        ground_upload_abort(&up->upl, mfns_uart_now_ms(), &abort_cmd)) {
+        (void)send_cmd(up, &abort_cmd, "upload", "UPLOAD_ABORT", false); /* flushed below */
+    }
     mfns_uart_t *u = out_link(up, src);
     for (int i = 0; u != NULL && i < FLUSH_TRIES && tlm_txq_frames(&up->q) > 0u; i++) {
         (void)txq_drain(&up->q, u, mfns_uart_now_ms());
@@ -426,7 +461,7 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
     up->sockin.fd = -1;
     up->tc.fd = -1;
     tlm_txq_init(&up->q);
-    up->hooks = (ground_hooks_t){up, hook_poll, hook_packet, hook_finish};
+    up->hooks = (ground_hooks_t){up, hook_poll, hook_packet, hook_finish, hook_done};
     char err[384];
     if (uplink_auth_open(&up->auth, o->tc_key, o->tc_epoch, o->tc_state, err, sizeof err) != 0) {
         fprintf(stderr, "mfns-ground: --tc-key %s\n", err);
@@ -451,6 +486,12 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
             fprintf(stderr, "mfns-ground: command output %s: %s\n", o->out_path, mfns_uart_strerror(rc));
             return -1;
         }
+    }
+    if (o->upload != NULL &&
+        ground_upload_open(&up->upl, o->upload, up->upl_buf, sizeof up->upl_buf, err, sizeof err) != 0) {
+        fprintf(stderr, "mfns-ground: --upload %s\n", err);
+        mfns_uart_close(&up->tc);
+        return -1;
     }
     if (o->cmd_file != NULL) {
         up->cmd_fd = strcmp(o->cmd_file, "-") == 0 ? STDIN_FILENO : open(o->cmd_file, O_RDONLY | O_CLOEXEC);
@@ -485,6 +526,33 @@ int uplink_open(uplink_t *up, const uplink_opts_t *o)
         return -1;
     }
     return 0;
+}
+
+/* The upload's outcome, one line on stdout (a refusal also on stderr): true when it failed. */
+static bool report_upload(const ground_upload_t *g)
+{
+    const double secs = g->t_done_ms > g->t_start_ms ? (double)(g->t_done_ms - g->t_start_ms) / 1000.0 : 0.0;
+    const double rate = secs > 0.0 ? (double)g->size / secs : 0.0;
+    if (g->phase == UPLOAD_OK) {
+        printf("mfns-ground: upload %s: %u bytes (crc %08x) in %.2f s (%.0f B/s; %u segments, %u re-sent, %u gaps, "
+               "%u restarts): stored and loaded, table crc %08x\n",
+               g->name, g->size, g->crc32, secs, rate, g->n_data, g->n_resent, g->n_gaps, g->n_restarts, g->table_crc);
+        return false;
+    }
+    char why[256];
+    if (g->phase == UPLOAD_FAILED && g->reject != 0) {
+        (void)snprintf(why, sizeof why, "refused: %s (%s)", tc_status_name(g->reject), tc_strerror(g->reject));
+    } else if (g->aborted) {
+        (void)snprintf(why, sizeof why, "interrupted at offset %u of %u: UPLOAD_ABORT sent (nothing stored)", g->acked,
+                       g->size);
+    } else if (g->phase == UPLOAD_FAILED) {
+        (void)snprintf(why, sizeof why, "no answer from the board (%u tries of %u ms)", UPLOAD_TRIES, UPLOAD_ANSWER_MS);
+    } else {
+        (void)snprintf(why, sizeof why, "not finished (the run ended at offset %u of %u)", g->acked, g->size);
+    }
+    printf("mfns-ground: upload %s: %u bytes (crc %08x): %s\n", g->name, g->size, g->crc32, why);
+    fprintf(stderr, "mfns-ground: upload %s %s\n", g->name, why);
+    return true;
 }
 
 int uplink_close(uplink_t *up)
@@ -533,5 +601,6 @@ int uplink_close(uplink_t *up)
     udp_tc_close(&up->tcin);
     udp_tc_close_unix(&up->sockin, up->o.tc_socket);
     uplink_auth_close(&up->auth);
-    return up->n_errors > 0u ? 1 : 0;
+    const bool upload_failed = up->o.upload != NULL && report_upload(&up->upl);
+    return up->n_errors > 0u || upload_failed ? 1 : 0;
 }

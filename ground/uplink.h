@@ -25,6 +25,12 @@
  *   CAMERA_DISABLE x|y|z|0|1|2
  *   TABLE_LOAD PATH                        a path on the board, < 64 characters
  *   WAIT SECONDS                           (ground only) pause the command file
+ *
+ * --upload FILE sends a file (a calibration table) with the UPLOAD_*
+ * commands (upload.h) once the uplink is ready, and ends the run when the
+ * board has answered UPLOAD_END (or refused the upload): exit 0 when the
+ * table was stored and loaded, 1 when refused (the reason named) or never
+ * answered.
  */
 #ifndef MFNS_GROUND_UPLINK_H
 #define MFNS_GROUND_UPLINK_H
@@ -38,6 +44,7 @@
 #include "firmware/tlm/tlm_txq.h"
 #include "ground/tcp_forward.h"
 #include "ground/udp_forward.h"
+#include "ground/upload.h"
 #include "ground/uplink_auth.h"
 
 #define UPLINK_MAX_CLI 32   /* --cmd options */
@@ -64,6 +71,7 @@ typedef struct {
     const char *out_dir;               /* for commands.csv (from ground_opts_t) */
     bool quiet;                        /* -q (from ground_opts_t): no counters at exit, errors only */
     uint32_t baud;
+    const char *upload;                /* --upload FILE or NULL */
 } uplink_opts_t;
 
 /* One parsed line. */
@@ -96,6 +104,8 @@ typedef struct {
     udp_tc_in_t sockin;      /* --tc-socket */
     uplink_auth_t auth;
     uint32_t n_sent, n_errors;
+    ground_upload_t upl;     /* --upload */
+    uint8_t upl_buf[UPLOAD_FILE_MAX];
 } uplink_t;
 
 /* Parse and remove uplink options from argv (the rest is left in rest[],

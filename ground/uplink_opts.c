@@ -27,6 +27,9 @@ void uplink_usage(FILE *f)
             "                    default: re-synchronise the board to a fresh epoch, with --tc-state)\n"
             "  --tc-count-start N  first anti-replay count with --tc-epoch (default 1)\n"
             "  --tc-socket PATH  receive CCSDS TC packets on a Unix datagram socket created mode 0600\n"
+            "  --upload FILE     send FILE (a calibration table) with UPLOAD_START/DATA/END once the uplink is\n"
+            "                    ready; the run ends when the board answered: exit 0 stored and loaded,\n"
+            "                    1 refused (the reason named) or never answered (docs/uplink.md 5a)\n"
             "  grammar: NOOP | RESET_COUNTERS | SET_MODE standby|acquire|track |\n"
             "           SET_POSE_HINT X Y Z ROLL PITCH YAW (mm, deg) | CAMERA_ENABLE x|y|z |\n"
             "           CAMERA_DISABLE x|y|z | TABLE_LOAD PATH | WAIT SECONDS ; '#' comments\n"
@@ -62,7 +65,7 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
         const bool has_val = i + 1 < argc;
         const char *needs[] = {"--cmd",          "--cmd-file", "--tc-tty", "--tc-file",
                                "--tc-seq-start", "--udp-forward", "--udp-tc", "--tc-key", "--tc-epoch",
-                               "--tc-socket", "--tc-count-start", "--tcp-forward", "--tc-state"};
+                               "--tc-socket", "--tc-count-start", "--tcp-forward", "--tc-state", "--upload"};
         bool mine_val = false;
         for (size_t k = 0; k < sizeof needs / sizeof needs[0]; k++) {
             mine_val = mine_val || strcmp(a, needs[k]) == 0;
@@ -117,6 +120,8 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
             o->tc_key = v;
         } else if (strcmp(a, "--tc-state") == 0) {
             o->tc_state = v;
+        } else if (strcmp(a, "--upload") == 0) {
+            o->upload = v;
         } else if (strcmp(a, "--tc-socket") == 0) {
             o->tc_socket = v;
         } else if (strcmp(a, "--tc-count-start") == 0 || strcmp(a, "--tc-epoch") == 0) {
@@ -157,7 +162,7 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
                      "its epochs and must remember them (docs/uplink.md 1a)\n");
         return -1;
     }
-    if ((o->n_cli > 0 || o->cmd_file != NULL || o->udp_tc != NULL || o->tc_socket != NULL) &&
+    if ((o->n_cli > 0 || o->cmd_file != NULL || o->udp_tc != NULL || o->tc_socket != NULL || o->upload != NULL) &&
         o->out == UPLINK_OUT_NONE) {
         fprintf(err, "mfns-ground: commands need a way up: --tc-tty PATH, --tc-file PATH or --uplink\n");
         return -1;
@@ -184,6 +189,6 @@ int uplink_parse_args(int argc, char **argv, uplink_opts_t *o, char **rest, int 
 
 bool uplink_wanted(const uplink_opts_t *o)
 {
-    return o->out != UPLINK_OUT_NONE || o->udp_forward != NULL || o->tcp_forward != NULL;
+    return o->out != UPLINK_OUT_NONE || o->upload != NULL || o->udp_forward != NULL || o->tcp_forward != NULL;
 }
 

@@ -35,8 +35,9 @@ fuzz-tc-brief: $(TC_FUZZ_BIN)
 TC_AUTH_FUZZERS := tc_auth uplink_grammar
 fuzz_srcs_tc_auth := tests/fuzz/fuzz_tc_auth.c $(call tree,firmware/tlm,.c) firmware/app/nav_cmd_dispatch.c \
                      firmware/linux/tc_auth.c ground/tc_sign.c
-fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(call tree,firmware/tlm,.c) \
+fuzz_srcs_uplink_grammar := tests/fuzz/fuzz_uplink_grammar.c $(CORE_SRCS) \
                      firmware/linux/tc_auth.c firmware/linux/txq_drain.c ground/uplink.c ground/uplink_auth.c ground/tc_sign.c \
+                     ground/upload.c \
                      ground/udp_forward.c ground/tcp_forward.c $(sort $(wildcard drivers/uart/*.c))
 FUZZ_TARGETS += $(addprefix fuzz-,$(subst _,-,$(TC_AUTH_FUZZERS)))
 .PHONY: fuzz-tc-auth fuzz-uplink-grammar

@@ -12,6 +12,7 @@
 
 #include "mfns_version.h"
 #include "firmware/app/nav_cmds.h"
+#include "firmware/app/nav_cmds_upload.h"
 #include "firmware/app/nav_loop.h"
 #include "firmware/app/nav_selftest.h"
 #include "firmware/app/nav_tablestore.h"
@@ -81,7 +82,8 @@ static int wait_for_table(nav_app_t *app, const nav_opts_t *o, nav_ts_start_t *i
         (void)nanosleep(&tick, NULL); /* EINTR: a signal, seen at the loop's test */
         const uint64_t now = nav_app_now_us();
         const nav_cmd_ops_t ops = nav_cmds_ops_waiting(app);
-        nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, now / 1000u); /* a TABLE_LOAD ends the wait */
+        nav_cmds_upload_tick(app, now / 1000u); /* an idle upload abandoned */
+        nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, now / 1000u); /* a TABLE_LOAD or UPLOAD_END ends the wait */
         if (app->waiting_table && now - last_try_us >= NAV_APP_WAIT_RETRY_US) {
             last_try_us = now;
             const mfns_caltable_status_t t2 = nav_tablestore_load_start(o->state_dir, o->table_path, app->table_buf,
@@ -266,6 +268,7 @@ static void print_summary(const nav_app_t *app, const char *why, uint32_t cycles
 int nav_app_run(nav_app_t *app, const nav_opts_t *o)
 {
     memset(app, 0, sizeof *app);
+    nav_upload_init(&app->upload, app->upload_buf, (uint32_t)sizeof app->upload_buf, 0u);
     nav_service_init(&app->service);
     const int rc = start_up(app, o);
     if (rc != 0) {

@@ -30,6 +30,7 @@
 #include "firmware/app/nav_fixlog.h"
 #include "firmware/app/nav_opts.h"
 #include "firmware/app/nav_tc_in.h"
+#include "firmware/app/nav_upload.h"
 #include "firmware/app/nav_service.h"
 #include "firmware/app/nav_time.h"
 #include "firmware/app/nav_tlm.h"
@@ -98,6 +99,10 @@ typedef struct nav_app {
     uint32_t fixlog_lost_reported;  /* fix-log records lost, as last reported by STORAGE_FAULT */
     bool tlm_opened_at_start;       /* the telemetry link was open after start-up (the exit message) */
     bool fixlog_open_failed;        /* --fixlog given, its directory unusable: no log this run (STORAGE_FAULT) */
+    /* A file (calibration table) coming over the uplink (nav_upload.h, the
+     * UPLOAD_* commands of nav_cmds_upload.h): its receive buffer and state. */
+    uint8_t upload_buf[MFNS_CALTABLE_MAX_BYTES];
+    nav_upload_t upload;
 } nav_app_t;
 
 /* CLOCK_MONOTONIC in microseconds: the program's clock. */

@@ -8,6 +8,7 @@
 #include "firmware/app/caltable_file.h"
 #include "math/units.h"
 #include "firmware/app/nav_app_state.h"
+#include "firmware/app/nav_cmds_upload.h"
 #include "firmware/app/nav_tablestore.h"
 #include "firmware/app/tc_state.h"
 
@@ -147,10 +148,8 @@ static tc_status_t table_load_first(nav_app_t *app, const char *path, int32_t *a
 /* TABLE_LOAD: read and validate completely into the spare slot, then bind the
  * navigator to it (between cycles, so no cycle ever sees half a table). The
  * old table keeps running on any failure. */
-static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+static tc_status_t table_load(nav_app_t *app, const char *path, int32_t *arg1)
 {
-    nav_app_t *app = ctx;
-    const char *path = cmd->u.path;
     if (app->waiting_table) {
         return table_load_first(app, path, arg1);
     }
@@ -224,6 +223,21 @@ static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     return TC_OK;
 }
 
+static tc_status_t cmd_TABLE_LOAD(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+{
+    return table_load(ctx, cmd->u.path, arg1);
+}
+
+/* UPLOAD_END: the received file checked and stored (nav_cmds_upload.h), then
+ * loaded as TABLE_LOAD loads a file (a refused one leaves the old table flying). */
+static tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
+{
+    (void)cmd;
+    char path[512];
+    const tc_status_t st = nav_cmds_upload_end(ctx, path, sizeof path);
+    return st == TC_OK ? table_load(ctx, path, arg1) : st;
+}
+
 /* Indexed by the opcode, generated from the dictionary: TC_OPCODE_LIST
  * (tc_codes_gen.h, from mfns_tc.xml) names every command, and each must
  * have its cmd_<NAME> above, so a command added to the dictionary does not
@@ -268,14 +282,19 @@ nav_cmd_ops_t nav_cmds_ops(struct nav_app *app)
 }
 
 /* Waiting for a table there is no navigator and no camera: NOOP,
- * RESET_COUNTERS and TABLE_LOAD run, every other command is refused with
- * TC_E_STATE (a SET_POSE_HINT would touch a navigator never initialised). */
+ * RESET_COUNTERS, TABLE_LOAD and the upload of a table run, every other
+ * command is refused with TC_E_STATE (a SET_POSE_HINT would touch a navigator
+ * never initialised). */
 static tc_status_t cmd_waiting(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
 {
     switch (cmd->opcode) {
     case TC_OP_NOOP:
     case TC_OP_RESET_COUNTERS:
     case TC_OP_TABLE_LOAD:
+    case TC_OP_UPLOAD_START:
+    case TC_OP_UPLOAD_DATA:
+    case TC_OP_UPLOAD_END:
+    case TC_OP_UPLOAD_ABORT:
         return k_cmds[cmd->opcode](ctx, cmd, arg1);
     default:
         return TC_E_STATE;

@@ -17,6 +17,9 @@
  *   TABLE_LOAD      read and validate into the spare table slot, then bind
  *                   the navigator to it; on any failure the old table stays
  *                   (TABLE_REFUSED event, TC_E_TABLE); arg1 = the new crc
+ *   UPLOAD_START / UPLOAD_DATA / UPLOAD_END / UPLOAD_ABORT
+ *                   a table over the link (nav_cmds_upload.h): END loads the
+ *                   stored file through the TABLE_LOAD path (table_load)
  *
  * Every command's outcome is also one stderr line (nav_cmds_ops' event).
  */

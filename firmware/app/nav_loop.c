@@ -6,6 +6,7 @@
 
 #include "math/units.h"
 #include "firmware/app/nav_cmds.h"
+#include "firmware/app/nav_cmds_upload.h"
 
 _Static_assert(NAV_LOOP_HK_PERIOD_US == MFNS_US_PER_S, "housekeeping once per second of frame time");
 
@@ -28,7 +29,9 @@ void nav_loop_housekeeping(nav_app_t *app, uint32_t cycle, uint32_t n_cycles, ui
 static void take_commands(nav_app_t *app)
 {
     const nav_cmd_ops_t ops = nav_cmds_ops(app);
-    nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, now_ms());
+    const uint64_t t_ms = now_ms();
+    nav_cmds_upload_tick(app, t_ms); /* an upload idle past its timeout abandoned */
+    nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, t_ms);
 }
 
 /* The navigator on this cycle's frames (or, in STANDBY, an empty NO_FIX

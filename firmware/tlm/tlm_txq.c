@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+_Static_assert(TLM_MAX_WIRE <= TLM_TXQ_MAX_WIRE, "every telemetry frame fits the queue's longest");
+
 #define SLOT(i) ((i) & (TLM_TXQ_FRAMES - 1u))
 #define POS(i) ((i) % TLM_TXQ_BYTES)
 
@@ -51,7 +53,7 @@ int tlm_txq_push(tlm_txq_t *q, const uint8_t *frame, size_t len)
     if (q == NULL || frame == NULL) {
         return TLM_ERR_NULL;
     }
-    if (len == 0u || len > TLM_MAX_WIRE) {
+    if (len == 0u || len > TLM_TXQ_MAX_WIRE) {
         return TLM_ERR_ARG;
     }
     /* Bounded: each pass removes one queued frame. */

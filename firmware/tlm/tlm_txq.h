@@ -22,6 +22,9 @@
  * comes up within half a second began to lose frames. */
 #define TLM_TXQ_BYTES 8192u
 #define TLM_TXQ_FRAMES 128u /* frame-length slots (power of two) */
+/* A queued frame's longest: telemetry (TLM_MAX_WIRE) and the ground's
+ * telecommands (TC_MAX_WIRE, an UPLOAD_DATA segment: asserted in ground/uplink.c). */
+#define TLM_TXQ_MAX_WIRE 512u
 
 typedef struct {
     uint8_t data[TLM_TXQ_BYTES];
@@ -40,7 +43,7 @@ typedef struct {
 void tlm_txq_init(tlm_txq_t *q);
 
 /* Queue one frame (copied). Drops the oldest unstarted frames to make room.
- * TLM_ERR_ARG for len 0 or len > TLM_MAX_WIRE; TLM_ERR_BUFFER when it cannot
+ * TLM_ERR_ARG for len 0 or len > TLM_TXQ_MAX_WIRE; TLM_ERR_BUFFER when it cannot
  * fit even after dropping (only a started head frame left): the new frame is
  * then the one dropped, counted in dropped. */
 int tlm_txq_push(tlm_txq_t *q, const uint8_t *frame, size_t len);

@@ -136,7 +136,12 @@ static const nav_cmd_fn_t k_table[] = {
     [TC_OP_NOOP] = t_noop,          [TC_OP_RESET_COUNTERS] = t_reset, [TC_OP_SET_MODE] = t_mode,
     [TC_OP_SET_POSE_HINT] = t_pose, [TC_OP_CAMERA_ENABLE] = t_cam,    [TC_OP_CAMERA_DISABLE] = t_cam,
     [TC_OP_TABLE_LOAD] = t_table,
+    /* the upload's actions (nav_cmds_upload.h) are the receiver's, fuzzed by fuzz_nav_upload.c:
+     * here the codec and the dispatch */
+    [TC_OP_UPLOAD_START] = t_noop,  [TC_OP_UPLOAD_DATA] = t_noop,     [TC_OP_UPLOAD_END] = t_noop,
+    [TC_OP_UPLOAD_ABORT] = t_noop,
 };
+_Static_assert(sizeof k_table / sizeof k_table[0] == (size_t)TC_OP_MAX + 1u, "an entry for every opcode");
 static const nav_cmd_ops_t k_ops = {NULL, k_table, sizeof k_table / sizeof k_table[0], a_event, NULL};
 
 static void check_oneshot(const uint8_t *pkt, size_t n)
@@ -231,6 +236,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             for (size_t k = 0; k + 1u < TC_PATH_MAX && args[k] != 0u; k++) {
                 c.u.path[k] = (char)(0x20u + args[k] % 95u);
             }
+            break;
+        case TC_OP_UPLOAD_START:
+            memcpy(&c.u.upload_start.size, args, 4);
+            memcpy(&c.u.upload_start.crc32, args + 4, 4);
+            for (size_t k = 0; k + 1u < TC_UPLOAD_NAME_MAX && args[8u + k] != 0u; k++) {
+                c.u.upload_start.name[k] = (char)(0x20u + args[8u + k] % 95u);
+            }
+            break;
+        case TC_OP_UPLOAD_DATA:
+            memcpy(&c.u.upload_data.offset, args, 4);
+            c.u.upload_data.len = (uint8_t)(args[4] % (TC_UPLOAD_LEN_MAX + 1u)); /* 0: the encoder refuses */
+            memcpy(c.u.upload_data.bytes, args + 5, TC_UPLOAD_SEG_LEN);
             break;
         default: break;
         }

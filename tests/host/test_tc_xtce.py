@@ -123,6 +123,9 @@ def xtce_packet(header, cmd, types, values: dict, seq: int) -> bytes:
         if t["kind"] == "StringArgumentType":
             b = v.encode()
             out += b + bytes(t["bits"] // 8 - len(b))
+        elif t["kind"] == "BinaryArgumentType":  # a fixed-size block, as given
+            assert len(v) == t["bits"] // 8, name
+            out += bytes(v)
         else:
             out += pack([(t["enum"][v] if t["enum"] else v, t["bits"], t["signed"])])
     return out
@@ -143,13 +146,21 @@ def c_cmd(lib, name: str, values: dict) -> Cmd:
             c.u.pose.att_udeg[i] = values[k]
     if "path" in values:
         c.u.path = values["path"].encode()
+    if name == "UPLOAD_START":
+        c.u.upload_start.size = values["size"]
+        c.u.upload_start.crc32 = values["crc32"]
+        c.u.upload_start.name = values["name"].encode()
+    if name == "UPLOAD_DATA":
+        c.u.upload_data.offset = values["offset"]
+        c.u.upload_data.len = values["length"]
+        c.u.upload_data.bytes[:] = list(values["data"])
     return c
 
 
 def c_encode(lib, c: Cmd, seq: int) -> tuple[int, bytes]:
-    buf = ct.create_string_buffer(128)
+    buf = ct.create_string_buffer(256)
     n = ct.c_size_t(0)
-    rc = lib.tc_packet_encode(ct.byref(c), seq, buf, 128, ct.byref(n))
+    rc = lib.tc_packet_encode(ct.byref(c), seq, buf, 256, ct.byref(n))
     return rc, buf.raw[: n.value]
 
 
@@ -174,6 +185,15 @@ SAMPLES = {
     "CAMERA_ENABLE": {"camera": "z"},
     "CAMERA_DISABLE": {"camera": "x"},
     "TABLE_LOAD": {"path": "/data/tables/next.mfnstbl"},
+    "UPLOAD_START": {"size": 106780, "crc32": 0x9A521E07, "name": "table2.mfnstbl"},
+    # every byte value, the last ones past length (they travel, the board ignores them)
+    "UPLOAD_DATA": {
+        "offset": 0xFEDCBA98,
+        "length": 200,
+        "data": bytes((i * 7 + 3) & 0xFF for i in range(200)),
+    },
+    "UPLOAD_END": {},
+    "UPLOAD_ABORT": {},
 }
 
 
@@ -235,11 +255,14 @@ def test_argument_ranges_match(lib):
     for name, cmd in cmds.items():
         for aname, tname in cmd["args"]:
             t = types[tname]
-            if t["kind"] == "StringArgumentType":
-                continue
+            if t["kind"] in ("StringArgumentType", "BinaryArgumentType"):
+                continue  # strings: test_path_rules, test_upload_name_rules; a binary block has no range
             if t["enum"]:
                 candidates = range(256)
                 valid = set(t["enum"].values())
+            elif t["range"] is None:  # an integer without a ValidRange: every value valid
+                candidates = [0, 1, (1 << t["bits"]) - 1]
+                valid = set(candidates)
             else:
                 lo, hi = t["range"]
                 candidates = [lo - 1, lo, lo + 1, 0, hi - 1, hi, hi + 1]
@@ -277,6 +300,39 @@ def test_path_rules(lib):
         assert (rc == 0) == ok, (path, rc)
         if ok:
             assert back.u.path.decode() == path
+
+
+def test_upload_name_rules(lib):
+    """UPLOAD_START's name: 1..31 printable characters, NUL-padded to 32 bytes (the XTCE's
+    fixed 256-bit string); the board's receiver is stricter (UPLOAD_NAME, nav_upload.h)."""
+    root = ET.parse(TC_XML).getroot()
+    types = arg_types(root)
+    header, cmds = commands(root)
+    assert types["upload_name_t"]["bits"] == 32 * 8
+    cmd = cmds["UPLOAD_START"]
+    for name, ok in (("a", True), ("x" * 31, True), ("", False), ("t\x01", False)):
+        pkt = xtce_packet(header, cmd, types, {"size": 1, "crc32": 2, "name": name}, 1)
+        rc, back = c_decode(lib, pkt)
+        assert (rc == 0) == ok, (name, rc)
+        if ok:
+            assert back.u.upload_start.name.decode() == name and back.u.upload_start.size == 1
+
+
+def test_upload_data_carries_its_block(lib):
+    """UPLOAD_DATA's 200-byte block decodes byte for byte; length outside 1..200 is ARG."""
+    root = ET.parse(TC_XML).getroot()
+    types = arg_types(root)
+    header, cmds = commands(root)
+    vals = dict(SAMPLES["UPLOAD_DATA"])
+    rc, back = c_decode(lib, xtce_packet(header, cmds["UPLOAD_DATA"], types, vals, 9))
+    assert (
+        rc == 0
+        and bytes(back.u.upload_data.bytes) == vals["data"]
+        and back.u.upload_data.offset == vals["offset"]
+    )
+    for n, ok in ((0, False), (1, True), (200, True), (201, False)):
+        rc, _ = c_decode(lib, xtce_packet(header, cmds["UPLOAD_DATA"], types, {**vals, "length": n}, 9))
+        assert (rc == 0) == ok, (n, rc)
 
 
 def test_rejection_codes_match(lib):

@@ -125,6 +125,11 @@ static void test_every_opcode_signed_round_trip(void **state)
             c.u.mode = TLM_MODE_ACQUIRE;
         } else if (op == TC_OP_TABLE_LOAD) {
             (void)snprintf(c.u.path, sizeof c.u.path, "t.mfnstbl");
+        } else if (op == TC_OP_UPLOAD_START) {
+            c.u.upload_start.size = 1u;
+            (void)snprintf(c.u.upload_start.name, sizeof c.u.upload_start.name, "t.mfnstbl");
+        } else if (op == TC_OP_UPLOAD_DATA) {
+            c.u.upload_data.len = 1u;
         }
         tc_cmd_t out;
         const uint64_t arsn = (uint64_t)3u << 32 | op;

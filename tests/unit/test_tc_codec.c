@@ -28,6 +28,18 @@ static tc_cmd_t sample(uint8_t op)
         break;
     }
     case TC_OP_TABLE_LOAD: (void)snprintf(c.u.path, sizeof c.u.path, "/data/tables/next.mfnstbl"); break;
+    case TC_OP_UPLOAD_START:
+        c.u.upload_start.size = 106780u;
+        c.u.upload_start.crc32 = 0x9A521E07u;
+        (void)snprintf(c.u.upload_start.name, sizeof c.u.upload_start.name, "table2.mfnstbl");
+        break;
+    case TC_OP_UPLOAD_DATA: /* every byte value in the block, zeros included (COBS) */
+        c.u.upload_data.offset = 0xFEDCBA98u;
+        c.u.upload_data.len = (uint8_t)TC_UPLOAD_LEN_MAX;
+        for (unsigned i = 0; i < TC_UPLOAD_SEG_LEN; i++) {
+            c.u.upload_data.bytes[i] = (uint8_t)(i * 7u + 3u);
+        }
+        break;
     default: break;
     }
     return c;

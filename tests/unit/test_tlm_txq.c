@@ -214,7 +214,7 @@ static void test_arguments(void **state)
 {
     (void)state;
     tlm_txq_init(&g_q);
-    uint8_t f[TLM_MAX_WIRE + 1];
+    uint8_t f[TLM_TXQ_MAX_WIRE + 1]; /* one past the longest queued frame */
     memset(f, 1, sizeof f);
     assert_int_equal(tlm_txq_push(&g_q, f, 0), TLM_ERR_ARG);
     assert_int_equal(tlm_txq_push(&g_q, f, sizeof f), TLM_ERR_ARG);

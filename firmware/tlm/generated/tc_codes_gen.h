@@ -17,7 +17,11 @@ typedef enum {
     TC_OP_CAMERA_ENABLE = 5, /* fuse camera k again */
     TC_OP_CAMERA_DISABLE = 6, /* stop fusing camera k (its frames keep flowing) */
     TC_OP_TABLE_LOAD = 7, /* load a calibration table file on the board: validated completely, then swapped in between cycles; a bad one is refused and the old one keeps running */
-    TC_OP_MAX = 7
+    TC_OP_UPLOAD_START = 8, /* open a file upload (a calibration table, docs/uplink.md 5a): its size, CRC-32 and name; the same three as the open upload resume it (CMD_ACCEPTED arg1: the next expected offset) */
+    TC_OP_UPLOAD_DATA = 9, /* one segment of the open upload at its byte offset (CMD_ACCEPTED arg1: the next expected offset) */
+    TC_OP_UPLOAD_END = 10, /* close the upload: size and CRC-32 checked, the table validated, stored atomically and loaded as TABLE_LOAD does (a refused one leaves the old table flying) */
+    TC_OP_UPLOAD_ABORT = 11, /* drop the open upload: nothing stored */
+    TC_OP_MAX = 11
 } tc_opcode_t;
 
 /* X(NAME, opcode, argument bytes, argument count) for every command, in opcode order: for
@@ -29,7 +33,11 @@ typedef enum {
     X(SET_POSE_HINT, 4, 24u, 6u) \
     X(CAMERA_ENABLE, 5, 1u, 1u) \
     X(CAMERA_DISABLE, 6, 1u, 1u) \
-    X(TABLE_LOAD, 7, 64u, 1u)
+    X(TABLE_LOAD, 7, 64u, 1u) \
+    X(UPLOAD_START, 8, 40u, 3u) \
+    X(UPLOAD_DATA, 9, 205u, 3u) \
+    X(UPLOAD_END, 10, 0u, 0u) \
+    X(UPLOAD_ABORT, 11, 0u, 0u)
 
 /* Why a command was refused: 0 OK, then the wire values of CMD_REJECTED arg1. */
 typedef enum {
@@ -55,7 +63,16 @@ typedef enum {
     TC_E_AUTH_STALE_EPOCH = 19, /* anti-replay counter from another boot epoch (signed before the last reboot) */
     TC_E_AUTH_RESYNC_NEEDED = 20, /* the board has no fresh epoch yet (every start, or a lost, damaged or unwritable state): only an authenticated re-synchronisation bound to its challenge is accepted */
     TC_E_AUTH_COUNT_EXHAUSTED = 21, /* anti-replay count beyond the usable space (the last 65536 counts of an epoch are reserved): refused without using it up; the ground re-synchronises to a new epoch */
-    TC_STATUS_MAX = 21
+    TC_E_UPLOAD_STATE = 22, /* file upload: UPLOAD_DATA, UPLOAD_END or UPLOAD_ABORT with no upload open (none started, or abandoned: idle 10 min, aborted, replaced) */
+    TC_E_UPLOAD_SIZE = 23, /* file upload: declared size 0 or larger than the board's receive buffer */
+    TC_E_UPLOAD_NAME = 24, /* file upload: name empty, too long, or a character outside [A-Za-z0-9._-] (or a leading '.') */
+    TC_E_UPLOAD_GAP = 25, /* file upload: segment offset past the next expected one (a segment lost): send from the next expected offset */
+    TC_E_UPLOAD_OVERRUN = 26, /* file upload: segment ends past the declared size */
+    TC_E_UPLOAD_CONFLICT = 27, /* file upload: a re-sent segment's bytes differ from the ones received (upload kept) */
+    TC_E_UPLOAD_INCOMPLETE = 28, /* file upload: UPLOAD_END before every byte arrived (upload kept) */
+    TC_E_UPLOAD_CRC = 29, /* file upload: the CRC-32 of the received file differs from UPLOAD_START's (upload dropped, nothing stored) */
+    TC_E_UPLOAD_STORE = 30, /* file upload: writing the file to the state directory failed (nothing loaded) */
+    TC_STATUS_MAX = 30
 } tc_status_t;
 
 /* Argument ranges (XTCE ValidRange, inclusive) and string fields (bytes, NUL-padded). */
@@ -63,7 +80,11 @@ typedef enum {
 #define TC_ROLL_YAW_UDEG_MAX 180000000 /* |v| <= this: roll or yaw of C_w_b (2-1-3) in deg, carried as a signed count of 1e-6 deg */
 #define TC_PITCH_UDEG_MAX 90000000 /* |v| <= this: pitch of C_w_b (2-1-3) in deg, carried as a signed count of 1e-6 deg */
 #define TC_PATH_MAX 64u /* a path on the board: printable ASCII, 1..63 characters, NUL-padded to 64 bytes */
-#define TC_MAX_ARGS 64u /* the largest argument block */
+#define TC_UPLOAD_NAME_MAX 32u /* the file's name (kept for the record; stored as upload.mfnstbl) */
+#define TC_UPLOAD_LEN_MIN 1 /* bytes of the segment that count, 1..200 */
+#define TC_UPLOAD_LEN_MAX 200
+#define TC_UPLOAD_SEG_LEN 200u /* the segment's bytes (zeros after length) */
+#define TC_MAX_ARGS 205u /* the largest argument block */
 
 /* Security header (after the primary header) and trailer of a secured command (SDLS style). */
 #define TC_SEC_SPI_LEN 2u /* security parameter index: the key id, 1..255 */
@@ -78,12 +99,28 @@ typedef struct {
     int32_t att_udeg[3]; /* roll_deg, pitch_deg, yaw_deg: roll or yaw of C_w_b (2-1-3) in deg, carried as a signed count of 1e-6 deg */
 } tc_pose_hint_t;
 
+/* The arguments of UPLOAD_START. */
+typedef struct {
+    uint32_t size; /* size: the file's size in bytes */
+    uint32_t crc32; /* crc32: CRC-32/ISO-HDLC of the whole file */
+    char name[TC_UPLOAD_NAME_MAX]; /* name: the file's name (kept for the record; stored as upload.mfnstbl) */
+} tc_upload_start_t;
+
+/* The arguments of UPLOAD_DATA. */
+typedef struct {
+    uint32_t offset; /* offset: byte offset of the segment in the file */
+    uint8_t len; /* length: bytes of the segment that count, 1..200 */
+    uint8_t bytes[TC_UPLOAD_SEG_LEN]; /* data: the segment's bytes (zeros after length) */
+} tc_upload_data_t;
+
 /* The decoded arguments of a command: the member its opcode uses (tc_cmd_t.u). */
 typedef union {
     uint8_t mode; /* SET_MODE: SET_MODE target (tlm_mode_t values) */
     tc_pose_hint_t pose; /* SET_POSE_HINT */
     uint8_t camera; /* CAMERA_ENABLE, CAMERA_DISABLE: camera: x, y or z (wire index 0, 1, 2) */
     char path[TC_PATH_MAX]; /* TABLE_LOAD: NUL-padded */
+    tc_upload_start_t upload_start; /* UPLOAD_START */
+    tc_upload_data_t upload_data; /* UPLOAD_DATA */
 } tc_args_t;
 
 #endif /* MFNS_TC_CODES_GEN_H */

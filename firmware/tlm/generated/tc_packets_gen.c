@@ -17,6 +17,10 @@ int tc_arg_len(uint8_t opcode)
     case TC_OP_CAMERA_ENABLE:
     case TC_OP_CAMERA_DISABLE: return 1;
     case TC_OP_TABLE_LOAD: return 64;
+    case TC_OP_UPLOAD_START: return 40;
+    case TC_OP_UPLOAD_DATA: return 205;
+    case TC_OP_UPLOAD_END:
+    case TC_OP_UPLOAD_ABORT: return 0;
     default: return -1;
     }
 }
@@ -31,6 +35,10 @@ int tc_arg_count(uint8_t opcode)
     case TC_OP_CAMERA_ENABLE:
     case TC_OP_CAMERA_DISABLE:
     case TC_OP_TABLE_LOAD: return 1;
+    case TC_OP_UPLOAD_START:
+    case TC_OP_UPLOAD_DATA: return 3;
+    case TC_OP_UPLOAD_END:
+    case TC_OP_UPLOAD_ABORT: return 0;
     default: return -1;
     }
 }
@@ -45,6 +53,10 @@ const char *tc_opcode_name(uint8_t opcode)
     case TC_OP_CAMERA_ENABLE: return MFNS_MSG("CAMERA_ENABLE");
     case TC_OP_CAMERA_DISABLE: return MFNS_MSG("CAMERA_DISABLE");
     case TC_OP_TABLE_LOAD: return MFNS_MSG("TABLE_LOAD");
+    case TC_OP_UPLOAD_START: return MFNS_MSG("UPLOAD_START");
+    case TC_OP_UPLOAD_DATA: return MFNS_MSG("UPLOAD_DATA");
+    case TC_OP_UPLOAD_END: return MFNS_MSG("UPLOAD_END");
+    case TC_OP_UPLOAD_ABORT: return MFNS_MSG("UPLOAD_ABORT");
     default: return "?";
     }
 }
@@ -74,6 +86,15 @@ const char *tc_status_name(int status)
     case TC_E_AUTH_STALE_EPOCH: return MFNS_MSG("AUTH_STALE_EPOCH");
     case TC_E_AUTH_RESYNC_NEEDED: return MFNS_MSG("AUTH_RESYNC_NEEDED");
     case TC_E_AUTH_COUNT_EXHAUSTED: return MFNS_MSG("AUTH_COUNT_EXHAUSTED");
+    case TC_E_UPLOAD_STATE: return MFNS_MSG("UPLOAD_STATE");
+    case TC_E_UPLOAD_SIZE: return MFNS_MSG("UPLOAD_SIZE");
+    case TC_E_UPLOAD_NAME: return MFNS_MSG("UPLOAD_NAME");
+    case TC_E_UPLOAD_GAP: return MFNS_MSG("UPLOAD_GAP");
+    case TC_E_UPLOAD_OVERRUN: return MFNS_MSG("UPLOAD_OVERRUN");
+    case TC_E_UPLOAD_CONFLICT: return MFNS_MSG("UPLOAD_CONFLICT");
+    case TC_E_UPLOAD_INCOMPLETE: return MFNS_MSG("UPLOAD_INCOMPLETE");
+    case TC_E_UPLOAD_CRC: return MFNS_MSG("UPLOAD_CRC");
+    case TC_E_UPLOAD_STORE: return MFNS_MSG("UPLOAD_STORE");
     default: return "?";
     }
 }
@@ -103,6 +124,15 @@ const char *tc_strerror(int status)
     case TC_E_AUTH_STALE_EPOCH: return MFNS_MSG("anti-replay counter from another boot epoch (signed before the last reboot)");
     case TC_E_AUTH_RESYNC_NEEDED: return MFNS_MSG("the board has no fresh epoch yet (every start, or a lost, damaged or unwritable state): only an authenticated re-synchronisation bound to its challenge is accepted");
     case TC_E_AUTH_COUNT_EXHAUSTED: return MFNS_MSG("anti-replay count beyond the usable space (the last 65536 counts of an epoch are reserved): refused without using it up; the ground re-synchronises to a new epoch");
+    case TC_E_UPLOAD_STATE: return MFNS_MSG("file upload: UPLOAD_DATA, UPLOAD_END or UPLOAD_ABORT with no upload open (none started, or abandoned: idle 10 min, aborted, replaced)");
+    case TC_E_UPLOAD_SIZE: return MFNS_MSG("file upload: declared size 0 or larger than the board's receive buffer");
+    case TC_E_UPLOAD_NAME: return MFNS_MSG("file upload: name empty, too long, or a character outside [A-Za-z0-9._-] (or a leading '.')");
+    case TC_E_UPLOAD_GAP: return MFNS_MSG("file upload: segment offset past the next expected one (a segment lost): send from the next expected offset");
+    case TC_E_UPLOAD_OVERRUN: return MFNS_MSG("file upload: segment ends past the declared size");
+    case TC_E_UPLOAD_CONFLICT: return MFNS_MSG("file upload: a re-sent segment's bytes differ from the ones received (upload kept)");
+    case TC_E_UPLOAD_INCOMPLETE: return MFNS_MSG("file upload: UPLOAD_END before every byte arrived (upload kept)");
+    case TC_E_UPLOAD_CRC: return MFNS_MSG("file upload: the CRC-32 of the received file differs from UPLOAD_START's (upload dropped, nothing stored)");
+    case TC_E_UPLOAD_STORE: return MFNS_MSG("file upload: writing the file to the state directory failed (nothing loaded)");
     default: return MFNS_MSG("unknown command status");
     }
 }
@@ -126,6 +156,12 @@ tc_status_t tc_args_check(const tc_cmd_t *c)
         return ((c->u.camera == 0u /* x */ || c->u.camera == 1u /* y */ || c->u.camera == 2u /* z */)) ? TC_OK : TC_E_ARG;
     case TC_OP_TABLE_LOAD:
         return (tc_string_valid(c->u.path, sizeof c->u.path)) ? TC_OK : TC_E_ARG;
+    case TC_OP_UPLOAD_START:
+        return (tc_string_valid(c->u.upload_start.name, sizeof c->u.upload_start.name)) ? TC_OK : TC_E_ARG;
+    case TC_OP_UPLOAD_DATA:
+        return (c->u.upload_data.len >= TC_UPLOAD_LEN_MIN && c->u.upload_data.len <= TC_UPLOAD_LEN_MAX) ? TC_OK : TC_E_ARG;
+    case TC_OP_UPLOAD_END:
+    case TC_OP_UPLOAD_ABORT: return TC_OK;
     default: return TC_E_OPCODE;
     }
 }
@@ -151,6 +187,16 @@ void tc_args_pack(const tc_cmd_t *c, uint8_t *a)
     case TC_OP_TABLE_LOAD:
         memcpy(a + 0, c->u.path, 64u);
         break;
+    case TC_OP_UPLOAD_START:
+        tlm_put_u32(a + 0, (uint32_t)c->u.upload_start.size);
+        tlm_put_u32(a + 4, (uint32_t)c->u.upload_start.crc32);
+        memcpy(a + 8, c->u.upload_start.name, 32u);
+        break;
+    case TC_OP_UPLOAD_DATA:
+        tlm_put_u32(a + 0, (uint32_t)c->u.upload_data.offset);
+        a[4] = c->u.upload_data.len;
+        memcpy(a + 5, c->u.upload_data.bytes, 200u);
+        break;
     default: break; /* no arguments */
     }
 }
@@ -175,6 +221,16 @@ void tc_args_unpack(const uint8_t *a, tc_cmd_t *c)
         break;
     case TC_OP_TABLE_LOAD:
         memcpy(c->u.path, a + 0, 64u);
+        break;
+    case TC_OP_UPLOAD_START:
+        c->u.upload_start.size = (uint32_t)tlm_get_u32(a + 0);
+        c->u.upload_start.crc32 = (uint32_t)tlm_get_u32(a + 4);
+        memcpy(c->u.upload_start.name, a + 8, 32u);
+        break;
+    case TC_OP_UPLOAD_DATA:
+        c->u.upload_data.offset = (uint32_t)tlm_get_u32(a + 0);
+        c->u.upload_data.len = a[4];
+        memcpy(c->u.upload_data.bytes, a + 5, 200u);
         break;
     default: break; /* no arguments */
     }

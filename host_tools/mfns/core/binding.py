@@ -56,7 +56,9 @@ CALIB_PARAMS = NUM_CAMERAS * CALIB_PARAMS_PER_CAMERA
 MAP_DATUM_PARAMS = 6  # nav_settings.h mfns_map_datum_t: shift x y z (mm), turn x y z (rad)
 TC_PATH_MAX = 64
 TC_SEC_MAC_LEN = 16
-TC_MAX_AUTH = 8 + 64 + 10  # TC_MAX_PACKET + security header
+TC_UPLOAD_NAME_MAX = 32
+TC_UPLOAD_SEG_LEN = 200
+TC_MAX_AUTH = 8 + 205 + 10  # TC_MAX_PACKET (UPLOAD_DATA's 205 argument bytes) + security header
 # pose.h mfns_pose_status_t: the solver's own status (the nav packet's nav_status_t differs)
 POSE_OK, POSE_DEGRADED, POSE_NO_FIX = 0, 1, 2
 PX_Q8_ONE = 256  # fixed.h: one pixel in px_q8 (1/256 px)
@@ -81,6 +83,8 @@ CONSTANTS = {
     "TC_PATH_MAX": (TC_PATH_MAX, "TC_PATH_MAX"),
     "TC_SEC_MAC_LEN": (TC_SEC_MAC_LEN, "TC_SEC_MAC_LEN"),
     "TC_MAX_AUTH": (TC_MAX_AUTH, "TC_MAX_AUTH"),
+    "TC_UPLOAD_NAME_MAX": (TC_UPLOAD_NAME_MAX, "TC_UPLOAD_NAME_MAX"),
+    "TC_UPLOAD_SEG_LEN": (TC_UPLOAD_SEG_LEN, "TC_UPLOAD_SEG_LEN"),
     "POSE_OK": (POSE_OK, "MFNS_POSE_OK"),
     "POSE_DEGRADED": (POSE_DEGRADED, "MFNS_POSE_DEGRADED"),
     "POSE_NO_FIX": (POSE_NO_FIX, "MFNS_POSE_NO_FIX"),
@@ -408,6 +412,16 @@ class TcPoseHint(ct.Structure):
     _fields_ = [("pos_um", ct.c_int32 * 3), ("att_udeg", ct.c_int32 * 3)]
 
 
+class TcUploadStart(ct.Structure):
+    _c_ = ("firmware/tlm/tc_packets.h", "tc_upload_start_t")
+    _fields_ = [("size", ct.c_uint32), ("crc32", ct.c_uint32), ("name", ct.c_char * TC_UPLOAD_NAME_MAX)]
+
+
+class TcUploadData(ct.Structure):
+    _c_ = ("firmware/tlm/tc_packets.h", "tc_upload_data_t")
+    _fields_ = [("offset", ct.c_uint32), ("len", ct.c_uint8), ("bytes", ct.c_uint8 * TC_UPLOAD_SEG_LEN)]
+
+
 class TcArgs(ct.Union):
     """The anonymous union `u` of tc_cmd_t (checked through TcCmd)."""
 
@@ -417,6 +431,8 @@ class TcArgs(ct.Union):
         ("camera", ct.c_uint8),
         ("pose", TcPoseHint),
         ("path", ct.c_char * TC_PATH_MAX),
+        ("upload_start", TcUploadStart),
+        ("upload_data", TcUploadData),
     ]
 
 
@@ -474,6 +490,8 @@ STRUCTS = [
     CertifyCase,
     CertifyResult,
     TcPoseHint,
+    TcUploadStart,
+    TcUploadData,
     TcSec,
     TcCmd,
 ]

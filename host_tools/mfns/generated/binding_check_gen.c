@@ -42,7 +42,9 @@ _Static_assert(MFNS_CALIB_PARAMS == 45, "binding.py CALIB_PARAMS = 45: C MFNS_CA
 _Static_assert(MFNS_MAP_DATUM_PARAMS == 6, "binding.py MAP_DATUM_PARAMS = 6: C MFNS_MAP_DATUM_PARAMS differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_PATH_MAX == 64, "binding.py TC_PATH_MAX = 64: C TC_PATH_MAX differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(TC_SEC_MAC_LEN == 16, "binding.py TC_SEC_MAC_LEN = 16: C TC_SEC_MAC_LEN differs"); /* NOLINT(misc-redundant-expression) */
-_Static_assert(TC_MAX_AUTH == 82, "binding.py TC_MAX_AUTH = 82: C TC_MAX_AUTH differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(TC_MAX_AUTH == 223, "binding.py TC_MAX_AUTH = 223: C TC_MAX_AUTH differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(TC_UPLOAD_NAME_MAX == 32, "binding.py TC_UPLOAD_NAME_MAX = 32: C TC_UPLOAD_NAME_MAX differs"); /* NOLINT(misc-redundant-expression) */
+_Static_assert(TC_UPLOAD_SEG_LEN == 200, "binding.py TC_UPLOAD_SEG_LEN = 200: C TC_UPLOAD_SEG_LEN differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_POSE_OK == 0, "binding.py POSE_OK = 0: C MFNS_POSE_OK differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_POSE_DEGRADED == 1, "binding.py POSE_DEGRADED = 1: C MFNS_POSE_DEGRADED differs"); /* NOLINT(misc-redundant-expression) */
 _Static_assert(MFNS_POSE_NO_FIX == 2, "binding.py POSE_NO_FIX = 2: C MFNS_POSE_NO_FIX differs"); /* NOLINT(misc-redundant-expression) */
@@ -500,8 +502,28 @@ _Static_assert(offsetof(tc_pose_hint_t, att_udeg) == 12u, "binding.py TcPoseHint
 _Static_assert(sizeof(MFNS_FIELD(tc_pose_hint_t, att_udeg)) == 3u * sizeof(MFNS_FIELD(tc_pose_hint_t, att_udeg)[0]), "binding.py TcPoseHint.att_udeg: 3 elements");
 _Static_assert(_Generic(MFNS_FIELD(tc_pose_hint_t, att_udeg)[0], int32_t: 1, default: 0), "binding.py TcPoseHint.att_udeg: C type is not int32_t[3]");
 
+/* TcUploadStart = tc_upload_start_t (firmware/tlm/tc_packets.h) */
+_Static_assert(sizeof(tc_upload_start_t) == 40u, "binding.py TcUploadStart: 40 bytes here");
+_Static_assert(offsetof(tc_upload_start_t, size) == 0u, "binding.py TcUploadStart.size: offset 0 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_upload_start_t, size), uint32_t: 1, default: 0), "binding.py TcUploadStart.size: C type is not uint32_t");
+_Static_assert(offsetof(tc_upload_start_t, crc32) == 4u, "binding.py TcUploadStart.crc32: offset 4 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_upload_start_t, crc32), uint32_t: 1, default: 0), "binding.py TcUploadStart.crc32: C type is not uint32_t");
+_Static_assert(offsetof(tc_upload_start_t, name) == 8u, "binding.py TcUploadStart.name: offset 8 here");
+_Static_assert(sizeof(MFNS_FIELD(tc_upload_start_t, name)) == 32u * sizeof(MFNS_FIELD(tc_upload_start_t, name)[0]), "binding.py TcUploadStart.name: 32 elements");
+_Static_assert(_Generic(MFNS_FIELD(tc_upload_start_t, name)[0], char: 1, default: 0), "binding.py TcUploadStart.name: C type is not char[32]");
+
+/* TcUploadData = tc_upload_data_t (firmware/tlm/tc_packets.h) */
+_Static_assert(sizeof(tc_upload_data_t) == 208u, "binding.py TcUploadData: 208 bytes here");
+_Static_assert(offsetof(tc_upload_data_t, offset) == 0u, "binding.py TcUploadData.offset: offset 0 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_upload_data_t, offset), uint32_t: 1, default: 0), "binding.py TcUploadData.offset: C type is not uint32_t");
+_Static_assert(offsetof(tc_upload_data_t, len) == 4u, "binding.py TcUploadData.len: offset 4 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_upload_data_t, len), uint8_t: 1, default: 0), "binding.py TcUploadData.len: C type is not uint8_t");
+_Static_assert(offsetof(tc_upload_data_t, bytes) == 5u, "binding.py TcUploadData.bytes: offset 5 here");
+_Static_assert(sizeof(MFNS_FIELD(tc_upload_data_t, bytes)) == 200u * sizeof(MFNS_FIELD(tc_upload_data_t, bytes)[0]), "binding.py TcUploadData.bytes: 200 elements");
+_Static_assert(_Generic(MFNS_FIELD(tc_upload_data_t, bytes)[0], uint8_t: 1, default: 0), "binding.py TcUploadData.bytes: C type is not uint8_t[200]");
+
 /* TcSec = tc_sec_t (firmware/tlm/tc_packets.h) */
-_Static_assert(sizeof(tc_sec_t) == 120u, "binding.py TcSec: 120 bytes here");
+_Static_assert(sizeof(tc_sec_t) == 264u, "binding.py TcSec: 264 bytes here");
 _Static_assert(offsetof(tc_sec_t, present) == 0u, "binding.py TcSec.present: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_sec_t, present), _Bool: 1, default: 0), "binding.py TcSec.present: C type is not _Bool");
 _Static_assert(offsetof(tc_sec_t, spi) == 2u, "binding.py TcSec.spi: offset 2 here");
@@ -514,11 +536,11 @@ _Static_assert(_Generic(MFNS_FIELD(tc_sec_t, mac)[0], uint8_t: 1, default: 0), "
 _Static_assert(offsetof(tc_sec_t, auth_len) == 32u, "binding.py TcSec.auth_len: offset 32 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_sec_t, auth_len), uint16_t: 1, default: 0), "binding.py TcSec.auth_len: C type is not uint16_t");
 _Static_assert(offsetof(tc_sec_t, auth) == 34u, "binding.py TcSec.auth: offset 34 here");
-_Static_assert(sizeof(MFNS_FIELD(tc_sec_t, auth)) == 82u * sizeof(MFNS_FIELD(tc_sec_t, auth)[0]), "binding.py TcSec.auth: 82 elements");
-_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, auth)[0], uint8_t: 1, default: 0), "binding.py TcSec.auth: C type is not uint8_t[82]");
+_Static_assert(sizeof(MFNS_FIELD(tc_sec_t, auth)) == 223u * sizeof(MFNS_FIELD(tc_sec_t, auth)[0]), "binding.py TcSec.auth: 223 elements");
+_Static_assert(_Generic(MFNS_FIELD(tc_sec_t, auth)[0], uint8_t: 1, default: 0), "binding.py TcSec.auth: C type is not uint8_t[223]");
 
 /* TcCmd = tc_cmd_t (firmware/tlm/tc_packets.h) */
-_Static_assert(sizeof(tc_cmd_t) == 192u, "binding.py TcCmd: 192 bytes here");
+_Static_assert(sizeof(tc_cmd_t) == 480u, "binding.py TcCmd: 480 bytes here");
 _Static_assert(offsetof(tc_cmd_t, seq) == 0u, "binding.py TcCmd.seq: offset 0 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, seq), uint16_t: 1, default: 0), "binding.py TcCmd.seq: C type is not uint16_t");
 _Static_assert(offsetof(tc_cmd_t, opcode) == 2u, "binding.py TcCmd.opcode: offset 2 here");
@@ -528,7 +550,7 @@ _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, have_seq), _Bool: 1, default: 0), "
 _Static_assert(offsetof(tc_cmd_t, have_opcode) == 4u, "binding.py TcCmd.have_opcode: offset 4 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, have_opcode), _Bool: 1, default: 0), "binding.py TcCmd.have_opcode: C type is not _Bool");
 _Static_assert(offsetof(tc_cmd_t, u) == 8u, "binding.py TcCmd.u: offset 8 here");
-_Static_assert(sizeof(MFNS_FIELD(tc_cmd_t, u)) == 64u, "binding.py TcCmd.u: 64 bytes here");
+_Static_assert(sizeof(MFNS_FIELD(tc_cmd_t, u)) == 208u, "binding.py TcCmd.u: 208 bytes here");
 _Static_assert(offsetof(tc_cmd_t, u.mode) == 8u, "binding.py TcCmd.u.mode: offset 8 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.mode), uint8_t: 1, default: 0), "binding.py TcCmd.u.mode: C type is not uint8_t");
 _Static_assert(offsetof(tc_cmd_t, u.camera) == 8u, "binding.py TcCmd.u.camera: offset 8 here");
@@ -538,7 +560,11 @@ _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.pose), tc_pose_hint_t: 1, default
 _Static_assert(offsetof(tc_cmd_t, u.path) == 8u, "binding.py TcCmd.u.path: offset 8 here");
 _Static_assert(sizeof(MFNS_FIELD(tc_cmd_t, u.path)) == 64u * sizeof(MFNS_FIELD(tc_cmd_t, u.path)[0]), "binding.py TcCmd.u.path: 64 elements");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.path)[0], char: 1, default: 0), "binding.py TcCmd.u.path: C type is not char[64]");
-_Static_assert(offsetof(tc_cmd_t, sec) == 72u, "binding.py TcCmd.sec: offset 72 here");
+_Static_assert(offsetof(tc_cmd_t, u.upload_start) == 8u, "binding.py TcCmd.u.upload_start: offset 8 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.upload_start), tc_upload_start_t: 1, default: 0), "binding.py TcCmd.u.upload_start: C type is not tc_upload_start_t");
+_Static_assert(offsetof(tc_cmd_t, u.upload_data) == 8u, "binding.py TcCmd.u.upload_data: offset 8 here");
+_Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, u.upload_data), tc_upload_data_t: 1, default: 0), "binding.py TcCmd.u.upload_data: C type is not tc_upload_data_t");
+_Static_assert(offsetof(tc_cmd_t, sec) == 216u, "binding.py TcCmd.sec: offset 216 here");
 _Static_assert(_Generic(MFNS_FIELD(tc_cmd_t, sec), tc_sec_t: 1, default: 0), "binding.py TcCmd.sec: C type is not tc_sec_t");
 
 /* PROTOTYPES: each function called as ctypes calls it (compiled, never run) */

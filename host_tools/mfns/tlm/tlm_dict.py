@@ -227,7 +227,7 @@ def tc_mdb_path() -> Path:
 class Arg:
     name: str  # XTCE argument name, e.g. x_mm
     type_name: str
-    kind: str  # "int", "enum" or "string"
+    kind: str  # "int", "enum", "string" or "binary" (a fixed-size block of bytes)
     bits: int
     signed: bool
     description: str
