@@ -81,3 +81,9 @@ ground-yamcs: ground-venv
 GROUND_VIEW_PORT ?= 8095
 ground-view: ground-venv
 	exec $(VENV)/bin/mfns ground view --port $(GROUND_VIEW_PORT)
+
+# The picture of the live Foxglove stream in docs/robotics.md, regenerated: a flown module run
+# served by `mfns live` and drawn by its --snapshot client (tests/host/test_live_view.py).
+.PHONY: live-view-shot
+live-view-shot: $(VENV)/.stamp
+	MFNS_LIVE_SHOT=docs/img/live-view.png $(PY) -m pytest -q tests/host/test_live_view.py -k snapshot_draws

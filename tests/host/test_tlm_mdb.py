@@ -205,6 +205,13 @@ def test_c_encoded_stream_decodes_through_the_xtce_to_the_ground_csv(bins, tmp_p
     counts = assert_packets_match_csv(decoded, tmp_path / "g")
     # mfns-tlm-gen does not generate the fix record (APID 261): mfns-nav --fixlog tests cover it
     assert counts == {"nav": 60, "camera": 180, "housekeeping": 3, "event": 2, "fixobs": 0}
+    # a NO_FIX packet's pose fields are not read as a pose (issue 46: no 0 pose on the ground);
+    # the same bytes are a pose on every other packet
+    nav = [p for n, p in decoded if n == "nav"]
+    nofix = [p for p in nav if str(p["nav_status"]) == "NO_FIX"]
+    assert 0 < len(nofix) < len(nav)
+    assert all("nav_x_mm" not in p and "nav_pl_pos_mm" not in p for p in nofix)
+    assert all("nav_x_mm" in p and "nav_pl_att_deg" in p for p in nav if p not in nofix)
 
 
 def test_budget_matches_a_generated_stream(bins, tmp_path):
@@ -249,7 +256,9 @@ def test_yamcs_loads_the_dictionary(tmp_path):
     assert res.returncode == 0 and "MDB loaded successfully" in out, out[-3000:]
     d = tlm_dict.load()
     n_params = len(d.header) + sum(len(p.fields) for p in d.packets.values())
-    # the CCSDS header container and one per packet of the dictionary
-    n_containers = 1 + len(d.packets)
+    # the CCSDS header container, one per packet of the dictionary and one per conditional
+    # part of a packet (nav_pose: the pose, read only when nav_status is not NO_FIX)
+    n_containers = 1 + len(d.packets) + sum(len(p.parts) for p in d.packets.values())
+    assert d.packets["nav"].parts == {"nav_pose": ("nav_status", "!=", "NO_FIX")}
     assert re.search(rf"\b{n_params} parameters", out), out
     assert re.search(rf"\b{n_containers} sequence containers", out), out

@@ -37,6 +37,7 @@ REPO = Path(__file__).resolve().parents[2]
 BIN = REPO / "build" / "host-sim" / "bin"
 SHOTS = REPO / "build" / "operator"
 FRAMES, RATE_HZ = 120, 10.0
+USABLE = ("FIX", "DEGRADED")  # the statuses with a pose (tlm_dict.usable_status_names)
 LOST_FRAMES = range(95, 115)  # camera y's frames taken out of the replay: it goes LOST after 10 cycles
 
 
@@ -178,13 +179,18 @@ def test_every_packet_archived_and_equal_to_ground_csv(chain):
         "nav_pitch_deg": ("pitch_deg", 5e-7),
         "nav_yaw_deg": ("yaw_deg", 5e-7),
         "nav_q_w": ("q_w", 1e-8),
+        "nav_sigma_x_mm": ("sigma_x_mm", 5e-4),
+        "nav_pl_pos_mm": ("pl_pos_mm", 5e-4),
     }
     for t, cyc in cycles:
         row = nav[cyc]
         assert by_time["nav_status"][t] == row["status"], cyc
         assert by_time["nav_mode"][t] == row["mode"], cyc
         for name, (col, tol) in cols.items():
-            assert abs(by_time[name][t] - float(row[col])) <= tol, (cyc, name)
+            if row["status"] in USABLE:
+                assert abs(by_time[name][t] - float(row[col])) <= tol, (cyc, name)
+            else:  # issue 46: a NO_FIX packet's pose fields are no pose, Yamcs has no value of them
+                assert t not in by_time[name], (cyc, name, by_time[name].get(t))
         assert abs(utc(t) - utc(row["utc"])) < 1.5e-3  # the packet's real time
         assert abs(utc(t) - time.time()) < 3600
     print(
@@ -194,6 +200,67 @@ def test_every_packet_archived_and_equal_to_ground_csv(chain):
         f"{res['packets_archived']} archived; chain "
         f"{res['chain_s']:.1f} s, whole run {res['total_s']:.1f} s"
     )
+
+
+def test_the_pose_in_yamcs_is_never_a_no_fix_packet_and_expires(chain):
+    """Issue 46, in Yamcs itself: the pose parameters are read only from a packet that carries
+    a pose (mfns_tm.xml nav_pose, restricted to nav_status != NO_FIX), so a NO_FIX packet
+    never makes nav_x_mm 0; and a value that no packet refreshes within its validity (600 ms:
+    processor.yaml expirationTolerance 3 x the 200 ms of DefaultRateInStream) goes EXPIRED,
+    both after the last fix of a no-fix run and after the flight stopped."""
+    res, out = chain["res"], chain["out"]
+    nav = rows(out / "ground" / "nav.csv")
+    fixes = [r for r in nav if r["status"] in USABLE]
+    assert fixes and len(fixes) < len(nav)
+    dl = [
+        dict(zip(("rx", "name", "value", "status", "time", "validity_ms"), x, strict=True))
+        for x in res["deliveries"]
+    ]
+    assert {x["validity_ms"] for x in dl} == {600.0}
+    validity_s = 0.6
+    pose = [x for x in dl if x["name"] == "/MFNS/nav_x_mm"]
+    acquired = [x for x in pose if x["status"] == "ACQUIRED"]
+    # every value delivered as current is a FIX/DEGRADED packet's, with its x: one per fix
+    assert len(acquired) == len(fixes)
+    for x, r in zip(acquired, fixes, strict=True):
+        assert abs(utc(x["time"]) - utc(r["utc"])) < 1.5e-3 and abs(x["value"] - float(r["x_mm"])) <= 5e-4, (
+            x,
+            r,
+        )
+    # the fixes no packet with a pose followed for longer than the validity: their value expires
+    # (required where the gap leaves Yamcs' expiration check time; never for a shorter gap)
+    t_end = utc(nav[-1]["utc"]) + 10.0  # the flight stopped after its last packet
+    gaps = []
+    for i, r in enumerate(fixes):
+        nxt = utc(fixes[i + 1]["utc"]) if i + 1 < len(fixes) else t_end
+        gaps.append((r, nxt - utc(r["utc"])))
+    expired = [x for x in pose if x["status"] == "EXPIRED"]
+    assert expired
+    for x in expired:
+        r, gap = next((r, g) for r, g in gaps if abs(utc(r["utc"]) - utc(x["time"])) < 1.5e-3)
+        assert gap > validity_s and abs(x["value"] - float(r["x_mm"])) <= 5e-4, (x, r, gap)
+        seen = next(a for a in acquired if a["time"] == x["time"])
+        assert validity_s <= x["rx"] - seen["rx"] < validity_s + 3.0, (x, seen)
+    for r, gap in gaps:
+        if gap > validity_s + 2.0:
+            assert any(abs(utc(x["time"]) - utc(r["utc"])) < 1.5e-3 for x in expired), (r["cycle"], gap)
+    # after the flight stopped: every last value EXPIRED, the pose the last fix's (not 0)
+    after = res["after_stop"]
+    assert {n: v["status"] for n, v in after.items()} == {n: "EXPIRED" for n in VALIDITY}
+    assert abs(after["/MFNS/nav_x_mm"]["value"] - float(fixes[-1]["x_mm"])) <= 5e-4
+    assert abs(utc(after["/MFNS/nav_x_mm"]["time"]) - utc(fixes[-1]["utc"])) < 1.5e-3
+    assert after["/MFNS/nav_status"]["value"] == nav[-1]["status"]
+    lat = [x["rx"] - next(a for a in acquired if a["time"] == x["time"])["rx"] for x in expired]
+    print(
+        f"\nYamcs pose: {len(acquired)} values = the {len(fixes)} FIX/DEGRADED packets, none from the "
+        f"{len(nav) - len(fixes)} NO_FIX ones; EXPIRED {len(expired)} times after a fix's last packet "
+        f"({', '.join(f'{t:.2f} s' for t in lat)} after its arrival; validity {validity_s} s); after the "
+        f"flight stopped all {len(after)} EXPIRED, nav_x_mm = {after['/MFNS/nav_x_mm']['value']} "
+        "(the last fix)"
+    )
+
+
+VALIDITY = ["/MFNS/nav_status", "/MFNS/nav_x_mm", "/MFNS/nav_sigma_x_mm", "/MFNS/nav_pl_pos_mm"]
 
 
 def test_commands_in_engineering_units_are_verified(chain):
@@ -365,7 +432,6 @@ def test_each_alarm_triggers(chain):
 
 POSE_DIGITS = {"x_mm": 3, "y_mm": 3, "z_mm": 3, "roll_deg": 4, "pitch_deg": 4, "yaw_deg": 4}
 SIGMA_DIGITS = {f"sigma_{k}": d for k, d in POSE_DIGITS.items()}
-USABLE = ("FIX", "DEGRADED")
 
 
 def check_digits(text: dict, prefix: str, row: dict, digits: dict) -> None:

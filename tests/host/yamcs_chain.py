@@ -38,6 +38,8 @@ NAV_PARAMS = [
     "nav_cycle",
     "nav_status",
     "nav_mode",
+    "nav_pl_pos_mm",
+    "nav_sigma_x_mm",
     "nav_x_mm",
     "nav_y_mm",
     "nav_z_mm",
@@ -48,6 +50,10 @@ NAV_PARAMS = [
     "nav_cov_x_x",
 ]
 EVENT_PARAMS = ["evt_code", "evt_subject", "evt_arg0", "evt_arg1"]
+# the pose's validity in Yamcs itself (issue 46): the pose parameters are read only from a
+# packet that carries a pose (mfns_tm.xml nav_pose), and expire (processor.yaml
+# expirationTolerance x the containers' DefaultRateInStream) when no fresh one comes
+VALIDITY_PARAMS = ["/MFNS/nav_status", "/MFNS/nav_x_mm", "/MFNS/nav_sigma_x_mm", "/MFNS/nav_pl_pos_mm"]
 VIEW_PORT = 8095
 CPU_LOAD_INJECTED_PCT = 90.0  # above the 80 % the ground dictionary warns at
 WORKSPACE_INJECTED = "LOST_OUTSIDE"  # workspace_t: CRITICAL in mfns_tm.xml
@@ -165,6 +171,34 @@ def cpu_packet(arch) -> bytes:
     return bytes(pkt)
 
 
+class Deliveries:
+    """Every value Yamcs' realtime processor delivers of VALIDITY_PARAMS, expirations included
+    (update_on_expiration): (receipt time, name, value, acquisition status, generation time,
+    validity ms)."""
+
+    def __init__(self, proc) -> None:
+        self.lock = threading.Lock()
+        self.rows: list[tuple] = []
+        self.sub = proc.create_parameter_subscription(
+            VALIDITY_PARAMS, on_data=self._on_data, abort_on_invalid=False, update_on_expiration=True
+        )
+
+    def _on_data(self, data) -> None:
+        now = time.time()
+        with self.lock:
+            for p in data.parameters:
+                self.rows.append(
+                    (
+                        now,
+                        p.name,
+                        view.plain(p.eng_value),
+                        p.validity_status,
+                        iso(p.generation_time),
+                        p.validity_duration.total_seconds() * 1e3 if p.validity_duration else None,
+                    )
+                )
+
+
 def main() -> int:
     bins, table, table2, frames, out, shots = (Path(a) for a in sys.argv[1:7])
     out.mkdir(parents=True, exist_ok=True)
@@ -185,6 +219,7 @@ def main() -> int:
         vt.start()
         ready.wait(30)
         conn = proc.create_command_connection()
+        deliveries = Deliveries(proc)
         t_chain = time.monotonic()
         tlm, tc = out / "tlm.fifo", out / "tc.fifo"
         for f in (tlm, tc):
@@ -300,6 +335,20 @@ def main() -> int:
         time.sleep(0.7)  # the last telemetry through the ground station and UDP
         ground.send_signal(signal.SIGINT)
         ground.wait(timeout=30)
+        res["ground_end"] = time.time()
+        # the last values, asked of the processor once no packet came for longer than their
+        # validity: each must say EXPIRED (a display of it is not the present)
+        time.sleep(1.5)
+        res["after_stop"] = {
+            p.name: {
+                "value": view.plain(p.eng_value),
+                "status": p.validity_status,
+                "time": iso(p.generation_time),
+            }
+            for p in proc.get_parameter_values(VALIDITY_PARAMS)
+            if p is not None
+        }
+        res["after_stop_t"] = time.time()
         res["nav_rc"], res["ground_rc"] = nav.returncode, ground.returncode
         res["chain_s"] = time.monotonic() - t_chain
         time.sleep(1.0)  # Yamcs archives what it received
@@ -321,6 +370,8 @@ def main() -> int:
         }
         res["packets_archived"], res["archive_settle_s"] = archive_settled(client, arch, 20.0)
         res["params"] = {n: archive_values(arch, n) for n in NAV_PARAMS + EVENT_PARAMS}
+        with deliveries.lock:
+            res["deliveries"] = list(deliveries.rows)
         t_lost = time.monotonic()
         while time.monotonic() - t_lost < 20.0:  # its verifiers' window is 10 s
             acks = {c.id: c.acknowledgments for c in arch.list_command_history()}.get(lost.id, {})
@@ -403,6 +454,8 @@ def main() -> int:
         stop_view.set()
         if "conn" in locals():
             conn.cancel()
+        if "deliveries" in locals():
+            deliveries.sub.cancel()
         if "vt" in locals():
             vt.join(timeout=5)  # its subscription closed before the server goes
         for p in (nav, ground):

@@ -50,6 +50,20 @@ def register(subparsers) -> None:
         "--body-frame", default=rosmsg.BODY_FRAME, help=f"body frame id (default {rosmsg.BODY_FRAME})"
     )
     p.add_argument("--ground", help="the mfns-ground program that decodes a recording")
+    p.add_argument(
+        "--snapshot",
+        type=Path,
+        metavar="PNG",
+        help="connect a client to the server, draw what it receives (beacons, track, pose with its "
+        "covariance ellipsoid, camera frusta, status) into PNG and stop: an offline picture of the "
+        "stream, drawn with matplotlib, not by the Foxglove app (docs/robotics.md)",
+    )
+    p.add_argument(
+        "--snapshot-seconds",
+        type=float,
+        default=5.0,
+        help="how long the --snapshot client listens before it draws (default 5)",
+    )
     p.set_defaults(func=run)
 
 
@@ -66,14 +80,37 @@ def run(args) -> int:
         raise MfnsError(f"--max-seconds {args.max_seconds}: expected seconds > 0")
     if not 0 <= args.port <= 65535:
         raise MfnsError(f"--port {args.port}: expected 0..65535")
+    if not (math.isfinite(args.snapshot_seconds) and args.snapshot_seconds > 0):
+        raise MfnsError(f"--snapshot-seconds {args.snapshot_seconds}: expected seconds > 0")
+    import threading
+
     from ..ground import live
     from ..tlm.rosexport import Frames
+
+    stop = threading.Event() if args.snapshot else None
+    shot: dict = {}
+
+    def snapshot(url: str) -> None:
+        from ..ground import live_view
+
+        try:
+            scene = live_view.capture(url, args.snapshot_seconds)
+            shot["drawn"] = live_view.render(scene, args.snapshot, body_frame=args.body_frame)
+        except MfnsError as e:
+            shot["error"] = str(e)
+        except Exception as e:  # reported by the command below, never a hung server
+            shot["error"] = f"{type(e).__name__}: {e}"
+        finally:
+            assert stop is not None
+            stop.set()
 
     def ready(port: int) -> None:
         print(
             f"mfns live: ws://{live.HOST}:{port} (Foxglove: Open connection -> Foxglove WebSocket)",
             flush=True,
         )
+        if args.snapshot:
+            threading.Thread(target=snapshot, args=(f"ws://{live.HOST}:{port}",), daemon=True).start()
 
     counts = live.run(
         args.source,
@@ -87,6 +124,18 @@ def run(args) -> int:
         frames=Frames(args.world_frame, args.body_frame),
         ground=args.ground,
         ready=ready,
+        stop=stop,
     )
     print("mfns live: sent " + ", ".join(f"{t} {n}" for t, n in sorted(counts.items())), flush=True)
+    if args.snapshot:
+        if "error" in shot:
+            raise MfnsError(f"--snapshot: {shot['error']}")
+        if "drawn" not in shot:
+            raise MfnsError("--snapshot: the server stopped before the picture was drawn (--max-seconds?)")
+        d = shot["drawn"]
+        print(
+            f"mfns live: {args.snapshot}: {d['poses']} poses, {d['beacons']} beacons, {d['frusta']} frusta, "
+            f"3-sigma ellipsoid x{d['ellipsoid_gain']:g}",
+            flush=True,
+        )
     return 0

@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -256,11 +257,14 @@ def run(
     frames: Frames | None = None,
     ground: str | None = None,
     ready: Callable[[int], None] | None = None,
+    stop: threading.Event | None = None,
 ) -> dict[str, int]:
+    """Serve until max_seconds, Ctrl-C or `stop` is set (set by another thread: mfns live
+    --snapshot's client once it has drawn), or until the data end when neither limit is given."""
     t_end = None if max_seconds is None else time.monotonic() + max_seconds
 
     def deadline() -> bool:
-        return t_end is not None and time.monotonic() >= t_end
+        return (t_end is not None and time.monotonic() >= t_end) or (stop is not None and stop.is_set())
 
     rig = load_cameras(calib, table)
     beacons = load_beacons(table)
@@ -280,7 +284,7 @@ def run(
                     live.publish_nav(row)
                 else:
                     live.publish_camera(row)
-            while not deadline() and t_end is not None:  # data ended: keep serving until the limit
+            while not deadline() and (t_end is not None or stop is not None):  # data ended: serve on
                 time.sleep(0.1)
         except KeyboardInterrupt:
             pass

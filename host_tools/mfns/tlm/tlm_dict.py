@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
 from pathlib import Path
@@ -89,6 +90,10 @@ class Field:
     offset: int = 0  # bytes from the start of the payload (or packet, for the header)
     valid_range: tuple[float, float] | None = None  # raw (wire) inclusive bounds, XTCE ValidRange
     anc: dict[str, str] = field(default_factory=dict)  # the parameter's XTCE AncillaryData
+    # the XTCE container the ground reads it in: the packet's own, or a part of it that
+    # inherits it under a condition (nav_pose: only when nav_status is not NO_FIX). The bytes
+    # are the same either way: the C codec and the CSV columns see one flat packet.
+    container: str = ""
 
     @property
     def c_field(self) -> str:
@@ -112,10 +117,23 @@ class Packet:
     apid: int
     description: str
     fields: list[Field] = field(default_factory=list)
+    # its conditional parts: container -> (parameter, operator, value) of the XTCE restriction
+    # under which the ground reads that part's fields (nav_pose: ("nav_status", "!=", "NO_FIX"))
+    parts: dict[str, tuple[str, str, str]] = field(default_factory=dict)
 
     @property
     def payload_len(self) -> int:
         return sum(f.size for f in self.fields)
+
+    def present(self, f: Field, values: Mapping[str, object]) -> bool:
+        """Whether the ground reads field f in a packet of these values (parameter -> value,
+        enumerations by label): the packet's own fields always, a part's when its restriction
+        holds (nav_x_mm only when nav_status is not NO_FIX)."""
+        cond = self.parts.get(f.container)
+        if cond is None:
+            return True
+        param, op, value = cond
+        return (str(values[param]) == value) == (op == "==")
 
 
 @dataclass
@@ -161,8 +179,8 @@ def _types(root: ET.Element) -> dict[str, dict]:
     return out
 
 
-def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> list[Field]:
-    out, off = [], 0
+def _fields(container: ET.Element, params: dict, types: dict, prefix: str, off: int = 0) -> list[Field]:
+    out = []
     for entry in container.findall("x:EntryList/x:ParameterRefEntry", NS):
         pname = _attr(entry, "parameterRef")
         tname, desc, anc = params[pname]
@@ -181,6 +199,7 @@ def _fields(container: ET.Element, params: dict, types: dict, prefix: str) -> li
             offset=off // 8,
             valid_range=t["valid_range"],
             anc=anc,
+            container=_attr(container, "name"),
         )
         off += f.bits
         out.append(f)
@@ -208,6 +227,16 @@ def load(path: str | None = None) -> Dictionary:
         name = _attr(c, "name")
         if c.get("abstract") == "true":
             header = _fields(c, params, types, "")
+            continue
+        base = _attr(_req(c, "x:BaseContainer"), "containerRef")
+        if base in packets:  # a conditional part of a packet (nav_pose): its fields follow the parent's
+            parent = packets[base]
+            parent.fields += _fields(c, params, types, PREFIX[base], 8 * parent.payload_len)
+            cmp = _req(c, "x:BaseContainer/x:RestrictionCriteria/x:Comparison")
+            op = cmp.get("comparisonOperator", "==")
+            if op not in ("==", "!="):
+                raise ValueError(f"{name}: restriction operator {op} (this reader knows == and !=)")
+            parent.parts[name] = (_attr(cmp, "parameterRef"), op, _attr(cmp, "value"))
             continue
         apid = int(_attr(_req(c, "x:BaseContainer/x:RestrictionCriteria/x:Comparison"), "value"))
         packets[name] = Packet(
