@@ -21,6 +21,7 @@ import numpy as np
 
 from ..analysis.report import AXES
 from ..model.camera import load_beacons
+from ..simulate.nav import CAMERA_DIRS
 from . import fixlog
 
 SURVEY_RATE_HZ = 2.0  # frames of the survey flight: one every 0.5 s is plenty for a map
@@ -210,7 +211,7 @@ def demo(a) -> int:
     )
     calib, surveyed = survey / "calib.json", survey / "beacons.csv"
     _fly(py, bins, survey, calib, surveyed, out / "survey-flight", fixlog=out / "fixlog")
-    for c in ("cam_x", "cam_y", "cam_z"):  # 2.7 MB per frame set: keep what describes the run
+    for c in CAMERA_DIRS:  # 2.7 MB per frame set: keep what describes the run
         shutil.rmtree(survey / c)
     _run(
         [
@@ -261,7 +262,7 @@ def demo(a) -> int:
     # the same refined map with its whole sigma per beacon and no datum section: what the
     # split buys (docs/self_survey.md "Which part of the 1-sigma is the map's")
     whole = _fly(py, bins, fresh, calib, refined / "beacons.csv", out / "refined-map-no-datum")
-    for c in ("cam_x", "cam_y", "cam_z"):
+    for c in CAMERA_DIRS:
         shutil.rmtree(fresh / c)
     rep = json.loads((out / "refined" / "refine.json").read_text())
     fig = map_figures(out)
