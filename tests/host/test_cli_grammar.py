@@ -164,7 +164,8 @@ def test_output_folder_is_out_everywhere(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "output folder is missing" in err
     assert main([*args, str(tmp_path / "c"), "--out", str(tmp_path / "d")]) == 2
-    for cmd in (["sim", "calib"], ["sim", "nav"], ["mc"], ["plan", "analyze"], ["plan", "optimize"]):
+    folder_commands = (["sim", "calib"], ["sim", "nav"], ["mc"], ["plan", "analyze"], ["plan", "optimize"])
+    for cmd in (*folder_commands, ["map", "refine"], ["map", "demo"]):
         with pytest.raises(SystemExit):
             main([*cmd, "--help"])
         assert "--out" in capsys.readouterr().out, cmd
