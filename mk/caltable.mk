@@ -26,7 +26,7 @@ $(GEN)/default.mfnstbl: $(CALTABLE_SRC) $(CALTABLE_PY) $(VENV)/.stamp build/host
 
 # caltable_values.txt, caltable_projections.txt, caltable_undistort.txt
 $(GEN)/caltable_vectors.stamp: $(GEN)/default.mfnstbl $(CALTABLE_PY) $(VENV)/.stamp build/host-sim/lib/libmfns_core.so
-	$(PY) -m mfns.table.vectors $< $(GEN)
+	$(PY) -m mfns table vectors $< $(GEN)
 	@touch $@
 
 GEN_FILES += $(GEN)/default.mfnstbl $(GEN)/caltable_vectors.stamp

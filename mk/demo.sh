@@ -136,7 +136,7 @@ drop_frames module-planned --scenario module --frames 120 --seed 2 --beacon-map 
 step "the paper's comparison (Tables 3 and 5, availability, figures), README's accuracy" -- \
   bash -c '"$1" -m mfns compare "$2" -o "$2/report.md" && "$1" mk/readme_accuracy.py "$2" README.md' _ "$py" "$out"
 step "self-survey: the module's map refined from its own fixes, before and after (docs/self_survey.md)" -- \
-  "$py" -m mfns.map.refine_demo "$out/self-survey" --report "$out/report.md"
+  "$py" -m mfns map demo "$out/self-survey" --report "$out/report.md"
 [ "$n" -eq "$N" ] || echo "demo: $n steps ran but N=$N in mk/demo.sh" >&2
 cat >"$out/README.txt" <<EOF
 What make demo wrote (mk/demo.sh):

@@ -1,5 +1,6 @@
 # Self-survey (issue 29, docs/self_survey.md section 4): the slow checks, not in `make test`
 # (the fast ones are tests/host/test_map_refine.py and test_fixlog_flight.py).
+# Script: tests/bench/bench_survey.py (its survey runs `mfns map demo` per seed).
 #   make bench-survey          the map target on seeds 2, 3, 5: 24 min of survey flight at 1 Hz
 #                              each (about 2 min per seed on 2 cores: 5 min 22 s for the three,
 #                              3 Dec 2026), figures in
@@ -9,8 +10,8 @@
 .PHONY: bench-survey bench-survey-monitor
 bench-survey: venv
 	@$(MAKE) --no-print-directory BOARD=host-sim flight
-	$(PY) -m mfns.map.refine_bench survey build/bench/survey
+	$(PY) tests/bench/bench_survey.py survey build/bench/survey
 
 bench-survey-monitor: venv
 	@$(MAKE) --no-print-directory BOARD=host-sim flight
-	$(PY) -m mfns.map.refine_bench monitor build/bench/monitor
+	$(PY) tests/bench/bench_survey.py monitor build/bench/monitor

@@ -38,6 +38,8 @@ PATHS = command_paths(build_parser())
 def test_the_tree_has_the_known_commands():
     names = {" ".join(p) for p in PATHS}
     assert {"", "calib", "compare", "mc", "report", "sim", "sim calib", "sim nav", "table build"} <= names
+    # issue 41: the programs that ran as `python -m mfns.X` are subcommands
+    assert {"map demo", "table vectors", "table gridstudy"} <= names
 
 
 @pytest.mark.parametrize("path", PATHS, ids=lambda p: " ".join(p) or "mfns")
@@ -162,7 +164,8 @@ def test_output_folder_is_out_everywhere(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "output folder is missing" in err
     assert main([*args, str(tmp_path / "c"), "--out", str(tmp_path / "d")]) == 2
-    for cmd in (["sim", "calib"], ["sim", "nav"], ["mc"], ["plan", "analyze"], ["plan", "optimize"]):
+    folder_commands = (["sim", "calib"], ["sim", "nav"], ["mc"], ["plan", "analyze"], ["plan", "optimize"])
+    for cmd in (*folder_commands, ["map", "refine"], ["map", "demo"]):
         with pytest.raises(SystemExit):
             main([*cmd, "--help"])
         assert "--out" in capsys.readouterr().out, cmd
@@ -202,6 +205,9 @@ def test_every_option_of_every_command_has_help_text():
         ["report", "x", "--nope=1"],
         ["sim", "nav", "--nope"],
         ["plan", "analyze", "--nope"],
+        ["map", "demo", "--nope"],
+        ["table", "vectors", "--nope"],
+        ["table", "gridstudy", "--nope"],
     ],
     ids=" ".join,
 )
@@ -219,3 +225,31 @@ def test_negative_values_and_abbreviations_are_not_unknown(capsys):
         main(["report", "--time-tol", "-1", "--no-pl"])  # the missing operand is the error
     err = capsys.readouterr().err
     assert "unrecognized" not in err and "required" in err, err
+
+
+def test_no_module_of_the_package_is_a_program_of_its_own():
+    """Issue 41: every program is an `mfns` subcommand (or a bench under tests/bench/): no module
+    of the package carries a `__main__` block but the CLI's own (cli.py, __main__.py) and
+    core/binding_check.py, the build-time generator `make lib` runs with the system python3
+    before the venv and the package exist (mk/binding.mk)."""
+    pkg = REPO / "host_tools" / "mfns"
+    allowed = {"cli.py", "__main__.py", "core/binding_check.py"}
+    found = sorted(
+        str(p.relative_to(pkg))
+        for p in pkg.rglob("*.py")
+        if '__name__ == "__main__"' in p.read_text() or "__name__ == '__main__'" in p.read_text()
+    )
+    assert found and set(found) <= allowed, f"modules that are programs of their own: {set(found) - allowed}"
+
+
+@pytest.mark.parametrize(
+    "bench, bad", [("bench_survey.py", ["survey", "OUT", "--nope"]), ("bench_calib_seeds.py", ["--nope"])]
+)
+def test_the_benches_that_were_package_programs_answer_help(bench, bad):
+    """The two former `python -m mfns.*` programs that became benches (tests/bench/) answer --help
+    and name a bad option with exit 2."""
+    script = REPO / "tests" / "bench" / bench
+    res = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, check=False)
+    assert res.returncode == 0 and "usage:" in res.stdout, res.stderr
+    res = subprocess.run([sys.executable, str(script), *bad], capture_output=True, text=True, check=False)
+    assert res.returncode == 2 and "--nope" in res.stderr, res.stderr

@@ -15,8 +15,11 @@ from pathlib import Path
 import pytest
 from flight_replay import fly_replay  # tests/host
 
-from mfns.map.refine_bench import along_wall, most_seen_beacon
 from mfns.model.camera import load_beacons
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "bench"))
+
+from bench_survey import along_wall, most_seen_beacon  # noqa: E402 (tests/bench, make bench-survey)
 
 SEED, FRESH_SEED, FRAMES = 2, 7, 150  # the demo's module LEDs and fresh path
 

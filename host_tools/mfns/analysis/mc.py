@@ -372,7 +372,7 @@ def plot_pose(path: Path, rows: list[dict], solver_name: str) -> None:
     import matplotlib.pyplot as plt
 
     # The paper's requirement on the camera mounting (Sec. 3): < 1 mm and < 0.17 deg.
-    requirement = {"position": 1.0, "attitude": 0.17}
+    requirement = {"position": PAPER_POSITION_MM, "attitude": PAPER_ATTITUDE_DEG}
     what = {"position": "camera position r_bk_b", "attitude": "camera attitude C_k_b", "beacon": "beacon map"}
     fig, axes = plt.subplots(2, len(POSE_GROUPS), figsize=(13, 6.5), dpi=100, sharex="col")
     for k, (g, unit, _levels) in enumerate(POSE_GROUPS):

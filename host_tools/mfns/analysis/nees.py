@@ -34,23 +34,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.csv_formats import COV_AXES as POSE_AXES
+from ..core.csv_formats import COV_COLUMNS, COV_PAIRS, SIGMA_COLUMNS
 from ..core.errors import MfnsError
 
-POSE_AXES = ("x", "y", "z", "rx", "ry", "rz")
 POSE_UNITS = ("mm", "mm", "mm", "deg", "deg", "deg")
-# Upper triangle, row-major: cov_x_x, cov_x_y, ..., cov_x_rz, cov_y_y, ..., cov_rz_rz.
-COV_PAIRS = tuple((i, j) for i in range(6) for j in range(i, 6))
-COV_COLUMNS = tuple(f"cov_{POSE_AXES[i]}_{POSE_AXES[j]}" for i, j in COV_PAIRS)
 QUAT_COLUMNS = ("q_w", "q_x", "q_y", "q_z")
-# The diagonal 1-sigma columns: position (mm), then the 2-1-3 Euler angles (deg).
-SIGMA_COLUMNS = (
-    "sigma_x_mm",
-    "sigma_y_mm",
-    "sigma_z_mm",
-    "sigma_roll_deg",
-    "sigma_pitch_deg",
-    "sigma_yaw_deg",
-)
 DIAG_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 DOF = 6
 # A quaternion whose norm is this far from 1 is not a rotation (the wire carries a unit one).

@@ -26,21 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from ..core import validate as V
+from ..core.csv_formats import POSE_COLUMNS, TRUTH_HEADER
 from ..core.errors import MfnsError
 from ..tlm import tlm_dict
 from . import nees as N
 
 AXES = ("roll", "pitch", "yaw", "x", "y", "z")
-NAV_COLUMNS = {
-    "roll": "roll_deg",
-    "pitch": "pitch_deg",
-    "yaw": "yaw_deg",
-    "x": "x_mm",
-    "y": "y_mm",
-    "z": "z_mm",
-}
+# axis -> its nav.csv / truth.csv column (roll -> roll_deg), in AXES order
+NAV_COLUMNS = {a: c for a in AXES for c in POSE_COLUMNS if c.split("_")[0] == a}
 UNITS = {"roll": "deg", "pitch": "deg", "yaw": "deg", "x": "mm", "y": "mm", "z": "mm"}
-TRUTH_HEADER = ["frame", "t_s", "x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"]
 GOOD_STATUS = tlm_dict.usable_status_names()  # the nav statuses that carry a pose: FIX, DEGRADED
 
 

@@ -21,9 +21,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..analysis.calib_results import camera_name_problem
+from ..analysis.calib_results import MAX_CAMERAS, camera_name_problem
 from ..core.errors import MfnsError
-from .model import ARCSEC, CHARUCO_DICTIONARIES, MAX_CAMERAS, Board, ImageObs, Observations, pure_axis
+from .model import ARCSEC, CHARUCO_DICTIONARIES, Board, ImageObs, Observations, pure_axis
 
 FORMAT = "mfns-calib-dataset"
 VERSION = 1

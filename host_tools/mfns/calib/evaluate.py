@@ -8,12 +8,12 @@ refinement, the Cramér-Rao bound, the refinement's mean reported 1-sigma and th
 its estimates over the seeds, and the NEES of the truth under the covariances the results
 documents carry (refined and paper method, docs/calib-results.md).
 
-    python -m mfns.calib.evaluate --seeds 40 [--sigma-px 0.1]
+Run by tests/bench/bench_calib_seeds.py (`make bench-calib-seeds`) and the acceptance test
+tests/host/test_calib_acceptance.py.
 """
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -151,19 +151,3 @@ def run_seeds(
         np.array(z_ref),
         N_PARAMETERS * len(truth.cams),
     )
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mfns.calib.evaluate", description=__doc__.split("\n\n")[0])
-    p.add_argument("--seeds", type=int, default=40)
-    p.add_argument("--sigma-px", type=float, default=0.1)
-    p.add_argument("--turntable-views", type=int, default=12)
-    p.add_argument("--prepared-views", type=int, default=10)
-    a = p.parse_args(argv)
-    stats = run_seeds(a.seeds, a.sigma_px, a.turntable_views, a.prepared_views, progress=True)
-    print(stats.table())
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -20,11 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..analysis.calib_results import CAMERA_NAMES
 from ..model.camera import Camera
 from ..model.rotations import rx, rz
 
-CAMERA_NAMES = ("x", "y", "z")  # the flight rig's cameras (the default dataset)
-MAX_CAMERAS = 8
 ARCSEC = np.pi / (180.0 * 3600.0)
 PURE_AXIS_SIGMAS = 5.0  # a recorded angle within 5 sigma of 0 was commanded to 0
 

@@ -1,4 +1,5 @@
-"""`mfns map`: the beacon map after the survey (docs/self_survey.md)."""
+"""`mfns map`: the beacon map after the survey (docs/self_survey.md): `refine` a map from a fix
+log, and the self-survey `demo` of `make demo`."""
 
 from __future__ import annotations
 
@@ -80,7 +81,15 @@ def cmd_refine(args) -> int:
     return 0
 
 
+def cmd_demo(args) -> int:
+    from ..map.refine_demo import demo
+
+    return demo(args)
+
+
 def register(subparsers) -> None:
+    from ..map.refine_demo import FRESH_SEED, SEED, SURVEY_RATE_HZ
+
     p = subparsers.add_parser(
         "map", help="the beacon map after the survey: self-survey (docs/self_survey.md)"
     )
@@ -108,3 +117,33 @@ def register(subparsers) -> None:
     )
     r.add_argument("--every", type=int, default=1, metavar="N", help="use every Nth fix (default all)")
     r.set_defaults(func=cmd_refine)
+    d = sub.add_parser(
+        "demo",
+        help="the self-survey of make demo: survey flight, map refine, fresh frames on each map",
+        description="The module scenario with its survey error rendered, flown with the fix log on; "
+        "`mfns map refine`; then fresh frames (another path and noise, the same LEDs) flown with the "
+        "surveyed and the refined map: navigation errors against truth and the NEES. Writes "
+        "OUT/self_survey.md and appends it to --report.",
+    )
+    d.add_argument("out", metavar="OUT", help="output folder (emptied first)")
+    d.add_argument("--report", metavar="FILE", help="markdown report to append the section to")
+    d.add_argument("--minutes", type=float, default=3.0, help="survey flight (default 3 min)")
+    d.add_argument(
+        "--rate-hz",
+        type=float,
+        default=SURVEY_RATE_HZ,
+        help=f"survey frame rate (default {SURVEY_RATE_HZ:g})",
+    )
+    d.add_argument("--seed", type=int, default=SEED, help=f"map and survey error (default {SEED})")
+    d.add_argument(
+        "--fresh-seed",
+        type=int,
+        help=f"path and noise of the fresh frames (default: seed + {FRESH_SEED - SEED})",
+    )
+    d.add_argument(
+        "--bin",
+        default="build/host-sim/bin",
+        metavar="DIR",
+        help="folder of the host-sim mfns-nav and mfns-ground (default build/host-sim/bin)",
+    )
+    d.set_defaults(func=cmd_demo)

@@ -1,4 +1,6 @@
-"""`mfns table`: build the binary calibration table and show one (docs/caltable.md)."""
+"""`mfns table`: build the binary calibration table and show one (docs/caltable.md); write the
+C tests' vectors of a table (`vectors`, run by the build, mk/caltable.mk) and the grid size
+study of docs/distortion-grid.md (`gridstudy`)."""
 
 from __future__ import annotations
 
@@ -179,6 +181,20 @@ def cmd_show(args) -> int:
     return 0
 
 
+def cmd_vectors(args) -> int:
+    from ..table.vectors import write_vectors
+
+    write_vectors(args.table, args.outdir)
+    return 0
+
+
+def cmd_gridstudy(args) -> int:
+    from ..table.gridstudy import DEFAULT_CALIB, study
+
+    print("\n".join(study(args.calib_json if args.calib_json is not None else DEFAULT_CALIB)))
+    return 0
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser("table", help="build or show the binary calibration table")
     sub = parser.add_subparsers(dest="table_command", metavar="ACTION")
@@ -231,4 +247,29 @@ def register(subparsers) -> None:
     s = sub.add_parser("show", help="print a table and verify its CRC")
     s.add_argument("table", metavar="TABLE", help="a calibration table (.mfnstbl) to print")
     s.set_defaults(func=cmd_show)
+    v = sub.add_parser(
+        "vectors",
+        help="write the C tests' vectors of a table (caltable_values/projections/undistort.txt)",
+        description="The shared test vectors of tests/unit/test_caltable.c and test_undistort.c, written by "
+        "the build (mk/caltable.mk) next to the default table: every value the table holds, OpenCV "
+        "projections through its cameras, exact undistorted pixels.",
+    )
+    v.add_argument("table", metavar="TABLE", help="a calibration table (.mfnstbl) the flight loader accepts")
+    v.add_argument("outdir", metavar="OUTDIR", help="folder to write the three vector files into")
+    v.set_defaults(func=cmd_vectors)
+    g = sub.add_parser(
+        "gridstudy",
+        help="memory vs worst-case error of the correction grid (docs/distortion-grid.md)",
+        description="Prints the markdown table of docs/distortion-grid.md: per grid size the bytes per "
+        "camera and each camera's worst-case correction error.",
+    )
+    g.add_argument(
+        "calib_json",
+        metavar="CALIB_JSON",
+        nargs="?",
+        default=None,
+        help="calibration-results JSON of the cameras (default: the paper's Table 2, "
+        "mfns/data/paper_calib.json)",
+    )
+    g.set_defaults(func=cmd_gridstudy)
     parser.set_defaults(func=lambda args: parser.print_help() or 2)

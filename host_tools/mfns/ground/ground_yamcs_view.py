@@ -26,6 +26,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
 
+from mfns.core.csv_formats import POSE_COLUMNS, SIGMA_COLUMNS
 from mfns.ground import ground_yamcs as gy
 from mfns.tlm import tlm_dict
 
@@ -41,18 +42,8 @@ NAV = [
     "mode",
     "beacons_used",
     "cams_used",
-    "x_mm",
-    "y_mm",
-    "z_mm",
-    "roll_deg",
-    "pitch_deg",
-    "yaw_deg",
-    "sigma_x_mm",
-    "sigma_y_mm",
-    "sigma_z_mm",
-    "sigma_roll_deg",
-    "sigma_pitch_deg",
-    "sigma_yaw_deg",
+    *POSE_COLUMNS,
+    *SIGMA_COLUMNS,
     "pl_pos_mm",
     "pl_att_deg",
 ]

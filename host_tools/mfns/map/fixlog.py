@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.csv_formats import COV_COLUMNS, COV_PAIRS
 from ..core.errors import MfnsError
 from ..model.rotations import euler213_deg_to_matrix
 from ..tlm import tlm_dict
@@ -97,11 +98,9 @@ def decode(pkt: bytes, d: tlm_dict.Dictionary | None = None) -> tuple[str, float
 
 def _pose_cov(n: dict) -> np.ndarray:
     """The 21 upper-triangle entries (x, y, z, rx, ry, rz; row-major) -> (6, 6)."""
-    names = ["x", "y", "z", "rx", "ry", "rz"]
     c = np.zeros((6, 6))
-    for i in range(6):
-        for j in range(i, 6):
-            c[i, j] = c[j, i] = n[f"cov_{names[i]}_{names[j]}"]
+    for (i, j), name in zip(COV_PAIRS, COV_COLUMNS, strict=True):
+        c[i, j] = c[j, i] = n[name]
     return c
 
 

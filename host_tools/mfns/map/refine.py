@@ -39,6 +39,8 @@ from scipy.optimize import least_squares
 from scipy.stats import chi2, norm
 
 from ..analysis.calib_results import CAMERA_NAMES
+from ..analysis.mc import PAPER_ATTITUDE_DEG, PAPER_POSITION_MM
+from ..core.csv_formats import BEACON_COLUMNS
 from ..core.errors import MfnsError
 from ..model.camera import Camera
 from ..model.rotations import matrix_to_euler213_deg, rot_exp, skew
@@ -57,8 +59,8 @@ HUBER_SIGMA = 3.0
 HUBER_TRUNC_VAR = float(1.0 - 2.0 * HUBER_SIGMA * norm.pdf(HUBER_SIGMA) / (2.0 * norm.cdf(HUBER_SIGMA) - 1.0))
 # Mount priors when the calibration gives none: the paper's requirement on the rig
 # (docs/system.md section 4: 1 mm and 0.17 deg), far wider than a calibration's 1 sigma.
-MOUNT_SIGMA_DEG = 0.17
-MOUNT_SIGMA_MM = 1.0
+MOUNT_SIGMA_DEG = PAPER_ATTITUDE_DEG
+MOUNT_SIGMA_MM = PAPER_POSITION_MM
 PIXEL_FLOOR_PX = 0.005  # the table's default floor order (grid residual); the centroider's covariance adds
 
 
@@ -601,7 +603,7 @@ def refined_rig_doc(doc: dict, res: Result) -> dict:
 def write_beacons(path: Path, res: Result) -> None:
     """beacons.csv of the refined map: id, position, sigma_mm (the refinement's)."""
     with open(path, "w") as f:
-        f.write("id,x_mm,y_mm,z_mm,sigma_mm\n")
+        f.write(",".join(BEACON_COLUMNS) + "\n")
         for i, p, s in zip(res.ids, res.p, res.sigma, strict=True):
             f.write(f"{int(i)},{p[0]:.4f},{p[1]:.4f},{p[2]:.4f},{max(s, 1e-4):.4f}\n")
 

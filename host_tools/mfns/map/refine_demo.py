@@ -3,14 +3,13 @@ error rendered, flown for a few minutes with the fix log on; `mfns map refine`; 
 same LEDs flown on fresh frames (another trajectory and noise) with the surveyed map and
 with the refined one, side by side: navigation errors against truth and the NEES.
 
-    python -m mfns.map.refine_demo OUT [--report REPORT.md] [--minutes M]
+    mfns map demo OUT [--report REPORT.md] [--minutes M]
 
 Appends its section to REPORT.md (the demo's report) and writes OUT/self_survey.md.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 import subprocess
@@ -22,6 +21,7 @@ import numpy as np
 
 from ..analysis.report import AXES
 from ..model.camera import load_beacons
+from ..simulate.nav import CAMERA_DIRS
 from . import fixlog
 
 SURVEY_RATE_HZ = 2.0  # frames of the survey flight: one every 0.5 s is plenty for a map
@@ -178,21 +178,8 @@ def _row(name: str, s: dict) -> str:
     return f"| {name} | {s['n_used']} | {pos} | {att} | {summary_num(s['nees']['mean']):.2f} |"
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="refine_demo", description=__doc__.split("\n\n")[0])
-    ap.add_argument("out")
-    ap.add_argument("--report", help="markdown report to append the section to")
-    ap.add_argument("--minutes", type=float, default=3.0, help="survey flight (default 3 min)")
-    ap.add_argument(
-        "--rate-hz",
-        type=float,
-        default=SURVEY_RATE_HZ,
-        help=f"survey frame rate (default {SURVEY_RATE_HZ:g})",
-    )
-    ap.add_argument("--seed", type=int, default=SEED, help=f"map and survey error (default {SEED})")
-    ap.add_argument("--fresh-seed", type=int, help="path and noise of the fresh frames (default: seed + 5)")
-    ap.add_argument("--bin", default="build/host-sim/bin")
-    a = ap.parse_args(argv)
+def demo(a) -> int:
+    """The demo: `a` holds the options of `mfns map demo` (commands/map.py)."""
     py, bins, out = sys.executable, Path(a.bin), Path(a.out)
     seed = a.seed
     fresh_seed = a.fresh_seed if a.fresh_seed is not None else seed + FRESH_SEED - SEED
@@ -224,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     calib, surveyed = survey / "calib.json", survey / "beacons.csv"
     _fly(py, bins, survey, calib, surveyed, out / "survey-flight", fixlog=out / "fixlog")
-    for c in ("cam_x", "cam_y", "cam_z"):  # 2.7 MB per frame set: keep what describes the run
+    for c in CAMERA_DIRS:  # 2.7 MB per frame set: keep what describes the run
         shutil.rmtree(survey / c)
     _run(
         [
@@ -275,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
     # the same refined map with its whole sigma per beacon and no datum section: what the
     # split buys (docs/self_survey.md "Which part of the 1-sigma is the map's")
     whole = _fly(py, bins, fresh, calib, refined / "beacons.csv", out / "refined-map-no-datum")
-    for c in ("cam_x", "cam_y", "cam_z"):
+    for c in CAMERA_DIRS:
         shutil.rmtree(fresh / c)
     rep = json.loads((out / "refined" / "refine.json").read_text())
     fig = map_figures(out)
@@ -323,7 +310,3 @@ def main(argv: list[str] | None = None) -> int:
     first = next(i for i, line in enumerate(lines) if line.startswith("| map |"))
     print("\n".join(lines[first - 2 : first + 5]))
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

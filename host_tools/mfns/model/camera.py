@@ -16,6 +16,7 @@ import numpy as np
 
 from ..analysis.calib_results import CAMERA_NAMES, camera_entry
 from ..core import validate as V
+from ..core.csv_formats import BEACON_COLUMNS, POSITION_COLUMNS
 from ..core.errors import MfnsError
 
 
@@ -207,7 +208,6 @@ def position_from_pose(C_w_b: np.ndarray, r_bw_b) -> np.ndarray:
     return -np.asarray(C_w_b).T @ np.asarray(r_bw_b, dtype=float)
 
 
-BEACON_COLUMNS = ("id", "x_mm", "y_mm", "z_mm", "sigma_mm")
 # Optional: each LED's emission axis (world frame, unit) and half-angle; all four or none.
 EMISSION_COLUMNS = ("axis_x", "axis_y", "axis_z", "half_angle_deg")
 
@@ -261,7 +261,7 @@ def load_beacons(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for n, r in enumerate(rows, start=2):
         where = f"beacon CSV {path} line {n}"
         ids.append(V.csv_int(r["id"], f"{where} id", 0, 65535))
-        pos.append([V.csv_float(r[c], f"{where} {c}") for c in ("x_mm", "y_mm", "z_mm")])
+        pos.append([V.csv_float(r[c], f"{where} {c}") for c in POSITION_COLUMNS])
         s = V.csv_float(r["sigma_mm"], f"{where} sigma_mm")
         if not s > 0:
             raise MfnsError(f"{where} sigma_mm: beacon sigma_mm must be positive, got {s:g}")

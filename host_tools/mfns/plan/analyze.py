@@ -41,7 +41,6 @@ FIX_MIN_IN_VIEW = 4
 # one-call rate.
 CERT_MIN_IN_VIEW = CONSTANTS["MFNS_BIDX_MIN_CERT"]
 TRACK_MIN_IN_VIEW = 3
-AXES = ("x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg")
 
 
 @dataclass
@@ -49,7 +48,7 @@ class Analysis:
     ws: Workspace
     in_view_cam: np.ndarray  # (n, 3) beacons in view per camera
     in_view: np.ndarray  # (n,) distinct beacons in view (any camera)
-    sigma: np.ndarray  # (n, 6) Cramer-Rao 1-sigma per AXES; nan when not determined
+    sigma: np.ndarray  # (n, 6) Cramer-Rao 1-sigma per core.csv_formats.POSE_COLUMNS; nan when not determined
     margin: list  # (n,) identification margin or None
     flight_sigma: np.ndarray  # (n, 6) the flight solver's expected 1-sigma (crlb.flight_information)
 
@@ -90,8 +89,9 @@ def observe(core: Core, beacons_w: np.ndarray, C_w_b, r_bw_b) -> tuple[list[Obse
 def pose_sigma(
     core, obs, C_w_b, r_bw_b, sigma_px, beacon_sigma, calib: CalibrationError | None, beacons_w, flight=False
 ):
-    """(6,) Cramer-Rao 1-sigma (AXES), or with flight=True the flight solver's expected
-    1-sigma (crlb.flight_information); nan when fewer than three beacons or singular."""
+    """(6,) Cramer-Rao 1-sigma (core.csv_formats.POSE_COLUMNS), or with flight=True the flight
+    solver's expected 1-sigma (crlb.flight_information); nan when fewer than three beacons or
+    singular."""
     return pose_sigmas(core, obs, C_w_b, r_bw_b, sigma_px, beacon_sigma, calib, beacons_w)[1 if flight else 0]
 
 

@@ -33,6 +33,7 @@ import numpy as np
 from ..analysis import report as rpt
 from ..core.errors import MfnsError
 from ..programs import program_path
+from ..simulate.nav import CAMERA_DIRS
 
 
 def _run(cmd: list[str], log: Path, what: str) -> None:
@@ -86,7 +87,7 @@ def fly(layout_csv: Path, plan_json: Path, work: Path, frames: int, seed: int) -
         rep = rpt.build_report(log, rpt.load_truth(fr / "truth.csv"))
         sigma = {s.axis: round(s.sigma, 4) for s in rep.stats}
     # the frames are large and made again by the seed: keep what describes the run
-    for cam in ("cam_x", "cam_y", "cam_z"):
+    for cam in CAMERA_DIRS:
         subprocess.run(["rm", "-rf", str(fr / cam)], check=False)
     return {
         "frames": int(len(log.t_s)),

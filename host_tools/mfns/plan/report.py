@@ -9,16 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from .analyze import AXES, CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, TRACK_MIN_IN_VIEW, Analysis
+from ..core.csv_formats import POSE_COLUMNS, SIGMA_COLUMNS
+from .analyze import CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, TRACK_MIN_IN_VIEW, Analysis
 
 SAMPLES_HEADER = [
     "sample",
-    "x_mm",
-    "y_mm",
-    "z_mm",
-    "roll_deg",
-    "pitch_deg",
-    "yaw_deg",
+    *POSE_COLUMNS,
     "in_view_x",
     "in_view_y",
     "in_view_z",
@@ -26,8 +22,8 @@ SAMPLES_HEADER = [
     "fix",
     "track",
     "fix_flight",
-    *(f"sigma_{a}" for a in AXES),
-    *(f"flight_sigma_{a}" for a in AXES),
+    *SIGMA_COLUMNS,
+    *(f"flight_{c}" for c in SIGMA_COLUMNS),
     "ident_margin",
 ]
 PERCENTILES = (50, 90, 99, 100)
@@ -90,7 +86,7 @@ def _region_keys(a: Analysis) -> tuple[list[str], np.ndarray]:
 
 def _percentiles(sig: np.ndarray) -> dict:
     pct = {}
-    for j, ax in enumerate(AXES):
+    for j, ax in enumerate(POSE_COLUMNS):
         v = sig[:, j][np.isfinite(sig[:, j])]
         pct[ax] = {f"p{p}": (round(float(np.percentile(v, p)), 6) if len(v) else None) for p in PERCENTILES}
     return pct

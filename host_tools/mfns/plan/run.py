@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis import calib_results
+from ..analysis.mc import PAPER_BEACON_MM
+from ..core.csv_formats import BEACON_COLUMNS
 from ..core.errors import MfnsError
 from ..model.camera import rig_from_doc
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
@@ -21,13 +23,12 @@ from .analyze import CERT_MIN_IN_VIEW, FIX_MIN_IN_VIEW, analyze
 from .core import Core, require_map_size
 from .crlb import CalibrationError
 
-BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
 # the optimiser's work: 10 million annealing moves per restart and 1000 restarts are hours
 MAX_ITERATIONS, MAX_RESTARTS = 10_000_000, 1000
 # Survey 1-sigma the optimiser assumes for new beacons unless --beacon-sigma is given or
 # the --baseline beacons.csv states one (its median sigma_mm: the same survey places the
 # new layout): the paper's map accuracy (docs/system.md Table 4).
-DEFAULT_SURVEY_SIGMA_MM = 0.3963
+DEFAULT_SURVEY_SIGMA_MM = PAPER_BEACON_MM
 # What plan.json's check (independent samples) and its baseline carry from the analysis.
 CHECK_KEYS = ("availability_pct", "one_call_views_pct", "four_in_view_pct", "samples", "flight_verdict")
 
@@ -200,7 +201,7 @@ def write_beacons(path: Path, pos: np.ndarray, sigma_mm: float) -> None:
     """beacons.csv as `mfns sim nav` writes and reads it (docs/nav-frames.md)."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
-        w.writerow(BEACONS_HEADER)
+        w.writerow(BEACON_COLUMNS)
         for i, p in enumerate(pos):
             w.writerow([i, *(f"{v + 0.0:.4f}" for v in p), f"{sigma_mm:.4f}"])
 

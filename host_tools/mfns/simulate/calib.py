@@ -20,14 +20,13 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from ..analysis.calib_results import CAMERA_NAMES, MAX_CAMERAS, load
 from ..analysis.calib_results import FORMAT as RESULTS_FORMAT
 from ..analysis.calib_results import VERSION as RESULTS_VERSION
-from ..analysis.calib_results import load
+from ..calib.dataset import FORMAT as DATASET_FORMAT
 from ..calib.model import (
     ARCSEC,
-    CAMERA_NAMES,
     CHARUCO_DICTIONARIES,
-    MAX_CAMERAS,
     Board,
     ImageObs,
     Observations,
@@ -39,7 +38,6 @@ from ..core.errors import MfnsError
 from ..model.camera import Camera, rig_from_doc
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rz
 
-DATASET_FORMAT = "mfns-calib-dataset"
 DATASET_VERSION = 1
 PAPER_CALIB = Path(__file__).resolve().parents[1] / "data" / "paper_calib.json"
 

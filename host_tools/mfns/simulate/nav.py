@@ -42,6 +42,8 @@ import numpy as np
 from scipy.special import erf, ndtri
 
 from ..analysis import calib_results
+from ..core.csv_formats import BEACON_COLUMNS as BEACONS_HEADER
+from ..core.csv_formats import TRUTH_HEADER
 from ..core.errors import MfnsError
 from ..model.camera import Camera, load_beacons, pose_from_position, rig_from_doc
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
@@ -54,9 +56,9 @@ PAPER_BEACONS = DATA / "paper_beacons.csv"
 FORMAT = "mfns-nav-frames"
 VERSION = 1
 CAMERA_LETTERS = calib_results.CAMERA_NAMES  # one home: the flight rig's camera names
-TRUTH_HEADER = ["frame", "t_s", "x_mm", "y_mm", "z_mm", "roll_deg", "pitch_deg", "yaw_deg"]
+# a frames folder's image folder per camera (docs/nav-frames.md): cam_x/, cam_y/, cam_z/
+CAMERA_DIRS = tuple(f"cam_{letter}" for letter in CAMERA_LETTERS)
 FRAMES_HEADER = ["frame", "t_s", "camera", "file", "exposure_us", "gain_db"]
-BEACONS_HEADER = ["id", "x_mm", "y_mm", "z_mm", "sigma_mm"]
 SPOTS_HEADER = ["frame", "camera", "beacon_id", "u", "v", "peak_dn", "sigma_px"]
 
 # Module geometry (mm): half-extents along Xw (long axis), Yw, Zw.
@@ -559,8 +561,8 @@ def simulate(
         raise MfnsError("all three cameras must have the same image size for one frame folder")
     width, height = widths.pop()
     renderer = Renderer(width, height, params)
-    for letter in CAMERA_LETTERS:
-        (out / f"cam_{letter}").mkdir(parents=True, exist_ok=True)
+    for d in CAMERA_DIRS:
+        (out / d).mkdir(parents=True, exist_ok=True)
     # The rendered rig is exact: its calib.json has no covariance (a table built from it has a
     # zero calibration term), even when --rig named a calibration that carries one.
     calib_results.save(true_rig_document(scn.calib_doc), out / "calib.json")
@@ -612,7 +614,7 @@ def simulate(
                 n_spurious += 1
             spots = np.vstack(spot_sets) if len(spot_sets) > 1 else spot_sets[0]
             img = renderer.render(spots, rng)
-            name = f"cam_{CAMERA_LETTERS[k]}/{i:06d}.pgm"
+            name = f"{CAMERA_DIRS[k]}/{i:06d}.pgm"
             write_pgm(out / name, img)
             frame_rows.append([i, f"{t:.6f}", CAMERA_LETTERS[k], name, f"{exp_us:.0f}", f"{gain_db:.1f}"])
             for lab, s in zip(labels, spots, strict=True):

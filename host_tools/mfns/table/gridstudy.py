@@ -1,12 +1,11 @@
 """Memory vs worst-case error of the correction grid for the cameras of a
 calibration-results JSON (the table of docs/distortion-grid.md).
 
-Usage: python -m mfns.table.gridstudy [CALIB_JSON]   (default: the paper's Table 2)
+Usage: mfns table gridstudy [CALIB_JSON]   (default: the paper's Table 2, DEFAULT_CALIB)
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from ..analysis import calib_results
@@ -14,6 +13,8 @@ from .builder import _record
 from .check import core
 from .format import NODE_SIZE
 from .grid import build_grid, grid_error, record_camera
+
+DEFAULT_CALIB = Path(__file__).resolve().parents[1] / "data" / "paper_calib.json"
 
 SIZES = [
     (17, 14),
@@ -52,8 +53,3 @@ def study(calib_json: str | Path) -> list[str]:
             f"{'yes' if n <= limit else 'no'} | " + " | ".join(f"{e:.4f}" for e in errs) + " |"
         )
     return rows
-
-
-if __name__ == "__main__":
-    default = Path(__file__).resolve().parents[1] / "data" / "paper_calib.json"
-    print("\n".join(study(sys.argv[1] if len(sys.argv) > 1 else default)))

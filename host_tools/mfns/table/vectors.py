@@ -10,12 +10,11 @@ test_undistort.c), written next to the table by the build (mk/caltable.mk):
   caltable_undistort.txt    "camera u v u_ideal v_ideal": exact (double Newton) undistorted
                             pixel positions of pixels spread over each image
 
-Usage: python -m mfns.table.vectors TABLE OUTDIR
+Usage: mfns table vectors TABLE OUTDIR
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import cv2
@@ -116,9 +115,3 @@ def write_vectors(table_path: str | Path, outdir: str | Path) -> None:
     (outdir / "caltable_values.txt").write_text("\n".join(value_lines(t)) + "\n")
     (outdir / "caltable_projections.txt").write_text("\n".join(projection_lines(t)) + "\n")
     (outdir / "caltable_undistort.txt").write_text("\n".join(undistort_lines(t)) + "\n")
-
-
-if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        sys.exit("usage: python -m mfns.table.vectors TABLE OUTDIR")
-    write_vectors(sys.argv[1], sys.argv[2])

@@ -28,6 +28,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..analysis.calib_results import CAMERA_NAMES
 from ..core.errors import MfnsError
 from . import rosmsg
 
@@ -122,7 +123,7 @@ def load_cameras(calib: Path | None, table: Path | None) -> list:
             raise MfnsError(f"{table}: not a calibration table the flight accepts: {e}") from e
         return [
             Camera(
-                name=rosmsg.CAMERA_NAMES[c.camera_id],
+                name=CAMERA_NAMES[c.camera_id],
                 fx=float(c.fx),
                 fy=float(c.fy),
                 cx=float(c.cx),

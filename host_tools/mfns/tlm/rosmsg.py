@@ -30,12 +30,12 @@ from functools import cache
 
 import numpy as np
 
+from ..core.csv_formats import COV_COLUMNS
 from . import tlm_dict
 
 # --- frame ids (the defaults; `mfns export --world-frame/--body-frame` rename the two roots)
 WORLD_FRAME = "mfns_world"
 BODY_FRAME = "mfns_body"
-CAMERA_NAMES = ("x", "y", "z")
 
 
 def camera_link(name: str) -> str:
@@ -68,9 +68,7 @@ TYPE_TF = "tf2_msgs/msg/TFMessage"
 TYPE_CAMINFO = "sensor_msgs/msg/CameraInfo"
 TYPE_DIAG = "diagnostic_msgs/msg/DiagnosticArray"
 
-# the 21 cov_* columns: upper triangle, row-major, over these indices (docs/telemetry.md)
-COV_AXES = ("x", "y", "z", "rx", "ry", "rz")
-COV_COLUMNS = tuple(f"cov_{COV_AXES[i]}_{COV_AXES[j]}" for i in range(6) for j in range(i, 6))
+# COV_COLUMNS: the 21 cov_* columns, upper triangle, row-major, over core.csv_formats.COV_AXES
 MM_TO_M = 1e-3
 MM_PER_M = 1000.0
 DEG_TO_RAD = math.pi / 180.0

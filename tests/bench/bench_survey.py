@@ -1,12 +1,13 @@
 """The self-survey's slow checks (docs/self_survey.md section 4; `make bench-survey`, not in
 `make test`):
 
-    python -m mfns.map.refine_bench survey OUT [--seeds 2,3,5] [--minutes 24] [--rate-hz 1]
-    python -m mfns.map.refine_bench monitor OUT [--seed 2] [--frames 600]
+    python tests/bench/bench_survey.py survey OUT [--seeds 2,3,5] [--minutes 24] [--rate-hz 1]
+    python tests/bench/bench_survey.py monitor OUT [--seed 2] [--frames 600]
 
-`survey`: per seed, the demo's self-survey (refine_demo: survey flight with the fix log,
-`mfns map refine`, fresh frames flown with each map) for the stated minutes, and the map's
-error against truth split the way a calibration engineer reads it (map_figures): over all
+`survey`: per seed, the demo's self-survey (`mfns map demo`, mfns.map.refine_demo: survey
+flight with the fix log, `mfns map refine`, fresh frames flown with each map) for the stated
+minutes, and the map's error against truth split the way a calibration engineer reads it
+(map_figures): over all
 beacons and over those the flight saw, per coordinate and per beacon in 3-D, against the
 true positions and against the true positions in the survey's datum.
 
@@ -31,12 +32,15 @@ from typing import Any
 
 import numpy as np
 
-from ..model.camera import load_beacons, pose_from_position
-from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp
-from ..simulate import nav as simnav
-from ..tlm.tlm_dict import CYCLE_HZ
-from . import fixlog, refine_demo
-from .refine_demo import axis_rms, map_figures, summary_num
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
+
+from mfns.cli import main as mfns_main  # noqa: E402
+from mfns.map import fixlog, refine_demo  # noqa: E402
+from mfns.map.refine_demo import axis_rms, map_figures, summary_num  # noqa: E402
+from mfns.model.camera import load_beacons, pose_from_position  # noqa: E402
+from mfns.model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, rot_exp  # noqa: E402
+from mfns.simulate import nav as simnav  # noqa: E402
+from mfns.tlm.tlm_dict import CYCLE_HZ  # noqa: E402
 
 BEACON_EVENTS = ("BEACON_BIASED", "BEACON_EXCLUDED", "BEACON_REJECTED", "BEACON_MISSING")
 
@@ -61,7 +65,7 @@ def survey(a) -> int:
     for seed in [int(s) for s in a.seeds.split(",")]:
         run = out / f"seed{seed}"
         argv = [str(run), "--minutes", str(a.minutes), "--rate-hz", str(a.rate_hz), "--seed", str(seed)]
-        if refine_demo.main(argv + ["--bin", a.bin]) != 0:
+        if mfns_main(["map", "demo", *argv, "--bin", a.bin]) != 0:
             return 1
         fig = map_figures(run)
         for m in ("surveyed-map", "refined-map", "refined-map-no-datum"):
@@ -123,7 +127,7 @@ def _mfns(*args: str, log: Path) -> None:
             [sys.executable, "-m", "mfns", *args], stdout=f, stderr=subprocess.STDOUT, check=False
         )
     if res.returncode != 0:
-        raise SystemExit(f"refine_bench: mfns {' '.join(args[:3])} failed ({log})")
+        raise SystemExit(f"bench_survey: mfns {' '.join(args[:3])} failed ({log})")
 
 
 def along_wall(p: np.ndarray) -> np.ndarray:
@@ -288,19 +292,19 @@ def monitor(a) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="refine_bench", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="bench_survey", description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
-    s = sub.add_parser("survey")
-    s.add_argument("out")
-    s.add_argument("--seeds", default="2,3,5")
-    s.add_argument("--minutes", type=float, default=24.0)
-    s.add_argument("--rate-hz", type=float, default=1.0)
-    s.add_argument("--bin", default="build/host-sim/bin")
-    m = sub.add_parser("monitor")
-    m.add_argument("out")
-    m.add_argument("--seed", type=int, default=2)
-    m.add_argument("--frames", type=int, default=600)
-    m.add_argument("--bin", default="build/host-sim/bin")
+    s = sub.add_parser("survey", help="the demo's self-survey per seed, the map's error against truth")
+    s.add_argument("out", help="output folder (survey.md, survey.json, one folder per seed)")
+    s.add_argument("--seeds", default="2,3,5", help="comma-separated seeds (default 2,3,5)")
+    s.add_argument("--minutes", type=float, default=24.0, help="survey flight per seed (default 24 min)")
+    s.add_argument("--rate-hz", type=float, default=1.0, help="survey frame rate (default 1 Hz)")
+    s.add_argument("--bin", default="build/host-sim/bin", help="folder of mfns-nav and mfns-ground")
+    m = sub.add_parser("monitor", help="the in-flight monitor end to end: a moved beacon, a turned camera")
+    m.add_argument("out", help="output folder (emptied first; monitor.md, monitor.json)")
+    m.add_argument("--seed", type=int, default=2, help="the module's LEDs and survey error (default 2)")
+    m.add_argument("--frames", type=int, default=600, help="frames per case at 18.6 Hz (default 600)")
+    m.add_argument("--bin", default="build/host-sim/bin", help="folder of mfns-nav and mfns-ground")
     a = ap.parse_args(argv)
     return survey(a) if a.cmd == "survey" else monitor(a)
 
