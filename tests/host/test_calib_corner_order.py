@@ -7,6 +7,8 @@ as the detector may return it. Before this, such a camera was refused outright (
 images about one axis only do not tell which corner is the first").
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -16,15 +18,27 @@ from mfns.calib.pipeline import calibrate
 from mfns.calib.refine import cramer_rao, quantities
 from mfns.calib.report import results_document
 from mfns.core.errors import MfnsError
-from mfns.simulate.calib import corner_observations, default_truth, make_plan
+from mfns.simulate.calib import corner_observations, default_truth, inside_fraction, make_plan
 
 SIGMA_PX = 0.1
 BOARD = Board(9, 7, 25.0)
 
 
-def _dataset(truth, seed, cam="z", n_turntable=12, n_prepared=8, sigma_px=SIGMA_PX):
+def _dataset(truth, seed, cam="z", n_turntable=12, n_prepared=8, sigma_px=SIGMA_PX, normal_axis=False):
+    """normal_axis: camera cam's line of views moved to omega = 0 (turns about the main axis
+    itself, not about it tilted by the line's fixed omega)."""
     rng = np.random.default_rng(seed)
     shots = make_plan(truth, BOARD, rng, n_turntable, n_prepared, 8.0, single_axis=(cam,))
+    if normal_axis:
+        k = [c.name for c in truth.cams].index(cam)
+        for i, s in enumerate(shots):
+            if s.camera == k and s.kind == "turntable":
+                small = s.true_omega_small_deg - s.omega_small_deg  # keep the angle error
+                pose = truth.camera_pose(k, np.deg2rad(s.true_omega_big_deg), np.deg2rad(small))
+                assert inside_fraction(truth.cams[k], *pose, BOARD) == 1.0  # every corner in view
+                shots[i] = replace(
+                    s, omega_small_deg=0.0, true_omega_small_deg=small, C_k_w=pose[0], r_wk_w=pose[1]
+                )
     obs = corner_observations(truth, BOARD, shots, rng, sigma_px)
     turn = np.random.default_rng(5).random(len(obs.images)) < 0.5
     for im, t in zip(obs.images, turn, strict=True):
@@ -81,14 +95,15 @@ def test_one_axis_camera_on_a_symmetric_board_is_put_in_order_by_the_joint_fit()
 
 
 def test_an_order_the_turntable_cannot_tell_is_refused_with_both_chi_squares():
-    """The turntable's main axis along the board normal (C_t_w = I) through the board's centre:
-    camera z's images turned as a whole are the same turns about the same axis, both orders fit
-    alike, and the calibration is refused with both chi-squares and the margin."""
+    """The turntable's main axis along the board normal (C_t_w = I) through the board's centre,
+    camera z turning about it: its images turned as a whole are the same turns about the same
+    axis, both orders fit alike, and the calibration is refused with both chi-squares and the
+    margin."""
     truth = default_truth()
     truth.C_t_w = np.eye(3)
     centre = np.array([(BOARD.cols - 1) * BOARD.square / 2, (BOARD.rows - 1) * BOARD.square / 2])
     truth.r_wt_w = np.array([centre[0], centre[1], truth.r_wt_w[2]])
-    _shots, obs = _dataset(truth, 3, n_turntable=8, n_prepared=6)
+    _shots, obs = _dataset(truth, 3, n_turntable=8, n_prepared=6, normal_axis=True)
     with pytest.raises(MfnsError) as e:
         calibrate(obs)
     msg = str(e.value)
