@@ -12,9 +12,16 @@ whole camera is turned so that its C_t_w (closed form, handeye.py) is the one ne
 identity: the turntable is set up aligned with the board (docs/system.md §5), so the world frame's
 first corner is the one whose axes the turntable's zero points along. Prepared images need no
 decision (their poses are free). The corners of a turned image are reversed (k -> N-1-k).
+
+A camera whose turntable images turn about one axis only is put in one orientation by the
+same angle test, but its own closed form cannot turn it as a whole (its C_t_w is free about
+that axis): it is left open (HalfTurns.open) for the joint fit through the shared turntable
+(corner_order.py) to decide.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,8 +49,8 @@ def _misfit(tt, turned, done, j: int, t: bool) -> float:
     return err / len(done)
 
 
-def _camera_turns(obs: Observations, k: int, tt) -> list[bool]:
-    """Which of camera k's turntable images [(index, A, C_k'_w)] are turned."""
+def _relative_turns(obs: Observations, k: int, tt) -> list[bool]:
+    """Which of camera k's turntable images [(index, A, C_k'_w)] are turned against its image 0."""
     turned = [False] * len(tt)
     done = [0]  # image 0 fixes the camera's orientation for now
     todo = list(range(1, len(tt)))
@@ -62,6 +69,12 @@ def _camera_turns(obs: Observations, k: int, tt) -> list[bool]:
         turned[j] = c1 < c0
         done.append(j)
         todo.remove(j)
+    return turned
+
+
+def _camera_turns(obs: Observations, k: int, tt) -> list[bool]:
+    """Which of camera k's turntable images are turned (camera turning about two axes)."""
+    turned = _relative_turns(obs, k, tt)
     half = rz(np.pi)
     views = [(a, half @ c if t else c) for (_i, a, c), t in zip(tt, turned, strict=True)]
     c_t_w, _ = rotations_closed_form([views])
@@ -70,9 +83,22 @@ def _camera_turns(obs: Observations, k: int, tt) -> list[bool]:
     return turned
 
 
-def resolve_half_turns(obs: Observations, zhang: list[ZhangResult]) -> list[int]:
-    """Indices (into obs.images) of the images whose corners must be reversed."""
-    flips: list[int] = []
+@dataclass
+class HalfTurns:
+    """What the per-camera test decided and what it left to the joint fit."""
+
+    flips: list[int]  # images (indices into obs.images) whose corners must be reversed
+    open: list[int] = field(default_factory=list)  # cameras turning about one axis: order open
+    turntable: dict[int, list[int]] = field(default_factory=dict)  # open camera -> its turntable images
+
+
+def resolve_half_turns(obs: Observations, zhang: list[ZhangResult]) -> HalfTurns:
+    """Corner order of every camera's turntable images, as far as each camera alone decides it.
+
+    A camera turning about two axes is decided whole; one turning about one axis only is put
+    in one orientation (its `flips` relative to its first turntable image) and listed in `open`.
+    """
+    out = HalfTurns([])
     where = {id(im): n for n, im in enumerate(obs.images)}
     for k, z in enumerate(zhang):
         tt = []
@@ -80,16 +106,14 @@ def resolve_half_turns(obs: Observations, zhang: list[ZhangResult]) -> list[int]
             if im.kind == "turntable":
                 a = turntable_matrix(np.deg2rad(im.omega_big_deg), np.deg2rad(im.omega_small_deg))
                 tt.append((where[id(im)], a, z.camera_in_world(i)[0]))
-        if not check_turntable_geometry(obs, k, [a for _i, a, _c in tt]):
-            raise MfnsError(
-                f"camera {obs.camera_names[k]}: on a half-turn-symmetric board (inner_corners "
-                f"{obs.board.cols} x {obs.board.rows}) turntable images about one axis only do not "
-                "tell which corner is the first; use a board with one odd and one even square count, "
-                "or turn this camera about both axes"
-            )
-        turned = _camera_turns(obs, k, tt)
-        flips += [i for (i, _a, _c), t in zip(tt, turned, strict=True) if t]
-    return flips
+        if check_turntable_geometry(obs, k, [a for _i, a, _c in tt]):
+            turned = _camera_turns(obs, k, tt)
+        else:
+            turned = _relative_turns(obs, k, tt)
+            out.open.append(k)
+            out.turntable[k] = [i for i, _a, _c in tt]
+        out.flips += [i for (i, _a, _c), t in zip(tt, turned, strict=True) if t]
+    return out
 
 
 def apply_half_turns(obs: Observations, flips: list[int]) -> None:

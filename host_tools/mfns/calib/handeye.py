@@ -107,7 +107,14 @@ def rotations_closed_form(views: list[list[tuple[np.ndarray, np.ndarray]]]):
     return c_t_w, c_k_b
 
 
-def solve_hand_eye(obs: Observations, zhang: list[ZhangResult]) -> HandEyeResult:
+def solve_hand_eye(
+    obs: Observations, zhang: list[ZhangResult], apart: frozenset[int] = frozenset()
+) -> HandEyeResult:
+    """apart: cameras left out of the turntable's closed form (C_t_w, r_wt_w) when another
+    camera remains; their mounts are then fitted to the turntable the others give (the corner
+    order's joint decision, corner_order.py: an order under test must not move the turntable)."""
+    if apart and len(apart) < obs.n_cams:
+        return _hand_eye_apart(obs, zhang, apart)
     views = [_turntable_views(obs, zhang[k], k) for k in range(obs.n_cams)]
     both = [check_turntable_geometry(obs, k, [a for a, _c, _r in v]) for k, v in enumerate(views)]
     n = obs.n_cams
@@ -144,3 +151,36 @@ def solve_hand_eye(obs: Observations, zhang: list[ZhangResult]) -> HandEyeResult
     h = float((-obs.caliper_height_mm - r_wt[2]) / c_t_w[2, 2])
     r_bk = [pk - np.array([0.0, 0.0, h]) for pk in p]
     return HandEyeResult(c_t_w, r_wt, h, c_k_b, r_bk)
+
+
+def _hand_eye_apart(obs: Observations, zhang: list[ZhangResult], apart: frozenset[int]) -> HandEyeResult:
+    """solve_hand_eye of the cameras not `apart`, then each camera apart on that turntable:
+    C_k_b = (C_t_w A_i)^T C_k'_w averaged, p_k = (C_t_w A_i)^T (r_wk'_w - r_wt_w) averaged."""
+    from dataclasses import replace
+
+    from .model import Observations as Obs
+
+    keep = [k for k in range(obs.n_cams) if k not in apart]
+    sub = Obs(
+        obs.board,
+        [replace(im, camera=keep.index(im.camera)) for im in obs.images if im.camera in keep],
+        obs.caliper_height_mm,
+        obs.caliper_sigma_mm,
+        obs.angle_sigma_rad,
+        obs.image_size,
+        tuple(obs.camera_names[k] for k in keep),
+    )
+    part = solve_hand_eye(sub, [zhang[k] for k in keep])
+    c_k_b: list[np.ndarray] = []
+    r_bk: list[np.ndarray] = []
+    for k in range(obs.n_cams):
+        if k in keep:
+            c_k_b.append(part.C_k_b[keep.index(k)])
+            r_bk.append(part.r_bk_b[keep.index(k)])
+            continue
+        views = _turntable_views(obs, zhang[k], k)
+        check_turntable_geometry(obs, k, [a for a, _c, _r in views])
+        c_k_b.append(_so3(sum((part.C_t_w @ a).T @ c for a, c, _r in views)))
+        p = np.mean([(part.C_t_w @ a).T @ (r - part.r_wt_w) for a, _c, r in views], axis=0)
+        r_bk.append(p - np.array([0.0, 0.0, part.h]))
+    return HandEyeResult(part.C_t_w, part.r_wt_w, part.h, c_k_b, r_bk)

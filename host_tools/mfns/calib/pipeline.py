@@ -6,12 +6,13 @@ robot-world/hand-eye initialization (handeye.py) and `Calibration.paper_note` sa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core.errors import MfnsError
 from ..model.camera import Camera
+from .corner_order import CornerOrder, decide_corner_order
 from .cpc import CpcNotApplicable, CpcResult, run_cpc
 from .halfturn import apply_half_turns, resolve_half_turns
 from .handeye import HandEyeResult, solve_hand_eye
@@ -30,6 +31,7 @@ class Calibration:
     paper_note: str = ""
     hand_eye: HandEyeResult | None = None
     half_turned: int = 0  # symmetric chessboard: turntable images whose corner order was reversed
+    corner_order: list[CornerOrder] = field(default_factory=list)  # cameras decided by the joint fit
 
 
 def _cameras(obs: Observations, zhang: list[ZhangResult], c_k_b, r_bk_b) -> list[Camera]:
@@ -103,12 +105,44 @@ def check_chain_fits(zhang: list[ZhangResult], rms_px: float) -> None:
 def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
     zhang = [calibrate_camera(obs, k) for k in range(obs.n_cams)]
     flips: list[int] = []
+    open_cams = None
     if obs.board.symmetric:  # which corner is the first: decided by the turntable chain
-        flips = resolve_half_turns(obs, zhang)
+        turns = resolve_half_turns(obs, zhang)
+        flips = turns.flips
         if flips:
             apply_half_turns(obs, flips)
             again = {obs.images[i].camera for i in flips}
             zhang = [calibrate_camera(obs, k) if k in again else z for k, z in enumerate(zhang)]
+        if turns.open:
+            open_cams = turns
+    if open_cams is not None:  # cameras turning about one axis: the joint fit decides (corner_order.py)
+        apart = frozenset(open_cams.open)
+        cal, more, decisions = decide_corner_order(
+            obs, zhang, open_cams, lambda z: _fit(obs, z, a10_iterations, check=False, apart=apart)
+        )
+        apply_half_turns(obs, more)
+        check_chain_fits(cal.zhang, cal.refined.rms_px)
+        cal.half_turned = len(set(flips) ^ set(more))
+        cal.corner_order = decisions
+        return cal
+    cal = _fit(obs, zhang, a10_iterations)
+    cal.half_turned = len(flips)
+    return cal
+
+
+def _fit(
+    obs: Observations,
+    zhang: list[ZhangResult],
+    a10_iterations: int,
+    check: bool = True,
+    apart: frozenset[int] = frozenset(),
+) -> Calibration:
+    """Zhang's results -> CPC (or the hand-eye start) -> the joint refinement.
+
+    check: refuse a chain that does not fit (check_chain_fits); the corner-order decision
+    compares fits first and checks the chosen one. apart: cameras whose order is under test,
+    kept out of the hand-eye start's turntable (handeye.solve_hand_eye).
+    """
     prepared = _prepared_starts(obs, zhang)
     cpc = paper = hand_eye = None
     note = ""
@@ -126,7 +160,7 @@ def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
         start.r_bk_b = [r + shift for r in cpc.r_bk_b]
         init = "the paper's CPC"
     else:
-        hand_eye = solve_hand_eye(obs, zhang)
+        hand_eye = solve_hand_eye(obs, zhang, apart)
         rig = Rig(_cameras(obs, zhang, hand_eye.C_k_b, hand_eye.r_bk_b), hand_eye.C_t_w, hand_eye.r_wt_w)
         rig.r_tb_b = np.array([0.0, 0.0, hand_eye.h])
         start = Start.from_rig(rig, prepared)
@@ -135,5 +169,5 @@ def calibrate(obs: Observations, a10_iterations: int = 10) -> Calibration:
     n_img = sum(len(z.names) for z in zhang)
     sigma0 = float(np.sqrt(sum(z.rms_px**2 * len(z.names) for z in zhang) / n_img))
     sigma0 = max(sigma0 * np.sqrt(n / max(n - 200, 1)), 1e-3)
-    refined = solve(obs, start, sigma0, check=lambda rms: check_chain_fits(zhang, rms))
-    return Calibration(zhang, cpc, paper, refined, init, note, hand_eye, len(flips))
+    refined = solve(obs, start, sigma0, check=(lambda rms: check_chain_fits(zhang, rms)) if check else None)
+    return Calibration(zhang, cpc, paper, refined, init, note, hand_eye)

@@ -392,6 +392,8 @@ class RefineResult:
     nfev: int
     problem: Problem
     d_angles_deg: np.ndarray
+    converged: bool = True  # False: least_squares stopped at max_nfev
+    gn_decrease: float = 0.0  # chi2 (at sigma_px) one more Gauss-Newton step would still remove
 
 
 def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200, check=None) -> RefineResult:
@@ -442,7 +444,21 @@ def solve(obs: Observations, start: Start, sigma_px: float, max_nfev: int = 200,
     names, qj = prob.quantity_jacobian(x)
     sig = np.sqrt(np.einsum("ij,jk,ik->i", qj, cov, qj))
     d_ang = np.rad2deg(x[prob.ang0 : prob.prep0].reshape(-1, 2))
-    return RefineResult(prob.rig(x), x, names, sig, cov, sigma_px, rms, int(res.nfev), prob, d_ang)
+    grad = jac.T @ res.fun
+    return RefineResult(
+        prob.rig(x),
+        x,
+        names,
+        sig,
+        cov,
+        sigma_px,
+        rms,
+        int(res.nfev),
+        prob,
+        d_ang,
+        bool(res.status > 0),
+        float(max(grad @ cov @ grad, 0.0)),
+    )
 
 
 def cramer_rao(obs: Observations, truth: Rig, true_prepared, true_angles_deg, sigma_px: float):

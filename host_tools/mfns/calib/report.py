@@ -218,7 +218,7 @@ def results_document(cal: Calibration, source: str) -> dict:
     """The refined solution; sigma and covariance from the refinement (covariance.py)."""
     r = cal.refined.rig
     names, cov = refined_covariance(cal.refined)
-    return {
+    doc = {
         "format": FORMAT,
         "version": VERSION,
         "source": source,
@@ -233,6 +233,9 @@ def results_document(cal: Calibration, source: str) -> dict:
             "r_tb_b": [float(v) for v in r.r_tb_b],
         },
     }
+    if cal.corner_order:  # symmetric board, a camera turning about one axis: the joint decision
+        doc["corner_order"] = [d.to_dict() for d in cal.corner_order]
+    return doc
 
 
 def paper_document(cal: Calibration, source: str) -> dict:

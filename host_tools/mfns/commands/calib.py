@@ -78,6 +78,7 @@ def _run(args) -> int:
             f"board symmetric under a half turn: corner 0 set by the turntable chain "
             f"({cal.half_turned} images' corner order reversed)"
         )
+        text += [d.line() for d in cal.corner_order]
     if cal.paper is None:
         text.append(f"{cal.paper_note}; the refinement started from {cal.init}")
     text += ["", intrinsics_table(cal), "", extrinsics_table(cal)]
