@@ -16,7 +16,6 @@ import socket
 import subprocess
 import threading
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -53,6 +52,7 @@ class Board:
         self.t_start = 0.0
         self.qemu: subprocess.Popen | None = None
         self.ground: subprocess.Popen | None = None
+        self.pty = ""
         self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.udp.bind(("127.0.0.1", 0))
         self.udp.settimeout(0.2)
@@ -74,22 +74,33 @@ class Board:
         self._spawn(self._read_console)
         self._spawn(self._read_udp)
         m = self.wait_console(r"char device redirected to (/dev/pts/\d+) \(label uart\)", boot_timeout_s)
-        pty = m.group(1)
+        self.pty = m.group(1)
+        self.attach_ground("ground")
+
+    def uplink_args(self) -> list[str]:
+        """mfns-ground's link and uplink options for this board (one ground on the pty at a time)."""
+        return [
+            str(GROUND),
+            "--tty",
+            self.pty,
+            "--uplink",
+            "--tc-key",
+            str(IMAGE / "tc.key"),
+            "--tc-state",  # the ground gives the board its epochs (docs/uplink.md 1a)
+            str(self.work / "ground-uplink.state"),
+        ]
+
+    def attach_ground(self, out: str) -> None:
+        """The ground station that reads the link into work/OUT, forwards every packet to the
+        test's UDP socket and sends the commands written to its stdin."""
         port = self.udp.getsockname()[1]
         self.ground = subprocess.Popen(
-            [
-                str(GROUND),
-                "--tty",
-                pty,
-                "--uplink",
-                "--tc-key",
-                str(IMAGE / "tc.key"),
-                "--tc-state",  # the ground gives the board its epochs (docs/uplink.md 1a)
-                str(self.work / "ground-uplink.state"),
+            self.uplink_args()
+            + [
                 "--cmd-file",
                 "-",
                 "--out",
-                str(self.work / "ground"),
+                str(self.work / out),
                 "--udp-forward",
                 f"127.0.0.1:{port}",
                 "--no-status",
@@ -97,9 +108,15 @@ class Board:
             ],
             stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL,
-            stderr=open(self.work / "ground.err", "w"),
+            stderr=open(self.work / f"{out}.err", "w"),
             bufsize=0,
         )
+
+    def detach_ground(self) -> None:
+        if self.ground is not None and self.ground.poll() is None:
+            self.ground.stdin.close()
+            self.ground.terminate()
+            self.ground.wait(20)
 
     def stop(self) -> None:
         if self.ground is not None and self.ground.poll() is None:
@@ -149,10 +166,8 @@ class Board:
                 break
             now = time.monotonic()
             try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("error")
-                    p = self.definition.parse_bytes(data)
-                kind = self.names[int(p["ccsds_apid"])]
+                packet, p = self.dict.parse_checked(self.definition, data)
+                kind = self.names[packet.apid]
                 p = self._fields(kind, p)
             except Exception as e:  # noqa: BLE001 -- an undecodable packet is recorded, the test fails on it
                 apid = int.from_bytes(data[:2], "big") & 0x7FF if len(data) >= 2 else -1

@@ -12,7 +12,8 @@ image"). The tests run in file order on one boot (and its reboot):
    "signal" (subject 3);
 6. a hung one (SIGSTOP) is caught by the supervisor's watchdog and restarted,
    the new BOOT event says "watchdog" (subject 5);
-7. a TABLE_LOAD of another table survives a reboot of the guest.
+7. a TABLE_LOAD of another table survives a reboot of the guest;
+8. (last) a table uploaded over the link with `mfns-ground --upload` is stored and flown.
 
 The cameras carry rendered LED frames through vivid's output-to-capture loop
 (build/image/frames.img, mfns-frame-feed; checked byte for byte on the guest), but the
@@ -26,7 +27,10 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import shutil
+import subprocess
+import sys
 import time
 from datetime import UTC, datetime
 
@@ -388,3 +392,58 @@ def test_ground_csv_has_utc(board):
         assert r["utc"], r
         t = datetime.fromisoformat(r["utc"].replace("Z", "+00:00"))
         assert abs((t - datetime.now(UTC)).total_seconds()) < 3600, r["utc"]
+
+
+def test_table_uploaded_over_the_link_is_flown(board, tmp_path):
+    """Issue 44 item 5 on the emulated board: a table the board has never seen (the paper's rig
+    and map with another unmodelled pixel error, so its own CRC) sent by `mfns-ground --upload`
+    over the console pty's link, every segment a signed command, is stored and loaded; the
+    board's housekeeping then reports the CRC the upload's answer named. The time is the
+    emulated board's (TCG), not the target's."""
+    table = tmp_path / "uploaded.mfnstbl"
+    build = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mfns",
+            "table",
+            "build",
+            str(REPO / "host_tools/mfns/data/paper_calib.json"),
+            str(REPO / "host_tools/mfns/data/paper_beacons.csv"),
+            "--pixel-sigma",
+            "0.3",
+            "-o",
+            str(table),
+            "-q",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert build.returncode == 0, build.stderr
+    board.detach_ground()  # one ground on the link at a time (the previous test may have stopped it)
+    t0 = time.monotonic()
+    up = subprocess.run(
+        board.uplink_args()
+        + ["--upload", str(table), "--out", str(board.work / "ground-upload"), "--no-status"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    RESULTS["upload_s"] = round(time.monotonic() - t0, 2)
+    RESULTS["upload_bytes"] = table.stat().st_size
+    assert up.returncode == 0, f"upload exit {up.returncode}: {up.stdout[-400:]} {up.stderr[-800:]}"
+    m = re.search(r"stored and loaded, table crc (\w+)", up.stdout + up.stderr)
+    assert m, up.stdout[-400:] + up.stderr[-800:]
+    crc = int(m.group(1), 16)
+    t1 = time.monotonic()
+    board.attach_ground("ground-after-upload")
+    hk = board.wait_packet(
+        lambda p: p.kind == "housekeeping" and int(p.fields["table_crc32"]) & 0xFFFFFFFF == crc,
+        60,
+        since=t1,
+        what=f"housekeeping flying the uploaded table (crc {crc:#010x})",
+    )
+    assert hk is not None
+    board.detach_ground()

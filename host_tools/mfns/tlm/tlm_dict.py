@@ -16,6 +16,7 @@ from both through this module (standard library only, so it runs before any venv
 from __future__ import annotations
 
 import re
+import warnings
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -147,6 +148,28 @@ class Dictionary:
 
     def labels(self, enum_type: str) -> dict[int, str]:
         return {v: lab for v, (lab, _) in self.enums[enum_type].items()}
+
+    def parse_checked(self, definition, data: bytes) -> tuple[Packet, dict]:
+        """One CCSDS packet parsed by an independent XTCE reader (space-packet-parser's
+        `XtcePacketDefinition` of this dictionary) and held to the dictionary: a length
+        mismatch is an error, except that a packet whose conditional part is not read (nav_pose
+        on NO_FIX, Packet.parts) leaves exactly that part's bits and decodes none of its
+        parameters. ValueError otherwise. Used by the host tests and the board test alike."""
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            parsed = definition.parse_bytes(data)
+        packet = self.by_apid(int(parsed["ccsds_apid"]))
+        read = [f for f in packet.fields if packet.present(f, parsed)]
+        header_bits = sum(f.bits for f in self.header)
+        left = 8 * len(data) - header_bits - sum(f.bits for f in read)
+        expect = [f"Number of bits parsed ({8 * len(data) - left}b)"] if left else []
+        got = [str(w.message) for w in caught]
+        if len(got) != len(expect) or any(not g.startswith(e) for g, e in zip(got, expect, strict=False)):
+            raise ValueError(f"{packet.name}: the XTCE reader warned {got}, expected {expect}")
+        unread = [f.param for f in packet.fields if f not in read and f.param in parsed]
+        if unread:
+            raise ValueError(f"{packet.name}: parameters of an unread part decoded: {unread}")
+        return packet, dict(parsed)
 
 
 def _types(root: ET.Element) -> dict[str, dict]:
