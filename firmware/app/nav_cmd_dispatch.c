@@ -15,6 +15,13 @@ void nav_cmd_reset_counters(nav_cmd_t *c)
     c->n_rejected = 0;
 }
 
+void nav_cmd_new_session(nav_cmd_t *c)
+{
+    if (c != NULL) {
+        c->have_last = false;
+    }
+}
+
 static bool seq_is_newer(const nav_cmd_t *c, uint16_t seq)
 {
     if (!c->have_last) {

@@ -90,4 +90,13 @@ void nav_cmd_handle(nav_cmd_t *c, const tc_cmd_t *cmd, tc_status_t status, const
 /* RESET_COUNTERS' effect on the dispatch's own counters. */
 void nav_cmd_reset_counters(nav_cmd_t *c);
 
+/* A new uplink session: an authenticated re-synchronisation to a fresh epoch
+ * (tc_auth.h) was just accepted. The sequence guard starts again, as at boot:
+ * a new ground process numbers its packets from its own start (measured on the
+ * emulated board: an upload after the first ground's commands was refused
+ * SEQUENCE), and replay within the new epoch is the anti-replay count's to
+ * refuse. An old re-synchronisation replayed fails authentication, so it
+ * cannot reset the guard. */
+void nav_cmd_new_session(nav_cmd_t *c);
+
 #endif /* MFNS_NAV_CMD_DISPATCH_H */

@@ -259,6 +259,7 @@ static tc_status_t cmd_auth(void *ctx, const tc_cmd_t *cmd)
         /* a re-synchronisation: keep the new epoch as the floor of the next
          * start (best effort: the ground's record keeps epochs fresh anyway) */
         a->resynced = false;
+        nav_cmd_new_session(&app->tc.cmd); /* the sequence guard starts with the session */
         char err[384];
         const int e = app->state_dir != NULL ? tc_state_write(app->state_dir, a->epoch, err, sizeof err) : EROFS;
         if (e == 0) {

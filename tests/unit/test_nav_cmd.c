@@ -200,6 +200,11 @@ static void test_sequence_guard(void **state)
     assert_int_equal(one(&c, TC_OP_SET_MODE, 8200).code, TLM_EVT_CMD_ACCEPTED);
     assert_int_equal(one(&c, TC_OP_SET_MODE, 8200).a1, TC_E_SEQUENCE);
     assert_int_equal(g.calls_mode, 1);
+    /* a new session (an accepted re-synchronisation): any count again, then the guard as before */
+    nav_cmd_new_session(&c);
+    assert_int_equal(one(&c, TC_OP_NOOP, 1).code, TLM_EVT_CMD_ACCEPTED);
+    assert_int_equal(one(&c, TC_OP_NOOP, 1).a1, TC_E_SEQUENCE);
+    nav_cmd_new_session(NULL); /* no crash */
 }
 
 static void test_action_refusal_keeps_the_reference(void **state)
