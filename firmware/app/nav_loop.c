@@ -152,6 +152,16 @@ static void print_cycle(const nav_app_t *app, uint32_t cycle)
                 out->acq_source == MFNS_ACQ_SRC_CARRIED ? ", fix from a search carried over cycles" : "",
                 out->acq_carry_age > 0u ? ", a search carried on" : "");
     }
+    if (app->nav.filt.on && (out->filt.ran || out->filt.started)) {
+        const mfns_bank_output_t *f = &out->filt.out;
+        fprintf(stderr,
+                "  filter: %s%s%s %s (%s) PL %.2f mm %.3f deg (beacons %.2f mm %.3f deg) hyp %u unmonitorable %u"
+                " own-assoc %u\n",
+                out->filt.started ? "started" : "ran", out->filt.used ? ", flown" : "",
+                f->restart ? ", restart" : "", mfns_pose_status_str(f->status), mfns_pose_strerror(f->reason),
+                (double)f->pl_pos_mm, (double)f->pl_att_deg, (double)f->pl_beacon_pos_mm,
+                (double)f->pl_beacon_att_deg, f->hypotheses, f->unmonitorable, app->nav.filt.own_assoc);
+    }
 }
 
 static cycle_end_t run_cycle(nav_app_t *app, const nav_opts_t *o, uint32_t cycle)

@@ -1,8 +1,9 @@
 /* test_nav_filter_cycle.c -- the filter bank inside the navigation cycle
  * (firmware/nav/filter/nav_filter_cycle.h): off, nothing changes (the
  * solution and integrity result are left bit for bit); on, it starts from a
- * usable snapshot fix, takes the solver's associations and, once its PL is
- * within the alert limits, reports its own pose, covariance and PL. */
+ * usable snapshot fix (or one bounded beyond the alert limit), takes the
+ * solver's associations and its own where the solver has none and, once its
+ * PL is within the alert limits, reports its own pose, covariance and PL. */
 #include <string.h>
 
 #include "firmware/nav/filter/nav_filter_cycle.h"
@@ -248,6 +249,130 @@ static void test_exclusion_restarts_with_subject_held(void **state)
     assert_true(used_after >= 5);
 }
 
+/* The filter's own association (nav_filter_cycle.c own_associate): once the
+ * bank runs, a cycle whose solver associated nothing (a frame the snapshot
+ * cannot solve: TRACK_LOST) still feeds it, each observation given the one
+ * beacon predicted within the gate. A second spot beside a beacon's (both
+ * inside its gate) is ambiguous: neither is used; a spot far from every
+ * prediction is not associated. */
+static void test_own_association(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 5);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    table.solver.track_gate_px = 20.0f;
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 54000);
+    int used_lost = 0;
+    for (int k = 0; k < CYCLES; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        const mfns_pose_assoc_t truth_assoc = sol.assoc;
+        if (k < 12) {
+            mfns_navf_report_t rep;
+            mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+            assert_int_equal(nf.own_assoc, 0U); /* the solver's associations: nothing left to add */
+            continue;
+        }
+        /* the snapshot lost: no fix, no association */
+        mfns_pose_solution_clear(&sol, MFNS_POSE_R_TRACK_LOST);
+        memset(&integ, 0, sizeof integ);
+        uint16_t n_extra = 0;
+        if (k == 20) {
+            /* camera 1: a spot 1.5 px beside its first beacon's (ambiguous) */
+            const uint16_t n1 = frame.count[1];
+            frame.obs[1][n1] = frame.obs[1][0];
+            frame.obs[1][n1].u += 1.5f;
+            frame.count[1] = (uint16_t)(n1 + 1U);
+            /* camera 2: a spot far from every beacon */
+            const uint16_t n2 = frame.count[2];
+            frame.obs[2][n2] = frame.obs[2][0];
+            frame.obs[2][n2].u += 300.0f;
+            frame.count[2] = (uint16_t)(n2 + 1U);
+            n_extra = 2;
+        }
+        uint32_t n_obs = 0;
+        for (int c = 0; c < 3; c++) {
+            n_obs += frame.count[c];
+        }
+        const uint32_t before = nf.own_assoc;
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_true(rep.ran);
+        assert_false(rep.started);
+        const uint32_t added = nf.own_assoc - before;
+        if (k == 20) {
+            /* every spot but the ambiguous pair and the far one */
+            assert_int_equal(added, n_obs - n_extra - 1U);
+        } else {
+            assert_int_equal(added, n_obs); /* all of them, as the solver would have */
+        }
+        (void)truth_assoc;
+        if (rep.used) {
+            used_lost++;
+            double r[3];
+            pt_position_w(&truth, r);
+            assert_true(fabs(sol.r_wb_w.x - r[0]) <= integ.pl_pos_mm);
+            assert_true(fabs(sol.r_wb_w.y - r[1]) <= integ.pl_pos_mm);
+            assert_true(fabs(sol.r_wb_w.z - r[2]) <= integ.pl_pos_mm);
+        }
+    }
+    print_message("own association: %u observations associated by the bank, usable in %d of %d cycles the "
+                  "snapshot lost\n",
+                  nf.own_assoc, used_lost, CYCLES - 12);
+    assert_true(used_lost >= CYCLES - 12 - 2);
+}
+
+/* A start from a fix whose tests passed with a PL beyond the alert limit
+ * (NO_FIX PL_EXCEEDS_AL): taken when the PL is within the start's
+ * linearisation limits, its PL then the prior's sigma (the filter's first PL
+ * is at least as large: not usable at once); refused beyond those limits and
+ * for a fix refused for any other reason. */
+static void test_start_bounded_beyond_al(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 6);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    const float pls[4] = {40.0f, 40.0f, 2.0f * MFNS_NAVF_START_PL_MAX_MM, 40.0f};
+    const mfns_pose_reason_t why[4] = {MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_PL_EXCEEDS_AL,
+                                       MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_UNMONITORED};
+    const bool passed[4] = {true, false, true, true};
+    const bool starts[4] = {true, false, false, false};
+    for (int c = 0; c < 4; c++) {
+        mfns_navf_enable(&nf, 54000);
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        sol.status = MFNS_POSE_NO_FIX;
+        sol.reason = why[c];
+        integ.evaluated = true;
+        integ.tests_passed = passed[c];
+        integ.pl_pos_mm = pls[c];
+        integ.pl_att_deg = 1.5f;
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_int_equal(rep.started, starts[c]);
+        assert_int_equal(sol.status, MFNS_POSE_NO_FIX); /* the snapshot's verdict stands */
+        if (!starts[c]) {
+            continue;
+        }
+        /* the prior's sigma is the PL: sqrt of the variance, less the snapshot's own 0.5 mm */
+        assert_true(nf.bank.full.P[3][3] >= 40.0f * 40.0f);
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_true(rep.ran);
+        assert_true(rep.out.pl_pos_mm >= 0.0f);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -255,6 +380,8 @@ int main(void)
         cmocka_unit_test(test_on_starts_and_takes_over),
         cmocka_unit_test(test_capture_times),
         cmocka_unit_test(test_exclusion_restarts_with_subject_held),
+        cmocka_unit_test(test_own_association),
+        cmocka_unit_test(test_start_bounded_beyond_al),
     };
     return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
 }

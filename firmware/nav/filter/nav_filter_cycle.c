@@ -36,8 +36,24 @@ static bool usable(const mfns_pose_solution_t *s)
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
 }
 
-/* Start from the snapshot fix: its cov_ros less the datum term. */
-static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_solution_t *sol)
+/* A fix the snapshot's tests passed whose protection level, finite, is beyond
+ * the alert limit (NO_FIX PL_EXCEEDS_AL): its identification is certified,
+ * its pose is bounded by that PL but not to the alert limit. */
+static bool bounded_beyond_al(const mfns_pose_solution_t *s, const mfns_integrity_result_t *integ)
+{
+    return s->status == MFNS_POSE_NO_FIX && s->reason == MFNS_POSE_R_PL_EXCEEDS_AL && integ->evaluated &&
+           integ->tests_passed && integ->pl_pos_mm > 0.0f && integ->pl_att_deg > 0.0f &&
+           integ->pl_pos_mm <= MFNS_NAVF_START_PL_MAX_MM && integ->pl_att_deg <= MFNS_NAVF_START_PL_MAX_DEG;
+}
+
+/* Start from the snapshot fix: its cov_ros less the datum term. A fix bounded
+ * only beyond the alert limit (bounded_beyond_al) starts the bank too, with
+ * its PL added to the prior's variance on every axis (1 sigma = the PL): the
+ * start then claims no more than the snapshot certified, and the filter's PL
+ * (>= K_ff times that sigma at first) falls below the alert limit only as the
+ * observations that follow outweigh the start (nav_filter_cycle.h). */
+static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_solution_t *sol,
+                  const mfns_integrity_result_t *integ)
 {
     float d[6][6], cov[6][6];
     mfns_filter_datum_cov(&sol->pose, &t->datum, d); /* filter order: phi 0-2, r 3-5 */
@@ -45,6 +61,13 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
     for (int i = 0; i < 6; i++) {
         for (int j = 0; j < 6; j++) {
             cov[i][j] = sol->cov_ros[i][j] - d[to_filter[i]][to_filter[j]];
+        }
+    }
+    if (bounded_beyond_al(sol, integ)) {
+        const float pl_att_rad = integ->pl_att_deg * MFNS_RAD_PER_DEG_F;
+        for (int i = 0; i < 3; i++) {
+            cov[i][i] += integ->pl_pos_mm * integ->pl_pos_mm;
+            cov[3 + i][3 + i] += pl_att_rad * pl_att_rad;
         }
     }
     for (int i = 0; i < 6; i++) {
@@ -72,6 +95,87 @@ static int64_t frame_time(const mfns_navf_t *nf, int c)
     return nf->have_cap ? nf->cap_us[c] : nf->t_us;
 }
 
+/* The filter's own association of camera c's frame at time tc: an
+ * observation the solver left without a beacon gets the beacon whose
+ * prediction from the full filter (propagated to tc) it matches within the
+ * filter's gate (NIS <= mfns_filter_gate_nis), when exactly one beacon
+ * does and no other observation of the frame takes the same beacon; the
+ * candidates are first cut to the beacons predicted within the table's
+ * tracking gate (pixels) of it. beacon[] holds the solver's association on
+ * entry (-1: none) and gains the filter's. Returns the number added.
+ * Why: with the bank running, the pose is known to a fraction of a pixel's
+ * worth between frames, so a frame with one or two beacons (the paper's
+ * turntable: 2.3 in view on average) still informs it, where the snapshot
+ * needs three or more to associate anything. A wrong association (a
+ * reflection or spurious spot inside the gate) is a fault of that beacon's
+ * observation, covered by the beacon's hypothesis like any other.
+ * Misses: an ambiguous frame (two beacons inside the gate of one spot) gives
+ * nothing; a beacon whose spot left the gate is not associated (it is not
+ * reported here: the snapshot's beacon watch reports it). Work: at most
+ * map beacons projections and MFNS_MAX_OBS_PER_CAMERA x candidates tests. */
+static int own_associate(const mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame_t *obs,
+                         float sigma_px, int c, int64_t tc, int count, int16_t beacon[])
+{
+    mfns_filter_t pred = nf->bank.full; /* ~1.2 KB: the bank's state stays as it is */
+    if (tc < pred.t_us || mfns_filter_propagate(&pred, &nf->set, tc) != MFNS_FILTER_OK) {
+        return 0;
+    }
+    const mfns_pose_t pose = mfns_filter_pose(&pred);
+    const mfns_camera_t *cam = &t->rig.cam[c];
+    const float gate_px2 = t->solver.track_gate_px * t->solver.track_gate_px;
+    const float gate_nis = mfns_filter_gate_nis(&nf->set);
+    int16_t cand[MFNS_MAX_OBS_PER_CAMERA];
+    uint8_t n_cand[MFNS_MAX_OBS_PER_CAMERA];
+    for (int i = 0; i < count; i++) {
+        cand[i] = -1;
+        n_cand[i] = 0U;
+    }
+    for (uint32_t b = 0; b < t->beacons.count && b < MFNS_MAX_BEACONS; b++) {
+        bool taken = false; /* already the solver's in this frame */
+        for (int i = 0; i < count && !taken; i++) {
+            taken = beacon[i] == (int16_t)b;
+        }
+        float uv[2];
+        if (taken || mfns_cam_project(cam, &pose, t->beacons.beacon[b].p_w, uv, NULL) != MFNS_PROJ_OK ||
+            !mfns_cam_in_image(&cam->k, uv[0], uv[1])) {
+            continue;
+        }
+        for (int i = 0; i < count; i++) {
+            const mfns_obs_t *o = &obs->obs[c][i];
+            const float du = o->u - uv[0], dv = o->v - uv[1];
+            if (beacon[i] >= 0 || du * du + dv * dv > gate_px2) {
+                continue;
+            }
+            mfns_filter_obs_t fo;
+            fo.t_us = tc;
+            fo.cam = (uint8_t)c;
+            fo.u = o->u;
+            fo.v = o->v;
+            memcpy(fo.cov_px2, o->cov_px2, sizeof fo.cov_px2);
+            fo.p_w = t->beacons.beacon[b].p_w;
+            fo.sigma_mm = t->beacons.beacon[b].sigma_mm;
+            float nis = 0.0f;
+            if (mfns_filter_test(&pred, &nf->set, &t->rig, sigma_px, &fo, &nis) == MFNS_FILTER_OK &&
+                nis <= gate_nis) {
+                cand[i] = (int16_t)b;
+                n_cand[i] = (uint8_t)(n_cand[i] < 2U ? n_cand[i] + 1U : 2U);
+            }
+        }
+    }
+    int added = 0;
+    for (int i = 0; i < count; i++) {
+        bool unique = n_cand[i] == 1U;
+        for (int j = 0; j < count && unique; j++) {
+            unique = j == i || n_cand[j] == 0U || cand[j] != cand[i];
+        }
+        if (unique) {
+            beacon[i] = cand[i];
+            added++;
+        }
+    }
+    return added;
+}
+
 static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame_t *obs, float sigma_px,
                  const mfns_pose_solution_t *sol)
 {
@@ -92,9 +196,15 @@ static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame
         int16_t beacon[MFNS_MAX_OBS_PER_CAMERA];
         int n = 0;
         const int count = obs->count[c] <= MFNS_MAX_OBS_PER_CAMERA ? obs->count[c] : MFNS_MAX_OBS_PER_CAMERA;
+        int16_t assoc[MFNS_MAX_OBS_PER_CAMERA];
         for (int i = 0; i < count; i++) {
             const int16_t b = sol->assoc.beacon[c][i];
-            if (b < 0 || b >= (int16_t)t->beacons.count) {
+            assoc[i] = b >= 0 && b < (int16_t)t->beacons.count ? b : -1;
+        }
+        nf->own_assoc += (uint32_t)own_associate(nf, t, obs, sigma_px, c, tc, count, assoc);
+        for (int i = 0; i < count; i++) {
+            const int16_t b = assoc[i];
+            if (b < 0) {
                 continue;
             }
             const mfns_obs_t *o = &obs->obs[c][i];
@@ -236,7 +346,7 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
             nf->t_us = t0; /* the earliest of the fix's frames: the others follow it */
         }
         nf->have_cap = false;
-        rep->started = usable(sol) && start(nf, t, sol);
+        rep->started = (usable(sol) || bounded_beyond_al(sol, integ)) && start(nf, t, sol, integ);
         camera_bound_or_refused(sol); /* the snapshot's verdict stands this cycle, if it bounds cameras */
         return;
     }

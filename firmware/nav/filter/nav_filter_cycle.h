@@ -6,8 +6,14 @@
  * On: the bank starts from the first usable snapshot fix (pose and its
  * covariance less the map datum term, which the filter adds back at its
  * output; velocity prior 0 +- MFNS_NAVF_SIGMA_V0_MM_S, 0 +- MFNS_NAVF_SIGMA_W0_RAD_S),
- * then takes every observation the cycle's solver associated with a beacon,
- * camera by camera. A cycle whose bank output is usable reports the filter's
+ * or from a fix whose tests passed with a finite protection level beyond the
+ * alert limit (NO_FIX PL_EXCEEDS_AL), its PL added to the prior's variance on
+ * every axis (the start claims no more than the snapshot certified; the
+ * filter becomes usable only once later observations outweigh it). It then
+ * takes every observation the cycle's solver associated with a beacon,
+ * camera by camera, and associates the others itself (own_associate in the
+ * .c: the one beacon predicted from the full filter within its gate), so a
+ * frame of one or two beacons, where the snapshot has no fix, still feeds it. A cycle whose bank output is usable reports the filter's
  * pose, covariance, PL and status (the solution's counts, residuals and
  * associations stay the solver's); otherwise the snapshot's verdict stands
  * (each is a certified bound on its own). A bank that asks for a restart
@@ -53,6 +59,11 @@
 /* the velocity prior at a start: Astrobee-class top speeds (0.5 m/s, 0.5 rad/s) */
 #define MFNS_NAVF_SIGMA_V0_MM_S 500.0f
 #define MFNS_NAVF_SIGMA_W0_RAD_S 0.5f
+/* the largest snapshot PL a start takes as its prior's sigma: beyond, the
+ * error-state linearisation (small attitude errors, nav_filter.h) no longer
+ * holds for the start's spread */
+#define MFNS_NAVF_START_PL_MAX_MM 100.0f
+#define MFNS_NAVF_START_PL_MAX_DEG 5.0f
 
 typedef struct {
     bool on;
@@ -62,6 +73,7 @@ typedef struct {
     int64_t cap_us[MFNS_NUM_CAMERAS]; /* this cycle's capture times (have_cap) */
     bool have_cap;
     uint32_t stale_frames; /* frames stamped before the bank's state: not fed */
+    uint32_t own_assoc;    /* observations the bank associated itself (the solver had none for them) */
     bool carry_excl;       /* the next start keeps the bank's exclusions (it follows one) */
     mfns_filter_settings_t set;
     mfns_filter_bank_t bank;
