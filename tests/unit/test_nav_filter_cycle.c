@@ -89,13 +89,9 @@ static void test_on_starts_and_takes_over(void **state)
         mfns_navf_report_t rep;
         mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
         if (k == 0) {
+            /* started, and the start cycle's own frames taken at once: with
+             * 10 beacons over three cameras the bank certifies them itself */
             assert_true(rep.started);
-            assert_false(rep.used);
-            /* the snapshot stands in, but its PL bounds no camera fault:
-             * refused with the filter on (nav_filter_cycle.c) */
-            assert_int_equal(sol.status, MFNS_POSE_NO_FIX);
-            assert_int_equal(sol.reason, MFNS_POSE_R_UNMONITORED);
-            continue;
         }
         assert_true(rep.ran);
         assert_false(rep.out.restart);
@@ -115,9 +111,9 @@ static void test_on_starts_and_takes_over(void **state)
             }
         }
     }
-    print_message("filter in the cycle: first used at cycle %d, used in %d of %d\n", first_used, used, CYCLES - 1);
-    assert_true(first_used >= 1 && first_used <= 10);
-    assert_true(used >= CYCLES - 11);
+    print_message("filter in the cycle: first used at cycle %d, used in %d of %d\n", first_used, used, CYCLES);
+    assert_true(first_used >= 0 && first_used <= 10);
+    assert_true(used >= CYCLES - 10);
     /* off again: nothing */
     mfns_navf_enable(&nf, 0);
     mfns_obs_frame_t frame;
@@ -159,8 +155,10 @@ static void test_capture_times(void **state)
         mfns_navf_report_t rep;
         mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
         if (k == 0) {
+            /* started at the earliest frame of the fix, then its frames
+             * taken in time order: the bank ends at the latest */
             assert_true(rep.started);
-            assert_int_equal(nf.bank.full.t_us, base); /* the earliest frame of the fix */
+            assert_int_equal(nf.bank.full.t_us, base + 14000);
             continue;
         }
         assert_true(rep.ran);
@@ -223,11 +221,20 @@ static void test_exclusion_restarts_with_subject_held(void **state)
                 assert_int_equal(integ.excluded_camera, id);
                 wrong_named++;
             }
-            assert_false(rep.used); /* the snapshot's verdict stands */
-            assert_memory_equal(&sol.pose, &snap.pose, sizeof sol.pose);
-            assert_int_equal(sol.status, MFNS_POSE_NO_FIX); /* camera faults unbounded in it */
-            assert_int_equal(sol.reason, MFNS_POSE_R_UNMONITORED);
-            assert_true(rep.started); /* from this cycle's usable snapshot */
+            /* restarted from this cycle's snapshot fix with the diffuse
+             * prior, its frames taken (the subject's only tested): a usable
+             * output then is the new bank's own, within its PL */
+            assert_true(rep.started);
+            if (!rep.used) {
+                assert_memory_equal(&sol.pose, &snap.pose, sizeof sol.pose);
+                assert_int_equal(sol.status, MFNS_POSE_NO_FIX); /* camera faults unbounded in it */
+            } else {
+                double r[3];
+                pt_position_w(&truth, r);
+                assert_true(fabs(sol.r_wb_w.x - r[0]) <= integ.pl_pos_mm);
+                assert_true(fabs(sol.r_wb_w.y - r[1]) <= integ.pl_pos_mm);
+                assert_true(fabs(sol.r_wb_w.z - r[2]) <= integ.pl_pos_mm);
+            }
             assert_true(rep.out.detected_kind == (uint8_t)MFNS_BANK_HYP_BEACON
                             ? mfns_bank_beacon_excluded(&nf.bank, id)
                             : mfns_bank_camera_excluded(&nf.bank, id));
@@ -327,12 +334,13 @@ static void test_own_association(void **state)
     assert_true(used_lost >= CYCLES - 12 - 2);
 }
 
-/* A start from a fix whose tests passed with a PL beyond the alert limit
- * (NO_FIX PL_EXCEEDS_AL): taken when the PL is within the start's
- * linearisation limits, its PL then the prior's sigma (the filter's first PL
- * is at least as large: not usable at once); refused beyond those limits and
- * for a fix refused for any other reason. */
-static void test_start_bounded_beyond_al(void **state)
+/* The start (nav_filter_cycle.c start): from a usable fix or one whose
+ * tests passed with a PL beyond the alert limit (NO_FIX PL_EXCEEDS_AL),
+ * whatever that PL; never from one whose tests failed or that is
+ * UNMONITORED. The prior claims nothing of the fix (at least
+ * MFNS_NAVF_START_SIGMA_MM / _RAD on every axis), and the start cycle's own
+ * frames are taken at once. */
+static void test_start(void **state)
 {
     (void)state;
     mfns_rng_t rng;
@@ -340,37 +348,64 @@ static void test_start_bounded_beyond_al(void **state)
     pt_dpose_t truth;
     setup(&rng, &truth);
     static mfns_navf_t nf;
-    const float pls[4] = {40.0f, 40.0f, 2.0f * MFNS_NAVF_START_PL_MAX_MM, 40.0f};
-    const mfns_pose_reason_t why[4] = {MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_PL_EXCEEDS_AL,
-                                       MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_UNMONITORED};
-    const bool passed[4] = {true, false, true, true};
-    const bool starts[4] = {true, false, false, false};
-    for (int c = 0; c < 4; c++) {
+    const float pls[5] = {40.0f, 2000.0f, 40.0f, 40.0f, 19.0f};
+    const mfns_pose_status_t status[5] = {MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX,
+                                          MFNS_POSE_OK};
+    const mfns_pose_reason_t why[5] = {MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_PL_EXCEEDS_AL,
+                                       MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_UNMONITORED, MFNS_POSE_R_NONE};
+    const bool passed[5] = {true, true, false, true, true};
+    const bool starts[5] = {true, true, false, false, true};
+    for (int c = 0; c < 5; c++) {
         mfns_navf_enable(&nf, 54000);
         mfns_obs_frame_t frame;
         mfns_pose_solution_t sol;
         mfns_integrity_result_t integ;
         snapshot(&truth, &rng, &frame, &sol, &integ);
-        sol.status = MFNS_POSE_NO_FIX;
+        sol.status = status[c];
         sol.reason = why[c];
         integ.evaluated = true;
         integ.tests_passed = passed[c];
         integ.pl_pos_mm = pls[c];
         integ.pl_att_deg = 1.5f;
+        uint32_t n_assoc = 0;
+        for (int cam = 0; cam < MFNS_NUM_CAMERAS; cam++) {
+            for (int i = 0; i < frame.count[cam]; i++) {
+                n_assoc += sol.assoc.beacon[cam][i] >= 0 ? 1U : 0U;
+            }
+        }
         mfns_navf_report_t rep;
         mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
         assert_int_equal(rep.started, starts[c]);
-        assert_int_equal(sol.status, MFNS_POSE_NO_FIX); /* the snapshot's verdict stands */
         if (!starts[c]) {
+            assert_false(rep.ran);
             continue;
         }
-        /* the prior's sigma is the PL: sqrt of the variance, less the snapshot's own 0.5 mm */
-        assert_true(nf.bank.full.P[3][3] >= 40.0f * 40.0f);
-        snapshot(&truth, &rng, &frame, &sol, &integ);
-        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        /* the start cycle's frames were taken: one update per beacon seen */
         assert_true(rep.ran);
-        assert_true(rep.out.pl_pos_mm >= 0.0f);
+        assert_true(n_assoc >= 8U);
+        assert_int_equal(nf.bank.full.updates, n_assoc);
+        /* the prior claimed nothing: after one frame the position is the
+         * frame's, far inside the diffuse 100 mm, and the fix is still the
+         * filter's own (its PL), not the snapshot's */
+        assert_true(sqrtf(nf.bank.full.P[3][3]) < 0.1f * MFNS_NAVF_START_SIGMA_MM);
+        assert_true(rep.out.pl_pos_mm > 0.0f);
     }
+    /* the diffuse prior: a bank started from a fix whose sigma is 0.5 mm
+     * holds 100 mm before any observation */
+    mfns_filter_bank_t bank;
+    mfns_obs_frame_t frame;
+    mfns_pose_solution_t sol;
+    mfns_integrity_result_t integ;
+    snapshot(&truth, &rng, &frame, &sol, &integ);
+    mfns_navf_enable(&nf, 54000);
+    memset(&frame.count, 0, sizeof frame.count); /* a fix whose frames the bank does not get */
+    mfns_navf_report_t rep;
+    mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+    assert_true(rep.started);
+    bank = nf.bank;
+    assert_true(bank.full.P[3][3] >= MFNS_NAVF_START_SIGMA_MM * MFNS_NAVF_START_SIGMA_MM * 0.99f);
+    assert_true(bank.full.P[0][0] >= MFNS_NAVF_START_SIGMA_RAD * MFNS_NAVF_START_SIGMA_RAD * 0.99f);
+    assert_false(rep.used);
 }
 
 int main(void)
@@ -381,7 +416,7 @@ int main(void)
         cmocka_unit_test(test_capture_times),
         cmocka_unit_test(test_exclusion_restarts_with_subject_held),
         cmocka_unit_test(test_own_association),
-        cmocka_unit_test(test_start_bounded_beyond_al),
+        cmocka_unit_test(test_start),
     };
     return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
 }

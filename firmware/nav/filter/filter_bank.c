@@ -1,6 +1,7 @@
 /* filter_bank.c -- solution separation over time (filter_bank.h). */
 #include "firmware/nav/filter/filter_bank.h"
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <string.h>
@@ -52,6 +53,9 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
         mfns_filter_init(&b->full, pose, cov_ros, v_w, sigma_v_mm_s, w_w, sigma_w_rad_s, t_us);
     if (st != MFNS_FILTER_OK) {
         return st;
+    }
+    for (int j = 0; j < MFNS_BANK_AXES; j++) {
+        b->var_floor[j] = MFNS_BANK_VAR_FLOOR_EPS * FLT_EPSILON * b->full.P[j][j];
     }
     for (int k = 0; k < MFNS_BANK_CAM_HYP; k++) {
         b->sub[k] = b->full;
@@ -297,7 +301,7 @@ static bool pulled_by(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs, i
     const float k = sqrtf(mfns_filter_gate_nis(fs));
     for (int j = 0; j < MFNS_BANK_AXES; j++) {
         const float p0 = f0.P[j][j];
-        const float v = fmaxf(fk.P[j][j] - p0, MFNS_BANK_VAR_FLOOR_REL * p0);
+        const float v = fmaxf(fk.P[j][j] - p0, fmaxf(MFNS_BANK_VAR_FLOOR_REL * p0, b->var_floor[j]));
         if (fabsf(s[j]) > k * sqrtf(v)) {
             return true;
         }
@@ -533,7 +537,7 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
         b->work++;
         for (int j = 0; j < MFNS_BANK_AXES; j++) {
             const float p0 = b->full.P[j][j];
-            const float vss = fmaxf(b->sub[k].P[j][j] - p0, MFNS_BANK_VAR_FLOOR_REL * p0);
+            const float vss = fmaxf(b->sub[k].P[j][j] - p0, fmaxf(MFNS_BANK_VAR_FLOOR_REL * p0, b->var_floor[j]));
             const float t = out->k_fa * sqrtf(vss);
             const float ns = fabsf(s[j]) / t;
             ev->failed[k] = ev->failed[k] || ns > 1.0f;

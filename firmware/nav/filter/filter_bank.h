@@ -106,8 +106,10 @@
  *
  * What it misses:
  *   - two simultaneous faults (single-fault hypotheses only);
- *   - a fault present in the snapshot fix the bank started from (the first
- *     PLs are only as good as that certified fix);
+ *   - a fault present in the prior the bank started from (the first PLs are
+ *     only as good as that prior: nav_filter_cycle.h starts it from a
+ *     diffuse prior around the snapshot fix, so that none of the snapshot's
+ *     error is trusted);
  *   - a fault of a beacon or camera that began before its hypothesis was
  *     (re)started: after an exclusion every other hypothesis restarts from the
  *     new full filter;
@@ -179,6 +181,14 @@
  * -9e-5 P_0); a hypothesis just started has a real P_k - P_0 below that. The
  * floor, 1e-3 P_0, sets T_k >= 0.17 sigma_0 at K_fa = 5.3: nothing for the PL */
 #define MFNS_BANK_VAR_FLOOR_REL 1e-3f
+/* and an absolute floor from the start: the start's prior variance times
+ * this many float epsilons (the rounding a covariance cut from the prior by
+ * a factor of 1e5 or more in its first frame leaves in P_k - P_0: a 20 mm
+ * prior cut to 0.04 mm left separations of beacon hypotheses beyond
+ * K_fa sqrt(P_k - P_0) in the start cycle, test_nav_filter_cycle). 256 eps of
+ * a (20 mm)^2 / (1 deg)^2 prior: T >= 0.6 mm / 0.03 deg, for the PL nothing
+ * against the alert limits. */
+#define MFNS_BANK_VAR_FLOOR_EPS 256.0f
 
 typedef enum {
     MFNS_BANK_HYP_NONE = 0,
@@ -213,6 +223,7 @@ typedef struct {
     uint8_t det_by_gate;
     uint32_t unmonitored_obs; /* observations used by no filter: no free slot */
     uint32_t work;            /* filter updates + propagations + separations this cycle */
+    float var_floor[MFNS_BANK_AXES]; /* MFNS_BANK_VAR_FLOOR_EPS x the start's prior variance, per pose axis */
     uint8_t last_usable; /* the last evaluation was usable: re-admission tests count */
     uint8_t initialised;
 } mfns_filter_bank_t;

@@ -37,23 +37,25 @@ static bool usable(const mfns_pose_solution_t *s)
 }
 
 /* A fix the snapshot's tests passed whose protection level, finite, is beyond
- * the alert limit (NO_FIX PL_EXCEEDS_AL): its identification is certified,
- * its pose is bounded by that PL but not to the alert limit. */
+ * the alert limit (NO_FIX PL_EXCEEDS_AL): its identification is certified
+ * (acquisition's certificate, or tracking from one), its pose is a sound
+ * linearisation point, and the bank's integrity does not rest on it (start). */
 static bool bounded_beyond_al(const mfns_pose_solution_t *s, const mfns_integrity_result_t *integ)
 {
     return s->status == MFNS_POSE_NO_FIX && s->reason == MFNS_POSE_R_PL_EXCEEDS_AL && integ->evaluated &&
-           integ->tests_passed && integ->pl_pos_mm > 0.0f && integ->pl_att_deg > 0.0f &&
-           integ->pl_pos_mm <= MFNS_NAVF_START_PL_MAX_MM && integ->pl_att_deg <= MFNS_NAVF_START_PL_MAX_DEG;
+           integ->tests_passed;
 }
 
-/* Start from the snapshot fix: its cov_ros less the datum term. A fix bounded
- * only beyond the alert limit (bounded_beyond_al) starts the bank too, with
- * its PL added to the prior's variance on every axis (1 sigma = the PL): the
- * start then claims no more than the snapshot certified, and the filter's PL
- * (>= K_ff times that sigma at first) falls below the alert limit only as the
- * observations that follow outweigh the start (nav_filter_cycle.h). */
-static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_solution_t *sol,
-                  const mfns_integrity_result_t *integ)
+/* Start from the snapshot fix: its pose, and a prior that claims nothing of
+ * it: per axis the larger of the fix's own sigma (its cov_ros less the datum
+ * term) and the start's diffuse sigma (MFNS_NAVF_START_SIGMA_MM / _RAD),
+ * uncorrelated. Every filter of the bank starts from that prior, so the
+ * bank's integrity rests on the observations it takes from here on (a fault
+ * in the snapshot fix, which its own PL may not bound (a camera fault in a
+ * DEGRADED CAMERA_UNMONITORED fix), leaves no trace in the PL once the
+ * observations outweigh the prior); the snapshot gives the identification
+ * and the linearisation point. */
+static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_solution_t *sol)
 {
     float d[6][6], cov[6][6];
     mfns_filter_datum_cov(&sol->pose, &t->datum, d); /* filter order: phi 0-2, r 3-5 */
@@ -63,23 +65,19 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
             cov[i][j] = sol->cov_ros[i][j] - d[to_filter[i]][to_filter[j]];
         }
     }
-    if (bounded_beyond_al(sol, integ)) {
-        const float pl_att_rad = integ->pl_att_deg * MFNS_RAD_PER_DEG_F;
-        for (int i = 0; i < 3; i++) {
-            cov[i][i] += integ->pl_pos_mm * integ->pl_pos_mm;
-            cov[3 + i][3 + i] += pl_att_rad * pl_att_rad;
-        }
-    }
+    float prior[6][6] = {{0.0f}};
     for (int i = 0; i < 6; i++) {
-        if (!(cov[i][i] > 0.0f)) {
+        if (!(cov[i][i] > 0.0f) || !isfinite(cov[i][i])) {
             return false;
         }
+        const float floor_sigma = i < 3 ? MFNS_NAVF_START_SIGMA_MM : MFNS_NAVF_START_SIGMA_RAD;
+        prior[i][i] = fmaxf(cov[i][i], floor_sigma * floor_sigma);
     }
     int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS];
     uint8_t cam_excluded[MFNS_NUM_CAMERAS];
     memcpy(excl_beacon, nf->bank.excl_beacon, sizeof excl_beacon);
     memcpy(cam_excluded, nf->bank.cam_excluded, sizeof cam_excluded);
-    nf->running = mfns_bank_init(&nf->bank, &sol->pose, (const float(*)[6])cov, mfns_v3(0.0f, 0.0f, 0.0f),
+    nf->running = mfns_bank_init(&nf->bank, &sol->pose, (const float(*)[6])prior, mfns_v3(0.0f, 0.0f, 0.0f),
                                  MFNS_NAVF_SIGMA_V0_MM_S, mfns_v3(0.0f, 0.0f, 0.0f), MFNS_NAVF_SIGMA_W0_RAD_S,
                                  nf->t_us) == MFNS_FILTER_OK;
     if (nf->running && nf->carry_excl) {
@@ -303,6 +301,29 @@ static void report(const mfns_bank_output_t *o, mfns_integrity_result_t *integ)
     }
 }
 
+/* Feed this cycle's frames and evaluate the bank at t_eval: the bank's
+ * verdict (exclusion, re-admission) into integ; an exclusion or a restart
+ * request stops it (nav_filter_cycle.h). */
+static void run_bank(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,
+                     const mfns_obs_frame_t *obs, float sigma_px, const mfns_pose_solution_t *sol,
+                     mfns_integrity_result_t *integ, mfns_navf_report_t *rep)
+{
+    feed(nf, t, obs, sigma_px, sol);
+    if (!nf->running) {
+        rep->ran = false;
+        return;
+    }
+    rep->ran = mfns_bank_evaluate(&nf->bank, &nf->set, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
+    nf->running = rep->ran && !rep->out.restart;
+    if (rep->ran) {
+        report(&rep->out, integ);
+    }
+    if (nf->running && rep->out.detected_kind != (uint8_t)MFNS_BANK_HYP_NONE) {
+        nf->running = false; /* restart from a certified snapshot (nav_filter_cycle.h) */
+        nf->carry_excl = true;
+    }
+}
+
 void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,
                     const mfns_obs_frame_t *obs, float sigma_px, mfns_pose_solution_t *sol,
                     mfns_integrity_result_t *integ, mfns_navf_report_t *rep)
@@ -327,34 +348,35 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
     }
     nf->t_us = nf->have_cap ? (t1 > nf->t_us || !nf->running ? t1 : nf->t_us) : nf->t_us + (int64_t)nf->period_us;
     if (nf->running) {
-        feed(nf, t, obs, sigma_px, sol);
-    }
-    if (nf->running) {
-        rep->ran = mfns_bank_evaluate(&nf->bank, &nf->set, is, &t->datum, nf->t_us, &rep->out) ==
-                   MFNS_FILTER_OK;
-        nf->running = rep->ran && !rep->out.restart;
-        if (rep->ran) {
-            report(&rep->out, integ);
-        }
-        if (nf->running && rep->out.detected_kind != (uint8_t)MFNS_BANK_HYP_NONE) {
-            nf->running = false; /* restart from a certified snapshot (nav_filter_cycle.h) */
-            nf->carry_excl = true;
-        }
+        run_bank(nf, t, is, obs, sigma_px, sol, integ, rep);
     }
     if (!nf->running) {
-        if (nf->have_cap) {
-            nf->t_us = t0; /* the earliest of the fix's frames: the others follow it */
+        /* (re)start from this cycle's fix, at the earliest of its frames,
+         * then take those frames: the start's prior claims nothing of them
+         * (start), so they are not counted twice */
+        const int64_t t_eval = nf->have_cap ? t1 : nf->t_us;
+        nf->t_us = nf->have_cap ? t0 : t_eval;
+        rep->started = (usable(sol) || bounded_beyond_al(sol, integ)) && start(nf, t, sol);
+        if (rep->started) {
+            /* this cycle's exclusion, if the bank that stopped made one,
+             * stays the cycle's (its subject is held out of the new bank) */
+            const uint8_t kind = rep->ran ? rep->out.detected_kind : (uint8_t)MFNS_BANK_HYP_NONE;
+            const int16_t id = rep->out.detected_id;
+            const uint8_t by_gate = rep->out.by_gate;
+            nf->t_us = t_eval;
+            run_bank(nf, t, is, obs, sigma_px, sol, integ, rep);
+            if (kind != (uint8_t)MFNS_BANK_HYP_NONE && rep->out.detected_kind == (uint8_t)MFNS_BANK_HYP_NONE) {
+                rep->out.detected_kind = kind;
+                rep->out.detected_id = id;
+                rep->out.by_gate = by_gate;
+            }
         }
-        nf->have_cap = false;
-        rep->started = (usable(sol) || bounded_beyond_al(sol, integ)) && start(nf, t, sol, integ);
-        camera_bound_or_refused(sol); /* the snapshot's verdict stands this cycle, if it bounds cameras */
-        return;
     }
     nf->have_cap = false;
-    if (rep->out.usable) {
+    if (nf->running && rep->ran && rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;
         return;
     }
-    camera_bound_or_refused(sol);
+    camera_bound_or_refused(sol); /* the snapshot's verdict stands this cycle, if it bounds cameras */
 }

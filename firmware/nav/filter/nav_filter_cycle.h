@@ -3,35 +3,40 @@
  * with it off nothing here runs and the cycle is bit-identical to the
  * snapshot navigator.
  *
- * On: the bank starts from the first usable snapshot fix (pose and its
- * covariance less the map datum term, which the filter adds back at its
- * output; velocity prior 0 +- MFNS_NAVF_SIGMA_V0_MM_S, 0 +- MFNS_NAVF_SIGMA_W0_RAD_S),
- * or from a fix whose tests passed with a finite protection level beyond the
- * alert limit (NO_FIX PL_EXCEEDS_AL), its PL added to the prior's variance on
- * every axis (the start claims no more than the snapshot certified; the
- * filter becomes usable only once later observations outweigh it). It then
- * takes every observation the cycle's solver associated with a beacon,
- * camera by camera, and associates the others itself (own_associate in the
- * .c: the one beacon predicted from the full filter within its gate), so a
- * frame of one or two beacons, where the snapshot has no fix, still feeds it. A cycle whose bank output is usable reports the filter's
+ * On: the bank starts from the first usable snapshot fix, or one whose
+ * tests passed with a protection level beyond the alert limit (NO_FIX
+ * PL_EXCEEDS_AL): the fix's identification and pose as the linearisation
+ * point, and a prior that claims nothing of it (per pose axis the larger of
+ * the fix's own sigma, less the map datum term which the filter adds back at
+ * its output, and MFNS_NAVF_START_SIGMA_MM / _RAD; velocity 0 +-
+ * MFNS_NAVF_SIGMA_V0_MM_S, 0 +- MFNS_NAVF_SIGMA_W0_RAD_S). The start cycle's
+ * own frames are then taken at once. So every filter of the bank rests on
+ * the observations it took, each hypothesis's subset on all but its own: a
+ * fault in the fix the bank started from (a camera fault a DEGRADED
+ * CAMERA_UNMONITORED fix does not bound) is bounded like one in any later
+ * frame. It takes every observation the cycle's solver associated with a
+ * beacon, camera by camera, and associates the others itself (own_associate
+ * in the .c: the one beacon predicted from the full filter within its gate),
+ * so a frame of one or two beacons, where the snapshot has no fix, still
+ * feeds it. A cycle whose bank output is usable reports the filter's
  * pose, covariance, PL and status (the solution's counts, residuals and
  * associations stay the solver's); otherwise the snapshot's verdict stands
  * (each is a certified bound on its own). A bank that asks for a restart
  * (motion bound exceeded, coast too long) starts again from the next usable
  * snapshot fix.
  *
- * An exclusion (filter_bank.h) ends the bank too: it restarts from the next
- * usable snapshot fix with the subject still held out (re-admission as
- * before). Why: an exclusion replaces the full filter by the excluded
+ * An exclusion (filter_bank.h) ends the bank too: it restarts from this
+ * cycle's snapshot fix if that can start it (else the next one), with the
+ * subject still held out (re-admission as before), and takes this cycle's
+ * frames afresh. Why: an exclusion replaces the full filter by the excluded
  * hypothesis's subset and every other hypothesis restarts as a copy of it,
  * so their separations start at zero and the PL falls to about K_ff sigma at
  * once; a fault that was already in the filter (the subject named wrongly:
  * a beacon of a drifting or knocked camera gated first) is then bounded by
  * nothing (issue 42's grown campaign: camera y drifting 1 ms per frame,
- * beacon 36 excluded, the next fixes 2x beyond their PL). The certified
- * snapshot fix is the only independent verdict at hand; until it comes the
- * cycles carry the snapshot's own status (the cost: availability after each
- * exclusion; measured in docs/pose.md).
+ * beacon 36 excluded, the next fixes 2x beyond their PL). A start from the
+ * diffuse prior carries nothing of the old filter: each hypothesis bounds
+ * what it took since.
  *
  * Time: each camera's observations enter the bank at their frame's capture
  * time when the caller gave them (mfns_navf_set_frame_times before the
@@ -59,11 +64,12 @@
 /* the velocity prior at a start: Astrobee-class top speeds (0.5 m/s, 0.5 rad/s) */
 #define MFNS_NAVF_SIGMA_V0_MM_S 500.0f
 #define MFNS_NAVF_SIGMA_W0_RAD_S 0.5f
-/* the largest snapshot PL a start takes as its prior's sigma: beyond, the
- * error-state linearisation (small attitude errors, nav_filter.h) no longer
- * holds for the start's spread */
-#define MFNS_NAVF_START_PL_MAX_MM 100.0f
-#define MFNS_NAVF_START_PL_MAX_DEG 5.0f
+/* the start's diffuse prior on the pose (nav_filter_cycle.c start): large
+ * against any snapshot error that passed its tests (the module's: well under
+ * a millimetre and 0.01 deg), small enough for the error-state linearisation
+ * (small attitude errors, nav_filter.h) */
+#define MFNS_NAVF_START_SIGMA_MM 20.0f
+#define MFNS_NAVF_START_SIGMA_RAD 0.0175f /* 1 deg */
 
 typedef struct {
     bool on;
