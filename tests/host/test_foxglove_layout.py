@@ -119,8 +119,8 @@ def served(tmp_path_factory):
             sub_topic: dict[int, str] = {}
             end = time.monotonic() + 8
             sent = False
-            wanted = {rosmsg.TOPIC_TF_STATIC, rosmsg.TOPIC_DIAG, TOPIC_BEACONS}
-            while time.monotonic() < end and not wanted <= set(got):
+            wanted = {rosmsg.TOPIC_TF_STATIC, rosmsg.TOPIC_DIAG}  # data; the beacons: advertised
+            while time.monotonic() < end and not (wanted <= set(got) and TOPIC_BEACONS in channels):
                 try:
                     m = ws.recv(timeout=0.2)
                 except TimeoutError:
@@ -139,8 +139,7 @@ def served(tmp_path_factory):
                     got[sub_topic[int.from_bytes(m[1:5], "little")]] = m[13:]
                 if len(channels) >= 7 and not sent:  # pose, tf, tf_static, diagnostics, 3 camera infos
                     time.sleep(0.3)  # the subscriptions reach the server first
-                    live._resend(rosmsg.row_stamp_ns(row))
-                    live.publish_nav(row)
+                    live.publish_nav(row)  # first the resend: /tf_static, camera info, beacons
                     sent = True
     finally:
         live.stop()
