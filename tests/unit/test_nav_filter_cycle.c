@@ -47,6 +47,17 @@ static void snapshot(const pt_dpose_t *truth, mfns_rng_t *rng, mfns_obs_frame_t 
     integ->pl_pos_mm = 19.0f;
 }
 
+/* A usable output's position within its PL of the truth, on every axis. */
+static void assert_within_pl(const pt_dpose_t *truth, const mfns_pose_solution_t *sol,
+                             const mfns_integrity_result_t *integ)
+{
+    double r[3];
+    pt_position_w(truth, r);
+    assert_true(fabs(sol->r_wb_w.x - r[0]) <= integ->pl_pos_mm);
+    assert_true(fabs(sol->r_wb_w.y - r[1]) <= integ->pl_pos_mm);
+    assert_true(fabs(sol->r_wb_w.z - r[2]) <= integ->pl_pos_mm);
+}
+
 static void test_off_changes_nothing(void **state)
 {
     (void)state;
@@ -229,11 +240,7 @@ static void test_exclusion_restarts_with_subject_held(void **state)
                 assert_memory_equal(&sol.pose, &snap.pose, sizeof sol.pose);
                 assert_int_equal(sol.status, MFNS_POSE_NO_FIX); /* camera faults unbounded in it */
             } else {
-                double r[3];
-                pt_position_w(&truth, r);
-                assert_true(fabs(sol.r_wb_w.x - r[0]) <= integ.pl_pos_mm);
-                assert_true(fabs(sol.r_wb_w.y - r[1]) <= integ.pl_pos_mm);
-                assert_true(fabs(sol.r_wb_w.z - r[2]) <= integ.pl_pos_mm);
+                assert_within_pl(&truth, &sol, &integ);
             }
             assert_true(rep.out.detected_kind == (uint8_t)MFNS_BANK_HYP_BEACON
                             ? mfns_bank_beacon_excluded(&nf.bank, id)
@@ -242,11 +249,7 @@ static void test_exclusion_restarts_with_subject_held(void **state)
         }
         if (k >= 15 && rep.used) {
             used_after++;
-            double r[3];
-            pt_position_w(&truth, r);
-            assert_true(fabs(sol.r_wb_w.x - r[0]) <= integ.pl_pos_mm);
-            assert_true(fabs(sol.r_wb_w.y - r[1]) <= integ.pl_pos_mm);
-            assert_true(fabs(sol.r_wb_w.z - r[2]) <= integ.pl_pos_mm);
+            assert_within_pl(&truth, &sol, &integ);
         }
     }
     print_message("%d exclusions (%d of another subject), the faulty beacon's at cycle %d (fault from 15), %d "
@@ -321,11 +324,7 @@ static void test_own_association(void **state)
         (void)truth_assoc;
         if (rep.used) {
             used_lost++;
-            double r[3];
-            pt_position_w(&truth, r);
-            assert_true(fabs(sol.r_wb_w.x - r[0]) <= integ.pl_pos_mm);
-            assert_true(fabs(sol.r_wb_w.y - r[1]) <= integ.pl_pos_mm);
-            assert_true(fabs(sol.r_wb_w.z - r[2]) <= integ.pl_pos_mm);
+            assert_within_pl(&truth, &sol, &integ);
         }
     }
     print_message("own association: %u observations associated by the bank, usable in %d of %d cycles the "
