@@ -333,10 +333,10 @@ static void test_own_association(void **state)
     assert_true(used_lost >= CYCLES - 12 - 2);
 }
 
-/* The start (nav_filter_cycle.c start): from a usable fix or one whose
- * tests passed with a PL beyond the alert limit (NO_FIX PL_EXCEEDS_AL),
- * whatever that PL; never from one whose tests failed or that is
- * UNMONITORED. The prior claims nothing of the fix (at least
+/* The start (nav_filter_cycle.c start): from a usable fix, one whose tests
+ * passed with a PL beyond the alert limit (NO_FIX PL_EXCEEDS_AL), whatever
+ * that PL, or one whose cameras' timing was not tested yet (LAG_UNTESTED);
+ * never from one whose tests failed, that is UNMONITORED or MINIMAL. The prior claims nothing of the fix (at least
  * MFNS_NAVF_START_SIGMA_MM / _RAD on every axis), and the start cycle's own
  * frames are taken at once. */
 static void test_start(void **state)
@@ -347,14 +347,18 @@ static void test_start(void **state)
     pt_dpose_t truth;
     setup(&rng, &truth);
     static mfns_navf_t nf;
-    const float pls[5] = {40.0f, 2000.0f, 40.0f, 40.0f, 19.0f};
-    const mfns_pose_status_t status[5] = {MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX,
-                                          MFNS_POSE_OK};
-    const mfns_pose_reason_t why[5] = {MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_PL_EXCEEDS_AL,
-                                       MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_UNMONITORED, MFNS_POSE_R_NONE};
-    const bool passed[5] = {true, true, false, true, true};
-    const bool starts[5] = {true, true, false, false, true};
-    for (int c = 0; c < 5; c++) {
+#define START_CASES 7
+    const float pls[START_CASES] = {40.0f, 2000.0f, 40.0f, 40.0f, 19.0f, 12.0f, 12.0f};
+    const mfns_pose_status_t status[START_CASES] = {MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX, MFNS_POSE_NO_FIX,
+                                                    MFNS_POSE_NO_FIX, MFNS_POSE_OK,     MFNS_POSE_NO_FIX,
+                                                    MFNS_POSE_NO_FIX};
+    const mfns_pose_reason_t why[START_CASES] = {MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_PL_EXCEEDS_AL,
+                                                 MFNS_POSE_R_PL_EXCEEDS_AL, MFNS_POSE_R_UNMONITORED,
+                                                 MFNS_POSE_R_NONE,          MFNS_POSE_R_LAG_UNTESTED,
+                                                 MFNS_POSE_R_MINIMAL};
+    const bool passed[START_CASES] = {true, true, false, true, true, true, true};
+    const bool starts[START_CASES] = {true, true, false, false, true, true, false};
+    for (int c = 0; c < START_CASES; c++) {
         mfns_navf_enable(&nf, 54000);
         mfns_obs_frame_t frame;
         mfns_pose_solution_t sol;

@@ -36,13 +36,17 @@ static bool usable(const mfns_pose_solution_t *s)
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
 }
 
-/* A fix the snapshot's tests passed whose protection level, finite, is beyond
- * the alert limit (NO_FIX PL_EXCEEDS_AL): its identification is certified
- * (acquisition's certificate, or tracking from one), its pose is a sound
- * linearisation point, and the bank's integrity does not rest on it (start). */
-static bool bounded_beyond_al(const mfns_pose_solution_t *s, const mfns_integrity_result_t *integ)
+/* A fix refused only for what the bank checks itself: its tests passed but
+ * its protection level is beyond the alert limit (NO_FIX PL_EXCEEDS_AL), or
+ * its cameras' timing could not be tested yet (NO_FIX LAG_UNTESTED: the first
+ * two fixes after a gap; the bank's camera hypotheses carry each camera's
+ * time offset). Its identification is certified (acquisition's certificate,
+ * or tracking from one), its pose is a sound linearisation point, and the
+ * bank's integrity does not rest on it (start). */
+static bool startable_refused(const mfns_pose_solution_t *s, const mfns_integrity_result_t *integ)
 {
-    return s->status == MFNS_POSE_NO_FIX && s->reason == MFNS_POSE_R_PL_EXCEEDS_AL && integ->evaluated &&
+    return s->status == MFNS_POSE_NO_FIX &&
+           (s->reason == MFNS_POSE_R_PL_EXCEEDS_AL || s->reason == MFNS_POSE_R_LAG_UNTESTED) && integ->evaluated &&
            integ->tests_passed;
 }
 
@@ -356,7 +360,7 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
          * (start), so they are not counted twice */
         const int64_t t_eval = nf->have_cap ? t1 : nf->t_us;
         nf->t_us = nf->have_cap ? t0 : t_eval;
-        rep->started = (usable(sol) || bounded_beyond_al(sol, integ)) && start(nf, t, sol);
+        rep->started = (usable(sol) || startable_refused(sol, integ)) && start(nf, t, sol);
         if (rep->started) {
             /* this cycle's exclusion, if the bank that stopped made one,
              * stays the cycle's (its subject is held out of the new bank) */

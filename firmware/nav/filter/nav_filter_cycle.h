@@ -3,9 +3,10 @@
  * with it off nothing here runs and the cycle is bit-identical to the
  * snapshot navigator.
  *
- * On: the bank starts from the first usable snapshot fix, or one whose
- * tests passed with a protection level beyond the alert limit (NO_FIX
- * PL_EXCEEDS_AL): the fix's identification and pose as the linearisation
+ * On: the bank starts from the first usable snapshot fix, or one refused
+ * only for what the bank checks itself (NO_FIX PL_EXCEEDS_AL with its tests
+ * passed; NO_FIX LAG_UNTESTED, the cameras' timing not testable yet, which
+ * the bank's camera hypotheses carry): the fix's identification and pose as the linearisation
  * point, and a prior that claims nothing of it (per pose axis the larger of
  * the fix's own sigma, less the map datum term which the filter adds back at
  * its output, and MFNS_NAVF_START_SIGMA_MM / _RAD; velocity 0 +-
