@@ -5,8 +5,8 @@ across cycles; the fly check measures them. For a beacons.csv and the workspace 
 was planned for (plan.json table_workspace_mm), in a work folder:
 
 1. `mfns sim nav --scenario module --beacon-map LAYOUT --seed SEED --frames N
-   --survey-error`: a fresh module path (the seed is not the planner's), the LEDs where a
-   survey of the map's sigma_mm leaves them;
+   --survey-error [--module-size ..]`: a fresh path in the planned module (the seed is not
+   the planner's), the LEDs where a survey of the map's sigma_mm leaves them;
 2. `mfns table build CALIB LAYOUT --workspace PLAN.json`: the layout's flight table, the
    flight's default settings (integrity enforced, never monitor-only);
 3. the flight program `mfns-nav --replay` (mfns.programs: the wheel's own, or the tree's
@@ -33,6 +33,7 @@ import numpy as np
 from ..analysis import report as rpt
 from ..core.errors import MfnsError
 from ..programs import program_path
+from ..simulate.module_geom import DEMO_MODULE, ModuleGeometry
 from ..simulate.nav import CAMERA_DIRS
 
 
@@ -48,8 +49,10 @@ def _reason(text: str, names: Sequence[str]) -> str:
     return names[int(text)] if text.isdigit() and int(text) < len(names) else text
 
 
-def fly(layout_csv: Path, plan_json: Path, work: Path, frames: int, seed: int) -> dict:
-    """Fly the layout once (module docstring); returns the counts."""
+def fly(
+    layout_csv: Path, plan_json: Path, work: Path, frames: int, seed: int, geom: ModuleGeometry = DEMO_MODULE
+) -> dict:
+    """Fly the layout once in the module geom (module docstring); returns the counts."""
     from ..core.flight import REASONS
 
     nav, ground = program_path("mfns-nav"), program_path("mfns-ground")
@@ -60,7 +63,7 @@ def fly(layout_csv: Path, plan_json: Path, work: Path, frames: int, seed: int) -
     fr = work / "frames"
     _run(
         [*py, "sim", "nav", str(fr), "--scenario", "module", "--beacon-map", str(layout_csv), "--seed",
-         str(seed), "--frames", str(frames), "--survey-error", "--force", "-q"],
+         str(seed), "--frames", str(frames), "--survey-error", "--force", "-q", *geom.cli_args()],
         work / "sim.log",
         "mfns sim nav",
     )  # fmt: skip

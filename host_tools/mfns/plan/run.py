@@ -14,6 +14,7 @@ from ..analysis.mc import PAPER_BEACON_MM
 from ..core.csv_formats import BEACON_COLUMNS
 from ..core.errors import MfnsError
 from ..model.camera import rig_from_doc
+from ..simulate import module_geom
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY
@@ -45,6 +46,19 @@ def _triple(text: str | None, name: str, n: int):
     return v
 
 
+def module_of(args) -> module_geom.ModuleGeometry:
+    """The module --workspace module and --surfaces module stand for (--module-size,
+    --module-path-amp; the demo's by default). Options that shape no module are refused."""
+    geom = module_geom.from_args(args)
+    uses = args.workspace == "module" or getattr(args, "surfaces", None) == "module"
+    if module_geom.given(args) and not uses:
+        raise MfnsError(
+            "--module-size and --module-path-amp shape --workspace module and --surfaces module; "
+            "neither is asked"
+        )
+    return geom
+
+
 def build_workspace(args, stream: int = 0) -> workspace.Workspace:
     """The workspace of the arguments; stream separates the optimiser's samples from the
     independent samples the result is checked on."""
@@ -56,7 +70,7 @@ def build_workspace(args, stream: int = 0) -> workspace.Workspace:
     if args.workspace == "turntable":
         return workspace.turntable(args.samples, args.yaw_start, args.yaw_span)
     if args.workspace == "module":
-        return workspace.module(args.samples, rng)
+        return workspace.module(args.samples, rng, module_of(args))
     b = _triple(args.box, "box", 6)
     if b is None:
         raise MfnsError("--workspace box needs --box x0,y0,z0,x1,y1,z1 (mm)")
@@ -223,7 +237,8 @@ def run_optimize(args) -> int:
         raise MfnsError(f"--iterations at most {MAX_ITERATIONS}, --restarts at most {MAX_RESTARTS}")
     doc, cams = _load_rig(args)
     core = Core(cams)
-    surf, keep = surfaces.load(args.surfaces)
+    geom = module_of(args)
+    surf, keep = surfaces.load(args.surfaces, geom)
     keep += [surfaces.parse_box(k) for k in args.keep_out or []]
     cand, _ = surfaces.candidates(surf, args.grid, keep)
     survey, survey_from = _survey_sigma(args)
@@ -299,6 +314,8 @@ def run_optimize(args) -> int:
         "min_spacing_mm": args.min_spacing,
         "keep_out": [[k.lo.tolist(), k.hi.tolist()] for k in keep],
         "optimised_on": ws.description,
+        # the module of --surfaces module / --workspace module (the fly check flies it)
+        "module": geom.to_doc() if "module" in (args.workspace, args.surfaces) else None,
         # the box to build the layout's flight table over (`mfns table build --workspace`
         # takes this file): the one the map analysis above used
         WORKSPACE_KEY: [round(float(v), 1) for v in np.concatenate(table_workspace(ws))],
@@ -485,7 +502,9 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             seed = FLY_SEED_BASE + 17 * args.seed + k
             if progress:
                 print(f"  fly check: {name}, path {k + 1}/{args.fly_paths}", flush=True)
-            r = fly.fly(csv_path, out / "plan.json", out / "fly" / f"{name}-{k}", args.fly_frames, seed)
+            r = fly.fly(
+                csv_path, out / "plan.json", out / "fly" / f"{name}-{k}", args.fly_frames, seed, module_of(args)
+            )
             runs.append(r)
             _, pos, sig = load_beacon_csv(csv_path)
             ws_f = workspace.from_truth(Path(r["work"]) / "frames" / "truth.csv")
@@ -546,7 +565,7 @@ def run_size(args) -> int:
         raise MfnsError(f"--iterations and --polish must be 0 to {MAX_ITERATIONS}")
     doc, cams = _load_rig(args)
     core = Core(cams)
-    surf, keep = surfaces.load(args.surfaces)
+    surf, keep = surfaces.load(args.surfaces, module_of(args))
     keep += [surfaces.parse_box(k) for k in args.keep_out or []]
     cand, _ = surfaces.candidates(surf, args.grid, keep)
     survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM
