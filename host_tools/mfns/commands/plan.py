@@ -133,6 +133,14 @@ def register(subparsers) -> None:
         "before the plan is reported (0: no fly check) (default 120)",
     )
     o.add_argument("--fly-paths", type=int, default=2, help="fly check: fresh paths per layout (default 2)")
+    o.add_argument(
+        "--fly-starts",
+        type=int,
+        default=20,
+        help="fly check: lost starts per path for the measured one-call rate: the flight program "
+        "started afresh at this many frames spread over the path, one cycle each; a start counts "
+        "when its first cycle certifies a fix (0: none) (default 20)",
+    )
     o.set_defaults(func=run.run_optimize)
     z = sub.add_parser(
         "size",

@@ -230,6 +230,8 @@ def run_optimize(args) -> int:
         raise MfnsError(f"--polish must be 0 to {MAX_ITERATIONS}")
     if args.fly_frames < 0 or args.fly_paths < 1 or args.fly_frames > 10_000:
         raise MfnsError("--fly-frames must be 0 to 10000, --fly-paths at least 1")
+    if not 0 <= getattr(args, "fly_starts", 0) <= 10_000:
+        raise MfnsError("--fly-starts must be 0 to 10000")
     if getattr(args, "cert_in_view", None) is not None and args.cert_in_view < 0:
         raise MfnsError("--cert-in-view must be >= 0")
     # bounded like the samples: beyond these a run is hours (a typo, not a plan)
@@ -421,6 +423,13 @@ def run_optimize(args) -> int:
             f" (predicted on the flown poses {f['predicted_usable_pct']} %); first fix at cycle "
             f"{f['first_fix_cycles']}; error 1-sigma {f['error_sigma']}"
         )
+        oc = f.get("one_call")
+        if oc:
+            print(
+                f"    one call, measured: {oc['certified_first_cycle']} of {oc['starts']} lost starts "
+                f"({oc['measured_pct']} %) certified a fix in their first cycle; predicted on the same "
+                f"poses {oc['predicted_pct']} % (not certified: {oc['not_certified_reasons'] or 'none'})"
+            )
     box = ",".join(f"{v:g}" for v in plan_doc[WORKSPACE_KEY])
     print(
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
@@ -498,12 +507,20 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
     for name, csv_path in layouts.items():
         runs = []
         pred_usable, n_pred = 0, 0
+        outcomes: list[tuple[str, str]] = []
+        predicted: list[bool] = []
         for k in range(args.fly_paths):
             seed = FLY_SEED_BASE + 17 * args.seed + k
             if progress:
                 print(f"  fly check: {name}, path {k + 1}/{args.fly_paths}", flush=True)
             r = fly.fly(
-                csv_path, out / "plan.json", out / "fly" / f"{name}-{k}", args.fly_frames, seed, module_of(args)
+                csv_path,
+                out / "plan.json",
+                out / "fly" / f"{name}-{k}",
+                args.fly_frames,
+                seed,
+                module_of(args),
+                getattr(args, "fly_starts", 0),
             )
             runs.append(r)
             _, pos, sig = load_beacon_csv(csv_path)
@@ -511,6 +528,10 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             u = usable.evaluate(core, pos, sig, ws_f, sigma_px, *table_workspace(ws_f))
             pred_usable += int(u.usable.sum())
             n_pred += ws_f.n
+            # the planner's one-call prediction on the very poses the lost starts begin at
+            one_call = u.usable & (u.in_view_cam.sum(axis=1) >= CERT_MIN_IN_VIEW)
+            outcomes += [tuple(o) for o in r["start_outcomes"]]
+            predicted += [bool(one_call[i]) for i in r["start_frames"]]
         frames = sum(r["frames"] for r in runs)
         used = sum(r["usable"] for r in runs)
         reasons: dict[str, int] = {}
@@ -526,6 +547,8 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             "predicted_usable_pct": round(100.0 * pred_usable / n_pred, 2) if n_pred else None,
             "unusable_reasons": reasons,
             "first_fix_cycles": [r["first_fix_cycle"] for r in runs],
+            # measured one-call: the flight started lost at frames of the flown paths (fly.py)
+            "one_call": fly.one_call_summary(outcomes, predicted) if outcomes else None,
             "error_sigma": {
                 a: round(float(np.sqrt(np.mean([d[a] ** 2 for d in sig_axes]))), 4) for a in sig_axes[0]
             }

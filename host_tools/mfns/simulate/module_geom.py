@@ -134,7 +134,9 @@ def parse(size: str | None, path_amp: str | None) -> ModuleGeometry:
 
 def given(args) -> bool:
     """Whether the arguments name a module geometry (either option)."""
-    return getattr(args, "module_size", None) is not None or getattr(args, "module_path_amp", None) is not None
+    return (
+        getattr(args, "module_size", None) is not None or getattr(args, "module_path_amp", None) is not None
+    )
 
 
 def from_args(args) -> ModuleGeometry:

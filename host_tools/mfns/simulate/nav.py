@@ -47,9 +47,9 @@ from ..core.csv_formats import TRUTH_HEADER
 from ..core.errors import MfnsError
 from ..model.camera import Camera, load_beacons, pose_from_position, rig_from_doc
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
+from ..tlm.tlm_dict import CYCLE_HZ
 from . import module_geom
 from .module_geom import DEMO_MODULE, EDGE_MARGIN_MM, ModuleGeometry
-from ..tlm.tlm_dict import CYCLE_HZ
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 PAPER_CALIB = DATA / "paper_calib.json"
