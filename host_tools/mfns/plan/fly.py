@@ -191,7 +191,8 @@ def fly(
     reasons = Counter(_reason(r["reason"], REASONS) for r, g in zip(rows, good, strict=True) if not g)
     first = int(np.argmax(good)) if good.any() else None
     sigma = None
-    if good.any():
+    # a 1-sigma needs two usable cycles (one has no spread: NaN, which JSON cannot carry)
+    if int(good.sum()) >= 2:
         rep = rpt.build_report(log, rpt.load_truth(fr / "truth.csv"))
         sigma = {s.axis: round(s.sigma, 4) for s in rep.stats}
     sf = start_frames(len(log.t_s), starts)
