@@ -509,6 +509,7 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
         pred_usable, n_pred = 0, 0
         outcomes: list[tuple[str, str]] = []
         predicted: list[bool] = []
+        per_start: list[list] = []  # path, frame, status, reason, in view (predicted), one call predicted
         for k in range(args.fly_paths):
             seed = FLY_SEED_BASE + 17 * args.seed + k
             if progress:
@@ -532,6 +533,10 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             one_call = u.usable & (u.in_view_cam.sum(axis=1) >= CERT_MIN_IN_VIEW)
             outcomes += [tuple(o) for o in r["start_outcomes"]]
             predicted += [bool(one_call[i]) for i in r["start_frames"]]
+            per_start += [
+                [k, i, *o, int(u.in_view_cam[i].sum()), bool(one_call[i])]
+                for i, o in zip(r["start_frames"], r["start_outcomes"], strict=True)
+            ]
         frames = sum(r["frames"] for r in runs)
         used = sum(r["usable"] for r in runs)
         reasons: dict[str, int] = {}
@@ -548,7 +553,13 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             "unusable_reasons": reasons,
             "first_fix_cycles": [r["first_fix_cycle"] for r in runs],
             # measured one-call: the flight started lost at frames of the flown paths (fly.py)
-            "one_call": fly.one_call_summary(outcomes, predicted) if outcomes else None,
+            "one_call": {
+                **fly.one_call_summary(outcomes, predicted),
+                "per_start": per_start,
+                "per_start_columns": ["path", "frame", "status", "reason", "in_view", "one_call_predicted"],
+            }
+            if outcomes
+            else None,
             "error_sigma": {
                 a: round(float(np.sqrt(np.mean([d[a] ** 2 for d in sig_axes]))), 4) for a in sig_axes[0]
             }
