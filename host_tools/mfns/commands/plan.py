@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..plan import run
+from ..simulate import module_geom
 
 
 def _common(p) -> None:
@@ -13,8 +14,11 @@ def _common(p) -> None:
         "--workspace",
         choices=("turntable", "module", "box", "truth"),
         default="turntable",
-        help="pose samples: the turntable's sweep, the demo module's interior, a --box, or the "
-        "poses of a --truth file (default turntable)",
+        help="pose samples: the turntable's sweep, the module's interior (the demo's, or "
+        "--module-size), a --box, or the poses of a --truth file (default turntable)",
+    )
+    module_geom.add_arguments(
+        w, "--workspace module samples its path's box, --surfaces module puts beacons on its walls"
     )
     w.add_argument("--truth", metavar="CSV", help="truth: the poses of a truth.csv (mfns sim nav), in order")
     w.add_argument("--samples", type=int, default=200, help="pose samples (default 200)")
@@ -129,6 +133,14 @@ def register(subparsers) -> None:
         "before the plan is reported (0: no fly check) (default 120)",
     )
     o.add_argument("--fly-paths", type=int, default=2, help="fly check: fresh paths per layout (default 2)")
+    o.add_argument(
+        "--fly-starts",
+        type=int,
+        default=20,
+        help="fly check: lost starts per path for the measured one-call rate: the flight program "
+        "started afresh at this many frames spread over the path, one cycle each; a start counts "
+        "when its first cycle certifies a fix (0: none) (default 20)",
+    )
     o.set_defaults(func=run.run_optimize)
     z = sub.add_parser(
         "size",

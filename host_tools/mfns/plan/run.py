@@ -14,6 +14,7 @@ from ..analysis.mc import PAPER_BEACON_MM
 from ..core.csv_formats import BEACON_COLUMNS
 from ..core.errors import MfnsError
 from ..model.camera import rig_from_doc
+from ..simulate import module_geom
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
 from ..table.builder import load_beacon_csv
 from ..table.mapindex import WORKSPACE_KEY
@@ -45,6 +46,19 @@ def _triple(text: str | None, name: str, n: int):
     return v
 
 
+def module_of(args) -> module_geom.ModuleGeometry:
+    """The module --workspace module and --surfaces module stand for (--module-size,
+    --module-path-amp; the demo's by default). Options that shape no module are refused."""
+    geom = module_geom.from_args(args)
+    uses = args.workspace == "module" or getattr(args, "surfaces", None) == "module"
+    if module_geom.given(args) and not uses:
+        raise MfnsError(
+            "--module-size and --module-path-amp shape --workspace module and --surfaces module; "
+            "neither is asked"
+        )
+    return geom
+
+
 def build_workspace(args, stream: int = 0) -> workspace.Workspace:
     """The workspace of the arguments; stream separates the optimiser's samples from the
     independent samples the result is checked on."""
@@ -56,7 +70,7 @@ def build_workspace(args, stream: int = 0) -> workspace.Workspace:
     if args.workspace == "turntable":
         return workspace.turntable(args.samples, args.yaw_start, args.yaw_span)
     if args.workspace == "module":
-        return workspace.module(args.samples, rng)
+        return workspace.module(args.samples, rng, module_of(args))
     b = _triple(args.box, "box", 6)
     if b is None:
         raise MfnsError("--workspace box needs --box x0,y0,z0,x1,y1,z1 (mm)")
@@ -216,6 +230,8 @@ def run_optimize(args) -> int:
         raise MfnsError(f"--polish must be 0 to {MAX_ITERATIONS}")
     if args.fly_frames < 0 or args.fly_paths < 1 or args.fly_frames > 10_000:
         raise MfnsError("--fly-frames must be 0 to 10000, --fly-paths at least 1")
+    if not 0 <= getattr(args, "fly_starts", 0) <= 10_000:
+        raise MfnsError("--fly-starts must be 0 to 10000")
     if getattr(args, "cert_in_view", None) is not None and args.cert_in_view < 0:
         raise MfnsError("--cert-in-view must be >= 0")
     # bounded like the samples: beyond these a run is hours (a typo, not a plan)
@@ -223,7 +239,8 @@ def run_optimize(args) -> int:
         raise MfnsError(f"--iterations at most {MAX_ITERATIONS}, --restarts at most {MAX_RESTARTS}")
     doc, cams = _load_rig(args)
     core = Core(cams)
-    surf, keep = surfaces.load(args.surfaces)
+    geom = module_of(args)
+    surf, keep = surfaces.load(args.surfaces, geom)
     keep += [surfaces.parse_box(k) for k in args.keep_out or []]
     cand, _ = surfaces.candidates(surf, args.grid, keep)
     survey, survey_from = _survey_sigma(args)
@@ -299,6 +316,8 @@ def run_optimize(args) -> int:
         "min_spacing_mm": args.min_spacing,
         "keep_out": [[k.lo.tolist(), k.hi.tolist()] for k in keep],
         "optimised_on": ws.description,
+        # the module of --surfaces module / --workspace module (the fly check flies it)
+        "module": geom.to_doc() if "module" in (args.workspace, args.surfaces) else None,
         # the box to build the layout's flight table over (`mfns table build --workspace`
         # takes this file): the one the map analysis above used
         WORKSPACE_KEY: [round(float(v), 1) for v in np.concatenate(table_workspace(ws))],
@@ -404,6 +423,13 @@ def run_optimize(args) -> int:
             f" (predicted on the flown poses {f['predicted_usable_pct']} %); first fix at cycle "
             f"{f['first_fix_cycles']}; error 1-sigma {f['error_sigma']}"
         )
+        oc = f.get("one_call")
+        if oc:
+            print(
+                f"    one call, measured: {oc['certified_first_cycle']} of {oc['starts']} lost starts "
+                f"({oc['measured_pct']} %) certified a fix in their first cycle; predicted on the same "
+                f"poses {oc['predicted_pct']} % (not certified: {oc['not_certified_reasons'] or 'none'})"
+            )
     box = ",".join(f"{v:g}" for v in plan_doc[WORKSPACE_KEY])
     print(
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
@@ -481,17 +507,36 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
     for name, csv_path in layouts.items():
         runs = []
         pred_usable, n_pred = 0, 0
+        outcomes: list[tuple[str, str]] = []
+        predicted: list[bool] = []
+        per_start: list[list] = []  # path, frame, status, reason, in view (predicted), one call predicted
         for k in range(args.fly_paths):
             seed = FLY_SEED_BASE + 17 * args.seed + k
             if progress:
                 print(f"  fly check: {name}, path {k + 1}/{args.fly_paths}", flush=True)
-            r = fly.fly(csv_path, out / "plan.json", out / "fly" / f"{name}-{k}", args.fly_frames, seed)
+            r = fly.fly(
+                csv_path,
+                out / "plan.json",
+                out / "fly" / f"{name}-{k}",
+                args.fly_frames,
+                seed,
+                module_of(args),
+                getattr(args, "fly_starts", 0),
+            )
             runs.append(r)
             _, pos, sig = load_beacon_csv(csv_path)
             ws_f = workspace.from_truth(Path(r["work"]) / "frames" / "truth.csv")
             u = usable.evaluate(core, pos, sig, ws_f, sigma_px, *table_workspace(ws_f))
             pred_usable += int(u.usable.sum())
             n_pred += ws_f.n
+            # the planner's one-call prediction on the very poses the lost starts begin at
+            one_call = u.usable & (u.in_view_cam.sum(axis=1) >= CERT_MIN_IN_VIEW)
+            outcomes += [tuple(o) for o in r["start_outcomes"]]
+            predicted += [bool(one_call[i]) for i in r["start_frames"]]
+            per_start += [
+                [k, i, *o, int(u.in_view_cam[i].sum()), bool(one_call[i])]
+                for i, o in zip(r["start_frames"], r["start_outcomes"], strict=True)
+            ]
         frames = sum(r["frames"] for r in runs)
         used = sum(r["usable"] for r in runs)
         reasons: dict[str, int] = {}
@@ -507,6 +552,14 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             "predicted_usable_pct": round(100.0 * pred_usable / n_pred, 2) if n_pred else None,
             "unusable_reasons": reasons,
             "first_fix_cycles": [r["first_fix_cycle"] for r in runs],
+            # measured one-call: the flight started lost at frames of the flown paths (fly.py)
+            "one_call": {
+                **fly.one_call_summary(outcomes, predicted),
+                "per_start": per_start,
+                "per_start_columns": ["path", "frame", "status", "reason", "in_view", "one_call_predicted"],
+            }
+            if outcomes
+            else None,
             "error_sigma": {
                 a: round(float(np.sqrt(np.mean([d[a] ** 2 for d in sig_axes]))), 4) for a in sig_axes[0]
             }
@@ -546,7 +599,7 @@ def run_size(args) -> int:
         raise MfnsError(f"--iterations and --polish must be 0 to {MAX_ITERATIONS}")
     doc, cams = _load_rig(args)
     core = Core(cams)
-    surf, keep = surfaces.load(args.surfaces)
+    surf, keep = surfaces.load(args.surfaces, module_of(args))
     keep += [surfaces.parse_box(k) for k in args.keep_out or []]
     cand, _ = surfaces.candidates(surf, args.grid, keep)
     survey = args.beacon_sigma if args.beacon_sigma is not None else DEFAULT_SURVEY_SIGMA_MM

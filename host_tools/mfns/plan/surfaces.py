@@ -2,8 +2,9 @@
 
 A surface is a rectangle origin + s u + t v (s, t in [0, 1], mm). Built-in sets:
 
-- ``module``: the six walls of the `mfns sim nav` module (MODULE_HALF), less the
-  MODULE_EDGE_MARGIN_MM strip along the edges the simulator also keeps clear.
+- ``module``: the six walls of the `mfns sim nav` module (a ModuleGeometry: the demo's
+  4 x 2 x 2 m, or the size of --module-size), less the EDGE_MARGIN_MM strip along the
+  edges the simulator also keeps clear.
 - ``paper-frame``: the steel frame of the paper's navigation experiment (docs/system.md §6,
   "about 1 x 1 x 1.5 m around the turntable"), taken as the box its ten surveyed
   beacons (Table 4) span, x -460..650, y -740..410, z -70..565 mm: its four sides and
@@ -23,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import MfnsError
-from ..simulate.nav import MODULE_EDGE_MARGIN_MM, MODULE_HALF
+from ..simulate.module_geom import DEMO_MODULE, EDGE_MARGIN_MM, ModuleGeometry
 
 PAPER_FRAME_LO = np.array([-460.0, -740.0, -70.0])
 PAPER_FRAME_HI = np.array([650.0, 410.0, 565.0])
@@ -63,11 +64,12 @@ def box_faces(lo, hi, faces: str = "xXyYzZ", prefix: str = "") -> list[Surface]:
     return out
 
 
-def builtin(name: str) -> tuple[list[Surface], list[KeepOut]]:
+def builtin(name: str, geom: ModuleGeometry = DEMO_MODULE) -> tuple[list[Surface], list[KeepOut]]:
+    """A built-in set; geom: the module of ``module`` (the demo's by default)."""
     if name == "module":
-        m = MODULE_EDGE_MARGIN_MM
+        m = EDGE_MARGIN_MM
         walls = []
-        for s in box_faces(-MODULE_HALF, MODULE_HALF, prefix="wall "):
+        for s in box_faces(-geom.half, geom.half, prefix="wall "):
             # shrink each wall by the edge margin inside its own plane
             du, dv = s.u / np.linalg.norm(s.u), s.v / np.linalg.norm(s.v)
             walls.append(Surface(s.name, s.origin + m * du + m * dv, s.u - 2 * m * du, s.v - 2 * m * dv))
@@ -77,10 +79,10 @@ def builtin(name: str) -> tuple[list[Surface], list[KeepOut]]:
     raise MfnsError(f"unknown surface set {name!r} (built-in: module, paper-frame; or a JSON file)")
 
 
-def load(spec: str) -> tuple[list[Surface], list[KeepOut]]:
-    """A built-in name or a JSON file (module docstring)."""
+def load(spec: str, geom: ModuleGeometry = DEMO_MODULE) -> tuple[list[Surface], list[KeepOut]]:
+    """A built-in name or a JSON file (module docstring); geom: the module of ``module``."""
     if spec in ("module", "paper-frame"):
-        return builtin(spec)
+        return builtin(spec, geom)
     path = Path(spec)
     try:
         doc = json.loads(path.read_text())

@@ -6,8 +6,9 @@ Three kinds (docs/planning.md):
   --scenario turntable``): body origin at the world origin, attitude (0, 0, yaw) with yaw
   swept evenly from ``yaw_start_deg`` over ``yaw_span_deg`` -- the same yaws the
   simulator renders for the same frame count.
-- ``module``: the space-station module of ``mfns sim nav --scenario module``: the body
-  origin anywhere in the box its trajectory covers (MODULE_POS_AMP_MM about the centre),
+- ``module``: the space-station module of ``mfns sim nav --scenario module`` (a
+  ModuleGeometry: the demo's, or the one --module-size / --module-path-amp give): the body
+  origin anywhere in the box its trajectory covers (its path amplitude about the centre),
   roll and pitch within the trajectory's wobble, yaw over the full circle (the robot
   turns round as it crosses the module).
 - ``box``: a box of positions given by the user; attitude uniform over SO(3) or uniform
@@ -26,7 +27,8 @@ import numpy as np
 
 from ..core.errors import MfnsError
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg, random_rotations
-from ..simulate.nav import MODULE_ATT_AMP_DEG, MODULE_POS_AMP_MM
+from ..simulate.module_geom import DEMO_MODULE, ModuleGeometry
+from ..simulate.nav import MODULE_ATT_AMP_DEG
 
 
 @dataclass
@@ -111,9 +113,9 @@ def box(
     )
 
 
-def module(n: int, rng: np.random.Generator) -> Workspace:
-    """The module scenario's reachable poses (see the module docstring)."""
-    amp = MODULE_POS_AMP_MM
+def module(n: int, rng: np.random.Generator, geom: ModuleGeometry = DEMO_MODULE) -> Workspace:
+    """The module scenario's reachable poses (see the module docstring) in the module geom."""
+    amp = geom.pos_amp_mm
     return box(
         n,
         -amp,

@@ -48,6 +48,8 @@ from ..core.errors import MfnsError
 from ..model.camera import Camera, load_beacons, pose_from_position, rig_from_doc
 from ..model.rotations import euler213_deg_to_matrix, matrix_to_euler213_deg
 from ..tlm.tlm_dict import CYCLE_HZ
+from . import module_geom
+from .module_geom import DEMO_MODULE, EDGE_MARGIN_MM, ModuleGeometry
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 PAPER_CALIB = DATA / "paper_calib.json"
@@ -61,32 +63,36 @@ CAMERA_DIRS = tuple(f"cam_{letter}" for letter in CAMERA_LETTERS)
 FRAMES_HEADER = ["frame", "t_s", "camera", "file", "exposure_us", "gain_db"]
 SPOTS_HEADER = ["frame", "camera", "beacon_id", "u", "v", "peak_dn", "sigma_px"]
 
-# Module geometry (mm): half-extents along Xw (long axis), Yw, Zw.
-MODULE_HALF = np.array([2000.0, 1000.0, 1000.0])
-MODULE_EDGE_MARGIN_MM = 150.0
-# Share of beacons on the two end walls (x = +-2000): the cameras see them from afar,
+# Module geometry (mm): one definition, shared with the planner (module_geom.py); these
+# names are the demo module's.
+MODULE_HALF = DEMO_MODULE.half
+MODULE_EDGE_MARGIN_MM = EDGE_MARGIN_MM
+# Share of beacons on the two end walls (x = +-half length): the cameras see them from afar,
 # so they carry most of the view; found by sweeping layouts for the visibility target.
 MODULE_END_WALL_SHARE = 0.4
 # Map accuracy written to beacons.csv for the module (the simulated map is exact; this is
 # the survey accuracy a solver should assume, the paper's 0.3963 mm rounded).
 MODULE_BEACON_SIGMA_MM = 0.4
 # Sinusoidal trajectory (amplitude, period s) per axis; periods are mutually incommensurate
-# so the path does not repeat within minutes. Position in mm, attitude in degrees.
-MODULE_POS_AMP_MM = np.array([800.0, 300.0, 300.0])
+# so the path does not repeat within minutes. Position in mm, attitude in degrees. The
+# position amplitude is the module's (ModuleGeometry.pos_amp_mm: the demo's scales with the
+# size); the periods and the attitude wobble are the robot's.
+MODULE_POS_AMP_MM = DEMO_MODULE.pos_amp_mm
 MODULE_POS_PERIOD_S = np.array([47.0, 31.0, 37.0])
 MODULE_ATT_AMP_DEG = np.array([20.0, 20.0, 30.0])
 MODULE_ATT_PERIOD_S = np.array([29.0, 41.0, 53.0])
 
 
-def module_workspace() -> tuple[np.ndarray, np.ndarray]:
+def module_workspace(geom: ModuleGeometry = DEMO_MODULE) -> tuple[np.ndarray, np.ndarray]:
     """(lo, hi): the box the body origin stays in on every module path (the trajectory's
     amplitude about the centre), the robot's workspace its tables are built over
     (scenario.json table_workspace_mm; the acquisition benches)."""
-    return -MODULE_POS_AMP_MM.copy(), MODULE_POS_AMP_MM.copy()
+    return geom.workspace()
 
 
-# Half-width (mm of Xw) of the turn-around manoeuvre at the module's centre.
-MODULE_TURN_WIDTH_MM = 250.0
+# Half-width (mm of Xw) of the turn-around manoeuvre at the demo module's centre
+# (ModuleGeometry.turn_width_mm scales it with the length).
+MODULE_TURN_WIDTH_MM = DEMO_MODULE.turn_width_mm
 
 # Nearest distance at which a beacon is rendered (closer is not a spot but a blob).
 MIN_RANGE_MM = 50.0
@@ -234,20 +240,23 @@ def module_beacons(
     return np.array(pos), np.array(nrm)
 
 
-def module_trajectory(t_s: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def module_trajectory(
+    t_s: np.ndarray, rng: np.random.Generator, geom: ModuleGeometry = DEMO_MODULE
+) -> tuple[np.ndarray, np.ndarray]:
     """Smooth 6-DOF path -> (r_wb_w (F, 3) mm, euler 2-1-3 of C_w_b (F, 3) deg).
 
-    One sinusoid per axis with seeded phases: the body origin stays within
-    MODULE_POS_AMP_MM of the centre (>= 700 mm from every wall), roll/pitch/yaw wobble by
-    MODULE_ATT_AMP_DEG, and on top the robot turns around as it crosses the module
-    (yaw offset 90 (1 + tanh(x / MODULE_TURN_WIDTH_MM)) deg), so that camera X faces the
-    far end wall: the end walls, seen from afar, carry most of the beacons in view.
+    One sinusoid per axis with seeded phases: the body origin stays within the module's
+    path amplitude of the centre (geom.pos_amp_mm; the demo's 800, 300, 300 mm: >= 700 mm
+    from every wall), roll/pitch/yaw wobble by MODULE_ATT_AMP_DEG, and on top the robot
+    turns around as it crosses the module (yaw offset 90 (1 + tanh(x / geom.turn_width_mm))
+    deg), so that camera X faces the far end wall: the end walls, seen from afar, carry
+    most of the beacons in view.
     """
     ph = rng.uniform(0.0, 2 * np.pi, 6)
     t = np.asarray(t_s, dtype=float)[:, None]
-    pos = MODULE_POS_AMP_MM * np.sin(2 * np.pi * t / MODULE_POS_PERIOD_S + ph[:3])
+    pos = geom.pos_amp_mm * np.sin(2 * np.pi * t / MODULE_POS_PERIOD_S + ph[:3])
     att = MODULE_ATT_AMP_DEG * np.sin(2 * np.pi * t / MODULE_ATT_PERIOD_S + ph[3:])
-    att[:, 2] += 90.0 * (1.0 + np.tanh(pos[:, 0] / MODULE_TURN_WIDTH_MM))
+    att[:, 2] += 90.0 * (1.0 + np.tanh(pos[:, 0] / geom.turn_width_mm))
     att[:, 2] = (att[:, 2] + 180.0) % 360.0 - 180.0
     return pos, att
 
@@ -309,9 +318,10 @@ def load_beacon_map(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return load_beacon_csv(path)
 
 
-def wall_normals(pos: np.ndarray) -> np.ndarray:
-    """Inward normal of the module wall nearest each beacon (a map given with --beacon-map)."""
-    gap = MODULE_HALF - np.abs(pos)  # distance to the wall on each axis
+def wall_normals(pos: np.ndarray, half: np.ndarray = MODULE_HALF) -> np.ndarray:
+    """Inward normal of the module wall nearest each beacon (a map given with --beacon-map);
+    half: the module's half-extents (mm), the demo's by default."""
+    gap = half - np.abs(pos)  # distance to the wall on each axis
     ax = np.argmin(gap, axis=1)
     normals = np.zeros_like(pos)
     normals[np.arange(len(pos)), ax] = -np.sign(pos[np.arange(len(pos)), ax])
@@ -361,25 +371,27 @@ def module_scenario(
     seed: int,
     rig: Path | None = None,
     beacon_map: Path | None = None,
+    geom: ModuleGeometry = DEMO_MODULE,
 ) -> Scenario:
     # the reader owns the key; imported here so that importing the simulator stays light
     from ..table.mapindex import WORKSPACE_KEY
 
     cams, doc = load_rig(rig)
     rng = np.random.default_rng([seed, 1])  # geometry stream, independent of the noise stream
-    pos, normals = module_beacons(n_beacons, rng)  # drawn even with a given map: same trajectory
+    half = geom.half
+    pos, normals = module_beacons(n_beacons, rng, half)  # drawn even with a given map: same trajectory
     ids, sigma = np.arange(len(pos)), np.full(len(pos), MODULE_BEACON_SIGMA_MM)
     map_note = f"{len(pos)} wall beacons from the seed; sigma_mm is nominal, positions exact"
     if beacon_map:
         ids, pos, sigma = load_beacon_map(beacon_map)
-        if np.any(np.abs(pos) > MODULE_HALF + 1e-6):
+        if np.any(np.abs(pos) > half + 1e-6):
             raise MfnsError(
-                f"{beacon_map}: a beacon lies outside the module (half-extents {MODULE_HALF.tolist()} mm)"
+                f"{beacon_map}: a beacon lies outside the module (half-extents {half.tolist()} mm)"
             )
-        normals = wall_normals(pos)
+        normals = wall_normals(pos, half)
         map_note = f"{len(pos)} beacons from {beacon_map}; LEDs aimed along the nearest wall's normal"
     t = np.arange(n_frames) / rate_hz
-    r_wb_w, att = module_trajectory(t, rng)
+    r_wb_w, att = module_trajectory(t, rng, geom)
     # Written as a reader extracts them from C_w_b (yaw in (-180, 180]).
     euler = np.array([matrix_to_euler213_deg(euler213_deg_to_matrix(a)) for a in att]).reshape(-1, 3)
     return Scenario(
@@ -394,19 +406,19 @@ def module_scenario(
         r_wb_w,
         euler,
         {
-            "module_size_mm": (2 * MODULE_HALF).tolist(),
+            "module_size_mm": (2 * half).tolist(),
             "module_origin": "centre; Xw along the module's length",
             # the box the body origin stays in on every module path (the trajectory's
             # amplitude about the centre): the robot's workspace, as `mfns table build
             # --workspace` reads it from this file
-            WORKSPACE_KEY: np.concatenate(module_workspace()).tolist(),
+            WORKSPACE_KEY: np.concatenate(module_workspace(geom)).tolist(),
             "trajectory": {
-                "pos_amp_mm": MODULE_POS_AMP_MM.tolist(),
+                "pos_amp_mm": geom.pos_amp_mm.tolist(),
                 "pos_period_s": MODULE_POS_PERIOD_S.tolist(),
                 "att_amp_deg": MODULE_ATT_AMP_DEG.tolist(),
                 "att_period_s": MODULE_ATT_PERIOD_S.tolist(),
                 "yaw_turn": "yaw += 90 (1 + tanh(x_mm / turn_width_mm))",
-                "turn_width_mm": MODULE_TURN_WIDTH_MM,
+                "turn_width_mm": geom.turn_width_mm,
             },
             "beacon_map": map_note,
         },
@@ -719,8 +731,11 @@ def build_scenario(args) -> Scenario:
     rig = Path(args.rig) if args.rig else None
     bmap = Path(args.beacon_map) if args.beacon_map else None
     if args.scenario == "turntable":
+        if module_geom.given(args):
+            raise MfnsError("--module-size and --module-path-amp shape --scenario module (not the turntable)")
         return turntable_scenario(args.frames, args.rate_hz, args.yaw_start, args.yaw_span, rig, bmap)
-    return module_scenario(args.frames, args.rate_hz, args.beacons, args.seed, rig, bmap)
+    geom = module_geom.from_args(args)
+    return module_scenario(args.frames, args.rate_hz, args.beacons, args.seed, rig, bmap, geom)
 
 
 def run(args) -> int:
@@ -784,6 +799,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--rig", help="calibration-results JSON of the simulated rig (default: the paper's)")
     p.add_argument("--beacons", type=int, default=60, help="module: number of wall beacons (default 60)")
+    module_geom.add_arguments(p, "its walls carry the --beacons, its path stays inside")
     p.add_argument(
         "--beacon-map",
         metavar="CSV",
