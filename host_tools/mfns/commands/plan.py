@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..core import study
 from ..plan import run
 
 
@@ -129,6 +130,7 @@ def register(subparsers) -> None:
         "before the plan is reported (0: no fly check) (default 120)",
     )
     o.add_argument("--fly-paths", type=int, default=2, help="fly check: fresh paths per layout (default 2)")
+    study.add_arguments(o)  # where the fly check's flights run (docs/studies.md)
     o.set_defaults(func=run.run_optimize)
     z = sub.add_parser(
         "size",

@@ -8,7 +8,8 @@ tasks finished in:
 - serially (`--serial`, or `--workers 0` / `--workers 1`): in this process, one task after the
   other: the same function on the same inputs, no Dask imported;
 - on a local cluster (the default): a `dask.distributed.LocalCluster` of worker *processes*
-  (one thread each) over the machine's cores (`--workers N` for N);
+  (one thread each) over the machine's cores (`--workers N` for N), no more workers than tasks;
+  a study of one task runs in-process (a cluster would be all start-up);
 - on an existing cluster (`--scheduler tcp://HOST:8786`): `dask scheduler` and `dask worker`s
   started by the user (docs/studies.md); every worker needs the mfns package (and the flight
   programs and the study's files, for studies that fly them) at the same paths.
@@ -30,7 +31,7 @@ Progress: a tqdm bar over tasks on stderr when stderr is a terminal (quiet other
 Imports on workers: a task function defined in a script (`__main__`) is shipped by value
 (cloudpickle); the modules it uses are imported on the worker by name, so the script's own
 folders are put on every worker's sys.path (`paths=`, a worker plugin that also reaches workers
-that join later).
+that join later) and on the scheduler's (it unpickles the task graph).
 """
 
 from __future__ import annotations
@@ -188,7 +189,8 @@ def run_tasks(
 
     bar = tqdm(total=len(tasks), desc=desc, unit="task", disable=not progress or not tasks)
     try:
-        if options.in_process or not tasks:
+        # one task and no named cluster: a local cluster would be all start-up
+        if options.in_process or len(tasks) < 2 and options.scheduler is None:
             return _serial(fn, tasks, desc, on_result, bar)
         return _dask(fn, tasks, options, desc, on_result, bar, paths)
     finally:
@@ -213,7 +215,7 @@ def _serial(fn, tasks, desc, on_result, bar) -> StudyResult:
     return out
 
 
-def _client(options: StudyOptions):
+def _client(options: StudyOptions, n_tasks: int):
     """(client, cluster or None): the cluster named by options, or a local one of processes."""
     import logging
 
@@ -224,7 +226,7 @@ def _client(options: StudyOptions):
             return Client(options.scheduler, timeout="30s"), None
         except OSError as e:
             raise MfnsError(f"no Dask scheduler at {options.scheduler}: {e}") from e
-    n = options.workers or os.cpu_count() or 1
+    n = min(options.workers or os.cpu_count() or 1, n_tasks)  # no idle worker to start
     cluster = LocalCluster(
         n_workers=n,
         threads_per_worker=1,  # a task is one process's work: numpy and the C core single-threaded
@@ -239,11 +241,12 @@ def _dask(fn, tasks, options, desc, on_result, bar, paths) -> StudyResult:
     from dask.distributed import as_completed
 
     out = StudyResult([None] * len(tasks))
-    client, cluster = _client(options)
+    client, cluster = _client(options, len(tasks))
     try:
         if paths:
-            from .study_worker import SysPath
+            from .study_worker import SysPath, add_paths
 
+            client.run_on_scheduler(add_paths, [str(p) for p in paths])
             client.register_plugin(SysPath(paths))
         # pure=False: every submission is its own task (a retry is not the failed result again)
         run_id = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler

@@ -22,3 +22,11 @@ class SysPath(WorkerPlugin):
         for p in reversed(self.paths):
             if p not in sys.path:
                 sys.path.insert(0, p)
+
+
+def add_paths(paths: Sequence[str]) -> None:
+    """The same on the scheduler (client.run_on_scheduler): it unpickles the task graph, so it
+    imports the modules a task's inputs name too."""
+    for p in reversed([str(p) for p in paths]):
+        if p not in sys.path:
+            sys.path.insert(0, p)
