@@ -28,7 +28,7 @@ def cluster():
     --scheduler would give it): one start-up instead of one per study."""
     from dask.distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc:
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as lc:
         yield study.StudyOptions(scheduler=lc.scheduler_address, progress=False)
 
 
@@ -45,6 +45,8 @@ def flaky(task: tuple[str, str]) -> str:
     kind, marker = task
     if kind == "never":
         raise ValueError("this task always fails")
+    if kind == "exit":  # a task that calls sys.exit (mfns' scripts do) fails alone
+        raise SystemExit("bench: failed")
     if kind == "once" and not Path(marker).exists():
         Path(marker).write_text("tried")
         raise RuntimeError("first attempt fails")
@@ -83,12 +85,13 @@ def test_local_cluster_equals_serial_and_keeps_task_order(cluster, tmp_path: Pat
 
 
 def test_serial_retries_and_keeps_the_others(tmp_path: Path, capsys) -> None:
-    tasks = [("once", str(tmp_path / "m")), ("never", ""), ("ok", "")]
+    tasks = [("once", str(tmp_path / "m")), ("never", ""), ("exit", ""), ("ok", "")]
     got = study.run_tasks(flaky, tasks, study.SERIAL, "flaky")
-    assert got.results == ["once done", None, "ok done"]
-    assert [(f.index, f.attempts) for f in got.failures] == [(1, 2)]
+    assert got.results == ["once done", None, None, "ok done"]
+    assert [(f.index, f.attempts) for f in got.failures] == [(1, 2), (2, 2)]
+    assert "SystemExit: bench: failed" in got.failures[1].error
     err = capsys.readouterr().err
-    assert err.count("retrying once") == 2 and err.count("giving up") == 1
+    assert err.count("retrying once") == 3 and err.count("giving up") == 2
 
 
 def test_mc_pose_points_on_two_workers_equal_serial(cluster, tmp_path: Path) -> None:

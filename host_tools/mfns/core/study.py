@@ -203,7 +203,7 @@ def _serial(fn, tasks, desc, on_result, bar) -> StudyResult:
         for attempt in range(RETRIES + 1):
             try:
                 out.results[i] = fn(task)
-            except Exception as e:  # a task's failure is reported, the study goes on
+            except (Exception, SystemExit) as e:  # a task's failure (even its sys.exit) is reported
                 _report(desc, i, len(tasks), task, e, attempt < RETRIES)
                 if attempt == RETRIES:
                     out.failures.append(TaskFailure(i, _inputs(task), _one_line(e), attempt + 1))
@@ -231,7 +231,9 @@ def _client(options: StudyOptions, n_tasks: int):
         n_workers=n,
         threads_per_worker=1,  # a task is one process's work: numpy and the C core single-threaded
         processes=True,
-        dashboard_address=None,
+        # its HTTP server on a free port: the scheduler serves one even without a dashboard,
+        # and a second study on the machine would otherwise warn that 8787 is taken
+        dashboard_address=":0",
         silence_logs=logging.CRITICAL,
     )
     return Client(cluster), cluster
