@@ -17,7 +17,10 @@
 # keeps each run's telemetry and CSVs (~25 MB), images are hard links or deleted after use.
 # Script: tests/bench/fault_acceptance.py (injectors tests/bench/faults/inject.py, scoring
 # tests/bench/faults/score.py; tested by tests/host/test_fault_campaign.py).
-# FAULTS_ARGS: e.g. FAULTS_ARGS='--only frozen --only stale -j 1', or '--seed 5' (another module
+# The tables, then the faults, are study tasks (docs/studies.md): a local Dask cluster over the
+# machine's cores by default; '--serial' (or '-j 1', '--workers 1') in one process, '--workers N',
+# '--scheduler tcp://HOST:8786' on an existing cluster; the same table and results.json.
+# FAULTS_ARGS: e.g. FAULTS_ARGS='--only frozen --only stale --serial', or '--seed 5' (another module
 # scenario than the demo's: check on data the campaign was not built on).
 FAULTS_ARGS ?=
 .PHONY: faults
@@ -37,9 +40,10 @@ faults: venv lib
 # sigma, cycles to report within 10 cycles, the first subject blamed and the wrong-subject blame
 # the clean run did not give (docs/pose.md "The grown campaign"). One work folder per seed
 # (build/faults-grown/seedN/results.json); all seeds are flown, the target fails if any failed.
-# About 8-13 min per seed (80 runs, -j 1, 2 shared cores; 6 Dec 2026), most of it the 6 tables.
+# About 8-13 min per seed (80 runs, one at a time, 2 shared cores; 6 Dec 2026), most of it the 6
+# tables.
 # FAULTS_SEEDS: the module scenario's seeds (default 2; e.g. FAULTS_SEEDS='2 3 4 5').
-# FAULTS_GROWN_ARGS: more arguments, e.g. '--only knocked -j 1', or a planned layout:
+# FAULTS_GROWN_ARGS: more arguments, e.g. '--only knocked --serial', or a planned layout:
 # '--beacon-map build/demo/plan/module/beacons.csv --workspace build/demo/plan/module/plan.json'.
 FAULTS_SEEDS ?= 2
 FAULTS_GROWN_ARGS ?=

@@ -2,14 +2,16 @@
 `make test`):
 
     python tests/bench/bench_survey.py survey OUT [--seeds 2,3,5] [--minutes 24] [--rate-hz 1]
+        [--workers N | --serial | --scheduler ADDRESS]
     python tests/bench/bench_survey.py monitor OUT [--seed 2] [--frames 600]
 
 `survey`: per seed, the demo's self-survey (`mfns map demo`, mfns.map.refine_demo: survey
 flight with the fix log, `mfns map refine`, fresh frames flown with each map) for the stated
 minutes, and the map's error against truth split the way a calibration engineer reads it
-(map_figures): over all
-beacons and over those the flight saw, per coordinate and per beacon in 3-D, against the
-true positions and against the true positions in the survey's datum.
+(map_figures): over all beacons and over those the flight saw, per coordinate and per beacon in
+3-D, against the true positions and against the true positions in the survey's datum. A seed is
+a study task (mfns.core.study, docs/studies.md): the seeds run on a local Dask cluster by
+default, --serial in this process, --scheduler on a cluster; the table is in the seeds' order.
 
 `monitor`: the in-flight monitor (firmware/nav/integrity/beacon_monitor.h) end to end. The module
 scenario's LEDs with their survey error, one beacon moved along its wall (5, 3, 2 and 1 mm) or
@@ -24,17 +26,21 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 import shutil
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "host_tools"))
+HOST_TOOLS = Path(__file__).resolve().parents[2] / "host_tools"
+sys.path.insert(0, str(HOST_TOOLS))
 
 from mfns.cli import main as mfns_main  # noqa: E402
+from mfns.core import study  # noqa: E402
 from mfns.map import fixlog, refine_demo  # noqa: E402
 from mfns.map.refine_demo import axis_rms, map_figures, summary_num  # noqa: E402
 from mfns.model.camera import load_beacons, pose_from_position  # noqa: E402
@@ -58,30 +64,52 @@ def _nav_sigma(ground: Path) -> list[float]:
     ]
 
 
+@dataclass
+class SurveySeed:
+    """One seed's survey (a study task, mfns.core.study): its inputs."""
+
+    seed: int
+    out: str  # the bench's output folder, as given
+    minutes: float
+    rate_hz: float
+    bin: str
+    cwd: str  # relative paths above are from here (a worker may start elsewhere)
+
+
+def survey_seed(t: SurveySeed) -> dict:
+    """`mfns map demo` of one seed and its figures (a study task)."""
+    if os.getcwd() != t.cwd:  # a worker runs one task at a time (study: one thread per worker)
+        os.chdir(t.cwd)
+    run = Path(t.out) / f"seed{t.seed}"
+    argv = [str(run), "--minutes", str(t.minutes), "--rate-hz", str(t.rate_hz), "--seed", str(t.seed)]
+    if mfns_main(["map", "demo", *argv, "--bin", t.bin]) != 0:
+        raise RuntimeError(f"mfns map demo {' '.join(argv)} --bin {t.bin} failed")
+    fig = map_figures(run)
+    for m in ("surveyed-map", "refined-map", "refined-map-no-datum"):
+        s = _summary(run, m)
+        fig[m] = {
+            "rms_mm": [axis_rms(s, k) for k in "xyz"],
+            "sigma_mm": _nav_sigma(run / m / "ground"),
+            "nees_mean": summary_num(s["nees"]["mean"]),
+            "n_used": s["n_used"],
+        }
+    fig["seed"] = t.seed
+    return fig
+
+
 def survey(a) -> int:
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for seed in [int(s) for s in a.seeds.split(",")]:
-        run = out / f"seed{seed}"
-        argv = [str(run), "--minutes", str(a.minutes), "--rate-hz", str(a.rate_hz), "--seed", str(seed)]
-        if mfns_main(["map", "demo", *argv, "--bin", a.bin]) != 0:
-            return 1
-        fig = map_figures(run)
-        for m in ("surveyed-map", "refined-map", "refined-map-no-datum"):
-            s = _summary(run, m)
-            fig[m] = {
-                "rms_mm": [axis_rms(s, k) for k in "xyz"],
-                "sigma_mm": _nav_sigma(run / m / "ground"),
-                "nees_mean": summary_num(s["nees"]["mean"]),
-                "n_used": s["n_used"],
-            }
-        fig["seed"] = seed
-        rows.append(fig)
-        (out / "survey.json").write_text(json.dumps(rows, indent=1))
+    seeds = [int(s) for s in a.seeds.split(",")]
+    tasks = [SurveySeed(s, a.out, a.minutes, a.rate_hz, a.bin, os.getcwd()) for s in seeds]
+    done = study.run_tasks(survey_seed, tasks, study.options_from_args(a), "survey", paths=[str(HOST_TOOLS)])
+    rows = [r for r in done.results if r is not None]  # the seeds' order; a failed seed left out
+    (out / "survey.json").write_text(json.dumps(rows, indent=1))
     print(survey_table(rows, a.minutes, a.rate_hz))
     (out / "survey.md").write_text(survey_table(rows, a.minutes, a.rate_hz))
-    return 0
+    if done.failures:
+        print(f"bench_survey: {done.failed_summary('seeds')}", file=sys.stderr)
+    return done.exit_code
 
 
 def survey_table(rows: list[dict], minutes: float, rate_hz: float) -> str:
@@ -300,6 +328,7 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("--minutes", type=float, default=24.0, help="survey flight per seed (default 24 min)")
     s.add_argument("--rate-hz", type=float, default=1.0, help="survey frame rate (default 1 Hz)")
     s.add_argument("--bin", default="build/host-sim/bin", help="folder of mfns-nav and mfns-ground")
+    study.add_arguments(s)
     m = sub.add_parser("monitor", help="the in-flight monitor end to end: a moved beacon, a turned camera")
     m.add_argument("out", help="output folder (emptied first; monitor.md, monitor.json)")
     m.add_argument("--seed", type=int, default=2, help="the module's LEDs and survey error (default 2)")

@@ -24,7 +24,14 @@ pl_* columns; the cycles from onset to the first report of the faulty camera or 
 events.csv). Prints a markdown table, writes WORK/results.json, exits 1 when any fix is
 misleading (or a run could not be flown).
 
-    python tests/bench/fault_acceptance.py [--work DIR] [--frames N] [--only TEXT] [-j N]
+The campaign is a study (mfns.core.study, docs/studies.md): its tables are built as one set of
+tasks, then its faults are flown as tasks (a task: one fault's runs, with and without survey
+error, on the fault's prepared frames), on a local Dask cluster over the machine's cores by
+default, on an existing one (--scheduler), or serially (--serial, --workers 1). The results and
+the table are in the faults' order whatever the order the tasks finished in.
+
+    python tests/bench/fault_acceptance.py [--work DIR] [--frames N] [--only TEXT] [--workers N]
+        [--serial] [--scheduler ADDRESS]
 """
 
 from __future__ import annotations
@@ -39,8 +46,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +55,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from faults import inject, mdb, score  # noqa: E402
 
+from mfns.core import study  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[2]
+BENCH = Path(__file__).resolve().parent  # the faults package, on every worker's sys.path
 # The programs flown and the Python that simulates and builds tables: this tree's, or another
 # checkout's (--tree) so that one campaign measures any build without change.
 PY = sys.executable
@@ -93,34 +102,46 @@ def simulate(
 
 
 class Tables:
-    """Calibration tables built on first use (once, whichever run asks first)."""
+    """The calibration tables the runs ask for, each named once: get() writes the table's beacon
+    map (cheap), records the `mfns table build` command and returns the table's path; build()
+    then makes them all as one set of study tasks, before any run is flown."""
 
     def __init__(self, frames: Path, work: Path, calib: Path | None = None, extra: list | None = None):
         self.frames, self.work = frames, work
         self.extra = list(extra or [])  # more `mfns table build` arguments (--workspace)
         self.calib = calib or frames / "calib.json"  # the rig the tables carry
-        self.lock = threading.Lock()
-        self.made: dict[str, tuple[threading.Lock, list]] = {}
+        self.wanted: dict[str, list] = {}  # name -> the table build's arguments
+        self.failed: dict[str, str] = {}  # name -> why its build failed
         self.seconds = 0.0
 
     def get(self, name: str, beacons: Callable[[], Path] | None = None, settings: Path | None = None) -> Path:
-        with self.lock:
-            entry = self.made.setdefault(name, (threading.Lock(), []))
-        with entry[0]:
-            if not entry[1]:
-                t0 = time.monotonic()
-                out = self.work / "tables" / f"{name}.mfnstbl"
-                out.parent.mkdir(exist_ok=True)
-                args = ["-m", "mfns", "table", "build", self.calib]
-                args += [beacons() if beacons else self.frames / "beacons.csv", "-o", out, "-q"]
-                if settings is not None:
-                    args += ["--settings", settings]
-                args += self.extra
-                must(run(PY, *args), f"mfns table build {name}")
-                entry[1].append(out)
-                with self.lock:
-                    self.seconds += time.monotonic() - t0
-            return entry[1][0]
+        out = self.work / "tables" / f"{name}.mfnstbl"
+        if name not in self.wanted:
+            args = [PY, "-m", "mfns", "table", "build", self.calib]
+            args += [beacons() if beacons else self.frames / "beacons.csv", "-o", out, "-q"]
+            if settings is not None:
+                args += ["--settings", settings]
+            self.wanted[name] = args + self.extra
+        return out
+
+    def build(self, options: study.StudyOptions) -> None:
+        """Every recorded table, as study tasks; a table whose build failed twice is in failed."""
+        (self.work / "tables").mkdir(exist_ok=True)
+        names = list(self.wanted)
+        done = study.run_tasks(
+            build_table, [(n, self.wanted[n]) for n in names], options, "tables", paths=[str(BENCH)]
+        )
+        self.seconds = sum(r for r in done.results if r is not None)
+        for f in done.failures:
+            self.failed[names[f.index]] = f.error
+
+
+def build_table(job: tuple[str, list]) -> float:
+    """One `mfns table build` (a study task): its seconds."""
+    name, args = job
+    t0 = time.monotonic()
+    must(run(*args), f"mfns table build {name}")
+    return time.monotonic() - t0
 
 
 @dataclass
@@ -771,6 +792,68 @@ def finite(o):
     return o
 
 
+@dataclass
+class FaultTask:
+    """One fault's runs (a study task): its inputs, all plain data (a task may run in another
+    process or on another machine with the same paths)."""
+
+    fault: Fault  # without tables and frames callables (resolved into the fields below)
+    tables: list[tuple[str, Path]]  # (run tag, table path) per run
+    tags: list[str]
+    base: Path  # the campaign's simulated frames
+    frames: Path | None  # the fault's own simulated frames (a collision), else base
+    work: Path
+    truth: score.Truth
+    frames_rows: list
+    period_s: float
+    described: dict[str, str]
+    grown: bool
+    set_up_error: str | None = None  # its frames or a table could not be made: failed rows
+
+    def __repr__(self) -> str:  # what a failure report shows of the inputs
+        return f"FaultTask({self.fault.name!r}, runs {self.tags}, work {self.work})"
+
+
+def fly_fault(t: FaultTask) -> tuple[list[dict], float]:
+    """Prepare one fault's frames and fly its runs (a study task): (rows, seconds preparing)."""
+    fault = t.fault
+    if t.set_up_error is not None:
+        return [failed_run(tag, fault.name, t.set_up_error) for tag in t.tags], 0.0
+    t0 = time.monotonic()
+    prep = 0.0
+    folder, out, src = t.base, [], t.base
+    try:
+        done = {}
+        f_truth, f_rows = t.truth, t.frames_rows
+        if t.frames is not None:  # its own simulated folder (a collision): its own truth
+            folder = src = t.frames
+            f_truth, f_rows = score.Truth.load(src / "truth.csv"), inject.frame_rows(src)
+        if fault.prepare is not None:
+            folder = inject.link_frames(src, t.work / "runs" / f"frames_{slug(fault.name)}")
+            done = fault.prepare(folder) or {}
+        content = {key: v for key, v in done.items() if isinstance(key, tuple)}
+        info = {key: v for key, v in done.items() if not isinstance(key, tuple)}
+        prep = time.monotonic() - t0
+        ctx = {
+            "truth": f_truth,
+            "capture": score.capture_times(f_rows, content),
+            "period_s": t.period_s,
+            "described": t.described,
+            "grown": t.grown,
+        }
+        for tag, table in t.tables:
+            out.append(fly(folder, table, t.work, tag, fault, ctx) | ({"inject": info} if info else {}))
+    except Exception as e:  # one fault that cannot be set up is a failed row, not a lost campaign
+        flown = {r["run"] for r in out}
+        for tag in t.tags:
+            if tag not in flown:
+                out.append(failed_run(tag, fault.name, f"{type(e).__name__}: {e}"))
+    finally:
+        if folder not in (t.base, src):
+            shutil.rmtree(folder, ignore_errors=True)
+    return out, prep
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", type=Path, default=REPO / "build/faults")
@@ -783,7 +866,14 @@ def main() -> int:
         metavar="TEXT",
         help="fly only the runs whose name contains TEXT (case-insensitive; repeatable)",
     )
-    ap.add_argument("-j", "--jobs", type=int, default=2, help="faults flown in parallel (default 2)")
+    study.add_arguments(ap)
+    ap.add_argument(
+        "-j",
+        "--jobs",
+        dest="workers",
+        type=int,
+        help="the same as --workers (kept for FAULTS_ARGS of before; -j 1: serially)",
+    )
     ap.add_argument(
         "--tree",
         type=Path,
@@ -881,49 +971,66 @@ def main() -> int:
     if not jobs:
         print(f"fault_acceptance: no run matches {args.only}", file=sys.stderr)
         return 2
-    prep_seconds: dict[str, float] = {}
-
-    def one(job: tuple[Fault, list[str]]) -> list[dict]:
-        fault, tags = job
-        t0 = time.monotonic()
-        folder, out, src = base, [], base
+    # The tables and the collision frames each run needs, resolved here before any task runs
+    # (the tables recorded and built as one set of tasks; a collision's frames simulated once);
+    # a task gets plain inputs: its fault (without the callables that make shared files), its
+    # frames folder and the table path of each of its runs.
+    tasks: list[FaultTask] = []
+    set_up: dict[int, str] = {}  # job index -> why its frames or tables could not be made
+    for ji, (fault, tags) in enumerate(jobs):
+        frames_dir = None
+        tags_tables: list[tuple[str, Path]] = []
         try:
-            done = {}
-            f_truth, f_rows = truth, frames_rows
-            if fault.frames is not None:  # its own simulated folder (a collision): its own truth
-                folder = src = fault.frames()
-                f_truth, f_rows = score.Truth.load(src / "truth.csv"), inject.frame_rows(src)
-            if fault.prepare is not None:
-                folder = inject.link_frames(src, work / "runs" / f"frames_{slug(fault.name)}")
-                done = fault.prepare(folder) or {}
-            content = {key: v for key, v in done.items() if isinstance(key, tuple)}
-            info = {key: v for key, v in done.items() if not isinstance(key, tuple)}
-            prep_seconds[fault.name] = time.monotonic() - t0
-            ctx = {
-                "truth": f_truth,
-                "capture": score.capture_times(f_rows, content),
-                "period_s": period_s,
-                "described": described,
-                "grown": grown,
-            }
-            for tag in tags:
-                t_nom, t_sur = fault.tables
-                table = t_sur() if tag.endswith(SURVEY) else t_nom()
-                out.append(fly(folder, table, work, tag, fault, ctx) | ({"inject": info} if info else {}))
-                print(f"fault_acceptance: {(grown_row if grown else table_row)(out[-1])}", flush=True)
+            if fault.frames is not None:
+                frames_dir = fault.frames()
+            t_nom, t_sur = fault.tables
+            tags_tables = [(tag, t_sur() if tag.endswith(SURVEY) else t_nom()) for tag in tags]
         except Exception as e:  # one fault that cannot be set up is a failed row, not a lost campaign
-            flown = {r["run"] for r in out}
-            for tag in tags:
-                if tag not in flown:
-                    out.append(failed_run(tag, fault.name, f"{type(e).__name__}: {e}"))
-                    print(f"fault_acceptance: {table_row(out[-1])}", flush=True)
-        finally:
-            if folder not in (base, src):
-                shutil.rmtree(folder, ignore_errors=True)
-        return out
+            set_up[ji] = f"{type(e).__name__}: {e}"
+        tasks.append(
+            FaultTask(
+                replace(fault, tables=None, frames=None),
+                tags_tables,
+                tags,
+                base,
+                frames_dir,
+                work,
+                truth,
+                frames_rows,
+                period_s,
+                described,
+                grown,
+                set_up.get(ji),
+            )
+        )
+    options = study.options_from_args(args, progress=None)
+    print(
+        f"fault_acceptance: {len(tables.wanted)} tables and {len(tasks)} faults, {options.describe()}",
+        flush=True,
+    )
+    tables.build(options)
+    for t in tasks:
+        missing = [
+            f"mfns table build {p.stem}: {tables.failed[p.stem]}"
+            for _, p in t.tables
+            if p.stem in tables.failed
+        ]
+        if missing and t.set_up_error is None:
+            t.set_up_error = "; ".join(missing)
 
-    with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        results = [r for rs in pool.map(one, jobs) for r in rs]
+    def show(_i: int, rs: tuple[list[dict], float]) -> None:
+        for r in rs[0]:
+            print(f"fault_acceptance: {(grown_row if grown else table_row)(r)}", flush=True)
+
+    done = study.run_tasks(fly_fault, tasks, options, "faults", on_result=show, paths=[str(BENCH)])
+    results: list[dict] = []
+    prep_seconds = 0.0
+    for t, rs in zip(tasks, done.results, strict=True):
+        if rs is None:  # the task itself failed twice (a worker lost, an error outside the runs)
+            why = next(f.error for f in done.failures if tasks[f.index] is t)
+            rs = ([failed_run(tag, t.fault.name, why) for tag in t.tags], 0.0)
+        results += rs[0]
+        prep_seconds += rs[1]
     add_mdb(results, work)
     if grown:
         add_blame_baseline(results, work, described)
@@ -969,7 +1076,7 @@ def main() -> int:
         "wall": wall,
         "simulate": t_sim,
         "tables": tables.seconds,
-        "prepare": sum(prep_seconds.values()),
+        "prepare": prep_seconds,
         "nav": sum(r["seconds"]["nav"] for r in results),
         "ground": sum(r["seconds"]["ground"] for r in results),
         "score": sum(r["seconds"]["score"] for r in results),

@@ -41,13 +41,15 @@ from __future__ import annotations
 import csv
 import json
 import math
+import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..core.errors import MfnsError
+from ..core.study import SERIAL, StudyOptions, options_from_args, run_tasks
 from ..model.camera import Camera, position_from_pose
 from ..model.pose_ref import PoseSolver
 from ..model.rotations import rot_exp, rot_log
@@ -315,6 +317,41 @@ def pose_errors(
     }
 
 
+@dataclass
+class PosePoint:
+    """One point of the pose extension (a study task, mfns.core.study): its inputs, all data.
+
+    Its random numbers are common to the levels of its group (np.random.default_rng([seed, 7,
+    group_index])): a documented derivation from the study's seed and the group's index, so a
+    point's result does not depend on where or in which order it runs."""
+
+    solver: str | PoseSolver  # "flight" / "reference" (made where the task runs) or a callable
+    group: str
+    group_index: int
+    level: float
+    trials: int
+    seed: int
+    pool: tuple  # module_pose_pool(seed): computed once, shipped with the task
+
+    def __repr__(self) -> str:  # a failure report's inputs
+        return f"PosePoint({self.group} {self.level:g}, {self.trials} trials, seed {self.seed})"
+
+
+_SOLVERS: dict[str, PoseSolver] = {}  # per process: the flight library loaded once
+
+
+def pose_point(p: PosePoint) -> dict:
+    """pose_errors of one point (a study task)."""
+    if isinstance(p.solver, str):
+        if p.solver not in _SOLVERS:
+            _SOLVERS[p.solver] = make_solver(p.solver)[0]
+        solver = _SOLVERS[p.solver]
+    else:
+        solver = p.solver
+    crn = np.random.default_rng([p.seed, 7, p.group_index])
+    return pose_errors(solver, p.group, p.level, p.trials, crn, p.pool)
+
+
 def _copy_cam(c: Camera) -> Camera:
     return Camera(
         c.name,
@@ -419,9 +456,13 @@ def run_mc(
     solver: str | PoseSolver = "flight",
     solver_name: str | None = None,
     progress: bool = True,
+    options: StudyOptions = SERIAL,
 ) -> dict:
     """solver: "flight" (the C solver through ctypes, needs `make lib`), "reference"
-    (mfns.model.pose_ref), or any PoseSolver callable (then described by solver_name)."""
+    (mfns.model.pose_ref), or any PoseSolver callable (then described by solver_name).
+    options: where the pose extension's points run (mfns.core.study; the same numbers serially
+    and on any cluster). The curves of Figs. 4-6 draw from one random stream in turn, in this
+    process: that keeps them the numbers of before."""
     from tqdm import tqdm
 
     if not 10 <= trials <= MAX_TRIALS:
@@ -458,8 +499,9 @@ def run_mc(
         "seed": seed,
         "groups": {},
     }
-    steps = len(GROUPS) + (len(POSE_GROUPS) if pose_trials else 0)
-    bar = tqdm(total=steps, desc="mc", unit="curve", disable=not progress)
+    # a step: a curve of Figs. 4-6, then a point of the pose extension (a study task)
+    steps = len(GROUPS) + (sum(len(levels) for _, _, levels in POSE_GROUPS) if pose_trials else 0)
+    bar = tqdm(total=steps, desc="mc", unit="step", disable=not progress)
     for g in GROUPS:
         rows = mc_curve(g, trials, z_min, rng)
         s_an = analytic_slope(g.key, z_min)
@@ -498,15 +540,41 @@ def run_mc(
     if pose_trials:
         assert pose_solver is not None and solver_name is not None  # both set above
         pool = module_pose_pool(seed)
-        pose_rows = []
-        for gi, (pg, _unit, levels) in enumerate(POSE_GROUPS):
-            for level in levels:
-                # Common random numbers: every level of a group sees the same poses and the
-                # same error directions, scaled by the level, so the curve shows the growth
-                # with the level rather than the draw-to-draw spread of a few weak poses.
-                crn = np.random.default_rng([seed, 7, gi])
-                pose_rows.append(pose_errors(pose_solver, pg, level, pose_trials, crn, pool))
-            bar.update()
+        # Common random numbers: every level of a group sees the same poses and the same error
+        # directions, scaled by the level, so the curve shows the growth with the level rather
+        # than the draw-to-draw spread of a few weak poses (PosePoint).
+        points = [
+            PosePoint(
+                solver if isinstance(solver, str) else pose_solver, pg, gi, level, pose_trials, seed, pool
+            )
+            for gi, (pg, _unit, levels) in enumerate(POSE_GROUPS)
+            for level in levels
+        ]
+        if isinstance(solver, str):
+            _SOLVERS.setdefault(solver, pose_solver)  # this process's, when the points run here
+        done = run_tasks(
+            pose_point,
+            points,
+            replace(options, progress=False),
+            "mc-pose",
+            on_result=lambda _i, _r: bar.update(),
+        )
+        pose_rows = done.results
+        for f in done.failures:  # kept as unsolved rows; the others are written; run() exits 1
+            p = points[f.index]
+            pose_rows[f.index] = {
+                "group": p.group,
+                "level": float(p.level),
+                "trials": p.trials,
+                "solved": 0,
+                **dict.fromkeys(("pos_rms_mm", "att_rms_deg", "reproj_rms_px"), float("nan")),
+                **dict.fromkeys(("pos_median_norm_mm", "att_median_norm_deg"), float("nan")),
+                "pos_rms_xyz_mm": [float("nan")] * 3,
+                "att_rms_xyz_deg": [float("nan")] * 3,
+                "failed": f.error,
+            }
+        if done.failures:
+            summary["failed_tasks"] = done.failed_summary("pose points")
         write_csv(
             out / "pose_vs_calib.csv",
             ["group", "level", "unit", "trials", "solved", "pos_rms_mm", "att_rms_deg", "reproj_rms_px"]
@@ -605,7 +673,11 @@ def run(args) -> int:
         args.pose_trials,
         solver=args.solver,
         progress=not args.quiet,
+        options=options_from_args(args),
     )
     print(format_summary(s))
     print(f"  wrote {args.out} in {time.perf_counter() - t0:.1f} s")
+    if "failed_tasks" in s:
+        print(f"mc: {s['failed_tasks']}", file=sys.stderr)
+        return 1
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..analysis import mc
+from ..core import study
 
 
 def register(subparsers) -> None:
@@ -10,7 +11,9 @@ def register(subparsers) -> None:
         "mc",
         help="error analysis: pixel error vs calibration errors (Figs. 4-6), pose error extension",
         description="Monte Carlo of the paper's Section 3 with Table 1's parameters; "
-        "writes fig4-6 PNG/CSV, pose_vs_calib.{csv,png} and summary.json into OUT.",
+        "writes fig4-6 PNG/CSV, pose_vs_calib.{csv,png} and summary.json into OUT. The pose "
+        "extension's points run as a study (docs/studies.md): on a local Dask cluster by default, "
+        "--serial in this process, --scheduler on a cluster; the same numbers on each.",
     )
     p.add_argument("out", metavar="OUT", help="output folder (created if missing; files are overwritten)")
     p.add_argument("--trials", type=int, default=10000, help="trials per point (default 10000)")
@@ -34,4 +37,5 @@ def register(subparsers) -> None:
         "Python Gauss-Newton (mfns.model.pose_ref) (default flight)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    study.add_arguments(p)
     p.set_defaults(func=mc.run)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..core import study
 from ..plan import run
 from ..simulate import module_geom
 
@@ -141,6 +142,7 @@ def register(subparsers) -> None:
         "started afresh at this many frames spread over the path, one cycle each; a start counts "
         "when its first cycle certifies a fix (0: none) (default 20)",
     )
+    study.add_arguments(o)  # where the fly check's flights run (docs/studies.md)
     o.set_defaults(func=run.run_optimize)
     z = sub.add_parser(
         "size",

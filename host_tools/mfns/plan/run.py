@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from ..analysis import calib_results
 from ..analysis.mc import PAPER_BEACON_MM
 from ..core.csv_formats import BEACON_COLUMNS
 from ..core.errors import MfnsError
+from ..core.study import options_from_args, run_tasks
 from ..model.camera import rig_from_doc
 from ..simulate import module_geom
 from ..simulate.nav import PAPER_BEACONS, PAPER_CALIB
@@ -416,6 +418,10 @@ def run_optimize(args) -> int:
             f"one call {bv['one_call_pct']} %; "
             f"cameras x/y/z see beacons in {bv['per_camera_seen_pct']} % of the samples"
         )
+    fly_failed = plan_doc.get("fly", {}).pop("failed", None)
+    if fly_failed:
+        plan_doc["fly_failed"] = fly_failed
+        (out / "plan.json").write_text(json.dumps(plan_doc, indent=2) + "\n")
     for name, f in plan_doc.get("fly", {}).items():
         print(
             f"  flown ({name}, {f['paths']} fresh paths x {f['frames_per_path']} frames): "
@@ -435,6 +441,9 @@ def run_optimize(args) -> int:
         f"  its flight table: mfns table build CALIB {out / 'beacons.csv'} --workspace {out / 'plan.json'} "
         f"(the planned box {box} mm; the default, the beacons' box shrunk by 10 %, may not hold it)"
     )
+    if fly_failed:
+        print(f"plan optimize: fly check: {fly_failed}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -497,33 +506,45 @@ FLY_SEED_BASE = 9100
 
 def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
     """Fly the planned layout (and the baseline) on fresh module paths (fly.py): flown usable
-    % against the flight's verdict predicted on the very poses flown, per layout."""
-    from . import fly
+    % against the flight's verdict predicted on the very poses flown, per layout. A flight that
+    failed twice is left out of its layout's figures and named in res["failed"]."""
+    from . import fly  # the flight programs' runner: loaded only when a plan is flown
 
     layouts = {"planned": out / "beacons.csv"}
     if args.baseline:
         layouts["baseline"] = Path(args.baseline)
-    res = {}
+    # every flight is a study task (mfns.core.study): fly.fly on its own work folder and seed
+    flights = [
+        (
+            name,
+            csv_path,
+            out / "plan.json",
+            out / "fly" / f"{name}-{k}",
+            args.fly_frames,
+            FLY_SEED_BASE + 17 * args.seed + k,
+            k,
+            module_of(args),
+            getattr(args, "fly_starts", 0),
+        )
+        for name, csv_path in layouts.items()
+        for k in range(args.fly_paths)
+    ]
+    options = options_from_args(args, progress=None if progress else False)
+    if progress:
+        print(f"  fly check: {len(flights)} flights, {options.describe()}", flush=True)
+    done = run_tasks(_fly_one, flights, options, "plan-fly")
+    res: dict = {}
     for name, csv_path in layouts.items():
-        runs = []
+        # (path index, result) of this layout's flights that came back
+        paths = [
+            (f[6], r) for f, r in zip(flights, done.results, strict=True) if f[0] == name and r is not None
+        ]
+        runs = [r for _, r in paths]
         pred_usable, n_pred = 0, 0
         outcomes: list[tuple[str, str]] = []
         predicted: list[bool] = []
         per_start: list[list] = []  # path, frame, status, reason, in view (predicted), one call predicted
-        for k in range(args.fly_paths):
-            seed = FLY_SEED_BASE + 17 * args.seed + k
-            if progress:
-                print(f"  fly check: {name}, path {k + 1}/{args.fly_paths}", flush=True)
-            r = fly.fly(
-                csv_path,
-                out / "plan.json",
-                out / "fly" / f"{name}-{k}",
-                args.fly_frames,
-                seed,
-                module_of(args),
-                getattr(args, "fly_starts", 0),
-            )
-            runs.append(r)
+        for k, r in paths:
             _, pos, sig = load_beacon_csv(csv_path)
             ws_f = workspace.from_truth(Path(r["work"]) / "frames" / "truth.csv")
             u = usable.evaluate(core, pos, sig, ws_f, sigma_px, *table_workspace(ws_f))
@@ -567,7 +588,19 @@ def fly_check(args, core, out: Path, sigma_px: float, progress: bool) -> dict:
             else None,
             "seeds": [r["seed"] for r in runs],
         }
+    if done.failures:
+        res["failed"] = done.failed_summary("flights")
     return res
+
+
+def _fly_one(flight: tuple) -> dict:
+    """One fly-check flight (a study task): fly.fly(layout, plan.json, work, frames, seed, module,
+    lost starts); the flight tuple is (layout name, those inputs with the path index after the
+    seed)."""
+    from . import fly
+
+    _name, layout, plan_json, work, frames, seed, _path, geom, starts = flight
+    return fly.fly(layout, plan_json, work, frames, seed, geom, starts)
 
 
 def _counts(text: str) -> list[int]:
