@@ -97,6 +97,23 @@ static int64_t frame_time(const mfns_navf_t *nf, int c)
     return nf->have_cap ? nf->cap_us[c] : nf->t_us;
 }
 
+/* Camera c's observation i, taken as beacon b's at capture time tc: what the
+ * filter takes (nav_filter.h mfns_filter_obs_t). */
+static mfns_filter_obs_t filter_obs(const mfns_caltable_t *t, const mfns_obs_frame_t *obs, int c, int i, uint32_t b,
+                                    int64_t tc)
+{
+    const mfns_obs_t *o = &obs->obs[c][i];
+    mfns_filter_obs_t fo;
+    fo.t_us = tc;
+    fo.cam = (uint8_t)c;
+    fo.u = o->u;
+    fo.v = o->v;
+    memcpy(fo.cov_px2, o->cov_px2, sizeof fo.cov_px2);
+    fo.p_w = t->beacons.beacon[b].p_w;
+    fo.sigma_mm = t->beacons.beacon[b].sigma_mm;
+    return fo;
+}
+
 /* The filter's own association of camera c's frame at time tc: an
  * observation the solver left without a beacon gets the beacon whose
  * prediction from the full filter (propagated to tc) it matches within the
@@ -148,14 +165,7 @@ static int own_associate(const mfns_navf_t *nf, const mfns_caltable_t *t, const 
             if (beacon[i] >= 0 || du * du + dv * dv > gate_px2) {
                 continue;
             }
-            mfns_filter_obs_t fo;
-            fo.t_us = tc;
-            fo.cam = (uint8_t)c;
-            fo.u = o->u;
-            fo.v = o->v;
-            memcpy(fo.cov_px2, o->cov_px2, sizeof fo.cov_px2);
-            fo.p_w = t->beacons.beacon[b].p_w;
-            fo.sigma_mm = t->beacons.beacon[b].sigma_mm;
+            const mfns_filter_obs_t fo = filter_obs(t, obs, c, i, b, tc);
             float nis = 0.0f;
             if (mfns_filter_test(&pred, &nf->set, &t->rig, sigma_px, &fo, &nis) == MFNS_FILTER_OK &&
                 nis <= gate_nis) {
@@ -209,14 +219,7 @@ static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame
             if (b < 0) {
                 continue;
             }
-            const mfns_obs_t *o = &obs->obs[c][i];
-            fo[n].t_us = tc;
-            fo[n].cam = (uint8_t)c;
-            fo[n].u = o->u;
-            fo[n].v = o->v;
-            memcpy(fo[n].cov_px2, o->cov_px2, sizeof fo[n].cov_px2);
-            fo[n].p_w = t->beacons.beacon[b].p_w;
-            fo[n].sigma_mm = t->beacons.beacon[b].sigma_mm;
+            fo[n] = filter_obs(t, obs, c, i, (uint32_t)b, tc);
             beacon[n] = b;
             n++;
         }
