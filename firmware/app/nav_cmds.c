@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "firmware/app/caltable_file.h"
 #include "math/units.h"
@@ -235,7 +236,18 @@ static tc_status_t cmd_UPLOAD_END(void *ctx, const tc_cmd_t *cmd, int32_t *arg1)
     (void)cmd;
     char path[512];
     const tc_status_t st = nav_cmds_upload_end(ctx, path, sizeof path);
-    return st == TC_OK ? table_load(ctx, path, arg1) : st;
+    if (st != TC_OK) {
+        return st;
+    }
+    const tc_status_t lst = table_load(ctx, path, arg1);
+    /* The stored upload was only the load's input: loaded, the table store holds its own
+     * copy (table.mfnstbl); refused (a table the running cameras cannot fly, settings the
+     * solver refuses), it must not stay behind looking like a pending table. */
+    if (unlink(path) != 0) {
+        ((nav_app_t *)ctx)->n_storage_errors++; /* housekeeping n_storage_errors */
+        fprintf(stderr, "mfns-nav: upload %s not removed after its load: %s\n", path, strerror(errno));
+    }
+    return lst;
 }
 
 /* Indexed by the opcode, generated from the dictionary: TC_OPCODE_LIST

@@ -16,7 +16,8 @@
  * UPLOAD_END, after size and CRC-32 are right: the loader validates the
  * bytes in RAM, they are written atomically to STATE_DIR/upload.mfnstbl
  * (nav_upload_store) and that file is loaded by nav_cmds.c's TABLE_LOAD path (re-bind or swap between cycles, the table store's commit);
- * without --state-dir nothing is stored (TC_E_UPLOAD_STORE).
+ * without --state-dir nothing is stored (TC_E_UPLOAD_STORE). Once the load has answered,
+ * loaded or refused, upload.mfnstbl is removed (the table store keeps its own copy).
  */
 #ifndef MFNS_NAV_CMDS_UPLOAD_H
 #define MFNS_NAV_CMDS_UPLOAD_H
