@@ -53,6 +53,12 @@ typedef struct {
     bool want_stream;       /* streaming was requested (restart after recovery) */
     int32_t exposure_us;    /* last value set, -1 unknown */
     int32_t gain;
+    /* Frame numbers: V4L2 says buffer.sequence counts the frames from 0 at
+     * STREAMON; a driver that leaves it 0 on every buffer (v4l2loopback 0.12)
+     * is found at the second frame of a stream (0 twice) and from then on its
+     * frames are numbered by this count of dequeued ones (own_seq). */
+    uint32_t dq_count;      /* frames dequeued since STREAMON */
+    bool own_seq;
 } mfns_cam_v4l2_t;
 
 struct mfns_replay_folder; /* camera_replay.c: one parsed frames.csv per folder, shared */

@@ -143,6 +143,7 @@ typedef struct {
     uint32_t losses;          /* times the device vanished */
     uint32_t recoveries;      /* times it came back and streams again */
     uint32_t reopen_attempts; /* total, successful or not */
+    uint32_t own_seq_streams; /* V4L2 streams whose driver numbered no frame (all 0): counted by the backend */
 } mfns_cam_stats_t;
 
 typedef struct {

@@ -46,6 +46,8 @@ static mfns_cam_err_t stream_on(mfns_cam_t *h)
 {
     mfns_cam_v4l2_t *v = &h->b.v4l2;
     mfns_cam_v4l2_clear_held(v);
+    v->dq_count = 0;
+    v->own_seq = false;
     for (uint32_t i = 0; i < v->nbuf; i++) {
         const mfns_cam_err_t e = queue_buffer(h, i);
         if (e != MFNS_CAM_OK) {
@@ -195,6 +197,17 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
                 continue;
             }
             v->buf[i].held = true;
+            if (v->dq_count == 1u && b.sequence == 0u && !v->own_seq) {
+                /* the stream's second frame numbered 0 again: a driver that does not number its
+                 * frames; they are counted here (a frame the driver drops is then not seen as a
+                 * gap but as a late stamp, and a frozen number cannot happen) */
+                v->own_seq = true;
+                h->stats.own_seq_streams++;
+            }
+            if (v->own_seq) {
+                b.sequence = v->dq_count;
+            }
+            v->dq_count++;
             f->data = (const uint8_t *)v->buf[i].start + off;
             f->bytesused = used;
             f->pixfmt = h->info.pixfmt;

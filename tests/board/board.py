@@ -192,6 +192,10 @@ class Board:
 
     # ------------------------------------------------------------------ waiting
     def wait_console(self, pattern: str, timeout_s: float, since: float = 0.0) -> re.Match:
+        return self.wait_console_at(pattern, timeout_s, since)[1]
+
+    def wait_console_at(self, pattern: str, timeout_s: float, since: float = 0.0) -> tuple[float, re.Match]:
+        """The first console line matching pattern, with the host monotonic time it was read."""
         rx = re.compile(pattern)
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
@@ -200,7 +204,7 @@ class Board:
                     if t >= since:
                         m = rx.search(line)
                         if m:
-                            return m
+                            return t, m
             if self.qemu.poll() is not None:
                 break
             time.sleep(0.05)

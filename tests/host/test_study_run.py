@@ -53,6 +53,39 @@ def flaky(task: tuple[str, str]) -> str:
     return f"{kind} done"
 
 
+def threads_seen(task: int) -> tuple[int, list[int], dict[str, str | None], str]:
+    """What a task's numerical libraries run on: the BLAS/OpenMP pools' thread counts in the
+    task's process, the thread variables its programs would inherit, and a child Python's view."""
+    import os
+    import subprocess
+    import sys
+
+    from threadpoolctl import threadpool_info
+
+    env = {k: os.environ.get(k) for k in study.THREAD_ENV}
+    code = "import numpy, threadpoolctl as t; print(max(p['num_threads'] for p in t.threadpool_info()))"
+    child = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    return task, sorted({p["num_threads"] for p in threadpool_info()}), env, child
+
+
+def test_tasks_run_single_threaded_serially_and_on_the_cluster(cluster) -> None:
+    """A BLAS reduction over threads sums in another order (the survey bench's refined maps
+    differed in their last bits, serial against cluster): every task runs on one thread,
+    in its process and in the programs it starts, wherever it runs; the caller's own
+    environment is left as it was."""
+    import os
+
+    before = {k: os.environ.get(k) for k in study.THREAD_ENV}
+    ser = study.run_tasks(threads_seen, [0, 1], study.SERIAL)
+    par = study.run_tasks(threads_seen, [0, 1], cluster, paths=[HERE])
+    assert ser.results == par.results
+    for _, pools, env, child in ser.results:
+        assert pools == [1] and child == "1" and set(env.values()) == {"1"}, (pools, env, child)
+    assert {k: os.environ.get(k) for k in study.THREAD_ENV} == before
+
+
 def test_task_seed_is_seedsequence_spawn_of_the_study_seed() -> None:
     kids = np.random.SeedSequence(2026).spawn(5)
     want = [int(k.generate_state(1, np.uint64)[0]) & study.SEED_MASK for k in kids]

@@ -446,6 +446,35 @@ static void test_sequence_gaps_count_as_drops(void **state)
     assert_int_equal(st.frames, 4);
 }
 
+/* A driver that leaves every buffer's sequence at 0: found at the stream's second frame,
+ * whose number (and every later one) is then the backend's count of dequeued frames; a
+ * new stream starts over (first frame 0, the finding made again). A driver that does
+ * number its frames is left alone even when its first frame is 0. */
+static void test_a_driver_without_frame_numbers_is_counted(void **state)
+{
+    fixture_t *fx = *state;
+    fx->dev.no_seq = true;
+    open_start(fx);
+    for (uint32_t k = 0; k < 6; k++) {
+        const mfns_cam_frame_t f = cycle(fx); /* cycle() checks the pixels: the device's own count is k */
+        assert_int_equal(f.sequence, k);
+        assert_int_equal(f.dropped_before, 0);
+    }
+    mfns_cam_stats_t st;
+    assert_int_equal(mfns_cam_get_stats(fx->cam, &st), MFNS_CAM_OK);
+    assert_int_equal(st.own_seq_streams, 1);
+    assert_int_equal(st.dropped, 0);
+    assert_int_equal(mfns_cam_stop(fx->cam), MFNS_CAM_OK);
+    fx->dev.no_seq = false; /* the same device, now numbering: left alone */
+    fx->dev.seq = 0;
+    assert_int_equal(mfns_cam_start(fx->cam), MFNS_CAM_OK);
+    for (uint32_t k = 0; k < 3; k++) {
+        assert_int_equal(cycle(fx).sequence, k);
+    }
+    assert_int_equal(mfns_cam_get_stats(fx->cam, &st), MFNS_CAM_OK);
+    assert_int_equal(st.own_seq_streams, 1);
+}
+
 static void test_mmap_failure_unwinds(void **state)
 {
     fixture_t *fx = *state;
@@ -728,6 +757,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_error_flagged_buffers_are_requeued, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bytesused_is_honoured, setup, teardown),
         cmocka_unit_test_setup_teardown(test_sequence_gaps_count_as_drops, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_a_driver_without_frame_numbers_is_counted, setup, teardown),
         cmocka_unit_test_setup_teardown(test_timestamp_source_and_arrival, setup, teardown),
         cmocka_unit_test_setup_teardown(test_mmap_failure_unwinds, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reqbufs_fewer_buffers, setup, teardown),

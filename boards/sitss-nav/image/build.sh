@@ -142,6 +142,45 @@ for m in $mods; do
 done
 cp "$kdir/boot/vmlinuz-$kver" "$out/vmlinuz"
 
+# --- the board test's camera rig (loaded by rcS only when the test's frames disk
+# is attached; docs/operations.md "The image"): v4l2loopback, built here from
+# Debian's v4l2loopback-dkms source against this kernel's headers package, with
+# the host's own kbuild tools (linux-kbuild for the build machine's architecture,
+# the kernel's version) and the aarch64 cross compiler.
+fetch_any() {  # apt-get download PKG (any architecture) into the cache; echoes its path
+  local pkg=$1 name=${1%%[:=]*} f
+  f=$( (ls "$debs/${name}_"*.deb 2>/dev/null || true) | head -n 1)
+  if [ -z "$f" ]; then
+    (cd "$debs" && apt-get download -q "$pkg" >/dev/null 2>&1) \
+      || { echo "image: apt-get download $pkg failed (apt-get update?)" >&2; return 1; }
+    f=$(ls "$debs/${name}_"*.deb | head -n 1)
+  fi
+  echo "$f"
+}
+kdeb=$(fetch "$kpkg:arm64")
+kpkgver=$(dpkg-deb -f "$kdeb" Version)
+kseries=$(echo "$kver" | cut -d. -f1,2)
+kb=$(cd "$x" && pwd)/rig-kbuild-$kver  # absolute: the kernel build runs in the headers folder
+if [ ! -f "$kb/v4l2loopback.ko" ]; then
+  rm -rf "$kb.tmp" && mkdir -p "$kb.tmp"
+  for d in "$(fetch "linux-headers-$kver:arm64=$kpkgver")" \
+           "$(fetch_any "linux-headers-${kver%-rt-arm64}-common-rt=$kpkgver")" \
+           "$(fetch_any "linux-kbuild-$kseries:$(dpkg --print-architecture)=$kpkgver")" \
+           "$(fetch_any v4l2loopback-dkms)"; do
+    dpkg -x "$d" "$kb.tmp/root"
+  done
+  hdr=$kb.tmp/root/usr/src/linux-headers-$kver
+  # the flavour's Makefile includes the common headers by their installed path
+  sed -i "s|/usr/src/linux-headers-|$kb.tmp/root/usr/src/linux-headers-|" "$hdr/Makefile"
+  cp "$kb.tmp"/root/usr/src/v4l2loopback-*/*.[ch] "$kb.tmp"/root/usr/src/v4l2loopback-*/Makefile "$kb.tmp/"
+  make -s -C "$hdr" M="$kb.tmp" CROSS_COMPILE="$triplet-" modules >"$kb.tmp/build.log" 2>&1 \
+    || { tail -n 20 "$kb.tmp/build.log" >&2; echo "image: building v4l2loopback failed" >&2; exit 1; }
+  "$triplet-strip" --strip-debug "$kb.tmp/v4l2loopback.ko"
+  rm -rf "$kb" && mkdir -p "$kb" && cp "$kb.tmp/v4l2loopback.ko" "$kb/" && rm -rf "$kb.tmp"
+fi
+mkdir -p "$root/lib/modules/$kver/extra"
+cp "$kb/v4l2loopback.ko" "$root/lib/modules/$kver/extra/"
+
 # --- configuration, init, the service
 cp -a "$here/rootfs/." "$root/"
 chmod 0755 "$root"/etc/init.d/*

@@ -26,6 +26,14 @@ Failure: a task that raises is reported on stderr with its index and inputs and 
 tasks' results are kept: `StudyResult.failures` names the failed tasks, and the study's command
 writes what it has and exits 1 (`StudyResult.exit_code`).
 
+Threads: every task runs with its numerical libraries on one thread, wherever it runs
+(`single_threaded`: OpenBLAS/MKL/OpenMP limited to 1 in the process, and OMP_NUM_THREADS,
+OPENBLAS_NUM_THREADS and MKL_NUM_THREADS set to 1 for the programs it starts, as Dask's
+nannies do for their workers). A BLAS reduction split over threads sums in another order:
+before this, the 16-seed survey bench run serially (OpenBLAS on 2 threads) and on the local
+cluster gave the same tables, but refined maps that differed in their last bits and, through
+the tables built from them, nav.csv values from the 10th digit on (7 Dec 2026).
+
 Progress: a tqdm bar over tasks on stderr when stderr is a terminal (quiet otherwise).
 
 Imports on workers: a task function defined in a script (`__main__`) is shipped by value
@@ -42,6 +50,7 @@ import sys
 import traceback
 import uuid
 from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -197,12 +206,40 @@ def run_tasks(
         bar.close()
 
 
+THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextmanager
+def single_threaded():
+    """The numerical libraries on one thread in this process and in the programs it starts
+    while inside (the environment is restored on leaving)."""
+    from threadpoolctl import threadpool_limits
+
+    saved = {k: os.environ.get(k) for k in THREAD_ENV}
+    os.environ.update({k: "1" for k in THREAD_ENV})
+    try:
+        with threadpool_limits(limits=1):
+            yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def call_single_threaded(fn: Callable[[Any], Any], task: Any) -> Any:
+    """fn(task) inside single_threaded(): what every task runs as, serially or on a worker."""
+    with single_threaded():
+        return fn(task)
+
+
 def _serial(fn, tasks, desc, on_result, bar) -> StudyResult:
     out = StudyResult([None] * len(tasks))
     for i, task in enumerate(tasks):
         for attempt in range(RETRIES + 1):
             try:
-                out.results[i] = fn(task)
+                out.results[i] = call_single_threaded(fn, task)
             except (Exception, SystemExit) as e:  # a task's failure (even its sys.exit) is reported
                 _report(desc, i, len(tasks), task, e, attempt < RETRIES)
                 if attempt == RETRIES:
@@ -260,7 +297,7 @@ def _dask(fn, tasks, options, desc, on_result, bar, paths) -> StudyResult:
         # pure=False: every submission is its own task (a retry is not the failed result again)
         run_id = uuid.uuid4().hex[:8]  # keys unique on a shared scheduler
         futures = {
-            client.submit(fn, t, pure=False, key=f"{desc}-{run_id}-{i}-0"): (i, 0)
+            client.submit(call_single_threaded, fn, t, pure=False, key=f"{desc}-{run_id}-{i}-0"): (i, 0)
             for i, t in enumerate(tasks)
         }
         ac = as_completed(list(futures))
@@ -270,7 +307,13 @@ def _dask(fn, tasks, options, desc, on_result, bar, paths) -> StudyResult:
                 e = fut.exception()
                 _report(desc, i, len(tasks), tasks[i], e, attempt < RETRIES)
                 if attempt < RETRIES:
-                    again = client.submit(fn, tasks[i], pure=False, key=f"{desc}-{run_id}-{i}-{attempt + 1}")
+                    again = client.submit(
+                        call_single_threaded,
+                        fn,
+                        tasks[i],
+                        pure=False,
+                        key=f"{desc}-{run_id}-{i}-{attempt + 1}",
+                    )
                     futures[again] = (i, attempt + 1)
                     ac.add(again)
                     continue

@@ -283,7 +283,7 @@ static int do_dqbuf(fakev4l2_dev_t *d, struct v4l2_buffer *b)
     }
     d->last_bytesused = used;
     b->index = idx;
-    b->sequence = seq;
+    b->sequence = d->no_seq ? 0u : seq;
     b->flags = d->ts_flags;
     if (d->error_flag_next > 0) {
         d->error_flag_next--;

@@ -54,6 +54,7 @@ typedef struct {
     int error_flag_next;        /* next N frames carry V4L2_BUF_FLAG_ERROR */
     int short_next;             /* next N frames have bytesused below a full image */
     uint32_t seq_skip_next;     /* sequence jumps by this before the next frame */
+    bool no_seq;                /* every frame says sequence 0 (a driver that numbers none: v4l2loopback 0.12) */
     uint32_t ts_flags;          /* timestamp flags of every frame (init: MONOTONIC | SRC_EOF) */
     int mmap_fail_at;           /* 0-based mmap call that fails with ENOMEM; -1 none */
     int unplug_at_dqbuf;        /* the DQBUF call (1-based count) at which it vanishes; 0 none */
