@@ -247,13 +247,14 @@ int main(int argc, char **argv)
     }
     const int n = (int)(nfiles / ncam);
     /* the whole stimulus, loaded once before streaming (a test tool, not flight code) */
-    unsigned char *frames = malloc(FRAME_BYTES * (size_t)nfiles);
+    unsigned char *frames = calloc((size_t)nfiles, FRAME_BYTES);
     if (frames == NULL) {
         fprintf(stderr, "mfns-frame-feed: no memory for %ld frames\n", nfiles);
         return 1;
     }
     for (long i = 0; i < nfiles; i++) {
         if (read_pgm(argv[3 + ncam + i], frames + FRAME_BYTES * (size_t)i) != 0) {
+            free(frames);
             return 1;
         }
     }
@@ -265,6 +266,7 @@ int main(int argc, char **argv)
         cams[c].dev = argv[3 + c];
         if (open_output(&cams[c]) != 0 ||
             write_frame(&cams[c], 0, frames + FRAME_BYTES * (size_t)(c * n), &t) != 0) {
+            free(frames);
             return 1;
         }
     }
@@ -274,11 +276,9 @@ int main(int argc, char **argv)
     fprintf(stderr, "mfns-frame-feed: rig: %ld cameras, %d frames each forward and back, one stamp for all every %ld us\n",
             ncam, n, period_us);
     const pid_t pid = fork();
-    if (pid < 0) {
-        return fail("fork", "rig");
-    }
-    if (pid > 0) {
-        return 0;
+    if (pid != 0) {
+        free(frames); /* the parent's copy: the feeding goes on in the child */
+        return pid < 0 ? fail("fork", "rig") : 0;
     }
     /* the trigger keeps time whatever the flight program (SCHED_FIFO 50) does, as a hardware one */
     const struct sched_param sp = {.sched_priority = RIG_RT_PRIO};
@@ -300,6 +300,7 @@ int main(int argc, char **argv)
         for (int c = 0; c < ncam; c++) {
             if (write_frame(&cams[c], (unsigned)(k % cams[c].nbuf), frames + FRAME_BYTES * (size_t)(c * n + idx),
                             &t) != 0) {
+                free(frames);
                 return 1;
             }
         }
