@@ -262,8 +262,10 @@ test: deps
 	@mk/suite.sh "unit-native"       $(MAKE) --no-print-directory BOARD=host-sim unit SUITE_NAME=unit-native
 	@mk/suite.sh "unit-qemu-aarch64" $(MAKE) --no-print-directory BOARD=sitss-nav unit SUITE_NAME=unit-qemu-aarch64
 	@mk/suite.sh "flight-build"      $(MAKE) --no-print-directory flight-aarch64
-	@$(MAKE) --no-print-directory venv lib $(GEN_FILES) $(GEN)/default.mfnstbl
-	@$(MAKE) --no-print-directory BOARD=host-sim flight
+	@mkdir -p build/logs; { $(MAKE) --no-print-directory venv lib $(GEN_FILES) $(GEN)/default.mfnstbl \
+	  && $(MAKE) --no-print-directory BOARD=host-sim flight; } >build/logs/test-prerequisites.log 2>&1 \
+	  || { echo "test: building what pytest and the suites beside it share failed (their results follow):"; \
+	       tail -n 30 build/logs/test-prerequisites.log; }
 	@mk/suite.sh "pytest"            $(MAKE) --no-print-directory pytest & \
 	  { mk/suite.sh "unit-asan-ubsan" $(MAKE) --no-print-directory BOARD=host-sim SAN=1 unit SUITE_NAME=unit-asan-ubsan; \
 	    mk/suite.sh "size-cortex-m7"  $(MAKE) --no-print-directory BOARD=cortex-m7-core size; \

@@ -167,12 +167,12 @@ if [ ! -f "$kb/v4l2loopback.ko" ]; then
            "$(fetch_any "linux-headers-${kver%-rt-arm64}-common-rt=$kpkgver")" \
            "$(fetch_any "linux-kbuild-$kseries:$(dpkg --print-architecture)=$kpkgver")" \
            "$(fetch_any v4l2loopback-dkms)"; do
-    dpkg -x "$d" "$kb.tmp/root"
+    dpkg -x "$d" "$kb.tmp/pkgs"
   done
-  hdr=$kb.tmp/root/usr/src/linux-headers-$kver
+  hdr=$kb.tmp/pkgs/usr/src/linux-headers-$kver
   # the flavour's Makefile includes the common headers by their installed path
-  sed -i "s|/usr/src/linux-headers-|$kb.tmp/root/usr/src/linux-headers-|" "$hdr/Makefile"
-  cp "$kb.tmp"/root/usr/src/v4l2loopback-*/*.[ch] "$kb.tmp"/root/usr/src/v4l2loopback-*/Makefile "$kb.tmp/"
+  sed -i "s|/usr/src/linux-headers-|$kb.tmp/pkgs/usr/src/linux-headers-|" "$hdr/Makefile"
+  cp "$kb.tmp"/pkgs/usr/src/v4l2loopback-*/*.[ch] "$kb.tmp"/pkgs/usr/src/v4l2loopback-*/Makefile "$kb.tmp/"
   make -s -C "$hdr" M="$kb.tmp" CROSS_COMPILE="$triplet-" modules >"$kb.tmp/build.log" 2>&1 \
     || { tail -n 20 "$kb.tmp/build.log" >&2; echo "image: building v4l2loopback failed" >&2; exit 1; }
   "$triplet-strip" --strip-debug "$kb.tmp/v4l2loopback.ko"
@@ -224,6 +224,7 @@ t1=$(date +%s.%N)
   echo "busybox: $(basename "$bbdir")"
   printf 'libraries from: %s\n' "$(printf '%s\n' "${pkgs_used[@]}" | sort -u | paste -sd' ')"
   echo "modules: $(echo $mods | wc -w) ($(echo "$mods" | xargs -n1 basename | paste -sd' '))"
+  echo "board test rig (loaded only with the frames disk): v4l2loopback $(basename "$(ls "$debs"/v4l2loopback-dkms_*.deb)" .deb | cut -d_ -f2), $(stat -c %s "$kb/v4l2loopback.ko") bytes"
   echo "vmlinuz: $(stat -c %s "$out/vmlinuz") bytes"
   echo "initrd.cpio.gz: $(stat -c %s "$out/initrd.cpio.gz") bytes (root $(du -sk "$root" | cut -f1) kB unpacked)"
   echo "state.img: $(stat -c %s "$out/state.img") bytes ($(du -k "$out/state.img" | cut -f1) kB allocated)"
