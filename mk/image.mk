@@ -45,7 +45,7 @@ endif
 # module scenario: a free flight among wall beacons, several in view per camera),
 # 8 per camera, with their truth and the table built from their rig and map
 # (module.mfnstbl, which the board test loads with TABLE_LOAD and the host replay
-# flies), as an ext4 image the guest streams into vivid's loop.
+# flies), as an ext4 image the guest plays through the board test's rig (v4l2loopback).
 $(IMAGE_DIR)/frames.img: $(VENV)/.stamp build/host-sim/lib/libmfns_core.so mk/image.mk
 	@rm -rf $(IMAGE_DIR)/frames && mkdir -p $(IMAGE_DIR)
 	@$(PY) -m mfns sim nav -q --scenario module --seed 3 --frames 8 --out $(IMAGE_DIR)/frames

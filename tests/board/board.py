@@ -62,7 +62,7 @@ class Board:
     # ------------------------------------------------------------------ start/stop
     def start(self, boot_timeout_s: float = 120.0) -> None:
         self.t_start = time.monotonic()
-        frames = IMAGE / "frames.img"  # rendered LED frames for vivid's loop (mk/image.mk)
+        frames = IMAGE / "frames.img"  # rendered LED frames for the board test's rig (mk/image.mk)
         self.qemu = subprocess.Popen(
             [str(REPO / "boards/sitss-nav/image/boot.sh"), str(IMAGE), str(self.work / "run")]
             + ([str(frames)] if frames.exists() else []),

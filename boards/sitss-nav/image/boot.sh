@@ -11,7 +11,8 @@
 #                as a virtio disk: /var/lib/mfns, kept across boots
 #   cameras      three vivid instances, loaded by the image's rcS
 #   frames       FRAMES_IMG (optional third argument): the board test's disk of
-#                rendered frames (label mfns-frames), streamed into the cameras by rcS
+#                rendered frames (label mfns-frames); rcS then plays them through the
+#                board test's rig (three v4l2loopback devices, one trigger) in place of vivid
 # QEMU_EXTRA adds options (e.g. QEMU_EXTRA='-smp 2').
 set -euo pipefail
 img=$1 run=$2 frames=${3:-}
