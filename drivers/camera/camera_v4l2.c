@@ -177,6 +177,17 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
             if (i >= v->nbuf || !v->buf[i].start || v->buf[i].held) {
                 return mfns_cam_fail(h, MFNS_CAM_E_IO, "VIDIOC_DQBUF returned buffer %u (not queued)", i);
             }
+            if (v->dq_count == 1u && b.sequence == 0u && !v->own_seq) {
+                /* the stream's second frame numbered 0 again: a driver that does not number its
+                 * frames; they are counted here (a frame the driver drops is then not seen as a
+                 * gap but as a late stamp, and a frozen number cannot happen) */
+                v->own_seq = true;
+                h->stats.own_seq_streams++;
+            }
+            if (v->own_seq) {
+                b.sequence = v->dq_count;
+            }
+            v->dq_count++; /* errored frames too: the sequence bookkeeping below sees one numbering */
             uint32_t off = 0, used = b.bytesused;
             if (mfns_cam_v4l2_is_mplane(v)) {
                 off = planes[0].data_offset;
@@ -197,17 +208,6 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
                 continue;
             }
             v->buf[i].held = true;
-            if (v->dq_count == 1u && b.sequence == 0u && !v->own_seq) {
-                /* the stream's second frame numbered 0 again: a driver that does not number its
-                 * frames; they are counted here (a frame the driver drops is then not seen as a
-                 * gap but as a late stamp, and a frozen number cannot happen) */
-                v->own_seq = true;
-                h->stats.own_seq_streams++;
-            }
-            if (v->own_seq) {
-                b.sequence = v->dq_count;
-            }
-            v->dq_count++;
             f->data = (const uint8_t *)v->buf[i].start + off;
             f->bytesused = used;
             f->pixfmt = h->info.pixfmt;

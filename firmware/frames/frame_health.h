@@ -13,7 +13,8 @@
  *                Misses: a pipeline that freezes the image but adds fresh
  *                noise; a stuck sequence of a driver that numbers no frame
  *                (every buffer 0, e.g. v4l2loopback 0.12: the V4L2 backend
- *                then numbers the frames itself, camera_backend.h); a frozen image whose stamps and sequence advance and
+ *                then numbers the frames itself, camera_backend.h); a
+ *                frozen image whose stamps and sequence advance and
  *                that alternates between two buffers (A B A B: each differs
  *                from the one before); a frozen uniform image (no content:
  *                not compared, see fh_digest). False alarm: a noise-free (simulated,

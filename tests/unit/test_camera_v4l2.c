@@ -460,10 +460,15 @@ static void test_a_driver_without_frame_numbers_is_counted(void **state)
         assert_int_equal(f.sequence, k);
         assert_int_equal(f.dropped_before, 0);
     }
+    fx->dev.error_flag_next = 1; /* an errored frame keeps its place in the count: one missing, no gap */
+    const mfns_cam_frame_t after = cycle(fx);
+    assert_int_equal(after.sequence, 7);
+    assert_int_equal(after.dropped_before, 1);
     mfns_cam_stats_t st;
     assert_int_equal(mfns_cam_get_stats(fx->cam, &st), MFNS_CAM_OK);
     assert_int_equal(st.own_seq_streams, 1);
     assert_int_equal(st.dropped, 0);
+    assert_int_equal(st.error_frames, 1);
     assert_int_equal(mfns_cam_stop(fx->cam), MFNS_CAM_OK);
     fx->dev.no_seq = false; /* the same device, now numbering: left alone */
     fx->dev.seq = 0;
