@@ -29,13 +29,14 @@ t0=$(date +%s.%N)
 mkdir -p "$debs" "$x"
 
 # apt-get download PKG into the cache unless a .deb of it is there; echoes its path.
+# ARCH: the .deb's architecture (arm64 unless given; all, or the build machine's).
 fetch() {
-  local pkg=$1 name=${1%%[:=]*} f
-  f=$( (ls "$debs/${name}_"*_arm64.deb 2>/dev/null || true) | head -n 1)
+  local pkg=$1 arch=${2:-arm64} name=${1%%[:=]*} f
+  f=$( (ls "$debs/${name}_"*_"$arch".deb 2>/dev/null || true) | head -n 1)
   if [ -z "$f" ]; then
     (cd "$debs" && apt-get download -q "$pkg" >/dev/null 2>&1) \
       || { echo "image: apt-get download $pkg failed (apt-get update? dpkg --add-architecture arm64?)" >&2; return 1; }
-    f=$(ls "$debs/${name}_"*_arm64.deb | head -n 1)
+    f=$(ls "$debs/${name}_"*_"$arch".deb | head -n 1)
   fi
   echo "$f"
 }
@@ -55,7 +56,8 @@ if [ -z "$kpkg" ]; then
                            | sed -nE 's/^ *Depends: (linux-image-[^:]*-rt-arm64)(:arm64)?$/\1/p' | head -n 1)
 fi
 [ -n "$kpkg" ] || { echo "image: no linux-image-*-rt-arm64 in apt (apt-get update?)" >&2; exit 1; }
-kdir=$(unpack "$(fetch "$kpkg:arm64")")
+kdeb=$(fetch "$kpkg:arm64")
+kdir=$(unpack "$kdeb")
 kver=$(ls "$kdir/lib/modules" | head -n 1)
 bbdir=$(unpack "$(fetch busybox-static:arm64)")
 
@@ -147,26 +149,15 @@ cp "$kdir/boot/vmlinuz-$kver" "$out/vmlinuz"
 # Debian's v4l2loopback-dkms source against this kernel's headers package, with
 # the host's own kbuild tools (linux-kbuild for the build machine's architecture,
 # the kernel's version) and the aarch64 cross compiler.
-fetch_any() {  # apt-get download PKG (any architecture) into the cache; echoes its path
-  local pkg=$1 name=${1%%[:=]*} f
-  f=$( (ls "$debs/${name}_"*.deb 2>/dev/null || true) | head -n 1)
-  if [ -z "$f" ]; then
-    (cd "$debs" && apt-get download -q "$pkg" >/dev/null 2>&1) \
-      || { echo "image: apt-get download $pkg failed (apt-get update?)" >&2; return 1; }
-    f=$(ls "$debs/${name}_"*.deb | head -n 1)
-  fi
-  echo "$f"
-}
-kdeb=$(fetch "$kpkg:arm64")
 kpkgver=$(dpkg-deb -f "$kdeb" Version)
 kseries=$(echo "$kver" | cut -d. -f1,2)
 kb=$(cd "$x" && pwd)/rig-kbuild-$kver  # absolute: the kernel build runs in the headers folder
 if [ ! -f "$kb/v4l2loopback.ko" ]; then
   rm -rf "$kb.tmp" && mkdir -p "$kb.tmp"
   for d in "$(fetch "linux-headers-$kver:arm64=$kpkgver")" \
-           "$(fetch_any "linux-headers-${kver%-rt-arm64}-common-rt=$kpkgver")" \
-           "$(fetch_any "linux-kbuild-$kseries:$(dpkg --print-architecture)=$kpkgver")" \
-           "$(fetch_any v4l2loopback-dkms)"; do
+           "$(fetch "linux-headers-${kver%-rt-arm64}-common-rt=$kpkgver" all)" \
+           "$(fetch "linux-kbuild-$kseries:$(dpkg --print-architecture)=$kpkgver" "$(dpkg --print-architecture)")" \
+           "$(fetch v4l2loopback-dkms all)"; do
     dpkg -x "$d" "$kb.tmp/pkgs"
   done
   hdr=$kb.tmp/pkgs/usr/src/linux-headers-$kver
