@@ -97,7 +97,9 @@ void nav_app_watch_clock(nav_app_t *app, uint32_t cycle, uint64_t t_us)
     if (step_us == 0) {
         return;
     }
-    const int64_t step_ms = step_us / 1000;
+    /* to the nearest ms: the two clocks are read one after the other, so a
+     * 5 s step measures a few µs either side of 5 000 000 µs */
+    const int64_t step_ms = (step_us >= 0 ? step_us + 500 : step_us - 500) / 1000;
     const int32_t s32 = step_ms > INT32_MAX ? INT32_MAX : step_ms < -INT32_MAX ? -INT32_MAX : (int32_t)step_ms;
     const nav_time_sync_t sync = nav_time_sync_now();
     const uint8_t q = (uint8_t)(sync.synced ? TLM_TIMEQ_SYNCED : TLM_TIMEQ_SYSTEM);

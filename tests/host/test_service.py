@@ -553,7 +553,10 @@ def test_clock_step_in_flight_is_reported(replay, tmp_path):
         env=env, capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
-    assert "the board's UTC stepped by +5000 ms" in res.stderr, res.stderr
+    # the two clocks are read one after the other: the measured step is 5 s
+    # to within the reading's jitter (a loaded machine took ~1 ms once)
+    said = re.search(r"the board's UTC stepped by \+(\d+) ms", res.stderr)
+    assert said is not None and int(said.group(1)) in range(4990, 5011), res.stderr
     out = tmp_path / "g"
     subprocess.run([str(BIN / "mfns-ground"), "--file", str(tlm), "--out", str(out), "-q"], check=True)
     ev = rows(out / "events.csv")
