@@ -363,8 +363,9 @@ static void test_two_camera_scene_bounded(void **state)
             assert_int_equal(r.first_detect, -1);
             assert_int_equal(r.bound_violations, 0);
             assert_true(isfinite(r.max_pl_any_pos));
-            /* measured 5.0 / 5.9 / 7.4 / 25.3 mm (sigma_pos <= 0.3 mm); the
-             * camera-dropping bank gave 120-320 mm on the module's replay */
+            /* measured 3.3 / 3.5 / 3.8 / 10.8 mm (sigma_pos <= 0.3 mm; 5.0
+             * / 5.9 / 7.4 / 25.3 mm with the a-priori PL, T + K_md sigma);
+             * the camera-dropping bank gave 120-320 mm on the module's replay */
             assert_true(r.max_pl_any_pos <= 40.0);
             assert_true(r.usable * 100 >= r.evaluated * 95);
         }
@@ -381,14 +382,18 @@ static void test_two_camera_scene_faults(void **state)
     (void)state;
     for (int cam = 0; cam < 2; cam++) {
         /* the first exclusion names the camera at onset; after it one camera
-         * is left (PL beyond the alert limit, not usable) and a later
-         * exclusion in that state may name another subject (measured on
-         * camera 1: one more) -- only the first is asserted */
+         * of 3 beacons is left and the bank restarts from the diffuse prior
+         * (filter_bank.c restart_diffuse): nothing is certifiable (PL
+         * beyond the alert limit, not usable), later exclusions in that
+         * state may name other subjects and the bank may coast out
+         * (measured on camera 0: beacon 3 and camera 1 excluded, a restart
+         * at cycle 63 when nothing was left to take) -- only the first
+         * exclusion, a restart after it and the bound are asserted */
         const scenario_t step = {F_CAM_POINTING, cam, 0.3, 30.0, 0.02, 80 + (uint64_t)cam, 0, TWO_CAM[0]};
         result_t rs;
         run(&step, &rs);
         report("2 cams: 0.3 deg", &rs);
-        assert_int_equal(rs.restarts, 0);
+        assert_true(rs.restarts == 0 || rs.restart_cycle > rs.first_detect);
         assert_true(rs.first_detect >= FAULT_CYCLE && rs.first_detect <= FAULT_CYCLE + 2);
         assert_int_equal(rs.detect_kind, MFNS_BANK_HYP_CAMERA);
         assert_int_equal(rs.detect_id, cam);

@@ -337,7 +337,7 @@ static void test_own_association(void **state)
  * passed with a PL beyond the alert limit (NO_FIX PL_EXCEEDS_AL), whatever
  * that PL, or one whose cameras' timing was not tested yet (LAG_UNTESTED);
  * never from one whose tests failed, that is UNMONITORED or MINIMAL. The prior claims nothing of the fix (at least
- * MFNS_NAVF_START_SIGMA_MM / _RAD on every axis), and the start cycle's own
+ * MFNS_BANK_START_SIGMA_MM / _RAD on every axis), and the start cycle's own
  * frames are taken at once. */
 static void test_start(void **state)
 {
@@ -390,7 +390,7 @@ static void test_start(void **state)
         /* the prior claimed nothing: after one frame the position is the
          * frame's, far inside the diffuse 100 mm, and the fix is still the
          * filter's own (its PL), not the snapshot's */
-        assert_true(sqrtf(nf.bank.full.P[3][3]) < 0.1f * MFNS_NAVF_START_SIGMA_MM);
+        assert_true(sqrtf(nf.bank.full.P[3][3]) < 0.1f * MFNS_BANK_START_SIGMA_MM);
         assert_true(rep.out.pl_pos_mm > 0.0f);
     }
     /* the diffuse prior: a bank started from a fix whose sigma is 0.5 mm
@@ -406,8 +406,8 @@ static void test_start(void **state)
     mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
     assert_true(rep.started);
     bank = nf.bank;
-    assert_true(bank.full.P[3][3] >= MFNS_NAVF_START_SIGMA_MM * MFNS_NAVF_START_SIGMA_MM * 0.99f);
-    assert_true(bank.full.P[0][0] >= MFNS_NAVF_START_SIGMA_RAD * MFNS_NAVF_START_SIGMA_RAD * 0.99f);
+    assert_true(bank.full.P[3][3] >= MFNS_BANK_START_SIGMA_MM * MFNS_BANK_START_SIGMA_MM * 0.99f);
+    assert_true(bank.full.P[0][0] >= MFNS_BANK_START_SIGMA_RAD * MFNS_BANK_START_SIGMA_RAD * 0.99f);
     assert_false(rep.used);
 }
 

@@ -408,6 +408,44 @@ static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s
 
 
 /* Exclude hypothesis k (sub index): the full filter becomes its subset. */
+/* After an exclusion the full filter (the chosen subset) restarts from its
+ * own state under the start's diffuse prior (MFNS_BANK_START_SIGMA_*,
+ * MFNS_BANK_SIGMA_V0_MM_S, _W0_RAD_S; its own variance where larger), and
+ * every hypothesis then starts as a copy of it. Why not the subset as it is:
+ * when the subject was named wrongly (a healthy beacon of a knocked or
+ * drifting camera gated first) the subset took the fault, a copy of it would
+ * too, and the copies' separations would start at zero: the PL, the observed
+ * separation's (integrity.h mfns_integrity_pl_axis), would not see what is
+ * already in the state (a ramp on one of two cameras with the other camera
+ * named: a usable fix 1.05 x its PL, test_filter_bank). From the diffuse
+ * prior every filter rests on the observations it takes from here on, as at
+ * a start (nav_filter_cycle.h); the cost is the cycles the PL needs to come
+ * back under the alert limit. The innovation window goes with the old state. */
+static bool restart_diffuse(mfns_filter_bank_t *b)
+{
+    const mfns_filter_t *f = &b->full;
+    const mfns_pose_t pose = mfns_filter_pose(f);
+    float prior[6][6] = {{0.0f}}; /* cov_ros order: position first */
+    float sv = MFNS_BANK_SIGMA_V0_MM_S, sw = MFNS_BANK_SIGMA_W0_RAD_S;
+    for (int i = 0; i < 3; i++) {
+        prior[i][i] = fmaxf(f->P[MFNS_FILTER_POS + i][MFNS_FILTER_POS + i],
+                            MFNS_BANK_START_SIGMA_MM * MFNS_BANK_START_SIGMA_MM);
+        prior[3 + i][3 + i] = fmaxf(f->P[MFNS_FILTER_ATT + i][MFNS_FILTER_ATT + i],
+                                    MFNS_BANK_START_SIGMA_RAD * MFNS_BANK_START_SIGMA_RAD);
+        sv = fmaxf(sv, sqrtf(fmaxf(f->P[MFNS_FILTER_VEL + i][MFNS_FILTER_VEL + i], 0.0f)));
+        sw = fmaxf(sw, sqrtf(fmaxf(f->P[MFNS_FILTER_OMEGA + i][MFNS_FILTER_OMEGA + i], 0.0f)));
+    }
+    mfns_filter_t g;
+    if (mfns_filter_init(&g, &pose, (const float(*)[6])prior, f->v_w, sv, f->w_w, sw, f->t_us) != MFNS_FILTER_OK) {
+        return false;
+    }
+    b->full = g;
+    for (int j = 0; j < MFNS_BANK_AXES; j++) {
+        b->var_floor[j] = MFNS_BANK_VAR_FLOOR_EPS * FLT_EPSILON * b->full.P[j][j];
+    }
+    return true;
+}
+
 static bool exclude(mfns_filter_bank_t *b, int k)
 {
     if (k < MFNS_BANK_CAM_HYP) {
@@ -433,7 +471,9 @@ static bool exclude(mfns_filter_bank_t *b, int k)
     }
     b->full = b->sub[k];
     mfns_filter_strip_aug(&b->full); /* the camera is held out: its fault parameters are not needed */
-    mfns_filter_reset_window(&b->full); /* the fault's surprise leaves the window with it */
+    if (!restart_diffuse(b)) {
+        return false;
+    }
     restart_hypotheses(b);
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         b->slot_gate_run[i] = 0;
@@ -545,7 +585,14 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
                 ev->max_ns = ns;
                 ev->worst = k;
             }
-            const float plk = t + out->k_md * sqrtf(fmaxf(b->sub[k].P[j][j] + dvar[j], 0.0f));
+            /* a beacon's subset never took the beacon: the observed
+             * separation's bound (integrity.h); a camera's took its frames
+             * through fault parameters renewed from a finite prior, so a
+             * fault leaks into it a little: the a-priori form, whose margin
+             * (T - |s|) covers that (filter_bank.h "Protection level") */
+            const float var_k = b->sub[k].P[j][j] + dvar[j];
+            const float plk = k < MFNS_BANK_CAM_HYP ? t + out->k_md * sqrtf(fmaxf(var_k, 0.0f))
+                                                    : mfns_integrity_pl_axis(s[j], var_k, k_ff);
             ev->pl[j] = fmaxf(ev->pl[j], plk);
             ev->pl_b[j] = k < MFNS_BANK_CAM_HYP ? ev->pl_b[j] : fmaxf(ev->pl_b[j], plk);
         }

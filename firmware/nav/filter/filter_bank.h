@@ -66,9 +66,27 @@
  * with P_fa, P_md the table's integrity settings (mfns_integrity_settings_t,
  * nav_settings.h) and Q^-1 integrity.h's: the same allocation as the snapshot
  * FDE (integrity.h). Protection level per axis:
- *   PL_j = max( K_ff sigma_0j, max_k (T_kj + K_md sigma_kj) )
+ *   PL_j = max( K_ff sigma_0j, max_{beacon k} (|s_kj| + K_ff sigma_kj),
+ *               max_{camera k} (T_kj + K_md sigma_kj) )
  * with sigma including the map datum's term (added once, common to all
- * filters, so not in the separation). PL_pos_mm / PL_att_deg are the largest
+ * filters, so not in the separation). A beacon hypothesis's term is the
+ * observed separation's (integrity.h mfns_integrity_pl_axis: its subset never
+ * took the beacon, so x_0 - x = s_k + (x_k - x) with x_k unmoved by the
+ * fault, and the triangle inequality bounds the error with no test
+ * outcome). A camera hypothesis's keeps the a-priori form: its subset is
+ * unmoved by the camera's fault only as far as the per-frame prior of the
+ * fault parameters (aug_rot_rad 1 deg, aug_dt_s 60 ms) is wide against the
+ * fault's change in a frame, and it is not against a frozen scene (the
+ * offset grows a period a frame), a clock drifting 2 ms a frame for long,
+ * or a 0.6 deg knock seen by few beacons: measured with the observed form
+ * for cameras too (grown campaign, filter on, seeds 2-5, 7 Dec 2026): 25
+ * usable fixes beyond their PL in 10 runs, up to 3.09 x (frozen scene with
+ * fresh noise), 2.52 x (camera x knocked 0.6 deg), 1.46 x (stale after a
+ * drop), against 2 in 1 run with the a-priori form, whose margin T - |s|
+ * is what covers that leak (not proven: the two knocked-mount fixes at
+ * onset on seed 5 pass it). An exactly unmoved camera subset (the frame's
+ * observations projected on the complement of the fault parameters'
+ * columns, a flat prior) would allow the observed form: not done. PL_pos_mm / PL_att_deg are the largest
  * position / attitude axis (per axis: compare with a per-axis alert limit).
  * A hypothesis whose subset filter cannot follow (a camera that alone sees
  * the beacons coasts its subset beyond max_coast_s) is unmonitorable: the
@@ -88,8 +106,12 @@
  * never took k's data, or took camera k's only through its free fault
  * parameters: the fault leaves the solution with it; a camera's parameters
  * are then dropped, the camera held out: simplest, and a pointing estimated
- * from a knocked camera's own frames is not trusted to fly on) and restarts
- * every other hypothesis as a copy of it. An excluded beacon or camera is
+ * from a knocked camera's own frames is not trusted to fly on), restarts it
+ * from its own state under the start's diffuse prior (MFNS_BANK_START_SIGMA_*:
+ * a subject named wrongly leaves the fault in that subset, and a copy of it
+ * would carry the fault with zero separation, which the observed-separation
+ * PL would not see) and every other hypothesis as a copy of it: every filter
+ * then rests on what it takes after the exclusion. An excluded beacon or camera is
  * tested every cycle against the full filter (not applied): a beacon's
  * observation is clean with its NIS below chi-square(2) at
  * MFNS_BANK_READMIT_P, a camera's frame with the sum of its NIS below
@@ -110,9 +132,11 @@
  *     only as good as that prior: nav_filter_cycle.h starts it from a
  *     diffuse prior around the snapshot fix, so that none of the snapshot's
  *     error is trusted);
- *   - a fault of a beacon or camera that began before its hypothesis was
- *     (re)started: after an exclusion every other hypothesis restarts from the
- *     new full filter;
+ *   - the cycles after an exclusion: the diffuse restart leaves the PL
+ *     beyond the alert limit until the new observations outweigh the prior
+ *     (not a miss, a cost: a camera excluded of three with the remaining
+ *     two weak about one axis stayed unusable, test_filter_bank's ramp on
+ *     camera 1);
  *   - a camera that alone sees the beacons: its hypothesis keeps that
  *     camera's inter-beacon geometry, but its attitude and position along
  *     the pointing are the motion model's only: the PL grows past the alert
@@ -143,6 +167,16 @@
 #include "firmware/nav/pose/pose.h"
 
 #define MFNS_BANK_MAX_BEACON_HYP 12
+/* The diffuse prior every start of the bank takes (nav_filter_cycle.c start,
+ * and the restart after an exclusion, filter_bank.c exclude), the pose's per
+ * axis: large against any snapshot error that passed its tests (the
+ * module's: well under a millimetre and 0.01 deg), small enough for the
+ * error-state linearisation (small attitude errors, nav_filter.h); the
+ * velocity's: Astrobee-class top speeds (0.5 m/s, 0.5 rad/s). */
+#define MFNS_BANK_START_SIGMA_MM 20.0f
+#define MFNS_BANK_START_SIGMA_RAD 0.0175f /* 1 deg */
+#define MFNS_BANK_SIGMA_V0_MM_S 500.0f
+#define MFNS_BANK_SIGMA_W0_RAD_S 0.5f
 #define MFNS_BANK_CAM_HYP MFNS_NUM_CAMERAS
 #define MFNS_BANK_MAX_HYP (MFNS_BANK_CAM_HYP + MFNS_BANK_MAX_BEACON_HYP)
 #define MFNS_BANK_EVICT_RATIO 0.01f

@@ -52,7 +52,7 @@ static bool startable_refused(const mfns_pose_solution_t *s, const mfns_integrit
 
 /* Start from the snapshot fix: its pose, and a prior that claims nothing of
  * it: per axis the larger of the fix's own sigma (its cov_ros less the datum
- * term) and the start's diffuse sigma (MFNS_NAVF_START_SIGMA_MM / _RAD),
+ * term) and the start's diffuse sigma (MFNS_BANK_START_SIGMA_MM / _RAD),
  * uncorrelated. Every filter of the bank starts from that prior, so the
  * bank's integrity rests on the observations it takes from here on (a fault
  * in the snapshot fix, which its own PL may not bound (a camera fault in a
@@ -74,7 +74,7 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
         if (!(cov[i][i] > 0.0f) || !isfinite(cov[i][i])) {
             return false;
         }
-        const float floor_sigma = i < 3 ? MFNS_NAVF_START_SIGMA_MM : MFNS_NAVF_START_SIGMA_RAD;
+        const float floor_sigma = i < 3 ? MFNS_BANK_START_SIGMA_MM : MFNS_BANK_START_SIGMA_RAD;
         prior[i][i] = fmaxf(cov[i][i], floor_sigma * floor_sigma);
     }
     int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS];
@@ -82,7 +82,7 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
     memcpy(excl_beacon, nf->bank.excl_beacon, sizeof excl_beacon);
     memcpy(cam_excluded, nf->bank.cam_excluded, sizeof cam_excluded);
     nf->running = mfns_bank_init(&nf->bank, &sol->pose, (const float(*)[6])prior, mfns_v3(0.0f, 0.0f, 0.0f),
-                                 MFNS_NAVF_SIGMA_V0_MM_S, mfns_v3(0.0f, 0.0f, 0.0f), MFNS_NAVF_SIGMA_W0_RAD_S,
+                                 MFNS_BANK_SIGMA_V0_MM_S, mfns_v3(0.0f, 0.0f, 0.0f), MFNS_BANK_SIGMA_W0_RAD_S,
                                  nf->t_us) == MFNS_FILTER_OK;
     if (nf->running && nf->carry_excl) {
         mfns_bank_keep_exclusions(&nf->bank, excl_beacon, cam_excluded);

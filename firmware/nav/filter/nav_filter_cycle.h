@@ -9,8 +9,8 @@
  * the bank's camera hypotheses carry): the fix's identification and pose as the linearisation
  * point, and a prior that claims nothing of it (per pose axis the larger of
  * the fix's own sigma, less the map datum term which the filter adds back at
- * its output, and MFNS_NAVF_START_SIGMA_MM / _RAD; velocity 0 +-
- * MFNS_NAVF_SIGMA_V0_MM_S, 0 +- MFNS_NAVF_SIGMA_W0_RAD_S). The start cycle's
+ * its output, and MFNS_BANK_START_SIGMA_MM / _RAD (filter_bank.h); velocity 0 +-
+ * MFNS_BANK_SIGMA_V0_MM_S, 0 +- MFNS_BANK_SIGMA_W0_RAD_S). The start cycle's
  * own frames are then taken at once. So every filter of the bank rests on
  * the observations it took, each hypothesis's subset on all but its own: a
  * fault in the fix the bank started from (a camera fault a DEGRADED
@@ -62,15 +62,6 @@
 #include "firmware/nav/integrity/integrity.h"
 #include "firmware/nav/pose/pose.h"
 
-/* the velocity prior at a start: Astrobee-class top speeds (0.5 m/s, 0.5 rad/s) */
-#define MFNS_NAVF_SIGMA_V0_MM_S 500.0f
-#define MFNS_NAVF_SIGMA_W0_RAD_S 0.5f
-/* the start's diffuse prior on the pose (nav_filter_cycle.c start): large
- * against any snapshot error that passed its tests (the module's: well under
- * a millimetre and 0.01 deg), small enough for the error-state linearisation
- * (small attitude errors, nav_filter.h) */
-#define MFNS_NAVF_START_SIGMA_MM 20.0f
-#define MFNS_NAVF_START_SIGMA_RAD 0.0175f /* 1 deg */
 
 typedef struct {
     bool on;

@@ -47,6 +47,11 @@ static float ppnd7_lower(float p)
     return -v;
 }
 
+float mfns_integrity_pl_axis(float s, float var_k, float k_ff)
+{
+    return fabsf(s) + k_ff * sqrtf(fmaxf(var_k, 0.0f));
+}
+
 float mfns_integrity_q_inv(float p)
 {
     if (!(p > 0.0f && p <= 0.5f)) {
@@ -281,7 +286,7 @@ static float max3(const float v[3])
 /* The per-axis bound of one hypothesis into pl; its normalised separation
  * returned. var_ss, var_k: the projected diagonals. */
 static float test_axes(const float s[6], const float var_ss[6], const float var_k[6], const float off[6], float k_fa,
-                       float k_md, float pl[6])
+                       float k_ff, float pl[6])
 {
     float worst = 0.0f;
     for (int j = 0; j < 6; j++) {
@@ -291,7 +296,7 @@ static float test_axes(const float s[6], const float var_ss[6], const float var_
         const float t = k_fa * sqrtf(vss);
         const float ns = t > 0.0f ? fabsf(s[j]) / t : (s[j] == 0.0f ? 0.0f : INFINITY);
         worst = fmaxf(worst, ns);
-        pl[j] = fmaxf(pl[j], t + k_md * sqrtf(fmaxf(var_k[j], 0.0f)) + off[j]);
+        pl[j] = fmaxf(pl[j], mfns_integrity_pl_axis(s[j], var_k[j], k_ff) + off[j]);
     }
     return worst;
 }
@@ -411,7 +416,7 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
         float var_ss[6], var_k[6];
         project_diag(w.g, pss, var_ss);
         project_diag(w.g, pkf, var_k);
-        const float ns = test_axes(s, var_ss, var_k, off, ev->k_fa, ev->k_md, is_cam ? pl : pl_b);
+        const float ns = test_axes(s, var_ss, var_k, off, ev->k_fa, k_ff, is_cam ? pl : pl_b);
         if (probe != NULL && same_hyp(probe, &hyp[q])) {
             ev->probe_norm_sep = ns;
         }

@@ -20,11 +20,16 @@
  * the attitude error phi_w about the world axes (rad; pose.h cov_ros). Test:
  *   |s_k,j| <= T_k,j = K_fa sqrt(S_k,jj)   for every hypothesis k, axis j,
  *   K_fa = Q^-1(P_fa / (2 * 6 * N_hyp))     (two-sided, P_fa split evenly).
- * Protection level per axis (a single fault of any size that the test misses
- * with probability P_md, or no fault with probability P_md):
- *   PL_j = max( K_ff sqrt(P0f_jj),  max_k (T_k,j + K_md sqrt(Pkf_jj)) ),
- *   K_md = Q^-1(P_md), K_ff = Q^-1(P_md / 2)  (fault-free: two-sided),
- * Pkf / P0f being P_k / P0 with the calibration term. PL_pos_mm is the
+ * Protection level per axis (a single fault of any size, or no fault, with
+ * probability at most P_md of an error beyond it):
+ *   PL_j = max( K_ff sqrt(P0f_jj),  max_k (|s_k,j| + K_ff sqrt(Pkf_jj)) ),
+ *   K_ff = Q^-1(P_md / 2)  (two-sided),
+ * Pkf / P0f being P_k / P0 with the calibration term. The hypothesis term is
+ * the observed separation's (mfns_integrity_pl_axis: under hypothesis k the
+ * subset never took the faulty rows, so x0 - x = s_k + (x_k - x) with x_k - x
+ * ~ N(0, Pkf) whatever the fault's size; the triangle inequality does the
+ * rest, no test outcome needed), not ARAIM's a-priori T_k,j + K_md
+ * sqrt(Pkf_jj), which has to cover every separation the test lets through. PL_pos_mm is the
  * largest of the three position axes (per axis, not a 3-D radius: compare it
  * with a per-axis alert limit), PL_att_deg the largest attitude axis.
  *
@@ -83,6 +88,26 @@ bool mfns_integrity_settings_valid(const mfns_integrity_settings_t *s);
  * float: enough for a threshold), evaluated on p itself (never 1 - p), so
  * tails down to 1e-30 keep their precision. */
 float mfns_integrity_q_inv(float p);
+
+/* One single-fault hypothesis's protection level on one axis, from its
+ * observed separation s = (x_0 - x_k)_j, the variance var_k of its subset
+ * estimate's error on that axis (everything the subset's error has: noise,
+ * calibration, map datum) and k_ff = Q^-1(P_md / 2): |s| + k_ff sqrt(var_k).
+ * Why it bounds the error: under the hypothesis the subset x_k took none of
+ * the faulty data, so x_0 - x = s + (x_k - x) exactly and x_k - x ~ N(0,
+ * var_k) whatever the fault's size or profile; |x_0 - x| <= |s| + |x_k - x|
+ * <= |s| + k_ff sqrt(var_k) except with probability P_md. No test outcome
+ * enters (the threshold only decides detection), so it holds on every
+ * cycle. ARAIM's a-priori form T + K_md sqrt(var_k) (T = K_fa sqrt(var_ss),
+ * the largest separation the test lets through, K_md = Q^-1(P_md)) is the
+ * bound for a PL computed before the measurement; this one is lower whenever
+ * |s| < T - (k_ff - K_md) sqrt(var_k), i.e. in nearly every fault-free
+ * cycle, by about half where the subset is weak (var_k >> var_0: T ~ 5.3
+ * sqrt(var_k) against |s| ~ sqrt(var_k)), and a fault raises it with the
+ * separation it causes before the test trips. What it misses: what the
+ * subset itself misses (a fault the subset took: two simultaneous faults;
+ * beyond the linearisation). */
+float mfns_integrity_pl_axis(float s, float var_k, float k_ff);
 
 #define MFNS_INTEGRITY_MAX_HYP (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA + MFNS_NUM_CAMERAS)
 #define MFNS_INTEGRITY_AXES 6
