@@ -283,10 +283,13 @@ static float max3(const float v[3])
     return fmaxf(v[0], fmaxf(v[1], v[2]));
 }
 
-/* The per-axis bound of one hypothesis into pl; its normalised separation
+/* The per-axis bounds of one hypothesis: the observed separation's into pl
+ * (integrity.h mfns_integrity_pl_axis), and, when pl_apriori is not NULL,
+ * the a-priori T + K_md sigma into it (the beacon-only PL that gates a
+ * DEGRADED CAMERA_UNMONITORED fix, integrity.h); its normalised separation
  * returned. var_ss, var_k: the projected diagonals. */
 static float test_axes(const float s[6], const float var_ss[6], const float var_k[6], const float off[6], float k_fa,
-                       float k_ff, float pl[6])
+                       float k_md, float k_ff, float pl[6], float *pl_apriori)
 {
     float worst = 0.0f;
     for (int j = 0; j < 6; j++) {
@@ -297,6 +300,9 @@ static float test_axes(const float s[6], const float var_ss[6], const float var_
         const float ns = t > 0.0f ? fabsf(s[j]) / t : (s[j] == 0.0f ? 0.0f : INFINITY);
         worst = fmaxf(worst, ns);
         pl[j] = fmaxf(pl[j], mfns_integrity_pl_axis(s[j], var_k[j], k_ff) + off[j]);
+        if (pl_apriori != NULL) {
+            pl_apriori[j] = fmaxf(pl_apriori[j], t + k_md * sqrtf(fmaxf(var_k[j], 0.0f)) + off[j]);
+        }
     }
     return worst;
 }
@@ -368,7 +374,7 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
         off[j] = fabsf(off[j]);
         pl[j] = k_ff * sqrtf(fmaxf(var0[j], 0.0f)) + off[j];
     }
-    float pl_b[6]; /* fault-free and beacon hypotheses only */
+    float pl_b[6]; /* fault-free and beacon hypotheses only, a-priori (integrity.h) */
     for (int j = 0; j < 6; j++) {
         pl_b[j] = pl[j];
     }
@@ -416,7 +422,7 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
         float var_ss[6], var_k[6];
         project_diag(w.g, pss, var_ss);
         project_diag(w.g, pkf, var_k);
-        const float ns = test_axes(s, var_ss, var_k, off, ev->k_fa, k_ff, is_cam ? pl : pl_b);
+        const float ns = test_axes(s, var_ss, var_k, off, ev->k_fa, ev->k_md, k_ff, pl, is_cam ? NULL : pl_b);
         if (probe != NULL && same_hyp(probe, &hyp[q])) {
             ev->probe_norm_sep = ns;
         }
@@ -427,9 +433,6 @@ mfns_integrity_status_t mfns_integrity_evaluate(const mfns_rig_t *rig, const mfn
     }
     ev->max_norm_sep = worst;
     ev->tests_passed = worst <= 1.0f;
-    for (int j = 0; j < 6; j++) {
-        pl[j] = fmaxf(pl[j], pl_b[j]);
-    }
     ev->pl_pos_mm = max3(&pl[0]);
     ev->pl_att_deg = max3(&pl[3]) * MFNS_DEG_PER_RAD_F;
     ev->pl_beacon_pos_mm = max3(&pl_b[0]);

@@ -29,7 +29,15 @@
  * subset never took the faulty rows, so x0 - x = s_k + (x_k - x) with x_k - x
  * ~ N(0, Pkf) whatever the fault's size; the triangle inequality does the
  * rest, no test outcome needed), not ARAIM's a-priori T_k,j + K_md
- * sqrt(Pkf_jj), which has to cover every separation the test lets through. PL_pos_mm is the
+ * sqrt(Pkf_jj), which has to cover every separation the test lets through.
+ * The beacon-only PL (pl_beacon_*: the gate of a fix usable with camera
+ * faults unbounded, DEGRADED CAMERA_UNMONITORED, require_camera_monitor 0)
+ * keeps the a-priori form, deliberately: such a fix is exposed to every
+ * camera fault whatever its beacon bound, and the tighter bound widened that
+ * class (grown campaign, filter off, seeds 2-5, 7 Dec 2026: misleading fixes
+ * 1,922 -> 2,143, among them a one-camera fix of swapped streams 64 mm off
+ * under a 16 mm PL). The observed form serves the fixes whose every
+ * hypothesis, cameras too, is bounded. PL_pos_mm is the
  * largest of the three position axes (per axis, not a 3-D radius: compare it
  * with a per-axis alert limit), PL_att_deg the largest attitude axis.
  *
@@ -134,7 +142,9 @@ typedef struct {
     float pl_pos_mm;        /* protection level, largest position axis (mm); INFINITY when a
                                camera hypothesis is unmonitorable */
     float pl_att_deg;       /* protection level, largest attitude axis (deg) */
-    float pl_beacon_pos_mm; /* the same over the fault-free and beacon hypotheses only */
+    float pl_beacon_pos_mm; /* over the fault-free and beacon hypotheses only, in the a-priori
+                               form T + K_md sigma (the gate and the PL of a DEGRADED
+                               CAMERA_UNMONITORED fix: see "Protection level" above) */
     float pl_beacon_att_deg;
     float max_norm_sep;     /* max over monitored hypotheses and axes of |s| / T (> 1: a test failed) */
     float k_fa, k_md;       /* the multipliers used */
