@@ -72,6 +72,17 @@ mfns_filter_status_t mfns_bank_init(mfns_filter_bank_t *b, const mfns_pose_t *po
     return MFNS_FILTER_OK;
 }
 
+void mfns_bank_diffuse_prior(const float var_ros[6], float prior[6][6])
+{
+    for (int i = 0; i < 6; i++) {
+        const float floor_sigma = i < 3 ? MFNS_BANK_START_SIGMA_MM : MFNS_BANK_START_SIGMA_RAD;
+        for (int j = 0; j < 6; j++) {
+            prior[i][j] = 0.0f;
+        }
+        prior[i][i] = fmaxf(var_ros[i], floor_sigma * floor_sigma);
+    }
+}
+
 void mfns_bank_keep_exclusions(mfns_filter_bank_t *b, const int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS],
                                const uint8_t cam_excluded[MFNS_NUM_CAMERAS])
 {
@@ -407,7 +418,6 @@ static void separation(const mfns_filter_t *f0, const mfns_filter_t *fk, float s
 }
 
 
-/* Exclude hypothesis k (sub index): the full filter becomes its subset. */
 /* After an exclusion the full filter (the chosen subset) restarts from its
  * own state under the start's diffuse prior (MFNS_BANK_START_SIGMA_*,
  * MFNS_BANK_SIGMA_V0_MM_S, _W0_RAD_S; its own variance where larger), and
@@ -425,16 +435,15 @@ static bool restart_diffuse(mfns_filter_bank_t *b)
 {
     const mfns_filter_t *f = &b->full;
     const mfns_pose_t pose = mfns_filter_pose(f);
-    float prior[6][6] = {{0.0f}}; /* cov_ros order: position first */
+    float var_ros[6], prior[6][6]; /* cov_ros order: position first */
     float sv = MFNS_BANK_SIGMA_V0_MM_S, sw = MFNS_BANK_SIGMA_W0_RAD_S;
     for (int i = 0; i < 3; i++) {
-        prior[i][i] = fmaxf(f->P[MFNS_FILTER_POS + i][MFNS_FILTER_POS + i],
-                            MFNS_BANK_START_SIGMA_MM * MFNS_BANK_START_SIGMA_MM);
-        prior[3 + i][3 + i] = fmaxf(f->P[MFNS_FILTER_ATT + i][MFNS_FILTER_ATT + i],
-                                    MFNS_BANK_START_SIGMA_RAD * MFNS_BANK_START_SIGMA_RAD);
+        var_ros[i] = f->P[MFNS_FILTER_POS + i][MFNS_FILTER_POS + i];
+        var_ros[3 + i] = f->P[MFNS_FILTER_ATT + i][MFNS_FILTER_ATT + i];
         sv = fmaxf(sv, sqrtf(fmaxf(f->P[MFNS_FILTER_VEL + i][MFNS_FILTER_VEL + i], 0.0f)));
         sw = fmaxf(sw, sqrtf(fmaxf(f->P[MFNS_FILTER_OMEGA + i][MFNS_FILTER_OMEGA + i], 0.0f)));
     }
+    mfns_bank_diffuse_prior(var_ros, prior);
     mfns_filter_t g;
     if (mfns_filter_init(&g, &pose, (const float(*)[6])prior, f->v_w, sv, f->w_w, sw, f->t_us) != MFNS_FILTER_OK) {
         return false;
@@ -446,6 +455,7 @@ static bool restart_diffuse(mfns_filter_bank_t *b)
     return true;
 }
 
+/* Exclude hypothesis k (sub index): the full filter becomes its subset. */
 static bool exclude(mfns_filter_bank_t *b, int k)
 {
     if (k < MFNS_BANK_CAM_HYP) {
@@ -591,7 +601,7 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
              * fault leaks into it a little: the a-priori form, whose margin
              * (T - |s|) covers that (filter_bank.h "Protection level") */
             const float var_k = b->sub[k].P[j][j] + dvar[j];
-            const float plk = k < MFNS_BANK_CAM_HYP ? t + out->k_md * sqrtf(fmaxf(var_k, 0.0f))
+            const float plk = k < MFNS_BANK_CAM_HYP ? mfns_integrity_pl_axis_apriori(t, var_k, out->k_md)
                                                     : mfns_integrity_pl_axis(s[j], var_k, k_ff);
             ev->pl[j] = fmaxf(ev->pl[j], plk);
             ev->pl_b[j] = k < MFNS_BANK_CAM_HYP ? ev->pl_b[j] : fmaxf(ev->pl_b[j], plk);

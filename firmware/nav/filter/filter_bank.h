@@ -86,8 +86,9 @@
  * is what covers that leak (not proven: the two knocked-mount fixes at
  * onset on seed 5 pass it). An exactly unmoved camera subset (the frame's
  * observations projected on the complement of the fault parameters'
- * columns, a flat prior) would allow the observed form: not done. PL_pos_mm / PL_att_deg are the largest
- * position / attitude axis (per axis: compare with a per-axis alert limit).
+ * columns, a flat prior) would allow the observed form: not done.
+ * PL_pos_mm / PL_att_deg are the largest position / attitude axis (per
+ * axis: compare with a per-axis alert limit).
  * A hypothesis whose subset filter cannot follow (a camera that alone sees
  * the beacons coasts its subset beyond max_coast_s) is unmonitorable: the
  * PLs are infinite, status UNMONITORED.
@@ -310,6 +311,14 @@ mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_f
 mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
                                         const mfns_integrity_settings_t *is, const mfns_map_datum_t *datum,
                                         int64_t t_us, mfns_bank_output_t *out);
+
+/* The start's diffuse prior on the pose (MFNS_BANK_START_SIGMA_MM / _RAD):
+ * per axis of var_ros (pose.h cov_ros order, position first) the larger of
+ * that variance and the diffuse sigma squared, uncorrelated; the one rule
+ * of a start from a snapshot fix (nav_filter_cycle.c) and of the restart
+ * after an exclusion (filter_bank.c). A NaN variance gives the floor
+ * (fmaxf): a caller that must refuse one checks first. */
+void mfns_bank_diffuse_prior(const float var_ros[6], float prior[6][6]);
 
 /* After mfns_bank_init: hold out what `from` held out (a restart that follows
  * an exclusion, nav_filter_cycle.h); the re-admission counts start afresh. */

@@ -69,14 +69,14 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
             cov[i][j] = sol->cov_ros[i][j] - d[to_filter[i]][to_filter[j]];
         }
     }
-    float prior[6][6] = {{0.0f}};
+    float var_ros[6], prior[6][6];
     for (int i = 0; i < 6; i++) {
         if (!(cov[i][i] > 0.0f) || !isfinite(cov[i][i])) {
             return false;
         }
-        const float floor_sigma = i < 3 ? MFNS_BANK_START_SIGMA_MM : MFNS_BANK_START_SIGMA_RAD;
-        prior[i][i] = fmaxf(cov[i][i], floor_sigma * floor_sigma);
+        var_ros[i] = cov[i][i];
     }
+    mfns_bank_diffuse_prior(var_ros, prior);
     int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS];
     uint8_t cam_excluded[MFNS_NUM_CAMERAS];
     memcpy(excl_beacon, nf->bank.excl_beacon, sizeof excl_beacon);

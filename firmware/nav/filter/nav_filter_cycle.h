@@ -62,7 +62,6 @@
 #include "firmware/nav/integrity/integrity.h"
 #include "firmware/nav/pose/pose.h"
 
-
 typedef struct {
     bool on;
     bool running;

@@ -52,6 +52,11 @@ float mfns_integrity_pl_axis(float s, float var_k, float k_ff)
     return fabsf(s) + k_ff * sqrtf(fmaxf(var_k, 0.0f));
 }
 
+float mfns_integrity_pl_axis_apriori(float t, float var_k, float k_md)
+{
+    return t + k_md * sqrtf(fmaxf(var_k, 0.0f));
+}
+
 float mfns_integrity_q_inv(float p)
 {
     if (!(p > 0.0f && p <= 0.5f)) {
@@ -301,7 +306,7 @@ static float test_axes(const float s[6], const float var_ss[6], const float var_
         worst = fmaxf(worst, ns);
         pl[j] = fmaxf(pl[j], mfns_integrity_pl_axis(s[j], var_k[j], k_ff) + off[j]);
         if (pl_apriori != NULL) {
-            pl_apriori[j] = fmaxf(pl_apriori[j], t + k_md * sqrtf(fmaxf(var_k[j], 0.0f)) + off[j]);
+            pl_apriori[j] = fmaxf(pl_apriori[j], mfns_integrity_pl_axis_apriori(t, var_k[j], k_md) + off[j]);
         }
     }
     return worst;

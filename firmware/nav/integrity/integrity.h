@@ -117,6 +117,12 @@ float mfns_integrity_q_inv(float p);
  * beyond the linearisation). */
 float mfns_integrity_pl_axis(float s, float var_k, float k_ff);
 
+/* The a-priori form of the same bound, t + k_md sqrt(var_k), with t the
+ * hypothesis's test threshold on that axis and k_md = Q^-1(P_md): for the
+ * PLs that keep it (the beacon-only PL above, the filter bank's camera
+ * hypotheses, filter_bank.h). */
+float mfns_integrity_pl_axis_apriori(float t, float var_k, float k_md);
+
 #define MFNS_INTEGRITY_MAX_HYP (MFNS_NUM_CAMERAS * MFNS_MAX_OBS_PER_CAMERA + MFNS_NUM_CAMERAS)
 #define MFNS_INTEGRITY_AXES 6
 
