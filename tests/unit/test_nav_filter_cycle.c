@@ -411,6 +411,57 @@ static void test_start(void **state)
     assert_false(rep.used);
 }
 
+/* Where the bank cannot stand in for the snapshot (here: one camera in view,
+ * so no camera hypothesis can be bounded), a snapshot fix that bounds no
+ * camera fault is refused, whatever reason it carries: CAMERA_UNMONITORED, or
+ * EXCLUDED with the result's camera_unmonitored flag (a fix that held
+ * something out and certified the rest against beacon faults only). A fix
+ * that bounds camera faults stands. */
+static void test_snapshot_without_camera_bound_refused(void **state)
+{
+    (void)state;
+    static const struct {
+        mfns_pose_reason_t reason;
+        bool flag;
+        bool refused;
+    } cases[] = {
+        {MFNS_POSE_R_CAMERA_UNMONITORED, false, true},
+        {MFNS_POSE_R_CAMERA_UNMONITORED, true, true},
+        {MFNS_POSE_R_EXCLUDED, true, true},
+        {MFNS_POSE_R_EXCLUDED, false, false},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mfns_rng_t rng;
+        mfns_rng_seed(&rng, 7);
+        pt_dpose_t truth;
+        setup(&rng, &truth);
+        static mfns_navf_t nf;
+        mfns_navf_enable(&nf, 54000);
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        for (int c = 1; c < MFNS_NUM_CAMERAS; c++) { /* camera 0 alone */
+            frame.count[c] = 0;
+            for (int j = 0; j < MFNS_MAX_OBS_PER_CAMERA; j++) {
+                sol.assoc.beacon[c][j] = -1;
+            }
+        }
+        sol.reason = cases[i].reason;
+        integ.camera_unmonitored = cases[i].flag;
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_false(rep.used); /* the bank cannot bound camera 0 */
+        if (cases[i].refused) {
+            assert_int_equal(sol.status, MFNS_POSE_NO_FIX);
+            assert_int_equal(sol.reason, MFNS_POSE_R_UNMONITORED);
+        } else {
+            assert_int_equal(sol.status, MFNS_POSE_DEGRADED);
+            assert_int_equal(sol.reason, MFNS_POSE_R_EXCLUDED);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -420,6 +471,7 @@ int main(void)
         cmocka_unit_test(test_exclusion_restarts_with_subject_held),
         cmocka_unit_test(test_own_association),
         cmocka_unit_test(test_start),
+        cmocka_unit_test(test_snapshot_without_camera_bound_refused),
     };
     return cmocka_run_group_tests_name("nav_filter_cycle", tests, NULL, NULL);
 }

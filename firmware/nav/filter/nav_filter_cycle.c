@@ -274,9 +274,16 @@ static void apply(const mfns_bank_output_t *o, mfns_pose_solution_t *sol, mfns_i
  * hypotheses then cover what follows; a fault already in it is the start's
  * known miss, filter_bank.h). Measured on the grown campaign's knocked
  * camera x (seed 2): 6 such fixes beyond 5 sigma before this. */
-static void camera_bound_or_refused(mfns_pose_solution_t *sol)
+static void camera_bound_or_refused(mfns_pose_solution_t *sol, const mfns_integrity_result_t *integ)
 {
-    if (sol->status == MFNS_POSE_DEGRADED && sol->reason == MFNS_POSE_R_CAMERA_UNMONITORED) {
+    /* The snapshot's flag, not only its reason: a fix that held something out
+     * is DEGRADED EXCLUDED whatever its PL covers (integrity_fde.c
+     * mark_usable), and a knocked camera x once passed that way (grown
+     * campaign seed 5, 0.6 deg: the time-offset monitor blamed camera y, the
+     * rest, camera x and one beacon of z, were EXCLUDED with a beacon-only
+     * PL, 1.92 x beyond it). */
+    const bool cameras_unbounded = integ->camera_unmonitored || sol->reason == MFNS_POSE_R_CAMERA_UNMONITORED;
+    if (sol->status == MFNS_POSE_DEGRADED && cameras_unbounded) {
         sol->status = MFNS_POSE_NO_FIX;
         sol->reason = MFNS_POSE_R_UNMONITORED;
     }
@@ -385,5 +392,5 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
         rep->used = true;
         return;
     }
-    camera_bound_or_refused(sol); /* the snapshot's verdict stands this cycle, if it bounds cameras */
+    camera_bound_or_refused(sol, integ); /* the snapshot's verdict stands this cycle, if it bounds cameras */
 }
