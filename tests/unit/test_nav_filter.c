@@ -116,6 +116,8 @@ static void test_aug_jacobian_matches_finite_differences(void **state)
         assert_int_equal(mfns_filter_augment(&f, c), MFNS_FILTER_OK);
         f.aug_rot = mfns_v3(2e-3f, -3e-3f, 1e-3f);
         f.aug_dt_s = 0.02f;
+        f.aug_v_w = f.v_w; /* as a frame's first observation holds them (nav_filter.c aug_step) */
+        f.aug_w_w = f.w_w;
         for (int b = 0; b < w.map.count; b++) {
             mfns_filter_obs_t o;
             memset(&o, 0, sizeof o);
@@ -149,6 +151,19 @@ static void test_aug_jacobian_matches_finite_differences(void **state)
                     const double scale = j < MFNS_FILTER_AUG_DT ? 1600.0 : 100.0; /* px/rad, px/s */
                     assert_near(h[a][j], fd, 0.02 * scale);
                 }
+            }
+            /* the offset's column is the frame's: held at the velocity of the
+             * frame's first observation, not moved by the frame's own updates
+             * (a late frame read as a deceleration otherwise, nav_filter.c) */
+            {
+                mfns_filter_t g = f;
+                g.v_w = mfns_v3(0.0f, 0.0f, 0.0f);
+                g.w_w = mfns_v3(0.0f, 0.0f, 0.0f);
+                float ug[2], hg[2][MFNS_FILTER_N];
+                assert_true(mfns_filter_obs_jacobian_full(&g, &w.rig, &o, ug, hg));
+                assert_float_equal(hg[0][MFNS_FILTER_AUG_DT], h[0][MFNS_FILTER_AUG_DT], 0.0f);
+                assert_float_equal(hg[1][MFNS_FILTER_AUG_DT], h[1][MFNS_FILTER_AUG_DT], 0.0f);
+                assert_true(fabsf(h[0][MFNS_FILTER_AUG_DT]) + fabsf(h[1][MFNS_FILTER_AUG_DT]) > 1.0f);
             }
             /* and the time offset against the pose truly moved back by tau */
             {

@@ -42,11 +42,11 @@
  * A beacon with no free hypothesis slot is not used by any filter (counted in
  * unmonitored_obs): nothing enters the full filter that no hypothesis covers.
  *
- * Memory: a filter is 1,216 B (16 x 16 floats of covariance = 1 KB + the
+ * Memory: a filter is 1,240 B on x86-64 (16 x 16 floats of covariance = 1 KB + the
  * nominal state; nav_filter.h MFNS_FILTER_MAX_AUG). MFNS_BANK_MAX_BEACON_HYP = 12: the original module layout
  * keeps 4-7 beacons in view over two cameras, the planned 60-LED layout up to
  * ~10; 12 leaves room for the beacons that just left view and whose effect
- * has not decayed yet. 1 + 3 + 12 filters = 19,744 B of caller-owned RAM (was
+ * has not decayed yet. 1 + 3 + 12 filters = 20,152 B of caller-owned RAM (was
  * 12,192 B with 12 states), and an observation costs at most 16 filter
  * updates (a camera filter's update of its own camera's observation is
  * 16-wide, every other one 6-wide in H).

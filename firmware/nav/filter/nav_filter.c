@@ -313,8 +313,18 @@ bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig
     mfns_m3_t ct, a3;
     mfns_m3_transpose_at(&cam.C_k_b, &ct);
     mfns_m3_mul_at(&ct, &sd, &a3);
-    const float w[3] = {f->w_w.x, f->w_w.y, f->w_w.z};
-    const float v[3] = {f->v_w.x, f->v_w.y, f->v_w.z};
+    /* The velocity the offset's column is taken at: the prediction at the
+     * frame's first observation, held for the frame. Each observation is an
+     * update of its own, and the state's velocity moves with them (position
+     * and velocity are correlated after a coast); re-linearised at the
+     * updated velocity, a late frame's first beacons took the velocity down
+     * (a lag read as a deceleration: 80 -> 18 mm/s, test_filter_bank's
+     * dominant camera late after a dropped frame) and the shrunken column
+     * left the offset at 0.5 ms of the true 54 ms, the camera's hypothesis
+     * filter as far off as the full one (3.4 x its PL). Held, the frame is
+     * linearised once, as a batch would be. */
+    const float w[3] = {f->aug_w_w.x, f->aug_w_w.y, f->aug_w_w.z};
+    const float v[3] = {f->aug_v_w.x, f->aug_v_w.y, f->aug_v_w.z};
     for (int a = 0; a < 2; a++) {
         for (int j = 0; j < 3; j++) {
             float x = 0.0f;
@@ -380,6 +390,8 @@ static void aug_step(mfns_filter_t *f, const mfns_filter_settings_t *s, const mf
         return;
     }
     f->aug_frame_us = o->t_us;
+    f->aug_v_w = f->v_w;
+    f->aug_w_w = f->w_w;
     for (int i = MFNS_FILTER_BASE_N; i < N; i++) {
         for (int j = 0; j < N; j++) {
             f->P[i][j] = 0.0f;

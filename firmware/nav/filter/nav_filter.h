@@ -3,7 +3,7 @@
  * velocity model whose process noise overbounds the robot's unmodelled
  * acceleration, updated observation by observation from beacon image
  * positions at each frame's own capture time. Portable core: no heap, no OS,
- * caller-owned state (mfns_filter_t, 1,216 B), bounded work per call.
+ * caller-owned state (mfns_filter_t, 1,240 B on x86-64), bounded work per call.
  *
  * State (nominal): C_w_b (world -> body, camera.h), r_wb_w (mm, world), v_w
  * (mm/s, world), w_w (rad/s, world: C_b_w' = exp([w_w dt]x) C_b_w), the time
@@ -195,11 +195,14 @@ typedef struct {
     /* camera fault parameters (MFNS_FILTER_AUG_*): the camera they belong
      * to (MFNS_FILTER_NO_AUG: none, rows and columns 12-15 of P zero), the
      * nominal pointing bias (rad, body axes) and time offset (s), the
-     * capture time of the last frame that restarted them */
+     * capture time of the last frame that restarted them, and the linear
+     * and angular velocity predicted at that frame's first observation (the
+     * time offset's column: held for the whole frame, see nav_filter.c) */
     uint8_t aug_cam;
     mfns_v3_t aug_rot;
     float aug_dt_s;
     int64_t aug_frame_us;
+    mfns_v3_t aug_v_w, aug_w_w;
 } mfns_filter_t;
 
 /* One observation as the filter takes it. */
@@ -287,7 +290,12 @@ float mfns_filter_chi2_quantile(float dof, float p);
  *   z = h(x(t - tau); C_k_b = exp([b]x) C_k_b) ~ h(x(t)) - tau (H_phi w + H_r v)
  *   d z / d b   = J_c C_k_b'^T [p_b - r_bk_b]x       (J_c = d(u,v)/d p_k)
  *   d z / d tau = -(H_phi w_w + H_r v_w)            (the beacon's image velocity)
- * (the second-order d z / d v = -tau H_r, d z / d w = -tau H_phi are left
+ * with w_w, v_w the velocity predicted at the frame's first observation,
+ * held for the frame (aug_v_w, aug_w_w: the frame is linearised once; taken
+ * at the velocity each update of the frame moves, a camera's late frame was
+ * read as a deceleration and its offset left near 0, its hypothesis filter
+ * as far off as the full one, 3.4 x the PL: test_filter_bank
+ * test_dominant_camera_late) (the second-order d z / d v = -tau H_r, d z / d w = -tau H_phi are left
  * out: tau is nearly free at every frame, and a linearisation at a poorly
  * known tau would invent velocity information). cam out of range: E_ARG. */
 mfns_filter_status_t mfns_filter_augment(mfns_filter_t *f, int cam);
@@ -297,7 +305,9 @@ void mfns_filter_strip_aug(mfns_filter_t *f);
 
 /* The observation Jacobian w.r.t. all N states at the state f for obs
  * (rows 2, columns MFNS_FILTER_N) and the prediction; exposed for tests
- * (finite differences). False when the beacon is behind the camera. */
+ * (finite differences). The time offset's column uses the velocity held at
+ * the frame's start (aug_v_w, aug_w_w), set by the update or test that
+ * starts a frame. False when the beacon is behind the camera. */
 bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig, const mfns_filter_obs_t *obs,
                                    float uv[2], float h[2][MFNS_FILTER_N]);
 
