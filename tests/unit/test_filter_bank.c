@@ -313,8 +313,8 @@ static void test_camera_one_frame_late(void **state)
  * it), so what bounds it is the camera's own hypothesis, whose time offset
  * must take the lag. Before the offset's column was held for the frame
  * (nav_filter.h mfns_filter_augment), the frame's first updates read the lag
- * as a deceleration (80 -> 18 mm/s), the offset stayed at 0.5 ms, and a
- * usable fix was 3.4 x beyond its PL (22.9 sigma) one cycle after the drop.
+ * as a deceleration (80 -> 26 mm/s in the camera's hypothesis filter), the
+ * offset stayed at 0.5 ms, and a usable fix was 3.4 x beyond its PL (22.9 sigma) one cycle after the drop.
  * Now: the camera named within two cycles, no usable fix beyond its PL. The
  * usable fixes beyond 5 sigma before the naming are printed, not asserted
  * (the PL bounds them; the covariance does not: docs/pose.md). */

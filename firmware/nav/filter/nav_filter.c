@@ -318,11 +318,11 @@ bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig
      * update of its own, and the state's velocity moves with them (position
      * and velocity are correlated after a coast); re-linearised at the
      * updated velocity, a late frame's first beacons took the velocity down
-     * (a lag read as a deceleration: 80 -> 18 mm/s, test_filter_bank's
-     * dominant camera late after a dropped frame) and the shrunken column
-     * left the offset at 0.5 ms of the true 54 ms, the camera's hypothesis
-     * filter as far off as the full one (3.4 x its PL). Held, the frame is
-     * linearised once, as a batch would be. */
+     * (a lag read as a deceleration: 80 -> 26 mm/s in the hypothesis filter,
+     * test_filter_bank's dominant camera late after a dropped frame) and the
+     * shrunken column left the offset at 0.5 ms of the true 54 ms, the
+     * camera's hypothesis filter as far off as the full one (3.4 x its PL).
+     * Held, the frame is linearised once, as a batch would be. */
     const float w[3] = {f->aug_w_w.x, f->aug_w_w.y, f->aug_w_w.z};
     const float v[3] = {f->aug_v_w.x, f->aug_v_w.y, f->aug_v_w.z};
     for (int a = 0; a < 2; a++) {
