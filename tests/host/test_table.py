@@ -203,6 +203,28 @@ def test_build_input_errors(sources, tmp_path, capsys):
     assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 2
     err = capsys.readouterr().err
     assert "integrity settings out of range" in err and "integrity.p_fa" in err, err
+    # the motion bound (docs/caltable.md "Motion bound"): defaults unless given, written
+    # as given, shown, and refused by the flight loader with the field named
+    t = decode((tmp_path / "t.mfnstbl").read_bytes())
+    assert t.version == 6 and t.motion["accel_bound_mm_s2"] == 100.0 and t.motion["gate_reject_run"] == 3
+    settings.write_text(
+        json.dumps({"motion": {"accel_bound_mm_s2": 60, "bound_time_s": 0.5, "max_coast_s": 0.4}})
+    )
+    assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 0
+    t = decode((tmp_path / "t.mfnstbl").read_bytes())
+    assert t.motion["accel_bound_mm_s2"] == 60 and t.motion["max_coast_s"] == pytest.approx(0.4)
+    assert t.motion["alpha_bound_rad_s2"] == 0.25 and t.integrity["p_fa"] == pytest.approx(1e-5)
+    capsys.readouterr()
+    assert main(["table", "show", out]) == 0
+    assert "motion: accel_bound_mm_s2=60" in capsys.readouterr().out
+    settings.write_text(json.dumps({"motion": {"max_coast_s": 0.3}}))  # beyond bound_time_s 0.2
+    assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 2
+    err = capsys.readouterr().err
+    assert "motion bound out of range" in err and "motion.max_coast_s" in err, err
+    settings.write_text(json.dumps({"motion": {"gate_reject_run": 1.5}}))
+    assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 2
+    settings.write_text(json.dumps({"motion": {"no_such": 1}}))
+    assert main(["table", "build", *map(str, sources), "-o", out, "--settings", str(settings)]) == 2
 
 
 def test_grid_error_below_requirement_and_shrinks_with_spacing(sources):
@@ -402,7 +424,7 @@ def test_build_carries_the_calibration_covariance(sources, tmp_path, capsys):
     data = out.read_bytes()
     assert check_table(data).ok
     t = decode(data)
-    assert t.version == VERSION == 5 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
+    assert t.version == VERSION == 6 and t.calib_cov.shape == (CALIB_PARAMS, CALIB_PARAMS)
     slot = {
         f"{c}.{p}": k * len(CALIB_PARAM_NAMES) + i
         for k, c in enumerate("xyz")
@@ -497,7 +519,7 @@ def test_build_carries_the_map_datum(sources, tmp_path, capsys):
     data = out.read_bytes()
     assert check_table(data).ok
     t = decode(data)
-    assert t.version == VERSION == 5
+    assert t.version == VERSION == 6
     np.testing.assert_array_equal(t.beacon_ids, ids)
     np.testing.assert_array_equal(t.beacon_sigma, np.round(rel, 4).astype(np.float32))
     np.testing.assert_array_equal(t.map_datum.c_w_mm, np.round(centre, 4).astype(np.float32))

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "firmware/nav/table/caltable.h"
+#include "firmware/nav/filter/nav_filter.h"
 #include "firmware/app/caltable_file.h"
 #include "math/undistort.h"
 
@@ -675,7 +676,7 @@ static void test_bad_beacons_and_size(void **state)
     fix_crc(len + 8);
     EXPECT(len + 8, MFNS_CALTABLE_E_SIZE_MISMATCH,
            beacon_off(10) + MFNS_CALTABLE_COV_HEADER_SIZE + MFNS_CALTABLE_DATUM_HEADER_SIZE +
-               MFNS_CALTABLE_INTEGRITY_SIZE);
+               MFNS_CALTABLE_INTEGRITY_SIZE + MFNS_CALTABLE_MOTION_SIZE);
     /* a longer buffer than total_size is fine (a file read into a big buffer) */
     fresh();
     assert_int_equal(mfns_caltable_load(g_bad, len + 8, &g_out, NULL), MFNS_CALTABLE_OK);
@@ -688,9 +689,9 @@ static void test_bad_index(void **state)
     (void)state;
     const size_t len = g_good_len;
     /* the default table has no calibration covariance and no map datum: a 4-
-     * and a 16-byte section, then the integrity settings */
+     * and a 16-byte section, then the integrity settings and the motion bound */
     const uint32_t ix = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE +
-                        MFNS_CALTABLE_DATUM_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE;
+                        MFNS_CALTABLE_DATUM_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE + MFNS_CALTABLE_MOTION_SIZE;
     const uint32_t n = g_table.index.count, k = g_table.index.k_nbr;
     const uint32_t geom = ix + MFNS_CALTABLE_INDEX_HEADER_SIZE, nbr = geom + MFNS_CALTABLE_INDEX_GEOM_SIZE * n;
     const uint32_t pairs = nbr + n * (1u + k);
@@ -772,6 +773,8 @@ static void test_old_version(void **state)
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
     put_u16(g_bad, 4, 4); /* version 4: no map datum: rebuild */
     EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
+    put_u16(g_bad, 4, 5); /* version 5: no motion bound: rebuild */
+    EXPECT(g_good_len, MFNS_CALTABLE_E_VERSION_OLD, 4);
 }
 
 /* The integrity settings section (docs/caltable.md "Integrity settings"):
@@ -822,6 +825,79 @@ static void test_integrity_section(void **state)
     fix_crc(g_good_len);
     assert_int_equal(mfns_caltable_load(g_bad, g_good_len, &g_out, NULL), MFNS_CALTABLE_OK);
     assert_int_equal(g_out.integrity.require_camera_monitor, 1);
+    memcpy(&g_out, &g_sentinel, sizeof g_out);
+}
+
+/* The motion bound (docs/caltable.md "Motion bound"): the defaults load and
+ * are valid filter settings; each field outside its range is refused at its
+ * offset, the reserved u16 too, and a coast beyond the bound time (a cross-
+ * field rule: beyond T the bound's bias outgrows the process noise) at
+ * max_coast_s; a bound of the operator's own is loaded as written. */
+static void test_motion_section(void **state)
+{
+    (void)state;
+    mfns_filter_settings_t d;
+    mfns_filter_settings_default(&d);
+    assert_true(mfns_filter_settings_valid(&d));
+    const mfns_filter_settings_t *m = &g_table.motion;
+    assert_true(m->accel_bound_mm_s2 == d.accel_bound_mm_s2 && m->alpha_bound_rad_s2 == d.alpha_bound_rad_s2 &&
+                m->bound_time_s == d.bound_time_s && m->max_coast_s == d.max_coast_s && m->gate_p == d.gate_p &&
+                m->gate_reject_run == d.gate_reject_run && m->aug_rot_rad == d.aug_rot_rad &&
+                m->aug_dt_s == d.aug_dt_s);
+    const uint32_t o = beacon_off(g_table.beacons.count) + MFNS_CALTABLE_COV_HEADER_SIZE +
+                       MFNS_CALTABLE_DATUM_HEADER_SIZE + MFNS_CALTABLE_INTEGRITY_SIZE;
+    const struct {
+        uint32_t off;
+        int kind; /* 1: f32, 2: u16 */
+        float value;
+        mfns_caltable_status_t want;
+    } cases[] = {
+        {MFNS_CALTABLE_OFF_MOTION_ACCEL_BOUND_MM_S2, 1, 0.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_ACCEL_BOUND_MM_S2, 1, -100.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_ACCEL_BOUND_MM_S2, 1, INFINITY, MFNS_CALTABLE_E_NOT_FINITE},
+        {MFNS_CALTABLE_OFF_MOTION_ALPHA_BOUND_RAD_S2, 1, NAN, MFNS_CALTABLE_E_NOT_FINITE},
+        {MFNS_CALTABLE_OFF_MOTION_ALPHA_BOUND_RAD_S2, 1, 1001.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_BOUND_TIME_S, 1, 0.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_BOUND_TIME_S, 1, 0.1f, MFNS_CALTABLE_E_MOTION_SETTINGS}, /* below the coast 0.2 */
+        {MFNS_CALTABLE_OFF_MOTION_MAX_COAST_S, 1, 0.3f, MFNS_CALTABLE_E_MOTION_SETTINGS},  /* beyond T 0.2 */
+        {MFNS_CALTABLE_OFF_MOTION_MAX_COAST_S, 1, 11.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_GATE_P, 1, 0.5f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_GATE_P, 1, 0.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_GATE_REJECT_RUN, 2, 0.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_GATE_REJECT_RUN, 2, 1001.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_RESERVED, 2, 1.0f, MFNS_CALTABLE_E_RESERVED},
+        {MFNS_CALTABLE_OFF_MOTION_AUG_ROT_RAD, 1, 0.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_AUG_ROT_RAD, 1, 0.6f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_AUG_DT_S, 1, -0.06f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+        {MFNS_CALTABLE_OFF_MOTION_AUG_DT_S, 1, 2.0f, MFNS_CALTABLE_E_MOTION_SETTINGS},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        fresh();
+        if (cases[i].kind == 1) {
+            put_f32(g_bad, o + cases[i].off, cases[i].value);
+        } else {
+            put_u16(g_bad, o + cases[i].off, (uint16_t)cases[i].value);
+        }
+        fix_crc(g_good_len);
+        /* the cross-field rule names max_coast_s, whichever of the two moved */
+        const uint32_t at = cases[i].off == MFNS_CALTABLE_OFF_MOTION_BOUND_TIME_S && cases[i].value > 0.0f
+                                ? MFNS_CALTABLE_OFF_MOTION_MAX_COAST_S
+                                : cases[i].off;
+        EXPECT(g_good_len, cases[i].want, o + at);
+    }
+    /* a turntable's bound (omega^2 r beyond a free flyer's), a longer coast
+     * under a longer T: loaded as written and valid for the filter */
+    fresh();
+    put_f32(g_bad, o + MFNS_CALTABLE_OFF_MOTION_ACCEL_BOUND_MM_S2, 60.0f);
+    put_f32(g_bad, o + MFNS_CALTABLE_OFF_MOTION_BOUND_TIME_S, 0.5f);
+    put_f32(g_bad, o + MFNS_CALTABLE_OFF_MOTION_MAX_COAST_S, 0.5f);
+    put_u16(g_bad, o + MFNS_CALTABLE_OFF_MOTION_GATE_REJECT_RUN, 5);
+    fix_crc(g_good_len);
+    assert_int_equal(mfns_caltable_load(g_bad, g_good_len, &g_out, NULL), MFNS_CALTABLE_OK);
+    assert_true(g_out.motion.accel_bound_mm_s2 == 60.0f && g_out.motion.bound_time_s == 0.5f &&
+                g_out.motion.max_coast_s == 0.5f && g_out.motion.gate_reject_run == 5 &&
+                g_out.motion.alpha_bound_rad_s2 == d.alpha_bound_rad_s2);
+    assert_true(mfns_filter_settings_valid(&g_out.motion));
     memcpy(&g_out, &g_sentinel, sizeof g_out);
 }
 
@@ -1153,6 +1229,7 @@ int main(void)
         cmocka_unit_test_setup(test_bad_index, bad_setup),
         cmocka_unit_test_setup(test_old_version, bad_setup),
         cmocka_unit_test_setup(test_integrity_section, bad_setup),
+        cmocka_unit_test_setup(test_motion_section, bad_setup),
         cmocka_unit_test_setup(test_calib_cov_section, bad_setup),
         cmocka_unit_test_setup(test_map_datum_section, bad_setup),
         cmocka_unit_test(test_failed_load_keeps_previous_table),

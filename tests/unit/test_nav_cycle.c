@@ -537,7 +537,7 @@ static void test_three_beacons_track_but_never_usable(void **state)
 
 /* A table re-loaded while tracking (issue 45): the same system with other settings and
  * sigmas is re-bound keeping the track (the next cycle tracks, no re-acquisition) and
- * its sigmas count; a moved beacon or a changed rig is refused (nav untouched) so the
+ * its sigmas and motion bound count; a moved beacon or a changed rig is refused (nav untouched) so the
  * caller binds afresh. */
 static mfns_caltable_t table2;
 static void test_rebind_keeps_the_track_of_the_same_system(void **state)
@@ -573,8 +573,10 @@ static void test_rebind_keeps_the_track_of_the_same_system(void **state)
         table2.beacons.beacon[b].sigma_mm *= 2.0f;
     }
     table2.pixel_sigma_px *= 1.5f;
+    table2.motion.accel_bound_mm_s2 = 0.5f * table.motion.accel_bound_mm_s2; /* an uploaded motion bound */
     assert_int_equal(mfns_nav_rebind(&nav, &table2, &kept), MFNS_NAV_OK);
     assert_true(kept);
+    assert_true(nav.table->motion.accel_bound_mm_s2 == table2.motion.accel_bound_mm_s2); /* the filter's next cycle */
     assert_ptr_equal(nav.table, &table2);
     assert_true(nav.map.beacon[0].sigma_mm == table2.beacons.beacon[0].sigma_mm);
     assert_true(nav.pose_cfg.sigma_px == table2.pixel_sigma_px);

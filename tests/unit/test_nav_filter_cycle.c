@@ -26,6 +26,7 @@ static void setup(mfns_rng_t *rng, pt_dpose_t *truth)
     *truth = pt_pose(eye, r0);
     table.beacons = pt_dense_map(&table.rig, truth, PER_CAM, 900, 1400, rng);
     mfns_integrity_settings_default(&table.integrity);
+    mfns_filter_settings_default(&table.motion);
 }
 
 /* A snapshot "fix" at the truth with its frame's associations. */
@@ -134,6 +135,57 @@ static void test_on_starts_and_takes_over(void **state)
     mfns_navf_report_t rep;
     mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
     assert_false(rep.ran);
+}
+
+/* The filter's motion bound is the bound table's (docs/caltable.md "Motion
+ * bound"), read every cycle: the same frames under a tighter acceleration
+ * bound leave a smaller covariance and PL (less process noise), a re-bound
+ * table's bound takes effect at the next cycle, and a table whose bound is
+ * not valid filter settings (which the loader never lets through) stops the
+ * bank instead of running it on garbage. */
+/* 20 cycles on the same frames (seed 6) under a linear acceleration bound of
+ * accel_mm_s2; from cycle broken_from on (-1: never) the table's bound is
+ * made invalid (a coast beyond T). The last cycle's sigma x and PL. */
+static float run_with_accel(float accel_mm_s2, int broken_from, float *sigma_mm)
+{
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 6);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    table.motion.accel_bound_mm_s2 = accel_mm_s2;
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 54000);
+    float pl = -1.0f;
+    for (int k = 0; k < 20; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        if (k == broken_from) {
+            table.motion.max_coast_s = 2.0f * table.motion.bound_time_s; /* the loader's cross-field rule */
+        }
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        /* a bound that is not valid settings: the bank does not run, the
+         * snapshot's verdict stands (nothing used), no crash */
+        assert_true(broken_from < 0 || k < broken_from ? rep.ran : !rep.ran && !rep.used);
+        pl = rep.out.pl_pos_mm;
+        *sigma_mm = sqrtf(rep.out.cov_ros[0][0]);
+    }
+    return pl;
+}
+
+static void test_motion_bound_from_table(void **state)
+{
+    (void)state;
+    float sig_default = 0.0f, sig_tight = 0.0f, sig_broken = 0.0f;
+    const float pl_default = run_with_accel(MFNS_CALTABLE_DEFAULT_MOTION_ACCEL_BOUND_MM_S2, -1, &sig_default);
+    const float pl_tight = run_with_accel(1.0f, -1, &sig_tight);
+    print_message("motion bound 100 -> 1 mm/s^2: sigma x %.3f -> %.3f mm, PL %.2f -> %.2f mm\n", sig_default,
+                  sig_tight, pl_default, pl_tight);
+    assert_true(sig_tight < 0.9f * sig_default);
+    assert_true(pl_tight < pl_default);
+    (void)run_with_accel(MFNS_CALTABLE_DEFAULT_MOTION_ACCEL_BOUND_MM_S2, 2, &sig_broken);
 }
 
 /* Capture times (mfns_navf_set_frame_times): each camera's frame enters at
@@ -467,6 +519,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
+        cmocka_unit_test(test_motion_bound_from_table),
         cmocka_unit_test(test_capture_times),
         cmocka_unit_test(test_exclusion_restarts_with_subject_held),
         cmocka_unit_test(test_own_association),

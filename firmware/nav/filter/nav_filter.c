@@ -27,17 +27,7 @@ _Static_assert(MFNS_NUM_CAMERAS < MFNS_FILTER_NO_AUG, "camera index fits aug_cam
 _Static_assert(MFNS_FILTER_POS + 3 == MFNS_FILTER_VEL && MFNS_FILTER_ATT + 3 == MFNS_FILTER_POS,
                "pose block first, attitude then position");
 
-void mfns_filter_settings_default(mfns_filter_settings_t *s)
-{
-    s->accel_bound_mm_s2 = MFNS_FILTER_DEFAULT_ACCEL_MM_S2;
-    s->alpha_bound_rad_s2 = MFNS_FILTER_DEFAULT_ALPHA_RAD_S2;
-    s->bound_time_s = MFNS_FILTER_DEFAULT_BOUND_TIME_S;
-    s->max_coast_s = MFNS_FILTER_DEFAULT_MAX_COAST_S;
-    s->gate_p = MFNS_FILTER_DEFAULT_GATE_P;
-    s->gate_reject_run = MFNS_FILTER_DEFAULT_REJECT_RUN;
-    s->aug_rot_rad = MFNS_FILTER_DEFAULT_AUG_ROT_RAD;
-    s->aug_dt_s = MFNS_FILTER_DEFAULT_AUG_DT_S;
-}
+/* mfns_filter_settings_default: nav_defaults_gen.c (the table's definition). */
 
 static bool pos_finite(float x)
 {

@@ -37,15 +37,17 @@
  * The rotation's second-order term (phi x w dt) is neglected: at 0.5 rad/s
  * and 54 ms it is 3 % of an attitude error of 1e-4 rad, far below its sigma.
  *
- * Defaults (argued from an Astrobee-class free flyer's propulsion: the
- * fans give at most ~0.1 m/s^2 commanded linear acceleration at full
- * thrust, the "quick" flight mode's limits are below 0.05 m/s^2 and 0.2
- * rad/s^2; the controller's unmodelled part is smaller than the commanded
- * acceleration itself, which the filter does not know: so the whole
- * worst-case commanded acceleration is the bound):
+ * Defaults (the table's motion bound, docs/caltable.md; argued from an
+ * Astrobee-class free flyer's propulsion: the fans give at most ~0.1 m/s^2
+ * commanded linear acceleration at full thrust, the "quick" flight mode's
+ * limits are below 0.05 m/s^2 and 0.2 rad/s^2; the controller's unmodelled
+ * part is smaller than the commanded acceleration itself, which the filter
+ * does not know: so the whole worst-case commanded acceleration is the bound):
  *   accel_bound_mm_s2 100 (0.1 m/s^2, full thrust), alpha_bound_rad_s2 0.25
- *   (~14 deg/s^2, above Astrobee's 0.2 rad/s^2 limit), bound_time_s 1.0
- *   (coasts of up to 1 s = 18 frames are overbounded), max_coast_s 1.0.
+ *   (~14 deg/s^2, above Astrobee's 0.2 rad/s^2 limit), bound_time_s 0.2
+ *   (coasts of up to 0.2 s, almost four frames, are overbounded),
+ *   max_coast_s 0.2. A robot whose motion these do not bound (a turntable:
+ *   omega^2 r) needs its own in its table.
  * A collision or a burst beyond these is what the gate below is for.
  *
  * Update from one observation: the beacon p_w (map, survey sigma_mm) seen by
@@ -124,44 +126,20 @@
 #define MFNS_FILTER_AUG_ROT 12
 #define MFNS_FILTER_AUG_DT 15
 #define MFNS_FILTER_NO_AUG 0xFFU
-/* Fault parameters' prior, fresh at every frame of the augmented camera
- * (filter_bank.h argues the values): 1 deg of pointing and 60 ms (more than a
- * frame period) of timing around the last estimate, independent of the rest,
- * i.e. the hypothesis assumes nothing about the fault's profile (a step at
- * any time, a ramp of any slope within the linear range): each frame's fault
- * parameters are its own unknowns, only the
- * part of the frame they cannot move (the beacons' relative geometry) informs
- * the pose. */
-#define MFNS_FILTER_DEFAULT_AUG_ROT_RAD 0.0175f
-#define MFNS_FILTER_DEFAULT_AUG_DT_S 0.06f
-
-/* Defaults (argued above). */
-#define MFNS_FILTER_DEFAULT_ACCEL_MM_S2 100.0f
-#define MFNS_FILTER_DEFAULT_ALPHA_RAD_S2 0.25f
-#define MFNS_FILTER_DEFAULT_BOUND_TIME_S 0.2f
-#define MFNS_FILTER_DEFAULT_MAX_COAST_S 0.2f
-/* per-observation gate: chi-square(2) false alarm 1e-5 -> NIS 23.0 */
-#define MFNS_FILTER_DEFAULT_GATE_P 1e-5f
-/* consecutive gated observations that mean the motion bound is broken: three
- * is more than a frame's worth of one faulty beacon (seen once per frame) and
- * less than one frame of a robot that collided (every beacon in view fails) */
-#define MFNS_FILTER_DEFAULT_REJECT_RUN 3U
+/* The settings (mfns_filter_settings_t, nav_settings.h) are the table's motion
+ * bound (docs/caltable.md "Motion bound"): the acceleration bounds, T, the
+ * coast, the gate (P 1e-5 by default: chi-square(2) NIS 23.0) and its reject
+ * run, and the camera hypotheses' per-frame priors (1 deg of pointing, 60 ms of
+ * timing around the last estimate: each frame's fault parameters are its own
+ * unknowns, so the hypothesis assumes nothing about the fault's profile; only
+ * the part of the frame they cannot move, the beacons' relative geometry,
+ * informs the pose). Defaults and their reasons: contract/caltable_layout.toml,
+ * mfns_filter_settings_default (generated). */
 /* re-orthonormalise the attitude after every injection: at most this many
  * iterations (linalg.h) */
 #define MFNS_FILTER_ORTHO_ITERS 4
 /* cycles of the windowed NIS test (mfns_filter_end_cycle): 8 frames = 0.43 s */
 #define MFNS_FILTER_NIS_WINDOW 8
-
-typedef struct {
-    float accel_bound_mm_s2;  /* unmodelled linear acceleration bound a_max */
-    float alpha_bound_rad_s2; /* unmodelled angular acceleration bound alpha_max */
-    float bound_time_s;       /* T: span over which Q overbounds a sustained bound */
-    float max_coast_s;        /* longest time without an applied observation (E_TIME: restart) */
-    float gate_p;             /* per-observation gate false-alarm probability, (0, 0.5) */
-    uint16_t gate_reject_run; /* consecutive gated observations that flag motion_exceeded */
-    float aug_rot_rad;        /* per-frame prior sigma of an augmented camera's pointing bias */
-    float aug_dt_s;           /* per-frame prior sigma of its time offset */
-} mfns_filter_settings_t;
 
 typedef enum {
     MFNS_FILTER_OK = 0,      /* applied */
@@ -221,7 +199,6 @@ typedef struct {
     float innov_px[2];
 } mfns_filter_update_info_t;
 
-void mfns_filter_settings_default(mfns_filter_settings_t *s);
 bool mfns_filter_settings_valid(const mfns_filter_settings_t *s);
 
 /* The chi-square(2) threshold of the gate: -2 ln(gate_p). */

@@ -17,7 +17,6 @@ void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us)
     memset(nf, 0, sizeof(*nf));
     nf->on = period_us > 0U;
     nf->period_us = period_us;
-    mfns_filter_settings_default(&nf->set);
 }
 
 void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAMERAS])
@@ -136,13 +135,13 @@ static int own_associate(const mfns_navf_t *nf, const mfns_caltable_t *t, const 
                          float sigma_px, int c, int64_t tc, int count, int16_t beacon[])
 {
     mfns_filter_t pred = nf->bank.full; /* ~1.2 KB: the bank's state stays as it is */
-    if (tc < pred.t_us || mfns_filter_propagate(&pred, &nf->set, tc) != MFNS_FILTER_OK) {
+    if (tc < pred.t_us || mfns_filter_propagate(&pred, &t->motion, tc) != MFNS_FILTER_OK) {
         return 0;
     }
     const mfns_pose_t pose = mfns_filter_pose(&pred);
     const mfns_camera_t *cam = &t->rig.cam[c];
     const float gate_px2 = t->solver.track_gate_px * t->solver.track_gate_px;
-    const float gate_nis = mfns_filter_gate_nis(&nf->set);
+    const float gate_nis = mfns_filter_gate_nis(&t->motion);
     int16_t cand[MFNS_MAX_OBS_PER_CAMERA];
     uint8_t n_cand[MFNS_MAX_OBS_PER_CAMERA];
     for (int i = 0; i < count; i++) {
@@ -167,7 +166,7 @@ static int own_associate(const mfns_navf_t *nf, const mfns_caltable_t *t, const 
             }
             const mfns_filter_obs_t fo = filter_obs(t, obs, c, i, b, tc);
             float nis = 0.0f;
-            if (mfns_filter_test(&pred, &nf->set, &t->rig, sigma_px, &fo, &nis) == MFNS_FILTER_OK &&
+            if (mfns_filter_test(&pred, &t->motion, &t->rig, sigma_px, &fo, &nis) == MFNS_FILTER_OK &&
                 nis <= gate_nis) {
                 cand[i] = (int16_t)b;
                 n_cand[i] = (uint8_t)(n_cand[i] < 2U ? n_cand[i] + 1U : 2U);
@@ -227,7 +226,7 @@ static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame
             nf->stale_frames++; /* before the bank's state: it cannot go back */
             continue;
         }
-        const mfns_filter_status_t st = mfns_bank_observe_frame(&nf->bank, &nf->set, &t->rig, sigma_px, n, beacon, fo);
+        const mfns_filter_status_t st = mfns_bank_observe_frame(&nf->bank, &t->motion, &t->rig, sigma_px, n, beacon, fo);
         if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
             nf->running = false;
         }
@@ -327,7 +326,7 @@ static void run_bank(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integ
         rep->ran = false;
         return;
     }
-    rep->ran = mfns_bank_evaluate(&nf->bank, &nf->set, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
+    rep->ran = mfns_bank_evaluate(&nf->bank, &t->motion, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
     nf->running = rep->ran && !rep->out.restart;
     if (rep->ran) {
         report(&rep->out, integ);

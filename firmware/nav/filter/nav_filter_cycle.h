@@ -72,7 +72,6 @@ typedef struct {
     uint32_t stale_frames; /* frames stamped before the bank's state: not fed */
     uint32_t own_assoc;    /* observations the bank associated itself (the solver had none for them) */
     bool carry_excl;       /* the next start keeps the bank's exclusions (it follows one) */
-    mfns_filter_settings_t set;
     mfns_filter_bank_t bank;
 } mfns_navf_t;
 

@@ -47,6 +47,19 @@ void mfns_integrity_settings_default(mfns_integrity_settings_t *p)
     p->monitor_only = MFNS_CALTABLE_DEFAULT_INTEGRITY_MONITOR_ONLY;
 }
 
+void mfns_filter_settings_default(mfns_filter_settings_t *p)
+{
+    memset(p, 0, sizeof *p);
+    p->accel_bound_mm_s2 = MFNS_CALTABLE_DEFAULT_MOTION_ACCEL_BOUND_MM_S2;
+    p->alpha_bound_rad_s2 = MFNS_CALTABLE_DEFAULT_MOTION_ALPHA_BOUND_RAD_S2;
+    p->bound_time_s = MFNS_CALTABLE_DEFAULT_MOTION_BOUND_TIME_S;
+    p->max_coast_s = MFNS_CALTABLE_DEFAULT_MOTION_MAX_COAST_S;
+    p->gate_p = MFNS_CALTABLE_DEFAULT_MOTION_GATE_P;
+    p->gate_reject_run = MFNS_CALTABLE_DEFAULT_MOTION_GATE_REJECT_RUN;
+    p->aug_rot_rad = MFNS_CALTABLE_DEFAULT_MOTION_AUG_ROT_RAD;
+    p->aug_dt_s = MFNS_CALTABLE_DEFAULT_MOTION_AUG_DT_S;
+}
+
 void mfns_bidx_params_default(mfns_bidx_params_t *p)
 {
     memset(p, 0, sizeof *p);

@@ -87,6 +87,20 @@ typedef struct {
     uint8_t monitor_only;
 } mfns_integrity_settings_t;
 
+/* The motion bound and the navigation filter's settings (docs/caltable.md
+ * "Motion bound"; firmware/nav/filter/nav_filter.h argues the model,
+ * filter_bank.h the camera hypotheses' priors). */
+typedef struct {
+    float accel_bound_mm_s2;  /* unmodelled linear acceleration bound a_max */
+    float alpha_bound_rad_s2; /* unmodelled angular acceleration bound alpha_max */
+    float bound_time_s;       /* T: span over which Q overbounds a sustained bound */
+    float max_coast_s;        /* longest time without an applied observation (E_TIME: restart), <= T */
+    float gate_p;             /* per-observation gate false-alarm probability, (0, 0.5) */
+    uint16_t gate_reject_run; /* consecutive gated observations that flag motion_exceeded */
+    float aug_rot_rad;        /* per-frame prior sigma of an augmented camera's pointing bias */
+    float aug_dt_s;           /* per-frame prior sigma of its time offset */
+} mfns_filter_settings_t;
+
 /* Calibration uncertainty (docs/caltable.md "Calibration covariance"): the
  * covariance of the calibration's errors (estimate minus truth), jointly over
  * the three cameras, MFNS_CALIB_PARAMS_PER_CAMERA parameters per camera in the
@@ -140,5 +154,6 @@ typedef struct {
 void mfns_centroid_settings_default(mfns_centroid_settings_t *c);
 void mfns_solver_settings_default(mfns_solver_settings_t *s);
 void mfns_integrity_settings_default(mfns_integrity_settings_t *s);
+void mfns_filter_settings_default(mfns_filter_settings_t *s);
 
 #endif /* MFNS_NAV_CONFIG_H */

@@ -159,6 +159,9 @@ static bool parse_body(mfns_ct_parser_t *p, mfns_caltable_t *dst)
     if (!mfns_ct_parse_integrity(p, &pos, dst != NULL ? &dst->integrity : NULL)) {
         return false;
     }
+    if (!mfns_ct_parse_motion(p, &pos, dst != NULL ? &dst->motion : NULL)) {
+        return false;
+    }
     if (!mfns_ct_parse_index(p, pos, nbeacon, dst != NULL ? &dst->index : NULL)) {
         return false;
     }

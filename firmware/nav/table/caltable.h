@@ -47,7 +47,7 @@
     (MFNS_CALTABLE_HEADER_SIZE + MFNS_CALTABLE_GLOBALS_SIZE +                                             \
      MFNS_NUM_CAMERAS * (MFNS_CALTABLE_CAMERA_FIXED_SIZE + MFNS_CALTABLE_NODE_SIZE * MFNS_MAX_GRID_NODES) + \
      MFNS_CALTABLE_BEACON_SIZE * MFNS_MAX_BEACONS + MFNS_CALTABLE_COV_MAX_SIZE + MFNS_CALTABLE_DATUM_MAX_SIZE + \
-     MFNS_CALTABLE_INTEGRITY_SIZE + \
+     MFNS_CALTABLE_INTEGRITY_SIZE + MFNS_CALTABLE_MOTION_SIZE + \
      MFNS_BIDX_MAX_SECTION_SIZE)
 
 /* Acceptance limits (docs/caltable.md "Validation"). */
@@ -66,6 +66,7 @@ typedef struct {
     mfns_centroid_settings_t centroid;
     mfns_solver_settings_t solver;
     mfns_integrity_settings_t integrity;   /* fault detection and exclusion (integrity.h) */
+    mfns_filter_settings_t motion;         /* the motion bound of the navigation filter (nav_filter.h) */
     float pixel_sigma_px;                  /* 1-sigma unmodelled pixel error (pose.h mfns_pose_config_t) */
     uint16_t format_version;
     uint32_t size_bytes;

@@ -103,6 +103,7 @@ bool mfns_ct_parse_calib_cov(mfns_ct_parser_t *p, uint32_t *pos, mfns_calib_cov_
 /* The map datum section at *pos (advanced past it on success). */
 bool mfns_ct_parse_map_datum(mfns_ct_parser_t *p, uint32_t *pos, mfns_map_datum_t *dst);
 bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_settings_t *dst);
+bool mfns_ct_parse_motion(mfns_ct_parser_t *p, uint32_t *pos, mfns_filter_settings_t *dst);
 bool mfns_ct_parse_index(mfns_ct_parser_t *p, uint32_t pos, uint16_t nbeacon, mfns_beacon_index_t *dst);
 
 #endif /* MFNS_CALTABLE_INTERNAL_H */

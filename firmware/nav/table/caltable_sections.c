@@ -8,6 +8,8 @@
 
 #define I_OFF(f) MFNS_CALTABLE_OFF_INTEGRITY_##f
 #define I_ID(f) MFNS_CALTABLE_F_INTEGRITY_##f
+#define M_OFF(f) MFNS_CALTABLE_OFF_MOTION_##f
+#define M_ID(f) MFNS_CALTABLE_F_MOTION_##f
 #define X_OFF(f) MFNS_CALTABLE_OFF_INDEX_##f
 #define X_ID(f) MFNS_CALTABLE_F_INDEX_##f
 #define XG_OFF(f) MFNS_CALTABLE_OFF_INDEX_GEOM_##f
@@ -255,6 +257,41 @@ bool mfns_ct_parse_integrity(mfns_ct_parser_t *p, uint32_t *pos, mfns_integrity_
         dst->monitor_only = b[o + I_OFF(MONITOR_ONLY)];
     }
     *pos = o + MFNS_CALTABLE_INTEGRITY_SIZE;
+    return true;
+}
+
+/* The motion bound at *pos (docs/caltable.md "Motion bound"): five f32, the
+ * u16 reject run, the reserved u16, two f32; each in its generated range
+ * (status MOTION_SETTINGS), and by hand max_coast_s <= bound_time_s (beyond T
+ * the bound's bias outgrows the process noise: nav_filter.h). Advances *pos
+ * past the section. */
+bool mfns_ct_parse_motion(mfns_ct_parser_t *p, uint32_t *pos, mfns_filter_settings_t *dst)
+{
+    const uint32_t o = *pos;
+    if (p->size - o < MFNS_CALTABLE_MOTION_SIZE) {
+        return mfns_ct_fail(p, MFNS_CALTABLE_E_SIZE_MISMATCH, o);
+    }
+    float v[M_ID(AUG_DT_S) - M_ID(ACCEL_BOUND_MM_S2) + 1]; /* the record's fields in order */
+    if (!mfns_ct_fields(p, o, M_ID(ACCEL_BOUND_MM_S2), M_ID(AUG_DT_S), v)) {
+        return false;
+    }
+    enum { A = 0, ALPHA, T, COAST, GATE, RUN, RESERVED, ROT, DT };
+    _Static_assert(M_ID(AUG_DT_S) - M_ID(ACCEL_BOUND_MM_S2) == DT && M_ID(RESERVED) - M_ID(ACCEL_BOUND_MM_S2) == RESERVED,
+                   "the motion bound's fields in the order read here");
+    if (!(v[COAST] <= v[T])) {
+        return mfns_ct_fail(p, MFNS_CALTABLE_E_MOTION_SETTINGS, o + M_OFF(MAX_COAST_S));
+    }
+    if (dst != NULL) {
+        dst->accel_bound_mm_s2 = v[A];
+        dst->alpha_bound_rad_s2 = v[ALPHA];
+        dst->bound_time_s = v[T];
+        dst->max_coast_s = v[COAST];
+        dst->gate_p = v[GATE];
+        dst->gate_reject_run = mfns_ct_u16(p->b, o + M_OFF(GATE_REJECT_RUN));
+        dst->aug_rot_rad = v[ROT];
+        dst->aug_dt_s = v[DT];
+    }
+    *pos = o + MFNS_CALTABLE_MOTION_SIZE;
     return true;
 }
 

@@ -28,11 +28,12 @@ def _grid_arg(text: str | None) -> tuple[int, int] | None:
 
 def cmd_build(args) -> int:
     from ..table.builder import build_table
-    from ..table.settings import load_integrity, load_settings
+    from ..table.settings import load_section, load_settings
 
     grid = _grid_arg(args.grid)
     centroid, solver = load_settings(args.settings)
-    integrity = load_integrity(args.settings)
+    integrity = load_section(args.settings, "integrity")
+    motion = load_section(args.settings, "motion")
     if args.pixel_sigma is not None and not 0.0 < args.pixel_sigma <= 10.0:
         raise MfnsError(f"--pixel-sigma {args.pixel_sigma}: expected a value in (0, 10] px")
     from ..table import mapindex
@@ -61,6 +62,7 @@ def cmd_build(args) -> int:
             seed=args.seed,
             progress=bar.update,
             integrity=integrity,
+            motion=motion,
             map_datum=args.map_datum,
         )
     data = encode(table)
@@ -152,6 +154,7 @@ def cmd_show(args) -> int:
     print("centroid: " + ", ".join(f"{k}={v:.6g}" for k, v in t.centroid.items()))
     print("solver:   " + ", ".join(f"{k}={v:.6g}" for k, v in t.solver.items()))
     print("integrity: " + ", ".join(f"{k}={v:.6g}" for k, v in t.integrity.items()))
+    print("motion: " + ", ".join(f"{k}={v:.6g}" for k, v in t.motion.items()))
     for name, c in zip(CAMERA_NAMES, t.cameras, strict=True):
         g = c.grid
         print(f"camera {name} (id {c.camera_id}): {c.width}x{c.height} px")

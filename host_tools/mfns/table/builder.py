@@ -157,6 +157,7 @@ def build_table(
     seed: int = 1,
     progress=None,
     integrity: dict | None = None,
+    motion: dict | None = None,
     map_datum: str | Path | None = None,
 ) -> tuple[Table, list[GridError], mapindex.IndexReport]:
     """The table, per camera the measured worst-case error of its grid, and the report
@@ -173,7 +174,8 @@ def build_table(
     The calibration's "covariance", when present, becomes the table's
     calibration-covariance section (calib_covariance); a calibration without one gives
     no calibration term, which is right only for an exact rig (a warning says so).
-    integrity: the integrity settings (settings.load_integrity); None = the defaults.
+    integrity: the integrity settings (settings.load_section); None = the defaults.
+    motion: the navigation filter's motion bound (settings.load_section); None = the defaults.
     map_datum: a map_datum.json (mfns.map.datum_file, written by `mfns map refine`): the
     table's beacons then carry its relative sigmas and its map datum section the shared
     error; None = no datum (the CSV's sigma_mm is each beacon's whole error).
@@ -240,5 +242,6 @@ def build_table(
         calib_cov=calib_covariance(doc),
         map_datum=datum,
         integrity=dict(integrity) if integrity is not None else {},
+        motion=dict(motion) if motion is not None else {},
     )
     return table, errors, report

@@ -126,6 +126,7 @@ _GLOBAL_FIELDS = _fields("globals")
 _CAMERA_FIELDS = _fields("camera")
 _BEACON_FIELDS = _fields("beacon")
 _INTEGRITY_FIELDS = _fields("integrity")
+_MOTION_FIELDS = _fields("motion")
 _GRID_NX = fmt.Record("camera").offset("grid.nx")  # then grid.ny
 _BEACON_COUNT = fmt.Record("globals").offset("beacon_count")
 
@@ -187,6 +188,9 @@ def field_at(data: bytes, off: int) -> str:
     if off < pos + fmt.INTEGRITY_SIZE:
         return f"integrity.{_name(_INTEGRITY_FIELDS, off - pos)}"
     pos += fmt.INTEGRITY_SIZE
+    if off < pos + fmt.MOTION_SIZE:
+        return f"motion.{_name(_MOTION_FIELDS, off - pos)}"
+    pos += fmt.MOTION_SIZE
     return f"map index section, byte {off - pos}"
 
 

@@ -91,6 +91,11 @@ INTEGRITY_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["integrity"] if n not in _
 INTEGRITY_INT = tuple(
     n for n, _, k, _ in L.FIELDS["integrity"] if k in ("u8", "u16") and n not in _INTEG.reserved
 )
+# The motion bound of the navigation filter (after the integrity settings).
+_MOTION = Record("motion")
+MOTION_SIZE = _MOTION.size
+MOTION_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["motion"] if n not in _MOTION.reserved)
+MOTION_INT = tuple(n for n, _, k, _ in L.FIELDS["motion"] if k in ("u8", "u16") and n not in _MOTION.reserved)
 # The map-index section after the beacon records is written by the C core
 # (mfns_bidx_encode, firmware/nav/map/beacon_index.h); only its header is read here.
 _INDEX = Record("index")
@@ -178,6 +183,8 @@ class Table:
     map_datum: MapDatum | None = None
     # integrity settings (INTEGRITY_FIELDS); empty = the defaults
     integrity: dict = field(default_factory=dict)
+    # the motion bound (MOTION_FIELDS); empty = the defaults
+    motion: dict = field(default_factory=dict)
     version: int = VERSION
     crc32: int = 0
     size_bytes: int = 0
@@ -236,6 +243,10 @@ def encode(t: Table) -> bytes:
         integ = {**L.DEFAULTS["integrity"], **t.integrity}
         body += _INTEG.pack(
             {k: int(integ[k]) if k in INTEGRITY_INT else float(integ[k]) for k in INTEGRITY_FIELDS}
+        )
+        motion = {**L.DEFAULTS["motion"], **t.motion}
+        body += _MOTION.pack(
+            {k: int(motion[k]) if k in MOTION_INT else float(motion[k]) for k in MOTION_FIELDS}
         )
         body += t.index_section
     except struct.error as exc:
@@ -357,6 +368,9 @@ def decode(data: bytes) -> Table:
     iv = _INTEG.unpack(data, pos)
     integrity = {k: iv[k] for k in INTEGRITY_FIELDS}
     pos += _INTEG.size
+    mv = _MOTION.unpack(data, pos)
+    motion = {k: mv[k] for k in MOTION_FIELDS}
+    pos += _MOTION.size
     return Table(
         cameras=cams,
         beacon_ids=np.array(ids, dtype=int),
@@ -369,6 +383,7 @@ def decode(data: bytes) -> Table:
         calib_cov=calib_cov,
         map_datum=map_datum,
         integrity=integrity,
+        motion=motion,
         version=version,
         crc32=crc,
         size_bytes=total,

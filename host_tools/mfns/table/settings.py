@@ -2,15 +2,25 @@
 (contract/caltable_layout.toml, generated into layout_gen.py; docs/caltable.md "Default
 settings" gives the reasons, and the C core's nav_defaults_gen.c has the same numbers).
 `mfns table build --settings FILE` overrides any of them from a JSON object
-{"centroid": {...}, "solver": {...}, "integrity": {...}} (integrity: the fault detection
-and exclusion settings, docs/pose.md "Integrity")."""
+{"centroid": {...}, "solver": {...}, "integrity": {...}, "motion": {...}} (integrity: the
+fault detection and exclusion settings, docs/pose.md "Integrity"; motion: the navigation
+filter's motion bound, docs/caltable.md "Motion bound")."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from ..core import validate as V
-from .format import CENTROID_F32, CENTROID_U16, INTEGRITY_FIELDS, INTEGRITY_INT, SOLVER_F32, SOLVER_U16
+from .format import (
+    CENTROID_F32,
+    CENTROID_U16,
+    INTEGRITY_FIELDS,
+    INTEGRITY_INT,
+    MOTION_FIELDS,
+    MOTION_INT,
+    SOLVER_F32,
+    SOLVER_U16,
+)
 from .generated import layout_gen
 
 
@@ -24,6 +34,8 @@ def defaults() -> tuple[dict, dict]:
 
 
 MAX_BYTES = 64 * 1024
+# the settings records of their own: (fields, integer fields)
+_SECTIONS = {"integrity": (INTEGRITY_FIELDS, INTEGRITY_INT), "motion": (MOTION_FIELDS, MOTION_INT)}
 F32_MAX = 3.4028234663852886e38
 
 
@@ -32,7 +44,7 @@ def _typed(section: str, key: str, v: object) -> int | float:
     are the flight loader's to decide: `mfns table build` checks the table it writes with
     it (firmware/nav/table/caltable.c), so there is no second copy of them here."""
     name = f"{section}.{key}"
-    if key in CENTROID_U16 or key in SOLVER_U16 or (section == "integrity" and key in INTEGRITY_INT):
+    if key in CENTROID_U16 or key in SOLVER_U16 or key in _SECTIONS.get(section, ((), ()))[1]:
         return V.integer(v, name, 0, 65535)
     return V.number(v, name, -F32_MAX, F32_MAX)
 
@@ -43,7 +55,7 @@ def load_settings(path: str | Path | None) -> tuple[dict, dict]:
         return centroid, solver
     what = f"settings {path}"
     doc = V.obj(V.load_json(path, "settings", MAX_BYTES), what)
-    V.keys(doc, what, (), ("centroid", "solver", "integrity"))
+    V.keys(doc, what, (), ("centroid", "solver", *_SECTIONS))
     for section, dst in (("centroid", centroid), ("solver", solver)):
         given = V.obj(doc.get(section, {}), f"{what}: {section}")
         V.keys(given, f"{what}: {section}", (), dst)
@@ -52,22 +64,23 @@ def load_settings(path: str | Path | None) -> tuple[dict, dict]:
     return centroid, solver
 
 
-def integrity_defaults() -> dict:
-    """The integrity settings' defaults, as the table stores them."""
-    d = layout_gen.DEFAULTS["integrity"]
-    return {k: d[k] for k in INTEGRITY_FIELDS}
+def section_defaults(section: str) -> dict:
+    """The defaults of a settings record of its own ("integrity", "motion"), as the table
+    stores them."""
+    d = layout_gen.DEFAULTS[section]
+    return {k: d[k] for k in _SECTIONS[section][0]}
 
 
-def load_integrity(path: str | Path | None) -> dict:
-    """The integrity settings: the defaults, overridden by the settings file's
-    "integrity" object (ranges are the flight loader's to check)."""
-    dst = integrity_defaults()
+def load_section(path: str | Path | None, section: str) -> dict:
+    """A settings record of its own ("integrity", "motion"): the defaults, overridden by
+    the settings file's object of that name (ranges are the flight loader's to check)."""
+    dst = section_defaults(section)
     if path is None:
         return dst
     what = f"settings {path}"
     doc = V.obj(V.load_json(path, "settings", MAX_BYTES), what)
-    given = V.obj(doc.get("integrity", {}), f"{what}: integrity")
-    V.keys(given, f"{what}: integrity", (), dst)
+    given = V.obj(doc.get(section, {}), f"{what}: {section}")
+    V.keys(given, f"{what}: {section}", (), dst)
     for k, v in given.items():
-        dst[k] = _typed("integrity", k, v)
+        dst[k] = _typed(section, k, v)
     return dst

@@ -8,8 +8,8 @@ loader sees the table) and its status codes."""
 # ruff: noqa: E501
 
 MAGIC = b"MFTB"
-VERSION = 5
-MIN_VERSION = 5
+VERSION = 6
+MIN_VERSION = 6
 # the build's compile-time constants the ranges name
 CONSTANTS = {
     "MFNS_NUM_CAMERAS": 3,
@@ -34,6 +34,7 @@ SIZE = {
     "calib_cov": 4,
     "map_datum": 16,
     "integrity": 20,
+    "motion": 32,
     "index": 44,
     "index_geom": 24,
 }
@@ -116,6 +117,17 @@ FIELDS = {
         ("require_camera_monitor", 18, "u8", 1),
         ("monitor_only", 19, "u8", 1),
     ),
+    "motion": (
+        ("accel_bound_mm_s2", 0, "f32", 1),
+        ("alpha_bound_rad_s2", 4, "f32", 1),
+        ("bound_time_s", 8, "f32", 1),
+        ("max_coast_s", 12, "f32", 1),
+        ("gate_p", 16, "f32", 1),
+        ("gate_reject_run", 20, "u16", 1),
+        ("reserved", 22, "u16", 1),
+        ("aug_rot_rad", 24, "f32", 1),
+        ("aug_dt_s", 28, "f32", 1),
+    ),
     "index": (
         ("beacons", 0, "u16", 1),
         ("k_nbr", 2, "u8", 1),
@@ -152,6 +164,7 @@ RESERVED = {
     "beacon": ("reserved",),
     "calib_cov": ("reserved",),
     "map_datum": ("reserved",),
+    "motion": ("reserved",),
     "index": ("reserved",),
 }
 # record -> little-endian struct format of its fields
@@ -164,6 +177,7 @@ STRUCT = {
     "calib_cov": "<HH",
     "map_datum": "<HH3f",
     "integrity": "<ffffHBB",
+    "motion": "<fffffHHff",
     "index": "<HBBBBHI3f3fI4B",
     "index_geom": "<3ffff",
 }
@@ -195,6 +209,16 @@ DEFAULTS: dict[str, dict[str, int | float]] = {
         "hold_cycles": 19,
         "require_camera_monitor": 0,
         "monitor_only": 0,
+    },
+    "motion": {
+        "accel_bound_mm_s2": 100.0,
+        "alpha_bound_rad_s2": 0.25,
+        "bound_time_s": 0.20000000298023224,
+        "max_coast_s": 0.20000000298023224,
+        "gate_p": 9.999999747378752e-06,
+        "gate_reject_run": 3,
+        "aug_rot_rad": 0.017500000074505806,
+        "aug_dt_s": 0.05999999865889549,
     },
     "index": {
         "k_nbr": 32,
@@ -258,6 +282,16 @@ RANGE = {
         "hold_cycles": (0.0, 10000.0, False, False),
         "require_camera_monitor": (0.0, 1.0, False, False),
         "monitor_only": (0.0, 1.0, False, False),
+    },
+    "motion": {
+        "accel_bound_mm_s2": (0.0, 100000.0, True, False),
+        "alpha_bound_rad_s2": (0.0, 1000.0, True, False),
+        "bound_time_s": (0.0, 10.0, True, False),
+        "max_coast_s": (0.0, 10.0, True, False),
+        "gate_p": (0.0, 0.5, True, True),
+        "gate_reject_run": (1.0, 1000.0, False, False),
+        "aug_rot_rad": (0.0, 0.5, True, False),
+        "aug_dt_s": (0.0, 1.0, True, False),
     },
     "index": {
         "k_nbr": (1.0, 32.0, False, False),
@@ -462,5 +496,9 @@ STATUS = {
     46: (
         "E_MAP_DATUM_CENTRE",
         "calibration table map datum: centre out of range (beyond 1e7 mm, or not 0 with no datum)",
+    ),
+    47: (
+        "E_MOTION_SETTINGS",
+        "calibration table motion bound out of range (acceleration bounds, bound time, coast, gate, camera priors)",
     ),
 }
