@@ -155,12 +155,13 @@ static void print_cycle(const nav_app_t *app, uint32_t cycle)
     if (app->nav.filt.on && (out->filt.ran || out->filt.started)) {
         const mfns_bank_output_t *f = &out->filt.out;
         fprintf(stderr,
-                "  filter: %s%s%s %s (%s) PL %.2f mm %.3f deg (beacons %.2f mm %.3f deg) hyp %u unmonitorable %u"
-                " own-assoc %u\n",
+                "  filter: %s%s%s%s %s (%s) PL %.2f mm %.3f deg (beacons %.2f mm %.3f deg) hyp %u unmonitorable %u"
+                " own-assoc %u snapshot-sep %.2f\n",
                 out->filt.started ? "started" : "ran", out->filt.used ? ", flown" : "",
-                f->restart ? ", restart" : "", mfns_pose_status_str(f->status), mfns_pose_strerror(f->reason),
-                (double)f->pl_pos_mm, (double)f->pl_att_deg, (double)f->pl_beacon_pos_mm,
-                (double)f->pl_beacon_att_deg, f->hypotheses, f->unmonitorable, app->nav.filt.own_assoc);
+                f->restart ? ", restart" : "", out->filt.motion_exceeded ? ", motion exceeded" : "",
+                mfns_pose_status_str(f->status), mfns_pose_strerror(f->reason), (double)f->pl_pos_mm,
+                (double)f->pl_att_deg, (double)f->pl_beacon_pos_mm, (double)f->pl_beacon_att_deg, f->hypotheses,
+                f->unmonitorable, app->nav.filt.own_assoc, (double)out->filt.motion_sep);
     }
 }
 

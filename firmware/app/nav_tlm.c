@@ -176,6 +176,12 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_READMITTED, TLM_SEV_INFO, (uint8_t)r->readmitted_camera, 0,
                             0);
     }
+    if (o->filt.motion_exceeded) {
+        /* the robot left the motion bound: the filter restarted (nav_filter_cycle.h) */
+        const bool by_snapshot = o->filt.motion_sep >= 1.0f;
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_MOTION_EXCEEDED, TLM_SEV_WARNING, 0,
+                            event_arg(o->filt.motion_sep * 100.0f), by_snapshot ? 1 : 0);
+    }
 }
 
 int nav_tlm_event(nav_tlm_t *t, uint32_t cycle, uint64_t t_us, tlm_event_code_t code, tlm_severity_t sev,

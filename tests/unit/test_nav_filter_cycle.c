@@ -188,6 +188,70 @@ static void test_motion_bound_from_table(void **state)
     (void)run_with_accel(MFNS_CALTABLE_DEFAULT_MOTION_ACCEL_BOUND_MM_S2, 2, &sig_broken);
 }
 
+/* The motion monitor against the snapshot (nav_filter_cycle.h), alone: a
+ * certified snapshot fix (FIX, cameras bounded) that stands 3 mm off the
+ * filter along y while the frames agree with the filter (the snapshot is what
+ * a robot that jumped would give, sigma 0.5 mm) is beyond the separation's
+ * threshold (K 4.9 x at most 0.5 mm): one cycle is no verdict, the second is
+ * MOTION_EXCEEDED with the bank restarted from the snapshot, reported once
+ * for the episode. The same offset on a snapshot fix that bounds beacon
+ * faults only (CAMERA_UNMONITORED) is no reference: nothing happens. */
+static int run_offset_snapshots(bool cameras_bounded, int offset_from, bool *restarted_at_second)
+{
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 8);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 54000);
+    int reports = 0;
+    *restarted_at_second = false;
+    for (int k = 0; k < offset_from + 4; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        if (cameras_bounded) {
+            sol.status = MFNS_POSE_OK;
+            sol.reason = MFNS_POSE_R_NONE;
+        }
+        if (k >= offset_from && k < offset_from + 2) {
+            /* the snapshot 3 mm off along world y; the frames as before */
+            const mfns_v3_t r = mfns_pose_position_w(&sol.pose);
+            sol.pose = mfns_pose_from_position(sol.pose.C_w_b, mfns_v3(r.x, r.y + 3.0f, r.z));
+            sol.r_wb_w = mfns_pose_position_w(&sol.pose);
+        }
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        if (k < offset_from) {
+            assert_false(rep.motion_exceeded);
+            assert_true(rep.motion_sep < 1.0f);
+        }
+        if (k == offset_from) {
+            assert_false(rep.motion_exceeded); /* one cycle: no verdict yet */
+            assert_false(rep.started);
+            if (cameras_bounded) {
+                assert_true(rep.motion_sep > 1.0f);
+            }
+        }
+        if (k == offset_from + 1) {
+            *restarted_at_second = rep.motion_exceeded && rep.started && rep.motion_sep > 1.0f;
+        }
+        reports += rep.motion_exceeded ? 1 : 0;
+    }
+    return reports;
+}
+
+static void test_motion_monitor_against_snapshot(void **state)
+{
+    (void)state;
+    bool restarted = false;
+    assert_int_equal(run_offset_snapshots(true, 15, &restarted), 1);
+    assert_true(restarted);
+    assert_int_equal(run_offset_snapshots(false, 15, &restarted), 0);
+    assert_false(restarted);
+}
+
 /* Capture times (mfns_navf_set_frame_times): each camera's frame enters at
  * its own stamp, cameras in time order whatever their index, the cycle is
  * evaluated at the latest stamp, a start takes the earliest; a frame stamped
@@ -520,6 +584,7 @@ int main(void)
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
         cmocka_unit_test(test_motion_bound_from_table),
+        cmocka_unit_test(test_motion_monitor_against_snapshot),
         cmocka_unit_test(test_capture_times),
         cmocka_unit_test(test_exclusion_restarts_with_subject_held),
         cmocka_unit_test(test_own_association),

@@ -233,6 +233,38 @@ static void feed(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_obs_frame
     }
 }
 
+/* The motion bound against the snapshot (nav_filter_cycle.h): the largest
+ * normalised separation of the cycle's snapshot fix from the full filter's
+ * output over the six pose axes (1 = the threshold), or 0 when the snapshot
+ * fix cannot be the reference (not usable, or its cameras not bounded). The
+ * attitude as the filter's (C_b_w(snapshot) = exp([a]x) C_b_w(filter), world
+ * axes), both covariances in pose.h's cov_ros order (position first); the
+ * map datum term is in both and cancels. */
+static float snapshot_separation(const mfns_bank_output_t *o, const mfns_pose_solution_t *snap,
+                                 const mfns_integrity_result_t *integ, const mfns_integrity_settings_t *is)
+{
+    if (!usable(snap) || snap->reason == MFNS_POSE_R_CAMERA_UNMONITORED || integ->camera_unmonitored) {
+        return 0.0f;
+    }
+    mfns_m3_t c_b_w, d;
+    mfns_m3_transpose_at(&snap->pose.C_w_b, &c_b_w);
+    mfns_m3_mul_at(&c_b_w, &o->pose.C_w_b, &d);
+    const mfns_v3_t a = mfns_rot_log(d);
+    const mfns_v3_t r_f = mfns_pose_position_w(&o->pose);
+    const float sep[6] = {snap->r_wb_w.x - r_f.x, snap->r_wb_w.y - r_f.y, snap->r_wb_w.z - r_f.z, a.x, a.y, a.z};
+    const float k = mfns_integrity_q_inv(is->p_fa / (2.0f * 6.0f));
+    float worst = 0.0f;
+    for (int j = 0; j < 6; j++) {
+        const float ps = snap->cov_ros[j][j];
+        const float var = fmaxf(ps - o->cov_ros[j][j], MFNS_NAVF_MOTION_FLOOR * ps);
+        if (!(var > 0.0f) || !isfinite(sep[j])) {
+            return 0.0f; /* no covariance to test against (never for a usable fix) */
+        }
+        worst = fmaxf(worst, fabsf(sep[j]) / (k * sqrtf(var)));
+    }
+    return worst;
+}
+
 /* The filter's verdict into the cycle's solution and integrity result. */
 static void apply(const mfns_bank_output_t *o, mfns_pose_solution_t *sol, mfns_integrity_result_t *integ)
 {
@@ -328,6 +360,24 @@ static void run_bank(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integ
     }
     rep->ran = mfns_bank_evaluate(&nf->bank, &t->motion, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
     nf->running = rep->ran && !rep->out.restart;
+    if (nf->running && rep->out.detected_kind == (uint8_t)MFNS_BANK_HYP_NONE) {
+        /* the motion bound against the snapshot (nav_filter_cycle.h) */
+        const float ns = snapshot_separation(&rep->out, sol, integ, is);
+        nf->snap_sep_run = ns > 1.0f ? (uint8_t)(nf->snap_sep_run + 1U) : 0U;
+        rep->motion_sep = fmaxf(rep->motion_sep, ns);
+        if (nf->snap_sep_run >= MFNS_NAVF_MOTION_RUN) {
+            rep->out.restart = true;
+            rep->out.usable = false;
+            rep->out.status = MFNS_POSE_NO_FIX;
+            rep->out.reason = MFNS_POSE_R_MOTION_EXCEEDED;
+            nf->running = false;
+        }
+    }
+    if (rep->ran && rep->out.restart && rep->out.reason == MFNS_POSE_R_MOTION_EXCEEDED) {
+        rep->motion_exceeded = rep->motion_exceeded || !nf->motion_latched;
+        nf->motion_latched = true;
+        nf->snap_sep_run = 0;
+    }
     if (rep->ran) {
         report(&rep->out, integ);
     }
@@ -389,6 +439,7 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
     if (nf->running && rep->ran && rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;
+        nf->motion_latched = false;
         return;
     }
     camera_bound_or_refused(sol, integ); /* the snapshot's verdict stands this cycle, if it bounds cameras */

@@ -39,6 +39,28 @@
  * diffuse prior carries nothing of the old filter: each hypothesis bounds
  * what it took since.
  *
+ * The motion bound against the snapshot: the cycle's snapshot fix rests on
+ * this cycle's frames alone, the full filter on the same observations and
+ * every earlier one through the motion model. Under the bound and without a
+ * fault the filter is the estimate on a superset of the data, so the
+ * snapshot minus the filter has covariance P_s - P_f (the solution
+ * separation of the subset "this frame only", whose hypothesis is "the
+ * motion model is wrong"). Per pose axis the separation is tested against
+ * K sqrt(max(P_s - P_f, P_s / 4)), K = Q^-1(P_fa / 12) (two-sided, six
+ * axes; the floor keeps a filter barely better than the snapshot from
+ * testing on a difference of two near-equal variances), and
+ * MFNS_NAVF_MOTION_RUN consecutive cycles beyond it mean the robot left the
+ * bound (a collision, a hard burst): the bank restarts from the snapshot fix
+ * and the cycle reports motion_exceeded. The reference is only a snapshot
+ * fix that bounds every single fault itself (usable, cameras monitored): one
+ * a camera fault could have moved would restart the filter on a fault.
+ * Misses: an excess the filter follows within a cycle (a soft push, whose
+ * separation and error both stay small); a snapshot too weak to show it
+ * (P_s large: one or two cameras of few beacons); a cycle without a usable
+ * snapshot fix. Conservative where the model is: the snapshot's calibration
+ * term (not in P_f) and a beacon's survey error (a bias common to both,
+ * white in P_f) make P_s - P_f larger than the separation's true variance.
+ *
  * Time: each camera's observations enter the bank at their frame's capture
  * time when the caller gave them (mfns_navf_set_frame_times before the
  * cycle; the flight program passes the frames' stamps), cameras in the order
@@ -62,6 +84,14 @@
 #include "firmware/nav/integrity/integrity.h"
 #include "firmware/nav/pose/pose.h"
 
+/* The motion monitor against the snapshot (above): cycles in a row beyond
+ * the threshold before the bank restarts (two: a collision keeps the
+ * separation for several frames while the filter catches up, a lone
+ * excursion of a fault the snapshot's tests let through does not), and the
+ * floor of the separation's variance as a fraction of the snapshot's. */
+#define MFNS_NAVF_MOTION_RUN 2U
+#define MFNS_NAVF_MOTION_FLOOR 0.25f
+
 typedef struct {
     bool on;
     bool running;
@@ -72,6 +102,8 @@ typedef struct {
     uint32_t stale_frames; /* frames stamped before the bank's state: not fed */
     uint32_t own_assoc;    /* observations the bank associated itself (the solver had none for them) */
     bool carry_excl;       /* the next start keeps the bank's exclusions (it follows one) */
+    uint8_t snap_sep_run;  /* consecutive cycles the snapshot fix was beyond the filter's (motion monitor) */
+    bool motion_latched;   /* a motion restart reported, no usable filter output since (one report per episode) */
     mfns_filter_bank_t bank;
 } mfns_navf_t;
 
@@ -80,6 +112,14 @@ typedef struct {
     bool ran;          /* the bank was evaluated this cycle */
     bool used;         /* its output replaced the snapshot's (usable) */
     bool started;      /* it (re)started from this cycle's snapshot fix */
+    /* the robot left the table's motion bound this cycle: the bank's gate or
+     * window, or the snapshot fix beyond the filter (motion_sep >= 1, the
+     * largest normalised separation of the monitor below); the bank
+     * restarted from the snapshot. Set at the first such restart of an
+     * episode (report it: MOTION_EXCEEDED), which ends at the next usable
+     * filter output. */
+    bool motion_exceeded;
+    float motion_sep;
     mfns_bank_output_t out;
 } mfns_navf_report_t;
 

@@ -105,7 +105,8 @@ typedef enum {
     TLM_EVT_TC_UNPROTECTED = 48, /* commands are NOT authenticated (tc_insecure / --tc-insecure): subject 0; arg0 1 set by the command line, 2 by the configuration file; arg1 0 (a WARNING at start, repeated in hk_tc_state bit 1) */
     TLM_EVT_TABLE_ARG_OVERRIDDEN = 49, /* at start the table store's table runs and the given --table (or table key) is a different file: subject 0; arg0 that file's size in bytes (-1 unreadable); arg1 CRC-32 of the stored table that runs (TABLE_LOAD of the file switches to it) */
     TLM_EVT_CLOCK_STEP = 50, /* the board's UTC (CLOCK_REALTIME) stepped against the flight clock (CLOCK_MONOTONIC) between two cycles by more than 100 ms (a time daemon's step, a manual set): the flight clock and every packet's time are unaffected, the next housekeeping's time correlation carries the new UTC: subject the time quality after the step (0 NONE, 1 SYSTEM, 2 SYNCED); arg0 the step, ms (UTC minus the flight clock's advance; saturated at +-2^31-1); arg1 steps seen since start */
-    TLM_EVT_CODE_COUNT = 51
+    TLM_EVT_MOTION_EXCEEDED = 51, /* the robot left the table's motion bound (a collision, a hard burst): the navigation filter's observations failed its gate in a row or its innovation window, or the cycle's snapshot fix (which needs no motion model) stood beyond the filter's pose by more than their separation's threshold for two cycles; the filter restarts from the snapshot fix, its prediction and protection levels no longer held (docs/pose.md "Navigation filter"): subject 0; arg0 the snapshot's normalised separation x100 (100 = threshold; below it the filter's own gate or window caught the motion); arg1 1 the snapshot's separation, 0 the filter's gate or window (sent once per restart) */
+    TLM_EVT_CODE_COUNT = 52
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */
