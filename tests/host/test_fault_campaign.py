@@ -632,8 +632,10 @@ def test_blame_names_right_and_wrong_subjects() -> None:
     assert "beacon 4" not in b["wrong_not_in_clean"] and "beacon 19" in b["wrong_not_in_clean"]
     assert score.blame(ev, 6, [("camera", 0)])["first"]["right"] is True
     assert score.blame(ev, 10, [("camera", 0)]) == {"first": None, "wrong": {}, "wrong_not_in_clean": None}
-    # a motion fault has no subject: any report that is not ordinary, or a mode change
-    assert score.first_motion_report(ev, 6)["event"] == "CAMERA_LAG"
+    # a motion fault's own reports: MOTION_EXCEEDED or a mode change; a camera blamed is none
+    assert score.first_motion_report(ev, 6) is None
+    motion = [*ev, {"cycle": "14", "seq": "0", "event": "MOTION_EXCEEDED", "subject": "0"}]
+    assert score.first_motion_report(motion, 6) == {"cycle": 14, "delay": 8, "event": "MOTION_EXCEEDED"}
     mode = [{"cycle": "12", "seq": "0", "event": "MODE_CHANGE", "subject": "3"}]
     assert score.first_motion_report(mode, 10) == {"cycle": 12, "delay": 2, "event": "MODE_CHANGE"}
     assert score.first_motion_report(ev[-1:], 0) is None

@@ -392,9 +392,11 @@ def first_report(
 # --------------------------------------------------------------------------- subjects blamed
 # (issue 42 item 4: which event names the right camera or beacon, and who else was blamed)
 MOTION = "motion"  # the subject of a fault of the robot's motion: no camera, no beacon
-# A motion fault is reported by any event that is not ordinary, or by the mode leaving
-# tracking (MODE_CHANGE: a re-acquisition).
-MOTION_REPORTS = frozenset({"MODE_CHANGE"})
+# A motion fault is reported with its subject by the event that names it (MOTION_EXCEEDED: the
+# navigation filter restarted because the robot left the table's motion bound) or by the mode
+# leaving tracking (MODE_CHANGE: a re-acquisition). A camera or beacon blamed instead is the
+# wrong subject (blame() lists it), not a report.
+MOTION_REPORTS = frozenset({"MOTION_EXCEEDED", "MODE_CHANGE"})
 # The start-up self-test names cameras too (SELFTEST_CAMERA): no blame.
 STARTUP_PREFIX = "SELFTEST_"
 
@@ -428,16 +430,11 @@ def subject_events(events: list[dict], onset: int, described: dict[str, str] | N
 
 
 def first_motion_report(events: list[dict], onset: int) -> dict | None:
-    """The first event at or after onset that is not ordinary, or a MODE_CHANGE (the report a
-    motion fault, which has no camera or beacon subject, can have)."""
+    """The first MOTION_EXCEEDED or MODE_CHANGE at or after onset (the reports a motion fault,
+    which has no camera or beacon subject, can have: MOTION_REPORTS)."""
     for r in sorted(events, key=lambda r: (int(r["cycle"]), int(r.get("seq", 0) or 0))):
-        name = r.get("event", "")
-        if int(r["cycle"]) < onset:
-            continue
-        if name.startswith(STARTUP_PREFIX):
-            continue
-        if name in MOTION_REPORTS or not (name in ORDINARY or name.endswith(ORDINARY_ENDS)):
-            return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": name}
+        if int(r["cycle"]) >= onset and r.get("event", "") in MOTION_REPORTS:
+            return {"cycle": int(r["cycle"]), "delay": int(r["cycle"]) - onset, "event": r["event"]}
     return None
 
 
