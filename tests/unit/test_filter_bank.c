@@ -370,6 +370,33 @@ static void test_collision_restarts(void **state)
     assert_int_equal(r.bound_violations, 0);
 }
 
+/* A hard hit (20 m/s^2 over one frame, 1 m/s) seen by one dominant camera
+ * (10 beacons) and two cameras of one beacon each (the module's sparse
+ * views, grown campaign seed 5): the dominant camera's frame fails as a
+ * whole and the others' single beacons fail too, which no single camera or
+ * beacon fault does: MOTION_EXCEEDED at the onset. Before the bank counted
+ * a one-beacon camera whose observation failed (only frames of two or more
+ * failing observations counted), the first seed flew one usable fix 2.85 x
+ * beyond its PL and restarted a cycle late; the campaign's 15 deg/s yaw
+ * step on seed 5 had camera x excluded instead. */
+static void test_collision_dominant_camera(void **state)
+{
+    (void)state;
+    static const int DOMINANT[3] = {10, 1, 1};
+    for (uint64_t seed = 0; seed < 3; seed++) {
+        const scenario_t sc = {F_COLLISION, -1, 20000.0, 30.0, 0.02, 51 + seed, 0, DOMINANT};
+        result_t r;
+        run(&sc, &r);
+        report("collision, dominant", &r);
+        print_message("  restart at cycle %d reason %d\n", r.restart_cycle, r.restart_reason);
+        assert_int_equal(r.restarts, 1);
+        assert_true(r.restart_cycle >= FAULT_CYCLE && r.restart_cycle <= FAULT_CYCLE + 2);
+        assert_int_equal(r.restart_reason, MFNS_POSE_R_MOTION_EXCEEDED);
+        assert_int_equal(r.wrong_subject, 0);
+        assert_int_equal(r.bound_violations, 0);
+    }
+}
+
 /* A camera's mount turning slowly, 0.005 deg per cycle (0.09 deg/s): inside
  * one frame's residuals for many cycles. The camera's hypothesis filter
  * follows it in its pointing bias, the full filter is pulled: named from
@@ -469,6 +496,7 @@ int main(void)
         cmocka_unit_test(test_dominant_camera_late),
         cmocka_unit_test(test_beacon_readmitted_after_clean_hold),
         cmocka_unit_test(test_collision_restarts),
+        cmocka_unit_test(test_collision_dominant_camera),
         cmocka_unit_test(test_camera_pointing_ramp),
         cmocka_unit_test(test_two_camera_scene_bounded),
         cmocka_unit_test(test_two_camera_scene_faults),

@@ -681,12 +681,21 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         !mfns_integrity_settings_valid(is)) {
         return MFNS_FILTER_E_ARG;
     }
-    int rejected = 0;
+    /* Two cameras against the prediction in one cycle are the motion (a
+     * single beacon or camera fault fails one camera): two frames failed as
+     * a whole (two or more observations each, not applied), or one such
+     * frame and another camera whose every observation failed the gate (a
+     * camera with one beacon in view can fail no other way). Not two
+     * cameras that failed only beacon by beacon: a dominant camera's late
+     * frame, applied, pulls the full filter, and the next cameras' single
+     * beacons then fail against it (the camera subsets name that camera). */
+    int rejected = 0, cams_all_gated = 0;
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         rejected += b->frame_rejected[c] != 0U ? 1 : 0;
+        cams_all_gated += b->frame_rejected[c] == 0U && b->cam_gated[c] > 0U && b->cam_passed[c] == 0U ? 1 : 0;
     }
-    if (rejected >= 2) {
-        b->full.motion_exceeded = 1; /* two cameras' frames against the prediction: the motion */
+    if (rejected >= 2 || (rejected == 1 && cams_all_gated >= 1)) {
+        b->full.motion_exceeded = 1;
     }
     const mfns_filter_status_t st = mfns_filter_propagate(&b->full, fs, t_us);
     b->work++;

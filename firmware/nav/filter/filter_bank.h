@@ -97,8 +97,10 @@
  * inconsistent with the motion-bounded prediction: a camera whose frame
  * failed as a whole (two or more observations gated against the prediction,
  * mfns_bank_observe_frame) while another camera's passed is excluded (a
- * single beacon fault fails one observation per frame; two cameras' frames
- * failing in one cycle are the motion: MOTION_EXCEEDED); a beacon whose every
+ * single beacon fault fails one observation per frame; two cameras against
+ * the prediction in one cycle are the motion, MOTION_EXCEEDED: two frames
+ * failed as a whole, or one and another camera whose every observation
+ * failed, a camera with one beacon in view); a beacon whose every
  * observation was gated in MFNS_BANK_GATE_EXCLUDE_RUN consecutive cycles is
  * excluded. Otherwise, when a separation test fails (|s|/T > 1), the failed
  * hypothesis whose subset is the most consistent with its observations is
