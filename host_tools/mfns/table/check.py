@@ -185,12 +185,12 @@ def field_at(data: bytes, off: int) -> str:
             r, c = _tri_element((off - pos) // 4, n_d)
             return f"map datum covariance ({fmt.MAP_DATUM_NAMES[r]}, {fmt.MAP_DATUM_NAMES[c]})"
         pos += 4 * n_d * (n_d + 1) // 2
-    if off < pos + fmt.INTEGRITY_SIZE:
+    if off < pos + fmt.INTEGRITY.size:
         return f"integrity.{_name(_INTEGRITY_FIELDS, off - pos)}"
-    pos += fmt.INTEGRITY_SIZE
-    if off < pos + fmt.MOTION_SIZE:
+    pos += fmt.INTEGRITY.size
+    if off < pos + fmt.MOTION.size:
         return f"motion.{_name(_MOTION_FIELDS, off - pos)}"
-    pos += fmt.MOTION_SIZE
+    pos += fmt.MOTION.size
     return f"map index section, byte {off - pos}"
 
 

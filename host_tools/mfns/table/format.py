@@ -84,18 +84,30 @@ _CAMERA = Record("camera")
 _BEACON = Record("beacon")
 _COV = Record("calib_cov")
 _DATUM = Record("map_datum")
-# The integrity settings (after the map datum).
-_INTEG = Record("integrity")
-INTEGRITY_SIZE = _INTEG.size
-INTEGRITY_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["integrity"] if n not in _INTEG.reserved)
-INTEGRITY_INT = tuple(
-    n for n, _, k, _ in L.FIELDS["integrity"] if k in ("u8", "u16") and n not in _INTEG.reserved
-)
-# The motion bound of the navigation filter (after the integrity settings).
-_MOTION = Record("motion")
-MOTION_SIZE = _MOTION.size
-MOTION_FIELDS = tuple(n for n, _, _, _ in L.FIELDS["motion"] if n not in _MOTION.reserved)
-MOTION_INT = tuple(n for n, _, k, _ in L.FIELDS["motion"] if k in ("u8", "u16") and n not in _MOTION.reserved)
+
+
+class SettingsRecord(Record):
+    """A record of settings of its own (integrity, motion): its fields without the reserved
+    ones, the integer ones among them, and the record from a values dict over the layout's
+    defaults (a field not given is the default)."""
+
+    def __init__(self, key: str):
+        super().__init__(key)
+        self.names = tuple(n for n, _, _, _ in self.fields if n not in self.reserved)
+        self.ints = tuple(n for n, _, k, _ in self.fields if k in ("u8", "u16") and n not in self.reserved)
+
+    def pack_settings(self, values: dict) -> bytes:
+        v = {**L.DEFAULTS[self.key], **values}
+        return self.pack({k: int(v[k]) if k in self.ints else float(v[k]) for k in self.names})
+
+    def unpack_settings(self, data: bytes, offset: int) -> dict:
+        v = self.unpack(data, offset)
+        return {k: v[k] for k in self.names}
+
+
+# The integrity settings (after the map datum), then the navigation filter's motion bound.
+INTEGRITY = SettingsRecord("integrity")
+MOTION = SettingsRecord("motion")
 # The map-index section after the beacon records is written by the C core
 # (mfns_bidx_encode, firmware/nav/map/beacon_index.h); only its header is read here.
 _INDEX = Record("index")
@@ -181,9 +193,9 @@ class Table:
     calib_cov: np.ndarray | None = None
     # the map's shared error; None = none (each beacon's sigma is its whole error)
     map_datum: MapDatum | None = None
-    # integrity settings (INTEGRITY_FIELDS); empty = the defaults
+    # integrity settings (INTEGRITY.names); empty = the defaults
     integrity: dict = field(default_factory=dict)
-    # the motion bound (MOTION_FIELDS); empty = the defaults
+    # the motion bound (MOTION.names); empty = the defaults
     motion: dict = field(default_factory=dict)
     version: int = VERSION
     crc32: int = 0
@@ -240,14 +252,8 @@ def encode(t: Table) -> bytes:
             body += _BEACON.pack({"id": int(bid), "p_w": [float(x) for x in p[:3]], "sigma_mm": float(s)})
         body += encode_calib_cov(t.calib_cov)
         body += encode_map_datum(t.map_datum)
-        integ = {**L.DEFAULTS["integrity"], **t.integrity}
-        body += _INTEG.pack(
-            {k: int(integ[k]) if k in INTEGRITY_INT else float(integ[k]) for k in INTEGRITY_FIELDS}
-        )
-        motion = {**L.DEFAULTS["motion"], **t.motion}
-        body += _MOTION.pack(
-            {k: int(motion[k]) if k in MOTION_INT else float(motion[k]) for k in MOTION_FIELDS}
-        )
+        body += INTEGRITY.pack_settings(t.integrity)
+        body += MOTION.pack_settings(t.motion)
         body += t.index_section
     except struct.error as exc:
         raise MfnsError(f"value does not fit the table format: {exc}") from exc
@@ -365,12 +371,10 @@ def decode(data: bytes) -> Table:
     pos += n_b * BEACON_SIZE
     calib_cov, pos = decode_calib_cov(data, pos)
     map_datum, pos = decode_map_datum(data, pos)
-    iv = _INTEG.unpack(data, pos)
-    integrity = {k: iv[k] for k in INTEGRITY_FIELDS}
-    pos += _INTEG.size
-    mv = _MOTION.unpack(data, pos)
-    motion = {k: mv[k] for k in MOTION_FIELDS}
-    pos += _MOTION.size
+    integrity = INTEGRITY.unpack_settings(data, pos)
+    pos += INTEGRITY.size
+    motion = MOTION.unpack_settings(data, pos)
+    pos += MOTION.size
     return Table(
         cameras=cams,
         beacon_ids=np.array(ids, dtype=int),

@@ -11,16 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..core import validate as V
-from .format import (
-    CENTROID_F32,
-    CENTROID_U16,
-    INTEGRITY_FIELDS,
-    INTEGRITY_INT,
-    MOTION_FIELDS,
-    MOTION_INT,
-    SOLVER_F32,
-    SOLVER_U16,
-)
+from .format import CENTROID_F32, CENTROID_U16, INTEGRITY, MOTION, SOLVER_F32, SOLVER_U16
 from .generated import layout_gen
 
 
@@ -35,7 +26,7 @@ def defaults() -> tuple[dict, dict]:
 
 MAX_BYTES = 64 * 1024
 # the settings records of their own: (fields, integer fields)
-_SECTIONS = {"integrity": (INTEGRITY_FIELDS, INTEGRITY_INT), "motion": (MOTION_FIELDS, MOTION_INT)}
+_SECTIONS = {r.key: r for r in (INTEGRITY, MOTION)}
 F32_MAX = 3.4028234663852886e38
 
 
@@ -44,7 +35,7 @@ def _typed(section: str, key: str, v: object) -> int | float:
     are the flight loader's to decide: `mfns table build` checks the table it writes with
     it (firmware/nav/table/caltable.c), so there is no second copy of them here."""
     name = f"{section}.{key}"
-    if key in CENTROID_U16 or key in SOLVER_U16 or key in _SECTIONS.get(section, ((), ()))[1]:
+    if key in CENTROID_U16 or key in SOLVER_U16 or (section in _SECTIONS and key in _SECTIONS[section].ints):
         return V.integer(v, name, 0, 65535)
     return V.number(v, name, -F32_MAX, F32_MAX)
 
@@ -68,7 +59,7 @@ def section_defaults(section: str) -> dict:
     """The defaults of a settings record of its own ("integrity", "motion"), as the table
     stores them."""
     d = layout_gen.DEFAULTS[section]
-    return {k: d[k] for k in _SECTIONS[section][0]}
+    return {k: d[k] for k in _SECTIONS[section].names}
 
 
 def load_section(path: str | Path | None, section: str) -> dict:
