@@ -355,19 +355,24 @@ static void test_beacon_readmitted_after_clean_hold(void **state)
 /* A collision: 5 m/s^2 over one frame (0.27 m/s of velocity change, 50x
  * the bound): restart with MOTION_EXCEEDED within two cycles, nothing
  * blamed, no usable cycle beyond its PL before. */
-static void test_collision_restarts(void **state)
+static void assert_collision_restarts(const scenario_t *sc, const char *label)
 {
-    (void)state;
-    const scenario_t sc = {F_COLLISION, -1, 5000.0, 30.0, 0.02, 41, 0, NULL};
     result_t r;
-    run(&sc, &r);
-    report("collision 5 m/s^2", &r);
+    run(sc, &r);
+    report(label, &r);
     print_message("  restart at cycle %d reason %d\n", r.restart_cycle, r.restart_reason);
     assert_int_equal(r.restarts, 1);
     assert_true(r.restart_cycle >= FAULT_CYCLE && r.restart_cycle <= FAULT_CYCLE + 2);
     assert_int_equal(r.restart_reason, MFNS_POSE_R_MOTION_EXCEEDED);
     assert_int_equal(r.wrong_subject, 0);
     assert_int_equal(r.bound_violations, 0);
+}
+
+static void test_collision_restarts(void **state)
+{
+    (void)state;
+    const scenario_t sc = {F_COLLISION, -1, 5000.0, 30.0, 0.02, 41, 0, NULL};
+    assert_collision_restarts(&sc, "collision 5 m/s^2");
 }
 
 /* A hard hit (20 m/s^2 over one frame, 1 m/s) seen by one dominant camera
@@ -385,15 +390,7 @@ static void test_collision_dominant_camera(void **state)
     static const int DOMINANT[3] = {10, 1, 1};
     for (uint64_t seed = 0; seed < 3; seed++) {
         const scenario_t sc = {F_COLLISION, -1, 20000.0, 30.0, 0.02, 51 + seed, 0, DOMINANT};
-        result_t r;
-        run(&sc, &r);
-        report("collision, dominant", &r);
-        print_message("  restart at cycle %d reason %d\n", r.restart_cycle, r.restart_reason);
-        assert_int_equal(r.restarts, 1);
-        assert_true(r.restart_cycle >= FAULT_CYCLE && r.restart_cycle <= FAULT_CYCLE + 2);
-        assert_int_equal(r.restart_reason, MFNS_POSE_R_MOTION_EXCEEDED);
-        assert_int_equal(r.wrong_subject, 0);
-        assert_int_equal(r.bound_violations, 0);
+        assert_collision_restarts(&sc, "collision, dominant");
     }
 }
 
