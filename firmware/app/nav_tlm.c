@@ -178,9 +178,8 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
     }
     if (o->filt.motion_exceeded) {
         /* the robot left the motion bound: the filter restarted (nav_filter_cycle.h) */
-        const bool by_snapshot = o->filt.motion_sep >= 1.0f;
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_MOTION_EXCEEDED, TLM_SEV_WARNING, 0,
-                            event_arg(o->filt.motion_sep * 100.0f), by_snapshot ? 1 : 0);
+                            event_arg(o->filt.motion_sep * 100.0f), o->filt.motion_by_snapshot ? 1 : 0);
     }
 }
 

@@ -235,7 +235,8 @@ static int run_offset_snapshots(bool cameras_bounded, int offset_from, bool *res
             }
         }
         if (k == offset_from + 1) {
-            *restarted_at_second = rep.motion_exceeded && rep.started && rep.motion_sep > 1.0f;
+            *restarted_at_second =
+                rep.motion_exceeded && rep.motion_by_snapshot && rep.started && rep.motion_sep > 1.0f;
         }
         reports += rep.motion_exceeded ? 1 : 0;
     }

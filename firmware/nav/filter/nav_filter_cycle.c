@@ -366,6 +366,7 @@ static void run_bank(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integ
         nf->snap_sep_run = ns > 1.0f ? (uint8_t)(nf->snap_sep_run + 1U) : 0U;
         rep->motion_sep = fmaxf(rep->motion_sep, ns);
         if (nf->snap_sep_run >= MFNS_NAVF_MOTION_RUN) {
+            rep->motion_by_snapshot = !nf->motion_latched;
             rep->out.restart = true;
             rep->out.usable = false;
             rep->out.status = MFNS_POSE_NO_FIX;

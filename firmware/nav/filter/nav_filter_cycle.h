@@ -119,6 +119,7 @@ typedef struct {
      * episode (report it: MOTION_EXCEEDED), which ends at the next usable
      * filter output. */
     bool motion_exceeded;
+    bool motion_by_snapshot; /* that restart was the snapshot monitor's (else the bank's gate or window) */
     float motion_sep;
     mfns_bank_output_t out;
 } mfns_navf_report_t;
