@@ -218,10 +218,14 @@ static mfns_filter_status_t test_held(mfns_filter_bank_t *b, const mfns_filter_s
 
 static bool exclude(mfns_filter_bank_t *b, int k);
 
+/* One observation to the full filter and every subset but its beacon's and
+ * its camera's (which takes the frame at its end, mfns_bank_observe_frame);
+ * *applied: the full filter took it. */
 static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
                                         const mfns_rig_t *rig, float sigma_px, int16_t beacon,
-                                        const mfns_filter_obs_t *obs)
+                                        const mfns_filter_obs_t *obs, bool *applied)
 {
+    *applied = false;
     const int excl = excl_index(b, beacon);
     const bool cam_held = b->cam_excluded[obs->cam] != 0U;
     if (excl >= 0 || cam_held) {
@@ -253,10 +257,11 @@ static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter
     if (st == MFNS_FILTER_GATED) {
         return st; /* the full filter's gate decides for every subset */
     }
+    *applied = true;
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
-        /* a camera's hypothesis takes its camera's observations too, through
-         * the camera's free fault parameters (pointing, timing) */
-        const bool skip = k < MFNS_BANK_CAM_HYP ? false
+        /* a camera's hypothesis takes its own camera's frame as a whole, its
+         * fault parameters eliminated (mfns_filter_update_invariant) */
+        const bool skip = k < MFNS_BANK_CAM_HYP ? k == (int)obs->cam
                                                 : (b->slot_beacon[k - MFNS_BANK_CAM_HYP] == NO_BEACON ||
                                                    k - MFNS_BANK_CAM_HYP == slot);
         if (skip) {
@@ -385,17 +390,36 @@ mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_f
      * the whole inter-frame process noise in it (0.8 px at the default
      * bound), one after the frame's other beacons has not */
     mfns_filter_status_t worst = MFNS_FILTER_OK;
+    mfns_filter_obs_t took[MFNS_MAX_OBS_PER_CAMERA];
+    int n_took = 0;
     for (int pass = 0; pass < 2; pass++) {
         for (int i = 0; i < n; i++) {
             const bool held = excl_index(b, beacon[i]) >= 0 || b->cam_excluded[cam] != 0U;
             if (held != (pass == 1)) {
                 continue;
             }
-            const mfns_filter_status_t st = observe_one(b, fs, rig, sigma_px, beacon[i], &obs[i]);
+            bool applied = false;
+            const mfns_filter_status_t st = observe_one(b, fs, rig, sigma_px, beacon[i], &obs[i], &applied);
             if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
                 return st;
             }
             worst = st != MFNS_FILTER_OK ? st : worst;
+            if (applied) {
+                took[n_took++] = obs[i];
+            }
+        }
+    }
+    /* the camera's hypothesis: what the full filter took of the frame, with
+     * the camera's pointing and timing eliminated (its subset then moves
+     * with no value of them); a frame of one or two beacons leaves it
+     * coasting. E_GEOM (a degenerate fit) leaves it unupdated: less data,
+     * never a fault in. */
+    if (n_took > 0) {
+        const mfns_filter_status_t st =
+            mfns_filter_update_invariant(&b->sub[cam], fs, rig, sigma_px, n_took, took, NULL);
+        b->work++;
+        if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
+            return st;
         }
     }
     return worst;
@@ -595,14 +619,12 @@ static void evaluate_sep(mfns_filter_bank_t *b, const mfns_integrity_settings_t 
                 ev->max_ns = ns;
                 ev->worst = k;
             }
-            /* a beacon's subset never took the beacon: the observed
-             * separation's bound (integrity.h); a camera's took its frames
-             * through fault parameters renewed from a finite prior, so a
-             * fault leaks into it a little: the a-priori form, whose margin
-             * (T - |s|) covers that (filter_bank.h "Protection level") */
+            /* every subset is unmoved by its hypothesis's fault (a
+             * beacon's never took the beacon, a camera's took its frames
+             * with the camera's pointing and timing eliminated): the
+             * observed separation's bound (integrity.h) */
             const float var_k = b->sub[k].P[j][j] + dvar[j];
-            const float plk = k < MFNS_BANK_CAM_HYP ? mfns_integrity_pl_axis_apriori(t, var_k, out->k_md)
-                                                    : mfns_integrity_pl_axis(s[j], var_k, k_ff);
+            const float plk = mfns_integrity_pl_axis(s[j], var_k, k_ff);
             ev->pl[j] = fmaxf(ev->pl[j], plk);
             ev->pl_b[j] = k < MFNS_BANK_CAM_HYP ? ev->pl_b[j] : fmaxf(ev->pl_b[j], plk);
         }
@@ -619,7 +641,7 @@ static int explain(const mfns_filter_bank_t *b)
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
         const bool active = k < MFNS_BANK_CAM_HYP ? b->cam_excluded[k] == 0U
                                                   : b->slot_beacon[k - MFNS_BANK_CAM_HYP] != NO_BEACON;
-        if (!active || !(b->cons_dof[k] > 0.0f)) {
+        if (!active || !(b->cons_dof[k] >= MFNS_BANK_CONSIST_MIN_DOF)) {
             continue;
         }
         const float z = consistency_z(b, k);
@@ -638,12 +660,16 @@ static int explain(const mfns_filter_bank_t *b)
 }
 
 /* The subject of a failed separation test (MFNS_BANK_CONSIST_FORGET). */
-static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev)
+static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev, const bool ok[MFNS_BANK_MAX_HYP])
 {
     int best_b = -1, best_c = -1;
     float zb = INFINITY, zc = INFINITY;
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
-        if (!ev->failed[k]) {
+        /* a camera's subset is a candidate whether or not its own test
+         * failed: it is the one subset a camera fault leaves where it was,
+         * and its test has the least power (it lost the camera's pointing
+         * and timing), so another subset's test often fails first */
+        if ((!ev->failed[k] && !(k < MFNS_BANK_CAM_HYP && ok[k])) || !(b->cons_dof[k] >= MFNS_BANK_CONSIST_MIN_DOF)) {
             continue;
         }
         const float z = consistency_z(b, k);
@@ -751,7 +777,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     bool excl_failed = false;
     int subject = b->det_kind != MFNS_BANK_HYP_NONE ? -1 : gate_subject(b, &b->det_by_gate);
     if (subject < 0 && ev.max_ns > 1.0f) {
-        subject = attribute(b, &ev);
+        subject = attribute(b, &ev, ok);
     }
     if (subject >= 0) {
         excl_failed = !exclude(b, subject);

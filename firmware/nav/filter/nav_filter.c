@@ -12,6 +12,7 @@
 #include "firmware/nav/pose/pose.h"
 #include "firmware/nav/pose/pose_internal.h"
 #include "math/rotation.h"
+#include "math/spd.h"
 
 #define N MFNS_FILTER_N
 #define US_PER_S 1e6f
@@ -20,9 +21,13 @@
 #define ORTHO_TOL 1e-6f
 
 _Static_assert(MFNS_FILTER_BASE_N == 12, "pose 6 + velocity 6");
-_Static_assert(MFNS_FILTER_AUG_ROT == MFNS_FILTER_BASE_N && MFNS_FILTER_AUG_DT == MFNS_FILTER_AUG_ROT + 3 &&
-                   MFNS_FILTER_AUG_DT < MFNS_FILTER_N,
-               "camera fault parameters after the body's states: pointing 3, timing 1");
+_Static_assert(MFNS_FILTER_N == MFNS_FILTER_BASE_N, "the body's states only: no camera fault parameters");
+_Static_assert(MFNS_FILTER_AUG_ROT == MFNS_FILTER_N && MFNS_FILTER_AUG_DT == MFNS_FILTER_AUG_ROT + 3 &&
+                   MFNS_FILTER_AUG_DT < MFNS_FILTER_JAC_N,
+               "the fault parameters' Jacobian columns after the body's: pointing 3, timing 1");
+_Static_assert(MFNS_FILTER_MAX_AUG <= MFNS_SPD_MAX_N, "the fault parameters' normal equations fit spd.h");
+_Static_assert(MFNS_FILTER_INV_COLS == 1 + 6, "residual + the pose block");
+_Static_assert(MFNS_FILTER_INV_MAX_OBS <= MFNS_MAX_OBS_PER_CAMERA, "a frame's observations");
 _Static_assert(MFNS_NUM_CAMERAS < MFNS_FILTER_NO_AUG, "camera index fits aug_cam");
 _Static_assert(MFNS_FILTER_POS + 3 == MFNS_FILTER_VEL && MFNS_FILTER_ATT + 3 == MFNS_FILTER_POS,
                "pose block first, attitude then position");
@@ -255,7 +260,7 @@ typedef struct {
     float y[2];
     float s[3]; /* S: [0] 00, [1] 01, [2] 11 */
     float pht[N][2];
-    float h[2][N]; /* the observation's Jacobian (Joseph update) */
+    float h[2][MFNS_FILTER_JAC_N]; /* the observation's Jacobian (Joseph update; fault columns last) */
     float r[3];    /* its noise R: [0] 00, [1] 01, [2] 11 */
     int nh;        /* columns of h that can be non-zero */
     float nis;
@@ -274,7 +279,7 @@ static mfns_camera_t cam_of(const mfns_filter_t *f, const mfns_rig_t *rig, int c
 }
 
 bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig, const mfns_filter_obs_t *o,
-                                   float uv[2], float h[2][MFNS_FILTER_N])
+                                   float uv[2], float h[2][MFNS_FILTER_JAC_N])
 {
     const mfns_camera_t cam = cam_of(f, rig, o->cam);
     const mfns_pose_t pose = mfns_filter_pose(f);
@@ -282,7 +287,7 @@ bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig
     if (!mfns_filter_obs_jacobian(&cam, &pose, o->p_w, uv, hp)) {
         return false;
     }
-    memset(h, 0, sizeof(float[2][MFNS_FILTER_N]));
+    memset(h, 0, sizeof(float[2][MFNS_FILTER_JAC_N]));
     for (int a = 0; a < 2; a++) {
         for (int q = 0; q < 6; q++) {
             h[a][q] = hp[a][q];
@@ -345,7 +350,6 @@ mfns_filter_status_t mfns_filter_augment(mfns_filter_t *f, int cam)
     }
     mfns_filter_strip_aug(f);
     f->aug_cam = (uint8_t)cam;
-    f->aug_frame_us = INT64_MIN; /* the next frame of cam starts its parameters */
     return MFNS_FILTER_OK;
 }
 
@@ -354,44 +358,9 @@ void mfns_filter_strip_aug(mfns_filter_t *f)
     if (f == NULL) {
         return;
     }
-    for (int i = MFNS_FILTER_BASE_N; i < N; i++) {
-        for (int j = 0; j < N; j++) {
-            f->P[i][j] = 0.0f;
-            f->P[j][i] = 0.0f;
-        }
-    }
     f->aug_cam = MFNS_FILTER_NO_AUG;
     f->aug_rot = mfns_v3(0.0f, 0.0f, 0.0f);
     f->aug_dt_s = 0.0f;
-}
-
-/* A new frame of the augmented camera: its fault parameters start afresh.
- * The old ones are marginalised out (their rows and columns dropped: exact
- * for the other states) and new ones enter, independent, with the prior
- * N(last estimate, sigma^2): each frame's pointing and timing are their own
- * unknowns, whatever the fault's time profile. (Adding sigma^2 to the old
- * variance, a random walk, is the same model up to the weak link to the last
- * frame, but in float it left P indefinite after a few hundred frames: a
- * 1 deg^2 variance next to cross-covariances of 1e-8; measured, S not
- * positive definite in test_nees_augmented_camera_hypothesis.) */
-static void aug_step(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_filter_obs_t *o)
-{
-    if (f->aug_cam != o->cam || f->aug_frame_us == o->t_us) {
-        return;
-    }
-    f->aug_frame_us = o->t_us;
-    f->aug_v_w = f->v_w;
-    f->aug_w_w = f->w_w;
-    for (int i = MFNS_FILTER_BASE_N; i < N; i++) {
-        for (int j = 0; j < N; j++) {
-            f->P[i][j] = 0.0f;
-            f->P[j][i] = 0.0f;
-        }
-    }
-    for (int i = 0; i < 3; i++) {
-        f->P[MFNS_FILTER_AUG_ROT + i][MFNS_FILTER_AUG_ROT + i] = s->aug_rot_rad * s->aug_rot_rad;
-    }
-    f->P[MFNS_FILTER_AUG_DT][MFNS_FILTER_AUG_DT] = s->aug_dt_s * s->aug_dt_s;
 }
 
 static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px,
@@ -399,11 +368,11 @@ static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t 
 {
     const mfns_camera_t cam = cam_of(f, rig, o->cam);
     const mfns_pose_t pose = mfns_filter_pose(f);
-    float uv[2], h[2][N], r[3];
+    float uv[2], h[2][MFNS_FILTER_JAC_N], r[3];
     if (!mfns_filter_obs_jacobian_full(f, rig, o, uv, h)) {
         return MFNS_FILTER_E_GEOM;
     }
-    const int nh = f->aug_cam == o->cam ? N : 6; /* columns of H that can be non-zero */
+    const int nh = 6; /* the columns of H on the states that can be non-zero: the pose */
     if (!mfns_pose_obs_cov(&cam, &pose, o->p_w, o->cov_px2, o->sigma_mm, sigma_px, r)) {
         /* pose.c's fallback: the floor alone */
         r[0] = sigma_px * sigma_px;
@@ -462,7 +431,6 @@ mfns_filter_status_t mfns_filter_test(const mfns_filter_t *f, const mfns_filter_
     }
     mfns_filter_t g = *f; /* ~1.2 KB on the stack: the state itself is untouched */
     propagate_dt(&g, s, dt);
-    aug_step(&g, s, obs);
     innov_t in;
     st = innovation(&g, rig, sigma_px, obs, &in);
     if (st == MFNS_FILTER_OK) {
@@ -484,13 +452,6 @@ static void inject(mfns_filter_t *f, const float dx[N])
     f->r_wb_w = mfns_v3_add(f->r_wb_w, mfns_v3(dx[3], dx[4], dx[5]));
     f->v_w = mfns_v3_add(f->v_w, mfns_v3(dx[6], dx[7], dx[8]));
     f->w_w = mfns_v3_add(f->w_w, mfns_v3(dx[9], dx[10], dx[11]));
-    if (f->aug_cam != MFNS_FILTER_NO_AUG) {
-        /* small angles: the bias is a few degrees at most, its increments
-         * are added as a rotation vector */
-        f->aug_rot = mfns_v3_add(f->aug_rot, mfns_v3(dx[MFNS_FILTER_AUG_ROT], dx[MFNS_FILTER_AUG_ROT + 1],
-                                                     dx[MFNS_FILTER_AUG_ROT + 2]));
-        f->aug_dt_s += dx[MFNS_FILTER_AUG_DT];
-    }
 }
 
 static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
@@ -523,7 +484,6 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
     if (st != MFNS_FILTER_OK) {
         return st;
     }
-    aug_step(f, s, obs);
     innov_t in;
     st = innovation(f, rig, sigma_px, obs, &in);
     if (st != MFNS_FILTER_OK) {
@@ -564,10 +524,10 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
     }
     /* Joseph form, P <- (I - K H) P (I - K H)^T + K R K^T, in its rank-2
      * shape: A = P - K (P H^T)^T, then P <- A - (A H^T) K^T + K R K^T.
-     * The short form P - K S K^T lost positive definiteness in float on
-     * an augmented camera (a 1 deg prior of the pointing bias cut to 1e-4
-     * deg in one observation: H P H^T of a later observation of the frame
-     * came out -0.02 px^2, test_nees_augmented_camera_hypothesis). */
+     * The short form P - K S K^T lost positive definiteness in float when
+     * a camera's fault parameters were states with a 1 deg prior cut to
+     * 1e-4 deg in one observation (H P H^T of a later observation came out
+     * -0.02 px^2); kept for its margin on a diffuse start. */
     float aht[N][2];
     for (int i = 0; i < N; i++) {
         for (int j = 0; j < N; j++) {
@@ -594,6 +554,236 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
     inject(f, dx);
     f->t_meas_us = obs->t_us;
     f->updates++;
+    return MFNS_FILTER_OK;
+}
+
+/* ---- camera k's frame with its fault parameters eliminated -------------- */
+
+/* One frame's whitened rows at the linearisation point f (its aug_rot,
+ * aug_dt_s): per observation R_i = L L^T, each row divided through L, so
+ * the rows have unit, independent noise. a[r][0] the residual z - h(x),
+ * a[r][1 + q] the pose Jacobian (q < 6), fr[r] the fault parameters'
+ * (pointing 3, timing 1). No velocity columns: a frame tau late shows the
+ * pose of t - tau, whose velocity term -tau (H_r v + H_phi w) is the
+ * eliminated timing column at the predicted velocity; the rest, tau times
+ * the velocity's error, is left out (0.03 sigma per 54 ms of offset on a
+ * turning robot, measured). Put in at the fitted tau it made matters worse:
+ * on a slow robot tau is barely determined and its fitted value, noise,
+ * scaled columns that invented velocity information (false camera
+ * exclusions in test_filter_bank's clean runs). False on a beacon behind the camera or a singular R. */
+static bool inv_rows(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px, int m,
+                     const mfns_filter_obs_t obs[], float a[][MFNS_FILTER_INV_COLS],
+                     float fr[][MFNS_FILTER_MAX_AUG])
+{
+    for (int i = 0; i < m; i++) {
+        innov_t in;
+        if (innovation(f, rig, sigma_px, &obs[i], &in) != MFNS_FILTER_OK) {
+            return false;
+        }
+        const float l00 = sqrtf(in.r[0]);
+        const float l10 = in.r[1] / l00;
+        const float l11sq = in.r[2] - l10 * l10;
+        if (!(l00 > 0.0f) || !(l11sq > 0.0f)) {
+            return false;
+        }
+        const float l11 = sqrtf(l11sq);
+        float *r0 = a[2 * i], *r1 = a[2 * i + 1];
+        float *g0 = fr[2 * i], *g1 = fr[2 * i + 1];
+        for (int q = 0; q < MFNS_FILTER_INV_COLS; q++) {
+            const float v0 = q == 0 ? in.y[0] : in.h[0][q - 1];
+            const float v1 = q == 0 ? in.y[1] : in.h[1][q - 1];
+            r0[q] = v0 / l00;
+            r1[q] = (v1 - l10 * r0[q]) / l11;
+        }
+        for (int q = 0; q < MFNS_FILTER_MAX_AUG; q++) {
+            g0[q] = in.h[0][MFNS_FILTER_AUG_ROT + q] / l00;
+            g1[q] = (in.h[1][MFNS_FILTER_AUG_ROT + q] - l10 * g0[q]) / l11;
+        }
+    }
+    return true;
+}
+
+/* The fault parameters that fit the frame best at the predicted pose (the
+ * linearisation point only; regularised by the per-frame prior, which
+ * nothing but this point depends on). */
+static bool inv_fit(mfns_filter_t *f, const mfns_filter_settings_t *s, int rows,
+                    const float a[][MFNS_FILTER_INV_COLS], const float fr[][MFNS_FILTER_MAX_AUG])
+{
+    float ntn[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
+    float rhs[MFNS_SPD_MAX_N];
+    memset(ntn, 0, sizeof ntn);
+    memset(rhs, 0, sizeof rhs);
+    for (int r = 0; r < rows; r++) {
+        for (int p = 0; p < MFNS_FILTER_MAX_AUG; p++) {
+            rhs[p] += fr[r][p] * a[r][0];
+            for (int q = 0; q < MFNS_FILTER_MAX_AUG; q++) {
+                ntn[p][q] += fr[r][p] * fr[r][q];
+            }
+        }
+    }
+    for (int p = 0; p < 3; p++) {
+        ntn[p][p] += 1.0f / (s->aug_rot_rad * s->aug_rot_rad);
+    }
+    ntn[3][3] += 1.0f / (s->aug_dt_s * s->aug_dt_s);
+    mfns_chol_t ch;
+    if (mfns_chol_factor(ntn, MFNS_FILTER_MAX_AUG, 0.0f, &ch) != MFNS_SPD_OK) {
+        return false;
+    }
+    mfns_chol_solve(&ch, rhs, rhs);
+    f->aug_rot = mfns_v3_add(f->aug_rot, mfns_v3(rhs[0], rhs[1], rhs[2]));
+    f->aug_dt_s += rhs[3];
+    return isfinite(f->aug_dt_s) && isfinite(f->aug_rot.x) && isfinite(f->aug_rot.y) && isfinite(f->aug_rot.z);
+}
+
+/* Householder: rotate the rows so that each fault column with an effect has
+ * its weight in one row, that row dropped. The rows from the returned index
+ * on are orthogonal to every eliminated column: what no value of those
+ * parameters can change. A column left (remaining norm below
+ * MFNS_FILTER_INV_COL_EPS per rad or s: a parameter whose largest value
+ * moves the data by a negligible part of a sigma, e.g. the timing on a
+ * robot at rest) keeps its rows. */
+static int inv_project(int rows, float a[][MFNS_FILTER_INV_COLS], float fr[][MFNS_FILTER_MAX_AUG])
+{
+    int top = 0;
+    for (int c = 0; c < MFNS_FILTER_MAX_AUG && top < rows; c++) {
+        float nrm2 = 0.0f;
+        for (int r = top; r < rows; r++) {
+            nrm2 += fr[r][c] * fr[r][c];
+        }
+        const float nrm = sqrtf(nrm2);
+        if (!(nrm > MFNS_FILTER_INV_COL_EPS)) {
+            continue;
+        }
+        /* H = I - 2 v v^T / v^T v, v = x + alpha e_top (alpha = sign(x_top)
+         * |x|, no cancellation), v^T v = 2 alpha (alpha + x_top); H x =
+         * -alpha e_top. v's tail is the column itself below top, kept until
+         * the column is done. */
+        const float alpha = fr[top][c] >= 0.0f ? nrm : -nrm;
+        const float v0 = fr[top][c] + alpha;
+        const float two_over_vv = 1.0f / (alpha * v0);
+        for (int q = c + 1; q < MFNS_FILTER_MAX_AUG + MFNS_FILTER_INV_COLS; q++) {
+            float *col_top = q < MFNS_FILTER_MAX_AUG ? &fr[top][q] : &a[top][q - MFNS_FILTER_MAX_AUG];
+            float d = v0 * *col_top;
+            for (int r = top + 1; r < rows; r++) {
+                d += fr[r][c] * (q < MFNS_FILTER_MAX_AUG ? fr[r][q] : a[r][q - MFNS_FILTER_MAX_AUG]);
+            }
+            const float t = d * two_over_vv;
+            *col_top -= t * v0;
+            for (int r = top + 1; r < rows; r++) {
+                float *e = q < MFNS_FILTER_MAX_AUG ? &fr[r][q] : &a[r][q - MFNS_FILTER_MAX_AUG];
+                *e -= t * fr[r][c];
+            }
+        }
+        fr[top][c] = -alpha;
+        for (int r = top + 1; r < rows; r++) {
+            fr[r][c] = 0.0f;
+        }
+        top++;
+    }
+    return top;
+}
+
+mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                  const mfns_rig_t *rig, float sigma_px, int n,
+                                                  const mfns_filter_obs_t obs[], mfns_filter_invariant_info_t *info)
+{
+    if (f == NULL || f->initialised == 0U || rig == NULL || !mfns_filter_settings_valid(s) || n < 1 ||
+        n > MFNS_MAX_OBS_PER_CAMERA || obs == NULL || !pos_finite(sigma_px) || f->aug_cam != obs[0].cam) {
+        return MFNS_FILTER_E_ARG;
+    }
+    for (int i = 0; i < n; i++) {
+        if (!obs_valid(&obs[i]) || obs[i].cam != obs[0].cam || obs[i].t_us != obs[0].t_us) {
+            return MFNS_FILTER_E_ARG;
+        }
+    }
+    mfns_filter_status_t st = mfns_filter_propagate(f, s, obs[0].t_us);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    /* the frame's own fault parameters have no prior (they are no states:
+     * innovation() gives H P H^T of the body states); the timing column is
+     * taken at the velocity predicted for the frame */
+    f->aug_v_w = f->v_w;
+    f->aug_w_w = f->w_w;
+    const int m = n < MFNS_FILTER_INV_MAX_OBS ? n : MFNS_FILTER_INV_MAX_OBS;
+    const int rows = 2 * m;
+    float a[2 * MFNS_FILTER_INV_MAX_OBS][MFNS_FILTER_INV_COLS];
+    float fr[2 * MFNS_FILTER_INV_MAX_OBS][MFNS_FILTER_MAX_AUG];
+    /* linearised where the frame puts the fault parameters (from the last
+     * frame's: a persistent knock starts where it was), then projected */
+    for (int it = 0; it < MFNS_FILTER_INV_FIT_ITERS; it++) {
+        if (!inv_rows(f, rig, sigma_px, m, obs, a, fr) || !inv_fit(f, s, rows, a, fr)) {
+            return MFNS_FILTER_E_GEOM;
+        }
+    }
+    if (!inv_rows(f, rig, sigma_px, m, obs, a, fr)) {
+        return MFNS_FILTER_E_GEOM;
+    }
+    const int top = inv_project(rows, a, fr);
+    /* the rows left, sequential scalar updates (unit noise) of the body
+     * states about the one linearisation point: each row's residual less
+     * what the rows before it moved */
+    float dx[N];
+    memset(dx, 0, sizeof dx);
+    float nis = 0.0f;
+    for (int r = top; r < rows; r++) {
+        const float *h = &a[r][1];
+        float pht[N];
+        float y = a[r][0], sden = 1.0f;
+        for (int i = 0; i < N; i++) {
+            float v = 0.0f;
+            for (int q = 0; q < MFNS_FILTER_INV_COLS - 1; q++) {
+                v += f->P[i][q] * h[q];
+            }
+            pht[i] = v;
+        }
+        for (int q = 0; q < MFNS_FILTER_INV_COLS - 1; q++) {
+            y -= h[q] * dx[q];
+            sden += h[q] * pht[q];
+        }
+        if (!(sden > 0.0f) || !isfinite(sden)) {
+            return MFNS_FILTER_E_GEOM;
+        }
+        nis += y * y / sden;
+        float k[N];
+        for (int i = 0; i < N; i++) {
+            k[i] = pht[i] / sden;
+            dx[i] += k[i] * y;
+        }
+        /* Joseph, scalar: A = P - k pht^T, P <- A - (A h) k^T + k k^T */
+        for (int i = 0; i < N; i++) {
+            for (int j = 0; j < N; j++) {
+                f->P[i][j] -= k[i] * pht[j];
+            }
+        }
+        float ah[N];
+        for (int i = 0; i < N; i++) {
+            float v = 0.0f;
+            for (int q = 0; q < MFNS_FILTER_INV_COLS - 1; q++) {
+                v += f->P[i][q] * h[q];
+            }
+            ah[i] = v;
+        }
+        for (int i = 0; i < N; i++) {
+            for (int j = 0; j < N; j++) {
+                f->P[i][j] += (k[i] - ah[i]) * k[j];
+            }
+        }
+        symmetrise(f);
+    }
+    const int used = rows - top;
+    if (used > 0) {
+        inject(f, dx);
+        f->t_meas_us = obs[0].t_us;
+        f->updates += (uint32_t)m;
+        f->cyc_nis += nis;
+        f->cyc_dof = (uint16_t)(f->cyc_dof < UINT16_MAX - (uint16_t)used ? f->cyc_dof + (uint16_t)used : f->cyc_dof);
+    }
+    if (info != NULL) {
+        info->rows = (uint16_t)used;
+        info->eliminated = (uint8_t)top;
+        info->nis = nis;
+    }
     return MFNS_FILTER_OK;
 }
 

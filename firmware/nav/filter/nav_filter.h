@@ -3,7 +3,7 @@
  * velocity model whose process noise overbounds the robot's unmodelled
  * acceleration, updated observation by observation from beacon image
  * positions at each frame's own capture time. Portable core: no heap, no OS,
- * caller-owned state (mfns_filter_t, 1,240 B on x86-64), bounded work per call.
+ * caller-owned state (mfns_filter_t, 784 B on x86-64), bounded work per call.
  *
  * State (nominal): C_w_b (world -> body, camera.h), r_wb_w (mm, world), v_w
  * (mm/s, world), w_w (rad/s, world: C_b_w' = exp([w_w dt]x) C_b_w), the time
@@ -108,32 +108,34 @@
 #include "math/lens.h"
 #include "firmware/nav/settings/nav_settings.h"
 
-/* 12 states of the body + at most MFNS_FILTER_MAX_AUG fault parameters of
- * one camera (a camera hypothesis of filter_bank.h): 16 x 16 floats of
- * covariance, 1 KB per filter. A filter with no augmented camera keeps those
- * rows and columns at zero (they never receive variance: no work changes
- * its result, the loops are bounded by MFNS_FILTER_N). */
+/* 12 states of the body: attitude, position, velocity, angular rate; 12 x
+ * 12 floats of covariance. A camera hypothesis (filter_bank.h) also carries
+ * its camera's MFNS_FILTER_MAX_AUG fault parameters, as nominal values only
+ * (no states: mfns_filter_update_invariant eliminates them from each of the
+ * camera's frames); the observation Jacobian has their columns after the
+ * states' (MFNS_FILTER_JAC_N). */
 #define MFNS_FILTER_BASE_N 12
 #define MFNS_FILTER_MAX_AUG 4
-#define MFNS_FILTER_N (MFNS_FILTER_BASE_N + MFNS_FILTER_MAX_AUG)
+#define MFNS_FILTER_N MFNS_FILTER_BASE_N
+#define MFNS_FILTER_JAC_N (MFNS_FILTER_N + MFNS_FILTER_MAX_AUG)
 #define MFNS_FILTER_ATT 0
 #define MFNS_FILTER_POS 3
 #define MFNS_FILTER_VEL 6
 #define MFNS_FILTER_OMEGA 9
-/* camera aug_cam's pointing bias (rad, body axes: C_k_b(true) =
- * exp([b]x) C_k_b(table)) and time offset (s: its frame stamped t was
- * captured at t - tau) */
+/* the Jacobian columns of camera aug_cam's pointing bias (rad, body axes:
+ * C_k_b(true) = exp([b]x) C_k_b(table)) and time offset (s: its frame
+ * stamped t was captured at t - tau) */
 #define MFNS_FILTER_AUG_ROT 12
 #define MFNS_FILTER_AUG_DT 15
 #define MFNS_FILTER_NO_AUG 0xFFU
 /* The settings (mfns_filter_settings_t, nav_settings.h) are the table's motion
  * bound (docs/caltable.md "Motion bound"): the acceleration bounds, T, the
  * coast, the gate (P 1e-5 by default: chi-square(2) NIS 23.0) and its reject
- * run, and the camera hypotheses' per-frame priors (1 deg of pointing, 60 ms of
- * timing around the last estimate: each frame's fault parameters are its own
- * unknowns, so the hypothesis assumes nothing about the fault's profile; only
- * the part of the frame they cannot move, the beacons' relative geometry,
- * informs the pose). Defaults and their reasons: contract/caltable_layout.toml,
+ * run, and the scales of a camera's fault parameters (1 deg of pointing, 60 ms
+ * of timing), which regularise the fit of the linearisation point in
+ * mfns_filter_update_invariant and nothing else (each frame's fault
+ * parameters are eliminated, so the hypothesis assumes nothing about the
+ * fault's size or profile). Defaults and their reasons: contract/caltable_layout.toml,
  * mfns_filter_settings_default (generated). */
 /* re-orthonormalise the attitude after every injection: at most this many
  * iterations (linalg.h) */
@@ -170,16 +172,15 @@ typedef struct {
     uint16_t win_dof[MFNS_FILTER_NIS_WINDOW];
     uint8_t win_pos, win_fill;
     uint8_t initialised;
-    /* camera fault parameters (MFNS_FILTER_AUG_*): the camera they belong
-     * to (MFNS_FILTER_NO_AUG: none, rows and columns 12-15 of P zero), the
-     * nominal pointing bias (rad, body axes) and time offset (s), the
-     * capture time of the last frame that restarted them, and the linear
-     * and angular velocity predicted at that frame's first observation (the
-     * time offset's column: held for the whole frame, see nav_filter.c) */
+    /* a camera hypothesis's camera (MFNS_FILTER_NO_AUG: none) and the
+     * fault parameters its last frame was fitted with (the linearisation
+     * point of mfns_filter_update_invariant, and how every later prediction
+     * of that camera by this filter is made): pointing bias (rad, body
+     * axes), time offset (s), and the linear and angular velocity the time
+     * offset's column was taken at (the prediction at that frame) */
     uint8_t aug_cam;
     mfns_v3_t aug_rot;
     float aug_dt_s;
-    int64_t aug_frame_us;
     mfns_v3_t aug_v_w, aug_w_w;
 } mfns_filter_t;
 
@@ -258,35 +259,68 @@ void mfns_filter_reset_window(mfns_filter_t *f);
  * (Wilson-Hilferty; relative error < 1 % for dof >= 4 at p >= 1e-7). */
 float mfns_filter_chi2_quantile(float dof, float p);
 
-/* Make camera cam's fault parameters free states of f (a camera hypothesis
- * of the bank): nominal zero, variance set at cam's next frame (settings
- * aug_rot_rad, aug_dt_s). Every later observation of cam is
- * predicted through its biased mount and time offset, and each new frame of
- * cam restarts them (old ones marginalised out, new ones N(last estimate,
- * aug_rot_rad^2 / aug_dt_s^2) independent of the rest):
+/* Make f a camera hypothesis of camera cam (filter_bank.h): cam's frames are
+ * then taken by mfns_filter_update_invariant, and every prediction of cam by
+ * f (mfns_filter_test, mfns_filter_update) goes through the fault
+ * parameters its last frame was fitted with (nominal zero until then):
  *   z = h(x(t - tau); C_k_b = exp([b]x) C_k_b) ~ h(x(t)) - tau (H_phi w + H_r v)
  *   d z / d b   = J_c C_k_b'^T [p_b - r_bk_b]x       (J_c = d(u,v)/d p_k)
  *   d z / d tau = -(H_phi w_w + H_r v_w)            (the beacon's image velocity)
- * with w_w, v_w the velocity predicted at the frame's first observation,
- * held for the frame (aug_v_w, aug_w_w: the frame is linearised once; taken
- * at the velocity each update of the frame moves, a camera's late frame was
- * read as a deceleration and its offset left near 0, its hypothesis filter
- * as far off as the full one, 3.4 x the PL: test_filter_bank
- * test_dominant_camera_late) (the second-order d z / d v = -tau H_r, d z / d w = -tau H_phi are left
- * out: tau is nearly free at every frame, and a linearisation at a poorly
- * known tau would invent velocity information). cam out of range: E_ARG. */
+ * with w_w, v_w the velocity predicted at the frame (aug_v_w, aug_w_w: the
+ * frame is linearised once). cam out of range: E_ARG. */
 mfns_filter_status_t mfns_filter_augment(mfns_filter_t *f, int cam);
 
-/* Drop the fault parameters (the marginal of the body states: exact). */
+/* No camera hypothesis any more: the fault parameters' nominal dropped. */
 void mfns_filter_strip_aug(mfns_filter_t *f);
 
-/* The observation Jacobian w.r.t. all N states at the state f for obs
- * (rows 2, columns MFNS_FILTER_N) and the prediction; exposed for tests
- * (finite differences). The time offset's column uses the velocity held at
- * the frame's start (aug_v_w, aug_w_w), set by the update or test that
- * starts a frame. False when the beacon is behind the camera. */
+/* Camera cam's frame (n observations of one capture time, cam = f's
+ * augmented camera: mfns_filter_augment) taken with the camera's fault
+ * parameters ELIMINATED, the update of a camera hypothesis (filter_bank.h):
+ *   1. the pointing bias b and the time offset tau that fit the frame best
+ *      at the predicted body state (MFNS_FILTER_INV_FIT_ITERS Gauss-Newton
+ *      steps from the last frame's, regularised by the settings' aug_rot_rad
+ *      and aug_dt_s, which only this linearisation point depends on) are
+ *      the linearisation point;
+ *   2. the whitened residuals and pose Jacobians of the frame are rotated
+ *      (Householder) onto the orthogonal complement of the fault
+ *      parameters' columns: what no value of b and tau can change (the
+ *      beacons' relative geometry, 2n - 4 numbers; 2n - 3 on a robot at rest,
+ *      whose timing column has no effect: a column whose remaining weight is
+ *      below MFNS_FILTER_INV_COL_EPS per rad or s is left);
+ *   3. those rows update the body states, one scalar at a time (unit noise).
+ * Within the linearisation the result does not depend on the camera's
+ * pointing or timing at all, whatever the fault's size or time profile: a
+ * flat prior, not the finite one of the sequential augmented update, so the
+ * bank may bound a camera hypothesis by its observed separation. What it
+ * misses: the second order of a fault beyond the fit (a time offset of many
+ * periods on a turning robot, the motion over it not constant-velocity).
+ * At most MFNS_FILTER_INV_MAX_OBS observations are used (the rest dropped:
+ * less information, never a fault in). One or two beacons (4 or fewer
+ * numbers) leave nothing: OK with info->rows 0, the state only propagated.
+ * The residual sum of squares of the rows enters the cycle's NIS sums.
+ * E_ARG on bad input or a camera that is not f's augmented one, E_TIME as
+ * propagate, E_GEOM on a beacon behind the camera or a degenerate fit. */
+#define MFNS_FILTER_INV_MAX_OBS 16
+#define MFNS_FILTER_INV_COLS 7 /* residual + the 6 pose columns */
+#define MFNS_FILTER_INV_FIT_ITERS 2
+#define MFNS_FILTER_INV_COL_EPS 1e-3f
+typedef struct {
+    uint16_t rows;     /* rows applied (2n less the parameters eliminated) */
+    uint8_t eliminated; /* fault parameters eliminated (4; 3 at rest) */
+    float nis;         /* their residual sum of squares */
+} mfns_filter_invariant_info_t;
+mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                  const mfns_rig_t *rig, float sigma_px, int n,
+                                                  const mfns_filter_obs_t obs[], mfns_filter_invariant_info_t *info);
+
+/* The observation Jacobian at the state f for obs (rows 2, columns
+ * MFNS_FILTER_JAC_N: the N states', then, for f's camera hypothesis's
+ * camera, the fault parameters' at MFNS_FILTER_AUG_*; zero otherwise) and
+ * the prediction; exposed for tests (finite differences). The time offset's
+ * column uses the velocity held for the frame (aug_v_w, aug_w_w). False
+ * when the beacon is behind the camera. */
 bool mfns_filter_obs_jacobian_full(const mfns_filter_t *f, const mfns_rig_t *rig, const mfns_filter_obs_t *obs,
-                                   float uv[2], float h[2][MFNS_FILTER_N]);
+                                   float uv[2], float h[2][MFNS_FILTER_JAC_N]);
 
 /* The pose of the state. */
 mfns_pose_t mfns_filter_pose(const mfns_filter_t *f);

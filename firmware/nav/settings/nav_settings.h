@@ -97,8 +97,8 @@ typedef struct {
     float max_coast_s;        /* longest time without an applied observation (E_TIME: restart), <= T */
     float gate_p;             /* per-observation gate false-alarm probability, (0, 0.5) */
     uint16_t gate_reject_run; /* consecutive gated observations that flag motion_exceeded */
-    float aug_rot_rad;        /* per-frame prior sigma of an augmented camera's pointing bias */
-    float aug_dt_s;           /* per-frame prior sigma of its time offset */
+    float aug_rot_rad;        /* a camera pointing fault's scale: steadies its per-frame fit (nav_filter.h) */
+    float aug_dt_s;           /* the same for its time offset */
 } mfns_filter_settings_t;
 
 /* Calibration uncertainty (docs/caltable.md "Calibration covariance"): the
