@@ -475,9 +475,11 @@ static void test_two_camera_scene_faults(void **state)
         /* a slow ramp of one of two cameras is a change of their relative
          * pointing: either camera's hypothesis explains it (the motion model
          * alone could tell them apart, and its bound allows the rotation):
-         * measured, camera 0's ramp named camera 1 at +16 cycles and camera
-         * 1's named camera 0 at +11 -- a known defect (docs/pose.md); what is
-         * asserted is the detection and the bound */
+         * measured with the per-frame prior, camera 0's ramp named camera 1
+         * at +16 cycles and camera 1's named camera 0 at +11; with the
+         * fault parameters eliminated camera 0's names camera 0 at +16 and
+         * camera 1's still camera 0 at +11 -- a known defect (docs/pose.md);
+         * what is asserted is the detection and the bound */
         const scenario_t ramp = {F_CAM_RAMP, cam, 0.005, 30.0, 0.02, 85 + (uint64_t)cam, 0, TWO_CAM[0]};
         result_t r;
         run(&ramp, &r);

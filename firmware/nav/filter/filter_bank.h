@@ -143,8 +143,9 @@
  *   - two cameras seeing beacons and a slow pointing ramp of one: a change
  *     of their relative pointing that either camera's hypothesis explains
  *     (only the motion model could tell them apart, and its bound allows
- *     the body rotation): detected, but the other camera was named in both
- *     runs measured (test_filter_bank, two-camera ramp);
+ *     the body rotation): detected, but the other camera was named in one
+ *     of the two runs measured (both with the per-frame prior; camera 1's
+ *     ramp names camera 0, test_filter_bank, two-camera ramp);
  *   - a one-frame lag of a 3-beacon camera in a two-camera scene: a beacon
  *     hypothesis's separation can fail first and the beacon is blamed
  *     (test_filter_bank comment; not yet handled);
