@@ -604,8 +604,8 @@ static bool inv_rows(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_
 }
 
 /* The fault parameters that fit the frame best at the predicted pose (the
- * linearisation point only; regularised by the per-frame prior, which
- * nothing but this point depends on). */
+ * linearisation point only; regularised by the settings' scales,
+ * aug_rot_rad and aug_dt_s, which nothing but this point depends on). */
 static bool inv_fit(mfns_filter_t *f, const mfns_filter_settings_t *s, int rows,
                     const float a[][MFNS_FILTER_INV_COLS], const float fr[][MFNS_FILTER_MAX_AUG])
 {
