@@ -19,7 +19,7 @@
  *     (module seed 2: PL 120-320 mm dropped). The elimination is exact
  *     within the linearisation, whatever the fault's size or time profile
  *     (a step at any time, a ramp of any slope, a drift): x_k does not move
- *     with camera k's fault (test_nav_filter: 0.0002-0.002 sigma for a
+ *     with camera k's fault (test_nav_filter: 0.0002-0.015 sigma for a
  *     0.3-1 deg knock or a one-period lag, noise-free; NEES chi-square(6)
  *     with the camera knocked, stale or drifting). Its misses: the second
  *     order of a long offset on a turning robot (0.36 sigma at 0.27 s and
