@@ -632,7 +632,7 @@ def test_c_and_python_share_the_generated_defaults_and_statuses():
 
 def test_a_map_datum_that_leaves_no_usable_fix_is_warned_about():
     """Issue 45: the flight adds the datum to the fault-free covariance of every protection
-    level, so a datum whose sigma times K_ff (= Q^-1(P_md / 2), 4.42 at the default P_md 1e-5)
+    level, so a datum whose sigma times K_ff (= Q^-1(P_md / 2), 3.29 at the default P_md 1e-3)
     exceeds an alert limit leaves no usable fix: the build says so (the table is still built:
     a bench may want it)."""
     import numpy as np
@@ -643,14 +643,13 @@ def test_a_map_datum_that_leaves_no_usable_fix_is_warned_about():
     pos = np.array([[0.0, 0, 0], [1000, 0, 0], [0, 1000, 0]])
     tight = MapDatum(np.zeros(3), np.diag([1.0, 1, 1, 1e-8, 1e-8, 1e-8]))
     assert datum_unusable(tight, None, pos) == []
-    # 7 mm: below the 20 mm limit itself, but 4.42 x 7 = 31 mm of PL floor: warned
+    # 7 mm: below the 20 mm limit itself, but 3.29 x 7 = 23 mm of PL floor: warned
     wide = MapDatum(np.zeros(3), np.diag([7.0**2, 1, 1, 1e-8, 1e-8, 1e-8]))
     lines = datum_unusable(wide, None, pos)
     assert len(lines) == 1 and "world x" in lines[0] and "20 mm" in lines[0], lines
-    assert "K_ff 4.42" in lines[0], lines
-    assert datum_unusable(wide, {"alert_limit_pos_mm": 35.0}, pos) == []  # the table's own limit counts
-    # 4 mm: 17.7 mm of PL floor, inside the limit
-    assert datum_unusable(MapDatum(np.zeros(3), np.diag([4.0**2, 1, 1, 1e-8, 1e-8, 1e-8])), None, pos) == []
+    assert "K_ff 3.29" in lines[0], lines
+    assert datum_unusable(wide, {"alert_limit_pos_mm": 30.0}, pos) == []  # the table's own limit counts
+    assert datum_unusable(MapDatum(np.zeros(3), np.diag([5.0**2, 1, 1, 1e-8, 1e-8, 1e-8])), None, pos) == []
     turn = MapDatum(np.zeros(3), np.diag([1.0, 1, 1, 1e-8, 1e-8, np.radians(0.4) ** 2]))
     lines = datum_unusable(turn, None, pos)
     assert len(lines) == 1 and "about z" in lines[0] and "1 deg" in lines[0]

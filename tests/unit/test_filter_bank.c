@@ -430,9 +430,9 @@ static void test_two_camera_scene_bounded(void **state)
             assert_int_equal(r.first_detect, -1);
             assert_int_equal(r.bound_violations, 0);
             assert_true(isfinite(r.max_pl_any_pos));
-            /* measured at the table's P_md 1e-5: PL max 4.0 / 3.8 / 19.7 /
-             * 18.8 mm, usable 120 / 120 / 119 / 87 of 120 (sigma_pos <= 0.3
-             * mm; at P_md 1e-3 107 of 120 in the last). The camera
+            /* measured: PL max 3.3 / 3.2 / 16.4 / 18.4 mm, usable 120 / 120
+             * / 120 / 107 of 120 (sigma_pos <= 0.3 mm; at P_md 1e-5, 87 of
+             * 120 in the last). The camera
              * hypotheses take their frames with pointing and timing
              * eliminated (mfns_filter_update_invariant): the 2-beacon
              * camera's frame (4 numbers) then tells its hypothesis nothing,
@@ -441,7 +441,7 @@ static void test_two_camera_scene_bounded(void **state)
              * exceeds). The camera-dropping bank gave 120-320 mm on the
              * module's replay. */
             assert_true(r.max_pl_any_pos <= 40.0);
-            assert_true(r.usable * 100 >= r.evaluated * 70);
+            assert_true(r.usable * 100 >= r.evaluated * 85);
         }
     }
 }

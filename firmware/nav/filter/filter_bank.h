@@ -79,10 +79,10 @@
  * + K_md sigma_kj, whose margin T - |s| covered the leak of a per-frame
  * prior of the fault parameters (the observed form had then let 25 usable
  * fixes beyond their PL through, up to 3.09 x, on the grown campaign).
- * Measured (grown campaign, filter on, seeds 2-5, 7 Dec 2026): with P_md
- * 1e-3, 2 usable fixes of 14,024 were beyond their PL (1.03 x, a clock
- * drifting 0.5 ms a frame; 1.06 x, a stale camera): the rate the allocation
- * allows under a fault. The table's default is now P_md 1e-5 (K_ff 4.4).
+ * Measured (grown campaign, filter on, seeds 2-5, 7 Dec 2026): at the
+ * table's P_md 1e-3, 2 usable fixes of 14,024 were beyond their PL (1.03 x,
+ * a clock drifting 0.5 ms a frame; 1.06 x, a stale camera): the rate the
+ * allocation allows under a fault; at P_md 1e-5 (K_ff 4.4) none, worst 0.85.
  * PL_pos_mm / PL_att_deg are the largest position / attitude axis (per
  * axis: compare with a per-axis alert limit).
  * A hypothesis whose subset filter cannot follow (a camera that alone sees

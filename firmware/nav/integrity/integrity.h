@@ -87,7 +87,7 @@
 /* The settings (mfns_integrity_settings_t, nav_settings.h) come from the
  * calibration table's integrity section; mfns_integrity_settings_default
  * (nav_defaults_gen.c) gives its defaults: alert limits 20 mm and 1 deg,
- * P_fa 1e-5 per fix, P_md 1e-5 (1e-3 before 7 Dec 2026), hold 19 cycles, camera faults not required
+ * P_fa 1e-5 per fix, P_md 1e-3, hold 19 cycles, camera faults not required
  * to be bounded (docs/caltable.md "Default settings" gives the reasons). */
 bool mfns_integrity_settings_valid(const mfns_integrity_settings_t *s);
 

@@ -205,7 +205,7 @@ DEFAULTS: dict[str, dict[str, int | float]] = {
         "alert_limit_pos_mm": 20.0,
         "alert_limit_att_deg": 1.0,
         "p_fa": 9.999999747378752e-06,
-        "p_md": 9.999999747378752e-06,
+        "p_md": 0.0010000000474974513,
         "hold_cycles": 19,
         "require_camera_monitor": 0,
         "monitor_only": 0,
