@@ -566,8 +566,8 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
  * (pointing 3, timing 1). No velocity columns: a frame tau late shows the
  * pose of t - tau, whose velocity term -tau (H_r v + H_phi w) is the
  * eliminated timing column at the predicted velocity; the rest, tau times
- * the velocity's error, is left out (0.03 sigma per 54 ms of offset on a
- * turning robot, measured). Put in at the fitted tau it made matters worse:
+ * the velocity's error, is left out (0.015 sigma at 54 ms of offset on a
+ * turning robot, noise-free, measured). Put in at the fitted tau it made matters worse:
  * on a slow robot tau is barely determined and its fitted value, noise,
  * scaled columns that invented velocity information (false camera
  * exclusions in test_filter_bank's clean runs). False on a beacon behind the camera or a singular R. */
