@@ -26,7 +26,6 @@ _Static_assert(MFNS_FILTER_AUG_ROT == MFNS_FILTER_N && MFNS_FILTER_AUG_DT == MFN
                    MFNS_FILTER_AUG_DT < MFNS_FILTER_JAC_N,
                "the fault parameters' Jacobian columns after the body's: pointing 3, timing 1");
 _Static_assert(MFNS_FILTER_MAX_AUG <= MFNS_SPD_MAX_N, "the fault parameters' normal equations fit spd.h");
-_Static_assert(MFNS_FILTER_INV_COLS == 1 + 6, "residual + the pose block");
 _Static_assert(MFNS_FILTER_INV_MAX_OBS <= MFNS_MAX_OBS_PER_CAMERA, "a frame's observations");
 _Static_assert(MFNS_NUM_CAMERAS < MFNS_FILTER_NO_AUG, "camera index fits aug_cam");
 _Static_assert(MFNS_FILTER_POS + 3 == MFNS_FILTER_VEL && MFNS_FILTER_ATT + 3 == MFNS_FILTER_POS,
@@ -255,14 +254,26 @@ static bool obs_valid(const mfns_filter_obs_t *o)
            c[0] >= 0.0f && c[2] >= 0.0f && c[1] * c[1] <= c[0] * c[2];
 }
 
-/* The innovation y = z - h(x), its covariance S and P H^T at the state f. */
+/* The columns of an observation's Jacobian on the states that can be
+ * non-zero: the pose (attitude, position). Velocity and rate enter only
+ * through the propagation. */
+#define NH 6
+_Static_assert(NH <= N, "the pose columns are states");
+_Static_assert(MFNS_FILTER_INV_COLS == 1 + NH, "residual + the pose block");
+
+/* One observation as the state f predicts it: the residual y = z - h(x),
+ * its Jacobian and its noise. */
 typedef struct {
     float y[2];
+    float h[2][MFNS_FILTER_JAC_N]; /* the observation's Jacobian (Joseph update; fault columns last) */
+    float r[3];                    /* its noise R: [0] 00, [1] 01, [2] 11 */
+} obs_model_t;
+
+/* The innovation: the model above, its covariance S and P H^T at f. */
+typedef struct {
+    obs_model_t m;
     float s[3]; /* S: [0] 00, [1] 01, [2] 11 */
     float pht[N][2];
-    float h[2][MFNS_FILTER_JAC_N]; /* the observation's Jacobian (Joseph update; fault columns last) */
-    float r[3];    /* its noise R: [0] 00, [1] 01, [2] 11 */
-    int nh;        /* columns of h that can be non-zero */
     float nis;
 } innov_t;
 
@@ -363,29 +374,39 @@ void mfns_filter_strip_aug(mfns_filter_t *f)
     f->aug_dt_s = 0.0f;
 }
 
-static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px,
-                                       const mfns_filter_obs_t *o, innov_t *in)
+static mfns_filter_status_t observe_model(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px,
+                                          const mfns_filter_obs_t *o, obs_model_t *om)
 {
     const mfns_camera_t cam = cam_of(f, rig, o->cam);
     const mfns_pose_t pose = mfns_filter_pose(f);
-    float uv[2], h[2][MFNS_FILTER_JAC_N], r[3];
-    if (!mfns_filter_obs_jacobian_full(f, rig, o, uv, h)) {
+    float uv[2];
+    if (!mfns_filter_obs_jacobian_full(f, rig, o, uv, om->h)) {
         return MFNS_FILTER_E_GEOM;
     }
-    const int nh = 6; /* the columns of H on the states that can be non-zero: the pose */
-    if (!mfns_pose_obs_cov(&cam, &pose, o->p_w, o->cov_px2, o->sigma_mm, sigma_px, r)) {
+    if (!mfns_pose_obs_cov(&cam, &pose, o->p_w, o->cov_px2, o->sigma_mm, sigma_px, om->r)) {
         /* pose.c's fallback: the floor alone */
-        r[0] = sigma_px * sigma_px;
-        r[1] = 0.0f;
-        r[2] = r[0];
+        om->r[0] = sigma_px * sigma_px;
+        om->r[1] = 0.0f;
+        om->r[2] = om->r[0];
     }
-    in->y[0] = o->u - uv[0];
-    in->y[1] = o->v - uv[1];
+    om->y[0] = o->u - uv[0];
+    om->y[1] = o->v - uv[1];
+    return MFNS_FILTER_OK;
+}
+
+static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_px,
+                                       const mfns_filter_obs_t *o, innov_t *in)
+{
+    const mfns_filter_status_t st = observe_model(f, rig, sigma_px, o, &in->m);
+    if (st != MFNS_FILTER_OK) {
+        return st;
+    }
+    const obs_model_t *om = &in->m;
     for (int i = 0; i < N; i++) {
         for (int a = 0; a < 2; a++) {
             float v = 0.0f;
-            for (int q = 0; q < nh; q++) {
-                v += f->P[i][q] * h[a][q];
+            for (int q = 0; q < NH; q++) {
+                v += f->P[i][q] * om->h[a][q];
             }
             in->pht[i][a] = v;
         }
@@ -394,24 +415,21 @@ static mfns_filter_status_t innovation(const mfns_filter_t *f, const mfns_rig_t 
     for (int a = 0; a < 2; a++) {
         for (int b = 0; b < 2; b++) {
             float v = 0.0f;
-            for (int q = 0; q < nh; q++) {
-                v += h[a][q] * in->pht[q][b];
+            for (int q = 0; q < NH; q++) {
+                v += om->h[a][q] * in->pht[q][b];
             }
             hph[a][b] = v;
         }
     }
-    memcpy(in->h, h, sizeof in->h);
-    memcpy(in->r, r, sizeof in->r);
-    in->nh = nh;
-    in->s[0] = hph[0][0] + r[0];
-    in->s[1] = 0.5f * (hph[0][1] + hph[1][0]) + r[1];
-    in->s[2] = hph[1][1] + r[2];
+    in->s[0] = hph[0][0] + om->r[0];
+    in->s[1] = 0.5f * (hph[0][1] + hph[1][0]) + om->r[1];
+    in->s[2] = hph[1][1] + om->r[2];
     const float det = in->s[0] * in->s[2] - in->s[1] * in->s[1];
     if (!(in->s[0] > 0.0f && det > 0.0f) || !isfinite(det)) {
         return MFNS_FILTER_E_GEOM;
     }
-    in->nis = (in->s[2] * in->y[0] * in->y[0] - 2.0f * in->s[1] * in->y[0] * in->y[1] +
-               in->s[0] * in->y[1] * in->y[1]) /
+    in->nis = (in->s[2] * om->y[0] * om->y[0] - 2.0f * in->s[1] * om->y[0] * om->y[1] +
+               in->s[0] * om->y[1] * om->y[1]) /
               det;
     return MFNS_FILTER_OK;
 }
@@ -491,8 +509,8 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
     }
     if (info != NULL) {
         info->nis = in.nis;
-        info->innov_px[0] = in.y[0];
-        info->innov_px[1] = in.y[1];
+        info->innov_px[0] = in.m.y[0];
+        info->innov_px[1] = in.m.y[1];
     }
     if (gate && !(in.nis <= mfns_filter_gate_nis(s))) {
         f->cyc_nis += mfns_filter_gate_nis(s);
@@ -520,7 +538,7 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
     for (int i = 0; i < N; i++) {
         k[i][0] = in.pht[i][0] * si[0] + in.pht[i][1] * si[1];
         k[i][1] = in.pht[i][0] * si[1] + in.pht[i][1] * si[2];
-        dx[i] = k[i][0] * in.y[0] + k[i][1] * in.y[1];
+        dx[i] = k[i][0] * in.m.y[0] + k[i][1] * in.m.y[1];
     }
     /* Joseph form, P <- (I - K H) P (I - K H)^T + K R K^T, in its rank-2
      * shape: A = P - K (P H^T)^T, then P <- A - (A H^T) K^T + K R K^T.
@@ -537,15 +555,15 @@ static mfns_filter_status_t update(mfns_filter_t *f, const mfns_filter_settings_
     for (int i = 0; i < N; i++) {
         for (int a = 0; a < 2; a++) {
             float v = 0.0f;
-            for (int q = 0; q < in.nh; q++) {
-                v += f->P[i][q] * in.h[a][q];
+            for (int q = 0; q < NH; q++) {
+                v += f->P[i][q] * in.m.h[a][q];
             }
             aht[i][a] = v;
         }
     }
     for (int i = 0; i < N; i++) {
-        const float kr0 = k[i][0] * in.r[0] + k[i][1] * in.r[1];
-        const float kr1 = k[i][0] * in.r[1] + k[i][1] * in.r[2];
+        const float kr0 = k[i][0] * in.m.r[0] + k[i][1] * in.m.r[1];
+        const float kr1 = k[i][0] * in.m.r[1] + k[i][1] * in.m.r[2];
         for (int j = 0; j < N; j++) {
             f->P[i][j] += -aht[i][0] * k[j][0] - aht[i][1] * k[j][1] + kr0 * k[j][0] + kr1 * k[j][1];
         }
@@ -576,8 +594,8 @@ static bool inv_rows(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_
                      float fr[][MFNS_FILTER_MAX_AUG])
 {
     for (int i = 0; i < m; i++) {
-        innov_t in;
-        if (innovation(f, rig, sigma_px, &obs[i], &in) != MFNS_FILTER_OK) {
+        obs_model_t in; /* the model alone: the projection needs no P */
+        if (observe_model(f, rig, sigma_px, &obs[i], &in) != MFNS_FILTER_OK) {
             return false;
         }
         const float l00 = sqrtf(in.r[0]);
@@ -701,7 +719,7 @@ mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_f
         return st;
     }
     /* the frame's own fault parameters have no prior (they are no states:
-     * innovation() gives H P H^T of the body states); the timing column is
+     * observe_model() gives the body states' columns); the timing column is
      * taken at the velocity predicted for the frame */
     f->aug_v_w = f->v_w;
     f->aug_w_w = f->w_w;
