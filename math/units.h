@@ -26,6 +26,7 @@
 #define MFNS_UDEG_PER_DEG_F 1.0e6f
 #define MFNS_M_PER_MM_F 1.0e-3f
 #define MFNS_US_PER_S 1000000u
+#define MFNS_S_PER_US_F 1.0e-6f
 #define MFNS_MS_PER_S 1000u
 
 _Static_assert(sizeof(float) == 4, "the flight code assumes IEEE-754 binary32 float");

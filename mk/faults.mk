@@ -6,8 +6,8 @@
 # stepping -1 s and +5 s; each camera's frames one and two periods stale; the most seen beacon
 # moved 5, 20, 50 mm off and along its wall; its LED dead: 28 faults, 56 runs.
 # A fix is misleading when usable (FIX/DEGRADED) and > 20 mm or > 1 deg from truth at its
-# frames' capture time, beyond 5 sigma (or NEES) of its own covariance, or stamped more than
-# one frame period from that capture time. Prints the table (usable, misleading, worst errors,
+# own stamp, beyond 5 sigma (or NEES) of its own covariance, or stamped more than one frame
+# period from its frames' capture time (tests/bench/faults/score.py). Prints the table (usable, misleading, worst errors,
 # worst error / protection level where nav.csv has pl_* columns, cycles from onset to the first
 # report of the faulty camera or beacon in events.csv: CAMERA_* health and exclusion events,
 # CAMERA_LAG from the time-offset monitor, BEACON_EXCLUDED / BEACON_MISSING / BEACON_REJECTED

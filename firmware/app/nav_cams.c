@@ -155,6 +155,10 @@ static void health_event(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, ui
     case FH_EV_NONE:
     default: return;
     }
+    /* every fault of a frame's time or content puts the camera's clock in
+     * doubt: the frames it delivers after it may be stamped right and show
+     * another time (a stale camera after a drop, a frozen pipeline) */
+    c->timing_doubt = c->timing_doubt || ev.kind != FH_EV_HEALTHY;
     send_event(tlm, cycle, t_us, code, sev, k, sat_i32(ev.arg0), sat_i32(ev.arg1));
     fault_line(&c->lines_health[ev.kind], c->letter, line);
 }
@@ -372,6 +376,7 @@ static void hold_ahead(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, uint
     c->held = c->frame;
     c->have_held = true;
     c->n_ahead++;
+    c->timing_doubt = true; /* the cycle's own frame never came: what follows may be a period stale */
     const int32_t off = cam_sync_offset_us(t_frame, t_us);
     send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_OUT_OF_STEP, TLM_SEV_WARNING, k, off, (int32_t)c->frame.sequence);
     char line[192];

@@ -67,6 +67,8 @@ typedef struct {
     /* across cycles */
     mfns_cam_frame_t held;      /* a frame ahead of the cycle, kept for a later one */
     bool have_held;
+    bool timing_doubt;          /* a frame of it was held, dropped, late, frozen or stepped since the last
+                                   cycle: its clock is in doubt (navigate: mfns_nav_doubt_timing) */
     bool ended_reported;
     mfns_cam_err_t last_err;
     mfns_cam_err_t open_err;    /* at start-up: MFNS_CAM_OK, or why it did not open (the self-test reports it) */

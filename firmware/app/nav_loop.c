@@ -51,6 +51,12 @@ static void navigate(nav_app_t *app, uint32_t cycle, const mfns_frame_t *frames[
             t_cap[k] = frames[k] != NULL ? (int64_t)(app->cams.cam[k].frame.timestamp_ns / 1000u) : 0;
         }
         (void)mfns_nav_set_frame_times(&app->nav, t_cap); /* app->nav is initialised: cannot fail */
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            if (app->cams.cam[k].timing_doubt) {
+                (void)mfns_nav_doubt_timing(&app->nav, k); /* k in range: cannot fail */
+                app->cams.cam[k].timing_doubt = false;
+            }
+        }
         ns = mfns_nav_cycle(&app->nav, frames, &app->out);
     }
     nav_cams_give_back_used(&app->cams);
@@ -156,12 +162,15 @@ static void print_cycle(const nav_app_t *app, uint32_t cycle)
         const mfns_bank_output_t *f = &out->filt.out;
         fprintf(stderr,
                 "  filter: %s%s%s%s %s (%s) PL %.2f mm %.3f deg (beacons %.2f mm %.3f deg) hyp %u unmonitorable %u"
-                " own-assoc %u snapshot-sep %.2f\n",
+                " own-assoc %u snapshot-sep %.2f clocks in doubt %c%c%c%s\n",
                 out->filt.started ? "started" : "ran", out->filt.used ? ", flown" : "",
                 f->restart ? ", restart" : "", out->filt.motion_exceeded ? ", motion exceeded" : "",
                 mfns_pose_status_str(f->status), mfns_pose_strerror(f->reason), (double)f->pl_pos_mm,
                 (double)f->pl_att_deg, (double)f->pl_beacon_pos_mm, (double)f->pl_beacon_att_deg, f->hypotheses,
-                f->unmonitorable, app->nav.filt.own_assoc, (double)out->filt.motion_sep);
+                f->unmonitorable, app->nav.filt.own_assoc, (double)out->filt.motion_sep,
+                (app->nav.filt.timing_doubt & 1U) != 0U ? 'x' : '-', (app->nav.filt.timing_doubt & 2U) != 0U ? 'y' : '-',
+                (app->nav.filt.timing_doubt & 4U) != 0U ? 'z' : '-',
+                f->timing_trusted >= 0 ? " (one cleared)" : "");
     }
 }
 

@@ -18,8 +18,8 @@ sigma (sigma_mm of beacons.csv). The faults (onsets for 120 frames; they scale w
 - that beacon's LED dead (its spot erased from every image; the table keeps it).
 
 Scoring is tests/bench/faults/score.py (a misleading fix: usable and > 20 mm or > 1 deg from
-truth at its frames' capture time, beyond 5 sigma of its own covariance or NEES 39.3, or stamped
-more than one frame period from its frames' capture time; protection levels where nav.csv has
+truth at its own stamp, beyond 5 sigma of its own covariance or NEES 39.3, or stamped more
+than one frame period from its frames' capture time; protection levels where nav.csv has
 pl_* columns; the cycles from onset to the first report of the faulty camera or beacon in
 events.csv). Prints a markdown table, writes WORK/results.json, exits 1 when any fix is
 misleading (or a run could not be flown).
@@ -1083,8 +1083,8 @@ def main() -> int:
     }
     print(
         f"misleading fixes (usable and > {score.LIMIT_MM:g} mm or > {score.LIMIT_DEG:g} deg from truth at "
-        f"their frames' capture time, > {score.LIMIT_SIGMA:g} sigma of their own covariance, or stamped more "
-        f"than one frame period from it): {total} in {sum(1 for r in results if r['misleading'])} of "
+        f"their stamp, > {score.LIMIT_SIGMA:g} sigma of their own covariance, or stamped more "
+        f"than one frame period from their frames' capture): {total} in {sum(1 for r in results if r['misleading'])} of "
         f"{len(results)} runs"
     )
     if failed:

@@ -225,21 +225,29 @@ def test_scorer_flags_a_fix_6_sigma_off() -> None:
 
 
 def test_scorer_flags_a_fix_stamped_two_periods_from_its_frames() -> None:
-    # the pose of frame 0, from frame 0, stamped at frame 2's time: right pose, wrong time
+    # the pose of frame 0, from frame 0, stamped at frame 2's time: wrong at its stamp, and
+    # stamped two periods from its frame
     r = one(nav_row(2, 2 * PERIOD, 0), 0)
-    assert r["misleading"] == 1 and r["misleading_stamp"] == 1
-    assert r["worst_mm"] < 1e-6 and r["worst_stamp_s"] == pytest.approx(2 * PERIOD)
-    # one period late is allowed (a frame that is exactly one period stale)
-    assert one(nav_row(1, PERIOD, 0), 0)["misleading_stamp"] == 0
+    assert r["misleading"] == 1 and r["misleading_stamp"] == 1 and r["misleading_error"] == 1
+    assert r["worst_mm"] == pytest.approx(np.linalg.norm(np.subtract(POS[2], POS[0])))
+    assert r["worst_stamp_s"] == pytest.approx(2 * PERIOD)
+    # one period late passes the stamp rule (a frame that is exactly one period stale), but the
+    # pose of frame 0 is still wrong for the stamp of frame 1 (here by 10 mm at 1 mm sigma)
+    r = one(nav_row(1, PERIOD, 0), 0)
+    assert r["misleading_stamp"] == 0 and r["misleading_error"] == 1
 
 
-def test_scorer_uses_the_worst_of_frames_fused_out_of_step() -> None:
-    row = nav_row(1, PERIOD, 1, cams_used=3)
+def test_scorer_judges_a_fix_at_its_stamp_whatever_its_frames_show() -> None:
     cams = cam_rows(1, 1) + [
         {"cycle": "1", "camera": "y", "state": "OK", "beacons_identified": "3", "frame_seq": "1"}
     ]
     cap = {("x", 1): PERIOD, ("y", 1): 0.0}  # y's image of frame 1 shows frame 0
-    r = score.score_run([row], cams, truth(), cap, PERIOD)
+    # right at its stamp (a filter that took y's late frame with its time offset eliminated):
+    # counted as fused out of step, not misleading
+    r = score.score_run([nav_row(1, PERIOD, 1, cams_used=3)], cams, truth(), cap, PERIOD)
+    assert r["out_of_step_fixes"] == 1 and r["misleading"] == 0 and r["worst_mm"] < 1e-6
+    # the pose of y's instant stamped with x's (a blend gone to the stale camera): misleading
+    r = score.score_run([nav_row(1, PERIOD, 0, cams_used=3)], cams, truth(), cap, PERIOD)
     assert r["out_of_step_fixes"] == 1 and r["misleading"] == 1
     assert r["worst_mm"] == pytest.approx(np.linalg.norm(np.subtract(POS[1], POS[0])))
 

@@ -610,6 +610,15 @@ static void test_bad_frame_and_bad_arguments(void **state)
     assert_int_equal(mfns_nav_cycle(&nav, NULL, &out), MFNS_NAV_E_ARG);
     assert_int_equal(mfns_nav_init(NULL, &table, MFNS_POSE_MODE_ML), MFNS_NAV_E_ARG);
     assert_string_not_equal(mfns_nav_strerror(MFNS_NAV_E_ARG), mfns_nav_strerror(MFNS_NAV_OK));
+    /* a camera's clock in doubt: the camera must exist; with the filter off it changes nothing */
+    assert_int_equal(mfns_nav_doubt_timing(NULL, 0), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_doubt_timing(&nav, -1), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_doubt_timing(&nav, MFNS_NUM_CAMERAS), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_doubt_timing(&nav, 2), MFNS_NAV_OK);
+    assert_int_equal(nav.filt.timing_doubt, 0);
+    assert_int_equal(mfns_nav_enable_filter(&nav, 54000), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_doubt_timing(&nav, 2), MFNS_NAV_OK);
+    assert_int_equal(nav.filt.timing_doubt, 4);
 }
 
 int main(void)

@@ -137,6 +137,51 @@ static void test_on_starts_and_takes_over(void **state)
     assert_false(rep.ran);
 }
 
+/* A camera's clock in doubt (mfns_navf_doubt_timing): off, nothing is held;
+ * on, a doubt raised before the bank starts is the started bank's, and it
+ * holds while the readings cannot clear it (a robot at rest shows no clock:
+ * no power), the bank still flying on the camera's timing-free frames; a
+ * camera out of range is ignored. */
+static void test_timing_doubt(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 12);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 0);
+    mfns_navf_doubt_timing(&nf, 1);
+    assert_int_equal(nf.timing_doubt, 0); /* off: nothing */
+    mfns_navf_enable(&nf, 54000);
+    mfns_navf_doubt_timing(&nf, -1);
+    mfns_navf_doubt_timing(&nf, MFNS_NUM_CAMERAS);
+    assert_int_equal(nf.timing_doubt, 0);
+    mfns_navf_doubt_timing(&nf, 1);
+    assert_int_equal(nf.timing_doubt, 2);
+    int used = 0;
+    for (int k = 0; k < CYCLES; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_true(rep.ran);
+        assert_int_equal(nf.bank.timing_doubt[1], 1);
+        assert_int_equal(nf.bank.timing_doubt[0] + nf.bank.timing_doubt[2], 0);
+        assert_int_equal(rep.out.timing_doubt_mask, 2);
+        assert_int_equal(rep.out.timing_trusted, -1);
+        used += rep.used ? 1 : 0;
+        if (rep.used) {
+            assert_within_pl(&truth, &sol, &integ);
+        }
+    }
+    print_message("camera y's clock in doubt at rest: used in %d of %d\n", used, CYCLES);
+    assert_true(used >= CYCLES - 10);
+    assert_int_equal(nf.timing_doubt, 2);
+}
+
 /* The filter's motion bound is the bound table's (docs/caltable.md "Motion
  * bound"), read every cycle: the same frames under a tighter acceleration
  * bound leave a smaller covariance and PL (less process noise), a re-bound
@@ -584,6 +629,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
+        cmocka_unit_test(test_timing_doubt),
         cmocka_unit_test(test_motion_bound_from_table),
         cmocka_unit_test(test_motion_monitor_against_snapshot),
         cmocka_unit_test(test_capture_times),

@@ -162,6 +162,15 @@ mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us)
     return MFNS_NAV_OK;
 }
 
+mfns_nav_status_t mfns_nav_doubt_timing(mfns_nav_t *nav, int cam)
+{
+    if (nav == NULL || cam < 0 || cam >= MFNS_NUM_CAMERAS) {
+        return MFNS_NAV_E_ARG;
+    }
+    mfns_navf_doubt_timing(&nav->filt, cam);
+    return MFNS_NAV_OK;
+}
+
 mfns_nav_status_t mfns_nav_set_frame_times(mfns_nav_t *nav, const int64_t t_us[MFNS_NUM_CAMERAS])
 {
     if (nav == NULL || nav->magic != NAV_MAGIC || t_us == NULL) {

@@ -196,6 +196,15 @@ mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us);
  * stamped k x period. Used by the next mfns_nav_cycle only. */
 mfns_nav_status_t mfns_nav_set_frame_times(mfns_nav_t *nav, const int64_t t_us[MFNS_NUM_CAMERAS]);
 
+/* Camera cam's clock is in doubt (the caller's frame checks saw a dropped
+ * or held frame, a clock step, a late or frozen frame of it): with the
+ * filter on, its frames enter the filter bank with their time offset
+ * eliminated until the bank's readings of the camera's clock clear the
+ * doubt (filter_bank.h mfns_bank_doubt_timing); off, nothing (the snapshot's
+ * own time-offset monitor, integrity_lag.h, watches every camera).
+ * MFNS_NAV_E_ARG for a camera out of range. */
+mfns_nav_status_t mfns_nav_doubt_timing(mfns_nav_t *nav, int cam);
+
 /* Start tracking from a known pose (e.g. the docking port the robot leaves
  * from, commanded from the ground): the next cycle tracks from it and falls
  * back to acquisition if the beacons do not confirm it. MFNS_NAV_E_ARG for a

@@ -25,6 +25,7 @@ static void clear_cycle(mfns_filter_bank_t *b)
         b->cam_tested[c] = 0;
         b->cam_held_nis[c] = 0.0f;
         b->cam_held_dof[c] = 0;
+        b->timing_read[c] = 0;
     }
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
         b->slot_seen[i] = 0;
@@ -325,6 +326,126 @@ static bool pulled_by(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs, i
     return false;
 }
 
+mfns_filter_status_t mfns_bank_doubt_timing(mfns_filter_bank_t *b, int cam, float resolve_s)
+{
+    if (b == NULL || b->initialised == 0U || cam < 0 || cam >= MFNS_NUM_CAMERAS || !(resolve_s > 0.0f) ||
+        !isfinite(resolve_s)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    b->timing_doubt[cam] = 1;
+    b->timing_clean[cam] = 0;
+    b->timing_resolve_s[cam] = resolve_s;
+    return MFNS_FILTER_OK;
+}
+
+/* The beacon slot of an observation about to be used, started just before
+ * its first update (as observe_one); -1 when no slot is free (counted). */
+static int use_slot(mfns_filter_bank_t *b, int16_t beacon)
+{
+    int slot = slot_of(b, beacon);
+    if (slot < 0) {
+        slot = new_slot(b);
+        if (slot < 0) {
+            b->unmonitored_obs++; /* no hypothesis would cover it: nobody uses it */
+            return -1;
+        }
+        b->slot_beacon[slot] = beacon;
+        b->slot_gate_run[slot] = 0;
+        start_hypothesis(b, MFNS_BANK_CAM_HYP + slot);
+    }
+    b->slot_seen[slot] = 1;
+    return slot;
+}
+
+/* A frame of a camera whose clock is in doubt (mfns_bank_doubt_timing):
+ * timing-free in every filter, gated as a whole on the full filter's rows,
+ * the clock read. Excluded beacons' observations are left out untested (a
+ * clock in doubt tests nothing for re-admission). */
+static mfns_filter_status_t observe_timing_free(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
+                                                const mfns_rig_t *rig, float sigma_px, int n,
+                                                const int16_t beacon[], const mfns_filter_obs_t obs[])
+{
+    const int cam = obs[0].cam;
+    mfns_filter_obs_t use[MFNS_MAX_OBS_PER_CAMERA];
+    int8_t slot_of_use[MFNS_MAX_OBS_PER_CAMERA];
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        if (excl_index(b, beacon[i]) >= 0) {
+            continue;
+        }
+        const int slot = use_slot(b, beacon[i]);
+        if (slot >= 0) {
+            use[m] = obs[i];
+            slot_of_use[m] = (int8_t)slot;
+            m++;
+        }
+    }
+    if (m == 0) {
+        return MFNS_FILTER_OK;
+    }
+    /* the full filter's velocity before the frame gives every filter the one
+     * direction to eliminate (nav_filter.h): they take the same functionals */
+    const mfns_filter_t ref = b->full;
+    mfns_filter_t g = b->full; /* the frame tested as a whole before the full filter takes it */
+    mfns_filter_invariant_info_t info;
+    mfns_filter_status_t st = mfns_filter_update_timing_free(&g, fs, rig, sigma_px, m, use, &ref, &info);
+    b->work++;
+    if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
+        return st;
+    }
+    if (st != MFNS_FILTER_OK) {
+        return MFNS_FILTER_OK; /* a degenerate fit: less data, never a fault in */
+    }
+    if (info.rows > 0U && !(info.nis <= mfns_filter_chi2_quantile((float)info.rows, fs->gate_p))) {
+        b->cam_gated[cam] = (uint16_t)(b->cam_gated[cam] + (uint16_t)m);
+        b->frame_rejected[cam] = 1;
+        return MFNS_FILTER_GATED;
+    }
+    b->full = g;
+    b->cam_passed[cam] = (uint16_t)(b->cam_passed[cam] + (uint16_t)m);
+    for (int i = 0; i < m; i++) {
+        b->slot_passed[slot_of_use[i]] = 1;
+    }
+    const float dev = fabsf(info.tau_s);
+    if (!(dev <= MFNS_BANK_TIMING_K * info.tau_sigma_s)) {
+        b->timing_read[cam] = 2; /* dirty, whatever the power (a NaN reading too) */
+    } else if (MFNS_BANK_TIMING_K * info.tau_sigma_s <= b->timing_resolve_s[cam] && b->timing_read[cam] == 0U) {
+        b->timing_read[cam] = 1;
+    }
+    /* every subset: a camera's own hypothesis as always (its pointing and
+     * timing eliminated), the others timing-free, each beacon's without its
+     * beacon */
+    for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
+        if (k < MFNS_BANK_CAM_HYP) {
+            st = k == cam ? mfns_filter_update_invariant(&b->sub[k], fs, rig, sigma_px, m, use, NULL)
+                          : mfns_filter_update_timing_free(&b->sub[k], fs, rig, sigma_px, m, use, &ref, NULL);
+        } else {
+            const int slot = k - MFNS_BANK_CAM_HYP;
+            if (b->slot_beacon[slot] == NO_BEACON) {
+                continue;
+            }
+            mfns_filter_obs_t rest[MFNS_MAX_OBS_PER_CAMERA];
+            int r = 0;
+            for (int i = 0; i < m; i++) {
+                if (slot_of_use[i] != slot) {
+                    rest[r++] = use[i];
+                }
+            }
+            if (r == 0) {
+                continue;
+            }
+            st = mfns_filter_update_timing_free(&b->sub[k], fs, rig, sigma_px, r, rest, &ref, NULL);
+        }
+        b->work++;
+        if (st == MFNS_FILTER_E_ARG) {
+            return st;
+        }
+        /* E_TIME (a subset that coasted too long) shows in evaluate; E_GEOM
+         * leaves that subset unupdated: less data, never a fault in */
+    }
+    return MFNS_FILTER_OK;
+}
+
 mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
                                              const mfns_rig_t *rig, float sigma_px, int n, const int16_t beacon[],
                                              const mfns_filter_obs_t obs[])
@@ -343,6 +464,9 @@ mfns_filter_status_t mfns_bank_observe_frame(mfns_filter_bank_t *b, const mfns_f
         return MFNS_FILTER_OK;
     }
     const int cam = obs[0].cam;
+    if (b->timing_doubt[cam] != 0U && b->cam_excluded[cam] == 0U) {
+        return observe_timing_free(b, fs, rig, sigma_px, n, beacon, obs);
+    }
     /* the frame against the prediction, before any of it is applied: a
      * single beacon fault fails one observation of a frame, a camera fault
      * (pointing, a late frame) or a robot beyond the motion bound fails
@@ -702,10 +826,14 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     out->reason = MFNS_POSE_R_BAD_ARG;
     out->readmitted_beacon = NO_BEACON;
     out->readmitted_camera = -1;
+    out->timing_trusted = -1;
     out->detected_id = NO_BEACON;
     if (b == NULL || b->initialised == 0U || !mfns_filter_settings_valid(fs) || is == NULL ||
         !mfns_integrity_settings_valid(is)) {
         return MFNS_FILTER_E_ARG;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        out->timing_doubt_mask = (uint8_t)(out->timing_doubt_mask | (b->timing_doubt[c] != 0U ? 1U << c : 0U));
     }
     /* Two cameras against the prediction in one cycle are the motion (a
      * single beacon or camera fault fails one camera): two frames failed as
@@ -788,6 +916,22 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         }
         out->pose = mfns_filter_pose(&b->full);
         evaluate_sep(b, is, dvar, active, ok, out, &ev);
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (b->timing_doubt[c] == 0U) {
+            continue;
+        }
+        b->timing_clean[c] = b->timing_read[c] == 2U   ? 0U
+                             : b->timing_read[c] == 1U ? (uint16_t)(b->timing_clean[c] + 1U)
+                                                       : b->timing_clean[c];
+        if (b->timing_clean[c] >= is->hold_cycles && out->timing_trusted < 0) {
+            b->timing_doubt[c] = 0;
+            b->timing_clean[c] = 0;
+            out->timing_trusted = (int8_t)c;
+        }
+    }
+    if (out->timing_trusted >= 0) {
+        out->timing_doubt_mask = (uint8_t)(out->timing_doubt_mask & ~(1U << (unsigned)out->timing_trusted));
     }
     if (b->last_usable != 0U) {
         /* a clean test counts only against a filter that was certified: an

@@ -42,6 +42,18 @@
  * A beacon with no free hypothesis slot is not used by any filter (counted in
  * unmonitored_obs): nothing enters the full filter that no hypothesis covers.
  *
+ * A camera's clock in doubt (mfns_bank_doubt_timing, below): the camera
+ * hypothesis bounds a timing fault, but the full filter, which took the
+ * camera's frames at their stamps, is moved by it, and its covariance does
+ * not say so (a camera a period stale after a dropped frame: usable fixes
+ * 7-25 sigma off, within their PL, grown campaign). When the caller has
+ * seen something wrong with a camera's frames, every filter takes them
+ * with the time offset eliminated instead (nav_filter.h
+ * mfns_filter_update_timing_free, the one direction from the full filter's
+ * velocity): a lag moves no filter to first order, and the frames keep all
+ * they say of the geometry but one number. The camera's own hypothesis is
+ * unchanged (pointing and timing eliminated).
+ *
  * Memory: a filter is 784 B on x86-64 (12 x 12 floats of covariance and the
  * nominal state; a camera's fault parameters are no states).
  * MFNS_BANK_MAX_BEACON_HYP = 12: the original module layout keeps 4-7 beacons
@@ -235,6 +247,24 @@
  * a (20 mm)^2 / (1 deg)^2 prior: T >= 0.6 mm / 0.03 deg, for the PL nothing
  * against the alert limits. */
 #define MFNS_BANK_VAR_FLOOR_EPS 256.0f
+/* Timing in doubt (mfns_bank_doubt_timing). A camera's clock is read at each
+ * of its frames by the full filter's timing-free update (nav_filter.h
+ * mfns_filter_update_timing_free: tau and its sigma at the predicted state,
+ * which the camera's timing no longer moves; the sigma carries the state's
+ * covariance, so it is honest and wide: 12 ms for a camera of one beacon,
+ * 21-29 ms for one of ten, module seed 5 at about 80 mm/s). A frame is a
+ * clean reading when |tau| <= MFNS_BANK_TIMING_K sigma, a dirty one beyond;
+ * a clean reading counts toward clearing the doubt only when it could have
+ * seen an offset of the doubt's resolve_s (K sigma at most that; the flight
+ * passes the frame period, the lag of a camera stale after a dropped frame:
+ * a robot at rest reads no clock, and its frames neither clear nor
+ * condemn). The table's hold_cycles clean readings in a row clear the
+ * doubt; a dirty one starts the count again. K = 3, the readmission's
+ * (chi-square(1) at about MFNS_BANK_READMIT_P's tail). Misses: an offset
+ * below K sigma (a fraction of a period: the camera's hypothesis bounds
+ * it, and an offset the reading cannot see moves the pose by about as
+ * many of its sigmas, since both come from the same image motion). */
+#define MFNS_BANK_TIMING_K 3.0f
 
 typedef enum {
     MFNS_BANK_HYP_NONE = 0,
@@ -271,6 +301,10 @@ typedef struct {
     uint32_t work;            /* filter updates + propagations + separations this cycle */
     float var_floor[MFNS_BANK_AXES]; /* MFNS_BANK_VAR_FLOOR_EPS x the start's prior variance, per pose axis */
     uint8_t last_usable; /* the last evaluation was usable: re-admission tests count */
+    uint8_t timing_doubt[MFNS_NUM_CAMERAS]; /* its clock in doubt: its frames timing-free everywhere */
+    uint16_t timing_clean[MFNS_NUM_CAMERAS]; /* consecutive clean readings of its clock with power */
+    float timing_resolve_s[MFNS_NUM_CAMERAS]; /* the offset a reading must resolve to count (the doubt's) */
+    uint8_t timing_read[MFNS_NUM_CAMERAS];   /* this cycle: 0 none, 1 clean with power, 2 dirty */
     uint8_t initialised;
 } mfns_filter_bank_t;
 
@@ -293,6 +327,8 @@ typedef struct {
     uint8_t by_gate;          /* the exclusion came from the innovation gate */
     int16_t readmitted_beacon; /* -1 none */
     int8_t readmitted_camera;  /* -1 none */
+    int8_t timing_trusted;     /* a camera whose clock doubt this cycle cleared, -1 none */
+    uint8_t timing_doubt_mask; /* bit c: camera c's clock still in doubt after this cycle */
     uint32_t work;
 } mfns_bank_output_t;
 
@@ -335,6 +371,26 @@ void mfns_bank_diffuse_prior(const float var_ros[6], float prior[6][6]);
  * an exclusion, nav_filter_cycle.h); the re-admission counts start afresh. */
 void mfns_bank_keep_exclusions(mfns_filter_bank_t *b, const int16_t excl_beacon[MFNS_BANK_MAX_EXCLUDED_BEACONS],
                                const uint8_t cam_excluded[MFNS_NUM_CAMERAS]);
+
+/* Camera cam's clock is in doubt (the caller's frame checks saw a dropped,
+ * held, late, frozen or stepped frame: firmware/frames/frame_health.h):
+ * from its next frame on, every filter of the bank takes camera cam's frames
+ * with their time offset eliminated (mfns_filter_update_timing_free; the
+ * camera's own hypothesis as before, pointing and timing eliminated), the
+ * frame gated as a whole on its rows' chi-square, and the full filter reads
+ * the camera's clock from each of them (MFNS_BANK_TIMING_K above). A stale
+ * or drifting camera then moves no filter through its timing, and keeps
+ * what its frames say of the geometry (one number a frame less: along the
+ * image motion of the robot's velocity). The doubt clears after hold_cycles
+ * clean readings that resolve resolve_s (> 0: the frame period; evaluate:
+ * out->timing_trusted). Misses: a clock fault the
+ * caller's checks did not see (a drift from the start of the bank, a stale
+ * frame that came without a dropped or held one): the camera's hypothesis
+ * bounds it, with no doubt its timing moves the full filter (usable fixes
+ * beyond 5 sigma, within the PL). Also a clock that reads clean while the
+ * robot moves too slowly to show it (no power: the doubt holds). E_ARG
+ * for a bad camera or resolve_s not positive and finite. */
+mfns_filter_status_t mfns_bank_doubt_timing(mfns_filter_bank_t *b, int cam, float resolve_s);
 
 /* Is beacon (map index) / camera held out now. */
 bool mfns_bank_beacon_excluded(const mfns_filter_bank_t *b, int16_t beacon);

@@ -625,7 +625,8 @@ static bool inv_rows(const mfns_filter_t *f, const mfns_rig_t *rig, float sigma_
  * linearisation point only; regularised by the settings' scales,
  * aug_rot_rad and aug_dt_s, which nothing but this point depends on). */
 static bool inv_fit(mfns_filter_t *f, const mfns_filter_settings_t *s, int rows,
-                    const float a[][MFNS_FILTER_INV_COLS], const float fr[][MFNS_FILTER_MAX_AUG])
+                    const float a[][MFNS_FILTER_INV_COLS], const float fr[][MFNS_FILTER_MAX_AUG],
+                    bool pointing_free)
 {
     float ntn[MFNS_SPD_MAX_N][MFNS_SPD_MAX_N];
     float rhs[MFNS_SPD_MAX_N];
@@ -643,6 +644,16 @@ static bool inv_fit(mfns_filter_t *f, const mfns_filter_settings_t *s, int rows,
         ntn[p][p] += 1.0f / (s->aug_rot_rad * s->aug_rot_rad);
     }
     ntn[3][3] += 1.0f / (s->aug_dt_s * s->aug_dt_s);
+    if (!pointing_free) {
+        /* the pointing held at the mount: its rows and columns out */
+        for (int p = 0; p < 3; p++) {
+            for (int q = 0; q < MFNS_FILTER_MAX_AUG; q++) {
+                ntn[p][q] = p == q ? 1.0f : 0.0f;
+                ntn[q][p] = p == q ? 1.0f : 0.0f;
+            }
+            rhs[p] = 0.0f;
+        }
+    }
     mfns_chol_t ch;
     if (mfns_chol_factor(ntn, MFNS_FILTER_MAX_AUG, 0.0f, &ch) != MFNS_SPD_OK) {
         return false;
@@ -660,10 +671,10 @@ static bool inv_fit(mfns_filter_t *f, const mfns_filter_settings_t *s, int rows,
  * MFNS_FILTER_INV_COL_EPS per rad or s: a parameter whose largest value
  * moves the data by a negligible part of a sigma, e.g. the timing on a
  * robot at rest) keeps its rows. */
-static int inv_project(int rows, float a[][MFNS_FILTER_INV_COLS], float fr[][MFNS_FILTER_MAX_AUG])
+static int inv_project(int rows, float a[][MFNS_FILTER_INV_COLS], float fr[][MFNS_FILTER_MAX_AUG], int c_first)
 {
     int top = 0;
-    for (int c = 0; c < MFNS_FILTER_MAX_AUG && top < rows; c++) {
+    for (int c = c_first; c < MFNS_FILTER_MAX_AUG && top < rows; c++) {
         float nrm2 = 0.0f;
         for (int r = top; r < rows; r++) {
             nrm2 += fr[r][c] * fr[r][c];
@@ -701,19 +712,56 @@ static int inv_project(int rows, float a[][MFNS_FILTER_INV_COLS], float fr[][MFN
     return top;
 }
 
-mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_filter_settings_t *s,
-                                                  const mfns_rig_t *rig, float sigma_px, int n,
-                                                  const mfns_filter_obs_t obs[], mfns_filter_invariant_info_t *info)
+static bool frame_valid(int n, const mfns_filter_obs_t obs[])
 {
-    if (f == NULL || f->initialised == 0U || rig == NULL || !mfns_filter_settings_valid(s) || n < 1 ||
-        n > MFNS_MAX_OBS_PER_CAMERA || obs == NULL || !pos_finite(sigma_px) || f->aug_cam != obs[0].cam) {
-        return MFNS_FILTER_E_ARG;
+    if (n < 1 || n > MFNS_MAX_OBS_PER_CAMERA || obs == NULL) {
+        return false;
     }
     for (int i = 0; i < n; i++) {
         if (!obs_valid(&obs[i]) || obs[i].cam != obs[0].cam || obs[i].t_us != obs[0].t_us) {
-            return MFNS_FILTER_E_ARG;
+            return false;
         }
     }
+    return true;
+}
+
+/* The time offset's fit from the rows at the final linearisation point,
+ * before the projection: tau = the point + (f^T y) / (f^T f), its variance
+ * 1 / (f^T f) from the frame's noise plus (u^T P u) / (f^T f)^2 from the
+ * state's (u = H^T f: the pose error that the fit reads as an offset). The
+ * timing-free update's test of a camera's clock (nav_filter.h). */
+static void tau_fit(const mfns_filter_t *f, int rows, const float a[][MFNS_FILTER_INV_COLS],
+                    const float fr[][MFNS_FILTER_MAX_AUG], mfns_filter_invariant_info_t *info)
+{
+    float ff = 0.0f, fy = 0.0f, u[NH];
+    memset(u, 0, sizeof u);
+    for (int r = 0; r < rows; r++) {
+        const float g = fr[r][MFNS_FILTER_AUG_DT - MFNS_FILTER_AUG_ROT];
+        ff += g * g;
+        fy += g * a[r][0];
+        for (int q = 0; q < NH; q++) {
+            u[q] += g * a[r][1 + q];
+        }
+    }
+    if (!(ff > 0.0f)) {
+        info->tau_s = f->aug_dt_s;
+        info->tau_sigma_s = INFINITY; /* no image motion: no clock to read */
+        return;
+    }
+    float upu = 0.0f;
+    for (int i = 0; i < NH; i++) {
+        for (int j = 0; j < NH; j++) {
+            upu += u[i] * f->P[i][j] * u[j];
+        }
+    }
+    info->tau_s = f->aug_dt_s + fy / ff;
+    info->tau_sigma_s = sqrtf(1.0f / ff + fmaxf(upu, 0.0f) / (ff * ff));
+}
+
+static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
+                                      float sigma_px, int n, const mfns_filter_obs_t obs[], bool pointing_free,
+                                      const mfns_filter_t *ref, mfns_filter_invariant_info_t *info)
+{
     mfns_filter_status_t st = mfns_filter_propagate(f, s, obs[0].t_us);
     if (st != MFNS_FILTER_OK) {
         return st;
@@ -721,8 +769,8 @@ mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_f
     /* the frame's own fault parameters have no prior (they are no states:
      * observe_model() gives the body states' columns); the timing column is
      * taken at the velocity predicted for the frame */
-    f->aug_v_w = f->v_w;
-    f->aug_w_w = f->w_w;
+    f->aug_v_w = ref != NULL ? ref->v_w : f->v_w;
+    f->aug_w_w = ref != NULL ? ref->w_w : f->w_w;
     const int m = n < MFNS_FILTER_INV_MAX_OBS ? n : MFNS_FILTER_INV_MAX_OBS;
     const int rows = 2 * m;
     float a[2 * MFNS_FILTER_INV_MAX_OBS][MFNS_FILTER_INV_COLS];
@@ -730,14 +778,18 @@ mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_f
     /* linearised where the frame puts the fault parameters (from the last
      * frame's: a persistent knock starts where it was), then projected */
     for (int it = 0; it < MFNS_FILTER_INV_FIT_ITERS; it++) {
-        if (!inv_rows(f, rig, sigma_px, m, obs, a, fr) || !inv_fit(f, s, rows, a, fr)) {
+        if (!inv_rows(f, rig, sigma_px, m, obs, a, fr) || !inv_fit(f, s, rows, a, fr, pointing_free)) {
             return MFNS_FILTER_E_GEOM;
         }
     }
     if (!inv_rows(f, rig, sigma_px, m, obs, a, fr)) {
         return MFNS_FILTER_E_GEOM;
     }
-    const int top = inv_project(rows, a, fr);
+    mfns_filter_invariant_info_t fit = {0, 0, 0.0f, 0.0f, 0.0f};
+    if (!pointing_free) {
+        tau_fit(f, rows, a, fr, &fit);
+    }
+    const int top = inv_project(rows, a, fr, pointing_free ? 0 : MFNS_FILTER_AUG_DT - MFNS_FILTER_AUG_ROT);
     /* the rows left, sequential scalar updates (unit noise) of the body
      * states about the one linearisation point: each row's residual less
      * what the rows before it moved */
@@ -801,8 +853,48 @@ mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_f
         info->rows = (uint16_t)used;
         info->eliminated = (uint8_t)top;
         info->nis = nis;
+        info->tau_s = fit.tau_s;
+        info->tau_sigma_s = fit.tau_sigma_s;
     }
     return MFNS_FILTER_OK;
+}
+
+mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                  const mfns_rig_t *rig, float sigma_px, int n,
+                                                  const mfns_filter_obs_t obs[], mfns_filter_invariant_info_t *info)
+{
+    if (f == NULL || f->initialised == 0U || rig == NULL || !mfns_filter_settings_valid(s) ||
+        !frame_valid(n, obs) || !pos_finite(sigma_px) || f->aug_cam != obs[0].cam) {
+        return MFNS_FILTER_E_ARG;
+    }
+    return invariant(f, s, rig, sigma_px, n, obs, true, NULL, info);
+}
+
+mfns_filter_status_t mfns_filter_update_timing_free(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                    const mfns_rig_t *rig, float sigma_px, int n,
+                                                    const mfns_filter_obs_t obs[], const mfns_filter_t *ref,
+                                                    mfns_filter_invariant_info_t *info)
+{
+    if (f == NULL || f->initialised == 0U || rig == NULL || !mfns_filter_settings_valid(s) ||
+        !frame_valid(n, obs) || !pos_finite(sigma_px) || (ref != NULL && ref->initialised == 0U)) {
+        return MFNS_FILTER_E_ARG;
+    }
+    /* the frame's camera as the filter's fault camera for this frame only,
+     * its pointing at the mount and the offset fitted from zero; the
+     * filter's own camera hypothesis, if any, comes back untouched */
+    const uint8_t cam0 = f->aug_cam;
+    const mfns_v3_t rot0 = f->aug_rot, v0 = f->aug_v_w, w0 = f->aug_w_w;
+    const float dt0 = f->aug_dt_s;
+    f->aug_cam = obs[0].cam;
+    f->aug_rot = mfns_v3(0.0f, 0.0f, 0.0f);
+    f->aug_dt_s = 0.0f;
+    const mfns_filter_status_t st = invariant(f, s, rig, sigma_px, n, obs, false, ref, info);
+    f->aug_cam = cam0;
+    f->aug_rot = rot0;
+    f->aug_dt_s = dt0;
+    f->aug_v_w = v0;
+    f->aug_w_w = w0;
+    return st;
 }
 
 void mfns_filter_datum_cov(const mfns_pose_t *pose, const mfns_map_datum_t *datum, float d[6][6])

@@ -305,13 +305,46 @@ void mfns_filter_strip_aug(mfns_filter_t *f);
 #define MFNS_FILTER_INV_FIT_ITERS 2
 #define MFNS_FILTER_INV_COL_EPS 1e-3f
 typedef struct {
-    uint16_t rows;     /* rows applied (2n less the parameters eliminated) */
-    uint8_t eliminated; /* fault parameters eliminated (4; 3 at rest) */
-    float nis;         /* their residual sum of squares */
+    uint16_t rows;      /* rows applied (2n less the parameters eliminated) */
+    uint8_t eliminated; /* fault parameters eliminated (4; 3 at rest; timing-free: 1, 0 at rest) */
+    float nis;          /* their residual sum of squares */
+    /* timing-free only (0 from the invariant update): the camera's time
+     * offset read from the frame at the predicted state, s (the frame
+     * stamped t shows the scene of t - tau_s), and its 1-sigma from the
+     * frame's noise and the state's covariance; INFINITY when the frame
+     * has no image motion to read it from (a robot at rest) */
+    float tau_s;
+    float tau_sigma_s;
 } mfns_filter_invariant_info_t;
 mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_filter_settings_t *s,
                                                   const mfns_rig_t *rig, float sigma_px, int n,
                                                   const mfns_filter_obs_t obs[], mfns_filter_invariant_info_t *info);
+
+/* Camera obs[0].cam's frame with its TIME OFFSET alone eliminated, its
+ * pointing held at the mount: the update of any filter that takes the frame
+ * of a camera whose clock is in doubt (filter_bank.h "timing in doubt": a
+ * dropped or held frame, a clock step, a late or frozen frame). As
+ * mfns_filter_update_invariant with one fault column (2n - 1 rows, 2n at
+ * rest), fitted from zero at every frame; f need not be that camera's
+ * hypothesis (its own camera hypothesis, if any, is left as it was). What
+ * it leaves: the frame's information along the image motion of the robot's
+ * current velocity (one number), which is all a clock can move. What it
+ * misses: as the invariant update, and a pointing fault of the camera (the
+ * camera's own hypothesis covers that). info->tau_s and tau_sigma_s read
+ * the camera's clock against the predicted state, for the bank's test of
+ * the doubt. ref (NULL: f itself) is the filter whose velocity gives the
+ * eliminated direction (the time offset's column, the image motion of that
+ * velocity): the filters of a bank that take one frame must eliminate the
+ * same direction, so that each takes the same linear functionals of the
+ * frame and a subset's covariance stays at or above the full filter's
+ * (filter_bank.h: with each filter's own velocity, a beacon's subset came
+ * out 5 % more certain than the full filter on one axis and its separation
+ * test failed on 0.04 mm). Errors as mfns_filter_update_invariant (no
+ * augmented camera needed; E_ARG also for an uninitialised ref). */
+mfns_filter_status_t mfns_filter_update_timing_free(mfns_filter_t *f, const mfns_filter_settings_t *s,
+                                                    const mfns_rig_t *rig, float sigma_px, int n,
+                                                    const mfns_filter_obs_t obs[], const mfns_filter_t *ref,
+                                                    mfns_filter_invariant_info_t *info);
 
 /* The observation Jacobian at the state f for obs (rows 2, columns
  * MFNS_FILTER_JAC_N: the N states', then, for f's camera hypothesis's

@@ -30,6 +30,24 @@ void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAME
     nf->have_cap = true;
 }
 
+/* What a reading of a doubted clock must resolve to clear it: the frame
+ * period, the lag of a camera stale after a dropped frame (filter_bank.h). */
+static float doubt_resolve_s(const mfns_navf_t *nf)
+{
+    return (float)nf->period_us * MFNS_S_PER_US_F;
+}
+
+void mfns_navf_doubt_timing(mfns_navf_t *nf, int cam)
+{
+    if (nf == NULL || !nf->on || cam < 0 || cam >= MFNS_NUM_CAMERAS) {
+        return;
+    }
+    nf->timing_doubt = (uint8_t)(nf->timing_doubt | (1U << (unsigned)cam));
+    if (nf->running) {
+        (void)mfns_bank_doubt_timing(&nf->bank, cam, doubt_resolve_s(nf)); /* valid: cannot fail */
+    }
+}
+
 static bool usable(const mfns_pose_solution_t *s)
 {
     return s->status == MFNS_POSE_OK || s->status == MFNS_POSE_DEGRADED;
@@ -85,6 +103,11 @@ static bool start(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_pose_sol
                                  nf->t_us) == MFNS_FILTER_OK;
     if (nf->running && nf->carry_excl) {
         mfns_bank_keep_exclusions(&nf->bank, excl_beacon, cam_excluded);
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS && nf->running; c++) {
+        if ((nf->timing_doubt & (1U << c)) != 0U) {
+            (void)mfns_bank_doubt_timing(&nf->bank, c, doubt_resolve_s(nf)); /* valid: cannot fail */
+        }
     }
     nf->carry_excl = false;
     return nf->running;
@@ -359,6 +382,9 @@ static void run_bank(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integ
         return;
     }
     rep->ran = mfns_bank_evaluate(&nf->bank, &t->motion, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
+    if (rep->ran) {
+        nf->timing_doubt = rep->out.timing_doubt_mask; /* a doubt the bank's readings cleared */
+    }
     nf->running = rep->ran && !rep->out.restart;
     if (nf->running && rep->out.detected_kind == (uint8_t)MFNS_BANK_HYP_NONE) {
         /* the motion bound against the snapshot (nav_filter_cycle.h) */

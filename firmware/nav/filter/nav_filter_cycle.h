@@ -72,6 +72,15 @@
  * time; the camera's timing hypothesis covers a stamp that lies. Without
  * times, every camera's frame of cycle k is stamped k x period_us (the
  * caller's frame period), as before.
+ *
+ * A camera's clock in doubt (mfns_navf_doubt_timing; the flight program
+ * raises it when its frame checks see a frame of the camera dropped, held,
+ * late, frozen or stepped, firmware/app/nav_cams.c): every filter of the
+ * bank takes the camera's frames with their time offset eliminated until
+ * the camera's clock reads clean for the table's hold_cycles, each reading
+ * able to see a period's lag (filter_bank.h mfns_bank_doubt_timing). The
+ * doubt outlives a restart of the bank (nf->timing_doubt): a camera stale
+ * since a dropped frame is stale in the next bank too.
  */
 #ifndef MFNS_NAV_FILTER_CYCLE_H
 #define MFNS_NAV_FILTER_CYCLE_H
@@ -104,6 +113,7 @@ typedef struct {
     bool carry_excl;       /* the next start keeps the bank's exclusions (it follows one) */
     uint8_t snap_sep_run;  /* consecutive cycles the snapshot fix was beyond the filter's (motion monitor) */
     bool motion_latched;   /* a motion restart reported, no usable filter output since (one report per episode) */
+    uint8_t timing_doubt;  /* bit c: camera c's clock in doubt (mfns_navf_doubt_timing), across restarts */
     mfns_filter_bank_t bank;
 } mfns_navf_t;
 
@@ -129,6 +139,13 @@ void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us);
 
 /* The coming cycle's capture times (consumed by the next mfns_navf_step). */
 void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAMERAS]);
+
+/* Camera cam's clock is in doubt from its next frame (filter_bank.h
+ * mfns_bank_doubt_timing): the running bank takes the camera's frames
+ * timing-free until its readings clear the doubt, and every bank started
+ * before then inherits it (a stale camera stays stale across a restart).
+ * Off or cam out of range: nothing. */
+void mfns_navf_doubt_timing(mfns_navf_t *nf, int cam);
 
 /* One cycle, after the snapshot's integrity: sol and integ in/out. */
 void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,

@@ -1,20 +1,31 @@
 """Scoring one flight of the fault campaign against truth (issue 23).
 
-A fix is usable when nav.csv says FIX or DEGRADED. It is compared with truth at the capture
-time of the frames it came from, not at its own stamp: camera.csv says which frame (frame_seq)
-each camera contributed in the fix's cycle (the cameras of nav.csv's cams_used bit mask when
-that column is there, else those OK with identified beacons), and the campaign knows each
-(camera, frame_seq)'s true capture time (the original frames.csv, and what the injector put
-into the image). A fix fused from frames of different true times is scored against each and
-the worst kept.
+A fix is usable when nav.csv says FIX or DEGRADED. Its pose is what it claims for its own stamp
+t_s, and that is what it is scored on: truth at t_s (interpolated). Its stamp is then held to
+the frames it came from: camera.csv says which frame (frame_seq) each camera contributed in the
+fix's cycle (the cameras of nav.csv's cams_used bit mask when that column is there, else those
+OK with identified beacons), and the campaign knows each (camera, frame_seq)'s true capture
+time (the original frames.csv, and what the injector put into the image); a fix fused from
+frames of different true times is counted (out_of_step_fixes).
 
-A usable fix is misleading when, against truth at any of its frames' capture times:
+Until 7 Dec 2026 (issue 42) a fix was scored against truth at each of its frames' capture times
+and the worst kept. That condemned a fix that was right at its stamp because one of its
+frames showed an earlier instant: the navigation filter takes a camera whose clock is in doubt
+with its time offset eliminated (firmware/nav/filter/filter_bank.h), and its fix of a stale
+camera's cycle is right at its stamp (0.4 mm with 1 mm sigma, module seed 5, camera x a period
+stale) yet was 4.7 mm (one period of motion) from truth at the stale frame's time. What the old
+rule caught still fails here: a snapshot fix that blends two instants is off at its stamp, and
+a fix right for frames a period older than its stamp is off at its stamp by that motion (the
+old rule let one period pass; the stamp rule below still allows it, the error rule does not).
+
+A usable fix is misleading when, against truth at its stamp:
 - its position is more than 20 mm from truth (Euclidean), or its attitude more than 1 deg
   (rotation angle);
 - any axis of the error is beyond 5 sigma of its own covariance (ROS order x, y, z, rx, ry, rz
   when nav.csv has cov_* and q_*; else the sigma_* columns and Euler differences), or the NEES
   with the full covariance is beyond the chi-square(6) quantile of the same tail probability;
-- its stamp t_s differs from a contributing frame's capture time by more than one frame period.
+- or its stamp t_s differs from a contributing frame's capture time by more than one frame
+  period.
 
 Protection levels: columns named pl_* (pl_<what>_<unit>; unit mm or deg) are compared with the
 true error: what = x/y/z or rx/ry/rz/roll/pitch/yaw the one component, anything else the
@@ -282,7 +293,7 @@ def score_run(
         if len(times) > 1:
             res["out_of_step_fixes"] += 1
         stamp = max(abs(t_fix - t) for t in times)
-        errs = [fix_error(row, *truth.at(t)) for t in sorted(times)]
+        errs = [fix_error(row, *truth.at(t_fix))]
         pos = max(e["pos_mm"] for e in errs)
         att = max(e["att_deg"] for e in errs)
         z = max(e["sigma"] for e in errs)
