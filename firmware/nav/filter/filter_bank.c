@@ -219,6 +219,25 @@ static mfns_filter_status_t test_held(mfns_filter_bank_t *b, const mfns_filter_s
 
 static bool exclude(mfns_filter_bank_t *b, int k);
 
+/* The beacon slot of an observation about to be used, started just before
+ * its first update; -1 when no slot is free (counted). */
+static int use_slot(mfns_filter_bank_t *b, int16_t beacon)
+{
+    int slot = slot_of(b, beacon);
+    if (slot < 0) {
+        slot = new_slot(b);
+        if (slot < 0) {
+            b->unmonitored_obs++; /* no hypothesis would cover it: nobody uses it */
+            return -1;
+        }
+        b->slot_beacon[slot] = beacon;
+        b->slot_gate_run[slot] = 0;
+        start_hypothesis(b, MFNS_BANK_CAM_HYP + slot);
+    }
+    b->slot_seen[slot] = 1;
+    return slot;
+}
+
 /* One observation to the full filter and every subset but its beacon's and
  * its camera's (which takes the frame at its end, mfns_bank_observe_frame);
  * *applied: the full filter took it. */
@@ -232,18 +251,10 @@ static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter
     if (excl >= 0 || cam_held) {
         return test_held(b, fs, rig, sigma_px, obs, excl, cam_held);
     }
-    int slot = slot_of(b, beacon);
+    const int slot = use_slot(b, beacon);
     if (slot < 0) {
-        slot = new_slot(b);
-        if (slot < 0) {
-            b->unmonitored_obs++; /* no hypothesis would cover it: nobody uses it */
-            return MFNS_FILTER_OK;
-        }
-        b->slot_beacon[slot] = beacon;
-        b->slot_gate_run[slot] = 0;
-        start_hypothesis(b, MFNS_BANK_CAM_HYP + slot); /* just before its first update */
+        return MFNS_FILTER_OK;
     }
-    b->slot_seen[slot] = 1;
     const mfns_filter_status_t st = mfns_filter_update(&b->full, fs, rig, sigma_px, obs, NULL);
     b->work++;
     if (st == MFNS_FILTER_GATED) {
@@ -336,25 +347,6 @@ mfns_filter_status_t mfns_bank_doubt_timing(mfns_filter_bank_t *b, int cam, floa
     b->timing_clean[cam] = 0;
     b->timing_resolve_s[cam] = resolve_s;
     return MFNS_FILTER_OK;
-}
-
-/* The beacon slot of an observation about to be used, started just before
- * its first update (as observe_one); -1 when no slot is free (counted). */
-static int use_slot(mfns_filter_bank_t *b, int16_t beacon)
-{
-    int slot = slot_of(b, beacon);
-    if (slot < 0) {
-        slot = new_slot(b);
-        if (slot < 0) {
-            b->unmonitored_obs++; /* no hypothesis would cover it: nobody uses it */
-            return -1;
-        }
-        b->slot_beacon[slot] = beacon;
-        b->slot_gate_run[slot] = 0;
-        start_hypothesis(b, MFNS_BANK_CAM_HYP + slot);
-    }
-    b->slot_seen[slot] = 1;
-    return slot;
 }
 
 /* A frame of a camera whose clock is in doubt (mfns_bank_doubt_timing):
@@ -814,6 +806,16 @@ static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev, const bo
     return best_b;
 }
 
+/* Bit c: camera c's clock in doubt. */
+static uint8_t doubt_mask(const mfns_filter_bank_t *b)
+{
+    unsigned m = 0U;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        m |= b->timing_doubt[c] != 0U ? 1U << c : 0U;
+    }
+    return (uint8_t)m;
+}
+
 mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs,
                                         const mfns_integrity_settings_t *is, const mfns_map_datum_t *datum,
                                         int64_t t_us, mfns_bank_output_t *out)
@@ -832,9 +834,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         !mfns_integrity_settings_valid(is)) {
         return MFNS_FILTER_E_ARG;
     }
-    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-        out->timing_doubt_mask = (uint8_t)(out->timing_doubt_mask | (b->timing_doubt[c] != 0U ? 1U << c : 0U));
-    }
+    out->timing_doubt_mask = doubt_mask(b); /* as it stands, should this cycle end early */
     /* Two cameras against the prediction in one cycle are the motion (a
      * single beacon or camera fault fails one camera): two frames failed as
      * a whole (two or more observations each, not applied), or one such
@@ -930,9 +930,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
             out->timing_trusted = (int8_t)c;
         }
     }
-    if (out->timing_trusted >= 0) {
-        out->timing_doubt_mask = (uint8_t)(out->timing_doubt_mask & ~(1U << (unsigned)out->timing_trusted));
-    }
+    out->timing_doubt_mask = doubt_mask(b);
     if (b->last_usable != 0U) {
         /* a clean test counts only against a filter that was certified: an
          * uncertain one sees no fault (a camera a frame late passes the test
