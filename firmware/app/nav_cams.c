@@ -145,6 +145,12 @@ static void health_event(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, ui
                        "left out",
                        cycle, (char)('x' + (int)ev.arg1), (long long)ev.arg0);
         break;
+    case FH_EV_CLOCK_DRIFT:
+        code = TLM_EVT_CAMERA_CLOCK_DRIFT;
+        (void)snprintf(line, sizeof line,
+                       "cycle %u: stamps drift %.3f ms against camera %c's beyond their jitter: clock in doubt", cycle,
+                       (double)ev.arg0 * 1e-3, (char)('x' + (int)ev.arg1));
+        break;
     case FH_EV_HEALTHY:
         code = TLM_EVT_CAMERA_HEALTHY;
         sev = TLM_SEV_INFO;
@@ -387,6 +393,26 @@ static void hold_ahead(nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, uint
     fault_line(&c->lines_ahead, c->letter, line);
 }
 
+/* A frame older than the majority's cycle (cam_sync.h BEHIND): no cycle will
+ * take it, so it is given back; reported as stale, and its camera's clock is
+ * in doubt (it was held a cycle ago for being ahead, or runs late). */
+static void drop_behind(nav_cams_t *cs, nav_cam_t *c, int k, nav_tlm_t *tlm, uint32_t cycle, uint64_t t_us)
+{
+    const uint64_t t_frame = c->frame.timestamp_ns / 1000u;
+    c->n_stale++;
+    c->timing_doubt = true;
+    const int32_t off = cam_sync_offset_us(t_frame, t_us);
+    send_event(tlm, cycle, t_us, TLM_EVT_CAMERA_STALE, TLM_SEV_WARNING, k, off, (int32_t)c->frame.sequence);
+    char line[192];
+    (void)snprintf(line, sizeof line,
+                   "cycle %u: frame %u at %.6f s is %.1f ms behind the other cameras' %.6f s (out of step): dropped",
+                   cycle, c->frame.sequence, (double)t_frame * 1e-6, (double)-off * 1e-3, (double)t_us * 1e-6);
+    fault_line(&c->lines_stale, c->letter, line);
+    if (mfns_cam_requeue(c->cam, &c->frame) != MFNS_CAM_OK) {
+        cs->errors++;
+    }
+}
+
 uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, uint64_t clock_t_us,
                               const mfns_frame_t *frames[MFNS_NUM_CAMERAS])
 {
@@ -400,6 +426,8 @@ uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, ui
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
         nav_cam_t *c = &cs->cam[k];
         health_event(c, k, tlm, cycle, event_t_us, ev[k]);
+        /* a clock drifting against the others stays in doubt while it does (the event comes once) */
+        c->timing_doubt = c->timing_doubt || fh_drift_suspect(&cs->health, (unsigned)k);
         if (c->have && c->enabled && !fh_usable(&cs->health, (unsigned)k)) {
             hold_out(cs, c);
             c->have = false;
@@ -425,6 +453,8 @@ uint64_t nav_cams_synchronise(nav_cams_t *cs, nav_tlm_t *tlm, uint32_t cycle, ui
         frames[k] = NULL;
         if (verdict[k] == CAM_SYNC_AHEAD) {
             hold_ahead(c, k, tlm, cycle, t_us);
+        } else if (verdict[k] == CAM_SYNC_BEHIND) {
+            drop_behind(cs, c, k, tlm, cycle, t_us);
         } else if (verdict[k] == CAM_SYNC_USE) {
             c->last_seq = c->frame.sequence;
             if (to_nav_frame(&c->frame, &c->nav_frame)) {

@@ -13,15 +13,31 @@ bool cam_sync_is_stale(const cam_sync_t *s, uint64_t t_us)
     return s->have_last && t_us <= s->last_us + s->window_us;
 }
 
+/* Candidates of the cycle within the window at and after t0. */
+static unsigned within(const cam_sync_t *s, const bool *have, const uint64_t *t_us, unsigned n, uint64_t t0)
+{
+    unsigned m = 0;
+    for (unsigned j = 0; j < n; j++) {
+        m += (have[j] && t_us[j] >= t0 && t_us[j] - t0 <= s->window_us) ? 1u : 0u;
+    }
+    return m;
+}
+
 bool cam_sync_cycle(cam_sync_t *s, const bool *have, const uint64_t *t_us, unsigned n, cam_sync_verdict_t *v,
                     uint64_t *cycle_us)
 {
     bool any = false;
     uint64_t ref = 0;
+    unsigned best = 0;
     for (unsigned k = 0; k < n; k++) {
         v[k] = CAM_SYNC_NONE;
-        if (have[k] && (!any || t_us[k] < ref)) {
+        if (!have[k]) {
+            continue;
+        }
+        const unsigned m = within(s, have, t_us, n, t_us[k]);
+        if (!any || m > best || (m == best && t_us[k] < ref)) {
             ref = t_us[k];
+            best = m;
             any = true;
         }
     }
@@ -30,7 +46,7 @@ bool cam_sync_cycle(cam_sync_t *s, const bool *have, const uint64_t *t_us, unsig
     }
     for (unsigned k = 0; k < n; k++) {
         if (have[k]) {
-            v[k] = t_us[k] - ref <= s->window_us ? CAM_SYNC_USE : CAM_SYNC_AHEAD;
+            v[k] = t_us[k] < ref ? CAM_SYNC_BEHIND : t_us[k] - ref <= s->window_us ? CAM_SYNC_USE : CAM_SYNC_AHEAD;
         }
     }
     s->have_last = true;

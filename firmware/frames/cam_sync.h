@@ -4,13 +4,22 @@
  *
  * Synchronised cycles: every frame carries its capture time (V4L2/libcamera
  * buffer timestamp, replay frames.csv t_s). A cycle fuses only frames within
- * window_us of the cycle's reference time, which is the oldest candidate
- * frame's time. A frame later than that by more than the window is out of
- * step (AHEAD): it is held for a later cycle, not used in this one. A frame
- * not later than the previous cycle's time plus the window belongs to a cycle
- * already done (STALE): it is thrown away and the camera may dequeue again to
- * catch up. With window_us below half the frame period one camera can never
- * bring two frames to one cycle.
+ * window_us of the cycle's reference time: the time of the candidate frame
+ * that has the most candidates within the window after it (the majority),
+ * the oldest such on a tie. A frame later than the window is out of step
+ * (AHEAD): it is held for a later cycle, not used in this one. A frame older
+ * than the reference (BEHIND) is out of step the other way: the majority's
+ * cycle has begun without it and no later cycle will take it, so it is given
+ * back (why a majority and not the oldest frame: a camera whose clock runs
+ * fast brings a frame just beyond the window, held; the next cycle that held
+ * frame, older than the others' fresh frames by most of a period, would set
+ * the time and push every healthy camera out of step instead, blame on the
+ * wrong cameras and, cycle after cycle, one camera fused alone). With two
+ * cameras that disagree there is no majority: the older one sets the time. A
+ * frame not later than the previous cycle's time plus the window belongs to a
+ * cycle already done (STALE): it is thrown away and the camera may dequeue
+ * again to catch up. With window_us below half the frame period one camera
+ * can never bring two frames to one cycle.
  *
  * Health: a camera with no fused frame for MFNS_CAM_LOST_CYCLES consecutive
  * cycles goes LOST; while LOST (or OFF) a re-open is due every
@@ -32,7 +41,7 @@ _Static_assert(2u * MFNS_SYNC_WINDOW_US_DEFAULT < MFNS_CAM_FRAME_PERIOD_US,
 _Static_assert(MFNS_SYNC_WINDOW_US_DEFAULT <= MFNS_SYNC_WINDOW_US_MAX, "the default window is a valid --sync-window-ms");
 _Static_assert(MFNS_CAM_LOST_CYCLES >= 1u && MFNS_CAM_REOPEN_CYCLES >= 1u, "LOST and re-open need at least one cycle");
 
-typedef enum { CAM_SYNC_NONE = 0, CAM_SYNC_USE, CAM_SYNC_AHEAD } cam_sync_verdict_t;
+typedef enum { CAM_SYNC_NONE = 0, CAM_SYNC_USE, CAM_SYNC_AHEAD, CAM_SYNC_BEHIND } cam_sync_verdict_t;
 
 typedef struct {
     uint32_t window_us;

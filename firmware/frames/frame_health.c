@@ -2,6 +2,7 @@
 #include "firmware/frames/frame_health.h"
 #include "math/core_inline.h"
 
+#include <math.h>
 #include <string.h>
 
 #define FNV64_OFFSET 0xcbf29ce484222325ull
@@ -165,7 +166,13 @@ static fh_event_kind_t event_of(fh_state_t fault)
 static fh_event_t enter_fault(fh_cam_t *c, fh_state_t fault, int64_t a0, int64_t a1)
 {
     fh_event_t ev = {FH_EV_NONE, a0, a1};
-    if (c->state != fault) {
+    /* an event on entering a fault; an OUT_OF_STEP that takes a camera back
+     * from the probation of an OUT_OF_STEP episode is not reported again (a
+     * clock that keeps drifting would otherwise send one every cycle; a
+     * per-frame fault found again in probation is) */
+    const bool same_episode = c->state == FH_PROBATION && c->episode == fault && fault == FH_OUT_OF_STEP;
+    c->episode = fault;
+    if (c->state != fault && !same_episode) {
         ev.kind = event_of(fault);
         switch (fault) {
         case FH_FROZEN: c->n_frozen++; break;
@@ -187,6 +194,7 @@ static fh_event_t maybe_healthy(fh_cam_t *c)
     const bool needs_confirmation = c->corr_us != 0 || c->corr_unknown;
     if (c->state == FH_PROBATION && c->clean_run >= FH_PROBATION_FRAMES && (!needs_confirmation || c->confirmed)) {
         c->state = FH_HEALTHY;
+        c->episode = FH_HEALTHY;
         c->corr_unknown = false;
         c->n_healthy++;
         ev = (fh_event_t){FH_EV_HEALTHY, (int64_t)c->clean_run, c->corr_us};
@@ -300,22 +308,21 @@ _Static_assert(FH_MAX_CAMERAS == 3u, "pair_index is written for three cameras");
 typedef enum { PAIR_UNCHECKED = 0, PAIR_AGREE, PAIR_DISAGREE } pair_verdict_t;
 
 /* The pair (j, k) this cycle; *frames the disagreement in frames. */
-static pair_verdict_t check_pair(const fh_monitor_t *m, unsigned j, unsigned k, int64_t *frames)
+static pair_verdict_t check_pair(const fh_monitor_t *m, unsigned j, unsigned k, int64_t *frames, float *res_us)
 {
     const fh_cam_t *a = &m->cam[j];
     const fh_cam_t *b = &m->cam[k];
     const fh_pair_t *p = &m->pair[pair_index(j, k)];
-    if (!a->present || !b->present || !p->valid || !a->period_known || !b->period_known) {
-        return PAIR_UNCHECKED;
+    if (!a->present || !b->present || !p->valid || !a->period_known || !b->period_known ||
+        p->rate != FH_RATE_SAME) {
+        return PAIR_UNCHECKED; /* different rates (at the anchor): the sequence numbers do not predict the times */
     }
     const float period = 0.5f * (a->period_us + b->period_us);
-    if (absf_i64(round_i64(a->period_us - b->period_us)) > FH_RATE_MATCH_FRAC * period) {
-        return PAIR_UNCHECKED; /* different rates: the sequence numbers do not predict the times */
-    }
     const int64_t dt = (int64_t)b->t_us - (int64_t)a->t_us;
     const int64_t ds = (int64_t)(int32_t)(b->seq - a->seq);
     const int64_t pred = p->dt_ref_us + round_i64((float)(ds - p->ds_ref) * period);
     *frames = round_i64((float)(dt - pred) / period);
+    *res_us = (float)(dt - pred);
     return absf_i64(dt - pred) > FH_CROSS_TOL_FRAC * period ? PAIR_DISAGREE : PAIR_AGREE;
 }
 
@@ -327,23 +334,157 @@ static void pair_anchor(fh_monitor_t *m, unsigned j, unsigned k)
     p->valid = true;
     p->dt_ref_us = (int64_t)b->t_us - (int64_t)a->t_us;
     p->ds_ref = (int64_t)(int32_t)(b->seq - a->seq);
+    p->seq_j_ref = a->seq;
+    p->n_res = 0;
+    p->res_us2 = 0.0f;
+    p->rate = FH_RATE_UNKNOWN;
+}
+
+/* The rates of an anchored pair are compared once, when both periods are
+ * first known: a clock that starts to run fast afterwards (its learned
+ * period follows it) stays checked against the relation, which is how its
+ * drift shows. */
+static void pair_rates(fh_monitor_t *m)
+{
+    for (unsigned j = 0; j < m->n; j++) {
+        for (unsigned k = j + 1u; k < m->n; k++) {
+            const fh_cam_t *a = &m->cam[j];
+            const fh_cam_t *b = &m->cam[k];
+            fh_pair_t *p = &m->pair[pair_index(j, k)];
+            if (p->valid && p->rate == FH_RATE_UNKNOWN && a->period_known && b->period_known) {
+                const float period = 0.5f * (a->period_us + b->period_us);
+                p->rate = absf_i64(round_i64(a->period_us - b->period_us)) <= FH_RATE_MATCH_FRAC * period
+                              ? FH_RATE_SAME
+                              : FH_RATE_DIFFERENT;
+            }
+        }
+    }
+}
+
+/* The drift test's threshold, us, once the pair has learned (before: no
+ * test, only the half period of OUT_OF_STEP): FH_PHASE_K x its rms within
+ * [FH_PHASE_FLOOR_US, 3 J of a period] (3 J: two stamps at the stated bound
+ * and one J for the reference's own error). */
+static float drift_threshold(const fh_pair_t *p, float period_us)
+{
+    const float stated = 3.0f * FH_JITTER_FRAC * period_us;
+    const float learned = FH_PHASE_K * sqrtf(p->res_us2);
+    const float thr = learned < stated ? learned : stated;
+    return thr > FH_PHASE_FLOOR_US ? thr : FH_PHASE_FLOOR_US;
+}
+
+/* An agreeing pair's reference moves a share of the residual toward this
+ * cycle's relation, by at most the follow rate over the frames since, and
+ * learns the residual's mean square. */
+static void pair_follow(fh_monitor_t *m, unsigned j, unsigned k, float res_us, float period_us)
+{
+    const fh_cam_t *a = &m->cam[j];
+    const fh_cam_t *b = &m->cam[k];
+    fh_pair_t *p = &m->pair[pair_index(j, k)];
+    const int64_t ds = (int64_t)(int32_t)(b->seq - a->seq);
+    const int64_t pred = p->dt_ref_us + round_i64((float)(ds - p->ds_ref) * period_us);
+    uint32_t frames = a->seq - p->seq_j_ref;
+    frames = frames == 0u || frames > FH_MAX_DSEQ ? 1u : frames;
+    const float lim = (float)FH_PHASE_FOLLOW_PPM * 1e-6f * period_us * (float)frames;
+    const bool learning = p->n_res < FH_PHASE_LEARN;
+    float step;
+    if (learning) {
+        step = res_us / (float)(p->n_res + 2u); /* the mean of the relations so far (the anchor's the first) */
+    } else {
+        step = res_us / (float)FH_PHASE_GAIN_DIV;
+        step = step > lim ? lim : step < -lim ? -lim : step;
+    }
+    p->dt_ref_us = pred + round_i64(step);
+    p->ds_ref = ds;
+    p->seq_j_ref = a->seq;
+    if (!learning && fabsf(res_us) > 0.5f * drift_threshold(p, period_us)) {
+        return; /* learned from residuals well inside the test only: a ramp below it creeps in slowly */
+    }
+    if (p->n_res < FH_PHASE_AVG) {
+        p->n_res++;
+    }
+    p->res_us2 += (res_us * res_us - p->res_us2) / (float)p->n_res;
+}
+
+/* The pair's residual beyond what its jitter explains (CLOCK_DRIFT). */
+static bool pair_drifts(const fh_pair_t *p, float res_us, float period_us)
+{
+    return p->n_res >= FH_PHASE_LEARN && fabsf(res_us) > drift_threshold(p, period_us);
+}
+
+/* CLOCK_DRIFT among the healthy cameras whose pairs agree this cycle: the
+ * camera in the most marked pairs (frame_health.h). */
+static void drift_check(fh_monitor_t *m, const pair_verdict_t v[FH_MAX_CAMERAS][FH_MAX_CAMERAS],
+                        const float res[FH_MAX_CAMERAS][FH_MAX_CAMERAS], fh_event_t ev[FH_MAX_CAMERAS])
+{
+    unsigned marked[FH_MAX_CAMERAS] = {0, 0, 0}, checked[FH_MAX_CAMERAS] = {0, 0, 0};
+    int other[FH_MAX_CAMERAS] = {-1, -1, -1};
+    unsigned most = 0;
+    for (unsigned j = 0; j < m->n; j++) {
+        for (unsigned k = j + 1u; k < m->n; k++) {
+            const fh_cam_t *a = &m->cam[j];
+            const fh_cam_t *b = &m->cam[k];
+            const fh_pair_t *p = &m->pair[pair_index(j, k)];
+            if (!a->clean_now || !b->clean_now || a->state != FH_HEALTHY || b->state != FH_HEALTHY ||
+                v[j][k] != PAIR_AGREE) {
+                continue;
+            }
+            checked[j]++;
+            checked[k]++;
+            if (pair_drifts(p, res[k][j], 0.5f * (a->period_us + b->period_us))) {
+                marked[j]++;
+                marked[k]++;
+                other[j] = (int)k;
+                other[k] = (int)j;
+            }
+        }
+    }
+    unsigned pairs = 0;
+    for (unsigned k = 0; k < m->n; k++) {
+        most = marked[k] > most ? marked[k] : most;
+        pairs += checked[k];
+    }
+    /* one pair checked: both of it; more: the camera marked against two (one
+     * marked pair among three cameras, each agreeing with the third, names
+     * no one: a stamp's jitter, not a clock) */
+    const unsigned need = pairs / 2u <= 1u ? 1u : 2u;
+    for (unsigned k = 0; k < m->n; k++) {
+        fh_cam_t *c = &m->cam[k];
+        if (most >= need && marked[k] == most) {
+            if (!c->drift_suspect && ev[k].kind == FH_EV_NONE) {
+                ev[k] = (fh_event_t){FH_EV_CLOCK_DRIFT, round_i64(res[k][other[k]]), other[k]};
+                c->n_drift++;
+            }
+            c->drift_suspect = true;
+            c->drift_clean = 0;
+        } else if (c->drift_suspect && checked[k] > marked[k]) {
+            c->drift_clean++;
+            c->drift_suspect = c->drift_clean < FH_PROBATION_FRAMES;
+        }
+    }
 }
 
 void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
 {
     pair_verdict_t v[FH_MAX_CAMERAS][FH_MAX_CAMERAS];
     int64_t frames[FH_MAX_CAMERAS][FH_MAX_CAMERAS];
+    float res[FH_MAX_CAMERAS][FH_MAX_CAMERAS];
     memset(v, 0, sizeof v);
     memset(frames, 0, sizeof frames);
+    memset(res, 0, sizeof res);
     for (unsigned k = 0; k < FH_MAX_CAMERAS; k++) {
         ev[k] = (fh_event_t){FH_EV_NONE, 0, 0};
     }
+    pair_rates(m);
     for (unsigned j = 0; j < m->n; j++) {
         for (unsigned k = j + 1u; k < m->n; k++) {
             int64_t f = 0;
-            v[j][k] = v[k][j] = check_pair(m, j, k, &f);
+            float r = 0.0f;
+            v[j][k] = v[k][j] = check_pair(m, j, k, &f, &r);
             frames[k][j] = f; /* frames[a][b]: camera a's disagreement with b, frames */
             frames[j][k] = -f;
+            res[k][j] = r; /* res[a][b]: camera a's time against b's, us */
+            res[j][k] = -r;
         }
     }
     /* among the healthy cameras: the odd one out, or every camera of a disagreeing pair */
@@ -434,7 +575,10 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
             ev[k] = maybe_healthy(c);
         }
     }
-    /* pairs of healthy cameras that agree (or are new and a frame apart at most) follow their drift */
+    drift_check(m, v, res, ev);
+    /* pairs of healthy cameras that agree follow their drift at a bounded
+     * rate, unless one of them drifts; new pairs a frame apart at most are
+     * anchored */
     for (unsigned j = 0; j < m->n; j++) {
         for (unsigned k = j + 1u; k < m->n; k++) {
             const fh_cam_t *a = &m->cam[j];
@@ -447,11 +591,18 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
             const float period = a->period_known ? a->period_us : b->period_us;
             const bool fresh_pair_in_step = !p->valid && (a->period_known || b->period_known) &&
                                             absf_i64((int64_t)b->t_us - (int64_t)a->t_us) <= FH_CROSS_TOL_FRAC * period;
-            if (v[j][k] == PAIR_AGREE || fresh_pair_in_step) {
+            if (fresh_pair_in_step) {
                 pair_anchor(m, j, k);
+            } else if (v[j][k] == PAIR_AGREE && !pair_drifts(p, res[k][j], 0.5f * (a->period_us + b->period_us))) {
+                pair_follow(m, j, k, res[k][j], 0.5f * (a->period_us + b->period_us));
             }
         }
     }
+}
+
+bool fh_drift_suspect(const fh_monitor_t *m, unsigned k)
+{
+    return k < m->n && m->cam[k].drift_suspect;
 }
 
 bool fh_usable(const fh_monitor_t *m, unsigned k)

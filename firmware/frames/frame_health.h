@@ -72,6 +72,36 @@
  *                learned while one camera was already wrong (start-up).
  *                Offsets survive a re-open only when the backend continues
  *                sequence numbers (replay); otherwise they are learned again.
+ *                The pair's reference follows a phase drift of at most
+ *                FH_PHASE_FOLLOW_PPM (free-running cameras' oscillators);
+ *                a clock drifting faster (a camera whose clock runs 1 %
+ *                fast) accumulates against it and is OUT_OF_STEP at half a
+ *                period (before 7 Dec 2026 the reference took each cycle's
+ *                relation whole, so a drift of any rate below half a period
+ *                per frame was followed and never seen).
+ *   CLOCK_DRIFT  the same pairs, finer (not a fault: the camera stays
+ *                fused, its clock in doubt, fh_drift_suspect): once a pair
+ *                has FH_PHASE_LEARN residuals (dt - pred) of agreeing
+ *                cycles, a residual beyond max(FH_PHASE_FLOOR_US, FH_PHASE_K
+ *                x their learned rms) marks the pair; the camera in the most
+ *                marked pairs is suspect (with three, the odd one out; with
+ *                two, both), an event on entering, cleared after
+ *                FH_PROBATION_FRAMES cross-checks back inside. The rms is
+ *                the stamps' own jitter, learned: a clock of tenths of a
+ *                millisecond jitter is held to about a millisecond, one of
+ *                the stated bound (FH_JITTER_FRAC, 5 ms at 18.6 Hz) to about
+ *                six times the rms of two stamps' difference. A marked
+ *                pair's reference stays where it is, so the drift keeps
+ *                counting. Misses: an offset below the floor (1 ms: 0.08
+ *                mm at 80 mm/s); a drift slower than the reference follows
+ *                (200 ppm: 11 us a frame); an offset that grew while the
+ *                pair learned (start-up); every camera drifting alike; a
+ *                camera stale by whole periods with a stamp that is right
+ *                for its (old) content (no clock is wrong: the geometry's
+ *                lag monitor sees it). False alarm: stamps whose jitter
+ *                changes for the worse after learning (a loaded bus), at
+ *                which the camera's frames are taken with their time
+ *                offset left free until the relation is back inside.
  *
  * States and recovery: HEALTHY cameras are fused. A fault puts the camera in
  * FROZEN / CLOCK_FAULT / LATE / OUT_OF_STEP (an event on entering each) and
@@ -110,11 +140,20 @@
 #define FH_RATE_MATCH_FRAC 0.01f   /* periods of a pair within 1 %: same rate, cross-check applies */
 #define FH_PROBATION_FRAMES 10u    /* consecutive fault-free frames before a camera is fused again */
 #define FH_DIGEST_ROW_STEP 16u     /* digest: every 16th row (and the last) */
+#define FH_PHASE_FOLLOW_PPM 200u   /* a pair's phase reference follows at most this drift rate: two free-running
+                                      oscillators of +-50 ppm each, twice over */
+#define FH_PHASE_GAIN_DIV 8        /* the reference takes 1/8 of each agreeing residual: one stamp's jitter smoothed */
+#define FH_PHASE_LEARN 8u          /* residuals learned before the pair's own jitter sets the drift test */
+#define FH_PHASE_AVG 64u           /* memory of the learned mean square, cycles */
+#define FH_PHASE_K 6.0f            /* drift test: |residual| beyond K x the learned rms ... */
+#define FH_PHASE_FLOOR_US 1000.0f  /* ... and beyond 1 ms (0.08 mm of motion at 80 mm/s) */
 
 _Static_assert(3u * FH_JITTER_PERMILLE < FH_CROSS_TOL_PERMILLE,
                "a step the cadence check lets through (3 J at dseq 1) is below the cross-check's tolerance");
 _Static_assert(FH_LEARN_STEPS >= 2u && FH_PROBATION_FRAMES >= 1u, "learning and probation need frames");
 _Static_assert(FH_DIGEST_ROW_STEP >= 1u, "the digest samples rows");
+_Static_assert(FH_PHASE_LEARN >= 8u && FH_PHASE_AVG >= FH_PHASE_LEARN, "the drift test learns a pair's rms first");
+_Static_assert(FH_PHASE_GAIN_DIV >= 1, "the reference takes a share of each residual");
 
 /* Where a frame's stamp comes from (the driver's flags, portable). */
 typedef enum {
@@ -141,6 +180,7 @@ typedef enum {
     FH_EV_CLOCK_JUMP,   /* arg0 step, us (stamp - expected); arg1 sequence */
     FH_EV_LATE,         /* arg0 arrival - capture, us; arg1 sequence */
     FH_EV_SEQ_MISMATCH, /* arg0 disagreement, frames (signed); arg1 the other camera */
+    FH_EV_CLOCK_DRIFT,  /* arg0 residual, us (the pair's time difference - the reference's); arg1 the other camera */
     FH_EV_HEALTHY       /* arg0 fault-free frames of its probation; arg1 clock correction, us */
 } fh_event_kind_t;
 
@@ -163,6 +203,7 @@ typedef struct {
 
 typedef struct {
     fh_state_t state;
+    fh_state_t episode;      /* the fault that began the episode (HEALTHY: none) */
     uint32_t clean_run;      /* consecutive fault-free frames since the last fault */
     bool confirmed;          /* the cross-check confirmed it during this probation */
     bool corr_unknown;       /* its clock stepped by an amount not measured */
@@ -183,14 +224,23 @@ typedef struct {
     bool present, clean_now;
     uint32_t seq;
     uint64_t t_us;           /* corrected stamp of its frame this cycle */
+    /* phase drift against the other cameras (CLOCK_DRIFT) */
+    bool drift_suspect;      /* in doubt since the event, until drift_clean */
+    uint32_t drift_clean;    /* cross-checks back inside since the last marked one */
     /* counts */
-    uint32_t n_frozen, n_clock, n_late, n_seq, n_healthy;
+    uint32_t n_frozen, n_clock, n_late, n_seq, n_healthy, n_drift;
 } fh_cam_t;
+
+typedef enum { FH_RATE_UNKNOWN = 0, FH_RATE_SAME, FH_RATE_DIFFERENT } fh_rate_t;
 
 typedef struct {
     bool valid;
     int64_t dt_ref_us;       /* t_k - t_j at the pair's last consistent cycle */
     int64_t ds_ref;          /* seq_k - seq_j then */
+    uint32_t seq_j_ref;      /* seq_j then: frames since, for the follow's bound */
+    uint32_t n_res;          /* residuals learned (saturates at FH_PHASE_AVG) */
+    float res_us2;           /* their mean square, us^2 */
+    uint8_t rate;            /* fh_rate_t: the periods compared once, when both are first known */
 } fh_pair_t;
 
 typedef struct {
@@ -216,6 +266,9 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS]);
 /* Camera k's frames may be fused (HEALTHY). */
 bool fh_usable(const fh_monitor_t *m, unsigned k);
 fh_state_t fh_state(const fh_monitor_t *m, unsigned k);
+/* Camera k's clock drifts against the others' (CLOCK_DRIFT): fused, but its
+ * stamps are in doubt. */
+bool fh_drift_suspect(const fh_monitor_t *m, unsigned k);
 /* Correction to add to camera k's stamps, us. */
 int64_t fh_correction_us(const fh_monitor_t *m, unsigned k);
 /* Camera k was closed and opened again; seq_continues: its backend goes on

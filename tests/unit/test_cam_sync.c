@@ -1,6 +1,6 @@
 /* Unit tests of the cycle synchronisation and camera health rules
  * (firmware/frames/cam_sync.h): which frames one cycle fuses, stale and
- * out-of-step frames, LOST after MFNS_CAM_LOST_CYCLES, re-open cadence,
+ * out-of-step frames (ahead, and behind the majority), LOST after MFNS_CAM_LOST_CYCLES, re-open cadence,
  * recovery. */
 #include "tests/unit/support/testutil.h"
 
@@ -56,6 +56,53 @@ static void test_out_of_step_frame_is_held_and_stale_frame_refused(void **state)
     assert_int_equal(v[1], CAM_SYNC_NONE);
 }
 
+/* Camera x's clock runs fast: its frame comes just beyond the window and is
+ * held; the next cycle the held frame is older than y's and z's fresh frames
+ * by most of a period. The majority (y, z) sets the time and x's frame is
+ * BEHIND (given back), where the oldest frame would have set it and pushed
+ * the two healthy cameras out of step. Two cameras that disagree: no
+ * majority, the older sets the time as before. */
+static void test_majority_sets_the_time(void **state)
+{
+    (void)state;
+    cam_sync_t s;
+    cam_sync_init(&s, 25000u);
+    const bool have[3] = {true, true, true};
+    uint64_t t[3] = {1053763u + 26000u, 1053763u, 1053763u};
+    cam_sync_verdict_t v[3];
+    uint64_t ref = 0;
+    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(ref, 1053763u);
+    assert_int_equal(v[0], CAM_SYNC_AHEAD);
+    assert_int_equal(v[1], CAM_SYNC_USE);
+    assert_int_equal(v[2], CAM_SYNC_USE);
+    /* next cycle: x's held frame with y's and z's next ones */
+    t[1] = t[2] = 1107527u;
+    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(ref, 1107527u);
+    assert_int_equal(v[0], CAM_SYNC_BEHIND);
+    assert_int_equal(v[1], CAM_SYNC_USE);
+    assert_int_equal(v[2], CAM_SYNC_USE);
+    /* two cameras, 28 ms apart: the older sets the time */
+    const bool two[3] = {true, true, false};
+    t[0] = 1161290u;
+    t[1] = 1161290u + 28000u;
+    assert_true(cam_sync_cycle(&s, two, t, 3, v, &ref));
+    assert_int_equal(ref, 1161290u);
+    assert_int_equal(v[0], CAM_SYNC_USE);
+    assert_int_equal(v[1], CAM_SYNC_AHEAD);
+    assert_int_equal(v[2], CAM_SYNC_NONE);
+    /* three spread over more than the window (0, 20, 40 ms): the oldest pair's time, the last ahead */
+    t[0] = 1215054u;
+    t[1] = 1215054u + 20000u;
+    t[2] = 1215054u + 40000u;
+    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
+    assert_int_equal(ref, 1215054u);
+    assert_int_equal(v[0], CAM_SYNC_USE);
+    assert_int_equal(v[1], CAM_SYNC_USE);
+    assert_int_equal(v[2], CAM_SYNC_AHEAD);
+}
+
 static void test_offsets_saturate(void **state)
 {
     (void)state;
@@ -102,6 +149,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frames_within_window_are_fused),
         cmocka_unit_test(test_out_of_step_frame_is_held_and_stale_frame_refused),
+        cmocka_unit_test(test_majority_sets_the_time),
         cmocka_unit_test(test_offsets_saturate),
         cmocka_unit_test(test_health_lost_reopen_recovered),
     };

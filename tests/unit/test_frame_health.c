@@ -322,12 +322,85 @@ static void test_small_step_below_tolerance_passes(void **state)
     for (uint32_t f = 0; f < 40; f++) {
         rig_cycle(&r, f, NULL);
     }
-    r.offset_us[0] = (int64_t)(0.25 * P18_US); /* the stated miss: below 0.3 period */
+    r.offset_us[0] = (int64_t)(0.25 * P18_US); /* the cadence check's stated miss: below 0.3 period */
     rig_cycle(&r, 40, NULL);
-    assert_true(rig_quiet(&r));
+    assert_int_equal(r.obs[0].kind, FH_EV_NONE);
+    /* the cross-check's drift test sees it against the other two (exact stamps: the 1 ms floor): fused, in doubt */
+    assert_int_equal(r.cross[0].kind, FH_EV_CLOCK_DRIFT);
+    assert_near((double)r.cross[0].arg0, 0.25 * P18_US, 2.0);
+    assert_int_equal(r.cross[1].kind, FH_EV_NONE);
+    assert_int_equal(r.cross[2].kind, FH_EV_NONE);
+    assert_true(fh_usable(&r.m, 0) && fh_drift_suspect(&r.m, 0));
+    assert_false(fh_drift_suspect(&r.m, 1) || fh_drift_suspect(&r.m, 2));
     r.offset_us[0] = (int64_t)(0.25 * P18_US + 0.4 * P18_US); /* a further 0.4 period: caught */
     rig_cycle(&r, 41, NULL);
     assert_int_equal(r.obs[0].kind, FH_EV_CLOCK_JUMP);
+}
+
+/* ---- clock drift against the other cameras ------------------------------ */
+
+/* Camera `cam`'s clock runs fast by drift_us a frame from frame 20: its stamp
+ * of frame f is t_f + drift_us (f - 19). Returns the first frame with the
+ * CLOCK_DRIFT event (0 none) and the first one left out (0 none). */
+static void drift_run(double jitter_frac, double drift_us, unsigned cam, uint32_t *first_drift, uint32_t *first_out,
+                      bool *blame_ok)
+{
+    rig_t r;
+    rig_init(&r, P18_US, jitter_frac, 11);
+    *first_drift = *first_out = 0;
+    *blame_ok = true;
+    for (uint32_t f = 0; f < 200; f++) {
+        r.offset_us[cam] = f >= 20u ? (int64_t)(drift_us * (double)(f - 19u)) : 0;
+        rig_cycle(&r, f, NULL);
+        for (unsigned k = 0; k < 3; k++) {
+            if (k != cam && (r.cross[k].kind != FH_EV_NONE || !fh_usable(&r.m, k) || fh_drift_suspect(&r.m, k))) {
+                *blame_ok = false; /* a healthy camera named */
+            }
+        }
+        if (*first_drift == 0u && r.cross[cam].kind == FH_EV_CLOCK_DRIFT) {
+            *first_drift = f;
+            assert_int_not_equal(r.cross[cam].arg1, (int64_t)cam);
+            assert_true(fh_drift_suspect(&r.m, cam));
+            assert_true(fh_usable(&r.m, cam)); /* in doubt, still fused */
+        }
+        if (*first_out == 0u && !fh_usable(&r.m, cam)) {
+            *first_out = f;
+        }
+    }
+}
+
+static void test_clock_drift_in_doubt_then_left_out(void **state)
+{
+    (void)state;
+    /* stamps without jitter (a simulator, or a clock of microseconds): the
+     * floor, 1 ms, is the test; 2, 1 and 0.5 ms a frame */
+    const double drift_ms[3] = {2.0, 1.0, 0.5};
+    for (int i = 0; i < 3; i++) {
+        uint32_t fd = 0, fo = 0;
+        bool ok = false;
+        drift_run(0.0, drift_ms[i] * 1000.0, 1, &fd, &fo, &ok);
+        assert_true(ok);
+        /* the pairs learned before the onset (cycle 8 + FH_PHASE_LEARN): named once the offset passes 1 ms */
+        assert_true(8u + FH_PHASE_LEARN < 20u);
+        assert_in_range(fd, 20, 23);
+        /* and left out before the offset reaches 0.6 period: the reference no longer follows it */
+        assert_true(fo > fd);
+        assert_true((double)(fo - 19u) * drift_ms[i] * 1000.0 <= 0.6 * P18_US);
+    }
+    /* stamps with the stated jitter bound (+-10 % of a period each): the
+     * learned rms sets the test; a 2 ms drift is named within a few frames of
+     * the two stamps' spread */
+    uint32_t fd = 0, fo = 0;
+    bool ok = false;
+    drift_run((double)FH_JITTER_FRAC, 2000.0, 2, &fd, &fo, &ok);
+    assert_true(ok);
+    assert_true(fd > 0u && fo > 0u);
+    assert_true((double)(fo - 19u) * 2000.0 <= 0.6 * P18_US + 2.0 * (double)FH_JITTER_FRAC * P18_US);
+    /* a drift of 100 ppm (5.4 us a frame) is followed: no event, no doubt */
+    drift_run(0.0, 1e-4 * P18_US, 0, &fd, &fo, &ok);
+    assert_true(ok);
+    assert_int_equal(fd, 0);
+    assert_int_equal(fo, 0);
 }
 
 static void test_stamp_backwards_while_learning(void **state)
@@ -571,6 +644,7 @@ int main(void)
         cmocka_unit_test(test_clock_step_without_reference_stays_out),
         cmocka_unit_test(test_all_clocks_step_confirm_each_other),
         cmocka_unit_test(test_small_step_below_tolerance_passes),
+        cmocka_unit_test(test_clock_drift_in_doubt_then_left_out),
         cmocka_unit_test(test_stamp_backwards_while_learning),
         cmocka_unit_test(test_late_and_future_stamps),
         cmocka_unit_test(test_cross_check_odd_one_out),

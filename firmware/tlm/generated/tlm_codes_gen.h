@@ -66,7 +66,7 @@ typedef enum {
     TLM_EVT_CAMERA_RECOVERED = 5, /* subject camera; arg0 outage, ms; arg1 0 or cycles */
     TLM_EVT_MODE_CHANGE = 6, /* subject reason code; arg0 old mode; arg1 new mode */
     TLM_EVT_TLM_DROPPED = 7, /* subject 0; arg0 frames dropped since the last such event; arg1 0 */
-    TLM_EVT_CAMERA_STALE = 8, /* subject camera; arg0 frame time - last cycle time, us; arg1 frame sequence */
+    TLM_EVT_CAMERA_STALE = 8, /* subject camera; arg0 frame time - cycle time, us (the last cycle's for a frame of a cycle already done; this cycle's, negative, for a frame behind the other cameras' majority: cam_sync.h); arg1 frame sequence */
     TLM_EVT_CAMERA_OUT_OF_STEP = 9, /* subject camera; arg0 frame time - cycle time, us (held for a later cycle); arg1 frame sequence */
     TLM_EVT_FRAME_REJECTED = 10, /* subject camera; arg0 driver error code (E_DATA: bad replay row or frame file); arg1 frames rejected so far */
     TLM_EVT_CAMERA_ENDED = 11, /* subject camera; arg0 last frame sequence; arg1 frames delivered */
@@ -106,7 +106,8 @@ typedef enum {
     TLM_EVT_TABLE_ARG_OVERRIDDEN = 49, /* at start the table store's table runs and the given --table (or table key) is a different file: subject 0; arg0 that file's size in bytes (-1 unreadable); arg1 CRC-32 of the stored table that runs (TABLE_LOAD of the file switches to it) */
     TLM_EVT_CLOCK_STEP = 50, /* the board's UTC (CLOCK_REALTIME) stepped against the flight clock (CLOCK_MONOTONIC) between two cycles by more than 100 ms (a time daemon's step, a manual set): the flight clock and every packet's time are unaffected, the next housekeeping's time correlation carries the new UTC: subject the time quality after the step (0 NONE, 1 SYSTEM, 2 SYNCED); arg0 the step, ms (UTC minus the flight clock's advance; saturated at +-2^31-1); arg1 steps seen since start */
     TLM_EVT_MOTION_EXCEEDED = 51, /* the robot left the table's motion bound (a collision, a hard burst): the navigation filter's observations failed its gate in a row or its innovation window, or the cycle's snapshot fix (which needs no motion model) stood beyond the filter's pose by more than their separation's threshold for two cycles; the filter restarts from the snapshot fix, its prediction and protection levels no longer held (docs/pose.md "Navigation filter"): subject 0; arg0 the snapshot's normalised separation x100 (100 = threshold; below it the filter's own gate or window caught the motion); arg1 1 the snapshot's separation, 0 the filter's gate or window (sent once per restart) */
-    TLM_EVT_CODE_COUNT = 52
+    TLM_EVT_CAMERA_CLOCK_DRIFT = 52, /* subject camera; arg0 its time against the other camera's reference relation, us; arg1 the other camera. The camera's stamps drift against the other cameras' beyond their learned jitter (at least 1 ms; firmware/frames/frame_health.h CLOCK_DRIFT): still fused, its clock in doubt (every navigation filter takes its frames with the time offset left free) until the relation is back inside for 10 cross-checks; sent on entering. A drift that goes on reaches half a period and the camera is left out (CAMERA_SEQ_MISMATCH) */
+    TLM_EVT_CODE_COUNT = 53
 } tlm_event_code_t;
 
 /* what the UTC of a housekeeping packet is worth */
