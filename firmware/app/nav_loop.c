@@ -114,6 +114,12 @@ static void survey_monitor(nav_app_t *app, uint32_t cycle, uint64_t t_us)
 static void send_solution(nav_app_t *app, uint32_t cycle, uint64_t t_us)
 {
     tlm_packet_t p;
+    /* a fix of the navigation filter is stamped with the instant it is for
+     * (the latest frame's capture, nav_filter_cycle.h), the rest with the
+     * cycle's time (never later than that instant: the cycle's time is its
+     * earliest frames') */
+    const int64_t t_filt = app->out.filt.used ? app->out.filt.t_us : 0;
+    t_us = t_filt > 0 && (uint64_t)t_filt > t_us ? (uint64_t)t_filt : t_us;
     nav_tlm_nav_packet(&app->out, cycle, t_us, &p);
     if (app->standby) {
         p.u.nav.mode = TLM_MODE_STANDBY;

@@ -80,28 +80,30 @@
  *                relation whole, so a drift of any rate below half a period
  *                per frame was followed and never seen).
  *   CLOCK_DRIFT  the same pairs, finer (not a fault: the camera stays
- *                fused, its clock in doubt, fh_drift_suspect): once a pair
- *                has FH_PHASE_LEARN residuals (dt - pred) of agreeing
- *                cycles, a residual beyond max(FH_PHASE_FLOOR_US, FH_PHASE_K
- *                x their learned rms) marks the pair; the camera in the most
- *                marked pairs is suspect (with three, the odd one out; with
- *                two, both), an event on entering, cleared after
- *                FH_PROBATION_FRAMES cross-checks back inside. The rms is
- *                the stamps' own jitter, learned: a clock of tenths of a
- *                millisecond jitter is held to about a millisecond, one of
- *                the stated bound (FH_JITTER_FRAC, 5 ms at 18.6 Hz) to about
- *                six times the rms of two stamps' difference. A marked
- *                pair's reference stays where it is, so the drift keeps
- *                counting. Misses: an offset below the floor (1 ms: 0.08
- *                mm at 80 mm/s); a drift slower than the reference follows
- *                (200 ppm: 11 us a frame); an offset that grew while the
- *                pair learned (start-up); every camera drifting alike; a
- *                camera stale by whole periods with a stamp that is right
- *                for its (old) content (no clock is wrong: the geometry's
- *                lag monitor sees it). False alarm: stamps whose jitter
- *                changes for the worse after learning (a loaded bus), at
- *                which the camera's frames are taken with their time
- *                offset left free until the relation is back inside.
+ *                fused, its clock in doubt, fh_drift_suspect): a pair
+ *                learns its reference as the mean of its first
+ *                FH_PHASE_LEARN relations and the mean square of its
+ *                residuals (dt - pred); from then on a residual beyond
+ *                max(FH_PHASE_FLOOR_US, min(FH_PHASE_K x rms, 3 J of a
+ *                period)) marks the pair (3 J: two stamps at the stated
+ *                bound and one J for the reference's own error). The
+ *                camera marked against two cameras is suspect (with only
+ *                one pair checked, both of it; one marked pair among three
+ *                cameras, each agreeing with the third, names no one), an
+ *                event on entering, cleared after FH_PROBATION_FRAMES
+ *                cross-checks back inside. A marked pair's reference stays
+ *                where it is, so the drift keeps counting; residuals learn
+ *                only within half the test, so a ramp creeps in slowly.
+ *                Misses: an offset below the floor (1 ms: 0.08 mm at 80
+ *                mm/s); a drift slower than the reference follows (200 ppm:
+ *                11 us a frame); a drift that began while the pair learned
+ *                (start-up); every camera drifting alike; a camera stale by
+ *                whole periods whose stamps are right for its (old) content
+ *                (no clock is wrong: the geometry's lag monitor sees it).
+ *                False alarm: stamps whose jitter grows after learning (a
+ *                loaded bus), at which the camera's frames are taken with
+ *                their time offset left free until the relation is back
+ *                inside.
  *
  * States and recovery: HEALTHY cameras are fused. A fault puts the camera in
  * FROZEN / CLOCK_FAULT / LATE / OUT_OF_STEP (an event on entering each) and

@@ -332,11 +332,15 @@ static void test_capture_times(void **state)
              * taken in time order: the bank ends at the latest */
             assert_true(rep.started);
             assert_int_equal(nf.bank.full.t_us, base + 14000);
+            assert_int_equal(rep.t_us, base + 14000); /* the instant its output is for */
             continue;
         }
         assert_true(rep.ran);
         assert_false(rep.out.restart);
         assert_int_equal(nf.bank.full.t_us, k == 12 ? base + k * 54000 + 7000 : base + k * 54000 + 14000);
+        /* the report says the instant of the bank's output: the latest frame
+         * fed, not the cycle's earliest (the fix's stamp, nav_loop.c) */
+        assert_int_equal(rep.t_us, nf.bank.full.t_us);
         used += rep.used ? 1 : 0;
     }
     assert_int_equal(nf.stale_frames, 1);

@@ -463,6 +463,7 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
         }
     }
     nf->have_cap = false;
+    rep->t_us = rep->ran ? nf->t_us : 0;
     if (nf->running && rep->ran && rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;

@@ -131,6 +131,14 @@ typedef struct {
     bool motion_exceeded;
     bool motion_by_snapshot; /* that restart was the snapshot monitor's (else the bank's gate or window) */
     float motion_sep;
+    /* the instant the bank's output is for (when ran), us on the frames'
+     * time base: the latest of the cycle's frame stamps. The flight program
+     * stamps a fix the filter made with it: the cycle's own time is its
+     * earliest frames' (cam_sync.h), and cameras a few ms apart would
+     * otherwise have their fix labelled that many ms early (a pose 1 mm off
+     * at 80 mm/s on the rig's 14 ms spread, or a drifting clock's offset
+     * carried into every fix). */
+    int64_t t_us;
     mfns_bank_output_t out;
 } mfns_navf_report_t;
 
