@@ -39,6 +39,7 @@ typedef enum {
     F_CAM_RAMP,     /* arg deg per cycle about the camera's x axis, camera fault_id */
     F_CAM_DROP_LAG, /* camera fault_id drops its frame at FAULT_CYCLE, then delivers each one a frame late */
     F_CAM_DROP,     /* camera fault_id drops its frame at FAULT_CYCLE, then is healthy */
+    F_CAM_JOLT,     /* every observation of camera fault_id arg px off in u at FAULT_CYCLE only */
 } fault_t;
 
 typedef struct {
@@ -71,6 +72,8 @@ typedef struct {
     int restarts;
     int restart_cycle, restart_reason;
     int trusted_cycle; /* the doubt on a camera's clock cleared, -1 never */
+    int suspect_cycles, first_suspect, suspect_cam; /* FRAME_SUSPECT refusals, the first's cycle and camera */
+    int gated_at_fault; /* the fault cycle's frame of camera fault_id was gated (not taken) */
 } result_t;
 
 static void run(const scenario_t *sc, result_t *res)
@@ -79,6 +82,8 @@ static void run(const scenario_t *sc, result_t *res)
     res->first_detect = -1;
     res->readmitted_cycle = -1;
     res->trusted_cycle = -1;
+    res->first_suspect = -1;
+    res->suspect_cam = -1;
     mfns_rng_t rng, orng;
     mfns_rng_seed(&rng, sc->seed);
     mfns_rng_seed(&orng, sc->seed + 100);
@@ -155,8 +160,14 @@ static void run(const scenario_t *sc, result_t *res)
                     const double ramp = sc->kind == F_BEACON_RAMP ? sc->arg * (k - FAULT_CYCLE + 1) : 0.0;
                     obs[i].u += (float)((step ? sc->arg : 0.0) + ramp);
                 }
+                if (sc->kind == F_CAM_JOLT && c == sc->id && k == FAULT_CYCLE) {
+                    obs[i].u += (float)sc->arg;
+                }
             }
             const mfns_filter_status_t st = mfns_bank_observe_frame(&bank, &fs, &rig, (float)SIGMA_PX, n, beacon, obs);
+            if (c == sc->id && k == FAULT_CYCLE && st == MFNS_FILTER_GATED) {
+                res->gated_at_fault = 1;
+            }
             /* E_TIME: the full filter coasted too long (evaluate then asks for a restart) */
             assert_true(st == MFNS_FILTER_OK || st == MFNS_FILTER_GATED || st == MFNS_FILTER_E_TIME);
             nobs += n;
@@ -192,6 +203,15 @@ static void run(const scenario_t *sc, result_t *res)
         }
         if (out.timing_trusted >= 0 && res->trusted_cycle < 0) {
             res->trusted_cycle = k;
+        }
+        if (out.reason == MFNS_POSE_R_FRAME_SUSPECT) {
+            assert_false(out.usable);
+            assert_true(out.suspect_camera >= 0 && out.suspect_camera < MFNS_NUM_CAMERAS);
+            res->suspect_cycles++;
+            if (res->first_suspect < 0) {
+                res->first_suspect = k;
+                res->suspect_cam = out.suspect_camera;
+            }
         }
         if (out.usable) {
             res->usable++;
@@ -250,6 +270,45 @@ static void test_clean_runs(void **state)
         assert_int_equal(r.bound_violations, 0);
         assert_int_equal(r.work_bound_violations, 0);
         assert_true(r.usable * 1000 >= r.evaluated * 995); /* >= 99.5 % */
+        assert_int_equal(r.suspect_cycles, 0);
+    }
+}
+
+/* The frame test alone (filter_bank.h MFNS_BANK_FRAME_SUSPECT_P): camera
+ * 0's frame of one cycle with every observation 1.5 px off in u (a jolt of
+ * its mount for one frame) on the 4 + 3 + 3 scene, each observation inside
+ * the gate: the frame is taken, the cycle refused as FRAME_SUSPECT, nothing
+ * excluded, no usable fix beyond 5 sigma or its PL, and usable again after
+ * it. The camera the refusal names is the most unlikely frame's (camera 1
+ * here): a frame taken earlier in the cycle pulls the filter and the later
+ * frames bear it. A shift the noise explains (0.1 px) is never refused.
+ * What it misses, measured on the same scene: camera 2's frame 1.0 px off
+ * (the cycle's last) stays under the test's point and its fix is beyond 5
+ * sigma of the posterior (the test weighs the shift against the
+ * prediction, the 5 sigma against the fix: a frame that dominates the fix
+ * moves it by many of its sigmas with a modest NIS). */
+static void test_frame_suspect(void **state)
+{
+    (void)state;
+    const scenario_t sc = {F_CAM_JOLT, 0, 1.5, 30.0, 0.02, 60, 60, NULL, false};
+    result_t r;
+    run(&sc, &r);
+    report("one-frame jolt 1.5 px", &r);
+    print_message("  FRAME_SUSPECT %d cycles, first @%d camera %d, frame gated %d\n", r.suspect_cycles, r.first_suspect,
+                  r.suspect_cam, r.gated_at_fault);
+    assert_int_equal(r.gated_at_fault, 0); /* every observation passed the gate: the frame was taken */
+    assert_int_equal(r.first_suspect, FAULT_CYCLE);
+    assert_int_equal(r.suspect_cycles, 1);
+    assert_int_equal(r.first_detect, -1);
+    assert_int_equal(r.restarts, 0);
+    assert_int_equal(r.bound_violations, 0);
+    assert_int_equal(r.sigma_violations, 0);
+    assert_int_equal(r.usable, r.evaluated - 1);
+    for (int cam = 0; cam < MFNS_NUM_CAMERAS; cam++) {
+        const scenario_t small = {F_CAM_JOLT, cam, 0.1, 30.0, 0.02, 60 + (uint64_t)cam, 60, NULL, false};
+        run(&small, &r);
+        assert_int_equal(r.suspect_cycles, 0);
+        assert_int_equal(r.usable, r.evaluated);
     }
 }
 
@@ -326,9 +385,12 @@ static void test_camera_one_frame_late(void **state)
  * (nav_filter.h mfns_filter_augment), the frame's first updates read the lag
  * as a deceleration (80 -> 26 mm/s in the camera's hypothesis filter), the
  * offset stayed at 0.5 ms, and a usable fix was 3.4 x beyond its PL (22.9 sigma) one cycle after the drop.
- * Now: the camera named within two cycles, no usable fix beyond its PL. The
- * usable fixes beyond 5 sigma before the naming are printed, not asserted
- * (the PL bounds them; the covariance does not: docs/pose.md). */
+ * Now: the camera named within two cycles, no usable fix beyond its PL.
+ * Until 7 Dec 2026 (session 23) a usable fix beyond 5 sigma came before the
+ * naming (22.9 and 32.7 sigma on seeds 40 and 42): the first late frame
+ * passed the gate observation by observation and moved the full filter.
+ * The frame test (filter_bank.h MFNS_BANK_FRAME_SUSPECT_P) refuses that
+ * cycle: worst usable fix now 1.9 / 1.5 / 2.2 sigma, asserted. */
 static void test_dominant_camera_late(void **state)
 {
     (void)state;
@@ -343,6 +405,7 @@ static void test_dominant_camera_late(void **state)
         assert_int_equal(r.detect_kind, MFNS_BANK_HYP_CAMERA);
         assert_int_equal(r.detect_id, 0);
         assert_int_equal(r.bound_violations, 0);
+        assert_int_equal(r.sigma_violations, 0);
     }
 }
 
@@ -354,14 +417,16 @@ static void test_dominant_camera_late(void **state)
  * eliminated is the image motion of the estimated velocity), which with
  * ten beacons in the late camera and one in each other leaves the velocity
  * poorly known and feeds back (filter_bank.h, a stated miss). Asserted: no
- * usable fix beyond its PL, and the worst usable fix's error in sigmas well
- * under the same runs' without the doubt (measured: usable fixes beyond 5
- * sigma 1 / 1 / 0, worst 11.0 sigma, against 1 / 0 / 1, worst 32.7). */
+ * usable fix beyond its PL (measured: usable fixes beyond 5 sigma 1 / 1 / 0,
+ * worst 11.0 / 5.8 / 2.2 sigma). Without the doubt the same runs now do
+ * better (worst 1.9 / 1.5 / 2.2 sigma: the first late frame is refused by
+ * the frame test and the camera named two cycles later, where the doubt's
+ * timing-free rows hide the lag from that test and a beacon is blamed):
+ * printed, the comparison of before (11.0 against 32.7) no longer holds. */
 static void test_dominant_camera_late_doubted(void **state)
 {
     (void)state;
     static const int DOMINANT[3] = {10, 1, 1};
-    double doubted = 0.0, plain = 0.0;
     for (uint64_t seed = 0; seed < 3; seed++) {
         const scenario_t sc = {F_CAM_DROP_LAG, 0, 0.0, 80.0, 0.03, 40 + seed, 100, DOMINANT, true};
         scenario_t sc0 = sc;
@@ -374,10 +439,9 @@ static void test_dominant_camera_late_doubted(void **state)
                       r.sigma_violations, r.worst_sigma, r0.sigma_violations, r0.worst_sigma, r.trusted_cycle);
         assert_int_equal(r.bound_violations, 0);
         assert_int_equal(r.trusted_cycle, -1); /* a period late reads dirty or without power: never cleared */
-        doubted = fmax(doubted, r.worst_sigma);
-        plain = fmax(plain, r0.worst_sigma);
+        assert_int_equal(r0.bound_violations, 0);
+        assert_int_equal(r0.sigma_violations, 0);
     }
-    assert_true(doubted < 0.5 * plain);
 }
 
 /* A dropped frame and nothing else, on the 4 + 3 + 3 scene moving at 100
@@ -586,6 +650,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_clean_runs),
+        cmocka_unit_test(test_frame_suspect),
         cmocka_unit_test(test_beacon_step_gated),
         cmocka_unit_test(test_beacon_small_step_bounded),
         cmocka_unit_test(test_beacon_slow_ramp),

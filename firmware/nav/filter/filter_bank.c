@@ -25,6 +25,8 @@ static void clear_cycle(mfns_filter_bank_t *b)
         b->cam_tested[c] = 0;
         b->cam_held_nis[c] = 0.0f;
         b->cam_held_dof[c] = 0;
+        b->frame_nis[c] = 0.0f;
+        b->frame_dof[c] = 0;
         b->timing_read[c] = 0;
     }
     for (int i = 0; i < MFNS_BANK_MAX_BEACON_HYP; i++) {
@@ -255,7 +257,8 @@ static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter
     if (slot < 0) {
         return MFNS_FILTER_OK;
     }
-    const mfns_filter_status_t st = mfns_filter_update(&b->full, fs, rig, sigma_px, obs, NULL);
+    mfns_filter_update_info_t info;
+    const mfns_filter_status_t st = mfns_filter_update(&b->full, fs, rig, sigma_px, obs, &info);
     b->work++;
     if (st == MFNS_FILTER_GATED) {
         b->cam_gated[obs->cam]++;
@@ -263,6 +266,8 @@ static mfns_filter_status_t observe_one(mfns_filter_bank_t *b, const mfns_filter
     } else if (st == MFNS_FILTER_OK) {
         b->cam_passed[obs->cam]++;
         b->slot_passed[slot] = 1;
+        b->frame_nis[obs->cam] += info.nis;
+        b->frame_dof[obs->cam] = (uint16_t)(b->frame_dof[obs->cam] + 2U);
     } else {
         return st;
     }
@@ -395,6 +400,8 @@ static mfns_filter_status_t observe_timing_free(mfns_filter_bank_t *b, const mfn
     }
     b->full = g;
     b->cam_passed[cam] = (uint16_t)(b->cam_passed[cam] + (uint16_t)m);
+    b->frame_nis[cam] += info.nis;
+    b->frame_dof[cam] = (uint16_t)(b->frame_dof[cam] + info.rows);
     for (int i = 0; i < m; i++) {
         b->slot_passed[slot_of_use[i]] = 1;
     }
@@ -807,6 +814,29 @@ static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev, const bo
 }
 
 /* Bit c: camera c's clock in doubt. */
+/* The camera whose frame, taken by the full filter this cycle, is beyond
+ * the FRAME_SUSPECT point (filter_bank.h), the most unlikely; -1 none. */
+static int suspect_frame(const mfns_filter_bank_t *b)
+{
+    int worst = -1;
+    float worst_ratio = 1.0f;
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (b->frame_dof[c] == 0U) {
+            continue;
+        }
+        const float dof = (float)b->frame_dof[c];
+        /* two degrees of freedom: the exact point (the quantile's approximation is for dof >= 4) */
+        const float q = b->frame_dof[c] <= 2U ? -2.0f * logf(MFNS_BANK_FRAME_SUSPECT_P)
+                                               : mfns_filter_chi2_quantile(dof, MFNS_BANK_FRAME_SUSPECT_P);
+        const float ratio = b->frame_nis[c] / q;
+        if (!(ratio <= worst_ratio)) { /* a NaN sum is suspect too */
+            worst = c;
+            worst_ratio = isfinite(ratio) ? ratio : INFINITY;
+        }
+    }
+    return worst;
+}
+
 static uint8_t doubt_mask(const mfns_filter_bank_t *b)
 {
     unsigned m = 0U;
@@ -829,6 +859,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
     out->readmitted_beacon = NO_BEACON;
     out->readmitted_camera = -1;
     out->timing_trusted = -1;
+    out->suspect_camera = -1;
     out->detected_id = NO_BEACON;
     if (b == NULL || b->initialised == 0U || !mfns_filter_settings_valid(fs) || is == NULL ||
         !mfns_integrity_settings_valid(is)) {
@@ -944,6 +975,7 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
             b->slot_beacon[i] = NO_BEACON;
         }
     }
+    out->suspect_camera = (int8_t)suspect_frame(b);
     out->detected_kind = b->det_kind;
     out->detected_id = b->det_id;
     out->by_gate = b->det_by_gate;
@@ -967,6 +999,8 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
         out->reason = MFNS_POSE_R_UNMONITORED;
     } else if (!(out->pl_pos_mm <= is->alert_limit_pos_mm && out->pl_att_deg <= is->alert_limit_att_deg)) {
         out->reason = MFNS_POSE_R_PL_EXCEEDS_AL;
+    } else if (out->suspect_camera >= 0) {
+        out->reason = MFNS_POSE_R_FRAME_SUSPECT;
     } else {
         out->usable = true;
         out->status = held ? MFNS_POSE_DEGRADED : MFNS_POSE_OK;

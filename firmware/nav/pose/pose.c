@@ -85,6 +85,8 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
         return MFNS_MSG("an acquisition while the robot was last tracked outside the table's workspace: not certified");
     case MFNS_POSE_R_MOTION_EXCEEDED:
         return MFNS_MSG("the robot accelerated beyond the navigation filter's motion bound: restart from acquisition");
+    case MFNS_POSE_R_FRAME_SUSPECT:
+        return MFNS_MSG("a camera's frame passed the filter's gate but is unlikely as a whole: this cycle refused");
     }
     return MFNS_MSG("unknown pose reason");
 }
