@@ -210,7 +210,7 @@ static void run(const scenario_t *sc, result_t *res)
             res->suspect_cycles++;
             if (res->first_suspect < 0) {
                 res->first_suspect = k;
-                res->suspect_cam = out.suspect_camera;
+                res->suspect_cam = (int)(uint8_t)out.suspect_camera; /* in range: asserted above */
             }
         }
         if (out.usable) {

@@ -290,8 +290,9 @@
  * freedom (p 1.6e-3 over every camera; over camera x's own rows alone
  * smaller), a frozen scene's first frame 62.0 on 24 (p 3e-5); clean frames
  * 0.0-0.3 (the simulator's noise is a tenth of the model's). */
-#define MFNS_BANK_FRAME_SUSPECT_P 1e-3f
-_Static_assert(MFNS_BANK_FRAME_SUSPECT_P > 0.0f && MFNS_BANK_FRAME_SUSPECT_P < 0.05f,
+#define MFNS_BANK_FRAME_SUSPECT_PPM 1000u /* 1e-3 */
+#define MFNS_BANK_FRAME_SUSPECT_P ((float)MFNS_BANK_FRAME_SUSPECT_PPM * 1e-6f)
+_Static_assert(MFNS_BANK_FRAME_SUSPECT_PPM > 0u && MFNS_BANK_FRAME_SUSPECT_PPM < 50000u,
                "the frame test refuses rare frames only");
 
 typedef enum {

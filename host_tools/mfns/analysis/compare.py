@@ -82,8 +82,8 @@ WHY = {
     "workspace box, where the certificate does not hold (docs/pose.md, the table's workspace in flight)",
     "MOTION_EXCEEDED": "refused: the robot accelerated beyond the navigation filter's motion bound "
     "(a collision, a hard burst): navigation restarts from acquisition",
-    "FRAME_SUSPECT": "refused: a camera's frame passed the navigation filter's gate observation by observation "
-    "but is unlikely as a whole (the onset of a camera fault looks like this): this cycle only",
+    "FRAME_SUSPECT": "refused: a camera's frame passed the navigation filter's gate observation by "
+    "observation but is unlikely as a whole (the onset of a camera fault looks like this): this cycle only",
 }
 
 
