@@ -307,6 +307,20 @@ _Static_assert(FH_MAX_CAMERAS == 3u, "pair_index is written for three cameras");
 
 typedef enum { PAIR_UNCHECKED = 0, PAIR_AGREE, PAIR_DISAGREE } pair_verdict_t;
 
+/* A pair's period: the mean of its cameras' learned periods. */
+static float pair_period(const fh_cam_t *a, const fh_cam_t *b)
+{
+    return 0.5f * (a->period_us + b->period_us);
+}
+
+/* The time difference t_k - t_j the pair's reference predicts for this
+ * cycle's sequence numbers, us. */
+static int64_t pair_pred(const fh_pair_t *p, const fh_cam_t *a, const fh_cam_t *b, float period_us)
+{
+    const int64_t ds = (int64_t)(int32_t)(b->seq - a->seq);
+    return p->dt_ref_us + round_i64((float)(ds - p->ds_ref) * period_us);
+}
+
 /* The pair (j, k) this cycle; *frames the disagreement in frames. */
 static pair_verdict_t check_pair(const fh_monitor_t *m, unsigned j, unsigned k, int64_t *frames, float *res_us)
 {
@@ -317,10 +331,9 @@ static pair_verdict_t check_pair(const fh_monitor_t *m, unsigned j, unsigned k, 
         p->rate != FH_RATE_SAME) {
         return PAIR_UNCHECKED; /* different rates (at the anchor): the sequence numbers do not predict the times */
     }
-    const float period = 0.5f * (a->period_us + b->period_us);
+    const float period = pair_period(a, b);
     const int64_t dt = (int64_t)b->t_us - (int64_t)a->t_us;
-    const int64_t ds = (int64_t)(int32_t)(b->seq - a->seq);
-    const int64_t pred = p->dt_ref_us + round_i64((float)(ds - p->ds_ref) * period);
+    const int64_t pred = pair_pred(p, a, b, period);
     *frames = round_i64((float)(dt - pred) / period);
     *res_us = (float)(dt - pred);
     return absf_i64(dt - pred) > FH_CROSS_TOL_FRAC * period ? PAIR_DISAGREE : PAIR_AGREE;
@@ -352,7 +365,7 @@ static void pair_rates(fh_monitor_t *m)
             const fh_cam_t *b = &m->cam[k];
             fh_pair_t *p = &m->pair[pair_index(j, k)];
             if (p->valid && p->rate == FH_RATE_UNKNOWN && a->period_known && b->period_known) {
-                const float period = 0.5f * (a->period_us + b->period_us);
+                const float period = pair_period(a, b);
                 p->rate = absf_i64(round_i64(a->period_us - b->period_us)) <= FH_RATE_MATCH_FRAC * period
                               ? FH_RATE_SAME
                               : FH_RATE_DIFFERENT;
@@ -381,8 +394,7 @@ static void pair_follow(fh_monitor_t *m, unsigned j, unsigned k, float res_us, f
     const fh_cam_t *a = &m->cam[j];
     const fh_cam_t *b = &m->cam[k];
     fh_pair_t *p = &m->pair[pair_index(j, k)];
-    const int64_t ds = (int64_t)(int32_t)(b->seq - a->seq);
-    const int64_t pred = p->dt_ref_us + round_i64((float)(ds - p->ds_ref) * period_us);
+    const int64_t pred = pair_pred(p, a, b, period_us);
     uint32_t frames = a->seq - p->seq_j_ref;
     frames = frames == 0u || frames > FH_MAX_DSEQ ? 1u : frames;
     const float lim = (float)FH_PHASE_FOLLOW_PPM * 1e-6f * period_us * (float)frames;
@@ -395,7 +407,7 @@ static void pair_follow(fh_monitor_t *m, unsigned j, unsigned k, float res_us, f
         step = step > lim ? lim : step < -lim ? -lim : step;
     }
     p->dt_ref_us = pred + round_i64(step);
-    p->ds_ref = ds;
+    p->ds_ref = (int64_t)(int32_t)(b->seq - a->seq);
     p->seq_j_ref = a->seq;
     if (!learning && fabsf(res_us) > 0.5f * drift_threshold(p, period_us)) {
         return; /* learned from residuals well inside the test only: a ramp below it creeps in slowly */
@@ -431,7 +443,7 @@ static void drift_check(fh_monitor_t *m, const pair_verdict_t v[FH_MAX_CAMERAS][
             }
             checked[j]++;
             checked[k]++;
-            if (pair_drifts(p, res[k][j], 0.5f * (a->period_us + b->period_us))) {
+            if (pair_drifts(p, res[k][j], pair_period(a, b))) {
                 marked[j]++;
                 marked[k]++;
                 other[j] = (int)k;
@@ -593,8 +605,8 @@ void fh_cross_check(fh_monitor_t *m, fh_event_t ev[FH_MAX_CAMERAS])
                                             absf_i64((int64_t)b->t_us - (int64_t)a->t_us) <= FH_CROSS_TOL_FRAC * period;
             if (fresh_pair_in_step) {
                 pair_anchor(m, j, k);
-            } else if (v[j][k] == PAIR_AGREE && !pair_drifts(p, res[k][j], 0.5f * (a->period_us + b->period_us))) {
-                pair_follow(m, j, k, res[k][j], 0.5f * (a->period_us + b->period_us));
+            } else if (v[j][k] == PAIR_AGREE && !pair_drifts(p, res[k][j], pair_period(a, b))) {
+                pair_follow(m, j, k, res[k][j], pair_period(a, b));
             }
         }
     }

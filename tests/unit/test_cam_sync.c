@@ -22,6 +22,20 @@ static void test_frames_within_window_are_fused(void **state)
     }
 }
 
+/* One cycle over three candidates: a cycle happens, at ref_us, with the
+ * verdicts v0, v1, v2 (CAM_SYNC_NONE for a camera without a frame). */
+static void expect_cycle(cam_sync_t *s, const bool have[3], const uint64_t t[3], uint64_t ref_us,
+                         cam_sync_verdict_t v0, cam_sync_verdict_t v1, cam_sync_verdict_t v2)
+{
+    cam_sync_verdict_t v[3];
+    uint64_t ref = 0;
+    assert_true(cam_sync_cycle(s, have, t, 3, v, &ref));
+    assert_int_equal(ref, ref_us);
+    assert_int_equal(v[0], v0);
+    assert_int_equal(v[1], v1);
+    assert_int_equal(v[2], v2);
+}
+
 static void test_out_of_step_frame_is_held_and_stale_frame_refused(void **state)
 {
     (void)state;
@@ -30,20 +44,10 @@ static void test_out_of_step_frame_is_held_and_stale_frame_refused(void **state)
     /* y skipped a frame: it brings frame f+1 to cycle f */
     bool have[3] = {true, true, true};
     uint64_t t[3] = {161290u, 215054u, 161290u};
-    cam_sync_verdict_t v[3];
-    uint64_t ref = 0;
-    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
-    assert_int_equal(ref, 161290u);
-    assert_int_equal(v[0], CAM_SYNC_USE);
-    assert_int_equal(v[1], CAM_SYNC_AHEAD);
-    assert_int_equal(v[2], CAM_SYNC_USE);
+    expect_cycle(&s, have, t, 161290u, CAM_SYNC_USE, CAM_SYNC_AHEAD, CAM_SYNC_USE);
     /* next cycle: the held frame joins the others' frame f+1 */
     t[0] = t[2] = 215054u;
-    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
-    assert_int_equal(ref, 215054u);
-    for (int k = 0; k < 3; k++) {
-        assert_int_equal(v[k], CAM_SYNC_USE);
-    }
+    expect_cycle(&s, have, t, 215054u, CAM_SYNC_USE, CAM_SYNC_USE, CAM_SYNC_USE);
     /* a frame of the cycle just done, or older, is stale; the next one is not */
     assert_true(cam_sync_is_stale(&s, 215054u));
     assert_true(cam_sync_is_stale(&s, 215054u + 25000u));
@@ -51,6 +55,8 @@ static void test_out_of_step_frame_is_held_and_stale_frame_refused(void **state)
     assert_false(cam_sync_is_stale(&s, 268817u));
     /* no candidates: no cycle time, nothing recorded */
     have[0] = have[1] = have[2] = false;
+    cam_sync_verdict_t v[3];
+    uint64_t ref = 0;
     assert_false(cam_sync_cycle(&s, have, t, 3, v, &ref));
     assert_int_equal(s.last_us, 215054u);
     assert_int_equal(v[1], CAM_SYNC_NONE);
@@ -69,38 +75,20 @@ static void test_majority_sets_the_time(void **state)
     cam_sync_init(&s, 25000u);
     const bool have[3] = {true, true, true};
     uint64_t t[3] = {1053763u + 26000u, 1053763u, 1053763u};
-    cam_sync_verdict_t v[3];
-    uint64_t ref = 0;
-    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
-    assert_int_equal(ref, 1053763u);
-    assert_int_equal(v[0], CAM_SYNC_AHEAD);
-    assert_int_equal(v[1], CAM_SYNC_USE);
-    assert_int_equal(v[2], CAM_SYNC_USE);
+    expect_cycle(&s, have, t, 1053763u, CAM_SYNC_AHEAD, CAM_SYNC_USE, CAM_SYNC_USE);
     /* next cycle: x's held frame with y's and z's next ones */
     t[1] = t[2] = 1107527u;
-    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
-    assert_int_equal(ref, 1107527u);
-    assert_int_equal(v[0], CAM_SYNC_BEHIND);
-    assert_int_equal(v[1], CAM_SYNC_USE);
-    assert_int_equal(v[2], CAM_SYNC_USE);
+    expect_cycle(&s, have, t, 1107527u, CAM_SYNC_BEHIND, CAM_SYNC_USE, CAM_SYNC_USE);
     /* two cameras, 28 ms apart: the older sets the time */
     const bool two[3] = {true, true, false};
     t[0] = 1161290u;
     t[1] = 1161290u + 28000u;
-    assert_true(cam_sync_cycle(&s, two, t, 3, v, &ref));
-    assert_int_equal(ref, 1161290u);
-    assert_int_equal(v[0], CAM_SYNC_USE);
-    assert_int_equal(v[1], CAM_SYNC_AHEAD);
-    assert_int_equal(v[2], CAM_SYNC_NONE);
+    expect_cycle(&s, two, t, 1161290u, CAM_SYNC_USE, CAM_SYNC_AHEAD, CAM_SYNC_NONE);
     /* three spread over more than the window (0, 20, 40 ms): the oldest pair's time, the last ahead */
     t[0] = 1215054u;
     t[1] = 1215054u + 20000u;
     t[2] = 1215054u + 40000u;
-    assert_true(cam_sync_cycle(&s, have, t, 3, v, &ref));
-    assert_int_equal(ref, 1215054u);
-    assert_int_equal(v[0], CAM_SYNC_USE);
-    assert_int_equal(v[1], CAM_SYNC_USE);
-    assert_int_equal(v[2], CAM_SYNC_AHEAD);
+    expect_cycle(&s, have, t, 1215054u, CAM_SYNC_USE, CAM_SYNC_USE, CAM_SYNC_AHEAD);
 }
 
 static void test_offsets_saturate(void **state)

@@ -813,7 +813,6 @@ static int attribute(const mfns_filter_bank_t *b, const sep_eval_t *ev, const bo
     return best_b;
 }
 
-/* Bit c: camera c's clock in doubt. */
 /* The camera whose frame, taken by the full filter this cycle, is beyond
  * the FRAME_SUSPECT point (filter_bank.h), the most unlikely; -1 none. */
 static int suspect_frame(const mfns_filter_bank_t *b)
@@ -837,6 +836,7 @@ static int suspect_frame(const mfns_filter_bank_t *b)
     return worst;
 }
 
+/* Bit c: camera c's clock in doubt. */
 static uint8_t doubt_mask(const mfns_filter_bank_t *b)
 {
     unsigned m = 0U;

@@ -359,7 +359,8 @@ typedef struct {
     int16_t readmitted_beacon; /* -1 none */
     int8_t readmitted_camera;  /* -1 none */
     int8_t timing_trusted;     /* a camera whose clock doubt this cycle cleared, -1 none */
-    int8_t suspect_camera;     /* the camera whose frame made the fix FRAME_SUSPECT this cycle, -1 none */
+    int8_t suspect_camera;     /* the camera of this cycle's most unlikely frame beyond the FRAME_SUSPECT point
+                                  (-1 none); the reason is FRAME_SUSPECT when no other refused the fix first */
     uint8_t timing_doubt_mask; /* bit c: camera c's clock still in doubt after this cycle */
     uint32_t work;
 } mfns_bank_output_t;
