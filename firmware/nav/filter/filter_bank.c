@@ -345,7 +345,7 @@ static bool pulled_by(mfns_filter_bank_t *b, const mfns_filter_settings_t *fs, i
 mfns_filter_status_t mfns_bank_doubt_timing(mfns_filter_bank_t *b, int cam, float resolve_s)
 {
     if (b == NULL || b->initialised == 0U || cam < 0 || cam >= MFNS_NUM_CAMERAS || !(resolve_s > 0.0f) ||
-        !isfinite(resolve_s)) {
+        !(resolve_s <= MFNS_FILTER_CONSIDER_TAU_MAX_S)) {
         return MFNS_FILTER_E_ARG;
     }
     b->timing_doubt[cam] = 1;
@@ -385,7 +385,8 @@ static mfns_filter_status_t observe_timing_free(mfns_filter_bank_t *b, const mfn
     const mfns_filter_t ref = b->full;
     mfns_filter_t g = b->full; /* the frame tested as a whole before the full filter takes it */
     mfns_filter_invariant_info_t info;
-    mfns_filter_status_t st = mfns_filter_update_timing_free(&g, fs, rig, sigma_px, m, use, &ref, &info);
+    mfns_filter_status_t st =
+        mfns_filter_update_timing_free(&g, fs, rig, sigma_px, m, use, &ref, b->timing_resolve_s[cam], &info);
     b->work++;
     if (st == MFNS_FILTER_E_TIME || st == MFNS_FILTER_E_ARG) {
         return st;
@@ -417,7 +418,7 @@ static mfns_filter_status_t observe_timing_free(mfns_filter_bank_t *b, const mfn
     for (int k = 0; k < MFNS_BANK_MAX_HYP; k++) {
         if (k < MFNS_BANK_CAM_HYP) {
             st = k == cam ? mfns_filter_update_invariant(&b->sub[k], fs, rig, sigma_px, m, use, NULL)
-                          : mfns_filter_update_timing_free(&b->sub[k], fs, rig, sigma_px, m, use, &ref, NULL);
+                          : mfns_filter_update_timing_free(&b->sub[k], fs, rig, sigma_px, m, use, &ref, 0.0f, NULL);
         } else {
             const int slot = k - MFNS_BANK_CAM_HYP;
             if (b->slot_beacon[slot] == NO_BEACON) {
@@ -433,11 +434,21 @@ static mfns_filter_status_t observe_timing_free(mfns_filter_bank_t *b, const mfn
             if (r == 0) {
                 continue;
             }
-            st = mfns_filter_update_timing_free(&b->sub[k], fs, rig, sigma_px, r, rest, &ref, NULL);
+            st = mfns_filter_update_timing_free(&b->sub[k], fs, rig, sigma_px, r, rest, &ref, 0.0f, NULL);
         }
         b->work++;
         if (st == MFNS_FILTER_E_ARG) {
             return st;
+        }
+        /* the full filter's offset term (nav_filter.h tau_bound_s), the
+         * same in every filter: the term is one error common to all (the
+         * offset times the reference velocity's error), so the separations'
+         * covariance P_k - P_0 is left as the data made it (each filter's
+         * own term differs from the full filter's by its gains, and a
+         * subset whose term came out smaller failed its separation test on
+         * a healthy camera: test_filter_bank's dropped frame) */
+        if (st == MFNS_FILTER_OK && !mfns_filter_add_cov(&b->sub[k], info.added_cov)) {
+            return MFNS_FILTER_E_ARG;
         }
         /* E_TIME (a subset that coasted too long) shows in evaluate; E_GEOM
          * leaves that subset unupdated: less data, never a fault in */

@@ -416,13 +416,17 @@ void mfns_bank_keep_exclusions(mfns_filter_bank_t *b, const int16_t excl_beacon[
  * what its frames say of the geometry (one number a frame less: along the
  * image motion of the robot's velocity). The doubt clears after hold_cycles
  * clean readings that resolve resolve_s (> 0: the frame period; evaluate:
- * out->timing_trusted). Misses: a clock fault the
+ * out->timing_trusted). resolve_s is also the bound on the camera's offset
+ * that the timing-free updates take (nav_filter.h tau_bound_s: the offset
+ * times the velocity's error enters each filter's covariance; the frame
+ * checks leave a camera out once it is half a period out of step, a stale
+ * frame is a period late). Misses: a clock fault the
  * caller's checks did not see (a drift from the start of the bank, a stale
  * frame that came without a dropped or held one): the camera's hypothesis
  * bounds it, with no doubt its timing moves the full filter (usable fixes
  * beyond 5 sigma, within the PL). Also a clock that reads clean while the
  * robot moves too slowly to show it (no power: the doubt holds). E_ARG
- * for a bad camera or resolve_s not positive and finite. */
+ * for a bad camera or resolve_s not in (0, MFNS_FILTER_CONSIDER_TAU_MAX_S]. */
 mfns_filter_status_t mfns_bank_doubt_timing(mfns_filter_bank_t *b, int cam, float resolve_s);
 
 /* Is beacon (map index) / camera held out now. */

@@ -725,13 +725,17 @@ static bool frame_valid(int n, const mfns_filter_obs_t obs[])
     return true;
 }
 
+typedef struct {
+    float tau_s, tau_sigma_s;
+} tau_reading_t;
+
 /* The time offset's fit from the rows at the final linearisation point,
  * before the projection: tau = the point + (f^T y) / (f^T f), its variance
  * 1 / (f^T f) from the frame's noise plus (u^T P u) / (f^T f)^2 from the
  * state's (u = H^T f: the pose error that the fit reads as an offset). The
  * timing-free update's test of a camera's clock (nav_filter.h). */
 static void tau_fit(const mfns_filter_t *f, int rows, const float a[][MFNS_FILTER_INV_COLS],
-                    const float fr[][MFNS_FILTER_MAX_AUG], mfns_filter_invariant_info_t *info)
+                    const float fr[][MFNS_FILTER_MAX_AUG], tau_reading_t *info)
 {
     float ff = 0.0f, fy = 0.0f, u[NH];
     memset(u, 0, sizeof u);
@@ -758,9 +762,111 @@ static void tau_fit(const mfns_filter_t *f, int rows, const float a[][MFNS_FILTE
     info->tau_sigma_s = sqrtf(1.0f / ff + fmaxf(upu, 0.0f) / (ff * ff));
 }
 
+/* The velocity's share of a frame whose offset is unknown (the timing-free
+ * update, nav_filter.h mfns_filter_update_timing_free's tau_bound_s): the
+ * frame shows x(t - tau) = x(t) - tau (w, v); the eliminated column takes
+ * (w, v) at the prediction, so every row keeps -tau h z, z = (dw, dv) the
+ * predicted angular and linear velocity errors seen through the row's own
+ * pose columns (h: attitude then position). The rows move the state by
+ * tau M z more than the filter's model says (M: N x 6, the rows' gain on
+ * that term, tracked row by row). With Sz = cov(z) (the filter's own
+ * predicted velocity block: the bank's full filter's exactly, whose
+ * velocity gives the eliminated direction; a subset's, which took less
+ * data, at least as large) the term's covariance at |tau| <= T is at most
+ * T^2 M Sz M^T, added to P. Its cross-covariance with the state's nominal
+ * error, tau (X M^T + M X^T) with X = cov(error, z), is left out: bounded
+ * for both signs of tau (Cauchy-Schwarz) it added about three times P at
+ * every frame of a camera a period stale (module seed 5: nothing usable
+ * after the onset), and its sign follows tau's, which the doubt does not
+ * know. */
+typedef struct {
+    float sz[NH][NH]; /* cov(z), pose-column order (angular rate, velocity) */
+    float m[N][NH];   /* the rows' gain on the term */
+} consider_t;
+
+static void consider_start(const mfns_filter_t *f, consider_t *c)
+{
+    for (int q = 0; q < NH; q++) {
+        const int iq = q < 3 ? MFNS_FILTER_OMEGA + q : MFNS_FILTER_VEL + (q - 3);
+        for (int p = 0; p < NH; p++) {
+            const int ip = p < 3 ? MFNS_FILTER_OMEGA + p : MFNS_FILTER_VEL + (p - 3);
+            c->sz[q][p] = f->P[iq][ip];
+        }
+        for (int i = 0; i < N; i++) {
+            c->m[i][q] = 0.0f;
+        }
+    }
+}
+
+/* one scalar row h (pose columns) applied with gain k: the row sees h z
+ * less what the rows before it moved the pose by */
+static void consider_row(consider_t *c, const float h[NH], const float k[N])
+{
+    float hm[NH];
+    for (int p = 0; p < NH; p++) {
+        float v = h[p];
+        for (int q = 0; q < NH; q++) {
+            v -= h[q] * c->m[q][p];
+        }
+        hm[p] = v;
+    }
+    for (int i = 0; i < N; i++) {
+        for (int p = 0; p < NH; p++) {
+            c->m[i][p] += k[i] * hm[p];
+        }
+    }
+}
+
+/* P <- P + T^2 M Sz M^T, that term also into added (NULL: not kept) */
+static void consider_add(mfns_filter_t *f, const consider_t *c, float tau_bound_s, float added[N][N])
+{
+    float ms[N][NH];
+    for (int i = 0; i < N; i++) {
+        for (int p = 0; p < NH; p++) {
+            float v = 0.0f;
+            for (int q = 0; q < NH; q++) {
+                v += c->m[i][q] * c->sz[q][p];
+            }
+            ms[i][p] = tau_bound_s * tau_bound_s * v;
+        }
+    }
+    for (int i = 0; i < N; i++) {
+        for (int j = 0; j < N; j++) {
+            float v = 0.0f;
+            for (int p = 0; p < NH; p++) {
+                v += ms[i][p] * c->m[j][p];
+            }
+            f->P[i][j] += v;
+            if (added != NULL) {
+                added[i][j] = v;
+            }
+        }
+    }
+    symmetrise(f);
+}
+
+bool mfns_filter_add_cov(mfns_filter_t *f, const float add[MFNS_FILTER_N][MFNS_FILTER_N])
+{
+    if (f == NULL || f->initialised == 0U || add == NULL) {
+        return false;
+    }
+    for (int i = 0; i < N; i++) {
+        if (!(add[i][i] >= 0.0f) || !isfinite(add[i][i])) {
+            return false;
+        }
+    }
+    for (int i = 0; i < N; i++) {
+        for (int j = 0; j < N; j++) {
+            f->P[i][j] += add[i][j];
+        }
+    }
+    symmetrise(f);
+    return true;
+}
+
 static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settings_t *s, const mfns_rig_t *rig,
                                       float sigma_px, int n, const mfns_filter_obs_t obs[], bool pointing_free,
-                                      const mfns_filter_t *ref, mfns_filter_invariant_info_t *info)
+                                      const mfns_filter_t *ref, float tau_bound_s, mfns_filter_invariant_info_t *info)
 {
     mfns_filter_status_t st = mfns_filter_propagate(f, s, obs[0].t_us);
     if (st != MFNS_FILTER_OK) {
@@ -785,7 +891,10 @@ static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settin
     if (!inv_rows(f, rig, sigma_px, m, obs, a, fr)) {
         return MFNS_FILTER_E_GEOM;
     }
-    mfns_filter_invariant_info_t fit = {0, 0, 0.0f, 0.0f, 0.0f};
+    tau_reading_t fit = {0.0f, 0.0f};
+    if (info != NULL) {
+        memset(info->added_cov, 0, sizeof info->added_cov);
+    }
     if (!pointing_free) {
         tau_fit(f, rows, a, fr, &fit);
     }
@@ -795,6 +904,13 @@ static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settin
      * what the rows before it moved */
     float dx[N];
     memset(dx, 0, sizeof dx);
+    /* the rows' effect through an offset times the velocity's error (only
+     * when the offset is bounded: consider_bound above) */
+    const bool consider = tau_bound_s > 0.0f;
+    consider_t cons;
+    if (consider) {
+        consider_start(f, &cons);
+    }
     float nis = 0.0f;
     for (int r = top; r < rows; r++) {
         const float *h = &a[r][1];
@@ -820,6 +936,9 @@ static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settin
             k[i] = pht[i] / sden;
             dx[i] += k[i] * y;
         }
+        if (consider) {
+            consider_row(&cons, h, k);
+        }
         /* Joseph, scalar: A = P - k pht^T, P <- A - (A h) k^T + k k^T */
         for (int i = 0; i < N; i++) {
             for (int j = 0; j < N; j++) {
@@ -843,6 +962,9 @@ static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settin
     }
     const int used = rows - top;
     if (used > 0) {
+        if (consider) {
+            consider_add(f, &cons, tau_bound_s, info != NULL ? info->added_cov : NULL);
+        }
         inject(f, dx);
         f->t_meas_us = obs[0].t_us;
         f->updates += (uint32_t)m;
@@ -867,16 +989,17 @@ mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_f
         !frame_valid(n, obs) || !pos_finite(sigma_px) || f->aug_cam != obs[0].cam) {
         return MFNS_FILTER_E_ARG;
     }
-    return invariant(f, s, rig, sigma_px, n, obs, true, NULL, info);
+    return invariant(f, s, rig, sigma_px, n, obs, true, NULL, 0.0f, info);
 }
 
 mfns_filter_status_t mfns_filter_update_timing_free(mfns_filter_t *f, const mfns_filter_settings_t *s,
                                                     const mfns_rig_t *rig, float sigma_px, int n,
                                                     const mfns_filter_obs_t obs[], const mfns_filter_t *ref,
-                                                    mfns_filter_invariant_info_t *info)
+                                                    float tau_bound_s, mfns_filter_invariant_info_t *info)
 {
     if (f == NULL || f->initialised == 0U || rig == NULL || !mfns_filter_settings_valid(s) ||
-        !frame_valid(n, obs) || !pos_finite(sigma_px) || (ref != NULL && ref->initialised == 0U)) {
+        !frame_valid(n, obs) || !pos_finite(sigma_px) || (ref != NULL && ref->initialised == 0U) ||
+        !(tau_bound_s >= 0.0f) || !(tau_bound_s <= MFNS_FILTER_CONSIDER_TAU_MAX_S)) {
         return MFNS_FILTER_E_ARG;
     }
     /* the frame's camera as the filter's fault camera for this frame only,
@@ -888,7 +1011,7 @@ mfns_filter_status_t mfns_filter_update_timing_free(mfns_filter_t *f, const mfns
     f->aug_cam = obs[0].cam;
     f->aug_rot = mfns_v3(0.0f, 0.0f, 0.0f);
     f->aug_dt_s = 0.0f;
-    const mfns_filter_status_t st = invariant(f, s, rig, sigma_px, n, obs, false, ref, info);
+    const mfns_filter_status_t st = invariant(f, s, rig, sigma_px, n, obs, false, ref, tau_bound_s, info);
     f->aug_cam = cam0;
     f->aug_rot = rot0;
     f->aug_dt_s = dt0;

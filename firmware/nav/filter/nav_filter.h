@@ -315,6 +315,10 @@ typedef struct {
      * has no image motion to read it from (a robot at rest) */
     float tau_s;
     float tau_sigma_s;
+    /* timing-free with tau_bound_s > 0: the covariance the offset's term
+     * added to P (zero otherwise); the bank adds the full filter's to every
+     * subset that takes the frame (mfns_filter_add_cov) */
+    float added_cov[MFNS_FILTER_N][MFNS_FILTER_N];
 } mfns_filter_invariant_info_t;
 mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_filter_settings_t *s,
                                                   const mfns_rig_t *rig, float sigma_px, int n,
@@ -340,11 +344,36 @@ mfns_filter_status_t mfns_filter_update_invariant(mfns_filter_t *f, const mfns_f
  * (filter_bank.h: with each filter's own velocity, a beacon's subset came
  * out 5 % more certain than the full filter on one axis and its separation
  * test failed on 0.04 mm). Errors as mfns_filter_update_invariant (no
- * augmented camera needed; E_ARG also for an uninitialised ref). */
+ * augmented camera needed; E_ARG also for an uninitialised ref).
+ * tau_bound_s (0: none; at most MFNS_FILTER_CONSIDER_TAU_MAX_S) bounds the
+ * camera's offset |tau|: the eliminated direction is the image motion of
+ * ref's velocity, and a frame tau late keeps tau times that velocity's
+ * error in every row, which the rows then put into the state (a camera a
+ * period stale after a dropped frame on a robot whose velocity is known to
+ * ~10 mm/s: ~0.5 mm a frame, against a position sigma of 0.3 mm; grown
+ * campaign, module seed 5: usable fixes with NEES up to 190, 14 sigma along
+ * the thinnest direction, within 3.4 sigma per axis). With tau_bound_s > 0
+ * the covariance takes that term: P <- P + tau_bound_s^2 M Sz M^T, M the
+ * rows' gain on the velocity error, Sz the predicted velocity covariance.
+ * What it misses: the term's correlation with the state's own error (left
+ * out: bounded for either sign of tau it added about three times P at every
+ * frame and left nothing usable; nav_filter.c consider_*), so P is the
+ * term's as if independent, not a bound; an offset beyond tau_bound_s (the
+ * caller's frame checks drop a camera out of step: half a period); the
+ * second order of the motion over tau. Measured (grown campaign, module
+ * seed 5, camera x a period stale after a dropped frame): 14 misleading
+ * fixes -> 0, 86 usable -> 80. */
+/* a bound beyond 1 s is no clock the frame checks would have let through */
+#define MFNS_FILTER_CONSIDER_TAU_MAX_S 1.0f
 mfns_filter_status_t mfns_filter_update_timing_free(mfns_filter_t *f, const mfns_filter_settings_t *s,
                                                     const mfns_rig_t *rig, float sigma_px, int n,
                                                     const mfns_filter_obs_t obs[], const mfns_filter_t *ref,
-                                                    mfns_filter_invariant_info_t *info);
+                                                    float tau_bound_s, mfns_filter_invariant_info_t *info);
+
+/* P <- P + add (add symmetric positive semi-definite: the caller's; a
+ * term common to several filters, filter_bank.c). False and f untouched on
+ * NULL, an uninitialised filter or a non-finite or negative diagonal. */
+bool mfns_filter_add_cov(mfns_filter_t *f, const float add[MFNS_FILTER_N][MFNS_FILTER_N]);
 
 /* The observation Jacobian at the state f for obs (rows 2, columns
  * MFNS_FILTER_JAC_N: the N states', then, for f's camera hypothesis's
