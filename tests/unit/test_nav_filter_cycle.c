@@ -182,6 +182,67 @@ static void test_timing_doubt(void **state)
     assert_int_equal(nf.timing_doubt, 2);
 }
 
+/* A frame the snapshot's checks find lagging (mfns_navf_suspect_frame):
+ * off, nothing; on, the step it precedes is refused, NO_FIX FRAME_SUSPECT
+ * naming the camera, no clock is put in doubt, and the following steps are
+ * usable again (the suspicion is one cycle's); a camera out of range is
+ * ignored. */
+static void test_suspect_frame_refuses_its_cycle(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 13);
+    pt_dpose_t truth;
+    setup(&rng, &truth);
+    static mfns_navf_t nf;
+    mfns_navf_enable(&nf, 0);
+    mfns_navf_suspect_frame(&nf, 2);
+    assert_int_equal(nf.suspect_cam, -1); /* off: nothing */
+    mfns_navf_enable(&nf, 54000);
+    assert_int_equal(nf.suspect_cam, -1);
+    mfns_navf_suspect_frame(&nf, -1);
+    mfns_navf_suspect_frame(&nf, MFNS_NUM_CAMERAS);
+    assert_int_equal(nf.suspect_cam, -1);
+    assert_int_equal(nf.timing_doubt, 0);
+    const int suspect_at = 20;
+    int used_after = 0;
+    bool used_before = false;
+    for (int k = 0; k < CYCLES; k++) {
+        mfns_obs_frame_t frame;
+        mfns_pose_solution_t sol;
+        mfns_integrity_result_t integ;
+        snapshot(&truth, &rng, &frame, &sol, &integ);
+        if (k == suspect_at) {
+            mfns_navf_suspect_frame(&nf, 2);
+        }
+        mfns_navf_report_t rep;
+        mfns_navf_step(&nf, &table, &table.integrity, &frame, 0.1f, &sol, &integ, &rep);
+        assert_true(rep.ran);
+        assert_int_equal(nf.suspect_cam, -1); /* consumed by the step */
+        if (k == suspect_at - 1) {
+            used_before = rep.used; /* the step before was usable: the refusal is the suspicion's */
+        }
+        if (k == suspect_at) {
+            assert_false(rep.used);
+            assert_false(rep.out.usable);
+            assert_int_equal(rep.out.status, MFNS_POSE_NO_FIX);
+            assert_int_equal(rep.out.reason, MFNS_POSE_R_FRAME_SUSPECT);
+            assert_int_equal(rep.out.suspect_camera, 2);
+            assert_int_equal(sol.status == MFNS_POSE_OK || sol.status == MFNS_POSE_DEGRADED, 0);
+        }
+        assert_int_equal(nf.timing_doubt, 0);
+        assert_int_equal(nf.bank.timing_doubt[2], 0);
+        if (k > suspect_at && rep.used) {
+            used_after++;
+            assert_within_pl(&truth, &sol, &integ);
+        }
+    }
+    print_message("suspect frame at cycle %d: refused; used in %d of the %d after\n", suspect_at, used_after,
+                  CYCLES - suspect_at - 1);
+    assert_true(used_before);
+    assert_true(used_after >= CYCLES - suspect_at - 1 - 2);
+}
+
 /* The filter's motion bound is the bound table's (docs/caltable.md "Motion
  * bound"), read every cycle: the same frames under a tighter acceleration
  * bound leave a smaller covariance and PL (less process noise), a re-bound
@@ -634,6 +695,7 @@ int main(void)
         cmocka_unit_test(test_off_changes_nothing),
         cmocka_unit_test(test_on_starts_and_takes_over),
         cmocka_unit_test(test_timing_doubt),
+        cmocka_unit_test(test_suspect_frame_refuses_its_cycle),
         cmocka_unit_test(test_motion_bound_from_table),
         cmocka_unit_test(test_motion_monitor_against_snapshot),
         cmocka_unit_test(test_capture_times),

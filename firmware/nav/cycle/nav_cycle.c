@@ -409,6 +409,22 @@ static void lag_monitor(mfns_nav_t *nav, mfns_nav_output_t *out)
                                                              &out->sol, &nav->pose_cfg, &nav->integ_set, &out->lag);
 }
 
+/* The camera the time-offset monitor finds lagging this cycle: a new lag
+ * episode's, else one it holds as lagging (cam_lag 1; not one held only to
+ * verify it after an outage, 2), else -1. */
+static int lagging_camera(const mfns_nav_t *nav, const mfns_nav_output_t *out)
+{
+    if (out->lag_new_camera >= 0) {
+        return out->lag_new_camera;
+    }
+    for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
+        if (nav->integ_mem.cam_lag[c] == 1U) {
+            return c;
+        }
+    }
+    return -1;
+}
+
 /* A fix whose cameras could not be tested for a lag (no motion known yet:
  * the first two fixes after a gap) is not usable; it carries the track.
  * Only a fix on two or more cameras: on one, a lag is a stamp error the
@@ -523,6 +539,10 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
         const mfns_caltable_t *t = nav->table;
         outside_workspace(nav, out);
         lag_monitor(nav, out);
+        /* a frame the snapshot finds lagging (a new lag, or a camera it
+         * holds as lagging): the filter's fix of this cycle refused
+         * (nav_filter_cycle.h) */
+        mfns_navf_suspect_frame(&nav->filt, lagging_camera(nav, out));
         uint8_t solver_inlier[MFNS_NUM_CAMERAS]; /* before FDE holds cameras out (integrity_cameras.h) */
         for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
             solver_inlier[c] =

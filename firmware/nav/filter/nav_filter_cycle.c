@@ -17,6 +17,7 @@ void mfns_navf_enable(mfns_navf_t *nf, uint32_t period_us)
     memset(nf, 0, sizeof(*nf));
     nf->on = period_us > 0U;
     nf->period_us = period_us;
+    nf->suspect_cam = -1;
 }
 
 void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAMERAS])
@@ -35,6 +36,14 @@ void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAME
 static float doubt_resolve_s(const mfns_navf_t *nf)
 {
     return (float)nf->period_us * MFNS_S_PER_US_F;
+}
+
+void mfns_navf_suspect_frame(mfns_navf_t *nf, int cam)
+{
+    if (nf == NULL || !nf->on || cam < 0 || cam >= MFNS_NUM_CAMERAS) {
+        return;
+    }
+    nf->suspect_cam = (int8_t)cam;
 }
 
 void mfns_navf_doubt_timing(mfns_navf_t *nf, int cam)
@@ -464,6 +473,14 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
     }
     nf->have_cap = false;
     rep->t_us = rep->ran ? nf->t_us : 0;
+    if (rep->ran && rep->out.usable && nf->suspect_cam >= 0) {
+        /* the snapshot saw this cycle's frame of the camera lagging (above) */
+        rep->out.usable = false;
+        rep->out.status = MFNS_POSE_NO_FIX;
+        rep->out.reason = MFNS_POSE_R_FRAME_SUSPECT;
+        rep->out.suspect_camera = nf->suspect_cam;
+    }
+    nf->suspect_cam = -1;
     if (nf->running && rep->ran && rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;

@@ -81,6 +81,23 @@
  * able to see a period's lag (filter_bank.h mfns_bank_doubt_timing). The
  * doubt outlives a restart of the bank (nf->timing_doubt): a camera stale
  * since a dropped frame is stale in the next bank too.
+ *
+ * A camera's frame the snapshot's checks find lagging this cycle
+ * (mfns_navf_suspect_frame; the cycle passes integrity_lag.h's new lagging
+ * camera, or one it holds as lagging): the filter's output of that cycle is
+ * refused, NO_FIX FRAME_SUSPECT with the camera as out.suspect_camera (the
+ * bank took the frame, and a frame that moves the snapshot fix by a lag
+ * moves the filter too). The snapshot weighs the whole frame against the
+ * other cameras' of the same instant, the bank weighs it against a
+ * prediction the motion bound leaves loose: on the grown campaign the
+ * time-offset monitor named a frozen camera (fresh noise) or a knocked one
+ * in the very cycle whose filter fix was then 5-28 sigma off (within its
+ * PL). The camera's clock is not put in doubt by it: the monitor reads a
+ * knocked mount as a lag too, and a knocked camera's frames taken
+ * timing-free left usable fixes beyond 5 sigma later in the run (grown
+ * campaign seed 3, camera y 0.3 deg: 4, none without the doubt).
+ * Misses: what the snapshot's monitor misses (integrity_lag.h); cost: its
+ * false alarms and its holds, a refused cycle each.
  */
 #ifndef MFNS_NAV_FILTER_CYCLE_H
 #define MFNS_NAV_FILTER_CYCLE_H
@@ -114,6 +131,7 @@ typedef struct {
     uint8_t snap_sep_run;  /* consecutive cycles the snapshot fix was beyond the filter's (motion monitor) */
     bool motion_latched;   /* a motion restart reported, no usable filter output since (one report per episode) */
     uint8_t timing_doubt;  /* bit c: camera c's clock in doubt (mfns_navf_doubt_timing), across restarts */
+    int8_t suspect_cam;    /* the snapshot's checks find this camera's frame lagging this cycle (-1 none) */
     mfns_filter_bank_t bank;
 } mfns_navf_t;
 
@@ -154,6 +172,12 @@ void mfns_navf_set_frame_times(mfns_navf_t *nf, const int64_t t_us[MFNS_NUM_CAME
  * before then inherits it (a stale camera stays stale across a restart).
  * Off or cam out of range: nothing. */
 void mfns_navf_doubt_timing(mfns_navf_t *nf, int cam);
+
+/* The snapshot's checks find camera cam's frame of the coming
+ * mfns_navf_step lagging (above): that step's output is refused (NO_FIX
+ * FRAME_SUSPECT, out.suspect_camera = cam). Consumed by the next step. Off
+ * or cam out of range (-1: none): nothing. */
+void mfns_navf_suspect_frame(mfns_navf_t *nf, int cam);
 
 /* One cycle, after the snapshot's integrity: sol and integ in/out. */
 void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integrity_settings_t *is,

@@ -86,7 +86,7 @@ const char *mfns_pose_strerror(mfns_pose_reason_t r)
     case MFNS_POSE_R_MOTION_EXCEEDED:
         return MFNS_MSG("the robot accelerated beyond the navigation filter's motion bound: restart from acquisition");
     case MFNS_POSE_R_FRAME_SUSPECT:
-        return MFNS_MSG("a camera's frame passed the filter's gate but is unlikely as a whole: this cycle refused");
+        return MFNS_MSG("a camera's frame passed the filter's gate but is unlikely as a whole, or lags: this cycle refused");
     }
     return MFNS_MSG("unknown pose reason");
 }

@@ -83,7 +83,8 @@ WHY = {
     "MOTION_EXCEEDED": "refused: the robot accelerated beyond the navigation filter's motion bound "
     "(a collision, a hard burst): navigation restarts from acquisition",
     "FRAME_SUSPECT": "refused: a camera's frame passed the navigation filter's gate observation by "
-    "observation but is unlikely as a whole (the onset of a camera fault looks like this): this cycle only",
+    "observation but is unlikely as a whole, or the snapshot's time-offset monitor found it lagging (the "
+    "onset of a camera fault looks like this): this cycle only",
 }
 
 
