@@ -591,6 +591,49 @@ static void test_rebind_keeps_the_track_of_the_same_system(void **state)
     assert_int_equal(mfns_nav_rebind(&nav, &table2, NULL), MFNS_NAV_E_ARG);
 }
 
+/* The filter on, a static robot seen by all three cameras: once the
+ * filter's output is used, a cycle in which the time-offset monitor holds a
+ * camera as lagging (integrity_lag.h cam_lag 1, set here as the monitor
+ * would) refuses the filter's fix, NO_FIX FRAME_SUSPECT naming that camera
+ * (nav_filter_cycle.h mfns_navf_suspect_frame), and a camera held only to
+ * verify it after an outage (cam_lag 2) refuses nothing. */
+static void test_lagging_camera_refuses_the_filter_fix(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 41);
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_enable_filter(&nav, 54000), MFNS_NAV_OK);
+    render_background(&rng);
+    render_beacons();
+    int used_at = -1;
+    for (int i = 0; i < 30 && used_at < 0; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        used_at = out.filt.used ? i : -1;
+    }
+    assert_true(used_at >= 0);
+    /* held to verify after an outage, as the monitor holds it: no suspicion */
+    (void)mfns_integrity_hold_lagging(&nav.integ_mem, 2, 2U, table.integrity.hold_cycles);
+    nav.integ_mem.lag_verify[2] = MFNS_INTEGRITY_LAG_VERIFY;
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(nav.integ_mem.cam_lag[2], 2);
+    assert_true(out.filt.ran);
+    assert_true(out.filt.used);
+    /* held as lagging (a lag episode, as the monitor holds it) */
+    (void)mfns_integrity_hold_lagging(&nav.integ_mem, 1, 1U, table.integrity.hold_cycles);
+    nav.integ_mem.lag_verify[1] = MFNS_INTEGRITY_LAG_WINDOW;
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(nav.integ_mem.cam_lag[1], 1);
+    assert_true(out.filt.ran);
+    assert_false(out.filt.used);
+    assert_int_equal(out.filt.out.reason, MFNS_POSE_R_FRAME_SUSPECT);
+    assert_int_equal(out.filt.out.suspect_camera, 1);
+    assert_true(out.sol.status == MFNS_POSE_NO_FIX);
+    print_message("filter used from cycle %d; a camera held as lagging refused its cycle\n", used_at);
+}
+
 static void test_bad_frame_and_bad_arguments(void **state)
 {
     (void)state;
@@ -633,6 +676,7 @@ int main(void)
         cmocka_unit_test(test_leaving_the_workspace),
         cmocka_unit_test(test_three_beacons_track_but_never_usable),
         cmocka_unit_test(test_rebind_keeps_the_track_of_the_same_system),
+        cmocka_unit_test(test_lagging_camera_refuses_the_filter_fix),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
     return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);
