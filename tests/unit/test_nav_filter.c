@@ -256,6 +256,21 @@ static void test_propagation_matches_white_acceleration_model(void **state)
     assert_true(dev < sqrt(q_lin * t * t * t / 3.0));
 }
 
+/* One model-matched run's start: a world whose robot moves at about
+ * speed_mm_s along x and turns at rate_rad_s about z (plus a random 5 mm/s
+ * and 2 mrad/s per axis), and a filter drawn about its truth. */
+static void nees_run_start(mfns_rng_t *rng, double speed_mm_s, double rate_rad_s, world_t *w, mfns_filter_t *f)
+{
+    make_world(w, rng);
+    for (int i = 0; i < 3; i++) {
+        w->x.v_w[i] = 5.0 * mfns_rng_normal(rng);
+        w->x.w_w[i] = 0.002 * mfns_rng_normal(rng);
+    }
+    w->x.v_w[0] += speed_mm_s;
+    w->x.w_w[2] += rate_rad_s;
+    fs_init_filter(f, &w->x, 5e-4, 0.5, 5.0, 0.002, 0, rng);
+}
+
 /* One cycle: the three cameras' frames at staggered capture times (camera c
  * at t + c * 7 ms, as unsynchronised cameras would), the truth moved to each,
  * every observation applied in time order. Returns gated observations. */
@@ -307,13 +322,8 @@ static void test_nees_consistent_model_matched(void **state)
     uint32_t clamps = 0;
     for (int run = 0; run < NEES_RUNS; run++) {
         world_t w;
-        make_world(&w, &rng);
-        for (int i = 0; i < 3; i++) {
-            w.x.v_w[i] = 5.0 * mfns_rng_normal(&rng);
-            w.x.w_w[i] = 0.002 * mfns_rng_normal(&rng);
-        }
         mfns_filter_t f;
-        fs_init_filter(&f, &w.x, 5e-4, 0.5, 5.0, 0.002, 0, &rng);
+        nees_run_start(&rng, 0.0, 0.0, &w, &f);
         int64_t tt = 0;
         for (int k = 1; k <= NEES_CYCLES; k++) {
             const int64_t t = (int64_t)k * FRAME_US;
@@ -353,12 +363,13 @@ static void knocked_rig(const mfns_rig_t *rig, int cam, double knock_rad, mfns_r
     mfns_m3_mul_at(&e, &rig->cam[cam].C_k_b, &out->cam[cam].C_k_b);
 }
 
-/* run_cycle with camera inv_cam's frame as a camera hypothesis takes it:
- * as a whole, its fault parameters eliminated; that camera faulty as
- * *fault says (NULL: healthy) at cycle k. */
-static void run_cycle_invariant(world_t *w, mfns_filter_t *f, const mfns_filter_settings_t *s, int64_t t_us,
-                                double q_lin, double q_ang, int inv_cam, const cam_fault_t *fault, int k,
-                                int64_t *t_truth_us, mfns_rng_t *rng, mfns_rng_t *obs_rng, int *rows)
+/* run_cycle with camera inv_cam's frame taken as a whole: with tau_bound_s
+ * < 0 as a camera hypothesis takes it (its fault parameters eliminated),
+ * else timing-free with that bound on its offset (a camera whose clock is
+ * in doubt); that camera faulty as *fault says (NULL: healthy) at cycle k. */
+static void run_cycle_frame(world_t *w, mfns_filter_t *f, const mfns_filter_settings_t *s, int64_t t_us,
+                            double q_lin, double q_ang, int inv_cam, float tau_bound_s, const cam_fault_t *fault,
+                            int k, int64_t *t_truth_us, mfns_rng_t *rng, mfns_rng_t *obs_rng, int *rows)
 {
     for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
         const int64_t tc = t_us + c * 7000;
@@ -375,10 +386,17 @@ static void run_cycle_invariant(world_t *w, mfns_filter_t *f, const mfns_filter_
         const int n = fs_observe(&rig, &w->map, &seen, c, SIGMA_PX, obs_rng, tc, obs, beacon, MAX_OBS);
         if (c == inv_cam && n > 0) {
             mfns_filter_invariant_info_t info;
-            assert_int_equal(mfns_filter_update_invariant(f, s, &w->rig, (float)SIGMA_PX, n, obs, &info),
-                             MFNS_FILTER_OK);
-            assert_int_equal(info.rows, 2 * n > 4 ? 2 * n - 4 : 0); /* moving: pointing 3 + timing 1 out */
-            assert_int_equal(info.eliminated, 2 * n < 4 ? 2 * n : 4);
+            if (tau_bound_s < 0.0f) {
+                assert_int_equal(mfns_filter_update_invariant(f, s, &w->rig, (float)SIGMA_PX, n, obs, &info),
+                                 MFNS_FILTER_OK);
+                assert_int_equal(info.rows, 2 * n > 4 ? 2 * n - 4 : 0); /* moving: pointing 3 + timing 1 out */
+                assert_int_equal(info.eliminated, 2 * n < 4 ? 2 * n : 4);
+            } else {
+                assert_int_equal(mfns_filter_update_timing_free(f, s, &w->rig, (float)SIGMA_PX, n, obs, NULL,
+                                                                tau_bound_s, &info),
+                                 MFNS_FILTER_OK);
+                assert_int_equal(info.rows, 2 * n - 1); /* moving: timing 1 out */
+            }
             *rows += info.rows;
             continue;
         }
@@ -414,21 +432,14 @@ static void nees_invariant(const cam_fault_t *fault, double speed_mm_s, double r
     uint32_t clamps = 0;
     for (int run = 0; run < NEES_RUNS; run++) {
         world_t w;
-        make_world(&w, &rng);
-        for (int i = 0; i < 3; i++) {
-            w.x.v_w[i] = 5.0 * mfns_rng_normal(&rng);
-            w.x.w_w[i] = 0.002 * mfns_rng_normal(&rng);
-        }
-        w.x.v_w[0] += speed_mm_s;
-        w.x.w_w[2] += rate_rad_s;
         mfns_filter_t f;
-        fs_init_filter(&f, &w.x, 5e-4, 0.5, 5.0, 0.002, 0, &rng);
+        nees_run_start(&rng, speed_mm_s, rate_rad_s, &w, &f);
         const int cam = run % MFNS_NUM_CAMERAS;
         assert_int_equal(mfns_filter_augment(&f, cam), MFNS_FILTER_OK);
         int64_t tt = 0;
         for (int k = 1; k <= NEES_CYCLES; k++) {
-            run_cycle_invariant(&w, &f, &s, (int64_t)k * FRAME_US, q_lin, q_ang, cam, fault, k, &tt, &rng, &orng,
-                                &rows);
+            run_cycle_frame(&w, &f, &s, (int64_t)k * FRAME_US, q_lin, q_ang, cam, -1.0f, fault, k, &tt, &rng, &orng,
+                            &rows);
             const double e = fs_nees(&f, &w.x);
             sum += e;
             n++;
@@ -643,6 +654,7 @@ static void timing_free_unmoved(double tau_s, int own_cam)
  * and its tail beyond chi-square(6)'s 1 % point (16.81). */
 static void nees_timing_free(float tau_bound_s, uint64_t seed, double *mean_out, double *tail_out)
 {
+    static const cam_fault_t stale = {0.0, 0.054, 0.0};
     mfns_filter_settings_t s;
     mfns_filter_settings_default(&s);
     s.accel_bound_mm_s2 = 30.0f;
@@ -653,45 +665,16 @@ static void nees_timing_free(float tau_bound_s, uint64_t seed, double *mean_out,
     mfns_rng_seed(&rng, seed);
     mfns_rng_seed(&orng, seed + 1);
     double sum = 0.0;
-    int n = 0, tail = 0;
+    int n = 0, tail = 0, rows = 0;
     uint32_t clamps = 0;
     for (int run = 0; run < NEES_RUNS; run++) {
         world_t w;
-        make_world(&w, &rng);
-        for (int i = 0; i < 3; i++) {
-            w.x.v_w[i] = 5.0 * mfns_rng_normal(&rng);
-            w.x.w_w[i] = 0.002 * mfns_rng_normal(&rng);
-        }
-        w.x.v_w[0] += 60.0;
-        w.x.w_w[2] += 0.05;
         mfns_filter_t f;
-        fs_init_filter(&f, &w.x, 5e-4, 0.5, 5.0, 0.002, 0, &rng);
+        nees_run_start(&rng, 60.0, 0.05, &w, &f);
         int64_t tt = 0;
         for (int k = 1; k <= NEES_CYCLES; k++) {
-            const int64_t t_us = (int64_t)k * FRAME_US;
-            for (int c = 0; c < MFNS_NUM_CAMERAS; c++) {
-                const int64_t tc = t_us + c * 7000;
-                fs_truth_advance(&w.x, (double)(tc - tt) * 1e-6, q_lin, q_ang, NULL, &rng);
-                tt = tc;
-                fs_truth_t seen = w.x;
-                if (c == 0) {
-                    fs_truth_advance(&seen, -0.054, 0.0, 0.0, NULL, NULL);
-                }
-                mfns_filter_obs_t obs[MAX_OBS];
-                int16_t beacon[MAX_OBS];
-                const int m = fs_observe(&w.rig, &w.map, &seen, c, SIGMA_PX, &orng, tc, obs, beacon, MAX_OBS);
-                if (c == 0 && m > 0) {
-                    assert_int_equal(
-                        mfns_filter_update_timing_free(&f, &s, &w.rig, (float)SIGMA_PX, m, obs, NULL, tau_bound_s, NULL),
-                        MFNS_FILTER_OK);
-                    continue;
-                }
-                for (int i = 0; i < m; i++) {
-                    const mfns_filter_status_t st = mfns_filter_update(&f, &s, &w.rig, (float)SIGMA_PX, &obs[i], NULL);
-                    assert_true(st == MFNS_FILTER_OK || st == MFNS_FILTER_GATED);
-                }
-            }
-            (void)mfns_filter_end_cycle(&f, &s);
+            run_cycle_frame(&w, &f, &s, (int64_t)k * FRAME_US, q_lin, q_ang, 0, tau_bound_s, &stale, k, &tt, &rng,
+                            &orng, &rows);
             const double e = fs_nees(&f, &w.x);
             sum += e;
             n++;
@@ -700,6 +683,7 @@ static void nees_timing_free(float tau_bound_s, uint64_t seed, double *mean_out,
         clamps += f.clamp_events;
     }
     assert_int_equal(clamps, 0);
+    assert_true(rows > 0);
     *mean_out = sum / n;
     *tail_out = (double)tail / n;
 }

@@ -817,8 +817,8 @@ static void consider_row(consider_t *c, const float h[NH], const float k[N])
     }
 }
 
-/* P <- P + T^2 M Sz M^T, that term also into added (NULL: not kept) */
-static void consider_add(mfns_filter_t *f, const consider_t *c, float tau_bound_s, float added[N][N])
+/* term = T^2 M Sz M^T */
+static void consider_term(const consider_t *c, float tau_bound_s, float term[N][N])
 {
     float ms[N][NH];
     for (int i = 0; i < N; i++) {
@@ -836,10 +836,17 @@ static void consider_add(mfns_filter_t *f, const consider_t *c, float tau_bound_
             for (int p = 0; p < NH; p++) {
                 v += ms[i][p] * c->m[j][p];
             }
-            f->P[i][j] += v;
-            if (added != NULL) {
-                added[i][j] = v;
-            }
+            term[i][j] = v;
+        }
+    }
+}
+
+/* P <- P + add, symmetrised */
+static void add_to_p(mfns_filter_t *f, const float add[N][N])
+{
+    for (int i = 0; i < N; i++) {
+        for (int j = 0; j < N; j++) {
+            f->P[i][j] += add[i][j];
         }
     }
     symmetrise(f);
@@ -855,12 +862,7 @@ bool mfns_filter_add_cov(mfns_filter_t *f, const float add[MFNS_FILTER_N][MFNS_F
             return false;
         }
     }
-    for (int i = 0; i < N; i++) {
-        for (int j = 0; j < N; j++) {
-            f->P[i][j] += add[i][j];
-        }
-    }
-    symmetrise(f);
+    add_to_p(f, add);
     return true;
 }
 
@@ -905,7 +907,7 @@ static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settin
     float dx[N];
     memset(dx, 0, sizeof dx);
     /* the rows' effect through an offset times the velocity's error (only
-     * when the offset is bounded: consider_bound above) */
+     * when the offset is bounded: consider_t above) */
     const bool consider = tau_bound_s > 0.0f;
     consider_t cons;
     if (consider) {
@@ -963,7 +965,12 @@ static mfns_filter_status_t invariant(mfns_filter_t *f, const mfns_filter_settin
     const int used = rows - top;
     if (used > 0) {
         if (consider) {
-            consider_add(f, &cons, tau_bound_s, info != NULL ? info->added_cov : NULL);
+            float term[N][N];
+            consider_term(&cons, tau_bound_s, term);
+            add_to_p(f, (const float(*)[N])term);
+            if (info != NULL) {
+                memcpy(info->added_cov, term, sizeof term);
+            }
         }
         inject(f, dx);
         f->t_meas_us = obs[0].t_us;
