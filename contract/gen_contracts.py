@@ -11,6 +11,7 @@ plain python3 before any venv exists). Outputs, all committed:
 
     firmware/tlm/generated/tlm_codes_gen.h    numbered TM codes (status, mode, camera, severity, events)
     firmware/nav/generated/nav_codes_gen.h    the nav core's reason codes (mfns_pose_reason_t)
+    firmware/nav/generated/nav_codes_gen.c    their text (mfns_pose_strerror): the codes' descriptions
     firmware/tlm/generated/tlm_packets_gen.h  packet types, APIDs, payload lengths, one struct per packet
     firmware/tlm/generated/tlm_packets_gen.c  code names, payload pack/unpack/range check per packet
     firmware/tlm/generated/tc_codes_gen.h     TC APID, opcodes (+ TC_OPCODE_LIST), rejection codes, ranges
@@ -160,7 +161,39 @@ def nav_codes_h(d, types_doc: dict) -> str:
     L += enum_block(
         "mfns_pose_reason_t", "MFNS_POSE_R_", d.enums["nav_reason_t"], None, types_doc["nav_reason_t"]
     )
-    L += ["", "#endif /* MFNS_NAV_CODES_GEN_H */", ""]
+    L += [
+        "",
+        "/* The reason's text: its description above without the status it leads with",
+        ' * (nav_codes_gen.c); "" on a target built without texts (math/core_text.h). */',
+        "const char *mfns_pose_strerror(mfns_pose_reason_t r);",
+        "",
+        "#endif /* MFNS_NAV_CODES_GEN_H */",
+        "",
+    ]
+    return "\n".join(L)
+
+
+def nav_codes_c(d) -> str:
+    """mfns_pose_strerror: each reason's text is its description in the dictionary, without the
+    status it leads with (a log line prints the status beside it)."""
+    statuses = {lab for lab, _d in d.enums["nav_status_t"].values()}
+    L = [
+        banner(TM_SRC).rstrip(),
+        "/* nav_codes_gen.c -- the text of each reason code (nav_reason_t's descriptions). */",
+        '#include "firmware/nav/generated/nav_codes_gen.h"',
+        "",
+        '#include "math/core_text.h"',
+        "",
+        "const char *mfns_pose_strerror(mfns_pose_reason_t r)",
+        "{",
+        "    switch (r) {",
+    ]
+    for v in sorted(d.enums["nav_reason_t"]):
+        lab, desc = d.enums["nav_reason_t"][v]
+        head, sep, rest = desc.partition(": ")
+        text = rest if sep and head in statuses else desc
+        L += [f"    case MFNS_POSE_R_{lab.upper()}:", f"        return MFNS_MSG({cstr(text)});"]
+    L += ["    }", '    return MFNS_MSG("unknown pose reason");', "}", ""]
     return "\n".join(L)
 
 
@@ -978,6 +1011,7 @@ def outputs(tm_path: Path = TM_XML, tc_path: Path = TC_XML) -> dict[Path, str]:
     out = {
         REPO / "firmware/tlm/generated/tlm_codes_gen.h": tlm_codes_h(d, types_doc),
         REPO / "firmware/nav/generated/nav_codes_gen.h": nav_codes_h(d, types_doc),
+        REPO / "firmware/nav/generated/nav_codes_gen.c": nav_codes_c(d),
         REPO / "firmware/tlm/generated/tlm_packets_gen.h": tlm_packets_h(d),
         REPO / "firmware/tlm/generated/tlm_packets_gen.c": tlm_packets_c(d),
         REPO / "ground/generated/ground_cols_gen.c": ground_cols_c(d),

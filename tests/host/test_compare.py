@@ -19,6 +19,7 @@ from mfns.analysis import compare
 from mfns.analysis.report import NAV_COLUMNS, TRUTH_HEADER
 from mfns.cli import main
 from mfns.model.rotations import matrix_to_euler213_deg, rot_exp
+from mfns.tlm import tlm_dict
 
 REPO = Path(__file__).resolve().parents[2]
 PAPER = json.loads((REPO / "host_tools" / "mfns" / "data" / "paper_calib.json").read_text())
@@ -139,7 +140,13 @@ def test_report_answers_the_paper(demo):
     assert "| true-rig | DEGRADED | CAMERA_UNUSED | 8 | TRACK 8 | 5: 8; unused in all: camera Z" in text
     assert "Camera Z has no beacon in its field of view in any cycle" in text
     assert "Cycles in which each camera sees at least one beacon: X 10, Y 10, Z 0 (of 10)" in text
-    assert "**TOO_FEW**" in text and "**CAMERA_UNUSED**" in text
+    # Each class's meaning is the flight code's own text (one source: contract/mfns_tm.xml), not a copy.
+    reasons = tlm_dict.load().enums["nav_reason_t"]
+    too_few = next(desc for label, desc in reasons.values() if label == "TOO_FEW")
+    row = next(line for line in text.splitlines() if line.startswith("| true-rig | NO_FIX | TOO_FEW |"))
+    meaning = row.rstrip(" |").rsplit(" | ", 1)[1]
+    assert meaning and too_few.endswith(meaning), (meaning, too_few)
+    assert "**TOO_FEW**" not in text
     # The refined run is missing: it is left out, not invented.
     assert "refined-calibration mean" not in text
 

@@ -163,6 +163,11 @@ def test_reason_codes_are_explicit_in_pose_h_and_match(lib):
     lib.mfns_pose_strerror.argtypes = [ct.c_int]
     texts = {lib.mfns_pose_strerror(v).decode() for v in c}
     assert len(texts) == len(c)  # each code has its own message in the core
+    # ... and it is the dictionary's description of the code (generated: nav_codes_gen.c), not a copy
+    for v, (_label, desc) in tlm_dict.load().enums["nav_reason_t"].items():
+        text = lib.mfns_pose_strerror(v).decode()
+        assert text and desc.endswith(text), (v, text, desc)
+    assert "mfns_pose_strerror" not in (REPO / "firmware" / "nav" / "pose" / "pose.c").read_text()
 
 
 def test_python_readers_take_the_names_from_the_dictionary():

@@ -76,7 +76,12 @@ typedef struct {
     int gated_at_fault; /* the fault cycle's frame of camera fault_id was gated (not taken) */
 } result_t;
 
-static void run(const scenario_t *sc, result_t *res)
+/* The caller's checks find camera cam's frame suspect in cycles [from, from + n). */
+typedef struct {
+    int from, n, cam;
+} told_t;
+
+static void run_told(const scenario_t *sc, const told_t *told, result_t *res)
 {
     memset(res, 0, sizeof(*res));
     res->first_detect = -1;
@@ -172,6 +177,9 @@ static void run(const scenario_t *sc, result_t *res)
             assert_true(st == MFNS_FILTER_OK || st == MFNS_FILTER_GATED || st == MFNS_FILTER_E_TIME);
             nobs += n;
         }
+        if (told != NULL && k >= told->from && k < told->from + told->n) {
+            assert_int_equal(mfns_bank_suspect_frame(&bank, told->cam), MFNS_FILTER_OK);
+        }
         mfns_bank_output_t out;
         assert_int_equal(mfns_bank_evaluate(&bank, &fs, &is, NULL, t + 2 * CAM_STAGGER_US, &out), MFNS_FILTER_OK);
         res->evaluated++;
@@ -246,6 +254,11 @@ static void run(const scenario_t *sc, result_t *res)
             res->max_pl_any_pos = fmax(res->max_pl_any_pos, out.pl_pos_mm);
         }
     }
+}
+
+static void run(const scenario_t *sc, result_t *res)
+{
+    run_told(sc, NULL, res);
 }
 
 static void report(const char *name, const result_t *r)
@@ -512,6 +525,34 @@ static void test_beacon_readmitted_after_clean_hold(void **state)
     assert_int_equal(r.bound_violations, 0);
 }
 
+/* A frame the caller's checks find suspect (mfns_bank_suspect_frame): its
+ * cycle is refused as FRAME_SUSPECT naming the camera, and it does not count
+ * towards a held beacon's re-admission: the beacon pulse above, with camera
+ * 2's frame told suspect in five cycles of the clean hold, is re-admitted
+ * five cycles later than without. Told nothing: the bank's own verdict. */
+static void test_told_suspect_frame(void **state)
+{
+    (void)state;
+    const scenario_t sc = {F_BEACON_PULSE, 3, 1.0, 30.0, 0.02, 31, 0, NULL, false};
+    result_t plain, told;
+    run(&sc, &plain);
+    const told_t tell = {FAULT_CYCLE + 12, 5, 2};
+    run_told(&sc, &tell, &told);
+    report("pulse, 5 told suspect", &told);
+    assert_true(plain.readmitted_cycle > tell.from + tell.n); /* the told cycles fall inside the hold */
+    assert_int_equal(told.suspect_cycles, tell.n);
+    assert_int_equal(told.first_suspect, tell.from);
+    assert_int_equal(told.suspect_cam, tell.cam);
+    assert_int_equal(told.usable, plain.usable - tell.n);
+    assert_int_equal(told.readmitted_cycle, plain.readmitted_cycle + tell.n);
+    assert_int_equal(told.bound_violations, 0);
+    static mfns_filter_bank_t b;
+    memset(&b, 0, sizeof b);
+    assert_int_equal(mfns_bank_suspect_frame(NULL, 0), MFNS_FILTER_E_ARG);
+    assert_int_equal(mfns_bank_suspect_frame(&b, -1), MFNS_FILTER_E_ARG);
+    assert_int_equal(mfns_bank_suspect_frame(&b, MFNS_NUM_CAMERAS), MFNS_FILTER_E_ARG);
+}
+
 /* A collision: 5 m/s^2 over one frame (0.27 m/s of velocity change, 50x
  * the bound): restart with MOTION_EXCEEDED within two cycles, nothing
  * blamed, no usable cycle beyond its PL before. */
@@ -666,6 +707,7 @@ int main(void)
         cmocka_unit_test(test_dropped_frame_doubt_clears),
         cmocka_unit_test(test_doubt_bad_input),
         cmocka_unit_test(test_beacon_readmitted_after_clean_hold),
+        cmocka_unit_test(test_told_suspect_frame),
         cmocka_unit_test(test_collision_restarts),
         cmocka_unit_test(test_collision_dominant_camera),
         cmocka_unit_test(test_camera_pointing_ramp),

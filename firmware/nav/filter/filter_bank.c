@@ -39,6 +39,7 @@ static void clear_cycle(mfns_filter_bank_t *b)
         b->excl_beacon_tested[i] = 0;
     }
     b->work = 0;
+    b->told_suspect = -1;
     b->det_kind = MFNS_BANK_HYP_NONE;
     b->det_id = NO_BEACON;
     b->det_by_gate = 0;
@@ -847,6 +848,15 @@ static int suspect_frame(const mfns_filter_bank_t *b)
     return worst;
 }
 
+mfns_filter_status_t mfns_bank_suspect_frame(mfns_filter_bank_t *b, int cam)
+{
+    if (b == NULL || cam < 0 || cam >= MFNS_NUM_CAMERAS) {
+        return MFNS_FILTER_E_ARG;
+    }
+    b->told_suspect = (int8_t)cam;
+    return MFNS_FILTER_OK;
+}
+
 /* Bit c: camera c's clock in doubt. */
 static uint8_t doubt_mask(const mfns_filter_bank_t *b)
 {
@@ -986,7 +996,8 @@ mfns_filter_status_t mfns_bank_evaluate(mfns_filter_bank_t *b, const mfns_filter
             b->slot_beacon[i] = NO_BEACON;
         }
     }
-    out->suspect_camera = (int8_t)suspect_frame(b);
+    const int own_suspect = suspect_frame(b);
+    out->suspect_camera = (int8_t)(own_suspect >= 0 ? own_suspect : b->told_suspect);
     out->detected_kind = b->det_kind;
     out->detected_id = b->det_id;
     out->by_gate = b->det_by_gate;

@@ -332,6 +332,7 @@ typedef struct {
     uint32_t work;            /* filter updates + propagations + separations this cycle */
     float var_floor[MFNS_BANK_AXES]; /* MFNS_BANK_VAR_FLOOR_EPS x the start's prior variance, per pose axis */
     uint8_t last_usable; /* the last evaluation was usable: re-admission tests count */
+    int8_t told_suspect; /* this cycle: the caller's checks found this camera's frame suspect (-1 none) */
     uint8_t timing_doubt[MFNS_NUM_CAMERAS]; /* its clock in doubt: its frames timing-free everywhere */
     uint16_t timing_clean[MFNS_NUM_CAMERAS]; /* consecutive clean readings of its clock with power */
     float timing_resolve_s[MFNS_NUM_CAMERAS]; /* the offset a reading must resolve to count (the doubt's) */
@@ -428,6 +429,14 @@ void mfns_bank_keep_exclusions(mfns_filter_bank_t *b, const int16_t excl_beacon[
  * robot moves too slowly to show it (no power: the doubt holds). E_ARG
  * for a bad camera or resolve_s not in (0, MFNS_FILTER_CONSIDER_TAU_MAX_S]. */
 mfns_filter_status_t mfns_bank_doubt_timing(mfns_filter_bank_t *b, int cam, float resolve_s);
+
+/* Before mfns_bank_evaluate: the caller's own checks (the snapshot's time-
+ * offset monitor, integrity_lag.h) find this cycle's frame of camera `cam`
+ * suspect. The evaluation then refuses its fix as for a frame beyond the
+ * FRAME_SUSPECT point (above): NO_FIX FRAME_SUSPECT naming `cam`, and the
+ * refused cycle does not count towards re-admission (last_usable). The frame
+ * stays taken. Cleared by the evaluation. E_ARG for a bad camera. */
+mfns_filter_status_t mfns_bank_suspect_frame(mfns_filter_bank_t *b, int cam);
 
 /* Is beacon (map index) / camera held out now. */
 bool mfns_bank_beacon_excluded(const mfns_filter_bank_t *b, int16_t beacon);

@@ -390,7 +390,10 @@ static void run_bank(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integ
         rep->ran = false;
         return;
     }
-    rep->ran = mfns_bank_evaluate(&nf->bank, &t->motion, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
+    /* the snapshot saw this cycle's frame of the camera lagging: the bank
+     * refuses the fix and does not count the cycle towards re-admission */
+    const bool told = nf->suspect_cam < 0 || mfns_bank_suspect_frame(&nf->bank, nf->suspect_cam) == MFNS_FILTER_OK;
+    rep->ran = told && mfns_bank_evaluate(&nf->bank, &t->motion, is, &t->datum, nf->t_us, &rep->out) == MFNS_FILTER_OK;
     if (rep->ran) {
         nf->timing_doubt = rep->out.timing_doubt_mask; /* a doubt the bank's readings cleared */
     }
@@ -473,14 +476,7 @@ void mfns_navf_step(mfns_navf_t *nf, const mfns_caltable_t *t, const mfns_integr
     }
     nf->have_cap = false;
     rep->t_us = rep->ran ? nf->t_us : 0;
-    if (rep->ran && rep->out.usable && nf->suspect_cam >= 0) {
-        /* the snapshot saw this cycle's frame of the camera lagging (above) */
-        rep->out.usable = false;
-        rep->out.status = MFNS_POSE_NO_FIX;
-        rep->out.reason = MFNS_POSE_R_FRAME_SUSPECT;
-        rep->out.suspect_camera = nf->suspect_cam;
-    }
-    nf->suspect_cam = -1;
+    nf->suspect_cam = -1; /* consumed by this cycle's evaluations (run_bank) */
     if (nf->running && rep->ran && rep->out.usable) {
         apply(&rep->out, sol, integ);
         rep->used = true;

@@ -87,7 +87,8 @@
  * camera, or one it holds as lagging): the filter's output of that cycle is
  * refused, NO_FIX FRAME_SUSPECT with the camera as out.suspect_camera (the
  * bank took the frame, and a frame that moves the snapshot fix by a lag
- * moves the filter too). The snapshot weighs the whole frame against the
+ * moves the filter too). The bank refuses it (mfns_bank_suspect_frame), so
+ * the refused cycle does not count towards a held subject's re-admission. The snapshot weighs the whole frame against the
  * other cameras' of the same instant, the bank weighs it against a
  * prediction the motion bound leaves loose: on the grown campaign the
  * time-offset monitor named a frozen camera (fresh noise) or a knocked one

@@ -30,7 +30,11 @@ typedef enum {
     MFNS_POSE_R_CAMERAS_CONTRADICT = 23, /* NO_FIX: the fix comes from one camera, and another camera that gave an image has none of its spots on the beacons the fix predicts in it: one of the two is wrong (stale, moved), nothing says which; the pose carries the track */
     MFNS_POSE_R_OUTSIDE_WORKSPACE = 24, /* NO_FIX: an acquisition while the robot was last tracked outside the table's workspace box (WORKSPACE_LEFT): the acquisition's identification is certified unique only for a robot inside the box, so it is refused and does not carry the track, until a tracked pose is inside the box again (the track coming back, or tracking from SET_POSE_HINT) or a table is loaded (docs/pose.md "The table's workspace") */
     MFNS_POSE_R_MOTION_EXCEEDED = 25, /* NO_FIX: the navigation filter's observations failed its innovation gate in a row: the robot accelerated beyond the motion bound the filter assumes (a collision, a hard burst), so its prediction and protection levels no longer hold; navigation restarts from acquisition (firmware/nav/filter/nav_filter.h) */
-    MFNS_POSE_R_FRAME_SUSPECT = 26, /* NO_FIX: the navigation filter took a camera's frame whose every observation passed its gate but whose joint innovation is beyond the chi-square 1e-3 point: what the onset of a camera fault looks like (a knocked mount, a frozen scene with fresh noise) before the separation tests can bound it, or a frame the snapshot's time-offset monitor found lagging in that cycle (its camera's clock then in doubt); this cycle's fix is refused, a fault that persists is named by the tests (firmware/nav/filter/filter_bank.h MFNS_BANK_FRAME_SUSPECT_P, nav_filter_cycle.h mfns_navf_suspect_frame) */
+    MFNS_POSE_R_FRAME_SUSPECT = 26, /* NO_FIX: the navigation filter took a camera's frame whose every observation passed its gate but whose joint innovation is beyond the chi-square 1e-3 point: what the onset of a camera fault looks like (a knocked mount, a frozen scene with fresh noise) before the separation tests can bound it, or a frame the snapshot's time-offset monitor found lagging in that cycle; this cycle's fix is refused, a fault that persists is named by the tests (firmware/nav/filter/filter_bank.h MFNS_BANK_FRAME_SUSPECT_P, nav_filter_cycle.h mfns_navf_suspect_frame) */
 } mfns_pose_reason_t;
+
+/* The reason's text: its description above without the status it leads with
+ * (nav_codes_gen.c); "" on a target built without texts (math/core_text.h). */
+const char *mfns_pose_strerror(mfns_pose_reason_t r);
 
 #endif /* MFNS_NAV_CODES_GEN_H */

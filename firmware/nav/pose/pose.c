@@ -34,63 +34,6 @@ const char *mfns_pose_status_str(mfns_pose_status_t s)
     return MFNS_MSG("unknown pose status");
 }
 
-const char *mfns_pose_strerror(mfns_pose_reason_t r)
-{
-    switch (r) {
-    case MFNS_POSE_R_NONE:
-        return MFNS_MSG("ok");
-    case MFNS_POSE_R_CAMERA_UNUSED:
-        return MFNS_MSG("a camera contributes no beacon");
-    case MFNS_POSE_R_OUTLIERS:
-        return MFNS_MSG("observations rejected as outliers");
-    case MFNS_POSE_R_MINIMAL:
-        return MFNS_MSG("only three beacons: no redundancy to check a fault (pose for tracking only)");
-    case MFNS_POSE_R_BAD_ARG:
-        return MFNS_MSG("bad argument: null pointer, count above maximum, bad beacon index or non-finite input");
-    case MFNS_POSE_R_TOO_FEW:
-        return MFNS_MSG("fewer than three beacons usable");
-    case MFNS_POSE_R_AMBIGUOUS:
-        return MFNS_MSG("several poses explain the observations: ambiguous");
-    case MFNS_POSE_R_NOT_IDENTIFIED:
-        return MFNS_MSG("no beacon identification certified within the work budget");
-    case MFNS_POSE_R_SINGULAR:
-        return MFNS_MSG("singular or ill-conditioned beacon geometry");
-    case MFNS_POSE_R_NOT_CONVERGED:
-        return MFNS_MSG("refinement did not converge within the iteration cap");
-    case MFNS_POSE_R_RESIDUAL_HIGH:
-        return MFNS_MSG("residual RMS above the limit");
-    case MFNS_POSE_R_TRACK_LOST:
-        return MFNS_MSG("tracking gate kept fewer than three beacons");
-    case MFNS_POSE_R_MINIMAL_UNCONFIRMED:
-        return MFNS_MSG("three beacons only, and their pose disagrees with the tracking prediction");
-    case MFNS_POSE_R_BELOW_CERTIFICATE:
-        return MFNS_MSG("fewer blobs than the map's certificate needs for a unique fix");
-    case MFNS_POSE_R_UNMONITORED:
-        return MFNS_MSG("a single beacon or camera fault cannot be checked: no redundancy against it");
-    case MFNS_POSE_R_PL_EXCEEDS_AL:
-        return MFNS_MSG("protection level above the alert limit");
-    case MFNS_POSE_R_FAULT_DETECTED:
-        return MFNS_MSG("a beacon or camera is inconsistent with the rest and cannot be excluded");
-    case MFNS_POSE_R_EXCLUDED:
-        return MFNS_MSG("a faulty beacon or camera is excluded; the rest certify the fix");
-    case MFNS_POSE_R_CAMERA_UNMONITORED:
-        return MFNS_MSG("beacon faults bounded; a single-camera fault cannot be bounded within the alert limits");
-    case MFNS_POSE_R_LAG_UNTESTED:
-        return MFNS_MSG("no motion known yet to test the cameras' frames for a lag (first fixes after a gap)");
-    case MFNS_POSE_R_SPURIOUS_AMBIGUOUS:
-        return MFNS_MSG("five blobs: several identifications explain four of them; the spurious blob cannot be told");
-    case MFNS_POSE_R_CAMERAS_CONTRADICT:
-        return MFNS_MSG("a one-camera fix that another camera's image contradicts: one of the two is wrong");
-    case MFNS_POSE_R_OUTSIDE_WORKSPACE:
-        return MFNS_MSG("an acquisition while the robot was last tracked outside the table's workspace: not certified");
-    case MFNS_POSE_R_MOTION_EXCEEDED:
-        return MFNS_MSG("the robot accelerated beyond the navigation filter's motion bound: restart from acquisition");
-    case MFNS_POSE_R_FRAME_SUSPECT:
-        return MFNS_MSG("a camera's frame passed the filter's gate but is unlikely as a whole, or lags: this cycle refused");
-    }
-    return MFNS_MSG("unknown pose reason");
-}
-
 void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reason)
 {
     memset(out, 0, sizeof(*out));

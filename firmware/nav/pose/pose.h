@@ -171,6 +171,6 @@ void mfns_pose_solution_clear(mfns_pose_solution_t *out, mfns_pose_reason_t reas
 
 const char *mfns_pose_status_str(mfns_pose_status_t s);
 
-const char *mfns_pose_strerror(mfns_pose_reason_t r);
+/* mfns_pose_strerror: nav_codes_gen.h (generated from the contract). */
 
 #endif /* MFNS_POSE_H */

@@ -46,46 +46,6 @@ TABLES = {
     "paper-calibration": "table from the paper's CPC calibration",
 }
 CAMERAS = CAMERA_NAMES
-# What each flight reason (firmware/nav/pose/pose.h, named by the C core) means for availability.
-# The reason text itself comes from mfns_pose_strerror through the core library when built.
-WHY = {
-    "TOO_FEW": "a pose has six unknowns and each beacon gives two equations: fewer than three "
-    "beacons cannot fix it (the paper could not solve these cycles either)",
-    "AMBIGUOUS": "another identification of the map explains the blobs as well (a view of four beacons "
-    "that repeats elsewhere in the map): refused rather than guessed",
-    "NOT_IDENTIFIED": "no identification was certified within the cycle's work budget (the next frames "
-    "are searched afresh)",
-    "BELOW_CERTIFICATE": "fewer than four blobs and no track to follow: three rays admit up to four poses "
-    "and nothing in the frame could check one, so acquisition does not answer",
-    "MINIMAL_UNCONFIRMED": "while tracking, exactly three beacons gave a pose that disagrees with the "
-    "prediction: without redundancy it could be a wrong identification, so it is not used",
-    "TRACK_LOST": "while tracking, the gate around the predicted images kept fewer than three beacons",
-    "CAMERA_UNUSED": "a usable pose, but a camera contributed no beacon (its field of view holds none)",
-    "MINIMAL": "exactly three beacons: no redundancy to check a fault, so refused by a flight table "
-    "(it still carries the track); DEGRADED, marked, in a monitor-only bench table",
-    "OUTLIERS": "a usable pose after observations were gated out as outliers",
-    "UNMONITORED": "a single beacon or camera fault could not be checked (no redundancy against it): "
-    "refused by a flight table, DEGRADED in a monitor-only bench table (docs/pose.md Integrity)",
-    "PL_EXCEEDS_AL": "the fault tests passed but the protection level exceeds the table's alert limit: "
-    "too few beacons to bound a single fault (DEGRADED in a monitor-only bench table)",
-    "FAULT_DETECTED": "a beacon or camera disagrees with the rest and excluding it left no certified fix",
-    "EXCLUDED": "a usable pose with a faulty beacon or camera left out",
-    "CAMERA_UNMONITORED": "a usable pose whose beacon faults are bounded but not a camera fault "
-    "(require_camera_monitor 0)",
-    "LAG_UNTESTED": "refused: no motion known yet to test the cameras' frames for a lag "
-    "(the first fixes after a gap)",
-    "SPURIOUS_AMBIGUOUS": "five blobs, and more than one identification explains four of them: "
-    "which blob is the reflection cannot be told (docs/pose.md Acquisition)",
-    "CAMERAS_CONTRADICT": "refused: the fix comes from one camera and another camera's image, "
-    "with beacons predicted in it, has none of them: one of the two is wrong (docs/pose.md Integrity)",
-    "OUTSIDE_WORKSPACE": "refused: an acquisition while the robot was last tracked outside the table's "
-    "workspace box, where the certificate does not hold (docs/pose.md, the table's workspace in flight)",
-    "MOTION_EXCEEDED": "refused: the robot accelerated beyond the navigation filter's motion bound "
-    "(a collision, a hard burst): navigation restarts from acquisition",
-    "FRAME_SUSPECT": "refused: a camera's frame passed the navigation filter's gate observation by "
-    "observation but is unlikely as a whole, or the snapshot's time-offset monitor found it lagging (the "
-    "onset of a camera fault looks like this): this cycle only",
-}
 
 
 @dataclass
@@ -471,7 +431,6 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
             "| blobs found (flight) | meaning |",
             "|---|---|---|---|---|---|---|---|",
         ]
-        notes: dict[str, str] = {}
         for r in exp_runs:
             nav_rows = _nav_rows(r.folder / "ground" / "nav.csv")
             blobs = _blobs(r.folder / "ground" / "camera.csv")
@@ -511,11 +470,7 @@ def availability_section(runs: list[Run], demo: Path) -> list[str]:
                     + ", ".join(f"{m} {k}" for m, k in sorted(modes.items()))
                     + f" | {seen} | {found} | {text} |"
                 )
-                if name in WHY:
-                    notes[name] = WHY[name]
         lines.append("")
-        for name, why in notes.items():
-            lines.append(f"- **{name}**: {why}.")
         if view is not None:
             n_frames = len(exp_runs[0].nav.t_s)
             for cam in CAMERAS:
