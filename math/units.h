@@ -28,6 +28,7 @@
 #define MFNS_US_PER_S 1000000u
 #define MFNS_S_PER_US_F 1.0e-6f
 #define MFNS_MS_PER_S 1000u
+#define MFNS_DB_PER_AMPLITUDE_DECADE 20.0f /* a gain in dB is 20 log10 of its amplitude factor */
 
 _Static_assert(sizeof(float) == 4, "the flight code assumes IEEE-754 binary32 float");
 

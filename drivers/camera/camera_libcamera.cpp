@@ -10,6 +10,7 @@
 #include <sys/mman.h>
 
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <condition_variable>
 #include <cstring>
@@ -345,6 +346,7 @@ mfns_cam_err_t dequeue_impl(mfns_cam_t *h, mfns_cam_frame_t *f, int timeout_ms)
         f->ts_source = MFNS_CAM_TS_MONOTONIC_EOF;
         f->arrival_ns = 0;
         f->exposure_us = c->exposure_us;
+        f->gain_db = NAN; /* AnalogueGain is a factor the driver may not have applied yet: unknown */
         f->buf_index = static_cast<uint32_t>(idx);
         return MFNS_CAM_OK;
     }

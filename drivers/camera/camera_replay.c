@@ -496,6 +496,7 @@ static mfns_cam_err_t replay_dequeue(mfns_cam_t *h, mfns_cam_frame_t *f, int tim
     f->ts_source = MFNS_CAM_TS_RECORDED;
     f->arrival_ns = arrival_ns; /* 0 unless paced and waited for */
     f->exposure_us = row->exposure_us;
+    f->gain_db = row->gain_db;
     f->buf_index = k;
     return MFNS_CAM_OK;
 }

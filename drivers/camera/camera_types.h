@@ -129,6 +129,8 @@ typedef struct {
                                  paced, the recording's time base); 0 = unknown */
     mfns_cam_ts_source_t ts_source; /* what timestamp_ns is */
     int32_t exposure_us;      /* exposure in effect, -1 if unknown */
+    float gain_db;            /* sensor gain in effect, dB; NaN if unknown (V4L2 and libcamera
+                                 report their own gain units, not dB: unknown there) */
     /* for requeue; do not change */
     uint32_t buf_index;
     uint32_t generation;

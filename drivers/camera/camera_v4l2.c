@@ -18,6 +18,7 @@
 
 #include <errno.h>
 #include <linux/videodev2.h>
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -221,6 +222,7 @@ static mfns_cam_err_t capture(mfns_cam_t *h, mfns_cam_frame_t *f, int64_t deadli
             const int64_t now = waited ? sys->now_ns(sys->ctx) : 0;
             f->arrival_ns = now > 0 ? (uint64_t)now : 0u;
             f->exposure_us = v->exposure_us;
+            f->gain_db = NAN; /* V4L2's gain control has the device's own units */
             f->buf_index = i;
             return MFNS_CAM_OK;
         }

@@ -105,13 +105,14 @@ static void parse_row(char *line, size_t max_file_len, mfns_replay_row_t *r)
     } else if (!parse_real(fld[4], &exposure) || exposure < 0.0 || exposure > 2147483647.0) {
         r->status = MFNS_ROW_EXPOSURE;
         r->field = fld[4];
-    } else if (!parse_real(fld[5], &gain)) {
+    } else if (!parse_real(fld[5], &gain) || fabs(gain) > MFNS_REPLAY_GAIN_DB_MAX) {
         r->status = MFNS_ROW_GAIN;
         r->field = fld[5];
     } else {
         r->status = MFNS_ROW_OK;
         r->t_s = t_s;
         r->exposure_us = (int32_t)lround(exposure);
+        r->gain_db = (float)gain;
         r->file = fld[3];
     }
 }
@@ -207,7 +208,8 @@ void mfns_replay_row_message(const mfns_replay_row_t *r, char *out, size_t n)
         (void)snprintf(out, n, "frames.csv line %u: exposure_us '%.20s' is not a duration", ln, r->field);
         break;
     case MFNS_ROW_GAIN:
-        (void)snprintf(out, n, "frames.csv line %u: gain_db '%.20s' is not a number", ln, r->field);
+        (void)snprintf(out, n, "frames.csv line %u: gain_db '%.20s' is not a number within +-%.0f dB", ln, r->field,
+                       MFNS_REPLAY_GAIN_DB_MAX);
         break;
     case MFNS_ROW_ORDER:
         (void)snprintf(out, n, "frames.csv line %u: camera %c frame %u at %.6f s does not follow frame %u at %.6f s",

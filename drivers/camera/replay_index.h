@@ -20,6 +20,7 @@
 #include <stdint.h>
 
 #define MFNS_REPLAY_CSV_HEADER "frame,t_s,camera,file,exposure_us,gain_db"
+#define MFNS_REPLAY_GAIN_DB_MAX 200.0 /* dB: beyond any sensor's gain, and a float holds its factor */
 #define MFNS_REPLAY_LINE_MAX 511u           /* longest row accepted, characters */
 #define MFNS_REPLAY_CSV_MAX (32u << 20)     /* frames.csv bytes: ~10 h of three cameras */
 #define MFNS_REPLAY_MAX_ROWS (1u << 20)     /* rows (bounds the table) */
@@ -32,7 +33,7 @@ typedef enum {
     MFNS_ROW_CAMERA,   /* camera is not x, y or z */
     MFNS_ROW_FILE,     /* file is not a relative path inside the folder */
     MFNS_ROW_EXPOSURE, /* exposure_us is not a duration */
-    MFNS_ROW_GAIN,     /* gain_db is not a number */
+    MFNS_ROW_GAIN,     /* gain_db is not a number within +-MFNS_REPLAY_GAIN_DB_MAX */
     MFNS_ROW_ORDER,    /* frame/time does not follow the camera's previous row (duplicate, reordered) */
     MFNS_ROW_LONG,     /* longer than MFNS_REPLAY_LINE_MAX */
     MFNS_ROW_NUL       /* a NUL byte in the row */
@@ -46,6 +47,7 @@ typedef struct {
     uint32_t frame, prev_frame;
     uint32_t line;     /* 1-based line number in frames.csv */
     int32_t exposure_us;
+    float gain_db;     /* the row's gain_db */
     char camera;       /* 'x', 'y', 'z', or '\0' when the row cannot be attributed */
     uint8_t status;    /* mfns_replay_row_status_t */
 } mfns_replay_row_t;

@@ -1,6 +1,7 @@
 /* nav_loop.c -- see nav_loop.h. */
 #include "firmware/app/nav_loop.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -34,6 +35,19 @@ static void take_commands(nav_app_t *app)
     nav_tc_in_poll(&app->tc, &app->tlm.uart, &ops, t_ms);
 }
 
+/* A frame's photometric response as its metadata reports it (the response
+ * watch, response_watch.h): exposure x linear gain, the gain 0 dB when not
+ * known; 0 (unknown) without an exposure. */
+static float frame_response(const mfns_cam_frame_t *f)
+{
+    if (f->exposure_us <= 0) {
+        return 0.0f;
+    }
+    const float gain = isfinite(f->gain_db) ? powf(10.0f, f->gain_db / MFNS_DB_PER_AMPLITUDE_DECADE) : 1.0f;
+    const float r = (float)f->exposure_us * gain;
+    return isfinite(r) ? r : 0.0f;
+}
+
 /* The navigator on this cycle's frames (or, in STANDBY, an empty NO_FIX
  * output), the frames back to their drivers, the acquisition counters. */
 static void navigate(nav_app_t *app, uint32_t cycle, const mfns_frame_t *frames[MFNS_NUM_CAMERAS])
@@ -51,6 +65,14 @@ static void navigate(nav_app_t *app, uint32_t cycle, const mfns_frame_t *frames[
             t_cap[k] = frames[k] != NULL ? (int64_t)(app->cams.cam[k].frame.timestamp_ns / 1000u) : 0;
         }
         (void)mfns_nav_set_frame_times(&app->nav, t_cap); /* app->nav is initialised: cannot fail */
+        float response[MFNS_NUM_CAMERAS];
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            response[k] = frames[k] != NULL ? frame_response(&app->cams.cam[k].frame) : 0.0f;
+        }
+        if (mfns_nav_set_frame_response(&app->nav, response) != MFNS_NAV_OK) {
+            fprintf(stderr, "mfns-nav: cycle %u: the frames' exposure and gain are not usable: taken as unknown\n",
+                    cycle);
+        }
         for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
             if (app->cams.cam[k].timing_doubt) {
                 (void)mfns_nav_doubt_timing(&app->nav, k); /* k in range: cannot fail */

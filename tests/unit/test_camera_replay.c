@@ -189,6 +189,7 @@ static void test_replay_8bit_camera_y(void **state)
         assert_int_equal(f.pixfmt, MFNS_CAM_PIX_GREY);
         assert_int_equal(f.timestamp_ns, (uint64_t)k * 50000000u);
         assert_int_equal(f.exposure_us, 1000 + (int)k);
+        assert_float_equal(f.gain_db, 6.0f, 0.0f); /* the row's gain, carried to the frame */
         assert_int_equal(f.dropped_before, 0);
         assert_int_equal(f.ts_source, MFNS_CAM_TS_RECORDED);
         assert_int_equal(f.arrival_ns, 0u); /* as fast as asked: no arrival clock */
@@ -379,6 +380,8 @@ static void test_replay_malformed_csv(void **state)
     expect_bad(HDR "0,0.0,x,/etc/passwd,500,0\n", "relative path");
     expect_bad(HDR "0,0.0,x,cam_x/000000.pgm,-5,0\n", "exposure_us");
     expect_bad(HDR "0,0.0,x,cam_x/000000.pgm,500,loud\n", "gain_db");
+    expect_bad(HDR "0,0.0,x,cam_x/000000.pgm,500,1e300\n", "within +-200 dB"); /* no float holds its factor */
+    expect_bad(HDR "0,0.0,x,cam_x/000000.pgm,500,-201\n", "gain_db");
     expect_bad(HDR "0,0.0,y,cam_y/000000.pgm,500,0\n", "no frames for camera x");
     expect_bad(HDR ROW0 "0,0.1,x,cam_x/000000.pgm,500,0\n", "does not follow");
     expect_bad(HDR "0,0.0,x,cam_x/000000.pgm,500,0\n1,0.0,x,cam_x/000099.pgm,500,0\n", "000099.pgm: cannot open");

@@ -634,6 +634,63 @@ static void test_lagging_camera_refuses_the_filter_fix(void **state)
     print_message("filter used from cycle %d; a camera held as lagging refused its cycle\n", used_at);
 }
 
+/* Every DN of camera k's image times factor (background too), as a lost gain register does. */
+static void scale_image(int k, double factor)
+{
+    for (int y = 0; y < H; y++) {
+        for (int x = 0; x < W; x++) {
+            img[k][y][x] = (uint8_t)(img[k][y][x] * factor + 0.5);
+        }
+    }
+}
+
+/* The response watch in the cycle (response_watch.h): camera 1's image
+ * halved while tracking is named in that cycle (CAMERA_RESPONSE_STEP's
+ * source), ratio about 0.5, and not in the next; camera 2's exposure halved
+ * and reported (mfns_nav_set_frame_response) names nothing; bad responses
+ * are refused and nothing is taken. */
+static void test_response_step_names_the_camera(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 43);
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    render_background(&rng);
+    render_beacons();
+    const float same[3] = {1000.0f, 1000.0f, 1000.0f}, halved[3] = {1000.0f, 1000.0f, 500.0f};
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(mfns_nav_set_frame_response(&nav, same), MFNS_NAV_OK);
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.response.camera, -1);
+    }
+    scale_image(1, 0.5);
+    assert_int_equal(mfns_nav_set_frame_response(&nav, same), MFNS_NAV_OK); /* the metadata says unchanged */
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    print_message("camera 1 halved: named %d, ratio %.3f over %u spots\n", out.response.camera,
+                  (double)out.response.ratio, out.response.matched);
+    assert_int_equal(out.response.camera, 1);
+    assert_true(out.response.ratio > 0.4f && out.response.ratio < 0.6f);
+    assert_int_equal(out.response.matched, PER_CAM);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK); /* nothing set: unknown, unchanged */
+    assert_int_equal(out.response.camera, -1);
+    assert_int_equal(mfns_nav_set_frame_response(&nav, same), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    scale_image(2, 0.5);
+    assert_int_equal(mfns_nav_set_frame_response(&nav, halved), MFNS_NAV_OK); /* commanded and reported */
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.response.camera, -1);
+    assert_int_equal(out.response.common, 0);
+    const float bad[3][3] = {{NAN, 1.0f, 1.0f}, {1.0f, -1.0f, 1.0f}, {1.0f, 1.0f, INFINITY}};
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(mfns_nav_set_frame_response(&nav, bad[i]), MFNS_NAV_E_ARG);
+        assert_float_equal(nav.frame_response[0], 0.0f, 0.0f); /* nothing taken */
+    }
+    assert_int_equal(mfns_nav_set_frame_response(&nav, NULL), MFNS_NAV_E_ARG);
+    assert_int_equal(mfns_nav_set_frame_response(NULL, same), MFNS_NAV_E_ARG);
+}
+
 static void test_bad_frame_and_bad_arguments(void **state)
 {
     (void)state;
@@ -677,6 +734,7 @@ int main(void)
         cmocka_unit_test(test_three_beacons_track_but_never_usable),
         cmocka_unit_test(test_rebind_keeps_the_track_of_the_same_system),
         cmocka_unit_test(test_lagging_camera_refuses_the_filter_fix),
+        cmocka_unit_test(test_response_step_names_the_camera),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
     return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);

@@ -71,6 +71,7 @@ mfns_nav_status_t mfns_nav_init(mfns_nav_t *nav, const mfns_caltable_t *table, m
     mfns_integrity_memory_reset(&nav->integ_mem);
     mfns_bmon_reset(&nav->bmon);
     mfns_ws_watch_init(&nav->wsw); /* the new table's box, as declared */
+    mfns_resp_init(&nav->resp);
     nav->magic = NAV_MAGIC;
     return MFNS_NAV_OK;
 }
@@ -180,6 +181,22 @@ mfns_nav_status_t mfns_nav_set_frame_times(mfns_nav_t *nav, const int64_t t_us[M
     return MFNS_NAV_OK;
 }
 
+mfns_nav_status_t mfns_nav_set_frame_response(mfns_nav_t *nav, const float response[MFNS_NUM_CAMERAS])
+{
+    if (nav == NULL || nav->magic != NAV_MAGIC || response == NULL) {
+        return MFNS_NAV_E_ARG;
+    }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        if (!isfinite(response[k]) || response[k] < 0.0f) {
+            return MFNS_NAV_E_ARG;
+        }
+    }
+    for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+        nav->frame_response[k] = response[k];
+    }
+    return MFNS_NAV_OK;
+}
+
 void mfns_nav_lose_track(mfns_nav_t *nav)
 {
     if (nav != NULL) {
@@ -257,7 +274,7 @@ static void blobs_to_obs(mfns_nav_t *nav, int k, mfns_nav_cam_diag_t *d)
 
 /* Centroid camera k's frame (windows when tracking) into observations. */
 static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame_t *frame, bool track,
-                                        mfns_nav_cam_diag_t *d)
+                                        bool watch, mfns_nav_cam_diag_t *d)
 {
     memset(d, 0, sizeof *d);
     nav->obs.count[k] = 0;
@@ -289,17 +306,29 @@ static mfns_nav_status_t measure_camera(mfns_nav_t *nav, int k, const mfns_frame
     d->background_dn = nav->cres.bg.background_dn;
     d->noise_dn = nav->cres.bg.noise_dn;
     blobs_to_obs(nav, k, d);
+    if (watch && mfns_resp_observe(&nav->resp, k, &nav->cres, nav->frame_response[k]) != MFNS_RESP_OK) {
+        /* unreachable: k in range, the centroider's result, the response checked when set */
+        d->state = MFNS_NAV_CAM_FRAME_ERROR;
+    }
     return MFNS_NAV_OK;
 }
 
-/* Centroid every camera (windows when tracking) into nav->obs. */
+/* Centroid every camera (windows when tracking) into nav->obs. watch: the
+ * frames' first measurement this cycle, which the response watch sees (a
+ * frame measured again on the whole image is the same frame). */
 static mfns_nav_status_t measure(mfns_nav_t *nav, const mfns_frame_t *const frames[MFNS_NUM_CAMERAS], bool track,
-                                 mfns_nav_output_t *out)
+                                 bool watch, mfns_nav_output_t *out)
 {
     for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
-        const mfns_nav_status_t st = measure_camera(nav, k, frames[k], track, &out->cam[k]);
+        const mfns_nav_status_t st = measure_camera(nav, k, frames[k], track, watch, &out->cam[k]);
         if (st != MFNS_NAV_OK) {
             return st;
+        }
+    }
+    if (watch) {
+        mfns_resp_evaluate(&nav->resp, &out->response);
+        for (int k = 0; k < MFNS_NUM_CAMERAS; k++) {
+            nav->frame_response[k] = 0.0f; /* consumed: the next cycle's are set again or unknown */
         }
     }
     return MFNS_NAV_OK;
@@ -501,6 +530,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     out->beacons.missing = -1;
     out->beacons.rejected = -1;
     out->cameras.inconsistent = -1;
+    out->response.camera = -1;
     const mfns_nav_mode_t before = nav->mode;
     const bool track = nav->mode == MFNS_NAV_MODE_TRACK && nav->have_prior;
     if (track) {
@@ -510,7 +540,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
     out->mode = track ? MFNS_NAV_MODE_TRACK : MFNS_NAV_MODE_ACQUIRE;
     /* The one place of the policy: track from the prediction, else (or when
      * tracking gives no fix) acquire once, on whole frames. */
-    mfns_nav_status_t st = measure(nav, frames, track, out);
+    mfns_nav_status_t st = measure(nav, frames, track, true, out);
     if (st == MFNS_NAV_OK && track) {
         const mfns_caltable_t *t = nav->table;
         (void)mfns_pose_track(&t->rig, &nav->map, &nav->obs, &nav->predicted, &nav->pose_cfg, &out->sol);
@@ -524,7 +554,7 @@ mfns_nav_status_t mfns_nav_cycle(mfns_nav_t *nav, const mfns_frame_t *const fram
             out->sol.reason != MFNS_POSE_R_MINIMAL) {
             out->reacquired = true;
             out->mode = MFNS_NAV_MODE_ACQUIRE;
-            st = measure(nav, frames, false, out);
+            st = measure(nav, frames, false, false, out);
             if (st == MFNS_NAV_OK) {
                 acquire(nav, out);
             }
