@@ -36,7 +36,7 @@ static void take_commands(nav_app_t *app)
 }
 
 /* A frame's photometric response as its metadata reports it (the response
- * watch, response_watch.h): exposure x linear gain, the gain 0 dB when not
+ * watch, spot_watch.h): exposure x linear gain, the gain 0 dB when not
  * known; 0 (unknown) without an exposure. */
 static float frame_response(const mfns_cam_frame_t *f)
 {

@@ -143,10 +143,14 @@ void nav_tlm_integrity_events(nav_tlm_t *t, const mfns_nav_output_t *o, const mf
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_LAG, TLM_SEV_WARNING, (uint8_t)c,
                             event_arg(lag), event_arg(z));
     }
-    const mfns_resp_report_t *rs = &o->response;
+    const mfns_spot_report_t *rs = &o->spots;
     if (rs->camera >= 0 && rs->camera < MFNS_NUM_CAMERAS) {
         (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_RESPONSE_STEP, TLM_SEV_WARNING, (uint8_t)rs->camera,
                             event_arg(rs->ratio * 1000.0f), rs->matched);
+    }
+    if (rs->jump_new && rs->jump_camera >= 0 && rs->jump_camera < MFNS_NUM_CAMERAS) {
+        (void)nav_tlm_event(t, cycle, t_us, TLM_EVT_CAMERA_SPOTS_JUMPED, TLM_SEV_WARNING, (uint8_t)rs->jump_camera,
+                            event_arg(rs->jump_px * 100.0f), event_arg(rs->others_px * 100.0f));
     }
     const mfns_beacon_watch_report_t *bw = &o->beacons;
     if (bw->missing >= 0 && bw->missing < (int)map->count) {

@@ -644,7 +644,7 @@ static void scale_image(int k, double factor)
     }
 }
 
-/* The response watch in the cycle (response_watch.h): camera 1's image
+/* The response watch in the cycle (spot_watch.h): camera 1's image
  * halved while tracking is named in that cycle (CAMERA_RESPONSE_STEP's
  * source), ratio about 0.5, and not in the next; camera 2's exposure halved
  * and reported (mfns_nav_set_frame_response) names nothing; bad responses
@@ -663,25 +663,25 @@ static void test_response_step_names_the_camera(void **state)
     for (int i = 0; i < 3; i++) {
         assert_int_equal(mfns_nav_set_frame_response(&nav, same), MFNS_NAV_OK);
         assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
-        assert_int_equal(out.response.camera, -1);
+        assert_int_equal(out.spots.camera, -1);
     }
     scale_image(1, 0.5);
     assert_int_equal(mfns_nav_set_frame_response(&nav, same), MFNS_NAV_OK); /* the metadata says unchanged */
     assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
-    print_message("camera 1 halved: named %d, ratio %.3f over %u spots\n", out.response.camera,
-                  (double)out.response.ratio, out.response.matched);
-    assert_int_equal(out.response.camera, 1);
-    assert_true(out.response.ratio > 0.4f && out.response.ratio < 0.6f);
-    assert_int_equal(out.response.matched, PER_CAM);
+    print_message("camera 1 halved: named %d, ratio %.3f over %u spots\n", out.spots.camera,
+                  (double)out.spots.ratio, out.spots.matched);
+    assert_int_equal(out.spots.camera, 1);
+    assert_true(out.spots.ratio > 0.4f && out.spots.ratio < 0.6f);
+    assert_int_equal(out.spots.matched, PER_CAM);
     assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK); /* nothing set: unknown, unchanged */
-    assert_int_equal(out.response.camera, -1);
+    assert_int_equal(out.spots.camera, -1);
     assert_int_equal(mfns_nav_set_frame_response(&nav, same), MFNS_NAV_OK);
     assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
     scale_image(2, 0.5);
     assert_int_equal(mfns_nav_set_frame_response(&nav, halved), MFNS_NAV_OK); /* commanded and reported */
     assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
-    assert_int_equal(out.response.camera, -1);
-    assert_int_equal(out.response.common, 0);
+    assert_int_equal(out.spots.camera, -1);
+    assert_int_equal(out.spots.common, 0);
     const float bad[3][3] = {{NAN, 1.0f, 1.0f}, {1.0f, -1.0f, 1.0f}, {1.0f, 1.0f, INFINITY}};
     for (int i = 0; i < 3; i++) {
         assert_int_equal(mfns_nav_set_frame_response(&nav, bad[i]), MFNS_NAV_E_ARG);
@@ -689,6 +689,65 @@ static void test_response_step_names_the_camera(void **state)
     }
     assert_int_equal(mfns_nav_set_frame_response(&nav, NULL), MFNS_NAV_E_ARG);
     assert_int_equal(mfns_nav_set_frame_response(NULL, same), MFNS_NAV_E_ARG);
+}
+
+/* Camera k's image moved by dx columns (a knocked mount), the background filling in. */
+static void shift_image(int k, int dx)
+{
+    for (int y = 0; y < H; y++) {
+        memmove(&img[k][y][dx], &img[k][y][0], (size_t)(W - dx));
+        for (int x = 0; x < dx; x++) {
+            img[k][y][x] = 12;
+        }
+    }
+}
+
+/* The spot watch's jump in the cycle (spot_watch.h): with the filter's
+ * output used, camera 1's image moved 4 px in one frame (a mount knocked
+ * 0.15 deg) makes its spots jump; the filter's fix of that cycle is refused,
+ * FRAME_SUSPECT naming camera 1 (nav_cycle.c suspect_camera), and
+ * CAMERA_SPOTS_JUMPED's source names it as a new episode. */
+static void test_spots_jump_refuses_the_filter_fix(void **state)
+{
+    (void)state;
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, 47);
+    const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
+    const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_enable_filter(&nav, 54000), MFNS_NAV_OK);
+    render_background(&rng);
+    render_beacons();
+    int used_at = -1;
+    for (int i = 0; i < 30 && used_at < 0; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.spots.jump_mask, 0);
+        used_at = out.filt.used ? i : -1;
+    }
+    assert_true(used_at >= 0);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_true(out.filt.used);
+    shift_image(1, 4);
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    print_message("camera 1 moved 4 px: jump %.2f px (others %.2f), filter ran %d used %d reason %d camera %d\n",
+                  (double)out.spots.jump_px, (double)out.spots.others_px, out.filt.ran, out.filt.used,
+                  (int)out.filt.out.reason, out.filt.out.suspect_camera);
+    assert_int_equal(out.spots.jump_camera, 1);
+    assert_true(out.spots.jump_new);
+    assert_true(out.filt.ran);
+    assert_false(out.filt.used);
+    assert_int_equal(out.filt.out.reason, MFNS_POSE_R_FRAME_SUSPECT);
+    assert_int_equal(out.filt.out.suspect_camera, 1);
+    /* the next cycle, the spots still where they jumped to: no jump, but the
+     * filter took the jumped frame, so this cycle is refused too */
+    assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    assert_int_equal(out.spots.jump_mask, 1U << 1); /* its motion back to the robot's (none) */
+    assert_false(out.filt.used);
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+    }
+    assert_int_equal(out.spots.jump_mask, 0);
+    assert_int_equal(out.spots.recent_mask, 0);
 }
 
 static void test_bad_frame_and_bad_arguments(void **state)
@@ -735,6 +794,7 @@ int main(void)
         cmocka_unit_test(test_rebind_keeps_the_track_of_the_same_system),
         cmocka_unit_test(test_lagging_camera_refuses_the_filter_fix),
         cmocka_unit_test(test_response_step_names_the_camera),
+        cmocka_unit_test(test_spots_jump_refuses_the_filter_fix),
         cmocka_unit_test(test_bad_frame_and_bad_arguments),
     };
     return cmocka_run_group_tests_name("nav_cycle", tests, setup, NULL);

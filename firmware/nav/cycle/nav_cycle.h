@@ -59,7 +59,7 @@
 #include "firmware/nav/centroid/centroid.h"
 #include "firmware/nav/integrity/integrity.h"
 #include "firmware/nav/integrity/integrity_lag.h"
-#include "firmware/nav/integrity/response_watch.h"
+#include "firmware/nav/integrity/spot_watch.h"
 #include "firmware/nav/pose/pose.h"
 #include "firmware/nav/acquire/workspace_watch.h"
 #include "firmware/nav/filter/nav_filter_cycle.h"
@@ -129,9 +129,11 @@ typedef struct {
     /* The navigation filter (nav_filter_cycle.h; off unless mfns_nav_enable_filter):
      * what it did this cycle; when filt.used, sol and integrity are its. */
     mfns_navf_report_t filt;
-    /* A camera whose photometric response stepped alone this cycle against its
-     * reported exposure and gain (response_watch.h): response.camera, -1 none. */
-    mfns_resp_report_t response;
+    /* What each camera's spots did since its last frame (spot_watch.h): a
+     * camera whose photometric response stepped alone against its reported
+     * exposure and gain (spots.camera, -1 none), cameras whose spots jumped
+     * (spots.jump_mask: the navigation filter's fix of the cycle refused). */
+    mfns_spot_report_t spots;
 } mfns_nav_output_t;
 
 typedef struct {
@@ -152,7 +154,7 @@ typedef struct {
     mfns_bmon_t bmon;                    /* slow residual bias per beacon and camera (beacon_monitor.h) */
     mfns_ws_watch_t wsw;                 /* the tracked pose against the table's workspace (workspace_watch.h) */
     mfns_navf_t filt;                    /* the navigation filter bank, off by default (nav_filter_cycle.h) */
-    mfns_resp_watch_t resp;              /* each camera's spots' flux, frame to frame (response_watch.h) */
+    mfns_spot_watch_t spots;             /* each camera's spots, frame to frame (spot_watch.h) */
     float frame_response[MFNS_NUM_CAMERAS]; /* the next cycle's frames' reported response, 0 unknown */
     /* scratch, meaningless between cycles */
     mfns_centroid_work_t work;
@@ -198,7 +200,7 @@ mfns_nav_status_t mfns_nav_enable_filter(mfns_nav_t *nav, uint32_t period_us);
 /* The next cycle's frames' reported photometric response (exposure x linear
  * gain as each frame's metadata says, any unit, one unit per camera; 0
  * unknown: taken as unchanged from the camera's last frame). The response
- * watch (response_watch.h) divides each spot's flux ratio by its change, so
+ * watch (spot_watch.h) divides each spot's flux ratio by its change, so
  * a commanded exposure or gain is not read as a fault; one that is not
  * reported is. Consumed by the next mfns_nav_cycle (not called: unknown).
  * E_ARG: NULL, not initialised, a value not finite or negative (nothing

@@ -133,6 +133,7 @@ const char *tlm_event_name(uint16_t code)
     case TLM_EVT_MOTION_EXCEEDED: return MFNS_MSG("MOTION_EXCEEDED");
     case TLM_EVT_CAMERA_CLOCK_DRIFT: return MFNS_MSG("CAMERA_CLOCK_DRIFT");
     case TLM_EVT_CAMERA_RESPONSE_STEP: return MFNS_MSG("CAMERA_RESPONSE_STEP");
+    case TLM_EVT_CAMERA_SPOTS_JUMPED: return MFNS_MSG("CAMERA_SPOTS_JUMPED");
     default: return "?";
     }
 }
