@@ -185,7 +185,7 @@ mfns_spot_status_t mfns_spot_observe(mfns_spot_watch_t *w, int cam, const mfns_c
         return MFNS_SPOT_E_ARG;
     }
     float u[MFNS_SPOT_MAX_BLOBS], v[MFNS_SPOT_MAX_BLOBS], flux[MFNS_SPOT_MAX_BLOBS];
-    float du[MFNS_SPOT_MAX_BLOBS], dv[MFNS_SPOT_MAX_BLOBS];
+    float du[MFNS_SPOT_MAX_BLOBS] = {0.0f}, dv[MFNS_SPOT_MAX_BLOBS] = {0.0f}; /* a spot not matched has none */
     uint8_t moved[MFNS_SPOT_MAX_BLOBS] = {0};
     const unsigned n = brightest(r, u, v, flux);
     /* the reported response's change (1 when either is unknown) */
@@ -240,8 +240,8 @@ mfns_spot_status_t mfns_spot_observe(mfns_spot_watch_t *w, int cam, const mfns_c
         w->v[cam][i] = v[i];
         w->flux_dn[cam][i] = flux[i];
         w->moved[cam][i] = moved[i];
-        w->du[cam][i] = moved[i] != 0U ? du[i] : 0.0f;
-        w->dv[cam][i] = moved[i] != 0U ? dv[i] : 0.0f;
+        w->du[cam][i] = du[i];
+        w->dv[cam][i] = dv[i];
     }
     w->n[cam] = (uint8_t)n;
     w->response[cam] = response;
