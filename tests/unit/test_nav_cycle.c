@@ -591,6 +591,28 @@ static void test_rebind_keeps_the_track_of_the_same_system(void **state)
     assert_int_equal(mfns_nav_rebind(&nav, &table2, NULL), MFNS_NAV_E_ARG);
 }
 
+/* A fresh navigator with the filter on (54 ms), the scene rendered from
+ * seed, flown on the same frames until the filter's output is used (within
+ * 30 cycles; the frames never move, so no camera's spots jump): the cycle
+ * it was first used. */
+static int fly_until_filter_used(uint64_t seed, const mfns_frame_t *const frames[3])
+{
+    mfns_rng_t rng;
+    mfns_rng_seed(&rng, seed);
+    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
+    assert_int_equal(mfns_nav_enable_filter(&nav, 54000), MFNS_NAV_OK);
+    render_background(&rng);
+    render_beacons();
+    int used_at = -1;
+    for (int i = 0; i < 30 && used_at < 0; i++) {
+        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
+        assert_int_equal(out.spots.jump_mask, 0);
+        used_at = out.filt.used ? i : -1;
+    }
+    assert_true(used_at >= 0);
+    return used_at;
+}
+
 /* The filter on, a static robot seen by all three cameras: once the
  * filter's output is used, a cycle in which the time-offset monitor holds a
  * camera as lagging (integrity_lag.h cam_lag 1, set here as the monitor
@@ -600,20 +622,9 @@ static void test_rebind_keeps_the_track_of_the_same_system(void **state)
 static void test_lagging_camera_refuses_the_filter_fix(void **state)
 {
     (void)state;
-    mfns_rng_t rng;
-    mfns_rng_seed(&rng, 41);
     const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
     const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
-    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
-    assert_int_equal(mfns_nav_enable_filter(&nav, 54000), MFNS_NAV_OK);
-    render_background(&rng);
-    render_beacons();
-    int used_at = -1;
-    for (int i = 0; i < 30 && used_at < 0; i++) {
-        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
-        used_at = out.filt.used ? i : -1;
-    }
-    assert_true(used_at >= 0);
+    const int used_at = fly_until_filter_used(41, frames);
     /* held to verify after an outage, as the monitor holds it: no suspicion */
     (void)mfns_integrity_hold_lagging(&nav.integ_mem, 2, 2U, table.integrity.hold_cycles);
     nav.integ_mem.lag_verify[2] = MFNS_INTEGRITY_LAG_VERIFY;
@@ -710,21 +721,9 @@ static void shift_image(int k, int dx)
 static void test_spots_jump_refuses_the_filter_fix(void **state)
 {
     (void)state;
-    mfns_rng_t rng;
-    mfns_rng_seed(&rng, 47);
     const mfns_frame_t f0 = frame_of(0), f1 = frame_of(1), f2 = frame_of(2);
     const mfns_frame_t *const frames[3] = {&f0, &f1, &f2};
-    assert_int_equal(mfns_nav_init(&nav, &table, MFNS_POSE_MODE_ML), MFNS_NAV_OK);
-    assert_int_equal(mfns_nav_enable_filter(&nav, 54000), MFNS_NAV_OK);
-    render_background(&rng);
-    render_beacons();
-    int used_at = -1;
-    for (int i = 0; i < 30 && used_at < 0; i++) {
-        assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
-        assert_int_equal(out.spots.jump_mask, 0);
-        used_at = out.filt.used ? i : -1;
-    }
-    assert_true(used_at >= 0);
+    (void)fly_until_filter_used(47, frames);
     assert_int_equal(mfns_nav_cycle(&nav, frames, &out), MFNS_NAV_OK);
     assert_true(out.filt.used);
     shift_image(1, 4);
